@@ -1,0 +1,381 @@
+"""Frozen AST for B formulas, substitutions and machines.
+
+Nodes compare by structure; source positions ride along (``pos``) but are left out of
+equality, so ``parse(print(t)) == t`` holds whatever the layout.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional
+
+__all__ = [
+    "Pos", "Node", "Name", "IntLit", "RealLit", "StrLit", "BoolLit", "BinOp", "Neg",
+    "Apply", "Call", "Image", "Inverse", "SetExt", "Pair", "Comprehension", "Lambda",
+    "QuantExpr", "IfExpr", "Let", "And", "Or", "Implies", "Equiv", "Not", "Rel", "Quant",
+    "Subst", "Skip", "Assign", "BecomesIn", "BecomesSuchThat", "Parallel", "Sequence",
+    "Pre", "Assert", "Select", "Any", "IfSubst", "LetSubst", "Choice", "SubstRef", "BUILTIN_FUNCTIONS",
+    "BUILTIN_SETS", "children", "map_children", "binders", "free_names",
+]
+
+#: Names that are functions of the language itself, applied as ``name(args)``.
+BUILTIN_FUNCTIONS = frozenset({
+    "card", "dom", "ran", "min", "max", "POW", "POW1", "FIN", "FIN1", "bool", "floor",
+    "ceiling", "real", "RSQRT", "RABS", "union", "inter", "id", "prj1", "prj2", "closure",
+    "closure1", "succ", "pred", "abs",
+})
+
+#: Names of the built-in sets.
+BUILTIN_SETS = frozenset({
+    "BOOL", "INTEGER", "NATURAL", "NATURAL1", "INT", "NAT", "NAT1", "REAL", "FLOAT",
+    "STRING", "MAXINT", "MININT",
+})
+
+
+@dataclass(frozen=True, slots=True)
+class Pos:
+    """Where a node starts and ends in its source (lines and columns 1-based)."""
+
+    line: int
+    column: int
+    end_line: int
+    end_column: int
+    start: int = 0
+    end: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class Node:
+    pos: Optional[Pos] = field(default=None, compare=False, repr=False, kw_only=True)
+
+
+# ------------------------------------------------------------------ expressions
+
+
+@dataclass(frozen=True, slots=True)
+class Name(Node):
+    id: str
+
+
+@dataclass(frozen=True, slots=True)
+class IntLit(Node):
+    value: int
+
+
+@dataclass(frozen=True, slots=True)
+class RealLit(Node):
+    value: float
+
+
+@dataclass(frozen=True, slots=True)
+class StrLit(Node):
+    value: str
+
+
+@dataclass(frozen=True, slots=True)
+class BoolLit(Node):
+    value: bool
+
+
+@dataclass(frozen=True, slots=True)
+class BinOp(Node):
+    """Binary expression operator, ``op`` in canonical ASCII (``+``, ``|->``, ``-->`` …)."""
+
+    op: str
+    left: Node
+    right: Node
+
+
+@dataclass(frozen=True, slots=True)
+class Neg(Node):
+    operand: Node
+
+
+@dataclass(frozen=True, slots=True)
+class Apply(Node):
+    """``f(a, b)``: function application, or a use of a definition with parameters."""
+
+    fn: Node
+    args: tuple[Node, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Call(Node):
+    """A built-in function of the language: ``card(S)``, ``RSQRT(x)``."""
+
+    name: str
+    args: tuple[Node, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Image(Node):
+    rel: Node
+    arg: Node
+
+
+@dataclass(frozen=True, slots=True)
+class Inverse(Node):
+    rel: Node
+
+
+@dataclass(frozen=True, slots=True)
+class SetExt(Node):
+    items: tuple[Node, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Pair(Node):
+    left: Node
+    right: Node
+
+
+@dataclass(frozen=True, slots=True)
+class Comprehension(Node):
+    """``{x, y | P}`` (``expr`` is None) or ``{x . P | E}``."""
+
+    ids: tuple[str, ...]
+    pred: Node
+    expr: Optional[Node] = None
+
+
+@dataclass(frozen=True, slots=True)
+class Lambda(Node):
+    ids: tuple[str, ...]
+    pred: Node
+    expr: Node
+
+
+@dataclass(frozen=True, slots=True)
+class QuantExpr(Node):
+    """``SIGMA``, ``PI``, ``UNION`` or ``INTER`` over ``ids`` with ``pred``, of ``expr``."""
+
+    op: str
+    ids: tuple[str, ...]
+    pred: Node
+    expr: Node
+
+
+@dataclass(frozen=True, slots=True)
+class IfExpr(Node):
+    """``IF c1 THEN e1 ELSIF c2 THEN e2 ELSE e3 END`` as an expression or predicate."""
+
+    branches: tuple[tuple[Node, Node], ...]
+    else_: Node
+
+
+@dataclass(frozen=True, slots=True)
+class Let(Node):
+    """``LET x BE x = E IN F END`` as an expression or predicate."""
+
+    ids: tuple[str, ...]
+    pred: Node
+    body: Node
+
+
+# ------------------------------------------------------------------ predicates
+
+
+@dataclass(frozen=True, slots=True)
+class And(Node):
+    left: Node
+    right: Node
+
+
+@dataclass(frozen=True, slots=True)
+class Or(Node):
+    left: Node
+    right: Node
+
+
+@dataclass(frozen=True, slots=True)
+class Implies(Node):
+    left: Node
+    right: Node
+
+
+@dataclass(frozen=True, slots=True)
+class Equiv(Node):
+    left: Node
+    right: Node
+
+
+@dataclass(frozen=True, slots=True)
+class Not(Node):
+    operand: Node
+
+
+@dataclass(frozen=True, slots=True)
+class Rel(Node):
+    """Comparison or membership, ``op`` one of ``= /= < <= > >= : /: <: <<: /<: /<<:``."""
+
+    op: str
+    left: Node
+    right: Node
+
+
+@dataclass(frozen=True, slots=True)
+class Quant(Node):
+    """``!ids.(body)`` (op ``!``) or ``#ids.(body)`` (op ``#``)."""
+
+    op: str
+    ids: tuple[str, ...]
+    body: Node
+
+
+# ------------------------------------------------------------------ substitutions
+
+
+@dataclass(frozen=True, slots=True)
+class Subst(Node):
+    pass
+
+
+@dataclass(frozen=True, slots=True)
+class Skip(Subst):
+    pass
+
+
+@dataclass(frozen=True, slots=True)
+class Assign(Subst):
+    """``x, f(a) := E, F``; targets are ``Name`` or ``Apply(Name, args)``."""
+
+    targets: tuple[Node, ...]
+    values: tuple[Node, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class BecomesIn(Subst):
+    ids: tuple[str, ...]
+    set: Node
+
+
+@dataclass(frozen=True, slots=True)
+class BecomesSuchThat(Subst):
+    """``x : (P)``; in P, ``x`` is the new value and ``x'`` or ``x$0`` the old one."""
+
+    ids: tuple[str, ...]
+    pred: Node
+
+
+@dataclass(frozen=True, slots=True)
+class Parallel(Subst):
+    items: tuple[Subst, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Sequence(Subst):
+    items: tuple[Subst, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Pre(Subst):
+    guard: Node
+    body: Subst
+
+
+@dataclass(frozen=True, slots=True)
+class Assert(Subst):
+    cond: Node
+    body: Subst
+
+
+@dataclass(frozen=True, slots=True)
+class Select(Subst):
+    branches: tuple[tuple[Node, Subst], ...]
+    else_: Optional[Subst] = None
+
+
+@dataclass(frozen=True, slots=True)
+class Any(Subst):
+    ids: tuple[str, ...]
+    pred: Node
+    body: Subst
+
+
+@dataclass(frozen=True, slots=True)
+class IfSubst(Subst):
+    branches: tuple[tuple[Node, Subst], ...]
+    else_: Optional[Subst] = None
+
+
+@dataclass(frozen=True, slots=True)
+class LetSubst(Subst):
+    ids: tuple[str, ...]
+    pred: Node
+    body: Subst
+
+
+@dataclass(frozen=True, slots=True)
+class SubstRef(Subst):
+    """A substitution written as a name: a use of a substitution definition."""
+
+    name: "Name"
+    args: tuple[Node, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Choice(Subst):
+    items: tuple[Subst, ...]
+
+
+def children(node: Node) -> list[Node]:
+    """The direct sub-nodes of ``node``, in source order."""
+    out: list[Node] = []
+    for name in node.__dataclass_fields__:
+        if name == "pos":
+            continue
+        _collect(getattr(node, name), out)
+    return out
+
+
+def _collect(value: object, out: list[Node]) -> None:
+    if isinstance(value, Node):
+        out.append(value)
+    elif isinstance(value, tuple):
+        for item in value:
+            _collect(item, out)
+
+
+def map_children(node: Node, fn) -> Node:
+    """A copy of ``node`` with ``fn`` applied to each direct sub-node (position kept)."""
+    changes = {}
+    for name in node.__dataclass_fields__:
+        if name == "pos":
+            continue
+        value = getattr(node, name)
+        new = _map_value(value, fn)
+        if new is not value:
+            changes[name] = new
+    if not changes:
+        return node
+    import dataclasses
+
+    return dataclasses.replace(node, **changes)
+
+
+def _map_value(value, fn):
+    if isinstance(value, Node):
+        return fn(value)
+    if isinstance(value, tuple):
+        items = tuple(_map_value(v, fn) for v in value)
+        return items if any(a is not b for a, b in zip(items, value)) else value
+    return value
+
+
+def binders(node: Node) -> tuple[str, ...]:
+    """The names that ``node`` binds for its sub-formulas (quantified variables)."""
+    return getattr(node, "ids", ()) if isinstance(
+        node, (Quant, Comprehension, Lambda, QuantExpr, Let, Any, LetSubst)
+    ) else ()
+
+
+def free_names(node: Node) -> frozenset[str]:
+    """Names used in ``node`` and not bound inside it."""
+    if isinstance(node, Name):
+        return frozenset({node.id})
+    inner: set[str] = set()
+    for child in children(node):
+        inner |= free_names(child)
+    if isinstance(node, SubstRef):
+        inner.add(node.name.id)
+    return frozenset(inner - set(binders(node)))

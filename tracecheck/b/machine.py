@@ -1,0 +1,337 @@
+"""Machines: load a ``.mch`` file, set up its sets and constants, ask it questions.
+
+>>> m = load_machine_text('''MACHINE Counter
+... VARIABLES n
+... INVARIANT n : NATURAL
+... INITIALISATION n := 0
+... OPERATIONS inc = PRE n < 3 THEN n := n + 1 END END''')
+>>> m.enabled({"n": 3})
+set()
+>>> m.check_after("inc", {"n": 1}, {"n": 2})
+True
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping, Optional
+
+from ..errors import (BScopeError, EvaluationError, InputError, ModelError, TracecheckError)
+from . import ast as A
+from .evaluate import Compiler, conjuncts
+from .parser import MachineSource, parse_formula, parse_machine_source
+from .scope import EXPR, PRED, check_kind, check_subst, expand, render
+from .substitution import SubstCompiler, guard_of, written
+from .values import Elem
+
+__all__ = ["Machine", "Operation", "load_machine", "load_machine_text", "DEFAULT_SETSIZE"]
+
+#: Elements a deferred set gets when PROPERTIES does not fix ``card(S)`` (as ProB).
+DEFAULT_SETSIZE = 2
+
+
+@dataclass(frozen=True)
+class Operation:
+    """One operation: its guard (a predicate, None when always enabled) and body."""
+
+    name: str
+    params: tuple[str, ...]
+    outputs: tuple[str, ...]
+    guard: Optional[A.Node]
+    body: A.Subst
+    description: Optional[str] = None
+
+
+@dataclass
+class Machine:
+    """A loaded machine. Build one with :func:`load_machine`."""
+
+    name: str
+    file: Optional[str]
+    source: str
+    sha256: str
+    sets: dict[str, tuple[Elem, ...]]
+    enumerated: frozenset[str]
+    constants: dict[str, Any]
+    variables: tuple[str, ...]
+    invariant_node: Optional[A.Node]
+    assertion_nodes: tuple[A.Node, ...]
+    operations: dict[str, Operation]
+    descriptions: dict[str, str]
+    definitions: dict = field(default_factory=dict)
+    _compiled: dict = field(default_factory=dict, repr=False)
+
+    # -- environments
+    @property
+    def base_env(self) -> dict[str, Any]:
+        """Constants, set names and enumerated elements: what every formula can see."""
+        env = self._compiled.get("base_env")
+        if env is None:
+            env = {name: frozenset(elems) for name, elems in self.sets.items()}
+            for name in self.enumerated:
+                env.update({str(e): e for e in self.sets[name]})
+            env.update(self.constants)
+            self._compiled["base_env"] = env
+        return env
+
+    def env(self, state: Mapping[str, Any]) -> dict[str, Any]:
+        env = dict(self.base_env)
+        env.update(state)
+        return env
+
+    def compiler(self) -> Compiler:
+        return Compiler(source=self.source, file=self.file)
+
+    # -- formulas
+    def parse(self, text: str, *, kind: str = PRED) -> A.Node:
+        """Parse ``text`` in this machine's scope (its definitions expanded)."""
+        node = expand(parse_formula(text), self.definitions)
+        check_kind(node, kind, source=text, context="the formula")
+        return node
+
+    def compile(self, node: A.Node, *, source: Optional[str] = None) -> Callable[[dict], Any]:
+        return Compiler(source=source or self.source, file=None if source else self.file
+                        ).compile(node)
+
+    def evaluate(self, text_or_node, state: Mapping[str, Any]) -> Any:
+        """Evaluate a formula (text or node) in ``state``."""
+        if isinstance(text_or_node, str):
+            node = expand(parse_formula(text_or_node), self.definitions)
+            return self.compile(node, source=text_or_node)(self.env(state))
+        return self.compile(text_or_node)(self.env(state))
+
+    # -- questions
+    def _guard_fns(self) -> dict[str, Callable[[dict], bool]]:
+        fns = self._compiled.get("guards")
+        if fns is None:
+            comp = self.compiler()
+            fns = {}
+            for op in self.operations.values():
+                guard = op.guard
+                if op.params and guard is not None:
+                    guard = A.Quant("#", op.params, guard, pos=guard.pos)
+                fns[op.name] = comp.compile(guard) if guard is not None else (lambda env: True)
+            self._compiled["guards"] = fns
+        return fns
+
+    def enabled(self, state: Mapping[str, Any]) -> set[str]:
+        """The operations whose guard holds in ``state`` (parameters: for some value)."""
+        env = self.env(state)
+        return {name for name, fn in self._guard_fns().items() if fn(env)}
+
+    def is_enabled(self, op: str, state: Mapping[str, Any]) -> bool:
+        return bool(self._guard_fns()[self.operation(op).name](self.env(state)))
+
+    def operation(self, name: str) -> Operation:
+        try:
+            return self.operations[name]
+        except KeyError:
+            raise InputError(f"the machine {self.name} has no operation {name!r}; it has "
+                             f"{', '.join(self.operations) or 'none'}") from None
+
+    def check_after(self, op: str, before: Mapping[str, Any],
+                    after: Mapping[str, Any]) -> bool:
+        """Whether ``after`` is a possible outcome of ``op`` executed in ``before``.
+
+        Variables the operation does not write must be unchanged.
+        """
+        operation = self.operation(op)
+        checks = self._compiled.setdefault("checks", {})
+        if op not in checks:
+            body = operation.body
+            frame = tuple(v for v in self.variables if v not in written(body))
+            checks[op] = (SubstCompiler(self.compiler()).compile(body), frame)
+        check, frame = checks[op]
+        missing = [v for v in self.variables if v not in after]
+        if missing:
+            raise EvaluationError(f"the state after {op} has no value for "
+                                  f"{', '.join(missing)}")
+        pre = self.env(before)
+        if any(after[v] != pre.get(v) for v in frame):
+            return False
+        return bool(check(pre, dict(after)))
+
+    def invariant(self, state: Mapping[str, Any]) -> bool:
+        """Whether the INVARIANT holds in ``state``."""
+        if self.invariant_node is None:
+            return True
+        fn = self._compiled.get("invariant")
+        if fn is None:
+            fn = self._compiled["invariant"] = self.compile(self.invariant_node)
+        return bool(fn(self.env(state)))
+
+    def violated_invariant(self, state: Mapping[str, Any]) -> list[str]:
+        """The INVARIANT conjuncts that do not hold in ``state`` (as source text)."""
+        if self.invariant_node is None:
+            return []
+        env = self.env(state)
+        comp = self.compiler()
+        return [render(c, self.source) for c in conjuncts(self.invariant_node)
+                if not comp.compile(c)(env)]
+
+    def assertions(self, state: Mapping[str, Any]) -> list[bool]:
+        env = self.env(state)
+        return [bool(self.compile(a)(env)) for a in self.assertion_nodes]
+
+
+# ------------------------------------------------------------------ loading
+
+
+def load_machine(path: str | Path) -> Machine:
+    """Read and set up the machine in ``path``."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"no such model file: {path}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read the model file {path}: {exc}") from None
+    return load_machine_text(text, file=str(path))
+
+
+def load_machine_text(text: str, *, file: Optional[str] = None) -> Machine:
+    """Set up a machine from its text (see :func:`load_machine`)."""
+    try:
+        return _build(parse_machine_source(text, file=file))
+    except TracecheckError as exc:
+        raise exc.located(file=file or "<model>", source=text) from None
+
+
+def _build(src: MachineSource) -> Machine:
+    defs = src.definitions
+    _check_names(src)
+
+    def pred(node: Optional[A.Node], what: str) -> Optional[A.Node]:
+        if node is None:
+            return None
+        node = expand(node, defs)
+        check_kind(node, PRED, source=src.text, context=what)
+        return node
+
+    properties = pred(src.properties, "PROPERTIES")
+    invariant = pred(src.invariant, "INVARIANT")
+    assertions = tuple(pred(a, "each assertion") for a in src.assertions)
+    operations = {}
+    for op in src.operations:
+        body = expand(op.body, defs)
+        check_subst(body, source=src.text)
+        operations[op.name] = Operation(op.name, op.params, op.outputs, guard_of(body), body,
+                                        src.description_after(op.pos))
+    descriptions = {}
+    for name, pos in src.constants + src.variables:
+        desc = src.description_after(pos)
+        if desc:
+            descriptions[name] = desc
+    for name, _, pos in src.sets:
+        desc = src.description_after(pos)
+        if desc:
+            descriptions[name] = desc
+    sets, enumerated, constants = _setup_constants(src, properties)
+    return Machine(
+        name=src.name, file=src.file, source=src.text,
+        sha256=hashlib.sha256(src.text.encode("utf-8")).hexdigest(), sets=sets,
+        enumerated=enumerated, constants=constants,
+        variables=tuple(n for n, _ in src.variables), invariant_node=invariant,
+        assertion_nodes=assertions, operations=operations, descriptions=descriptions,
+        definitions=defs,
+    )
+
+
+def _check_names(src: MachineSource) -> None:
+    seen: dict[str, str] = {}
+    entries = [(n, "set", p) for n, _, p in src.sets]
+    entries += [(e, "set element", p) for _, elems, p in src.sets for e in (elems or ())]
+    entries += [(n, "constant", p) for n, p in src.constants]
+    entries += [(n, "variable", p) for n, p in src.variables]
+    for name, what, pos in entries:
+        if name in seen:
+            raise BScopeError(f"{name} is declared twice (as {seen[name]} and as {what})",
+                              line=pos.line if pos else None,
+                              column=pos.column if pos else None)
+        seen[name] = what
+
+
+def _setup_constants(src: MachineSource, properties: Optional[A.Node]):
+    conjs = conjuncts(properties) if properties is not None else []
+    deferred = [n for n, elems, _ in src.sets if elems is None]
+    sets: dict[str, list[Elem]] = {n: [Elem(e) for e in elems] for n, elems, _ in src.sets
+                                   if elems is not None}
+    enumerated = frozenset(sets)
+    const_names = {n for n, _ in src.constants}
+    sizes = {name: DEFAULT_SETSIZE for name in deferred}
+    for conj in conjs:
+        size = _card_equation(conj, deferred)
+        if size is not None:
+            sizes[size[0]] = size[1]
+    for name in deferred:
+        sets[name] = [Elem(f"{name}{i}") for i in range(1, sizes[name] + 1)]
+    values: dict[str, Any] = {}
+    claimed = {name: 0 for name in deferred}
+    for conj in conjs:
+        if (isinstance(conj, A.Rel) and conj.op == ":" and isinstance(conj.left, A.Name)
+                and conj.left.id in const_names and conj.left.id not in values
+                and isinstance(conj.right, A.Name) and conj.right.id in sets):
+            name, set_name = conj.left.id, conj.right.id
+            elems = sets[set_name]
+            if set_name in deferred:
+                if claimed[set_name] >= len(elems):
+                    raise ModelError(f"{set_name} has only {len(elems)} element(s), too few "
+                                     f"for the constant {name}", line=conj.pos.line,
+                                     column=conj.pos.column)
+                elems[claimed[set_name]] = Elem(name)
+                values[name] = elems[claimed[set_name]]
+                claimed[set_name] += 1
+            else:
+                values[name] = elems[0]
+    frozen_sets = {n: tuple(e) for n, e in sets.items()}
+    env = {n: frozenset(e) for n, e in frozen_sets.items()}
+    for n in enumerated:
+        env.update({str(e): e for e in frozen_sets[n]})
+    comp = Compiler(source=src.text, file=src.file)
+    _solve_equalities(conjs, const_names, values, env, comp)
+    env.update(values)
+    for conj in conjs:
+        try:
+            ok = comp.compile(conj)(dict(env))
+        except EvaluationError:
+            continue  # mentions a constant that has no value; it stays unset
+        if not ok:
+            raise ModelError(f"PROPERTIES do not hold for the values tracecheck gave the "
+                             f"constants: `{render(conj, src.text)}` is false",
+                             line=conj.pos.line if conj.pos else None,
+                             column=conj.pos.column if conj.pos else None,
+                             hint="tracecheck sets constants from `c = value` and "
+                                  "`c : DeferredSet`, and deferred sets from `card(S) = n`")
+    return frozen_sets, enumerated, values
+
+
+def _card_equation(conj: A.Node, deferred: list[str]):
+    if not (isinstance(conj, A.Rel) and conj.op == "="):
+        return None
+    for a, b in ((conj.left, conj.right), (conj.right, conj.left)):
+        if (isinstance(a, A.Call) and a.name == "card" and isinstance(a.args[0], A.Name)
+                and a.args[0].id in deferred and isinstance(b, A.IntLit)):
+            return a.args[0].id, b.value
+    return None
+
+
+def _solve_equalities(conjs, const_names, values, env, comp) -> None:
+    pending = True
+    while pending:
+        pending = False
+        for conj in conjs:
+            if not (isinstance(conj, A.Rel) and conj.op == "="):
+                continue
+            for a, b in ((conj.left, conj.right), (conj.right, conj.left)):
+                if (isinstance(a, A.Name) and a.id in const_names and a.id not in values
+                        and all(n in values or n in env or n in _GLOBAL_NAMES
+                                for n in A.free_names(b))):
+                    values[a.id] = comp.compile(b)({**env, **values})
+                    pending = True
+                    break
+
+
+_GLOBAL_NAMES = frozenset({"BOOL", "INTEGER", "NATURAL", "NATURAL1", "INT", "NAT", "NAT1",
+                           "REAL", "FLOAT", "STRING", "MAXINT", "MININT"})

@@ -1,0 +1,279 @@
+"""Substitutions, checked rather than run.
+
+A shield's operations say what may follow an action (``VehiclesVx :| (… ≥ VehiclesVx'(Ego)
+- 0.05)``); tracecheck never picks a non-deterministic outcome but decides whether a
+recorded after-state is one of the allowed outcomes: the before-after predicate of the
+operation (the paper's Listing 2). Deterministic substitutions can also be executed.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable, Optional
+
+from ..errors import UnsupportedError
+from . import ast as A
+from .evaluate import Compiler, Env, _equal, _make_set, _scoped, conjuncts
+
+__all__ = ["written", "guard_of", "SubstCompiler"]
+
+Check = Callable[[Env, dict], bool]
+
+
+def written(s: A.Subst) -> frozenset[str]:
+    """The variables a substitution may change."""
+    if isinstance(s, A.Assign):
+        return frozenset(t.id if isinstance(t, A.Name) else t.fn.id for t in s.targets)
+    if isinstance(s, (A.BecomesIn, A.BecomesSuchThat)):
+        return frozenset(s.ids)
+    if isinstance(s, (A.Parallel, A.Sequence, A.Choice)):
+        return frozenset().union(*(written(i) for i in s.items))
+    if isinstance(s, (A.Pre, A.Assert)):
+        return written(s.body)
+    if isinstance(s, (A.Select, A.IfSubst)):
+        out = frozenset().union(*(written(b) for _, b in s.branches))
+        return out | (written(s.else_) if s.else_ is not None else frozenset())
+    if isinstance(s, (A.Any, A.LetSubst)):
+        return written(s.body) - frozenset(s.ids)
+    return frozenset()
+
+
+def _and(parts: list[A.Node]) -> Optional[A.Node]:
+    parts = [p for p in parts if p is not None]
+    if not parts:
+        return None
+    node = parts[0]
+    for p in parts[1:]:
+        node = A.And(node, p, pos=p.pos)
+    return node
+
+
+def guard_of(s: A.Subst) -> Optional[A.Node]:
+    """The guard of a substitution as a predicate (None when it is always enabled).
+
+    PRE and SELECT contribute their conditions (several WHEN branches: any of them),
+    ANY its ``#x.(P)``, parallel parts all their guards, a sequence its first part's.
+    """
+    if isinstance(s, (A.Pre, A.Assert)):
+        cond = s.guard if isinstance(s, A.Pre) else None
+        return _and([cond, guard_of(s.body)])
+    if isinstance(s, A.Select):
+        if s.else_ is not None:
+            return None
+        options = [_and([c, guard_of(b)]) for c, b in s.branches]
+        node = options[0]
+        for o in options[1:]:
+            node = A.Or(node, o, pos=o.pos) if node is not None and o is not None else None
+        return node
+    if isinstance(s, A.Any):
+        return A.Quant("#", s.ids, _and([s.pred, guard_of(s.body)]), pos=s.pos)
+    if isinstance(s, A.Parallel):
+        return _and([guard_of(i) for i in s.items])
+    if isinstance(s, A.Sequence):
+        return guard_of(s.items[0])
+    if isinstance(s, A.LetSubst):
+        inner = guard_of(s.body)
+        return A.Let(s.ids, s.pred, inner, pos=s.pos) if inner is not None else None
+    return None
+
+
+class SubstCompiler:
+    """Compiles a substitution into ``check(pre_env, post) -> bool``.
+
+    ``pre_env`` holds constants, the variables before and any local variables; ``post``
+    maps the state variables to their values after. Variables the substitution does not
+    write must be unchanged; the caller checks that frame for the whole operation.
+    """
+
+    def __init__(self, comp: Compiler) -> None:
+        self.comp = comp
+
+    def unchanged(self, names: frozenset[str]) -> Check:
+        names = tuple(sorted(names))
+        return lambda pre, post: all(_equal(post[n], pre[n]) for n in names if n in post)
+
+    def compile(self, s: A.Subst) -> Check:
+        method = getattr(self, "s_" + type(s).__name__, None)
+        if method is None:
+            raise self.comp.error(UnsupportedError, s,
+                                  f"tracecheck cannot check {type(s).__name__} substitutions")
+        return method(s)
+
+    def s_Skip(self, s: A.Skip) -> Check:
+        return lambda pre, post: True
+
+    def s_Assign(self, s: A.Assign) -> Check:
+        parts = []
+        for target, value in zip(s.targets, s.values):
+            val = self.comp.compile(value)
+            if isinstance(target, A.Name):
+                name = target.id
+                parts.append(lambda pre, post, name=name, val=val: _equal(post[name], val(pre)))
+            else:
+                name = target.fn.id
+                key = self.comp.compile(target.args[0] if len(target.args) == 1 else
+                                        _pairs(target.args))
+
+                def override(pre, post, name=name, key=key, val=val):
+                    new = dict(pre[name].map if hasattr(pre[name], "map") else pre[name])
+                    new[key(pre)] = val(pre)
+                    return _equal(post[name], _make_set(list(new.items())))
+                parts.append(override)
+        return lambda pre, post: all(p(pre, post) for p in parts)
+
+    def s_BecomesIn(self, s: A.BecomesIn) -> Check:
+        values = self.comp.compile(s.set)
+        names = s.ids
+
+        def becomes_in(pre: Env, post: dict) -> bool:
+            new = post[names[0]]
+            for n in names[1:]:
+                new = (new, post[n])
+            allowed = values(pre)
+            return new in allowed
+        return becomes_in
+
+    def s_BecomesSuchThat(self, s: A.BecomesSuchThat) -> Check:
+        pred = self.comp.compile(s.pred)
+        names = s.ids
+        primed = [(n, n + "'", n + "$0") for n in names]
+
+        def such_that(pre: Env, post: dict) -> bool:
+            env = dict(pre)
+            for n, p1, p2 in primed:
+                env[p1] = env[p2] = pre[n]
+                env[n] = post[n]
+            return bool(pred(env))
+        return such_that
+
+    def s_Parallel(self, s: A.Parallel) -> Check:
+        parts = [self.compile(i) for i in s.items]
+        return lambda pre, post: all(p(pre, post) for p in parts)
+
+    def s_Sequence(self, s: A.Sequence) -> Check:
+        first = self.execute(A.Sequence(s.items[:-1], pos=s.pos) if len(s.items) > 2
+                             else s.items[0])
+        last = self.compile(s.items[-1])
+        last_writes = written(s.items[-1])
+
+        def sequence(pre: Env, post: dict) -> bool:
+            mid = first(dict(pre))
+            if mid is None:
+                return False
+            env = dict(pre)
+            env.update(mid)
+            untouched = {n: v for n, v in mid.items() if n not in last_writes}
+            return last(env, post) and all(_equal(post[n], v) for n, v in untouched.items()
+                                           if n in post)
+        return sequence
+
+    def s_Pre(self, s: A.Pre) -> Check:
+        cond, body = self.comp.compile(s.guard), self.compile(s.body)
+        return lambda pre, post: bool(cond(pre)) and body(pre, post)
+
+    def s_Assert(self, s: A.Assert) -> Check:
+        cond, body = self.comp.compile(s.cond), self.compile(s.body)
+        return lambda pre, post: bool(cond(pre)) and body(pre, post)
+
+    def _branching(self, s, first_only: bool) -> Check:
+        allw = written(s)
+        branches = [(self.comp.compile(c), self.compile(b), self.unchanged(allw - written(b)))
+                    for c, b in s.branches]
+        if s.else_ is not None:
+            other = (self.compile(s.else_), self.unchanged(allw - written(s.else_)))
+        else:
+            other = (None, self.unchanged(allw)) if first_only else None
+
+        def branching(pre: Env, post: dict) -> bool:
+            taken = False
+            for cond, body, same in branches:
+                if cond(pre):
+                    taken = True
+                    if body(pre, post) and same(pre, post):
+                        return True
+                    if first_only:
+                        return False
+            if taken or other is None:
+                return False
+            body, same = other
+            return (body is None or body(pre, post)) and same(pre, post)
+        return branching
+
+    def s_Select(self, s: A.Select) -> Check:
+        return self._branching(s, first_only=False)
+
+    def s_IfSubst(self, s: A.IfSubst) -> Check:
+        return self._branching(s, first_only=True)
+
+    def s_Choice(self, s: A.Choice) -> Check:
+        allw = written(s)
+        parts = [(self.compile(i), self.unchanged(allw - written(i))) for i in s.items]
+        return lambda pre, post: any(p(pre, post) and u(pre, post) for p, u in parts)
+
+    def s_Any(self, s: A.Any) -> Check:
+        bind = self.comp.bindings(s, s.ids, s.pred)
+        body = self.compile(s.body)
+
+        def any_(pre: Env, post: dict) -> bool:
+            env = dict(pre)
+            return any(body(env, post) for _ in bind(env))
+        return any_
+
+    def s_LetSubst(self, s: A.LetSubst) -> Check:
+        assign = self.comp.let_values(s, s.ids, s.pred)
+        body = self.compile(s.body)
+
+        def let(pre: Env, post: dict) -> bool:
+            env = dict(pre)
+            assign(env)
+            return body(env, post)
+        return let
+
+    # -- execution of deterministic substitutions
+    def execute(self, s: A.Subst) -> Callable[[Env], Optional[dict]]:
+        """``env -> updates`` for a deterministic substitution (None: guard false)."""
+        if isinstance(s, A.Skip):
+            return lambda env: {}
+        if isinstance(s, A.Assign) and all(isinstance(t, A.Name) for t in s.targets):
+            pairs = [(t.id, self.comp.compile(v)) for t, v in zip(s.targets, s.values)]
+            return lambda env: {n: f(env) for n, f in pairs}
+        if isinstance(s, (A.Parallel, A.Sequence)):
+            parts = [self.execute(i) for i in s.items]
+            seq = isinstance(s, A.Sequence)
+
+            def run(env: Env) -> Optional[dict]:
+                out: dict = {}
+                local = dict(env)
+                for p in parts:
+                    upd = p(local if seq else env)
+                    if upd is None:
+                        return None
+                    out.update(upd)
+                    if seq:
+                        local.update(upd)
+                return out
+            return run
+        if isinstance(s, (A.Pre, A.Select)) and (isinstance(s, A.Pre) or len(s.branches) == 1):
+            cond = self.comp.compile(s.guard if isinstance(s, A.Pre) else s.branches[0][0])
+            body = self.execute(s.body if isinstance(s, A.Pre) else s.branches[0][1])
+            return lambda env: body(env) if cond(env) else None
+        if isinstance(s, A.IfSubst):
+            branches = [(self.comp.compile(c), self.execute(b)) for c, b in s.branches]
+            other = self.execute(s.else_) if s.else_ is not None else (lambda env: {})
+
+            def run_if(env: Env) -> Optional[dict]:
+                for cond, body in branches:
+                    if cond(env):
+                        return body(env)
+                return other(env)
+            return run_if
+        raise self.comp.error(
+            UnsupportedError, s,
+            "tracecheck cannot check a sequence whose first part is not deterministic",
+            hint="write the non-deterministic part last, or use || instead of ;")
+
+
+def _pairs(args):
+    node = args[0]
+    for a in args[1:]:
+        node = A.Pair(node, a, pos=a.pos)
+    return node

@@ -1,0 +1,120 @@
+"""One error hierarchy for tracecheck.
+
+The library raises these; only the CLI turns them into exit codes and text. Every message
+says where (file, line, column or episode/step), what was wrong and, where it helps, what to
+do instead.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "TracecheckError",
+    "BSyntaxError",
+    "BTypeError",
+    "BScopeError",
+    "WellDefinednessError",
+    "EvaluationError",
+    "UnsupportedError",
+    "ModelError",
+    "InputError",
+]
+
+
+def caret_excerpt(source: str | None, line: int | None, column: int | None) -> str:
+    """The source line at ``line`` with a caret under ``column`` (both 1-based)."""
+    if not source or not line or line < 1:
+        return ""
+    lines = source.splitlines()
+    if line > len(lines):
+        return ""
+    text = lines[line - 1].replace("\t", " ")
+    col = max(1, column or 1)
+    return f"\n    {text}\n    {' ' * (col - 1)}^"
+
+
+class TracecheckError(Exception):
+    """Base class: every error tracecheck raises on bad input is one of these."""
+
+    exit_code = 2
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        file: str | None = None,
+        line: int | None = None,
+        column: int | None = None,
+        source: str | None = None,
+        hint: str | None = None,
+    ) -> None:
+        self.message = message
+        self.file = file
+        self.line = line
+        self.column = column
+        self.source = source
+        self.hint = hint
+        super().__init__(self.render())
+
+    @property
+    def location(self) -> str:
+        parts = [self.file or "<input>"]
+        if self.line:
+            parts.append(str(self.line))
+            if self.column:
+                parts.append(str(self.column))
+        return ":".join(parts)
+
+    def render(self) -> str:
+        text = f"{self.location}: {self.message}"
+        text += caret_excerpt(self.source, self.line, self.column)
+        if self.hint:
+            text += f"\n  hint: {self.hint}"
+        return text
+
+    def located(self, *, file: str | None = None, source: str | None = None) -> "TracecheckError":
+        """Fill in the file and source text where they are still unknown; returns self."""
+        if file and not self.file:
+            self.file = file
+        if source and not self.source:
+            self.source = source
+        self.args = (self.render(),)
+        return self
+
+    def __str__(self) -> str:
+        return self.render()
+
+
+class BSyntaxError(TracecheckError):
+    """Text that is not B (or not the subset tracecheck reads)."""
+
+
+class BScopeError(TracecheckError):
+    """A name that is not declared, or declared twice."""
+
+
+class BTypeError(TracecheckError):
+    """A formula whose parts do not fit together: a predicate where an expression belongs,
+    an integer compared with a real, a set used as a number."""
+
+
+class WellDefinednessError(TracecheckError):
+    """An expression without a value: a function applied outside its domain, min of an empty
+    set, division by zero."""
+
+
+class EvaluationError(TracecheckError):
+    """Evaluation failed for a reason other than well-definedness (a variable without value,
+    a set that cannot be enumerated)."""
+
+
+class UnsupportedError(TracecheckError):
+    """Valid B that tracecheck does not evaluate (it says what to write instead)."""
+
+
+class ModelError(TracecheckError):
+    """A machine that parses but cannot be set up (unsatisfied PROPERTIES, cyclic
+    definitions, duplicate operations)."""
+
+
+class InputError(TracecheckError):
+    """A bad command-line argument or input file that is not B text."""
