@@ -61,6 +61,10 @@ class Machine:
     operations: dict[str, Operation]
     descriptions: dict[str, str]
     definitions: dict = field(default_factory=dict)
+    properties_node: Optional[A.Node] = None
+    initialisation: Optional[A.Subst] = None
+    constants_declared: tuple[str, ...] = ()
+    types: dict[str, str] = field(default_factory=dict)
     _compiled: dict = field(default_factory=dict, repr=False)
 
     # -- environments
@@ -229,14 +233,23 @@ def _build(src: MachineSource) -> Machine:
         if desc:
             descriptions[name] = desc
     sets, enumerated, constants = _setup_constants(src, properties)
-    return Machine(
+    init = None
+    if src.initialisation is not None:
+        init = expand(src.initialisation, defs)
+        check_subst(init, source=src.text)
+    machine = Machine(
         name=src.name, file=src.file, source=src.text,
         sha256=hashlib.sha256(src.text.encode("utf-8")).hexdigest(), sets=sets,
         enumerated=enumerated, constants=constants,
         variables=tuple(n for n, _ in src.variables), invariant_node=invariant,
         assertion_nodes=assertions, operations=operations, descriptions=descriptions,
-        definitions=defs,
+        definitions=defs, properties_node=properties, initialisation=init,
+        constants_declared=tuple(n for n, _ in src.constants),
     )
+    from .typecheck import typecheck_machine
+
+    machine.types = typecheck_machine(machine)
+    return machine
 
 
 def _check_names(src: MachineSource) -> None:
@@ -335,3 +348,33 @@ def _solve_equalities(conjs, const_names, values, env, comp) -> None:
 
 _GLOBAL_NAMES = frozenset({"BOOL", "INTEGER", "NATURAL", "NATURAL1", "INT", "NAT", "NAT1",
                            "REAL", "FLOAT", "STRING", "MAXINT", "MININT"})
+
+
+def _batch(self: Machine, node: A.Node):
+    """A :class:`~tracecheck.b.vector.BatchFormula` for ``node`` in this machine."""
+    from .vector import BatchFormula
+
+    return BatchFormula(node, self.base_env, source=self.source, file=self.file)
+
+
+def _enabled_batch(self: Machine, columns) -> dict:
+    """For each operation, a bool array: is it enabled in each row of ``columns``?"""
+    import numpy as np
+
+    cache = self._compiled.setdefault("batch_guards", {})
+    out = {}
+    for name, op in self.operations.items():
+        if op.guard is None:
+            out[name] = np.ones(columns.n, dtype=bool)
+            continue
+        if name not in cache:
+            guard = op.guard
+            if op.params:
+                guard = A.Quant("#", op.params, guard, pos=guard.pos)
+            cache[name] = _batch(self, guard)
+        out[name] = cache[name](columns).astype(bool)
+    return out
+
+
+Machine.batch = _batch
+Machine.enabled_batch = _enabled_batch

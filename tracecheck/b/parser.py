@@ -55,7 +55,7 @@ TOOL_DEFINITION_PREFIXES = (
 
 _READABLE = {
     "NAME": "a name", "INT": "an integer", "REAL_LIT": "a real number",
-    "STRING": "a string", "$END": "the end of the text",
+    "STRING": "a string", "$END": "the end",
 }
 
 
@@ -88,20 +88,24 @@ def _comment_sink(tok: Token) -> None:
     _COMMENTS.append(tok)
 
 
+_FIRST_LITERAL = {m.group(1): m.group(2).replace("\\\\", "\\")
+                  for m in re.finditer(r'^([A-Z_]+):\s*"((?:\\.|[^"])*)"', _GRAMMAR, re.M)}
+
+
 def _terminal_text(name: str) -> str:
     if name in _READABLE:
         return _READABLE[name]
+    if name in _FIRST_LITERAL:
+        return f"'{_FIRST_LITERAL[name]}'"
     for term in _lexer().terminals:
-        if term.name == name:
-            pattern = term.pattern
-            if pattern.type == "str":
-                return f"'{pattern.value}'"
-            alt = re.findall(r"[^|()?:\\]+", pattern.value)
-            return f"'{alt[0]}'" if alt else name
+        if term.name == name and term.pattern.type == "str":
+            return f"'{term.pattern.value}'"
     return name
 
 
 def _describe_expected(expected: set[str]) -> str:
+    if {"NAME", "INT"} <= expected:
+        return "a predicate or expression (a name, a number, '(', '{', …)"
     names = sorted({_terminal_text(e) for e in expected if not e.startswith("__")})
     if len(names) > 10:
         names = names[:10] + ["…"]

@@ -1,0 +1,43 @@
+"""State files: a JSON object mapping variable names to B literals or JSON values."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from ..errors import InputError, TracecheckError
+from .values import from_json
+
+__all__ = ["read_state_file", "state_from_json"]
+
+
+def state_from_json(data: Any, *, file: str = "<state>") -> dict[str, Any]:
+    """Turn a decoded JSON object into a state (dict of B values)."""
+    if not isinstance(data, dict):
+        raise InputError(f"a state file holds a JSON object mapping variable names to values, "
+                         f"not {type(data).__name__}", file=file)
+    state = {}
+    for name, value in data.items():
+        try:
+            state[name] = from_json(value, file=file, where=f"variable {name}")
+        except TracecheckError as exc:
+            raise exc.located(file=file) from None
+    return state
+
+
+def read_state_file(path: str | Path) -> dict[str, Any]:
+    """Read a state file, e.g. ``{"Crash": "FALSE", "VehiclesX": "{(EgoVehicle↦1.0)}"}``."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"no such state file: {path}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read the state file {path}: {exc}") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"not valid JSON: {exc.msg}", file=str(path), line=exc.lineno,
+                         column=exc.colno, source=text) from None
+    return state_from_json(data, file=str(path))

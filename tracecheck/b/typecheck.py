@@ -1,0 +1,454 @@
+"""Type inference for B, as ProB does it: every name gets one type, found by unification.
+
+Types are ``INTEGER``, ``REAL``, ``BOOL``, ``STRING``, a deferred or enumerated set's
+elements (``Vehicles``), ``POW(T)`` and ``T1*T2``; a function is a set of pairs. INTEGER and
+REAL never mix (write ``0.0``, not ``0``, beside a real). Variables are typed by the
+INVARIANT, constants by the PROPERTIES.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Union
+
+from ..errors import BScopeError, BTypeError
+from . import ast as A
+from .scope import render
+
+__all__ = ["typecheck_machine", "Typer", "show"]
+
+
+@dataclass(frozen=True)
+class Base:
+    name: str  # INTEGER, REAL, BOOL, STRING, or a set's name
+
+
+@dataclass(frozen=True)
+class Pow:
+    elem: "Type"
+
+
+@dataclass(frozen=True)
+class Prod:
+    left: "Type"
+    right: "Type"
+
+
+class Var:
+    """A type not known yet."""
+
+    __slots__ = ("ref", "numeric")
+
+    def __init__(self, numeric: bool = False) -> None:
+        self.ref: Optional[Type] = None
+        self.numeric = numeric
+
+
+Type = Union[Base, Pow, Prod, Var]
+INTEGER, REAL, BOOL, STRING = Base("INTEGER"), Base("REAL"), Base("BOOL"), Base("STRING")
+_NUMERIC = (INTEGER, REAL)
+
+
+def resolve(t: Type) -> Type:
+    while isinstance(t, Var) and t.ref is not None:
+        t = t.ref
+    return t
+
+
+def show(t: Type) -> str:
+    """A type in B notation, e.g. ``POW(Vehicles*REAL)``."""
+    t = resolve(t)
+    if isinstance(t, Base):
+        return t.name
+    if isinstance(t, Pow):
+        return f"POW({show(t.elem)})"
+    if isinstance(t, Prod):
+        left = show(t.left)
+        right = show(t.right)
+        if isinstance(resolve(t.right), Prod):
+            right = f"({right})"
+        return f"{left}*{right}"
+    return "?"
+
+
+class _Mismatch(Exception):
+    pass
+
+
+def _occurs(v: Var, t: Type) -> bool:
+    t = resolve(t)
+    if t is v:
+        return True
+    if isinstance(t, Pow):
+        return _occurs(v, t.elem)
+    if isinstance(t, Prod):
+        return _occurs(v, t.left) or _occurs(v, t.right)
+    return False
+
+
+def unify(a: Type, b: Type) -> None:
+    a, b = resolve(a), resolve(b)
+    if a is b:
+        return
+    if isinstance(a, Var) or isinstance(b, Var):
+        v, t = (a, b) if isinstance(a, Var) else (b, a)
+        if isinstance(t, Var):
+            t.numeric = t.numeric or v.numeric
+        elif v.numeric and t not in _NUMERIC:
+            raise _Mismatch
+        if _occurs(v, t):
+            raise _Mismatch
+        v.ref = t
+        return
+    if isinstance(a, Base) and isinstance(b, Base) and a == b:
+        return
+    if isinstance(a, Pow) and isinstance(b, Pow):
+        unify(a.elem, b.elem)
+        return
+    if isinstance(a, Prod) and isinstance(b, Prod):
+        unify(a.left, b.left)
+        unify(a.right, b.right)
+        return
+    raise _Mismatch
+
+
+_BUILTIN_TYPES = {
+    "INTEGER": Pow(INTEGER), "NATURAL": Pow(INTEGER), "NATURAL1": Pow(INTEGER),
+    "INT": Pow(INTEGER), "NAT": Pow(INTEGER), "NAT1": Pow(INTEGER), "REAL": Pow(REAL),
+    "FLOAT": Pow(REAL), "BOOL": Pow(BOOL), "STRING": Pow(STRING), "MAXINT": INTEGER,
+    "MININT": INTEGER,
+}
+
+
+class Typer:
+    """Infers types over formulas and substitutions in one scope of names."""
+
+    def __init__(self, names: dict[str, Type], *, source: Optional[str] = None,
+                 file: Optional[str] = None) -> None:
+        self.scopes: list[dict[str, Type]] = [names]
+        self.source, self.file = source, file
+
+    # -- helpers
+    def lookup(self, node: A.Name) -> Type:
+        name = node.id
+        base = name[:-1] if name.endswith("'") else name[:-2] if name.endswith("$0") else name
+        for scope in reversed(self.scopes):
+            if base in scope:
+                return scope[base]
+        if base in _BUILTIN_TYPES:
+            return _BUILTIN_TYPES[base]
+        raise BScopeError(f"unknown identifier {name}", file=self.file, source=self.source,
+                          line=node.pos.line if node.pos else None,
+                          column=node.pos.column if node.pos else None,
+                          hint="declare it as a constant or variable, or bind it")
+
+    def same(self, node: A.Node, a: Type, b: Type, what: str = "") -> None:
+        try:
+            unify(a, b)
+        except _Mismatch:
+            hint = None
+            pair = {show(a), show(b)}
+            if pair == {"INTEGER", "REAL"}:
+                hint = "INTEGER and REAL do not mix in B: write 1.0 for a real, or use real(n)"
+            raise BTypeError(
+                f"type mismatch in `{render(node, self.source)}`: {what}{show(a)} vs {show(b)}",
+                file=self.file, source=self.source, hint=hint,
+                line=node.pos.line if node.pos else None,
+                column=node.pos.column if node.pos else None) from None
+
+    def numeric(self, node: A.Node, t: Type) -> Type:
+        self.same(node, t, Var(numeric=True), "expected a number: ")
+        return t
+
+    def bound(self, ids: tuple[str, ...]) -> dict[str, Type]:
+        scope = {i: Var() for i in ids}
+        self.scopes.append(scope)
+        return scope
+
+    # -- predicates and expressions
+    def pred(self, node: A.Node) -> None:
+        if isinstance(node, (A.And, A.Or, A.Implies, A.Equiv)):
+            self.pred(node.left)
+            self.pred(node.right)
+        elif isinstance(node, A.Not):
+            self.pred(node.operand)
+        elif isinstance(node, A.Rel):
+            self.rel(node)
+        elif isinstance(node, A.Quant):
+            self.bound(node.ids)
+            try:
+                self.pred(node.body)
+            finally:
+                self.scopes.pop()
+        elif isinstance(node, A.IfExpr):
+            for c, v in node.branches:
+                self.pred(c)
+                self.pred(v)
+            self.pred(node.else_)
+        elif isinstance(node, A.Let):
+            self.bound(node.ids)
+            try:
+                self.pred(node.pred)
+                self.pred(node.body)
+            finally:
+                self.scopes.pop()
+
+    def rel(self, node: A.Rel) -> None:
+        left, right = self.expr(node.left), self.expr(node.right)
+        op = node.op
+        if op in ("=", "/="):
+            self.same(node, left, right)
+        elif op in ("<", "<=", ">", ">="):
+            self.numeric(node.left, left)
+            self.same(node, left, right)
+        elif op in (":", "/:"):
+            self.same(node, Pow(left), right)
+        else:
+            elem = Var()
+            self.same(node.left, left, Pow(elem))
+            self.same(node, left, right)
+
+    def expr(self, node: A.Node) -> Type:  # noqa: C901 - one branch per node type
+        t = type(node)
+        if t is A.Name:
+            return self.lookup(node)
+        if t is A.IntLit:
+            return INTEGER
+        if t is A.RealLit:
+            return REAL
+        if t is A.BoolLit:
+            return BOOL
+        if t is A.StrLit:
+            return STRING
+        if t is A.Pair:
+            return Prod(self.expr(node.left), self.expr(node.right))
+        if t is A.Neg:
+            return self.numeric(node, self.expr(node.operand))
+        if t is A.BinOp:
+            return self.binop(node)
+        if t is A.SetExt:
+            elem: Type = Var()
+            for item in node.items:
+                self.same(item, elem, self.expr(item), "set elements differ: ")
+            return Pow(elem)
+        if t is A.Apply:
+            fn = self.expr(node.fn)
+            arg = self.expr(node.args[0])
+            for a in node.args[1:]:
+                arg = Prod(arg, self.expr(a))
+            result = Var()
+            self.same(node, fn, Pow(Prod(arg, result)), "function and argument: ")
+            return result
+        if t is A.Call:
+            return self.call(node)
+        if t is A.Image:
+            a, b = Var(), Var()
+            self.same(node.rel, self.expr(node.rel), Pow(Prod(a, b)))
+            self.same(node.arg, self.expr(node.arg), Pow(a))
+            return Pow(b)
+        if t is A.Inverse:
+            a, b = Var(), Var()
+            self.same(node.rel, self.expr(node.rel), Pow(Prod(a, b)))
+            return Pow(Prod(b, a))
+        if t in (A.Comprehension, A.Lambda, A.QuantExpr):
+            return self.binder_expr(node)
+        if t is A.IfExpr:
+            result = Var()
+            for c, v in node.branches:
+                self.pred(c)
+                self.same(v, result, self.expr(v), "IF branches differ: ")
+            self.same(node.else_, result, self.expr(node.else_), "IF branches differ: ")
+            return result
+        if t is A.Let:
+            self.bound(node.ids)
+            try:
+                self.pred(node.pred)
+                return self.expr(node.body)
+            finally:
+                self.scopes.pop()
+        if t in (A.And, A.Or, A.Implies, A.Equiv, A.Not, A.Rel, A.Quant):
+            self.pred(node)
+            return BOOL
+        raise BTypeError(f"cannot type {t.__name__}")  # pragma: no cover
+
+    def binder_expr(self, node) -> Type:
+        scope = self.bound(node.ids)
+        try:
+            self.pred(node.pred)
+            key: Type = scope[node.ids[0]]
+            for i in node.ids[1:]:
+                key = Prod(key, scope[i])
+            if isinstance(node, A.Comprehension):
+                return Pow(key if node.expr is None else self.expr(node.expr))
+            value = self.expr(node.expr)
+            if isinstance(node, A.Lambda):
+                return Pow(Prod(key, value))
+            if node.op in ("SIGMA", "PI"):
+                return self.numeric(node.expr, value)
+            self.same(node.expr, value, Pow(Var()))
+            return value
+        finally:
+            self.scopes.pop()
+
+    def binop(self, node: A.BinOp) -> Type:
+        op = node.op
+        left, right = self.expr(node.left), self.expr(node.right)
+        if op in ("-->", "+->", "<->", ">->", ">+>", "-->>", "+->>", ">->>"):
+            a, b = Var(), Var()
+            self.same(node.left, left, Pow(a))
+            self.same(node.right, right, Pow(b))
+            return Pow(Pow(Prod(a, b)))
+        if op == "..":
+            self.same(node.left, left, INTEGER)
+            self.same(node.right, right, INTEGER)
+            return Pow(INTEGER)
+        if op in ("-", "*") and isinstance(resolve(left), Pow):
+            if op == "-":
+                self.same(node, left, right)
+                return left
+            b = Var()
+            self.same(node.right, right, Pow(b))
+            return Pow(Prod(resolve(left).elem, b))
+        if op in ("+", "-", "*", "/", "mod"):
+            self.numeric(node.left, left)
+            self.same(node, left, right)
+            if op == "mod":
+                self.same(node, left, INTEGER)
+            return left
+        if op == "**":
+            self.numeric(node.left, left)
+            if resolve(left) == REAL and resolve(right) == INTEGER:
+                return REAL
+            self.same(node, left, right)
+            return left
+        if op in ("\\/", "/\\", "\\"):
+            self.same(node.left, left, Pow(Var()))
+            self.same(node, left, right)
+            return left
+        if op in ("<|", "<<|"):
+            a, b = Var(), Var()
+            self.same(node.right, right, Pow(Prod(a, b)))
+            self.same(node.left, left, Pow(a))
+            return right
+        if op in ("|>", "|>>"):
+            a, b = Var(), Var()
+            self.same(node.left, left, Pow(Prod(a, b)))
+            self.same(node.right, right, Pow(b))
+            return left
+        if op == "<+":
+            self.same(node.left, left, Pow(Prod(Var(), Var())))
+            self.same(node, left, right)
+            return left
+        raise BTypeError(f"cannot type the operator {op}")  # pragma: no cover
+
+    def call(self, node: A.Call) -> Type:
+        name = node.name
+        if name == "bool":
+            self.pred(node.args[0])
+            return BOOL
+        arg = self.expr(node.args[0])
+        a, b = Var(), Var()
+        if name == "card":
+            self.same(node.args[0], arg, Pow(a))
+            return INTEGER
+        if name in ("dom", "ran"):
+            self.same(node.args[0], arg, Pow(Prod(a, b)))
+            return Pow(a if name == "dom" else b)
+        if name in ("min", "max"):
+            self.same(node.args[0], arg, Pow(Var(numeric=True)))
+            return resolve(arg).elem
+        if name in ("POW", "POW1", "FIN", "FIN1"):
+            self.same(node.args[0], arg, Pow(a))
+            return Pow(arg)
+        if name in ("floor", "ceiling"):
+            self.same(node.args[0], arg, REAL)
+            return INTEGER
+        if name == "real":
+            self.same(node.args[0], arg, INTEGER)
+            return REAL
+        if name in ("RSQRT", "RABS"):
+            self.same(node.args[0], arg, REAL)
+            return REAL
+        if name in ("abs", "succ", "pred"):
+            self.same(node.args[0], arg, INTEGER)
+            return INTEGER
+        if name in ("union", "inter"):
+            self.same(node.args[0], arg, Pow(Pow(a)))
+            return Pow(a)
+        if name == "id":
+            self.same(node.args[0], arg, Pow(a))
+            return Pow(Prod(a, a))
+        raise BTypeError(f"cannot type {name}")  # pragma: no cover
+
+    # -- substitutions
+    def subst(self, s: A.Subst) -> None:  # noqa: C901
+        if isinstance(s, A.Assign):
+            for target, value in zip(s.targets, s.values):
+                self.same(s, self.expr(target), self.expr(value), "assignment: ")
+        elif isinstance(s, A.BecomesIn):
+            new: Type = self.lookup(A.Name(s.ids[0], pos=s.pos))
+            for i in s.ids[1:]:
+                new = Prod(new, self.lookup(A.Name(i, pos=s.pos)))
+            self.same(s, Pow(new), self.expr(s.set), "'::' ")
+        elif isinstance(s, A.BecomesSuchThat):
+            for i in s.ids:
+                self.lookup(A.Name(i, pos=s.pos))
+            self.pred(s.pred)
+        elif isinstance(s, (A.Pre, A.Assert)):
+            self.pred(s.guard if isinstance(s, A.Pre) else s.cond)
+            self.subst(s.body)
+        elif isinstance(s, (A.Select, A.IfSubst)):
+            for c, b in s.branches:
+                self.pred(c)
+                self.subst(b)
+            if s.else_ is not None:
+                self.subst(s.else_)
+        elif isinstance(s, (A.Any, A.LetSubst)):
+            self.bound(s.ids)
+            try:
+                self.pred(s.pred)
+                self.subst(s.body)
+            finally:
+                self.scopes.pop()
+        elif isinstance(s, (A.Parallel, A.Sequence, A.Choice)):
+            for item in s.items:
+                self.subst(item)
+
+
+def typecheck_machine(machine) -> dict[str, str]:
+    """Type every formula of ``machine``; the variables' and constants' types in B notation.
+
+    Raises :class:`BTypeError` (or :class:`BScopeError`) with the location of the first
+    problem, like ProB's type checker.
+    """
+    names: dict[str, Type] = {}
+    for set_name, elems in machine.sets.items():
+        names[set_name] = Pow(Base(set_name))
+        if set_name in machine.enumerated:
+            names.update({str(e): Base(set_name) for e in elems})
+    for c in machine.constants_declared:
+        names[c] = Var()
+    for v in machine.variables:
+        names[v] = Var()
+    typer = Typer(names, source=machine.source, file=machine.file)
+    for node in (machine.properties_node, machine.invariant_node, *machine.assertion_nodes):
+        if node is not None:
+            typer.pred(node)
+    if machine.initialisation is not None:
+        typer.subst(machine.initialisation)
+    for op in machine.operations.values():
+        typer.bound(op.params + op.outputs)
+        try:
+            typer.subst(op.body)
+        finally:
+            typer.scopes.pop()
+    result = {}
+    for name in (*machine.constants_declared, *machine.variables):
+        t = show(names[name])
+        if "?" in t:
+            what = "constant" if name in machine.constants_declared else "variable"
+            clause = "PROPERTIES" if what == "constant" else "INVARIANT"
+            raise BTypeError(f"cannot infer the type of the {what} {name}", file=machine.file,
+                             hint=f"add a typing predicate to the {clause}, e.g. {name} : REAL")
+        result[name] = t
+    return result

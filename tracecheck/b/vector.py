@@ -1,0 +1,468 @@
+"""Batch evaluation: one formula over many states at once, on numpy columns.
+
+States are held as :class:`Columns`, one row per state: numbers and booleans as 1-D
+arrays, functions from the elements of a set (``VehiclesX : Vehicles --> REAL``) as
+``(rows, elements)`` arrays, subsets of that set as boolean masks. A quantifier over those
+elements becomes a reduction along the element axis, so a guard over a whole recording is a
+handful of numpy operations.
+
+Formulas outside that shape (nested element quantifiers, comprehensions, sets of sets) are
+evaluated row by row with the scalar path, with the same results. So are the rows where a
+sub-expression is not well-defined (a function applied outside its domain, division by
+zero): the scalar path respects the short-circuit that guards such terms and raises the
+located error where the formula really has no value.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable, Mapping, Optional, Sequence
+
+import numpy as np
+
+from ..errors import EvaluationError
+from . import ast as A
+from .evaluate import Compiler, conjuncts
+from .values import Elem, FuncValue
+
+__all__ = ["Columns", "evaluate_batch", "BatchFormula"]
+
+
+@dataclass
+class Columns:
+    """Many states, column by column (see the module docstring).
+
+    ``elements`` orders the elements of the one set that functions and masks range over.
+    """
+
+    n: int
+    elements: tuple[Elem, ...]
+    numbers: dict[str, np.ndarray] = field(default_factory=dict)
+    booleans: dict[str, np.ndarray] = field(default_factory=dict)
+    functions: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    masks: dict[str, np.ndarray] = field(default_factory=dict)
+    others: dict[str, list] = field(default_factory=dict)
+
+    @classmethod
+    def from_states(cls, states: Sequence[Mapping[str, Any]],
+                    elements: Optional[Sequence[Elem]] = None) -> "Columns":
+        """Columns from scalar states (dicts of B values), e.g. read from a trace."""
+        n = len(states)
+        if elements is None:
+            found: dict[Elem, None] = {}
+            for value in (states[0].values() if states else ()):
+                if isinstance(value, FuncValue):
+                    found.update({k: None for k in value.map if isinstance(k, Elem)})
+                elif isinstance(value, frozenset):
+                    found.update({k: None for k in value if isinstance(k, Elem)})
+            elements = tuple(found)
+        elements = tuple(elements)
+        index = {e: i for i, e in enumerate(elements)}
+        cols = cls(n=n, elements=elements)
+        names = list(states[0]) if states else []
+        for name in names:
+            values = [s[name] for s in states]
+            cols._add(name, values, index)
+        return cols
+
+    def _add(self, name: str, values: list, index: dict) -> None:
+        first = values[0]
+        k = len(index)
+        if all(type(v) is bool for v in values):
+            self.booleans[name] = np.array(values, dtype=bool)
+        elif all(type(v) in (int, float) for v in values):
+            self.numbers[name] = np.array(values, dtype=float if any(
+                type(v) is float for v in values) else np.int64)
+        elif isinstance(first, FuncValue) and all(
+                isinstance(v, FuncValue) and all(key in index and type(x) in (int, float)
+                                                 for key, x in v.map.items())
+                for v in values):
+            vals = np.zeros((self.n, k))
+            defined = np.zeros((self.n, k), dtype=bool)
+            for row, v in enumerate(values):
+                for key, x in v.map.items():
+                    vals[row, index[key]] = x
+                    defined[row, index[key]] = True
+            self.functions[name] = (vals, defined)
+        elif all(isinstance(v, frozenset) and not isinstance(v, FuncValue)
+                 and all(e in index for e in v) for v in values):
+            mask = np.zeros((self.n, k), dtype=bool)
+            for row, v in enumerate(values):
+                for e in v:
+                    mask[row, index[e]] = True
+            self.masks[name] = mask
+        else:
+            self.others[name] = values
+
+    def names(self) -> set[str]:
+        return (set(self.numbers) | set(self.booleans) | set(self.functions)
+                | set(self.masks) | set(self.others))
+
+    def row(self, i: int) -> dict[str, Any]:
+        """State ``i`` as a dict of scalar B values."""
+        state: dict[str, Any] = {}
+        for name, arr in self.numbers.items():
+            state[name] = arr[i].item()
+        for name, arr in self.booleans.items():
+            state[name] = bool(arr[i])
+        for name, (vals, defined) in self.functions.items():
+            state[name] = FuncValue({e: float(vals[i, j]) for j, e in enumerate(self.elements)
+                                     if defined[i, j]})
+        for name, mask in self.masks.items():
+            state[name] = frozenset(e for j, e in enumerate(self.elements) if mask[i, j])
+        for name, values in self.others.items():
+            state[name] = values[i]
+        return state
+
+
+class _NotVectorizable(Exception):
+    pass
+
+
+# A vector value: (tag, payload). Tags: "num", "bool" (arrays broadcastable to (n, k)),
+# "elem" (an int index, or an (1, k) index array for an element-axis variable),
+# "set" (bool mask (…, k)), "func" ((values, defined), each (n, k)).
+Vec = tuple
+
+
+class _Ctx:
+    def __init__(self, cols: Columns) -> None:
+        self.cols = cols
+        self.bad = np.zeros((cols.n, 1), dtype=bool)
+
+    def mark(self, rows: np.ndarray) -> None:
+        if rows.ndim == 2 and rows.shape[1] != 1:
+            rows = rows.any(axis=1, keepdims=True)
+        self.bad |= rows
+
+
+class _VecCompiler:
+    def __init__(self, constants: Mapping[str, Any], elements: tuple[Elem, ...],
+                 kinds: dict[str, str]) -> None:
+        self.constants = constants
+        self.index = {e: i for i, e in enumerate(elements)}
+        self.k = len(elements)
+        self.kinds = kinds
+        self.axis_var: Optional[str] = None
+
+    def compile(self, node: A.Node) -> Callable[[_Ctx], Vec]:
+        method = getattr(self, "v_" + type(node).__name__, None)
+        if method is None:
+            raise _NotVectorizable(type(node).__name__)
+        return method(node)
+
+    def constant(self, value: Any) -> Vec:
+        if type(value) is bool:
+            return ("bool", value)
+        if type(value) in (int, float):
+            return ("num", value)
+        if isinstance(value, Elem) and value in self.index:
+            return ("elem", self.index[value])
+        if isinstance(value, frozenset) and not isinstance(value, FuncValue) and all(
+                e in self.index for e in value):
+            mask = np.zeros((1, self.k), dtype=bool)
+            for e in value:
+                mask[0, self.index[e]] = True
+            return ("set", mask)
+        raise _NotVectorizable(repr(value))
+
+    def v_Name(self, node: A.Name) -> Callable:
+        name = node.id
+        if name == self.axis_var:
+            axis = np.arange(self.k).reshape(1, self.k)
+            return lambda ctx: ("elem", axis)
+        kind = self.kinds.get(name)
+        if kind == "num":
+            return lambda ctx: ("num", ctx.cols.numbers[name][:, None])
+        if kind == "bool":
+            return lambda ctx: ("bool", ctx.cols.booleans[name][:, None])
+        if kind == "func":
+            return lambda ctx: ("func", ctx.cols.functions[name])
+        if kind == "set":
+            return lambda ctx: ("set", ctx.cols.masks[name])
+        if name in self.constants:
+            vec = self.constant(self.constants[name])
+            return lambda ctx: vec
+        raise _NotVectorizable(name)
+
+    def v_IntLit(self, node) -> Callable:
+        vec = self.constant(node.value)
+        return lambda ctx: vec
+
+    v_RealLit = v_BoolLit = v_IntLit
+
+    def v_SetExt(self, node: A.SetExt) -> Callable:
+        items = [self.compile(i) for i in node.items]
+
+        def set_ext(ctx: _Ctx) -> Vec:
+            mask = np.zeros((1, self.k), dtype=bool)
+            for f in items:
+                tag, idx = f(ctx)
+                if tag != "elem" or not isinstance(idx, int):
+                    raise _NotVectorizable("set of non-constant elements")
+                mask[0, idx] = True
+            return ("set", mask)
+        return set_ext
+
+    def v_Neg(self, node: A.Neg) -> Callable:
+        f = self.compile(node.operand)
+        return lambda ctx: ("num", -_num(f(ctx)))
+
+    def v_BinOp(self, node: A.BinOp) -> Callable:
+        l, r = self.compile(node.left), self.compile(node.right)
+        op = node.op
+        if op in ("+", "*", "**"):
+            fn = {"+": np.add, "*": np.multiply, "**": np.power}[op]
+            return lambda ctx: ("num", fn(_num(l(ctx)), _num(r(ctx))))
+        if op == "/":
+            def div(ctx: _Ctx) -> Vec:
+                a, b = _num(l(ctx)), _num(r(ctx))
+                zero = np.asarray(b) == 0
+                if np.any(zero):
+                    ctx.mark(np.broadcast_to(zero, np.broadcast(a, b).shape)
+                             if np.ndim(zero) else np.ones((ctx.cols.n, 1), dtype=bool))
+                if _is_int(a) and _is_int(b):
+                    with np.errstate(divide="ignore", invalid="ignore"):
+                        safe = np.where(zero, 1, b)
+                        q = np.abs(a) // np.abs(safe)
+                        return ("num", np.where((np.asarray(a) >= 0) == (np.asarray(safe) > 0),
+                                                q, -q))
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    return ("num", np.true_divide(a, b))
+            return div
+        if op in ("-", "\\", "\\/", "/\\"):
+            def setop(ctx: _Ctx) -> Vec:
+                a, b = l(ctx), r(ctx)
+                if a[0] == "set" and b[0] == "set":
+                    x, y = a[1], b[1]
+                    if op in ("-", "\\"):
+                        return ("set", x & ~y)
+                    return ("set", (x | y) if op == "\\/" else (x & y))
+                if op == "-":
+                    return ("num", np.subtract(_num(a), _num(b)))
+                raise _NotVectorizable(op)
+            return setop
+        raise _NotVectorizable(op)
+
+    def v_Rel(self, node: A.Rel) -> Callable:
+        l, r = self.compile(node.left), self.compile(node.right)
+        op = node.op
+        if op in ("<", "<=", ">", ">="):
+            fn = {"<": np.less, "<=": np.less_equal, ">": np.greater,
+                  ">=": np.greater_equal}[op]
+            return lambda ctx: ("bool", fn(_num(l(ctx)), _num(r(ctx))))
+        if op in ("=", "/="):
+            def eq(ctx: _Ctx) -> Vec:
+                a, b = l(ctx), r(ctx)
+                if a[0] != b[0] or a[0] in ("func",):
+                    if {a[0], b[0]} != {"num"}:
+                        raise _NotVectorizable("=")
+                if a[0] == "set":
+                    res = np.all(a[1] == b[1], axis=-1, keepdims=True)
+                else:
+                    res = np.equal(a[1], b[1])
+                return ("bool", res if op == "=" else ~np.asarray(res))
+            return eq
+        if op in (":", "/:"):
+            def member(ctx: _Ctx) -> Vec:
+                a, s = l(ctx), r(ctx)
+                if a[0] != "elem" or s[0] != "set":
+                    raise _NotVectorizable(":")
+                idx, mask = a[1], s[1]
+                res = mask if not isinstance(idx, int) else mask[:, idx:idx + 1]
+                return ("bool", res if op == ":" else ~res)
+            return member
+        raise _NotVectorizable(op)
+
+    def _logic(self, node, fn) -> Callable:
+        l, r = self.compile(node.left), self.compile(node.right)
+        return lambda ctx: ("bool", fn(_bool(l(ctx)), _bool(r(ctx))))
+
+    def v_And(self, node) -> Callable:
+        return self._logic(node, np.logical_and)
+
+    def v_Or(self, node) -> Callable:
+        return self._logic(node, np.logical_or)
+
+    def v_Implies(self, node) -> Callable:
+        return self._logic(node, lambda a, b: np.logical_or(np.logical_not(a), b))
+
+    def v_Equiv(self, node) -> Callable:
+        return self._logic(node, np.equal)
+
+    def v_Not(self, node: A.Not) -> Callable:
+        f = self.compile(node.operand)
+        return lambda ctx: ("bool", np.logical_not(_bool(f(ctx))))
+
+    def v_Quant(self, node: A.Quant) -> Callable:
+        if len(node.ids) != 1 or self.axis_var is not None:
+            raise _NotVectorizable("quantifier shape")
+        (var,) = node.ids
+        body = node.body
+        domain_part = body.left if isinstance(body, A.Implies) else body
+        conjs = conjuncts(domain_part)
+        gen = next((c for c in conjs if isinstance(c, A.Rel) and c.op == ":"
+                    and isinstance(c.left, A.Name) and c.left.id == var
+                    and var not in A.free_names(c.right)), None)
+        if gen is None:
+            raise _NotVectorizable("no domain")
+        dom = self.compile(gen.right)
+        self.axis_var = var
+        try:
+            f = self.compile(body)
+        finally:
+            self.axis_var = None
+        forall = node.op == "!"
+
+        def quant(ctx: _Ctx) -> Vec:
+            tag, mask = dom(ctx)
+            if tag != "set":
+                raise _NotVectorizable("domain")
+            value = np.broadcast_to(_bool(f(ctx)), (ctx.cols.n, self.k))
+            if forall:
+                return ("bool", np.all(value | ~mask, axis=1, keepdims=True))
+            return ("bool", np.any(value & mask, axis=1, keepdims=True))
+        return quant
+
+    def v_Apply(self, node: A.Apply) -> Callable:
+        if len(node.args) != 1:
+            raise _NotVectorizable("arity")
+        fn, arg = self.compile(node.fn), self.compile(node.args[0])
+
+        def apply(ctx: _Ctx) -> Vec:
+            f, x = fn(ctx), arg(ctx)
+            if f[0] != "func" or x[0] != "elem":
+                raise _NotVectorizable("apply")
+            vals, defined = f[1]
+            idx = x[1]
+            if isinstance(idx, int):
+                vals, defined = vals[:, idx:idx + 1], defined[:, idx:idx + 1]
+            if not defined.all():
+                ctx.mark(~defined)
+            return ("num", vals)
+        return apply
+
+    def v_Call(self, node: A.Call) -> Callable:
+        arg = self.compile(node.args[0])
+        name = node.name
+        if name == "dom":
+            def dom(ctx: _Ctx) -> Vec:
+                f = arg(ctx)
+                if f[0] != "func":
+                    raise _NotVectorizable("dom")
+                return ("set", f[1][1])
+            return dom
+        if name == "card":
+            def card(ctx: _Ctx) -> Vec:
+                s = arg(ctx)
+                if s[0] != "set":
+                    raise _NotVectorizable("card")
+                return ("num", np.broadcast_to(s[1], (ctx.cols.n, self.k)).sum(
+                    axis=1, keepdims=True))
+            return card
+        if name == "bool":
+            return lambda ctx: ("bool", _bool(arg(ctx)))
+        if name == "RSQRT":
+            def sqrt(ctx: _Ctx) -> Vec:
+                x = _num(arg(ctx))
+                neg = np.asarray(x) < 0
+                if np.any(neg):
+                    ctx.mark(np.broadcast_to(neg, (ctx.cols.n, np.shape(neg)[-1]))
+                             if np.ndim(neg) == 2 else np.ones((ctx.cols.n, 1), dtype=bool))
+                with np.errstate(invalid="ignore"):
+                    return ("num", np.sqrt(x))
+            return sqrt
+        simple = {"RABS": np.abs, "abs": np.abs, "real": lambda x: np.asarray(x, float),
+                  "floor": np.floor, "ceiling": np.ceil}
+        if name in simple:
+            f = simple[name]
+            return lambda ctx: ("num", f(_num(arg(ctx))))
+        raise _NotVectorizable(name)
+
+    def v_IfExpr(self, node: A.IfExpr) -> Callable:
+        branches = [(self.compile(c), self.compile(v)) for c, v in node.branches]
+        other = self.compile(node.else_)
+
+        def if_expr(ctx: _Ctx) -> Vec:
+            tag, result = other(ctx)
+            for cond, value in reversed(branches):
+                t, v = value(ctx)
+                if t not in ("num", "bool") or tag not in ("num", "bool"):
+                    raise _NotVectorizable("IF")
+                result = np.where(_bool(cond(ctx)), v, result)
+            return (tag, result)
+        return if_expr
+
+
+def _num(v: Vec) -> Any:
+    if v[0] != "num":
+        raise _NotVectorizable(f"number expected, got {v[0]}")
+    return v[1]
+
+
+def _bool(v: Vec) -> Any:
+    if v[0] != "bool":
+        raise _NotVectorizable(f"boolean expected, got {v[0]}")
+    return v[1]
+
+
+def _is_int(x: Any) -> bool:
+    return np.issubdtype(np.asarray(x).dtype, np.integer)
+
+
+class BatchFormula:
+    """A formula prepared for batch evaluation over :class:`Columns`."""
+
+    def __init__(self, node: A.Node, constants: Mapping[str, Any], *,
+                 source: Optional[str] = None, file: Optional[str] = None) -> None:
+        self.node = node
+        self.constants = dict(constants)
+        self.scalar = Compiler(source=source, file=file).compile(node)
+        self._plans: dict[tuple, Optional[Callable]] = {}
+
+    def _plan(self, cols: Columns) -> Optional[Callable]:
+        kinds = {**{n: "num" for n in cols.numbers}, **{n: "bool" for n in cols.booleans},
+                 **{n: "func" for n in cols.functions}, **{n: "set" for n in cols.masks}}
+        key = (cols.elements, tuple(sorted(kinds.items())))
+        if key not in self._plans:
+            try:
+                self._plans[key] = _VecCompiler(self.constants, cols.elements,
+                                                kinds).compile(self.node)
+            except _NotVectorizable:
+                self._plans[key] = None
+        return self._plans[key]
+
+    def __call__(self, cols: Columns) -> np.ndarray:
+        """The value in each row: a bool array for a predicate, a float array for a number."""
+        plan = self._plan(cols)
+        if plan is not None:
+            ctx = _Ctx(cols)
+            try:
+                tag, value = plan(ctx)
+            except _NotVectorizable:
+                plan = None
+            else:
+                if tag in ("num", "bool"):
+                    out = np.array(np.broadcast_to(value, (cols.n, 1))[:, 0])
+                    bad = np.flatnonzero(ctx.bad[:, 0])
+                    for i in bad:
+                        out[i] = self._row(cols, i)
+                    return out
+                plan = None
+        return np.array([self._row(cols, i) for i in range(cols.n)])
+
+    def _row(self, cols: Columns, i: int) -> Any:
+        env = dict(self.constants)
+        env.update(cols.row(i))
+        try:
+            return self.scalar(env)
+        except EvaluationError as exc:
+            exc.message = f"state {i}: {exc.message}"
+            exc.args = (exc.render(),)
+            raise
+
+
+def evaluate_batch(node: A.Node, cols: Columns, constants: Mapping[str, Any] = {},
+                   *, source: Optional[str] = None) -> np.ndarray:
+    """Evaluate ``node`` in every row of ``cols`` (see the module docstring)."""
+    return BatchFormula(node, constants, source=source)(cols)

@@ -1,0 +1,172 @@
+"""The ``tracecheck`` command: a thin Typer layer over the library.
+
+Exit codes: 0 ok, 1 a check found problems when asked to fail, 2 bad input.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Any, Optional
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+
+from . import __version__
+from .errors import TracecheckError
+
+app = typer.Typer(
+    name="tracecheck",
+    help="Validate reinforcement-learning agents and their B safety shields.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+out = Console(highlight=False, soft_wrap=True)
+err = Console(stderr=True, highlight=False, soft_wrap=True)
+
+
+def _version(value: bool) -> None:
+    if value:
+        out.print(f"tracecheck {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
+                                 help="Print the version and exit."),
+) -> None:
+    """Validate reinforcement-learning agents and their B safety shields."""
+
+
+def _model(path: Path):
+    from .b.machine import load_machine
+
+    return load_machine(path)
+
+
+@app.command("check-model")
+def check_model(
+    model: Path = typer.Argument(..., help="A classical B machine (.mch)."),
+    as_json: bool = typer.Option(False, "--json", help="Print a JSON summary."),
+) -> None:
+    """Parse and check a B machine; list its sets, constants, variables and operations."""
+    from .b.scope import render
+    from .b.values import format_value
+
+    machine = _model(model)
+    types = machine.types
+    summary = {
+        "machine": machine.name,
+        "file": str(model),
+        "sha256": machine.sha256,
+        "sets": {n: [str(e) for e in elems] for n, elems in machine.sets.items()},
+        "constants": {n: format_value(v) for n, v in machine.constants.items()},
+        "variables": {v: {"type": types.get(v), "description": machine.descriptions.get(v)}
+                      for v in machine.variables},
+        "operations": {
+            name: {"guard": render(op.guard, machine.source) if op.guard is not None else None,
+                   "parameters": list(op.params)}
+            for name, op in machine.operations.items()
+        },
+    }
+    if as_json:
+        out.print_json(json.dumps(summary))
+        return
+    out.print(f"[bold]MACHINE {machine.name}[/bold]  ({model}, sha256 {machine.sha256[:12]}…)")
+    for name, elems in summary["sets"].items():
+        out.print(f"  set {name} = {{{', '.join(elems)}}}", markup=False)
+    for name, value in summary["constants"].items():
+        out.print(f"  constant {name} = {value}", markup=False)
+    table = Table("variable", "type", "description", box=None, pad_edge=False)
+    for name, info in summary["variables"].items():
+        table.add_row(name, info["type"] or "?", info["description"] or "")
+    if machine.variables:
+        out.print(table)
+    for name, info in summary["operations"].items():
+        guard = info["guard"] or "TRUE"
+        params = f"({', '.join(info['parameters'])})" if info["parameters"] else ""
+        out.print(f"  operation {name}{params}: guard {_clip(guard)}", markup=False)
+    out.print(f"[green]ok[/green]: {len(machine.operations)} operation(s), "
+              f"{len(machine.variables)} variable(s)")
+
+
+def _clip(text: str, width: int = 100) -> str:
+    return text if len(text) <= width else text[: width - 1] + "…"
+
+
+@app.command("eval")
+def eval_(
+    expr: str = typer.Argument(..., help="A B predicate or expression."),
+    model: Optional[Path] = typer.Option(None, "--model", "-m",
+                                         help="Evaluate in this machine's scope."),
+    state: Optional[Path] = typer.Option(None, "--state", "-s",
+                                         help="JSON file: variable name -> B literal."),
+    as_json: bool = typer.Option(False, "--json", help="Print the value as JSON."),
+) -> None:
+    """Evaluate a predicate or expression and print its value in B notation."""
+    from .b.evaluate import Compiler
+    from .b.parser import parse_formula
+    from .b.scope import EXPR, check_kind, expand, kind_of
+    from .b.state import read_state_file
+    from .b.values import format_value, to_json
+
+    machine = _model(model) if model is not None else None
+    values = read_state_file(state) if state is not None else {}
+    try:
+        node = parse_formula(expr, file="<expr>")
+        if machine is not None:
+            node = expand(node, machine.definitions)
+        check_kind(node, kind_of(node), source=expr, context="the formula")
+        env = machine.env(values) if machine is not None else dict(values)
+        value = Compiler(source=expr, file="<expr>").compile(node)(env)
+    except TracecheckError as exc:
+        raise exc.located(file="<expr>", source=expr)
+    if as_json:
+        out.print_json(json.dumps({"expression": expr, "value": format_value(value),
+                                   "json": to_json(value)}))
+    else:
+        out.print(format_value(value), markup=False)
+
+
+@app.command("guards")
+def guards(
+    model: Path = typer.Argument(..., help="A classical B machine (.mch)."),
+    state: Path = typer.Option(..., "--state", "-s", help="JSON file: variable -> B literal."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+) -> None:
+    """List the operations whose guard holds in a state."""
+    from .b.state import read_state_file
+
+    machine = _model(model)
+    values = read_state_file(state)
+    missing = [v for v in machine.variables if v not in values]
+    enabled = machine.enabled(values)
+    ordered = [op for op in machine.operations if op in enabled]
+    blocked = [op for op in machine.operations if op not in enabled]
+    if as_json:
+        out.print_json(json.dumps({"machine": machine.name, "enabled": ordered,
+                                   "disabled": blocked, "missing_variables": missing}))
+        return
+    out.print(f"enabled: {', '.join(ordered) or '(none: deadlock)'}")
+    out.print(f"disabled: {', '.join(blocked) or '(none)'}")
+
+
+def main(argv: Optional[list[str]] = None) -> Any:
+    """Entry point: run the app and turn tracecheck errors into exit code 2."""
+    try:
+        return app(args=argv, standalone_mode=True)
+    except TracecheckError as exc:
+        err.print("[red]error[/red]: " + escape(exc.render()), markup=True, highlight=False)
+        sys.exit(exc.exit_code)
+    except KeyboardInterrupt:
+        err.print("interrupted")
+        sys.exit(130)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()
