@@ -139,12 +139,17 @@ class Machine:
                     after: Mapping[str, Any]) -> bool:
         """Whether ``after`` is a possible outcome of ``op`` executed in ``before``.
 
-        Variables the operation does not write must be unchanged.
+        Variables the operation does not write must be unchanged. For an operation with
+        parameters, some parameter values satisfying its guard must allow ``after``.
         """
         operation = self.operation(op)
         checks = self._compiled.setdefault("checks", {})
         if op not in checks:
             body = operation.body
+            if operation.params:
+                # parameters are not part of the state: some value of them must do
+                body = A.Any(operation.params, operation.guard or A.BoolLit(True), body,
+                             pos=body.pos)
             frame = tuple(v for v in self.variables if v not in written(body))
             checks[op] = (SubstCompiler(self.compiler()).compile(body), frame)
         check, frame = checks[op]
@@ -214,8 +219,8 @@ def _build(src: MachineSource) -> Machine:
         check_kind(node, PRED, source=src.text, context=what)
         return node
 
-    properties = pred(src.properties, "PROPERTIES")
-    invariant = pred(src.invariant, "INVARIANT")
+    properties = pred(src.properties, "the PROPERTIES")
+    invariant = pred(src.invariant, "the INVARIANT")
     assertions = tuple(pred(a, "each assertion") for a in src.assertions)
     operations = {}
     for op in src.operations:
