@@ -11,7 +11,7 @@ from tracecheck.b.machine import load_machine, load_machine_text
 from tracecheck.b.values import parse_literal
 
 ROOT = Path(__file__).resolve().parents[1]
-FIXTURES = Path(__file__).parent / "b" / "fixtures"
+EXAMPLES = ROOT / "models" / "examples"
 PAPER_TRACES = ROOT.parent / "shared" / "data" / "paper-traces"
 
 COIN_TOSS = """
@@ -29,7 +29,7 @@ END
 @pytest.fixture(scope="session")
 def table1():
     """A Table-1-style shield over the paper's state vocabulary."""
-    return load_machine(FIXTURES / "table1.mch")
+    return load_machine(EXAMPLES / "highway_table1.mch")
 
 
 @pytest.fixture(scope="session")

@@ -92,6 +92,7 @@ def test_state_file_errors(tmp_path):
     with pytest.raises(BSyntaxError) as info:
         read_state_file(lit)
     assert "variable VehiclesX" in info.value.message and info.value.file == str(lit)
+    assert info.value.line is None and "at column 8 of the literal" in info.value.message
     arr = tmp_path / "arr.json"
     arr.write_text("[1, 2]")
     with pytest.raises(InputError, match="JSON object mapping variable names"):

@@ -6,7 +6,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from ..errors import InputError, TracecheckError
+from ..errors import BSyntaxError, InputError, TracecheckError, caret_excerpt
 from .values import from_json
 
 __all__ = ["read_state_file", "state_from_json"]
@@ -20,7 +20,12 @@ def state_from_json(data: Any, *, file: str = "<state>") -> dict[str, Any]:
     state = {}
     for name, value in data.items():
         try:
-            state[name] = from_json(value, file=file, where=f"variable {name}")
+            state[name] = from_json(value, where=f"variable {name}")
+        except BSyntaxError as exc:
+            # the column is one of the literal, not of the file: say so, show the literal
+            raise BSyntaxError(f"{exc.message}, at column {exc.column} of the literal:"
+                               f"{caret_excerpt(exc.source, exc.line, exc.column)}",
+                               file=file) from None
         except TracecheckError as exc:
             raise exc.located(file=file) from None
     return state

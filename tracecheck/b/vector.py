@@ -20,7 +20,7 @@ from typing import Any, Callable, Mapping, Optional, Sequence
 
 import numpy as np
 
-from ..errors import EvaluationError
+from ..errors import TracecheckError
 from . import ast as A
 from .evaluate import Compiler, conjuncts
 from .values import Elem, FuncValue
@@ -456,7 +456,7 @@ class BatchFormula:
         env.update(cols.row(i))
         try:
             return self.scalar(env)
-        except EvaluationError as exc:
+        except TracecheckError as exc:
             exc.message = f"state {i}: {exc.message}"
             exc.args = (exc.render(),)
             raise

@@ -1,0 +1,58 @@
+"""Type inference: types shown by check-model, and each kind of type error."""
+
+from __future__ import annotations
+
+import pytest
+
+from tracecheck.b.machine import load_machine_text
+from tracecheck.errors import BScopeError, BTypeError
+
+
+def machine(body: str):
+    return load_machine_text(f"MACHINE T\n{body}\nEND", file="T.mch")
+
+
+def test_types_are_inferred(table1):
+    assert table1.types["VehiclesX"] == "POW(Vehicles*REAL)"
+    assert table1.types["PresentVehicles"] == "POW(Vehicles)"
+    assert table1.types["Crash"] == "BOOL"
+    assert table1.types["EgoVehicle"] == "Vehicles"
+
+
+def test_nested_types():
+    m = machine("VARIABLES r, s INVARIANT r : INTEGER <-> (BOOL * REAL) & s = dom(r)")
+    assert m.types == {"r": "POW(INTEGER*(BOOL*REAL))", "s": "POW(INTEGER)"}
+
+
+@pytest.mark.parametrize("body,exc,fragment", [
+    ("VARIABLES x INVARIANT x : REAL & x > 0", BTypeError,
+     "type mismatch in `x > 0`: REAL vs INTEGER"),
+    ("VARIABLES x INVARIANT x : BOOL & x + 1 = 2", BTypeError, "expected a number: BOOL"),
+    ("VARIABLES x INVARIANT x : INTEGER & x : {TRUE}", BTypeError,
+     "type mismatch in `x : {TRUE}`: POW(INTEGER) vs POW(BOOL)"),
+    ("VARIABLES x INVARIANT x : INTEGER & y = 1", BScopeError, "unknown identifier y"),
+    ("VARIABLES x INVARIANT x = x", BTypeError, "cannot infer the type of the variable x"),
+    ("VARIABLES f INVARIANT f : INTEGER --> REAL & f(TRUE) = 1.0", BTypeError,
+     "function and argument"),
+    ("VARIABLES x INVARIANT x : INTEGER INITIALISATION x := 1.5", BTypeError,
+     "assignment: INTEGER vs REAL"),
+    ("VARIABLES x INVARIANT x : INTEGER & {1, TRUE} = {}", BTypeError, "set elements differ"),
+    ("VARIABLES x INVARIANT x : INTEGER & floor(x) = 1", BTypeError, "INTEGER vs REAL"),
+])
+def test_type_errors(body, exc, fragment):
+    with pytest.raises(exc) as info:
+        machine(body)
+    assert fragment in info.value.message
+    assert info.value.file == "T.mch"
+
+
+def test_integer_real_hint():
+    with pytest.raises(BTypeError) as info:
+        machine("VARIABLES x INVARIANT x : REAL & x > 0")
+    assert "write 1.0 for a real" in info.value.hint
+    assert (info.value.line, info.value.column) == (2, 34)
+
+
+def test_real_power_with_integer_exponent_is_fine():
+    m = machine("VARIABLES x INVARIANT x : REAL & x ** 2 >= 0.0")
+    assert m.types == {"x": "REAL"}

@@ -1,0 +1,150 @@
+"""The command line: exit codes, output, and messages for bad input (never a traceback)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from tests.conftest import EXAMPLES
+from tracecheck.cli import main
+
+TABLE1 = str(EXAMPLES / "highway_table1.mch")
+
+
+def run(capsys, *args):
+    with pytest.raises(SystemExit) as info:
+        main(list(args))
+    captured = capsys.readouterr()
+    return info.value.code or 0, captured.out, captured.err
+
+
+def test_version(capsys):
+    code, out, _ = run(capsys, "--version")
+    assert code == 0 and out.startswith("tracecheck 0.")
+
+
+def test_check_model(capsys):
+    code, out, _ = run(capsys, "check-model", TABLE1)
+    assert code == 0
+    assert "MACHINE Table1Shield" in out
+    assert "set Vehicles = {EgoVehicle, Vehicles2, Vehicles3, Vehicles4, Vehicles5}" in out
+    assert "constant EgoVehicle = EgoVehicle" in out
+    assert "VehiclesX" in out and "POW(Vehicles*REAL)" in out
+    assert "operation FASTER: guard EgoVehicle : dom(VehiclesVx) & not(FrontWithin(40.0))" in out
+    assert "ok: 5 operation(s), 9 variable(s)" in out
+
+
+def test_check_model_json(capsys):
+    code, out, _ = run(capsys, "check-model", TABLE1, "--json")
+    data = json.loads(out)
+    assert code == 0
+    assert data["machine"] == "Table1Shield"
+    assert data["variables"]["Crash"] == {"type": "BOOL",
+                                          "description": "TRUE when a crash occurred"}
+    assert set(data["operations"]) == {"IDLE", "LANE_LEFT", "LANE_RIGHT", "FASTER", "SLOWER"}
+    assert len(data["sha256"]) == 64
+
+
+def test_check_model_syntax_error(capsys, tmp_path):
+    bad = tmp_path / "bad.mch"
+    bad.write_text("MACHINE Bad\nVARIABLES x\nINVARIANT x : BOOL & x = = TRUE\nEND\n")
+    code, out, err = run(capsys, "check-model", str(bad))
+    assert code == 2 and out == ""
+    assert f"{bad}:3:26: unexpected '='" in err
+    assert "    INVARIANT x : BOOL & x = = TRUE\n" in err
+    assert "Traceback" not in err
+
+
+def test_check_model_missing_file(capsys, tmp_path):
+    code, _, err = run(capsys, "check-model", str(tmp_path / "none.mch"))
+    assert code == 2 and "no such model file" in err
+
+
+@pytest.mark.parametrize("expr,printed", [
+    ("1 + 2", "3"), ("{x | x : 1..5 & x mod 2 = 0}", "{2,4}"), ("2 > 1", "TRUE"),
+    ("{(a |-> 1.5)}", None), ("RSQRT(2.25)", "1.5"),
+])
+def test_eval(capsys, expr, printed):
+    code, out, err = run(capsys, "eval", expr)
+    if printed is None:  # `a` is no element here
+        assert code == 2 and "a has no value here" in err
+    else:
+        assert code == 0 and out.strip() == printed
+
+
+def test_eval_with_model_and_state(capsys, tmp_path):
+    state = tmp_path / "s.json"
+    state.write_text(json.dumps({
+        "VehiclesX": "{(EgoVehicle↦100.0),(Vehicles2↦20.0),(Vehicles3↦50.0),"
+                     "(Vehicles4↦-20.0),(Vehicles5↦90.0)}",
+        "PresentVehicles": "{EgoVehicle,Vehicles2,Vehicles3,Vehicles4,Vehicles5}",
+    }))
+    code, out, _ = run(capsys, "eval", "card({v | v : Others & VehiclesX(v) > 0.0})",
+                       "--model", TABLE1, "--state", str(state))
+    assert code == 0 and out.strip() == "3"
+    code, out, _ = run(capsys, "eval", "Others", "--model", TABLE1, "--state", str(state),
+                       "--json")
+    assert json.loads(out)["value"] == "{Vehicles2,Vehicles3,Vehicles4,Vehicles5}"
+
+
+@pytest.mark.parametrize("expr,fragment", [
+    ("1 +", "<expr>:1:4: unexpected end of the formula"),
+    ("1 / 0", "<expr>:1:1: division by zero in `1 / 0`"),
+    ("min({})", "min of the empty set"),
+])
+def test_eval_errors(capsys, expr, fragment):
+    code, _, err = run(capsys, "eval", expr)
+    assert code == 2 and fragment in err and "Traceback" not in err
+
+
+def _state_file(tmp_path, x2):
+    vs = ["EgoVehicle", "Vehicles2", "Vehicles3", "Vehicles4", "Vehicles5"]
+    fn = lambda values: {v: x for v, x in zip(vs, values)}  # noqa: E731
+    data = {
+        "Crash": "FALSE", "PresentVehicles": vs, "Reward": 0.0,
+        "VehiclesX": fn([100.0, x2, 200.0, 200.0, 200.0]),
+        "VehiclesY": fn([4.0, 0.0, 0.0, 0.0, 0.0]),
+        "VehiclesVx": fn([25.0, -3.0, 0.0, 0.0, 0.0]),
+        **{k: fn([0.0] * 5) for k in ("VehiclesVy", "VehiclesAx", "VehiclesAy")},
+    }
+    path = tmp_path / "state.json"
+    path.write_text(json.dumps(data))
+    return str(path)
+
+
+def test_guards(capsys, tmp_path):
+    code, out, _ = run(capsys, "guards", TABLE1, "--state", _state_file(tmp_path, 8.0))
+    assert code == 0
+    assert out.splitlines() == ["enabled: LANE_LEFT, LANE_RIGHT",
+                                "disabled: IDLE, FASTER, SLOWER"]
+    code, out, _ = run(capsys, "guards", TABLE1, "--state", _state_file(tmp_path, 300.0),
+                       "--json")
+    assert json.loads(out)["enabled"] == ["IDLE", "LANE_LEFT", "LANE_RIGHT", "FASTER", "SLOWER"]
+
+
+def test_guards_bad_state(capsys, tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"VehiclesX": "{(EgoVehicle↦1.0"}')
+    code, _, err = run(capsys, "guards", TABLE1, "--state", str(bad))
+    assert code == 2
+    assert f"{bad}: expected ')' but found 'end of text' in the B literal (variable " \
+           "VehiclesX), at column 17 of the literal:" in err
+    assert "    {(EgoVehicle↦1.0\n" in err
+
+
+def test_console_script_end_to_end(tmp_path):
+    bad = tmp_path / "bad.mch"
+    bad.write_text("MACHINE Bad\nVARIABLES x\nINVARIANT x : REAL & x > 0\nEND\n")
+    proc = subprocess.run([sys.executable, "-m", "tracecheck.cli", "check-model", str(bad)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert "type mismatch in `x > 0`: REAL vs INTEGER" in proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+def test_usage_error_exit_code(capsys):
+    code, _, err = run(capsys, "guards", TABLE1)
+    assert code == 2 and "--state" in err
