@@ -353,3 +353,22 @@ def test_load_machine_file_errors(tmp_path):
     assert info.value.file == str(bad) and (info.value.line, info.value.column) == (3, 21)
     assert "unexpected end of the INVARIANT clause" in str(info.value)
     assert "^" in str(info.value)
+
+
+def test_values_remembered_per_state_never_leak_between_before_and_after():
+    """Repeated sub-formulas are evaluated once per state; the state after a step, or in the
+    middle of a sequence, must not see what was remembered for the state before."""
+    m = load_machine_text("""
+MACHINE Memo
+DEFINITIONS below(k) == card({z | z : 1..10 & z < k})
+VARIABLES x, y
+INVARIANT x : INTEGER & y : INTEGER
+INITIALISATION x, y := 0, 0
+OPERATIONS
+    grow = PRE below(x) < 9 THEN x : (below(x) = below(x$0) + 1) END;
+    step = PRE below(x) < 9 THEN BEGIN x := x + 1 ; y := below(x) END END
+END""")
+    assert m.check_after("grow", {"x": 3, "y": 0}, {"x": 4, "y": 0})
+    assert not m.check_after("grow", {"x": 3, "y": 0}, {"x": 3, "y": 0})
+    assert m.check_after("step", {"x": 3, "y": 0}, {"x": 4, "y": 3})
+    assert not m.check_after("step", {"x": 3, "y": 0}, {"x": 4, "y": 2})

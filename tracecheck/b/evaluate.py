@@ -9,6 +9,7 @@ microseconds. No text is ever run as Python.
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 from typing import Any, Callable, Iterator, Optional
 
 from ..errors import BTypeError, EvaluationError, TracecheckError, UnsupportedError, WellDefinednessError
@@ -30,6 +31,16 @@ class Compiler:
     def __init__(self, *, source: Optional[str] = None, file: Optional[str] = None) -> None:
         self.source = source
         self.file = file
+        self.bound: list[str] = []
+
+    @contextmanager
+    def binding(self, ids: tuple[str, ...]):
+        """Compile inside the scope of bound variables ``ids``."""
+        self.bound.extend(ids)
+        try:
+            yield
+        finally:
+            del self.bound[len(self.bound) - len(ids):]
 
     # -- errors
     def error(self, cls, node: A.Node, message: str, hint: Optional[str] = None):
@@ -49,7 +60,10 @@ class Compiler:
         if method is None:
             raise self.error(UnsupportedError, node,
                              f"tracecheck cannot evaluate {type(node).__name__} here")
-        return method(node)
+        fn = method(node)
+        if isinstance(node, _MEMO_TYPES) and not (A.free_names(node) & set(self.bound)):
+            return _memoised(fn, node)
+        return fn
 
     # -- atoms
     def c_Name(self, node: A.Name) -> Fn:
@@ -299,8 +313,9 @@ class Compiler:
                 domain_pred, rest = node.body, None
             else:
                 domain_pred, rest = node.body.left, node.body.right
-            bindings = self.bindings(node, node.ids, domain_pred)
-            check = self.compile(rest) if rest is not None else (lambda env: True)
+            with self.binding(node.ids):
+                bindings = self.bindings(node, node.ids, domain_pred)
+                check = self.compile(rest) if rest is not None else (lambda env: True)
 
             def forall(env: Env) -> bool:
                 for _ in bindings(env):
@@ -308,7 +323,8 @@ class Compiler:
                         return False
                 return True
             return _scoped(forall, node.ids)
-        bindings = self.bindings(node, node.ids, node.body)
+        with self.binding(node.ids):
+            bindings = self.bindings(node, node.ids, node.body)
 
         def exists(env: Env) -> bool:
             for _ in bindings(env):
@@ -325,22 +341,25 @@ class Compiler:
         return generators(self, node, ids, pred)
 
     def c_Comprehension(self, node: A.Comprehension) -> Fn:
-        bind = self.bindings(node, node.ids, node.pred)
-        if node.expr is not None:
-            value = self.compile(node.expr)
-        else:
-            value = _tuple_of(node.ids)
+        with self.binding(node.ids):
+            bind = self.bindings(node, node.ids, node.pred)
+            if node.expr is not None:
+                value = self.compile(node.expr)
+            else:
+                value = _tuple_of(node.ids)
         return _scoped(lambda env: _make_set([value(env) for _ in bind(env)]), node.ids)
 
     def c_Lambda(self, node: A.Lambda) -> Fn:
-        bind = self.bindings(node, node.ids, node.pred)
-        key, value = _tuple_of(node.ids), self.compile(node.expr)
+        with self.binding(node.ids):
+            bind = self.bindings(node, node.ids, node.pred)
+            key, value = _tuple_of(node.ids), self.compile(node.expr)
         return _scoped(lambda env: FuncValue({key(env): value(env) for _ in bind(env)}),
                        node.ids)
 
     def c_QuantExpr(self, node: A.QuantExpr) -> Fn:
-        bind = self.bindings(node, node.ids, node.pred)
-        value = self.compile(node.expr)
+        with self.binding(node.ids):
+            bind = self.bindings(node, node.ids, node.pred)
+            value = self.compile(node.expr)
         op = node.op
 
         def quant(env: Env) -> Any:
@@ -368,8 +387,9 @@ class Compiler:
         return choose
 
     def c_Let(self, node: A.Let) -> Fn:
-        assign = self.let_values(node, node.ids, node.pred)
-        body = self.compile(node.body)
+        with self.binding(node.ids):
+            assign = self.let_values(node, node.ids, node.pred)
+            body = self.compile(node.body)
 
         def let(env: Env) -> Any:
             assign(env)
@@ -472,6 +492,35 @@ class Compiler:
 
 
 # ------------------------------------------------------------------ helpers
+
+#: Nodes worth remembering per state: evaluated once even where definitions repeat them.
+_MEMO_TYPES = (A.Comprehension, A.QuantExpr, A.Image, A.Call, A.Quant, A.Lambda)
+_SLOTS: dict[A.Node, int] = {}
+MEMO_KEY = "$memo"  # not a B identifier: cannot clash with a variable
+
+
+def _memoised(fn: Fn, node: A.Node) -> Fn:
+    """Evaluate ``fn`` once per environment dict (one state), however often it is asked."""
+    slot = _SLOTS.setdefault(node, len(_SLOTS))
+
+    def memo(env: Env) -> Any:
+        cache = env.get(MEMO_KEY)
+        if cache is None:
+            cache = env[MEMO_KEY] = {}
+        try:
+            return cache[slot]
+        except KeyError:
+            value = cache[slot] = fn(env)
+            return value
+    return memo
+
+
+def fresh(env: Env) -> Env:
+    """A copy of ``env`` to change: without the remembered values of the original."""
+    out = dict(env)
+    out.pop(MEMO_KEY, None)
+    return out
+
 
 
 def conjuncts(node: A.Node) -> list[A.Node]:

@@ -12,7 +12,7 @@ from typing import Any, Callable, Optional
 
 from ..errors import UnsupportedError
 from . import ast as A
-from .evaluate import Compiler, Env, _equal, _make_set, _scoped, conjuncts
+from .evaluate import MEMO_KEY, Compiler, Env, _equal, _make_set, fresh
 
 __all__ = ["written", "guard_of", "SubstCompiler"]
 
@@ -138,7 +138,7 @@ class SubstCompiler:
         primed = [(n, n + "'", n + "$0") for n in names]
 
         def such_that(pre: Env, post: dict) -> bool:
-            env = dict(pre)
+            env = fresh(pre)
             for n, p1, p2 in primed:
                 env[p1] = env[p2] = pre[n]
                 env[n] = post[n]
@@ -156,10 +156,10 @@ class SubstCompiler:
         last_writes = written(s.items[-1])
 
         def sequence(pre: Env, post: dict) -> bool:
-            mid = first(dict(pre))
+            mid = first(fresh(pre))
             if mid is None:
                 return False
-            env = dict(pre)
+            env = fresh(pre)
             env.update(mid)
             untouched = {n: v for n, v in mid.items() if n not in last_writes}
             return last(env, post) and all(_equal(post[n], v) for n, v in untouched.items()
@@ -210,20 +210,22 @@ class SubstCompiler:
         return lambda pre, post: any(p(pre, post) and u(pre, post) for p, u in parts)
 
     def s_Any(self, s: A.Any) -> Check:
-        bind = self.comp.bindings(s, s.ids, s.pred)
-        body = self.compile(s.body)
+        with self.comp.binding(s.ids):
+            bind = self.comp.bindings(s, s.ids, s.pred)
+            body = self.compile(s.body)
 
         def any_(pre: Env, post: dict) -> bool:
-            env = dict(pre)
+            env = fresh(pre)
             return any(body(env, post) for _ in bind(env))
         return any_
 
     def s_LetSubst(self, s: A.LetSubst) -> Check:
-        assign = self.comp.let_values(s, s.ids, s.pred)
-        body = self.compile(s.body)
+        with self.comp.binding(s.ids):
+            assign = self.comp.let_values(s, s.ids, s.pred)
+            body = self.compile(s.body)
 
         def let(pre: Env, post: dict) -> bool:
-            env = dict(pre)
+            env = fresh(pre)
             assign(env)
             return body(env, post)
         return let
@@ -242,7 +244,7 @@ class SubstCompiler:
 
             def run(env: Env) -> Optional[dict]:
                 out: dict = {}
-                local = dict(env)
+                local = fresh(env)
                 for p in parts:
                     upd = p(local if seq else env)
                     if upd is None:
@@ -250,6 +252,7 @@ class SubstCompiler:
                     out.update(upd)
                     if seq:
                         local.update(upd)
+                        local.pop(MEMO_KEY, None)
                 return out
             return run
         if isinstance(s, (A.Pre, A.Select)) and (isinstance(s, A.Pre) or len(s.branches) == 1):
