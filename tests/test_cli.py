@@ -70,7 +70,8 @@ def test_check_model_missing_file(capsys, tmp_path):
 def test_eval(capsys, expr, printed):
     code, out, err = run(capsys, "eval", expr)
     if printed is None:  # `a` is no element here
-        assert code == 2 and "a has no value here" in err
+        assert code == 2 and "<expr>:1:3: unknown identifier a" in err
+        assert "hint: give it a value in the state (--state FILE)" in err
     else:
         assert code == 0 and out.strip() == printed
 
@@ -92,6 +93,8 @@ def test_eval_with_model_and_state(capsys, tmp_path):
 
 @pytest.mark.parametrize("expr,fragment", [
     ("1 +", "<expr>:1:4: unexpected end of the formula"),
+    ("1 + 1.0", "<expr>:1:1: type mismatch in `1 + 1.0`: INTEGER vs REAL"),
+    ("x + 1", "unknown identifier x"),
     ("1 / 0", "<expr>:1:1: division by zero in `1 / 0`"),
     ("min({})", "min of the empty set"),
 ])
@@ -123,6 +126,21 @@ def test_guards(capsys, tmp_path):
     code, out, _ = run(capsys, "guards", TABLE1, "--state", _state_file(tmp_path, 300.0),
                        "--json")
     assert json.loads(out)["enabled"] == ["IDLE", "LANE_LEFT", "LANE_RIGHT", "FASTER", "SLOWER"]
+
+
+def test_guards_state_of_the_wrong_type(capsys, tmp_path):
+    path = tmp_path / "ints.json"
+    path.write_text(json.dumps({"VehiclesX": "{(EgoVehicle↦1),(Vehicles2↦2)}"}))
+    code, _, err = run(capsys, "guards", TABLE1, "--state", str(path))
+    assert code == 2
+    assert (f"{path}: VehiclesX must be of type POW(Vehicles*REAL), but its value is of type "
+            "POW(Vehicles*INTEGER)") in err
+    path.write_text(json.dumps({"VehiclesX": "{(Car9↦1.0)}"}))
+    code, _, err = run(capsys, "guards", TABLE1, "--state", str(path))
+    assert "VehiclesX mentions Car9, which no set of Table1Shield contains" in err
+    path.write_text(json.dumps({"Speed": 1.0}))
+    code, _, err = run(capsys, "guards", TABLE1, "--state", str(path))
+    assert "gives a value for Speed, which the machine Table1Shield does not declare" in err
 
 
 def test_guards_bad_state(capsys, tmp_path):

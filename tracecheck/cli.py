@@ -111,17 +111,26 @@ def eval_(
     """Evaluate a predicate or expression and print its value in B notation."""
     from .b.evaluate import Compiler
     from .b.parser import parse_formula
-    from .b.scope import EXPR, check_kind, expand, kind_of
+    from .b.scope import check_kind, expand, kind_of
     from .b.state import read_state_file
+    from .b.typecheck import type_of_value, typecheck_formula
     from .b.values import format_value, to_json
 
     machine = _model(model) if model is not None else None
     values = read_state_file(state) if state is not None else {}
+    if machine is not None:
+        machine.check_state(values, where=str(state))
     try:
         node = parse_formula(expr, file="<expr>")
         if machine is not None:
             node = expand(node, machine.definitions)
-        check_kind(node, kind_of(node), source=expr, context="the formula")
+        kind = kind_of(node)
+        check_kind(node, kind, source=expr, context="the formula")
+        names = dict(machine.type_objects) if machine is not None else {}
+        owners = machine.element_sets() if machine is not None else {}
+        for name, value in values.items():
+            names.setdefault(name, type_of_value(value, owners))
+        typecheck_formula(node, names, kind=kind, source=expr, file="<expr>")
         env = machine.env(values) if machine is not None else dict(values)
         value = Compiler(source=expr, file="<expr>").compile(node)(env)
     except TracecheckError as exc:
@@ -144,6 +153,7 @@ def guards(
 
     machine = _model(model)
     values = read_state_file(state)
+    machine.check_state(values, where=str(state))
     missing = [v for v in machine.variables if v not in values]
     enabled = machine.enabled(values)
     ordered = [op for op in machine.operations if op in enabled]

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tracecheck.b import ast as A
+from tracecheck.b.machine import load_machine_text
 from tracecheck.b.parser import parse_formula, parse_machine_source
 from tracecheck.b.printer import to_b
 from tracecheck.b.values import Elem, FuncValue, format_value, parse_literal
@@ -118,3 +121,33 @@ values = st.recursive(
 @given(values)
 def test_value_print_parse_round_trip(value):
     assert parse_literal(format_value(value)) == value
+
+
+_VS = [Elem("EgoVehicle")] + [Elem(f"Vehicles{i}") for i in range(2, 6)]
+STATE = {
+    "Crash": False, "PresentVehicles": frozenset(_VS), "Reward": 0.0,
+    **{name: FuncValue({v: float(10 * i) for i, v in enumerate(_VS)})
+       for name in ("VehiclesX", "VehiclesY", "VehiclesVx", "VehiclesVy", "VehiclesAx",
+                    "VehiclesAy")},
+}
+EXAMPLE = (Path(__file__).resolve().parents[2] / "models" / "examples" /
+           "highway_table1.mch").read_text()
+PIECES = ["(", ")", "{", "}", "&", "or", "=>", ":", "=", "1", "1.0", "v", "END", "THEN", ";",
+          "||", ":=", "::", "-", "..", "|", ".", "#", "card", "EgoVehicle", "TRUE", "'", "$0"]
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, len(EXAMPLE) - 1), st.sampled_from(PIECES + [""]),
+                          st.integers(0, 6)), min_size=1, max_size=3))
+def test_mutated_machine_only_raises_our_errors(edits):
+    """Edits of a real shield: loading and evaluating raise tracecheck's errors or nothing."""
+    text = EXAMPLE
+    for pos, piece, cut in edits:
+        text = text[:pos] + f" {piece} " + text[pos + cut:]
+    try:
+        machine = load_machine_text(text)
+        machine.enabled(STATE)
+        for name in machine.operations:
+            machine.check_after(name, STATE, STATE)
+    except TracecheckError:
+        pass

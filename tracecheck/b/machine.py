@@ -65,6 +65,7 @@ class Machine:
     initialisation: Optional[A.Subst] = None
     constants_declared: tuple[str, ...] = ()
     types: dict[str, str] = field(default_factory=dict)
+    type_objects: dict = field(default_factory=dict, repr=False)
     _compiled: dict = field(default_factory=dict, repr=False)
 
     # -- environments
@@ -84,6 +85,38 @@ class Machine:
         env = dict(self.base_env)
         env.update(state)
         return env
+
+    def element_sets(self) -> dict[Elem, str]:
+        """Which set each element belongs to."""
+        return {e: name for name, elems in self.sets.items() for e in elems}
+
+    def check_state(self, state: Mapping[str, Any], *, where: str = "the state") -> None:
+        """Raise :class:`InputError` unless every value in ``state`` fits its variable's type.
+
+        Names the variable, the type it needs and the type of the value it got; values of
+        names the machine does not declare are an error too.
+        """
+        from .typecheck import describe_value_type, type_of_value, unify_quiet
+
+        owners = self.element_sets()
+        for name, value in state.items():
+            if name not in self.variables:
+                if name in self.constants or name in self.sets:
+                    continue
+                raise InputError(f"{where} gives a value for {name}, which the machine "
+                                 f"{self.name} does not declare; its variables are "
+                                 f"{', '.join(self.variables)}")
+            wanted = self.type_objects.get(name)
+            if wanted is None:
+                continue
+            unknown = _unknown_elements(value, owners)
+            if unknown:
+                raise InputError(f"{where}: {name} mentions {', '.join(sorted(unknown))}, "
+                                 f"which no set of {self.name} contains")
+            if not unify_quiet(wanted, type_of_value(value, owners)):
+                raise InputError(f"{where}: {name} must be of type {self.types[name]}, but "
+                                 f"its value is of type {describe_value_type(value, owners)}",
+                                 hint="reals are written with a decimal point: 1.0, not 1")
 
     def compiler(self) -> Compiler:
         return Compiler(source=self.source, file=self.file)
@@ -255,6 +288,19 @@ def _build(src: MachineSource) -> Machine:
 
     machine.types = typecheck_machine(machine)
     return machine
+
+
+def _unknown_elements(value: Any, owners: dict) -> set[str]:
+    if isinstance(value, Elem):
+        return set() if value in owners else {str(value)}
+    if isinstance(value, tuple):
+        return _unknown_elements(value[0], owners) | _unknown_elements(value[1], owners)
+    if isinstance(value, frozenset):
+        out: set[str] = set()
+        for item in value:
+            out |= _unknown_elements(item, owners)
+        return out
+    return set()
 
 
 def _check_names(src: MachineSource) -> None:

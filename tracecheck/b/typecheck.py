@@ -15,7 +15,8 @@ from ..errors import BScopeError, BTypeError
 from . import ast as A
 from .scope import render
 
-__all__ = ["typecheck_machine", "Typer", "show"]
+__all__ = ["typecheck_machine", "typecheck_formula", "Typer", "show", "type_of_value",
+           "describe_value_type"]
 
 
 @dataclass(frozen=True)
@@ -124,9 +125,11 @@ class Typer:
     """Infers types over formulas and substitutions in one scope of names."""
 
     def __init__(self, names: dict[str, Type], *, source: Optional[str] = None,
-                 file: Optional[str] = None) -> None:
+                 file: Optional[str] = None,
+                 unknown_hint: str = "declare it as a constant or variable, or bind it") -> None:
         self.scopes: list[dict[str, Type]] = [names]
         self.source, self.file = source, file
+        self.unknown_hint = unknown_hint
 
     # -- helpers
     def lookup(self, node: A.Name) -> Type:
@@ -140,7 +143,7 @@ class Typer:
         raise BScopeError(f"unknown identifier {name}", file=self.file, source=self.source,
                           line=node.pos.line if node.pos else None,
                           column=node.pos.column if node.pos else None,
-                          hint="declare it as a constant or variable, or bind it")
+                          hint=self.unknown_hint)
 
     def same(self, node: A.Node, a: Type, b: Type, what: str = "") -> None:
         try:
@@ -442,6 +445,7 @@ def typecheck_machine(machine) -> dict[str, str]:
             typer.subst(op.body)
         finally:
             typer.scopes.pop()
+    machine.type_objects = names
     result = {}
     for name in (*machine.constants_declared, *machine.variables):
         t = show(names[name])
@@ -452,3 +456,57 @@ def typecheck_machine(machine) -> dict[str, str]:
                              hint=f"add a typing predicate to the {clause}, e.g. {name} : REAL")
         result[name] = t
     return result
+
+
+# ------------------------------------------------------------------ values and states
+
+_ELEMENTS = Base("ELEMENTS")  # elements of sets no machine declares (eval without a model)
+
+
+def type_of_value(value, element_sets: Optional[dict] = None) -> Type:
+    """The type of a concrete value (elements typed by the set that holds them)."""
+    from .values import Elem, SymbolicSet
+
+    if type(value) is bool:
+        return BOOL
+    if type(value) is int:
+        return INTEGER
+    if type(value) is float:
+        return REAL
+    if isinstance(value, Elem):
+        owner = (element_sets or {}).get(value)
+        return Base(owner) if owner else _ELEMENTS
+    if isinstance(value, str):
+        return STRING
+    if isinstance(value, tuple):
+        return Prod(type_of_value(value[0], element_sets), type_of_value(value[1], element_sets))
+    if isinstance(value, SymbolicSet):
+        return Var()
+    elem: Type = Var()
+    for item in value:
+        unify_quiet(elem, type_of_value(item, element_sets))
+    return Pow(elem)
+
+
+def unify_quiet(a: Type, b: Type) -> bool:
+    try:
+        unify(a, b)
+        return True
+    except _Mismatch:
+        return False
+
+
+def describe_value_type(value, element_sets: Optional[dict] = None) -> str:
+    return show(type_of_value(value, element_sets)).replace("?", "any")
+
+
+def typecheck_formula(node: A.Node, names: dict[str, Type], *, kind: str = "predicate",
+                      source: Optional[str] = None, file: Optional[str] = None,
+                      unknown_hint: str = "give it a value in the state (--state FILE) or "
+                                          "evaluate in a machine (--model MODEL)") -> Type:
+    """Type ``node`` with ``names`` in scope; raises like :func:`typecheck_machine`."""
+    typer = Typer(dict(names), source=source, file=file, unknown_hint=unknown_hint)
+    if kind == "predicate":
+        typer.pred(node)
+        return BOOL
+    return typer.expr(node)
