@@ -134,7 +134,7 @@ def eval_(
         env = machine.env(values) if machine is not None else dict(values)
         value = Compiler(source=expr, file="<expr>").compile(node)(env)
     except TracecheckError as exc:
-        raise exc.located(file="<expr>", source=expr)
+        raise exc.located(file="<expr>", source=expr) from None
     if as_json:
         out.print_json(json.dumps({"expression": expr, "value": format_value(value),
                                    "json": to_json(value)}))

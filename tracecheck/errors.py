@@ -17,6 +17,7 @@ __all__ = [
     "UnsupportedError",
     "ModelError",
     "InputError",
+    "read_text",
 ]
 
 
@@ -118,3 +119,18 @@ class ModelError(TracecheckError):
 
 class InputError(TracecheckError):
     """A bad command-line argument or input file that is not B text."""
+
+
+def read_text(path, what: str) -> str:
+    """The UTF-8 text of ``path``; an :class:`InputError` naming ``what`` if it cannot be read."""
+    from pathlib import Path
+
+    path = Path(path)
+    try:
+        return path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"no such {what}: {path}") from None
+    except IsADirectoryError:
+        raise InputError(f"the {what} {path} is a folder, not a file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read the {what} {path}: {exc}") from None

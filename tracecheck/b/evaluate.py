@@ -15,8 +15,8 @@ from typing import Any, Callable, Iterator, Optional
 from ..errors import BTypeError, EvaluationError, TracecheckError, UnsupportedError, WellDefinednessError
 from . import ast as A
 from .scope import render
-from .values import (BUILTIN_SET_VALUES, Elem, FuncValue, FunctionSpace, Interval, PowSet,
-                     SymbolicSet, as_function, format_value, is_set)
+from .values import (BUILTIN_SET_VALUES, FuncValue, FunctionSpace, Interval, PowSet,
+                     SymbolicSet, format_value, is_set)
 
 __all__ = ["Compiler", "compile_formula", "evaluate", "Env", "generators"]
 

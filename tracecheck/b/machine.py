@@ -18,11 +18,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional
 
-from ..errors import (BScopeError, EvaluationError, InputError, ModelError, TracecheckError)
+from ..errors import (BScopeError, EvaluationError, InputError, ModelError, TracecheckError,
+                      read_text)
 from . import ast as A
 from .evaluate import Compiler, conjuncts
 from .parser import MachineSource, parse_formula, parse_machine_source
-from .scope import EXPR, PRED, check_kind, check_subst, expand, render
+from .scope import PRED, check_kind, check_subst, expand, render
 from .substitution import SubstCompiler, guard_of, written
 from .values import Elem
 
@@ -223,14 +224,7 @@ class Machine:
 
 def load_machine(path: str | Path) -> Machine:
     """Read and set up the machine in ``path``."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(f"no such model file: {path}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read the model file {path}: {exc}") from None
-    return load_machine_text(text, file=str(path))
+    return load_machine_text(read_text(path, "model file"), file=str(path))
 
 
 def load_machine_text(text: str, *, file: Optional[str] = None) -> Machine:

@@ -6,7 +6,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from ..errors import BSyntaxError, InputError, TracecheckError, caret_excerpt
+from ..errors import BSyntaxError, InputError, TracecheckError, caret_excerpt, read_text
 from .values import from_json
 
 __all__ = ["read_state_file", "state_from_json"]
@@ -33,13 +33,7 @@ def state_from_json(data: Any, *, file: str = "<state>") -> dict[str, Any]:
 
 def read_state_file(path: str | Path) -> dict[str, Any]:
     """Read a state file, e.g. ``{"Crash": "FALSE", "VehiclesX": "{(EgoVehicle↦1.0)}"}``."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(f"no such state file: {path}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read the state file {path}: {exc}") from None
+    text = read_text(path, "state file")
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:

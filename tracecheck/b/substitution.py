@@ -8,7 +8,7 @@ operation (the paper's Listing 2). Deterministic substitutions can also be execu
 
 from __future__ import annotations
 
-from typing import Any, Callable, Optional
+from typing import Callable, Optional
 
 from ..errors import UnsupportedError
 from . import ast as A
