@@ -494,7 +494,7 @@ class Compiler:
 # ------------------------------------------------------------------ helpers
 
 #: Nodes worth remembering per state: evaluated once even where definitions repeat them.
-_MEMO_TYPES = (A.Comprehension, A.QuantExpr, A.Image, A.Call, A.Quant, A.Lambda)
+_MEMO_TYPES = (A.Comprehension, A.QuantExpr, A.Image, A.Quant, A.Lambda)
 _SLOTS: dict[A.Node, int] = {}
 MEMO_KEY = "$memo"  # not a B identifier: cannot clash with a variable
 
