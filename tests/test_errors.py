@@ -23,7 +23,8 @@ def test_every_error_is_located_and_exits_2(cls):
 
 def test_location_without_line():
     assert str(E.InputError("bad", file="x.json")) == "x.json: bad"
-    assert str(E.InputError("bad")) == "<input>: bad"
+    assert str(E.InputError("bad")) == "bad"
+    assert str(E.BSyntaxError("bad", line=1, column=2)) == "<input>:1:2: bad"
 
 
 def test_located_fills_in_only_what_is_missing():

@@ -66,7 +66,9 @@ class TracecheckError(Exception):
         return ":".join(parts)
 
     def render(self) -> str:
-        text = f"{self.location}: {self.message}"
+        text = self.message
+        if self.file or self.line:
+            text = f"{self.location}: {text}"
         text += caret_excerpt(self.source, self.line, self.column)
         if self.hint:
             text += f"\n  hint: {self.hint}"

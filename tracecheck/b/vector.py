@@ -55,7 +55,9 @@ class Columns:
                     found.update({k: None for k in value.map if isinstance(k, Elem)})
                 elif isinstance(value, frozenset):
                     found.update({k: None for k in value if isinstance(k, Elem)})
-            elements = tuple(found)
+            from .values import sort_key
+
+            elements = tuple(sorted(found, key=sort_key))
         elements = tuple(elements)
         index = {e: i for i, e in enumerate(elements)}
         cols = cls(n=n, elements=elements)

@@ -1,0 +1,179 @@
+"""Writing and reading runs: round trips, the columnar view, damaged and foreign files."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+
+from tests.conftest import ROOT
+from tracecheck.episodes import (DamagedFileWarning, EpisodeWriter, new_header, read_columns,
+                                 read_episodes, read_run)
+from tracecheck.episodes.files import write_run
+from tracecheck.errors import InputError
+
+
+def write(path, episodes, **header):
+    with EpisodeWriter(path, new_header("recorded", actions=["IDLE", "FASTER"], **header)) as w:
+        for e in episodes:
+            w.write(e)
+    return path
+
+
+def test_round_trip(tmp_path, episodes):
+    path = write(tmp_path / "run.mcap", episodes, agent_id="base", base_seed=1000)
+    run = read_run(path)
+    assert run.warnings == []
+    assert run.header.agent_id == "base" and run.header.base_seed == 1000
+    assert [e.id for e in run.episodes] == [0, 1, 2]
+    for got, want in zip(run.episodes, episodes):
+        assert got.steps == want.steps
+        assert got.end == want.end and got.seed == want.seed
+    live = run.episodes[1].steps[2]
+    assert live.allowed_actions == ("IDLE", "SLOWER") and live.shield_time_us == 12.5
+    assert run.episodes[1].end.crashed and run.episodes[1].end.reason == "crashed"
+
+
+def test_any_mcap_tool_reads_it(tmp_path, episodes):
+    path = write(tmp_path / "run.mcap", episodes)
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        topics = {c.topic for c in summary.channels.values()}
+        assert topics == {"/tracecheck/run", "/tracecheck/episode", "/tracecheck/step",
+                          "/tracecheck/episode_end"}
+        assert all(s.encoding == "jsonschema" for s in summary.schemas.values())
+        times = [m.log_time for _, _, m in reader.iter_messages(log_time_order=False)]
+    assert times == sorted(times), "timestamps must be monotonic for playback"
+    assert summary.statistics.message_count == 1 + 3 * 2 + (4 + 6 + 2)
+
+
+def test_columnar_view(tmp_path, episodes):
+    cols = read_columns(write(tmp_path / "run.mcap", episodes))
+    assert list(cols.starts) == [0, 4, 10, 12] and cols.n == 12
+    assert list(cols.episode_ids) == [0, 1, 2]
+    assert list(cols.step[:5]) == [0, 1, 2, 3, 0]
+    assert cols.action_names[cols.action[1]] == "IDLE" and cols.action[0] == -1
+    x, defined = cols.states.functions["VehiclesX"]
+    assert x.shape == (12, 3) and defined.all()
+    assert x[5, 0] == 125.0 + 1  # episode 1, step 1, ego vehicle
+    assert cols.crashed[9] and not cols.crashed[8]
+    assert cols.states.masks["PresentVehicles"].all()
+    assert cols.states.row(5) == episodes[1].steps[1].state
+
+
+def test_write_run_leaves_no_partial_file(tmp_path, episodes):
+    target = tmp_path / "run.mcap"
+    target.write_bytes(b"old")
+
+    def failing():
+        yield episodes[0]
+        raise InputError("bad input file")
+
+    with pytest.raises(InputError):
+        write_run(target, new_header("imported-simb"), failing())
+    assert target.read_bytes() == b"old"
+    assert not (tmp_path / "run.mcap.part").exists()
+
+
+def test_truncated_file_keeps_complete_episodes(tmp_path, episodes):
+    path = write(tmp_path / "run.mcap", episodes)
+    data = path.read_bytes()
+    # cut inside the third episode's step messages
+    cut = tmp_path / "cut.mcap"
+    marker = data.find(b'"episode":2,"step":1')
+    cut.write_bytes(data[:marker + 5])
+    with pytest.warns(DamagedFileWarning, match=r"read 2 complete episode\(s\); lost the "
+                                                r"unfinished episode 2 \(1 step message"):
+        got = list(read_episodes(cut))
+    assert [e.id for e in got] == [0, 1]
+    cols = read_columns(cut)
+    assert list(cols.episode_ids) == [0, 1] and "read 2 complete episode(s)" in cols.warnings[0]
+    run = read_run(cut)
+    assert len(run.episodes) == 2 and run.warnings
+
+
+@pytest.mark.parametrize("content,fragment", [
+    (b"", "is not an MCAP file"),
+    (b"hello world, not mcap at all", "is not an MCAP file"),
+])
+def test_not_mcap(tmp_path, content, fragment):
+    path = tmp_path / "bad.mcap"
+    path.write_bytes(content)
+    with pytest.raises(InputError, match=fragment):
+        list(read_episodes(path))
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(InputError, match="no such file"):
+        read_run(tmp_path / "none.mcap")
+
+
+def test_foreign_mcap(tmp_path):
+    from mcap.writer import Writer
+
+    path = tmp_path / "other.mcap"
+    with open(path, "wb") as f:
+        w = Writer(f)
+        w.start()
+        w.finish()
+    with pytest.raises(InputError, match="not a tracecheck run"):
+        read_run(path)
+
+
+def test_message_that_breaks_the_schema(tmp_path, episodes):
+    path = write(tmp_path / "run.mcap", episodes[:1])
+    data = path.read_bytes().replace(b'"crashed":false', b'"crashed":"nah"', 1)
+    path.write_bytes(data)
+    with pytest.raises(InputError, match=r"episode 0: bad tracecheck.Step message: crashed"):
+        read_run(path)
+
+
+WRITER = textwrap.dedent("""
+    import sys, time
+    sys.path.insert(0, {root!r})
+    sys.path.insert(0, {tests!r})
+    from conftest import episode
+    from tracecheck.episodes import EpisodeWriter, new_header
+    with EpisodeWriter(sys.argv[1], new_header("recorded")) as w:
+        for i in range(1000):
+            w.write(episode(i, 4))
+            print(i, flush=True)
+            time.sleep(0.05)
+""")
+
+
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT], ids=["kill", "ctrl-c"])
+def test_killed_writer_keeps_every_finished_episode(tmp_path, sig):
+    path = tmp_path / "run.mcap"
+    script = WRITER.format(root=str(ROOT), tests=str(ROOT / "tests" / "episodes"))
+    proc = subprocess.Popen([sys.executable, "-c", script, str(path)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    finished = []
+    for line in proc.stdout:
+        finished.append(int(line))
+        if len(finished) == 5:
+            os.kill(proc.pid, sig)
+            break
+    proc.wait(timeout=30)
+    run = read_run(path)
+    ids = [e.id for e in run.episodes]
+    assert ids[:5] == [0, 1, 2, 3, 4], "every episode the writer finished is in the file"
+    assert ids == list(range(len(ids)))
+    assert all(len(e.steps) == 5 for e in run.episodes)
+    cols = read_columns(path)
+    assert list(cols.episode_ids) == ids
+
+
+def test_reading_only_some_episodes(tmp_path, episodes):
+    path = write(tmp_path / "run.mcap", episodes)
+    run = read_run(path, only={1})
+    assert [e.id for e in run.episodes] == [1]
+    assert run.episodes[0].steps == episodes[1].steps
+    assert run.warnings == []

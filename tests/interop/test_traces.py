@@ -1,0 +1,163 @@
+"""ProB and SimB traces: the paper's files import; exports import back to the same states."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tests.conftest import EXAMPLES
+from tests.episodes.conftest import episode as make_episode
+from tracecheck.b.machine import load_machine
+from tracecheck.episodes.model import HIGHWAY
+from tracecheck.errors import InputError
+from tracecheck.interop import export_prob2trace, export_simb, import_prob2trace, import_simb
+from tracecheck.interop.common import vocabulary_of
+from tracecheck.interop.prob2trace import prob2trace_document
+from tracecheck.interop.simb import simb_document
+
+
+def same(a, b):
+    assert [s.state for s in a.steps] == [s.state for s in b.steps]
+    assert a.actions == b.actions
+    assert [s.time for s in a.steps] == [s.time for s in b.steps]
+    assert a.end == b.end
+
+
+def test_paper_simb_traces(paper_traces):
+    base = list(import_simb([paper_traces / "simb" / "base"]))
+    shield = list(import_simb([paper_traces / "simb" / "base_shield"]))
+    assert len(base) == len(shield) == 20
+    assert sum(e.end.steps for e in base) == 765
+    assert sum(e.end.crashed for e in base) == 9 and sum(e.end.crashed for e in shield) == 1
+    first = base[0]
+    assert first.origin.endswith("Timed_Simulation_1.json")
+    assert first.steps[0].action is None and first.steps[1].action == "FASTER"
+    assert first.steps[1].time == 1.0 and first.steps[-1].time == 60.0
+    assert first.end.reason == "time-limit"
+    assert [e.end.reason for e in base if e.end.crashed] == ["crashed"] * 9
+
+
+def test_paper_prob2traces(paper_traces):
+    eps = list(import_prob2trace([paper_traces / "prob2trace"]))
+    assert len(eps) == 4
+    names = [e.origin.rsplit("/", 1)[-1] for e in eps]
+    assert names[0] == "Agent_Lane_Left_Collision.prob2trace"
+    crash = eps[0]
+    assert crash.end.crashed and crash.end.steps == 6
+    # destState holds only what changed: the rest carries over
+    assert crash.steps[2].state["PresentVehicles"] == crash.steps[1].state["PresentVehicles"]
+
+
+def test_simb_round_trip(paper_traces, tmp_path):
+    eps = list(import_simb([paper_traces / "simb" / "base_shield"]))
+    export_simb(eps, tmp_path / "out")
+    back = list(import_simb([tmp_path / "out"]))
+    for a, b in zip(eps, back):
+        same(a, b)
+    doc = json.loads((tmp_path / "out" / "Timed_Simulation_1.json").read_text())
+    assert doc["metadata"]["fileType"] == "Timed_Trace" and doc["metadata"]["formatVersion"] == 3
+    assert [a["execute"] for a in doc["activations"][:3]] == [
+        "$setup_constants", "$initialise_machine", eps[0].steps[1].action]
+    assert doc["activations"][2]["after"] == "1000"
+
+
+def test_prob2trace_round_trip(paper_traces, tmp_path):
+    for k, ep in enumerate(import_prob2trace([paper_traces / "prob2trace"])):
+        path = export_prob2trace(ep, tmp_path / f"{k}.prob2trace")
+        (back,) = import_prob2trace([path])
+        same(ep, back)
+    doc = json.loads(path.read_text())
+    assert doc["metadata"]["fileType"] == "Trace" and doc["metadata"]["formatVersion"] == 5
+    assert doc["transitionList"][0]["name"] == "$setup_constants"
+
+
+def test_round_trip_of_hand_made_episode(tmp_path):
+    ep = make_episode(0, 4, crash_at_end=True)
+    export_simb([ep], tmp_path)
+    (back,) = import_simb([tmp_path / "Timed_Simulation_1.json"])
+    assert [s.state for s in back.steps] == [s.state for s in ep.steps]
+    (again,) = import_prob2trace([export_prob2trace(ep, tmp_path / "e.prob2trace")])
+    assert [s.state for s in again.steps] == [s.state for s in ep.steps]
+
+
+def test_prob2trace_only_writes_changes():
+    doc = prob2trace_document(make_episode(0, 2))
+    step1 = doc["transitionList"][2]
+    assert "Crash" in step1["destStateNotChanged"] and "VehiclesX" in step1["destState"]
+
+
+def _simb(tmp_path, activations, name="t.json"):
+    path = tmp_path / name
+    path.write_text(json.dumps({"activations": activations}))
+    return path
+
+
+def _init(state):
+    return {"id": "$initialise_machine", "execute": "$initialise_machine", "after": "0",
+            "fixedVariables": state}
+
+
+GOOD = simb_document(make_episode(0, 1))["activations"][1]["fixedVariables"]
+
+
+@pytest.mark.parametrize("activations,fragment", [
+    ([_init({**GOOD, "VehiclesX": "{(EgoVehicle↦1.0"})],
+     "t.json, step 0, variable VehiclesX: expected ')' but found 'end of text'"),
+    ([_init({**GOOD, "Speed": "1.0"})], "t.json, step 0: unknown variable 'Speed'"),
+    ([_init({k: v for k, v in GOOD.items() if k != "Reward"})], "step 0: no value for Reward"),
+    ([_init(GOOD), {"execute": "JUMP", "after": "1000", "fixedVariables": GOOD}],
+     "t.json, step 1: unknown operation 'JUMP'; the actions are LANE_LEFT, IDLE"),
+    ([_init(GOOD), {"execute": "IDLE", "after": "soon", "fixedVariables": GOOD}],
+     "activation 1: 'after' must be a delay in ms, not 'soon'"),
+    ([{"execute": "IDLE", "after": "0", "fixedVariables": GOOD}],
+     "does not start with $initialise_machine"),
+    ([_init({**GOOD, "Crash": "1.0"})], "step 0: Crash must be TRUE or FALSE, not 1.0"),
+    ([], "the trace has no initial state"),
+])
+def test_bad_simb(tmp_path, activations, fragment):
+    with pytest.raises(InputError) as info:
+        list(import_simb([_simb(tmp_path, activations)]))
+    assert fragment in str(info.value)
+
+
+def test_malformed_json_is_located(tmp_path):
+    path = tmp_path / "broken.json"
+    path.write_text('{"activations": [\n  {"execute": "IDLE",}\n]}')
+    with pytest.raises(InputError) as info:
+        list(import_simb([path]))
+    assert (info.value.file, info.value.line) == (str(path), 2)
+    assert "not valid JSON" in info.value.message
+
+
+@pytest.mark.parametrize("doc,fragment", [
+    ({"nothing": 1}, "not a ProB trace (no 'transitionList')"),
+    ({"transitionList": [{"name": "FASTER", "destState": {}}]},
+     "does not start with $initialise_machine"),
+    ({"transitionList": [{"destState": {}}]}, "a transition is a JSON object with a 'name'"),
+])
+def test_bad_prob2trace(tmp_path, doc, fragment):
+    path = tmp_path / "t.prob2trace"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(InputError, match=fragment.replace("(", r"\(").replace(")", r"\)")
+                       .replace("$", r"\$")):
+        list(import_prob2trace([path]))
+
+
+def test_missing_paths(tmp_path):
+    with pytest.raises(InputError, match="no such file or folder"):
+        list(import_simb([tmp_path / "nope"]))
+    with pytest.raises(InputError, match="holds no \\*.json files"):
+        list(import_simb([tmp_path]))
+
+
+def test_import_checked_against_a_machine(paper_traces, tmp_path):
+    machine = load_machine(EXAMPLES / "highway_table1.mch")
+    vocab = vocabulary_of(machine)
+    assert set(vocab.variables) == set(HIGHWAY.variables)
+    eps = list(import_simb([paper_traces / "simb" / "base" / "Timed_Simulation_1.json"],
+                           vocab=vocab, machine=machine))
+    assert eps[0].end.steps == 60
+    wrong = _simb(tmp_path, [_init({**GOOD, "Reward": "1"})])
+    with pytest.raises(InputError, match="step 0: Reward must be of type REAL"):
+        list(import_simb([wrong], vocab=vocab, machine=machine))

@@ -1,0 +1,96 @@
+"""Episodes inside tracecheck: frozen dataclasses, whatever file they came from."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Optional
+
+__all__ = ["StepRecord", "EpisodeEnd", "Episode", "HIGHWAY_VARIABLES", "HIGHWAY_ACTIONS",
+           "Vocabulary", "HIGHWAY"]
+
+#: The state variables of the paper's highway model (Section 4.1).
+HIGHWAY_VARIABLES = ("Crash", "PresentVehicles", "VehiclesX", "VehiclesY", "VehiclesVx",
+                     "VehiclesVy", "VehiclesAx", "VehiclesAy", "Reward")
+#: The agent's actions, in highway-env's order of action indices.
+HIGHWAY_ACTIONS = ("LANE_LEFT", "IDLE", "LANE_RIGHT", "FASTER", "SLOWER")
+
+
+@dataclass(frozen=True)
+class Vocabulary:
+    """The variables and actions an episode may use (the paper's, or a machine's)."""
+
+    variables: tuple[str, ...]
+    actions: tuple[str, ...]
+    name: str = "highway"
+    set_name: str = "Vehicles"
+
+
+HIGHWAY = Vocabulary(HIGHWAY_VARIABLES, HIGHWAY_ACTIONS, "HighwayEnvironment")
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """One state and the action that led to it (``action`` is None at step 0)."""
+
+    step: int
+    time: float
+    action: Optional[str]
+    state: Mapping[str, Any]
+    reward: float
+    crashed: bool
+    observation: Optional[tuple[tuple[float, ...], ...]] = None
+    action_values: Optional[Mapping[str, float]] = None
+    preferred_action: Optional[str] = None
+    allowed_actions: Optional[tuple[str, ...]] = None
+    shield_time_us: Optional[float] = None
+    deadlock: Optional[bool] = None
+
+
+@dataclass(frozen=True)
+class EpisodeEnd:
+    steps: int
+    crashed: bool
+    total_reward: float
+    reason: str
+
+
+@dataclass(frozen=True)
+class Episode:
+    """A whole episode: states ``steps[0] … steps[n]`` and how it ended."""
+
+    id: int
+    steps: tuple[StepRecord, ...]
+    end: EpisodeEnd
+    seed: Optional[int] = None
+    origin: Optional[str] = None
+
+    @property
+    def states(self) -> list[Mapping[str, Any]]:
+        return [s.state for s in self.steps]
+
+    @property
+    def actions(self) -> list[Optional[str]]:
+        return [s.action for s in self.steps]
+
+
+def make_end(steps: tuple[StepRecord, ...], reason: Optional[str] = None) -> EpisodeEnd:
+    """The end record of ``steps``: crashed if the last state crashed; the reward summed over
+    the steps after the initial state."""
+    crashed = bool(steps[-1].crashed)
+    total = float(sum(s.reward for s in steps[1:]))
+    return EpisodeEnd(steps=len(steps) - 1, crashed=crashed, total_reward=total,
+                      reason=reason or ("crashed" if crashed else "end-of-trace"))
+
+
+@dataclass
+class RunSummary:
+    """What ``tracecheck info`` reports for one or more files."""
+
+    files: list[str] = field(default_factory=list)
+    episodes: int = 0
+    steps: int = 0
+    crashes: int = 0
+    sources: set[str] = field(default_factory=set)
+    agents: set[str] = field(default_factory=set)
+    shields: set[str] = field(default_factory=set)
+    warnings: list[str] = field(default_factory=list)

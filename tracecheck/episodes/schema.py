@@ -1,0 +1,123 @@
+"""The messages of a tracecheck MCAP file, as pydantic models (exported to ``schemas/``).
+
+A file holds one run: a :class:`RunHeader` on ``/tracecheck/run``, then for each episode an
+:class:`EpisodeHeader` on ``/tracecheck/episode``, one :class:`Step` per state on
+``/tracecheck/step`` (step 0 is the initial state) and an :class:`EpisodeEnd` on
+``/tracecheck/episode_end``. Every message is JSON with a JSON schema, so any MCAP tool can
+show and plot it. Beside the messages, each episode carries its states as numpy columns in an
+attachment (see :mod:`tracecheck.episodes.codec`) for fast whole-file analysis.
+
+State values are JSON: numbers and booleans as such, a function from set elements as an
+object (``{"EgoVehicle": 150.36, "Vehicles2": 21.9}``), a set of elements as a list of names,
+anything else as a B literal in ProB's notation.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, Literal, Optional
+
+from pydantic import BaseModel, ConfigDict, Field
+
+__all__ = ["RunHeader", "EpisodeHeader", "Step", "EpisodeEnd", "MESSAGES", "TOPICS",
+           "export_schemas", "SCHEMA_DIR"]
+
+Source = Literal["recorded", "imported-simb", "imported-prob2trace"]
+EndReason = Literal["crashed", "time-limit", "end-of-trace", "deadlock", "interrupted"]
+
+
+class _Message(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class RunHeader(_Message):
+    """Once per file: where the episodes come from."""
+
+    tracecheck_version: str
+    created: str = Field(description="ISO 8601 time the file was written")
+    source: Source
+    environment_id: Optional[str] = None
+    environment_config: Optional[dict[str, Any]] = None
+    agent_id: Optional[str] = None
+    agent_sha256: Optional[str] = None
+    shield_name: Optional[str] = None
+    shield_sha256: Optional[str] = None
+    base_seed: Optional[int] = None
+    model_name: Optional[str] = Field(None, description="B machine the states belong to")
+    variables: list[str] = Field(default_factory=list, description="state variable names")
+    actions: list[str] = Field(default_factory=list, description="action (operation) names")
+
+
+class EpisodeHeader(_Message):
+    """Start of an episode."""
+
+    episode: int
+    seed: Optional[int] = None
+    origin: Optional[str] = Field(None, description="file the episode was imported from")
+
+
+class Step(_Message):
+    """One state of an episode and the action that led to it (none for step 0)."""
+
+    episode: int
+    step: int = Field(ge=0)
+    time: float = Field(description="seconds since the start of the episode")
+    action: Optional[str] = None
+    state: dict[str, Any]
+    reward: float
+    crashed: bool
+    observation: Optional[list[list[float]]] = Field(None, description="raw observation")
+    action_values: Optional[dict[str, float]] = Field(None, description="the agent's Q-values")
+    preferred_action: Optional[str] = Field(None, description="the agent's unshielded choice")
+    allowed_actions: Optional[list[str]] = Field(None, description="the live shield's choice")
+    shield_time_us: Optional[float] = Field(None, description="shield decision time")
+    deadlock: Optional[bool] = Field(None, description="the live shield allowed nothing")
+
+
+class EpisodeEnd(_Message):
+    """End of an episode: written only once all its steps are."""
+
+    episode: int
+    steps: int = Field(ge=0, description="agent actions, the initial state not counted")
+    crashed: bool
+    total_reward: float
+    reason: EndReason
+
+
+MESSAGES: dict[str, type[_Message]] = {
+    "tracecheck.RunHeader": RunHeader,
+    "tracecheck.EpisodeHeader": EpisodeHeader,
+    "tracecheck.Step": Step,
+    "tracecheck.EpisodeEnd": EpisodeEnd,
+}
+TOPICS = {
+    "tracecheck.RunHeader": "/tracecheck/run",
+    "tracecheck.EpisodeHeader": "/tracecheck/episode",
+    "tracecheck.Step": "/tracecheck/step",
+    "tracecheck.EpisodeEnd": "/tracecheck/episode_end",
+}
+SCHEMA_DIR = Path(__file__).resolve().parents[2] / "schemas"
+
+
+def schema_json(name: str) -> str:
+    """The JSON schema text of message ``name`` (as stored in files and in ``schemas/``)."""
+    schema = MESSAGES[name].model_json_schema()
+    schema["$id"] = f"{name}.json"
+    return json.dumps(schema, indent=2, sort_keys=True) + "\n"
+
+
+def export_schemas(folder: Path = SCHEMA_DIR) -> list[Path]:
+    """Write every message's JSON schema into ``folder``; the files written."""
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name in MESSAGES:
+        path = folder / f"{name}.json"
+        path.write_text(schema_json(name), encoding="utf-8")
+        paths.append(path)
+    return paths
+
+
+if __name__ == "__main__":  # python -m tracecheck.episodes.schema
+    for p in export_schemas():
+        print(p)

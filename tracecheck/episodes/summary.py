@@ -1,0 +1,41 @@
+"""What a set of run files holds (``tracecheck info``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Iterable
+
+import numpy as np
+
+from .mcap_io import read_columns, read_header
+
+__all__ = ["summarise"]
+
+
+def summarise(paths: Iterable[str | Path]) -> dict:
+    """Episodes, steps (agent actions), crashes, sources, agents and shields of the files."""
+    files, warnings = [], []
+    for path in paths:
+        header = read_header(path)
+        cols = read_columns(path)
+        warnings += cols.warnings
+        episodes = len(cols.episode_ids)
+        last_rows = cols.starts[1:] - 1
+        crashes = int(np.count_nonzero(cols.crashed[last_rows])) if episodes else 0
+        files.append({
+            "path": str(path), "source": header.source, "created": header.created,
+            "model_name": header.model_name, "episodes": episodes,
+            "steps": cols.n - episodes, "crashes": crashes,
+            "agent": header.agent_id, "shield": header.shield_name,
+            "environment": header.environment_id,
+        })
+    return {
+        "episodes": sum(f["episodes"] for f in files),
+        "steps": sum(f["steps"] for f in files),
+        "crashes": sum(f["crashes"] for f in files),
+        "sources": sorted({f["source"] for f in files}),
+        "agents": sorted({f["agent"] for f in files if f["agent"]}),
+        "shields": sorted({f["shield"] for f in files if f["shield"]}),
+        "files": files,
+        "warnings": warnings,
+    }

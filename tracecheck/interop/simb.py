@@ -1,0 +1,138 @@
+"""SimB timed-simulation traces (``Timed_Simulation_N.json``), read and written.
+
+A trace is a JSON object whose ``activations`` run ``$setup_constants``,
+``$initialise_machine`` and then one operation each; ``fixedVariables`` holds the state after
+it as B literals and ``after`` the delay before it in milliseconds.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import re
+from pathlib import Path
+from typing import Iterable, Optional
+
+from .. import __version__
+from ..b.values import format_value
+from ..episodes.model import HIGHWAY, Episode, Vocabulary
+from ..errors import InputError
+from .common import (INIT, SETUP, build_episode, check_types, expand_paths, load_json,
+                     read_literal)
+
+__all__ = ["import_simb", "read_simb", "export_simb", "simb_document"]
+
+
+def read_simb(path: Path, episode_id: int, vocab: Vocabulary = HIGHWAY,
+              machine=None) -> Episode:
+    """One SimB trace file as an episode."""
+    data = load_json(path)
+    where = f"{path}"
+    if not isinstance(data, dict) or not isinstance(data.get("activations"), list):
+        raise InputError(f"{where}: not a SimB timed trace (no 'activations' list)")
+    items: list[tuple[Optional[str], dict, float]] = []
+    clock = 0.0
+    for i, act in enumerate(data["activations"]):
+        here = f"{where}, activation {i}"
+        if not isinstance(act, dict):
+            raise InputError(f"{here}: an activation must be a JSON object")
+        op = act.get("execute")
+        try:
+            clock += float(act.get("after") or 0) / 1000.0
+        except (TypeError, ValueError):
+            raise InputError(f"{here}: 'after' must be a delay in ms, not "
+                             f"{act.get('after')!r}") from None
+        fixed = act.get("fixedVariables")
+        if op == SETUP or (op != INIT and not items and not fixed):
+            continue
+        if not isinstance(fixed, dict):
+            raise InputError(f"{here} ({op}): no state ('fixedVariables')")
+        step = len(items)
+        state = {name: read_literal(text, f"{where}, step {step}, variable {name}")
+                 for name, text in fixed.items()}
+        if op == INIT:
+            if items:
+                raise InputError(f"{here}: {INIT} after the trace has started")
+            clock = 0.0
+        elif not items:
+            raise InputError(f"{here}: the trace does not start with {INIT}")
+        items.append((None if op == INIT else op, state, round(clock, 9)))
+    ending = _ending_time(data.get("metadata"))
+    reason = None
+    if items and ending is not None and items[-1][2] >= ending - 1e-9:
+        reason = "time-limit"
+    episode = build_episode(episode_id, str(path), items, vocab, where, reason)
+    if episode.end.crashed:
+        episode = build_episode(episode_id, str(path), items, vocab, where, "crashed")
+    check_types(machine, episode, where)
+    return episode
+
+
+def _ending_time(metadata) -> Optional[float]:
+    creator = (metadata or {}).get("creator") if isinstance(metadata, dict) else None
+    m = re.search(r"ENDING_TIME\s*:\s*(\d+)", creator or "")
+    return int(m.group(1)) / 1000.0 if m else None
+
+
+def import_simb(paths: Iterable[str | Path], *, vocab: Vocabulary = HIGHWAY,
+                machine=None, first_id: int = 0) -> Iterable[Episode]:
+    """Episodes from SimB trace files and folders of them (``Timed_Simulation_*.json``)."""
+    for k, path in enumerate(expand_paths(paths, "*.json")):
+        yield read_simb(path, first_id + k, vocab, machine)
+
+
+def simb_document(episode: Episode, model_name: str = "HighwayEnvironment") -> dict:
+    """A SimB timed trace of ``episode``, as ProB writes them."""
+    acts = [_activation("$setup_constants", "$setup_constants", 0, None, None)]
+    ids = [f"{s.action}_{s.step + 1}" for s in episode.steps[1:]]
+    acts.append(_activation("$initialise_machine", "$initialise_machine", 0,
+                            episode.steps[0].state, ids[:1] or None))
+    prev_t = episode.steps[0].time
+    for k, s in enumerate(episode.steps[1:]):
+        delay = int(round((s.time - prev_t) * 1000))
+        prev_t = s.time
+        acts.append(_activation(ids[k], s.action, delay, s.state, ids[k + 1:k + 2] or None))
+    ending = int(round(episode.steps[-1].time * 1000))
+    return {
+        "variables": {},
+        "activations": acts,
+        "listeners": [],
+        "metadata": {
+            "fileType": "Timed_Trace",
+            "formatVersion": 3,
+            "savedAt": _dt.datetime.now(_dt.timezone.utc).isoformat().replace("+00:00", "Z"),
+            "creator": f"tracecheck {__version__}; ENDING_TIME : {ending}",
+            "modelName": model_name,
+        },
+    }
+
+
+def _activation(act_id, op, after_ms, state, activating):
+    return {
+        "id": act_id, "execute": op, "after": str(after_ms), "priority": 0,
+        "additionalGuards": None, "activationKind": None,
+        "fixedVariables": None if state is None else {k: format_value(v)
+                                                      for k, v in state.items()},
+        "probabilisticVariables": None, "activating": activating,
+        "activatingOnlyWhenExecuted": True, "updating": None, "withPredicate": None,
+    }
+
+
+def export_simb(episodes: Iterable[Episode], folder: str | Path,
+                model_name: str = "HighwayEnvironment") -> list[Path]:
+    """Write one ``Timed_Simulation_N.json`` per episode (N from 1) into ``folder``."""
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create the folder {folder}: {exc.strerror or exc}") from None
+    written = []
+    for n, episode in enumerate(episodes, start=1):
+        path = folder / f"Timed_Simulation_{n}.json"
+        try:
+            path.write_text(json.dumps(simb_document(episode, model_name), indent=2,
+                                       ensure_ascii=False), encoding="utf-8")
+        except OSError as exc:
+            raise InputError(f"cannot write {path}: {exc.strerror or exc}") from None
+        written.append(path)
+    return written
