@@ -21,7 +21,6 @@ from pathlib import Path
 from typing import IO, Any, Iterator, Optional
 
 import numpy as np
-from mcap.exceptions import McapError
 from mcap.reader import SeekingReader
 from mcap.records import Attachment, Channel, Footer, Message, Schema
 from mcap.stream_reader import StreamReader
@@ -193,7 +192,7 @@ def _records(path: Path, stream: IO[bytes]) -> Iterator[Any]:
             yield record
             if isinstance(record, Footer):
                 return
-    except (McapError, ValueError, EOFError, OSError, Exception) as exc:  # noqa: BLE001
+    except Exception as exc:  # noqa: BLE001 - a damaged tail breaks the reader in many ways
         yield _Damage(f"{type(exc).__name__}: {exc}")
 
 
