@@ -24,7 +24,7 @@ from tracecheck.b.values import FuncValue, parse_literal
 from tracecheck.b.vector import Columns
 
 ROOT = Path(__file__).resolve().parents[1]
-SHIELD = ROOT / "models" / "examples" / "highway_table1.mch"
+SHIELD = ROOT / "models" / "shields" / "paper.mch"
 TRACE = ROOT.parent / "shared" / "data" / "paper-traces" / "simb" / "base" / \
     "Timed_Simulation_1.json"
 

@@ -11,7 +11,7 @@ from tracecheck.b.machine import load_machine, load_machine_text
 from tracecheck.b.values import parse_literal
 
 ROOT = Path(__file__).resolve().parents[1]
-EXAMPLES = ROOT / "models" / "examples"
+PAPER_SHIELD = ROOT / "models" / "shields" / "paper.mch"
 PAPER_TRACES = ROOT.parent / "shared" / "data" / "paper-traces"
 
 COIN_TOSS = """
@@ -28,8 +28,8 @@ END
 
 @pytest.fixture(scope="session")
 def table1():
-    """A Table-1-style shield over the paper's state vocabulary."""
-    return load_machine(EXAMPLES / "highway_table1.mch")
+    """The paper's Table 1 shield over its state vocabulary."""
+    return load_machine(PAPER_SHIELD)
 
 
 @pytest.fixture(scope="session")

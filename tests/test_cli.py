@@ -8,10 +8,10 @@ import sys
 
 import pytest
 
-from tests.conftest import EXAMPLES
+from tests.conftest import ROOT
 from tracecheck.cli import main
 
-TABLE1 = str(EXAMPLES / "highway_table1.mch")
+TABLE1 = str(ROOT / "models" / "shields" / "paper.mch")
 
 
 def run(capsys, *args):
@@ -29,7 +29,7 @@ def test_version(capsys):
 def test_check_model(capsys):
     code, out, _ = run(capsys, "check-model", TABLE1)
     assert code == 0
-    assert "MACHINE Table1Shield" in out
+    assert "MACHINE PaperShield" in out
     assert "set Vehicles = {EgoVehicle, Vehicles2, Vehicles3, Vehicles4, Vehicles5}" in out
     assert "constant EgoVehicle = EgoVehicle" in out
     assert "VehiclesX" in out and "POW(Vehicles*REAL)" in out
@@ -41,7 +41,7 @@ def test_check_model_json(capsys):
     code, out, _ = run(capsys, "check-model", TABLE1, "--json")
     data = json.loads(out)
     assert code == 0
-    assert data["machine"] == "Table1Shield"
+    assert data["machine"] == "PaperShield"
     assert data["variables"]["Crash"] == {"type": "BOOL",
                                           "description": "TRUE when a crash occurred"}
     assert set(data["operations"]) == {"IDLE", "LANE_LEFT", "LANE_RIGHT", "FASTER", "SLOWER"}
@@ -137,10 +137,10 @@ def test_guards_state_of_the_wrong_type(capsys, tmp_path):
             "POW(Vehicles*INTEGER)") in err
     path.write_text(json.dumps({"VehiclesX": "{(Car9↦1.0)}"}))
     code, _, err = run(capsys, "guards", TABLE1, "--state", str(path))
-    assert "VehiclesX mentions Car9, which no set of Table1Shield contains" in err
+    assert "VehiclesX mentions Car9, which no set of PaperShield contains" in err
     path.write_text(json.dumps({"Speed": 1.0}))
     code, _, err = run(capsys, "guards", TABLE1, "--state", str(path))
-    assert "gives a value for Speed, which the machine Table1Shield does not declare" in err
+    assert "gives a value for Speed, which the machine PaperShield does not declare" in err
 
 
 def test_guards_bad_state(capsys, tmp_path):

@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import sys
 import warnings
+from enum import Enum
 from pathlib import Path
 from typing import Any, Optional
 
@@ -56,7 +57,6 @@ def check_model(
     as_json: bool = typer.Option(False, "--json", help="Print a JSON summary."),
 ) -> None:
     """Parse and check a B machine; list its sets, constants, variables and operations."""
-    from .b.scope import render
     from .b.values import format_value
 
     machine = _model(model)
@@ -70,8 +70,7 @@ def check_model(
         "variables": {v: {"type": types.get(v), "description": machine.descriptions.get(v)}
                       for v in machine.variables},
         "operations": {
-            name: {"guard": render(op.guard, machine.source) if op.guard is not None else None,
-                   "parameters": list(op.params)}
+            name: {"guard": op.guard_source, "parameters": list(op.params)}
             for name, op in machine.operations.items()
         },
     }
@@ -319,6 +318,85 @@ def info(
     for key in ("agents", "shields"):
         if summary[key]:
             out.print(f"{key}: {', '.join(summary[key])}", markup=False)
+
+
+# ------------------------------------------------------------------ replay and diff
+
+
+class OutputFormat(str, Enum):
+    text = "text"
+    md = "md"
+
+
+class FailOn(str, Enum):
+    infeasible = "infeasible"
+    deadlock = "deadlock"
+    postcondition = "postcondition"
+    invariant = "invariant"
+
+
+_SHIELD_HELP = "A built-in shield (none, paper, strict) or the path of a .mch file."
+_ROWS = 40
+
+
+@app.command("replay")
+def replay_cmd(
+    runs: list[Path] = typer.Argument(..., help="MCAP run files."),
+    shield: str = typer.Option(..., "--shield", "-s", help=_SHIELD_HELP),
+    as_json: bool = typer.Option(False, "--json", help="Print the full report as JSON."),
+    fmt: OutputFormat = typer.Option(OutputFormat.text, "--format", help="text or md."),
+    fail_on: list[FailOn] = typer.Option([], "--fail-on",
+                                         help="Exit 1 when this occurs (repeatable)."),
+) -> None:
+    """Replay episodes against a shield: where would it have blocked the recorded action?"""
+    from .replay import replay
+    from .report_text import replay_markdown, replay_text
+    from .shield import load_shield
+
+    report = replay(runs, load_shield(shield))
+    for warning in report.warnings:
+        err.print(f"[yellow]warning[/yellow]: {escape(warning)}")
+    if as_json:
+        out.print_json(json.dumps(report.to_json()))
+    elif fmt == OutputFormat.md:
+        out.print(replay_markdown(report, _ROWS), markup=False)
+    else:
+        replay_text(out, report, _ROWS)
+    counts = {FailOn.infeasible: report.infeasible_steps,
+              FailOn.deadlock: report.deadlock_states,
+              FailOn.postcondition: report.postcondition_violations,
+              FailOn.invariant: report.invariant_violations}
+    failed = [f.value for f in fail_on if counts[f]]
+    if failed:
+        err.print(f"failing: {', '.join(failed)} found (--fail-on)")
+        raise typer.Exit(1)
+
+
+@app.command("diff")
+def diff_cmd(
+    runs: list[Path] = typer.Argument(..., help="MCAP run files."),
+    shield: str = typer.Option(..., "--shield", "-s", help="The new shield. " + _SHIELD_HELP),
+    against: str = typer.Option(..., "--against", "-a",
+                                help="The shield to compare with (old version, baseline)."),
+    as_json: bool = typer.Option(False, "--json", help="Print the full report as JSON."),
+    fail_on_change: bool = typer.Option(False, "--fail-on-change",
+                                        help="Exit 1 when anything changed."),
+) -> None:
+    """Compare two shields on every recorded state: which steps does the change block or allow?"""
+    from .replay import diff
+    from .report_text import diff_text
+    from .shield import load_shield
+
+    report = diff(runs, load_shield(shield), load_shield(against))
+    for warning in report.warnings:
+        err.print(f"[yellow]warning[/yellow]: {escape(warning)}")
+    if as_json:
+        out.print_json(json.dumps(report.to_json()))
+    else:
+        diff_text(out, report, _ROWS)
+    if fail_on_change and report.anything_changed:
+        err.print("failing: the shields differ on these episodes (--fail-on-change)")
+        raise typer.Exit(1)
 
 
 def main(argv: Optional[list[str]] = None) -> Any:

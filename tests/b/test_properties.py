@@ -130,8 +130,8 @@ STATE = {
        for name in ("VehiclesX", "VehiclesY", "VehiclesVx", "VehiclesVy", "VehiclesAx",
                     "VehiclesAy")},
 }
-EXAMPLE = (Path(__file__).resolve().parents[2] / "models" / "examples" /
-           "highway_table1.mch").read_text()
+EXAMPLE = (Path(__file__).resolve().parents[2] / "models" / "shields" /
+           "paper.mch").read_text()
 PIECES = ["(", ")", "{", "}", "&", "or", "=>", ":", "=", "1", "1.0", "v", "END", "THEN", ";",
           "||", ":=", "::", "-", "..", "|", ".", "#", "card", "EgoVehicle", "TRUE", "'", "$0"]
 

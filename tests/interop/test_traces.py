@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from tests.conftest import EXAMPLES
+from tests.conftest import ROOT
 from tests.episodes.conftest import episode as make_episode
 from tracecheck.b.machine import load_machine
 from tracecheck.episodes.model import HIGHWAY
@@ -152,7 +152,7 @@ def test_missing_paths(tmp_path):
 
 
 def test_import_checked_against_a_machine(paper_traces, tmp_path):
-    machine = load_machine(EXAMPLES / "highway_table1.mch")
+    machine = load_machine(ROOT / "models" / "shields" / "paper.mch")
     vocab = vocabulary_of(machine)
     assert set(vocab.variables) == set(HIGHWAY.variables)
     eps = list(import_simb([paper_traces / "simb" / "base" / "Timed_Simulation_1.json"],

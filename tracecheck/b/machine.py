@@ -24,7 +24,7 @@ from . import ast as A
 from .evaluate import Compiler, conjuncts
 from .parser import MachineSource, parse_formula, parse_machine_source
 from .scope import PRED, check_kind, check_subst, expand, render
-from .substitution import SubstCompiler, guard_of, written
+from .substitution import SubstCompiler, before_after, guard_of, strip_guards, written
 from .values import Elem
 
 __all__ = ["Machine", "Operation", "load_machine", "load_machine_text", "DEFAULT_SETSIZE"]
@@ -43,6 +43,7 @@ class Operation:
     guard: Optional[A.Node]
     body: A.Subst
     description: Optional[str] = None
+    guard_source: Optional[str] = None  # the guard as written, definitions not expanded
 
 
 @dataclass
@@ -196,6 +197,31 @@ class Machine:
             return False
         return bool(check(pre, dict(after)))
 
+    def postcondition(self, op: str) -> Optional[A.Node]:
+        """The predicate replay checks for a step of ``op``: the effect of its body without
+        the guards (checked on their own as feasibility), over ``v`` after and ``v$0``
+        before, frame included. None when the body has a form without such a predicate."""
+        cache = self._compiled.setdefault("postconditions", {})
+        if op not in cache:
+            body = strip_guards(self.operation(op).body)
+            cache[op] = before_after(body, self.variables)
+        return cache[op]
+
+    def effect_ok(self, op: str, before: Mapping[str, Any], after: Mapping[str, Any]) -> bool:
+        """Whether ``after`` is a possible effect of ``op``'s body from ``before``, its
+        guards aside (see :meth:`postcondition`)."""
+        operation = self.operation(op)
+        cache = self._compiled.setdefault("effects", {})
+        if op not in cache:
+            body = strip_guards(operation.body)
+            frame = tuple(v for v in self.variables if v not in written(body))
+            cache[op] = (SubstCompiler(self.compiler()).compile(body), frame)
+        check, frame = cache[op]
+        pre = self.env(before)
+        if any(after[v] != pre.get(v) for v in frame):
+            return False
+        return bool(check(pre, dict(after)))
+
     def invariant(self, state: Mapping[str, Any]) -> bool:
         """Whether the INVARIANT holds in ``state``."""
         if self.invariant_node is None:
@@ -253,8 +279,10 @@ def _build(src: MachineSource) -> Machine:
     for op in src.operations:
         body = expand(op.body, defs)
         check_subst(body, source=src.text)
-        operations[op.name] = Operation(op.name, op.params, op.outputs, guard_of(body), body,
-                                        src.description_after(op.pos))
+        written_guard = guard_of(op.body)
+        operations[op.name] = Operation(
+            op.name, op.params, op.outputs, guard_of(body), body, src.description_after(op.pos),
+            render(written_guard, src.text) if written_guard is not None else None)
     descriptions = {}
     for name, pos in src.constants + src.variables:
         desc = src.description_after(pos)

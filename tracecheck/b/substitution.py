@@ -14,7 +14,7 @@ from ..errors import UnsupportedError
 from . import ast as A
 from .evaluate import MEMO_KEY, Compiler, Env, _equal, _make_set, fresh
 
-__all__ = ["written", "guard_of", "SubstCompiler"]
+__all__ = ["written", "guard_of", "SubstCompiler", "strip_guards", "before_after"]
 
 Check = Callable[[Env, dict], bool]
 
@@ -279,4 +279,109 @@ def _pairs(args):
     node = args[0]
     for a in args[1:]:
         node = A.Pair(node, a, pos=a.pos)
+    return node
+
+
+# ------------------------------------------------------------------ as predicates
+
+TRUE = A.Rel("=", A.BoolLit(True), A.BoolLit(True))
+
+
+def strip_guards(s: A.Subst) -> A.Subst:
+    """The effect of a substitution without its top-level guards (PRE/SELECT conditions):
+    what replay checks as the postcondition once feasibility was checked on its own."""
+    if isinstance(s, (A.Pre, A.Assert)):
+        return strip_guards(s.body)
+    if isinstance(s, A.Select) and len(s.branches) == 1 and s.else_ is None:
+        return strip_guards(s.branches[0][1])
+    if isinstance(s, A.Parallel):
+        return A.Parallel(tuple(strip_guards(i) for i in s.items), pos=s.pos)
+    return s
+
+
+def before_after(s: A.Subst, variables: tuple[str, ...]) -> Optional[A.Node]:
+    """The before-after predicate of ``s`` over ``v`` (after) and ``v$0`` (before) for each
+    variable, frame included; None for forms it does not cover (ANY, LET, sequences,
+    function overrides), which are then checked state by state."""
+    state = frozenset(variables)
+    try:
+        body = _ba(s, state)
+    except _NoPredicate:
+        return None
+    return _and([body, _frame(state - written(s))]) or TRUE
+
+
+class _NoPredicate(Exception):
+    pass
+
+
+def _before(node: A.Node, state: frozenset[str], keep: frozenset[str] = frozenset()) -> A.Node:
+    """``node`` with every state variable (except ``keep``) read before the step."""
+    if isinstance(node, A.Name):
+        name = node.id
+        base = name[:-1] if name.endswith("'") else name[:-2] if name.endswith("$0") else name
+        if base in state and (base not in keep or base != name):
+            return A.Name(base + "$0", pos=node.pos)
+        return node
+    bound = frozenset(A.binders(node))
+    return A.map_children(node, lambda c: _before(c, state - bound, keep - bound))
+
+
+def _frame(names: frozenset[str]) -> Optional[A.Node]:
+    return _and([A.Rel("=", A.Name(n), A.Name(n + "$0")) for n in sorted(names)])
+
+
+def _ba(s: A.Subst, state: frozenset[str]) -> A.Node:  # noqa: C901
+    if isinstance(s, A.Skip):
+        return TRUE
+    if isinstance(s, A.Assign):
+        if not all(isinstance(t, A.Name) for t in s.targets):
+            raise _NoPredicate
+        return _and([A.Rel("=", t, _before(v, state), pos=s.pos)
+                     for t, v in zip(s.targets, s.values)])
+    if isinstance(s, A.BecomesIn):
+        new: A.Node = A.Name(s.ids[0])
+        for i in s.ids[1:]:
+            new = A.Pair(new, A.Name(i))
+        return A.Rel(":", new, _before(s.set, state), pos=s.pos)
+    if isinstance(s, A.BecomesSuchThat):
+        return _before(s.pred, state, keep=frozenset(s.ids))
+    if isinstance(s, A.Parallel):
+        return _and([_ba(i, state) for i in s.items]) or TRUE
+    if isinstance(s, (A.Pre, A.Assert)):
+        cond = s.guard if isinstance(s, A.Pre) else s.cond
+        return _and([_before(cond, state), _ba(s.body, state)])
+    if isinstance(s, (A.Select, A.IfSubst, A.Choice)):
+        return _branches_ba(s, state)
+    raise _NoPredicate
+
+
+def _branches_ba(s, state) -> A.Node:
+    allw = written(s)
+    options: list[A.Node] = []
+    if isinstance(s, A.Choice):
+        for item in s.items:
+            options.append(_and([_ba(item, state), _frame(allw - written(item))]) or TRUE)
+        return _or(options)
+    taken: list[A.Node] = []
+    for cond, body in s.branches:
+        guard = _before(cond, state)
+        parts = [guard, _ba(body, state), _frame(allw - written(body))]
+        if isinstance(s, A.IfSubst):
+            parts += [A.Not(t) for t in taken]
+        options.append(_and(parts))
+        taken.append(guard)
+    if s.else_ is not None or isinstance(s, A.IfSubst):
+        other = s.else_
+        none = [A.Not(t) for t in taken]
+        rest = [_ba(other, state), _frame(allw - written(other))] if other is not None \
+            else [_frame(allw)]
+        options.append(_and(none + rest) or TRUE)
+    return _or(options)
+
+
+def _or(parts: list[A.Node]) -> A.Node:
+    node = parts[0]
+    for p in parts[1:]:
+        node = A.Or(node, p)
     return node

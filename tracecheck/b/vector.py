@@ -185,6 +185,8 @@ class _VecCompiler:
         if name in self.constants:
             vec = self.constant(self.constants[name])
             return lambda ctx: vec
+        if name in _TYPE_SETS:
+            return lambda ctx: ("type", name)
         raise _NotVectorizable(name)
 
     def v_IntLit(self, node) -> Callable:
@@ -213,6 +215,8 @@ class _VecCompiler:
     def v_BinOp(self, node: A.BinOp) -> Callable:
         l, r = self.compile(node.left), self.compile(node.right)
         op = node.op
+        if op in ("-->", "+->"):
+            return lambda ctx: ("space", (op, l(ctx), r(ctx)))
         if op in ("+", "*", "**"):
             fn = {"+": np.add, "*": np.multiply, "**": np.power}[op]
             return lambda ctx: ("num", fn(_num(l(ctx)), _num(r(ctx))))
@@ -256,11 +260,14 @@ class _VecCompiler:
         if op in ("=", "/="):
             def eq(ctx: _Ctx) -> Vec:
                 a, b = l(ctx), r(ctx)
-                if a[0] != b[0] or a[0] in ("func",):
-                    if {a[0], b[0]} != {"num"}:
-                        raise _NotVectorizable("=")
+                if a[0] != b[0] or a[0] not in ("num", "bool", "elem", "set", "func"):
+                    raise _NotVectorizable("=")
                 if a[0] == "set":
                     res = np.all(a[1] == b[1], axis=-1, keepdims=True)
+                elif a[0] == "func":
+                    (va, da), (vb, db) = a[1], b[1]
+                    same = (da == db) & ((va == vb) | ~da)
+                    res = np.all(same, axis=-1, keepdims=True)
                 else:
                     res = np.equal(a[1], b[1])
                 return ("bool", res if op == "=" else ~np.asarray(res))
@@ -268,12 +275,21 @@ class _VecCompiler:
         if op in (":", "/:"):
             def member(ctx: _Ctx) -> Vec:
                 a, s = l(ctx), r(ctx)
-                if a[0] != "elem" or s[0] != "set":
-                    raise _NotVectorizable(":")
-                idx, mask = a[1], s[1]
-                res = mask if not isinstance(idx, int) else mask[:, idx:idx + 1]
+                if a[0] == "elem" and s[0] == "set":
+                    idx, mask = a[1], s[1]
+                    res = mask if not isinstance(idx, int) else mask[:, idx:idx + 1]
+                else:
+                    res = _typed_member(a, s, ctx.cols.n)
                 return ("bool", res if op == ":" else ~res)
             return member
+        if op in ("<:", "/<:"):
+            def subset(ctx: _Ctx) -> Vec:
+                a, b = l(ctx), r(ctx)
+                if a[0] != "set" or b[0] != "set":
+                    raise _NotVectorizable("<:")
+                res = np.all(~a[1] | b[1], axis=-1, keepdims=True)
+                return ("bool", res if op == "<:" else ~res)
+            return subset
         raise _NotVectorizable(op)
 
     def _logic(self, node, fn) -> Callable:
@@ -364,6 +380,8 @@ class _VecCompiler:
             return card
         if name == "bool":
             return lambda ctx: ("bool", _bool(arg(ctx)))
+        if name == "POW":
+            return lambda ctx: ("pow", arg(ctx))
         if name == "RSQRT":
             def sqrt(ctx: _Ctx) -> Vec:
                 x = _num(arg(ctx))
@@ -394,6 +412,34 @@ class _VecCompiler:
                 result = np.where(_bool(cond(ctx)), v, result)
             return (tag, result)
         return if_expr
+
+
+_TYPE_SETS = {"REAL", "FLOAT", "BOOL", "INTEGER"}
+
+
+def _typed_member(a: Vec, s: Vec, n: int) -> np.ndarray:
+    """Typing predicates over whole columns: ``f : S --> REAL``, ``P : POW(S)``, ``x : REAL``."""
+    yes = np.ones((n, 1), dtype=bool)
+    if s[0] == "type":
+        name = s[1]
+        if a[0] == "bool" and name == "BOOL":
+            return yes
+        if a[0] == "num" and name in ("REAL", "FLOAT") and np.asarray(a[1]).dtype.kind == "f":
+            return yes
+        if a[0] == "num" and name == "INTEGER" and np.asarray(a[1]).dtype.kind in "iu":
+            return yes
+        raise _NotVectorizable("typing")
+    if s[0] == "pow" and a[0] == "set" and s[1][0] == "set":
+        return np.all(~a[1] | s[1][1], axis=-1, keepdims=True)
+    if s[0] == "space" and a[0] == "func":
+        op, dom, ran = s[1]
+        vals, defined = a[1]
+        if dom[0] != "set" or ran != ("type", "REAL") or vals.dtype.kind != "f":
+            raise _NotVectorizable("function space")
+        if op == "-->":
+            return np.all(defined == dom[1], axis=-1, keepdims=True)
+        return np.all(~defined | dom[1], axis=-1, keepdims=True)
+    raise _NotVectorizable("membership")
 
 
 def _num(v: Vec) -> Any:

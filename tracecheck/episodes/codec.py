@@ -66,8 +66,10 @@ def decode_state(data: Mapping[str, Any], *, where: str = "") -> dict[str, Any]:
 
 def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optional[str]],
                    rewards: Sequence[float], crashed: Sequence[bool], cols: Columns,
-                   action_names: Sequence[str]) -> bytes:
-    """One episode's steps as a binary columns blob."""
+                   action_names: Sequence[str],
+                   values: Optional[Sequence[Optional[Mapping[str, float]]]] = None) -> bytes:
+    """One episode's steps as a binary columns blob (``values``: the agent's action values
+    per step, when recorded)."""
     index = {a: i for i, a in enumerate(action_names)}
     arrays: dict[str, np.ndarray] = {
         "time": np.asarray(times, dtype=np.float64),
@@ -76,6 +78,13 @@ def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optio
         "reward": np.asarray(rewards, dtype=np.float64),
         "crashed": np.asarray(crashed, dtype=bool),
     }
+    if values is not None and any(v for v in values):
+        table = np.full((len(times), len(action_names)), np.nan)
+        for row, vals in enumerate(values):
+            for name, q in (vals or {}).items():
+                if name in index:
+                    table[row, index[name]] = q
+        arrays["values"] = table
     kinds: dict[str, str] = {}
     for name, arr in cols.numbers.items():
         arrays[f"num:{name}"] = arr
@@ -116,7 +125,7 @@ def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.
         arrays = {}
         for spec in header["arrays"]:
             dtype = np.dtype(spec["dtype"])
-            count = int(np.prod(spec["shape"])) if spec["shape"] else 1
+            count = math.prod(spec["shape"])
             arrays[spec["name"]] = np.frombuffer(
                 blob, dtype=dtype, count=count, offset=base + spec["offset"]
             ).reshape(spec["shape"])

@@ -156,9 +156,13 @@ class EpisodeWriter:
         self._emit("tracecheck.EpisodeEnd", end.model_dump_json().encode(), last)
         # the columns come last: an attachment in the file means its episode is complete
         cols = Columns.from_states([s.state for s in ep.steps])
+        for s in ep.steps:
+            for name in s.action_values or ():
+                if name not in self._actions:
+                    self._actions.append(name)
         blob = encode_columns(ep.id, [s.time for s in ep.steps], [s.action for s in ep.steps],
                               [s.reward for s in ep.steps], [s.crashed for s in ep.steps],
-                              cols, self._actions)
+                              cols, self._actions, [s.action_values for s in ep.steps])
         t = self._clock_ns + int(round(last * _NS))
         self._writer.add_attachment(create_time=t, log_time=t,
                                     name=f"episode-{ep.id}.columns",
@@ -396,6 +400,7 @@ class RunColumns:
     crashed: np.ndarray
     states: Columns
     warnings: list[str] = field(default_factory=list)
+    values: Optional[np.ndarray] = None  # (rows, actions): the agent's values, NaN if none
 
     @property
     def n(self) -> int:
@@ -454,12 +459,21 @@ def read_columns(path: str | Path) -> RunColumns:
         actions += [a for a in header["actions"] if a not in actions]
         elements += [e for e in header["elements"] if e not in elements]
     parts = []
+    values = []
     for ep, header, arrays in decoded:
-        remap = np.array([actions.index(a) for a in header["actions"]] + [-1], dtype=np.int16)
+        order = [actions.index(a) for a in header["actions"]]
+        remap = np.array(order + [-1], dtype=np.int16)
         cols = columns_from_arrays(header, arrays)
         parts.append((ep, arrays, remap[arrays["action"]], _widen(cols, elements)))
-    return _concatenate(str(path), parts, tuple(actions), tuple(Elem(e) for e in elements),
-                        notes)
+        table = np.full((len(arrays["time"]), len(actions)), np.nan)
+        if "values" in arrays:
+            table[:, order] = arrays["values"]
+        values.append(table)
+    result = _concatenate(str(path), parts, tuple(actions), tuple(Elem(e) for e in elements),
+                          notes)
+    if any("values" in arrays for _, _, arrays in decoded):
+        result.values = np.concatenate(values)
+    return result
 
 
 def _widen(cols: Columns, elements: list[str]) -> Columns:

@@ -1,0 +1,97 @@
+"""replay and diff on the command line: output, JSON, exit codes."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tests.test_cli import run
+from tests.test_replay import TOY, run_file, toy  # noqa: F401 - fixtures
+from tracecheck.episodes import new_header
+from tracecheck.episodes.files import write_run
+from tracecheck.interop import import_simb
+
+
+@pytest.fixture(scope="module")
+def base(paper_traces, tmp_path_factory):
+    path = tmp_path_factory.mktemp("runs") / "base.mcap"
+    write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / "base"]))
+    return path
+
+
+def test_replay_text(capsys, base):
+    code, out, _ = run(capsys, "replay", str(base), "--shield", "paper")
+    assert code == 0
+    assert "Replay against shield paper" in out and "20 episode(s), 765 step(s)" in out
+    assert "infeasible: 233 step(s) in 20 of 20 episode(s)" in out
+    assert "crashes: 9, of which 9 at or after the first infeasible step" in out
+
+
+def test_replay_json_and_fail_on(capsys, base):
+    code, out, err = run(capsys, "replay", str(base), "--shield", "paper", "--json",
+                         "--fail-on", "infeasible")
+    data = json.loads(out)
+    assert code == 1 and "failing: infeasible" in err
+    assert (data["infeasible_steps"], data["steps"], data["episodes"]) == (233, 765, 20)
+    assert data["shield"]["name"] == "paper" and data["elapsed_s"] > 0
+    first = data["per_episode"][0]
+    assert first["first_infeasible"] == 1 and first["action"] == "FASTER"
+    assert first["enabled"] == ["LANE_LEFT", "SLOWER"]
+    code, _, _ = run(capsys, "replay", str(base), "--shield", "paper", "--json",
+                     "--fail-on", "deadlock", "--fail-on", "postcondition")
+    assert code == 0
+
+
+def test_replay_markdown(capsys, base):
+    code, out, _ = run(capsys, "replay", str(base), "--shield", "none", "--format", "md")
+    assert code == 0 and out.startswith("# Replay: shield `none`")
+    assert "| file | episode | steps | first infeasible |" in out
+
+
+def test_replay_hand_built(capsys, run_file, tmp_path):  # noqa: F811
+    shield = tmp_path / "toy.mch"
+    shield.write_text(TOY)
+    code, out, err = run(capsys, "replay", str(run_file), "--shield", str(shield), "--json",
+                         "--fail-on", "postcondition")
+    data = json.loads(out)
+    assert code == 1 and data["postcondition_violations"] == 1
+    assert data["per_episode"][2]["alternative"] == "SLOWER"
+
+
+def test_diff_cli(capsys, base):
+    code, out, _ = run(capsys, "diff", str(base), "--shield", "paper", "--against", "none",
+                       "--json")
+    data = json.loads(out)
+    assert code == 0
+    assert (data["changed_steps"], data["newly_blocked"], data["newly_allowed"]) == (233, 233, 0)
+    assert data["episodes_changed"] == 20
+    change = data["changes"][0]
+    assert {"episode", "step", "action", "enabled_shield", "enabled_against"} <= set(change)
+    code, _, err = run(capsys, "diff", str(base), "--shield", "paper", "--against", "none",
+                       "--fail-on-change")
+    assert code == 1 and "--fail-on-change" in err
+    code, out, _ = run(capsys, "diff", str(base), "--shield", "paper", "--against", "paper",
+                       "--fail-on-change")
+    assert code == 0 and "changed steps: 0" in out
+
+
+def test_diff_two_versions_of_a_file(capsys, base, tmp_path):
+    from tests.conftest import PAPER_SHIELD
+
+    old = tmp_path / "old.mch"
+    old.write_text(PAPER_SHIELD.read_text().replace("FrontWithin(40.0)", "FrontWithin(30.0)"))
+    code, out, _ = run(capsys, "diff", str(base), "--shield", str(PAPER_SHIELD), "--against",
+                       str(old), "--json")
+    data = json.loads(out)
+    assert data["newly_blocked"] > 0 and data["newly_allowed"] == 0
+    assert all(c["action"] == "FASTER" for c in data["changes"])
+
+
+@pytest.mark.parametrize("args,fragment", [
+    (["--shield", "sturdy"], "unknown shield 'sturdy'"),
+    (["--shield", "missing.mch"], "no such model file: missing.mch"),
+])
+def test_bad_shield(capsys, base, args, fragment):
+    code, _, err = run(capsys, "replay", str(base), *args)
+    assert code == 2 and fragment in err and "Traceback" not in err

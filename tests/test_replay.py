@@ -1,0 +1,250 @@
+"""Replay and diff: hand-built episodes with known answers, and the paper's traces."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tests.episodes.conftest import VS, state
+from tracecheck.b.values import FuncValue
+from tracecheck.episodes import EpisodeWriter, new_header, read_columns
+from tracecheck.episodes.files import write_run
+from tracecheck.episodes.model import Episode, StepRecord, make_end
+from tracecheck.errors import InputError
+from tracecheck.interop import import_simb
+from tracecheck.replay import diff, enabled_matrix, replay
+from tracecheck.shield import load_shield
+
+TOY = """
+MACHINE Toy
+SETS Vehicles = {EgoVehicle, Vehicles2, Vehicles3}
+VARIABLES Crash, PresentVehicles, VehiclesX, VehiclesY, VehiclesVx, VehiclesVy, VehiclesAx,
+          VehiclesAy, Reward
+INVARIANT Crash : BOOL & PresentVehicles <: Vehicles & VehiclesX : Vehicles --> REAL &
+    VehiclesY : Vehicles --> REAL & VehiclesVx : Vehicles --> REAL &
+    VehiclesVy : Vehicles --> REAL & VehiclesAx : Vehicles --> REAL &
+    VehiclesAy : Vehicles --> REAL & Reward : REAL & Reward <= 10.0
+DEFINITIONS
+    OK == Reward >= 0.0;
+    FREE == Crash :: BOOL || PresentVehicles :: POW(Vehicles) ||
+        VehiclesX :: Vehicles --> REAL || VehiclesY :: Vehicles --> REAL ||
+        VehiclesVy :: Vehicles --> REAL || VehiclesAx :: Vehicles --> REAL ||
+        VehiclesAy :: Vehicles --> REAL || Reward :: REAL
+INITIALISATION FREE || VehiclesVx :: Vehicles --> REAL
+OPERATIONS
+    IDLE = SELECT OK THEN FREE || VehiclesVx :: Vehicles --> REAL END;
+    LANE_LEFT = SELECT OK THEN FREE || VehiclesVx :: Vehicles --> REAL END;
+    LANE_RIGHT = SELECT OK THEN FREE || VehiclesVx :: Vehicles --> REAL END;
+    FASTER = SELECT OK & VehiclesX(EgoVehicle) < 150.0 THEN
+        FREE || VehiclesVx :: Vehicles --> REAL END;
+    SLOWER = SELECT OK THEN FREE ||
+        VehiclesVx : (VehiclesVx : Vehicles --> REAL &
+                      VehiclesVx(EgoVehicle) <= VehiclesVx$0(EgoVehicle)) END
+END
+"""
+
+
+@pytest.fixture(scope="module")
+def toy(tmp_path_factory):
+    path = tmp_path_factory.mktemp("shield") / "toy.mch"
+    path.write_text(TOY)
+    return load_shield(path)
+
+
+def step(k, action, x, reward=0.5, crash=False, vx=25.0, values=None):
+    s = state(x, crash, reward)
+    s["VehiclesVx"] = FuncValue({**s["VehiclesVx"].map, VS[0]: vx})
+    return StepRecord(step=k, time=float(k), action=action, state=s, reward=reward,
+                      crashed=crash, action_values=values)
+
+
+def ep(eid, steps):
+    steps = tuple(steps)
+    return Episode(id=eid, steps=steps, end=make_end(steps))
+
+
+@pytest.fixture(scope="module")
+def run_file(tmp_path_factory):
+    q = {"IDLE": 0.1, "LANE_LEFT": 0.2, "LANE_RIGHT": 0.05, "FASTER": 0.9, "SLOWER": 0.3}
+    episodes = [
+        # FASTER at x = 160 (state before step 3) is infeasible; the crash comes after it
+        ep(0, [step(0, None, 100.0), step(1, "FASTER", 120.0), step(2, "IDLE", 160.0),
+               step(3, "FASTER", 180.0, values=None), step(4, "IDLE", 190.0, crash=True)]),
+        # a deadlock state (negative reward) and an invariant violation (reward 20)
+        ep(1, [step(0, None, 100.0), step(1, "IDLE", 110.0, reward=-1.0),
+               step(2, "IDLE", 120.0, reward=20.0)]),
+        # SLOWER that speeds up: a postcondition violation; values recorded at step 1
+        ep(2, [step(0, None, 100.0), step(1, "IDLE", 200.0, values=q),
+               step(2, "FASTER", 210.0), step(3, "SLOWER", 215.0, vx=27.0)]),
+    ]
+    path = tmp_path_factory.mktemp("run") / "hand.mcap"
+    with EpisodeWriter(path, new_header("recorded")) as w:
+        for e in episodes:
+            w.write(e)
+    return path
+
+
+def test_hand_built_episodes(toy, run_file):
+    report = replay([run_file], toy)
+    e0, e1, e2 = report.per_episode
+    assert (e0.first_infeasible, e0.action, e0.infeasible_steps) == (3, "FASTER", 1)
+    assert e0.enabled == ["IDLE", "LANE_LEFT", "LANE_RIGHT", "SLOWER"]
+    assert e0.crashed and e0.crash_step == 4 and e0.crash_after_infeasible
+    assert e1.first_infeasible == 2 and e1.deadlock_states == [1]
+    assert e1.invariant_violations == [2]
+    # step 2 of episode 2: FASTER from x = 200 is blocked; the agent valued SLOWER most
+    # among the actions the shield allowed there
+    assert e2.first_infeasible == 2 and e2.alternative == "SLOWER"
+    assert e2.postcondition_violations == [3]
+    assert (report.episodes, report.steps, report.infeasible_steps) == (3, 9, 3)
+    assert (report.crashes, report.crashes_after_infeasible) == (1, 1)
+    assert (report.deadlock_states, report.postcondition_violations,
+            report.invariant_violations) == (1, 1, 1)
+    assert report.feasible_episodes == 0 and report.infeasible_episodes == 3
+    assert report.elapsed_s > 0
+    data = report.to_json()
+    for key in ("shield", "episodes", "steps", "feasible_episodes", "infeasible_episodes",
+                "infeasible_steps", "crashes", "crashes_after_infeasible", "deadlock_states",
+                "postcondition_violations", "invariant_violations", "elapsed_s",
+                "per_episode"):
+        assert key in data
+    assert data["shield"]["name"] == "toy" and len(data["shield"]["sha256"]) == 64
+
+
+def test_batch_and_per_state_agree(toy, run_file):
+    """The vectorised replay gives what the scalar machine says state by state."""
+    cols = read_columns(run_file)
+    matrix, ops = enabled_matrix(toy, cols)
+    for r in range(cols.n):
+        assert {o for o, ok in zip(ops, matrix[r]) if ok} == toy.machine.enabled(
+            cols.states.row(r))
+
+
+def test_paper_shield_on_paper_traces(paper_traces, tmp_path):
+    """The two facts of the paper's data: base_shield/ is feasible, base/ has 233 of 765
+    steps infeasible; never a deadlock; the model agrees with every recorded step."""
+    paper = load_shield("paper")
+    for folder, steps, infeasible in (("base", 765, 233), ("base_shield", 1179, 0)):
+        path = tmp_path / f"{folder}.mcap"
+        write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / folder]))
+        report = replay([path], paper)
+        assert (report.steps, report.infeasible_steps) == (steps, infeasible)
+        assert report.deadlock_states == report.postcondition_violations == 0
+        assert report.invariant_violations == 0
+    assert report.crashes == 1 and report.crashes_after_infeasible == 0
+    base = replay([tmp_path / "base.mcap"], paper)
+    assert base.crashes == 9 and base.crashes_after_infeasible == 9
+
+
+def test_diff(paper_traces, tmp_path):
+    path = tmp_path / "base.mcap"
+    write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / "base"]))
+    paper, none = load_shield("paper"), load_shield("none")
+    same = diff([path], paper, paper)
+    assert same.changed_steps == same.enabled_set_changes == same.episodes_changed == 0
+    assert not same.anything_changed
+    d = diff([path], paper, none)
+    infeasible = replay([path], paper)
+    assert d.newly_blocked == d.changed_steps == infeasible.infeasible_steps == 233
+    assert d.newly_allowed == 0
+    blocked = {(e.episode, s) for e in infeasible.per_episode for s in _infeasible_steps(e)}
+    assert {(c.episode, c.step) for c in d.changes} >= blocked
+    assert d.episodes_changed == 20 and d.crashes_in_changed_episodes == 9
+    back = diff([path], none, paper)
+    assert back.newly_allowed == 233 and back.newly_blocked == 0
+
+
+def _infeasible_steps(e):
+    return [e.first_infeasible] if e.first_infeasible is not None else []
+
+
+def test_strict_is_deadlock_free_on_paper_traces(paper_traces, tmp_path):
+    path = tmp_path / "all.mcap"
+    write_run(path, new_header("imported-simb"),
+              (dataclasses.replace(e, id=i) for i, e in enumerate(
+                  import_simb([paper_traces / "simb" / "base",
+                               paper_traces / "simb" / "base_shield"]))))
+    report = replay([path], load_shield("strict"))
+    assert report.deadlock_states == 0
+    assert report.infeasible_steps > 233  # stricter than the paper's shield on base/
+
+
+coords = st.floats(min_value=-80, max_value=80, allow_nan=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(xs=st.lists(coords, min_size=4, max_size=4), ys=st.lists(
+    st.sampled_from([-8.0, -4.0, -2.1, 0.0, 1.9, 4.0, 8.0]), min_size=4, max_size=4),
+    vxs=st.lists(st.floats(-15, 15), min_size=4, max_size=4),
+    vys=st.lists(st.floats(-3, 3), min_size=4, max_size=4),
+    ego=st.tuples(st.sampled_from([0.0, 4.0, 8.0]), st.floats(15, 32)),
+    present=st.lists(st.booleans(), min_size=4, max_size=4))
+def test_strict_always_leaves_an_action(xs, ys, vxs, vys, ego, present):
+    """Relative deadlock freedom: in any state at least one action stays enabled."""
+    machine = load_shield("strict").machine
+    vs = machine.sets["Vehicles"]
+    f = lambda e, rest: FuncValue(dict(zip(vs, [e, *rest])))  # noqa: E731
+    s = {"Crash": False, "Reward": 0.0,
+         "PresentVehicles": frozenset([vs[0]] + [v for v, p in zip(vs[1:], present) if p]),
+         "VehiclesX": f(100.0, xs), "VehiclesY": f(ego[0], ys), "VehiclesVx": f(ego[1], vxs),
+         "VehiclesVy": f(0.0, vys), "VehiclesAx": f(0.0, [0.0] * 4),
+         "VehiclesAy": f(0.0, [0.0] * 4)}
+    assert machine.enabled(s)
+
+
+def test_strict_blocks_what_rss_forbids():
+    machine = load_shield("strict").machine
+    vs = machine.sets["Vehicles"]
+    f = lambda *vals: FuncValue(dict(zip(vs, vals)))  # noqa: E731
+    base = {"Crash": False, "Reward": 0.0, "PresentVehicles": frozenset(vs[:2]),
+            "VehiclesY": f(4.0, 0.0, 0.0, 0.0, 0.0), "VehiclesVy": f(*[0.0] * 5),
+            "VehiclesAx": f(*[0.0] * 5), "VehiclesAy": f(*[0.0] * 5)}
+    # same speed 25 m/s: IDLE needs 25 + 625/8 - 625/10 = 40.625 m between the vehicles
+    # (centres 45.625 m apart), FASTER 25 + 2.5 + 900/8 - 62.5 = 77.5 m (centres 82.5 m)
+    def ahead(x):
+        return {**base, "VehiclesX": f(100.0, x, 0.0, 0.0, 0.0),
+                "VehiclesVx": f(25.0, 0.0, 0.0, 0.0, 0.0)}
+    assert "IDLE" in machine.enabled(ahead(45.7)) and "FASTER" not in machine.enabled(ahead(45.7))
+    assert "IDLE" not in machine.enabled(ahead(45.6))
+    assert {"IDLE", "FASTER"} <= machine.enabled(ahead(82.6))
+    assert "FASTER" not in machine.enabled(ahead(82.4))
+
+
+def test_missing_variable_is_an_input_error(tmp_path):
+    path = tmp_path / "thin.mcap"
+    s0 = {"Crash": False, "Reward": 0.0}
+    steps = (StepRecord(0, 0.0, None, s0, 0.0, False),
+             StepRecord(1, 1.0, "IDLE", s0, 0.0, False))
+    with EpisodeWriter(path, new_header("recorded")) as w:
+        w.write(Episode(0, steps, make_end(steps)))
+    with pytest.raises(InputError, match=r"thin.mcap: the states have no .*VehiclesX.* which "
+                                         r"the shield paper reads \(episode 0, step 0\)"):
+        replay([path], load_shield("paper"))
+
+
+def test_shield_loading_errors(tmp_path):
+    with pytest.raises(InputError, match="unknown shield 'sturdy': give one of none, paper, "
+                                         "strict or the path of a .mch file"):
+        load_shield("sturdy")
+    partial = tmp_path / "partial.mch"
+    partial.write_text("MACHINE Partial OPERATIONS IDLE = skip; FASTER = skip END")
+    with pytest.raises(InputError, match="Partial lacks LANE_LEFT, LANE_RIGHT, SLOWER"):
+        load_shield(partial)
+    shield = load_shield("paper")
+    assert shield.name == "paper" and shield.identity["sha256"] == shield.machine.sha256
+
+
+def test_replay_speed_paths_agree_on_real_data(paper_traces, tmp_path):
+    path = tmp_path / "base.mcap"
+    write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / "base"]))
+    cols = read_columns(path)
+    paper = load_shield("paper")
+    matrix, ops = enabled_matrix(paper, cols)
+    rows = np.arange(cols.n)
+    for r in rows[::7]:
+        assert {o for o, ok in zip(ops, matrix[r]) if ok} == paper.machine.enabled(
+            cols.states.row(r))

@@ -1,0 +1,340 @@
+"""Replay recorded episodes against a shield, and diff two shields on the same episodes.
+
+For each step k >= 1 of each episode: the recorded action must be enabled in the state before
+it (else the step is *infeasible*: the shield would have blocked it), the pair of states must
+satisfy the operation's effect (else a *postcondition violation*: model and environment
+disagree, paper §3.3), the invariant must hold, and a state where the shield enables nothing
+is a *deadlock*. Everything is evaluated over the numpy columns of the whole file at once.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Iterable, Optional
+
+import numpy as np
+
+from .b import ast as A
+from .b.vector import Columns
+from .episodes.mcap_io import RunColumns, read_columns
+from .errors import InputError
+from .shield import Shield
+
+__all__ = ["replay", "diff", "ReplayReport", "EpisodeReplay", "DiffReport", "ChangedStep",
+           "enabled_matrix"]
+
+
+@dataclass(frozen=True)
+class EpisodeReplay:
+    """What replay found in one episode (steps are numbered from the initial state 0)."""
+
+    file: str
+    episode: int
+    steps: int
+    first_infeasible: Optional[int]
+    action: Optional[str]
+    enabled: Optional[list[str]]
+    alternative: Optional[str]
+    infeasible_steps: int
+    crashed: bool
+    crash_step: Optional[int]
+    crash_after_infeasible: bool
+    deadlock_states: list[int]
+    postcondition_violations: list[int]
+    invariant_violations: list[int]
+
+    @property
+    def matters(self) -> bool:
+        return (self.crashed or self.first_infeasible is not None or bool(self.deadlock_states)
+                or bool(self.postcondition_violations) or bool(self.invariant_violations))
+
+
+@dataclass
+class ReplayReport:
+    shield: dict
+    files: list[str]
+    episodes: int = 0
+    steps: int = 0
+    feasible_episodes: int = 0
+    infeasible_episodes: int = 0
+    infeasible_steps: int = 0
+    crashes: int = 0
+    crashes_after_infeasible: int = 0
+    deadlock_states: int = 0
+    postcondition_violations: int = 0
+    invariant_violations: int = 0
+    elapsed_s: float = 0.0
+    per_episode: list[EpisodeReplay] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+    def to_json(self) -> dict:
+        data = asdict(self)
+        data["steps_per_s"] = round(self.steps / self.elapsed_s) if self.elapsed_s else None
+        return data
+
+
+def enabled_matrix(shield: Shield, cols: RunColumns) -> tuple[np.ndarray, tuple[str, ...]]:
+    """(rows, operations) booleans: which operations the shield enables in each state."""
+    _check_variables(shield, cols)
+    enabled = shield.machine.enabled_batch(cols.states)
+    ops = tuple(shield.machine.operations)
+    return np.stack([enabled[o] for o in ops], axis=1) if ops else \
+        np.zeros((cols.n, 0), dtype=bool), ops
+
+
+def _check_variables(shield: Shield, cols: RunColumns) -> None:
+    have = cols.states.names() | set(shield.machine.base_env)
+    needed: set[str] = set()
+    machine = shield.machine
+    for op in machine.operations.values():
+        if op.guard is not None:
+            needed |= A.free_names(op.guard)
+    if machine.invariant_node is not None:
+        needed |= A.free_names(machine.invariant_node)
+    missing = sorted(n for n in needed if n not in have and n in machine.variables)
+    if missing and cols.n:
+        raise InputError(f"{cols.path}: the states have no {', '.join(missing)}, which the "
+                         f"shield {shield.name} reads (episode {int(cols.episode_ids[0])}, "
+                         "step 0)")
+
+
+def _pairs(cols: Columns, rows: np.ndarray) -> Columns:
+    """Columns over step pairs: ``v`` the state at ``rows``, ``v$0`` the state before it."""
+    out = Columns(n=len(rows), elements=cols.elements)
+    before = rows - 1
+    for name, arr in cols.numbers.items():
+        out.numbers[name], out.numbers[name + "$0"] = arr[rows], arr[before]
+    for name, arr in cols.booleans.items():
+        out.booleans[name], out.booleans[name + "$0"] = arr[rows], arr[before]
+    for name, (vals, defined) in cols.functions.items():
+        out.functions[name] = (vals[rows], defined[rows])
+        out.functions[name + "$0"] = (vals[before], defined[before])
+    for name, mask in cols.masks.items():
+        out.masks[name], out.masks[name + "$0"] = mask[rows], mask[before]
+    for name, values in cols.others.items():
+        out.others[name] = [values[i] for i in rows]
+        out.others[name + "$0"] = [values[i] for i in before]
+    return out
+
+
+def _postconditions(shield: Shield, cols: RunColumns, rows: np.ndarray,
+                    actions: np.ndarray) -> np.ndarray:
+    """For each step row, whether the step breaks its operation's postcondition."""
+    machine = shield.machine
+    bad = np.zeros(len(rows), dtype=bool)
+    for code, name in enumerate(cols.action_names):
+        which = np.flatnonzero(actions == code)
+        if not len(which) or name not in machine.operations:
+            continue
+        node = machine.postcondition(name)
+        if node is None:  # no predicate for this body: check the steps one by one
+            for i in which:
+                r = rows[i]
+                bad[i] = not machine.effect_ok(name, cols.states.row(r - 1), cols.states.row(r))
+            continue
+        formula = machine._compiled.setdefault("post_batch", {}).get(name)
+        if formula is None:
+            formula = machine._compiled["post_batch"][name] = machine.batch(node)
+        bad[which] = ~formula(_pairs(cols.states, rows[which])).astype(bool)
+    return bad
+
+
+def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport) -> None:
+    matrix, ops = enabled_matrix(shield, cols)
+    op_index = {o: i for i, o in enumerate(ops)}
+    unknown = [a for a in cols.action_names if a not in op_index]
+    rows = np.flatnonzero(cols.step > 0)
+    actions = cols.action[rows]
+    used_unknown = [a for a in unknown if np.any(actions == cols.action_names.index(a))]
+    if used_unknown:
+        raise InputError(f"{cols.path}: the episodes use the action {used_unknown[0]}, which "
+                         f"the shield {shield.name} has no operation for")
+    to_op = np.array([op_index.get(a, 0) for a in cols.action_names] + [0], dtype=np.int64)
+    feasible = np.ones(cols.n, dtype=bool)
+    feasible[rows] = matrix[rows - 1, to_op[actions]]
+    deadlock = ~matrix.any(axis=1) if ops else np.ones(cols.n, dtype=bool)
+    machine = shield.machine
+    invariant_ok = np.ones(cols.n, dtype=bool)
+    if machine.invariant_node is not None:
+        inv = machine._compiled.get("inv_batch") or machine.batch(machine.invariant_node)
+        machine._compiled["inv_batch"] = inv
+        invariant_ok = inv(cols.states).astype(bool)
+    post_bad = np.zeros(cols.n, dtype=bool)
+    post_bad[rows] = _postconditions(shield, cols, rows, actions)
+    for i, ep in enumerate(cols.episode_ids):
+        lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
+        report.per_episode.append(_episode(cols, shield, ops, matrix, feasible, deadlock,
+                                           invariant_ok, post_bad, int(ep), lo, hi))
+
+
+def _episode(cols, shield, ops, matrix, feasible, deadlock, invariant_ok, post_bad, ep, lo,
+             hi) -> EpisodeReplay:
+    bad_steps = np.flatnonzero(~feasible[lo + 1:hi]) + 1
+    first = int(bad_steps[0]) if len(bad_steps) else None
+    action = enabled = alternative = None
+    if first is not None:
+        action = cols.action_names[cols.action[lo + first]]
+        allowed = matrix[lo + first - 1]
+        enabled = [o for o, ok in zip(ops, allowed) if ok]
+        if cols.values is not None:
+            q = cols.values[lo + first - 1]
+            scored = [(q[cols.action_names.index(o)], o) for o in enabled
+                      if o in cols.action_names and not np.isnan(q[cols.action_names.index(o)])]
+            alternative = max(scored)[1] if scored else None
+    crashes = np.flatnonzero(cols.crashed[lo:hi])
+    crash_step = int(crashes[0]) if len(crashes) else None
+    return EpisodeReplay(
+        file=cols.path, episode=ep, steps=hi - lo - 1, first_infeasible=first, action=action,
+        enabled=enabled, alternative=alternative, infeasible_steps=len(bad_steps),
+        crashed=crash_step is not None, crash_step=crash_step,
+        crash_after_infeasible=crash_step is not None and first is not None
+        and crash_step >= first,
+        deadlock_states=[int(k) for k in np.flatnonzero(deadlock[lo:hi])],
+        postcondition_violations=[int(k) for k in np.flatnonzero(post_bad[lo:hi])],
+        invariant_violations=[int(k) for k in np.flatnonzero(~invariant_ok[lo:hi])],
+    )
+
+
+def replay(paths: Iterable[str | Path], shield: Shield) -> ReplayReport:
+    """Replay every episode of the files against ``shield`` (see the module docstring)."""
+    paths = [str(p) for p in paths]
+    report = ReplayReport(shield=shield.identity, files=paths)
+    start = time.perf_counter()
+    for path in paths:
+        cols = read_columns(path)
+        report.warnings += cols.warnings
+        _replay_file(shield, cols, report)
+    report.elapsed_s = round(time.perf_counter() - start, 6)
+    eps = report.per_episode
+    report.episodes = len(eps)
+    report.steps = sum(e.steps for e in eps)
+    report.infeasible_episodes = sum(e.first_infeasible is not None for e in eps)
+    report.feasible_episodes = report.episodes - report.infeasible_episodes
+    report.infeasible_steps = sum(e.infeasible_steps for e in eps)
+    report.crashes = sum(e.crashed for e in eps)
+    report.crashes_after_infeasible = sum(e.crash_after_infeasible for e in eps)
+    report.deadlock_states = sum(len(e.deadlock_states) for e in eps)
+    report.postcondition_violations = sum(len(e.postcondition_violations) for e in eps)
+    report.invariant_violations = sum(len(e.invariant_violations) for e in eps)
+    return report
+
+
+# ------------------------------------------------------------------ diff
+
+
+@dataclass(frozen=True)
+class ChangedStep:
+    file: str
+    episode: int
+    step: int
+    action: str
+    feasible_under_shield: bool
+    feasible_under_against: bool
+    enabled_shield: list[str]
+    enabled_against: list[str]
+
+
+@dataclass
+class DiffReport:
+    shield: dict
+    against: dict
+    files: list[str]
+    episodes: int = 0
+    steps: int = 0
+    states: int = 0
+    changed_steps: int = 0
+    newly_blocked: int = 0
+    newly_allowed: int = 0
+    enabled_set_changes: int = 0
+    episodes_changed: int = 0
+    crashes_in_changed_episodes: int = 0
+    elapsed_s: float = 0.0
+    changes: list[ChangedStep] = field(default_factory=list)
+    changed_episodes: list[dict] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def anything_changed(self) -> bool:
+        return bool(self.changed_steps or self.enabled_set_changes)
+
+    def to_json(self) -> dict:
+        return asdict(self)
+
+
+def diff(paths: Iterable[str | Path], shield: Shield, against: Shield) -> DiffReport:
+    """Evaluate both shields on every recorded state and report what changes from
+    ``against`` (the old version, or the baseline) to ``shield``."""
+    paths = [str(p) for p in paths]
+    report = DiffReport(shield=shield.identity, against=against.identity, files=paths)
+    start = time.perf_counter()
+    for path in paths:
+        cols = read_columns(path)
+        report.warnings += cols.warnings
+        _diff_file(cols, shield, against, report)
+    report.elapsed_s = round(time.perf_counter() - start, 6)
+    return report
+
+
+def _aligned(shield: Shield, cols: RunColumns, names: tuple[str, ...]) -> np.ndarray:
+    matrix, ops = enabled_matrix(shield, cols)
+    index = {o: i for i, o in enumerate(ops)}
+    out = np.zeros((cols.n, len(names)), dtype=bool)
+    for j, name in enumerate(names):
+        if name in index:
+            out[:, j] = matrix[:, index[name]]
+    return out
+
+
+def _diff_file(cols: RunColumns, a: Shield, b: Shield, report: DiffReport) -> None:
+    names = tuple(dict.fromkeys(list(a.machine.operations) + list(b.machine.operations)))
+    ma, mb = _aligned(a, cols, names), _aligned(b, cols, names)
+    rows = np.flatnonzero(cols.step > 0)
+    col = {n: j for j, n in enumerate(names)}
+    to_col = np.array([col.get(x, -1) for x in cols.action_names] + [-1], dtype=np.int64)
+    acts = to_col[cols.action[rows]]
+    known = acts >= 0
+    fa = np.ones(len(rows), dtype=bool)
+    fb = np.ones(len(rows), dtype=bool)
+    fa[known] = ma[rows[known] - 1, acts[known]]
+    fb[known] = mb[rows[known] - 1, acts[known]]
+    changed = fa != fb
+    report.episodes += len(cols.episode_ids)
+    report.steps += len(rows)
+    report.states += cols.n
+    report.changed_steps += int(changed.sum())
+    report.newly_blocked += int((fb & ~fa).sum())
+    report.newly_allowed += int((fa & ~fb).sum())
+    report.enabled_set_changes += int(np.any(ma != mb, axis=1).sum())
+    for i in np.flatnonzero(changed):
+        r = rows[i]
+        report.changes.append(ChangedStep(
+            file=cols.path, episode=int(cols.episode[r]), step=int(cols.step[r]),
+            action=cols.action_names[cols.action[r]], feasible_under_shield=bool(fa[i]),
+            feasible_under_against=bool(fb[i]),
+            enabled_shield=[n for n, ok in zip(names, ma[r - 1]) if ok],
+            enabled_against=[n for n, ok in zip(names, mb[r - 1]) if ok]))
+    first_a = _first_false(cols, rows, fa)
+    first_b = _first_false(cols, rows, fb)
+    for i, ep in enumerate(cols.episode_ids):
+        if first_a[i] != first_b[i]:
+            lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
+            crashed = bool(cols.crashed[lo:hi].any())
+            report.episodes_changed += 1
+            report.crashes_in_changed_episodes += crashed
+            report.changed_episodes.append({
+                "file": cols.path, "episode": int(ep), "crashed": crashed,
+                "first_infeasible_shield": first_a[i], "first_infeasible_against": first_b[i]})
+
+
+def _first_false(cols: RunColumns, rows: np.ndarray, ok: np.ndarray) -> list[Optional[int]]:
+    out: list[Optional[int]] = []
+    episode_of_row = np.searchsorted(cols.starts, rows, side="right") - 1
+    firsts: dict[int, int] = {}
+    for i in np.flatnonzero(~ok):
+        e = int(episode_of_row[i])
+        firsts.setdefault(e, int(cols.step[rows[i]]))
+    for e in range(len(cols.episode_ids)):
+        out.append(firsts.get(e))
+    return out

@@ -1,0 +1,105 @@
+"""Replay and diff reports for people: rich text for the terminal, Markdown for files."""
+
+from __future__ import annotations
+
+from rich.console import Console
+from rich.table import Table
+
+from .replay import DiffReport, EpisodeReplay, ReplayReport
+
+__all__ = ["replay_text", "replay_markdown", "diff_text"]
+
+
+def _short(sha: str) -> str:
+    return sha[:12]
+
+
+def _steps(values: list[int], limit: int = 6) -> str:
+    text = ", ".join(str(v) for v in values[:limit])
+    return text + (f", … (+{len(values) - limit})" if len(values) > limit else "")
+
+
+def _row(e: EpisodeReplay) -> list[str]:
+    prevented = ""
+    if e.crashed:
+        prevented = "yes" if e.crash_after_infeasible else "no"
+    return [
+        e.file.rsplit("/", 1)[-1], str(e.episode), str(e.steps),
+        "" if e.first_infeasible is None else str(e.first_infeasible), e.action or "",
+        ", ".join(e.enabled or []), e.alternative or "", str(e.infeasible_steps),
+        "" if e.crash_step is None else str(e.crash_step), prevented,
+        _steps(e.deadlock_states + e.postcondition_violations + e.invariant_violations),
+    ]
+
+
+HEADERS = ["file", "episode", "steps", "first infeasible", "action", "shield allowed",
+           "shielded choice", "infeasible", "crash step", "crash blocked?", "other findings"]
+
+
+def _summary_lines(r: ReplayReport) -> list[str]:
+    rate = f"{r.steps / r.elapsed_s:,.0f} steps/s" if r.elapsed_s else ""
+    return [
+        f"Replay against shield {r.shield['name']} (sha256 {_short(r.shield['sha256'])}): "
+        f"{r.episodes} episode(s), {r.steps} step(s) in {r.elapsed_s:.3f} s ({rate})",
+        f"infeasible: {r.infeasible_steps} step(s) in {r.infeasible_episodes} of {r.episodes} "
+        f"episode(s); {r.feasible_episodes} episode(s) fully feasible",
+        f"crashes: {r.crashes}, of which {r.crashes_after_infeasible} at or after the first "
+        f"infeasible step (the shield would have blocked the way there)",
+        f"deadlock states: {r.deadlock_states}; postcondition violations: "
+        f"{r.postcondition_violations}; invariant violations: {r.invariant_violations}",
+    ]
+
+
+def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
+    for i, line in enumerate(_summary_lines(r)):
+        console.print(f"[bold]{line}[/bold]" if i == 0 else line, markup=i == 0,
+                      highlight=False)
+    matters = [e for e in r.per_episode if e.matters]
+    if not matters:
+        console.print("every step of every episode is feasible; nothing else found")
+        return
+    table = Table(*HEADERS, title="episodes that matter", show_lines=False)
+    for e in matters[:rows]:
+        table.add_row(*_row(e))
+    console.print(table)
+    if len(matters) > rows:
+        console.print(f"… {len(matters) - rows} more episode(s): use --json for all")
+
+
+def replay_markdown(r: ReplayReport, rows: int) -> str:
+    lines = [f"# Replay: shield `{r.shield['name']}`", ""]
+    lines += [f"- {line}" for line in _summary_lines(r)]
+    matters = [e for e in r.per_episode if e.matters]
+    if matters:
+        lines += ["", "| " + " | ".join(HEADERS) + " |",
+                  "|" + "---|" * len(HEADERS)]
+        lines += ["| " + " | ".join(cell.replace("|", "\\|") for cell in _row(e)) + " |"
+                  for e in matters[:rows]]
+        if len(matters) > rows:
+            lines.append(f"\n{len(matters) - rows} more episode(s) in the JSON report.")
+    return "\n".join(lines)
+
+
+def diff_text(console: Console, d: DiffReport, rows: int) -> None:
+    console.print(f"[bold]Shield {d.shield['name']} ({_short(d.shield['sha256'])}) against "
+                  f"{d.against['name']} ({_short(d.against['sha256'])}): {d.episodes} "
+                  f"episode(s), {d.steps} step(s), {d.states} state(s)[/bold]",
+                  highlight=False)
+    console.print(f"changed steps: {d.changed_steps} (newly blocked {d.newly_blocked}, newly "
+                  f"allowed {d.newly_allowed}); states whose enabled set differs: "
+                  f"{d.enabled_set_changes}", highlight=False)
+    console.print(f"episodes whose first infeasible step moved: {d.episodes_changed} "
+                  f"({d.crashes_in_changed_episodes} of them crashed)", highlight=False)
+    if not d.changes:
+        return
+    table = Table("file", "episode", "step", "action", d.shield["name"], d.against["name"],
+                  f"enabled by {d.shield['name']}", f"enabled by {d.against['name']}",
+                  title="changed steps")
+    for c in d.changes[:rows]:
+        table.add_row(c.file.rsplit("/", 1)[-1], str(c.episode), str(c.step), c.action,
+                      "allowed" if c.feasible_under_shield else "blocked",
+                      "allowed" if c.feasible_under_against else "blocked",
+                      ", ".join(c.enabled_shield), ", ".join(c.enabled_against))
+    console.print(table)
+    if len(d.changes) > rows:
+        console.print(f"… {len(d.changes) - rows} more changed step(s): use --json for all")
