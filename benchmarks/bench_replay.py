@@ -66,7 +66,7 @@ def main() -> None:
     args = parser.parse_args()
     if not SIMB.is_dir():
         raise SystemExit(f"the paper's traces are not at {SIMB}")
-    paper, none = load_shield("paper"), load_shield("none")
+    paper, none, strict = load_shield("paper"), load_shield("none"), load_shield("strict")
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "run.mcap"
         build(path, args.episodes)
@@ -78,6 +78,11 @@ def main() -> None:
             batch.append(report.steps / report.elapsed_s)
             d = diff([path], paper, none)
             diffs.append(d.steps / d.elapsed_s)
+        replay([path], strict)
+        stricts = []
+        for _ in range(args.repeat):
+            r = replay([path], strict)
+            stricts.append(r.steps / r.elapsed_s)
         steps, scalar_s = per_state(path, paper)
     scalar = steps / scalar_s
     med, dmed = statistics.median(batch), statistics.median(diffs)
@@ -88,6 +93,8 @@ def main() -> None:
     print(f"diff paper vs none: median {dmed:,.0f} steps/s (min {min(diffs):,.0f}); "
           f"target >= {med / 2:,.0f} (half of replay)")
     print(f"replay (per state): {scalar:,.0f} steps/s (one run, {scalar_s:.1f} s)")
+    print(f"replay with strict (RSS, nested quantifiers): median "
+          f"{statistics.median(stricts):,.0f} steps/s")
     print(f"batch / per-state:  {med / scalar:.0f}x")
 
 

@@ -28,6 +28,12 @@ FORMULAS = [
     "bool(Reward > 0.2) = Crash",
     "EgoVehicle : PresentVehicles & Vehicles2 /: PresentVehicles",
     "RABS(Y(EgoVehicle)) - floor(Reward * 3.0) >= 0.0",
+    # IF guards a division: only the rows that take the branch may be ill-defined
+    "IF Reward = 0.0 THEN 1.0 ELSE 1.0 / Reward END > 0.5",
+    # nested element quantifiers (two element axes)
+    "!v.(v : PresentVehicles => #w.(w : PresentVehicles & X(w) >= X(v)))",
+    "#v.(v : PresentVehicles & not(#w.(w : PresentVehicles & w /= v & X(w) < X(v))) & "
+    "X(v) > 0.0)",
     # not vectorisable: answered by the scalar path row by row
     "card({v | v : PresentVehicles & X(v) > 0.0}) >= 1",
     "#(v, w).(v : PresentVehicles & w : PresentVehicles & v /= w & X(v) = X(w))",
@@ -81,7 +87,7 @@ def test_plans_vectorise_the_common_shapes():
     }], ELEMS)
     planned = [BatchFormula(parse_formula(t), CONSTANTS)._plan(cols) is not None
                for t in FORMULAS]
-    assert planned == [True] * 10 + [False] * 2
+    assert planned == [True] * 13 + [False] * 2
 
 
 def test_partial_function_rows_fall_back_to_scalar():
@@ -123,3 +129,17 @@ def test_enabled_batch_matches_enabled(table1):
     batch = table1.enabled_batch(Columns.from_states(states, table1.sets["Vehicles"]))
     for i, s in enumerate(states):
         assert {op for op, arr in batch.items() if arr[i]} == table1.enabled(s)
+
+
+def test_if_branches_only_count_where_taken():
+    """A division guarded by IF does not send the rows where it is not taken to the scalar
+    path (which would be correct but slow)."""
+    from tracecheck.b.vector import _Ctx
+
+    rows = [{"Reward": r, "X": FuncValue({ELEMS[0]: 1.0})} for r in (0.0, 2.0, 0.0)]
+    cols = Columns.from_states(rows, ELEMS[:1])
+    formula = BatchFormula(parse_formula("IF Reward = 0.0 THEN 1.0 ELSE 1.0 / Reward END"), {})
+    ctx = _Ctx(cols)
+    tag, value = formula._plan(cols)(ctx)
+    assert not ctx.bad.any()
+    assert list(formula(cols)) == [1.0, 0.5, 1.0]

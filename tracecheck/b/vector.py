@@ -130,12 +130,15 @@ Vec = tuple
 class _Ctx:
     def __init__(self, cols: Columns) -> None:
         self.cols = cols
-        self.bad = np.zeros((cols.n, 1), dtype=bool)
+        self.bad = np.zeros(cols.n, dtype=bool)
 
     def mark(self, rows: np.ndarray) -> None:
-        if rows.ndim == 2 and rows.shape[1] != 1:
-            rows = rows.any(axis=1, keepdims=True)
-        self.bad |= rows
+        """Remember the rows where ``rows`` (any shape starting with rows or 1) is true."""
+        rows = np.asarray(rows)
+        if rows.ndim == 0:
+            rows = np.full(self.cols.n, bool(rows))
+        rows = np.broadcast_to(rows, (self.cols.n,) + rows.shape[1:])
+        self.bad |= rows.reshape(self.cols.n, -1).any(axis=1)
 
 
 class _VecCompiler:
@@ -145,7 +148,7 @@ class _VecCompiler:
         self.index = {e: i for i, e in enumerate(elements)}
         self.k = len(elements)
         self.kinds = kinds
-        self.axis_var: Optional[str] = None
+        self.axes: list[str] = []  # bound element variables: axis 1, then axis 2
 
     def compile(self, node: A.Node) -> Callable[[_Ctx], Vec]:
         method = getattr(self, "v_" + type(node).__name__, None)
@@ -170,14 +173,14 @@ class _VecCompiler:
 
     def v_Name(self, node: A.Name) -> Callable:
         name = node.id
-        if name == self.axis_var:
-            axis = np.arange(self.k).reshape(1, self.k)
-            return lambda ctx: ("elem", axis)
+        if name in self.axes:
+            depth = self.axes.index(name)
+            return lambda ctx: ("elem", ("axis", depth))
         kind = self.kinds.get(name)
         if kind == "num":
-            return lambda ctx: ("num", ctx.cols.numbers[name][:, None])
+            return lambda ctx: ("num", ctx.cols.numbers[name][:, None, None])
         if kind == "bool":
-            return lambda ctx: ("bool", ctx.cols.booleans[name][:, None])
+            return lambda ctx: ("bool", ctx.cols.booleans[name][:, None, None])
         if kind == "func":
             return lambda ctx: ("func", ctx.cols.functions[name])
         if kind == "set":
@@ -226,7 +229,7 @@ class _VecCompiler:
                 zero = np.asarray(b) == 0
                 if np.any(zero):
                     ctx.mark(np.broadcast_to(zero, np.broadcast(a, b).shape)
-                             if np.ndim(zero) else np.ones((ctx.cols.n, 1), dtype=bool))
+                             if np.ndim(zero) else np.ones(ctx.cols.n, dtype=bool))
                 if _is_int(a) and _is_int(b):
                     with np.errstate(divide="ignore", invalid="ignore"):
                         safe = np.where(zero, 1, b)
@@ -263,11 +266,13 @@ class _VecCompiler:
                 if a[0] != b[0] or a[0] not in ("num", "bool", "elem", "set", "func"):
                     raise _NotVectorizable("=")
                 if a[0] == "set":
-                    res = np.all(a[1] == b[1], axis=-1, keepdims=True)
+                    res = _per_row(np.all(a[1] == b[1], axis=-1))
                 elif a[0] == "func":
                     (va, da), (vb, db) = a[1], b[1]
                     same = (da == db) & ((va == vb) | ~da)
-                    res = np.all(same, axis=-1, keepdims=True)
+                    res = _per_row(np.all(same, axis=-1))
+                elif a[0] == "elem":
+                    res = np.equal(self.elem_index(a[1]), self.elem_index(b[1]))
                 else:
                     res = np.equal(a[1], b[1])
                 return ("bool", res if op == "=" else ~np.asarray(res))
@@ -276,8 +281,7 @@ class _VecCompiler:
             def member(ctx: _Ctx) -> Vec:
                 a, s = l(ctx), r(ctx)
                 if a[0] == "elem" and s[0] == "set":
-                    idx, mask = a[1], s[1]
-                    res = mask if not isinstance(idx, int) else mask[:, idx:idx + 1]
+                    res = self.pick(s[1], a[1])
                 else:
                     res = _typed_member(a, s, ctx.cols.n)
                 return ("bool", res if op == ":" else ~res)
@@ -287,7 +291,7 @@ class _VecCompiler:
                 a, b = l(ctx), r(ctx)
                 if a[0] != "set" or b[0] != "set":
                     raise _NotVectorizable("<:")
-                res = np.all(~a[1] | b[1], axis=-1, keepdims=True)
+                res = _per_row(np.all(~a[1] | b[1], axis=-1))
                 return ("bool", res if op == "<:" else ~res)
             return subset
         raise _NotVectorizable(op)
@@ -313,7 +317,7 @@ class _VecCompiler:
         return lambda ctx: ("bool", np.logical_not(_bool(f(ctx))))
 
     def v_Quant(self, node: A.Quant) -> Callable:
-        if len(node.ids) != 1 or self.axis_var is not None:
+        if len(node.ids) != 1 or len(self.axes) >= 2:
             raise _NotVectorizable("quantifier shape")
         (var,) = node.ids
         body = node.body
@@ -325,22 +329,39 @@ class _VecCompiler:
         if gen is None:
             raise _NotVectorizable("no domain")
         dom = self.compile(gen.right)
-        self.axis_var = var
+        depth = len(self.axes)
+        self.axes.append(var)
         try:
             f = self.compile(body)
         finally:
-            self.axis_var = None
+            self.axes.pop()
         forall = node.op == "!"
+        axis = 1 + depth
 
         def quant(ctx: _Ctx) -> Vec:
             tag, mask = dom(ctx)
-            if tag != "set":
+            if tag != "set" or np.ndim(mask) != 2:
                 raise _NotVectorizable("domain")
-            value = np.broadcast_to(_bool(f(ctx)), (ctx.cols.n, self.k))
+            mask = mask[:, :, None] if depth == 0 else mask[:, None, :]
+            value = _bool(f(ctx))
             if forall:
-                return ("bool", np.all(value | ~mask, axis=1, keepdims=True))
-            return ("bool", np.any(value & mask, axis=1, keepdims=True))
+                return ("bool", np.all(value | ~mask, axis=axis, keepdims=True))
+            return ("bool", np.any(value & mask, axis=axis, keepdims=True))
         return quant
+
+    def elem_index(self, elem) -> Any:
+        """An element as an index (an int) or an index array along its quantifier's axis."""
+        if isinstance(elem, tuple):
+            shape = [1, 1, 1]
+            shape[1 + elem[1]] = self.k
+            return np.arange(self.k).reshape(shape)
+        return elem
+
+    def pick(self, table: np.ndarray, elem) -> np.ndarray:
+        """``table`` (rows, elements) at ``elem``, shaped (rows, axis 1, axis 2)."""
+        if isinstance(elem, tuple):
+            return table[:, :, None] if elem[1] == 0 else table[:, None, :]
+        return table[:, elem][:, None, None]
 
     def v_Apply(self, node: A.Apply) -> Callable:
         if len(node.args) != 1:
@@ -352,9 +373,7 @@ class _VecCompiler:
             if f[0] != "func" or x[0] != "elem":
                 raise _NotVectorizable("apply")
             vals, defined = f[1]
-            idx = x[1]
-            if isinstance(idx, int):
-                vals, defined = vals[:, idx:idx + 1], defined[:, idx:idx + 1]
+            vals, defined = self.pick(vals, x[1]), self.pick(defined, x[1])
             if not defined.all():
                 ctx.mark(~defined)
             return ("num", vals)
@@ -375,8 +394,7 @@ class _VecCompiler:
                 s = arg(ctx)
                 if s[0] != "set":
                     raise _NotVectorizable("card")
-                return ("num", np.broadcast_to(s[1], (ctx.cols.n, self.k)).sum(
-                    axis=1, keepdims=True))
+                return ("num", _per_row(np.broadcast_to(s[1], (ctx.cols.n, self.k)).sum(axis=1)))
             return card
         if name == "bool":
             return lambda ctx: ("bool", _bool(arg(ctx)))
@@ -387,8 +405,7 @@ class _VecCompiler:
                 x = _num(arg(ctx))
                 neg = np.asarray(x) < 0
                 if np.any(neg):
-                    ctx.mark(np.broadcast_to(neg, (ctx.cols.n, np.shape(neg)[-1]))
-                             if np.ndim(neg) == 2 else np.ones((ctx.cols.n, 1), dtype=bool))
+                    ctx.mark(neg if np.ndim(neg) else np.ones(ctx.cols.n, dtype=bool))
                 with np.errstate(invalid="ignore"):
                     return ("num", np.sqrt(x))
             return sqrt
@@ -404,12 +421,31 @@ class _VecCompiler:
         other = self.compile(node.else_)
 
         def if_expr(ctx: _Ctx) -> Vec:
-            tag, result = other(ctx)
-            for cond, value in reversed(branches):
-                t, v = value(ctx)
-                if t not in ("num", "bool") or tag not in ("num", "bool"):
-                    raise _NotVectorizable("IF")
-                result = np.where(_bool(cond(ctx)), v, result)
+            # every branch is computed for every row, but a branch's ill-defined values
+            # only matter in the rows that take it (IF guards its branches)
+            outer = ctx.bad
+            conds = []
+            for cond, _ in branches:
+                conds.append(np.asarray(_bool(cond(ctx))))
+            taken = []
+            rest = np.ones(1, dtype=bool)
+            for c in conds:
+                taken.append(c & rest)
+                rest = rest & ~c
+            values = []
+            for (_, value), chosen in zip(branches + [(None, other)], taken + [rest]):
+                ctx.bad = np.zeros(ctx.cols.n, dtype=bool)
+                values.append(value(ctx))
+                rows = np.broadcast_to(chosen, (ctx.cols.n,) + np.shape(chosen)[1:]) \
+                    if np.ndim(chosen) else np.full(ctx.cols.n, bool(chosen))
+                outer = outer | (ctx.bad & rows.reshape(ctx.cols.n, -1).any(axis=1))
+            ctx.bad = outer
+            tag = values[-1][0]
+            if tag not in ("num", "bool") or any(v[0] != tag for v in values):
+                raise _NotVectorizable("IF")
+            result = values[-1][1]
+            for c, (_, v) in zip(reversed(conds), reversed(values[:-1])):
+                result = np.where(c, v, result)
             return (tag, result)
         return if_expr
 
@@ -419,7 +455,7 @@ _TYPE_SETS = {"REAL", "FLOAT", "BOOL", "INTEGER"}
 
 def _typed_member(a: Vec, s: Vec, n: int) -> np.ndarray:
     """Typing predicates over whole columns: ``f : S --> REAL``, ``P : POW(S)``, ``x : REAL``."""
-    yes = np.ones((n, 1), dtype=bool)
+    yes = np.ones((n, 1, 1), dtype=bool)
     if s[0] == "type":
         name = s[1]
         if a[0] == "bool" and name == "BOOL":
@@ -430,16 +466,21 @@ def _typed_member(a: Vec, s: Vec, n: int) -> np.ndarray:
             return yes
         raise _NotVectorizable("typing")
     if s[0] == "pow" and a[0] == "set" and s[1][0] == "set":
-        return np.all(~a[1] | s[1][1], axis=-1, keepdims=True)
+        return _per_row(np.all(~a[1] | s[1][1], axis=-1))
     if s[0] == "space" and a[0] == "func":
         op, dom, ran = s[1]
         vals, defined = a[1]
         if dom[0] != "set" or ran != ("type", "REAL") or vals.dtype.kind != "f":
             raise _NotVectorizable("function space")
         if op == "-->":
-            return np.all(defined == dom[1], axis=-1, keepdims=True)
-        return np.all(~defined | dom[1], axis=-1, keepdims=True)
+            return _per_row(np.all(defined == dom[1], axis=-1))
+        return _per_row(np.all(~defined | dom[1], axis=-1))
     raise _NotVectorizable("membership")
+
+
+def _per_row(values: np.ndarray) -> np.ndarray:
+    """One value per row, shaped to broadcast against (rows, axis 1, axis 2)."""
+    return np.asarray(values).reshape(-1, 1, 1)
 
 
 def _num(v: Vec) -> Any:
@@ -491,8 +532,11 @@ class BatchFormula:
                 plan = None
             else:
                 if tag in ("num", "bool"):
-                    out = np.array(np.broadcast_to(value, (cols.n, 1))[:, 0])
-                    bad = np.flatnonzero(ctx.bad[:, 0])
+                    value = np.asarray(value)
+                    if value.ndim < 3:
+                        value = value.reshape(value.shape + (1,) * (3 - value.ndim))
+                    out = np.array(np.broadcast_to(value, (cols.n, 1, 1))[:, 0, 0])
+                    bad = np.flatnonzero(ctx.bad)
                     for i in bad:
                         out[i] = self._row(cols, i)
                     return out
