@@ -95,3 +95,9 @@ def test_diff_two_versions_of_a_file(capsys, base, tmp_path):
 def test_bad_shield(capsys, base, args, fragment):
     code, _, err = run(capsys, "replay", str(base), *args)
     assert code == 2 and fragment in err and "Traceback" not in err
+
+
+def test_builtin_names_work_where_a_model_is_asked_for(capsys):
+    code, out, _ = run(capsys, "check-model", "strict")
+    assert code == 0 and "MACHINE StrictRSSShield" in out
+    assert "constant BrakeMin = 4.0" in out

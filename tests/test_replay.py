@@ -14,7 +14,7 @@ from tracecheck.b.values import FuncValue
 from tracecheck.episodes import EpisodeWriter, new_header, read_columns
 from tracecheck.episodes.files import write_run
 from tracecheck.episodes.model import Episode, StepRecord, make_end
-from tracecheck.errors import InputError
+from tracecheck.errors import InputError, TracecheckError
 from tracecheck.interop import import_simb
 from tracecheck.replay import diff, enabled_matrix, replay
 from tracecheck.shield import load_shield
@@ -248,3 +248,24 @@ def test_replay_speed_paths_agree_on_real_data(paper_traces, tmp_path):
     for r in rows[::7]:
         assert {o for o, ok in zip(ops, matrix[r]) if ok} == paper.machine.enabled(
             cols.states.row(r))
+
+
+def test_state_without_a_value_the_guard_needs(tmp_path):
+    """A state whose VehiclesX lacks a vehicle the guard reads: the error names the file,
+    episode and step."""
+    path = tmp_path / "gap.mcap"
+    good = state(100.0)
+    holed = dict(good)
+    holed["VehiclesX"] = FuncValue({k: v for k, v in good["VehiclesX"].map.items()
+                                    if k != VS[0]})
+    steps = (StepRecord(0, 0.0, None, good, 0.0, False),
+             StepRecord(1, 1.0, "IDLE", good, 0.0, False),
+             StepRecord(2, 2.0, "IDLE", holed, 0.0, False))
+    with EpisodeWriter(path, new_header("recorded")) as w:
+        w.write(Episode(7, steps, make_end(steps)))
+    shield_path = tmp_path / "toy.mch"
+    shield_path.write_text(TOY)
+    with pytest.raises(TracecheckError) as info:
+        replay([path], load_shield(shield_path))
+    assert "gap.mcap, episode 7, step 2: EgoVehicle is not in the domain of the function" \
+        in str(info.value)

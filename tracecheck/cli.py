@@ -46,14 +46,19 @@ def _root(
 
 
 def _model(path: Path):
+    """A machine from a path, or a built-in shield by name (none, paper, strict)."""
     from .b.machine import load_machine
+    from .shield import BUILTIN_SHIELDS, load_shield
 
+    if str(path) in BUILTIN_SHIELDS:
+        return load_shield(str(path)).machine
     return load_machine(path)
 
 
 @app.command("check-model")
 def check_model(
-    model: Path = typer.Argument(..., help="A classical B machine (.mch)."),
+    model: Path = typer.Argument(..., help="A classical B machine (.mch), or none, paper, "
+                                           "strict."),
     as_json: bool = typer.Option(False, "--json", help="Print a JSON summary."),
 ) -> None:
     """Parse and check a B machine; list its sets, constants, variables and operations."""

@@ -116,6 +116,8 @@ def _pairs(cols: Columns, rows: np.ndarray) -> Columns:
     for name, values in cols.others.items():
         out.others[name] = [values[i] for i in rows]
         out.others[name + "$0"] = [values[i] for i in before]
+    if cols.label is not None:
+        out.label = lambda i: f"{cols.label(int(rows[i]))} (and the state before)"
     return out
 
 

@@ -42,6 +42,7 @@ class Columns:
     functions: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     masks: dict[str, np.ndarray] = field(default_factory=dict)
     others: dict[str, list] = field(default_factory=dict)
+    label: Optional[Callable[[int], str]] = None  # names row i in messages ("state i")
 
     @classmethod
     def from_states(cls, states: Sequence[Mapping[str, Any]],
@@ -549,7 +550,8 @@ class BatchFormula:
         try:
             return self.scalar(env)
         except TracecheckError as exc:
-            exc.message = f"state {i}: {exc.message}"
+            where = cols.label(i) if cols.label is not None else f"state {i}"
+            exc.message = f"{where}: {exc.message}"
             exc.args = (exc.render(),)
             raise
 

@@ -518,10 +518,12 @@ def _concatenate(path: str, parts, actions, elements, notes) -> RunColumns:
                 np.concatenate([c.functions[name][1] for *_, c in parts]))
         for name in first.masks:
             states.masks[name] = np.concatenate([c.masks[name] for *_, c in parts])
+    episode = np.repeat(ids, lengths)
+    step = np.concatenate([np.arange(m) for m in lengths]) if parts else np.zeros(0, np.int64)
+    states.label = lambda i: f"{path}, episode {int(episode[i])}, step {int(step[i])}"
     return RunColumns(
         path=path, episode_ids=ids, starts=starts,
-        episode=np.repeat(ids, lengths), step=np.concatenate(
-            [np.arange(m) for m in lengths]) if parts else np.zeros(0, dtype=np.int64),
+        episode=episode, step=step,
         time=cat("time"), action=np.concatenate([a for _, _, a, _ in parts]) if parts
         else np.zeros(0, dtype=np.int16), action_names=actions, reward=cat("reward"),
         crashed=cat("crashed").astype(bool), states=states, warnings=notes)
