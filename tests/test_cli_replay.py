@@ -101,3 +101,15 @@ def test_builtin_names_work_where_a_model_is_asked_for(capsys):
     code, out, _ = run(capsys, "check-model", "strict")
     assert code == 0 and "MACHINE StrictRSSShield" in out
     assert "constant BrakeMin = 4.0" in out
+
+
+def test_replay_does_not_import_torch(base):
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom tracecheck.cli import main\ntry:\n"
+            f"    main(['replay', {str(base)!r}, '--shield', 'paper', '--json'])\n"
+            "except SystemExit:\n    pass\n"
+            "assert 'torch' not in sys.modules and 'gymnasium' not in sys.modules\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr

@@ -77,9 +77,10 @@ def run_file(tmp_path_factory):
         # a deadlock state (negative reward) and an invariant violation (reward 20)
         ep(1, [step(0, None, 100.0), step(1, "IDLE", 110.0, reward=-1.0),
                step(2, "IDLE", 120.0, reward=20.0)]),
-        # SLOWER that speeds up: a postcondition violation; values recorded at step 1
-        ep(2, [step(0, None, 100.0), step(1, "IDLE", 200.0, values=q),
-               step(2, "FASTER", 210.0), step(3, "SLOWER", 215.0, vx=27.0)]),
+        # SLOWER that speeds up: a postcondition violation; the values that chose step 2's
+        # action are recorded with step 2
+        ep(2, [step(0, None, 100.0), step(1, "IDLE", 200.0),
+               step(2, "FASTER", 210.0, values=q), step(3, "SLOWER", 215.0, vx=27.0)]),
     ]
     path = tmp_path_factory.mktemp("run") / "hand.mcap"
     with EpisodeWriter(path, new_header("recorded")) as w:

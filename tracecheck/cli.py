@@ -352,15 +352,24 @@ def replay_cmd(
     fmt: OutputFormat = typer.Option(OutputFormat.text, "--format", help="text or md."),
     fail_on: list[FailOn] = typer.Option([], "--fail-on",
                                          help="Exit 1 when this occurs (repeatable)."),
+    resimulate: bool = typer.Option(False, "--resimulate",
+                                    help="Re-run each infeasible episode from its seed with the "
+                                         "agent under the shield: was the crash prevented?"),
+    agent: Optional[Path] = typer.Option(None, "--agent", help="The agent that recorded the "
+                                         "episodes (default: the bundled agent of that name). "
+                                         "Loading it runs code from the file."),
 ) -> None:
     """Replay episodes against a shield: where would it have blocked the recorded action?"""
     from .replay import replay
     from .report_text import replay_markdown, replay_text
     from .shield import load_shield
 
-    report = replay(runs, load_shield(shield))
+    loaded = load_shield(shield)
+    report = replay(runs, loaded)
     for warning in report.warnings:
         err.print(f"[yellow]warning[/yellow]: {escape(warning)}")
+    if resimulate:
+        report.resimulation = _resimulate(runs, loaded, report, agent)
     if as_json:
         out.print_json(json.dumps(report.to_json()))
     elif fmt == OutputFormat.md:
@@ -375,6 +384,23 @@ def replay_cmd(
     if failed:
         err.print(f"failing: {', '.join(failed)} found (--fail-on)")
         raise typer.Exit(1)
+
+
+def _resimulate(runs: list[Path], shield, report, agent: Optional[Path]) -> dict:
+    from rich.progress import BarColumn, Progress, TextColumn
+
+    from .resimulate import resimulate, summary
+
+    results = []
+    todo = sum(e.first_infeasible is not None for e in report.per_episode)
+    with Progress(TextColumn("re-simulating under " + shield.name), BarColumn(),
+                  TextColumn("{task.completed}/{task.total} episodes"), console=err,
+                  transient=True) as bar:
+        task = bar.add_task("resim", total=todo)
+        for run in runs:
+            results += resimulate(run, shield, report, agent=agent,
+                                  progress=lambda r: bar.advance(task))
+    return summary(results)
 
 
 @app.command("diff")
@@ -402,6 +428,91 @@ def diff_cmd(
     if fail_on_change and report.anything_changed:
         err.print("failing: the shields differ on these episodes (--fail-on-change)")
         raise typer.Exit(1)
+
+
+# ------------------------------------------------------------------ agents
+
+
+class Profile(str, Enum):
+    base = "base"
+    higher_penalty = "higher-penalty"
+
+
+@app.command("train")
+def train_cmd(
+    profile: Profile = typer.Option(Profile.base, "--profile", help="Reward profile."),
+    steps: int = typer.Option(20_000, "--steps", min=1, help="Environment steps."),
+    seed: int = typer.Option(0, "--seed", help="Random seed."),
+    output: Path = typer.Option(..., "--output", "-o", help="The agent file (.zip) to write."),
+) -> None:
+    """Train a DQN agent with the paper's settings (highway-fast-v0, 3 lanes)."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from .agents import train
+
+    with Progress(TextColumn("training {task.fields[profile]}"), BarColumn(),
+                  TextColumn("{task.completed}/{task.total} steps"), TimeRemainingColumn(),
+                  console=err, transient=True) as bar:
+        task = bar.add_task("train", total=steps, profile=profile.value)
+        card = train(profile.value, output, steps=steps, seed=seed,
+                     progress=lambda done, total: bar.update(task, completed=done))
+    out.print(f"trained {card['agent']} ({profile.value}, {steps} steps, seed {seed}) in "
+              f"{card['wall_time_s']:.0f} s -> {output}; model card "
+              f"{Path(output).with_suffix('.json')}", markup=False)
+
+
+class Executor(str, Enum):
+    local = "local"
+
+
+@app.command("record")
+def record_cmd(
+    agent: Path = typer.Option(..., "--agent", help="A stable-baselines3 agent (.zip). Loading "
+                               "it runs code from the file: only use files you trust."),
+    shield: str = typer.Option("none", "--shield", "-s", help=_SHIELD_HELP),
+    episodes: int = typer.Option(..., "--episodes", "-n", min=1, help="How many episodes."),
+    seed: int = typer.Option(0, "--seed", help="Episode i uses seed SEED + i."),
+    duration: int = typer.Option(60, "--duration", min=1, help="Agent steps (s) per episode."),
+    workers: int = typer.Option(1, "--workers", "-w", min=1, help="Worker processes."),
+    executor: Executor = typer.Option(Executor.local, "--executor"),
+    profile: Profile = typer.Option(Profile.base, "--profile", help="Reward profile."),
+    fallback: str = typer.Option("SLOWER", "--fallback",
+                                 help="Action taken when the shield allows nothing."),
+    output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
+) -> None:
+    """Run an agent under a shield (pre-shielding) and record every episode to MCAP."""
+    import time as _time
+
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from .record import RecordSettings, record
+
+    settings = RecordSettings(agent=str(agent), shield=shield, episodes=episodes, seed=seed,
+                              duration=duration, profile=profile.value, fallback=fallback,
+                              workers=workers)
+    stats = {"crashes": 0, "steps": 0}
+    start = _time.perf_counter()
+    with Progress(TextColumn("recording"), BarColumn(),
+                  TextColumn("{task.completed}/{task.total} episodes, {task.fields[crashes]} "
+                             "crash(es), {task.fields[rate]} steps/s"),
+                  TimeRemainingColumn(), console=err, transient=True) as bar:
+        task = bar.add_task("record", total=episodes, crashes=0, rate="-")
+
+        def progress(ep) -> None:
+            stats["crashes"] += ep.end.crashed
+            stats["steps"] += ep.end.steps
+            rate = stats["steps"] / max(_time.perf_counter() - start, 1e-9)
+            bar.update(task, advance=1, crashes=stats["crashes"], rate=f"{rate:.0f}")
+
+        try:
+            n, steps, crashes = record(settings, output, progress)
+        except KeyboardInterrupt:
+            err.print(f"interrupted: {output} keeps every finished episode")
+            raise typer.Exit(130) from None
+    took = _time.perf_counter() - start
+    out.print(f"recorded {n} episode(s), {steps} step(s), {crashes} crash(es) with shield "
+              f"{shield} in {took:.1f} s ({steps / took:.0f} steps/s) -> {output}",
+              markup=False)
 
 
 def main(argv: Optional[list[str]] = None) -> Any:

@@ -68,9 +68,12 @@ class ReplayReport:
     elapsed_s: float = 0.0
     per_episode: list[EpisodeReplay] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    resimulation: Optional[dict] = None
 
     def to_json(self) -> dict:
         data = asdict(self)
+        if self.resimulation is None:
+            data.pop("resimulation")
         data["steps_per_s"] = round(self.steps / self.elapsed_s) if self.elapsed_s else None
         return data
 
@@ -181,7 +184,7 @@ def _episode(cols, shield, ops, matrix, feasible, deadlock, invariant_ok, post_b
         allowed = matrix[lo + first - 1]
         enabled = [o for o, ok in zip(ops, allowed) if ok]
         if cols.values is not None:
-            q = cols.values[lo + first - 1]
+            q = cols.values[lo + first]  # the values that chose this step's action
             scored = [(q[cols.action_names.index(o)], o) for o in enabled
                       if o in cols.action_names and not np.isnan(q[cols.action_names.index(o)])]
             alternative = max(scored)[1] if scored else None

@@ -50,8 +50,29 @@ def _summary_lines(r: ReplayReport) -> list[str]:
     ]
 
 
+def _resim_lines(r: ReplayReport) -> list[str]:
+    s = r.resimulation
+    if s is None:
+        return []
+    lines = [f"re-simulated {s['resimulated']} infeasible episode(s) under {r.shield['name']}: "
+             f"{s['crashes_prevented']} crash(es) prevented, {s['crashes_not_prevented']} not "
+             f"prevented, {s['new_crashes']} new crash(es), {s['no_crash_either_way']} without "
+             f"a crash either way"]
+    if s["mismatches"] or s["without_seed"]:
+        lines.append(f"not comparable: {s['mismatches']} episode(s) did not reproduce the "
+                     f"recording, {s['without_seed']} have no seed (imported)")
+    for e in s["per_episode"]:
+        if e["outcome"] in ("crash prevented", "still crashed", "new crash", "mismatch"):
+            crash = (f", crash at step {e['new_crash_step']}"
+                     if e["new_crash_step"] is not None else "")
+            detail = f" ({e['detail']})" if e["detail"] else ""
+            lines.append(f"  episode {e['episode']} (seed {e['seed']}): {e['outcome']}{crash}"
+                         f"{detail}")
+    return lines
+
+
 def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
-    for i, line in enumerate(_summary_lines(r)):
+    for i, line in enumerate(_summary_lines(r) + _resim_lines(r)):
         console.print(f"[bold]{line}[/bold]" if i == 0 else line, markup=i == 0,
                       highlight=False)
     matters = [e for e in r.per_episode if e.matters]
@@ -68,7 +89,7 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
 
 def replay_markdown(r: ReplayReport, rows: int) -> str:
     lines = [f"# Replay: shield `{r.shield['name']}`", ""]
-    lines += [f"- {line}" for line in _summary_lines(r)]
+    lines += [f"- {line}" for line in _summary_lines(r) + _resim_lines(r)]
     matters = [e for e in r.per_episode if e.matters]
     if matters:
         lines += ["", "| " + " | ".join(HEADERS) + " |",

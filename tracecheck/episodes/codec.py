@@ -67,7 +67,8 @@ def decode_state(data: Mapping[str, Any], *, where: str = "") -> dict[str, Any]:
 def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optional[str]],
                    rewards: Sequence[float], crashed: Sequence[bool], cols: Columns,
                    action_names: Sequence[str],
-                   values: Optional[Sequence[Optional[Mapping[str, float]]]] = None) -> bytes:
+                   values: Optional[Sequence[Optional[Mapping[str, float]]]] = None,
+                   seed: Optional[int] = None) -> bytes:
     """One episode's steps as a binary columns blob (``values``: the agent's action values
     per step, when recorded)."""
     index = {a: i for i, a in enumerate(action_names)}
@@ -99,7 +100,8 @@ def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optio
     for name, mask in cols.masks.items():
         arrays[f"set:{name}"] = mask
         kinds[name] = "set"
-    header: dict[str, Any] = {"episode": episode, "elements": [str(e) for e in cols.elements],
+    header: dict[str, Any] = {"episode": episode, "seed": seed,
+                              "elements": [str(e) for e in cols.elements],
                               "actions": list(action_names), "kinds": kinds,
                               "others": sorted(cols.others), "arrays": []}
     blobs, offset = [], 0

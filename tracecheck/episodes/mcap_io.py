@@ -162,7 +162,8 @@ class EpisodeWriter:
                     self._actions.append(name)
         blob = encode_columns(ep.id, [s.time for s in ep.steps], [s.action for s in ep.steps],
                               [s.reward for s in ep.steps], [s.crashed for s in ep.steps],
-                              cols, self._actions, [s.action_values for s in ep.steps])
+                              cols, self._actions, [s.action_values for s in ep.steps],
+                              seed=ep.seed)
         t = self._clock_ns + int(round(last * _NS))
         self._writer.add_attachment(create_time=t, log_time=t,
                                     name=f"episode-{ep.id}.columns",
@@ -401,6 +402,7 @@ class RunColumns:
     states: Columns
     warnings: list[str] = field(default_factory=list)
     values: Optional[np.ndarray] = None  # (rows, actions): the agent's values, NaN if none
+    seeds: list[Optional[int]] = field(default_factory=list)  # per episode
 
     @property
     def n(self) -> int:
@@ -473,6 +475,7 @@ def read_columns(path: str | Path) -> RunColumns:
                           notes)
     if any("values" in arrays for _, _, arrays in decoded):
         result.values = np.concatenate(values)
+    result.seeds = [header.get("seed") for _, header, _ in decoded]
     return result
 
 

@@ -67,12 +67,19 @@ class Step(_Message):
     state: dict[str, Any]
     reward: float
     crashed: bool
-    observation: Optional[list[list[float]]] = Field(None, description="raw observation")
-    action_values: Optional[dict[str, float]] = Field(None, description="the agent's Q-values")
-    preferred_action: Optional[str] = Field(None, description="the agent's unshielded choice")
-    allowed_actions: Optional[list[str]] = Field(None, description="the live shield's choice")
-    shield_time_us: Optional[float] = Field(None, description="shield decision time")
-    deadlock: Optional[bool] = Field(None, description="the live shield allowed nothing")
+    observation: Optional[list[list[float]]] = Field(
+        None, description="the raw observation of this state")
+    action_values: Optional[dict[str, float]] = Field(
+        None, description="the agent's values (Q-values) when it chose this step's action, "
+                          "in the state before")
+    preferred_action: Optional[str] = Field(
+        None, description="the agent's unshielded choice for this step")
+    allowed_actions: Optional[list[str]] = Field(
+        None, description="the actions the live shield allowed for this step")
+    shield_time_us: Optional[float] = Field(
+        None, description="the live shield's decision time for this step (µs)")
+    deadlock: Optional[bool] = Field(
+        None, description="the live shield allowed nothing: the fallback was taken")
 
 
 class EpisodeEnd(_Message):

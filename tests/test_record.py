@@ -1,0 +1,203 @@
+"""Agents, shielded recording, and counterfactual re-simulation, with the bundled agent."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import zipfile
+
+import pytest
+
+from tests.conftest import ROOT
+from tests.test_cli import run
+from tracecheck.agents import load_agent
+from tracecheck.episodes import EpisodeWriter, new_header, read_columns, read_run
+from tracecheck.episodes.model import Episode, StepRecord, make_end
+from tracecheck.errors import InputError
+from tracecheck.highway import ENV_ID, env_config
+from tracecheck.record import RecordSettings, record
+from tracecheck.replay import replay
+from tracecheck.resimulate import OUTCOMES, resimulate, summary
+from tracecheck.shield import load_shield
+
+BASE = ROOT / "models" / "agents" / "base.zip"
+
+
+def settings(**kw):
+    values = dict(agent=str(BASE), shield="paper", episodes=3, seed=40, duration=8)
+    values.update(kw)
+    return RecordSettings(**values)
+
+
+def test_bundled_agents_load():
+    for name in ("base", "higher_penalty"):
+        agent = load_agent(ROOT / "models" / "agents" / f"{name}.zip")
+        assert agent.algorithm == "DQN" and len(agent.sha256) == 64
+        card = json.loads((ROOT / "models" / "agents" / f"{name}.json").read_text())
+        assert card["sha256"] == agent.sha256 and card["steps"] == 20000
+
+
+def test_record_under_the_shield(tmp_path):
+    path = tmp_path / "run.mcap"
+    n, steps, crashes = record(settings(), path)
+    run_ = read_run(path)
+    header = run_.header
+    assert (header.source, header.agent_id, header.shield_name, header.base_seed) == (
+        "recorded", "base", "paper", 40)
+    assert header.environment_id == ENV_ID and header.environment_config == env_config("base", 8)
+    assert len(header.agent_sha256) == 64 and len(header.shield_sha256) == 64
+    assert [e.seed for e in run_.episodes] == [40, 41, 42]
+    for episode in run_.episodes:
+        for s in episode.steps[1:]:
+            assert s.action in s.allowed_actions  # pre-shielding
+            assert s.preferred_action and s.action_values and s.observation
+            assert s.shield_time_us > 0
+            best = max(s.allowed_actions, key=lambda a: s.action_values[a])
+            assert s.action == best
+    # the live shield and replay agree: nothing recorded under paper is infeasible for paper
+    report = replay([path], load_shield("paper"))
+    assert report.infeasible_steps == 0 and report.postcondition_violations == 0
+    assert n == 3 and steps == report.steps
+
+
+def test_workers_do_not_change_episodes(tmp_path):
+    one, two = tmp_path / "one.mcap", tmp_path / "two.mcap"
+    record(settings(episodes=4, shield="none"), one)
+    record(settings(episodes=4, shield="none", workers=2), two)
+    a, b = read_run(one).episodes, read_run(two).episodes
+    assert [[s.state for s in e.steps] for e in a] == [[s.state for s in e.steps] for e in b]
+    assert [e.actions for e in a] == [e.actions for e in b]
+
+
+def test_interrupted_recording_keeps_finished_episodes(tmp_path):
+    path = tmp_path / "run.mcap"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "tracecheck.cli", "record", "--agent", str(BASE), "--shield",
+         "none", "--episodes", "200", "--duration", "5", "-o", str(path)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    seen = 0
+    while time.time() < deadline and seen < 3:
+        time.sleep(0.5)
+        if path.exists():
+            try:
+                seen = len(read_columns(path).episode_ids)
+            except Exception:  # noqa: BLE001 - the file may be mid-write
+                seen = 0
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and "keeps every finished episode" in err
+    episodes = read_run(path).episodes
+    assert len(episodes) >= 3
+    assert [e.id for e in episodes] == list(range(len(episodes)))
+
+
+def test_resimulation(tmp_path):
+    path = tmp_path / "free.mcap"
+    record(settings(shield="none", episodes=6, duration=30, seed=100), path)
+    shield = load_shield("strict")
+    report = replay([path], shield)
+    results = resimulate(path, shield, report)
+    assert len(results) == sum(e.first_infeasible is not None for e in report.per_episode)
+    assert all(r.outcome in OUTCOMES for r in results)
+    assert not [r for r in results if r.outcome == "mismatch"]  # the states reproduce
+    data = summary(results)
+    for key in ("crashes_prevented", "crashes_not_prevented", "new_crashes"):
+        assert key in data
+
+
+def test_resimulation_reports_a_mismatch(tmp_path):
+    """A recording whose states the environment does not reproduce is reported, not trusted."""
+    real = tmp_path / "real.mcap"
+    record(settings(shield="none", episodes=1, duration=5, seed=7), real)
+    episode = read_run(real).episodes[0]
+    tampered_state = dict(episode.steps[0].state, Reward=99.0)
+    steps = (StepRecord(0, 0.0, None, tampered_state, 0.0, False),) + tuple(
+        StepRecord(s.step, s.time, "FASTER" if s.step == 1 else s.action, s.state, s.reward,
+                   s.crashed) for s in episode.steps[1:])
+    fake = tmp_path / "fake.mcap"
+    header = read_run(real).header
+    with EpisodeWriter(fake, header) as w:
+        w.write(Episode(0, steps, make_end(steps), seed=7))
+    shield = load_shield(tmp_path / "never.mch" if False else "none")
+    report = replay([fake], shield)
+    # force the episode to be re-simulated from step 1
+    item = report.per_episode[0]
+    report.per_episode[0] = type(item)(**{**item.__dict__, "first_infeasible": 1})
+    (result,) = resimulate(fake, shield, report, agent=BASE)
+    assert result.outcome == "mismatch" and result.detail.startswith("step 0: Reward")
+
+
+def test_agent_errors(tmp_path):
+    with pytest.raises(InputError, match="no such agent file"):
+        load_agent(tmp_path / "none.zip")
+    text = tmp_path / "agent.zip"
+    text.write_text("not a zip")
+    with pytest.raises(InputError, match="not a stable-baselines3 agent \\(not a zip archive\\)"):
+        load_agent(text)
+    other = tmp_path / "other.zip"
+    with zipfile.ZipFile(other, "w") as z:
+        z.writestr("hello.txt", "hi")
+    with pytest.raises(InputError, match="is not a stable-baselines3 DQN, PPO or A2C agent"):
+        load_agent(other)
+
+
+def test_agent_with_the_wrong_action_space(tmp_path):
+    import stable_baselines3 as sb3
+
+    model = sb3.PPO("MlpPolicy", "CartPole-v1", n_steps=16, batch_size=16, device="cpu")
+    path = tmp_path / "cartpole.zip"
+    model.save(path)
+    with pytest.raises(InputError, match="action space Discrete\\(2\\); tracecheck needs 5"):
+        load_agent(path)
+
+
+@pytest.mark.parametrize("args,fragment", [
+    (["--agent", "missing.zip"], "no such agent file: missing.zip"),
+    (["--agent", str(BASE), "--shield", "sturdy"], "unknown shield 'sturdy'"),
+    (["--agent", str(BASE), "-o", "/proc/nope/run.mcap"], "cannot write /proc/nope/run.mcap"),
+    (["--agent", str(BASE), "--fallback", "BRAKE"], "unknown fallback action 'BRAKE'"),
+])
+def test_record_bad_input_before_any_episode(capsys, tmp_path, args, fragment):
+    cmd = ["record", "--episodes", "2", "-o", str(tmp_path / "r.mcap"), *args]
+    code, _, err = run(capsys, *cmd)
+    assert code == 2 and fragment in err and "Traceback" not in err
+
+
+def test_train_writes_agent_and_card(capsys, tmp_path):
+    out = tmp_path / "agent.zip"
+    code, text, _ = run(capsys, "train", "--steps", "64", "--seed", "3", "-o", str(out))
+    assert code == 0 and out.exists()
+    card = json.loads(out.with_suffix(".json").read_text())
+    assert card["steps"] == 64 and card["seed"] == 3 and card["reward_profile"] == "base"
+    assert card["settings"]["learning_rate"] == 5e-4 and card["settings"]["gamma"] == 0.9
+    assert card["settings"]["policy_kwargs"] == {"net_arch": [256, 256]}
+    assert set(card["versions"]) >= {"torch", "stable_baselines3", "highway_env"}
+    assert load_agent(out).sha256 == card["sha256"]
+
+
+def test_cli_record_and_resimulate(capsys, tmp_path):
+    path = tmp_path / "run.mcap"
+    code, out, _ = run(capsys, "record", "--agent", str(BASE), "--episodes", "2",
+                       "--duration", "6", "--seed", "5", "-o", str(path))
+    assert code == 0 and out.startswith("recorded 2 episode(s)")
+    code, out, _ = run(capsys, "replay", str(path), "--shield", "strict", "--resimulate",
+                       "--json")
+    data = json.loads(out)
+    assert code == 0 and "resimulation" in data
+    assert data["resimulation"]["resimulated"] == data["infeasible_episodes"]
+
+
+def test_sample_traces_are_paired_and_consistent():
+    none = read_run(ROOT / "sample_traces" / "base_none.mcap")
+    paper = read_run(ROOT / "sample_traces" / "base_paper.mcap")
+    assert [e.seed for e in none.episodes] == [e.seed for e in paper.episodes] == list(range(24))
+    for a, b in zip(none.episodes, paper.episodes):
+        assert a.steps[0].state == b.steps[0].state  # the same scenario
+    shield = load_shield("paper")
+    assert replay([ROOT / "sample_traces" / "base_paper.mcap"], shield).infeasible_steps == 0
+    assert replay([ROOT / "sample_traces" / "base_none.mcap"], shield).infeasible_steps > 0

@@ -1,0 +1,156 @@
+"""Counterfactual re-simulation: would the shield's intervention have saved the episode?
+
+For each episode with an infeasible step, the environment is reset with the recorded seed and
+the recorded actions are re-applied up to the first infeasible step — each reproduced state is
+compared with the recording, and a mismatch is reported rather than trusted. From there the
+recorded agent continues under the shield up to the original horizon.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Callable, Optional
+
+import numpy as np
+
+from .agents import file_sha256
+from .episodes.mcap_io import RunColumns, read_columns, read_header
+from .errors import InputError
+from .highway import ACTIONS
+from .replay import ReplayReport
+from .shield import SHIELD_DIR, Shield
+
+__all__ = ["resimulate", "Resimulation", "OUTCOMES"]
+
+AGENT_DIR = SHIELD_DIR.parent / "agents"
+OUTCOMES = ("crash prevented", "still crashed", "new crash", "no crash", "mismatch",
+            "no seed")
+TOLERANCE = 1e-6
+
+
+@dataclass(frozen=True)
+class Resimulation:
+    file: str
+    episode: int
+    seed: Optional[int]
+    first_infeasible: int
+    outcome: str
+    original_crash_step: Optional[int]
+    new_crash_step: Optional[int]
+    steps: int
+    detail: str = ""
+
+
+def _agent_path(header, agent: Optional[str | Path]) -> str:
+    if agent is not None:
+        return str(agent)
+    if header.agent_id:
+        candidate = AGENT_DIR / f"{header.agent_id}.zip"
+        if candidate.exists() and (header.agent_sha256 is None
+                                   or file_sha256(candidate) == header.agent_sha256):
+            return str(candidate)
+    raise InputError(f"cannot tell which agent recorded these episodes (agent {header.agent_id!r}"
+                     "); give it with --agent PATH")
+
+
+def _same(recorded: dict, state: dict) -> Optional[str]:
+    for name, value in recorded.items():
+        got = state.get(name)
+        if hasattr(value, "map") and hasattr(got, "map"):
+            for key, x in value.map.items():
+                if abs(x - got.map.get(key, np.inf)) > TOLERANCE:
+                    return f"{name}({key}) is {got.map.get(key)} instead of {x}"
+        elif isinstance(value, float):
+            if not isinstance(got, (int, float)) or abs(value - got) > TOLERANCE:
+                return f"{name} is {got} instead of {value}"
+        elif value != got:
+            return f"{name} differs"
+    return None
+
+
+def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
+               agent: Optional[str | Path] = None,
+               progress: Optional[Callable[[Resimulation], None]] = None) -> list[Resimulation]:
+    """Re-simulate the episodes of ``path`` that ``report`` found infeasible under ``shield``."""
+    from .record import RecordSettings, Session
+
+    path = str(path)
+    header = read_header(path)
+    todo = [e for e in report.per_episode if e.file == path and e.first_infeasible is not None]
+    if not todo:
+        return []
+    if header.environment_config is None:
+        raise InputError(f"{path} was not recorded by tracecheck (source {header.source}): "
+                         "it has no environment to re-simulate")
+    cols = read_columns(path)
+    config = dict(header.environment_config)
+    horizon = int(config.get("duration", 61)) - 1
+    settings = RecordSettings(agent=_agent_path(header, agent), shield=shield.path,
+                              episodes=1, duration=horizon)
+    session = Session(settings, config=config)
+    index = {int(e): i for i, e in enumerate(cols.episode_ids)}
+    results = []
+    for item in todo:
+        i = index[item.episode]
+        result = _one(session, cols, i, item, horizon)
+        results.append(result)
+        if progress is not None:
+            progress(result)
+    return results
+
+
+def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:
+    from .shielding import choose
+
+    lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
+    seed = cols.seeds[i] if i < len(cols.seeds) else None
+    first = item.first_infeasible
+
+    def result(outcome: str, new_crash: Optional[int], steps: int, detail: str = ""):
+        return Resimulation(cols.path, item.episode, seed, first, outcome, item.crash_step,
+                            new_crash, steps, detail)
+
+    if seed is None:
+        return result("no seed", None, 0, "the episode has no seed: it cannot be re-run")
+    env, agent = session.env, session.agent
+    obs, info = env.reset(seed=int(seed))
+    problem = _same(cols.states.row(lo), info["b_state"])
+    if problem:
+        return result("mismatch", None, 0, f"step 0: {problem}")
+    for k in range(1, first):
+        action = cols.action_names[cols.action[lo + k]]
+        obs, reward, terminated, truncated, info = env.step(ACTIONS.index(action))
+        problem = _same(cols.states.row(lo + k), info["b_state"])
+        if problem:
+            return result("mismatch", None, k, f"step {k}: {problem}")
+    crash_step = None
+    k = first - 1
+    for k in range(first, horizon + 1):
+        values = agent.values(obs)
+        action, _ = choose(values, env.action_masks(), env.fallback)
+        obs, reward, terminated, truncated, info = env.step(action)
+        if info.get("crashed"):
+            crash_step = k
+            break
+        if terminated or truncated:
+            break
+    if item.crashed:
+        outcome = "still crashed" if crash_step is not None else "crash prevented"
+    else:
+        outcome = "new crash" if crash_step is not None else "no crash"
+    return result(outcome, crash_step, k)
+
+
+def summary(results: list[Resimulation]) -> dict:
+    counts = {o: sum(r.outcome == o for r in results) for o in OUTCOMES}
+    return {
+        "resimulated": len(results),
+        "crashes_prevented": counts["crash prevented"],
+        "crashes_not_prevented": counts["still crashed"],
+        "new_crashes": counts["new crash"],
+        "no_crash_either_way": counts["no crash"],
+        "mismatches": counts["mismatch"],
+        "without_seed": counts["no seed"],
+        "per_episode": [asdict(r) for r in results],
+    }
