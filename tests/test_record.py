@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys
@@ -15,7 +14,7 @@ import pytest
 from tests.conftest import ROOT
 from tests.test_cli import run
 from tracecheck.agents import load_agent
-from tracecheck.episodes import EpisodeWriter, new_header, read_columns, read_run
+from tracecheck.episodes import EpisodeWriter, read_columns, read_run
 from tracecheck.episodes.model import Episode, StepRecord, make_end
 from tracecheck.errors import InputError
 from tracecheck.highway import ENV_ID, env_config
@@ -123,7 +122,7 @@ def test_resimulation_reports_a_mismatch(tmp_path):
     header = read_run(real).header
     with EpisodeWriter(fake, header) as w:
         w.write(Episode(0, steps, make_end(steps), seed=7))
-    shield = load_shield(tmp_path / "never.mch" if False else "none")
+    shield = load_shield("none")
     report = replay([fake], shield)
     # force the episode to be re-simulated from step 1
     item = report.per_episode[0]

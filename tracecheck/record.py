@@ -9,7 +9,6 @@ so an interrupted run keeps every finished episode.
 from __future__ import annotations
 
 import multiprocessing as mp
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterator, Optional

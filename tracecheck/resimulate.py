@@ -103,7 +103,7 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
 def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:
     from .shielding import choose
 
-    lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
+    lo = int(cols.starts[i])
     seed = cols.seeds[i] if i < len(cols.seeds) else None
     first = item.first_infeasible
 

@@ -10,12 +10,14 @@ action (SLOWER unless configured) is taken — never silently action 0.
 
 from __future__ import annotations
 
+import gc
 import time
 from typing import Any, Optional, Sequence
 
 import gymnasium as gym
 import numpy as np
 
+from .b.evaluate import MEMO_KEY
 from .errors import InputError
 from .highway import ACTIONS, StateAdapter
 from .shield import Shield
@@ -52,11 +54,22 @@ class ShieldWrapper(gym.Wrapper):
         self.state: dict[str, Any] = {}
         self.allowed = np.ones(len(ACTIONS), dtype=bool)
         self.decision_us = 0.0
+        self._env = dict(shield.machine.base_env)  # kept: each decision only updates it
 
     def _decide(self) -> None:
-        start = time.perf_counter()
-        enabled = self.shield.machine.enabled(self.state)
-        self.decision_us = (time.perf_counter() - start) * 1e6
+        # no garbage collection inside the decision: its latency is the shield's own
+        collecting = gc.isenabled()
+        gc.disable()
+        try:
+            start = time.perf_counter()
+            env = self._env
+            env.pop(MEMO_KEY, None)
+            env.update(self.state)
+            enabled = self.shield.machine.enabled_in(env)
+            self.decision_us = (time.perf_counter() - start) * 1e6
+        finally:
+            if collecting:
+                gc.enable()
         self.allowed = np.array([a in enabled for a in ACTIONS], dtype=bool)
 
     def _info(self, info: dict, requested: Optional[int] = None,

@@ -9,6 +9,7 @@ microseconds. No text is ever run as Python.
 from __future__ import annotations
 
 import math
+import operator
 from contextlib import contextmanager
 from typing import Any, Callable, Iterator, Optional
 
@@ -61,7 +62,10 @@ class Compiler:
             raise self.error(UnsupportedError, node,
                              f"tracecheck cannot evaluate {type(node).__name__} here")
         fn = method(node)
-        if isinstance(node, _MEMO_TYPES) and not (A.free_names(node) & set(self.bound)):
+        if isinstance(node, (A.BinOp, A.Neg)) and not A.free_names(node):
+            return _folded(fn, node)
+        if (isinstance(node, _MEMO_TYPES) or (isinstance(node, A.BinOp) and node.op in _SET_OPS)) \
+                and not (A.free_names(node) & set(self.bound)):
             return _memoised(fn, node)
         return fn
 
@@ -264,6 +268,32 @@ class Compiler:
         op = node.op
         if op in ("<", "<=", ">", ">="):
             cmp = _CMP[op]
+            constant = _constant_number(node.right, r)
+            if constant is not None:
+                kind = type(constant)
+                fn_arg = _name_applied_to_name(node.left)
+                if fn_arg is not None:
+                    fname, aname = fn_arg
+
+                    def compare_applied(env: Env) -> bool:
+                        # f(v) > c, the commonest guard shape: one closure, two dict lookups
+                        try:
+                            a = env[fname].map[env[aname]]
+                        except (KeyError, AttributeError, TypeError):
+                            a = l(env)  # the general path says what is wrong
+                        if type(a) is kind:
+                            return cmp(a, constant)
+                        self.nums(node, a, constant)
+                        return cmp(a, constant)
+                    return compare_applied
+
+                def compare_constant(env: Env) -> bool:
+                    a = l(env)
+                    if type(a) is kind:
+                        return cmp(a, constant)
+                    self.nums(node, a, constant)
+                    return cmp(a, constant)
+                return compare_constant
 
             def compare(env: Env) -> bool:
                 a, b = l(env), r(env)
@@ -317,6 +347,25 @@ class Compiler:
                 bindings = self.bindings(node, node.ids, domain_pred)
                 check = self.compile(rest) if rest is not None else (lambda env: True)
 
+            simple = getattr(bindings, "simple", None)
+            if simple is not None:
+                name, source, filters = simple
+
+                def forall_simple(env: Env) -> bool:
+                    domain = source(env)
+                    if type(domain) is not frozenset:
+                        domain = _domain(self, node, "in", domain)
+                    for value in domain:
+                        env[name] = value
+                        for f in filters:
+                            if not f(env):
+                                break
+                        else:
+                            if not check(env):
+                                return False
+                    return True
+                return _scoped(forall_simple, node.ids)
+
             def forall(env: Env) -> bool:
                 for _ in bindings(env):
                     if not check(env):
@@ -325,6 +374,23 @@ class Compiler:
             return _scoped(forall, node.ids)
         with self.binding(node.ids):
             bindings = self.bindings(node, node.ids, node.body)
+        simple = getattr(bindings, "simple", None)
+        if simple is not None:
+            name, source, filters = simple
+
+            def exists_simple(env: Env) -> bool:
+                domain = source(env)
+                if type(domain) is not frozenset:
+                    domain = _domain(self, node, "in", domain)
+                for value in domain:
+                    env[name] = value
+                    for f in filters:
+                        if not f(env):
+                            break
+                    else:
+                        return True
+                return False
+            return _scoped(exists_simple, node.ids)
 
         def exists(env: Env) -> bool:
             for _ in bindings(env):
@@ -495,8 +561,37 @@ class Compiler:
 
 #: Nodes worth remembering per state: evaluated once even where definitions repeat them.
 _MEMO_TYPES = (A.Comprehension, A.QuantExpr, A.Image, A.Quant, A.Lambda)
+_SET_OPS = frozenset({"\\", "\\/", "/\\", "<|", "|>", "<<|", "|>>", "<+"})
 _SLOTS: dict[A.Node, int] = {}
 MEMO_KEY = "$memo"  # not a B identifier: cannot clash with a variable
+
+
+def _folded(fn: Fn, node: A.Node) -> Fn:
+    """Arithmetic on literals (common after definitions are expanded: ``-4.0 - 2.0``) is
+    computed once, when compiling; an ill-defined one is left to fail where it is used."""
+    try:
+        value = fn({})
+    except TracecheckError:
+        return fn
+    folded = lambda env: value  # noqa: E731
+    folded.constant = value  # type: ignore[attr-defined]
+    return folded
+
+
+def _name_applied_to_name(node: A.Node) -> Optional[tuple[str, str]]:
+    """(f, v) when ``node`` is ``f(v)`` with f and v plain names."""
+    if (isinstance(node, A.Apply) and isinstance(node.fn, A.Name) and len(node.args) == 1
+            and isinstance(node.args[0], A.Name) and node.fn.id not in BUILTIN_SET_VALUES):
+        return node.fn.id, node.args[0].id
+    return None
+
+
+def _constant_number(node: A.Node, fn: Fn) -> Any:
+    """The value of a numeric literal, or of folded arithmetic on literals, else None."""
+    if isinstance(node, (A.IntLit, A.RealLit)):
+        return node.value
+    value = getattr(fn, "constant", None)
+    return value if type(value) in (int, float) else None
 
 
 def _memoised(fn: Fn, node: A.Node) -> Fn:
@@ -507,11 +602,10 @@ def _memoised(fn: Fn, node: A.Node) -> Fn:
         cache = env.get(MEMO_KEY)
         if cache is None:
             cache = env[MEMO_KEY] = {}
-        try:
-            return cache[slot]
-        except KeyError:
+        value = cache.get(slot, _MISSING)
+        if value is _MISSING:  # the first use in a state is the common case: no exception
             value = cache[slot] = fn(env)
-            return value
+        return value
     return memo
 
 
@@ -551,6 +645,20 @@ def _tuple_of(ids: tuple[str, ...]) -> Fn:
 
 def _scoped(fn: Fn, ids: tuple[str, ...]) -> Fn:
     """Run ``fn`` and restore whatever ``ids`` meant in ``env`` before."""
+    if len(ids) == 1:
+        (name,) = ids
+
+        def scoped_one(env: Env) -> Any:
+            old = env.get(name, _MISSING)
+            try:
+                return fn(env)
+            finally:
+                if old is _MISSING:
+                    env.pop(name, None)
+                else:
+                    env[name] = old
+        return scoped_one
+
     def scoped(env: Env) -> Any:
         saved = [env.get(i, _MISSING) for i in ids]
         try:
@@ -622,8 +730,7 @@ _ARROWS = {"-->", "+->", "<->", ">->", ">+>", "-->>", "+->>", ">->>"}
 _OP_NAMES = {"+": "add", "-": "sub", "*": "mul", "/": "div", "mod": "mod", "**": "pow",
              "\\/": "union", "/\\": "inter", "\\": "minus", "<|": "domres", "|>": "ranres",
              "<<|": "domsub", "|>>": "ransub", "<+": "override"}
-_CMP = {"<": lambda a, b: a < b, "<=": lambda a, b: a <= b, ">": lambda a, b: a > b,
-        ">=": lambda a, b: a >= b}
+_CMP = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
 
 
 def _card(c: Compiler, node: A.Call, v: Any) -> int:
@@ -756,6 +863,7 @@ def generators(comp: Compiler, node: A.Node, ids: tuple[str, ...], pred: A.Node)
                         break
                 else:
                     yield None
+        run_single.simple = (name, source, filters)  # type: ignore[attr-defined]
         return run_single
     return run
 

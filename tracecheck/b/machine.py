@@ -157,7 +157,13 @@ class Machine:
 
     def enabled(self, state: Mapping[str, Any]) -> set[str]:
         """The operations whose guard holds in ``state`` (parameters: for some value)."""
-        env = self.env(state)
+        env = dict(self.base_env)
+        env.update(state)
+        return self.enabled_in(env)
+
+    def enabled_in(self, env: dict[str, Any]) -> set[str]:
+        """:meth:`enabled` for an environment made by :meth:`env` (or kept and updated by a
+        caller that decides many times: a live shield)."""
         return {name for name, fn in self._guard_fns().items() if fn(env)}
 
     def is_enabled(self, op: str, state: Mapping[str, Any]) -> bool:
