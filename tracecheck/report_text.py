@@ -23,17 +23,24 @@ def _row(e: EpisodeReplay) -> list[str]:
     prevented = ""
     if e.crashed:
         prevented = "yes" if e.crash_after_infeasible else "no"
+    first = "" if e.first_infeasible is None else \
+        f"{e.first_infeasible} {(e.action or '').replace('LANE_', 'L_')}"
+    other = []
+    for label, steps in (("deadlock", e.deadlock_states),
+                         ("postcondition", e.postcondition_violations),
+                         ("invariant", e.invariant_violations)):
+        if steps:
+            other.append(f"{label} {_steps(steps, 3)}")
     return [
-        e.file.rsplit("/", 1)[-1], str(e.episode), str(e.steps),
-        "" if e.first_infeasible is None else str(e.first_infeasible), e.action or "",
-        ", ".join(e.enabled or []), e.alternative or "", str(e.infeasible_steps),
-        "" if e.crash_step is None else str(e.crash_step), prevented,
-        _steps(e.deadlock_states + e.postcondition_violations + e.invariant_violations),
+        e.file.rsplit("/", 1)[-1], str(e.episode), str(e.steps), first,
+        " ".join(a.replace("LANE_", "L_") for a in e.enabled or []), e.alternative or "",
+        str(e.infeasible_steps), "" if e.crash_step is None else str(e.crash_step), prevented,
+        "; ".join(other),
     ]
 
 
-HEADERS = ["file", "episode", "steps", "first infeasible", "action", "shield allowed",
-           "shielded choice", "infeasible", "crash step", "crash blocked?", "other findings"]
+HEADERS = ["file", "episode", "steps", "first infeasible", "allowed there", "shielded",
+           "infeasible", "crash", "after it", "other"]
 
 
 def _summary_lines(r: ReplayReport) -> list[str]:
@@ -79,9 +86,14 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
     if not matters:
         console.print("every step of every episode is feasible; nothing else found")
         return
-    table = Table(*HEADERS, title="episodes that matter", show_lines=False)
+    one_file = len(r.files) == 1
+    table = Table(title="episodes that matter (L_ = LANE_; crash after it: the crash came at or "
+                        "after the first infeasible step)", box=None, show_lines=False)
+    for header in HEADERS[1:] if one_file else HEADERS:
+        table.add_column(header, overflow="fold")
     for e in matters[:rows]:
-        table.add_row(*_row(e))
+        row = _row(e)
+        table.add_row(*(row[1:] if one_file else row))
     console.print(table)
     if len(matters) > rows:
         console.print(f"… {len(matters) - rows} more episode(s): use --json for all")
