@@ -430,6 +430,65 @@ def diff_cmd(
         raise typer.Exit(1)
 
 
+# ------------------------------------------------------------------ statistics
+
+
+class StatsFormat(str, Enum):
+    text = "text"
+    md = "md"
+    csv = "csv"
+
+
+class Interval(str, Enum):
+    wilson = "wilson"
+    clopper_pearson = "clopper-pearson"
+
+
+def _print_stats(result: dict, as_json: bool, fmt: "StatsFormat", plot: Optional[Path]) -> None:
+    from .stats_report import stats_csv, stats_markdown, stats_plots, stats_text
+
+    for warning in result["warnings"]:
+        err.print(f"[yellow]warning[/yellow]: {escape(warning)}")
+    if plot is not None:
+        try:
+            written = stats_plots(result, plot)
+        except OSError as exc:
+            raise InputError(f"cannot write the plots into {plot}: {exc}") from None
+        err.print(f"wrote {len(written)} plot file(s) into {plot}")
+    values = result.pop("_values")
+    if as_json:
+        out.print_json(json.dumps(result))
+    elif fmt == StatsFormat.md:
+        out.print(stats_markdown(result), markup=False)
+    elif fmt == StatsFormat.csv:
+        sys.stdout.write(stats_csv(result))
+    else:
+        stats_text(out, result)
+    result["_values"] = values
+
+
+@app.command("stats")
+def stats_cmd(
+    runs: list[Path] = typer.Argument(..., help="MCAP run files: one column each."),
+    properties: str = typer.Option("highway", "--properties", "-p",
+                                   help="'highway' (the paper's) or a property file (TOML)."),
+    names: Optional[list[str]] = typer.Option(None, "--names",
+                                              help="Only these metrics and properties."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+    fmt: StatsFormat = typer.Option(StatsFormat.text, "--format", help="text, md or csv."),
+    interval: Interval = typer.Option(Interval.wilson, "--interval",
+                                      help="Interval for property shares."),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Write PNG and SVG plots here."),
+) -> None:
+    """Estimate metrics and property shares per run, side by side like the paper's tables."""
+    from .properties import load_properties
+    from .stats import statistics
+
+    pset = load_properties(properties).select(names)
+    result = statistics(runs, pset, interval=interval.value)
+    _print_stats(result, as_json, fmt, plot)
+
+
 # ------------------------------------------------------------------ agents
 
 

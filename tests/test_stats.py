@@ -1,0 +1,210 @@
+"""Statistics: the paper's Tables 2 and 3 on its own traces, aggregates, intervals, tests."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tests.episodes.conftest import episode, state
+from tests.test_cli import run
+from tracecheck.episodes import EpisodeWriter, new_header
+from tracecheck.episodes.files import write_run
+from tracecheck.episodes.model import Episode, StepRecord, make_end
+from tracecheck.errors import BScopeError, BTypeError, InputError
+from tracecheck.interop import import_simb
+from tracecheck.properties import HIGHWAY_SET, load_properties, parse_properties
+from tracecheck.stats import statistics
+
+
+@pytest.fixture(scope="module")
+def paper_runs(paper_traces, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("paper")
+    paths = []
+    for name in ("base", "base_shield"):
+        path = folder / f"{name}.mcap"
+        write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / name]))
+        paths.append(path)
+    return paths
+
+
+EXPECTED = {  # from the issue: the paper's published SimB tasks on these traces
+    "base": ({"episode_length": (38.25, 25.09), "velocity": (23.53, 2.01),
+              "distance": (870.60, 547.06), "right_lane": (32.95, 23.83),
+              "total_reward": (30.29, 19.73)}, [55, 100, 90, 100, 100, 5]),
+    "base_shield": ({"episode_length": (58.95, 4.70), "velocity": (21.48, 0.77),
+                     "distance": (1265.09, 109.84), "right_lane": (40.38, 17.69),
+                     "total_reward": (44.61, 3.74)}, [95, 85, 95, 100, 100, 55]),
+}
+
+
+def test_paper_tables_on_paper_traces(paper_runs):
+    result = statistics(paper_runs, HIGHWAY_SET)
+    for run_ in result["runs"]:
+        metrics, saf = EXPECTED[run_["name"]]
+        for name, (mean, sd) in metrics.items():
+            assert round(run_["metrics"][name]["mean"], 2) == mean, name
+            assert round(run_["metrics"][name]["sd"], 2) == sd, name
+        assert [round(100 * run_["properties"][f"SAF{i}"]["ratio"]) for i in range(1, 7)] == saf
+
+
+def _states(values):
+    steps = []
+    for k, (x, reward, crash) in enumerate(values):
+        s = state(x, crash, reward)
+        steps.append(StepRecord(k, float(k), None if k == 0 else "IDLE", s, reward, crash))
+    steps = tuple(steps)
+    return steps
+
+
+@pytest.fixture(scope="module")
+def hand_run(tmp_path_factory):
+    path = tmp_path_factory.mktemp("hand") / "hand.mcap"
+    ep0 = _states([(100.0, 0.0, False), (110.0, 1.0, False), (130.0, 2.0, False)])
+    ep1 = _states([(100.0, 0.0, False), (150.0, 4.0, True)])
+    with EpisodeWriter(path, new_header("recorded")) as w:
+        w.write(Episode(0, ep0, make_end(ep0), seed=1))
+        w.write(Episode(1, ep1, make_end(ep1), seed=2))
+    return path
+
+
+AGG = """
+[metrics.n]
+aggregate = "steps"
+[metrics.avg]
+expression = "Reward"
+aggregate = "average"
+[metrics.total]
+expression = "Reward"
+aggregate = "sum"
+[metrics.between]
+expression = "Reward"
+aggregate = "sum_between_steps"
+[metrics.low]
+expression = "VehiclesX(EgoVehicle)"
+aggregate = "min"
+[metrics.high]
+expression = "VehiclesX(EgoVehicle)"
+aggregate = "max"
+estimate = { value = 140.0, epsilon = 1.0 }
+[properties.never_crash]
+predicate = "Crash = FALSE"
+[properties.ever_far]
+predicate = "VehiclesX(EgoVehicle) > 120.0"
+kind = "eventually"
+[properties.ends_far]
+predicate = "VehiclesX(EgoVehicle) > 140.0"
+kind = "final"
+test = { p = 0.9, alpha = 0.05, tail = "left" }
+"""
+
+
+def test_aggregates_by_hand(hand_run):
+    pset = parse_properties(AGG, name="hand", file="hand.toml")
+    result = statistics([hand_run], pset)
+    (r,) = result["runs"]
+    m, p = r["metrics"], r["properties"]
+    # episode 0: rewards 0,1,2 (n=2); episode 1: rewards 0,4 (n=1)
+    assert m["n"]["mean"] == 1.5
+    assert m["avg"]["mean"] == pytest.approx((1.0 + 2.0) / 2)        # (1.0 + 2.0) / 2
+    assert m["total"]["mean"] == pytest.approx((3.0 + 4.0) / 2)
+    # between steps: ep0 (0+1)/2 + (1+2)/2 = 2.0; ep1 (0+4)/2 = 2.0
+    assert m["between"]["mean"] == pytest.approx(2.0) and m["between"]["sd"] == 0.0
+    assert m["low"]["mean"] == 100.0 and m["high"]["mean"] == 140.0
+    assert m["high"]["estimate"]["within"] is True
+    assert (p["never_crash"]["holds"], p["ever_far"]["holds"], p["ends_far"]["holds"]) == (
+        1, 2, 1)
+    test = p["ends_far"]["test"]
+    assert test["tail"] == "left" and 0 < test["exact_p_value"] <= 1
+
+
+def test_intervals_and_tests_against_reference_values(hand_run):
+    from tracecheck.properties import HypothesisTest, Property
+    from tracecheck.stats import _hypothesis, _property_stats
+    import numpy as np
+
+    holds = np.array([True] * 13 + [False] * 37)
+    prop = Property("x", "TRUE = TRUE", None, test=HypothesisTest(0.5, 0.05, "left"))
+    wilson = _property_stats(holds, prop, "wilson")
+    exact = _property_stats(holds, prop, "clopper-pearson")
+    # python -c "from scipy.stats import binomtest as b; r=b(13,50);
+    #   print(r.proportion_ci(method='wilson'), r.proportion_ci(method='exact'))"
+    assert wilson["ci95"] == pytest.approx([0.158715, 0.395532], abs=1e-6)
+    assert exact["ci95"] == pytest.approx([0.146301, 0.403448], abs=1e-6)
+    t = _hypothesis(13, 50, prop)
+    # python -c "from scipy.stats import binomtest, norm; import math;
+    #   z = (0.26 - 0.5) / math.sqrt(0.25 / 50); print(z, norm.cdf(z),
+    #   binomtest(13, 50, 0.5, alternative='less').pvalue)"
+    assert t["z"] == pytest.approx(-3.394113, abs=1e-6)
+    assert t["normal_p_value"] == pytest.approx(3.4426e-4, rel=1e-4)
+    assert t["exact_p_value"] == pytest.approx(4.6811e-4, rel=1e-4)
+    assert t["normal_rejected"] and t["exact_rejected"]
+
+
+def test_paired_comparison_on_sample_traces():
+    from tests.conftest import ROOT
+
+    result = statistics([ROOT / "sample_traces" / "base_none.mcap",
+                         ROOT / "sample_traces" / "base_paper.mcap"],
+                        HIGHWAY_SET.select(["SAF1", "episode_length"]))
+    (c,) = result["comparisons"]
+    assert c["pairs"] == 24 and c["properties"]["SAF1"]["method"] == "exact McNemar"
+    assert c["metrics"]["episode_length"]["wilcoxon_p"] is not None
+
+
+def test_empty_run_is_reported_as_such(tmp_path):
+    path = tmp_path / "empty.mcap"
+    with EpisodeWriter(path, new_header("recorded")):
+        pass
+    (r,) = statistics([path], HIGHWAY_SET)["runs"]
+    assert r["episodes"] == 0 and r["note"] == "no episodes: nothing to estimate"
+    assert r["properties"] == {}
+
+
+@pytest.mark.parametrize("text,exc,fragment", [
+    ("[metrics.x\nexpression = 1", InputError, "not valid TOML"),
+    ('[properties.p]\npredicate = "Speed > 1.0"', BScopeError, "unknown identifier Speed"),
+    ('[properties.p]\npredicate = "Reward + 1.0"', BTypeError, "must be a predicate"),
+    ('[metrics.m]\nexpression = "Reward"\naggregate = "median"', InputError,
+     "unknown aggregate 'median'; the aggregates are steps, average, sum, sum_between_steps"),
+    ('[properties.p]\npredicate = "Crash = FALSE"\ntest = { p = 1.5 }', InputError,
+     "p must lie strictly between 0 and 1, not 1.5"),
+    ('[properties.p]\npredicate = "Crash = FALSE"\ntest = { p = 0.5, alpha = 0 }', InputError,
+     "alpha must lie strictly between 0 and 1, not 0"),
+    ('[properties.p]\npredicate = "Crash = FALSE"\nkind = "always"', InputError,
+     "unknown kind 'always'; the kinds are invariant, eventually, final"),
+    ('[properties.p]\npredicate = "Crash = "', Exception, "unexpected end"),
+    ('[metrics.m]\nexpression = "Reward + 1"', BTypeError, "REAL vs INTEGER"),
+])
+def test_bad_property_files(tmp_path, hand_run, text, exc, fragment):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(exc) as info:
+        statistics([hand_run], load_properties(path))
+    assert fragment in str(info.value)
+
+
+def test_unknown_names_and_interval(hand_run):
+    with pytest.raises(InputError, match="has no metric or property SAF9"):
+        HIGHWAY_SET.select(["SAF9"])
+    with pytest.raises(InputError, match="unknown interval method 'agresti'"):
+        statistics([hand_run], HIGHWAY_SET, interval="agresti")
+
+
+def test_stats_cli(capsys, paper_runs, tmp_path):
+    code, out, _ = run(capsys, "stats", *map(str, paper_runs), "--json")
+    data = json.loads(out)
+    assert code == 0 and [r["name"] for r in data["runs"]] == ["base", "base_shield"]
+    saf1 = data["runs"][0]["properties"]["SAF1"]
+    assert (saf1["holds"], saf1["episodes"], saf1["ratio"]) == (11, 20, 0.55)
+    assert len(saf1["ci95"]) == 2 and data["runs"][0]["metrics"]["velocity"]["ci95"]
+    code, out, _ = run(capsys, "stats", *map(str, paper_runs), "--format", "csv")
+    assert out.splitlines()[0].startswith("run,file,episodes,name,kind,value")
+    code, out, _ = run(capsys, "stats", *map(str, paper_runs), "--format", "md")
+    assert "| Episode length [s] | 38.25 ± 25.09" in out
+    code, _, err = run(capsys, "stats", str(paper_runs[0]), "--plot", str(tmp_path / "p"))
+    assert code == 0 and (tmp_path / "p" / "properties.png").exists()
+    assert (tmp_path / "p" / "properties.svg").exists()
+    assert (tmp_path / "p" / "metric_velocity.svg").exists()
+    code, _, err = run(capsys, "stats", str(paper_runs[0]), "--properties", "nope.toml")
+    assert code == 2 and "no such property file: nope.toml" in err

@@ -1,0 +1,237 @@
+"""Property sets: the B predicates and metrics that statistics are computed from.
+
+A property file is TOML::
+
+    [metrics.velocity]
+    expression = "RSQRT(VehiclesVx(EgoVehicle)**2 + VehiclesVy(EgoVehicle)**2)"
+    aggregate = "average"           # steps | average | sum | sum_between_steps | min | max
+    estimate = { value = 22.0, epsilon = 1.0 }   # optional: SimB's "desired value ± ε"
+
+    [properties.SAF1]
+    predicate = "Crash = FALSE"
+    kind = "invariant"              # invariant | eventually | final
+    test = { p = 0.9, alpha = 0.05, tail = "left" }   # optional hypothesis test
+
+Aggregates over the states s0 … sn of an episode (n = steps), as SimB defines them:
+``steps`` is n; ``average`` the mean over s0…sn; ``sum`` the sum over s0…sn;
+``sum_between_steps`` Σ_{k=1..n} (value in s(k−1) + value in s(k)) / 2; ``min``, ``max``.
+A property of kind ``invariant`` holds in every state (the initial state included),
+``eventually`` in some state, ``final`` in the last one.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Optional
+
+from .b import ast as A
+from .b.parser import parse_formula
+from .b.scope import EXPR, PRED, check_kind
+from .errors import InputError, TracecheckError, read_text
+
+__all__ = ["Metric", "Property", "HypothesisTest", "PropertySet", "load_properties",
+           "HIGHWAY_SET", "AGGREGATES", "KINDS", "TAILS"]
+
+AGGREGATES = ("steps", "average", "sum", "sum_between_steps", "min", "max")
+KINDS = ("invariant", "eventually", "final")
+TAILS = ("left", "right", "two")
+
+
+@dataclass(frozen=True)
+class HypothesisTest:
+    p: float
+    alpha: float = 0.05
+    tail: str = "left"
+
+
+@dataclass(frozen=True)
+class Metric:
+    name: str
+    aggregate: str
+    expression: Optional[str] = None
+    node: Optional[A.Node] = None
+    description: str = ""
+    estimate: Optional[tuple[float, float]] = None  # (value, epsilon)
+
+
+@dataclass(frozen=True)
+class Property:
+    name: str
+    predicate: str
+    node: A.Node
+    kind: str = "invariant"
+    description: str = ""
+    test: Optional[HypothesisTest] = None
+
+
+@dataclass(frozen=True)
+class PropertySet:
+    name: str
+    metrics: tuple[Metric, ...] = ()
+    properties: tuple[Property, ...] = field(default_factory=tuple)
+
+    def select(self, names: Optional[list[str]]) -> "PropertySet":
+        """Only the metrics and properties named (all when ``names`` is empty)."""
+        if not names:
+            return self
+        known = {m.name for m in self.metrics} | {p.name for p in self.properties}
+        unknown = [n for n in names if n not in known]
+        if unknown:
+            raise InputError(f"the set {self.name} has no metric or property "
+                             f"{', '.join(unknown)}; it has {', '.join(sorted(known))}")
+        return PropertySet(self.name, tuple(m for m in self.metrics if m.name in names),
+                           tuple(p for p in self.properties if p.name in names))
+
+
+SPEED = "RSQRT(VehiclesVx(EgoVehicle)**2 + VehiclesVy(EgoVehicle)**2)"
+ACCEL = "RSQRT(VehiclesAx(EgoVehicle)**2 + VehiclesAy(EgoVehicle)**2)"
+
+#: The paper's SimB tasks (its Tables 2 and 3), exactly.
+HIGHWAY_TOML = f"""
+[metrics.episode_length]
+aggregate = "steps"
+description = "Episode length [s]"
+
+[metrics.velocity]
+expression = "{SPEED}"
+aggregate = "average"
+description = "Velocity [m/s]"
+
+[metrics.distance]
+expression = "VehiclesVx(EgoVehicle)"
+aggregate = "sum_between_steps"
+description = "Distance [m]"
+
+[metrics.right_lane]
+expression = "IF VehiclesY(EgoVehicle) >= 7.0 THEN 1.0 ELSE 0.0 END"
+aggregate = "sum_between_steps"
+description = "On right lane [s]"
+
+[metrics.total_reward]
+expression = "Reward"
+aggregate = "sum"
+description = "Total reward"
+
+[properties.SAF1]
+predicate = "Crash = FALSE"
+description = "The agent must avoid collisions with other vehicles"
+
+[properties.SAF2]
+predicate = "Crash = FALSE => {SPEED} >= 20.0"
+description = "The agent must drive faster than 20 m/s"
+
+[properties.SAF3]
+predicate = "Crash = FALSE => {SPEED} <= 30.0"
+description = "The agent must drive slower than 30 m/s"
+
+[properties.SAF4]
+predicate = "Crash = FALSE => (VehiclesAx(EgoVehicle) < 0.0 => {ACCEL} <= 5.0)"
+description = "The agent should decelerate at a maximum of 5 m/s²"
+
+[properties.SAF5]
+predicate = "Crash = FALSE => (VehiclesAx(EgoVehicle) > 0.0 => {ACCEL} <= 5.0)"
+description = "The agent should accelerate at a maximum of 5 m/s²"
+
+[properties.SAF6]
+predicate = "not(#v.(v : PresentVehicles \\\\ {{EgoVehicle}} & VehiclesX(v) >= -15.0 & VehiclesX(v) <= 15.0 & VehiclesY(v) >= -4.0 & VehiclesY(v) <= 4.0))"
+description = "Keep 2 m lateral and 10 m longitudinal safety distance to each other vehicle"
+"""
+
+
+def _formula(text: object, kind: str, where: str, file: str) -> A.Node:
+    if not isinstance(text, str):
+        raise InputError(f"{file}: {where} must be a string with a B {kind}")
+    try:
+        node = parse_formula(text, file=f"{file}: {where}")
+        check_kind(node, PRED if kind == "predicate" else EXPR, source=text,
+                   context=f"the {kind}")
+    except TracecheckError as exc:
+        exc.file = f"{file}: {where}"
+        raise exc.located(source=text)
+    return node
+
+
+def _number(value: object, name: str, where: str, file: str, *, open01: bool = False) -> float:
+    if type(value) not in (int, float):
+        raise InputError(f"{file}: {where}: {name} must be a number, not {value!r}")
+    if open01 and not 0.0 < float(value) < 1.0:
+        raise InputError(f"{file}: {where}: {name} must lie strictly between 0 and 1, "
+                         f"not {value}")
+    return float(value)
+
+
+def parse_properties(text: str, *, name: str, file: str) -> PropertySet:
+    """A property set from TOML text (see the module docstring)."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"not valid TOML: {exc}", file=file, line=getattr(exc, "lineno", None),
+                         column=getattr(exc, "colno", None), source=text) from None
+    extra = set(data) - {"metrics", "properties"}
+    if extra:
+        raise InputError(f"{file}: unknown section {sorted(extra)[0]!r}; a property file has "
+                         "[metrics.NAME] and [properties.NAME] tables")
+    metrics = tuple(_metric(n, spec, file) for n, spec in data.get("metrics", {}).items())
+    props = tuple(_property(n, spec, file) for n, spec in data.get("properties", {}).items())
+    if not metrics and not props:
+        raise InputError(f"{file}: no metrics and no properties")
+    return PropertySet(name, metrics, props)
+
+
+def _metric(name: str, spec: dict, file: str) -> Metric:
+    where = f"metric {name}"
+    if not isinstance(spec, dict):
+        raise InputError(f"{file}: {where} must be a table")
+    aggregate = spec.get("aggregate", "average")
+    if aggregate not in AGGREGATES:
+        raise InputError(f"{file}: {where}: unknown aggregate {aggregate!r}; the aggregates "
+                         f"are {', '.join(AGGREGATES)}")
+    node = None
+    if aggregate != "steps":
+        node = _formula(spec.get("expression"), "expression", f"{where} expression", file)
+    estimate = None
+    if "estimate" in spec:
+        est = spec["estimate"]
+        if not isinstance(est, dict):
+            raise InputError(f"{file}: {where}: estimate is a table {{value = …, epsilon = …}}")
+        estimate = (_number(est.get("value"), "estimate value", where, file),
+                    _number(est.get("epsilon"), "estimate epsilon", where, file))
+    return Metric(name, aggregate, spec.get("expression"), node, spec.get("description", ""),
+                  estimate)
+
+
+def _property(name: str, spec: dict, file: str) -> Property:
+    where = f"property {name}"
+    if not isinstance(spec, dict):
+        raise InputError(f"{file}: {where} must be a table")
+    kind = spec.get("kind", "invariant")
+    if kind not in KINDS:
+        raise InputError(f"{file}: {where}: unknown kind {kind!r}; the kinds are "
+                         f"{', '.join(KINDS)}")
+    node = _formula(spec.get("predicate"), "predicate", f"{where} predicate", file)
+    test = None
+    if "test" in spec:
+        t = spec["test"]
+        if not isinstance(t, dict):
+            raise InputError(f"{file}: {where}: test is a table {{p = …, alpha = …, tail = …}}")
+        tail = t.get("tail", "left")
+        if tail not in TAILS:
+            raise InputError(f"{file}: {where}: unknown tail {tail!r}; the tails are "
+                             f"{', '.join(TAILS)}")
+        test = HypothesisTest(_number(t.get("p"), "p", where, file, open01=True),
+                              _number(t.get("alpha", 0.05), "alpha", where, file, open01=True),
+                              tail)
+    return Property(name, spec["predicate"], node, kind, spec.get("description", ""), test)
+
+
+HIGHWAY_SET = parse_properties(HIGHWAY_TOML, name="highway", file="<highway>")
+
+
+def load_properties(spec: str | Path) -> PropertySet:
+    """The built-in ``highway`` set, or a property file."""
+    if str(spec) == "highway":
+        return HIGHWAY_SET
+    path = Path(spec)
+    return parse_properties(read_text(path, "property file"), name=path.stem, file=str(path))

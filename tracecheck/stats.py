@@ -1,0 +1,238 @@
+"""Statistical validation over recorded or imported episodes (SimB parity and beyond).
+
+Per run: each metric aggregated per episode, then mean ± sample sd with a 95 % t interval;
+the share of episodes satisfying each property with a 95 % interval (Wilson, or
+Clopper–Pearson on request); SimB's hypothesis tests (normal approximation) with the exact
+binomial p-value beside them; SimB's estimation check (mean within value ± ε). Two runs whose
+episodes share seeds (the same scenarios, say with and without a shield) are compared pair by
+pair: exact McNemar for properties, paired t and Wilcoxon signed-rank for metrics.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from .b.typecheck import typecheck_formula
+from .b.vector import BatchFormula
+from .episodes.mcap_io import RunColumns, read_columns
+from .errors import InputError, TracecheckError
+from .properties import Metric, Property, PropertySet
+
+__all__ = ["RunValues", "evaluate_run", "statistics", "INTERVALS"]
+
+INTERVALS = {"wilson": "wilson", "clopper-pearson": "exact"}
+
+
+@dataclass
+class RunValues:
+    """Per-episode values of every metric and property in one run."""
+
+    name: str
+    file: str
+    episodes: int
+    seeds: list[Optional[int]]
+    metrics: dict[str, np.ndarray] = field(default_factory=dict)
+    properties: dict[str, np.ndarray] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+
+def _typing_scope():
+    from .shield import load_shield
+
+    machine = load_shield("paper").machine
+    return machine.type_objects, dict(machine.base_env)
+
+
+def _check(node, kind: str, where: str, text: str, names) -> None:
+    try:
+        typecheck_formula(node, names, kind=kind, source=text, file=where,
+                          unknown_hint="the state variables are Crash, PresentVehicles, "
+                                       "VehiclesX, VehiclesY, VehiclesVx, VehiclesVy, "
+                                       "VehiclesAx, VehiclesAy, Reward")
+    except TracecheckError as exc:
+        raise exc.located(file=where, source=text)
+
+
+def prepare(pset: PropertySet) -> dict:
+    """Type-check every formula of ``pset`` and prepare it for batch evaluation."""
+    names, constants = _typing_scope()
+    formulas = {}
+    for m in pset.metrics:
+        if m.node is not None:
+            _check(m.node, "expression", f"{pset.name}: metric {m.name}", m.expression, names)
+            formulas[("m", m.name)] = BatchFormula(m.node, constants, source=m.expression)
+    for p in pset.properties:
+        _check(p.node, "predicate", f"{pset.name}: property {p.name}", p.predicate, names)
+        formulas[("p", p.name)] = BatchFormula(p.node, constants, source=p.predicate)
+    return formulas
+
+
+def _aggregate(m: Metric, values: Optional[np.ndarray], cols: RunColumns) -> np.ndarray:
+    starts = cols.starts[:-1]
+    lengths = np.diff(cols.starts)
+    if m.aggregate == "steps":
+        return (lengths - 1).astype(float)
+    v = np.asarray(values, dtype=float)
+    if m.aggregate == "average":
+        return np.add.reduceat(v, starts) / lengths
+    if m.aggregate == "sum":
+        return np.add.reduceat(v, starts)
+    if m.aggregate == "sum_between_steps":
+        last = cols.starts[1:] - 1
+        return np.add.reduceat(v, starts) - (v[starts] + v[last]) / 2.0
+    if m.aggregate == "min":
+        return np.minimum.reduceat(v, starts)
+    return np.maximum.reduceat(v, starts)
+
+
+def _holds(p: Property, values: np.ndarray, cols: RunColumns) -> np.ndarray:
+    v = np.asarray(values, dtype=bool)
+    starts = cols.starts[:-1]
+    if p.kind == "invariant":
+        return np.logical_and.reduceat(v, starts)
+    if p.kind == "eventually":
+        return np.logical_or.reduceat(v, starts)
+    return v[cols.starts[1:] - 1]
+
+
+def evaluate_run(path: str | Path, pset: PropertySet, formulas: dict,
+                 name: Optional[str] = None) -> RunValues:
+    """Every metric and property of ``pset`` on every episode of a file."""
+    cols = read_columns(path)
+    run = RunValues(name or Path(path).stem, str(path), len(cols.episode_ids), list(cols.seeds),
+                    warnings=list(cols.warnings))
+    if not run.episodes:
+        return run
+    for m in pset.metrics:
+        values = formulas[("m", m.name)](cols.states) if m.node is not None else None
+        run.metrics[m.name] = _aggregate(m, values, cols)
+    for p in pset.properties:
+        run.properties[p.name] = _holds(p, formulas[("p", p.name)](cols.states), cols)
+    return run
+
+
+# ------------------------------------------------------------------ statistics
+
+
+def _metric_stats(values: np.ndarray, m: Metric) -> dict:
+    from scipy import stats
+
+    n = len(values)
+    mean = float(np.mean(values))
+    out = {"mean": mean, "sd": None, "ci95": None, "n": n, "method": "t"}
+    if n >= 2:
+        sd = float(np.std(values, ddof=1))
+        half = float(stats.t.ppf(0.975, n - 1)) * sd / math.sqrt(n)
+        out.update(sd=sd, ci95=[mean - half, mean + half])
+    if m.estimate is not None:
+        value, eps = m.estimate
+        out["estimate"] = {"value": value, "epsilon": eps,
+                           "within": abs(mean - value) <= eps}
+    return out
+
+
+def _property_stats(holds: np.ndarray, p: Property, interval: str) -> dict:
+    from scipy import stats
+
+    n, k = len(holds), int(np.count_nonzero(holds))
+    ci = stats.binomtest(k, n).proportion_ci(confidence_level=0.95,
+                                             method=INTERVALS[interval])
+    out = {"holds": k, "episodes": n, "ratio": k / n, "ci95": [float(ci.low), float(ci.high)],
+           "method": interval}
+    if p.test is not None:
+        out["test"] = _hypothesis(k, n, p)
+    return out
+
+
+def _hypothesis(k: int, n: int, p: Property) -> dict:
+    """SimB's test (normal approximation) and the exact binomial p-value."""
+    from scipy import stats
+
+    t = p.test
+    ratio = k / n
+    z = (ratio - t.p) / math.sqrt(t.p * (1 - t.p) / n)
+    if t.tail == "left":  # H1: the probability is below p
+        normal_p, alternative = float(stats.norm.cdf(z)), "less"
+    elif t.tail == "right":
+        normal_p, alternative = float(stats.norm.sf(z)), "greater"
+    else:
+        normal_p, alternative = float(2 * stats.norm.sf(abs(z))), "two-sided"
+    exact_p = float(stats.binomtest(k, n, t.p, alternative=alternative).pvalue)
+    return {"p": t.p, "alpha": t.alpha, "tail": t.tail, "z": z,
+            "normal_p_value": normal_p, "normal_rejected": normal_p < t.alpha,
+            "exact_p_value": exact_p, "exact_rejected": exact_p < t.alpha,
+            "method": "normal approximation (SimB) and exact binomial"}
+
+
+def _paired(a: RunValues, b: RunValues, pset: PropertySet) -> Optional[dict]:
+    from scipy import stats
+
+    index_a = {s: i for i, s in enumerate(a.seeds) if s is not None}
+    index_b = {s: i for i, s in enumerate(b.seeds) if s is not None}
+    common = sorted(set(index_a) & set(index_b))
+    if not common:
+        return None
+    ia = np.array([index_a[s] for s in common])
+    ib = np.array([index_b[s] for s in common])
+    result = {"runs": [a.name, b.name], "pairs": len(common), "properties": {}, "metrics": {}}
+    for p in pset.properties:
+        x, y = a.properties[p.name][ia], b.properties[p.name][ib]
+        only_a, only_b = int(np.sum(x & ~y)), int(np.sum(~x & y))
+        pv = float(stats.binomtest(only_a, only_a + only_b, 0.5).pvalue) \
+            if only_a + only_b else 1.0
+        result["properties"][p.name] = {
+            "only_first": only_a, "only_second": only_b, "both": int(np.sum(x & y)),
+            "neither": int(np.sum(~x & ~y)), "p_value": pv, "method": "exact McNemar"}
+    for m in pset.metrics:
+        x, y = a.metrics[m.name][ia], b.metrics[m.name][ib]
+        diff = x - y
+        entry = {"mean_difference": float(np.mean(diff)), "paired_t_p": None,
+                 "wilcoxon_p": None}
+        if len(diff) >= 2 and np.std(diff) > 0:
+            entry["paired_t_p"] = float(stats.ttest_rel(x, y).pvalue)
+        if np.any(diff != 0):
+            entry["wilcoxon_p"] = float(stats.wilcoxon(x, y).pvalue)
+        result["metrics"][m.name] = entry
+    return result
+
+
+def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "wilson",
+               names: Optional[list[str]] = None) -> dict:
+    """The statistics of the runs in ``paths`` (JSON-ready; see the module docstring)."""
+    if interval not in INTERVALS:
+        raise InputError(f"unknown interval method {interval!r}; the methods are "
+                         f"{', '.join(INTERVALS)}")
+    formulas = prepare(pset)
+    runs = [evaluate_run(p, pset, formulas, names[i] if names else None)
+            for i, p in enumerate(paths)]
+    start = time.perf_counter()
+    out = {"properties_set": pset.name, "interval": interval, "runs": [], "comparisons": [],
+           "warnings": [w for r in runs for w in r.warnings]}
+    for run in runs:
+        entry = {"name": run.name, "file": run.file, "episodes": run.episodes,
+                 "metrics": {}, "properties": {}}
+        if run.episodes:
+            entry["metrics"] = {m.name: _metric_stats(run.metrics[m.name], m)
+                                for m in pset.metrics}
+            entry["properties"] = {p.name: _property_stats(run.properties[p.name], p, interval)
+                                   for p in pset.properties}
+        else:
+            entry["note"] = "no episodes: nothing to estimate"
+        out["runs"].append(entry)
+    for i, a in enumerate(runs):
+        for b in runs[i + 1:]:
+            if a.episodes and b.episodes:
+                paired = _paired(a, b, pset)
+                if paired is not None:
+                    out["comparisons"].append(paired)
+    out["statistics_s"] = round(time.perf_counter() - start, 6)
+    out["descriptions"] = {**{m.name: m.description for m in pset.metrics},
+                           **{p.name: p.description for p in pset.properties}}
+    out["_values"] = runs
+    return out

@@ -1,0 +1,143 @@
+"""Statistics for people: tables side by side like the paper's Tables 2 and 3, CSV, plots."""
+
+from __future__ import annotations
+
+import csv
+import io
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+__all__ = ["stats_text", "stats_markdown", "stats_csv", "stats_plots"]
+
+
+def _metric_cell(m: dict) -> str:
+    if m["sd"] is None:
+        return f"{m['mean']:.2f}"
+    lo, hi = m["ci95"]
+    return f"{m['mean']:.2f} ± {m['sd']:.2f} [{lo:.2f}, {hi:.2f}]"
+
+
+def _property_cell(p: dict) -> str:
+    lo, hi = p["ci95"]
+    text = f"{100 * p['ratio']:.1f} % [{100 * lo:.1f}, {100 * hi:.1f}]"
+    if "test" in p:
+        t = p["test"]
+        verdict = "rejected" if t["exact_rejected"] else "not rejected"
+        text += f"; H0 {verdict} (p={t['exact_p_value']:.3g})"
+    return text
+
+
+def _rows(result: dict) -> tuple[list[str], list[list[str]]]:
+    runs = result["runs"]
+    header = ["", *[f"{r['name']} ({r['episodes']} ep.)" for r in runs]]
+    rows = []
+    first = next((r for r in runs if r["episodes"]), None)
+    if first is None:
+        return header, [["(no episodes in any run)", *["" for _ in runs]]]
+    for name in first["metrics"]:
+        label = result["descriptions"].get(name) or name
+        rows.append([label, *[_metric_cell(r["metrics"][name]) if r["episodes"] else
+                              "no episodes" for r in runs]])
+    for name in first["properties"]:
+        label = f"{name}: {result['descriptions'].get(name) or ''}".rstrip(": ")
+        rows.append([label, *[_property_cell(r["properties"][name]) if r["episodes"] else
+                              "no episodes" for r in runs]])
+    return header, rows
+
+
+def stats_text(console: Console, result: dict) -> None:
+    header, rows = _rows(result)
+    table = Table(*header, title=f"{result['properties_set']}: metrics mean ± sd [95 % t "
+                                 f"interval]; properties % of episodes [95 % "
+                                 f"{result['interval']} interval]")
+    for row in rows:
+        table.add_row(*row)
+    console.print(table)
+    for c in result["comparisons"]:
+        console.print(f"paired {c['runs'][0]} vs {c['runs'][1]} ({c['pairs']} shared seeds):",
+                      highlight=False)
+        for name, p in c["properties"].items():
+            console.print(f"  {name}: only {c['runs'][0]} {p['only_first']}, only "
+                          f"{c['runs'][1]} {p['only_second']} (exact McNemar p="
+                          f"{p['p_value']:.3g})", highlight=False)
+        for name, m in c["metrics"].items():
+            t = "n/a" if m["paired_t_p"] is None else f"{m['paired_t_p']:.3g}"
+            w = "n/a" if m["wilcoxon_p"] is None else f"{m['wilcoxon_p']:.3g}"
+            console.print(f"  {name}: mean difference {m['mean_difference']:.3f} (paired t "
+                          f"p={t}, Wilcoxon p={w})", highlight=False)
+
+
+def stats_markdown(result: dict) -> str:
+    header, rows = _rows(result)
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(c.replace("|", "\\|") for c in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def stats_csv(result: dict) -> str:
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(["run", "file", "episodes", "name", "kind", "value", "sd", "ci95_low",
+                "ci95_high", "holds", "method"])
+    for r in result["runs"]:
+        if not r["episodes"]:
+            w.writerow([r["name"], r["file"], 0, "", "", "", "", "", "", "", "no episodes"])
+        for name, m in r["metrics"].items():
+            lo, hi = m["ci95"] or ("", "")
+            w.writerow([r["name"], r["file"], r["episodes"], name, "metric", m["mean"],
+                        m["sd"] if m["sd"] is not None else "", lo, hi, "", m["method"]])
+        for name, p in r["properties"].items():
+            w.writerow([r["name"], r["file"], r["episodes"], name, "property", p["ratio"], "",
+                        p["ci95"][0], p["ci95"][1], p["holds"], p["method"]])
+    return buf.getvalue()
+
+
+def stats_plots(result: dict, folder: Path) -> list[Path]:
+    """PNG and SVG: property shares with intervals per run; metric distributions per run."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    folder.mkdir(parents=True, exist_ok=True)
+    runs = [r for r in result["runs"] if r["episodes"]]
+    values = {v.name: v for v in result["_values"]}
+    written: list[Path] = []
+    if not runs:
+        return written
+    props = list(runs[0]["properties"])
+    if props:
+        fig, ax = plt.subplots(figsize=(max(6, 1.2 * len(props) * len(runs)), 4))
+        width = 0.8 / len(runs)
+        for i, r in enumerate(runs):
+            ratios = [100 * r["properties"][p]["ratio"] for p in props]
+            lo = [ratios[j] - 100 * r["properties"][p]["ci95"][0] for j, p in enumerate(props)]
+            hi = [100 * r["properties"][p]["ci95"][1] - ratios[j] for j, p in enumerate(props)]
+            ax.bar(np.arange(len(props)) + i * width, ratios, width, yerr=[lo, hi],
+                   capsize=3, label=r["name"])
+        ax.set_xticks(np.arange(len(props)) + width * (len(runs) - 1) / 2, props)
+        ax.set_ylabel(f"% of episodes (95 % {result['interval']} interval)")
+        ax.set_ylim(0, 105)
+        ax.legend()
+        written += _save(fig, folder / "properties")
+    for name in runs[0]["metrics"]:
+        fig, ax = plt.subplots(figsize=(max(5, 1.5 * len(runs)), 4))
+        ax.boxplot([values[r["name"]].metrics[name] for r in runs])
+        ax.set_xticks(range(1, len(runs) + 1), [r["name"] for r in runs])
+        ax.set_title(result["descriptions"].get(name) or name)
+        written += _save(fig, folder / f"metric_{name}")
+    return written
+
+
+def _save(fig, stem: Path) -> list[Path]:
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    paths = [stem.with_suffix(".png"), stem.with_suffix(".svg")]
+    for p in paths:
+        fig.savefig(p)
+    plt.close(fig)
+    return paths
