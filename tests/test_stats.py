@@ -208,3 +208,27 @@ def test_stats_cli(capsys, paper_runs, tmp_path):
     assert (tmp_path / "p" / "metric_velocity.svg").exists()
     code, _, err = run(capsys, "stats", str(paper_runs[0]), "--properties", "nope.toml")
     assert code == 2 and "no such property file: nope.toml" in err
+
+
+def test_simulate_stops_when_intervals_are_narrow(capsys, tmp_path):
+    from tests.conftest import ROOT
+
+    out = tmp_path / "sim.mcap"
+    code, text, err = run(capsys, "simulate", "--agent",
+                          str(ROOT / "models" / "agents" / "base.zip"), "--shield", "paper",
+                          "--episodes", "30", "--duration", "4", "--until-ci-width", "0.9",
+                          "-o", str(out), "--json")
+    data = json.loads(text)
+    seq = data["sequential"]
+    assert code == 0 and seq["stopped_early"] and seq["looks"] == 1
+    assert "Bonferroni over 3 planned looks" in seq["rule"]
+    assert data["runs"][0]["episodes"] == 10 < 30
+    code, text, _ = run(capsys, "simulate", "--agent",
+                        str(ROOT / "models" / "agents" / "base.zip"), "--episodes", "3",
+                        "--duration", "3", "-o", str(out), "--json")
+    data = json.loads(text)
+    assert "sequential" not in data and data["runs"][0]["episodes"] == 3
+    code, _, err = run(capsys, "simulate", "--agent",
+                       str(ROOT / "models" / "agents" / "base.zip"), "--episodes", "3",
+                       "--until-ci-width", "2", "-o", str(out))
+    assert code == 2 and "must lie strictly between 0 and 1" in err

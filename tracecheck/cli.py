@@ -574,6 +574,51 @@ def record_cmd(
               markup=False)
 
 
+@app.command("simulate")
+def simulate_cmd(
+    agent: Path = typer.Option(..., "--agent", help="A stable-baselines3 agent (.zip); loading "
+                               "it runs code from the file."),
+    shield: str = typer.Option("none", "--shield", "-s", help=_SHIELD_HELP),
+    episodes: int = typer.Option(..., "--episodes", "-n", min=1,
+                                 help="Episodes (at most, with --until-ci-width)."),
+    seed: int = typer.Option(0, "--seed", help="Episode i uses seed SEED + i."),
+    duration: int = typer.Option(60, "--duration", min=1, help="Agent steps per episode."),
+    workers: int = typer.Option(1, "--workers", "-w", min=1, help="Worker processes."),
+    profile: Profile = typer.Option(Profile.base, "--profile", help="Reward profile."),
+    properties: str = typer.Option("highway", "--properties", "-p",
+                                   help="'highway' or a property file (TOML)."),
+    until_ci_width: Optional[float] = typer.Option(
+        None, "--until-ci-width", help="Stop once every property's 95 % interval is narrower "
+                                       "than this (a share, e.g. 0.1)."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+    fmt: StatsFormat = typer.Option(StatsFormat.text, "--format", help="text, md or csv."),
+    output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
+) -> None:
+    """Monte Carlo: record episodes and validate them in one go (SimB-style)."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from .properties import load_properties
+    from .record import RecordSettings
+    from .simulate import simulate
+
+    pset = load_properties(properties)
+    settings = RecordSettings(agent=str(agent), shield=shield, episodes=episodes, seed=seed,
+                              duration=duration, profile=profile.value, workers=workers)
+    with Progress(TextColumn("simulating"), BarColumn(),
+                  TextColumn("{task.completed}/{task.total} episodes"), TimeRemainingColumn(),
+                  console=err, transient=True) as bar:
+        task = bar.add_task("simulate", total=episodes)
+        result = simulate(settings, output, pset, until_width=until_ci_width,
+                          progress=lambda ep: bar.advance(task))
+    seq = result.get("sequential")
+    if seq is not None:
+        widths = ", ".join(f"{k} {v:.3f}" for k, v in seq["widths"].items())
+        err.print(f"sequential rule: {seq['rule']}; {seq['looks']} look(s), "
+                  f"{'stopped early' if seq['stopped_early'] else 'ran to the end'}; "
+                  f"widths {widths}", highlight=False, markup=False)
+    _print_stats(result, as_json, fmt, None)
+
+
 def main(argv: Optional[list[str]] = None) -> Any:
     """Entry point: run the app and turn tracecheck errors into exit code 2."""
     try:
