@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from tests.episodes.conftest import episode, state
+from tests.episodes.conftest import state
 from tests.test_cli import run
 from tracecheck.episodes import EpisodeWriter, new_header
 from tracecheck.episodes.files import write_run

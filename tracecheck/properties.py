@@ -149,7 +149,7 @@ def _formula(text: object, kind: str, where: str, file: str) -> A.Node:
                    context=f"the {kind}")
     except TracecheckError as exc:
         exc.file = f"{file}: {where}"
-        raise exc.located(source=text)
+        raise exc.located(source=text) from None
     return node
 
 

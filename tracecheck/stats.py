@@ -56,7 +56,7 @@ def _check(node, kind: str, where: str, text: str, names) -> None:
                                        "VehiclesX, VehiclesY, VehiclesVx, VehiclesVy, "
                                        "VehiclesAx, VehiclesAy, Reward")
     except TracecheckError as exc:
-        raise exc.located(file=where, source=text)
+        raise exc.located(file=where, source=text) from None
 
 
 def prepare(pset: PropertySet) -> dict:
