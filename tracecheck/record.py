@@ -161,6 +161,16 @@ def check_settings(settings: RecordSettings, out: Path):
     return agent, shield
 
 
+def recording_header(settings: RecordSettings, agent, shield):
+    """The run header of a recording: environment, agent and shield with their hashes."""
+    return new_header(
+        "recorded", environment_id=ENV_ID,
+        environment_config=env_config(settings.profile, settings.duration),
+        agent_id=agent.id, agent_sha256=agent.sha256, shield_name=shield.name,
+        shield_sha256=shield.sha256, base_seed=settings.seed, model_name=HIGHWAY.name,
+        variables=list(HIGHWAY.variables), actions=list(ACTIONS))
+
+
 def record(settings: RecordSettings, out: str | Path,
            progress: Optional[Callable[[Episode], None]] = None) -> tuple[int, int, int]:
     """Record ``settings.episodes`` episodes into ``out``; (episodes, steps, crashes).
@@ -170,12 +180,7 @@ def record(settings: RecordSettings, out: str | Path,
     """
     out = Path(out)
     agent, shield = check_settings(settings, out)
-    header = new_header(
-        "recorded", environment_id=ENV_ID,
-        environment_config=env_config(settings.profile, settings.duration),
-        agent_id=agent.id, agent_sha256=agent.sha256, shield_name=shield.name,
-        shield_sha256=shield.sha256, base_seed=settings.seed, model_name=HIGHWAY.name,
-        variables=list(HIGHWAY.variables), actions=list(ACTIONS))
+    header = recording_header(settings, agent, shield)
     counts = [0, 0, 0]
     with EpisodeWriter(out, header) as writer:
         for episode in episodes(settings):

@@ -17,11 +17,10 @@ from typing import Callable, Optional
 import numpy as np
 
 from .b.vector import Columns
-from .episodes.mcap_io import EpisodeWriter, new_header
-from .episodes.model import HIGHWAY, Episode
-from .highway import ACTIONS, ENV_ID, env_config
+from .episodes.mcap_io import EpisodeWriter
+from .episodes.model import Episode
 from .properties import PropertySet
-from .record import RecordSettings, check_settings, episodes
+from .record import RecordSettings, check_settings, episodes, recording_header
 from .stats import prepare, statistics
 
 __all__ = ["simulate"]
@@ -64,12 +63,7 @@ def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
     batch = batch or max(10, 10 * settings.workers)
     looks = math.ceil(settings.episodes / batch)
     level = 1.0 - 0.05 / looks
-    header = new_header(
-        "recorded", environment_id=ENV_ID,
-        environment_config=env_config(settings.profile, settings.duration),
-        agent_id=agent.id, agent_sha256=agent.sha256, shield_name=shield.name,
-        shield_sha256=shield.sha256, base_seed=settings.seed, model_name=HIGHWAY.name,
-        variables=list(HIGHWAY.variables), actions=list(ACTIONS))
+    header = recording_header(settings, agent, shield)
     holds: dict[str, list[bool]] = {p.name: [] for p in pset.properties}
     sequential = None
     if until_width is not None:
