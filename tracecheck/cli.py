@@ -619,6 +619,44 @@ def simulate_cmd(
     _print_stats(result, as_json, fmt, None)
 
 
+# ------------------------------------------------------------------ pictures
+
+
+@app.command("render")
+def render_cmd(
+    run: Path = typer.Argument(..., help="An MCAP run file."),
+    episode: int = typer.Option(..., "--episode", "-e", help="The episode number."),
+    shield: Optional[str] = typer.Option(None, "--shield", "-s", help=_SHIELD_HELP),
+    output: Path = typer.Option(..., "--output", "-o", help="The HTML page to write."),
+) -> None:
+    """Write one episode as a self-contained HTML viewer (top view, shield zones, timeline)."""
+    from .render.viewer import render_episode, write_page
+    from .shield import load_shield
+
+    loaded = load_shield(shield) if shield else None
+    page = write_page(render_episode(run, episode, loaded), output)
+    out.print(f"wrote episode {episode} -> {page} ({page.stat().st_size / 1000:.0f} kB)",
+              markup=False)
+
+
+@app.command("report")
+def report_cmd(
+    runs: list[Path] = typer.Argument(..., help="MCAP run files."),
+    shield: Optional[str] = typer.Option(None, "--shield", "-s", help=_SHIELD_HELP),
+    properties: str = typer.Option("highway", "--properties", "-p",
+                                   help="'highway' or a property file (TOML)."),
+    output: Path = typer.Option(..., "--output", "-o", help="The HTML report to write."),
+) -> None:
+    """Write an HTML validation report: replay, statistics with plots, episode viewers."""
+    from .properties import load_properties
+    from .render.report import render_report
+    from .shield import load_shield
+
+    loaded = load_shield(shield) if shield else None
+    page, pages = render_report(runs, output, shield=loaded, pset=load_properties(properties))
+    out.print(f"wrote {page} and {pages} episode page(s)", markup=False)
+
+
 def main(argv: Optional[list[str]] = None) -> Any:
     """Entry point: run the app and turn tracecheck errors into exit code 2."""
     try:

@@ -1,0 +1,137 @@
+"""The episode viewer and the report: self-contained pages, tested in a real browser."""
+
+from __future__ import annotations
+
+import re
+import shutil
+
+import pytest
+
+from tests.conftest import ROOT
+from tests.test_cli import run
+from tracecheck.episodes import EpisodeWriter, new_header
+from tracecheck.render.viewer import episode_data, render_episode
+from tracecheck.shield import load_shield
+
+NONE = ROOT / "sample_traces" / "base_none.mcap"
+
+
+def test_viewer_data_marks_first_infeasible_and_crash():
+    data = episode_data(NONE, 3, load_shield("paper"))
+    assert data["first_infeasible"] == 5 and data["crash_step"] == 39
+    assert data["zones"] == "paper" and len(data["steps"]) == 40
+    step = data["steps"][5]
+    assert step["action"] not in data["steps"][4]["shield_allows"]
+    assert set(step["state"]) >= {"VehiclesX", "Crash"}
+    assert step["values"] and step["live_allowed"]
+
+
+def test_viewer_page_is_self_contained_and_small(tmp_path):
+    page = render_episode(NONE, 0, load_shield("paper"))
+    assert len(page.encode()) < 1_000_000  # a 60-step episode stays under 1 MB
+    assert "<script src" not in page and "<link" not in page
+    urls = set(re.findall(r"https?://[^\s\"')]+", page))
+    assert urls <= {"http://www.w3.org/2000/svg"}  # an XML namespace, never fetched
+    assert "const DATA = {" in page
+
+
+def test_render_cli_and_errors(capsys, tmp_path):
+    out = tmp_path / "ep.html"
+    code, text, _ = run(capsys, "render", str(NONE), "--episode", "3", "--shield", "paper",
+                        "-o", str(out))
+    assert code == 0 and out.exists() and "wrote episode 3" in text
+    code, _, err = run(capsys, "render", str(NONE), "--episode", "99", "-o", str(out))
+    assert code == 2 and "has no episode 99; it has 0, 1, 2" in err
+    empty = tmp_path / "empty.mcap"
+    with EpisodeWriter(empty, new_header("recorded")):
+        pass
+    code, _, err = run(capsys, "render", str(empty), "--episode", "0", "-o", str(out))
+    assert code == 2 and "holds no complete episode" in err
+    code, _, err = run(capsys, "render", str(NONE), "--episode", "1", "-o",
+                       "/proc/nope/ep.html")
+    assert code == 2 and "cannot write /proc/nope/ep.html" in err
+
+
+def test_report_cli(capsys, tmp_path):
+    out = tmp_path / "report.html"
+    code, text, _ = run(capsys, "report", str(NONE), "--shield", "paper", "-o", str(out))
+    assert code == 0 and "episode page(s)" in text
+    page = out.read_text()
+    assert "Replay against shield paper" in page and "Statistics (highway)" in page
+    assert page.count("<svg") >= 2  # the plots, inline
+    links = re.findall(r"href='([^']+)'", page)
+    assert links and all((tmp_path / link).exists() for link in links)
+
+
+# ------------------------------------------------------------------ in a real browser
+
+
+def _browser():
+    try:
+        from selenium import webdriver
+        from selenium.webdriver.chrome.service import Service
+    except ImportError:
+        pytest.skip("selenium is not installed (pip install -e '.[test]')")
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    driver = shutil.which("chromedriver")
+    if not chromium or not driver:
+        pytest.skip("no Chromium/ChromeDriver here (Debian: apt-get install chromium "
+                    "chromium-driver; .ci/run installs them)")
+    opts = webdriver.ChromeOptions()
+    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+                "--no-first-run", "--disable-background-networking",
+                "--disable-component-update", "--disable-sync", "--window-size=1300,900"):
+        opts.add_argument(arg)
+    opts.binary_location = chromium
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    return webdriver.Chrome(service=Service(driver), options=opts)
+
+
+def _errors(browser) -> list:
+    return [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+
+
+def test_viewer_in_a_browser(tmp_path):
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
+
+    page = tmp_path / "episode.html"
+    page.write_text(render_episode(NONE, 3, load_shield("paper")))
+    browser = _browser()
+    try:
+        browser.get(page.as_uri())
+        panel = browser.find_element(By.ID, "step")
+        assert panel.text.startswith("step 0")
+        browser.find_element(By.ID, "forward").click()
+        assert browser.find_element(By.ID, "step").text.startswith("step 1")
+        browser.find_element(By.TAG_NAME, "body").send_keys(Keys.ARROW_RIGHT)
+        assert browser.find_element(By.ID, "step").text.startswith("step 2")
+        browser.find_element(By.ID, "back").click()
+        assert "step 1 of 39" in browser.find_element(By.ID, "where").text
+        assert len(browser.find_elements(By.CSS_SELECTOR, "#scene rect")) >= 5
+        assert browser.find_element(By.CSS_SELECTOR, "#timeline span.first").text == "!"
+        assert _errors(browser) == []
+        assert browser.save_screenshot(str(tmp_path / "episode.png"))
+    finally:
+        browser.quit()
+
+
+def test_report_in_a_browser(tmp_path):
+    from selenium.webdriver.common.by import By
+
+    out = tmp_path / "report.html"
+    from tracecheck.properties import HIGHWAY_SET
+    from tracecheck.render.report import render_report
+
+    render_report([NONE], out, shield=load_shield("paper"), pset=HIGHWAY_SET, max_pages=2)
+    browser = _browser()
+    try:
+        browser.get(out.as_uri())
+        assert "Episodes that matter" in browser.page_source
+        browser.find_element(By.LINK_TEXT, "open").click()
+        browser.find_element(By.ID, "forward").click()
+        assert browser.find_element(By.ID, "step").text.startswith("step 1")
+        assert _errors(browser) == []
+        assert browser.save_screenshot(str(tmp_path / "report.png"))
+    finally:
+        browser.quit()

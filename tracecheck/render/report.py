@@ -1,0 +1,120 @@
+"""The validation report: one HTML page with the replay summary, the statistics tables with
+intervals, the plots (inline SVG), and links to viewer pages of the episodes that matter
+(crashes, crashes the shield would have prevented, first infeasible steps)."""
+
+from __future__ import annotations
+
+import html
+import io
+from pathlib import Path
+from typing import Optional
+
+from ..errors import InputError
+from ..properties import PropertySet
+from ..shield import Shield
+from .viewer import render_episode, write_page
+
+__all__ = ["render_report"]
+
+_STYLE = """body{font-family:system-ui,sans-serif;margin:1.5em;color:#222;max-width:1200px}
+table{border-collapse:collapse;font-size:.85em;margin:.5em 0}td,th{border:1px solid #ccc;
+padding:.2em .5em;text-align:left}h2{margin-top:1.5em}.note{color:#666;font-size:.85em}
+figure{display:inline-block;margin:.5em}figure svg{max-width:560px;height:auto}"""
+
+
+def _table(header: list[str], rows: list[list[str]]) -> str:
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>"
+                   for row in rows)
+    return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def _svg_plots(result: dict) -> list[str]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..stats_report import stats_plots
+
+    figures = []
+    original = plt.Figure.savefig
+
+    def capture(fig, path, *args, **kwargs):
+        if str(path).endswith(".svg"):
+            buf = io.StringIO()
+            original(fig, buf, format="svg")
+            text = buf.getvalue()
+            figures.append(text[text.index("<svg"):])
+
+    plt.Figure.savefig = capture
+    try:
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as tmp:
+            stats_plots(result, Path(tmp))
+    finally:
+        plt.Figure.savefig = original
+    return figures
+
+
+def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
+                  pset: PropertySet, max_pages: int = 20) -> tuple[Path, int]:
+    """Write the report to ``out`` and viewer pages beside it; (report, pages written)."""
+    from ..replay import replay
+    from ..stats import statistics
+    from ..stats_report import _rows
+
+    for run in runs:
+        if not Path(run).exists():
+            raise InputError(f"no such file: {run}")
+    parts = [f"<h1>tracecheck validation report</h1><p class='note'>runs: "
+             f"{html.escape(', '.join(map(str, runs)))}</p>"]
+    pages = []
+    pages_dir = out.with_name(out.stem + "_files")
+    if shield is not None:
+        report = replay(runs, shield)
+        parts.append(f"<h2>Replay against shield {html.escape(shield.name)}</h2><p>"
+                     f"{report.episodes} episode(s), {report.steps} step(s): "
+                     f"{report.infeasible_steps} infeasible step(s) in "
+                     f"{report.infeasible_episodes} episode(s); {report.crashes} crash(es), "
+                     f"{report.crashes_after_infeasible} at or after the first infeasible step "
+                     f"(would have been blocked); {report.deadlock_states} deadlock state(s), "
+                     f"{report.postcondition_violations} postcondition and "
+                     f"{report.invariant_violations} invariant violation(s).</p>"
+                     f"<p class='note'>shield sha256 {shield.sha256}</p>")
+        matters = [e for e in report.per_episode if e.crashed or e.first_infeasible is not None]
+        matters.sort(key=lambda e: (not e.crash_after_infeasible, not e.crashed))
+        rows = []
+        for e in matters:
+            link = ""
+            if len(pages) < max_pages:
+                name = f"{Path(e.file).stem}_episode_{e.episode}.html"
+                pages.append((e.file, e.episode, pages_dir / name))
+                link = f"{pages_dir.name}/{name}"
+            rows.append((e, link))
+        parts.append("<h2>Episodes that matter</h2><table><tr><th>file</th><th>episode</th>"
+                     "<th>steps</th><th>first infeasible</th><th>crash step</th>"
+                     "<th>crash after it</th><th>viewer</th></tr>")
+        for e, link in rows:
+            cell = f"<a href='{html.escape(link)}'>open</a>" if link else "(not rendered)"
+            parts.append(
+                f"<tr><td>{html.escape(Path(e.file).name)}</td><td>{e.episode}</td>"
+                f"<td>{e.steps}</td><td>{'' if e.first_infeasible is None else e.first_infeasible}"
+                f" {html.escape(e.action or '')}</td><td>{'' if e.crash_step is None else e.crash_step}"
+                f"</td><td>{'yes' if e.crash_after_infeasible else ''}</td><td>{cell}</td></tr>")
+        parts.append("</table>")
+    result = statistics(runs, pset)
+    header, rows = _rows(result)
+    parts.append(f"<h2>Statistics ({html.escape(pset.name)})</h2><p class='note'>metrics: "
+                 f"mean ± sd [95 % t interval]; properties: % of episodes [95 % "
+                 f"{result['interval']} interval]</p>")
+    parts.append(_table(header, rows))
+    for svg in _svg_plots(result):
+        parts.append(f"<figure>{svg}</figure>")
+    page = (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>tracecheck "
+            f"report</title><style>{_STYLE}</style></head><body>{''.join(parts)}</body></html>")
+    write_page(page, out)
+    for file, episode, path in pages:
+        write_page(render_episode(file, episode, shield), path)
+    return out, len(pages)

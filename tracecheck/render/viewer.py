@@ -1,0 +1,98 @@
+"""One episode as a self-contained HTML page (inline SVG, CSS and JS; nothing from the web).
+
+A top view of the three-lane road follows the ego vehicle: vehicles drawn to scale as
+5 m × 2 m boxes at their centres, the ego vehicle highlighted, velocity arrows. For the chosen
+shield, the zones its guards test around the ego vehicle (the regions of the paper's Table 1
+for ``paper``) and the actions it blocks. A timeline marks the first infeasible step and the
+crash; back, forward and play (buttons and arrow keys). Beside the picture, per step: the
+action taken, what the live shield allowed, what the chosen shield allows, the agent's action
+values, the reward and the B state.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+from typing import Optional
+
+from ..b.values import format_value
+from ..episodes.mcap_io import read_columns, read_run
+from ..errors import InputError
+from ..shield import Shield
+
+__all__ = ["render_episode", "episode_data"]
+
+_TEMPLATE = (Path(__file__).with_name("viewer.html")).read_text(encoding="utf-8")
+
+
+def _ids_text(ids: list[int]) -> str:
+    ids = sorted(ids)
+    if len(ids) > 12:
+        return f"{', '.join(map(str, ids[:12]))}, … ({len(ids)} episodes)"
+    return ", ".join(map(str, ids))
+
+
+def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None) -> dict:
+    """Everything the viewer shows, as JSON-ready data."""
+    result = read_run(run, {episode})
+    if not result.episodes:
+        ids = [int(i) for i in read_columns(run).episode_ids]
+        if not ids:
+            raise InputError(f"{run} holds no complete episode")
+        raise InputError(f"{run} has no episode {episode}; it has {_ids_text(ids)}")
+    ep = result.episodes[0]
+    machine = shield.machine if shield is not None else None
+    steps = []
+    first_infeasible = None
+    for k, s in enumerate(ep.steps):
+        state = s.state
+        enabled = sorted(machine.enabled(state)) if machine is not None else None
+        if k and machine is not None and first_infeasible is None:
+            if s.action not in steps[-1]["shield_allows"]:
+                first_infeasible = k
+        ego = "EgoVehicle"
+        vehicles = []
+        present = {str(v) for v in state.get("PresentVehicles", ())}
+        for name, x in state["VehiclesX"].map.items():
+            vehicles.append({
+                "name": str(name), "present": str(name) in present, "x": x,
+                "y": state["VehiclesY"].map[name], "vx": state["VehiclesVx"].map[name],
+                "vy": state["VehiclesVy"].map[name]})
+        steps.append({
+            "step": s.step, "time": s.time, "action": s.action, "reward": s.reward,
+            "crashed": s.crashed, "live_allowed": list(s.allowed_actions)
+            if s.allowed_actions is not None else None,
+            "shield_allows": enabled, "values": dict(s.action_values or {}) or None,
+            "preferred": s.preferred_action, "ego": ego, "vehicles": vehicles,
+            "state": {k2: format_value(v) for k2, v in state.items()},
+        })
+    crash = next((s["step"] for s in steps if s["crashed"]), None)
+    return {
+        "file": str(run), "episode": ep.id, "seed": ep.seed, "origin": ep.origin,
+        "shield": shield.name if shield is not None else None,
+        "zones": "paper" if shield is not None and shield.name == "paper" else None,
+        "first_infeasible": first_infeasible, "crash_step": crash,
+        "end": {"steps": ep.end.steps, "reason": ep.end.reason,
+                "total_reward": ep.end.total_reward},
+        "steps": steps,
+    }
+
+
+def render_episode(run: str | Path, episode: int, shield: Optional[Shield] = None) -> str:
+    """The viewer page of one episode (see the module docstring)."""
+    data = episode_data(run, episode, shield)
+    title = f"{Path(str(run)).name}, episode {episode}"
+    payload = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
+    return (_TEMPLATE.replace("{{TITLE}}", html.escape(title))
+            .replace("{{DATA}}", payload))
+
+
+def write_page(text: str, out: str | Path) -> Path:
+    out = Path(out)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"cannot write {out}: {exc.strerror or exc}") from None
+    return out
