@@ -61,6 +61,11 @@ def test_report_cli(capsys, tmp_path):
     assert page.count("<svg") >= 2  # the plots, inline
     links = re.findall(r"href='([^']+)'", page)
     assert links and all((tmp_path / link).exists() for link in links)
+    empty = tmp_path / "empty.mcap"
+    with EpisodeWriter(empty, new_header("recorded")):
+        pass
+    code, _, err = run(capsys, "report", str(empty), "-o", str(tmp_path / "r.html"))
+    assert code == 2 and "holds no complete episode: nothing to report" in err
 
 
 # ------------------------------------------------------------------ in a real browser

@@ -65,9 +65,13 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
     from ..stats import statistics
     from ..stats_report import _rows
 
+    from ..episodes.mcap_io import read_columns
+
     for run in runs:
         if not Path(run).exists():
             raise InputError(f"no such file: {run}")
+        if not len(read_columns(run).episode_ids):
+            raise InputError(f"{run} holds no complete episode: nothing to report")
     parts = [f"<h1>tracecheck validation report</h1><p class='note'>runs: "
              f"{html.escape(', '.join(map(str, runs)))}</p>"]
     pages = []
