@@ -522,6 +522,7 @@ def train_cmd(
 
 class Executor(str, Enum):
     local = "local"
+    ray = "ray"
 
 
 @app.command("record")
@@ -533,7 +534,10 @@ def record_cmd(
     seed: int = typer.Option(0, "--seed", help="Episode i uses seed SEED + i."),
     duration: int = typer.Option(60, "--duration", min=1, help="Agent steps (s) per episode."),
     workers: int = typer.Option(1, "--workers", "-w", min=1, help="Worker processes."),
-    executor: Executor = typer.Option(Executor.local, "--executor"),
+    executor: Executor = typer.Option(Executor.local, "--executor",
+                                      help="local worker processes, or Ray tasks."),
+    ray_address: Optional[str] = typer.Option(None, "--ray-address",
+                                              help="A Ray cluster (default: start one here)."),
     profile: Profile = typer.Option(Profile.base, "--profile", help="Reward profile."),
     fallback: str = typer.Option("SLOWER", "--fallback",
                                  help="Action taken when the shield allows nothing."),
@@ -548,7 +552,8 @@ def record_cmd(
 
     settings = RecordSettings(agent=str(agent), shield=shield, episodes=episodes, seed=seed,
                               duration=duration, profile=profile.value, fallback=fallback,
-                              workers=workers)
+                              workers=workers, executor=executor.value,
+                              ray_address=ray_address)
     stats = {"crashes": 0, "steps": 0}
     start = _time.perf_counter()
     with Progress(TextColumn("recording"), BarColumn(),
@@ -584,6 +589,10 @@ def simulate_cmd(
     seed: int = typer.Option(0, "--seed", help="Episode i uses seed SEED + i."),
     duration: int = typer.Option(60, "--duration", min=1, help="Agent steps per episode."),
     workers: int = typer.Option(1, "--workers", "-w", min=1, help="Worker processes."),
+    executor: Executor = typer.Option(Executor.local, "--executor",
+                                      help="local worker processes, or Ray tasks."),
+    ray_address: Optional[str] = typer.Option(None, "--ray-address",
+                                              help="A Ray cluster (default: start one here)."),
     profile: Profile = typer.Option(Profile.base, "--profile", help="Reward profile."),
     properties: str = typer.Option("highway", "--properties", "-p",
                                    help="'highway' or a property file (TOML)."),
@@ -603,7 +612,8 @@ def simulate_cmd(
 
     pset = load_properties(properties)
     settings = RecordSettings(agent=str(agent), shield=shield, episodes=episodes, seed=seed,
-                              duration=duration, profile=profile.value, workers=workers)
+                              duration=duration, profile=profile.value, workers=workers,
+                              executor=executor.value, ray_address=ray_address)
     with Progress(TextColumn("simulating"), BarColumn(),
                   TextColumn("{task.completed}/{task.total} episodes"), TimeRemainingColumn(),
                   console=err, transient=True) as bar:

@@ -33,6 +33,8 @@ class RecordSettings:
     profile: str = "base"
     fallback: str = "SLOWER"
     workers: int = 1
+    executor: str = "local"
+    ray_address: Optional[str] = None
 
 
 class Session:
@@ -123,7 +125,13 @@ def _work(index: int) -> Episode:
 
 
 def episodes(settings: RecordSettings) -> Iterator[Episode]:
-    """The episodes of a recording, in order, from ``settings.workers`` processes."""
+    """The episodes of a recording, in order, from ``settings.workers`` processes (or from
+    Ray tasks with ``executor="ray"``)."""
+    if settings.executor == "ray":
+        from .executors import ray_episodes
+
+        yield from ray_episodes(settings, settings.ray_address)
+        return
     if settings.workers <= 1:
         session = Session(settings)
         for i in range(settings.episodes):
@@ -144,6 +152,8 @@ def check_settings(settings: RecordSettings, out: Path):
 
     if settings.episodes < 1:
         raise InputError("--episodes must be at least 1")
+    if settings.executor not in ("local", "ray"):
+        raise InputError(f"unknown executor {settings.executor!r}; the executors are local, ray")
     if settings.fallback not in ACTIONS:
         raise InputError(f"unknown fallback action {settings.fallback!r}; the actions are "
                          f"{', '.join(ACTIONS)}")

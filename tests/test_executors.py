@@ -1,0 +1,73 @@
+"""The Ray executor: same episodes as the local one, and no episode lost to a killed worker."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import pytest
+
+from tests.conftest import ROOT
+from tracecheck.episodes import read_run
+from tracecheck.record import RecordSettings, record
+
+ray = pytest.importorskip("ray", reason="the ray extra is not installed (pip install "
+                                        "-e '.[ray]')")
+psutil = pytest.importorskip("psutil")
+
+AGENT = str(ROOT / "models" / "agents" / "base.zip")
+
+
+@pytest.fixture(scope="module")
+def local_ray():
+    """A local Ray instance on loopback with 2 CPUs, shared by the tests of this module."""
+    ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False,
+             _node_ip_address="127.0.0.1")
+    yield
+    ray.shutdown()
+
+
+def settings(**kw):
+    values = dict(agent=AGENT, shield="paper", episodes=6, seed=300, duration=12, workers=2)
+    values.update(kw)
+    return RecordSettings(**values)
+
+
+def states(path):
+    return [[s.state for s in e.steps] for e in read_run(path).episodes]
+
+
+def test_ray_gives_the_local_episodes(local_ray, tmp_path):
+    record(settings(executor="ray"), tmp_path / "ray.mcap")
+    record(settings(), tmp_path / "local.mcap")
+    assert [e.id for e in read_run(tmp_path / "ray.mcap").episodes] == list(range(6))
+    assert states(tmp_path / "ray.mcap") == states(tmp_path / "local.mcap")
+
+
+def _kill_a_running_episode(stop: threading.Event, killed: list) -> None:
+    while not stop.is_set() and not killed:
+        for proc in psutil.process_iter(["cmdline"]):
+            cmd = " ".join(proc.info.get("cmdline") or [])
+            if "ray::_ray_episode" in cmd:
+                proc.kill()
+                killed.append(proc.pid)
+                return
+        time.sleep(0.05)
+
+
+def test_killed_worker_loses_and_duplicates_nothing(local_ray, tmp_path):
+    stop, killed = threading.Event(), []
+    killer = threading.Thread(target=_kill_a_running_episode, args=(stop, killed))
+    killer.start()
+    try:
+        record(settings(executor="ray", episodes=8, seed=500, duration=20),
+               tmp_path / "ray.mcap")
+    finally:
+        stop.set()
+        killer.join()
+    assert killed, "no running episode task was found to kill"
+    record(settings(episodes=8, seed=500, duration=20), tmp_path / "local.mcap")
+    ids = [e.id for e in read_run(tmp_path / "ray.mcap").episodes]
+    assert ids == list(range(8))  # each episode once, in order
+    assert states(tmp_path / "ray.mcap") == states(tmp_path / "local.mcap")
+

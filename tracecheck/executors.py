@@ -1,0 +1,70 @@
+"""Where episodes run: in local worker processes, or as tasks on a Ray cluster.
+
+Both executors yield the episodes of a recording in order (episode i has seed S + i), so the
+same agent, shield and seeds give the same file whichever runs them. On Ray each episode is a
+task; a worker killed mid-episode makes Ray run the task again from its seed (up to three
+times), and episodes are written once each, in order, as they come back.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Iterator, Optional
+
+from .episodes.model import Episode
+from .errors import InputError
+
+__all__ = ["ray_episodes", "EXECUTORS"]
+
+EXECUTORS = ("local", "ray")
+_SESSION = None
+
+
+def _ray_episode(settings, index: int) -> Episode:
+    """Runs on a Ray worker: one episode, with the worker's cached agent, shield and env."""
+    global _SESSION
+    from .record import Session
+
+    if _SESSION is None or _SESSION.settings != settings:
+        _SESSION = Session(settings)
+    return _SESSION.episode(index)
+
+
+def _start_ray(address: Optional[str], cpus: int):
+    try:
+        import ray
+    except ImportError:
+        raise InputError("the ray executor needs Ray: pip install 'tracecheck[ray]'") from None
+    if ray.is_initialized():
+        return ray, False
+    os.environ.setdefault("RAY_DEDUP_LOGS", "0")
+    try:
+        if address:
+            ray.init(address=address, log_to_driver=False)
+        else:
+            ray.init(address="local", num_cpus=cpus, include_dashboard=False,
+                     log_to_driver=False, _node_ip_address="127.0.0.1")
+    except Exception as exc:  # noqa: BLE001 - Ray fails in many ways; say which address
+        where = address or "a local instance"
+        raise InputError(f"cannot start or reach Ray at {where}: {exc}") from None
+    return ray, True
+
+
+def ray_episodes(settings, address: Optional[str] = None) -> Iterator[Episode]:
+    """The episodes of ``settings`` from Ray tasks, in order, as they finish."""
+    ray, started = _start_ray(address, settings.workers)
+    try:
+        remote = ray.remote(max_retries=3)(_ray_episode)
+        pending = {remote.remote(settings, i): i for i in range(settings.episodes)}
+        ready: dict[int, Episode] = {}
+        following = 0
+        while pending:
+            done, _ = ray.wait(list(pending), num_returns=1)
+            for ref in done:
+                ready[pending.pop(ref)] = ray.get(ref)
+            while following in ready:
+                yield ready.pop(following)
+                following += 1
+    finally:
+        if started:
+            ray.shutdown()
