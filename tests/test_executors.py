@@ -71,3 +71,20 @@ def test_killed_worker_loses_and_duplicates_nothing(local_ray, tmp_path):
     assert ids == list(range(8))  # each episode once, in order
     assert states(tmp_path / "ray.mcap") == states(tmp_path / "local.mcap")
 
+
+
+def test_replay_diff_stats_per_file_on_ray(local_ray):
+    from tracecheck.properties import HIGHWAY_SET
+    from tracecheck.replay import diff, replay
+    from tracecheck.shield import load_shield
+    from tracecheck.stats import statistics
+
+    files = [ROOT / "sample_traces" / "base_none.mcap", ROOT / "sample_traces" / "base_paper.mcap"]
+    paper, none = load_shield("paper"), load_shield("none")
+    a, b = replay(files, paper), replay(files, paper, executor="ray")
+    assert a.per_episode == b.per_episode and a.infeasible_steps == b.infeasible_steps
+    da, db = diff(files, paper, none), diff(files, paper, none, executor="ray")
+    assert (da.changed_steps, da.changes) == (db.changed_steps, db.changes)
+    sa = statistics(files, HIGHWAY_SET)
+    sb = statistics(files, HIGHWAY_SET, executor="ray")
+    assert sa["runs"] == sb["runs"] and sa["comparisons"] == sb["comparisons"]

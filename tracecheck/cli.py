@@ -328,6 +328,11 @@ def info(
 # ------------------------------------------------------------------ replay and diff
 
 
+class Executor(str, Enum):
+    local = "local"
+    ray = "ray"
+
+
 class OutputFormat(str, Enum):
     text = "text"
     md = "md"
@@ -358,6 +363,9 @@ def replay_cmd(
     agent: Optional[Path] = typer.Option(None, "--agent", help="The agent that recorded the "
                                          "episodes (default: the bundled agent of that name). "
                                          "Loading it runs code from the file."),
+    executor: Executor = typer.Option(Executor.local, "--executor",
+                                        help="local, or ray: one Ray task per file."),
+    ray_address: Optional[str] = typer.Option(None, "--ray-address", help="A Ray cluster."),
 ) -> None:
     """Replay episodes against a shield: where would it have blocked the recorded action?"""
     from .replay import replay
@@ -365,7 +373,7 @@ def replay_cmd(
     from .shield import load_shield
 
     loaded = load_shield(shield)
-    report = replay(runs, loaded)
+    report = replay(runs, loaded, executor=executor.value, ray_address=ray_address)
     for warning in report.warnings:
         err.print(f"[yellow]warning[/yellow]: {escape(warning)}")
     if resimulate:
@@ -412,13 +420,17 @@ def diff_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print the full report as JSON."),
     fail_on_change: bool = typer.Option(False, "--fail-on-change",
                                         help="Exit 1 when anything changed."),
+    executor: Executor = typer.Option(Executor.local, "--executor",
+                                        help="local, or ray: one Ray task per file."),
+    ray_address: Optional[str] = typer.Option(None, "--ray-address", help="A Ray cluster."),
 ) -> None:
     """Compare two shields on every recorded state: which steps does the change block or allow?"""
     from .replay import diff
     from .report_text import diff_text
     from .shield import load_shield
 
-    report = diff(runs, load_shield(shield), load_shield(against))
+    report = diff(runs, load_shield(shield), load_shield(against), executor=executor.value,
+                  ray_address=ray_address)
     for warning in report.warnings:
         err.print(f"[yellow]warning[/yellow]: {escape(warning)}")
     if as_json:
@@ -479,13 +491,17 @@ def stats_cmd(
     interval: Interval = typer.Option(Interval.wilson, "--interval",
                                       help="Interval for property shares."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Write PNG and SVG plots here."),
+    executor: Executor = typer.Option(Executor.local, "--executor",
+                                        help="local, or ray: one Ray task per file."),
+    ray_address: Optional[str] = typer.Option(None, "--ray-address", help="A Ray cluster."),
 ) -> None:
     """Estimate metrics and property shares per run, side by side like the paper's tables."""
     from .properties import load_properties
     from .stats import statistics
 
     pset = load_properties(properties).select(names)
-    result = statistics(runs, pset, interval=interval.value)
+    result = statistics(runs, pset, interval=interval.value, executor=executor.value,
+                        ray_address=ray_address)
     _print_stats(result, as_json, fmt, plot)
 
 
@@ -518,11 +534,6 @@ def train_cmd(
     out.print(f"trained {card['agent']} ({profile.value}, {steps} steps, seed {seed}) in "
               f"{card['wall_time_s']:.0f} s -> {output}; model card "
               f"{Path(output).with_suffix('.json')}", markup=False)
-
-
-class Executor(str, Enum):
-    local = "local"
-    ray = "ray"
 
 
 @app.command("record")

@@ -68,3 +68,20 @@ def ray_episodes(settings, address: Optional[str] = None) -> Iterator[Episode]:
     finally:
         if started:
             ray.shutdown()
+
+
+def map_files(fn, jobs: list[tuple], executor: str = "local",
+              address: Optional[str] = None, cpus: int = 2) -> list:
+    """``fn(*job)`` for each job (one per file), locally or as Ray tasks; results in order."""
+    if executor not in EXECUTORS:
+        raise InputError(f"unknown executor {executor!r}; the executors are "
+                         f"{', '.join(EXECUTORS)}")
+    if executor == "local" or len(jobs) <= 1 and address is None:
+        return [fn(*job) for job in jobs]
+    ray, started = _start_ray(address, cpus)
+    try:
+        remote = ray.remote(max_retries=3)(fn)
+        return ray.get([remote.remote(*job) for job in jobs])
+    finally:
+        if started:
+            ray.shutdown()

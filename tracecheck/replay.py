@@ -202,15 +202,39 @@ def _episode(cols, shield, ops, matrix, feasible, deadlock, invariant_ok, post_b
     )
 
 
-def replay(paths: Iterable[str | Path], shield: Shield) -> ReplayReport:
-    """Replay every episode of the files against ``shield`` (see the module docstring)."""
+def _replay_one(path: str, shield_spec: str) -> ReplayReport:
+    """One file, in whichever process runs it (the shield is loaded there by its path)."""
+    from .shield import load_shield
+
+    shield = load_shield(shield_spec)
+    report = ReplayReport(shield=shield.identity, files=[path])
+    cols = read_columns(path)
+    report.warnings += cols.warnings
+    _replay_file(shield, cols, report)
+    return report
+
+
+def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "local",
+           ray_address: Optional[str] = None) -> ReplayReport:
+    """Replay every episode of the files against ``shield`` (see the module docstring).
+
+    With ``executor="ray"`` each file is replayed in a Ray task.
+    """
     paths = [str(p) for p in paths]
     report = ReplayReport(shield=shield.identity, files=paths)
     start = time.perf_counter()
-    for path in paths:
-        cols = read_columns(path)
-        report.warnings += cols.warnings
-        _replay_file(shield, cols, report)
+    if executor == "local":
+        for path in paths:
+            cols = read_columns(path)
+            report.warnings += cols.warnings
+            _replay_file(shield, cols, report)
+    else:
+        from .executors import map_files
+
+        for part in map_files(_replay_one, [(p, shield.path) for p in paths], executor,
+                              ray_address):
+            report.per_episode += part.per_episode
+            report.warnings += part.warnings
     report.elapsed_s = round(time.perf_counter() - start, 6)
     eps = report.per_episode
     report.episodes = len(eps)
@@ -268,16 +292,45 @@ class DiffReport:
         return asdict(self)
 
 
-def diff(paths: Iterable[str | Path], shield: Shield, against: Shield) -> DiffReport:
+def _diff_one(path: str, shield_spec: str, against_spec: str) -> DiffReport:
+    from .shield import load_shield
+
+    a, b = load_shield(shield_spec), load_shield(against_spec)
+    report = DiffReport(shield=a.identity, against=b.identity, files=[path])
+    cols = read_columns(path)
+    report.warnings += cols.warnings
+    _diff_file(cols, a, b, report)
+    return report
+
+
+_DIFF_COUNTS = ("episodes", "steps", "states", "changed_steps", "newly_blocked",
+                "newly_allowed", "enabled_set_changes", "episodes_changed",
+                "crashes_in_changed_episodes")
+
+
+def diff(paths: Iterable[str | Path], shield: Shield, against: Shield, *,
+         executor: str = "local", ray_address: Optional[str] = None) -> DiffReport:
     """Evaluate both shields on every recorded state and report what changes from
-    ``against`` (the old version, or the baseline) to ``shield``."""
+    ``against`` (the old version, or the baseline) to ``shield``; with
+    ``executor="ray"`` each file in a Ray task."""
     paths = [str(p) for p in paths]
     report = DiffReport(shield=shield.identity, against=against.identity, files=paths)
     start = time.perf_counter()
-    for path in paths:
-        cols = read_columns(path)
-        report.warnings += cols.warnings
-        _diff_file(cols, shield, against, report)
+    if executor == "local":
+        for path in paths:
+            cols = read_columns(path)
+            report.warnings += cols.warnings
+            _diff_file(cols, shield, against, report)
+    else:
+        from .executors import map_files
+
+        for part in map_files(_diff_one, [(p, shield.path, against.path) for p in paths],
+                              executor, ray_address):
+            for key in _DIFF_COUNTS:
+                setattr(report, key, getattr(report, key) + getattr(part, key))
+            report.changes += part.changes
+            report.changed_episodes += part.changed_episodes
+            report.warnings += part.warnings
     report.elapsed_s = round(time.perf_counter() - start, 6)
     return report
 

@@ -203,9 +203,15 @@ def _paired(a: RunValues, b: RunValues, pset: PropertySet) -> Optional[dict]:
     return result
 
 
+def _evaluate_one(path: str, pset: PropertySet, name: Optional[str]) -> RunValues:
+    """One file, in whichever process runs it."""
+    return evaluate_run(path, pset, prepare(pset), name)
+
+
 def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "wilson",
                names: Optional[list[str]] = None,
-               columns: Optional[list[RunColumns]] = None) -> dict:
+               columns: Optional[list[RunColumns]] = None, executor: str = "local",
+               ray_address: Optional[str] = None) -> dict:
     """The statistics of the runs in ``paths`` (JSON-ready; see the module docstring).
 
     ``columns``: the runs' columns when they were read already; ``statistics_s`` in the
@@ -214,10 +220,17 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
         raise InputError(f"unknown interval method {interval!r}; the methods are "
                          f"{', '.join(INTERVALS)}")
     formulas = prepare(pset)
-    cols = columns or [read_columns(p) for p in paths]
-    start = time.perf_counter()
-    runs = [evaluate_run(p, pset, formulas, names[i] if names else None, cols[i])
-            for i, p in enumerate(paths)]
+    if executor != "local":
+        from .executors import map_files
+
+        start = time.perf_counter()
+        runs = map_files(_evaluate_one, [(str(p), pset, names[i] if names else None)
+                                         for i, p in enumerate(paths)], executor, ray_address)
+    else:
+        cols = columns or [read_columns(p) for p in paths]
+        start = time.perf_counter()
+        runs = [evaluate_run(p, pset, formulas, names[i] if names else None, cols[i])
+                for i, p in enumerate(paths)]
     out = {"properties_set": pset.name, "interval": interval, "runs": [], "comparisons": [],
            "warnings": [w for r in runs for w in r.warnings]}
     for run in runs:
