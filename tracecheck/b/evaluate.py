@@ -352,10 +352,7 @@ class Compiler:
                 name, source, filters = simple
 
                 def forall_simple(env: Env) -> bool:
-                    domain = source(env)
-                    if type(domain) is not frozenset:
-                        domain = _domain(self, node, "in", domain)
-                    for value in domain:
+                    for value in self.members(node, source(env)):
                         env[name] = value
                         for f in filters:
                             if not f(env):
@@ -379,10 +376,7 @@ class Compiler:
             name, source, filters = simple
 
             def exists_simple(env: Env) -> bool:
-                domain = source(env)
-                if type(domain) is not frozenset:
-                    domain = _domain(self, node, "in", domain)
-                for value in domain:
+                for value in self.members(node, source(env)):
                     env[name] = value
                     for f in filters:
                         if not f(env):
@@ -397,6 +391,10 @@ class Compiler:
                 return True
             return False
         return _scoped(exists, node.ids)
+
+    def members(self, node: A.Node, domain: Any):
+        """What a bound variable ranges over (a finite set is used as it is)."""
+        return domain if type(domain) is frozenset else _domain(self, node, "in", domain)
 
     def bindings(self, node: A.Node, ids: tuple[str, ...], pred: A.Node) -> Callable[[Env], Iterator[None]]:
         """A function that binds ``ids`` in ``env`` to each solution of ``pred`` in turn.
@@ -798,9 +796,7 @@ _BUILTINS: dict[str, Callable[[Compiler, A.Call, Any], Any]] = {
     "inter": lambda c, n, v: frozenset.intersection(*_finite(c, n.args[0], v))
     if v else (_ for _ in ()).throw(c.wd(n, "inter of the empty set")),
     "id": lambda c, n, v: FuncValue({x: x for x in _finite(c, n.args[0], v)}),
-    "prj1": None,
 }
-del _BUILTINS["prj1"]
 
 
 # ------------------------------------------------------------------ enumeration

@@ -157,9 +157,7 @@ class Machine:
 
     def enabled(self, state: Mapping[str, Any]) -> set[str]:
         """The operations whose guard holds in ``state`` (parameters: for some value)."""
-        env = dict(self.base_env)
-        env.update(state)
-        return self.enabled_in(env)
+        return self.enabled_in(self.env(state))
 
     def enabled_in(self, env: dict[str, Any]) -> set[str]:
         """:meth:`enabled` for an environment made by :meth:`env` (or kept and updated by a

@@ -49,18 +49,6 @@ class FuncValue(frozenset):
         return (FuncValue, (dict(self.map),))
 
 
-def as_function(value: frozenset) -> Optional[dict]:
-    """The dict of a set of pairs if it is a function, else None."""
-    if isinstance(value, FuncValue):
-        return value.map
-    out: dict = {}
-    for item in value:
-        if not isinstance(item, tuple) or item[0] in out:
-            return None
-        out[item[0]] = item[1]
-    return out
-
-
 class SymbolicSet:
     """A set that is not held element by element (INTEGER, REAL, POW(S), S --> T, a..b)."""
 
@@ -200,9 +188,6 @@ def is_set(value: Any) -> bool:
 
 # ------------------------------------------------------------------ printing
 
-_TYPE_ORDER = {bool: 0, int: 1, float: 1, str: 2, Elem: 3, tuple: 4}
-
-
 def sort_key(value: Any):
     """A total order for printing sets deterministically."""
     if isinstance(value, bool):
@@ -255,8 +240,6 @@ def format_value(value: Any, *, ascii: bool = False) -> str:
     if isinstance(value, tuple):
         return f"({format_value(value[0], ascii=ascii)}{maplet}{format_value(value[1], ascii=ascii)})"
     if isinstance(value, SymbolicSet):
-        if isinstance(value, Interval):
-            return value.name
         return value.name
     if isinstance(value, frozenset):
         if not value:

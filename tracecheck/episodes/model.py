@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Mapping, Optional
 
 __all__ = ["StepRecord", "EpisodeEnd", "Episode", "HIGHWAY_VARIABLES", "HIGHWAY_ACTIONS",
@@ -80,17 +80,3 @@ def make_end(steps: tuple[StepRecord, ...], reason: Optional[str] = None) -> Epi
     total = float(sum(s.reward for s in steps[1:]))
     return EpisodeEnd(steps=len(steps) - 1, crashed=crashed, total_reward=total,
                       reason=reason or ("crashed" if crashed else "end-of-trace"))
-
-
-@dataclass
-class RunSummary:
-    """What ``tracecheck info`` reports for one or more files."""
-
-    files: list[str] = field(default_factory=list)
-    episodes: int = 0
-    steps: int = 0
-    crashes: int = 0
-    sources: set[str] = field(default_factory=set)
-    agents: set[str] = field(default_factory=set)
-    shields: set[str] = field(default_factory=set)
-    warnings: list[str] = field(default_factory=list)
