@@ -130,7 +130,7 @@ PRECEDENCE = [
     ("1 + 2 * x", A.BinOp("+", one, A.BinOp("*", two, x))),
     ("1 - 2 - x", A.BinOp("-", A.BinOp("-", one, two), x)),
     ("2 ** 1 ** 2", A.BinOp("**", two, A.BinOp("**", one, two))),
-    ("-x ** 2", A.Neg(A.BinOp("**", x, two))),
+    ("-x ** 2", A.BinOp("**", A.Neg(x), two)),  # ProB: unary minus (210) binds tighter than ** (200)
     ("x |-> 1 + 2", A.Pair(x, A.BinOp("+", one, two))),
     ("S \\/ S --> S", A.BinOp("-->", A.BinOp("\\/", S, S), S)),
     ("1..x + 1", A.BinOp("..", one, A.BinOp("+", x, one))),

@@ -11,7 +11,7 @@ from typing import Optional
 
 __all__ = [
     "Pos", "Node", "Name", "IntLit", "RealLit", "StrLit", "BoolLit", "BinOp", "Neg",
-    "Apply", "Call", "Image", "Inverse", "SetExt", "Pair", "Comprehension", "Lambda",
+    "Apply", "Call", "Image", "Inverse", "SetExt", "Template", "Pair", "Comprehension", "Lambda",
     "QuantExpr", "IfExpr", "Let", "And", "Or", "Implies", "Equiv", "Not", "Rel", "Quant",
     "Subst", "Skip", "Assign", "BecomesIn", "BecomesSuchThat", "Parallel", "Sequence",
     "Pre", "Assert", "Select", "Any", "IfSubst", "LetSubst", "Choice", "SubstRef", "BUILTIN_FUNCTIONS",
@@ -22,7 +22,8 @@ __all__ = [
 BUILTIN_FUNCTIONS = frozenset({
     "card", "dom", "ran", "min", "max", "POW", "POW1", "FIN", "FIN1", "bool", "floor",
     "ceiling", "real", "RSQRT", "RABS", "union", "inter", "id", "prj1", "prj2", "closure",
-    "closure1", "succ", "pred", "abs",
+    "closure1", "succ", "pred", "abs", "size", "first", "last", "front", "tail", "rev",
+    "seq", "seq1", "iseq", "iseq1", "perm", "conc",
 })
 
 #: Names of the built-in sets.
@@ -121,6 +122,18 @@ class Inverse(Node):
 @dataclass(frozen=True, slots=True)
 class SetExt(Node):
     items: tuple[Node, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Template(Node):
+    """ProB's template string ```x = ${x}, y = $[2f]{y}```: text with formatted holes.
+
+    ``texts`` has one more item than ``holes``; each hole is (format options, expression).
+    """
+
+    texts: tuple[str, ...]
+    formats: tuple[str, ...]
+    holes: tuple[Node, ...]
 
 
 @dataclass(frozen=True, slots=True)

@@ -10,13 +10,15 @@ from __future__ import annotations
 
 import math
 import operator
+import re
 from contextlib import contextmanager
 from typing import Any, Callable, Iterator, Optional
 
 from ..errors import BTypeError, EvaluationError, TracecheckError, UnsupportedError, WellDefinednessError
 from . import ast as A
 from .scope import render
-from .values import (BUILTIN_SET_VALUES, FuncValue, FunctionSpace, Interval, PowSet,
+from . import values as V
+from .values import (BUILTIN_SET_VALUES, FuncValue, FunctionSpace, Interval, PowSet, Product,
                      SymbolicSet, format_value, is_set)
 
 __all__ = ["Compiler", "compile_formula", "evaluate", "Env", "generators"]
@@ -98,6 +100,29 @@ class Compiler:
             return lambda env: value
         return lambda env: _make_set([f(env) for f in items])
 
+    def c_Template(self, node: A.Template) -> Fn:
+        holes = [(fmt, h, self.compile(h)) for fmt, h in zip(node.formats, node.holes)]
+        for fmt, h, _ in holes:
+            if fmt and not _TEMPLATE_FORMAT.fullmatch(fmt):
+                raise self.error(UnsupportedError, h,
+                                 f"not supported: the template option [{fmt}]",
+                                 hint="tracecheck formats ${e} and $[Nf]{e} (N decimals)")
+        texts = node.texts
+
+        def template(env: Env) -> str:
+            out = [texts[0]]
+            for (fmt, h, fn), text in zip(holes, texts[1:]):
+                v = fn(env)
+                if fmt:
+                    if type(v) is not float:
+                        raise self.type_error(h, v, f"a real (for the option [{fmt}])")
+                    out.append(f"{v:.{int(fmt[:-1])}f}")
+                else:
+                    out.append(v if type(v) is str else format_value(v))
+                out.append(text)
+            return "".join(out)
+        return template
+
     def c_Pair(self, node: A.Pair) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
         return lambda env: (l(env), r(env))
@@ -112,6 +137,22 @@ class Compiler:
                 raise self.type_error(node.operand, v, "a number")
             return -v
         return neg
+
+    def at(self, node: A.Node, exc: TracecheckError) -> TracecheckError:
+        """``exc`` located at ``node`` where it has no location yet."""
+        if exc.line is None and node.pos is not None:
+            exc.line, exc.column = node.pos.line, node.pos.column
+            exc.file = exc.file or self.file
+            exc.source = exc.source or self.source
+            exc.args = (exc.render(),)
+        return exc
+
+    def equal(self, node: A.Node, a: Any, b: Any) -> bool:
+        """B equality: sets by their elements, however they are represented."""
+        try:
+            return a == b
+        except TracecheckError as exc:
+            raise self.at(node, exc) from None
 
     def type_error(self, node: A.Node, value: Any, wanted: str) -> BTypeError:
         return self.error(BTypeError, node,
@@ -139,14 +180,19 @@ class Compiler:
             if isinstance(v, bool) or not isinstance(v, (int, float)):
                 raise self.type_error(side, v, "a number")
 
+    def real(self, node: A.Node, v: Any) -> Any:
+        """``v`` unless it is a real that overflowed (inf) or is not a number (NaN)."""
+        if type(v) is float and not math.isfinite(v):
+            raise self.wd(node, "the real result is out of range (overflow)")
+        return v
+
     def op_add(self, node, l, r) -> Fn:
         def add(env: Env) -> Any:
             a, b = l(env), r(env)
-            if type(a) is float or type(b) is float or (type(a) is int and type(b) is int):
-                if type(a) is not bool and type(b) is not bool:
-                    return a + b
+            if type(a) is int and type(b) is int:
+                return a + b
             self.nums(node, a, b)
-            return a + b
+            return self.real(node, a + b)
         return add
 
     def op_sub(self, node, l, r) -> Fn:
@@ -155,7 +201,7 @@ class Compiler:
             if is_set(a) and is_set(b):
                 return _finite(self, node.left, a) - _finite(self, node.right, b)
             self.nums(node, a, b)
-            return a - b
+            return self.real(node, a - b)
         return sub
 
     def op_mul(self, node, l, r) -> Fn:
@@ -163,10 +209,10 @@ class Compiler:
             a, b = l(env), r(env)
             if is_set(a) and is_set(b):
                 if isinstance(a, SymbolicSet) or isinstance(b, SymbolicSet):
-                    return _Product(a, b)
-                return frozenset((x, y) for x in a for y in b)
+                    return Product(a, b)
+                return _make_set([(x, y) for x in a for y in b])
             self.nums(node, a, b)
-            return a * b
+            return self.real(node, a * b)
         return mul
 
     def op_div(self, node, l, r) -> Fn:
@@ -178,7 +224,7 @@ class Compiler:
             if type(a) is int and type(b) is int:
                 q = abs(a) // abs(b)
                 return q if (a >= 0) == (b > 0) else -q
-            return a / b
+            return self.real(node, a / b)
         return div
 
     def op_mod(self, node, l, r) -> Fn:
@@ -193,13 +239,47 @@ class Compiler:
         def power(env: Env) -> Any:
             a, b = l(env), r(env)
             self.nums(node, a, b)
-            if type(a) is int and type(b) is int and b < 0:
-                raise self.wd(node, f"negative exponent {b} for an integer power")
+            if type(b) is not int:
+                raise self.type_error(node.right, b, "an integer (the exponent)")
+            if type(a) is int:
+                if b < 0:
+                    raise self.wd(node, f"negative exponent {b} for an integer power")
+                if abs(a) > 1 and b * math.log2(abs(a)) > _MAX_INT_BITS:
+                    raise self.wd(node, f"{a} ** {b} has more than {_MAX_INT_BITS:,} bits; "
+                                  "tracecheck does not compute it")
             try:
-                return a ** b
+                return self.real(node, a ** b)
             except (OverflowError, ZeroDivisionError) as exc:
-                raise self.wd(node, str(exc)) from None
+                raise self.wd(node, f"{exc} in the power") from None
         return power
+
+    def op_comp(self, node, l, r) -> Fn:
+        def compose(a, b):
+            by_first: dict = {}
+            for y, z in b:
+                by_first.setdefault(y, []).append(z)
+            return _make_set([(x, z) for x, y in a for z in by_first.get(y, ())])
+        return self.set_op(node, l, r, compose)
+
+    def op_direct(self, node, l, r) -> Fn:
+        def direct(a, b):
+            by_first: dict = {}
+            for x, z in b:
+                by_first.setdefault(x, []).append(z)
+            return _make_set([(x, (y, z)) for x, y in a for z in by_first.get(x, ())])
+        return self.set_op(node, l, r, direct)
+
+    def op_concat(self, node, l, r) -> Fn:
+        def concat(env: Env) -> Any:
+            return V.sequence(self.seq_items(node.left, l(env))
+                              + self.seq_items(node.right, r(env)))
+        return concat
+
+    def seq_items(self, node: A.Node, v: Any) -> list:
+        items = V.as_sequence(_finite(self, node, v) if isinstance(v, SymbolicSet) else v)
+        if items is None:
+            raise self.wd(node, f"{_short(v)} is not a sequence")
+        return items
 
     def op_union(self, node, l, r) -> Fn:
         return self.set_op(node, l, r, lambda a, b: a | b)
@@ -253,7 +333,7 @@ class Compiler:
 
     def c_Implies(self, node: A.Implies) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
-        return lambda env: (not l(env)) or r(env)
+        return lambda env: (not l(env)) or bool(r(env))
 
     def c_Equiv(self, node: A.Equiv) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
@@ -303,9 +383,9 @@ class Compiler:
                 return cmp(a, b)
             return compare
         if op == "=":
-            return lambda env: _equal(l(env), r(env))
+            return lambda env: self.equal(node, l(env), r(env))
         if op == "/=":
-            return lambda env: not _equal(l(env), r(env))
+            return lambda env: not self.equal(node, l(env), r(env))
         if op in (":", "/:"):
             positive = op == ":"
 
@@ -317,7 +397,10 @@ class Compiler:
                     except TypeError:
                         return (_hashable(a) in s) == positive
                 if isinstance(s, SymbolicSet):
-                    return s.contains(a) == positive
+                    try:
+                        return s.contains(a) == positive
+                    except TracecheckError as exc:
+                        raise self.at(node, exc) from None
                 raise self.type_error(node.right, s, "a set")
             return member
         positive = not op.startswith("/")
@@ -329,10 +412,12 @@ class Compiler:
                 raise self.type_error(node.left, a, "a set")
             if not is_set(b):
                 raise self.type_error(node.right, b, "a set")
-            a = _finite(self, node.left, a)
-            result = all(x in b for x in a)
-            if strict:
-                result = result and not _equal(a, b)
+            try:
+                result = V.is_subset(a, b)
+                if strict:
+                    result = result and not V.set_equal(a, b)
+            except TracecheckError as exc:
+                raise self.at(node, exc) from None
             return result == positive
         return subset
 
@@ -340,9 +425,10 @@ class Compiler:
     def c_Quant(self, node: A.Quant) -> Fn:
         if node.op == "!":
             if not isinstance(node.body, A.Implies):
-                domain_pred, rest = node.body, None
-            else:
-                domain_pred, rest = node.body.left, node.body.right
+                raise self.error(BTypeError, node,
+                                 "the body of a universal quantifier must be an implication",
+                                 hint="write !x.(x : S => P)")
+            domain_pred, rest = node.body.left, node.body.right
             with self.binding(node.ids):
                 bindings = self.bindings(node, node.ids, domain_pred)
                 check = self.compile(rest) if rest is not None else (lambda env: True)
@@ -462,20 +548,30 @@ class Compiler:
 
     def let_values(self, node, ids, pred) -> Callable[[Env], None]:
         """``LET x BE x = E & P IN …``: E gives x; the other conjuncts must hold."""
-        eqs: dict[str, Fn] = {}
+        eqs: dict[str, A.Node] = {}
         rest: list[A.Node] = []
         for conj in conjuncts(pred):
             if (isinstance(conj, A.Rel) and conj.op == "=" and isinstance(conj.left, A.Name)
                     and conj.left.id in ids and conj.left.id not in eqs):
-                eqs[conj.left.id] = self.compile(conj.right)
+                eqs[conj.left.id] = conj.right
             else:
                 rest.append(conj)
         missing = [i for i in ids if i not in eqs]
         if missing:
             raise self.error(UnsupportedError, node,
                              f"LET needs an equation `{missing[0]} = …` for each variable")
+        # each equation after those of the LET variables it uses (in any written order)
+        ordered: list[str] = []
+        while len(ordered) < len(ids):
+            ready = [i for i in ids if i not in ordered
+                     and not (A.free_names(eqs[i]) & (set(ids) - set(ordered)))]
+            if not ready:
+                cyclic = next(i for i in ids if i not in ordered)
+                raise self.error(BTypeError, eqs[cyclic],
+                                 f"the LET equations define {cyclic} in terms of itself")
+            ordered.extend(ready)
         checks = [(c, self.compile(c)) for c in rest]
-        order = [(i, eqs[i]) for i in ids]
+        order = [(i, self.compile(eqs[i])) for i in ordered]
 
         def assign(env: Env) -> None:
             for name, fn in order:
@@ -511,6 +607,11 @@ class Compiler:
         return apply
 
     def apply_value(self, node: A.Apply, f: Any, x: Any) -> Any:
+        if isinstance(f, V.Projection):
+            try:
+                return f.apply(x)
+            except KeyError:
+                raise self.wd(node, f"{_short(x)} is not in the domain of {f.name}") from None
         if isinstance(f, FuncValue):
             try:
                 return f.map[x]
@@ -523,8 +624,10 @@ class Compiler:
                     return f.map[x]
                 raise self.wd(node, f"{_short(x)} is not in the domain of the function") \
                     from None
+        if isinstance(f, SymbolicSet):
+            f = _finite(self, node.fn, f)
         if isinstance(f, frozenset):
-            images = [p[1] for p in f if isinstance(p, tuple) and _equal(p[0], x)]
+            images = [p[1] for p in f if isinstance(p, tuple) and self.equal(node, p[0], x)]
             if len(images) != 1:
                 what = "not in the domain" if not images else "mapped to several values"
                 raise self.wd(node, f"{format_value(x)} is {what} of the relation")
@@ -536,7 +639,9 @@ class Compiler:
 
         def image(env: Env) -> frozenset:
             r, s = rel(env), arg(env)
-            return _make_set([p[1] for p in _finite(self, node.rel, r) if p[0] in s])
+            if not is_set(s):
+                raise self.type_error(node.arg, s, "a set")
+            return _make_set([p[1] for p in _finite(self, node.rel, r) if V.contains(s, p[0])])
         return image
 
     def c_Inverse(self, node: A.Inverse) -> Fn:
@@ -546,9 +651,13 @@ class Compiler:
     def c_Call(self, node: A.Call) -> Fn:
         impl = _BUILTINS.get(node.name)
         if impl is None:
-            raise self.error(UnsupportedError, node, f"tracecheck does not evaluate {node.name}")
-        arity = 1
-        if len(node.args) != arity:
+            raise self.error(UnsupportedError, node, f"not supported: {node.name}",
+                             hint=_UNSUPPORTED_HINTS.get(node.name))
+        if node.name in ("prj1", "prj2") and len(node.args) == 2:
+            s, t = self.compile(node.args[0]), self.compile(node.args[1])
+            which = int(node.name[-1])
+            return lambda env: V.Projection(which, s(env), t(env))
+        if len(node.args) != 1:
             raise self.error(BTypeError, node,
                              f"{node.name} takes one argument, not {len(node.args)}")
         arg = self.compile(node.args[0])
@@ -671,28 +780,23 @@ def _scoped(fn: Fn, ids: tuple[str, ...]) -> Fn:
 
 
 def _hashable(v: Any) -> Any:
-    if isinstance(v, Interval):
+    if isinstance(v, SymbolicSet) and v.finiteness() is True:
         return v.materialise()
     return v
-
-
-def _equal(a: Any, b: Any) -> bool:
-    if isinstance(a, Interval):
-        a = a.materialise()
-    if isinstance(b, Interval):
-        b = b.materialise()
-    return a == b
 
 
 def _finite(comp: Compiler, node: A.Node, v: Any) -> frozenset:
     if isinstance(v, frozenset):
         return v
-    if isinstance(v, Interval):
-        return v.materialise()
     if isinstance(v, SymbolicSet):
-        raise comp.error(EvaluationError, node,
-                         f"`{comp.text(node)}` is the infinite set {v.name}; tracecheck only "
-                         "computes with finite sets here")
+        if v.finiteness() is not True:
+            raise comp.error(EvaluationError, node,
+                             f"`{comp.text(node)}` is the infinite set {v.name}; tracecheck "
+                             "only computes with finite sets here")
+        try:
+            return v.materialise()
+        except TracecheckError as exc:
+            raise comp.at(node, exc) from None
     raise comp.type_error(node, v, "a set")
 
 
@@ -715,26 +819,25 @@ def _short(v: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-class _Product(SymbolicSet):
-    def __init__(self, a: Any, b: Any) -> None:
-        self.a, self.b = a, b
-        self.name = f"({format_value(a)} * {format_value(b)})"
-
-    def contains(self, v: Any) -> bool:
-        return isinstance(v, tuple) and len(v) == 2 and v[0] in self.a and v[1] in self.b
-
-
-_ARROWS = {"-->", "+->", "<->", ">->", ">+>", "-->>", "+->>", ">->>"}
+_ARROWS = {"-->", "+->", "<->", ">->", ">+>", "-->>", "+->>", ">->>", ">+>>"}
+_MAX_INT_BITS = 1_000_000
 _OP_NAMES = {"+": "add", "-": "sub", "*": "mul", "/": "div", "mod": "mod", "**": "pow",
+             ";": "comp", "><": "direct", "^": "concat",
              "\\/": "union", "/\\": "inter", "\\": "minus", "<|": "domres", "|>": "ranres",
              "<<|": "domsub", "|>>": "ransub", "<+": "override"}
+_TEMPLATE_FORMAT = re.compile(r"\d{1,2}f")
 _CMP = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
 
 
 def _card(c: Compiler, node: A.Call, v: Any) -> int:
-    if isinstance(v, (frozenset, Interval)):
+    if isinstance(v, frozenset):
         return len(v)
-    raise c.type_error(node.args[0], v, "a finite set")
+    if not isinstance(v, SymbolicSet):
+        raise c.type_error(node.args[0], v, "a finite set")
+    try:
+        return V.cardinality(v)
+    except TracecheckError as exc:
+        raise c.at(node, exc) from None
 
 
 def _dom(c: Compiler, node: A.Call, v: Any) -> frozenset:
@@ -751,6 +854,8 @@ def _ran(c: Compiler, node: A.Call, v: Any) -> frozenset:
 
 def _extreme(pick):
     def extreme(c: Compiler, node: A.Call, v: Any) -> Any:
+        if isinstance(v, Interval) and v.card() > 0:
+            return v.lo if pick is min else v.hi
         items = _finite(c, node.args[0], v)
         if not items:
             raise c.wd(node, f"{node.name} of the empty set")
@@ -780,9 +885,9 @@ _BUILTINS: dict[str, Callable[[Compiler, A.Call, Any], Any]] = {
     "min": _extreme(min),
     "max": _extreme(max),
     "POW": lambda c, n, v: PowSet(v),
-    "FIN": lambda c, n, v: PowSet(v),
+    "FIN": lambda c, n, v: PowSet(v, fin=True),
     "POW1": lambda c, n, v: PowSet(v, nonempty=True),
-    "FIN1": lambda c, n, v: PowSet(v, nonempty=True),
+    "FIN1": lambda c, n, v: PowSet(v, nonempty=True, fin=True),
     "bool": lambda c, n, v: bool(v),
     "floor": _number_fn(lambda c, n, v: math.floor(v), (float, int)),
     "ceiling": _number_fn(lambda c, n, v: math.ceil(v), (float, int)),
@@ -796,7 +901,58 @@ _BUILTINS: dict[str, Callable[[Compiler, A.Call, Any], Any]] = {
     "inter": lambda c, n, v: frozenset.intersection(*_finite(c, n.args[0], v))
     if v else (_ for _ in ()).throw(c.wd(n, "inter of the empty set")),
     "id": lambda c, n, v: FuncValue({x: x for x in _finite(c, n.args[0], v)}),
+    "prj1": lambda c, n, v: _component(c, n, v, 0),
+    "prj2": lambda c, n, v: _component(c, n, v, 1),
+    "closure1": lambda c, n, v: _closure1(_finite(c, n.args[0], v)),
+    "size": lambda c, n, v: len(c.seq_items(n.args[0], v)),
+    "first": lambda c, n, v: _nonempty_seq(c, n, v)[0],
+    "last": lambda c, n, v: _nonempty_seq(c, n, v)[-1],
+    "front": lambda c, n, v: V.sequence(_nonempty_seq(c, n, v)[:-1]),
+    "tail": lambda c, n, v: V.sequence(_nonempty_seq(c, n, v)[1:]),
+    "rev": lambda c, n, v: V.sequence(c.seq_items(n.args[0], v)[::-1]),
+    "conc": lambda c, n, v: V.sequence([x for s in c.seq_items(n.args[0], v)
+                                        for x in c.seq_items(n.args[0], s)]),
+    "seq": lambda c, n, v: V.SeqSet("seq", v),
+    "seq1": lambda c, n, v: V.SeqSet("seq1", v),
+    "iseq": lambda c, n, v: V.SeqSet("iseq", v),
+    "iseq1": lambda c, n, v: V.SeqSet("iseq1", v),
+    "perm": lambda c, n, v: V.SeqSet("perm", v),
 }
+
+_UNSUPPORTED_HINTS = {
+    "closure": "closure(r) includes the identity on the whole type; write "
+               "closure1(r) \\/ id(S) for the set S you mean",
+}
+
+
+def _component(c: Compiler, node: A.Call, v: Any, i: int) -> Any:
+    if not isinstance(v, tuple):
+        raise c.type_error(node.args[0], v, "a pair")
+    return v[i]
+
+
+def _nonempty_seq(c: Compiler, node: A.Call, v: Any) -> list:
+    items = c.seq_items(node.args[0], v)
+    if not items:
+        raise c.wd(node, f"{node.name} of the empty sequence")
+    return items
+
+
+def _closure1(rel: frozenset) -> frozenset:
+    """The transitive closure of a finite relation."""
+    succ: dict = {}
+    for x, y in rel:
+        succ.setdefault(x, set()).add(y)
+    out = []
+    for start in succ:
+        seen, todo = set(), list(succ[start])
+        while todo:
+            y = todo.pop()
+            if y not in seen:
+                seen.add(y)
+                todo.extend(succ.get(y, ()))
+        out.extend((start, y) for y in seen)
+    return _make_set(out)
 
 
 # ------------------------------------------------------------------ enumeration
@@ -887,8 +1043,12 @@ def _domain(comp: Compiler, node: A.Node, mode: str, value: Any):
         return [frozenset(c) for k in range(len(items) + 1) for c in combinations(items, k)]
     if isinstance(value, frozenset):
         return value
-    if isinstance(value, SymbolicSet) and value.finite:
-        return value
+    if isinstance(value, SymbolicSet) and value.finiteness() is True:
+        try:
+            V.check_size(value.card(), value.name)
+        except TracecheckError as exc:
+            raise comp.at(node, exc) from None
+        return value.elements()
     if isinstance(value, SymbolicSet):
         raise comp.error(EvaluationError, node,
                          f"cannot enumerate the infinite set {value.name} in "
@@ -908,6 +1068,11 @@ def _names_in_pair(node: A.Node) -> Optional[tuple[str, ...]]:
 
 
 def _generator_for(comp, conj, name, ids, bound):
+    if (isinstance(conj, A.Or) and isinstance(conj.left, A.Rel) and isinstance(conj.right, A.Rel)
+            and conj.left.op == conj.right.op == ":" and conj.left.left == conj.right.left):
+        # x : A or x : B enumerates x over A \/ B
+        union = A.BinOp("\\/", conj.left.right, conj.right.right, pos=conj.pos)
+        conj = A.Rel(":", conj.left.left, union, pos=conj.pos)
     if not isinstance(conj, A.Rel) or conj.op not in (":", "=", "<:"):
         return None
     names = _names_in_pair(conj.left)

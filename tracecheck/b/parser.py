@@ -400,7 +400,8 @@ _OPS = {
     "NOTIN": "/:", "SUBSET": "<:", "STRICT_SUBSET": "<<:", "NOT_SUBSET": "/<:",
     "NOT_STRICT_SUBSET": "/<<:", "TOTAL_FUN": "-->", "PARTIAL_FUN": "+->", "RELATION": "<->",
     "TOTAL_INJ": ">->", "PARTIAL_INJ": ">+>", "TOTAL_SURJ": "-->>", "PARTIAL_SURJ": "+->>",
-    "TOTAL_BIJ": ">->>", "MAPLET": "|->", "UNION": "\\/", "INTER": "/\\", "SETMINUS": "\\",
+    "TOTAL_BIJ": ">->>", "PARTIAL_BIJ": ">+>>", "DIRECT_PRODUCT": "><", "CONCAT": "^",
+    "MAPLET": "|->", "UNION": "\\/", "INTER": "/\\", "SETMINUS": "\\",
     "DOM_RES": "<|", "RAN_RES": "|>", "DOM_SUB": "<<|", "RAN_SUB": "|>>", "OVERRIDE": "<+",
     "INTERVAL": "..", "PLUS": "+", "MINUS": "-", "TIMES": "*", "DIVIDE": "/", "MOD": "mod",
     "POWER": "**",
@@ -408,6 +409,38 @@ _OPS = {
 _UNI_SETS = {"ℕ": "NATURAL", "ℕ₁": "NATURAL1", "ℤ": "INTEGER", "ℝ": "REAL", "𝔹": "BOOL"}
 _QUANT_EXPR = {"SIGMA": "SIGMA", "Σ": "SIGMA", "PI": "PI", "Π": "PI", "UNION": "UNION",
                "⋃": "UNION", "INTER": "INTER", "⋂": "INTER"}
+
+
+_HOLE = re.compile(r"\$(?:\[([^\]]*)\])?\{")
+
+
+def _template(tok: Token) -> A.Template:
+    """Split a template string into its text and its ``${…}`` / ``$[fmt]{…}`` holes; each
+    hole is parsed as a formula at its own place in the source (errors point into it)."""
+    raw = str(tok)[3:-3]
+    texts, formats, holes = [], [], []
+    i = 0
+    while True:
+        m = _HOLE.search(raw, i)
+        if m is None:
+            texts.append(raw[i:])
+            break
+        texts.append(raw[i:m.start()])
+        depth, j = 1, m.end()
+        while j < len(raw) and depth:
+            depth += {"{": 1, "}": -1}.get(raw[j], 0)
+            j += 1
+        if depth:
+            raise BSyntaxError("unclosed ${ in a template string", line=tok.line,
+                               column=tok.column)
+        before = tok.line - 1 + raw.count("\n", 0, m.end())
+        col = (m.end() - raw.rfind("\n", 0, m.end()) - 1) if "\n" in raw[:m.end()] \
+            else tok.column - 1 + 3 + m.end()
+        padded = "\n" * before + " " * col + raw[m.end():j - 1]
+        formats.append(m.group(1) or "")
+        holes.append(parse_formula(padded))
+        i = j
+    return A.Template(tuple(texts), tuple(formats), tuple(holes), pos=_tok_pos(tok))
 
 
 def _pos(meta) -> Optional[A.Pos]:
@@ -524,6 +557,24 @@ class _Builder(Transformer):
 
     def empty_set(self, meta, c):
         return A.SetExt((), pos=_pos(meta))
+
+    def empty_seq(self, meta, c):
+        return A.SetExt((), pos=_pos(meta))
+
+    def seq_ext(self, meta, c):
+        """``[a, b]`` is the function ``{1|->a, 2|->b}``."""
+        return A.SetExt(tuple(A.Pair(A.IntLit(i, pos=item.pos), item, pos=item.pos)
+                              for i, item in enumerate(c[0], start=1)), pos=_pos(meta))
+
+    def composition(self, meta, c):
+        items = [x for x in c if not isinstance(x, Token)]
+        node = items[0]
+        for item in items[1:]:
+            node = A.BinOp(";", node, item, pos=_pos(meta))
+        return node
+
+    def template(self, meta, c):
+        return _template(c[0])
 
     def set_ext(self, meta, c):
         return A.SetExt(c[0], pos=_pos(meta))

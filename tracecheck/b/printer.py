@@ -7,7 +7,7 @@ from .values import format_real
 
 __all__ = ["to_b"]
 
-_ATOMS = (A.Name, A.IntLit, A.RealLit, A.StrLit, A.BoolLit, A.SetExt, A.Apply, A.Call,
+_ATOMS = (A.Name, A.IntLit, A.RealLit, A.StrLit, A.BoolLit, A.SetExt, A.Apply, A.Call, A.Template,
           A.Image, A.Inverse, A.Comprehension, A.Lambda, A.QuantExpr, A.Quant, A.IfExpr,
           A.Let)
 
@@ -34,6 +34,13 @@ def to_b(node: A.Node) -> str:  # noqa: C901 - one branch per node type
         return '"' + node.value.replace("\\", "\\\\").replace('"', '\\"') + '"'
     if t is A.BoolLit:
         return "TRUE" if node.value else "FALSE"
+    if t is A.BinOp and node.op == ";":
+        return f"({_sub(node.left)} ; {_sub(node.right)})"
+    if t is A.Template:
+        parts = [node.texts[0]]
+        for fmt, hole, text in zip(node.formats, node.holes, node.texts[1:]):
+            parts.append(("$[" + fmt + "]{" if fmt else "${") + to_b(hole) + "}" + text)
+        return "```" + "".join(parts) + "```"
     if t is A.BinOp:
         op = f" {node.op} " if node.op.isalpha() else node.op
         return f"{_sub(node.left)}{op}{_sub(node.right)}"

@@ -189,6 +189,9 @@ def _check_children(node: A.Node, source: Optional[str]) -> None:
     elif isinstance(node, A.SetExt):
         for a in node.items:
             req(a, EXPR, "a set element")
+    elif isinstance(node, A.Template):
+        for a in node.holes:
+            req(a, EXPR, "a template hole")
     elif isinstance(node, A.IfExpr):
         kind = kind_of(node)
         for cond, value in node.branches:

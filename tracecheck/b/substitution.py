@@ -12,7 +12,7 @@ from typing import Callable, Optional
 
 from ..errors import UnsupportedError
 from . import ast as A
-from .evaluate import MEMO_KEY, Compiler, Env, _equal, _make_set, fresh
+from .evaluate import MEMO_KEY, Compiler, Env, _make_set, fresh
 
 __all__ = ["written", "guard_of", "SubstCompiler", "strip_guards", "before_after"]
 
@@ -89,7 +89,7 @@ class SubstCompiler:
 
     def unchanged(self, names: frozenset[str]) -> Check:
         names = tuple(sorted(names))
-        return lambda pre, post: all(_equal(post[n], pre[n]) for n in names if n in post)
+        return lambda pre, post: all(post[n] == pre[n] for n in names if n in post)
 
     def compile(self, s: A.Subst) -> Check:
         method = getattr(self, "s_" + type(s).__name__, None)
@@ -107,7 +107,7 @@ class SubstCompiler:
             val = self.comp.compile(value)
             if isinstance(target, A.Name):
                 name = target.id
-                parts.append(lambda pre, post, name=name, val=val: _equal(post[name], val(pre)))
+                parts.append(lambda pre, post, name=name, val=val: post[name] == val(pre))
             else:
                 name = target.fn.id
                 key = self.comp.compile(target.args[0] if len(target.args) == 1 else
@@ -116,7 +116,7 @@ class SubstCompiler:
                 def override(pre, post, name=name, key=key, val=val):
                     new = dict(pre[name].map if hasattr(pre[name], "map") else pre[name])
                     new[key(pre)] = val(pre)
-                    return _equal(post[name], _make_set(list(new.items())))
+                    return post[name] == _make_set(list(new.items()))
                 parts.append(override)
         return lambda pre, post: all(p(pre, post) for p in parts)
 
@@ -162,7 +162,7 @@ class SubstCompiler:
             env = fresh(pre)
             env.update(mid)
             untouched = {n: v for n, v in mid.items() if n not in last_writes}
-            return last(env, post) and all(_equal(post[n], v) for n, v in untouched.items()
+            return last(env, post) and all(post[n] == v for n, v in untouched.items()
                                            if n in post)
         return sequence
 

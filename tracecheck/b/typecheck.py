@@ -178,6 +178,14 @@ class Typer:
         elif isinstance(node, A.Rel):
             self.rel(node)
         elif isinstance(node, A.Quant):
+            if node.op == "!" and not isinstance(node.body, A.Implies):
+                raise BTypeError(
+                    f"the body of `!{','.join(node.ids)}.(…)` must be an implication",
+                    file=self.file, source=self.source,
+                    line=node.pos.line if node.pos else None,
+                    column=node.pos.column if node.pos else None,
+                    hint=f"write !{','.join(node.ids)}.(x : S => P), as ProB's type checker "
+                         "requires")
             self.bound(node.ids)
             try:
                 self.pred(node.body)
@@ -229,6 +237,10 @@ class Typer:
             return self.numeric(node, self.expr(node.operand))
         if t is A.BinOp:
             return self.binop(node)
+        if t is A.Template:
+            for hole in node.holes:
+                self.expr(hole)
+            return STRING
         if t is A.SetExt:
             elem: Type = Var()
             for item in node.items:
@@ -296,7 +308,7 @@ class Typer:
     def binop(self, node: A.BinOp) -> Type:
         op = node.op
         left, right = self.expr(node.left), self.expr(node.right)
-        if op in ("-->", "+->", "<->", ">->", ">+>", "-->>", "+->>", ">->>"):
+        if op in ("-->", "+->", "<->", ">->", ">+>", "-->>", "+->>", ">->>", ">+>>"):
             a, b = Var(), Var()
             self.same(node.left, left, Pow(a))
             self.same(node.right, right, Pow(b))
@@ -320,8 +332,21 @@ class Typer:
             return left
         if op == "**":
             self.numeric(node.left, left)
-            if resolve(left) == REAL and resolve(right) == INTEGER:
-                return REAL
+            self.same(node.right, right, INTEGER, "the exponent must be an INTEGER (ProB allows "
+                      "only INTEGER ** INTEGER and REAL ** INTEGER): ")
+            return left
+        if op == ";":
+            a, b, c = Var(), Var(), Var()
+            self.same(node.left, left, Pow(Prod(a, b)))
+            self.same(node.right, right, Pow(Prod(b, c)))
+            return Pow(Prod(a, c))
+        if op == "><":
+            a, b, c = Var(), Var(), Var()
+            self.same(node.left, left, Pow(Prod(a, b)))
+            self.same(node.right, right, Pow(Prod(a, c)))
+            return Pow(Prod(a, Prod(b, c)))
+        if op == "^":
+            self.same(node.left, left, Pow(Prod(INTEGER, Var())))
             self.same(node, left, right)
             return left
         if op in ("\\/", "/\\", "\\"):
@@ -349,8 +374,34 @@ class Typer:
         if name == "bool":
             self.pred(node.args[0])
             return BOOL
+        if name in ("prj1", "prj2") and len(node.args) == 2:
+            s, t = Var(), Var()
+            self.same(node.args[0], self.expr(node.args[0]), Pow(s))
+            self.same(node.args[1], self.expr(node.args[1]), Pow(t))
+            return Pow(Prod(Prod(s, t), s if name == "prj1" else t))
         arg = self.expr(node.args[0])
         a, b = Var(), Var()
+        if name in ("prj1", "prj2"):
+            self.same(node.args[0], arg, Prod(a, b))
+            return a if name == "prj1" else b
+        if name in ("closure1", "closure"):
+            self.same(node.args[0], arg, Pow(Prod(a, a)))
+            return arg
+        if name == "size":
+            self.same(node.args[0], arg, Pow(Prod(INTEGER, a)))
+            return INTEGER
+        if name in ("first", "last"):
+            self.same(node.args[0], arg, Pow(Prod(INTEGER, a)))
+            return a
+        if name in ("front", "tail", "rev"):
+            self.same(node.args[0], arg, Pow(Prod(INTEGER, a)))
+            return arg
+        if name in ("seq", "seq1", "iseq", "iseq1", "perm"):
+            self.same(node.args[0], arg, Pow(a))
+            return Pow(Pow(Prod(INTEGER, a)))
+        if name == "conc":
+            self.same(node.args[0], arg, Pow(Prod(INTEGER, Pow(Prod(INTEGER, a)))))
+            return Pow(Prod(INTEGER, a))
         if name == "card":
             self.same(node.args[0], arg, Pow(a))
             return INTEGER

@@ -17,6 +17,8 @@ from ..errors import BSyntaxError, EvaluationError
 
 __all__ = [
     "Elem", "FuncValue", "SymbolicSet", "BuiltinSet", "Interval", "PowSet", "FunctionSpace",
+    "Product", "SET_LIMIT", "SetLimitError", "finiteness", "cardinality", "members", "explicit",
+    "contains", "is_subset", "set_equal", "Projection", "SeqSet", "as_sequence", "sequence",
     "parse_literal", "format_value", "from_json", "to_json", "is_set", "BUILTIN_SET_VALUES",
     "sort_key",
 ]
@@ -49,27 +51,106 @@ class FuncValue(frozenset):
         return (FuncValue, (dict(self.map),))
 
 
+#: The most elements tracecheck builds or walks for one set; above it a clear error.
+SET_LIMIT = 1_000_000
+
+
+class SetLimitError(EvaluationError):
+    """A finite set too large to build or walk element by element."""
+
+
 class SymbolicSet:
-    """A set that is not held element by element (INTEGER, REAL, POW(S), S --> T, a..b)."""
+    """A set not held element by element (INTEGER, a..b, POW(S), S*T, S --> T).
+
+    Every finite one behaves like its explicit form: it compares equal to it, hashes like it
+    (so it nests in sets and pairs), counts and enumerates; it is built element by element
+    only where that is needed, and never above :data:`SET_LIMIT` elements.
+    """
 
     name = "set"
-    finite = False
+
+    def finiteness(self) -> Optional[bool]:
+        """True: finite; False: infinite; None: tracecheck cannot tell."""
+        return False
+
+    @property
+    def finite(self) -> bool:
+        return self.finiteness() is True
 
     def contains(self, value: Any) -> bool:
         raise NotImplementedError
 
-    def __iter__(self) -> Iterator[Any]:
+    def card(self) -> int:
+        """The exact number of elements of a finite set (without building it)."""
+        raise EvaluationError(f"the set {self.name} is infinite: it has no card")
+
+    def elements(self) -> Iterator[Any]:
         raise EvaluationError(f"cannot enumerate the infinite set {self.name}",
                               hint="restrict the variable with a finite set, e.g. x : 1..10")
 
+    def key(self) -> tuple:
+        """What identifies an infinite set (two sets with the same key are equal)."""
+        return (type(self).__name__, self.name)
+
+    def __iter__(self) -> Iterator[Any]:
+        if self.finiteness() is not True:
+            return SymbolicSet.elements(self)
+        check_size(self.card(), self.name)
+        return self.elements()
+
+    def __len__(self) -> int:
+        return self.card()
+
+    def materialise(self) -> frozenset:
+        """The explicit form (refused above :data:`SET_LIMIT` elements)."""
+        return _make_frozenset(iter(self))
+
     def __contains__(self, value: Any) -> bool:
         return self.contains(value)
+
+    def __eq__(self, other: object) -> bool:
+        if not is_set(other):
+            return NotImplemented
+        return set_equal(self, other)
+
+    def __ne__(self, other: object) -> bool:
+        result = self.__eq__(other)
+        return result if result is NotImplemented else not result
+
+    def __hash__(self) -> int:
+        if self.finiteness() is True:
+            return hash(self.materialise())
+        return hash(self.key())
 
     def __repr__(self) -> str:
         return self.name
 
 
+def check_size(n: int, what: str) -> None:
+    if n > SET_LIMIT:
+        raise SetLimitError(
+            f"the set {what} has {_count(n)} elements; tracecheck builds or walks at most "
+            f"{SET_LIMIT:,} elements of one set",
+            hint="use a smaller set, or a predicate that does not need its elements")
+
+
+def _count(n: int) -> str:
+    text = str(n)
+    return f"{n:,}" if len(text) <= 30 else f"about 10^{len(text) - 1}"
+
+
+def _make_frozenset(items: Iterator[Any]) -> frozenset:
+    items = list(items)
+    if items and all(type(i) is tuple for i in items):
+        mapping = dict(items)
+        if len(mapping) == len(items):
+            return FuncValue(mapping)
+    return frozenset(items)
+
+
 class BuiltinSet(SymbolicSet):
+    """INTEGER, NATURAL, NATURAL1, REAL, STRING: infinite, identified by name."""
+
     def __init__(self, name: str, test: Callable[[Any], bool]) -> None:
         self.name = name
         self._test = test
@@ -77,49 +158,48 @@ class BuiltinSet(SymbolicSet):
     def contains(self, value: Any) -> bool:
         return self._test(value)
 
-    def __eq__(self, other: object) -> bool:
-        return isinstance(other, BuiltinSet) and other.name == self.name
-
-    def __hash__(self) -> int:
-        return hash(self.name)
+    def key(self) -> tuple:
+        return ("builtin", self.name)
 
 
 def _is_int(v: Any) -> bool:
     return isinstance(v, int) and not isinstance(v, bool)
 
 
-
-
 class Interval(SymbolicSet):
     """``a..b``, enumerated lazily."""
-
-    finite = True
 
     def __init__(self, lo: int, hi: int) -> None:
         self.lo, self.hi = lo, hi
         self.name = f"{lo}..{hi}"
 
+    def finiteness(self) -> Optional[bool]:
+        return True
+
     def contains(self, value: Any) -> bool:
         return _is_int(value) and self.lo <= value <= self.hi
 
-    def __iter__(self) -> Iterator[int]:
+    def elements(self) -> Iterator[int]:
         return iter(range(self.lo, self.hi + 1))
 
-    def __len__(self) -> int:
+    def card(self) -> int:
         return max(0, self.hi - self.lo + 1)
 
-    def materialise(self) -> frozenset:
-        if len(self) > 1_000_000:
-            raise EvaluationError(f"the interval {self.name} is too large to build as a set")
-        return frozenset(range(self.lo, self.hi + 1))
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, Interval):
+            return self.card() == other.card() == 0 or (self.lo, self.hi) == (other.lo, other.hi)
+        return SymbolicSet.__eq__(self, other)
+
+    __hash__ = SymbolicSet.__hash__
 
 
+_REAL = BuiltinSet("REAL", lambda v: isinstance(v, float))
 BUILTIN_SET_VALUES: dict[str, Any] = {
     "INTEGER": BuiltinSet("INTEGER", _is_int),
     "NATURAL": BuiltinSet("NATURAL", lambda v: _is_int(v) and v >= 0),
     "NATURAL1": BuiltinSet("NATURAL1", lambda v: _is_int(v) and v >= 1),
-    "REAL": BuiltinSet("REAL", lambda v: isinstance(v, float)),
-    "FLOAT": BuiltinSet("FLOAT", lambda v: isinstance(v, float)),
+    "REAL": _REAL,
+    "FLOAT": _REAL,
     "STRING": BuiltinSet("STRING", lambda v: type(v) is str),
     "BOOL": frozenset({True, False}),
     "NAT": Interval(0, 2147483647),
@@ -129,20 +209,92 @@ BUILTIN_SET_VALUES: dict[str, Any] = {
     "MININT": -2147483648,
 }
 
+#: Which infinite built-in sets lie inside which (for ``<:`` between infinite sets).
+_BUILTIN_SUBSETS = {("NATURAL1", "NATURAL"), ("NATURAL1", "INTEGER"), ("NATURAL", "INTEGER")}
+
+
+class Product(SymbolicSet):
+    """``A * B`` where A or B is not held element by element."""
+
+    def __init__(self, a: Any, b: Any) -> None:
+        self.a, self.b = a, b
+        self.name = f"({format_value(a)} * {format_value(b)})"
+
+    def finiteness(self) -> Optional[bool]:
+        fa, fb = finiteness(self.a), finiteness(self.b)
+        if (fa and cardinality(self.a) == 0) or (fb and cardinality(self.b) == 0):
+            return True
+        if fa and fb:
+            return True
+        if fa is None or fb is None:
+            return None
+        return False
+
+    def contains(self, v: Any) -> bool:
+        return (isinstance(v, tuple) and len(v) == 2 and contains(self.a, v[0])
+                and contains(self.b, v[1]))
+
+    def card(self) -> int:
+        if self.finiteness() is not True:
+            return SymbolicSet.card(self)
+        ca, cb = cardinality(self.a), cardinality(self.b)
+        return ca * cb
+
+    def elements(self) -> Iterator[Any]:
+        right = list(members(self.b))
+        return ((x, y) for x in members(self.a) for y in right)
+
+    def key(self) -> tuple:
+        return ("product", _key(self.a), _key(self.b))
+
 
 class PowSet(SymbolicSet):
-    """``POW(S)`` or ``POW1(S)``: membership only."""
+    """``POW(S)``, ``POW1(S)``, ``FIN(S)``, ``FIN1(S)`` (FIN: the finite subsets)."""
 
-    def __init__(self, base: Any, nonempty: bool = False) -> None:
-        self.base, self.nonempty = base, nonempty
-        self.name = f"{'POW1' if nonempty else 'POW'}({format_value(base)})"
+    def __init__(self, base: Any, nonempty: bool = False, fin: bool = False) -> None:
+        self.base, self.nonempty, self.fin = base, nonempty, fin
+        kind = ("FIN" if fin else "POW") + ("1" if nonempty else "")
+        self.name = f"{kind}({format_value(base)})"
+
+    def finiteness(self) -> Optional[bool]:
+        return finiteness(self.base)
 
     def contains(self, value: Any) -> bool:
-        if not is_set(value) or isinstance(value, SymbolicSet):
+        if not is_set(value):
             return False
-        if self.nonempty and not value:
+        fv = finiteness(value)
+        if self.nonempty and fv is True and cardinality(value) == 0:
             return False
-        return all(item in self.base for item in value)
+        if self.fin and fv is not True:
+            if fv is None:
+                raise EvaluationError(f"cannot decide whether {value.name} is finite")
+            return False
+        return is_subset(value, self.base)
+
+    def card(self) -> int:
+        if self.finiteness() is not True:
+            return SymbolicSet.card(self)
+        n = cardinality(self.base)
+        if n > 100_000:
+            raise SetLimitError(f"card({self.name}) = 2^{n} is too large to compute")
+        return 2 ** n - (1 if self.nonempty else 0)
+
+    def elements(self) -> Iterator[Any]:
+        from itertools import combinations
+        items = sorted(members(self.base), key=sort_key)
+        start = 1 if self.nonempty else 0
+        return (_make_frozenset(c) for k in range(start, len(items) + 1)
+                for c in combinations(items, k))
+
+    def key(self) -> tuple:
+        if self.fin and self.finiteness() is True:
+            return ("pow", self.nonempty, False, _key(self.base))
+        return ("pow", self.nonempty, self.fin, _key(self.base))
+
+
+_TOTAL = ("-->", ">->", "-->>", ">->>")
+_INJECTIVE = (">->", ">+>", ">->>", ">+>>")
+_SURJECTIVE = ("-->>", "+->>", ">->>", ">+>>")
 
 
 class FunctionSpace(SymbolicSet):
@@ -152,38 +304,272 @@ class FunctionSpace(SymbolicSet):
         self.op, self.dom, self.ran = op, dom, ran
         self.name = f"({format_value(dom)} {op} {format_value(ran)})"
 
+    def finiteness(self) -> Optional[bool]:
+        fd, fr = finiteness(self.dom), finiteness(self.ran)
+        return True if (fd and fr) else None
+
     def contains(self, value: Any) -> bool:
-        if not is_set(value) or isinstance(value, SymbolicSet):
+        if not is_set(value):
             return False
+        if isinstance(value, SymbolicSet):
+            if value.finiteness() is not True:
+                raise EvaluationError(f"cannot decide whether {value.name} is in {self.name}")
+            value = value.materialise()
         pairs = list(value)
         if not all(isinstance(p, tuple) and len(p) == 2 for p in pairs):
             return False
-        if not all(p[0] in self.dom and p[1] in self.ran for p in pairs):
+        if not all(contains(self.dom, p[0]) and contains(self.ran, p[1]) for p in pairs):
             return False
         if self.op == "<->":
             return True
-        firsts = [p[0] for p in pairs]
-        if len(set(firsts)) != len(firsts):
+        firsts = {p[0] for p in pairs}
+        if len(firsts) != len(pairs):
             return False
-        total = self.op in ("-->", ">->", "-->>", ">->>")
-        if total and not _covers(set(firsts), self.dom):
+        if self.op in _TOTAL and not _covers(firsts, self.dom):
             return False
-        seconds = [p[1] for p in pairs]
-        if self.op in (">->", ">+>", ">->>") and len(set(seconds)) != len(seconds):
+        seconds = {p[1] for p in pairs}
+        if self.op in _INJECTIVE and len(seconds) != len(pairs):
             return False
-        if self.op in ("-->>", "+->>", ">->>") and not _covers(set(seconds), self.ran):
+        if self.op in _SURJECTIVE and not _covers(seconds, self.ran):
             return False
         return True
 
+    def card(self) -> int:
+        if self.finiteness() is not True:
+            return SymbolicSet.card(self)
+        d, r = cardinality(self.dom), cardinality(self.ran)
+        if self.op == "<->":
+            return 2 ** (d * r) if d * r <= 100_000 else SymbolicSet.card(self)
+        if self.op == "+->":
+            return (r + 1) ** d
+        if self.op == "-->":
+            return r ** d
+        return sum(1 for _ in self._walk())
+
+    def elements(self) -> Iterator[Any]:
+        return self._walk()
+
+    def _walk(self) -> Iterator[Any]:
+        from itertools import product
+        dom = sorted(members(self.dom), key=sort_key)
+        ran = sorted(members(self.ran), key=sort_key)
+        if self.op == "<->":
+            yield from PowSet(Product(frozenset(dom), frozenset(ran))).elements()
+            return
+        choices = [ran] if self.op in _TOTAL else [[_NONE] + ran]
+        check_size(len(choices[0]) ** len(dom), self.name)
+        for pick in product(choices[0], repeat=len(dom)):
+            f = FuncValue({x: y for x, y in zip(dom, pick) if y is not _NONE})
+            if self.op in ("-->", "+->") or self.contains(f):
+                yield f
+
+    def key(self) -> tuple:
+        return ("arrow", self.op, _key(self.dom), _key(self.ran))
+
+
+_NONE = object()
+
+
+class Projection(SymbolicSet):
+    """``prj1(S, T)`` / ``prj2(S, T)``: the function ``(x|->y) |-> x`` (or ``y``) on S*T."""
+
+    def __init__(self, which: int, s: Any, t: Any) -> None:
+        self.which, self.s, self.t = which, s, t
+        self.name = f"prj{which}({format_value(s)},{format_value(t)})"
+
+    def finiteness(self) -> Optional[bool]:
+        return Product(self.s, self.t).finiteness()
+
+    def apply(self, x: Any) -> Any:
+        if not Product(self.s, self.t).contains(x):
+            raise KeyError(x)
+        return x[self.which - 1]
+
+    def contains(self, v: Any) -> bool:
+        if not (isinstance(v, tuple) and len(v) == 2):
+            return False
+        try:
+            return self.apply(v[0]) == v[1]
+        except KeyError:
+            return False
+
+    def card(self) -> int:
+        return Product(self.s, self.t).card()
+
+    def elements(self) -> Iterator[Any]:
+        return ((p, p[self.which - 1]) for p in Product(self.s, self.t).elements())
+
+    def key(self) -> tuple:
+        return ("prj", self.which, _key(self.s), _key(self.t))
+
+
+class SeqSet(SymbolicSet):
+    """``seq(S)``, ``seq1(S)``, ``iseq(S)``, ``iseq1(S)``, ``perm(S)``: membership only."""
+
+    def __init__(self, kind: str, base: Any) -> None:
+        self.kind, self.base = kind, base
+        self.name = f"{kind}({format_value(base)})"
+
+    def finiteness(self) -> Optional[bool]:
+        if self.kind in ("seq", "seq1") and finiteness(self.base) is not None:
+            if finiteness(self.base) is False or cardinality(self.base) > 0:
+                return False
+        return None
+
+    def contains(self, value: Any) -> bool:
+        items = as_sequence(value)
+        if items is None or not all(contains(self.base, x) for x in items):
+            return False
+        if self.kind in ("seq1", "iseq1") and not items:
+            return False
+        if self.kind in ("iseq", "iseq1", "perm") and len(set(items)) != len(items):
+            return False
+        if self.kind == "perm":
+            return _covers(set(items), self.base)
+        return True
+
+    def key(self) -> tuple:
+        return ("seq", self.kind, _key(self.base))
+
+
+def as_sequence(value: Any) -> Optional[list]:
+    """The items of a B sequence (a function from 1..n), or None if ``value`` is not one."""
+    if not isinstance(value, frozenset):
+        return None
+    if not value:
+        return []
+    mapping = value.map if isinstance(value, FuncValue) else None
+    if mapping is None:
+        if not all(isinstance(p, tuple) and len(p) == 2 for p in value):
+            return None
+        mapping = dict(value)
+        if len(mapping) != len(value):
+            return None
+    n = len(mapping)
+    if not all(type(k) is int and 1 <= k <= n for k in mapping):
+        return None
+    return [mapping[i] for i in range(1, n + 1)]
+
+
+def sequence(items: list) -> frozenset:
+    """The B sequence of ``items``: ``{1|->a, 2|->b, …}``."""
+    return FuncValue({i: x for i, x in enumerate(items, start=1)})
+
 
 def _covers(values: set, space: Any) -> bool:
-    if isinstance(space, SymbolicSet) and not space.finite:
+    if finiteness(space) is not True:
         return False
-    return all(item in values for item in space)
+    if cardinality(space) != len(values):
+        return False
+    return all(contains(space, v) for v in values)
+
+
+def _key(v: Any) -> Any:
+    if isinstance(v, SymbolicSet):
+        return v if v.finiteness() is True else v.key()
+    return v
 
 
 def is_set(value: Any) -> bool:
     return isinstance(value, (frozenset, SymbolicSet))
+
+
+# ------------------------------------------------------------------ set algebra on any set
+
+
+def finiteness(s: Any) -> Optional[bool]:
+    """True for a finite set, False for an infinite one, None where tracecheck cannot tell."""
+    if isinstance(s, frozenset):
+        return True
+    if isinstance(s, SymbolicSet):
+        return s.finiteness()
+    raise EvaluationError(f"{_brief(s)} is not a set")
+
+
+def cardinality(s: Any) -> int:
+    if isinstance(s, frozenset):
+        return len(s)
+    if isinstance(s, SymbolicSet):
+        if s.finiteness() is not True:
+            raise EvaluationError(f"the set {s.name} is not finite: it has no card")
+        return s.card()
+    raise EvaluationError(f"{_brief(s)} is not a set")
+
+
+def members(s: Any) -> Iterator[Any]:
+    """The elements of a finite set (an error above the size limit or for infinite sets)."""
+    if isinstance(s, frozenset):
+        return iter(s)
+    if isinstance(s, SymbolicSet):
+        return iter(s)
+    raise EvaluationError(f"{_brief(s)} is not a set")
+
+
+def explicit(s: Any) -> frozenset:
+    """A finite set as a frozenset."""
+    if isinstance(s, frozenset):
+        return s
+    if isinstance(s, SymbolicSet):
+        if s.finiteness() is not True:
+            raise EvaluationError(f"the set {s.name} is infinite; tracecheck computes with "
+                                  "finite sets here")
+        return s.materialise()
+    raise EvaluationError(f"{_brief(s)} is not a set")
+
+
+def contains(s: Any, v: Any) -> bool:
+    if isinstance(s, frozenset):
+        return v in s
+    if isinstance(s, SymbolicSet):
+        return s.contains(v)
+    raise EvaluationError(f"{_brief(s)} is not a set")
+
+
+def is_subset(a: Any, b: Any) -> bool:
+    """``a <: b`` for any two sets; an error where it cannot be decided exactly."""
+    if isinstance(a, frozenset) and isinstance(b, frozenset):
+        return a <= b
+    fa = finiteness(a)
+    if fa is True:
+        return all(contains(b, x) for x in members(a))
+    if isinstance(a, BuiltinSet) and isinstance(b, BuiltinSet):
+        return a.name == b.name or (a.name, b.name) in _BUILTIN_SUBSETS
+    if isinstance(b, SymbolicSet) and fa is False and finiteness(b) is True:
+        return False
+    if isinstance(a, SymbolicSet) and isinstance(b, SymbolicSet) and a.key() == b.key():
+        return True
+    raise EvaluationError(f"cannot decide whether {format_value(a)} is a subset of "
+                          f"{format_value(b)}")
+
+
+def set_equal(a: Any, b: Any) -> bool:
+    """Equality of two sets, symbolic or explicit, exactly (or an error)."""
+    if isinstance(a, frozenset) and isinstance(b, frozenset):
+        return frozenset.__eq__(a, b)
+    fa, fb = finiteness(a), finiteness(b)
+    if fa is True and fb is True:
+        if cardinality(a) != cardinality(b):
+            return False
+        walk, other = (a, b) if isinstance(a, frozenset) or not isinstance(b, frozenset) \
+            else (b, a)
+        return all(contains(other, x) for x in members(walk))
+    if {fa, fb} == {True, False}:
+        return False
+    if fa is False and fb is False:
+        if a.key() == b.key():
+            return True
+        if isinstance(a, BuiltinSet) and isinstance(b, BuiltinSet):
+            return False
+    raise EvaluationError(f"cannot decide whether {format_value(a)} = {format_value(b)}",
+                          hint="tracecheck compares finite sets, and infinite sets it can name")
+
+
+def _brief(v: Any) -> str:
+    try:
+        text = format_value(v)
+    except EvaluationError:
+        text = repr(v)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 # ------------------------------------------------------------------ printing
@@ -200,6 +586,8 @@ def sort_key(value: Any):
         return (3, value)
     if isinstance(value, tuple):
         return (4, tuple(sort_key(v) for v in value))
+    if isinstance(value, SymbolicSet) and value.finiteness() is True:
+        value = value.materialise()
     if isinstance(value, frozenset):
         return (5, len(value), tuple(sorted(sort_key(v) for v in value)))
     return (6, repr(value))
@@ -208,6 +596,9 @@ def sort_key(value: Any):
 def _natural(name: str):
     m = re.match(r"(.*?)(\d+)$", name)
     return (m.group(1), int(m.group(2)), name) if m else (name, -1, name)
+
+
+_PRINT_LIMIT = 10_000  # a finite symbolic set up to this size prints element by element
 
 
 def format_real(x: float) -> str:
@@ -240,6 +631,8 @@ def format_value(value: Any, *, ascii: bool = False) -> str:
     if isinstance(value, tuple):
         return f"({format_value(value[0], ascii=ascii)}{maplet}{format_value(value[1], ascii=ascii)})"
     if isinstance(value, SymbolicSet):
+        if value.finiteness() is True and value.card() <= _PRINT_LIMIT:
+            return format_value(value.materialise(), ascii=ascii)
         return value.name
     if isinstance(value, frozenset):
         if not value:

@@ -223,7 +223,7 @@ class _VecCompiler:
             return lambda ctx: ("space", (op, l(ctx), r(ctx)))
         if op in ("+", "*", "**"):
             fn = {"+": np.add, "*": np.multiply, "**": np.power}[op]
-            return lambda ctx: ("num", fn(_num(l(ctx)), _num(r(ctx))))
+            return lambda ctx: ("num", _arith(ctx, fn, op, _num(l(ctx)), _num(r(ctx))))
         if op == "/":
             def div(ctx: _Ctx) -> Vec:
                 a, b = _num(l(ctx)), _num(r(ctx))
@@ -237,8 +237,10 @@ class _VecCompiler:
                         q = np.abs(a) // np.abs(safe)
                         return ("num", np.where((np.asarray(a) >= 0) == (np.asarray(safe) > 0),
                                                 q, -q))
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    return ("num", np.true_divide(a, b))
+                with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                    q = np.true_divide(a, b)
+                _mark_nonfinite(ctx, q)
+                return ("num", q)
             return div
         if op in ("-", "\\", "\\/", "/\\"):
             def setop(ctx: _Ctx) -> Vec:
@@ -249,7 +251,7 @@ class _VecCompiler:
                         return ("set", x & ~y)
                     return ("set", (x | y) if op == "\\/" else (x & y))
                 if op == "-":
-                    return ("num", np.subtract(_num(a), _num(b)))
+                    return ("num", _arith(ctx, np.subtract, op, _num(a), _num(b)))
                 raise _NotVectorizable(op)
             return setop
         raise _NotVectorizable(op)
@@ -477,6 +479,33 @@ def _typed_member(a: Vec, s: Vec, n: int) -> np.ndarray:
             return _per_row(np.all(defined == dom[1], axis=-1))
         return _per_row(np.all(~defined | dom[1], axis=-1))
     raise _NotVectorizable("membership")
+
+
+def _arith(ctx: _Ctx, fn, op: str, a: Any, b: Any) -> Any:
+    """``fn(a, b)`` where numpy gives the exact B result; the other rows are marked for the
+    scalar path (which computes them exactly or reports them): integer results beyond 2^62
+    (numpy would wrap around), integer powers, and reals that overflow to inf or NaN."""
+    if _is_int(a) and _is_int(b):
+        if op == "**":
+            raise _NotVectorizable("integer power")
+        with np.errstate(over="ignore", invalid="ignore"):
+            approx = fn(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
+        big = ~(np.abs(approx) < 2.0 ** 62)
+        if np.any(big):
+            ctx.mark(np.broadcast_to(big, np.broadcast(approx).shape) if np.ndim(big)
+                     else np.ones(ctx.cols.n, dtype=bool))
+            a = np.where(big, 0, a) if np.ndim(big) else 0
+        return fn(a, b)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        value = fn(a, b)
+    _mark_nonfinite(ctx, value)
+    return value
+
+
+def _mark_nonfinite(ctx: _Ctx, value: Any) -> None:
+    bad = ~np.isfinite(value)
+    if np.any(bad):
+        ctx.mark(bad if np.ndim(bad) else np.ones(ctx.cols.n, dtype=bool))
 
 
 def _per_row(values: np.ndarray) -> np.ndarray:
