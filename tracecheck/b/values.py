@@ -629,7 +629,13 @@ def format_value(value: Any, *, ascii: bool = False) -> str:
     if isinstance(value, str):
         return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
     if isinstance(value, tuple):
-        return f"({format_value(value[0], ascii=ascii)}{maplet}{format_value(value[1], ascii=ascii)})"
+        # ProB's way: maplets associate to the left, so (a↦b)↦c prints as (a↦b↦c)
+        parts, left = [format_value(value[1], ascii=ascii)], value[0]
+        while isinstance(left, tuple):
+            parts.append(format_value(left[1], ascii=ascii))
+            left = left[0]
+        parts.append(format_value(left, ascii=ascii))
+        return "(" + maplet.join(reversed(parts)) + ")"
     if isinstance(value, SymbolicSet):
         if value.finiteness() is True and value.card() <= _PRINT_LIMIT:
             return format_value(value.materialise(), ascii=ascii)
@@ -645,10 +651,12 @@ def format_value(value: Any, *, ascii: bool = False) -> str:
 # ------------------------------------------------------------------ literals
 
 _NUM = r"-?\d+(?:\.\d+(?:[eE][+-]?\d+)?)?"
+_IDENT = r"[A-Za-z_][A-Za-z0-9_]*"
 _FUNC_LITERAL = re.compile(
-    r"\{\((\w+)(?:↦|\|->)(" + _NUM + r")\)((?:,\((?:\w+)(?:↦|\|->)(?:" + _NUM + r")\))*)\}\Z"
+    r"\{\((" + _IDENT + r")(?:↦|\|->)(" + _NUM + r")\)((?:,\((?:" + _IDENT
+    + r")(?:↦|\|->)(?:" + _NUM + r")\))*)\}\Z"
 )
-_FUNC_ITEM = re.compile(r"\((\w+)(?:↦|\|->)(" + _NUM + r")\)")
+_FUNC_ITEM = re.compile(r"\((" + _IDENT + r")(?:↦|\|->)(" + _NUM + r")\)")
 _NUMBER = re.compile(_NUM + r"\Z")
 
 
@@ -701,7 +709,7 @@ class _LiteralReader:
         self.i += len(s)
 
     def read(self) -> Any:
-        value = self.value()
+        value = self.maplets()
         self.skip_ws()
         if self.i != len(self.text):
             raise self.fail(f"unexpected {self.text[self.i]!r} after the value")
@@ -736,14 +744,26 @@ class _LiteralReader:
             return Elem(word)
         raise self.fail(f"unexpected {c!r}")
 
+    def maplets(self) -> Any:
+        """``a↦b↦c`` is ``(a↦b)↦c``, as ProB prints nested pairs."""
+        value = self.value()
+        while True:
+            for sep in ("↦", "|->"):
+                if self.peek(sep):
+                    self.i += len(sep)
+                    value = (value, self.value())
+                    break
+            else:
+                return value
+
     def set_(self) -> frozenset:
         self.expect("{")
         items = []
         if not self.peek("}"):
-            items.append(self.value())
+            items.append(self.maplets())
             while self.peek(","):
                 self.i += 1
-                items.append(self.value())
+                items.append(self.maplets())
         self.expect("}")
         if items and all(isinstance(x, tuple) for x in items):
             mapping = dict(items)
@@ -753,15 +773,12 @@ class _LiteralReader:
 
     def pair(self) -> Any:
         self.expect("(")
-        left = self.value()
-        for sep in ("↦", "|->", ","):
-            if self.peek(sep):
-                self.i += len(sep)
-                right = self.value()
-                self.expect(")")
-                return (left, right)
+        value = self.maplets()
+        while self.peek(","):
+            self.i += 1
+            value = (value, self.maplets())
         self.expect(")")
-        return left
+        return value
 
     def string(self) -> str:
         m = re.compile(r'"((?:\\.|[^"\\])*)"').match(self.text, self.i)
