@@ -104,7 +104,7 @@ def _clip(text: str, width: int = 100) -> str:
     return text if len(text) <= width else text[: width - 1] + "…"
 
 
-@app.command("eval")
+@app.command("eval", context_settings={"ignore_unknown_options": True})
 def eval_(
     expr: str = typer.Argument(..., help="A B predicate or expression."),
     model: Optional[Path] = typer.Option(None, "--model", "-m",
@@ -690,6 +690,10 @@ def main(argv: Optional[list[str]] = None) -> Any:
     except KeyboardInterrupt:
         err.print("interrupted")
         sys.exit(130)
+    except RecursionError:
+        err.print("[red]error[/red]: the input is nested too deeply for tracecheck "
+                  "(a formula or value with thousands of levels); split it up", markup=True)
+        sys.exit(2)
 
 
 if __name__ == "__main__":  # pragma: no cover

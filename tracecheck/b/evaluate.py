@@ -249,8 +249,10 @@ class Compiler:
                                   "tracecheck does not compute it")
             try:
                 return self.real(node, a ** b)
-            except (OverflowError, ZeroDivisionError) as exc:
-                raise self.wd(node, f"{exc} in the power") from None
+            except OverflowError:
+                raise self.wd(node, "the real result is out of range (overflow)") from None
+            except ZeroDivisionError:
+                raise self.wd(node, "0.0 raised to a negative power") from None
         return power
 
     def op_comp(self, node, l, r) -> Fn:
@@ -872,6 +874,14 @@ def _number_fn(fn, wanted=(float,)):
     return number
 
 
+def _to_real(c: Compiler, node: A.Call, v: Any) -> float:
+    try:
+        return float(v)
+    except OverflowError:
+        raise c.wd(node, f"{_short(v)} is too large for a real (at most about 1.8E308)") \
+            from None
+
+
 def _sqrt(c: Compiler, node: A.Call, v: float) -> float:
     if v < 0:
         raise c.wd(node, f"square root of the negative number {v}")
@@ -891,7 +901,7 @@ _BUILTINS: dict[str, Callable[[Compiler, A.Call, Any], Any]] = {
     "bool": lambda c, n, v: bool(v),
     "floor": _number_fn(lambda c, n, v: math.floor(v), (float, int)),
     "ceiling": _number_fn(lambda c, n, v: math.ceil(v), (float, int)),
-    "real": _number_fn(lambda c, n, v: float(v), (int, float)),
+    "real": _number_fn(lambda c, n, v: _to_real(c, n, v), (int, float)),
     "RSQRT": _number_fn(_sqrt, (float, int)),
     "RABS": _number_fn(lambda c, n, v: abs(v), (float, int)),
     "abs": _number_fn(lambda c, n, v: abs(v), (int, float)),

@@ -9,7 +9,9 @@ substitution. Lark's errors become :class:`BSyntaxError` with the line, column a
 from __future__ import annotations
 
 import functools
+import math
 import re
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator, Optional
@@ -25,6 +27,10 @@ __all__ = [
     "parse_formula", "parse_substitution", "parse_machine_source", "MachineSource",
     "Definition", "OperationSource", "tokens",
 ]
+
+# Formulas up to MAX_DEPTH levels take a few Python frames per level to build, check and
+# evaluate (all Python-level recursion, which does not grow the C stack in Python 3.11+).
+sys.setrecursionlimit(max(sys.getrecursionlimit(), 20_000))
 
 _GRAMMAR = (Path(__file__).with_name("grammar.lark")).read_text(encoding="utf-8")
 _STARTS = [
@@ -135,6 +141,7 @@ def _parse_tokens(toks: list[Token], start: str, text: str, file: Optional[str],
         raise BSyntaxError(f"{what} is empty", file=file, line=line, column=col, source=text)
     try:
         tree = _parser().parse(toks, start=start)
+        _check_depth(tree, text, file)
         return _Builder().transform(tree)
     except UnexpectedToken as exc:
         tok = exc.token
@@ -156,6 +163,28 @@ def _parse_tokens(toks: list[Token], start: str, text: str, file: Optional[str],
         if isinstance(exc.orig_exc, TracecheckError):
             raise exc.orig_exc.located(file=file, source=text) from None
         raise
+
+
+#: How deeply a formula may nest (parentheses, operators, quantifiers); deeper ones are
+#: refused with a located error instead of exhausting Python's stack.
+MAX_DEPTH = 400
+
+
+def _check_depth(tree, text: str, file: Optional[str]) -> None:
+    from lark import Tree
+
+    stack = [(tree, 1)]
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            meta = node.meta
+            raise BSyntaxError(
+                f"the formula nests more than {MAX_DEPTH} levels deep here; tracecheck reads "
+                f"formulas up to {MAX_DEPTH} levels (a sum of {MAX_DEPTH} terms nests that deep)",
+                file=file, line=getattr(meta, "line", None),
+                column=getattr(meta, "column", None), source=text,
+                hint="split the formula with definitions or intermediate variables")
+        stack.extend((c, depth + 1) for c in node.children if isinstance(c, Tree))
 
 
 def _after(tok: Token) -> tuple[int, int]:
@@ -530,7 +559,10 @@ class _Builder(Transformer):
         return A.IntLit(int(c[0]), pos=_tok_pos(c[0]))
 
     def real_lit(self, meta, c):
-        return A.RealLit(float(c[0]), pos=_tok_pos(c[0]))
+        value = float(c[0])
+        if not math.isfinite(value):
+            raise _error(f"the real {c[0]} is out of range (at most about 1.8E308)", c[0])
+        return A.RealLit(value, pos=_tok_pos(c[0]))
 
     def string_lit(self, meta, c):
         return A.StrLit(_unquote(str(c[0])), pos=_tok_pos(c[0]))
