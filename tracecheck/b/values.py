@@ -237,8 +237,10 @@ class Product(SymbolicSet):
     def card(self) -> int:
         if self.finiteness() is not True:
             return SymbolicSet.card(self)
-        ca, cb = cardinality(self.a), cardinality(self.b)
-        return ca * cb
+        for side in (self.a, self.b):
+            if finiteness(side) and cardinality(side) == 0:
+                return 0
+        return cardinality(self.a) * cardinality(self.b)
 
     def elements(self) -> Iterator[Any]:
         right = list(members(self.b))
@@ -727,6 +729,8 @@ class _LiteralReader:
             return frozenset()
         if c == "(":
             return self.pair()
+        if c == "[":
+            return self.sequence()
         if c == '"':
             return self.string()
         m = re.compile(_NUM).match(self.text, self.i)
@@ -770,6 +774,18 @@ class _LiteralReader:
             if len(mapping) == len(items):
                 return FuncValue(mapping)
         return frozenset(items)
+
+    def sequence(self) -> frozenset:
+        """``[a, b]``: ProB's notation for the sequence ``{1↦a, 2↦b}``."""
+        self.expect("[")
+        items = []
+        if not self.peek("]"):
+            items.append(self.maplets())
+            while self.peek(","):
+                self.i += 1
+                items.append(self.maplets())
+        self.expect("]")
+        return sequence(items)
 
     def pair(self) -> Any:
         self.expect("(")
