@@ -977,15 +977,18 @@ def generators(comp: Compiler, node: A.Node, ids: tuple[str, ...], pred: A.Node)
     for name in ids:
         if name in bound:
             continue
+        options = []
         for k, conj in enumerate(conjs):
             if k in used:
                 continue
             gen = _generator_for(comp, conj, name, ids, bound)
             if gen is not None:
-                plan.append(gen)
-                bound |= set(gen[0])
-                used.add(k)
-                break
+                options.append((_cost(gen[1], conj), k, gen))
+        if options:
+            _, k, gen = min(options, key=lambda o: o[:2])
+            plan.append(gen)
+            bound |= set(gen[0])
+            used.add(k)
         else:
             problem = comp.error(
                 EvaluationError, node,
@@ -1028,6 +1031,19 @@ def generators(comp: Compiler, node: A.Node, ids: tuple[str, ...], pred: A.Node)
         run_single.simple = (name, source, filters)  # type: ignore[attr-defined]
         return run_single
     return run
+
+
+_HUGE_SETS = frozenset({"INTEGER", "NATURAL", "NATURAL1", "REAL", "FLOAT", "STRING", "INT",
+                        "NAT", "NAT1"})
+
+
+def _cost(mode: str, conj: A.Node) -> int:
+    """Which conjunct enumerates a variable best: ``x = E`` (one value), then a set, then a
+    built-in set too large to walk (``x : INTEGER & x = 3`` takes x from ``x = 3``)."""
+    if mode == "eq":
+        return 0
+    right = conj.right if isinstance(conj, A.Rel) else None
+    return 2 if isinstance(right, A.Name) and right.id in _HUGE_SETS else 1
 
 
 def _unpack(names: tuple[str, ...], value: Any, env: Env) -> bool:
