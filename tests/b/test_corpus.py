@@ -105,11 +105,14 @@ def _batch(formula: str, cols: Columns, names: dict | None = None) -> tuple:
         return ("error", exc)
 
 
-@pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
+#: the batch path computes predicates and numbers: the cases whose answer is one (or none)
+BATCH_CASES = [c for c in CASES if c.refused or c.answer.startswith("error:")
+               or type(parse_literal(c.answer)) in (bool, int, float)]
+
+
+@pytest.mark.parametrize("case", BATCH_CASES, ids=[c.id for c in BATCH_CASES])
 def test_batch_path_agrees_with_the_scalar_path(case: Case):
     tag, value = outcome(case.formula)
-    if tag == "value" and type(value) not in (bool, int, float):
-        pytest.skip("the batch path computes predicates and numbers")
     cols = Columns(n=3, elements=())
     btag, bvalue = _batch(case.formula, cols)
     assert btag == tag, (value, bvalue)

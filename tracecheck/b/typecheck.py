@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional, Union
 
-from ..errors import BScopeError, BTypeError
+from ..errors import BScopeError, BTypeError, UnsupportedError
 from . import ast as A
 from .scope import render
 
@@ -121,6 +121,18 @@ _BUILTIN_TYPES = {
 }
 
 
+#: B keywords tracecheck does not evaluate, with what they are (ProB's parser reads them).
+UNSUPPORTED_KEYWORDS = {
+    "iterate": "iteration of a relation", "fnc": "transformation into a function",
+    "rel": "transformation into a relation", "rec": "records", "struct": "records",
+    "tree": "trees", "btree": "trees", "bin": "trees", "left": "trees", "right": "trees",
+    "sons": "trees", "father": "trees", "rank": "trees", "const": "trees", "top": "trees",
+    "prefix": "trees", "postfix": "trees", "sizet": "trees", "mirror": "trees",
+    "infix": "trees", "arity": "trees", "subtree": "trees", "son": "trees",
+    "closure": "the reflexive closure over the whole type; write closure1(r) \\/ id(S)",
+}
+
+
 class Typer:
     """Infers types over formulas and substitutions in one scope of names."""
 
@@ -140,6 +152,11 @@ class Typer:
                 return scope[base]
         if base in _BUILTIN_TYPES:
             return _BUILTIN_TYPES[base]
+        if base in UNSUPPORTED_KEYWORDS:
+            raise UnsupportedError(f"not supported: {name} ({UNSUPPORTED_KEYWORDS[base]})",
+                                   file=self.file, source=self.source,
+                                   line=node.pos.line if node.pos else None,
+                                   column=node.pos.column if node.pos else None)
         raise BScopeError(f"unknown identifier {name}", file=self.file, source=self.source,
                           line=node.pos.line if node.pos else None,
                           column=node.pos.column if node.pos else None,
