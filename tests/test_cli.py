@@ -97,10 +97,40 @@ def test_eval_with_model_and_state(capsys, tmp_path):
     ("x + 1", "unknown identifier x"),
     ("1 / 0", "<expr>:1:1: division by zero in `1 / 0`"),
     ("min({})", "min of the empty set"),
-])
+    ("real(10 ** 400) > 0.0", "<expr>:1:1: 1000000000000000000000000000000000000000000000000000"),
+    ("floor(1.0E308 * 10.0) > 0", "<expr>:1:7: the real result is out of range (overflow)"),
+    ("1.0E400 > 0.0", "<expr>:1:1: the real 1.0E400 is out of range"),
+    ("2.0 ** 0.5", "the exponent must be an INTEGER"),
+    ("(-8.0) ** 0.5", "the exponent must be an INTEGER"),
+    ("!x.(x : 1..3)", "<expr>:1:1: the body of `!x.(…)` must be an implication"),
+    ("2 ** 100000000 > 0", "has more than 1,000,000 bits"),
+    ("card({x | x : 1..10000000})", "has 10,000,000 elements"),
+    ("card(POW(1..200000))", "is too large to compute"),
+    ("POW(INTEGER) = POW(NATURAL)", "cannot decide whether POW(INTEGER) = POW(NATURAL)"),
+    ("+".join(["1"] * 3000) + " > 0", "the formula nests more than 400 levels deep"),
+    ("+".join(["1"] * 10000) + " > 0", "the formula nests more than 400 levels deep"),
+    ("iterate({(1|->2)}, 2) = {}", "<expr>:1:1: not supported: iterate"),
+], ids=lambda v: v[:40])
 def test_eval_errors(capsys, expr, fragment):
     code, _, err = run(capsys, "eval", expr)
     assert code == 2 and fragment in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("expr,printed", [
+    ("-3 + 5 = 2", "TRUE"), ("-2 ** 2", "4"), ("{1} \\/ {1} \\ {1} = {1}", "TRUE"),
+    ("POW({1,2}) = {{}, {1}, {2}, {1,2}}", "TRUE"), ("(1..3)*{4}", "{(1↦4),(2↦4),(3↦4)}"),
+    ("{(0|->0|->TRUE)}", "{(0↦0↦TRUE)}"),
+])
+def test_eval_values_as_prob_gives_them(capsys, expr, printed):
+    code, out, err = run(capsys, "eval", expr)
+    assert code == 0 and out.strip() == printed, err
+
+
+def test_nan_in_a_state_file_is_refused(capsys, tmp_path):
+    state = tmp_path / "s.json"
+    state.write_text('{"r": NaN}')
+    code, _, err = run(capsys, "eval", "r > 0.0", "--state", str(state))
+    assert code == 2 and "nan is not a B real (variable r)" in err, err
 
 
 def _state_file(tmp_path, x2):

@@ -812,6 +812,9 @@ def from_json(value: Any, *, file: Optional[str] = None, where: str = "") -> Any
     list (a set) or object (a function from element names)."""
     if isinstance(value, bool):
         return value
+    if isinstance(value, float) and not math.isfinite(value):
+        raise EvaluationError(f"{value} is not a B real{f' ({where})' if where else ''}",
+                              file=file, hint="B reals are finite numbers")
     if isinstance(value, (int, float)):
         return value
     if isinstance(value, str):
