@@ -813,12 +813,7 @@ def _make_set(items: list) -> frozenset:
         return frozenset(_hashable(i) for i in items)
 
 
-def _short(v: Any) -> str:
-    try:
-        text = format_value(v)
-    except TracecheckError:
-        text = repr(v)
-    return text if len(text) <= 60 else text[:57] + "..."
+_short = V.brief
 
 
 _ARROWS = {"-->", "+->", "<->", ">->", ">+>", "-->>", "+->>", ">->>", ">+>>"}

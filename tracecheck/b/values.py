@@ -18,7 +18,7 @@ from ..errors import BSyntaxError, EvaluationError
 __all__ = [
     "Elem", "FuncValue", "SymbolicSet", "BuiltinSet", "Interval", "PowSet", "FunctionSpace",
     "Product", "SET_LIMIT", "SetLimitError", "finiteness", "cardinality", "members", "explicit",
-    "contains", "is_subset", "set_equal", "Projection", "SeqSet", "as_sequence", "sequence",
+    "contains", "is_subset", "set_equal", "brief", "Projection", "SeqSet", "as_sequence", "sequence",
     "parse_literal", "format_value", "from_json", "to_json", "is_set", "BUILTIN_SET_VALUES",
     "sort_key",
 ]
@@ -485,7 +485,7 @@ def finiteness(s: Any) -> Optional[bool]:
         return True
     if isinstance(s, SymbolicSet):
         return s.finiteness()
-    raise EvaluationError(f"{_brief(s)} is not a set")
+    raise EvaluationError(f"{brief(s)} is not a set")
 
 
 def cardinality(s: Any) -> int:
@@ -495,7 +495,7 @@ def cardinality(s: Any) -> int:
         if s.finiteness() is not True:
             raise EvaluationError(f"the set {s.name} is not finite: it has no card")
         return s.card()
-    raise EvaluationError(f"{_brief(s)} is not a set")
+    raise EvaluationError(f"{brief(s)} is not a set")
 
 
 def members(s: Any) -> Iterator[Any]:
@@ -504,7 +504,7 @@ def members(s: Any) -> Iterator[Any]:
         return iter(s)
     if isinstance(s, SymbolicSet):
         return iter(s)
-    raise EvaluationError(f"{_brief(s)} is not a set")
+    raise EvaluationError(f"{brief(s)} is not a set")
 
 
 def explicit(s: Any) -> frozenset:
@@ -516,7 +516,7 @@ def explicit(s: Any) -> frozenset:
             raise EvaluationError(f"the set {s.name} is infinite; tracecheck computes with "
                                   "finite sets here")
         return s.materialise()
-    raise EvaluationError(f"{_brief(s)} is not a set")
+    raise EvaluationError(f"{brief(s)} is not a set")
 
 
 def contains(s: Any, v: Any) -> bool:
@@ -524,7 +524,7 @@ def contains(s: Any, v: Any) -> bool:
         return v in s
     if isinstance(s, SymbolicSet):
         return s.contains(v)
-    raise EvaluationError(f"{_brief(s)} is not a set")
+    raise EvaluationError(f"{brief(s)} is not a set")
 
 
 def is_subset(a: Any, b: Any) -> bool:
@@ -566,7 +566,8 @@ def set_equal(a: Any, b: Any) -> bool:
                           hint="tracecheck compares finite sets, and infinite sets it can name")
 
 
-def _brief(v: Any) -> str:
+def brief(v: Any) -> str:
+    """A value in B notation, cut to 60 characters (for messages)."""
     try:
         text = format_value(v)
     except EvaluationError:
@@ -760,32 +761,24 @@ class _LiteralReader:
             else:
                 return value
 
-    def set_(self) -> frozenset:
-        self.expect("{")
+    def items(self, open_: str, close: str) -> list:
+        """The comma-separated values between ``open_`` and ``close``."""
+        self.expect(open_)
         items = []
-        if not self.peek("}"):
+        if not self.peek(close):
             items.append(self.maplets())
             while self.peek(","):
                 self.i += 1
                 items.append(self.maplets())
-        self.expect("}")
-        if items and all(isinstance(x, tuple) for x in items):
-            mapping = dict(items)
-            if len(mapping) == len(items):
-                return FuncValue(mapping)
-        return frozenset(items)
+        self.expect(close)
+        return items
+
+    def set_(self) -> frozenset:
+        return _make_frozenset(self.items("{", "}"))
 
     def sequence(self) -> frozenset:
         """``[a, b]``: ProB's notation for the sequence ``{1↦a, 2↦b}``."""
-        self.expect("[")
-        items = []
-        if not self.peek("]"):
-            items.append(self.maplets())
-            while self.peek(","):
-                self.i += 1
-                items.append(self.maplets())
-        self.expect("]")
-        return sequence(items)
+        return sequence(self.items("[", "]"))
 
     def pair(self) -> Any:
         self.expect("(")
