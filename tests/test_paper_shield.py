@@ -169,3 +169,22 @@ def test_paper_decides_like_table1_on_states_at_the_boundaries(others, ego_y):
            for v in ("VehiclesVy", "VehiclesAx", "VehiclesAy")},
     }
     assert machine.enabled(state) == expected
+
+
+def test_diff_of_paper_against_the_authors_machine_on_the_paper_traces_is_empty(tmp_path,
+                                                                                capsys):
+    from tracecheck.cli import main
+
+    if not PAPER_TRACES.is_dir() or not AUTHORS.exists():
+        pytest.skip("the paper's traces or the authors' machines are not in ../shared")
+    run = tmp_path / "paper.mcap"
+    with pytest.raises(SystemExit):
+        main(["import", "simb", str(PAPER_TRACES / "simb" / "base"),
+              str(PAPER_TRACES / "simb" / "base_shield"), "-o", str(run)])
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as stop:
+        main(["diff", str(run), "--shield", "paper", "--against", str(AUTHORS),
+              "--fail-on-change"])
+    out = capsys.readouterr().out
+    assert stop.value.code in (0, None), out
+    assert "changed steps: 0" in out and "states whose enabled set differs: 0" in out
