@@ -317,10 +317,15 @@ class Compiler:
             a, b = l(env), r(env)
             if isinstance(a, frozenset) and isinstance(b, frozenset):
                 return fn(a, b)
-            if node.op in ("/\\", "\\") and isinstance(a, frozenset) and is_set(b):
-                return frozenset(x for x in a if (x in b) == (node.op == "/\\"))
-            if node.op == "/\\" and isinstance(b, frozenset) and is_set(a):
-                return frozenset(x for x in b if x in a)
+            if is_set(a) and is_set(b) and node.op in ("/\\", "\\"):
+                # one finite side is enough: NATURAL /\ (-2..2), (1..5) \ NATURAL1
+                keep = node.op == "/\\"
+                if V.finiteness(a) is True:
+                    return _make_set([x for x in _members(self, node.left, a)
+                                      if V.contains(b, x) == keep])
+                if keep and V.finiteness(b) is True:
+                    return _make_set([x for x in _members(self, node.right, b)
+                                      if V.contains(a, x)])
             return fn(_finite(self, node.left, a), _finite(self, node.right, b))
         return apply
 
@@ -802,6 +807,17 @@ def _finite(comp: Compiler, node: A.Node, v: Any) -> frozenset:
     raise comp.type_error(node, v, "a set")
 
 
+def _members(comp: Compiler, node: A.Node, v: Any):
+    """The elements of a finite set, walked lazily (a located error above the size limit)."""
+    if isinstance(v, frozenset):
+        return v
+    try:
+        V.check_size(v.card(), v.name)
+    except TracecheckError as exc:
+        raise comp.at(node, exc) from None
+    return v.elements()
+
+
 def _make_set(items: list) -> frozenset:
     if items and all(type(i) is tuple for i in items):
         mapping = dict(items)
@@ -1065,11 +1081,7 @@ def _domain(comp: Compiler, node: A.Node, mode: str, value: Any):
     if isinstance(value, frozenset):
         return value
     if isinstance(value, SymbolicSet) and value.finiteness() is True:
-        try:
-            V.check_size(value.card(), value.name)
-        except TracecheckError as exc:
-            raise comp.at(node, exc) from None
-        return value.elements()
+        return _members(comp, node, value)
     if isinstance(value, SymbolicSet):
         raise comp.error(EvaluationError, node,
                          f"cannot enumerate the infinite set {value.name} in "
