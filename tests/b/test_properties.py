@@ -113,8 +113,15 @@ values = st.recursive(
                       max_size=4),
         st.dictionaries(st.sampled_from([Elem("p"), Elem("q"), Elem("r")]),
                         st.floats(allow_nan=False, allow_infinity=False)).map(FuncValue),
+        # integer and pair keys, nested maplets (ProB prints (0↦0)↦ICE as 0↦0↦ICE)
+        st.dictionaries(st.one_of(st.integers(-3, 9),
+                                  st.tuples(st.integers(0, 3), st.integers(0, 3))),
+                        inner, max_size=4).map(FuncValue),
+        st.frozensets(st.tuples(st.tuples(st.integers(0, 2), st.integers(0, 2)),
+                                st.sampled_from([Elem("ICE"), Elem("HOLE")])), max_size=4),
+        st.text(max_size=5),
     ),
-    max_leaves=5)
+    max_leaves=6)
 
 
 @settings(max_examples=300, deadline=None)
