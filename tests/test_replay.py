@@ -9,11 +9,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from tests.conftest import ROOT
 from tests.episodes.conftest import VS, state
 from tracecheck.b.values import FuncValue
 from tracecheck.episodes import EpisodeWriter, new_header, read_columns
 from tracecheck.episodes.files import write_run
-from tracecheck.episodes.model import Episode, StepRecord, make_end
+from tracecheck.episodes.model import HIGHWAY_ACTIONS, Episode, StepRecord, make_end
 from tracecheck.errors import InputError, TracecheckError
 from tracecheck.interop import import_simb
 from tracecheck.replay import diff, enabled_matrix, replay
@@ -234,7 +235,12 @@ def test_shield_loading_errors(tmp_path):
     partial = tmp_path / "partial.mch"
     partial.write_text("MACHINE Partial OPERATIONS IDLE = skip; FASTER = skip END")
     with pytest.raises(InputError, match="Partial lacks LANE_LEFT, LANE_RIGHT, SLOWER"):
-        load_shield(partial)
+        load_shield(partial, actions=HIGHWAY_ACTIONS)
+    # for replay, a shield needs operations for the actions a recording uses
+    sample = ROOT / "sample_traces" / "base_none.mcap"
+    with pytest.raises(InputError, match=r"base_none.mcap: the episodes use the action "
+                                         r"\w+, which the shield partial has no operation"):
+        replay([sample], load_shield(partial))
     shield = load_shield("paper")
     assert shield.name == "paper" and shield.identity["sha256"] == shield.machine.sha256
 

@@ -55,7 +55,7 @@ class Session:
         torch.set_num_threads(1)
         self.settings = settings
         self.agent = load_agent(settings.agent)
-        self.shield = load_shield(settings.shield)
+        self.shield = load_shield(settings.shield, actions=ACTIONS)
         config = config or env_config(settings.profile, settings.duration)
         self.env = ShieldWrapper(gym.make(ENV_ID, config=config), self.shield,
                                  settings.fallback)
@@ -159,7 +159,7 @@ def check_settings(settings: RecordSettings, out: Path):
                          f"{', '.join(ACTIONS)}")
     env_config(settings.profile, settings.duration)
     agent = load_agent(settings.agent)
-    shield = load_shield(settings.shield)
+    shield = load_shield(settings.shield, actions=ACTIONS)
     if out.is_dir():
         raise InputError(f"the output {out} is a folder; give a file name such as run.mcap")
     try:

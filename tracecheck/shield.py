@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Optional
 
 from .b.machine import Machine, load_machine
 from .episodes.model import HIGHWAY_ACTIONS
@@ -32,10 +33,11 @@ class Shield:
         return {"name": self.name, "sha256": self.sha256, "path": self.path}
 
 
-def load_shield(spec: str | Path, *, actions: tuple[str, ...] = HIGHWAY_ACTIONS) -> Shield:
+def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None) -> Shield:
     """The shield ``spec`` names: a built-in name or a path to a ``.mch`` file.
 
-    It must have one operation for each action in ``actions``.
+    With ``actions`` (the live agent's actions) it must have one operation for each; replay
+    and diff check instead that each action a recording uses has an operation.
     """
     text = str(spec)
     if text in BUILTIN_SHIELDS:
@@ -50,7 +52,7 @@ def load_shield(spec: str | Path, *, actions: tuple[str, ...] = HIGHWAY_ACTIONS)
                              f"{', '.join(BUILTIN_SHIELDS)} or the path of a .mch file")
         name = path.stem
     machine = load_machine(path)
-    missing = [a for a in actions if a not in machine.operations]
+    missing = [a for a in actions or () if a not in machine.operations]
     if missing:
         raise InputError(f"{path}: a shield needs one operation per action "
                          f"({', '.join(actions)}); {machine.name} lacks {', '.join(missing)}")

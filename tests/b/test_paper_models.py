@@ -161,3 +161,19 @@ def test_import_the_authors_frozenlake_trace_typed_by_its_machine(tmp_path):
         transposed = dict(before.state,
                           field=type(field)({(y, x): v for (x, y), v in field.map.items()}))
         assert machine.is_enabled(after.action, transposed), after.step
+
+
+def test_the_authors_frozenlake_machine_replays_the_imported_trace(tmp_path, capsys):
+    out = tmp_path / "frozen.mcap"
+    machine_path = str(MODELS / "FrozenLake" / "FrozenLake.mch")
+    with pytest.raises(SystemExit):
+        main(["import", "prob2trace", str(MODELS / "FrozenLake" / "FrozenLake.prob2trace"),
+              "--model", machine_path, "-o", str(out)])
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as stop:
+        main(["replay", str(out), "--shield", machine_path, "--json"])
+    assert stop.value.code in (0, None)
+    import json
+
+    (episode,) = json.loads(capsys.readouterr().out)["per_episode"]
+    assert episode["first_infeasible"] == 7 and episode["infeasible_steps"] == 2

@@ -176,3 +176,31 @@ def test_reading_only_some_episodes(tmp_path, episodes):
     assert [e.id for e in run.episodes] == [1]
     assert run.episodes[0].steps == episodes[1].steps
     assert run.warnings == []
+
+
+def test_columns_keep_every_kind_of_value(tmp_path):
+    """A grid world's state: a map keyed by pairs (the same in every step), integers, a
+    string, a set of pairs. The columnar view gives back exactly the step messages' values,
+    and the map is written once per episode."""
+    from tracecheck.b.values import Elem, FuncValue
+    from tracecheck.episodes.codec import decode_columns
+    from tracecheck.episodes.mcap_io import _column_blobs
+    from tracecheck.episodes.model import Episode, StepRecord, make_end
+
+    field = FuncValue({(x, y): Elem("HOLE" if (x, y) == (1, 1) else "ICE")
+                       for x in range(3) for y in range(3)})
+    steps = tuple(
+        StepRecord(step=k, time=float(k), action=None if k == 0 else "Move_Right",
+                   state={"x": k, "y": 0, "field": field, "note": f"step {k}",
+                          "seen": frozenset((i, 0) for i in range(k + 1))},
+                   reward=0.0, crashed=False)
+        for k in range(3))
+    path = tmp_path / "grid.mcap"
+    with EpisodeWriter(path, new_header("recorded", actions=["Move_Right"])) as w:
+        w.write(Episode(id=0, steps=steps, end=make_end(steps), seed=7))
+    cols = read_columns(path)
+    for k in range(3):
+        assert cols.states.row(k) == steps[k].state
+    (_, blob), = _column_blobs(path)[0]
+    header, _ = decode_columns(blob)
+    assert len(header["literals"]["field"]) == 1 and len(header["literals"]["note"]) == 3

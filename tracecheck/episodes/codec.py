@@ -15,7 +15,7 @@ from typing import Any, Mapping, Optional, Sequence
 import numpy as np
 import orjson
 
-from ..b.values import Elem, FuncValue, format_value, from_json
+from ..b.values import Elem, FuncValue, format_value, from_json, parse_literal
 from ..b.vector import Columns
 from ..errors import InputError, TracecheckError
 
@@ -100,10 +100,14 @@ def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optio
     for name, mask in cols.masks.items():
         arrays[f"set:{name}"] = mask
         kinds[name] = "set"
+    literals: dict[str, list[str]] = {}
+    for name, values in cols.others.items():
+        arrays[f"lit:{name}"], literals[name] = _dictionary(values)
+        kinds[name] = "lit"
     header: dict[str, Any] = {"episode": episode, "seed": seed,
                               "elements": [str(e) for e in cols.elements],
                               "actions": list(action_names), "kinds": kinds,
-                              "others": sorted(cols.others), "arrays": []}
+                              "literals": literals, "arrays": []}
     blobs, offset = [], 0
     for name, arr in arrays.items():
         arr = np.ascontiguousarray(arr)
@@ -114,6 +118,21 @@ def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optio
         offset += len(data)
     head = orjson.dumps(header)
     return _MAGIC + struct.pack("<I", len(head)) + head + b"".join(blobs)
+
+
+def _dictionary(values: Sequence[Any]) -> tuple[np.ndarray, list[str]]:
+    """Any B values as an index per row into their distinct literals (a value that stays the
+    same over an episode, like a FrozenLake map, is written once)."""
+    index: dict[Any, int] = {}
+    literals: list[str] = []
+    rows = np.empty(len(values), dtype=np.uint32)
+    for row, value in enumerate(values):
+        k = index.get(value)
+        if k is None:
+            k = index[value] = len(literals)
+            literals.append(format_value(value))
+        rows[row] = k
+    return rows, literals
 
 
 def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.ndarray]]:
@@ -149,6 +168,14 @@ def columns_from_arrays(header: dict, arrays: dict[str, np.ndarray]) -> Columns:
             cols.functions[name] = (arrays[f"fun:{name}"], arrays[f"def:{name}"])
         elif kind == "set":
             cols.masks[name] = arrays[f"set:{name}"]
+        elif kind == "lit":
+            literals = header["literals"][name]
+            distinct = [parse_literal(text, where=f"variable {name}") for text in literals]
+            rows = arrays[f"lit:{name}"]
+            if rows.size and int(rows.max()) >= len(distinct):
+                raise InputError(f"damaged columns attachment: variable {name} refers to "
+                                 f"literal {int(rows.max())} of {len(distinct)}")
+            cols.others[name] = [distinct[k] for k in rows.tolist()]
     return cols
 
 

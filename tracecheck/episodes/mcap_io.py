@@ -486,7 +486,7 @@ def _widen(cols: Columns, elements: list[str]) -> Columns:
     where = [elements.index(str(e)) for e in cols.elements]
     k = len(elements)
     out = Columns(n=cols.n, elements=tuple(Elem(e) for e in elements),
-                  numbers=cols.numbers, booleans=cols.booleans)
+                  numbers=cols.numbers, booleans=cols.booleans, others=cols.others)
     for name, (vals, defined) in cols.functions.items():
         v, d = np.zeros((cols.n, k)), np.zeros((cols.n, k), dtype=bool)
         v[:, where], d[:, where] = vals, defined
@@ -521,6 +521,8 @@ def _concatenate(path: str, parts, actions, elements, notes) -> RunColumns:
                 np.concatenate([c.functions[name][1] for *_, c in parts]))
         for name in first.masks:
             states.masks[name] = np.concatenate([c.masks[name] for *_, c in parts])
+        for name in first.others:
+            states.others[name] = [v for *_, c in parts for v in c.others[name]]
     episode = np.repeat(ids, lengths)
     step = np.concatenate([np.arange(m) for m in lengths]) if parts else np.zeros(0, np.int64)
     states.label = lambda i: f"{path}, episode {int(episode[i])}, step {int(step[i])}"
