@@ -151,7 +151,7 @@ def test_agent_with_the_wrong_action_space(tmp_path):
     model = sb3.PPO("MlpPolicy", "CartPole-v1", n_steps=16, batch_size=16, device="cpu")
     path = tmp_path / "cartpole.zip"
     model.save(path)
-    with pytest.raises(InputError, match="action space Discrete\\(2\\); tracecheck needs 5"):
+    with pytest.raises(InputError, match="action space Discrete\\(2\\); highway has 5"):
         load_agent(path)
 
 

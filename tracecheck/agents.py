@@ -1,7 +1,11 @@
 """Agents: train a DQN with the paper's settings, load one, rank its actions.
 
+Two kinds of agent file: a stable-baselines3 model (``.zip``: DQN, PPO or A2C, for any
+environment whose spaces match it) and a tabular Q-learning agent (``.npy``: a table of one
+row per discrete observation and one column per action, read with ``allow_pickle=False``).
 Loading a stable-baselines3 agent unpickles Python code from the file: tracecheck only
-loads agent files from paths the user gives. Only load files you trust.
+loads agent files from paths the user gives. Only load files you trust; a ``.npy`` table
+runs no code.
 """
 
 from __future__ import annotations
@@ -20,7 +24,8 @@ import numpy as np
 from .errors import InputError
 from .highway import ACTIONS, ENV_ID, env_config, make_env
 
-__all__ = ["Agent", "load_agent", "train", "PAPER_DQN", "file_sha256"]
+__all__ = ["Agent", "load_agent", "train", "train_q_table", "PAPER_DQN", "Q_LEARNING",
+           "file_sha256"]
 
 #: The paper's DQN settings (§4.2), for stable-baselines3.
 PAPER_DQN: dict[str, Any] = {
@@ -36,6 +41,12 @@ PAPER_DQN: dict[str, Any] = {
     "exploration_initial_eps": 1.0,
     "exploration_final_eps": 0.05,
 }
+
+
+#: Tabular Q-learning: step size, discount, and epsilon-greedy exploration falling linearly
+#: from 1 to its floor over the first 80 % of the steps.
+Q_LEARNING: dict[str, float] = {"alpha": 0.1, "gamma": 0.99, "epsilon_floor": 0.05,
+                                "decay_fraction": 0.8}
 
 
 def file_sha256(path: Path) -> str:
@@ -60,7 +71,10 @@ class Agent:
         return Path(self.path).stem
 
     def values(self, obs: np.ndarray) -> np.ndarray:
-        """One value per action (Q-values for DQN, probabilities for policy methods)."""
+        """One value per action (Q-values for DQN and Q-tables, probabilities for policy
+        methods)."""
+        if self.algorithm == "q-learning":
+            return self.model[int(obs)].astype(np.float64)
         import torch
 
         with torch.no_grad():
@@ -71,17 +85,30 @@ class Agent:
             return dist.distribution.probs[0].cpu().numpy().astype(np.float64)
 
 
-def load_agent(path: str | Path) -> Agent:
-    """Load a stable-baselines3 agent (DQN, or PPO/A2C) with 5 discrete actions.
+def load_agent(path: str | Path, adapter=None, env=None) -> Agent:
+    """Load an agent for an environment (its adapter, and the environment to compare spaces
+    with; the highway when not given): a Q-table (``.npy``) or a stable-baselines3 DQN,
+    PPO or A2C with one discrete action per adapter action.
 
-    This unpickles code from the file: load only files you trust.
+    A stable-baselines3 file unpickles code: load only files you trust.
     """
     path = Path(path)
     if not path.is_file():
         raise InputError(f"no such agent file: {path}")
+    if adapter is None:
+        from .live.adapter import get_adapter
+
+        adapter = get_adapter("highway")
+    actions = adapter.actions
+    if path.suffix == ".npy":
+        return _load_table(path, actions, env)
     if not zipfile.is_zipfile(path):
-        raise InputError(f"{path} is not a stable-baselines3 agent (not a zip archive)")
+        raise InputError(f"{path} is not a stable-baselines3 agent (not a zip archive) nor "
+                         "a Q-table (.npy)")
     import stable_baselines3 as sb3
+    import torch
+
+    torch.set_num_threads(1)
 
     last: Optional[Exception] = None
     for name in ("DQN", "PPO", "A2C"):
@@ -91,15 +118,46 @@ def load_agent(path: str | Path) -> Agent:
             last = exc
             continue
         space = model.action_space
-        if getattr(space, "n", None) != len(ACTIONS):
-            raise InputError(f"{path}: the agent has action space {space}; tracecheck needs "
-                             f"{len(ACTIONS)} discrete actions ({', '.join(ACTIONS)})")
-        shape = getattr(model.observation_space, "shape", None)
-        if shape != (5, 5):
-            raise InputError(f"{path}: the agent observes shape {shape}; the highway "
-                             "Kinematics observation is (5, 5)")
+        if getattr(space, "n", None) != len(actions):
+            raise InputError(f"{path}: the agent has action space {space}; {adapter.name} "
+                             f"has {len(actions)} discrete actions ({', '.join(actions)})")
+        _check_observations(path, model.observation_space, adapter, env)
         return Agent(str(path), file_sha256(path), name, model)
     raise InputError(f"{path} is not a stable-baselines3 DQN, PPO or A2C agent ({last})")
+
+
+def _check_observations(path: Path, space, adapter, env) -> None:
+    """The agent's observation space must be the environment's."""
+    if env is None:
+        if adapter.name == "highway" and getattr(space, "shape", None) != (5, 5):
+            raise InputError(f"{path}: the agent observes shape {space.shape}; the highway "
+                             "Kinematics observation is (5, 5)")
+        return
+    theirs = env.observation_space
+    if type(space) is not type(theirs) or getattr(space, "shape", None) != getattr(
+            theirs, "shape", None) or getattr(space, "n", None) != getattr(theirs, "n", None):
+        raise InputError(f"{path}: the agent observes {space}, but {adapter.name} gives "
+                         f"{theirs}")
+
+
+def _load_table(path: Path, actions: tuple[str, ...], env) -> Agent:
+    try:
+        table = np.load(path, allow_pickle=False)
+    except (ValueError, OSError, EOFError) as exc:
+        raise InputError(f"{path} is not a Q-table (.npy of numbers): {exc}") from None
+    if table.ndim != 2 or table.dtype.kind not in "fiu":
+        raise InputError(f"{path}: a Q-table is a 2-D array of numbers (observations × "
+                         f"actions), not {table.dtype} of shape {table.shape}")
+    if table.shape[1] != len(actions):
+        raise InputError(f"{path}: the Q-table has {table.shape[1]} actions; the environment "
+                         f"has {len(actions)} ({', '.join(actions)})")
+    if not np.all(np.isfinite(table)):
+        raise InputError(f"{path}: the Q-table holds NaN or infinite values")
+    n = getattr(getattr(env, "observation_space", None), "n", None)
+    if env is not None and n != table.shape[0]:
+        raise InputError(f"{path}: the Q-table has {table.shape[0]} rows; the environment "
+                         f"has {n if n is not None else 'no discrete'} observations")
+    return Agent(str(path), file_sha256(path), "q-learning", table.astype(np.float64))
 
 
 def train(profile: str, out: str | Path, *, steps: int = 20_000, seed: int = 0,
@@ -115,14 +173,7 @@ def train(profile: str, out: str | Path, *, steps: int = 20_000, seed: int = 0,
 
     out = Path(out)
     env_config(profile, duration)  # validates the profile
-    if out.is_dir():
-        raise InputError(f"the output {out} is a folder; give a file name such as agent.zip")
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.with_suffix(".probe").write_bytes(b"")
-        out.with_suffix(".probe").unlink()
-    except OSError as exc:
-        raise InputError(f"cannot write {out}: {exc.strerror or exc}") from None
+    _writable(out, "agent.zip")
     torch.set_num_threads(1)
     env = make_env(profile, duration)
     settings = dict(PAPER_DQN, exploration_fraction=min(1.0, 6000 / steps))
@@ -154,4 +205,70 @@ def train(profile: str, out: str | Path, *, steps: int = 20_000, seed: int = 0,
         "sha256": file_sha256(path),
     }
     path.with_suffix(".json").write_text(json.dumps(card, indent=2) + "\n")
+    return card
+
+
+def _writable(out: Path, example: str) -> None:
+    if out.is_dir():
+        raise InputError(f"the output {out} is a folder; give a file name such as {example}")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.with_suffix(".probe").write_bytes(b"")
+        out.with_suffix(".probe").unlink()
+    except OSError as exc:
+        raise InputError(f"cannot write {out}: {exc.strerror or exc}") from None
+
+
+def train_q_table(adapter, config: dict, out: str | Path, *, steps: int = 200_000,
+                  seed: int = 0, horizon: int = 100) -> dict[str, Any]:
+    """Tabular Q-learning (see :data:`Q_LEARNING`) on an environment with discrete
+    observations; saves the table as ``.npy`` and a model card next to it.
+
+    The same seed gives the same table: exploration draws from a generator seeded with it,
+    and the environment is reset with it once.
+    """
+    out = Path(out)
+    if out.suffix != ".npy":
+        raise InputError(f"a Q-table is saved as .npy, not {out.name}")
+    _writable(out, "agent.npy")
+    env = adapter.make_env(config)
+    n_obs = getattr(env.observation_space, "n", None)
+    if n_obs is None:
+        raise InputError(f"{adapter.name} has observations {env.observation_space}; Q-learning "
+                         "needs a discrete observation space")
+    rng = np.random.default_rng(seed)
+    n_act = len(adapter.actions)
+    q = np.zeros((n_obs, n_act))
+    p = Q_LEARNING
+    decay = max(1, int(steps * p["decay_fraction"]))
+    start = time.perf_counter()
+    obs, _ = env.reset(seed=seed)
+    t = 0
+    for k in range(steps):
+        if rng.random() < max(p["epsilon_floor"], 1.0 - k / decay):
+            a = int(rng.integers(n_act))
+        else:
+            row = q[obs]
+            a = int(rng.choice(np.flatnonzero(row == row.max())))
+        nxt, reward, terminated, truncated, _ = env.step(a)
+        target = reward if terminated else reward + p["gamma"] * q[nxt].max()
+        q[obs, a] += p["alpha"] * (target - q[obs, a])
+        obs, t = nxt, t + 1
+        if terminated or truncated or t >= horizon:
+            obs, _ = env.reset()
+            t = 0
+    wall = time.perf_counter() - start
+    np.save(out, q, allow_pickle=False)
+    import gymnasium
+
+    card = {
+        "agent": out.name, "algorithm": "q-learning", "environment": adapter.name,
+        "environment_id": adapter.env_id, "environment_config": config, "horizon": horizon,
+        "seed": seed, "steps": steps, "wall_time_s": round(wall, 2), "settings": dict(p),
+        "actions": list(adapter.actions),
+        "versions": {"python": platform.python_version(), "numpy": np.__version__,
+                     "gymnasium": gymnasium.__version__},
+        "sha256": file_sha256(out),
+    }
+    out.with_suffix(".json").write_text(json.dumps(card, indent=2) + "\n")
     return card

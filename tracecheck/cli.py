@@ -363,6 +363,8 @@ def replay_cmd(
     agent: Optional[Path] = typer.Option(None, "--agent", help="The agent that recorded the "
                                          "episodes (default: the bundled agent of that name). "
                                          "Loading it runs code from the file."),
+    env: Optional[str] = typer.Option(None, "--env", help="For --resimulate: the environment "
+                                      "adapter (default: the installed one the file names)."),
     executor: Executor = typer.Option(Executor.local, "--executor",
                                         help="local, or ray: one Ray task per file."),
     ray_address: Optional[str] = typer.Option(None, "--ray-address", help="A Ray cluster."),
@@ -370,14 +372,13 @@ def replay_cmd(
     """Replay episodes against a shield: where would it have blocked the recorded action?"""
     from .replay import replay
     from .report_text import replay_markdown, replay_text
-    from .shield import load_shield
 
-    loaded = load_shield(shield)
+    loaded = _run_shield(shield, runs)
     report = replay(runs, loaded, executor=executor.value, ray_address=ray_address)
     for warning in report.warnings:
         err.print(f"[yellow]warning[/yellow]: {escape(warning)}")
     if resimulate:
-        report.resimulation = _resimulate(runs, loaded, report, agent)
+        report.resimulation = _resimulate(runs, loaded, report, agent, env)
     if as_json:
         out.print_json(json.dumps(report.to_json()))
     elif fmt == OutputFormat.md:
@@ -394,7 +395,19 @@ def replay_cmd(
         raise typer.Exit(1)
 
 
-def _resimulate(runs: list[Path], shield, report, agent: Optional[Path]) -> dict:
+def _run_shield(spec: str, runs: list[Path]):
+    """The shield ``spec`` for these runs: ``none`` is made from their actions."""
+    from .episodes.mcap_io import read_header
+    from .shield import load_shield
+
+    if spec != "none" or not runs:
+        return load_shield(spec)
+    header = read_header(runs[0])
+    return load_shield(spec, actions=tuple(header.actions) or None)
+
+
+def _resimulate(runs: list[Path], shield, report, agent: Optional[Path],
+                env: Optional[str] = None) -> dict:
     from rich.progress import BarColumn, Progress, TextColumn
 
     from .resimulate import resimulate, summary
@@ -406,7 +419,7 @@ def _resimulate(runs: list[Path], shield, report, agent: Optional[Path]) -> dict
                   transient=True) as bar:
         task = bar.add_task("resim", total=todo)
         for run in runs:
-            results += resimulate(run, shield, report, agent=agent,
+            results += resimulate(run, shield, report, agent=agent, env=env,
                                   progress=lambda r: bar.advance(task))
     return summary(results)
 
@@ -427,10 +440,9 @@ def diff_cmd(
     """Compare two shields on every recorded state: which steps does the change block or allow?"""
     from .replay import diff
     from .report_text import diff_text
-    from .shield import load_shield
 
-    report = diff(runs, load_shield(shield), load_shield(against), executor=executor.value,
-                  ray_address=ray_address)
+    report = diff(runs, _run_shield(shield, runs), _run_shield(against, runs),
+                  executor=executor.value, ray_address=ray_address)
     for warning in report.warnings:
         err.print(f"[yellow]warning[/yellow]: {escape(warning)}")
     if as_json:
@@ -482,8 +494,9 @@ def _print_stats(result: dict, as_json: bool, fmt: "StatsFormat", plot: Optional
 @app.command("stats")
 def stats_cmd(
     runs: list[Path] = typer.Argument(..., help="MCAP run files: one column each."),
-    properties: str = typer.Option("highway", "--properties", "-p",
-                                   help="'highway' (the paper's) or a property file (TOML)."),
+    properties: Optional[str] = typer.Option(
+        None, "--properties", "-p", help="A built-in set (highway: the paper's; frozenlake; "
+        "cliffwalking) or a property file (TOML). Default: the runs' environment's."),
     names: Optional[list[str]] = typer.Option(None, "--names",
                                               help="Only these metrics and properties."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
@@ -497,9 +510,9 @@ def stats_cmd(
 ) -> None:
     """Estimate metrics and property shares per run, side by side like the paper's tables."""
     from .properties import load_properties
-    from .stats import statistics
+    from .stats import default_properties, statistics
 
-    pset = load_properties(properties).select(names)
+    pset = load_properties(properties or default_properties(runs)).select(names)
     result = statistics(runs, pset, interval=interval.value, executor=executor.value,
                         ray_address=ray_address)
     _print_stats(result, as_json, fmt, plot)
@@ -513,23 +526,74 @@ class Profile(str, Enum):
     higher_penalty = "higher-penalty"
 
 
+_ENV = typer.Option(None, "--env", help="The environment: an installed adapter (highway, "
+                    "frozenlake, cliffwalking; see `tracecheck envs`) or package.module:Class "
+                    "(importing it runs its code). Default: highway.")
+_ENV_CONFIG = typer.Option([], "--env-config", help="key=value on top of the environment's "
+                           "configuration, e.g. is_slippery=true (repeatable).")
+_PROFILE = typer.Option(None, "--profile", help="A named configuration of the environment "
+                        "(highway: base, higher-penalty).")
+_DURATION = typer.Option(None, "--duration", min=1, help="Agent steps per episode (default: "
+                         "the environment's: highway 60, frozenlake and cliffwalking 100).")
+_AGENT = typer.Option(..., "--agent", help="A stable-baselines3 agent (.zip; loading it runs "
+                      "code from the file: only use files you trust) or a Q-table (.npy).")
+
+
+def _settings(env: Optional[str], env_config: list[str], **fields):
+    from .live.adapter import parse_config
+    from .record import RecordSettings
+
+    return RecordSettings(env=env or "highway", env_config=parse_config(env_config) or None,
+                          **fields)
+
+
+class Algorithm(str, Enum):
+    dqn = "dqn"
+    q_learning = "q-learning"
+
+
 @app.command("train")
 def train_cmd(
+    env: Optional[str] = _ENV,
+    env_config: list[str] = _ENV_CONFIG,
+    algorithm: Algorithm = typer.Option(Algorithm.dqn, "--algorithm", help="dqn (the paper's "
+                                        "settings, highway) or q-learning (a Q-table, for "
+                                        "environments with discrete observations)."),
     profile: Profile = typer.Option(Profile.base, "--profile", help="Reward profile."),
-    steps: int = typer.Option(20_000, "--steps", min=1, help="Environment steps."),
+    steps: Optional[int] = typer.Option(None, "--steps", min=1, help="Environment steps "
+                                        "(default: 20000 for dqn, 200000 for q-learning)."),
     seed: int = typer.Option(0, "--seed", help="Random seed."),
-    output: Path = typer.Option(..., "--output", "-o", help="The agent file (.zip) to write."),
+    duration: Optional[int] = _DURATION,
+    output: Path = typer.Option(..., "--output", "-o", help="The agent file to write (.zip "
+                                "for dqn, .npy for q-learning)."),
 ) -> None:
-    """Train a DQN agent with the paper's settings (highway-fast-v0, 3 lanes)."""
+    """Train an agent: a DQN with the paper's settings on the highway, or a Q-table."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
     from .agents import train
+    from .live.adapter import load_adapter, parse_config
+
+    adapter = load_adapter(env)
+    if algorithm == Algorithm.q_learning:
+        from .agents import train_q_table
+
+        card = train_q_table(adapter, adapter.config(parse_config(env_config)), output,
+                             steps=steps or 200_000, seed=seed,
+                             horizon=duration or adapter.horizon)
+        out.print(f"trained {card['agent']} (Q-learning on {adapter.name}, {card['steps']} "
+                  f"steps, seed {seed}) in {card['wall_time_s']:.1f} s -> {output}; model "
+                  f"card {Path(output).with_suffix('.json')}", markup=False)
+        return
+    if adapter.name != "highway":
+        raise InputError(f"--algorithm dqn trains the paper's highway agent; for {adapter.name} "
+                         "use --algorithm q-learning")
+    steps = steps or 20_000
 
     with Progress(TextColumn("training {task.fields[profile]}"), BarColumn(),
                   TextColumn("{task.completed}/{task.total} steps"), TimeRemainingColumn(),
                   console=err, transient=True) as bar:
         task = bar.add_task("train", total=steps, profile=profile.value)
-        card = train(profile.value, output, steps=steps, seed=seed,
+        card = train(profile.value, output, steps=steps, seed=seed, duration=duration or 60,
                      progress=lambda done, total: bar.update(task, completed=done))
     out.print(f"trained {card['agent']} ({profile.value}, {steps} steps, seed {seed}) in "
               f"{card['wall_time_s']:.0f} s -> {output}; model card "
@@ -538,20 +602,22 @@ def train_cmd(
 
 @app.command("record")
 def record_cmd(
-    agent: Path = typer.Option(..., "--agent", help="A stable-baselines3 agent (.zip). Loading "
-                               "it runs code from the file: only use files you trust."),
+    agent: Path = _AGENT,
     shield: str = typer.Option("none", "--shield", "-s", help=_SHIELD_HELP),
     episodes: int = typer.Option(..., "--episodes", "-n", min=1, help="How many episodes."),
     seed: int = typer.Option(0, "--seed", help="Episode i uses seed SEED + i."),
-    duration: int = typer.Option(60, "--duration", min=1, help="Agent steps (s) per episode."),
+    env: Optional[str] = _ENV,
+    env_config: list[str] = _ENV_CONFIG,
+    duration: Optional[int] = _DURATION,
     workers: int = typer.Option(1, "--workers", "-w", min=1, help="Worker processes."),
     executor: Executor = typer.Option(Executor.local, "--executor",
                                       help="local worker processes, or Ray tasks."),
     ray_address: Optional[str] = typer.Option(None, "--ray-address",
                                               help="A Ray cluster (default: start one here)."),
-    profile: Profile = typer.Option(Profile.base, "--profile", help="Reward profile."),
-    fallback: str = typer.Option("SLOWER", "--fallback",
-                                 help="Action taken when the shield allows nothing."),
+    profile: Optional[str] = _PROFILE,
+    fallback: Optional[str] = typer.Option(None, "--fallback",
+                                           help="Action taken when the shield allows nothing "
+                                                "(default: the environment's; highway SLOWER)."),
     output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
 ) -> None:
     """Run an agent under a shield (pre-shielding) and record every episode to MCAP."""
@@ -559,12 +625,11 @@ def record_cmd(
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
-    from .record import RecordSettings, record
+    from .record import record
 
-    settings = RecordSettings(agent=str(agent), shield=shield, episodes=episodes, seed=seed,
-                              duration=duration, profile=profile.value, fallback=fallback,
-                              workers=workers, executor=executor.value,
-                              ray_address=ray_address)
+    settings = _settings(env, env_config, agent=str(agent), shield=shield, episodes=episodes,
+                         seed=seed, duration=duration, profile=profile, fallback=fallback,
+                         workers=workers, executor=executor.value, ray_address=ray_address)
     stats = {"crashes": 0, "steps": 0}
     start = _time.perf_counter()
     with Progress(TextColumn("recording"), BarColumn(),
@@ -592,21 +657,23 @@ def record_cmd(
 
 @app.command("simulate")
 def simulate_cmd(
-    agent: Path = typer.Option(..., "--agent", help="A stable-baselines3 agent (.zip); loading "
-                               "it runs code from the file."),
+    agent: Path = _AGENT,
     shield: str = typer.Option("none", "--shield", "-s", help=_SHIELD_HELP),
     episodes: int = typer.Option(..., "--episodes", "-n", min=1,
                                  help="Episodes (at most, with --until-ci-width)."),
     seed: int = typer.Option(0, "--seed", help="Episode i uses seed SEED + i."),
-    duration: int = typer.Option(60, "--duration", min=1, help="Agent steps per episode."),
+    env: Optional[str] = _ENV,
+    env_config: list[str] = _ENV_CONFIG,
+    duration: Optional[int] = _DURATION,
     workers: int = typer.Option(1, "--workers", "-w", min=1, help="Worker processes."),
     executor: Executor = typer.Option(Executor.local, "--executor",
                                       help="local worker processes, or Ray tasks."),
     ray_address: Optional[str] = typer.Option(None, "--ray-address",
                                               help="A Ray cluster (default: start one here)."),
-    profile: Profile = typer.Option(Profile.base, "--profile", help="Reward profile."),
-    properties: str = typer.Option("highway", "--properties", "-p",
-                                   help="'highway' or a property file (TOML)."),
+    profile: Optional[str] = _PROFILE,
+    properties: Optional[str] = typer.Option(
+        None, "--properties", "-p", help="A built-in set (highway, frozenlake, cliffwalking) "
+        "or a property file (TOML). Default: the environment's."),
     until_ci_width: Optional[float] = typer.Option(
         None, "--until-ci-width", help="Stop once every property's 95 % interval is narrower "
                                        "than this (a share, e.g. 0.1)."),
@@ -618,13 +685,13 @@ def simulate_cmd(
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
     from .properties import load_properties
-    from .record import RecordSettings
+    from .record import resolve
     from .simulate import simulate
 
-    pset = load_properties(properties)
-    settings = RecordSettings(agent=str(agent), shield=shield, episodes=episodes, seed=seed,
-                              duration=duration, profile=profile.value, workers=workers,
-                              executor=executor.value, ray_address=ray_address)
+    settings = _settings(env, env_config, agent=str(agent), shield=shield, episodes=episodes,
+                         seed=seed, duration=duration, profile=profile, workers=workers,
+                         executor=executor.value, ray_address=ray_address)
+    pset = load_properties(properties or resolve(settings)[0].properties or "highway")
     with Progress(TextColumn("simulating"), BarColumn(),
                   TextColumn("{task.completed}/{task.total} episodes"), TimeRemainingColumn(),
                   console=err, transient=True) as bar:
@@ -638,6 +705,42 @@ def simulate_cmd(
                   f"{'stopped early' if seq['stopped_early'] else 'ran to the end'}; "
                   f"widths {widths}", highlight=False, markup=False)
     _print_stats(result, as_json, fmt, None)
+
+
+@app.command("envs")
+def envs_cmd(
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+) -> None:
+    """List the environment adapters: actions, state variables, default shield, and whether
+    the packages they need are installed."""
+    import importlib.util
+
+    from .live.adapter import adapters
+
+    rows = []
+    for info in adapters():
+        a = info.adapter
+        row = {"name": info.name, "adapter": info.target, "problem": info.problem}
+        if a is not None:
+            missing = [p for p in a.requires if importlib.util.find_spec(p) is None]
+            row.update(environment=a.env_id, actions=list(a.actions),
+                       variables=list(a.variables), default_shield=a.default_shield,
+                       horizon=a.horizon, installed=not missing, missing=missing)
+        rows.append(row)
+    if as_json:
+        out.print_json(json.dumps(rows))
+        return
+    table = Table(box=None, header_style="bold")
+    for col in ("name", "environment", "actions", "variables", "shield", "installed"):
+        table.add_column(col, overflow="fold")
+    for r in rows:
+        if r["problem"]:
+            table.add_row(r["name"], r["adapter"], "", "", "", f"no: {r['problem']}")
+            continue
+        table.add_row(r["name"], r["environment"], ", ".join(r["actions"]),
+                      ", ".join(r["variables"]), r["default_shield"] or "",
+                      "yes" if r["installed"] else "no: needs " + ", ".join(r["missing"]))
+    out.print(table)
 
 
 # ------------------------------------------------------------------ pictures
@@ -664,8 +767,9 @@ def render_cmd(
 def report_cmd(
     runs: list[Path] = typer.Argument(..., help="MCAP run files."),
     shield: Optional[str] = typer.Option(None, "--shield", "-s", help=_SHIELD_HELP),
-    properties: str = typer.Option("highway", "--properties", "-p",
-                                   help="'highway' or a property file (TOML)."),
+    properties: Optional[str] = typer.Option(
+        None, "--properties", "-p", help="A built-in set (highway, frozenlake, cliffwalking) "
+        "or a property file (TOML). Default: the environment's."),
     output: Path = typer.Option(..., "--output", "-o", help="The HTML report to write."),
 ) -> None:
     """Write an HTML validation report: replay, statistics with plots, episode viewers."""
@@ -674,7 +778,10 @@ def report_cmd(
     from .shield import load_shield
 
     loaded = load_shield(shield) if shield else None
-    page, pages = render_report(runs, output, shield=loaded, pset=load_properties(properties))
+    from .stats import default_properties
+
+    pset = load_properties(properties or default_properties(runs))
+    page, pages = render_report(runs, output, shield=loaded, pset=pset)
     out.print(f"wrote {page} and {pages} episode page(s)", markup=False)
 
 

@@ -13,7 +13,7 @@ A property file is TOML::
     test = { p = 0.9, alpha = 0.05, tail = "left" }   # optional hypothesis test
 
 Aggregates over the states s0 … sn of an episode (n = steps), as SimB defines them:
-``steps`` is n; ``average`` the mean over s0…sn; ``sum`` the sum over s0…sn;
+``steps`` is n; ``return`` the sum of the recorded step rewards (no expression); ``average`` the mean over s0…sn; ``sum`` the sum over s0…sn;
 ``sum_between_steps`` Σ_{k=1..n} (value in s(k−1) + value in s(k)) / 2; ``min``, ``max``.
 A property of kind ``invariant`` holds in every state (the initial state included),
 ``eventually`` in some state, ``final`` in the last one.
@@ -34,7 +34,7 @@ from .errors import InputError, TracecheckError, read_text
 __all__ = ["Metric", "Property", "HypothesisTest", "PropertySet", "load_properties",
            "HIGHWAY_SET", "AGGREGATES", "KINDS", "TAILS"]
 
-AGGREGATES = ("steps", "average", "sum", "sum_between_steps", "min", "max")
+AGGREGATES = ("steps", "average", "sum", "sum_between_steps", "min", "max", "return")
 KINDS = ("invariant", "eventually", "final")
 TAILS = ("left", "right", "two")
 
@@ -189,7 +189,7 @@ def _metric(name: str, spec: dict, file: str) -> Metric:
         raise InputError(f"{file}: {where}: unknown aggregate {aggregate!r}; the aggregates "
                          f"are {', '.join(AGGREGATES)}")
     node = None
-    if aggregate != "steps":
+    if aggregate not in ("steps", "return"):
         node = _formula(spec.get("expression"), "expression", f"{where} expression", file)
     estimate = None
     if "estimate" in spec:
@@ -229,9 +229,51 @@ def _property(name: str, spec: dict, file: str) -> Property:
 HIGHWAY_SET = parse_properties(HIGHWAY_TOML, name="highway", file="<highway>")
 
 
+#: Grid worlds (the frozenlake and cliffwalking adapters' default sets).
+FROZENLAKE_TOML = """
+[metrics.episode_length]
+aggregate = "steps"
+description = "Episode length (steps)"
+
+[metrics.return]
+aggregate = "return"
+description = "Return (1 for reaching the goal)"
+
+[properties.GOAL]
+predicate = "x = goal_x & y = goal_y"
+kind = "eventually"
+description = "reached the goal"
+
+[properties.HOLE]
+predicate = "field(x |-> y) = HOLE"
+kind = "eventually"
+description = "fell into a hole"
+"""
+
+CLIFFWALKING_TOML = """
+[metrics.episode_length]
+aggregate = "steps"
+description = "Episode length (steps)"
+
+[metrics.return]
+aggregate = "return"
+description = "Return (-1 a step, -100 a fall)"
+
+[properties.GOAL]
+predicate = "x = goal_x & y = goal_y"
+kind = "eventually"
+description = "reached the goal"
+"""
+
+BUILTIN_SETS = {"highway": HIGHWAY_TOML, "frozenlake": FROZENLAKE_TOML,
+                "cliffwalking": CLIFFWALKING_TOML}
+
+
 def load_properties(spec: str | Path) -> PropertySet:
-    """The built-in ``highway`` set, or a property file."""
+    """A built-in set (``highway``, ``frozenlake``, ``cliffwalking``), or a property file."""
     if str(spec) == "highway":
         return HIGHWAY_SET
+    if str(spec) in BUILTIN_SETS:
+        return parse_properties(BUILTIN_SETS[str(spec)], name=str(spec), file=f"<{spec}>")
     path = Path(spec)
     return parse_properties(read_text(path, "property file"), name=path.stem, file=str(path))

@@ -17,7 +17,6 @@ import numpy as np
 from .agents import file_sha256
 from .episodes.mcap_io import RunColumns, read_columns, read_header
 from .errors import InputError
-from .highway import ACTIONS
 from .replay import ReplayReport
 from .shield import SHIELD_DIR, Shield
 
@@ -46,12 +45,24 @@ def _agent_path(header, agent: Optional[str | Path]) -> str:
     if agent is not None:
         return str(agent)
     if header.agent_id:
-        candidate = AGENT_DIR / f"{header.agent_id}.zip"
-        if candidate.exists() and (header.agent_sha256 is None
-                                   or file_sha256(candidate) == header.agent_sha256):
-            return str(candidate)
+        for suffix in (".zip", ".npy"):
+            candidate = AGENT_DIR / f"{header.agent_id}{suffix}"
+            if candidate.exists() and (header.agent_sha256 is None
+                                       or file_sha256(candidate) == header.agent_sha256):
+                return str(candidate)
+    # a Q-table runs no code when loaded: the one that recorded may be used again
+    table = Path(header.agent_file) if header.agent_file else None
+    if table is not None and table.suffix == ".npy" and table.is_file() and (
+            file_sha256(table) == header.agent_sha256):
+        return str(table)
     raise InputError(f"cannot tell which agent recorded these episodes (agent {header.agent_id!r}"
                      "); give it with --agent PATH")
+
+
+def _close(a, b) -> bool:
+    if type(a) is float or type(b) is float:
+        return type(b) in (int, float) and type(a) in (int, float) and abs(a - b) <= TOLERANCE
+    return a == b
 
 
 def _same(recorded: dict, state: dict) -> Optional[str]:
@@ -59,20 +70,24 @@ def _same(recorded: dict, state: dict) -> Optional[str]:
         got = state.get(name)
         if hasattr(value, "map") and hasattr(got, "map"):
             for key, x in value.map.items():
-                if abs(x - got.map.get(key, np.inf)) > TOLERANCE:
+                if key not in got.map or not _close(x, got.map[key]):
                     return f"{name}({key}) is {got.map.get(key)} instead of {x}"
-        elif isinstance(value, float):
-            if not isinstance(got, (int, float)) or abs(value - got) > TOLERANCE:
-                return f"{name} is {got} instead of {value}"
-        elif value != got:
-            return f"{name} differs"
+            if len(got.map) != len(value.map):
+                return f"{name} has other arguments"
+        elif not _close(value, got):
+            return f"{name} is {got} instead of {value}"
     return None
 
 
 def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
-               agent: Optional[str | Path] = None,
+               agent: Optional[str | Path] = None, env: Optional[str] = None,
                progress: Optional[Callable[[Resimulation], None]] = None) -> list[Resimulation]:
-    """Re-simulate the episodes of ``path`` that ``report`` found infeasible under ``shield``."""
+    """Re-simulate the episodes of ``path`` that ``report`` found infeasible under ``shield``.
+
+    The environment is the adapter the file names, looked up among the installed ones only
+    (a file never makes tracecheck import a module); ``env`` (from ``--env``) overrides it.
+    """
+    from .live.adapter import get_adapter, load_adapter
     from .record import RecordSettings, Session
 
     path = str(path)
@@ -83,11 +98,14 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
     if header.environment_config is None:
         raise InputError(f"{path} was not recorded by tracecheck (source {header.source}): "
                          "it has no environment to re-simulate")
+    adapter = load_adapter(env) if env is not None else get_adapter(header.environment)
+    if header.environment and adapter.name != header.environment:
+        raise InputError(f"{path} was recorded in {header.environment}, not {adapter.name}")
     cols = read_columns(path)
     config = dict(header.environment_config)
-    horizon = int(config.get("duration", 61)) - 1
+    horizon = header.horizon or int(config.get("duration", 61)) - 1
     settings = RecordSettings(agent=_agent_path(header, agent), shield=shield.path,
-                              episodes=1, duration=horizon)
+                              episodes=1, duration=horizon, env=env or adapter.name)
     session = Session(settings, config=config)
     index = {int(e): i for i, e in enumerate(cols.episode_ids)}
     results = []
@@ -120,7 +138,7 @@ def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:
         return result("mismatch", None, 0, f"step 0: {problem}")
     for k in range(1, first):
         action = cols.action_names[cols.action[lo + k]]
-        obs, reward, terminated, truncated, info = env.step(ACTIONS.index(action))
+        obs, reward, terminated, truncated, info = env.step(env.actions.index(action))
         problem = _same(cols.states.row(lo + k), info["b_state"])
         if problem:
             return result("mismatch", None, k, f"step {k}: {problem}")

@@ -15,10 +15,10 @@ from .b.machine import Machine, load_machine
 from .episodes.model import HIGHWAY_ACTIONS
 from .errors import InputError
 
-__all__ = ["Shield", "load_shield", "BUILTIN_SHIELDS", "SHIELD_DIR"]
+__all__ = ["Shield", "load_shield", "BUILTIN_SHIELDS", "SHIELD_DIR", "check_vocabulary"]
 
 SHIELD_DIR = Path(__file__).resolve().parents[1] / "models" / "shields"
-BUILTIN_SHIELDS = ("none", "paper", "strict")
+BUILTIN_SHIELDS = ("none", "paper", "strict", "frozenlake", "cliffwalking")
 
 
 @dataclass(frozen=True)
@@ -40,6 +40,8 @@ def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None) 
     and diff check instead that each action a recording uses has an operation.
     """
     text = str(spec)
+    if text == "none" and actions is not None and tuple(actions) != HIGHWAY_ACTIONS:
+        return _none_for(actions)
     if text in BUILTIN_SHIELDS:
         path, name = SHIELD_DIR / f"{text}.mch", text
         if not path.exists():
@@ -57,3 +59,44 @@ def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None) 
         raise InputError(f"{path}: a shield needs one operation per action "
                          f"({', '.join(actions)}); {machine.name} lacks {', '.join(missing)}")
     return Shield(name=name, sha256=machine.sha256, path=str(path), machine=machine)
+
+
+def _none_for(actions: tuple[str, ...]) -> Shield:
+    """``none`` for any environment: one operation per action, each always enabled."""
+    from .b.machine import load_machine_text
+
+    ops = ";\n  ".join(f"{a} = skip" for a in actions)
+    text = f"/* everything allowed: built from the actions */\nMACHINE none\nOPERATIONS\n  {ops}\nEND\n"
+    machine = load_machine_text(text, file="none")
+    return Shield(name="none", sha256=machine.sha256, path="none", machine=machine)
+
+
+def check_vocabulary(shield: Shield, adapter, env) -> None:
+    """Before any episode: the environment's states fit the shield's machine. Each variable
+    the adapter gives must be declared (and of the declared type, tried on a real first
+    state), and each variable a guard reads must be one the adapter gives."""
+    machine = shield.machine
+    if not machine.variables:
+        return
+    given = set(adapter.variables)
+    extra = [v for v in adapter.variables if v not in machine.variables]
+    if extra:
+        raise InputError(f"the environment {adapter.name} gives the variable {extra[0]}, which "
+                         f"the shield {shield.name} does not declare (its variables are "
+                         f"{', '.join(machine.variables)})",
+                         hint=f"use a shield written for {adapter.name}, e.g. "
+                              f"{adapter.default_shield or 'none'}")
+    from .b import ast as A
+
+    for name, op in machine.operations.items():
+        if op.guard is None:
+            continue
+        read = (A.free_names(op.guard) - set(op.params)) & set(machine.variables)
+        missing = sorted(read - given)
+        if missing:
+            raise InputError(f"the guard of {name} in {shield.name} reads {missing[0]}, which "
+                             f"the environment {adapter.name} never gives (it gives "
+                             f"{', '.join(adapter.variables)})")
+    obs, info = env.reset(seed=0)
+    state = adapter.observer(env).state(obs, dict(info, crashed=False), 0.0, True)
+    machine.check_state(state, where=f"the first state of {adapter.name}")

@@ -1,11 +1,12 @@
 """Pre-shielding (the paper's Fig. 3): the shield allows, the agent chooses among what it allows.
 
-:class:`ShieldWrapper` is a ``gymnasium.Wrapper`` around the highway environment: after each
-reset and step it turns the observation into the B state, asks the shield which actions are
-enabled, exposes them as ``action_masks()`` (the sb3-contrib MaskablePPO convention) and
-reports the decision in ``info["shield"]``. Any agent can so be shielded, in training too.
-When the shield allows nothing it fails closed: the step is a deadlock and the fallback
-action (SLOWER unless configured) is taken — never silently action 0.
+:class:`ShieldWrapper` is a ``gymnasium.Wrapper`` around any environment with an adapter
+(:mod:`tracecheck.live.adapter`; the highway when none is given): after each reset and step
+it turns the observation into the B state, asks the shield which actions are enabled, exposes
+them as ``action_masks()`` (the sb3-contrib MaskablePPO convention) and reports the decision,
+the B state and whether the step crashed in ``info``. Any agent can so be shielded, in
+training too. When the shield allows nothing it fails closed: the step is a deadlock and the
+fallback action (the adapter's: SLOWER on the highway) is taken, and said so.
 """
 
 from __future__ import annotations
@@ -19,7 +20,6 @@ import numpy as np
 
 from .b.evaluate import MEMO_KEY
 from .errors import InputError
-from .highway import ACTIONS, StateAdapter
 from .shield import Shield
 
 __all__ = ["ShieldWrapper", "choose"]
@@ -43,16 +43,22 @@ class ShieldWrapper(gym.Wrapper):
     and ``info["shield"]["replaced"]`` says so; MaskablePPO-style agents never send one.
     """
 
-    def __init__(self, env: gym.Env, shield: Shield, fallback: str = "SLOWER") -> None:
+    def __init__(self, env: gym.Env, shield: Shield, fallback: Optional[str] = None,
+                 adapter=None) -> None:
+        from .live.adapter import get_adapter
+
         super().__init__(env)
-        if fallback not in ACTIONS:
+        self.env_adapter = adapter if adapter is not None else get_adapter("highway")
+        self.actions = tuple(self.env_adapter.actions)
+        fallback = fallback or self.env_adapter.fallback or self.actions[0]
+        if fallback not in self.actions:
             raise InputError(f"unknown fallback action {fallback!r}; the actions are "
-                             f"{', '.join(ACTIONS)}")
+                             f"{', '.join(self.actions)}")
         self.shield = shield
-        self.fallback = ACTIONS.index(fallback)
-        self.adapter = StateAdapter(env)
+        self.fallback = self.actions.index(fallback)
+        self.observer = self.env_adapter.observer(env)
         self.state: dict[str, Any] = {}
-        self.allowed = np.ones(len(ACTIONS), dtype=bool)
+        self.allowed = np.ones(len(self.actions), dtype=bool)
         self.decision_us = 0.0
         self._env = dict(shield.machine.base_env)  # kept: each decision only updates it
 
@@ -70,7 +76,7 @@ class ShieldWrapper(gym.Wrapper):
         finally:
             if collecting:
                 gc.enable()
-        self.allowed = np.array([a in enabled for a in ACTIONS], dtype=bool)
+        self.allowed = np.array([a in enabled for a in self.actions], dtype=bool)
 
     def _info(self, info: dict, requested: Optional[int] = None,
               taken: Optional[int] = None) -> dict:
@@ -78,13 +84,13 @@ class ShieldWrapper(gym.Wrapper):
         info["b_state"] = self.state
         info["shield"] = {
             "name": self.shield.name,
-            "allowed": [a for a, ok in zip(ACTIONS, self.allowed) if ok],
+            "allowed": [a for a, ok in zip(self.actions, self.allowed) if ok],
             "deadlock": not self.allowed.any(),
             "decision_us": self.decision_us,
         }
         if taken is not None:
-            info["shield"].update(requested=ACTIONS[requested], taken=ACTIONS[taken],
-                                  replaced=requested != taken)
+            info["shield"].update(requested=self.actions[requested],
+                                  taken=self.actions[taken], replaced=requested != taken)
         return info
 
     def action_masks(self) -> np.ndarray:
@@ -93,8 +99,10 @@ class ShieldWrapper(gym.Wrapper):
 
     def reset(self, **kwargs):
         obs, info = self.env.reset(**kwargs)
-        self.state = self.adapter.state(obs, 0.0, False, initial=True)
+        self.observer = self.env_adapter.observer(self.env)
+        self.state = self.observer.state(obs, info, 0.0, True)
         self._decide()
+        info = dict(info, crashed=False)
         return obs, self._info(info)
 
     def step(self, action):
@@ -106,7 +114,7 @@ class ShieldWrapper(gym.Wrapper):
             else:
                 taken = int(np.flatnonzero(self.allowed)[0])
         obs, reward, terminated, truncated, info = self.env.step(taken)
-        crashed = bool(info.get("crashed", False))
-        self.state = self.adapter.state(obs, float(reward), crashed)
+        info = dict(info, crashed=self.env_adapter.crashed(obs, float(reward), terminated, info))
+        self.state = self.observer.state(obs, info, float(reward), False)
         self._decide()
         return obs, reward, terminated, truncated, self._info(info, requested, taken)

@@ -59,7 +59,9 @@ def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
         raise InputError(f"--until-ci-width must lie strictly between 0 and 1 (a width of a "
                          f"share), not {until_width}")
     agent, shield = check_settings(settings, out)
-    formulas = prepare(pset)
+    from .record import resolve
+
+    formulas = prepare(pset, resolve(settings)[0])
     batch = batch or max(10, 10 * settings.workers)
     looks = math.ceil(settings.episodes / batch)
     level = 1.0 - 0.05 / looks

@@ -42,33 +42,67 @@ class RunValues:
     warnings: list[str] = field(default_factory=list)
 
 
-def _typing_scope():
+def environment_of(path: str | Path) -> str:
+    """The environment a run file's states come from (files without one: the highway)."""
+    from .episodes.mcap_io import read_header
+
+    return read_header(path).environment or "highway"
+
+
+def _typing_scope(environment="highway", sample: Optional[dict] = None):
+    """The names and constants properties are checked against: those of the environment's
+    machine (the shield its adapter names), else the types of a sample state's values."""
+    from .live.adapter import EnvAdapter, get_adapter
     from .shield import load_shield
 
-    machine = load_shield("paper").machine
-    return machine.type_objects, dict(machine.base_env)
+    adapter = environment if isinstance(environment, EnvAdapter) else None
+    if adapter is None:
+        try:
+            adapter = get_adapter(environment)
+        except InputError:
+            if sample is None:
+                raise
+    if adapter is not None and adapter.default_shield is not None:
+        machine = load_shield(adapter.default_shield).machine
+        return machine.type_objects, dict(machine.base_env), machine.variables
+    if sample is None:
+        raise InputError(f"the environment {environment} names no machine to type-check "
+                         "properties against")
+    from .b.typecheck import type_of_value
+
+    return ({k: type_of_value(v) for k, v in sample.items()}, {}, tuple(sample))
 
 
-def _check(node, kind: str, where: str, text: str, names) -> None:
+def _check(node, kind: str, where: str, text: str, names, variables) -> None:
     try:
         typecheck_formula(node, names, kind=kind, source=text, file=where,
-                          unknown_hint="the state variables are Crash, PresentVehicles, "
-                                       "VehiclesX, VehiclesY, VehiclesVx, VehiclesVy, "
-                                       "VehiclesAx, VehiclesAy, Reward")
+                          unknown_hint=f"the state variables are {', '.join(variables)}")
     except TracecheckError as exc:
         raise exc.located(file=where, source=text) from None
 
 
-def prepare(pset: PropertySet) -> dict:
-    """Type-check every formula of ``pset`` and prepare it for batch evaluation."""
-    names, constants = _typing_scope()
+def default_properties(paths: list[str | Path]) -> str:
+    """The property set of the runs' environment (the highway's when it has none)."""
+    from .live.adapter import get_adapter
+
+    environment = environment_of(paths[0]) if paths else "highway"
+    return get_adapter(environment).properties or "highway"
+
+
+def prepare(pset: PropertySet, environment="highway", sample: Optional[dict] = None) -> dict:
+    """Type-check every formula of ``pset`` against the environment's machine (a name or an
+    adapter; ``sample``: a state to take types from where there is no machine) and prepare
+    it for batch evaluation."""
+    names, constants, variables = _typing_scope(environment, sample)
     formulas = {}
     for m in pset.metrics:
         if m.node is not None:
-            _check(m.node, "expression", f"{pset.name}: metric {m.name}", m.expression, names)
+            _check(m.node, "expression", f"{pset.name}: metric {m.name}", m.expression, names,
+                   variables)
             formulas[("m", m.name)] = BatchFormula(m.node, constants, source=m.expression)
     for p in pset.properties:
-        _check(p.node, "predicate", f"{pset.name}: property {p.name}", p.predicate, names)
+        _check(p.node, "predicate", f"{pset.name}: property {p.name}", p.predicate, names,
+               variables)
         formulas[("p", p.name)] = BatchFormula(p.node, constants, source=p.predicate)
     return formulas
 
@@ -78,6 +112,8 @@ def _aggregate(m: Metric, values: Optional[np.ndarray], cols: RunColumns) -> np.
     lengths = np.diff(cols.starts)
     if m.aggregate == "steps":
         return (lengths - 1).astype(float)
+    if m.aggregate == "return":
+        return np.add.reduceat(cols.reward, starts) - cols.reward[starts]
     v = np.asarray(values, dtype=float)
     if m.aggregate == "average":
         return np.add.reduceat(v, starts) / lengths
@@ -205,7 +241,9 @@ def _paired(a: RunValues, b: RunValues, pset: PropertySet) -> Optional[dict]:
 
 def _evaluate_one(path: str, pset: PropertySet, name: Optional[str]) -> RunValues:
     """One file, in whichever process runs it."""
-    return evaluate_run(path, pset, prepare(pset), name)
+    cols = read_columns(path)
+    sample = cols.states.row(0) if cols.states.n else None
+    return evaluate_run(path, pset, prepare(pset, environment_of(path), sample), name, cols)
 
 
 def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "wilson",
@@ -219,7 +257,11 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
     if interval not in INTERVALS:
         raise InputError(f"unknown interval method {interval!r}; the methods are "
                          f"{', '.join(INTERVALS)}")
-    formulas = prepare(pset)
+    environments = {environment_of(p) for p in paths}
+    if len(environments) > 1:
+        raise InputError(f"the runs come from different environments ({', '.join(sorted(environments))}); "
+                         "compare runs of one environment")
+    environment = environments.pop() if environments else "highway"
     if executor != "local":
         from .executors import map_files
 
@@ -228,6 +270,8 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
                                          for i, p in enumerate(paths)], executor, ray_address)
     else:
         cols = columns or [read_columns(p) for p in paths]
+        sample = cols[0].states.row(0) if cols and cols[0].states.n else None
+        formulas = prepare(pset, environment, sample)
         start = time.perf_counter()
         runs = [evaluate_run(p, pset, formulas, names[i] if names else None, cols[i])
                 for i, p in enumerate(paths)]

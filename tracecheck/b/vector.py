@@ -101,6 +101,33 @@ class Columns:
         return (set(self.numbers) | set(self.booleans) | set(self.functions)
                 | set(self.masks) | set(self.others))
 
+    def distinct(self) -> tuple[np.ndarray, np.ndarray]:
+        """(the first row of each distinct state, ascending; for each row, the index of its
+        state among those). Rows are the same state when every column holds the same bytes
+        (numbers) or equal B values (other values)."""
+        n = self.n
+        parts = []
+        for arr in (*self.numbers.values(), *self.booleans.values()):
+            parts.append(np.ascontiguousarray(arr).reshape(n, -1).view(np.uint8))
+        for vals, defined in self.functions.values():
+            parts.append(np.ascontiguousarray(vals).reshape(n, -1).view(np.uint8))
+            parts.append(np.ascontiguousarray(defined).reshape(n, -1).view(np.uint8))
+        for mask in self.masks.values():
+            parts.append(np.ascontiguousarray(mask).reshape(n, -1).view(np.uint8))
+        for values in self.others.values():
+            ids: dict = {}
+            parts.append(np.array([ids.setdefault(v, len(ids)) for v in values],
+                                  dtype=np.int64).reshape(n, 1).view(np.uint8))
+        if not parts or n == 0:
+            return np.arange(min(n, 1)), np.zeros(n, dtype=np.int64)
+        table = np.ascontiguousarray(np.concatenate(parts, axis=1))
+        keys = table.view(np.dtype((np.void, table.shape[1]))).ravel()
+        _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+        order = np.argsort(first, kind="stable")
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order))
+        return first[order], rank[inverse.ravel()]
+
     def row(self, i: int) -> dict[str, Any]:
         """State ``i`` as a dict of scalar B values."""
         state: dict[str, Any] = {}
@@ -571,7 +598,15 @@ class BatchFormula:
                         out[i] = self._row(cols, i)
                     return out
                 plan = None
-        return np.array([self._row(cols, i) for i in range(cols.n)])
+        return np.array(self._rows(cols))
+
+    def _rows(self, cols: Columns) -> list:
+        """Every row on the scalar path, each distinct state evaluated once (evaluation is a
+        function of the state: a grid world visits few distinct states many times). The
+        states are taken in row order, so an error names the first row that has it."""
+        first, which = cols.distinct()
+        values = [self._row(cols, int(i)) for i in first]
+        return [values[k] for k in which.tolist()]
 
     def _row(self, cols: Columns, i: int) -> Any:
         env = dict(self.constants)

@@ -155,8 +155,11 @@ def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.
         raise InputError(f"{where}damaged columns attachment: {exc}") from None
 
 
-def columns_from_arrays(header: dict, arrays: dict[str, np.ndarray]) -> Columns:
-    """The B-engine :class:`Columns` of one decoded blob."""
+def columns_from_arrays(header: dict, arrays: dict[str, np.ndarray],
+                        literals: Optional[dict[str, Any]] = None) -> Columns:
+    """The B-engine :class:`Columns` of one decoded blob (``literals``: values already read,
+    by their text, shared between the episodes of a file)."""
+    literals = {} if literals is None else literals
     n = len(arrays["time"])
     cols = Columns(n=n, elements=tuple(Elem(e) for e in header["elements"]))
     for name, kind in header["kinds"].items():
@@ -169,8 +172,9 @@ def columns_from_arrays(header: dict, arrays: dict[str, np.ndarray]) -> Columns:
         elif kind == "set":
             cols.masks[name] = arrays[f"set:{name}"]
         elif kind == "lit":
-            literals = header["literals"][name]
-            distinct = [parse_literal(text, where=f"variable {name}") for text in literals]
+            texts = header["literals"][name]
+            distinct = [literals[t] if t in literals else literals.setdefault(
+                t, parse_literal(t, where=f"variable {name}")) for t in texts]
             rows = arrays[f"lit:{name}"]
             if rows.size and int(rows.max()) >= len(distinct):
                 raise InputError(f"damaged columns attachment: variable {name} refers to "

@@ -462,10 +462,11 @@ def read_columns(path: str | Path) -> RunColumns:
         elements += [e for e in header["elements"] if e not in elements]
     parts = []
     values = []
+    literals: dict = {}
     for ep, header, arrays in decoded:
         order = [actions.index(a) for a in header["actions"]]
         remap = np.array(order + [-1], dtype=np.int16)
-        cols = columns_from_arrays(header, arrays)
+        cols = columns_from_arrays(header, arrays, literals)
         parts.append((ep, arrays, remap[arrays["action"]], _widen(cols, elements)))
         table = np.full((len(arrays["time"]), len(actions)), np.nan)
         if "values" in arrays:

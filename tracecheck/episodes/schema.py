@@ -37,13 +37,20 @@ class RunHeader(_Message):
     tracecheck_version: str
     created: str = Field(description="ISO 8601 time the file was written")
     source: Source
+    environment: Optional[str] = Field(
+        None, description="the environment adapter (highway, frozenlake, …); a file without "
+                          "one is from the highway")
     environment_id: Optional[str] = None
     environment_config: Optional[dict[str, Any]] = None
     agent_id: Optional[str] = None
     agent_sha256: Optional[str] = None
+    agent_file: Optional[str] = Field(
+        None, description="where the agent file was (a Q-table there is used again to "
+                          "re-simulate; a stable-baselines3 file never is: it runs code)")
     shield_name: Optional[str] = None
     shield_sha256: Optional[str] = None
     base_seed: Optional[int] = None
+    horizon: Optional[int] = Field(None, description="the most agent steps per episode")
     model_name: Optional[str] = Field(None, description="B machine the states belong to")
     variables: list[str] = Field(default_factory=list, description="state variable names")
     actions: list[str] = Field(default_factory=list, description="action (operation) names")

@@ -1,0 +1,238 @@
+"""Any Gymnasium environment under any B shield: adapters, recording, replay, re-simulation,
+statistics and pictures for frozenlake, cliffwalking and a user's own toy environment."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.conftest import ROOT
+from tracecheck.cli import main
+from tracecheck.episodes.mcap_io import read_episodes, read_header
+from tracecheck.live.adapter import get_adapter, load_adapter
+from tracecheck.errors import InputError
+
+from tests.live.toy import SHIELD, left_leaning_table
+
+TOY = "tests.live.toy:Corridor"
+MODELS = ROOT.parent / "shared" / "data" / "paper-models"
+AGENTS = ROOT / "models" / "agents"
+
+
+def run(capsys, *args):
+    with pytest.raises(SystemExit) as info:
+        main([str(a) for a in args])
+    captured = capsys.readouterr()
+    return info.value.code or 0, captured.out, captured.err
+
+
+@pytest.fixture
+def toy(tmp_path):
+    shield = tmp_path / "corridor.mch"
+    shield.write_text(SHIELD)
+    agent = tmp_path / "left.npy"
+    np.save(agent, left_leaning_table())
+    return shield, agent
+
+
+def test_envs_lists_the_builtin_adapters(capsys):
+    code, out, _ = run(capsys, "envs", "--json")
+    rows = {r["name"]: r for r in json.loads(out)}
+    assert code == 0 and {"highway", "frozenlake", "cliffwalking"} <= set(rows)
+    assert rows["frozenlake"]["actions"] == ["Move_Left", "Move_Down", "Move_Right", "Move_Up"]
+    assert rows["cliffwalking"]["default_shield"] == "cliffwalking"
+    assert rows["highway"]["variables"][0] == "Crash" and rows["highway"]["installed"]
+
+
+def test_a_users_own_adapter_records_and_replays(toy, tmp_path, capsys):
+    shield, agent = toy
+    out = tmp_path / "toy.mcap"
+    code, _, err = run(capsys, "record", "--env", TOY, "--agent", agent, "--shield", "none",
+                       "-n", 6, "--seed", 0, "-o", out)
+    assert code == 0, err
+    header = read_header(out)
+    assert header.environment == "corridor" and header.horizon == 20
+    episodes = list(read_episodes(out))
+    # the left-leaning agent walks into the pit every time
+    assert all(e.end.crashed and e.steps[-1].state["pos"] == 0 for e in episodes)
+    code, out_text, err = run(capsys, "replay", out, "--shield", shield, "--json")
+    report = json.loads(out_text)
+    assert code == 0 and report["crashes"] == 6 and report["crashes_after_infeasible"] == 6
+    # under the shield it never falls
+    shielded = tmp_path / "toy_shielded.mcap"
+    code, _, err = run(capsys, "record", "--env", TOY, "--agent", agent, "--shield", shield,
+                       "-n", 6, "--seed", 0, "-o", shielded)
+    assert code == 0, err
+    assert not any(e.end.crashed for e in read_episodes(shielded))
+
+
+def test_an_adapter_named_in_a_file_is_never_imported(toy, tmp_path, capsys):
+    shield, agent = toy
+    out = tmp_path / "toy.mcap"
+    run(capsys, "record", "--env", TOY, "--agent", agent, "--shield", "none", "-n", 2,
+        "-o", out)
+    code, _, err = run(capsys, "replay", out, "--shield", shield, "--resimulate",
+                       "--agent", agent)
+    assert code == 2 and "unknown environment 'corridor'" in err
+    code, out_text, err = run(capsys, "replay", out, "--shield", shield, "--resimulate",
+                              "--agent", agent, "--env", TOY, "--json")
+    resim = json.loads(out_text)["resimulation"]
+    assert code == 0 and resim["crashes_prevented"] == 2 and resim["mismatches"] == 0
+
+
+@pytest.fixture(scope="module")
+def frozen(tmp_path_factory):
+    """A slippery frozenlake run of the bundled agent, unshielded, 20 episodes."""
+    folder = tmp_path_factory.mktemp("frozen")
+    out = folder / "fl.mcap"
+    with pytest.raises(SystemExit) as stop:
+        main(["record", "--env", "frozenlake", "--env-config", "is_slippery=true", "--agent",
+              str(AGENTS / "frozenlake.npy"), "--shield", "none", "-n", "20", "--seed", "0",
+              "-o", str(out)])
+    assert stop.value.code in (0, None)
+    return out
+
+
+def test_frozenlake_states_follow_the_authors_conventions(frozen):
+    (episode, *_) = read_episodes(frozen)
+    first = episode.steps[0].state
+    assert (first["x"], first["y"], first["goal_x"], first["goal_y"]) == (0, 0, 7, 7)
+    field = first["field"].map
+    assert len(field) == 64 and field[(3, 2)] == "HOLE" and field[(2, 3)] == "ICE"
+    header = read_header(frozen)
+    assert header.environment_config == {"map_name": "8x8", "is_slippery": True}
+    assert header.actions == ["Move_Left", "Move_Down", "Move_Right", "Move_Up"]
+
+
+def test_frozenlake_replay_resimulate_stats_render(frozen, tmp_path, capsys):
+    code, out, err = run(capsys, "replay", frozen, "--shield", "frozenlake", "--resimulate",
+                         "--json")
+    report = json.loads(out)
+    assert code == 0, err
+    assert report["infeasible_steps"] > 0
+    resim = report["resimulation"]
+    assert resim["resimulated"] == report["infeasible_episodes"] and resim["mismatches"] == 0
+    code, out, _ = run(capsys, "stats", frozen, "--json")
+    stats = json.loads(out)
+    assert code == 0 and stats["properties_set"] == "frozenlake"
+    assert set(stats["runs"][0]["properties"]) == {"GOAL", "HOLE"}
+    code, out, _ = run(capsys, "diff", frozen, "--shield", "frozenlake", "--against", "none")
+    assert code == 0 and "newly blocked" in out
+    page = tmp_path / "ep.html"
+    code, _, err = run(capsys, "render", frozen, "-e", 0, "--shield", "frozenlake", "-o", page)
+    assert code == 0, err
+    text = page.read_text()
+    assert '"scene":"grid"' in text and '"cols":8' in text
+    code, _, err = run(capsys, "report", frozen, "--shield", "frozenlake",
+                       "-o", tmp_path / "r" / "report.html")
+    assert code == 0, err
+
+
+def test_export_import_replay_round_trip(frozen, tmp_path, capsys):
+    traces = tmp_path / "simb"
+    assert run(capsys, "export", "simb", frozen, "-o", traces)[0] == 0
+    back = tmp_path / "back.mcap"
+    assert run(capsys, "import", "simb", traces, "--model", "frozenlake", "-o", back)[0] == 0
+    _, a, _ = run(capsys, "replay", frozen, "--shield", "frozenlake", "--json")
+    _, b, _ = run(capsys, "replay", back, "--shield", "frozenlake", "--json")
+    assert json.loads(a)["infeasible_steps"] == json.loads(b)["infeasible_steps"]
+
+
+def test_one_and_two_workers_give_identical_files(tmp_path, capsys):
+    files = []
+    for workers in (1, 2):
+        out = tmp_path / f"w{workers}.mcap"
+        code, _, err = run(capsys, "record", "--env", "cliffwalking", "--env-config",
+                           "is_slippery=true", "--agent", AGENTS / "cliffwalking.npy",
+                           "--shield", "cliffwalking", "-n", 6, "--seed", 3, "-w", workers,
+                           "-o", out)
+        assert code == 0, err
+        files.append([(e.seed, [(s.action, s.state, s.reward, s.crashed) for s in e.steps])
+                      for e in read_episodes(out)])
+    assert files[0] == files[1]
+
+
+@pytest.mark.skipif(not MODELS.is_dir(), reason="the authors' machines are not in ../shared")
+@pytest.mark.parametrize("env,machine", [("frozenlake", "FrozenLake/FrozenLake.mch"),
+                                         ("cliffwalking", "CliffWalking/CliffWalking.mch")])
+def test_the_authors_machines_replay_our_recordings(env, machine, tmp_path, capsys):
+    out = tmp_path / f"{env}.mcap"
+    code, _, err = run(capsys, "record", "--env", env, "--env-config", "is_slippery=true",
+                       "--agent", AGENTS / f"{env}.npy", "--shield", "none", "-n", 5,
+                       "-o", out)
+    assert code == 0, err
+    _, ours, _ = run(capsys, "replay", out, "--shield", env, "--json")
+    code, theirs, err = run(capsys, "replay", out, "--shield", MODELS / machine, "--json")
+    assert code == 0, err
+    theirs, ours = json.loads(theirs), json.loads(ours)
+    assert theirs["invariant_violations"] == 0
+    # ours and theirs forbid the same moves: into holes / off the cliff, off the grid
+    assert theirs["infeasible_steps"] == ours["infeasible_steps"]
+
+
+def test_bad_input_stops_before_any_episode(toy, tmp_path, capsys):
+    shield, agent = toy
+    out = tmp_path / "x.mcap"
+    cases = [
+        (["--env", "frozenlake", "--agent", AGENTS / "base.zip", "--shield", "none"],
+         "the agent has action space Discrete(5); frozenlake has 4 discrete actions"),
+        (["--env", "cliffwalking", "--agent", AGENTS / "frozenlake.npy", "--shield", "none"],
+         "the Q-table has 64 rows; the environment has 48 observations"),
+        (["--env", "frozenlake", "--agent", AGENTS / "frozenlake.npy", "--shield", "paper"],
+         "PaperShield lacks Move_Left, Move_Down, Move_Right, Move_Up"),
+        (["--env", TOY, "--agent", agent, "--shield", "frozenlake"],
+         "FrozenLakeShield lacks Left, Right"),
+        (["--env", "nosuch", "--agent", agent, "--shield", "none"],
+         "unknown environment 'nosuch'"),
+    ]
+    for args, message in cases:
+        code, _, err = run(capsys, "record", *args, "-n", 1, "-o", out)
+        assert code == 2 and message in " ".join(err.split()), (args, err)
+        assert not out.exists() or out.stat().st_size == 0
+
+
+def test_a_shield_that_does_not_fit_the_environments_states(tmp_path, capsys):
+    extra = tmp_path / "extra.mch"
+    extra.write_text(SHIELD.replace("VARIABLES pos", "VARIABLES pos, speed").replace(
+        "INVARIANT pos : 0..5", "INVARIANT pos : 0..5 & speed : INTEGER").replace(
+        "pos > 1", "pos > 1 & speed < 3").replace("pos := 2", "pos, speed := 2, 0"))
+    fewer = tmp_path / "fewer.mch"
+    fewer.write_text(SHIELD.replace("VARIABLES pos", "VARIABLES place").replace(
+        "pos", "place"))
+    agent = tmp_path / "left.npy"
+    np.save(agent, left_leaning_table())
+    code, _, err = run(capsys, "record", "--env", TOY, "--agent", agent, "--shield", extra,
+                       "-n", 1, "-o", tmp_path / "a.mcap")
+    assert code == 2 and "the guard of Left in extra reads speed, which the environment " \
+                         "corridor never gives" in " ".join(err.split())
+    code, _, err = run(capsys, "record", "--env", TOY, "--agent", agent, "--shield", fewer,
+                       "-n", 1, "-o", tmp_path / "b.mcap")
+    assert code == 2 and "the environment corridor gives the variable pos, which the shield " \
+                         "fewer does not declare" in " ".join(err.split())
+
+
+def test_q_learning_trains_in_seconds_with_a_model_card(tmp_path, capsys):
+    out = tmp_path / "fl.npy"
+    code, text, err = run(capsys, "train", "--env", "frozenlake", "--algorithm", "q-learning",
+                          "--steps", 20000, "--seed", 0, "-o", out)
+    assert code == 0, err
+    card = json.loads(out.with_suffix(".json").read_text())
+    assert card["algorithm"] == "q-learning" and card["steps"] == 20000
+    table = np.load(out, allow_pickle=False)
+    assert table.shape == (64, 4)
+    again = tmp_path / "again.npy"
+    run(capsys, "train", "--env", "frozenlake", "--algorithm", "q-learning", "--steps", 20000,
+        "--seed", 0, "-o", again)
+    assert np.array_equal(table, np.load(again))
+
+
+def test_adapters_by_name_and_by_path():
+    assert get_adapter(None).name == "highway"
+    assert load_adapter(TOY).name == "corridor"
+    with pytest.raises(InputError, match="cannot import the adapter module 'no_such_module'"):
+        load_adapter("no_such_module:Thing")
+    with pytest.raises(InputError, match="is not a tracecheck EnvAdapter"):
+        load_adapter("json:JSONDecoder")

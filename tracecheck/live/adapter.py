@@ -1,0 +1,205 @@
+"""The environment seam: one adapter per Gymnasium environment.
+
+An adapter is the one place that knows an environment: its Gymnasium id and configuration,
+which action index is which B operation, how an observation becomes a B state, what a crash
+is, how long an episode may last. Recording, shielding, training and re-simulation use only
+this interface; replay, diff and statistics never import an environment at all.
+
+Adapters are found through the entry-point group ``tracecheck.environments`` (the built-in
+ones are registered there too) or given on the command line as ``package.module:Class``. A
+name stored in a file is only ever looked up among the installed entry points — never
+imported as a module path — because importing an adapter runs code.
+
+A minimal adapter::
+
+    class Corridor(EnvAdapter):
+        name = "corridor"
+        env_id = "Corridor-v0"
+        actions = ("Left", "Right")
+        variables = ("pos",)
+
+        def make_env(self, config, render_mode=None):
+            return CorridorEnv(**config)
+
+        def state(self, obs, info, reward, env, initial):
+            return {"pos": int(obs)}
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from importlib import metadata
+from typing import Any, Optional
+
+from ..errors import InputError
+
+__all__ = ["EnvAdapter", "Observer", "adapters", "get_adapter", "load_adapter", "AdapterInfo",
+           "ENTRY_POINT_GROUP", "parse_config"]
+
+ENTRY_POINT_GROUP = "tracecheck.environments"
+
+
+class Observer:
+    """Turns one episode's observations into B states (it may remember earlier steps)."""
+
+    def __init__(self, adapter: "EnvAdapter", env) -> None:
+        self.adapter, self.env = adapter, env
+
+    def state(self, obs, info: dict, reward: float, initial: bool) -> dict[str, Any]:
+        return self.adapter.state(obs, info, reward, self.env, initial)
+
+
+class EnvAdapter:
+    """What tracecheck needs to know of an environment (see the module docstring).
+
+    Subclasses set the class attributes and implement :meth:`make_env` and :meth:`state`;
+    everything else has a default.
+    """
+
+    #: short name (``--env frozenlake``)
+    name: str = ""
+    #: the Gymnasium id
+    env_id: str = ""
+    #: action index -> B operation name
+    actions: tuple[str, ...] = ()
+    #: the B variables each state has
+    variables: tuple[str, ...] = ()
+    #: the B machine the states belong to (run headers name it)
+    model_name: str = ""
+    #: a built-in shield that fits, for ``tracecheck envs``
+    default_shield: Optional[str] = None
+    #: taken when the shield allows nothing (None: the first action)
+    fallback: Optional[str] = None
+    #: seconds of environment time per agent step (step times in the files)
+    seconds_per_step: float = 1.0
+    #: the longest episode, in agent steps, unless the user sets one
+    horizon: int = 100
+    #: Python packages the environment needs (``tracecheck envs`` says whether they are here)
+    requires: tuple[str, ...] = ("gymnasium",)
+    #: named configurations (the highway's reward profiles)
+    profiles: dict[str, dict[str, Any]] = {}
+    #: the property set ``stats`` uses by default (a built-in name), if any
+    properties: Optional[str] = None
+
+    def default_config(self) -> dict[str, Any]:
+        """The environment configuration used when the user gives none."""
+        return {}
+
+    def config(self, overrides: Optional[dict[str, Any]] = None,
+               profile: Optional[str] = None, horizon: Optional[int] = None) -> dict[str, Any]:
+        """The default configuration, a profile on top, then the user's settings (an
+        environment whose configuration holds its episode length also takes ``horizon``)."""
+        config = dict(self.default_config())
+        if profile is not None:
+            if profile not in self.profiles:
+                raise InputError(f"unknown profile {profile!r} for {self.name}; the profiles "
+                                 f"are {', '.join(self.profiles) or 'none'}")
+            config.update(self.profiles[profile])
+        config.update(overrides or {})
+        return config
+
+    def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
+        raise NotImplementedError
+
+    def observer(self, env) -> Observer:
+        """A fresh observer for one environment (its memory spans one episode)."""
+        return Observer(self, env)
+
+    def state(self, obs, info: dict, reward: float, env, initial: bool) -> dict[str, Any]:
+        """The B state of an observation."""
+        raise NotImplementedError
+
+    def crashed(self, obs, reward: float, terminated: bool, info: dict) -> bool:
+        """Whether this step ended in the failure the shield is meant to prevent."""
+        return bool(info.get("crashed", False))
+
+    def fallback_index(self) -> int:
+        return self.actions.index(self.fallback) if self.fallback else 0
+
+
+@dataclass(frozen=True)
+class AdapterInfo:
+    name: str
+    target: str
+    adapter: Optional[EnvAdapter]
+    problem: Optional[str]
+
+
+def _entry_points() -> dict[str, metadata.EntryPoint]:
+    found = {ep.name: ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP)}
+    for name, target in _BUILTIN.items():  # also when running from a source tree
+        found.setdefault(name, metadata.EntryPoint(name, target, ENTRY_POINT_GROUP))
+    return found
+
+
+_BUILTIN = {
+    "highway": "tracecheck.live.envs.highway:HighwayAdapter",
+    "frozenlake": "tracecheck.live.envs.frozenlake:FrozenLakeAdapter",
+    "cliffwalking": "tracecheck.live.envs.cliffwalking:CliffWalkingAdapter",
+}
+
+
+def adapters() -> list[AdapterInfo]:
+    """Every installed adapter, loaded where it can be (else the reason it cannot)."""
+    out = []
+    for name, ep in sorted(_entry_points().items()):
+        try:
+            adapter, problem = _instance(ep.load(), ep.value), None
+        except Exception as exc:  # noqa: BLE001 - a broken plug-in must not stop the list
+            adapter, problem = None, f"{type(exc).__name__}: {exc}"
+        out.append(AdapterInfo(name, ep.value, adapter, problem))
+    return out
+
+
+def get_adapter(name: Optional[str]) -> EnvAdapter:
+    """The installed adapter registered under ``name`` (None: the highway, the default for
+    files recorded before adapters existed)."""
+    name = name or "highway"
+    ep = _entry_points().get(name)
+    if ep is None:
+        raise InputError(f"unknown environment {name!r}; the installed ones are "
+                         f"{', '.join(sorted(_entry_points()))}",
+                         hint="give your own adapter as --env package.module:Class")
+    return _instance(ep.load(), ep.value)
+
+
+def load_adapter(spec: Optional[str]) -> EnvAdapter:
+    """An adapter from the command line: an installed name, or ``package.module:Class``."""
+    if spec is None or ":" not in spec:
+        return get_adapter(spec)
+    module_name, _, attr = spec.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise InputError(f"cannot import the adapter module {module_name!r}: {exc}") from None
+    cls = getattr(module, attr, None)
+    if cls is None:
+        raise InputError(f"the module {module_name} has no {attr!r}")
+    return _instance(cls, spec)
+
+
+def _instance(cls, where: str) -> EnvAdapter:
+    adapter = cls() if isinstance(cls, type) else cls
+    if not isinstance(adapter, EnvAdapter):
+        raise InputError(f"{where} is not a tracecheck EnvAdapter")
+    if not adapter.name or not adapter.actions:
+        raise InputError(f"the adapter {where} needs a name and actions")
+    return adapter
+
+
+def parse_config(items: list[str]) -> dict[str, Any]:
+    """``key=value`` settings: values read as JSON where they parse (true, 3, 0.5, "s"),
+    else as strings."""
+    import json
+
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise InputError(f"--env-config takes key=value, not {item!r}")
+        try:
+            out[key] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key] = value
+    return out

@@ -1,0 +1,34 @@
+"""CliffWalking-v1 in the vocabulary of the authors' CliffWalking machine.
+
+States as in :mod:`.grid` (``field`` holds CLIFF or GRASS; ``goal_x = 11``, ``goal_y = 3``,
+as the machine's INITIALISATION sets them). The actions are Gymnasium's order: 0 Move_Up,
+1 Move_Right, 2 Move_Down, 3 Move_Left. A fall off the cliff (reward -100; Gymnasium puts the
+agent back at the start without ending the episode) counts as a crash and ends the recorded
+episode. The environment has no time limit: the horizon bounds every episode.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .grid import GridAdapter
+
+__all__ = ["CliffWalkingAdapter"]
+
+
+class CliffWalkingAdapter(GridAdapter):
+    name = "cliffwalking"
+    env_id = "CliffWalking-v1"
+    actions = ("Move_Up", "Move_Right", "Move_Down", "Move_Left")
+    model_name = "CliffWalking"
+    default_shield = "cliffwalking"
+    horizon = 100
+    properties = "cliffwalking"
+    danger = b"C"
+    kinds = ("GRASS", "CLIFF")
+
+    def default_config(self) -> dict[str, Any]:
+        return {"is_slippery": False}
+
+    def crashed(self, obs, reward: float, terminated: bool, info: dict) -> bool:
+        return reward == -100

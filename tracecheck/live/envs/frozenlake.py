@@ -1,0 +1,34 @@
+"""FrozenLake-v1 (8×8) in the vocabulary of the authors' FrozenLake machine.
+
+States as in :mod:`.grid` (``field`` holds HOLE or ICE; start, frozen and goal tiles are
+ICE). The actions are Gymnasium's order: 0 Move_Left, 1 Move_Down, 2 Move_Right, 3 Move_Up.
+Falling into a hole ends the episode and counts as a crash. Slippery or not is the
+configuration ``is_slippery`` (default: not slippery, as the authors' code; with slipping
+every seed gives a different episode).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .grid import GridAdapter
+
+__all__ = ["FrozenLakeAdapter"]
+
+
+class FrozenLakeAdapter(GridAdapter):
+    name = "frozenlake"
+    env_id = "FrozenLake-v1"
+    actions = ("Move_Left", "Move_Down", "Move_Right", "Move_Up")
+    model_name = "FrozenLake"
+    default_shield = "frozenlake"
+    horizon = 100
+    properties = "frozenlake"
+    danger = b"H"
+    kinds = ("ICE", "HOLE")
+
+    def default_config(self) -> dict[str, Any]:
+        return {"map_name": "8x8", "is_slippery": False}
+
+    def crashed(self, obs, reward: float, terminated: bool, info: dict) -> bool:
+        return bool(terminated) and reward == 0.0
