@@ -15,9 +15,21 @@ from .b.machine import Machine, load_machine
 from .episodes.model import HIGHWAY_ACTIONS
 from .errors import InputError
 
-__all__ = ["Shield", "load_shield", "BUILTIN_SHIELDS", "SHIELD_DIR", "check_vocabulary"]
+__all__ = ["Shield", "load_shield", "BUILTIN_SHIELDS", "SHIELD_DIR", "check_vocabulary",
+           "data_dir"]
 
-SHIELD_DIR = Path(__file__).resolve().parents[1] / "models" / "shields"
+def data_dir() -> Path:
+    """Where the built-in shields and bundled agents are: ``models/`` of a source checkout, or
+    the installed package data ``tracecheck.models`` (a wheel)."""
+    source = Path(__file__).resolve().parents[1] / "models"
+    if (source / "shields").is_dir():
+        return source
+    from importlib import resources
+
+    return Path(str(resources.files("tracecheck.models")))
+
+
+SHIELD_DIR = data_dir() / "shields"
 BUILTIN_SHIELDS = ("none", "paper", "strict", "frozenlake", "cliffwalking")
 
 
@@ -46,7 +58,7 @@ def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None) 
         path, name = SHIELD_DIR / f"{text}.mch", text
         if not path.exists():
             raise InputError(f"the built-in shield {text} is not installed at {path}; "
-                             "install tracecheck from its source folder (pip install -e .)")
+                             "reinstall tracecheck")
     else:
         path = Path(text)
         if path.suffix != ".mch" and not path.exists():

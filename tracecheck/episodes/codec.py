@@ -40,7 +40,24 @@ def encode_value(value: Any) -> Any:
         return {str(k): encode_value(v) for k, v in value.map.items()}
     if isinstance(value, frozenset) and all(isinstance(v, Elem) for v in value):
         return sorted(str(v) for v in value)
-    return format_value(value)
+    return _literal(value)
+
+
+_RECENT: dict[int, tuple[Any, str]] = {}
+
+
+def _literal(value: Any) -> str:
+    """``format_value``, remembered for the same object: a grid world's map is one object
+    in every step of an episode, and writing it out is the costly part of a step."""
+    hit = _RECENT.get(id(value))
+    if hit is not None and hit[0] is value:
+        return hit[1]
+    text = format_value(value)
+    if isinstance(value, frozenset):
+        if len(_RECENT) >= 64:
+            _RECENT.clear()
+        _RECENT[id(value)] = (value, text)  # the entry keeps the object, so its id stays its own
+    return text
 
 
 def encode_state(state: Mapping[str, Any]) -> dict[str, Any]:
