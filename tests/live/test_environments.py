@@ -236,3 +236,32 @@ def test_adapters_by_name_and_by_path():
         load_adapter("no_such_module:Thing")
     with pytest.raises(InputError, match="is not a tracecheck EnvAdapter"):
         load_adapter("json:JSONDecoder")
+
+
+def test_shield_wrapper_on_a_toy_environment(tmp_path):
+    """The wrapper without highway-env: masks, the decision in info, replaced actions and a
+    fail-closed deadlock."""
+    from tests.live.toy import Corridor, CorridorEnv
+    from tracecheck.shield import load_shield
+    from tracecheck.shielding import ShieldWrapper
+
+    path = tmp_path / "corridor.mch"
+    path.write_text(SHIELD)
+    env = ShieldWrapper(CorridorEnv(slip=False), load_shield(path), adapter=Corridor())
+    obs, info = env.reset(seed=0)
+    assert obs == 2 and info["b_state"] == {"pos": 2}
+    assert env.action_masks().tolist() == [True, True]
+    obs, _, _, _, info = env.step(0)  # Left: 2 -> 1
+    assert obs == 1 and env.action_masks().tolist() == [False, True]
+    obs, _, _, _, info = env.step(0)  # Left again is blocked: replaced by Right
+    assert obs == 2 and info["shield"]["replaced"] and info["shield"]["taken"] == "Right"
+    closed = tmp_path / "closed.mch"
+    closed.write_text(SHIELD.replace("pos > 1", "1 = 2").replace("pos < 5", "1 = 2"))
+    env = ShieldWrapper(CorridorEnv(slip=False), load_shield(closed), fallback="Right",
+                        adapter=Corridor())
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(0)
+    assert info["shield"]["deadlock"] and info["shield"]["taken"] == "Right"
+    with pytest.raises(InputError, match="unknown fallback action 'Up'; the actions are Left, "
+                                         "Right"):
+        ShieldWrapper(CorridorEnv(), load_shield(path), fallback="Up", adapter=Corridor())
