@@ -265,12 +265,28 @@ kind = "eventually"
 description = "reached the goal"
 """
 
+LUNARLANDER_TOML = """
+[metrics.episode_length]
+aggregate = "steps"
+description = "Episode length (steps of 1/50 s)"
+
+[metrics.return]
+aggregate = "return"
+description = "Return"
+
+[properties.LANDED]
+predicate = "left_leg_on_ground = TRUE & right_leg_on_ground = TRUE"
+kind = "eventually"
+description = "both legs on the ground at some point"
+"""
+
 BUILTIN_SETS = {"highway": HIGHWAY_TOML, "frozenlake": FROZENLAKE_TOML,
-                "cliffwalking": CLIFFWALKING_TOML}
+                "cliffwalking": CLIFFWALKING_TOML, "lunarlander": LUNARLANDER_TOML}
 
 
 def load_properties(spec: str | Path) -> PropertySet:
-    """A built-in set (``highway``, ``frozenlake``, ``cliffwalking``), or a property file."""
+    """A built-in set (``highway``, ``frozenlake``, ``cliffwalking``, ``lunarlander``), or a
+    property file."""
     if str(spec) == "highway":
         return HIGHWAY_SET
     if str(spec) in BUILTIN_SETS:

@@ -265,3 +265,28 @@ def test_shield_wrapper_on_a_toy_environment(tmp_path):
     with pytest.raises(InputError, match="unknown fallback action 'Up'; the actions are Left, "
                                          "Right"):
         ShieldWrapper(CorridorEnv(), load_shield(path), fallback="Up", adapter=Corridor())
+
+
+@pytest.mark.skipif(__import__("importlib").util.find_spec("Box2D") is None,
+                    reason="LunarLander needs the box2d extra (pip install 'tracecheck[box2d]')")
+def test_lunarlander_records_and_the_authors_machine_replays_it(tmp_path, capsys):
+    import gymnasium as gym
+    import stable_baselines3 as sb3
+
+    agent = tmp_path / "lander.zip"
+    sb3.DQN("MlpPolicy", gym.make("LunarLander-v3"), seed=0, device="cpu").save(agent)
+    out = tmp_path / "lander.mcap"
+    code, _, err = run(capsys, "record", "--env", "lunarlander", "--agent", agent, "--shield",
+                       "none", "-n", 2, "--duration", 200, "-o", out)
+    assert code == 0, err
+    first = next(iter(read_episodes(out))).steps[0].state
+    assert len(first["surface"].map) == 10 and isinstance(first["left_leg_on_ground"], bool)
+    assert 0.0 < first["x"] < 600.0
+    code, out_text, err = run(capsys, "stats", out, "--json")
+    assert code == 0 and json.loads(out_text)["properties_set"] == "lunarlander", err
+    if MODELS.is_dir():
+        code, out_text, err = run(capsys, "replay", out, "--shield",
+                                  MODELS / "LunarLander" / "LunarLander.mch", "--json")
+        report = json.loads(out_text)
+        assert code == 0 and report["infeasible_steps"] == 0, err
+        assert report["invariant_violations"] == 0

@@ -137,6 +137,7 @@ _BUILTIN = {
     "highway": "tracecheck.live.envs.highway:HighwayAdapter",
     "frozenlake": "tracecheck.live.envs.frozenlake:FrozenLakeAdapter",
     "cliffwalking": "tracecheck.live.envs.cliffwalking:CliffWalkingAdapter",
+    "lunarlander": "tracecheck.live.envs.lunarlander:LunarLanderAdapter",
 }
 
 
