@@ -290,3 +290,23 @@ def test_lunarlander_records_and_the_authors_machine_replays_it(tmp_path, capsys
         report = json.loads(out_text)
         assert code == 0 and report["infeasible_steps"] == 0, err
         assert report["invariant_violations"] == 0
+
+
+@pytest.mark.parametrize("env", ["frozenlake", "cliffwalking"])
+def test_batch_replay_equals_state_by_state_replay(env, tmp_path, capsys):
+    from tracecheck.episodes.mcap_io import read_columns
+    from tracecheck.replay import enabled_matrix
+    from tracecheck.shield import load_shield
+
+    out = tmp_path / f"{env}.mcap"
+    code, _, err = run(capsys, "record", "--env", env, "--env-config", "is_slippery=true",
+                       "--agent", AGENTS / f"{env}.npy", "--shield", "none", "-n", 8,
+                       "--seed", 5, "-o", out)
+    assert code == 0, err
+    cols = read_columns(out)
+    shield = load_shield(env)
+    matrix, ops = enabled_matrix(shield, cols)
+    for i in range(cols.n):
+        state = cols.states.row(i)
+        assert {o for o, ok in zip(ops, matrix[i]) if ok} == shield.machine.enabled(state)
+        assert shield.machine.invariant(state)
