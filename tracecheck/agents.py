@@ -22,7 +22,7 @@ from typing import Any, Optional
 import numpy as np
 
 from .errors import InputError
-from .highway import ACTIONS, ENV_ID, env_config, make_env
+from .highway import ENV_ID, env_config, make_env
 
 __all__ = ["Agent", "load_agent", "train", "train_q_table", "PAPER_DQN", "Q_LEARNING",
            "file_sha256"]

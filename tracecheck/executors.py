@@ -23,7 +23,7 @@ _SESSION = None
 def _ray_episode(settings, index: int) -> Episode:
     """Runs on a Ray worker: one episode, with the worker's cached agent, shield and env."""
     global _SESSION
-    from .record import Session
+    from .live.rollout import Session
 
     if _SESSION is None or _SESSION.settings != settings:
         _SESSION = Session(settings)

@@ -12,8 +12,6 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Callable, Optional
 
-import numpy as np
-
 from .agents import file_sha256
 from .episodes.mcap_io import RunColumns, read_columns, read_header
 from .errors import InputError
@@ -88,7 +86,7 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
     (a file never makes tracecheck import a module); ``env`` (from ``--env``) overrides it.
     """
     from .live.adapter import get_adapter, load_adapter
-    from .record import RecordSettings, Session
+    from .live.rollout import RecordSettings, Session
 
     path = str(path)
     header = read_header(path)
@@ -119,7 +117,9 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
 
 
 def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:
-    from .shielding import choose
+    """The episode again from its seed: the recorded actions up to the first infeasible
+    step (each state checked against the recording), then the agent under the shield."""
+    from .live.rollout import Mismatch, run_episode
 
     lo = int(cols.starts[i])
     seed = cols.seeds[i] if i < len(cols.seeds) else None
@@ -131,33 +131,18 @@ def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:
 
     if seed is None:
         return result("no seed", None, 0, "the episode has no seed: it cannot be re-run")
-    env, agent = session.env, session.agent
-    obs, info = env.reset(seed=int(seed))
-    problem = _same(cols.states.row(lo), info["b_state"])
-    if problem:
-        return result("mismatch", None, 0, f"step 0: {problem}")
-    for k in range(1, first):
-        action = cols.action_names[cols.action[lo + k]]
-        obs, reward, terminated, truncated, info = env.step(env.actions.index(action))
-        problem = _same(cols.states.row(lo + k), info["b_state"])
-        if problem:
-            return result("mismatch", None, k, f"step {k}: {problem}")
-    crash_step = None
-    k = first - 1
-    for k in range(first, horizon + 1):
-        values = agent.values(obs)
-        action, _ = choose(values, env.action_masks(), env.fallback)
-        obs, reward, terminated, truncated, info = env.step(action)
-        if info.get("crashed"):
-            crash_step = k
-            break
-        if terminated or truncated:
-            break
+    script = [cols.action_names[cols.action[lo + k]] for k in range(1, first)]
+    try:
+        episode = run_episode(session, item.episode, seed=int(seed), script=script,
+                              check=lambda k, state: _same(cols.states.row(lo + k), state))
+    except Mismatch as exc:
+        return result("mismatch", None, exc.step, str(exc))
+    crash_step = next((s.step for s in episode.steps if s.crashed), None)
     if item.crashed:
         outcome = "still crashed" if crash_step is not None else "crash prevented"
     else:
         outcome = "new crash" if crash_step is not None else "no crash"
-    return result(outcome, crash_step, k)
+    return result(outcome, crash_step, episode.end.steps)
 
 
 def summary(results: list[Resimulation]) -> dict:

@@ -1,0 +1,149 @@
+"""One rollout loop: an agent in an environment under a shield, one episode at a time.
+
+Recording runs it for fresh episodes; re-simulation runs it again from a recorded seed, with
+the recorded actions first (each reproduced state checked against the recording) and the
+agent under the shield after them. Both go through :func:`run_episode`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable, Optional, Sequence
+
+import numpy as np
+
+from ..episodes.model import Episode, StepRecord, make_end
+from ..errors import InputError
+
+__all__ = ["RecordSettings", "resolve", "Session", "run_episode", "Mismatch"]
+
+
+class Mismatch(Exception):
+    """A re-run state differs from the recorded one (raised by :func:`run_episode`'s check)."""
+
+    def __init__(self, step: int, detail: str) -> None:
+        super().__init__(f"step {step}: {detail}")
+        self.step, self.detail = step, detail
+
+
+@dataclass(frozen=True)
+class RecordSettings:
+    """What to record. ``env`` is an installed adapter's name or ``package.module:Class``;
+    ``duration`` the most agent steps per episode (None: the environment's horizon);
+    ``env_config`` settings on top of the environment's configuration (and ``profile``)."""
+
+    agent: str
+    shield: str
+    episodes: int
+    seed: int = 0
+    duration: Optional[int] = None
+    profile: Optional[str] = None
+    fallback: Optional[str] = None
+    workers: int = 1
+    executor: str = "local"
+    ray_address: Optional[str] = None
+    env: str = "highway"
+    env_config: Optional[dict] = None
+
+
+def resolve(settings: RecordSettings):
+    """(adapter, environment configuration, horizon) of ``settings``."""
+    from .adapter import load_adapter
+
+    adapter = load_adapter(settings.env)
+    horizon = settings.duration or adapter.horizon
+    if horizon < 1:
+        raise InputError("--duration must be at least 1")
+    config = adapter.config(settings.env_config, profile=settings.profile, horizon=horizon)
+    return adapter, config, horizon
+
+
+class Session:
+    """What one process needs to run episodes: environment, agent, shield (built once).
+
+    ``config`` overrides the environment configuration (re-simulation uses the recorded one).
+    """
+
+    def __init__(self, settings: RecordSettings, config: Optional[dict] = None) -> None:
+        from ..agents import load_agent
+        from ..shield import load_shield
+        from ..shielding import ShieldWrapper
+
+        self.settings = settings
+        self.adapter, default, self.horizon = resolve(settings)
+        env = self.adapter.make_env(config or default)
+        self.agent = load_agent(settings.agent, adapter=self.adapter, env=env)
+        self.shield = load_shield(settings.shield, actions=self.adapter.actions)
+        self.env = ShieldWrapper(env, self.shield, settings.fallback, self.adapter)
+
+    def episode(self, index: int) -> Episode:
+        return run_episode(self, index)
+
+
+def run_episode(session: Session, index: int, *, seed: Optional[int] = None,
+                script: Sequence[str] = (),
+                check: Optional[Callable[[int, dict[str, Any]], Optional[str]]] = None
+                ) -> Episode:
+    """Episode ``index``: seed ``seed + index`` (or ``seed``), up to the horizon.
+
+    The agent chooses its best action among those the shield allows; the first actions are
+    ``script``'s instead, when given (re-simulation). ``check(step, state)`` sees each state
+    of the scripted part, the initial one included, and returns what differs from the
+    recording, if anything: that ends the rollout with :class:`Mismatch`.
+    """
+    from ..shielding import choose
+
+    seed = session.settings.seed + index if seed is None else seed
+    env, agent = session.env, session.agent
+    actions, dt = env.actions, session.adapter.seconds_per_step
+    obs, info = env.reset(seed=seed)
+    _check(check, 0, info["b_state"])
+    steps = [StepRecord(0, 0.0, None, info["b_state"], 0.0, False,
+                        observation=_rows(obs))]
+    reason = "time-limit"
+    for k in range(1, session.horizon + 1):
+        values = agent.values(obs)
+        allowed = env.action_masks()
+        decision_us = info["shield"]["decision_us"]
+        if k <= len(script):
+            action, deadlock = actions.index(script[k - 1]), False
+        else:
+            action, deadlock = choose(values, allowed, env.fallback)
+        obs, reward, terminated, truncated, info = env.step(action)
+        if k <= len(script):
+            _check(check, k, info["b_state"])
+        crashed = bool(info["crashed"])
+        steps.append(StepRecord(
+            step=k, time=float(k * dt), action=actions[action], state=info["b_state"],
+            reward=float(reward), crashed=crashed, observation=_rows(obs),
+            action_values={a: float(v) for a, v in zip(actions, values)},
+            preferred_action=actions[int(np.argmax(values))],
+            allowed_actions=tuple(a for a, ok in zip(actions, allowed) if ok),
+            shield_time_us=round(decision_us, 3), deadlock=deadlock or None))
+        if crashed:
+            reason = "crashed"
+            break
+        if terminated or truncated:
+            reason = "end-of-trace"
+            break
+    steps_t = tuple(steps)
+    return Episode(id=index, steps=steps_t, end=make_end(steps_t, reason), seed=seed)
+
+
+def _rows(obs) -> tuple[tuple[float, ...], ...]:
+    """An observation as rows of numbers (a discrete one is one row of one number)."""
+    arr = np.asarray(obs, dtype=np.float64)
+    if arr.ndim < 2:
+        arr = arr.reshape(1, -1)
+    elif arr.ndim > 2:
+        arr = arr.reshape(arr.shape[0], -1)
+    return tuple(tuple(float(x) for x in row) for row in arr)
+
+
+
+
+def _check(check, step: int, state: dict) -> None:
+    if check is not None:
+        problem = check(step, state)
+        if problem:
+            raise Mismatch(step, problem)
