@@ -333,6 +333,15 @@ class Executor(str, Enum):
     ray = "ray"
 
 
+# options several commands share
+_FILE_EXECUTOR = typer.Option(Executor.local, "--executor",
+                              help="local, or ray: one Ray task per file.")
+_EPISODE_EXECUTOR = typer.Option(Executor.local, "--executor",
+                                 help="local worker processes, or Ray tasks (one per episode).")
+_RAY_ADDRESS = typer.Option(None, "--ray-address",
+                            help="A Ray cluster (default: start a local one).")
+
+
 class OutputFormat(str, Enum):
     text = "text"
     md = "md"
@@ -365,9 +374,8 @@ def replay_cmd(
                                          "Loading it runs code from the file."),
     env: Optional[str] = typer.Option(None, "--env", help="For --resimulate: the environment "
                                       "adapter (default: the installed one the file names)."),
-    executor: Executor = typer.Option(Executor.local, "--executor",
-                                        help="local, or ray: one Ray task per file."),
-    ray_address: Optional[str] = typer.Option(None, "--ray-address", help="A Ray cluster."),
+    executor: Executor = _FILE_EXECUTOR,
+    ray_address: Optional[str] = _RAY_ADDRESS,
 ) -> None:
     """Replay episodes against a shield: where would it have blocked the recorded action?"""
     from .replay import replay
@@ -433,9 +441,8 @@ def diff_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print the full report as JSON."),
     fail_on_change: bool = typer.Option(False, "--fail-on-change",
                                         help="Exit 1 when anything changed."),
-    executor: Executor = typer.Option(Executor.local, "--executor",
-                                        help="local, or ray: one Ray task per file."),
-    ray_address: Optional[str] = typer.Option(None, "--ray-address", help="A Ray cluster."),
+    executor: Executor = _FILE_EXECUTOR,
+    ray_address: Optional[str] = _RAY_ADDRESS,
 ) -> None:
     """Compare two shields on every recorded state: which steps does the change block or allow?"""
     from .replay import diff
@@ -504,9 +511,8 @@ def stats_cmd(
     interval: Interval = typer.Option(Interval.wilson, "--interval",
                                       help="Interval for property shares."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Write PNG and SVG plots here."),
-    executor: Executor = typer.Option(Executor.local, "--executor",
-                                        help="local, or ray: one Ray task per file."),
-    ray_address: Optional[str] = typer.Option(None, "--ray-address", help="A Ray cluster."),
+    executor: Executor = _FILE_EXECUTOR,
+    ray_address: Optional[str] = _RAY_ADDRESS,
 ) -> None:
     """Estimate metrics and property shares per run, side by side like the paper's tables."""
     from .properties import load_properties
@@ -610,10 +616,8 @@ def record_cmd(
     env_config: list[str] = _ENV_CONFIG,
     duration: Optional[int] = _DURATION,
     workers: int = typer.Option(1, "--workers", "-w", min=1, help="Worker processes."),
-    executor: Executor = typer.Option(Executor.local, "--executor",
-                                      help="local worker processes, or Ray tasks."),
-    ray_address: Optional[str] = typer.Option(None, "--ray-address",
-                                              help="A Ray cluster (default: start one here)."),
+    executor: Executor = _EPISODE_EXECUTOR,
+    ray_address: Optional[str] = _RAY_ADDRESS,
     profile: Optional[str] = _PROFILE,
     fallback: Optional[str] = typer.Option(None, "--fallback",
                                            help="Action taken when the shield allows nothing "
@@ -666,10 +670,8 @@ def simulate_cmd(
     env_config: list[str] = _ENV_CONFIG,
     duration: Optional[int] = _DURATION,
     workers: int = typer.Option(1, "--workers", "-w", min=1, help="Worker processes."),
-    executor: Executor = typer.Option(Executor.local, "--executor",
-                                      help="local worker processes, or Ray tasks."),
-    ray_address: Optional[str] = typer.Option(None, "--ray-address",
-                                              help="A Ray cluster (default: start one here)."),
+    executor: Executor = _EPISODE_EXECUTOR,
+    ray_address: Optional[str] = _RAY_ADDRESS,
     profile: Optional[str] = _PROFILE,
     properties: Optional[str] = typer.Option(
         None, "--properties", "-p", help="A built-in set (highway, frozenlake, cliffwalking) "

@@ -133,16 +133,12 @@ def _postconditions(shield: Shield, cols: RunColumns, rows: np.ndarray,
         which = np.flatnonzero(actions == code)
         if not len(which) or name not in machine.operations:
             continue
-        node = machine.postcondition(name)
-        if node is None:  # no predicate for this body: check the steps one by one
+        if machine.postcondition(name) is None:  # no predicate: the steps one by one
             for i in which:
                 r = rows[i]
                 bad[i] = not machine.effect_ok(name, cols.states.row(r - 1), cols.states.row(r))
             continue
-        formula = machine._compiled.setdefault("post_batch", {}).get(name)
-        if formula is None:
-            formula = machine._compiled["post_batch"][name] = machine.batch(node)
-        bad[which] = ~formula(_pairs(cols.states, rows[which])).astype(bool)
+        bad[which] = ~machine.postcondition_batch(name, _pairs(cols.states, rows[which]))
     return bad
 
 
@@ -161,11 +157,7 @@ def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport) -> None
     feasible[rows] = matrix[rows - 1, to_op[actions]]
     deadlock = ~matrix.any(axis=1) if ops else np.ones(cols.n, dtype=bool)
     machine = shield.machine
-    invariant_ok = np.ones(cols.n, dtype=bool)
-    if machine.invariant_node is not None:
-        inv = machine._compiled.get("inv_batch") or machine.batch(machine.invariant_node)
-        machine._compiled["inv_batch"] = inv
-        invariant_ok = inv(cols.states).astype(bool)
+    invariant_ok = machine.invariant_batch(cols.states)
     post_bad = np.zeros(cols.n, dtype=bool)
     post_bad[rows] = _postconditions(shield, cols, rows, actions)
     for i, ep in enumerate(cols.episode_ids):

@@ -4,7 +4,6 @@ statistics and pictures for frozenlake, cliffwalking and a user's own toy enviro
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest

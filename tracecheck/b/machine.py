@@ -226,6 +226,51 @@ class Machine:
             return False
         return bool(check(pre, dict(after)))
 
+    # -- batch evaluation over columns (one call per formula for a whole recording)
+    def batch(self, node: A.Node):
+        """A :class:`~tracecheck.b.vector.BatchFormula` for ``node`` in this machine."""
+        from .vector import BatchFormula
+
+        return BatchFormula(node, self.base_env, source=self.source, file=self.file)
+
+    def _batch_cached(self, key: tuple, node: A.Node):
+        cache = self._compiled.setdefault("batch", {})
+        if key not in cache:
+            cache[key] = self.batch(node)
+        return cache[key]
+
+    def enabled_batch(self, columns) -> dict:
+        """For each operation, a bool array: is it enabled in each row of ``columns``?"""
+        import numpy as np
+
+        out = {}
+        for name, op in self.operations.items():
+            if op.guard is None:
+                out[name] = np.ones(columns.n, dtype=bool)
+                continue
+            guard = op.guard
+            if op.params:
+                guard = A.Quant("#", op.params, guard, pos=guard.pos)
+            out[name] = self._batch_cached(("guard", name), guard)(columns).astype(bool)
+        return out
+
+    def invariant_batch(self, columns):
+        """A bool array: does the INVARIANT hold in each row of ``columns``?"""
+        import numpy as np
+
+        if self.invariant_node is None:
+            return np.ones(columns.n, dtype=bool)
+        return self._batch_cached(("invariant",), self.invariant_node)(columns).astype(bool)
+
+    def postcondition_batch(self, op: str, pairs):
+        """A bool array over step pairs (``v`` after, ``v$0`` before, see
+        :meth:`postcondition`): is each step a possible effect of ``op``? None when the body
+        has no such predicate (then :meth:`effect_ok` decides step by step)."""
+        node = self.postcondition(op)
+        if node is None:
+            return None
+        return self._batch_cached(("post", op), node)(pairs).astype(bool)
+
     def invariant(self, state: Mapping[str, Any]) -> bool:
         """Whether the INVARIANT holds in ``state``."""
         if self.invariant_node is None:
@@ -426,32 +471,3 @@ def _solve_equalities(conjs, const_names, values, env, comp) -> None:
 _GLOBAL_NAMES = frozenset({"BOOL", "INTEGER", "NATURAL", "NATURAL1", "INT", "NAT", "NAT1",
                            "REAL", "FLOAT", "STRING", "MAXINT", "MININT"})
 
-
-def _batch(self: Machine, node: A.Node):
-    """A :class:`~tracecheck.b.vector.BatchFormula` for ``node`` in this machine."""
-    from .vector import BatchFormula
-
-    return BatchFormula(node, self.base_env, source=self.source, file=self.file)
-
-
-def _enabled_batch(self: Machine, columns) -> dict:
-    """For each operation, a bool array: is it enabled in each row of ``columns``?"""
-    import numpy as np
-
-    cache = self._compiled.setdefault("batch_guards", {})
-    out = {}
-    for name, op in self.operations.items():
-        if op.guard is None:
-            out[name] = np.ones(columns.n, dtype=bool)
-            continue
-        if name not in cache:
-            guard = op.guard
-            if op.params:
-                guard = A.Quant("#", op.params, guard, pos=guard.pos)
-            cache[name] = _batch(self, guard)
-        out[name] = cache[name](columns).astype(bool)
-    return out
-
-
-Machine.batch = _batch
-Machine.enabled_batch = _enabled_batch

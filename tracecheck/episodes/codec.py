@@ -17,7 +17,7 @@ import orjson
 
 from ..b.values import Elem, FuncValue, format_value, from_json, parse_literal
 from ..b.vector import Columns
-from ..errors import InputError, TracecheckError
+from ..errors import InputError
 
 __all__ = ["encode_state", "decode_state", "encode_columns", "decode_columns",
            "COLUMNS_MEDIA_TYPE"]
@@ -198,10 +198,3 @@ def columns_from_arrays(header: dict, arrays: dict[str, np.ndarray],
                                  f"literal {int(rows.max())} of {len(distinct)}")
             cols.others[name] = [distinct[k] for k in rows.tolist()]
     return cols
-
-
-def dumps(obj: Any) -> bytes:
-    try:
-        return orjson.dumps(obj)
-    except TypeError as exc:
-        raise TracecheckError(f"cannot store {obj!r}: {exc}") from None

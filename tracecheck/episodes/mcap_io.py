@@ -13,7 +13,6 @@ statistics) without decoding a single step message.
 from __future__ import annotations
 
 import datetime as _dt
-import os
 import time as _time
 import warnings
 from dataclasses import dataclass, field
@@ -60,10 +59,9 @@ class EpisodeWriter:
     ...     out.write(episode)
     """
 
-    def __init__(self, path: str | Path, header: S.RunHeader, *, durable: bool = False) -> None:
+    def __init__(self, path: str | Path, header: S.RunHeader) -> None:
         self.path = Path(path)
         self.header = header
-        self.durable = durable
         self.episodes = 0
         self._stream: Optional[IO[bytes]] = None
         self._writer: Optional[Writer] = None
@@ -118,8 +116,6 @@ class EpisodeWriter:
 
     def _flush(self) -> None:
         self._stream.flush()
-        if self.durable:
-            os.fsync(self._stream.fileno())
 
     def write(self, episode: Episode) -> None:
         """Write ``episode`` completely, then flush it to disk."""
