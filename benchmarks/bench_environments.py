@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from tracecheck.live.adapter import get_adapter
-from tracecheck.record import RecordSettings, record
-from tracecheck.replay import replay
-from tracecheck.shield import load_shield
+from tracecheck.live.record import RecordSettings, record
+from tracecheck.checking.replay import replay
+from tracecheck.checking.shield import load_shield
 
 ROOT = Path(__file__).resolve().parents[1]
 AGENT = ROOT / "models" / "agents" / "frozenlake.npy"

@@ -17,7 +17,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from tracecheck.record import RecordSettings, record
+from tracecheck.live.record import RecordSettings, record
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from tracecheck.episodes import read_run
-from tracecheck.highway import make_env
-from tracecheck.record import RecordSettings, record
+from tracecheck.live.envs.highway import make_env
+from tracecheck.live.record import RecordSettings, record
 
 ROOT = Path(__file__).resolve().parents[1]
 AGENT = ROOT / "models" / "agents" / "base.zip"

@@ -25,8 +25,8 @@ from tracecheck.episodes.files import write_run
 from tracecheck.episodes.mcap_io import new_header
 from tracecheck.episodes.model import HIGHWAY
 from tracecheck.interop import import_simb
-from tracecheck.replay import diff, replay
-from tracecheck.shield import load_shield
+from tracecheck.checking.replay import diff, replay
+from tracecheck.checking.shield import load_shield
 
 ROOT = Path(__file__).resolve().parents[1]
 SIMB = ROOT.parent / "shared" / "data" / "paper-traces" / "simb"

@@ -12,7 +12,7 @@ import tempfile
 from pathlib import Path
 
 from tracecheck.episodes import read_run
-from tracecheck.record import RecordSettings, record
+from tracecheck.live.record import RecordSettings, record
 
 ROOT = Path(__file__).resolve().parents[1]
 

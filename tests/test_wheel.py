@@ -56,7 +56,7 @@ def test_the_wheel_runs_outside_the_source_tree(installed, tmp_path):
 
 
 def test_the_wheel_records_with_a_bundled_agent(installed, tmp_path):
-    from tracecheck.shield import data_dir
+    from tracecheck.checking.shield import data_dir
 
     agent = data_dir() / "agents" / "frozenlake.npy"
     out = tmp_path / "fl.mcap"

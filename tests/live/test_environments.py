@@ -241,8 +241,8 @@ def test_shield_wrapper_on_a_toy_environment(tmp_path):
     """The wrapper without highway-env: masks, the decision in info, replaced actions and a
     fail-closed deadlock."""
     from tests.live.toy import Corridor, CorridorEnv
-    from tracecheck.shield import load_shield
-    from tracecheck.shielding import ShieldWrapper
+    from tracecheck.checking.shield import load_shield
+    from tracecheck.live.wrapper import ShieldWrapper
 
     path = tmp_path / "corridor.mch"
     path.write_text(SHIELD)
@@ -294,8 +294,8 @@ def test_lunarlander_records_and_the_authors_machine_replays_it(tmp_path, capsys
 @pytest.mark.parametrize("env", ["frozenlake", "cliffwalking"])
 def test_batch_replay_equals_state_by_state_replay(env, tmp_path, capsys):
     from tracecheck.episodes.mcap_io import read_columns
-    from tracecheck.replay import enabled_matrix
-    from tracecheck.shield import load_shield
+    from tracecheck.checking.replay import enabled_matrix
+    from tracecheck.checking.shield import load_shield
 
     out = tmp_path / f"{env}.mcap"
     code, _, err = run(capsys, "record", "--env", env, "--env-config", "is_slippery=true",

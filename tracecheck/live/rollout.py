@@ -65,9 +65,9 @@ class Session:
     """
 
     def __init__(self, settings: RecordSettings, config: Optional[dict] = None) -> None:
-        from ..agents import load_agent
-        from ..shield import load_shield
-        from ..shielding import ShieldWrapper
+        from .agents import load_agent
+        from ..checking.shield import load_shield
+        from .wrapper import ShieldWrapper
 
         self.settings = settings
         self.adapter, default, self.horizon = resolve(settings)
@@ -91,7 +91,7 @@ def run_episode(session: Session, index: int, *, seed: Optional[int] = None,
     of the scripted part, the initial one included, and returns what differs from the
     recording, if anything: that ends the rollout with :class:`Mismatch`.
     """
-    from ..shielding import choose
+    from .wrapper import choose
 
     seed = session.settings.seed + index if seed is None else seed
     env, agent = session.env, session.agent

@@ -10,8 +10,8 @@ from pathlib import Path
 from typing import Optional
 
 from ..errors import InputError
-from ..properties import PropertySet
-from ..shield import Shield
+from ..stats.properties import PropertySet
+from ..checking.shield import Shield
 from .viewer import render_episode, write_page
 
 __all__ = ["render_report"]
@@ -35,7 +35,7 @@ def _svg_plots(result: dict) -> list[str]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..stats_report import stats_plots
+    from .stats_text import stats_plots
 
     figures = []
     original = plt.Figure.savefig
@@ -61,9 +61,9 @@ def _svg_plots(result: dict) -> list[str]:
 def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
                   pset: PropertySet, max_pages: int = 20) -> tuple[Path, int]:
     """Write the report to ``out`` and viewer pages beside it; (report, pages written)."""
-    from ..replay import replay
-    from ..stats import statistics
-    from ..stats_report import _rows
+    from ..checking.replay import replay
+    from ..stats.estimates import statistics
+    from .stats_text import _rows
 
     from ..episodes.mcap_io import read_columns
 

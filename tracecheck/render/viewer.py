@@ -19,7 +19,7 @@ from typing import Optional
 from ..b.values import format_value
 from ..episodes.mcap_io import read_columns, read_run
 from ..errors import InputError
-from ..shield import Shield
+from ..checking.shield import Shield
 
 __all__ = ["render_episode", "episode_data"]
 

@@ -1,15 +1,103 @@
-"""The paper's highway (``highway-fast-v0``) as an adapter; the details live in
-:mod:`tracecheck.highway`."""
+"""The highway environment of the paper's case study, its observations as B states, and its
+adapter (:class:`HighwayAdapter`, the default environment).
+
+``highway-fast-v0`` with three lanes, the policy at 1 Hz and the default Kinematics
+observation (5 vehicles: presence, x, y, vx, vy, normalised to [-1, 1]). An episode lasts
+up to 60 agent steps (60 s) and ends early at a crash; highway-env's own time limit is set
+past that so it never cuts an episode short.
+
+:class:`StateAdapter` turns observations into states in the paper's vocabulary with the
+conventions of its traces: metres and m/s (de-normalised with the feature ranges), ego x
+absolute and the other vehicles relative to the ego, accelerations the change of velocity
+over the last second (0 in the initial state), ``Crash`` the environment's crash flag,
+``Reward`` the step reward, ``PresentVehicles`` from the presence feature, elements
+``EgoVehicle``, ``Vehicles2`` … ``Vehicles5``.
+"""
 
 from __future__ import annotations
 
 from typing import Any, Optional
 
-from ...episodes.model import HIGHWAY
-from ...highway import ACTIONS, ENV_ID, REWARD_PROFILES, StateAdapter, env_config
+import numpy as np
+
+from ...b.values import Elem, FuncValue
+from ...episodes.model import HIGHWAY, HIGHWAY_ACTIONS
+from ...errors import InputError
 from ..adapter import EnvAdapter, Observer
 
-__all__ = ["HighwayAdapter"]
+__all__ = ["ENV_ID", "REWARD_PROFILES", "env_config", "make_env", "StateAdapter", "ACTIONS",
+           "ELEMENTS", "HighwayAdapter"]
+
+ENV_ID = "highway-fast-v0"
+ACTIONS = HIGHWAY_ACTIONS  # highway-env's DiscreteMetaAction order: 0 = LANE_LEFT, …
+ELEMENTS = tuple(Elem(n) for n in ("EgoVehicle", "Vehicles2", "Vehicles3", "Vehicles4",
+                                   "Vehicles5"))
+#: Reward settings: highway-env's defaults, and the paper's HIGHER PENALTY agent (§4.2).
+REWARD_PROFILES: dict[str, dict[str, float]] = {
+    "base": {},
+    "higher-penalty": {"collision_reward": -2.0, "right_lane_reward": 0.2},
+}
+
+
+def env_config(profile: str = "base", duration: int = 60) -> dict[str, Any]:
+    """The environment configuration for a reward profile and an episode length (s)."""
+    if profile not in REWARD_PROFILES:
+        raise InputError(f"unknown reward profile {profile!r}; the profiles are "
+                         f"{', '.join(REWARD_PROFILES)}")
+    return {"lanes_count": 3, "policy_frequency": 1, "duration": duration + 1,
+            "observation": {"type": "Kinematics"}, **REWARD_PROFILES[profile]}
+
+
+def make_env(profile: str = "base", duration: int = 60, render_mode: Optional[str] = None):
+    """A configured ``highway-fast-v0`` environment."""
+    import gymnasium as gym
+    import highway_env  # noqa: F401 - registers the environments
+
+    return gym.make(ENV_ID, config=env_config(profile, duration), render_mode=render_mode)
+
+
+class StateAdapter:
+    """Observations to B states (see the module docstring)."""
+
+    def __init__(self, env) -> None:
+        obs_type = env.unwrapped.observation_type
+        self.features = list(obs_type.features)
+        missing = {"presence", "x", "y", "vx", "vy"} - set(self.features)
+        if missing:
+            raise InputError(f"the observation lacks the features {sorted(missing)}")
+        self.scale = {f: (max(abs(lo), abs(hi)) if obs_type.normalize else 1.0)
+                      for f, (lo, hi) in obs_type.features_range.items()}
+        self.index = {f: i for i, f in enumerate(self.features)}
+        self._last: Optional[tuple[np.ndarray, np.ndarray]] = None
+
+    def _column(self, obs: np.ndarray, feature: str) -> np.ndarray:
+        return obs[:, self.index[feature]].astype(np.float64) * self.scale.get(feature, 1.0)
+
+    def state(self, obs: np.ndarray, reward: float, crashed: bool,
+              initial: bool = False) -> dict[str, Any]:
+        obs = np.asarray(obs)
+        if obs.shape[0] != len(ELEMENTS):
+            raise InputError(f"the observation has {obs.shape[0]} vehicles, the paper's "
+                             f"vocabulary {len(ELEMENTS)}")
+        vx, vy = self._column(obs, "vx"), self._column(obs, "vy")
+        if initial or self._last is None:
+            ax, ay = np.zeros_like(vx), np.zeros_like(vy)
+        else:
+            ax, ay = vx - self._last[0], vy - self._last[1]
+        self._last = (vx, vy)
+        present = obs[:, self.index["presence"]] > 0.5
+
+        def fn(values: np.ndarray) -> FuncValue:
+            return FuncValue({e: float(v) for e, v in zip(ELEMENTS, values)})
+
+        return {
+            "Crash": bool(crashed),
+            "PresentVehicles": frozenset(e for e, p in zip(ELEMENTS, present) if p)
+            | {ELEMENTS[0]},
+            "VehiclesX": fn(self._column(obs, "x")), "VehiclesY": fn(self._column(obs, "y")),
+            "VehiclesVx": fn(vx), "VehiclesVy": fn(vy), "VehiclesAx": fn(ax),
+            "VehiclesAy": fn(ay), "Reward": float(reward),
+        }
 
 
 class _HighwayObserver(Observer):

@@ -13,10 +13,10 @@ import multiprocessing as mp
 from pathlib import Path
 from typing import Callable, Iterator, Optional
 
-from .episodes.mcap_io import EpisodeWriter, new_header
-from .episodes.model import Episode
-from .errors import InputError
-from .live.rollout import RecordSettings, Session, resolve
+from ..episodes.mcap_io import EpisodeWriter, new_header
+from ..episodes.model import Episode
+from ..errors import InputError
+from .rollout import RecordSettings, Session, resolve
 
 __all__ = ["RecordSettings", "record", "episodes", "check_settings", "recording_header"]
 
@@ -60,7 +60,7 @@ def check_settings(settings: RecordSettings, out: Path):
     against the environment's), shield (its operations and variables against the
     environment's actions and states), output."""
     from .agents import load_agent
-    from .shield import check_vocabulary, load_shield
+    from ..checking.shield import check_vocabulary, load_shield
 
     if settings.episodes < 1:
         raise InputError("--episodes must be at least 1")

@@ -16,10 +16,10 @@ from typing import Iterable, Optional
 
 import numpy as np
 
-from .b import ast as A
-from .b.vector import Columns
-from .episodes.mcap_io import RunColumns, read_columns
-from .errors import InputError
+from ..b import ast as A
+from ..b.vector import Columns
+from ..episodes.mcap_io import RunColumns, read_columns
+from ..errors import InputError
 from .shield import Shield
 
 __all__ = ["replay", "diff", "ReplayReport", "EpisodeReplay", "DiffReport", "ChangedStep",
@@ -221,7 +221,7 @@ def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "loca
             report.warnings += cols.warnings
             _replay_file(shield, cols, report)
     else:
-        from .executors import map_files
+        from ..live.executors import map_files
 
         for part in map_files(_replay_one, [(p, shield.path) for p in paths], executor,
                               ray_address):
@@ -314,7 +314,7 @@ def diff(paths: Iterable[str | Path], shield: Shield, against: Shield, *,
             report.warnings += cols.warnings
             _diff_file(cols, shield, against, report)
     else:
-        from .executors import map_files
+        from ..live.executors import map_files
 
         for part in map_files(_diff_one, [(p, shield.path, against.path) for p in paths],
                               executor, ray_address):

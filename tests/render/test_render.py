@@ -8,10 +8,10 @@ import shutil
 import pytest
 
 from tests.conftest import ROOT
-from tests.test_cli import run
+from tests.cli.test_cli import run
 from tracecheck.episodes import EpisodeWriter, new_header
 from tracecheck.render.viewer import episode_data, render_episode
-from tracecheck.shield import load_shield
+from tracecheck.checking.shield import load_shield
 
 NONE = ROOT / "sample_traces" / "base_none.mcap"
 
@@ -125,7 +125,7 @@ def test_report_in_a_browser(tmp_path):
     from selenium.webdriver.common.by import By
 
     out = tmp_path / "report.html"
-    from tracecheck.properties import HIGHWAY_SET
+    from tracecheck.stats.properties import HIGHWAY_SET
     from tracecheck.render.report import render_report
 
     render_report([NONE], out, shield=load_shield("paper"), pset=HIGHWAY_SET, max_pages=2)

@@ -26,10 +26,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional
 
-from .b import ast as A
-from .b.parser import parse_formula
-from .b.scope import EXPR, PRED, check_kind
-from .errors import InputError, TracecheckError, read_text
+from ..b import ast as A
+from ..b.parser import parse_formula
+from ..b.scope import EXPR, PRED, check_kind
+from ..errors import InputError, TracecheckError, read_text
 
 __all__ = ["Metric", "Property", "HypothesisTest", "PropertySet", "load_properties",
            "HIGHWAY_SET", "AGGREGATES", "KINDS", "TAILS"]

@@ -11,8 +11,8 @@ from __future__ import annotations
 import os
 from typing import Iterator, Optional
 
-from .episodes.model import Episode
-from .errors import InputError
+from ..episodes.model import Episode
+from ..errors import InputError
 
 __all__ = ["ray_episodes", "EXECUTORS"]
 
@@ -23,7 +23,7 @@ _SESSION = None
 def _ray_episode(settings, index: int) -> Episode:
     """Runs on a Ray worker: one episode, with the worker's cached agent, shield and env."""
     global _SESSION
-    from .live.rollout import Session
+    from .rollout import Session
 
     if _SESSION is None or _SESSION.settings != settings:
         _SESSION = Session(settings)

@@ -12,9 +12,9 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Callable, Optional
 
-from .agents import file_sha256
-from .episodes.mcap_io import RunColumns, read_columns, read_header
-from .errors import InputError
+from ..live.agents import file_sha256
+from ..episodes.mcap_io import RunColumns, read_columns, read_header
+from ..errors import InputError
 from .replay import ReplayReport
 from .shield import SHIELD_DIR, Shield
 
@@ -85,8 +85,8 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
     The environment is the adapter the file names, looked up among the installed ones only
     (a file never makes tracecheck import a module); ``env`` (from ``--env``) overrides it.
     """
-    from .live.adapter import get_adapter, load_adapter
-    from .live.rollout import RecordSettings, Session
+    from ..live.adapter import get_adapter, load_adapter
+    from ..live.rollout import RecordSettings, Session
 
     path = str(path)
     header = read_header(path)
@@ -119,7 +119,7 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
 def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:
     """The episode again from its seed: the recorded actions up to the first infeasible
     step (each state checked against the recording), then the agent under the shield."""
-    from .live.rollout import Mismatch, run_episode
+    from ..live.rollout import Mismatch, run_episode
 
     lo = int(cols.starts[i])
     seed = cols.seeds[i] if i < len(cols.seeds) else None

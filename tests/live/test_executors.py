@@ -9,7 +9,7 @@ import pytest
 
 from tests.conftest import ROOT
 from tracecheck.episodes import read_run
-from tracecheck.record import RecordSettings, record
+from tracecheck.live.record import RecordSettings, record
 
 ray = pytest.importorskip("ray", reason="the ray extra is not installed (pip install "
                                         "-e '.[ray]')")
@@ -74,10 +74,10 @@ def test_killed_worker_loses_and_duplicates_nothing(local_ray, tmp_path):
 
 
 def test_replay_diff_stats_per_file_on_ray(local_ray):
-    from tracecheck.properties import HIGHWAY_SET
-    from tracecheck.replay import diff, replay
-    from tracecheck.shield import load_shield
-    from tracecheck.stats import statistics
+    from tracecheck.stats.properties import HIGHWAY_SET
+    from tracecheck.checking.replay import diff, replay
+    from tracecheck.checking.shield import load_shield
+    from tracecheck.stats.estimates import statistics
 
     files = [ROOT / "sample_traces" / "base_none.mcap", ROOT / "sample_traces" / "base_paper.mcap"]
     paper, none = load_shield("paper"), load_shield("none")

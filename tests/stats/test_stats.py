@@ -7,14 +7,14 @@ import json
 import pytest
 
 from tests.episodes.conftest import state
-from tests.test_cli import run
+from tests.cli.test_cli import run
 from tracecheck.episodes import EpisodeWriter, new_header
 from tracecheck.episodes.files import write_run
 from tracecheck.episodes.model import Episode, StepRecord, make_end
 from tracecheck.errors import BScopeError, BTypeError, InputError
 from tracecheck.interop import import_simb
-from tracecheck.properties import HIGHWAY_SET, load_properties, parse_properties
-from tracecheck.stats import statistics
+from tracecheck.stats.properties import HIGHWAY_SET, load_properties, parse_properties
+from tracecheck.stats.estimates import statistics
 
 
 @pytest.fixture(scope="module")
@@ -119,8 +119,8 @@ def test_aggregates_by_hand(hand_run):
 
 
 def test_intervals_and_tests_against_reference_values(hand_run):
-    from tracecheck.properties import HypothesisTest, Property
-    from tracecheck.stats import _hypothesis, _property_stats
+    from tracecheck.stats.properties import HypothesisTest, Property
+    from tracecheck.stats.estimates import _hypothesis, _property_stats
     import numpy as np
 
     holds = np.array([True] * 13 + [False] * 37)

@@ -18,9 +18,9 @@ from typing import Any, Optional, Sequence
 import gymnasium as gym
 import numpy as np
 
-from .b.evaluate import MEMO_KEY
-from .errors import InputError
-from .shield import Shield
+from ..b.evaluate import MEMO_KEY
+from ..errors import InputError
+from ..checking.shield import Shield
 
 __all__ = ["ShieldWrapper", "choose"]
 
@@ -45,7 +45,7 @@ class ShieldWrapper(gym.Wrapper):
 
     def __init__(self, env: gym.Env, shield: Shield, fallback: Optional[str] = None,
                  adapter=None) -> None:
-        from .live.adapter import get_adapter
+        from .adapter import get_adapter
 
         super().__init__(env)
         self.env_adapter = adapter if adapter is not None else get_adapter("highway")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 
 from tests.episodes.conftest import episode
-from tests.test_cli import run
+from tests.cli.test_cli import run
 from tracecheck.episodes import EpisodeWriter, new_header
 
 

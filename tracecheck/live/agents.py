@@ -21,8 +21,8 @@ from typing import Any, Optional
 
 import numpy as np
 
-from .errors import InputError
-from .highway import ENV_ID, env_config, make_env
+from ..errors import InputError
+from .envs.highway import ENV_ID, env_config, make_env
 
 __all__ = ["Agent", "load_agent", "train", "train_q_table", "PAPER_DQN", "Q_LEARNING",
            "file_sha256"]
@@ -96,7 +96,7 @@ def load_agent(path: str | Path, adapter=None, env=None) -> Agent:
     if not path.is_file():
         raise InputError(f"no such agent file: {path}")
     if adapter is None:
-        from .live.adapter import get_adapter
+        from .adapter import get_adapter
 
         adapter = get_adapter("highway")
     actions = adapter.actions

@@ -19,10 +19,10 @@ from hypothesis import strategies as st
 from tracecheck.b.machine import load_machine
 from tracecheck.b.values import Elem, FuncValue, parse_literal
 from tracecheck.b.vector import Columns
-from tracecheck.shield import load_shield
+from tracecheck.checking.shield import load_shield
 
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+SHARED = Path(__file__).resolve().parents[3] / "shared" / "data"
 PAPER_MODELS = SHARED / "paper-models"
 PAPER_TRACES = SHARED / "paper-traces"
 AUTHORS = PAPER_MODELS / "HighwayEnvironment" / "HighwayEnvironment2.mch"

@@ -6,8 +6,8 @@ import json
 
 import pytest
 
-from tests.test_cli import run
-from tests.test_replay import TOY, run_file, toy  # noqa: F401 - fixtures
+from tests.cli.test_cli import run
+from tests.checking.test_replay import TOY, run_file, toy  # noqa: F401 - fixtures
 from tracecheck.episodes import new_header
 from tracecheck.episodes.files import write_run
 from tracecheck.interop import import_simb

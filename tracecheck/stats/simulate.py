@@ -16,12 +16,12 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from .b.vector import Columns
-from .episodes.mcap_io import EpisodeWriter
-from .episodes.model import Episode
+from ..b.vector import Columns
+from ..episodes.mcap_io import EpisodeWriter
+from ..episodes.model import Episode
 from .properties import PropertySet
-from .record import RecordSettings, check_settings, episodes, recording_header
-from .stats import prepare, statistics
+from ..live.record import RecordSettings, check_settings, episodes, recording_header
+from .estimates import prepare, statistics
 
 __all__ = ["simulate"]
 
@@ -54,12 +54,12 @@ def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
     (see the module docstring for the early stop)."""
     out = Path(out)
     if until_width is not None and not 0.0 < until_width < 1.0:
-        from .errors import InputError
+        from ..errors import InputError
 
         raise InputError(f"--until-ci-width must lie strictly between 0 and 1 (a width of a "
                          f"share), not {until_width}")
     agent, shield = check_settings(settings, out)
-    from .record import resolve
+    from ..live.record import resolve
 
     formulas = prepare(pset, resolve(settings)[0])
     batch = batch or max(10, 10 * settings.workers)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tracecheck.errors import InputError
-from tracecheck.highway import ELEMENTS, StateAdapter, env_config, make_env
+from tracecheck.live.envs.highway import ELEMENTS, StateAdapter, env_config, make_env
 
 
 @pytest.fixture(scope="module")

@@ -12,16 +12,16 @@ import zipfile
 import pytest
 
 from tests.conftest import ROOT
-from tests.test_cli import run
-from tracecheck.agents import load_agent
+from tests.cli.test_cli import run
+from tracecheck.live.agents import load_agent
 from tracecheck.episodes import EpisodeWriter, read_columns, read_run
 from tracecheck.episodes.model import Episode, StepRecord, make_end
 from tracecheck.errors import InputError
-from tracecheck.highway import ENV_ID, env_config
-from tracecheck.record import RecordSettings, record
-from tracecheck.replay import replay
-from tracecheck.resimulate import OUTCOMES, resimulate, summary
-from tracecheck.shield import load_shield
+from tracecheck.live.envs.highway import ENV_ID, env_config
+from tracecheck.live.record import RecordSettings, record
+from tracecheck.checking.replay import replay
+from tracecheck.checking.resimulate import OUTCOMES, resimulate, summary
+from tracecheck.checking.shield import load_shield
 
 BASE = ROOT / "models" / "agents" / "base.zip"
 

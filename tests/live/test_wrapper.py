@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from tracecheck.errors import InputError
-from tracecheck.highway import ACTIONS, make_env
-from tracecheck.shield import load_shield
-from tracecheck.shielding import ShieldWrapper, choose
+from tracecheck.live.envs.highway import ACTIONS, make_env
+from tracecheck.checking.shield import load_shield
+from tracecheck.live.wrapper import ShieldWrapper, choose
 
 NOTHING = """
 MACHINE Nothing

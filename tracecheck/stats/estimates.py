@@ -18,10 +18,10 @@ from typing import Optional
 
 import numpy as np
 
-from .b.typecheck import typecheck_formula
-from .b.vector import BatchFormula
-from .episodes.mcap_io import RunColumns, read_columns
-from .errors import InputError, TracecheckError
+from ..b.typecheck import typecheck_formula
+from ..b.vector import BatchFormula
+from ..episodes.mcap_io import RunColumns, read_columns
+from ..errors import InputError, TracecheckError
 from .properties import Metric, Property, PropertySet
 
 __all__ = ["RunValues", "evaluate_run", "statistics", "INTERVALS"]
@@ -44,7 +44,7 @@ class RunValues:
 
 def environment_of(path: str | Path) -> str:
     """The environment a run file's states come from (files without one: the highway)."""
-    from .episodes.mcap_io import read_header
+    from ..episodes.mcap_io import read_header
 
     return read_header(path).environment or "highway"
 
@@ -52,8 +52,8 @@ def environment_of(path: str | Path) -> str:
 def _typing_scope(environment="highway", sample: Optional[dict] = None):
     """The names and constants properties are checked against: those of the environment's
     machine (the shield its adapter names), else the types of a sample state's values."""
-    from .live.adapter import EnvAdapter, get_adapter
-    from .shield import load_shield
+    from ..live.adapter import EnvAdapter, get_adapter
+    from ..checking.shield import load_shield
 
     adapter = environment if isinstance(environment, EnvAdapter) else None
     if adapter is None:
@@ -68,7 +68,7 @@ def _typing_scope(environment="highway", sample: Optional[dict] = None):
     if sample is None:
         raise InputError(f"the environment {environment} names no machine to type-check "
                          "properties against")
-    from .b.typecheck import type_of_value
+    from ..b.typecheck import type_of_value
 
     return ({k: type_of_value(v) for k, v in sample.items()}, {}, tuple(sample))
 
@@ -83,7 +83,7 @@ def _check(node, kind: str, where: str, text: str, names, variables) -> None:
 
 def default_properties(paths: list[str | Path]) -> str:
     """The property set of the runs' environment (the highway's when it has none)."""
-    from .live.adapter import get_adapter
+    from ..live.adapter import get_adapter
 
     environment = environment_of(paths[0]) if paths else "highway"
     return get_adapter(environment).properties or "highway"
@@ -263,7 +263,7 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
                          "compare runs of one environment")
     environment = environments.pop() if environments else "highway"
     if executor != "local":
-        from .executors import map_files
+        from ..live.executors import map_files
 
         start = time.perf_counter()
         runs = map_files(_evaluate_one, [(str(p), pset, names[i] if names else None)

@@ -11,9 +11,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
-from .b.machine import Machine, load_machine
-from .episodes.model import HIGHWAY_ACTIONS
-from .errors import InputError
+from ..b.machine import Machine, load_machine
+from ..episodes.model import HIGHWAY_ACTIONS
+from ..errors import InputError
 
 __all__ = ["Shield", "load_shield", "BUILTIN_SHIELDS", "SHIELD_DIR", "check_vocabulary",
            "data_dir"]
@@ -21,7 +21,7 @@ __all__ = ["Shield", "load_shield", "BUILTIN_SHIELDS", "SHIELD_DIR", "check_voca
 def data_dir() -> Path:
     """Where the built-in shields and bundled agents are: ``models/`` of a source checkout, or
     the installed package data ``tracecheck.models`` (a wheel)."""
-    source = Path(__file__).resolve().parents[1] / "models"
+    source = Path(__file__).resolve().parents[2] / "models"
     if (source / "shields").is_dir():
         return source
     from importlib import resources
@@ -75,7 +75,7 @@ def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None) 
 
 def _none_for(actions: tuple[str, ...]) -> Shield:
     """``none`` for any environment: one operation per action, each always enabled."""
-    from .b.machine import load_machine_text
+    from ..b.machine import load_machine_text
 
     ops = ";\n  ".join(f"{a} = skip" for a in actions)
     text = f"/* everything allowed: built from the actions */\nMACHINE none\nOPERATIONS\n  {ops}\nEND\n"
@@ -98,7 +98,7 @@ def check_vocabulary(shield: Shield, adapter, env) -> None:
                          f"{', '.join(machine.variables)})",
                          hint=f"use a shield written for {adapter.name}, e.g. "
                               f"{adapter.default_shield or 'none'}")
-    from .b import ast as A
+    from ..b import ast as A
 
     for name, op in machine.operations.items():
         if op.guard is None:

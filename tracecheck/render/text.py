@@ -5,7 +5,7 @@ from __future__ import annotations
 from rich.console import Console
 from rich.table import Table
 
-from .replay import DiffReport, EpisodeReplay, ReplayReport
+from ..checking.replay import DiffReport, EpisodeReplay, ReplayReport
 
 __all__ = ["replay_text", "replay_markdown", "diff_text"]
 

@@ -1,0 +1,1 @@
+"""Checking recordings against shields: loading shields, replay and diff, re-simulation."""

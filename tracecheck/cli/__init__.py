@@ -1,0 +1,44 @@
+"""The ``tracecheck`` command: a thin Typer layer over the library, one module per group of
+commands (model, episodes, checking, stats, live, render) sharing :mod:`.common`.
+
+Exit codes: 0 ok, 1 a check found problems when asked to fail, 2 bad input.
+"""
+
+from __future__ import annotations
+
+import sys
+import warnings
+from typing import Any, Optional
+
+from rich.markup import escape
+
+from ..errors import TracecheckError
+from .common import app, err
+
+# each module registers its commands on `app`, in the order `tracecheck --help` lists them
+from . import model  # noqa: E402,F401  check-model, eval, guards
+from . import episodes  # noqa: E402,F401  import, export, info
+from . import checking  # noqa: E402,F401  replay, diff
+from . import stats  # noqa: E402,F401  stats, simulate
+from . import live  # noqa: E402,F401  envs, train, record
+from . import render  # noqa: E402,F401  render, report
+
+__all__ = ["app", "main"]
+
+
+def main(argv: Optional[list[str]] = None) -> Any:
+    """Entry point: run the app and turn tracecheck errors into exit code 2."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)
+            return app(args=argv, standalone_mode=True)
+    except TracecheckError as exc:
+        err.print("[red]error[/red]: " + escape(exc.render()), markup=True, highlight=False)
+        sys.exit(exc.exit_code)
+    except KeyboardInterrupt:
+        err.print("interrupted")
+        sys.exit(130)
+    except RecursionError:
+        err.print("[red]error[/red]: the input is nested too deeply for tracecheck "
+                  "(a formula or value with thousands of levels); split it up", markup=True)
+        sys.exit(2)

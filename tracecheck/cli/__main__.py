@@ -1,0 +1,5 @@
+"""``python -m tracecheck.cli``: the same as the ``tracecheck`` command."""
+
+from . import main
+
+main()

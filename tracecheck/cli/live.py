@@ -1,0 +1,152 @@
+"""Commands that run environments: envs, train, record."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.table import Table
+
+from ..errors import InputError
+from .common import (app, out, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, SHIELD_HELP, Profile, ENV,
+                     ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, Algorithm)
+
+
+@app.command("train")
+def train_cmd(
+    env: Optional[str] = ENV,
+    env_config: list[str] = ENV_CONFIG,
+    algorithm: Algorithm = typer.Option(Algorithm.dqn, "--algorithm", help="dqn (the paper's "
+                                        "settings, highway) or q-learning (a Q-table, for "
+                                        "environments with discrete observations)."),
+    profile: Profile = typer.Option(Profile.base, "--profile", help="Reward profile."),
+    steps: Optional[int] = typer.Option(None, "--steps", min=1, help="Environment steps "
+                                        "(default: 20000 for dqn, 200000 for q-learning)."),
+    seed: int = typer.Option(0, "--seed", help="Random seed."),
+    duration: Optional[int] = DURATION,
+    output: Path = typer.Option(..., "--output", "-o", help="The agent file to write (.zip "
+                                "for dqn, .npy for q-learning)."),
+) -> None:
+    """Train an agent: a DQN with the paper's settings on the highway, or a Q-table."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from ..live.agents import train
+    from ..live.adapter import load_adapter, parse_config
+
+    adapter = load_adapter(env)
+    if algorithm == Algorithm.q_learning:
+        from ..live.agents import train_q_table
+
+        card = train_q_table(adapter, adapter.config(parse_config(env_config)), output,
+                             steps=steps or 200_000, seed=seed,
+                             horizon=duration or adapter.horizon)
+        out.print(f"trained {card['agent']} (Q-learning on {adapter.name}, {card['steps']} "
+                  f"steps, seed {seed}) in {card['wall_time_s']:.1f} s -> {output}; model "
+                  f"card {Path(output).with_suffix('.json')}", markup=False)
+        return
+    if adapter.name != "highway":
+        raise InputError(f"--algorithm dqn trains the paper's highway agent; for {adapter.name} "
+                         "use --algorithm q-learning")
+    steps = steps or 20_000
+
+    with Progress(TextColumn("training {task.fields[profile]}"), BarColumn(),
+                  TextColumn("{task.completed}/{task.total} steps"), TimeRemainingColumn(),
+                  console=err, transient=True) as bar:
+        task = bar.add_task("train", total=steps, profile=profile.value)
+        card = train(profile.value, output, steps=steps, seed=seed, duration=duration or 60,
+                     progress=lambda done, total: bar.update(task, completed=done))
+    out.print(f"trained {card['agent']} ({profile.value}, {steps} steps, seed {seed}) in "
+              f"{card['wall_time_s']:.0f} s -> {output}; model card "
+              f"{Path(output).with_suffix('.json')}", markup=False)
+
+
+@app.command("record")
+def record_cmd(
+    agent: Path = AGENT,
+    shield: str = typer.Option("none", "--shield", "-s", help=SHIELD_HELP),
+    episodes: int = typer.Option(..., "--episodes", "-n", min=1, help="How many episodes."),
+    seed: int = typer.Option(0, "--seed", help="Episode i uses seed SEED + i."),
+    env: Optional[str] = ENV,
+    env_config: list[str] = ENV_CONFIG,
+    duration: Optional[int] = DURATION,
+    workers: int = typer.Option(1, "--workers", "-w", min=1, help="Worker processes."),
+    executor: Executor = EPISODE_EXECUTOR,
+    ray_address: Optional[str] = RAY_ADDRESS,
+    profile: Optional[str] = PROFILE,
+    fallback: Optional[str] = typer.Option(None, "--fallback",
+                                           help="Action taken when the shield allows nothing "
+                                                "(default: the environment's; highway SLOWER)."),
+    output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
+) -> None:
+    """Run an agent under a shield (pre-shielding) and record every episode to MCAP."""
+    import time as _time
+
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from ..live.record import record
+
+    settings = record_settings(env, env_config, agent=str(agent), shield=shield, episodes=episodes,
+                         seed=seed, duration=duration, profile=profile, fallback=fallback,
+                         workers=workers, executor=executor.value, ray_address=ray_address)
+    stats = {"crashes": 0, "steps": 0}
+    start = _time.perf_counter()
+    with Progress(TextColumn("recording"), BarColumn(),
+                  TextColumn("{task.completed}/{task.total} episodes, {task.fields[crashes]} "
+                             "crash(es), {task.fields[rate]} steps/s"),
+                  TimeRemainingColumn(), console=err, transient=True) as bar:
+        task = bar.add_task("record", total=episodes, crashes=0, rate="-")
+
+        def progress(ep) -> None:
+            stats["crashes"] += ep.end.crashed
+            stats["steps"] += ep.end.steps
+            rate = stats["steps"] / max(_time.perf_counter() - start, 1e-9)
+            bar.update(task, advance=1, crashes=stats["crashes"], rate=f"{rate:.0f}")
+
+        try:
+            n, steps, crashes = record(settings, output, progress)
+        except KeyboardInterrupt:
+            err.print(f"interrupted: {output} keeps every finished episode")
+            raise typer.Exit(130) from None
+    took = _time.perf_counter() - start
+    out.print(f"recorded {n} episode(s), {steps} step(s), {crashes} crash(es) with shield "
+              f"{shield} in {took:.1f} s ({steps / took:.0f} steps/s) -> {output}",
+              markup=False)
+
+
+
+@app.command("envs")
+def envs_cmd(
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+) -> None:
+    """List the environment adapters: actions, state variables, default shield, and whether
+    the packages they need are installed."""
+    import importlib.util
+
+    from ..live.adapter import adapters
+
+    rows = []
+    for info in adapters():
+        a = info.adapter
+        row = {"name": info.name, "adapter": info.target, "problem": info.problem}
+        if a is not None:
+            missing = [p for p in a.requires if importlib.util.find_spec(p) is None]
+            row.update(environment=a.env_id, actions=list(a.actions),
+                       variables=list(a.variables), default_shield=a.default_shield,
+                       horizon=a.horizon, installed=not missing, missing=missing)
+        rows.append(row)
+    if as_json:
+        out.print_json(json.dumps(rows))
+        return
+    table = Table(box=None, header_style="bold")
+    for col in ("name", "environment", "actions", "variables", "shield", "installed"):
+        table.add_column(col, overflow="fold")
+    for r in rows:
+        if r["problem"]:
+            table.add_row(r["name"], r["adapter"], "", "", "", f"no: {r['problem']}")
+            continue
+        table.add_row(r["name"], r["environment"], ", ".join(r["actions"]),
+                      ", ".join(r["variables"]), r["default_shield"] or "",
+                      "yes" if r["installed"] else "no: needs " + ", ".join(r["missing"]))
+    out.print(table)

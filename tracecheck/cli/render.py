@@ -1,0 +1,49 @@
+"""Commands that draw: render, report."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from .common import app, out, SHIELD_HELP
+
+
+@app.command("render")
+def render_cmd(
+    run: Path = typer.Argument(..., help="An MCAP run file."),
+    episode: int = typer.Option(..., "--episode", "-e", help="The episode number."),
+    shield: Optional[str] = typer.Option(None, "--shield", "-s", help=SHIELD_HELP),
+    output: Path = typer.Option(..., "--output", "-o", help="The HTML page to write."),
+) -> None:
+    """Write one episode as a self-contained HTML viewer (top view, shield zones, timeline)."""
+    from ..render.viewer import render_episode, write_page
+    from ..checking.shield import load_shield
+
+    loaded = load_shield(shield) if shield else None
+    page = write_page(render_episode(run, episode, loaded), output)
+    out.print(f"wrote episode {episode} -> {page} ({page.stat().st_size / 1000:.0f} kB)",
+              markup=False)
+
+
+@app.command("report")
+def report_cmd(
+    runs: list[Path] = typer.Argument(..., help="MCAP run files."),
+    shield: Optional[str] = typer.Option(None, "--shield", "-s", help=SHIELD_HELP),
+    properties: Optional[str] = typer.Option(
+        None, "--properties", "-p", help="A built-in set (highway, frozenlake, cliffwalking) "
+        "or a property file (TOML). Default: the environment's."),
+    output: Path = typer.Option(..., "--output", "-o", help="The HTML report to write."),
+) -> None:
+    """Write an HTML validation report: replay, statistics with plots, episode viewers."""
+    from ..stats.properties import load_properties
+    from ..render.report import render_report
+    from ..checking.shield import load_shield
+
+    loaded = load_shield(shield) if shield else None
+    from ..stats.estimates import default_properties
+
+    pset = load_properties(properties or default_properties(runs))
+    page, pages = render_report(runs, output, shield=loaded, pset=pset)
+    out.print(f"wrote {page} and {pages} episode page(s)", markup=False)

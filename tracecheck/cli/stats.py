@@ -1,0 +1,114 @@
+"""Statistics commands: stats, simulate."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from ..errors import InputError
+from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, EPISODE_EXECUTOR, RAY_ADDRESS,
+                     SHIELD_HELP, StatsFormat, Interval, ENV, ENV_CONFIG, PROFILE, DURATION, AGENT,
+                     record_settings)
+
+
+def _print_stats(result: dict, as_json: bool, fmt: "StatsFormat", plot: Optional[Path]) -> None:
+    from ..render.stats_text import stats_csv, stats_markdown, stats_plots, stats_text
+
+    warn(result["warnings"])
+    if plot is not None:
+        try:
+            written = stats_plots(result, plot)
+        except OSError as exc:
+            raise InputError(f"cannot write the plots into {plot}: {exc}") from None
+        err.print(f"wrote {len(written)} plot file(s) into {plot}")
+    values = result.pop("_values")
+    if as_json:
+        out.print_json(json.dumps(result))
+    elif fmt == StatsFormat.md:
+        out.print(stats_markdown(result), markup=False)
+    elif fmt == StatsFormat.csv:
+        sys.stdout.write(stats_csv(result))
+    else:
+        stats_text(out, result)
+    result["_values"] = values
+
+
+@app.command("stats")
+def stats_cmd(
+    runs: list[Path] = typer.Argument(..., help="MCAP run files: one column each."),
+    properties: Optional[str] = typer.Option(
+        None, "--properties", "-p", help="A built-in set (highway: the paper's; frozenlake; "
+        "cliffwalking) or a property file (TOML). Default: the runs' environment's."),
+    names: Optional[list[str]] = typer.Option(None, "--names",
+                                              help="Only these metrics and properties."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+    fmt: StatsFormat = typer.Option(StatsFormat.text, "--format", help="text, md or csv."),
+    interval: Interval = typer.Option(Interval.wilson, "--interval",
+                                      help="Interval for property shares."),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Write PNG and SVG plots here."),
+    executor: Executor = FILE_EXECUTOR,
+    ray_address: Optional[str] = RAY_ADDRESS,
+) -> None:
+    """Estimate metrics and property shares per run, side by side like the paper's tables."""
+    from ..stats.properties import load_properties
+    from ..stats.estimates import default_properties, statistics
+
+    pset = load_properties(properties or default_properties(runs)).select(names)
+    result = statistics(runs, pset, interval=interval.value, executor=executor.value,
+                        ray_address=ray_address)
+    _print_stats(result, as_json, fmt, plot)
+
+
+
+@app.command("simulate")
+def simulate_cmd(
+    agent: Path = AGENT,
+    shield: str = typer.Option("none", "--shield", "-s", help=SHIELD_HELP),
+    episodes: int = typer.Option(..., "--episodes", "-n", min=1,
+                                 help="Episodes (at most, with --until-ci-width)."),
+    seed: int = typer.Option(0, "--seed", help="Episode i uses seed SEED + i."),
+    env: Optional[str] = ENV,
+    env_config: list[str] = ENV_CONFIG,
+    duration: Optional[int] = DURATION,
+    workers: int = typer.Option(1, "--workers", "-w", min=1, help="Worker processes."),
+    executor: Executor = EPISODE_EXECUTOR,
+    ray_address: Optional[str] = RAY_ADDRESS,
+    profile: Optional[str] = PROFILE,
+    properties: Optional[str] = typer.Option(
+        None, "--properties", "-p", help="A built-in set (highway, frozenlake, cliffwalking) "
+        "or a property file (TOML). Default: the environment's."),
+    until_ci_width: Optional[float] = typer.Option(
+        None, "--until-ci-width", help="Stop once every property's 95 % interval is narrower "
+                                       "than this (a share, e.g. 0.1)."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+    fmt: StatsFormat = typer.Option(StatsFormat.text, "--format", help="text, md or csv."),
+    output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
+) -> None:
+    """Monte Carlo: record episodes and validate them in one go (SimB-style)."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from ..stats.properties import load_properties
+    from ..live.record import resolve
+    from ..stats.simulate import simulate
+
+    settings = record_settings(env, env_config, agent=str(agent), shield=shield, episodes=episodes,
+                         seed=seed, duration=duration, profile=profile, workers=workers,
+                         executor=executor.value, ray_address=ray_address)
+    pset = load_properties(properties or resolve(settings)[0].properties or "highway")
+    with Progress(TextColumn("simulating"), BarColumn(),
+                  TextColumn("{task.completed}/{task.total} episodes"), TimeRemainingColumn(),
+                  console=err, transient=True) as bar:
+        task = bar.add_task("simulate", total=episodes)
+        result = simulate(settings, output, pset, until_width=until_ci_width,
+                          progress=lambda ep: bar.advance(task))
+    seq = result.get("sequential")
+    if seq is not None:
+        widths = ", ".join(f"{k} {v:.3f}" for k, v in seq["widths"].items())
+        err.print(f"sequential rule: {seq['rule']}; {seq['looks']} look(s), "
+                  f"{'stopped early' if seq['stopped_early'] else 'ran to the end'}; "
+                  f"widths {widths}", highlight=False, markup=False)
+    _print_stats(result, as_json, fmt, None)

@@ -1,0 +1,1 @@
+"""Statistics: property sets, per-episode estimates with intervals and tests, Monte Carlo."""
