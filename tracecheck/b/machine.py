@@ -21,7 +21,8 @@ from typing import Any, Callable, Mapping, Optional
 from ..errors import (BScopeError, EvaluationError, InputError, ModelError, TracecheckError,
                       read_text)
 from . import ast as A
-from .evaluate import Compiler, conjuncts
+from .bindings import conjuncts
+from .evaluate import Compiler
 from .parser import MachineSource, parse_formula, parse_machine_source
 from .scope import PRED, check_kind, check_subst, expand, render
 from .substitution import SubstCompiler, before_after, guard_of, strip_guards, written

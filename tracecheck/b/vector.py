@@ -22,7 +22,8 @@ import numpy as np
 
 from ..errors import TracecheckError
 from . import ast as A
-from .evaluate import Compiler, conjuncts
+from .bindings import conjuncts
+from .evaluate import Compiler
 from .values import Elem, FuncValue
 
 __all__ = ["Columns", "evaluate_batch", "BatchFormula"]

@@ -1,0 +1,148 @@
+"""The built-in functions of B (``card``, ``dom``, ``prj1``, ``size``, …) for the compiler:
+each takes the compiler (for located errors), the call node and the argument's value."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Callable
+
+from ..errors import TracecheckError
+from . import ast as A
+from . import values as V
+from .finite import finite as _finite, make_set as _make_set, short as _short
+from .values import FuncValue, Interval, PowSet, SymbolicSet
+
+__all__ = ["BUILTINS", "UNSUPPORTED_HINTS"]
+
+def _card(c, node: A.Call, v: Any) -> int:
+    if isinstance(v, frozenset):
+        return len(v)
+    if not isinstance(v, SymbolicSet):
+        raise c.type_error(node.args[0], v, "a finite set")
+    try:
+        return V.cardinality(v)
+    except TracecheckError as exc:
+        raise c.at(node, exc) from None
+
+
+def _dom(c, node: A.Call, v: Any) -> frozenset:
+    if isinstance(v, FuncValue):
+        return frozenset(v.map)
+    return frozenset(p[0] for p in _finite(c, node.args[0], v))
+
+
+def _ran(c, node: A.Call, v: Any) -> frozenset:
+    if isinstance(v, FuncValue):
+        return frozenset(v.map.values())
+    return frozenset(p[1] for p in _finite(c, node.args[0], v))
+
+
+def _extreme(pick):
+    def extreme(c, node: A.Call, v: Any) -> Any:
+        if isinstance(v, Interval) and v.card() > 0:
+            return v.lo if pick is min else v.hi
+        items = _finite(c, node.args[0], v)
+        if not items:
+            raise c.wd(node, f"{node.name} of the empty set")
+        return pick(items)
+    return extreme
+
+
+def _number_fn(fn, wanted=(float,)):
+    def number(c, node: A.Call, v: Any) -> Any:
+        if type(v) not in wanted:
+            names = " or ".join("a real" if t is float else "an integer" for t in wanted)
+            raise c.type_error(node.args[0], v, names)
+        return fn(c, node, v)
+    return number
+
+
+def _to_real(c, node: A.Call, v: Any) -> float:
+    try:
+        return float(v)
+    except OverflowError:
+        raise c.wd(node, f"{_short(v)} is too large for a real (at most about 1.8E308)") \
+            from None
+
+
+def _sqrt(c, node: A.Call, v: float) -> float:
+    if v < 0:
+        raise c.wd(node, f"square root of the negative number {v}")
+    return math.sqrt(v)
+
+
+BUILTINS: dict[str, Callable[[Any, A.Call, Any], Any]] = {
+    "card": _card,
+    "dom": _dom,
+    "ran": _ran,
+    "min": _extreme(min),
+    "max": _extreme(max),
+    "POW": lambda c, n, v: PowSet(v),
+    "FIN": lambda c, n, v: PowSet(v, fin=True),
+    "POW1": lambda c, n, v: PowSet(v, nonempty=True),
+    "FIN1": lambda c, n, v: PowSet(v, nonempty=True, fin=True),
+    "bool": lambda c, n, v: bool(v),
+    "floor": _number_fn(lambda c, n, v: math.floor(v), (float, int)),
+    "ceiling": _number_fn(lambda c, n, v: math.ceil(v), (float, int)),
+    "real": _number_fn(lambda c, n, v: _to_real(c, n, v), (int, float)),
+    "RSQRT": _number_fn(_sqrt, (float, int)),
+    "RABS": _number_fn(lambda c, n, v: abs(v), (float, int)),
+    "abs": _number_fn(lambda c, n, v: abs(v), (int, float)),
+    "succ": _number_fn(lambda c, n, v: v + 1, (int,)),
+    "pred": _number_fn(lambda c, n, v: v - 1, (int,)),
+    "union": lambda c, n, v: frozenset().union(*_finite(c, n.args[0], v)),
+    "inter": lambda c, n, v: frozenset.intersection(*_finite(c, n.args[0], v))
+    if v else (_ for _ in ()).throw(c.wd(n, "inter of the empty set")),
+    "id": lambda c, n, v: FuncValue({x: x for x in _finite(c, n.args[0], v)}),
+    "prj1": lambda c, n, v: _component(c, n, v, 0),
+    "prj2": lambda c, n, v: _component(c, n, v, 1),
+    "closure1": lambda c, n, v: _closure1(_finite(c, n.args[0], v)),
+    "size": lambda c, n, v: len(c.seq_items(n.args[0], v)),
+    "first": lambda c, n, v: _nonempty_seq(c, n, v)[0],
+    "last": lambda c, n, v: _nonempty_seq(c, n, v)[-1],
+    "front": lambda c, n, v: V.sequence(_nonempty_seq(c, n, v)[:-1]),
+    "tail": lambda c, n, v: V.sequence(_nonempty_seq(c, n, v)[1:]),
+    "rev": lambda c, n, v: V.sequence(c.seq_items(n.args[0], v)[::-1]),
+    "conc": lambda c, n, v: V.sequence([x for s in c.seq_items(n.args[0], v)
+                                        for x in c.seq_items(n.args[0], s)]),
+    "seq": lambda c, n, v: V.SeqSet("seq", v),
+    "seq1": lambda c, n, v: V.SeqSet("seq1", v),
+    "iseq": lambda c, n, v: V.SeqSet("iseq", v),
+    "iseq1": lambda c, n, v: V.SeqSet("iseq1", v),
+    "perm": lambda c, n, v: V.SeqSet("perm", v),
+}
+
+UNSUPPORTED_HINTS = {
+    "closure": "closure(r) includes the identity on the whole type; write "
+               "closure1(r) \\/ id(S) for the set S you mean",
+}
+
+
+def _component(c, node: A.Call, v: Any, i: int) -> Any:
+    if not isinstance(v, tuple):
+        raise c.type_error(node.args[0], v, "a pair")
+    return v[i]
+
+
+def _nonempty_seq(c, node: A.Call, v: Any) -> list:
+    items = c.seq_items(node.args[0], v)
+    if not items:
+        raise c.wd(node, f"{node.name} of the empty sequence")
+    return items
+
+
+def _closure1(rel: frozenset) -> frozenset:
+    """The transitive closure of a finite relation."""
+    succ: dict = {}
+    for x, y in rel:
+        succ.setdefault(x, set()).add(y)
+    out = []
+    for start in succ:
+        seen, todo = set(), list(succ[start])
+        while todo:
+            y = todo.pop()
+            if y not in seen:
+                seen.add(y)
+                todo.extend(succ.get(y, ()))
+        out.extend((start, y) for y in seen)
+    return _make_set(out)
