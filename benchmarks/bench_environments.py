@@ -57,7 +57,7 @@ def record_seconds(folder: Path, shield: str, n: int, name: str) -> tuple[float,
 
 
 def per_state_steps(path: Path, shield) -> float:
-    from tracecheck.episodes.mcap_io import read_columns
+    from tracecheck.episodes.columns import read_columns
 
     cols = read_columns(path)
     machine = shield.machine

@@ -22,7 +22,7 @@ from pathlib import Path
 
 from tracecheck.episodes import read_columns
 from tracecheck.episodes.files import write_run
-from tracecheck.episodes.mcap_io import new_header
+from tracecheck.episodes.writer import new_header
 from tracecheck.episodes.model import HIGHWAY
 from tracecheck.interop import import_simb
 from tracecheck.checking.replay import diff, replay

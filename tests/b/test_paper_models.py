@@ -135,7 +135,7 @@ def test_rss_error_message_is_a_formatted_template_string():
 
 
 def test_import_the_authors_frozenlake_trace_typed_by_its_machine(tmp_path):
-    from tracecheck.episodes.mcap_io import read_episodes
+    from tracecheck.episodes.reader import read_episodes
 
     out = tmp_path / "frozen.mcap"
     with pytest.raises(SystemExit) as stop:

@@ -184,7 +184,7 @@ def test_columns_keep_every_kind_of_value(tmp_path):
     and the map is written once per episode."""
     from tracecheck.b.values import Elem, FuncValue
     from tracecheck.episodes.codec import decode_columns
-    from tracecheck.episodes.mcap_io import _column_blobs
+    from tracecheck.episodes.columns import _column_blobs
     from tracecheck.episodes.model import Episode, StepRecord, make_end
 
     field = FuncValue({(x, y): Elem("HOLE" if (x, y) == (1, 1) else "ICE")

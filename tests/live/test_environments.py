@@ -10,7 +10,7 @@ import pytest
 
 from tests.conftest import ROOT
 from tracecheck.cli import main
-from tracecheck.episodes.mcap_io import read_episodes, read_header
+from tracecheck.episodes.reader import read_episodes, read_header
 from tracecheck.live.adapter import get_adapter, load_adapter
 from tracecheck.errors import InputError
 
@@ -293,7 +293,7 @@ def test_lunarlander_records_and_the_authors_machine_replays_it(tmp_path, capsys
 
 @pytest.mark.parametrize("env", ["frozenlake", "cliffwalking"])
 def test_batch_replay_equals_state_by_state_replay(env, tmp_path, capsys):
-    from tracecheck.episodes.mcap_io import read_columns
+    from tracecheck.episodes.columns import read_columns
     from tracecheck.checking.replay import enabled_matrix
     from tracecheck.checking.shield import load_shield
 

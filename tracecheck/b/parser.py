@@ -9,19 +9,19 @@ substitution. Lark's errors become :class:`BSyntaxError` with the line, column a
 from __future__ import annotations
 
 import functools
-import math
 import re
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator, Optional
 
-from lark import Lark, Token, Transformer, v_args
+from lark import Lark, Token
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken, VisitError
 from lark.lexer import Lexer
 
 from ..errors import BSyntaxError, TracecheckError
 from . import ast as A
+from .builder import Builder, OperationSource, tok_pos, unquote
 
 __all__ = [
     "parse_formula", "parse_substitution", "parse_machine_source", "MachineSource",
@@ -142,7 +142,7 @@ def _parse_tokens(toks: list[Token], start: str, text: str, file: Optional[str],
     try:
         tree = _parser().parse(toks, start=start)
         _check_depth(tree, text, file)
-        return _Builder().transform(tree)
+        return Builder().transform(tree)
     except UnexpectedToken as exc:
         tok = exc.token
         if tok.type == "$END":
@@ -217,15 +217,6 @@ class Definition:
     kind: str  # "formula", "substitution", "string" or "unparsed"
     body: object  # Node, Subst, str, or the BSyntaxError of an unparsed tool definition
     line: int = 0
-
-
-@dataclass(frozen=True)
-class OperationSource:
-    name: str
-    params: tuple[str, ...]
-    outputs: tuple[str, ...]
-    body: A.Subst
-    pos: Optional[A.Pos] = None
 
 
 @dataclass
@@ -330,7 +321,7 @@ def _fill_clause(src: MachineSource, kw: Token, body: list[Token], text: str,
 
 
 def _names_with_pos(body: list[Token]) -> list[tuple[str, A.Pos]]:
-    return [(t.value, _tok_pos(t)) for t in body if t.type == "NAME"]
+    return [(t.value, tok_pos(t)) for t in body if t.type == "NAME"]
 
 
 def _descriptions(toks: list[Token], comments: list[Token]) -> dict[int, str]:
@@ -392,7 +383,7 @@ def _parse_definitions(body, text, file, kw) -> dict[str, Definition]:
 def _parse_definition_body(name, params, body, eq_tok, text, file) -> Definition:
     line = eq_tok.line
     if len(body) == 1 and body[0].type == "STRING":
-        return Definition(name, params, "string", _unquote(body[0].value), line)
+        return Definition(name, params, "string", unquote(body[0].value), line)
     try:
         try:
             node = _parse_tokens(body, "formula", text, file, f"the definition {name}", eq_tok)
@@ -412,407 +403,3 @@ def _parse_definition_body(name, params, body, eq_tok, text, file) -> Definition
 
 def _furthest(a: BSyntaxError, b: BSyntaxError) -> BSyntaxError:
     return a if (a.line or 0, a.column or 0) >= (b.line or 0, b.column or 0) else b
-
-
-def _unquote(s: str) -> str:
-    return re.sub(r'\\(.)', r'\1', s[1:-1])
-
-
-def _tok_pos(tok: Token) -> A.Pos:
-    return A.Pos(tok.line, tok.column, tok.end_line, tok.end_column, tok.start_pos, tok.end_pos)
-
-
-# ------------------------------------------------------------------ tree -> AST
-
-_OPS = {
-    "EQ": "=", "NEQ": "/=", "LT": "<", "LE": "<=", "GT": ">", "GE": ">=", "IN": ":",
-    "NOTIN": "/:", "SUBSET": "<:", "STRICT_SUBSET": "<<:", "NOT_SUBSET": "/<:",
-    "NOT_STRICT_SUBSET": "/<<:", "TOTAL_FUN": "-->", "PARTIAL_FUN": "+->", "RELATION": "<->",
-    "TOTAL_INJ": ">->", "PARTIAL_INJ": ">+>", "TOTAL_SURJ": "-->>", "PARTIAL_SURJ": "+->>",
-    "TOTAL_BIJ": ">->>", "PARTIAL_BIJ": ">+>>", "DIRECT_PRODUCT": "><", "CONCAT": "^",
-    "MAPLET": "|->", "UNION": "\\/", "INTER": "/\\", "SETMINUS": "\\",
-    "DOM_RES": "<|", "RAN_RES": "|>", "DOM_SUB": "<<|", "RAN_SUB": "|>>", "OVERRIDE": "<+",
-    "INTERVAL": "..", "PLUS": "+", "MINUS": "-", "TIMES": "*", "DIVIDE": "/", "MOD": "mod",
-    "POWER": "**",
-}
-_UNI_SETS = {"ℕ": "NATURAL", "ℕ₁": "NATURAL1", "ℤ": "INTEGER", "ℝ": "REAL", "𝔹": "BOOL"}
-_QUANT_EXPR = {"SIGMA": "SIGMA", "Σ": "SIGMA", "PI": "PI", "Π": "PI", "UNION": "UNION",
-               "⋃": "UNION", "INTER": "INTER", "⋂": "INTER"}
-
-
-_HOLE = re.compile(r"\$(?:\[([^\]]*)\])?\{")
-
-
-def _template(tok: Token) -> A.Template:
-    """Split a template string into its text and its ``${…}`` / ``$[fmt]{…}`` holes; each
-    hole is parsed as a formula at its own place in the source (errors point into it)."""
-    raw = str(tok)[3:-3]
-    texts, formats, holes = [], [], []
-    i = 0
-    while True:
-        m = _HOLE.search(raw, i)
-        if m is None:
-            texts.append(raw[i:])
-            break
-        texts.append(raw[i:m.start()])
-        depth, j = 1, m.end()
-        while j < len(raw) and depth:
-            depth += {"{": 1, "}": -1}.get(raw[j], 0)
-            j += 1
-        if depth:
-            raise BSyntaxError("unclosed ${ in a template string", line=tok.line,
-                               column=tok.column)
-        before = tok.line - 1 + raw.count("\n", 0, m.end())
-        col = (m.end() - raw.rfind("\n", 0, m.end()) - 1) if "\n" in raw[:m.end()] \
-            else tok.column - 1 + 3 + m.end()
-        padded = "\n" * before + " " * col + raw[m.end():j - 1]
-        formats.append(m.group(1) or "")
-        holes.append(parse_formula(padded))
-        i = j
-    return A.Template(tuple(texts), tuple(formats), tuple(holes), pos=_tok_pos(tok))
-
-
-def _pos(meta) -> Optional[A.Pos]:
-    if getattr(meta, "empty", True):
-        return None
-    return A.Pos(meta.line, meta.column, meta.end_line, meta.end_column, meta.start_pos,
-                 meta.end_pos)
-
-
-def _strip(children):
-    return [c for c in children if not isinstance(c, Token)
-            or c.type not in ("AND", "OR", "OR_U", "NOT", "NOT_U", "IMPLIES", "EQUIV", "DOT",
-                              "BAR", "FORALL", "EXISTS", "LAMBDA", "SEMI", "PARALLEL",
-                              "ASSIGN", "BECOMES_IN", "BECOMES_SUCH", "IN", "EQ", "OUTPUT",
-                              "CHOICE_OR", "MINUS", "TILDE", "DEF_EQ")]
-
-
-def _error(message: str, meta) -> BSyntaxError:
-    return BSyntaxError(message, line=getattr(meta, "line", None),
-                        column=getattr(meta, "column", None))
-
-
-@v_args(meta=True)
-class _Builder(Transformer):
-    """Builds AST nodes; checks only what the grammar cannot say (binder lists are names)."""
-
-    # -- predicates
-    def implies(self, meta, c):
-        l, r = _strip(c)
-        return A.Implies(l, r, pos=_pos(meta))
-
-    def and_(self, meta, c):
-        l, r = _strip(c)
-        return A.And(l, r, pos=_pos(meta))
-
-    def or_(self, meta, c):
-        l, r = _strip(c)
-        return A.Or(l, r, pos=_pos(meta))
-
-    def equiv(self, meta, c):
-        l, r = _strip(c)
-        return A.Equiv(l, r, pos=_pos(meta))
-
-    def not_(self, meta, c):
-        (x,) = _strip(c)
-        return A.Not(x, pos=_pos(meta))
-
-    def relation(self, meta, c):
-        l, op, r = c
-        return A.Rel(op, l, r, pos=_pos(meta))
-
-    def rel_op(self, meta, c):
-        return _OPS[c[0].type]
-
-    arrow_op = rel_op
-    set_op = rel_op
-
-    # -- expressions
-    def binop(self, meta, c):
-        l, op, r = c
-        if isinstance(op, Token):
-            op = _OPS[op.type]
-        if op == "|->":
-            return A.Pair(l, r, pos=_pos(meta))
-        return A.BinOp(op, l, r, pos=_pos(meta))
-
-    def neg(self, meta, c):
-        (x,) = _strip(c)
-        return A.Neg(x, pos=_pos(meta))
-
-    def apply(self, meta, c):
-        fn, args = c
-        if isinstance(fn, A.Name) and fn.id in A.BUILTIN_FUNCTIONS:
-            return A.Call(fn.id, args, pos=_pos(meta))
-        return A.Apply(fn, args, pos=_pos(meta))
-
-    def image(self, meta, c):
-        return A.Image(c[0], c[1], pos=_pos(meta))
-
-    def inverse(self, meta, c):
-        return A.Inverse(_strip(c)[0], pos=_pos(meta))
-
-    def name(self, meta, c):
-        return A.Name(str(c[0]), pos=_tok_pos(c[0]))
-
-    def int_lit(self, meta, c):
-        return A.IntLit(int(c[0]), pos=_tok_pos(c[0]))
-
-    def real_lit(self, meta, c):
-        value = float(c[0])
-        if not math.isfinite(value):
-            raise _error(f"the real {c[0]} is out of range (at most about 1.8E308)", c[0])
-        return A.RealLit(value, pos=_tok_pos(c[0]))
-
-    def string_lit(self, meta, c):
-        return A.StrLit(_unquote(str(c[0])), pos=_tok_pos(c[0]))
-
-    def true_(self, meta, c):
-        return A.BoolLit(True, pos=_pos(meta))
-
-    def false_(self, meta, c):
-        return A.BoolLit(False, pos=_pos(meta))
-
-    def uni_set(self, meta, c):
-        return A.Name(_UNI_SETS[str(c[0])], pos=_pos(meta))
-
-    def uni_pow(self, meta, c):
-        kind = "POW1" if str(c[0]) == "ℙ₁" else "POW"
-        return A.Call(kind, (c[1],), pos=_pos(meta))
-
-    def tuple_(self, meta, c):
-        first, rest = c
-        node = first
-        for item in rest:
-            node = A.Pair(node, item, pos=_pos(meta))
-        return node
-
-    def empty_set(self, meta, c):
-        return A.SetExt((), pos=_pos(meta))
-
-    def empty_seq(self, meta, c):
-        return A.SetExt((), pos=_pos(meta))
-
-    def seq_ext(self, meta, c):
-        """``[a, b]`` is the function ``{1|->a, 2|->b}``."""
-        return A.SetExt(tuple(A.Pair(A.IntLit(i, pos=item.pos), item, pos=item.pos)
-                              for i, item in enumerate(c[0], start=1)), pos=_pos(meta))
-
-    def composition(self, meta, c):
-        items = [x for x in c if not isinstance(x, Token)]
-        node = items[0]
-        for item in items[1:]:
-            node = A.BinOp(";", node, item, pos=_pos(meta))
-        return node
-
-    def template(self, meta, c):
-        return _template(c[0])
-
-    def set_ext(self, meta, c):
-        return A.SetExt(c[0], pos=_pos(meta))
-
-    def comprehension(self, meta, c):
-        ids, pred = _strip(c)
-        return A.Comprehension(_binder_names(ids, meta), pred, None, pos=_pos(meta))
-
-    def comprehension_expr(self, meta, c):
-        ids, pred, expr = _strip(c)
-        return A.Comprehension(_binder_names(ids, meta), pred, expr, pos=_pos(meta))
-
-    def forall(self, meta, c):
-        ids, body = _strip(c)
-        return A.Quant("!", ids, body, pos=_pos(meta))
-
-    def exists(self, meta, c):
-        ids, body = _strip(c)
-        return A.Quant("#", ids, body, pos=_pos(meta))
-
-    def lambda_(self, meta, c):
-        ids, pred, expr = _strip(c)
-        return A.Lambda(ids, pred, expr, pos=_pos(meta))
-
-    def quant_kw(self, meta, c):
-        return _QUANT_EXPR[str(c[0])]
-
-    def quant_expr(self, meta, c):
-        op, ids, pred, expr = _strip(c)
-        return A.QuantExpr(op, ids, pred, expr, pos=_pos(meta))
-
-    def if_expr(self, meta, c):
-        cond, then, *rest = c
-        *elsifs, else_ = rest
-        return A.IfExpr(((cond, then), *elsifs), else_, pos=_pos(meta))
-
-    def elsif_expr(self, meta, c):
-        return (c[0], c[1])
-
-    def let_formula(self, meta, c):
-        ids, pred, body = c
-        return A.Let(ids, pred, body, pos=_pos(meta))
-
-    def formula_list(self, meta, c):
-        return tuple(c)
-
-    def binder(self, meta, c):
-        return tuple(str(t) for t in c)
-
-    def name_list(self, meta, c):
-        return tuple(str(t) for t in c)
-
-    # -- substitutions
-    def seq(self, meta, c):
-        l, r = _strip(c)
-        items = (l.items if isinstance(l, A.Sequence) else (l,)) + (r,)
-        return A.Sequence(items, pos=_pos(meta))
-
-    def par(self, meta, c):
-        l, r = _strip(c)
-        items = (l.items if isinstance(l, A.Parallel) else (l,)) + (r,)
-        return A.Parallel(items, pos=_pos(meta))
-
-    def skip(self, meta, c):
-        return A.Skip(pos=_pos(meta))
-
-    def block(self, meta, c):
-        return c[0]
-
-    def assign(self, meta, c):
-        targets, values = _strip(c)
-        if len(targets) != len(values):
-            raise _error(f"{len(targets)} variable(s) on the left of ':=' but "
-                         f"{len(values)} value(s) on the right", meta)
-        return A.Assign(targets, values, pos=_pos(meta))
-
-    def becomes_in(self, meta, c):
-        targets, value = _strip(c)
-        return A.BecomesIn(_target_names(targets, meta, "::"), value, pos=_pos(meta))
-
-    def becomes_such(self, meta, c):
-        targets, pred = _strip(c)
-        return A.BecomesSuchThat(_target_names(targets, meta, ": (P)"), pred, pos=_pos(meta))
-
-    def pre(self, meta, c):
-        return A.Pre(c[0], c[1], pos=_pos(meta))
-
-    def assert_(self, meta, c):
-        return A.Assert(c[0], c[1], pos=_pos(meta))
-
-    def select(self, meta, c):
-        branches, else_ = _branches(c)
-        return A.Select(branches, else_, pos=_pos(meta))
-
-    def if_subst(self, meta, c):
-        branches, else_ = _branches(c)
-        return A.IfSubst(branches, else_, pos=_pos(meta))
-
-    def when_branch(self, meta, c):
-        return (c[0], c[1])
-
-    elsif_branch = when_branch
-
-    def else_branch(self, meta, c):
-        return ("else", c[0])
-
-    def any_(self, meta, c):
-        return A.Any(c[0], c[1], c[2], pos=_pos(meta))
-
-    def let_subst(self, meta, c):
-        return A.LetSubst(c[0], c[1], c[2], pos=_pos(meta))
-
-    def choice(self, meta, c):
-        return A.Choice(tuple(c), pos=_pos(meta))
-
-    def or_branch(self, meta, c):
-        return _strip(c)[0]
-
-    def subst_call(self, meta, c):
-        name = A.Name(str(c[0]), pos=_tok_pos(c[0]))
-        return A.SubstRef(name, c[1] if len(c) > 1 else (), pos=_pos(meta))
-
-    def lhs_list(self, meta, c):
-        return tuple(c)
-
-    def lhs(self, meta, c):
-        return A.Name(str(c[0]), pos=_tok_pos(c[0]))
-
-    def lhs_apply(self, meta, c):
-        return A.Apply(A.Name(str(c[0]), pos=_tok_pos(c[0])), c[1], pos=_pos(meta))
-
-    # -- clauses
-    def machine_header(self, meta, c):
-        if len(c) > 1:
-            raise _error("machine parameters are not supported", meta)
-        return str(c[0])
-
-    def def_header(self, meta, c):
-        c = _strip(c)
-        return str(c[0]), (c[1] if len(c) > 1 else ())
-
-    def sets_clause(self, meta, c):
-        return [x for x in c if not isinstance(x, Token)]
-
-    def deferred_set(self, meta, c):
-        return (str(c[0]), None, _tok_pos(c[0]))
-
-    def enumerated_set(self, meta, c):
-        c = _strip(c)
-        return (str(c[0]), c[1], _tok_pos(c[0]))
-
-    def assertions_clause(self, meta, c):
-        return [x for x in c if not isinstance(x, Token)]
-
-    def operations_clause(self, meta, c):
-        ops = [x for x in c if not isinstance(x, Token)]
-        seen: set[str] = set()
-        for op in ops:
-            if op.name in seen:
-                raise _error(f"the operation {op.name} is defined twice", op.pos)
-            seen.add(op.name)
-        return ops
-
-    def operation(self, meta, c):
-        (name, params, outputs, hpos), body = _strip(c)
-        return OperationSource(name, params, outputs, body, hpos)
-
-    def op_plain(self, meta, c):
-        return (str(c[0]), (), (), _tok_pos(c[0]))
-
-    def op_params(self, meta, c):
-        return (str(c[0]), c[1], (), _tok_pos(c[0]))
-
-    def op_outputs(self, meta, c):
-        c = _strip(c)
-        return (str(c[1]), (), c[0], _tok_pos(c[1]))
-
-    def op_outputs_params(self, meta, c):
-        c = _strip(c)
-        return (str(c[1]), c[2], c[0], _tok_pos(c[1]))
-
-
-def _branches(c):
-    branches = [c[0:2]]
-    else_ = None
-    for item in c[2:]:
-        if item[0] == "else":
-            else_ = item[1]
-        else:
-            branches.append(item)
-    return tuple((a, b) for a, b in branches), else_
-
-
-def _binder_names(items, meta) -> tuple[str, ...]:
-    names = []
-    for item in items:
-        if not isinstance(item, A.Name) or item.id.endswith(("'", "$0")):
-            raise _error("the variables before '|' in a set comprehension must be names",
-                         item.pos or meta)
-        names.append(item.id)
-    return tuple(names)
-
-
-def _target_names(targets, meta, what) -> tuple[str, ...]:
-    for t in targets:
-        if not isinstance(t, A.Name):
-            raise _error(f"only variables may stand left of '{what}'", t.pos or meta)
-    return tuple(t.id for t in targets)
-

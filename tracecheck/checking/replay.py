@@ -18,7 +18,7 @@ import numpy as np
 
 from ..b import ast as A
 from ..b.vector import Columns
-from ..episodes.mcap_io import RunColumns, read_columns
+from ..episodes.columns import RunColumns, read_columns
 from ..errors import InputError
 from .shield import Shield
 

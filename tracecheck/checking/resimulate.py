@@ -13,7 +13,8 @@ from pathlib import Path
 from typing import Callable, Optional
 
 from ..live.agents import file_sha256
-from ..episodes.mcap_io import RunColumns, read_columns, read_header
+from ..episodes.columns import RunColumns, read_columns
+from ..episodes.reader import read_header
 from ..errors import InputError
 from .replay import ReplayReport
 from .shield import SHIELD_DIR, Shield

@@ -84,7 +84,7 @@ ROWS = 40
 
 def run_shield(spec: str, runs: list[Path]):
     """The shield ``spec`` for these runs: ``none`` is made from their actions."""
-    from ..episodes.mcap_io import read_header
+    from ..episodes.reader import read_header
     from ..checking.shield import load_shield
 
     if spec != "none" or not runs:

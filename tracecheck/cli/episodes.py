@@ -31,7 +31,7 @@ def _vocabulary(model: Optional[Path]):
 
 def _import(kind: str, paths: list[Path], output: Path, model: Optional[Path]) -> None:
     from ..episodes.files import write_run
-    from ..episodes.mcap_io import new_header
+    from ..episodes.writer import new_header
     from ..interop import import_prob2trace, import_simb
 
     vocab, machine = _vocabulary(model)
@@ -73,7 +73,7 @@ def import_prob2trace_cmd(
 
 
 def _episodes(run: Path, only: Optional[set[int]] = None) -> list:
-    from ..episodes.mcap_io import read_run
+    from ..episodes.reader import read_run
 
     result = read_run(run, only)
     warn(result.warnings)
@@ -92,7 +92,9 @@ def export_prob2trace_cmd(
     from ..episodes.model import HIGHWAY, Vocabulary
     from ..interop import export_prob2trace
 
-    from ..episodes.mcap_io import read_columns, read_run
+    from ..episodes.columns import read_columns
+
+    from ..episodes.reader import read_run
 
     result = read_run(run, {episode})
     chosen = result.episodes

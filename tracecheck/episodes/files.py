@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Iterable
 
 from ..errors import InputError
-from .mcap_io import EpisodeWriter
+from .writer import EpisodeWriter
 from .model import Episode
 from .schema import RunHeader
 

@@ -7,7 +7,9 @@ from typing import Iterable
 
 import numpy as np
 
-from .mcap_io import read_columns, read_header
+from .columns import read_columns
+
+from .reader import read_header
 
 __all__ = ["summarise"]
 

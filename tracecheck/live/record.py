@@ -13,7 +13,7 @@ import multiprocessing as mp
 from pathlib import Path
 from typing import Callable, Iterator, Optional
 
-from ..episodes.mcap_io import EpisodeWriter, new_header
+from ..episodes.writer import EpisodeWriter, new_header
 from ..episodes.model import Episode
 from ..errors import InputError
 from .rollout import RecordSettings, Session, resolve

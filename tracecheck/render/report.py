@@ -65,7 +65,7 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
     from ..stats.estimates import statistics
     from .stats_text import _rows
 
-    from ..episodes.mcap_io import read_columns
+    from ..episodes.columns import read_columns
 
     for run in runs:
         if not Path(run).exists():

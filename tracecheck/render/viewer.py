@@ -17,7 +17,8 @@ from pathlib import Path
 from typing import Optional
 
 from ..b.values import format_value
-from ..episodes.mcap_io import read_columns, read_run
+from ..episodes.columns import read_columns
+from ..episodes.reader import read_run
 from ..errors import InputError
 from ..checking.shield import Shield
 

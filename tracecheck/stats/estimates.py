@@ -20,7 +20,7 @@ import numpy as np
 
 from ..b.typecheck import typecheck_formula
 from ..b.vector import BatchFormula
-from ..episodes.mcap_io import RunColumns, read_columns
+from ..episodes.columns import RunColumns, read_columns
 from ..errors import InputError, TracecheckError
 from .properties import Metric, Property, PropertySet
 
@@ -44,7 +44,7 @@ class RunValues:
 
 def environment_of(path: str | Path) -> str:
     """The environment a run file's states come from (files without one: the highway)."""
-    from ..episodes.mcap_io import read_header
+    from ..episodes.reader import read_header
 
     return read_header(path).environment or "highway"
 

@@ -17,7 +17,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from ..b.vector import Columns
-from ..episodes.mcap_io import EpisodeWriter
+from ..episodes.writer import EpisodeWriter
 from ..episodes.model import Episode
 from .properties import PropertySet
 from ..live.record import RecordSettings, check_settings, episodes, recording_header

@@ -1,0 +1,178 @@
+"""The columnar view of a run file: :func:`read_columns` gives the numpy columns of every
+state in a file (for replay and statistics) from the per-episode column attachments, without
+decoding a single step message.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+from mcap.reader import SeekingReader
+from mcap.records import Attachment
+
+from ..b.vector import Columns
+from ..b.values import Elem
+from .codec import COLUMNS_MEDIA_TYPE, columns_from_arrays, decode_columns
+from .reader import Damage, DamagedFileWarning, open_run, records
+
+__all__ = ["read_columns", "RunColumns"]
+
+
+@dataclass
+class RunColumns:
+    """Every state of a file as numpy columns, one row per state (step 0 included).
+
+    ``episode[r]`` and ``step[r]`` say which state row ``r`` is; ``starts[i]`` is the first
+    row of the i-th episode (``starts[-1]`` the number of rows). ``action[r]`` indexes
+    ``action_names`` (-1 at step 0); ``states`` holds the B variables for
+    :meth:`tracecheck.b.Machine.enabled_batch`.
+    """
+
+    path: str
+    episode_ids: np.ndarray
+    starts: np.ndarray
+    episode: np.ndarray
+    step: np.ndarray
+    time: np.ndarray
+    action: np.ndarray
+    action_names: tuple[str, ...]
+    reward: np.ndarray
+    crashed: np.ndarray
+    states: Columns
+    warnings: list[str] = field(default_factory=list)
+    values: Optional[np.ndarray] = None  # (rows, actions): the agent's values, NaN if none
+    seeds: list[Optional[int]] = field(default_factory=list)  # per episode
+
+    @property
+    def n(self) -> int:
+        return int(self.starts[-1])
+
+
+def _column_blobs(path: Path) -> tuple[list[tuple[int, bytes]], list[str]]:
+    """(episode id, columns blob) for each complete episode, using the index if there is one."""
+    _, stream = open_run(path)
+    with stream:
+        try:
+            reader = SeekingReader(stream)
+            summary = reader.get_summary()
+        except Exception:  # noqa: BLE001 - no usable summary: read the records in order
+            summary = None
+        if summary is not None and summary.attachment_indexes is not None:
+            return [(None, att.data) for att in reader.iter_attachments()
+                    if att.media_type == COLUMNS_MEDIA_TYPE], []
+    # linear scan: keep only episodes whose end record was read
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", DamagedFileWarning)
+        blobs = _scan_blobs(path)
+    return blobs, [str(w.message) for w in caught]
+
+
+def _scan_blobs(path: Path) -> list[tuple[Optional[int], bytes]]:
+    """Column attachments in file order (each follows its episode's end record)."""
+    path, stream = open_run(path)
+    blobs: list[tuple[Optional[int], bytes]] = []
+    with stream:
+        for record in records(path, stream):
+            if isinstance(record, Damage):
+                warnings.warn(f"{path}: the file is damaged or ends early ({record.why}); "
+                              f"read {len(blobs)} complete episode(s)", DamagedFileWarning)
+                break
+            if isinstance(record, Attachment) and record.media_type == COLUMNS_MEDIA_TYPE:
+                blobs.append((None, record.data))
+    return blobs
+
+
+def read_columns(path: str | Path) -> RunColumns:
+    """All states of a file as numpy columns (see :class:`RunColumns`).
+
+    Reads only the per-episode column attachments; a file with a damaged tail gives its
+    complete episodes, with the loss described in ``warnings``.
+    """
+    path = Path(path)
+    blobs, notes = _column_blobs(path)
+    decoded = []
+    for i, (_, blob) in enumerate(blobs):
+        header, arrays = decode_columns(blob, where=f"{path}, columns attachment {i + 1}: ")
+        decoded.append((header.get("episode", i), header, arrays))
+    actions: list[str] = []
+    elements: list[str] = []
+    for _, header, _ in decoded:
+        actions += [a for a in header["actions"] if a not in actions]
+        elements += [e for e in header["elements"] if e not in elements]
+    parts = []
+    values = []
+    literals: dict = {}
+    for ep, header, arrays in decoded:
+        order = [actions.index(a) for a in header["actions"]]
+        remap = np.array(order + [-1], dtype=np.int16)
+        cols = columns_from_arrays(header, arrays, literals)
+        parts.append((ep, arrays, remap[arrays["action"]], _widen(cols, elements)))
+        table = np.full((len(arrays["time"]), len(actions)), np.nan)
+        if "values" in arrays:
+            table[:, order] = arrays["values"]
+        values.append(table)
+    result = _concatenate(str(path), parts, tuple(actions), tuple(Elem(e) for e in elements),
+                          notes)
+    if any("values" in arrays for _, _, arrays in decoded):
+        result.values = np.concatenate(values)
+    result.seeds = [header.get("seed") for _, header, _ in decoded]
+    return result
+
+
+def _widen(cols: Columns, elements: list[str]) -> Columns:
+    """``cols`` with its element axis in the order of ``elements`` (missing: undefined)."""
+    if [str(e) for e in cols.elements] == elements:
+        return cols
+    where = [elements.index(str(e)) for e in cols.elements]
+    k = len(elements)
+    out = Columns(n=cols.n, elements=tuple(Elem(e) for e in elements),
+                  numbers=cols.numbers, booleans=cols.booleans, others=cols.others)
+    for name, (vals, defined) in cols.functions.items():
+        v, d = np.zeros((cols.n, k)), np.zeros((cols.n, k), dtype=bool)
+        v[:, where], d[:, where] = vals, defined
+        out.functions[name] = (v, d)
+    for name, mask in cols.masks.items():
+        m = np.zeros((cols.n, k), dtype=bool)
+        m[:, where] = mask
+        out.masks[name] = m
+    return out
+
+
+def _concatenate(path: str, parts, actions, elements, notes) -> RunColumns:
+    lengths = [len(arrays["time"]) for _, arrays, _, _ in parts]
+    starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+    n = int(starts[-1])
+    ids = np.array([ep for ep, _, _, _ in parts], dtype=np.int64)
+
+    def cat(key):
+        return (np.concatenate([arrays[key] for _, arrays, _, _ in parts]) if parts
+                else np.zeros(0))
+
+    states = Columns(n=n, elements=elements)
+    if parts:
+        first = parts[0][3]
+        for name in first.numbers:
+            states.numbers[name] = np.concatenate([c.numbers[name] for *_, c in parts])
+        for name in first.booleans:
+            states.booleans[name] = np.concatenate([c.booleans[name] for *_, c in parts])
+        for name in first.functions:
+            states.functions[name] = (
+                np.concatenate([c.functions[name][0] for *_, c in parts]),
+                np.concatenate([c.functions[name][1] for *_, c in parts]))
+        for name in first.masks:
+            states.masks[name] = np.concatenate([c.masks[name] for *_, c in parts])
+        for name in first.others:
+            states.others[name] = [v for *_, c in parts for v in c.others[name]]
+    episode = np.repeat(ids, lengths)
+    step = np.concatenate([np.arange(m) for m in lengths]) if parts else np.zeros(0, np.int64)
+    states.label = lambda i: f"{path}, episode {int(episode[i])}, step {int(step[i])}"
+    return RunColumns(
+        path=path, episode_ids=ids, starts=starts,
+        episode=episode, step=step,
+        time=cat("time"), action=np.concatenate([a for _, _, a, _ in parts]) if parts
+        else np.zeros(0, dtype=np.int16), action_names=actions, reward=cat("reward"),
+        crashed=cat("crashed").astype(bool), states=states, warnings=notes)
