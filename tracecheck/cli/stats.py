@@ -25,7 +25,6 @@ def _print_stats(result: dict, as_json: bool, fmt: "StatsFormat", plot: Optional
         except OSError as exc:
             raise InputError(f"cannot write the plots into {plot}: {exc}") from None
         err.print(f"wrote {len(written)} plot file(s) into {plot}")
-    values = result.pop("_values")
     if as_json:
         out.print_json(json.dumps(result))
     elif fmt == StatsFormat.md:
@@ -34,7 +33,6 @@ def _print_stats(result: dict, as_json: bool, fmt: "StatsFormat", plot: Optional
         sys.stdout.write(stats_csv(result))
     else:
         stats_text(out, result)
-    result["_values"] = values
 
 
 @app.command("stats")

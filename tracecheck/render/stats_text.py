@@ -104,7 +104,7 @@ def stats_plots(result: dict, folder: Path) -> list[Path]:
 
     folder.mkdir(parents=True, exist_ok=True)
     runs = [r for r in result["runs"] if r["episodes"]]
-    values = {v.name: v for v in result["_values"]}
+    values = {v.name: v for v in result.values}
     written: list[Path] = []
     if not runs:
         return written

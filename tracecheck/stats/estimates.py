@@ -24,7 +24,7 @@ from ..episodes.columns import RunColumns, read_columns
 from ..errors import InputError, TracecheckError
 from .properties import Metric, Property, PropertySet
 
-__all__ = ["RunValues", "evaluate_run", "statistics", "INTERVALS"]
+__all__ = ["RunValues", "StatsResult", "evaluate_run", "statistics", "INTERVALS"]
 
 INTERVALS = {"wilson": "wilson", "clopper-pearson": "exact"}
 
@@ -246,10 +246,19 @@ def _evaluate_one(path: str, pset: PropertySet, name: Optional[str]) -> RunValue
     return evaluate_run(path, pset, prepare(pset, environment_of(path), sample), name, cols)
 
 
+class StatsResult(dict):
+    """The statistics as JSON-ready data (this dict), and the per-episode values of every
+    run they come from (``values``; plots use them, the JSON has no place for them)."""
+
+    def __init__(self, data: dict, values: list[RunValues]) -> None:
+        super().__init__(data)
+        self.values = values
+
+
 def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "wilson",
                names: Optional[list[str]] = None,
                columns: Optional[list[RunColumns]] = None, executor: str = "local",
-               ray_address: Optional[str] = None) -> dict:
+               ray_address: Optional[str] = None) -> StatsResult:
     """The statistics of the runs in ``paths`` (JSON-ready; see the module docstring).
 
     ``columns``: the runs' columns when they were read already; ``statistics_s`` in the
@@ -297,5 +306,4 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
     out["statistics_s"] = round(time.perf_counter() - start, 6)
     out["descriptions"] = {**{m.name: m.description for m in pset.metrics},
                            **{p.name: p.description for p in pset.properties}}
-    out["_values"] = runs
-    return out
+    return StatsResult(out, runs)
