@@ -221,3 +221,33 @@ def test_the_state_formulas_vectorise():
         batch = BatchFormula(prepare(formula, names), consts, source=formula)
         planned += batch._plan(cols) is not None
     assert planned >= len(STATE_FORMULAS) * 2 // 3
+
+
+def test_answers_do_not_depend_on_the_order_a_set_is_walked():
+    """∃/∀ over a set where the body is not well-defined for one element: an error (B's
+    well-definedness), the same one whatever order Python's string hashing gives the set."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("from tracecheck.b.evaluate import evaluate\n"
+            "from tracecheck.b.parser import parse_formula as p\n"
+            "from tracecheck.b.values import Elem, FuncValue\n"
+            "S = frozenset({Elem('a'), Elem('c'), Elem('b')})\n"
+            "f = FuncValue({Elem('c'): 1.5, Elem('b'): 0.5})\n"
+            "for text in ('#v.(v : S & f(v) > 1.0)', '!v.(v : S => f(v) > 1.0)',\n"
+            "             'card({v | v : S & f(v) > 1.0})'):\n"
+            "    try:\n"
+            "        print(evaluate(p(text), {'S': S, 'f': f}))\n"
+            "    except Exception as exc:\n"
+            "        print(type(exc).__name__, exc.message)\n")
+    outputs = set()
+    for seed in range(6):
+        run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                             env=dict(os.environ, PYTHONHASHSEED=str(seed)), timeout=60)
+        assert run.returncode == 0, run.stderr
+        outputs.add(run.stdout)
+    assert len(outputs) == 1
+    (text,) = outputs
+    assert text.splitlines() == ["WellDefinednessError a is not in the domain of the function "
+                                 "in `f(v)`"] * 3

@@ -1,11 +1,16 @@
 """Enumerating bound variables: which conjunct of a quantifier's, comprehension's or
-lambda's predicate gives each variable its values, and walking them."""
+lambda's predicate gives each variable its values, and walking them.
+
+A walk yields None for each solution and, for values where the predicate is not
+well-defined, the error instead: the caller decides after seeing every value (see
+:class:`tracecheck.b.evaluate.Strict`), so that no answer depends on the order in which a
+set happens to be walked."""
 
 from __future__ import annotations
 
 from typing import Any, Callable, Iterator, Optional
 
-from ..errors import EvaluationError
+from ..errors import EvaluationError, TracecheckError
 from . import ast as A
 from .finite import finite as _finite, members as _members
 from .values import SymbolicSet
@@ -57,11 +62,15 @@ def generators(comp, node: A.Node, ids: tuple[str, ...], pred: A.Node):
             return fail
     filters = [comp.compile(c) for k, c in enumerate(conjs) if k not in used]
 
-    def run(env: Env, depth: int = 0) -> Iterator[None]:
+    def run(env: Env, depth: int = 0) -> Iterator[Optional[TracecheckError]]:
         if depth == len(plan):
-            for f in filters:
-                if not f(env):
-                    return
+            try:
+                for f in filters:
+                    if not f(env):
+                        return
+            except TracecheckError as exc:  # not well-defined for these values
+                yield exc
+                return
             yield None
             return
         names, mode, source = plan[depth]
@@ -76,14 +85,17 @@ def generators(comp, node: A.Node, ids: tuple[str, ...], pred: A.Node):
     if len(plan) == 1 and len(plan[0][0]) == 1 and plan[0][1] == "in":
         (name,), _, source = plan[0]
 
-        def run_single(env: Env) -> Iterator[None]:
+        def run_single(env: Env) -> Iterator[Optional[TracecheckError]]:
             for value in domain(comp, node, "in", source(env)):
                 env[name] = value
-                for f in filters:
-                    if not f(env):
-                        break
-                else:
-                    yield None
+                try:
+                    for f in filters:
+                        if not f(env):
+                            break
+                    else:
+                        yield None
+                except TracecheckError as exc:  # not well-defined for this value
+                    yield exc
         run_single.simple = (name, source, filters)  # type: ignore[attr-defined]
         return run_single
     return run

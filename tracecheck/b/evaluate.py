@@ -445,49 +445,77 @@ class Compiler:
                 check = self.compile(rest) if rest is not None else (lambda env: True)
 
             simple = getattr(bindings, "simple", None)
+            ids = node.ids
             if simple is not None:
                 name, source, filters = simple
 
                 def forall_simple(env: Env) -> bool:
+                    holds, strict = True, None
                     for value in self.members(node, source(env)):
                         env[name] = value
-                        for f in filters:
-                            if not f(env):
-                                break
-                        else:
-                            if not check(env):
-                                return False
-                    return True
-                return _scoped(forall_simple, node.ids)
+                        try:
+                            for f in filters:
+                                if not f(env):
+                                    break
+                            else:
+                                if not check(env):
+                                    holds = False
+                        except TracecheckError as exc:
+                            strict = Strict.note(strict, ids, env, exc)
+                    if strict is not None:
+                        strict.fail()
+                    return holds
+                return _scoped(forall_simple, ids)
 
             def forall(env: Env) -> bool:
-                for _ in bindings(env):
-                    if not check(env):
-                        return False
-                return True
-            return _scoped(forall, node.ids)
+                holds, strict = True, None
+                for problem in bindings(env):
+                    try:
+                        if problem is not None:
+                            raise problem
+                        if not check(env):
+                            holds = False
+                    except TracecheckError as exc:
+                        strict = Strict.note(strict, ids, env, exc)
+                if strict is not None:
+                    strict.fail()
+                return holds
+            return _scoped(forall, ids)
         with self.binding(node.ids):
             bindings = self.bindings(node, node.ids, node.body)
         simple = getattr(bindings, "simple", None)
+        ids = node.ids
         if simple is not None:
             name, source, filters = simple
 
             def exists_simple(env: Env) -> bool:
+                found, strict = False, None
                 for value in self.members(node, source(env)):
                     env[name] = value
-                    for f in filters:
-                        if not f(env):
-                            break
-                    else:
-                        return True
-                return False
-            return _scoped(exists_simple, node.ids)
+                    try:
+                        for f in filters:
+                            if not f(env):
+                                break
+                        else:
+                            found = True
+                    except TracecheckError as exc:
+                        strict = Strict.note(strict, ids, env, exc)
+                if strict is not None:
+                    strict.fail()
+                return found
+            return _scoped(exists_simple, ids)
 
         def exists(env: Env) -> bool:
-            for _ in bindings(env):
-                return True
-            return False
-        return _scoped(exists, node.ids)
+            found, strict = False, None
+            for problem in bindings(env):
+                if problem is None:
+                    found = True
+                else:
+                    strict = Strict.note(strict, ids, env, problem)
+            if strict is not None:
+                strict.fail()
+            return found
+        return _scoped(exists, ids)
 
     def members(self, node: A.Node, domain: Any):
         """What a bound variable ranges over (a finite set is used as it is)."""
@@ -508,14 +536,16 @@ class Compiler:
                 value = self.compile(node.expr)
             else:
                 value = _tuple_of(node.ids)
-        return _scoped(lambda env: _make_set([value(env) for _ in bind(env)]), node.ids)
+        ids = node.ids
+        return _scoped(lambda env: _make_set(_each(bind, ids, env, value)), ids)
 
     def c_Lambda(self, node: A.Lambda) -> Fn:
         with self.binding(node.ids):
             bind = self.bindings(node, node.ids, node.pred)
             key, value = _tuple_of(node.ids), self.compile(node.expr)
-        return _scoped(lambda env: FuncValue({key(env): value(env) for _ in bind(env)}),
-                       node.ids)
+        ids = node.ids
+        return _scoped(lambda env: FuncValue(dict(_each(bind, ids, env,
+                                                        lambda e: (key(e), value(e))))), ids)
 
     def c_QuantExpr(self, node: A.QuantExpr) -> Fn:
         with self.binding(node.ids):
@@ -524,7 +554,7 @@ class Compiler:
         op = node.op
 
         def quant(env: Env) -> Any:
-            values = [value(env) for _ in bind(env)]
+            values = _each(bind, node.ids, env, value)
             if op == "SIGMA":
                 return sum(values, 0)
             if op == "PI":
@@ -733,6 +763,45 @@ def fresh(env: Env) -> Env:
     out.pop(MEMO_KEY, None)
     return out
 
+
+
+class Strict:
+    """The errors of a quantified formula's values, kept until every value was seen: the
+    formula is not well-defined if it is not for one of them, whatever the others give (B's
+    well-definedness), and the error raised is that of the least values in print order, so
+    neither the answer nor the message depends on the order a set is walked in."""
+
+    __slots__ = ("error", "key")
+
+    def __init__(self, error: TracecheckError, key: tuple) -> None:
+        self.error, self.key = error, key
+
+    @staticmethod
+    def note(strict: Optional["Strict"], ids: tuple[str, ...], env: Env,
+             error: TracecheckError) -> "Strict":
+        key = tuple(V.sort_key(env.get(i)) for i in ids)
+        if strict is None or key < strict.key:
+            return Strict(error, key)
+        return strict
+
+    def fail(self) -> None:
+        raise self.error
+
+
+def _each(bind, ids: tuple[str, ...], env: Env, value: Fn) -> list:
+    """``value`` for every solution of a binder (comprehensions, lambdas, SIGMA …), after
+    all of them were tried (see :class:`Strict`)."""
+    out, strict = [], None
+    for problem in bind(env):
+        try:
+            if problem is not None:
+                raise problem
+            out.append(value(env))
+        except TracecheckError as exc:
+            strict = Strict.note(strict, ids, env, exc)
+    if strict is not None:
+        strict.fail()
+    return out
 
 
 def _pair_of(args: tuple[A.Node, ...]) -> A.Node:

@@ -216,7 +216,12 @@ class SubstCompiler:
 
         def any_(pre: Env, post: dict) -> bool:
             env = fresh(pre)
-            return any(body(env, post) for _ in bind(env))
+            for problem in bind(env):
+                if problem is not None:
+                    raise problem
+                if body(env, post):
+                    return True
+            return False
         return any_
 
     def s_LetSubst(self, s: A.LetSubst) -> Check:
