@@ -442,80 +442,44 @@ class Compiler:
             domain_pred, rest = node.body.left, node.body.right
             with self.binding(node.ids):
                 bindings = self.bindings(node, node.ids, domain_pred)
-                check = self.compile(rest) if rest is not None else (lambda env: True)
+                check = self.compile(rest)
 
-            simple = getattr(bindings, "simple", None)
-            ids = node.ids
-            if simple is not None:
-                name, source, filters = simple
-
-                def forall_simple(env: Env) -> bool:
-                    holds, strict = True, None
-                    for value in self.members(node, source(env)):
-                        env[name] = value
-                        try:
-                            for f in filters:
-                                if not f(env):
-                                    break
-                            else:
-                                if not check(env):
-                                    holds = False
-                        except TracecheckError as exc:
-                            strict = Strict.note(strict, ids, env, exc)
-                    if strict is not None:
-                        strict.fail()
-                    return holds
-                return _scoped(forall_simple, ids)
-
-            def forall(env: Env) -> bool:
-                holds, strict = True, None
-                for problem in bindings(env):
-                    try:
-                        if problem is not None:
-                            raise problem
-                        if not check(env):
-                            holds = False
-                    except TracecheckError as exc:
-                        strict = Strict.note(strict, ids, env, exc)
-                if strict is not None:
-                    strict.fail()
-                return holds
-            return _scoped(forall, ids)
+            return _scoped(self.quantifier(node, bindings, check), node.ids)
         with self.binding(node.ids):
             bindings = self.bindings(node, node.ids, node.body)
-        simple = getattr(bindings, "simple", None)
+        return _scoped(self.quantifier(node, bindings, None), node.ids)
+
+    def quantifier(self, node: A.Quant, bindings, check: Optional[Fn]) -> Fn:
+        """∀ (with ``check``, the implication's right side) or ∃ (``check`` None), decided
+        after every value was tried (see :class:`Strict`)."""
         ids = node.ids
-        if simple is not None:
-            name, source, filters = simple
+        simple = getattr(bindings, "simple", None)
+        if simple is None:
+            if check is None:
+                return lambda env: bool(_each(bindings, ids, env, lambda e: True))
+            return lambda env: all(_each(bindings, ids, env, check))
+        name, source, filters = simple
+        forall = check is not None
 
-            def exists_simple(env: Env) -> bool:
-                found, strict = False, None
-                for value in self.members(node, source(env)):
-                    env[name] = value
-                    try:
-                        for f in filters:
-                            if not f(env):
-                                break
-                        else:
-                            found = True
-                    except TracecheckError as exc:
-                        strict = Strict.note(strict, ids, env, exc)
-                if strict is not None:
-                    strict.fail()
-                return found
-            return _scoped(exists_simple, ids)
-
-        def exists(env: Env) -> bool:
-            found, strict = False, None
-            for problem in bindings(env):
-                if problem is None:
-                    found = True
-                else:
-                    strict = Strict.note(strict, ids, env, problem)
+        def quantify(env: Env) -> bool:  # one variable over a set: the live shield's case
+            result, strict = forall, None
+            for value in self.members(node, source(env)):
+                env[name] = value
+                try:
+                    for f in filters:
+                        if not f(env):
+                            break
+                    else:
+                        if not forall:
+                            result = True
+                        elif not check(env):
+                            result = False
+                except TracecheckError as exc:
+                    strict = Strict.note(strict, ids, env, exc)
             if strict is not None:
                 strict.fail()
-            return found
-        return _scoped(exists, ids)
+            return result
+        return quantify
 
     def members(self, node: A.Node, domain: Any):
         """What a bound variable ranges over (a finite set is used as it is)."""
