@@ -200,3 +200,25 @@ def test_sample_traces_are_paired_and_consistent():
     shield = load_shield("paper")
     assert replay([ROOT / "sample_traces" / "base_paper.mcap"], shield).infeasible_steps == 0
     assert replay([ROOT / "sample_traces" / "base_none.mcap"], shield).infeasible_steps > 0
+
+
+def test_a_run_file_cannot_point_resimulation_at_an_agent_of_its_choosing(tmp_path):
+    """The header's agent id is looked up by plain name among the bundled agents, with the
+    sha256 required: `../` paths, absolute paths and a missing hash are never followed."""
+    from types import SimpleNamespace
+
+    from tracecheck.checking.resimulate import AGENT_DIR, _agent_path
+    from tracecheck.live.agents import file_sha256
+
+    evil = tmp_path / "evil.zip"
+    evil.write_bytes((AGENT_DIR / "base.zip").read_bytes())
+    digest = file_sha256(evil)
+    for agent_id, sha in [(str(tmp_path / "evil"), digest),
+                          ("../../" + str(tmp_path / "evil").lstrip("/"), digest),
+                          ("base", None), (str(tmp_path / "evil"), None)]:
+        header = SimpleNamespace(agent_id=agent_id, agent_sha256=sha, agent_file=str(evil))
+        with pytest.raises(InputError, match="cannot tell which agent recorded"):
+            _agent_path(header, None)
+    bundled = SimpleNamespace(agent_id="base", agent_sha256=file_sha256(AGENT_DIR / "base.zip"),
+                              agent_file=None)
+    assert _agent_path(bundled, None) == str(AGENT_DIR / "base.zip")

@@ -41,21 +41,27 @@ class Resimulation:
 
 
 def _agent_path(header, agent: Optional[str | Path]) -> str:
+    """The agent that recorded a file: the one given with ``--agent``, else a bundled agent
+    whose file name *and* sha256 match the header, else (a Q-table only: loading one runs no
+    code) the table the header names, if its sha256 matches. A run file is data: no path in
+    it is followed to a stable-baselines3 file, which would run code when loaded."""
     if agent is not None:
         return str(agent)
-    if header.agent_id:
-        for suffix in (".zip", ".npy"):
-            candidate = AGENT_DIR / f"{header.agent_id}{suffix}"
-            if candidate.exists() and (header.agent_sha256 is None
-                                       or file_sha256(candidate) == header.agent_sha256):
+    wanted = header.agent_sha256
+    if header.agent_id and wanted:
+        for candidate in sorted(AGENT_DIR.glob("*")):
+            if candidate.suffix in (".zip", ".npy") and candidate.stem == header.agent_id \
+                    and file_sha256(candidate) == wanted:
                 return str(candidate)
-    # a Q-table runs no code when loaded: the one that recorded may be used again
     table = Path(header.agent_file) if header.agent_file else None
-    if table is not None and table.suffix == ".npy" and table.is_file() and (
-            file_sha256(table) == header.agent_sha256):
+    if table is not None and wanted and table.suffix == ".npy" and table.is_file() and (
+            file_sha256(table) == wanted):
         return str(table)
     raise InputError(f"cannot tell which agent recorded these episodes (agent {header.agent_id!r}"
-                     "); give it with --agent PATH")
+                     "); give it with --agent PATH",
+                     hint="tracecheck uses a bundled agent only when its name and sha256 match "
+                          "the file's header, and never follows a path from a run file to a "
+                          "stable-baselines3 agent")
 
 
 def _close(a, b) -> bool:
