@@ -113,3 +113,26 @@ def test_replay_does_not_import_torch(base):
             "assert 'torch' not in sys.modules and 'gymnasium' not in sys.modules\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
+
+
+@pytest.mark.parametrize("kind", ["magic only", "foreign"])
+def test_a_file_that_is_no_tracecheck_run_is_an_error_for_every_command(kind, tmp_path, capsys):
+    """Not "0 episodes, every step feasible": a CI gate must not pass on such a file."""
+    from mcap.writer import Writer
+
+    path = tmp_path / "x.mcap"
+    if kind == "magic only":
+        path.write_bytes(b"\x89MCAP0\r\n")
+    else:
+        with open(path, "wb") as f:
+            w = Writer(f)
+            w.start()
+            schema = w.register_schema(name="x", encoding="jsonschema", data=b"{}")
+            channel = w.register_channel(topic="/x", message_encoding="json", schema_id=schema)
+            w.add_message(channel_id=channel, log_time=0, data=b"{}", publish_time=0)
+            w.finish()
+    for args in (["replay", path, "--shield", "paper", "--fail-on", "infeasible"],
+                 ["diff", path, "--shield", "paper", "--against", "none", "--fail-on-change"],
+                 ["stats", path], ["info", path]):
+        code, _, err = run(capsys, *map(str, args))
+        assert code == 2 and "not a tracecheck run (no /tracecheck/run header)" in err, args

@@ -17,7 +17,7 @@ from mcap.records import Attachment
 from ..b.vector import Columns
 from ..b.values import Elem
 from .codec import COLUMNS_MEDIA_TYPE, columns_from_arrays, decode_columns
-from .reader import Damage, DamagedFileWarning, open_run, records
+from .reader import Damage, DamagedFileWarning, open_run, read_header, records
 
 __all__ = ["read_columns", "RunColumns"]
 
@@ -93,6 +93,7 @@ def read_columns(path: str | Path) -> RunColumns:
     complete episodes, with the loss described in ``warnings``.
     """
     path = Path(path)
+    read_header(path)  # a file without a tracecheck run header is no run (not "0 episodes")
     blobs, notes = _column_blobs(path)
     decoded = []
     for i, (_, blob) in enumerate(blobs):
