@@ -222,3 +222,43 @@ def test_a_run_file_cannot_point_resimulation_at_an_agent_of_its_choosing(tmp_pa
     bundled = SimpleNamespace(agent_id="base", agent_sha256=file_sha256(AGENT_DIR / "base.zip"),
                               agent_file=None)
     assert _agent_path(bundled, None) == str(AGENT_DIR / "base.zip")
+
+
+def test_an_existing_output_is_kept_until_a_new_episode_is_complete(tmp_path, capsys):
+    """record refuses an existing file without --force; with it, a run that fails before
+    its first episode leaves the old file as it was; a lock stops a second writer."""
+    from tracecheck.episodes.files import recording_into
+    from tracecheck.episodes.writer import new_header
+
+    out = tmp_path / "run.mcap"
+    code, _, err = run(capsys, "record", "--agent", str(BASE), "--shield", "none", "-n", "1",
+                       "--duration", "2", "-o", str(out))
+    assert code == 0, err
+    before = out.read_bytes()
+    code, _, err = run(capsys, "record", "--agent", str(BASE), "--shield", "none", "-n", "1",
+                       "--duration", "2", "-o", str(out))
+    assert code == 2 and "run.mcap exists; give another name, or --force" in err
+    with pytest.raises(RuntimeError):
+        with recording_into(out, new_header("recorded"), force=True):
+            raise RuntimeError("the agent broke before its first episode")
+    assert out.read_bytes() == before and not (tmp_path / "run.mcap.part").exists()
+    with recording_into(tmp_path / "other.mcap", new_header("recorded")):
+        with pytest.raises(InputError, match="another tracecheck is writing .*other.mcap"):
+            with recording_into(tmp_path / "other.mcap", new_header("recorded")):
+                pass
+    assert not (tmp_path / "other.mcap.lock").exists()
+    code, _, err = run(capsys, "record", "--agent", str(BASE), "--shield", "none", "-n", "1",
+                       "--duration", "3", "-o", str(out), "--force")
+    assert code == 0 and out.read_bytes() != before, err
+
+
+def test_export_simb_refuses_a_folder_that_is_not_empty(tmp_path, capsys):
+    folder = tmp_path / "simb"
+    folder.mkdir()
+    (folder / "Timed_Simulation_99.json").write_text("{}")
+    sample = ROOT / "sample_traces" / "base_none.mcap"
+    code, _, err = run(capsys, "export", "simb", str(sample), "-o", str(folder))
+    assert code == 2 and "is not empty; a later import would mix its files in" in err
+    code, _, err = run(capsys, "export", "simb", str(sample), "-o", str(folder), "--force")
+    assert code == 0 and not (folder / "Timed_Simulation_99.json").exists()
+    assert len(list(folder.glob("Timed_Simulation_*.json"))) == 24

@@ -225,7 +225,7 @@ def test_simulate_stops_when_intervals_are_narrow(capsys, tmp_path):
     assert data["runs"][0]["episodes"] == 10 < 30
     code, text, _ = run(capsys, "simulate", "--agent",
                         str(ROOT / "models" / "agents" / "base.zip"), "--episodes", "3",
-                        "--duration", "3", "-o", str(out), "--json")
+                        "--duration", "3", "-o", str(out), "--force", "--json")
     data = json.loads(text)
     assert "sequential" not in data and data["runs"][0]["episodes"] == 3
     code, _, err = run(capsys, "simulate", "--agent",

@@ -142,3 +142,7 @@ def warn(messages) -> None:
     """Print each warning of a library result (damaged files and the like)."""
     for warning in messages:
         err.print(f"[yellow]warning[/yellow]: {escape(warning)}")
+
+
+FORCE = typer.Option(False, "--force", help="Replace an existing output (a recording only once "
+                     "a new episode is complete).")

@@ -116,13 +116,22 @@ def export_prob2trace_cmd(
 def export_simb_cmd(
     run: Path = typer.Argument(..., help="An MCAP run file."),
     output: Path = typer.Option(..., "--output", "-o", help="The folder to write into."),
+    force: bool = typer.Option(False, "--force", help="Write into a folder that is not empty: "
+                               "its SimB traces are removed first."),
 ) -> None:
     """Export every episode as a SimB timed trace (Timed_Simulation_N.json)."""
     from ..interop import export_simb
 
-    episodes, header = _episodes(run)
     if output.exists() and not output.is_dir():
         raise InputError(f"the output {output} is a file; give a folder")
+    if output.is_dir() and any(output.iterdir()):
+        if not force:
+            raise InputError(f"the folder {output} is not empty; a later import would mix its "
+                             "files in", hint="give an empty or new folder, or --force to "
+                                              "remove its SimB traces first")
+        for old in output.glob("Timed_Simulation_*.json"):
+            old.unlink()
+    episodes, header = _episodes(run)
     written = export_simb(episodes, output, (header.model_name if header and header.model_name
                                              else "HighwayEnvironment"))
     out.print(f"wrote {len(written)} SimB trace(s) -> {output}", markup=False)

@@ -11,7 +11,7 @@ from rich.table import Table
 
 from ..errors import InputError
 from .common import (app, out, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, SHIELD_HELP, Profile, ENV,
-                     ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, Algorithm)
+                     ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, Algorithm, FORCE)
 
 
 @app.command("train")
@@ -79,6 +79,7 @@ def record_cmd(
                                            help="Action taken when the shield allows nothing "
                                                 "(default: the environment's; highway SLOWER)."),
     output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
+    force: bool = FORCE,
 ) -> None:
     """Run an agent under a shield (pre-shielding) and record every episode to MCAP."""
     import time as _time
@@ -105,7 +106,7 @@ def record_cmd(
             bar.update(task, advance=1, crashes=stats["crashes"], rate=f"{rate:.0f}")
 
         try:
-            n, steps, crashes = record(settings, output, progress)
+            n, steps, crashes = record(settings, output, progress, force=force)
         except KeyboardInterrupt:
             err.print(f"interrupted: {output} keeps every finished episode")
             raise typer.Exit(130) from None

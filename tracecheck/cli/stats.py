@@ -12,7 +12,7 @@ import typer
 from ..errors import InputError
 from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, EPISODE_EXECUTOR, RAY_ADDRESS,
                      SHIELD_HELP, StatsFormat, Interval, ENV, ENV_CONFIG, PROFILE, DURATION, AGENT,
-                     record_settings)
+                     record_settings, FORCE)
 
 
 def _print_stats(result: dict, as_json: bool, fmt: "StatsFormat", plot: Optional[Path]) -> None:
@@ -85,6 +85,7 @@ def simulate_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
     fmt: StatsFormat = typer.Option(StatsFormat.text, "--format", help="text, md or csv."),
     output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
+    force: bool = FORCE,
 ) -> None:
     """Monte Carlo: record episodes and validate them in one go (SimB-style)."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
@@ -101,7 +102,7 @@ def simulate_cmd(
                   TextColumn("{task.completed}/{task.total} episodes"), TimeRemainingColumn(),
                   console=err, transient=True) as bar:
         task = bar.add_task("simulate", total=episodes)
-        result = simulate(settings, output, pset, until_width=until_ci_width,
+        result = simulate(settings, output, pset, until_width=until_ci_width, force=force,
                           progress=lambda ep: bar.advance(task))
     seq = result.get("sequential")
     if seq is not None:

@@ -1,17 +1,19 @@
-"""Writing a whole run safely: into ``NAME.part``, renamed into place only when complete."""
+"""Writing runs safely: into ``NAME.part``, renamed into place only when there is something to
+keep, so that an existing file is never lost to a run that failed or was interrupted early."""
 
 from __future__ import annotations
 
 import os
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterable
+from typing import Iterable, Iterator
 
 from ..errors import InputError
 from .writer import EpisodeWriter
 from .model import Episode
 from .schema import RunHeader
 
-__all__ = ["write_run"]
+__all__ = ["write_run", "recording_into"]
 
 
 def write_run(path: str | Path, header: RunHeader, episodes: Iterable[Episode]) -> tuple[int, int, int]:
@@ -37,3 +39,46 @@ def write_run(path: str | Path, header: RunHeader, episodes: Iterable[Episode]) 
         part.unlink(missing_ok=True)
         raise
     return counts[0], counts[1], counts[2]
+
+
+@contextmanager
+def recording_into(path: str | Path, header: RunHeader, *, force: bool = False
+                   ) -> Iterator[EpisodeWriter]:
+    """An :class:`EpisodeWriter` for a recording into ``path``.
+
+    An existing ``path`` is refused unless ``force``; a lock file (``NAME.lock``) makes a
+    second writer of the same path fail at once. A new file is written in place (each
+    finished episode can be read while the recording goes on); one that replaces a file goes
+    to ``NAME.part`` first, which replaces ``path`` once at least one episode is complete —
+    also when the recording is interrupted — and is removed otherwise, so the old file stays.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"the output {path} is a folder; give a file name such as run.mcap")
+    lock = path.with_name(path.name + ".lock")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        os.close(os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+    except FileExistsError:
+        raise InputError(f"another tracecheck is writing {path} (its lock file {lock} exists); "
+                         "remove the lock file if no other run is going on") from None
+    except OSError as exc:
+        raise InputError(f"cannot write {path}: {exc.strerror or exc}") from None
+    if path.exists() and not force:
+        lock.unlink(missing_ok=True)
+        raise InputError(f"{path} exists; give another name, or --force to replace it (it is "
+                         "replaced only once a new episode is complete)")
+    replacing = path.exists()
+    part = path.with_name(path.name + ".part") if replacing else path
+    writer = EpisodeWriter(part, header)
+    try:
+        with writer:
+            yield writer
+    finally:
+        try:
+            if replacing and writer.episodes > 0:
+                os.replace(part, path)
+            elif replacing:
+                part.unlink(missing_ok=True)
+        finally:
+            lock.unlink(missing_ok=True)

@@ -13,7 +13,8 @@ import multiprocessing as mp
 from pathlib import Path
 from typing import Callable, Iterator, Optional
 
-from ..episodes.writer import EpisodeWriter, new_header
+from ..episodes.files import recording_into
+from ..episodes.writer import new_header
 from ..episodes.model import Episode
 from ..errors import InputError
 from .rollout import RecordSettings, Session, resolve
@@ -55,7 +56,7 @@ def episodes(settings: RecordSettings) -> Iterator[Episode]:
             pool.terminate()
 
 
-def check_settings(settings: RecordSettings, out: Path):
+def check_settings(settings: RecordSettings, out: Path, *, force: bool = False):
     """Everything that can be checked before an episode runs: environment, agent (its spaces
     against the environment's), shield (its operations and variables against the
     environment's actions and states), output."""
@@ -80,10 +81,14 @@ def check_settings(settings: RecordSettings, out: Path):
         env.close()
     if out.is_dir():
         raise InputError(f"the output {out} is a folder; give a file name such as run.mcap")
+    if out.exists() and not force:
+        raise InputError(f"{out} exists; give another name, or --force to replace it (it is "
+                         "replaced only once a new episode is complete)")
+    probe = out.with_name(out.name + ".probe")
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
-        with open(out, "ab"):
-            pass
+        probe.write_bytes(b"")
+        probe.unlink()
     except OSError as exc:
         raise InputError(f"cannot write {out}: {exc.strerror or exc}") from None
     return agent, shield
@@ -103,17 +108,19 @@ def recording_header(settings: RecordSettings, agent, shield):
 
 
 def record(settings: RecordSettings, out: str | Path,
-           progress: Optional[Callable[[Episode], None]] = None) -> tuple[int, int, int]:
+           progress: Optional[Callable[[Episode], None]] = None, *,
+           force: bool = False) -> tuple[int, int, int]:
     """Record ``settings.episodes`` episodes into ``out``; (episodes, steps, crashes).
 
-    Bad settings raise before any episode runs. Interrupted, the file keeps every
-    finished episode (the exception is re-raised after the file is closed).
+    Bad settings raise before any episode runs; an existing ``out`` is refused unless
+    ``force`` (see :func:`~tracecheck.episodes.files.recording_into`). Interrupted, the file
+    keeps every finished episode (the exception is re-raised after the file is closed).
     """
     out = Path(out)
-    agent, shield = check_settings(settings, out)
+    agent, shield = check_settings(settings, out, force=force)
     header = recording_header(settings, agent, shield)
     counts = [0, 0, 0]
-    with EpisodeWriter(out, header) as writer:
+    with recording_into(out, header, force=force) as writer:
         for episode in episodes(settings):
             writer.write(episode)
             counts[0] += 1

@@ -17,7 +17,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from ..b.vector import Columns
-from ..episodes.writer import EpisodeWriter
+from ..episodes.files import recording_into
 from ..episodes.model import Episode
 from .properties import PropertySet
 from ..live.record import RecordSettings, check_settings, episodes, recording_header
@@ -49,7 +49,8 @@ def _widths(holds: dict[str, list[bool]], level: float) -> dict[str, float]:
 
 def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
              until_width: Optional[float] = None, batch: Optional[int] = None,
-             progress: Optional[Callable[[Episode], None]] = None) -> dict:
+             progress: Optional[Callable[[Episode], None]] = None,
+             force: bool = False) -> dict:
     """Record up to ``settings.episodes`` episodes into ``out`` and return their statistics
     (see the module docstring for the early stop)."""
     out = Path(out)
@@ -58,7 +59,7 @@ def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
 
         raise InputError(f"--until-ci-width must lie strictly between 0 and 1 (a width of a "
                          f"share), not {until_width}")
-    agent, shield = check_settings(settings, out)
+    agent, shield = check_settings(settings, out, force=force)
     from ..live.record import resolve
 
     formulas = prepare(pset, resolve(settings)[0])
@@ -72,7 +73,7 @@ def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
         sequential = {"rule": f"Bonferroni over {looks} planned looks, Wilson intervals at "
                               f"level {level:.4f} per look", "width": until_width,
                       "batch": batch, "looks": 0, "stopped_early": False, "widths": {}}
-    with EpisodeWriter(out, header) as writer:
+    with recording_into(out, header, force=force) as writer:
         for episode in episodes(settings):
             writer.write(episode)
             if progress is not None:
