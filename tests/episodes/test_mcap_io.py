@@ -204,3 +204,22 @@ def test_columns_keep_every_kind_of_value(tmp_path):
     (_, blob), = _column_blobs(path)[0]
     header, _ = decode_columns(blob)
     assert len(header["literals"]["field"]) == 1 and len(header["literals"]["note"]) == 3
+
+
+def test_a_flipped_bit_in_a_columns_attachment_is_found(tmp_path, episodes):
+    """The columns carry a checksum: one flipped bit is an error naming the file, not a
+    silently different answer (old files without one are still read)."""
+    from tracecheck.episodes.columns import _column_blobs
+
+    path = write(tmp_path / "run.mcap", episodes)
+    (_, blob), *_ = _column_blobs(path)[0]
+    data = bytearray(path.read_bytes())
+    at = data.find(blob[len(blob) // 2:len(blob) // 2 + 32])
+    assert at > 0
+    data[at + 3] ^= 0x04
+    broken = tmp_path / "broken.mcap"
+    broken.write_bytes(bytes(data))
+    with pytest.raises(InputError, match=r"broken.mcap, columns attachment 1: damaged columns "
+                                         r"attachment: its checksum does not match"):
+        read_columns(broken)
+    assert read_columns(ROOT / "sample_traces" / "base_none.mcap").n > 0  # TCC1, no checksum

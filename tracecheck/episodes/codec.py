@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import struct
+import zlib
 from typing import Any, Mapping, Optional, Sequence
 
 import numpy as np
@@ -23,7 +24,8 @@ __all__ = ["encode_state", "decode_state", "encode_columns", "decode_columns",
            "COLUMNS_MEDIA_TYPE"]
 
 COLUMNS_MEDIA_TYPE = "application/x-tracecheck-columns"
-_MAGIC = b"TCC1"
+_MAGIC = b"TCC2"  # TCC1 (files before checksums) are still read
+_OLD_MAGIC = b"TCC1"
 
 
 def encode_value(value: Any) -> Any:
@@ -134,7 +136,8 @@ def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optio
         blobs.append(data)
         offset += len(data)
     head = orjson.dumps(header)
-    return _MAGIC + struct.pack("<I", len(head)) + head + b"".join(blobs)
+    body = _MAGIC + struct.pack("<I", len(head)) + head + b"".join(blobs)
+    return body + struct.pack("<I", zlib.crc32(body))  # a flipped bit is found, not trusted
 
 
 def _dictionary(values: Sequence[Any]) -> tuple[np.ndarray, list[str]]:
@@ -155,7 +158,12 @@ def _dictionary(values: Sequence[Any]) -> tuple[np.ndarray, list[str]]:
 def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.ndarray]]:
     """The header and arrays of a columns blob."""
     try:
-        if blob[:4] != _MAGIC:
+        if blob[:4] == _MAGIC:
+            (crc,) = struct.unpack_from("<I", blob, len(blob) - 4)
+            blob = blob[:-4]
+            if zlib.crc32(blob) != crc:
+                raise ValueError("its checksum does not match its contents")
+        elif blob[:4] != _OLD_MAGIC:
             raise ValueError("not a tracecheck columns attachment")
         (size,) = struct.unpack_from("<I", blob, 4)
         header = orjson.loads(blob[8:8 + size])
@@ -164,6 +172,8 @@ def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.
         for spec in header["arrays"]:
             dtype = np.dtype(spec["dtype"])
             count = math.prod(spec["shape"])
+            if spec["offset"] < 0 or base + spec["offset"] + count * dtype.itemsize > len(blob):
+                raise ValueError(f"the array {spec['name']} runs past the attachment's end")
             arrays[spec["name"]] = np.frombuffer(
                 blob, dtype=dtype, count=count, offset=base + spec["offset"]
             ).reshape(spec["shape"])
