@@ -158,10 +158,11 @@ def _dictionary(values: Sequence[Any]) -> tuple[np.ndarray, list[str]]:
 def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.ndarray]]:
     """The header and arrays of a columns blob."""
     try:
+        end = len(blob)
         if blob[:4] == _MAGIC:
-            (crc,) = struct.unpack_from("<I", blob, len(blob) - 4)
-            blob = blob[:-4]
-            if zlib.crc32(blob) != crc:
+            end -= 4
+            (crc,) = struct.unpack_from("<I", blob, end)
+            if zlib.crc32(memoryview(blob)[:end]) != crc:  # no copy of the data
                 raise ValueError("its checksum does not match its contents")
         elif blob[:4] != _OLD_MAGIC:
             raise ValueError("not a tracecheck columns attachment")
@@ -172,7 +173,7 @@ def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.
         for spec in header["arrays"]:
             dtype = np.dtype(spec["dtype"])
             count = math.prod(spec["shape"])
-            if spec["offset"] < 0 or base + spec["offset"] + count * dtype.itemsize > len(blob):
+            if spec["offset"] < 0 or base + spec["offset"] + count * dtype.itemsize > end:
                 raise ValueError(f"the array {spec['name']} runs past the attachment's end")
             arrays[spec["name"]] = np.frombuffer(
                 blob, dtype=dtype, count=count, offset=base + spec["offset"]
