@@ -21,6 +21,14 @@ __all__ = [
 ]
 
 
+def printable(text: str) -> str:
+    """``text`` with control characters (terminal escapes, NUL, …) shown as escapes: a
+    message never lets an input file drive the terminal. Line breaks stay."""
+    if text.isprintable() or all(c.isprintable() or c == "\n" for c in text):
+        return text
+    return "".join(c if c.isprintable() or c == "\n" else repr(c)[1:-1] for c in text)
+
+
 def caret_excerpt(source: str | None, line: int | None, column: int | None) -> str:
     """The source line at ``line`` with a caret under ``column`` (both 1-based)."""
     if not source or not line or line < 1:
@@ -28,7 +36,7 @@ def caret_excerpt(source: str | None, line: int | None, column: int | None) -> s
     lines = source.splitlines()
     if line > len(lines):
         return ""
-    text = lines[line - 1].replace("\t", " ")
+    text = "".join(c if c.isprintable() else " " for c in lines[line - 1])
     col = max(1, column or 1)
     return f"\n    {text}\n    {' ' * (col - 1)}^"
 
@@ -66,12 +74,12 @@ class TracecheckError(Exception):
         return ":".join(parts)
 
     def render(self) -> str:
-        text = self.message
+        text = printable(self.message)
         if self.file or self.line:
             text = f"{self.location}: {text}"
         text += caret_excerpt(self.source, self.line, self.column)
         if self.hint:
-            text += f"\n  hint: {self.hint}"
+            text += f"\n  hint: {printable(self.hint)}"
         return text
 
     def located(self, *, file: str | None = None, source: str | None = None) -> "TracecheckError":

@@ -196,3 +196,11 @@ def test_console_script_end_to_end(tmp_path):
 def test_usage_error_exit_code(capsys):
     code, _, err = run(capsys, "guards", TABLE1)
     assert code == 2 and "--state" in err
+
+
+def test_control_characters_from_input_files_are_escaped(capsys, tmp_path):
+    path = tmp_path / "ctl.json"
+    path.write_text('{"Vehicles\\u001b[31mX\\u0000": 1.0}')
+    code, _, err = run(capsys, "guards", TABLE1, "--state", str(path))
+    assert code == 2 and "\x1b" not in err and "\x00" not in err
+    assert "gives a value for Vehicles\\x1b[31mX\\x00, which the machine" in err

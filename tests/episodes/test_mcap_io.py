@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
 import textwrap
 
+import numpy as np
 import pytest
 from mcap.reader import make_reader
 
@@ -223,3 +225,33 @@ def test_a_flipped_bit_in_a_columns_attachment_is_found(tmp_path, episodes):
                                          r"attachment: its checksum does not match"):
         read_columns(broken)
     assert read_columns(ROOT / "sample_traces" / "base_none.mcap").n > 0  # TCC1, no checksum
+
+
+def test_repeated_episode_ids_are_an_error(tmp_path, episodes):
+    """Re-simulation looks episodes up by id: a file with an id twice would re-run the wrong
+    seed, so it is refused."""
+    import dataclasses
+
+    twice = [episodes[0], dataclasses.replace(episodes[1], id=episodes[0].id)]
+    path = write(tmp_path / "twice.mcap", twice)
+    with pytest.raises(InputError, match=r"twice.mcap, columns attachment 2: the episode id 0 "
+                                         r"is used twice"):
+        read_columns(path)
+
+
+@pytest.mark.parametrize("change,message", [
+    (lambda a: a.update(action=np.array([-1, 7, 0], dtype=np.int16)),
+     "an action index lies outside the 2 actions"),
+    (lambda a: a.update(reward=np.zeros(2)), "the array reward has (2,) rows, not 3"),
+    (lambda a: a.update({"num:x": np.zeros(4)}), "the array num:x has (4,) rows, not 3"),
+])
+def test_columns_that_do_not_fit_together_are_an_error(change, message):
+    from tracecheck.episodes.columns import _check_columns
+
+    arrays = {"time": np.zeros(3), "action": np.array([-1, 0, 1], dtype=np.int16),
+              "reward": np.zeros(3), "crashed": np.zeros(3, dtype=bool)}
+    change(arrays)
+    with pytest.raises(InputError, match="run.mcap, columns attachment 1: damaged columns "
+                                         "attachment \\(episode 0\\): " + re.escape(message)):
+        _check_columns("run.mcap, columns attachment 1: ", {"actions": ["IDLE", "FASTER"]},
+                       arrays, 0, set())

@@ -16,6 +16,7 @@ from mcap.records import Attachment
 
 from ..b.vector import Columns
 from ..b.values import Elem
+from ..errors import InputError
 from .codec import COLUMNS_MEDIA_TYPE, columns_from_arrays, decode_columns
 from .reader import Damage, DamagedFileWarning, open_run, read_header, records
 
@@ -96,9 +97,13 @@ def read_columns(path: str | Path) -> RunColumns:
     read_header(path)  # a file without a tracecheck run header is no run (not "0 episodes")
     blobs, notes = _column_blobs(path)
     decoded = []
+    seen: set = set()
     for i, (_, blob) in enumerate(blobs):
-        header, arrays = decode_columns(blob, where=f"{path}, columns attachment {i + 1}: ")
-        decoded.append((header.get("episode", i), header, arrays))
+        where = f"{path}, columns attachment {i + 1}: "
+        header, arrays = decode_columns(blob, where=where)
+        episode = header.get("episode", i)
+        _check_columns(where, header, arrays, episode, seen)
+        decoded.append((episode, header, arrays))
     actions: list[str] = []
     elements: list[str] = []
     for _, header, _ in decoded:
@@ -122,6 +127,33 @@ def read_columns(path: str | Path) -> RunColumns:
         result.values = np.concatenate(values)
     result.seeds = [header.get("seed") for _, header, _ in decoded]
     return result
+
+
+def _check_columns(where: str, header: dict, arrays: dict, episode, seen: set) -> None:
+    """What the rest of tracecheck relies on: a unique integer episode id, one row per step
+    in every array, action indexes within the episode's actions."""
+    if type(episode) is not int or episode in seen:
+        raise InputError(f"{where}the episode id {episode!r} is "
+                         f"{'used twice' if episode in seen else 'not an integer'}",
+                         hint="a run file holds each episode once")
+    seen.add(episode)
+    try:
+        n = len(arrays["time"])
+        for name in ("action", "reward", "crashed"):
+            if arrays[name].shape[:1] != (n,):
+                raise ValueError(f"the array {name} has {arrays[name].shape[:1]} rows, not {n}")
+        for name, arr in arrays.items():
+            if name.split(":")[0] in ("num", "bool", "fun", "def", "set", "lit", "values") \
+                    and arr.shape[:1] != (n,):
+                raise ValueError(f"the array {name} has {arr.shape[:1]} rows, not {n}")
+        actions = arrays["action"]
+        if actions.size and (int(actions.min()) < -1 or
+                             int(actions.max()) >= len(header["actions"])):
+            raise ValueError(f"an action index lies outside the {len(header['actions'])} "
+                             "actions of the episode")
+    except (KeyError, TypeError, ValueError) as exc:
+        raise InputError(f"{where}damaged columns attachment (episode {episode}): {exc}") \
+            from None
 
 
 def _widen(cols: Columns, elements: list[str]) -> Columns:
