@@ -140,3 +140,21 @@ def test_report_in_a_browser(tmp_path):
         assert browser.save_screenshot(str(tmp_path / "report.png"))
     finally:
         browser.quit()
+
+
+def test_report_pages_of_runs_with_the_same_file_name_do_not_collide(tmp_path):
+    from tracecheck.render.report import render_report
+    from tracecheck.stats.properties import load_properties
+
+    runs = []
+    for folder, sample in (("a", "base_none.mcap"), ("b", "base_paper.mcap")):
+        (tmp_path / folder).mkdir()
+        runs.append(tmp_path / folder / "run.mcap")
+        shutil.copy(ROOT / "sample_traces" / sample, runs[-1])
+    page, count = render_report(runs, tmp_path / "out" / "report.html",
+                                shield=load_shield("strict"),
+                                pset=load_properties("highway"), max_pages=200)
+    written = sorted(p.name for p in (tmp_path / "out" / "report_files").glob("*.html"))
+    assert len(written) == count
+    assert any(n.startswith("run_1_") for n in written)
+    assert any(n.startswith("run_2_") for n in written)

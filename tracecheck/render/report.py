@@ -76,6 +76,10 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
              f"{html.escape(', '.join(map(str, runs)))}</p>"]
     pages = []
     pages_dir = out.with_name(out.stem + "_files")
+    # one page name per run, also for runs with the same file name in different folders
+    stems = [Path(r).stem for r in runs]
+    page_stem = {str(r): stem if stems.count(stem) == 1 else f"{stem}_{i + 1}"
+                 for i, (r, stem) in enumerate(zip(runs, stems))}
     if shield is not None:
         report = replay(runs, shield)
         parts.append(f"<h2>Replay against shield {html.escape(shield.name)}</h2><p>"
@@ -93,7 +97,7 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
         for e in matters:
             link = ""
             if len(pages) < max_pages:
-                name = f"{Path(e.file).stem}_episode_{e.episode}.html"
+                name = f"{page_stem.get(str(e.file), Path(e.file).stem)}_episode_{e.episode}.html"
                 pages.append((e.file, e.episode, pages_dir / name))
                 link = f"{pages_dir.name}/{name}"
             rows.append((e, link))
