@@ -18,7 +18,8 @@ from ..errors import BSyntaxError, EvaluationError
 __all__ = [
     "Elem", "FuncValue", "SymbolicSet", "BuiltinSet", "Interval", "PowSet", "FunctionSpace",
     "Product", "SET_LIMIT", "SetLimitError", "finiteness", "cardinality", "members", "explicit",
-    "contains", "is_subset", "set_equal", "brief", "Projection", "SeqSet", "as_sequence", "sequence",
+    "contains", "is_subset", "set_equal", "brief", "Projection", "SeqSet", "as_sequence",
+    "sequence",
     "parse_literal", "format_value", "from_json", "to_json", "is_set", "BUILTIN_SET_VALUES",
     "sort_key",
 ]

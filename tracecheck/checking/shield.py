@@ -78,7 +78,8 @@ def _none_for(actions: tuple[str, ...]) -> Shield:
     from ..b.machine import load_machine_text
 
     ops = ";\n  ".join(f"{a} = skip" for a in actions)
-    text = f"/* everything allowed: built from the actions */\nMACHINE none\nOPERATIONS\n  {ops}\nEND\n"
+    text = (f"/* everything allowed: built from the actions */\nMACHINE none\nOPERATIONS\n"
+            f"  {ops}\nEND\n")
     machine = load_machine_text(text, file="none")
     return Shield(name="none", sha256=machine.sha256, path="none", machine=machine)
 

@@ -8,8 +8,8 @@ from typing import Optional
 
 import typer
 
-from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, RAY_ADDRESS, OutputFormat, FailOn,
-                     SHIELD_HELP, ROWS, run_shield)
+from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, RAY_ADDRESS, OutputFormat,
+                     FailOn, SHIELD_HELP, ROWS, run_shield)
 
 
 @app.command("replay")

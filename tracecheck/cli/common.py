@@ -49,7 +49,6 @@ def load_model(path: Path):
     return load_machine(path)
 
 
-
 class Executor(str, Enum):
     local = "local"
     ray = "ray"
@@ -80,6 +79,10 @@ SHIELD_HELP = ("A built-in shield (none, paper, strict, frozenlake, cliffwalking
                "a .mch file.")
 ROWS = 40
 
+# the options of the commands that run episodes (record, simulate)
+RUN_SHIELD = typer.Option("none", "--shield", "-s", help=SHIELD_HELP)
+SEED = typer.Option(0, "--seed", help="Episode i uses seed SEED + i.")
+WORKERS = typer.Option(1, "--workers", "-w", min=1, help="Worker processes.")
 
 
 def run_shield(spec: str, runs: list[Path]):
@@ -93,7 +96,6 @@ def run_shield(spec: str, runs: list[Path]):
     return load_shield(spec, actions=tuple(header.actions) or None)
 
 
-
 class StatsFormat(str, Enum):
     text = "text"
     md = "md"
@@ -103,7 +105,6 @@ class StatsFormat(str, Enum):
 class Interval(str, Enum):
     wilson = "wilson"
     clopper_pearson = "clopper-pearson"
-
 
 
 class Profile(str, Enum):
@@ -135,7 +136,6 @@ def record_settings(env: Optional[str], env_config: list[str], **fields):
 class Algorithm(str, Enum):
     dqn = "dqn"
     q_learning = "q-learning"
-
 
 
 def warn(messages) -> None:

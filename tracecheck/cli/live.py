@@ -10,8 +10,9 @@ import typer
 from rich.table import Table
 
 from ..errors import InputError
-from .common import (app, out, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, SHIELD_HELP, Profile, ENV,
-                     ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, Algorithm, FORCE)
+from .common import (app, out, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, Profile, ENV,
+                     ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, Algorithm, FORCE,
+                     RUN_SHIELD, SEED, WORKERS)
 
 
 @app.command("train")
@@ -65,13 +66,13 @@ def train_cmd(
 @app.command("record")
 def record_cmd(
     agent: Path = AGENT,
-    shield: str = typer.Option("none", "--shield", "-s", help=SHIELD_HELP),
+    shield: str = RUN_SHIELD,
     episodes: int = typer.Option(..., "--episodes", "-n", min=1, help="How many episodes."),
-    seed: int = typer.Option(0, "--seed", help="Episode i uses seed SEED + i."),
+    seed: int = SEED,
     env: Optional[str] = ENV,
     env_config: list[str] = ENV_CONFIG,
     duration: Optional[int] = DURATION,
-    workers: int = typer.Option(1, "--workers", "-w", min=1, help="Worker processes."),
+    workers: int = WORKERS,
     executor: Executor = EPISODE_EXECUTOR,
     ray_address: Optional[str] = RAY_ADDRESS,
     profile: Optional[str] = PROFILE,

@@ -11,8 +11,8 @@ import typer
 
 from ..errors import InputError
 from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, EPISODE_EXECUTOR, RAY_ADDRESS,
-                     SHIELD_HELP, StatsFormat, Interval, ENV, ENV_CONFIG, PROFILE, DURATION, AGENT,
-                     record_settings, FORCE)
+                     StatsFormat, Interval, ENV, ENV_CONFIG, PROFILE, DURATION, AGENT,
+                     record_settings, FORCE, RUN_SHIELD, SEED, WORKERS)
 
 
 def _print_stats(result: dict, as_json: bool, fmt: "StatsFormat", plot: Optional[Path]) -> None:
@@ -65,14 +65,14 @@ def stats_cmd(
 @app.command("simulate")
 def simulate_cmd(
     agent: Path = AGENT,
-    shield: str = typer.Option("none", "--shield", "-s", help=SHIELD_HELP),
+    shield: str = RUN_SHIELD,
     episodes: int = typer.Option(..., "--episodes", "-n", min=1,
                                  help="Episodes (at most, with --until-ci-width)."),
-    seed: int = typer.Option(0, "--seed", help="Episode i uses seed SEED + i."),
+    seed: int = SEED,
     env: Optional[str] = ENV,
     env_config: list[str] = ENV_CONFIG,
     duration: Optional[int] = DURATION,
-    workers: int = typer.Option(1, "--workers", "-w", min=1, help="Worker processes."),
+    workers: int = WORKERS,
     executor: Executor = EPISODE_EXECUTOR,
     ray_address: Optional[str] = RAY_ADDRESS,
     profile: Optional[str] = PROFILE,

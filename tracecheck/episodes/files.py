@@ -13,10 +13,11 @@ from .writer import EpisodeWriter
 from .model import Episode
 from .schema import RunHeader
 
-__all__ = ["write_run", "recording_into"]
+__all__ = ["write_run", "recording_into", "refuse_existing"]
 
 
-def write_run(path: str | Path, header: RunHeader, episodes: Iterable[Episode]) -> tuple[int, int, int]:
+def write_run(path: str | Path, header: RunHeader,
+              episodes: Iterable[Episode]) -> tuple[int, int, int]:
     """Write ``episodes`` to ``path``; (episodes, steps, crashes) written.
 
     An error while producing the episodes (a bad input file, say) leaves any existing
@@ -39,6 +40,13 @@ def write_run(path: str | Path, header: RunHeader, episodes: Iterable[Episode]) 
         part.unlink(missing_ok=True)
         raise
     return counts[0], counts[1], counts[2]
+
+
+def refuse_existing(path: Path, force: bool) -> None:
+    """An existing recording is replaced only when the user says so (``--force``)."""
+    if path.exists() and not force:
+        raise InputError(f"{path} exists; give another name, or --force to replace it (it is "
+                         "replaced only once a new episode is complete)")
 
 
 @contextmanager
@@ -64,10 +72,11 @@ def recording_into(path: str | Path, header: RunHeader, *, force: bool = False
                          "remove the lock file if no other run is going on") from None
     except OSError as exc:
         raise InputError(f"cannot write {path}: {exc.strerror or exc}") from None
-    if path.exists() and not force:
+    try:
+        refuse_existing(path, force)
+    except InputError:
         lock.unlink(missing_ok=True)
-        raise InputError(f"{path} exists; give another name, or --force to replace it (it is "
-                         "replaced only once a new episode is complete)")
+        raise
     replacing = path.exists()
     part = path.with_name(path.name + ".part") if replacing else path
     writer = EpisodeWriter(part, header)

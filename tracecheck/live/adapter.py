@@ -27,6 +27,7 @@ A minimal adapter::
 
 from __future__ import annotations
 
+import functools
 import importlib
 from dataclasses import dataclass
 from importlib import metadata
@@ -126,7 +127,9 @@ class AdapterInfo:
     problem: Optional[str]
 
 
+@functools.lru_cache(maxsize=1)
 def _entry_points() -> dict[str, metadata.EntryPoint]:
+    """The installed adapters (scanning the installed distributions once per process)."""
     found = {ep.name: ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP)}
     for name, target in _BUILTIN.items():  # also when running from a source tree
         found.setdefault(name, metadata.EntryPoint(name, target, ENTRY_POINT_GROUP))

@@ -13,7 +13,7 @@ import multiprocessing as mp
 from pathlib import Path
 from typing import Callable, Iterator, Optional
 
-from ..episodes.files import recording_into
+from ..episodes.files import recording_into, refuse_existing
 from ..episodes.writer import new_header
 from ..episodes.model import Episode
 from ..errors import InputError
@@ -81,9 +81,7 @@ def check_settings(settings: RecordSettings, out: Path, *, force: bool = False):
         env.close()
     if out.is_dir():
         raise InputError(f"the output {out} is a folder; give a file name such as run.mcap")
-    if out.exists() and not force:
-        raise InputError(f"{out} exists; give another name, or --force to replace it (it is "
-                         "replaced only once a new episode is complete)")
+    refuse_existing(out, force)  # before any environment or agent is loaded
     probe = out.with_name(out.name + ".probe")
     try:
         out.parent.mkdir(parents=True, exist_ok=True)

@@ -268,7 +268,8 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
                          f"{', '.join(INTERVALS)}")
     environments = {environment_of(p) for p in paths}
     if len(environments) > 1:
-        raise InputError(f"the runs come from different environments ({', '.join(sorted(environments))}); "
+        names = ", ".join(sorted(environments))
+        raise InputError(f"the runs come from different environments ({names}); "
                          "compare runs of one environment")
     environment = environments.pop() if environments else "highway"
     if executor != "local":
