@@ -14,6 +14,7 @@ import pytest
 from mcap.reader import make_reader
 
 from tests.conftest import ROOT
+from tracecheck.episodes.records import Attachment, walk
 from tracecheck.episodes import (DamagedFileWarning, EpisodeWriter, new_header, read_columns,
                                  read_episodes, read_run)
 from tracecheck.episodes.files import write_run
@@ -185,9 +186,8 @@ def test_columns_keep_every_kind_of_value(tmp_path):
     string, a set of pairs. The columnar view gives back exactly the step messages' values,
     and the map is written once per episode."""
     from tracecheck.b.values import Elem, FuncValue
-    from tracecheck.episodes.codec import decode_columns
-    from tracecheck.episodes.columns import _column_blobs
     from tracecheck.episodes.model import Episode, StepRecord, make_end
+    from tracecheck.episodes.reader import complete
 
     field = FuncValue({(x, y): Elem("HOLE" if (x, y) == (1, 1) else "ICE")
                        for x in range(3) for y in range(3)})
@@ -203,25 +203,23 @@ def test_columns_keep_every_kind_of_value(tmp_path):
     cols = read_columns(path)
     for k in range(3):
         assert cols.states.row(k) == steps[k].state
-    (_, blob), = _column_blobs(path)[0]
-    header, _ = decode_columns(blob)
+    (piece,) = complete(path, decode=False)
+    header, _ = piece.columns
     assert len(header["literals"]["field"]) == 1 and len(header["literals"]["note"]) == 3
 
 
 def test_a_flipped_bit_in_a_columns_attachment_is_found(tmp_path, episodes):
     """The columns carry a checksum: one flipped bit is an error naming the file, not a
     silently different answer (old files without one are still read)."""
-    from tracecheck.episodes.columns import _column_blobs
-
     path = write(tmp_path / "run.mcap", episodes)
-    (_, blob), *_ = _column_blobs(path)[0]
+    blob = next(r.data for r in walk(path, path.read_bytes()) if isinstance(r, Attachment))
     data = bytearray(path.read_bytes())
     at = data.find(blob[len(blob) // 2:len(blob) // 2 + 32])
     assert at > 0
     data[at + 3] ^= 0x04
     broken = tmp_path / "broken.mcap"
     broken.write_bytes(bytes(data))
-    with pytest.raises(InputError, match=r"broken.mcap, columns attachment 1: damaged columns "
+    with pytest.raises(InputError, match=r"broken.mcap, episode 0: damaged columns "
                                          r"attachment: its checksum does not match"):
         read_columns(broken)
     assert read_columns(ROOT / "sample_traces" / "base_none.mcap").n > 0  # TCC1, no checksum
@@ -234,7 +232,7 @@ def test_repeated_episode_ids_are_an_error(tmp_path, episodes):
 
     twice = [episodes[0], dataclasses.replace(episodes[1], id=episodes[0].id)]
     path = write(tmp_path / "twice.mcap", twice)
-    with pytest.raises(InputError, match=r"twice.mcap, columns attachment 2: the episode id 0 "
+    with pytest.raises(InputError, match=r"twice.mcap, episode 0: the episode id 0 "
                                          r"is used twice"):
         read_columns(path)
 
@@ -242,16 +240,24 @@ def test_repeated_episode_ids_are_an_error(tmp_path, episodes):
 @pytest.mark.parametrize("change,message", [
     (lambda a: a.update(action=np.array([-1, 7, 0], dtype=np.int16)),
      "an action index lies outside the 2 actions"),
-    (lambda a: a.update(reward=np.zeros(2)), "the array reward has (2,) rows, not 3"),
-    (lambda a: a.update({"num:x": np.zeros(4)}), "the array num:x has (4,) rows, not 3"),
+    (lambda a: a.update(reward=np.zeros(2)), "the array reward has shape (2,), not (3,)"),
+    (lambda a: a.update({"num:x": np.zeros(4)}), "the array num:x has shape (4,), not (3,)"),
+    (lambda a: a.update({"num:x": np.zeros(3, dtype=np.float32)}),
+     "the array num:x has dtype <f4, not ('<f8', '<i8')"),
+    (lambda a: a.update({"fun:x": np.zeros((3, 2))}), "the array fun:x has shape (3, 2), not "
+                                                      "(3, 1)"),
+    (lambda a: a.update({"cmd:x": np.zeros(3)}), "the array cmd:x is not one tracecheck writes"),
+    (lambda a: a.pop("crashed"), "'crashed' is missing"),
+    (lambda a: a.update({"lit:x": np.array([0, 1, 2], dtype=np.uint32)}),
+     "variable x refers to literal 2 of 2"),
 ])
 def test_columns_that_do_not_fit_together_are_an_error(change, message):
-    from tracecheck.episodes.columns import _check_columns
+    from tracecheck.episodes.reader import check_columns
 
     arrays = {"time": np.zeros(3), "action": np.array([-1, 0, 1], dtype=np.int16),
               "reward": np.zeros(3), "crashed": np.zeros(3, dtype=bool)}
     change(arrays)
-    with pytest.raises(InputError, match="run.mcap, columns attachment 1: damaged columns "
-                                         "attachment \\(episode 0\\): " + re.escape(message)):
-        _check_columns("run.mcap, columns attachment 1: ", {"actions": ["IDLE", "FASTER"]},
-                       arrays, 0, set())
+    header = {"episode": 0, "actions": ["IDLE", "FASTER"], "elements": ["E"],
+              "kinds": {"x": "lit"} if "lit:x" in arrays else {}, "literals": {"x": ["1", "2"]}}
+    with pytest.raises(InputError, match="^damaged columns attachment: " + re.escape(message)):
+        check_columns(header, arrays)

@@ -28,8 +28,10 @@ __all__ = ["app", "main"]
 
 def main(argv: Optional[list[str]] = None) -> Any:
     """Entry point: run the app and turn tracecheck errors into exit code 2."""
+    from ..episodes.reader import salvaging
+
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), salvaging(False):  # --salvage lasts one command
             warnings.simplefilter("ignore", DeprecationWarning)
             return app(args=argv, standalone_mode=True)
     except TracecheckError as exc:

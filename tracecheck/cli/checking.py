@@ -9,12 +9,13 @@ from typing import Optional
 import typer
 
 from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, RAY_ADDRESS, OutputFormat,
-                     FailOn, SHIELD_HELP, ROWS, run_shield)
+                     FailOn, SHIELD_HELP, ROWS, run_shield, SALVAGE)
 
 
 @app.command("replay")
 def replay_cmd(
     runs: list[Path] = typer.Argument(..., help="MCAP run files."),
+    salvage: bool = SALVAGE,
     shield: str = typer.Option(..., "--shield", "-s", help=SHIELD_HELP),
     as_json: bool = typer.Option(False, "--json", help="Print the full report as JSON."),
     fmt: OutputFormat = typer.Option(OutputFormat.text, "--format", help="text or md."),
@@ -78,6 +79,7 @@ def _resimulate(runs: list[Path], shield, report, agent: Optional[Path],
 @app.command("diff")
 def diff_cmd(
     runs: list[Path] = typer.Argument(..., help="MCAP run files."),
+    salvage: bool = SALVAGE,
     shield: str = typer.Option(..., "--shield", "-s", help="The new shield. " + SHIELD_HELP),
     against: str = typer.Option(..., "--against", "-a",
                                 help="The shield to compare with (old version, baseline)."),

@@ -39,6 +39,20 @@ def _root(
     """Validate reinforcement-learning agents and their B safety shields."""
 
 
+def salvage(value: bool) -> bool:
+    """The ``--salvage`` option: damaged episodes are left out with a warning."""
+    if value:
+        from ..episodes.reader import _SALVAGE
+
+        _SALVAGE.set(True)
+    return value
+
+
+SALVAGE = typer.Option(False, "--salvage", callback=salvage,
+                       help="Leave out episodes whose parts disagree (damaged or edited "
+                            "files), with a warning, instead of stopping with exit 2.")
+
+
 def load_model(path: Path):
     """A machine from a path, or a built-in shield by name (none, paper, strict)."""
     from ..b.machine import load_machine

@@ -9,7 +9,7 @@ from typing import Optional
 import typer
 
 from ..errors import InputError
-from .common import app, out, warn, load_model
+from .common import app, out, warn, load_model, SALVAGE
 
 
 import_app = typer.Typer(help="Import ProB/SimB traces into an MCAP run file.",
@@ -85,6 +85,7 @@ def _episodes(run: Path, only: Optional[set[int]] = None) -> list:
 @export_app.command("prob2trace")
 def export_prob2trace_cmd(
     run: Path = typer.Argument(..., help="An MCAP run file."),
+    salvage: bool = SALVAGE,
     episode: int = typer.Option(..., "--episode", "-e", help="The episode number."),
     output: Path = typer.Option(..., "--output", "-o", help="The .prob2trace file to write."),
 ) -> None:
@@ -115,6 +116,7 @@ def export_prob2trace_cmd(
 @export_app.command("simb")
 def export_simb_cmd(
     run: Path = typer.Argument(..., help="An MCAP run file."),
+    salvage: bool = SALVAGE,
     output: Path = typer.Option(..., "--output", "-o", help="The folder to write into."),
     force: bool = typer.Option(False, "--force", help="Write into a folder that is not empty: "
                                "its SimB traces are removed first."),
@@ -150,6 +152,7 @@ def _ranges(ids: list[int]) -> str:
 @app.command("info")
 def info(
     runs: list[Path] = typer.Argument(..., help="MCAP run files."),
+    salvage: bool = SALVAGE,
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
 ) -> None:
     """Summarise run files: episodes, steps, crashes, sources, agents and shields."""

@@ -7,12 +7,13 @@ from typing import Optional
 
 import typer
 
-from .common import app, out, SHIELD_HELP
+from .common import app, out, SHIELD_HELP, SALVAGE
 
 
 @app.command("render")
 def render_cmd(
     run: Path = typer.Argument(..., help="An MCAP run file."),
+    salvage: bool = SALVAGE,
     episode: int = typer.Option(..., "--episode", "-e", help="The episode number."),
     shield: Optional[str] = typer.Option(None, "--shield", "-s", help=SHIELD_HELP),
     output: Path = typer.Option(..., "--output", "-o", help="The HTML page to write."),
@@ -30,6 +31,7 @@ def render_cmd(
 @app.command("report")
 def report_cmd(
     runs: list[Path] = typer.Argument(..., help="MCAP run files."),
+    salvage: bool = SALVAGE,
     shield: Optional[str] = typer.Option(None, "--shield", "-s", help=SHIELD_HELP),
     properties: Optional[str] = typer.Option(
         None, "--properties", "-p", help="A built-in set (highway, frozenlake, cliffwalking) "

@@ -12,7 +12,7 @@ import typer
 from ..errors import InputError
 from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, EPISODE_EXECUTOR, RAY_ADDRESS,
                      StatsFormat, Interval, ENV, ENV_CONFIG, PROFILE, DURATION, AGENT,
-                     record_settings, FORCE, RUN_SHIELD, SEED, WORKERS)
+                     record_settings, FORCE, RUN_SHIELD, SEED, WORKERS, SALVAGE)
 
 
 def _print_stats(result: dict, as_json: bool, fmt: "StatsFormat", plot: Optional[Path]) -> None:
@@ -38,6 +38,7 @@ def _print_stats(result: dict, as_json: bool, fmt: "StatsFormat", plot: Optional
 @app.command("stats")
 def stats_cmd(
     runs: list[Path] = typer.Argument(..., help="MCAP run files: one column each."),
+    salvage: bool = SALVAGE,
     properties: Optional[str] = typer.Option(
         None, "--properties", "-p", help="A built-in set (highway: the paper's; frozenlake; "
         "cliffwalking) or a property file (TOML). Default: the runs' environment's."),

@@ -155,6 +155,9 @@ def _dictionary(values: Sequence[Any]) -> tuple[np.ndarray, list[str]]:
     return rows, literals
 
 
+_SAFE_DTYPES = {d: np.dtype(d) for d in ("<f8", "<i8", "<i2", "|b1", "<u4")}
+
+
 def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.ndarray]]:
     """The header and arrays of a columns blob."""
     try:
@@ -171,9 +174,15 @@ def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.
         base = 8 + size
         arrays = {}
         for spec in header["arrays"]:
-            dtype = np.dtype(spec["dtype"])
-            count = math.prod(spec["shape"])
-            if spec["offset"] < 0 or base + spec["offset"] + count * dtype.itemsize > end:
+            dtype, shape, offset = _SAFE_DTYPES.get(spec["dtype"]), spec["shape"], spec["offset"]
+            if dtype is None:
+                raise ValueError(f"the array {spec['name']} has dtype {spec['dtype']!r}, not "
+                                 "one tracecheck writes")
+            if not (isinstance(shape, list) and len(shape) <= 2 and type(offset) is int
+                    and all(type(k) is int and k >= 0 for k in shape)):
+                raise ValueError(f"the array {spec['name']} has a bad shape or offset")
+            count = math.prod(shape)
+            if offset < 0 or base + spec["offset"] + count * dtype.itemsize > end:
                 raise ValueError(f"the array {spec['name']} runs past the attachment's end")
             arrays[spec["name"]] = np.frombuffer(
                 blob, dtype=dtype, count=count, offset=base + spec["offset"]
@@ -184,7 +193,7 @@ def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.
 
 
 def columns_from_arrays(header: dict, arrays: dict[str, np.ndarray],
-                        literals: Optional[dict[str, Any]] = None) -> Columns:
+                        literals: Optional[dict[str, Any]] = None, where: str = "") -> Columns:
     """The B-engine :class:`Columns` of one decoded blob (``literals``: values already read,
     by their text, shared between the episodes of a file)."""
     literals = {} if literals is None else literals
@@ -202,10 +211,10 @@ def columns_from_arrays(header: dict, arrays: dict[str, np.ndarray],
         elif kind == "lit":
             texts = header["literals"][name]
             distinct = [literals[t] if t in literals else literals.setdefault(
-                t, parse_literal(t, where=f"variable {name}")) for t in texts]
+                t, parse_literal(t, where=f"{where}variable {name}")) for t in texts]
             rows = arrays[f"lit:{name}"]
             if rows.size and int(rows.max()) >= len(distinct):
-                raise InputError(f"damaged columns attachment: variable {name} refers to "
-                                 f"literal {int(rows.max())} of {len(distinct)}")
+                raise InputError(f"{where}damaged columns attachment: variable {name} refers "
+                                 f"to literal {int(rows.max())} of {len(distinct)}")
             cols.others[name] = [distinct[k] for k in rows.tolist()]
     return cols

@@ -11,14 +11,11 @@ from pathlib import Path
 from typing import Optional
 
 import numpy as np
-from mcap.reader import SeekingReader
-from mcap.records import Attachment
 
 from ..b.vector import Columns
 from ..b.values import Elem
-from ..errors import InputError
-from .codec import COLUMNS_MEDIA_TYPE, columns_from_arrays, decode_columns
-from .reader import Damage, DamagedFileWarning, open_run, read_header, records
+from .codec import columns_from_arrays
+from .reader import DamagedFileWarning, complete
 
 __all__ = ["read_columns", "RunColumns"]
 
@@ -53,57 +50,19 @@ class RunColumns:
         return int(self.starts[-1])
 
 
-def _column_blobs(path: Path) -> tuple[list[tuple[int, bytes]], list[str]]:
-    """(episode id, columns blob) for each complete episode, using the index if there is one."""
-    _, stream = open_run(path)
-    with stream:
-        try:
-            reader = SeekingReader(stream)
-            summary = reader.get_summary()
-        except Exception:  # noqa: BLE001 - no usable summary: read the records in order
-            summary = None
-        if summary is not None and summary.attachment_indexes is not None:
-            return [(None, att.data) for att in reader.iter_attachments()
-                    if att.media_type == COLUMNS_MEDIA_TYPE], []
-    # linear scan: keep only episodes whose end record was read
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", DamagedFileWarning)
-        blobs = _scan_blobs(path)
-    return blobs, [str(w.message) for w in caught]
-
-
-def _scan_blobs(path: Path) -> list[tuple[Optional[int], bytes]]:
-    """Column attachments in file order (each follows its episode's end record)."""
-    path, stream = open_run(path)
-    blobs: list[tuple[Optional[int], bytes]] = []
-    with stream:
-        for record in records(path, stream):
-            if isinstance(record, Damage):
-                warnings.warn(f"{path}: the file is damaged or ends early ({record.why}); "
-                              f"read {len(blobs)} complete episode(s)", DamagedFileWarning)
-                break
-            if isinstance(record, Attachment) and record.media_type == COLUMNS_MEDIA_TYPE:
-                blobs.append((None, record.data))
-    return blobs
-
-
-def read_columns(path: str | Path) -> RunColumns:
+def read_columns(path: str | Path, *, salvage: Optional[bool] = None) -> RunColumns:
     """All states of a file as numpy columns (see :class:`RunColumns`).
 
-    Reads only the per-episode column attachments; a file with a damaged tail gives its
-    complete episodes, with the loss described in ``warnings``.
+    Decodes only the per-episode column attachments (each checked against its episode's
+    header, end record and last step message, see :mod:`tracecheck.episodes.reader`); a file
+    with a damaged tail gives its complete episodes, with the loss described in ``warnings``.
     """
     path = Path(path)
-    read_header(path)  # a file without a tracecheck run header is no run (not "0 episodes")
-    blobs, notes = _column_blobs(path)
-    decoded = []
-    seen: set = set()
-    for i, (_, blob) in enumerate(blobs):
-        where = f"{path}, columns attachment {i + 1}: "
-        header, arrays = decode_columns(blob, where=where)
-        episode = header.get("episode", i)
-        _check_columns(where, header, arrays, episode, seen)
-        decoded.append((episode, header, arrays))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", DamagedFileWarning)
+        decoded = [(p.head.episode, *p.columns)
+                   for p in complete(path, decode=False, salvage=salvage)]
+    notes = [str(w.message) for w in caught if issubclass(w.category, DamagedFileWarning)]
     actions: list[str] = []
     elements: list[str] = []
     for _, header, _ in decoded:
@@ -115,7 +74,8 @@ def read_columns(path: str | Path) -> RunColumns:
     for ep, header, arrays in decoded:
         order = [actions.index(a) for a in header["actions"]]
         remap = np.array(order + [-1], dtype=np.int16)
-        cols = columns_from_arrays(header, arrays, literals)
+        cols = columns_from_arrays(header, arrays, literals,
+                                   where=f"{path}, episode {ep}: ")
         parts.append((ep, arrays, remap[arrays["action"]], _widen(cols, elements)))
         table = np.full((len(arrays["time"]), len(actions)), np.nan)
         if "values" in arrays:
@@ -127,33 +87,6 @@ def read_columns(path: str | Path) -> RunColumns:
         result.values = np.concatenate(values)
     result.seeds = [header.get("seed") for _, header, _ in decoded]
     return result
-
-
-def _check_columns(where: str, header: dict, arrays: dict, episode, seen: set) -> None:
-    """What the rest of tracecheck relies on: a unique integer episode id, one row per step
-    in every array, action indexes within the episode's actions."""
-    if type(episode) is not int or episode in seen:
-        raise InputError(f"{where}the episode id {episode!r} is "
-                         f"{'used twice' if episode in seen else 'not an integer'}",
-                         hint="a run file holds each episode once")
-    seen.add(episode)
-    try:
-        n = len(arrays["time"])
-        for name in ("action", "reward", "crashed"):
-            if arrays[name].shape[:1] != (n,):
-                raise ValueError(f"the array {name} has {arrays[name].shape[:1]} rows, not {n}")
-        for name, arr in arrays.items():
-            if name.split(":")[0] in ("num", "bool", "fun", "def", "set", "lit", "values") \
-                    and arr.shape[:1] != (n,):
-                raise ValueError(f"the array {name} has {arr.shape[:1]} rows, not {n}")
-        actions = arrays["action"]
-        if actions.size and (int(actions.min()) < -1 or
-                             int(actions.max()) >= len(header["actions"])):
-            raise ValueError(f"an action index lies outside the {len(header['actions'])} "
-                             "actions of the episode")
-    except (KeyError, TypeError, ValueError) as exc:
-        raise InputError(f"{where}damaged columns attachment (episode {episode}): {exc}") \
-            from None
 
 
 def _widen(cols: Columns, elements: list[str]) -> Columns:

@@ -1,29 +1,64 @@
 """Reading tracecheck MCAP files: :func:`read_run` reads a whole file, :func:`read_episodes`
-iterates its episodes, :func:`read_header` gives its run header. A damaged tail yields the
-complete episodes and a :class:`DamagedFileWarning` that says what was lost.
+iterates its episodes, :func:`read_header` gives its run header, and :func:`complete` the
+checked pieces both of them and :func:`tracecheck.episodes.read_columns` are built from.
+
+Nothing in a file is trusted before it is checked. An episode counts only once its header,
+step messages, end record and columns attachment are all in the file and agree with each
+other (episode id, number of steps, crash flag, last action, seed; every step when the steps
+are decoded): so ``info``, ``replay``, ``render`` and ``export`` see the same episodes. An
+episode that does not agree is an error naming the file and episode — or, when salvaging
+(``--salvage``, :func:`salvaging`), a :class:`SalvagedEpisodeWarning` and the episode left
+out. A damaged tail yields the complete episodes and a :class:`DamagedFileWarning` that says
+what was lost.
 """
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any, Iterator, Optional
+from typing import Iterator, Optional
 
-from mcap.records import Attachment, Channel, Footer, Message, Schema
-from mcap.stream_reader import StreamReader
+import numpy as np
+import orjson
 from pydantic import ValidationError
 
 from ..errors import InputError, TracecheckError
 from . import schema as S
-from .codec import COLUMNS_MEDIA_TYPE, decode_state
+from .codec import COLUMNS_MEDIA_TYPE, decode_columns, decode_state
 from .model import Episode, EpisodeEnd, StepRecord
+from .records import Attachment, Channel, Damage, Schema, open_buffer, walk
 
-__all__ = ["read_run", "read_episodes", "read_header", "Run", "DamagedFileWarning"]
+__all__ = ["read_run", "read_episodes", "read_header", "Run", "DamagedFileWarning",
+           "SalvagedEpisodeWarning", "salvaging", "complete", "Piece"]
 
 
 class DamagedFileWarning(UserWarning):
     """A file whose tail is damaged: the complete episodes were read, the rest was lost."""
+
+
+class SalvagedEpisodeWarning(DamagedFileWarning):
+    """An episode left out because its parts do not agree (only when salvaging)."""
+
+
+_SALVAGE: contextvars.ContextVar[bool] = contextvars.ContextVar("salvage", default=False)
+
+
+@contextlib.contextmanager
+def salvaging(on: bool = True) -> Iterator[None]:
+    """Inside this block, readers leave out damaged episodes with a warning instead of
+    raising (the ``--salvage`` option)."""
+    token = _SALVAGE.set(on)
+    try:
+        yield
+    finally:
+        _SALVAGE.reset(token)
+
+
+def salvage_on() -> bool:
+    return _SALVAGE.get()
 
 
 @dataclass
@@ -36,110 +71,169 @@ class Run:
     warnings: list[str] = field(default_factory=list)
 
 
-def records(path: Path, stream: IO[bytes]) -> Iterator[Any]:
-    """The records of an MCAP file in order; stops with a warning where the tail is damaged."""
-    magic = stream.read(8)
-    if magic != b"\x89MCAP0\r\n":
-        raise InputError(f"{path} is not an MCAP file (it does not start with the MCAP magic "
-                         "bytes)")
-    stream.seek(0)
-    reader = StreamReader(stream, skip_magic=False, emit_chunks=False)
-    try:
-        for record in reader.records:
-            yield record
-            if isinstance(record, Footer):
-                return
-    except Exception as exc:  # noqa: BLE001 - a damaged tail breaks the reader in many ways
-        yield Damage(f"{type(exc).__name__}: {exc}")
-
-
 @dataclass
-class Damage:
-    why: str
+class Piece:
+    """One complete, checked episode of a file: its messages and its decoded columns
+    (``steps`` holds ``None`` for steps that were not decoded)."""
+
+    head: S.EpisodeHeader
+    steps: list
+    count: int = 0
+    last: Optional[tuple] = None  # (buffer, start, end) of the last step message's data
+    end: Optional[S.EpisodeEnd] = None
+    columns: Optional[tuple[dict, dict[str, np.ndarray]]] = None
+
+    @property
+    def episode(self) -> Episode:
+        end = self.end
+        return Episode(id=self.head.episode, seed=self.head.seed, origin=self.head.origin,
+                       steps=tuple(self.steps),
+                       end=EpisodeEnd(end.steps, end.crashed, end.total_reward, end.reason))
+
+
+class _Bad(Exception):
+    """One episode is damaged (the message says how)."""
+
+
+def _where(path: Path, episode=None, step=None) -> str:
+    parts = [str(path)]
+    if episode is not None:
+        parts.append(f"episode {episode}")
+    if step is not None:
+        parts.append(f"step {step}")
+    return ", ".join(parts) + ": "
+
+
+def _parse(name: str, data: bytes):
+    try:
+        return S.MESSAGES[name].model_validate_json(data)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        loc = ".".join(str(p) for p in first["loc"])
+        raise _Bad(f"bad {name} message: {loc}: {first['msg']}") from None
 
 
 class _Assembler:
-    """Builds episodes from records, checking each message against its schema."""
+    """Builds checked pieces from records; raises (or, salvaging, warns) per bad episode."""
 
-    def __init__(self, path: Path, only: Optional[set[int]] = None) -> None:
+    def __init__(self, path: Path, only: Optional[set[int]], decode: bool,
+                 salvage: bool) -> None:
         self.path = path
         self.only = only
+        self.decode = decode
+        self.salvage = salvage
         self.schemas: dict[int, str] = {}
         self.channels: dict[int, str] = {}
         self.header: Optional[S.RunHeader] = None
-        self.current: Optional[dict] = None
-        self.columns: dict[int, bytes] = {}
+        self.current: Optional[Piece] = None
+        self.broken: Optional[str] = None  # the current episode is damaged (salvaging)
+        self.count = 0
+        self.seen: set[int] = set()
 
-    def where(self, episode: Optional[int] = None, step: Optional[int] = None) -> str:
-        parts = [str(self.path)]
-        if episode is not None:
-            parts.append(f"episode {episode}")
-        if step is not None:
-            parts.append(f"step {step}")
-        return ", ".join(parts) + ": "
+    # -- errors
+    def bad(self, why: str, episode=None, step=None) -> None:
+        if episode is None and self.current is not None:
+            episode = self.current.head.episode
+        if not self.salvage:
+            raise InputError(f"{_where(self.path, episode, step)}{why}",
+                             hint="--salvage leaves damaged episodes out with a warning")
+        warnings.warn(f"{_where(self.path, episode, step)}{why}; the episode is left out",
+                      SalvagedEpisodeWarning, stacklevel=4)
 
-    def parse(self, name: str, data: bytes, episode=None, step=None):
-        try:
-            return S.MESSAGES[name].model_validate_json(data)
-        except ValidationError as exc:
-            first = exc.errors()[0]
-            loc = ".".join(str(p) for p in first["loc"])
-            raise InputError(f"{self.where(episode, step)}bad {name} message: {loc}: "
-                             f"{first['msg']}") from None
-
-    def feed(self, record) -> Optional[Episode]:
-        if isinstance(record, Schema):
-            self.schemas[record.id] = record.name
+    # -- records
+    def feed(self, record) -> Optional[Piece]:
+        if type(record) is tuple:
+            _, buf, start, stop = record
+            name = self.channels.get(buf[start] | buf[start + 1] << 8)
+            if name is not None:
+                return self.message(name, buf, start + 22, stop)
+        elif isinstance(record, Attachment):
+            if record.media_type == COLUMNS_MEDIA_TYPE:
+                return self.attachment(record.data)
         elif isinstance(record, Channel):
-            self.channels[record.id] = self.schemas.get(record.schema_id, "")
-        elif isinstance(record, Attachment) and record.media_type == COLUMNS_MEDIA_TYPE:
-            if self.current is not None:
-                self.current["columns"] = record.data
-        elif isinstance(record, Message):
-            return self.message(self.channels.get(record.channel_id), record.data)
+            name = self.schemas.get(record.schema_id, "")
+            if name in S.MESSAGES and S.TOPICS[name] == record.topic:
+                self.channels[record.id] = name
+        elif isinstance(record, Schema):
+            self.schemas[record.id] = record.name
         return None
 
-    def message(self, name: Optional[str], data: bytes) -> Optional[Episode]:
+    def message(self, name: str, buf, start: int, stop: int) -> Optional[Piece]:
+        if name == "tracecheck.Step" and self.broken is None and self.current is not None \
+                and not (self.decode and self.wanted()):
+            piece = self.current  # counted, and the last one kept for the cross-check
+            if piece.end is not None:
+                self.broken = "steps after the end"
+                self.bad("a step message comes after the episode's end record")
+            piece.count += 1
+            piece.last = (buf, start, stop)
+            return None
+        data = buf[start:stop]
         if name == "tracecheck.RunHeader":
-            self.header = self.parse(name, data)
-        elif name == "tracecheck.EpisodeHeader":
-            head = self.parse(name, data)
-            self.current = {"head": head, "steps": [], "columns": None}
-        elif name == "tracecheck.Step":
-            if self.current is None:
-                raise InputError(f"{self.where()}a step message comes before any episode header")
-            ep = self.current["head"].episode
-            if self.only is not None and ep not in self.only:
-                self.current["steps"].append(None)
-                return None
-            msg = self.parse(name, data, ep)
-            if msg.episode != ep:
-                raise InputError(f"{self.where(ep, msg.step)}step message of episode "
-                                 f"{msg.episode} inside episode {ep}")
-            self.current["steps"].append(self.step(msg, ep))
-        elif name == "tracecheck.EpisodeEnd":
-            if self.current is None:
-                raise InputError(f"{self.where()}an episode end comes before its header")
-            head = self.current["head"]
-            end = self.parse(name, data, head.episode)
-            steps = tuple(self.current["steps"])
-            if not steps:
-                raise InputError(f"{self.where(head.episode)}the episode has no steps")
-            if self.only is not None and head.episode not in self.only:
-                self.current = None
-                return None
-            episode = Episode(id=head.episode, seed=head.seed, origin=head.origin, steps=steps,
-                              end=EpisodeEnd(end.steps, end.crashed, end.total_reward,
-                                             end.reason))
-            self.current = None
-            return episode
+            if self.header is not None:
+                raise InputError(f"{self.path}: the file has a second run header")
+            try:
+                self.header = _parse(name, data)
+            except _Bad as exc:
+                raise InputError(f"{self.path}: {exc}") from None
+            return None
+        if self.header is None:
+            raise InputError(f"{self.path} is not a tracecheck run (its first message is not "
+                             "a /tracecheck/run header)")
+        if name == "tracecheck.EpisodeHeader":
+            self.start(data)
+        elif self.current is None:
+            self.bad(f"a {name} message comes before any episode header")
+        elif self.broken is None:
+            try:
+                if name == "tracecheck.Step":
+                    self.step(data)
+                elif name == "tracecheck.EpisodeEnd":
+                    self.finish(data)
+            except _Bad as exc:
+                self.broken = str(exc)
+                self.bad(str(exc))
         return None
 
-    def step(self, msg: S.Step, ep: int) -> StepRecord:
+    def start(self, data: bytes) -> None:
+        if self.current is not None and self.broken is None:
+            self.bad("the episode ends without its " +
+                     ("columns attachment" if self.current.end else "end record"))
+        self.current, self.broken = None, None
+        try:
+            head = _parse("tracecheck.EpisodeHeader", data)
+        except _Bad as exc:
+            self.broken = str(exc)
+            self.current = Piece(S.EpisodeHeader(episode=-1), [])
+            self.bad(str(exc), episode="?")
+            return
+        self.current = Piece(head, [])
+        if head.episode in self.seen:
+            self.broken = "used twice"
+            self.bad(f"the episode id {head.episode} is used twice",
+                     )
+        self.seen.add(head.episode)
+
+    def wanted(self, piece: Optional[Piece] = None) -> bool:
+        piece = piece or self.current
+        return self.only is None or piece.head.episode in self.only
+
+    def step(self, data: bytes) -> None:
+        piece = self.current
+        if piece.end is not None:
+            raise _Bad("a step message comes after the episode's end record")
+        piece.count += 1
+        piece.steps.append(self.step_record(data))
+
+    def step_record(self, data: bytes) -> StepRecord:
+        k = self.current.count - 1
+        msg = _parse("tracecheck.Step", data)
+        if msg.episode != self.current.head.episode or msg.step != k:
+            raise _Bad(f"step message {k} is step {msg.step} of episode {msg.episode}")
         try:
             state = decode_state(msg.state)
         except TracecheckError as exc:
-            raise InputError(f"{self.where(ep, msg.step)}{exc.message}") from None
+            raise _Bad(f"step {k}: {exc.message}") from None
         return StepRecord(
             step=msg.step, time=msg.time, action=msg.action, state=state, reward=msg.reward,
             crashed=msg.crashed,
@@ -148,81 +242,257 @@ class _Assembler:
             allowed_actions=tuple(msg.allowed_actions) if msg.allowed_actions is not None
             else None, shield_time_us=msg.shield_time_us, deadlock=msg.deadlock)
 
+    def finish(self, data: bytes) -> None:
+        piece = self.current
+        if piece.end is not None:
+            raise _Bad("the episode has two end records")
+        end = _parse("tracecheck.EpisodeEnd", data)
+        if end.episode != piece.head.episode:
+            raise _Bad(f"the end record belongs to episode {end.episode}")
+        if not piece.count:
+            raise _Bad("the episode has no steps")
+        piece.end = end
 
-def open_run(path: str | Path) -> tuple[Path, IO[bytes]]:
-    path = Path(path)
+    def attachment(self, blob: bytes) -> Optional[Piece]:
+        piece, broken = self.current, self.broken
+        if piece is None or piece.end is None:
+            if broken is None:
+                self.bad("a columns attachment comes before the episode's end record")
+            return None
+        self.current, self.broken = None, None
+        self.count += 1
+        if broken is not None or not self.wanted(piece):
+            return None
+        try:
+            piece.columns = decode_columns(blob)
+            _agree(piece, self.decode)
+        except (_Bad, InputError) as exc:
+            self.bad(exc.message if isinstance(exc, InputError) else str(exc),
+                     episode=piece.head.episode)
+            return None
+        return piece
+
+    def lost(self, why: str) -> str:
+        partial = ""
+        if self.current is not None and self.broken is None:
+            partial = (f"; lost the unfinished episode {self.current.head.episode} "
+                       f"({self.current.count} step message(s))")
+        return (f"{self.path}: the file is damaged or ends early ({why}); read {self.count} "
+                f"complete episode(s){partial}")
+
+
+def _agree(piece: Piece, decoded: bool) -> None:
+    """The columns of ``piece`` say what its messages say (raises :class:`_Bad`)."""
+    header, arrays = piece.columns
+    check_columns(header, arrays)
+    head, end = piece.head, piece.end
+    if header.get("episode") != head.episode:
+        raise _Bad(f"its columns belong to episode {header.get('episode')!r}")
+    rows = len(arrays["time"])
+    if not rows == piece.count == end.steps + 1:
+        raise _Bad(f"the step messages ({piece.count}), end record ({end.steps} steps after "
+                   f"the initial state) and columns ({rows} rows) disagree on its length")
+    if header.get("seed") != head.seed:
+        raise _Bad(f"the columns say seed {header.get('seed')!r}, the episode header "
+                   f"{head.seed!r}")
+    names = header["actions"]
+    crashed = bool(arrays["crashed"][-1])
+    if decoded:
+        last = piece.steps[-1]
+    else:
+        last = _last_step(piece)
+    last_action = names[arrays["action"][-1]] if arrays["action"][-1] >= 0 else None
+    if not crashed == end.crashed == last.crashed:
+        raise _Bad(f"the columns, end record and last step disagree on whether it crashed "
+                   f"({crashed}, {end.crashed}, {last.crashed})")
+    if last.action != last_action:
+        raise _Bad(f"the last step's action is {last.action!r} in its message and "
+                   f"{last_action!r} in the columns")
+    if decoded:
+        actions = [names[a] if a >= 0 else None for a in arrays["action"].tolist()]
+        for k, s in enumerate(piece.steps):
+            if (s.action != actions[k] or s.crashed != bool(arrays["crashed"][k])
+                    or s.reward != float(arrays["reward"][k])
+                    or s.time != float(arrays["time"][k])):
+                raise _Bad(f"step {k}: the step message and the columns disagree "
+                           "(action, reward, time or crash flag)")
+
+
+@dataclass(frozen=True)
+class _Last:
+    action: Optional[str]
+    crashed: bool
+
+
+def _last_step(piece: Piece) -> _Last:
+    """The action and crash flag of the last step message (the rest is not needed)."""
+    buf, a, b = piece.last
     try:
-        return path, open(path, "rb")
-    except FileNotFoundError:
-        raise InputError(f"no such file: {path}") from None
-    except IsADirectoryError:
-        raise InputError(f"{path} is a folder, not an MCAP file") from None
-    except OSError as exc:
-        raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
+        msg = orjson.loads(buf[a:b])
+    except orjson.JSONDecodeError as exc:
+        raise _Bad(f"step {piece.count - 1}: the step message is not JSON ({exc})") from None
+    if not (isinstance(msg, dict) and msg.get("episode") == piece.head.episode
+            and msg.get("step") == piece.count - 1 and type(msg.get("crashed")) is bool
+            and (msg.get("action") is None or type(msg.get("action")) is str)):
+        full = _parse("tracecheck.Step", buf[a:b])  # says what is wrong …
+        raise _Bad(f"step message {piece.count - 1} is step {full.step} of episode "
+                   f"{full.episode}")  # … or this is
+    return _Last(msg.get("action"), msg["crashed"])
 
 
-def _lost(path: Path, asm: _Assembler, count: int, why: str) -> str:
-    partial = ""
-    if asm.current is not None:
-        head = asm.current["head"]
-        partial = (f"; lost the unfinished episode {head.episode} "
-                   f"({len(asm.current['steps'])} step message(s))")
-    return (f"{path}: the file is damaged or ends early ({why}); read {count} complete "
-            f"episode(s){partial}")
+_DTYPES = {"time": "<f8", "reward": "<f8", "action": "<i2", "crashed": "|b1", "values": "<f8",
+           "num": ("<f8", "<i8"), "bool": "|b1", "fun": ("<f8", "<i8"), "def": "|b1",
+           "set": "|b1", "lit": "<u4"}
+_KINDS = {"num": ("num",), "bool": ("bool",), "func": ("fun", "def"), "set": ("set",),
+          "lit": ("lit",)}
 
 
-def read_episodes(path: str | Path, only: Optional[set[int]] = None) -> Iterator[Episode]:
-    """The complete episodes of a file, in order (only those in ``only`` when given: the
-    step messages of the others are not decoded).
+_NAMES_SEEN: list = [None, None]
 
-    A damaged tail ends the iteration with a :class:`DamagedFileWarning` saying what was
-    lost; a file that is not MCAP, or whose messages do not fit the schema, raises
-    :class:`~tracecheck.errors.InputError` naming the file, episode and step.
+
+def _check_names(actions, elements) -> None:
+    if [actions, elements] == _NAMES_SEEN:  # every episode of a file has the same ones
+        return
+    if not isinstance(actions, list) or not isinstance(elements, list) or \
+            not all(isinstance(a, str) for a in actions) or \
+            not all(isinstance(e, str) and e.isidentifier() for e in elements):
+        raise ValueError("the names of its actions or set elements are not names")
+    _NAMES_SEEN[:] = [actions, elements]
+
+
+def check_columns(header: dict, arrays: dict) -> None:
+    """What the rest of tracecheck relies on: an integer episode id, one row per step in
+    every array of the right dtype and shape, action indexes within the episode's actions,
+    one array per variable of each kind (an :class:`~tracecheck.errors.InputError` if not)."""
+    try:
+        if type(header.get("episode")) is not int:
+            raise ValueError(f"the episode id {header.get('episode')!r} is not an integer")
+        actions, elements = header["actions"], header["elements"]
+        literals = header.get("literals", {})  # files before literal columns have none
+        if not isinstance(header["kinds"], dict) or not isinstance(literals, dict):
+            raise ValueError("the kinds or literals are not tables")
+        n = len(arrays["time"])
+        _check_names(actions, elements)
+        wide = {"fun": len(elements), "def": len(elements), "set": len(elements),
+                "values": len(actions)}
+        for name, arr in arrays.items():
+            prefix = name.split(":")[0]
+            want = _DTYPES.get(prefix)
+            if want is None:
+                raise ValueError(f"the array {name} is not one tracecheck writes")
+            if arr.dtype.str not in (want if isinstance(want, tuple) else (want,)):
+                raise ValueError(f"the array {name} has dtype {arr.dtype.str}, not {want}")
+            shape = (n, wide[prefix]) if prefix in wide else (n,)
+            if arr.shape != shape:
+                raise ValueError(f"the array {name} has shape {arr.shape}, not {shape}")
+        for name in ("action", "reward", "crashed"):
+            arrays[name]  # noqa: B018 - present
+        for var, kind in header["kinds"].items():
+            if kind not in _KINDS:
+                raise ValueError(f"variable {var} has the unknown kind {kind!r}")
+            for prefix in _KINDS[kind]:
+                arrays[f"{prefix}:{var}"]  # noqa: B018 - present
+            if kind == "lit":
+                texts = literals[var]
+                if not isinstance(texts, list) or not all(isinstance(t, str) for t in texts):
+                    raise ValueError(f"the literals of {var} are not a list of texts")
+                rows = arrays[f"lit:{var}"]
+                if rows.size and int(rows.max()) >= len(texts):
+                    raise ValueError(f"variable {var} refers to literal {int(rows.max())} of "
+                                     f"{len(texts)}")
+        action = arrays["action"]
+        if not n:
+            raise ValueError("it has no rows")
+        if int(action[0]) != -1 or (n > 1 and (int(action[1:].min()) < 0 or
+                                               int(action.max()) >= len(actions))):
+            raise ValueError(f"an action index lies outside the {len(actions)} actions of the "
+                             "episode")
+    except KeyError as exc:
+        raise InputError(f"damaged columns attachment: {exc} is missing") from None
+    except (TypeError, ValueError, AttributeError) as exc:
+        raise InputError(f"damaged columns attachment: {exc}") from None
+
+
+def complete(path: str | Path, only: Optional[set[int]] = None, *, decode: bool = True,
+             salvage: Optional[bool] = None) -> Iterator[Piece]:
+    """The complete, checked episodes of a file in order (those in ``only`` when given;
+    ``decode=False``: step messages are counted, not decoded).
+
+    A damaged tail ends the iteration with a :class:`DamagedFileWarning`; a file that is not
+    a tracecheck run raises :class:`~tracecheck.errors.InputError`, and so does an episode
+    whose parts disagree unless salvaging.
     """
-    path, stream = open_run(path)
-    with stream:
-        asm = _Assembler(path, only)
-        count = 0
-        for record in records(path, stream):
-            if isinstance(record, Damage):
-                warnings.warn(_lost(path, asm, count, record.why), DamagedFileWarning,
-                              stacklevel=2)
-                return
-            before = asm.current
-            episode = asm.feed(record)
-            if before is not None and asm.current is None:
-                count += 1
-            if episode is not None:
-                yield episode
+    path = Path(path)
+    salvage = salvage_on() if salvage is None else salvage
+    buf = open_buffer(path)
+    try:
+        asm = _Assembler(path, only, decode, salvage)
+        steps = -1  # the channel of step messages, once known
+        for record in walk(path, buf):
+            if type(record) is tuple:
+                if not decode and record[1][record[2]] | record[1][record[2] + 1] << 8 == steps:
+                    piece = asm.current  # the fast path of asm.message for a step not decoded
+                    if piece is not None and piece.end is None and asm.broken is None:
+                        piece.count += 1
+                        piece.last = (record[1], record[2] + 22, record[3])
+                        continue
+            elif isinstance(record, Damage):
+                warnings.warn(asm.lost(record.why), DamagedFileWarning, stacklevel=3)
+                break
+            piece = asm.feed(record)
+            if steps < 0 and isinstance(record, Channel):
+                steps = next((k for k, v in asm.channels.items() if v == "tracecheck.Step"), -1)
+            if piece is not None:
+                yield piece
+        else:
+            if asm.current is not None and asm.broken is None:
+                warnings.warn(asm.lost("the last episode is not complete"), DamagedFileWarning,
+                              stacklevel=3)
         if asm.header is None:
             raise InputError(f"{path} is an MCAP file but not a tracecheck run (no "
                              "/tracecheck/run header)")
-        if asm.current is not None:
-            warnings.warn(_lost(path, asm, count, "no end record for the last episode"),
-                          DamagedFileWarning, stacklevel=2)
+    finally:
+        if hasattr(buf, "close"):
+            buf.close()
 
 
-def read_run(path: str | Path, only: Optional[set[int]] = None) -> Run:
+def read_episodes(path: str | Path, only: Optional[set[int]] = None, *,
+                  salvage: Optional[bool] = None) -> Iterator[Episode]:
+    """The complete episodes of a file, in order (only those in ``only`` when given: the
+    step messages of the others are not decoded). See :func:`complete`."""
+    for piece in complete(path, only, salvage=salvage):
+        yield piece.episode
+
+
+def read_run(path: str | Path, only: Optional[set[int]] = None, *,
+             salvage: Optional[bool] = None) -> Run:
     """The header and all complete episodes of a file (or those in ``only``); warnings are
     collected, not raised."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", DamagedFileWarning)
-        episodes = list(read_episodes(path, only))
+        episodes = list(read_episodes(path, only, salvage=salvage))
     header = read_header(path)
     return Run(str(path), header, episodes,
                [str(w.message) for w in caught if issubclass(w.category, DamagedFileWarning)])
 
 
-def read_header(path: str | Path) -> Optional[S.RunHeader]:
-    """The run header of a file (the first message)."""
-    path, stream = open_run(path)
-    with stream:
-        asm = _Assembler(path)
-        for record in records(path, stream):
+def read_header(path: str | Path) -> S.RunHeader:
+    """The run header of a file (its first message)."""
+    path = Path(path)
+    buf = open_buffer(path)
+    try:
+        asm = _Assembler(path, set(), False, True)
+        for record in walk(path, buf):
             if isinstance(record, Damage):
                 break
-            asm.feed(record)
-            if asm.header is not None:
-                return asm.header
+            if type(record) is tuple and asm.channels:
+                asm.feed(record)
+                if asm.header is not None:
+                    return asm.header
+            else:
+                asm.feed(record)
+    finally:
+        if hasattr(buf, "close"):
+            buf.close()
     raise InputError(f"{path} is an MCAP file but not a tracecheck run (no /tracecheck/run "
                      "header)")

@@ -1,0 +1,220 @@
+"""Run files whose parts disagree: the columns against the step messages and end records,
+missing attachments, repeated ids, chunked files and decompression bombs. Each is an error
+naming the file and episode, or with salvaging an episode left out with a warning — and
+every reader (columns, step messages) sees the same episodes."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import struct
+import warnings
+
+import lz4.frame
+import pytest
+
+from tests.cli.test_cli import run
+from tests.episodes.conftest import episode
+from tracecheck.episodes import (EpisodeWriter, new_header, read_columns, read_episodes,
+                                 read_run)
+from tracecheck.episodes import writer as W
+from tracecheck.episodes.reader import SalvagedEpisodeWarning, salvaging
+from tracecheck.episodes.records import MAX_CHUNK_RATIO, walk
+from tracecheck.errors import InputError
+
+ACTIONS = ["IDLE", "FASTER", "SLOWER"]
+
+
+def episodes():
+    return [episode(0), episode(1, 4, crash_at_end=True), episode(2, 2)]
+
+
+def write(path, eps, columns=None):
+    """Write ``eps``; ``columns(kwargs)`` may change what episode 1's columns say."""
+    real = W.encode_columns
+
+    def encode(ep, times, actions, rewards, crashed, cols, names, values=None, seed=None):
+        args = dict(times=list(times), actions=list(actions), rewards=list(rewards),
+                    crashed=list(crashed), seed=seed)
+        if ep == 1 and columns is not None:
+            columns(args)
+        return real(ep, args["times"], args["actions"], args["rewards"], args["crashed"], cols,
+                    names, values, seed=args["seed"])
+
+    W.encode_columns = encode
+    try:
+        with EpisodeWriter(path, new_header("recorded", actions=ACTIONS)) as w:
+            for e in eps:
+                w.write(e)
+    finally:
+        W.encode_columns = real
+    return path
+
+
+def flip_last_crash(a):
+    a["crashed"][-1] = not a["crashed"][-1]
+
+
+def last_action(a):
+    a["actions"][-1] = "SLOWER"
+
+
+def other_seed(a):
+    a["seed"] = 99
+
+
+CASES = [
+    (flip_last_crash, "the columns, end record and last step disagree on whether it crashed "
+                      "(False, True, True)"),
+    (last_action, "the last step's action is 'IDLE' in its message and 'SLOWER' in the columns"),
+    (other_seed, "the columns say seed 99, the episode header 1001"),
+]
+
+
+@pytest.mark.parametrize("change,message", CASES, ids=["crash", "action", "seed"])
+def test_columns_that_contradict_the_messages(tmp_path, change, message):
+    path = write(tmp_path / "run.mcap", episodes(), change)
+    for read in (read_columns, lambda p: list(read_episodes(p))):
+        with pytest.raises(InputError) as info:
+            read(path)
+        assert info.value.message == f"{path}, episode 1: {message}"
+        assert "--salvage" in info.value.hint
+    cols = read_columns(path, salvage=True)
+    assert list(cols.episode_ids) == [0, 2]
+    assert cols.warnings == [f"{path}, episode 1: {message}; the episode is left out"]
+    with salvaging(), pytest.warns(SalvagedEpisodeWarning, match="episode 1: .*; the episode "
+                                                                 "is left out"):
+        assert [e.id for e in read_episodes(path)] == [0, 2]
+
+
+def test_a_step_the_columns_tell_differently(tmp_path):
+    """Decoding the steps (render, export) compares every step, not only the last."""
+    def middle(a):
+        a["actions"][2] = "FASTER"
+    path = write(tmp_path / "run.mcap", episodes(), middle)
+    with pytest.raises(InputError, match=r"run.mcap, episode 1: step 2: the step message and "
+                                         r"the columns disagree"):
+        read_run(path)
+
+
+def test_an_end_record_with_another_length(tmp_path):
+    eps = episodes()
+    eps[1] = dataclasses.replace(eps[1], end=dataclasses.replace(eps[1].end, steps=3))
+    path = write(tmp_path / "run.mcap", eps)
+    with pytest.raises(InputError, match=r"episode 1: the step messages \(5\), end record "
+                                         r"\(3 steps after the initial state\) and columns "
+                                         r"\(5 rows\) disagree on its length"):
+        read_columns(path)
+
+
+def test_a_missing_attachment_is_not_a_silently_missing_episode(tmp_path, monkeypatch):
+    real = W.EpisodeWriter._write
+
+    def without_columns(self, ep):
+        if ep.id == 1:
+            add = self._writer.add_attachment
+            self._writer.add_attachment = lambda **kw: None
+            try:
+                return real(self, ep)
+            finally:
+                self._writer.add_attachment = add
+        return real(self, ep)
+
+    monkeypatch.setattr(W.EpisodeWriter, "_write", without_columns)
+    path = write(tmp_path / "run.mcap", episodes())
+    with pytest.raises(InputError, match=r"run.mcap, episode 1: the episode ends without its "
+                                         r"columns attachment"):
+        read_columns(path)
+    with pytest.raises(InputError, match="episode 1: the episode ends without its columns"):
+        read_run(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SalvagedEpisodeWarning)
+        assert list(read_columns(path, salvage=True).episode_ids) == [0, 2]
+        assert [e.id for e in read_run(path, salvage=True).episodes] == [0, 2]
+
+
+def test_every_command_agrees_with_and_without_salvage(capsys, tmp_path):
+    """Without --salvage every reading command stops with exit 2 naming the episode; with it
+    they all leave out the same episode."""
+    path = write(tmp_path / "run.mcap", episodes(), flip_last_crash)
+    commands = [["info", str(path)], ["replay", str(path), "--shield", "none"],
+                ["stats", str(path)], ["diff", str(path), "--shield", "none", "--against",
+                                       "none"],
+                ["render", str(path), "--episode", "1", "-o", str(tmp_path / "v.html")],
+                ["export", "simb", str(path), "-o", str(tmp_path / "simb")]]
+    for args in commands:
+        code, _, err = run(capsys, *args)
+        assert code == 2, args
+        assert f"{path}, episode 1: the columns, end record and last step disagree" in err
+        assert "Traceback" not in err
+    code, _, err = run(capsys, "render", str(path), "--episode", "1", "--salvage", "-o",
+                       str(tmp_path / "v.html"))
+    assert code == 2 and f"{path} has no episode 1; it has 0, 2" in err
+    commands[4][3] = "2"
+    for args in commands:
+        code, out, err = run(capsys, *args, "--salvage")
+        assert code == 0, (args, err)
+        if args[0] != "render":  # rendering episode 2 reads only episode 2
+            assert "episode 1: the columns" in err and "left out" in err
+    code, out, _ = run(capsys, "info", str(path), "--salvage", "--json")
+    assert '"episodes": 2' in out
+    assert len(list((tmp_path / "simb").glob("*.json"))) == 2
+
+
+# ------------------------------------------------------------------ chunks
+
+
+def _chunk_record(inner: bytes, declared: int, compression: str = "lz4",
+                  data: bytes | None = None) -> bytes:
+    data = lz4.frame.compress(inner) if data is None else data
+    name = compression.encode()
+    body = (struct.pack("<QQQI", 0, 0, declared, 0) + struct.pack("<I", len(name)) + name
+            + struct.pack("<Q", len(data)) + data)
+    return struct.pack("<BQ", 6, len(body)) + body
+
+
+def _rechunk(path, out, make_chunk):
+    """``path`` with its episode records (everything after the run header) in one chunk."""
+    data = path.read_bytes()
+    msgs = [r for r in walk(path, data) if type(r) is tuple]
+    begin = msgs[1][2] - 9  # the first episode header's record
+    end = data.rfind(b"\x0f", 0, len(data))  # the data end record
+    summary_free = data[:begin] + make_chunk(data[begin:_data_end(path, data)])
+    out.write_bytes(summary_free + data[_data_end(path, data):])
+    assert end > begin
+    return out
+
+
+def _data_end(path, data: bytes) -> int:
+    at = 8
+    while True:
+        op, length = struct.unpack_from("<BQ", data, at)
+        if op == 15:
+            return at
+        at += 9 + length
+
+
+def test_a_chunked_file_reads_the_same(tmp_path):
+    path = write(tmp_path / "run.mcap", episodes())
+    chunked = _rechunk(path, tmp_path / "chunked.mcap",
+                       lambda inner: _chunk_record(inner, len(inner)))
+    assert chunked.read_bytes() != path.read_bytes()
+    a, b = read_columns(path), read_columns(chunked)
+    assert list(a.episode_ids) == list(b.episode_ids) == [0, 1, 2] and a.n == b.n
+    assert [e.steps for e in read_episodes(chunked)] == [e.steps for e in read_episodes(path)]
+
+
+def test_a_decompression_bomb_is_refused(tmp_path):
+    path = write(tmp_path / "run.mcap", episodes())
+    bomb = _rechunk(path, tmp_path / "bomb.mcap",
+                    lambda inner: _chunk_record(b"\0" * 1000, 10 ** 12))
+    cols = read_columns(bomb)
+    assert cols.n == 0 and MAX_CHUNK_RATIO == 1000
+    assert re.search(r"a chunk would decompress to 1000000000000 bytes from \d+ \(more than "
+                     r"tracecheck's limit", cols.warnings[0])
+    liar = _rechunk(path, tmp_path / "liar.mcap",
+                    lambda inner: _chunk_record(b"\0" * (50 << 20), 1000))
+    assert "a chunk decompresses to 1001 bytes, not the 1000" in read_columns(liar).warnings[0]
+    odd = _rechunk(path, tmp_path / "odd.mcap",
+                   lambda inner: _chunk_record(inner, len(inner), "brotli", data=inner))
+    assert "a chunk uses the unknown compression 'brotli'" in read_columns(odd).warnings[0]

@@ -1,0 +1,230 @@
+"""The records of an MCAP file, read without trusting the file.
+
+:func:`walk` steps through the data section record by record (opcode, length, content) and
+checks every length against what is left before reading it, so a truncated or damaged file
+ends in a :class:`Damage` that says where, never in an exception from deep inside a parser.
+Only the few record kinds tracecheck reads are parsed (schemas, channels, messages,
+attachments, chunks); message bodies are handed on as offsets, so a reader that skips most
+messages pays for none of them. Chunks (tracecheck writes none, but other MCAP tools may
+rewrite a file with them) are decompressed with a limit on the decompression ratio and size.
+"""
+
+from __future__ import annotations
+
+import mmap
+import struct
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator, Union
+
+from ..errors import InputError
+
+__all__ = ["walk", "Damage", "Schema", "Channel", "Attachment", "MESSAGE", "MAGIC",
+           "MAX_CHUNK_RATIO", "MAX_CHUNK_BYTES", "open_buffer"]
+
+MAGIC = b"\x89MCAP0\r\n"
+HEADER, FOOTER, SCHEMA, CHANNEL, MESSAGE, CHUNK, ATTACHMENT, DATA_END = 1, 2, 3, 4, 5, 6, 9, 15
+
+#: A chunk may decompress to at most this many times its compressed size (plus 1 MiB) …
+MAX_CHUNK_RATIO = 1000
+#: … and to at most this many bytes.
+MAX_CHUNK_BYTES = 1 << 30
+
+_REC = struct.Struct("<BQ")
+_U16 = struct.Struct("<H")
+_U32 = struct.Struct("<I")
+_U64 = struct.Struct("<Q")
+_CHUNK = struct.Struct("<QQQI")
+
+
+@dataclass(frozen=True)
+class Damage:
+    """Where and why the walk stopped early."""
+
+    why: str
+
+
+@dataclass(frozen=True)
+class Schema:
+    id: int
+    name: str
+
+
+@dataclass(frozen=True)
+class Channel:
+    id: int
+    schema_id: int
+    topic: str
+
+
+@dataclass(frozen=True)
+class Attachment:
+    name: str
+    media_type: str
+    data: bytes
+
+
+#: A message: (MESSAGE, buffer, start, end) — its channel id is the first two bytes of
+#: ``buffer[start:end]`` and its data starts 22 bytes in.
+MessageRef = tuple
+Record = Union[Schema, Channel, Attachment, MessageRef, Damage]
+
+
+class _Bad(Exception):
+    pass
+
+
+class _Fields:
+    """Reads the fields of one record's content, each checked against the record's end."""
+
+    __slots__ = ("buf", "at", "end")
+
+    def __init__(self, buf, start: int, end: int) -> None:
+        self.buf, self.at, self.end = buf, start, end
+
+    def take(self, n: int) -> int:
+        at = self.at
+        if n < 0 or at + n > self.end:
+            raise _Bad("a field runs past the end of its record")
+        self.at = at + n
+        return at
+
+    def u16(self) -> int:
+        return _U16.unpack_from(self.buf, self.take(2))[0]
+
+    def u32(self) -> int:
+        return _U32.unpack_from(self.buf, self.take(4))[0]
+
+    def u64(self) -> int:
+        return _U64.unpack_from(self.buf, self.take(8))[0]
+
+    def string(self) -> str:
+        n = self.u32()
+        at = self.take(n)
+        try:
+            return bytes(self.buf[at:at + n]).decode("utf-8")
+        except UnicodeDecodeError:
+            raise _Bad("a name is not UTF-8") from None
+
+    def blob(self, n: int) -> bytes:
+        at = self.take(n)
+        return self.buf[at:at + n]
+
+
+def open_buffer(path: Path):
+    """The bytes of ``path`` (memory-mapped; an empty file gives ``b""``)."""
+    try:
+        with open(path, "rb") as stream:
+            try:
+                return mmap.mmap(stream.fileno(), 0, access=mmap.ACCESS_READ)
+            except ValueError:  # an empty file cannot be mapped
+                return b""
+    except FileNotFoundError:
+        raise InputError(f"no such file: {path}") from None
+    except IsADirectoryError:
+        raise InputError(f"{path} is a folder, not an MCAP file") from None
+    except OSError as exc:
+        raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
+
+
+def walk(path: Path, buf) -> Iterator[Record]:
+    """The records of the MCAP file ``buf`` (read from ``path``), in order, up to the end
+    of its data section; a :class:`Damage` last where the file is damaged or ends early."""
+    if bytes(buf[:8]) != MAGIC:
+        raise InputError(f"{path} is not an MCAP file (it does not start with the MCAP magic "
+                         "bytes)")
+    yield from _records(buf, 8, len(buf), top=True)
+
+
+def _records(buf, at: int, end: int, top: bool) -> Iterator[Record]:
+    unpack = _REC.unpack_from
+    while at < end:
+        if at + 9 > end:
+            yield Damage(f"a record header is cut off at byte {at}")
+            return
+        op, length = unpack(buf, at)
+        start = at + 9
+        stop = start + length
+        if stop > end:
+            yield Damage(f"the record at byte {at} runs past the end of the "
+                         f"{'file' if top else 'chunk'}")
+            return
+        at = stop
+        if op == MESSAGE:
+            if length < 22:
+                yield Damage(f"the message record at byte {start - 9} is too short")
+                return
+            yield (MESSAGE, buf, start, stop)
+            continue
+        try:
+            if op == CHANNEL:
+                f = _Fields(buf, start, stop)
+                yield Channel(f.u16(), f.u16(), f.string())
+            elif op == SCHEMA:
+                f = _Fields(buf, start, stop)
+                yield Schema(f.u16(), f.string())
+            elif op == ATTACHMENT:
+                f = _Fields(buf, start, stop)
+                f.take(16)
+                name, media = f.string(), f.string()
+                data = f.blob(f.u64())
+                yield Attachment(name, media, data)
+            elif op == CHUNK:
+                inner = _chunk(_Fields(buf, start, stop))
+                for record in _records(inner, 0, len(inner), top=False):
+                    yield record
+                    if isinstance(record, Damage):
+                        return
+            elif op in (DATA_END, FOOTER) and top:
+                return
+        except _Bad as exc:
+            yield Damage(f"the record at byte {start - 9}: {exc}")
+            return
+
+
+def _chunk(f: _Fields) -> bytes:
+    f.take(16)
+    size, crc = f.u64(), f.u32()
+    compression = f.string()
+    data = f.blob(f.u64())
+    limit = min(MAX_CHUNK_BYTES, MAX_CHUNK_RATIO * len(data) + (1 << 20))
+    if size > limit:
+        raise _Bad(f"a chunk would decompress to {size} bytes from {len(data)} (more than "
+                   f"tracecheck's limit of {limit} bytes for it)")
+    if compression == "":
+        out = bytes(data)
+    elif compression == "zstd":
+        try:
+            import zstandard
+        except ImportError:
+            raise _Bad("a chunk is zstd-compressed and the zstandard package is not installed "
+                       "(pip install zstandard)") from None
+        try:
+            out = zstandard.ZstdDecompressor().decompress(bytes(data), max_output_size=size)
+        except zstandard.ZstdError as exc:
+            raise _Bad(f"a zstd chunk does not decompress: {exc}") from None
+    elif compression == "lz4":
+        try:
+            import lz4.frame
+        except ImportError:
+            raise _Bad("a chunk is lz4-compressed and the lz4 package is not installed "
+                       "(pip install lz4)") from None
+        try:
+            out = _lz4(lz4.frame, bytes(data), size)
+        except RuntimeError as exc:
+            raise _Bad(f"an lz4 chunk does not decompress: {exc}") from None
+    else:
+        raise _Bad(f"a chunk uses the unknown compression {compression!r}")
+    if len(out) != size:
+        raise _Bad(f"a chunk decompresses to {len(out)} bytes, not the {size} it declares")
+    if crc and zlib.crc32(out) != crc:
+        raise _Bad("a chunk's checksum does not match its contents")
+    return out
+
+
+def _lz4(frame, data: bytes, size: int) -> bytes:
+    """Decompress at most ``size + 1`` bytes (more means the chunk lied about its size)."""
+    d = frame.LZ4FrameDecompressor()
+    out = d.decompress(data, max_length=size + 1)
+    return out
