@@ -143,3 +143,19 @@ def test_if_branches_only_count_where_taken():
     tag, value = formula._plan(cols)(ctx)
     assert not ctx.bad.any()
     assert list(formula(cols)) == [1.0, 0.5, 1.0]
+
+
+@pytest.mark.parametrize("text", [
+    " & ".join(f"X(EgoVehicle) + {k}.0 > Reward" for k in range(1500)),
+    "+".join(["Reward"] * 1500) + " > 100.0",
+    "not(" * 1500 + "Crash = TRUE" + ")" * 1500,
+], ids=["conjunction", "sum", "not"])
+def test_long_formulas_on_the_batch_path(text):
+    """1500 levels (a generated guard) on both paths, row by row the same."""
+    rows = [{"Crash": c, "Reward": r, "X": FuncValue({ELEMS[0]: x})}
+            for c, r, x in [(True, 0.5, 1.0), (False, 0.0, -3.0), (False, 0.1, 0.0)]]
+    cols = Columns.from_states(rows, ELEMS[:1])
+    node = parse_formula(text)
+    batch = BatchFormula(node, CONSTANTS, source=text)(cols)
+    scalar = compile_formula(node, source=text)
+    assert list(batch) == [scalar({**CONSTANTS, **row}) for row in rows]

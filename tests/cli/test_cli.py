@@ -107,13 +107,28 @@ def test_eval_with_model_and_state(capsys, tmp_path):
     ("card({x | x : 1..10000000})", "has 10,000,000 elements"),
     ("card(POW(1..200000))", "is too large to compute"),
     ("POW(INTEGER) = POW(NATURAL)", "cannot decide whether POW(INTEGER) = POW(NATURAL)"),
-    ("+".join(["1"] * 3000) + " > 0", "the formula nests more than 400 levels deep"),
-    ("+".join(["1"] * 10000) + " > 0", "the formula nests more than 400 levels deep"),
+    ("+".join(["1"] * 3000) + " > 0", "the formula nests more than 2000 levels deep"),
+    ("+".join(["1"] * 10000) + " > 0", "the formula nests more than 2000 levels deep"),
+    ("not(" * 2500 + "1 = 1" + ")" * 2500, "the formula nests more than 2000 levels deep"),
     ("iterate({(1|->2)}, 2) = {}", "<expr>:1:1: not supported: iterate"),
 ], ids=lambda v: v[:40])
 def test_eval_errors(capsys, expr, fragment):
     code, _, err = run(capsys, "eval", expr)
     assert code == 2 and fragment in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("expr,printed", [
+    (" & ".join(["1 + 1 = 2"] * 1900), "TRUE"),
+    (" or ".join(["1 = 2"] * 1900), "FALSE"),
+    ("not(" * 1900 + "1 = 1" + ")" * 1900, "TRUE"),
+    ("+".join(["1"] * 1900), "1900"),
+    ("(" * 1900 + "1" + ")" * 1900, "1"),
+], ids=["conjunction", "disjunction", "not", "sum", "parentheses"])
+def test_long_and_deep_formulas_work_up_to_the_limit(capsys, expr, printed):
+    """A guard written out by a generator easily has hundreds of conjuncts: up to 2000 levels
+    they are evaluated (scalar and batch), beyond that refused with a located error."""
+    code, out, err = run(capsys, "eval", expr)
+    assert code == 0 and out.strip() == printed, err
 
 
 @pytest.mark.parametrize("expr,printed", [
@@ -130,7 +145,8 @@ def test_nan_in_a_state_file_is_refused(capsys, tmp_path):
     state = tmp_path / "s.json"
     state.write_text('{"r": NaN}')
     code, _, err = run(capsys, "eval", "r > 0.0", "--state", str(state))
-    assert code == 2 and "nan is not a B real (variable r)" in err, err
+    assert code == 2 and f"{state}:1:7: not valid JSON: NaN and Infinity are not JSON " \
+                         "numbers, and B reals are finite" in err, err
 
 
 def _state_file(tmp_path, x2):
@@ -204,3 +220,37 @@ def test_control_characters_from_input_files_are_escaped(capsys, tmp_path):
     code, _, err = run(capsys, "guards", TABLE1, "--state", str(path))
     assert code == 2 and "\x1b" not in err and "\x00" not in err
     assert "gives a value for Vehicles\\x1b[31mX\\x00, which the machine" in err
+
+
+def test_state_files_that_are_too_deep_too_large_or_too_long(capsys, tmp_path, monkeypatch):
+    state = tmp_path / "s.json"
+    state.write_text('{"r": ' + "[" * 3000 + "]" * 3000 + "}")
+    code, _, err = run(capsys, "eval", "r = r", "--state", str(state))
+    assert code == 2 and f"{state}:1:1031: not valid JSON: depth limit exceeded" in err
+    state.write_text('{"n": "' + "7" * 5000 + '"}')
+    code, out, err = run(capsys, "eval", "n mod 10", "--state", str(state))
+    assert code == 0 and out.strip() == "7", err
+    state.write_text('{"n": "' + "7" * 400_000 + '"}')
+    code, _, err = run(capsys, "eval", "n > 0", "--state", str(state))
+    assert code == 2 and "an integer of 400000 digits is longer than the 310000 digits" in err
+    import tracecheck.b.state as S
+
+    monkeypatch.setattr(S, "MAX_STATE_BYTES", 100)
+    state.write_text('{"n": "' + "7" * 200 + '"}')
+    code, _, err = run(capsys, "eval", "n > 0", "--state", str(state))
+    assert code == 2 and "has 209 bytes; tracecheck reads at most 100 for a state file" in err
+
+
+@pytest.mark.parametrize("literal,message", [
+    ("{" * 1500 + "}" * 1500, "the value nests more than 1000 levels deep in the B literal"),
+    ("(" * 1500 + "1" + ")" * 1500, "the value nests more than 1000 levels deep"),
+    ("{" * 900 + "}" * 900, None),
+])
+def test_deeply_nested_literals(capsys, tmp_path, literal, message):
+    state = tmp_path / "s.json"
+    state.write_text(json.dumps({"v": literal}))
+    code, out, err = run(capsys, "eval", "v = v", "--state", str(state))
+    if message is None:
+        assert code == 0 and out.strip() == "TRUE", err
+    else:
+        assert code == 2 and message in err and "Traceback" not in err

@@ -109,7 +109,11 @@ GOOD = simb_document(make_episode(0, 1))["activations"][1]["fixedVariables"]
     ([_init(GOOD), {"execute": "JUMP", "after": "1000", "fixedVariables": GOOD}],
      "t.json, step 1: unknown operation 'JUMP'; the actions are LANE_LEFT, IDLE"),
     ([_init(GOOD), {"execute": "IDLE", "after": "soon", "fixedVariables": GOOD}],
-     "activation 1: 'after' must be a delay in ms, not 'soon'"),
+     "activation 1: 'after' must be a delay in ms between 0 and 31536000000 (a year), not "
+     "'soon'"),
+    *[([_init(GOOD), {"execute": "IDLE", "after": after, "fixedVariables": GOOD}],
+       f"activation 1: 'after' must be a delay in ms between 0 and 31536000000 (a year), not "
+       f"{after!r}") for after in ("nan", "inf", "-inf", "1e30", "-5", True, [1])],
     ([{"execute": "IDLE", "after": "0", "fixedVariables": GOOD}],
      "does not start with $initialise_machine"),
     ([_init({**GOOD, "Crash": "1.0"})], "step 0: Crash must be TRUE or FALSE, not 1.0"),
@@ -119,6 +123,24 @@ def test_bad_simb(tmp_path, activations, fragment):
     with pytest.raises(InputError) as info:
         list(import_simb([_simb(tmp_path, activations)]))
     assert fragment in str(info.value)
+
+
+def test_json_nested_too_deeply_or_too_large(tmp_path, monkeypatch):
+    path = tmp_path / "deep.json"
+    path.write_text('{"activations": ' + "[" * 5000 + "]" * 5000 + "}")
+    with pytest.raises(InputError) as info:
+        list(import_simb([path]))
+    assert info.value.message == "not valid JSON: depth limit exceeded"
+    assert (info.value.file, info.value.line, info.value.column) == (str(path), 1, 1041)
+    import tracecheck.errors as E
+
+    monkeypatch.setattr(E, "MAX_TEXT_BYTES", 1000)
+    monkeypatch.setattr(E.read_json, "__defaults__", (1000,))
+    big = tmp_path / "big.json"
+    big.write_text(" " * 2000)
+    with pytest.raises(InputError, match=r"the trace file .*big.json has 2,000 bytes; "
+                                         r"tracecheck reads at most 1,000 for a trace file"):
+        list(import_simb([big]))
 
 
 def test_malformed_json_is_located(tmp_path):

@@ -309,3 +309,25 @@ def test_batch_replay_equals_state_by_state_replay(env, tmp_path, capsys):
         state = cols.states.row(i)
         assert {o for o, ok in zip(ops, matrix[i]) if ok} == shield.machine.enabled(state)
         assert shield.machine.invariant(state)
+
+
+@pytest.mark.parametrize("config,message", [
+    ({"map_name": "9x9", "is_slippery": True}, "the frozenlake environment rejects the run "
+                                               "header's environment_config {'map_name': '9x9'"),
+    ({"map_name": "8x8", "duration": "long"}, "the run header's environment_config has "
+                                              "duration 'long', not a number of steps"),
+])
+def test_a_header_config_the_environment_rejects(frozen, tmp_path, capsys, config, message):
+    """The environment configuration comes from the file: a wrong one is bad input (exit 2,
+    naming the file), not a traceback from inside gymnasium."""
+    from tracecheck.episodes import EpisodeWriter
+    from tracecheck.episodes.reader import read_run
+
+    run_ = read_run(frozen)
+    header = run_.header.model_copy(update={"environment_config": config})
+    bad = tmp_path / "bad.mcap"
+    with EpisodeWriter(bad, header) as w:
+        for e in run_.episodes:
+            w.write(e)
+    code, _, err = run(capsys, "replay", bad, "--shield", "frozenlake", "--resimulate")
+    assert code == 2 and f"{bad}: {message}" in err and "Traceback" not in err

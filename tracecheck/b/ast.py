@@ -382,13 +382,22 @@ def binders(node: Node) -> tuple[str, ...]:
     ) else ()
 
 
-def free_names(node: Node) -> frozenset[str]:
-    """Names used in ``node`` and not bound inside it."""
+def free_names(node: Node, cache: Optional[dict] = None) -> frozenset[str]:
+    """Names used in ``node`` and not bound inside it (``cache``: results by node identity,
+    shared between calls on the sub-nodes of one formula, so a walk over a formula that asks
+    at every node stays linear)."""
     if isinstance(node, Name):
         return frozenset({node.id})
+    if cache is not None:
+        hit = cache.get(id(node))
+        if hit is not None and hit[0] is node:
+            return hit[1]
     inner: set[str] = set()
     for child in children(node):
-        inner |= free_names(child)
+        inner |= free_names(child, cache)
     if isinstance(node, SubstRef):
         inner.add(node.name.id)
-    return frozenset(inner - set(binders(node)))
+    names = frozenset(inner - set(binders(node)))
+    if cache is not None:
+        cache[id(node)] = (node, names)  # the node is kept, so its id stays its own
+    return names

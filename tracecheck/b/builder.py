@@ -170,7 +170,13 @@ class Builder(Transformer):
         return A.Name(str(c[0]), pos=tok_pos(c[0]))
 
     def int_lit(self, meta, c):
-        return A.IntLit(int(c[0]), pos=tok_pos(c[0]))
+        from .values import read_int
+
+        try:
+            return A.IntLit(read_int(str(c[0])), pos=tok_pos(c[0]))
+        except ValueError as exc:
+            pos = tok_pos(c[0])
+            raise BSyntaxError(str(exc), line=pos.line, column=pos.column) from None
 
     def real_lit(self, meta, c):
         value = float(c[0])

@@ -39,6 +39,7 @@ class Compiler:
         self.source = source
         self.file = file
         self.bound: list[str] = []
+        self._free: dict = {}  # free names by node, see A.free_names
 
     @contextmanager
     def binding(self, ids: tuple[str, ...]):
@@ -68,10 +69,10 @@ class Compiler:
             raise self.error(UnsupportedError, node,
                              f"tracecheck cannot evaluate {type(node).__name__} here")
         fn = method(node)
-        if isinstance(node, (A.BinOp, A.Neg)) and not A.free_names(node):
+        if isinstance(node, (A.BinOp, A.Neg)) and not A.free_names(node, self._free):
             return _folded(fn, node)
         if (isinstance(node, _MEMO_TYPES) or (isinstance(node, A.BinOp) and node.op in _SET_OPS)) \
-                and not (A.free_names(node) & set(self.bound)):
+                and not (A.free_names(node, self._free) & set(self.bound)):
             return _memoised(fn, node)
         return fn
 

@@ -167,7 +167,7 @@ def _parse_tokens(toks: list[Token], start: str, text: str, file: Optional[str],
 
 #: How deeply a formula may nest (parentheses, operators, quantifiers); deeper ones are
 #: refused with a located error instead of exhausting Python's stack.
-MAX_DEPTH = 400
+MAX_DEPTH = 2000
 
 
 def _check_depth(tree, text: str, file: Optional[str]) -> None:

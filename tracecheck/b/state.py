@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
-from ..errors import BSyntaxError, InputError, TracecheckError, caret_excerpt, read_text
+from ..errors import BSyntaxError, InputError, TracecheckError, caret_excerpt, read_json
 from .values import from_json
 
-__all__ = ["read_state_file", "state_from_json"]
+__all__ = ["read_state_file", "state_from_json", "MAX_STATE_BYTES"]
+
+#: The largest state file tracecheck reads (a highway state is about 1 kB).
+MAX_STATE_BYTES = 16 << 20
 
 
 def state_from_json(data: Any, *, file: str = "<state>") -> dict[str, Any]:
@@ -33,10 +35,4 @@ def state_from_json(data: Any, *, file: str = "<state>") -> dict[str, Any]:
 
 def read_state_file(path: str | Path) -> dict[str, Any]:
     """Read a state file, e.g. ``{"Crash": "FALSE", "VehiclesX": "{(EgoVehicle↦1.0)}"}``."""
-    text = read_text(path, "state file")
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"not valid JSON: {exc.msg}", file=str(path), line=exc.lineno,
-                         column=exc.colno, source=text) from None
-    return state_from_json(data, file=str(path))
+    return state_from_json(read_json(path, "state file", MAX_STATE_BYTES), file=str(path))

@@ -11,9 +11,25 @@ from __future__ import annotations
 
 import math
 import re
+import sys
 from typing import Any, Callable, Iterator, Optional
 
 from ..errors import BSyntaxError, EvaluationError
+
+#: Integers up to this many decimal digits are read and printed — every integer the engine
+#: computes has fewer (powers are capped at 10**6 bits, about 301 030 digits); a longer
+#: literal is refused with its place. Python's own default limit (4300) is raised to it.
+MAX_DIGITS = 310_000
+if 0 < sys.get_int_max_str_digits() < MAX_DIGITS:
+    sys.set_int_max_str_digits(MAX_DIGITS)
+
+
+def read_int(text: str) -> int:
+    """The integer written in ``text`` (a ``ValueError`` saying so above :data:`MAX_DIGITS`)."""
+    if len(text) > MAX_DIGITS + 1:
+        raise ValueError(f"an integer of {len(text.lstrip('-'))} digits is longer than the "
+                         f"{MAX_DIGITS} digits tracecheck reads")
+    return int(text)
 
 __all__ = [
     "Elem", "FuncValue", "SymbolicSet", "BuiltinSet", "Interval", "PowSet", "FunctionSpace",
@@ -665,7 +681,7 @@ _NUMBER = re.compile(_NUM + r"\Z")
 
 
 def _number(text: str):
-    return float(text) if ("." in text or "e" in text or "E" in text) else int(text)
+    return float(text) if ("." in text or "e" in text or "E" in text) else read_int(text)
 
 
 def parse_literal(text: str, *, file: Optional[str] = None, where: str = "") -> Any:
@@ -679,19 +695,27 @@ def parse_literal(text: str, *, file: Optional[str] = None, where: str = "") -> 
     True
     """
     text = text.strip()
-    if _NUMBER.match(text):
-        return _number(text)
-    m = _FUNC_LITERAL.match(text)
-    if m:
-        mapping = {Elem(k): _number(v) for k, v in _FUNC_ITEM.findall(text)}
-        if len(mapping) == text.count("(") :
-            return FuncValue(mapping)
+    try:
+        if _NUMBER.match(text):
+            return _number(text)
+        m = _FUNC_LITERAL.match(text)
+        if m:
+            mapping = {Elem(k): _number(v) for k, v in _FUNC_ITEM.findall(text)}
+            if len(mapping) == text.count("("):
+                return FuncValue(mapping)
+    except ValueError as exc:  # an integer too long to read
+        raise _LiteralReader(text, file, where).fail(str(exc)) from None
     return _LiteralReader(text, file, where).read()
+
+
+#: How deeply a B literal may nest (sets in sets, pairs in pairs).
+MAX_LITERAL_DEPTH = 1000
 
 
 class _LiteralReader:
     def __init__(self, text: str, file: Optional[str], where: str) -> None:
         self.text, self.i, self.file, self.where = text, 0, file, where
+        self.depth = 0
 
     def fail(self, message: str) -> BSyntaxError:
         where = f" ({self.where})" if self.where else ""
@@ -720,6 +744,15 @@ class _LiteralReader:
         return value
 
     def value(self) -> Any:
+        self.depth += 1
+        if self.depth > MAX_LITERAL_DEPTH:
+            raise self.fail(f"the value nests more than {MAX_LITERAL_DEPTH} levels deep")
+        try:
+            return self._value()
+        finally:
+            self.depth -= 1
+
+    def _value(self) -> Any:
         self.skip_ws()
         if self.i >= len(self.text):
             raise self.fail("expected a value but the text ended")
@@ -737,8 +770,12 @@ class _LiteralReader:
             return self.string()
         m = re.compile(_NUM).match(self.text, self.i)
         if m and (c.isdigit() or c == "-"):
+            try:
+                value = _number(m.group())
+            except ValueError as exc:
+                raise self.fail(str(exc)) from None
             self.i = m.end()
-            return _number(m.group())
+            return value
         m = re.compile(r"[A-Za-z_][A-Za-z0-9_]*").match(self.text, self.i)
         if m:
             self.i = m.end()

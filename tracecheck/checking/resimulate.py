@@ -15,7 +15,7 @@ from typing import Callable, Optional
 from ..live.agents import file_sha256
 from ..episodes.columns import RunColumns, read_columns
 from ..episodes.reader import read_header
-from ..errors import InputError
+from ..errors import InputError, printable
 from .replay import ReplayReport
 from .shield import SHIELD_DIR, Shield
 
@@ -108,18 +108,28 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
         raise InputError(f"{path} was recorded in {header.environment}, not {adapter.name}")
     cols = read_columns(path)
     config = dict(header.environment_config)
-    horizon = header.horizon or int(config.get("duration", 61)) - 1
+    duration = config.get("duration", 61)
+    if type(duration) is not int or not 1 < duration <= 1_000_000:
+        raise InputError(f"{path}: the run header's environment_config has duration "
+                         f"{duration!r}, not a number of steps")
+    horizon = header.horizon or duration - 1
     settings = RecordSettings(agent=_agent_path(header, agent), shield=shield.path,
                               episodes=1, duration=horizon, env=env or adapter.name)
-    session = Session(settings, config=config)
     index = {int(e): i for i, e in enumerate(cols.episode_ids)}
     results = []
-    for item in todo:
-        i = index[item.episode]
-        result = _one(session, cols, i, item, horizon)
-        results.append(result)
-        if progress is not None:
-            progress(result)
+    try:
+        session = Session(settings, config=config)
+        for item in todo:
+            i = index[item.episode]
+            result = _one(session, cols, i, item, horizon)
+            results.append(result)
+            if progress is not None:
+                progress(result)
+    except (TypeError, ValueError, KeyError, IndexError, AttributeError) as exc:
+        # the configuration comes from the file: one the environment rejects is bad input
+        raise InputError(f"{path}: the {adapter.name} environment rejects the run header's "
+                         f"environment_config {printable(repr(config))[:200]}: "
+                         f"{type(exc).__name__}: {exc}") from None
     return results
 
 

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import json
 import re
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Optional
 
 from ..b.values import parse_literal
 from ..episodes.model import Episode, StepRecord, Vocabulary, make_end
-from ..errors import InputError, TracecheckError, read_text
+from ..errors import InputError, TracecheckError, read_json
 
 __all__ = ["load_json", "read_literal", "build_episode", "natural_key", "expand_paths"]
 
@@ -39,12 +38,7 @@ def expand_paths(paths: Iterable[str | Path], pattern: str) -> list[Path]:
 
 
 def load_json(path: Path) -> Any:
-    text = read_text(path, "trace file")
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"not valid JSON: {exc.msg}", file=str(path), line=exc.lineno,
-                         column=exc.colno, source=text) from None
+    return read_json(path, "trace file")
 
 
 def read_literal(text: Any, where: str) -> Any:

@@ -9,14 +9,15 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
+import math
 import re
 from pathlib import Path
-from typing import Iterable, Optional
+from typing import Any, Iterable, Optional
 
 from .. import __version__
 from ..b.values import format_value
 from ..episodes.model import HIGHWAY, Episode, Vocabulary
-from ..errors import InputError
+from ..errors import InputError, printable
 from .common import (INIT, SETUP, build_episode, check_types, expand_paths, load_json,
                      read_literal)
 
@@ -37,11 +38,7 @@ def read_simb(path: Path, episode_id: int, vocab: Vocabulary = HIGHWAY,
         if not isinstance(act, dict):
             raise InputError(f"{here}: an activation must be a JSON object")
         op = act.get("execute")
-        try:
-            clock += float(act.get("after") or 0) / 1000.0
-        except (TypeError, ValueError):
-            raise InputError(f"{here}: 'after' must be a delay in ms, not "
-                             f"{act.get('after')!r}") from None
+        clock += _delay_s(act.get("after"), here)
         fixed = act.get("fixedVariables")
         if op == SETUP or (op != INIT and not items and not fixed):
             continue
@@ -105,6 +102,24 @@ def simb_document(episode: Episode, model_name: str = "HighwayEnvironment") -> d
             "modelName": model_name,
         },
     }
+
+
+#: The longest delay between two activations tracecheck reads: a year, in ms.
+MAX_DELAY_MS = 365 * 24 * 3600 * 1000
+
+
+def _delay_s(after: Any, here: str) -> float:
+    """The delay ``after`` (ms, a number or a decimal text) in seconds."""
+    try:
+        if isinstance(after, bool):
+            raise TypeError
+        ms = float(after or 0)
+    except (TypeError, ValueError):
+        ms = math.nan
+    if not 0 <= ms <= MAX_DELAY_MS:  # NaN fails this too
+        raise InputError(f"{here}: 'after' must be a delay in ms between 0 and {MAX_DELAY_MS} "
+                         f"(a year), not {printable(repr(after))[:40]}")
+    return ms / 1000.0
 
 
 def _activation(act_id, op, after_ms, state, activating):
