@@ -189,6 +189,18 @@ def test_guards_state_of_the_wrong_type(capsys, tmp_path):
     assert "gives a value for Speed, which the machine PaperShield does not declare" in err
 
 
+def test_a_variable_missing_from_the_state_is_the_state_file_s_fault(capsys, tmp_path):
+    path = tmp_path / "partial.json"
+    data = json.loads(open(_state_file(tmp_path, 8.0)).read())
+    del data["PresentVehicles"]
+    path.write_text(json.dumps(data))
+    code, _, err = run(capsys, "guards", TABLE1, "--state", str(path))
+    assert code == 2 and err.startswith(
+        f"error: {path}: the state gives no value for PresentVehicles, a variable of "
+        f"PaperShield that a guard reads ({TABLE1}:"), err
+    assert 'hint: add "PresentVehicles": … to the state file' in err
+
+
 def test_guards_bad_state(capsys, tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text('{"VehiclesX": "{(EgoVehicle↦1.0"}')

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from tests.episodes.conftest import episode
 from tests.cli.test_cli import run
 from tracecheck.episodes import EpisodeWriter, new_header
@@ -74,3 +76,34 @@ def test_damaged_tail_warns(capsys, tmp_path):
     code, out, err = run(capsys, "info", str(path), "--json")
     assert code == 0 and json.loads(out)["episodes"] == 2
     assert "warning" in err and "read 2 complete episode(s)" in err
+
+
+@pytest.mark.parametrize("existing", [False, True])
+def test_interrupted_import_says_what_it_kept(capsys, tmp_path, monkeypatch, existing):
+    import tracecheck.interop as interop
+
+    def interrupted(paths, **kw):
+        yield episode(0)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(interop, "import_simb", interrupted)
+    target = tmp_path / "out.mcap"
+    if existing:
+        target.write_bytes(b"old")
+    trace = tmp_path / "t.json"
+    trace.write_text("{}")
+    code, _, err = run(capsys, "import", "simb", str(trace), "-o", str(target))
+    assert code == 130
+    assert err.strip() == f"interrupted: {target} was not {'changed' if existing else 'written'}"
+    assert (target.read_bytes() == b"old") if existing else not target.exists()
+    assert not list(tmp_path.glob("*.part"))
+
+
+def test_an_interrupt_typer_catches_is_reported(capsys, monkeypatch):
+    """Typer turns Ctrl-C into a silent exit 130; tracecheck says it was interrupted."""
+    def interrupted(runs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("tracecheck.episodes.summary.summarise", interrupted)
+    code, _, err = run(capsys, "info", "x.mcap")
+    assert code == 130 and err.strip() == "interrupted"

@@ -129,6 +129,21 @@ def test_foreign_mcap(tmp_path):
         read_run(path)
 
 
+@pytest.mark.parametrize("good,bad,message", [
+    (b'"reward":0.5', b'"reward":NaN', "bad tracecheck.Step message: reward: Input should be a "
+                                       "finite number"),
+    (b'"Vehicles2":-1.0', b'"Vehicles2":NaN', "nan is not a B real (variable VehiclesVx)"),
+])
+def test_nan_or_infinity_in_a_step_message(tmp_path, episodes, good, bad, message):
+    """JSON parsers that accept NaN and Infinity do not make them B values."""
+    path = write(tmp_path / "run.mcap", episodes[:1])
+    data = path.read_bytes()
+    assert good in data and len(bad) <= len(good)
+    path.write_bytes(data.replace(good, bad.ljust(len(good)), 1))  # the same record length
+    with pytest.raises(InputError, match=re.escape(message)):
+        read_run(path)
+
+
 def test_message_that_breaks_the_schema(tmp_path, episodes):
     path = write(tmp_path / "run.mcap", episodes[:1])
     data = path.read_bytes().replace(b'"crashed":false', b'"crashed":"nah"', 1)
@@ -248,6 +263,9 @@ def test_repeated_episode_ids_are_an_error(tmp_path, episodes):
                                                       "(3, 1)"),
     (lambda a: a.update({"cmd:x": np.zeros(3)}), "the array cmd:x is not one tracecheck writes"),
     (lambda a: a.pop("crashed"), "'crashed' is missing"),
+    (lambda a: a.update({"num:x": np.array([0.0, np.nan, 1.0])}),
+     "the array num:x holds NaN or an infinity (B reals are finite)"),
+    (lambda a: a.update(reward=np.array([0.0, np.inf, 1.0])), "the array reward holds NaN"),
     (lambda a: a.update({"lit:x": np.array([0, 1, 2], dtype=np.uint32)}),
      "variable x refers to literal 2 of 2"),
 ])
@@ -261,3 +279,28 @@ def test_columns_that_do_not_fit_together_are_an_error(change, message):
               "kinds": {"x": "lit"} if "lit:x" in arrays else {}, "literals": {"x": ["1", "2"]}}
     with pytest.raises(InputError, match="^damaged columns attachment: " + re.escape(message)):
         check_columns(header, arrays)
+
+
+@pytest.mark.parametrize("change,message", [
+    (dict(reward=float("nan")), "episode 0, step 1: reward: Input should be a finite number"),
+    (dict(state_x=float("inf")), "episode 0, step 1: variable VehiclesX: the value inf cannot "
+                                 "be stored: B has no NaN or infinity"),
+])
+def test_writing_nan_or_infinity_names_the_step(tmp_path, episodes, change, message):
+    """A live environment that yields NaN or infinity: the writer says where."""
+    import dataclasses
+
+    from tracecheck.b.values import Elem, FuncValue
+
+    ep = episodes[0]
+    step = ep.steps[1]
+    if "state_x" in change:
+        x = dict(step.state["VehiclesX"].map)
+        x[Elem("EgoVehicle")] = change["state_x"]
+        step = dataclasses.replace(step, state={**step.state, "VehiclesX": FuncValue(x)})
+    else:
+        step = dataclasses.replace(step, **change)
+    bad = dataclasses.replace(ep, steps=(ep.steps[0], step, *ep.steps[2:]))
+    with pytest.raises(InputError) as info:
+        write(tmp_path / "run.mcap", [bad])
+    assert info.value.message == f"{tmp_path / 'run.mcap'}, {message}"

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import json
+import os
 import signal
 import subprocess
 import sys
 import time
+import warnings
 import zipfile
 
 import pytest
@@ -93,6 +95,56 @@ def test_interrupted_recording_keeps_finished_episodes(tmp_path):
     episodes = read_run(path).episodes
     assert len(episodes) >= 3
     assert [e.id for e in episodes] == list(range(len(episodes)))
+
+
+def _children(pid: int) -> list[int]:
+    try:
+        return [int(c) for c in open(f"/proc/{pid}/task/{pid}/children").read().split()]
+    except OSError:
+        return []
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return open(f"/proc/{pid}/stat").read().split()[2] not in ("Z", "X")
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/task"), reason="needs Linux /proc")
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL], ids=["term", "kill"])
+def test_workers_stop_quietly_with_their_parent(tmp_path, sig):
+    """A recording with worker processes, stopped by SIGTERM or SIGKILL: no traceback from
+    any worker, no worker left running, the finished episodes kept."""
+    path = tmp_path / "run.mcap"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "tracecheck.cli", "record", "--agent", str(BASE), "--shield",
+         "none", "--episodes", "400", "--duration", "5", "--workers", "2", "-o", str(path)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 90
+    seen = 0
+    while time.time() < deadline and seen < 2:
+        time.sleep(0.5)
+        if path.exists():
+            try:
+                seen = len(read_columns(path).episode_ids)
+            except Exception:  # noqa: BLE001 - the file may be mid-write
+                seen = 0
+    workers = _children(proc.pid)
+    assert len(workers) >= 2
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    deadline = time.time() + 20
+    while time.time() < deadline and any(_alive(w) for w in workers):
+        time.sleep(0.2)
+    assert not any(_alive(w) for w in workers)
+    assert "Traceback" not in err, err
+    if sig == signal.SIGTERM:
+        assert proc.returncode == 130 and "keeps every finished episode" in err
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        episodes = read_run(path).episodes
+    assert len(episodes) >= 2 and [e.id for e in episodes] == list(range(len(episodes)))
 
 
 def test_resimulation(tmp_path):

@@ -30,6 +30,7 @@ def main(argv: Optional[list[str]] = None) -> Any:
     """Entry point: run the app and turn tracecheck errors into exit code 2."""
     from ..episodes.reader import salvaging
 
+    _stop_on_sigterm()
     try:
         with warnings.catch_warnings(), salvaging(False):  # --salvage lasts one command
             warnings.simplefilter("ignore", DeprecationWarning)
@@ -40,7 +41,36 @@ def main(argv: Optional[list[str]] = None) -> Any:
     except KeyboardInterrupt:
         err.print("interrupted")
         sys.exit(130)
+    except SystemExit as exc:  # Typer turns Ctrl-C into a silent exit 130: say so
+        if exc.code == 130 and _from_interrupt(exc):
+            err.print("interrupted")
+        raise
     except RecursionError:
         err.print("[red]error[/red]: the input is nested too deeply for tracecheck "
                   "(a formula or value with thousands of levels); split it up", markup=True)
         sys.exit(2)
+
+
+def _from_interrupt(exc: BaseException) -> bool:
+    """Whether a KeyboardInterrupt caused ``exc`` (a command that says what it kept raises
+    its exit 130 from None)."""
+    seen = 0
+    while exc is not None and seen < 10:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        exc = exc.__cause__ or (None if exc.__suppress_context__ else exc.__context__)
+        seen += 1
+    return False
+
+
+def _stop_on_sigterm() -> None:
+    """SIGTERM (a job scheduler, `kill`) stops a command the way Ctrl-C does: what it was
+    writing is closed or left as it was, worker processes are ended."""
+    import signal
+    import threading
+
+    def stop(signum, frame):
+        raise KeyboardInterrupt
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, stop)

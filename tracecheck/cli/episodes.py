@@ -9,7 +9,7 @@ from typing import Optional
 import typer
 
 from ..errors import InputError
-from .common import app, out, warn, load_model, SALVAGE
+from .common import app, out, err, warn, load_model, SALVAGE
 
 
 import_app = typer.Typer(help="Import ProB/SimB traces into an MCAP run file.",
@@ -40,8 +40,14 @@ def _import(kind: str, paths: list[Path], output: Path, model: Optional[Path]) -
                         variables=list(vocab.variables), actions=list(vocab.actions),
                         shield_name=machine.name if machine is not None else None,
                         shield_sha256=machine.sha256 if machine is not None else None)
-    episodes, steps, crashes = write_run(output, header,
-                                         reader(paths, vocab=vocab, machine=machine))
+    existed = output.exists()
+    try:
+        episodes, steps, crashes = write_run(output, header,
+                                             reader(paths, vocab=vocab, machine=machine))
+    except KeyboardInterrupt:
+        err.print(f"interrupted: {output} was not " +
+                  ("changed" if existed else "written"), markup=False)
+        raise typer.Exit(130) from None
     out.print(f"imported {episodes} episode(s), {steps} step(s), {crashes} crash(es) "
               f"-> {output}", markup=False)
 

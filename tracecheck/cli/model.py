@@ -9,7 +9,7 @@ from typing import Optional
 import typer
 from rich.table import Table
 
-from ..errors import TracecheckError
+from ..errors import EvaluationError, InputError, TracecheckError
 from .common import app, out, load_model
 
 
@@ -118,7 +118,15 @@ def guards(
     values = read_state_file(state)
     machine.check_state(values, where=str(state))
     missing = [v for v in machine.variables if v not in values]
-    enabled = machine.enabled(values)
+    try:
+        enabled = machine.enabled(values)
+    except EvaluationError as exc:
+        name = next((v for v in missing if exc.message == f"{v} has no value here"), None)
+        if name is None:
+            raise
+        raise InputError(f"the state gives no value for {name}, a variable of {machine.name} "
+                         f"that a guard reads ({exc.location})", file=str(state),
+                         hint=f'add "{name}": … to the state file') from None
     ordered = [op for op in machine.operations if op in enabled]
     blocked = [op for op in machine.operations if op not in enabled]
     if as_json:

@@ -18,7 +18,7 @@ import orjson
 
 from ..b.values import Elem, FuncValue, format_value, from_json, parse_literal
 from ..b.vector import Columns
-from ..errors import InputError
+from ..errors import InputError, TracecheckError
 
 __all__ = ["encode_state", "decode_state", "encode_columns", "decode_columns",
            "COLUMNS_MEDIA_TYPE"]
@@ -63,14 +63,21 @@ def _literal(value: Any) -> str:
 
 
 def encode_state(state: Mapping[str, Any]) -> dict[str, Any]:
-    return {name: encode_value(value) for name, value in state.items()}
+    out = {}
+    for name, value in state.items():
+        try:
+            out[name] = encode_value(value)
+        except TracecheckError as exc:
+            raise InputError(f"variable {name}: {exc.message}", hint=exc.hint) from None
+    return out
 
 
 def decode_state(data: Mapping[str, Any], *, where: str = "") -> dict[str, Any]:
     """The B values of a state stored by :func:`encode_state`."""
     out = {}
     for name, value in data.items():
-        if isinstance(value, dict) and all(type(v) in (int, float) for v in value.values()):
+        if isinstance(value, dict) and all(type(v) is int or type(v) is float and
+                                           math.isfinite(v) for v in value.values()):
             out[name] = FuncValue({Elem(k): v for k, v in value.items()})
         elif isinstance(value, list) and all(isinstance(v, str) and v.isidentifier()
                                              for v in value):

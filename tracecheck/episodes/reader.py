@@ -385,6 +385,9 @@ def check_columns(header: dict, arrays: dict) -> None:
             shape = (n, wide[prefix]) if prefix in wide else (n,)
             if arr.shape != shape:
                 raise ValueError(f"the array {name} has shape {arr.shape}, not {shape}")
+            if arr.dtype.kind == "f" and prefix != "values" and not np.isfinite(arr).all():
+                raise ValueError(f"the array {name} holds NaN or an infinity (B reals are "
+                                 "finite)")
         for name in ("action", "reward", "crashed"):
             arrays[name]  # noqa: B018 - present
         for var, kind in header["kinds"].items():

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import IO, Any, Optional
 
 from mcap.writer import CompressionType, Writer
+from pydantic import ValidationError
 
 from .. import __version__
 from ..b.vector import Columns
@@ -119,14 +120,24 @@ class EpisodeWriter:
         self._emit("tracecheck.EpisodeHeader", header.model_dump_json(exclude_none=True).encode(),
                    0.0)
         for s in ep.steps:
+            try:
+                state = encode_state(s.state)
+            except TracecheckError as exc:
+                raise InputError(f"{self.path}, episode {ep.id}, step {s.step}: {exc.message}",
+                                 hint=exc.hint) from None
             msg = {"episode": ep.id, "step": s.step, "time": s.time, "action": s.action,
-                   "state": encode_state(s.state), "reward": s.reward, "crashed": s.crashed}
+                   "state": state, "reward": s.reward, "crashed": s.crashed}
             for key in ("observation", "action_values", "preferred_action", "allowed_actions",
                         "shield_time_us", "deadlock"):
                 value = getattr(s, key)
                 if value is not None:
                     msg[key] = value
-            data = S.Step.model_validate(msg).model_dump_json(exclude_none=True).encode()
+            try:
+                data = S.Step.model_validate(msg).model_dump_json(exclude_none=True).encode()
+            except ValidationError as exc:
+                first = exc.errors()[0]
+                raise InputError(f"{self.path}, episode {ep.id}, step {s.step}: "
+                                 f"{'.'.join(map(str, first['loc']))}: {first['msg']}") from None
             self._emit("tracecheck.Step", data, s.time)
         last = ep.steps[-1].time
         end = S.EpisodeEnd(episode=ep.id, steps=ep.end.steps, crashed=ep.end.crashed,

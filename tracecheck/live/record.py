@@ -10,6 +10,7 @@ so an interrupted run keeps every finished episode.
 from __future__ import annotations
 
 import multiprocessing as mp
+import signal
 from pathlib import Path
 from typing import Callable, Iterator, Optional
 
@@ -27,7 +28,22 @@ _SESSION: Optional[Session] = None
 
 def _init_worker(settings: RecordSettings) -> None:
     global _SESSION
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole process group:
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # the parent handles it and stops us
+    _die_with_parent()
     _SESSION = Session(settings)
+
+
+def _die_with_parent() -> None:
+    """Ask Linux to end this worker quietly when the recording process ends, however it
+    ends (SIGKILL included), instead of leaving it to fail writing to a closed pipe."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux: the pool's terminate() still ends us
+        pass
 
 
 def _work(index: int) -> Episode:
