@@ -74,21 +74,26 @@ def test_workers_do_not_change_episodes(tmp_path):
     assert [e.actions for e in a] == [e.actions for e in b]
 
 
-def test_interrupted_recording_keeps_finished_episodes(tmp_path):
-    path = tmp_path / "run.mcap"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "tracecheck.cli", "record", "--agent", str(BASE), "--shield",
-         "none", "--episodes", "200", "--duration", "5", "-o", str(path)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.time() + 60
+def _wait_for_episodes(path, count: int, seconds: float) -> None:
+    """Until a recording being written holds ``count`` finished episodes."""
+    deadline = time.time() + seconds
     seen = 0
-    while time.time() < deadline and seen < 3:
+    while time.time() < deadline and seen < count:
         time.sleep(0.5)
         if path.exists():
             try:
                 seen = len(read_columns(path).episode_ids)
             except Exception:  # noqa: BLE001 - the file may be mid-write
                 seen = 0
+
+
+def test_interrupted_recording_keeps_finished_episodes(tmp_path):
+    path = tmp_path / "run.mcap"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "tracecheck.cli", "record", "--agent", str(BASE), "--shield",
+         "none", "--episodes", "200", "--duration", "5", "-o", str(path)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    _wait_for_episodes(path, 3, 60)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130 and "keeps every finished episode" in err
@@ -121,15 +126,7 @@ def test_workers_stop_quietly_with_their_parent(tmp_path, sig):
         [sys.executable, "-m", "tracecheck.cli", "record", "--agent", str(BASE), "--shield",
          "none", "--episodes", "400", "--duration", "5", "--workers", "2", "-o", str(path)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.time() + 90
-    seen = 0
-    while time.time() < deadline and seen < 2:
-        time.sleep(0.5)
-        if path.exists():
-            try:
-                seen = len(read_columns(path).episode_ids)
-            except Exception:  # noqa: BLE001 - the file may be mid-write
-                seen = 0
+    _wait_for_episodes(path, 2, 90)
     workers = _children(proc.pid)
     assert len(workers) >= 2
     proc.send_signal(sig)
