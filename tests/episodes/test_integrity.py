@@ -33,13 +33,14 @@ def write(path, eps, columns=None):
     """Write ``eps``; ``columns(kwargs)`` may change what episode 1's columns say."""
     real = W.encode_columns
 
-    def encode(ep, times, actions, rewards, crashed, cols, names, values=None, seed=None):
+    def encode(ep, times, actions, rewards, crashed, cols, names, values=None, seed=None,
+               checksums=None):
         args = dict(times=list(times), actions=list(actions), rewards=list(rewards),
                     crashed=list(crashed), seed=seed)
         if ep == 1 and columns is not None:
             columns(args)
         return real(ep, args["times"], args["actions"], args["rewards"], args["crashed"], cols,
-                    names, values, seed=args["seed"])
+                    names, values, seed=args["seed"], checksums=checksums)
 
     W.encode_columns = encode
     try:
@@ -218,3 +219,31 @@ def test_a_decompression_bomb_is_refused(tmp_path):
     odd = _rechunk(path, tmp_path / "odd.mcap",
                    lambda inner: _chunk_record(inner, len(inner), "brotli", data=inner))
     assert "a chunk uses the unknown compression 'brotli'" in read_columns(odd).warnings[0]
+
+
+@pytest.mark.parametrize("good,bad,message", [
+    (b'"EgoVehicle":126.0', b'"EgoVehicle":127.0', "episode 1: its messages do not match the "
+                                                   "checksum its columns carry"),
+    (b'"source":"recorded"', b'"source":"recorde\\u0064"', None),
+])
+def test_a_changed_byte_in_a_message_is_found(tmp_path, good, bad, message):
+    """A digit changed in a state, or the run header edited (here to the same value written
+    differently): still valid JSON, but not what was written."""
+    path = write(tmp_path / "run.mcap", episodes())
+    data = path.read_bytes()
+    assert data.count(good) >= 1
+    if len(bad) != len(good):  # the header: keep the record length by shortening elsewhere
+        head_at = data.find(good)
+        rec = data.rfind(b"\x05", 0, head_at)  # the message record of the run header
+        while struct.unpack_from("<Q", data, rec + 1)[0] > 4096:
+            rec = data.rfind(b"\x05", 0, rec)
+        length = struct.unpack_from("<Q", data, rec + 1)[0]
+        data = (data[:rec + 1] + struct.pack("<Q", length + len(bad) - len(good))
+                + data[rec + 9:head_at] + bad + data[head_at + len(good):])
+        message = "episode 0: the run header does not match the checksum the episode's columns"
+    else:
+        data = data.replace(good, bad, 1)
+    path.write_bytes(data)
+    for read in (read_columns, read_run):
+        with pytest.raises(InputError, match=re.escape(message)):
+            read(path)

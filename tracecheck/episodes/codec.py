@@ -94,9 +94,10 @@ def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optio
                    rewards: Sequence[float], crashed: Sequence[bool], cols: Columns,
                    action_names: Sequence[str],
                    values: Optional[Sequence[Optional[Mapping[str, float]]]] = None,
-                   seed: Optional[int] = None) -> bytes:
+                   seed: Optional[int] = None, checksums: Optional[dict] = None) -> bytes:
     """One episode's steps as a binary columns blob (``values``: the agent's action values
-    per step, when recorded)."""
+    per step, when recorded; ``checksums``: CRC-32s of the episode's messages and the run
+    header, so that readers find a changed byte anywhere in the episode)."""
     index = {a: i for i, a in enumerate(action_names)}
     arrays: dict[str, np.ndarray] = {
         "time": np.asarray(times, dtype=np.float64),
@@ -130,7 +131,7 @@ def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optio
     for name, values in cols.others.items():
         arrays[f"lit:{name}"], literals[name] = _dictionary(values)
         kinds[name] = "lit"
-    header: dict[str, Any] = {"episode": episode, "seed": seed,
+    header: dict[str, Any] = {"episode": episode, "seed": seed, **(checksums or {}),
                               "elements": [str(e) for e in cols.elements],
                               "actions": list(action_names), "kinds": kinds,
                               "literals": literals, "arrays": []}

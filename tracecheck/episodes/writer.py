@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import time as _time
+import zlib
 from pathlib import Path
 from typing import IO, Any, Optional
 
@@ -51,6 +52,8 @@ class EpisodeWriter:
         self._channels: dict[str, int] = {}
         self._clock_ns = 0
         self._actions = list(header.actions)
+        self._crc = 0  # CRC-32 of the messages of the episode being written
+        self._run_crc = 0  # … and of the run header
 
     # -- context
     def __enter__(self) -> "EpisodeWriter":
@@ -74,7 +77,9 @@ class EpisodeWriter:
             self._channels[name] = self._writer.register_channel(
                 topic=S.TOPICS[name], message_encoding="json", schema_id=sid)
         self._clock_ns = _time.time_ns()
+        self._crc = 0
         self._emit("tracecheck.RunHeader", self.header.model_dump_json().encode(), 0.0)
+        self._run_crc = self._crc
         self._flush()
 
     def close(self) -> None:
@@ -93,6 +98,7 @@ class EpisodeWriter:
 
     # -- writing
     def _emit(self, name: str, data: bytes, at_s: float) -> None:
+        self._crc = zlib.crc32(data, self._crc)
         t = self._clock_ns + int(round(at_s * _NS))
         self._writer.add_message(channel_id=self._channels[name], log_time=t, publish_time=t,
                                  data=data)
@@ -117,6 +123,7 @@ class EpisodeWriter:
 
     def _write(self, ep: Episode) -> None:
         header = S.EpisodeHeader(episode=ep.id, seed=ep.seed, origin=ep.origin)
+        self._crc = 0
         self._emit("tracecheck.EpisodeHeader", header.model_dump_json(exclude_none=True).encode(),
                    0.0)
         for s in ep.steps:
@@ -152,7 +159,8 @@ class EpisodeWriter:
         blob = encode_columns(ep.id, [s.time for s in ep.steps], [s.action for s in ep.steps],
                               [s.reward for s in ep.steps], [s.crashed for s in ep.steps],
                               cols, self._actions, [s.action_values for s in ep.steps],
-                              seed=ep.seed)
+                              seed=ep.seed, checksums={"messages_crc": self._crc,
+                                                       "run_crc": self._run_crc})
         t = self._clock_ns + int(round(last * _NS))
         self._writer.add_attachment(create_time=t, log_time=t,
                                     name=f"episode-{ep.id}.columns",
