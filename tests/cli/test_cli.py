@@ -111,6 +111,11 @@ def test_eval_with_model_and_state(capsys, tmp_path):
     ("+".join(["1"] * 10000) + " > 0", "the formula nests more than 2000 levels deep"),
     ("not(" * 2500 + "1 = 1" + ")" * 2500, "the formula nests more than 2000 levels deep"),
     ("iterate({(1|->2)}, 2) = {}", "<expr>:1:1: not supported: iterate"),
+    ("{x | x : NAT & x < 5}", "the set 0..2147483647 has 2,147,483,648 elements; tracecheck "
+                              "builds or walks at most 1,000,000 elements of one set"),
+    ("10 ** 10 ** 10 > 0", "has more than 1,000,000 bits"),
+    ("7" * 310_002 + " > 0", "<expr>:1:1: an integer of 310002 digits is longer than the "
+                             "310000 digits tracecheck reads"),
 ], ids=lambda v: v[:40])
 def test_eval_errors(capsys, expr, fragment):
     code, _, err = run(capsys, "eval", expr)
@@ -135,6 +140,7 @@ def test_long_and_deep_formulas_work_up_to_the_limit(capsys, expr, printed):
     ("-3 + 5 = 2", "TRUE"), ("-2 ** 2", "4"), ("{1} \\/ {1} \\ {1} = {1}", "TRUE"),
     ("POW({1,2}) = {{}, {1}, {2}, {1,2}}", "TRUE"), ("(1..3)*{4}", "{(1↦4),(2↦4),(3↦4)}"),
     ("{(0|->0|->TRUE)}", "{(0↦0↦TRUE)}"),
+    ("7" * 5000 + " mod 10", "7"), ("10 ** 5000 - 10 ** 5000 + 1", "1"),
 ])
 def test_eval_values_as_prob_gives_them(capsys, expr, printed):
     code, out, err = run(capsys, "eval", expr)

@@ -247,3 +247,29 @@ def test_a_changed_byte_in_a_message_is_found(tmp_path, good, bad, message):
     for read in (read_columns, read_run):
         with pytest.raises(InputError, match=re.escape(message)):
             read(path)
+
+
+@pytest.mark.parametrize("field,value", [(16, 0xFFFFFFF0), (1, 2 ** 62)],
+                         ids=["name length", "record length"])
+def test_a_damaged_attachment_record_ends_the_file_there(tmp_path, field, value):
+    """Lengths inside a record that point past its end: the episodes before it are read,
+    with a warning; no struct.error."""
+    path = write(tmp_path / "run.mcap", episodes())
+    data = bytearray(path.read_bytes())
+    at, seen = 8, 0
+    while True:  # the second attachment record (episode 1's columns)
+        op, length = struct.unpack_from("<BQ", data, at)
+        if op == 9:
+            seen += 1
+            if seen == 2:
+                break
+        at += 9 + length
+    if field == 1:
+        struct.pack_into("<Q", data, at + 1, value)
+    else:
+        struct.pack_into("<I", data, at + 9 + field, value)
+    path.write_bytes(bytes(data))
+    cols = read_columns(path)
+    assert list(cols.episode_ids) == [0]
+    assert "the file is damaged or ends early" in cols.warnings[0]
+    assert "read 1 complete episode(s)" in cols.warnings[0]
