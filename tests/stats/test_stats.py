@@ -175,6 +175,8 @@ def test_empty_run_is_reported_as_such(tmp_path):
      "unknown kind 'always'; the kinds are invariant, eventually, final"),
     ('[properties.p]\npredicate = "Crash = "', Exception, "unexpected end"),
     ('[metrics.m]\nexpression = "Reward + 1"', BTypeError, "REAL vs INTEGER"),
+    ("x = " + "[" * 30000 + "]" * 30000, InputError,
+     "not a property file: its arrays or tables nest thousands of levels deep"),
 ])
 def test_bad_property_files(tmp_path, hand_run, text, exc, fragment):
     path = tmp_path / "bad.toml"

@@ -195,7 +195,7 @@ def _instance(cls, where: str) -> EnvAdapter:
 def parse_config(items: list[str]) -> dict[str, Any]:
     """``key=value`` settings: values read as JSON where they parse (true, 3, 0.5, "s"),
     else as strings."""
-    import json
+    import orjson
 
     out: dict[str, Any] = {}
     for item in items:
@@ -203,7 +203,7 @@ def parse_config(items: list[str]) -> dict[str, Any]:
         if not sep or not key:
             raise InputError(f"--env-config takes key=value, not {item!r}")
         try:
-            out[key] = json.loads(value)
-        except json.JSONDecodeError:
+            out[key] = orjson.loads(value)  # no NaN, nesting bounded
+        except orjson.JSONDecodeError:
             out[key] = value
     return out

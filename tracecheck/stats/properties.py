@@ -169,6 +169,9 @@ def parse_properties(text: str, *, name: str, file: str) -> PropertySet:
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"not valid TOML: {exc}", file=file, line=getattr(exc, "lineno", None),
                          column=getattr(exc, "colno", None), source=text) from None
+    except RecursionError:
+        raise InputError("not a property file: its arrays or tables nest thousands of levels "
+                         "deep", file=file) from None
     extra = set(data) - {"metrics", "properties"}
     if extra:
         raise InputError(f"{file}: unknown section {sorted(extra)[0]!r}; a property file has "
