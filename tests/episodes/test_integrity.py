@@ -151,6 +151,7 @@ def test_every_command_agrees_with_and_without_salvage(capsys, tmp_path):
     code, _, err = run(capsys, "render", str(path), "--episode", "1", "--salvage", "-o",
                        str(tmp_path / "v.html"))
     assert code == 2 and f"{path} has no episode 1; it has 0, 2" in err
+    assert f"hint: {path}, episode 1: the columns, end record and last step disagree" in err
     commands[4][3] = "2"
     for args in commands:
         code, out, err = run(capsys, *args, "--salvage")

@@ -190,8 +190,10 @@ class _Assembler:
                              "a /tracecheck/run header)")
         if name == "tracecheck.EpisodeHeader":
             self.start(data)
-        elif self.current is None:
-            self.bad(f"a {name} message comes before any episode header")
+        elif self.current is None:  # a stray message: one warning, the rest of it ignored
+            self.current = Piece(S.EpisodeHeader(episode=-1), [])
+            self.broken = "stray"
+            self.bad(f"a {name} message comes outside any episode", episode="?")
         elif self.broken is None:
             try:
                 if name == "tracecheck.Step":

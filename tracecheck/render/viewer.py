@@ -41,7 +41,8 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None)
         ids = [int(i) for i in read_columns(run).episode_ids]
         if not ids:
             raise InputError(f"{run} holds no complete episode")
-        raise InputError(f"{run} has no episode {episode}; it has {_ids_text(ids)}")
+        raise InputError(f"{run} has no episode {episode}; it has {_ids_text(ids)}",
+                         hint=result.warnings[0] if result.warnings else None)
     ep = result.episodes[0]
     scene = _scene(ep.steps[0].state)
     machine = shield.machine if shield is not None else None
