@@ -28,7 +28,7 @@ __all__ = ["app", "main"]
 
 def main(argv: Optional[list[str]] = None) -> Any:
     """Entry point: run the app and turn tracecheck errors into exit code 2."""
-    from ..episodes.reader import salvaging
+    from ..episodes.salvage import salvaging
 
     _stop_on_sigterm()
     try:

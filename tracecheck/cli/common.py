@@ -42,9 +42,9 @@ def _root(
 def salvage(value: bool) -> bool:
     """The ``--salvage`` option: damaged episodes are left out with a warning."""
     if value:
-        from ..episodes.reader import _SALVAGE
+        from ..episodes.salvage import SALVAGE
 
-        _SALVAGE.set(True)
+        SALVAGE.set(True)
     return value
 
 

@@ -1,13 +1,38 @@
 """Episodes on disk: the MCAP format (writer, reader, columnar view) and the in-memory
-episode types."""
+episode types.
 
-from .columns import RunColumns, read_columns
-from .model import HIGHWAY, Episode, EpisodeEnd, StepRecord, Vocabulary
-from .reader import DamagedFileWarning, Run, read_episodes, read_header, read_run
-from .writer import EpisodeWriter, new_header
+The names below are imported on first use, so that importing one light submodule (the
+episode model, the salvage switch) does not load numpy, pydantic and the MCAP library.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_WHERE = {
+    "RunColumns": "columns", "read_columns": "columns",
+    "HIGHWAY": "model", "Episode": "model", "EpisodeEnd": "model", "StepRecord": "model",
+    "Vocabulary": "model",
+    "DamagedFileWarning": "reader", "Run": "reader", "read_episodes": "reader",
+    "read_header": "reader", "read_run": "reader",
+    "EpisodeWriter": "writer", "new_header": "writer",
+}
 
 __all__ = [
     "EpisodeWriter", "read_run", "read_episodes", "read_columns", "read_header", "Run",
     "RunColumns", "DamagedFileWarning", "new_header", "Episode", "EpisodeEnd", "StepRecord",
     "Vocabulary", "HIGHWAY",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _WHERE:
+        value = getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

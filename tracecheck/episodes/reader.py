@@ -14,8 +14,6 @@ what was lost.
 
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import math
 import warnings
 import zlib
@@ -32,6 +30,7 @@ from . import schema as S
 from .codec import COLUMNS_MEDIA_TYPE, decode_columns, decode_state
 from .model import Episode, EpisodeEnd, StepRecord
 from .records import Attachment, Channel, Damage, Schema, open_buffer, walk
+from .salvage import salvage_on, salvaging
 
 __all__ = ["read_run", "read_episodes", "read_header", "Run", "DamagedFileWarning",
            "SalvagedEpisodeWarning", "salvaging", "complete", "Piece"]
@@ -43,24 +42,6 @@ class DamagedFileWarning(UserWarning):
 
 class SalvagedEpisodeWarning(DamagedFileWarning):
     """An episode left out because its parts do not agree (only when salvaging)."""
-
-
-_SALVAGE: contextvars.ContextVar[bool] = contextvars.ContextVar("salvage", default=False)
-
-
-@contextlib.contextmanager
-def salvaging(on: bool = True) -> Iterator[None]:
-    """Inside this block, readers leave out damaged episodes with a warning instead of
-    raising (the ``--salvage`` option)."""
-    token = _SALVAGE.set(on)
-    try:
-        yield
-    finally:
-        _SALVAGE.reset(token)
-
-
-def salvage_on() -> bool:
-    return _SALVAGE.get()
 
 
 @dataclass

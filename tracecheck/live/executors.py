@@ -72,7 +72,7 @@ def ray_episodes(settings, address: Optional[str] = None) -> Iterator[Episode]:
 
 def _in_task(fn, salvage: bool, *job):
     """``fn(*job)`` in a task, reading files the way the caller does (``--salvage``)."""
-    from ..episodes.reader import salvaging
+    from ..episodes.salvage import salvaging
 
     with salvaging(salvage):
         return fn(*job)
@@ -86,7 +86,7 @@ def map_files(fn, jobs: list[tuple], executor: str = "local",
                          f"{', '.join(EXECUTORS)}")
     if executor == "local" or len(jobs) <= 1 and address is None:
         return [fn(*job) for job in jobs]
-    from ..episodes.reader import salvage_on
+    from ..episodes.salvage import salvage_on
 
     ray, started = _start_ray(address, cpus)
     try:
