@@ -257,3 +257,28 @@ def test_machine_syntax_errors(text, fragment):
         parse_machine_source(text, file="bad.mch")
     assert fragment in info.value.message
     assert info.value.file == "bad.mch"
+
+
+def test_the_grammar_cache_is_private(tmp_path, monkeypatch):
+    """Lark's cache files are pickles: kept only in a folder of this user's that no one else
+    can write, never in the shared temporary folder."""
+    import os
+
+    from tracecheck.b.parser import grammar_cache
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.delenv("TRACECHECK_NO_CACHE", raising=False)
+    path = grammar_cache("parser")
+    assert path and path.startswith(str(tmp_path / "tracecheck"))
+    assert (tmp_path / "tracecheck").stat().st_mode & 0o777 == 0o700
+    os.chmod(tmp_path / "tracecheck", 0o777)
+    assert grammar_cache("parser") is False
+    os.chmod(tmp_path / "tracecheck", 0o700)
+    with open(path, "wb") as f:
+        f.write(b"planted")
+    os.chmod(path, 0o666)
+    assert grammar_cache("parser") is False
+    os.chmod(path, 0o600)
+    assert grammar_cache("parser") == path
+    monkeypatch.setenv("TRACECHECK_NO_CACHE", "1")
+    assert grammar_cache("parser") is False

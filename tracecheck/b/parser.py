@@ -9,6 +9,8 @@ substitution. Lark's errors become :class:`BSyntaxError` with the line, column a
 from __future__ import annotations
 
 import functools
+import hashlib
+import os
 import re
 import sys
 from dataclasses import dataclass, field
@@ -33,6 +35,7 @@ __all__ = [
 sys.setrecursionlimit(max(sys.getrecursionlimit(), 20_000))
 
 _GRAMMAR = (Path(__file__).with_name("grammar.lark")).read_text(encoding="utf-8")
+_GRAMMAR_SHA = hashlib.sha256(_GRAMMAR.encode()).hexdigest()
 _STARTS = [
     "formula", "substitution", "sets_clause", "assertions_clause", "operations_clause",
     "machine_header", "name_list", "def_header",
@@ -78,13 +81,43 @@ class _TokenFeed(Lexer):
 @functools.lru_cache(maxsize=1)
 def _lexer() -> Lark:
     return Lark(_GRAMMAR, parser="lalr", lexer="basic", start=_STARTS,
-                lexer_callbacks={"COMMENT": _comment_sink})
+                lexer_callbacks={"COMMENT": _comment_sink}, cache=grammar_cache("lexer"))
 
 
 @functools.lru_cache(maxsize=1)
 def _parser() -> Lark:
     return Lark(_GRAMMAR, parser="lalr", lexer=_TokenFeed, start=_STARTS,
-                propagate_positions=True)
+                propagate_positions=True, cache=grammar_cache("parser"))
+
+
+def grammar_cache(kind: str) -> str | bool:
+    """Where lark keeps the analysed grammar between runs (building it takes most of a short
+    command's time), or ``False`` for no cache.
+
+    Lark's cache files are pickles, so only a private folder is used: ``$XDG_CACHE_HOME`` or
+    ``~/.cache``, then ``tracecheck/``, owned by this user and writable by no one else, and
+    only a cache file owned by this user and writable by no one else — never the shared
+    temporary folder. ``TRACECHECK_NO_CACHE=1`` turns it off.
+    """
+    if os.environ.get("TRACECHECK_NO_CACHE") or not hasattr(os, "getuid"):
+        return False
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    folder = Path(base) / "tracecheck"
+    try:
+        folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+        if not _private(folder):
+            return False
+        path = folder / f"grammar-{kind}-{_GRAMMAR_SHA[:16]}.lark"
+        if path.exists() and not _private(path):
+            return False
+    except OSError:
+        return False
+    return str(path)
+
+
+def _private(path: Path) -> bool:
+    st = path.lstat()
+    return st.st_uid == os.getuid() and not st.st_mode & 0o022 and not path.is_symlink()
 
 
 _COMMENTS: list[Token] = []
