@@ -272,3 +272,20 @@ def test_deeply_nested_literals(capsys, tmp_path, literal, message):
         assert code == 0 and out.strip() == "TRUE", err
     else:
         assert code == 2 and message in err and "Traceback" not in err
+
+
+def test_eval_several_formulas_and_a_file(capsys, tmp_path):
+    code, out, err = run(capsys, "eval", "1 + 1", "card({1, 2, 3})", "2 > 3")
+    assert code == 0 and out.splitlines() == ["2", "3", "FALSE"], err
+    formulas = tmp_path / "f.txt"
+    formulas.write_text("// one per line\n1 + 1\n\n2 ** 10\n")
+    code, out, _ = run(capsys, "eval", "-f", str(formulas), "--json")
+    assert [r["value"] for r in json.loads(out)] == ["2", "1024"]
+    formulas.write_text("1 + 1\n\n1 +\n")
+    code, _, err = run(capsys, "eval", "--file", str(formulas))
+    assert code == 2 and f"{formulas}:3:4: unexpected end of the formula" in err
+    assert "    1 +\n       ^" in err
+    code, _, err = run(capsys, "eval", "1 = 1", "1 +")
+    assert code == 2 and "<expr 2>:1:4: unexpected end" in err
+    code, _, err = run(capsys, "eval")
+    assert code == 2 and "give a formula to evaluate, or --file with formulas" in err

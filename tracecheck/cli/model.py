@@ -64,45 +64,74 @@ def _clip(text: str, width: int = 100) -> str:
 
 @app.command("eval", context_settings={"ignore_unknown_options": True})
 def eval_(
-    expr: str = typer.Argument(..., help="A B predicate or expression."),
+    exprs: Optional[list[str]] = typer.Argument(None, help="B predicates or expressions."),
+    file: Optional[Path] = typer.Option(None, "--file", "-f", help="A file of formulas, one "
+                                        "per line (blank lines and // comments skipped)."),
     model: Optional[Path] = typer.Option(None, "--model", "-m",
                                          help="Evaluate in this machine's scope."),
     state: Optional[Path] = typer.Option(None, "--state", "-s",
                                          help="JSON file: variable name -> B literal."),
     as_json: bool = typer.Option(False, "--json", help="Print the value as JSON."),
 ) -> None:
-    """Evaluate a predicate or expression and print its value in B notation."""
+    """Evaluate predicates or expressions and print their values in B notation, one per line
+    (the machine, the state and the grammar are loaded once for all of them)."""
+    from ..b.values import format_value, to_json
+    from ..errors import read_text
+
+    formulas = [(e, "<expr>" if len(exprs or ()) == 1 and file is None else f"<expr {i + 1}>",
+                 None) for i, e in enumerate(exprs or ())]
+    if file is not None:
+        text = read_text(file, "formula file")
+        formulas += [(line, str(file), (k + 1, text)) for k, line in enumerate(text.splitlines())
+                     if line.strip() and not line.strip().startswith("//")]
+    if not formulas:
+        raise InputError("give a formula to evaluate, or --file with formulas")
+    evaluate = _evaluator(model, state)
+    results = []
+    for expr, where, line in formulas:
+        try:
+            value = evaluate(expr, where)
+        except TracecheckError as exc:
+            if line is not None:  # a line of the file: point into the file
+                exc.line, exc.source = line[0], line[1]
+            raise exc.located(file=where, source=expr) from None
+        results.append({"expression": expr, "value": format_value(value),
+                        "json": to_json(value)})
+    if as_json:
+        out.print_json(json.dumps(results[0] if len(results) == 1 else results))
+    else:
+        for r in results:
+            out.print(r["value"], markup=False)
+
+
+def _evaluator(model: Optional[Path], state: Optional[Path]):
+    """``evaluate(text, where)`` in the scope of ``model`` and the values of ``state``."""
     from ..b.evaluate import Compiler
     from ..b.parser import parse_formula
     from ..b.scope import check_kind, expand, kind_of
     from ..b.state import read_state_file
     from ..b.typecheck import type_of_value, typecheck_formula
-    from ..b.values import format_value, to_json
 
     machine = load_model(model) if model is not None else None
     values = read_state_file(state) if state is not None else {}
     if machine is not None:
         machine.check_state(values, where=str(state))
-    try:
-        node = parse_formula(expr, file="<expr>")
+    names = dict(machine.type_objects) if machine is not None else {}
+    owners = machine.element_sets() if machine is not None else {}
+    for name, value in values.items():
+        names.setdefault(name, type_of_value(value, owners))
+    env = machine.env(values) if machine is not None else dict(values)
+
+    def evaluate(expr: str, where: str):
+        node = parse_formula(expr, file=where)
         if machine is not None:
             node = expand(node, machine.definitions)
         kind = kind_of(node)
         check_kind(node, kind, source=expr, context="the formula")
-        names = dict(machine.type_objects) if machine is not None else {}
-        owners = machine.element_sets() if machine is not None else {}
-        for name, value in values.items():
-            names.setdefault(name, type_of_value(value, owners))
-        typecheck_formula(node, names, kind=kind, source=expr, file="<expr>")
-        env = machine.env(values) if machine is not None else dict(values)
-        value = Compiler(source=expr, file="<expr>").compile(node)(env)
-    except TracecheckError as exc:
-        raise exc.located(file="<expr>", source=expr) from None
-    if as_json:
-        out.print_json(json.dumps({"expression": expr, "value": format_value(value),
-                                   "json": to_json(value)}))
-    else:
-        out.print(format_value(value), markup=False)
+        typecheck_formula(node, dict(names), kind=kind, source=expr, file=where)
+        return Compiler(source=expr, file=where).compile(node)(env)
+
+    return evaluate
 
 
 @app.command("guards")
