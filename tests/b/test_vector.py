@@ -34,9 +34,20 @@ FORMULAS = [
     "!v.(v : PresentVehicles => #w.(w : PresentVehicles & X(w) >= X(v)))",
     "#v.(v : PresentVehicles & not(#w.(w : PresentVehicles & w /= v & X(w) < X(v))) & "
     "X(v) > 0.0)",
-    # not vectorisable: answered by the scalar path row by row
+    # comprehensions, images, min/max, LET, ELSIF (the authors' RSS shield is made of these)
     "card({v | v : PresentVehicles & X(v) > 0.0}) >= 1",
+    "min({40.0} \\/ X[{v | v : PresentVehicles & Y(v) > 0.0}]) > 1.0",
+    "{v | v : PresentVehicles & X(v) > 10.0} /= {} => "
+    "min(X[{v | v : PresentVehicles & X(v) > 10.0}]) < 30.0",
+    "max({0.0, X(EgoVehicle) - min(Vx[PresentVehicles \\ {EgoVehicle}])}) > 1.0",
+    "LET d BE d = X(EgoVehicle) * 2.0 IN d > Reward & d < 50.0 END",
+    "#v.(v : PresentVehicles & X(v) = min(X[{w | w : PresentVehicles & Y(w) >= 0.0}]))",
+    "IF Reward > 0.5 THEN 1.0 ELSIF Reward > 0.0 THEN 2.0 ELSE 1.0 / Reward END > 0.5",
+    "min({v . v : PresentVehicles | X(v) + Vx(v)}) < 10.0",
+    "{v | v : PresentVehicles & v : {w | w : PresentVehicles & Y(w) < 0.0}} = {EgoVehicle}",
+    # not vectorisable: answered by the scalar path row by row
     "#(v, w).(v : PresentVehicles & w : PresentVehicles & v /= w & X(v) = X(w))",
+    "#v.(v : PresentVehicles & card({w | w : PresentVehicles & X(w) > X(v)}) = 0)",
 ]
 
 floats = st.floats(min_value=-50, max_value=50, allow_nan=False).map(lambda x: round(x, 1))
@@ -87,7 +98,7 @@ def test_plans_vectorise_the_common_shapes():
     }], ELEMS)
     planned = [BatchFormula(parse_formula(t), CONSTANTS)._plan(cols) is not None
                for t in FORMULAS]
-    assert planned == [True] * 13 + [False] * 2
+    assert planned == [True] * 22 + [False] * 2
 
 
 def test_partial_function_rows_fall_back_to_scalar():

@@ -188,3 +188,53 @@ def test_diff_of_paper_against_the_authors_machine_on_the_paper_traces_is_empty(
     out = capsys.readouterr().out
     assert stop.value.code in (0, None), out
     assert "changed steps: 0" in out and "states whose enabled set differs: 0" in out
+
+
+RSS = [PAPER_MODELS / "HighwayEnvironment" / "HighwayEnvironment_RSS_v2.mch",
+       PAPER_MODELS / "HighwayEnvironment" / "HighwayEnvironment_RSS.mch"]
+
+
+def _shield(spec):
+    if isinstance(spec, Path):
+        if not spec.exists():
+            pytest.skip(f"the authors' machines are not at {PAPER_MODELS}")
+        return load_machine(spec)
+    return load_shield(spec).machine
+
+
+def _paper_states() -> list[dict]:
+    if not PAPER_TRACES.is_dir():
+        pytest.skip(f"the paper's traces are not at {PAPER_TRACES}")
+    return [{k: parse_literal(v) for k, v in act["fixedVariables"].items()}
+            for f in sorted((PAPER_TRACES / "simb").rglob("*.json"))
+            for act in json.loads(f.read_text())["activations"] if act.get("fixedVariables")]
+
+
+def _scalar(machine, state):
+    try:
+        return frozenset(machine.enabled(state))
+    except Exception as exc:  # noqa: BLE001 - the class is compared below
+        return type(exc)
+
+
+@pytest.mark.parametrize("spec", ["paper", "strict", *RSS],
+                         ids=["paper", "strict", "RSS_v2", "RSS"])
+@pytest.mark.parametrize("where", ["random", "paper traces"])
+def test_batch_path_decides_like_the_scalar_path_state_by_state(spec, where):
+    """The comprehension-heavy RSS shields (sets of vehicles per lane, images, min/max, LET,
+    IF-ELSIF) on the batch path: the scalar path's answer in every state, and its error
+    where a state makes a guard ill-defined."""
+    machine = _shield(spec)
+    if where == "random":
+        cols, _ = random_columns(300, 5)
+        states = [cols.row(i) for i in range(cols.n)]
+    else:
+        states = _paper_states()[::3]
+    expected = [_scalar(machine, s) for s in states]
+    good = [s for s, e in zip(states, expected) if isinstance(e, frozenset)]
+    batch = machine.enabled_batch(Columns.from_states(good, ELEMENTS))
+    got = [frozenset(a for a in batch if batch[a][i]) for i in range(len(good))]
+    assert got == [e for e in expected if isinstance(e, frozenset)]
+    for state, error in [(s, e) for s, e in zip(states, expected) if isinstance(e, type)][:20]:
+        with pytest.raises(error):
+            machine.enabled_batch(Columns.from_states([state], ELEMENTS))

@@ -245,6 +245,7 @@ class Machine:
         import numpy as np
 
         out = {}
+        memo: dict = {}  # what the guards have in common, computed once
         for name, op in self.operations.items():
             if op.guard is None:
                 out[name] = np.ones(columns.n, dtype=bool)
@@ -252,7 +253,7 @@ class Machine:
             guard = op.guard
             if op.params:
                 guard = A.Quant("#", op.params, guard, pos=guard.pos)
-            out[name] = self._batch_cached(("guard", name), guard)(columns).astype(bool)
+            out[name] = self._batch_cached(("guard", name), guard)(columns, memo).astype(bool)
         return out
 
     def invariant_batch(self, columns):

@@ -15,8 +15,9 @@ located error where the formula really has no value.
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping, Optional, Sequence
+from typing import Any, Callable, Iterator, Mapping, Optional, Sequence
 
 import numpy as np
 
@@ -152,7 +153,8 @@ class _NotVectorizable(Exception):
 
 # A vector value: (tag, payload). Tags: "num", "bool" (arrays broadcastable to (n, k)),
 # "elem" (an int index, or an (1, k) index array for an element-axis variable),
-# "set" (bool mask (…, k)), "func" ((values, defined), each (n, k)).
+# "set" (bool mask (…, k)), "func" ((values, defined), each (n, k)), "nums" (a set of numbers:
+# (values, member), each (n or 1, m): the values of the row where member is true).
 Vec = tuple
 
 
@@ -160,14 +162,32 @@ class _Ctx:
     def __init__(self, cols: Columns) -> None:
         self.cols = cols
         self.bad = np.zeros(cols.n, dtype=bool)
+        self.lets: dict[str, Vec] = {}  # LET variables in scope
+        self.memo: dict[int, tuple] = {}  # values of shared sub-formulas, see _shared
 
     def mark(self, rows: np.ndarray) -> None:
         """Remember the rows where ``rows`` (any shape starting with rows or 1) is true."""
-        rows = np.asarray(rows)
-        if rows.ndim == 0:
-            rows = np.full(self.cols.n, bool(rows))
-        rows = np.broadcast_to(rows, (self.cols.n,) + rows.shape[1:])
-        self.bad |= rows.reshape(self.cols.n, -1).any(axis=1)
+        self.bad |= self.any_per_row(rows)
+
+    def any_per_row(self, cells: Any) -> np.ndarray:
+        """Per row: whether ``cells`` (a bool, or an array of rows or 1 × axes) holds in any
+        of the row's cells."""
+        cells = np.asarray(cells)
+        if cells.ndim == 0:
+            return np.full(self.cols.n, bool(cells))
+        cells = np.broadcast_to(cells, (self.cols.n,) + cells.shape[1:])
+        return cells.reshape(self.cols.n, -1).any(axis=1)
+
+    @contextmanager
+    def only_where(self, cells: Any) -> Iterator[None]:
+        """Inside: what is marked counts only in the rows where ``cells`` holds somewhere (the
+        part of a formula evaluated there)."""
+        outer = self.bad
+        self.bad = np.zeros(self.cols.n, dtype=bool)
+        try:
+            yield
+        finally:
+            self.bad = outer | (self.bad & self.any_per_row(cells))
 
 
 class _VecCompiler:
@@ -178,12 +198,18 @@ class _VecCompiler:
         self.k = len(elements)
         self.kinds = kinds
         self.axes: list[str] = []  # bound element variables: axis 1, then axis 2
+        self.hidden: set[str] = set()  # bound outside the comprehension being compiled
+        self.lets: list[str] = []  # LET variables in scope
+        self.free: dict = {}  # free names by node, see A.free_names
 
     def compile(self, node: A.Node) -> Callable[[_Ctx], Vec]:
         method = getattr(self, "v_" + type(node).__name__, None)
         if method is None:
             raise _NotVectorizable(type(node).__name__)
-        return method(node)
+        fn = method(node)
+        if isinstance(node, _SHARED) and not (A.free_names(node, self.free) & set(self.lets)):
+            return _shared(fn, _intern((node, tuple(self.axes), tuple(sorted(self.hidden)))))
+        return fn
 
     def constant(self, value: Any) -> Vec:
         if type(value) is bool:
@@ -205,6 +231,10 @@ class _VecCompiler:
         if name in self.axes:
             depth = self.axes.index(name)
             return lambda ctx: ("elem", ("axis", depth))
+        if name in self.lets:
+            return lambda ctx: ctx.lets[name]
+        if name in self.hidden:
+            raise _NotVectorizable(f"{name} from an enclosing scope")
         kind = self.kinds.get(name)
         if kind == "num":
             return lambda ctx: ("num", ctx.cols.numbers[name][:, None, None])
@@ -231,14 +261,112 @@ class _VecCompiler:
         items = [self.compile(i) for i in node.items]
 
         def set_ext(ctx: _Ctx) -> Vec:
+            values = [f(ctx) for f in items]
+            if values and all(tag == "num" for tag, _ in values):
+                columns = [self._row_values(ctx, v) for _, v in values]
+                rows = max(len(c) for c in columns)
+                table = np.stack([np.broadcast_to(c, (rows,)) for c in columns], axis=1)
+                return ("nums", (table, np.ones((1, len(columns)), dtype=bool)))
             mask = np.zeros((1, self.k), dtype=bool)
-            for f in items:
-                tag, idx = f(ctx)
+            for tag, idx in values:
                 if tag != "elem" or not isinstance(idx, int):
                     raise _NotVectorizable("set of non-constant elements")
                 mask[0, idx] = True
             return ("set", mask)
         return set_ext
+
+    def _row_values(self, ctx: _Ctx, value: Any) -> np.ndarray:
+        """A number per row (or one for all rows) as a 1-d array; one that varies along a
+        quantifier's axis is not a row's number."""
+        value = np.asarray(value)
+        if value.ndim == 0:
+            return value.reshape(1)
+        if value.ndim == 3 and value.shape[1:] == (1, 1):
+            return value[:, 0, 0]
+        raise _NotVectorizable("a set of numbers that varies with a bound element")
+
+    def v_Comprehension(self, node: A.Comprehension) -> Callable:
+        """``{v | v : S & P}`` as a mask over the elements, ``{v . v : S & P | E}`` as the
+        numbers E where P holds. Only comprehensions that use no variable bound around them
+        (a set per row); the element variable gets its own axis."""
+        if len(node.ids) != 1:
+            raise _NotVectorizable("comprehension shape")
+        (var,) = node.ids
+        gen = _generator(node.pred, var)
+        if gen is None:
+            raise _NotVectorizable("no domain")
+        saved = (self.axes, self.hidden, self.lets)
+        self.hidden = set(self.axes) | set(self.lets) | self.hidden
+        self.axes, self.lets = [], []
+        try:
+            dom = self.compile(gen.right)
+            self.axes = [var]
+            pred = self.compile(node.pred)
+            expr = self.compile(node.expr) if node.expr is not None else None
+        finally:
+            self.axes, self.hidden, self.lets = saved
+
+        def comprehension(ctx: _Ctx) -> Vec:
+            tag, mask = dom(ctx)
+            if tag != "set" or np.ndim(mask) != 2:
+                raise _NotVectorizable("domain")
+            holds = np.broadcast_to(np.asarray(_bool(pred(ctx))), (ctx.cols.n, self.k, 1))
+            member = np.broadcast_to(mask, (ctx.cols.n, self.k)) & holds[:, :, 0]
+            if expr is None:
+                return ("set", member)
+            with ctx.only_where(member[:, :, None]):
+                values = np.asarray(_num(expr(ctx)))
+            return ("nums", (np.broadcast_to(values, (ctx.cols.n, self.k, 1))[:, :, 0],
+                             member))
+        return comprehension
+
+    def v_Image(self, node: A.Image) -> Callable:
+        """``F[S]`` of a function over the elements: its values at the members of S."""
+        rel, arg = self.compile(node.rel), self.compile(node.arg)
+
+        def image(ctx: _Ctx) -> Vec:
+            f, s = rel(ctx), arg(ctx)
+            if f[0] != "func" or s[0] != "set" or np.ndim(s[1]) != 2:
+                raise _NotVectorizable("image")
+            values, defined = f[1]
+            return ("nums", (values, defined & s[1]))
+        return image
+
+    def v_Let(self, node: A.Let) -> Callable:
+        """``LET x BE x = E IN B END``: the equations in the order they use each other."""
+        eqs: dict[str, A.Node] = {}
+        for conj in conjuncts(node.pred):
+            if (isinstance(conj, A.Rel) and conj.op == "=" and isinstance(conj.left, A.Name)
+                    and conj.left.id in node.ids and conj.left.id not in eqs):
+                eqs[conj.left.id] = conj.right
+            else:
+                raise _NotVectorizable("LET condition")
+        ordered: list[str] = []
+        while len(ordered) < len(node.ids):
+            ready = [i for i in node.ids if i not in ordered and i in eqs
+                     and not (A.free_names(eqs[i]) & (set(node.ids) - set(ordered)))]
+            if not ready:
+                raise _NotVectorizable("LET order")
+            ordered.extend(ready)
+        steps = []
+        saved = list(self.lets)
+        try:
+            for name in ordered:
+                steps.append((name, self.compile(eqs[name])))
+                self.lets.append(name)
+            body = self.compile(node.body)
+        finally:
+            self.lets = saved
+
+        def let(ctx: _Ctx) -> Vec:
+            outer = dict(ctx.lets)
+            try:
+                for name, fn in steps:
+                    ctx.lets[name] = fn(ctx)
+                return body(ctx)
+            finally:
+                ctx.lets = outer
+        return let
 
     def v_Neg(self, node: A.Neg) -> Callable:
         f = self.compile(node.operand)
@@ -278,6 +406,8 @@ class _VecCompiler:
                     if op in ("-", "\\"):
                         return ("set", x & ~y)
                     return ("set", (x | y) if op == "\\/" else (x & y))
+                if a[0] == "nums" and b[0] == "nums" and op == "\\/":
+                    return ("nums", _concat(ctx, a[1], b[1]))
                 if op == "-":
                     return ("num", _arith(ctx, np.subtract, op, _num(a), _num(b)))
                 raise _NotVectorizable(op)
@@ -327,18 +457,29 @@ class _VecCompiler:
             return subset
         raise _NotVectorizable(op)
 
-    def _logic(self, node, fn) -> Callable:
+    def _logic(self, node, fn, needs: Optional[bool] = None) -> Callable:
+        """``fn(left, right)``; with ``needs``, the right side is evaluated (on the scalar
+        path) only where the left one is ``needs``: what is ill-defined in it matters only
+        in those rows, as ``&``, ``or`` and ``=>`` short-circuit."""
         l, r = self.compile(node.left), self.compile(node.right)
-        return lambda ctx: ("bool", fn(_bool(l(ctx)), _bool(r(ctx))))
+        if needs is None:
+            return lambda ctx: ("bool", fn(_bool(l(ctx)), _bool(r(ctx))))
+
+        def logic(ctx: _Ctx) -> Vec:
+            a = np.asarray(_bool(l(ctx)))
+            with ctx.only_where(a if needs else ~a):
+                b = _bool(r(ctx))
+            return ("bool", fn(a, b))
+        return logic
 
     def v_And(self, node) -> Callable:
-        return self._logic(node, np.logical_and)
+        return self._logic(node, np.logical_and, True)
 
     def v_Or(self, node) -> Callable:
-        return self._logic(node, np.logical_or)
+        return self._logic(node, np.logical_or, False)
 
     def v_Implies(self, node) -> Callable:
-        return self._logic(node, lambda a, b: np.logical_or(np.logical_not(a), b))
+        return self._logic(node, lambda a, b: np.logical_or(np.logical_not(a), b), True)
 
     def v_Equiv(self, node) -> Callable:
         return self._logic(node, np.equal)
@@ -352,11 +493,7 @@ class _VecCompiler:
             raise _NotVectorizable("quantifier shape")
         (var,) = node.ids
         body = node.body
-        domain_part = body.left if isinstance(body, A.Implies) else body
-        conjs = conjuncts(domain_part)
-        gen = next((c for c in conjs if isinstance(c, A.Rel) and c.op == ":"
-                    and isinstance(c.left, A.Name) and c.left.id == var
-                    and var not in A.free_names(c.right)), None)
+        gen = _generator(body.left if isinstance(body, A.Implies) else body, var)
         if gen is None:
             raise _NotVectorizable("no domain")
         dom = self.compile(gen.right)
@@ -427,6 +564,24 @@ class _VecCompiler:
                     raise _NotVectorizable("card")
                 return ("num", _per_row(np.broadcast_to(s[1], (ctx.cols.n, self.k)).sum(axis=1)))
             return card
+        if name in ("min", "max"):
+            def extreme(ctx: _Ctx) -> Vec:
+                tag, payload = arg(ctx)
+                if tag != "nums":
+                    raise _NotVectorizable(name)
+                values, member = payload
+                values, member = np.broadcast_arrays(values, member)
+                empty = ~member.any(axis=1)
+                if empty.any():
+                    ctx.mark(np.broadcast_to(empty, (ctx.cols.n,)) if len(empty) == 1
+                             else empty)
+                fill = np.inf if name == "min" else -np.inf
+                masked = np.where(member, values, fill)
+                result = masked.min(axis=1) if name == "min" else masked.max(axis=1)
+                if values.dtype.kind in "iu":
+                    result = np.where(empty, 0, result).astype(values.dtype)
+                return ("num", _per_row(result))
+            return extreme
         if name == "bool":
             return lambda ctx: ("bool", _bool(arg(ctx)))
         if name == "POW":
@@ -454,10 +609,12 @@ class _VecCompiler:
         def if_expr(ctx: _Ctx) -> Vec:
             # every branch is computed for every row, but a branch's ill-defined values
             # only matter in the rows that take it (IF guards its branches)
-            outer = ctx.bad
             conds = []
-            for cond, _ in branches:
-                conds.append(np.asarray(_bool(cond(ctx))))
+            rest = np.ones(1, dtype=bool)
+            for cond, _ in branches:  # a condition is evaluated where no earlier one held
+                with ctx.only_where(rest):
+                    conds.append(np.asarray(_bool(cond(ctx))))
+                rest = rest & ~conds[-1]
             taken = []
             rest = np.ones(1, dtype=bool)
             for c in conds:
@@ -465,12 +622,8 @@ class _VecCompiler:
                 rest = rest & ~c
             values = []
             for (_, value), chosen in zip(branches + [(None, other)], taken + [rest]):
-                ctx.bad = np.zeros(ctx.cols.n, dtype=bool)
-                values.append(value(ctx))
-                rows = np.broadcast_to(chosen, (ctx.cols.n,) + np.shape(chosen)[1:]) \
-                    if np.ndim(chosen) else np.full(ctx.cols.n, bool(chosen))
-                outer = outer | (ctx.bad & rows.reshape(ctx.cols.n, -1).any(axis=1))
-            ctx.bad = outer
+                with ctx.only_where(chosen):
+                    values.append(value(ctx))
             tag = values[-1][0]
             if tag not in ("num", "bool") or any(v[0] != tag for v in values):
                 raise _NotVectorizable("IF")
@@ -482,6 +635,53 @@ class _VecCompiler:
 
 
 _TYPE_SETS = {"REAL", "FLOAT", "BOOL", "INTEGER"}
+
+
+# Sub-formulas worth computing once per batch: a shield's definitions are expanded at every
+# use, so `min(VehiclesX[NextVehiclesInLane(LeftLane)])` occurs in several guards.
+_SHARED = (A.Comprehension, A.Image, A.Call, A.IfExpr, A.Quant, A.Let)
+_INTERNED: dict[tuple, int] = {}
+
+
+def _intern(key: tuple) -> int:
+    """A number for a sub-formula in its scope (equal formulas, equal numbers)."""
+    return _INTERNED.setdefault(key, len(_INTERNED))
+
+
+def _shared(fn: Callable[[_Ctx], Vec], key: int) -> Callable[[_Ctx], Vec]:
+    """``fn`` computed once per batch (per :attr:`_Ctx.memo`); what it marked ill-defined
+    is marked again wherever its value is used."""
+    def shared(ctx: _Ctx) -> Vec:
+        hit = ctx.memo.get(key)
+        if hit is None:
+            outer = ctx.bad
+            ctx.bad = np.zeros(ctx.cols.n, dtype=bool)
+            try:
+                value = fn(ctx)
+            finally:
+                produced, ctx.bad = ctx.bad, outer | ctx.bad
+            ctx.memo[key] = (value, produced)
+            return value
+        value, produced = hit
+        ctx.bad = ctx.bad | produced
+        return value
+    return shared
+
+
+def _generator(pred: A.Node, var: str) -> Optional[A.Rel]:
+    """The conjunct ``var : S`` of ``pred`` that gives ``var`` its values."""
+    return next((c for c in conjuncts(pred) if isinstance(c, A.Rel) and c.op == ":"
+                 and isinstance(c.left, A.Name) and c.left.id == var
+                 and var not in A.free_names(c.right)), None)
+
+
+def _concat(ctx: _Ctx, a: tuple, b: tuple) -> tuple:
+    """The union of two sets of numbers (as values and members side by side)."""
+    (va, ma), (vb, mb) = a, b
+    rows = max(len(va), len(vb), len(ma), len(mb))
+    stretch = lambda x: np.broadcast_to(x, (rows, x.shape[1]))  # noqa: E731
+    return (np.concatenate([stretch(va), stretch(vb)], axis=1),
+            np.concatenate([stretch(ma), stretch(mb)], axis=1))
 
 
 def _typed_member(a: Vec, s: Vec, n: int) -> np.ndarray:
@@ -579,11 +779,15 @@ class BatchFormula:
                 self._plans[key] = None
         return self._plans[key]
 
-    def __call__(self, cols: Columns) -> np.ndarray:
-        """The value in each row: a bool array for a predicate, a float array for a number."""
+    def __call__(self, cols: Columns, memo: Optional[dict] = None) -> np.ndarray:
+        """The value in each row: a bool array for a predicate, a float array for a number
+        (``memo``: shared by formulas over the same columns and constants, so that what
+        they have in common is computed once)."""
         plan = self._plan(cols)
         if plan is not None:
             ctx = _Ctx(cols)
+            if memo is not None:
+                ctx.memo = memo
             try:
                 tag, value = plan(ctx)
             except _NotVectorizable:
