@@ -136,3 +136,18 @@ def test_a_file_that_is_no_tracecheck_run_is_an_error_for_every_command(kind, tm
                  ["stats", path], ["info", path]):
         code, _, err = run(capsys, *map(str, args))
         assert code == 2 and "not a tracecheck run (no /tracecheck/run header)" in err, args
+
+
+def test_replay_lists_the_first_episodes_that_matter_or_all(capsys, tmp_path):
+    from tests.episodes.conftest import episode
+    from tracecheck.episodes import EpisodeWriter, new_header
+
+    path = tmp_path / "many.mcap"
+    with EpisodeWriter(path, new_header("recorded")) as w:
+        for i in range(45):
+            w.write(episode(i, 2, crash_at_end=True))
+    code, out, _ = run(capsys, "replay", str(path), "--shield", "paper")
+    assert code == 0 and "… 5 more episode(s): --all lists them, --json gives everything" in out
+    code, out, _ = run(capsys, "replay", str(path), "--shield", "paper", "--all")
+    assert code == 0 and "more episode(s)" not in out
+    assert all(f"\n {i} " in out or f"\n{i} " in out for i in (0, 44))

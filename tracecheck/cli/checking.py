@@ -19,6 +19,8 @@ def replay_cmd(
     shield: str = typer.Option(..., "--shield", "-s", help=SHIELD_HELP),
     as_json: bool = typer.Option(False, "--json", help="Print the full report as JSON."),
     fmt: OutputFormat = typer.Option(OutputFormat.text, "--format", help="text or md."),
+    all_rows: bool = typer.Option(False, "--all", help=f"List every episode that matters "
+                                  f"(default: the first {ROWS})."),
     fail_on: list[FailOn] = typer.Option([], "--fail-on",
                                          help="Exit 1 when this occurs (repeatable)."),
     resimulate: bool = typer.Option(False, "--resimulate",
@@ -41,12 +43,13 @@ def replay_cmd(
     warn(report.warnings)
     if resimulate:
         report.resimulation = _resimulate(runs, loaded, report, agent, env)
+    rows = len(report.per_episode) if all_rows else ROWS
     if as_json:
         out.print_json(json.dumps(report.to_json()))
     elif fmt == OutputFormat.md:
-        out.print(replay_markdown(report, ROWS), markup=False)
+        out.print(replay_markdown(report, rows), markup=False)
     else:
-        replay_text(out, report, ROWS)
+        replay_text(out, report, rows)
     counts = {FailOn.infeasible: report.infeasible_steps,
               FailOn.deadlock: report.deadlock_states,
               FailOn.postcondition: report.postcondition_violations,

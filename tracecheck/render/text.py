@@ -96,7 +96,8 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
         table.add_row(*(row[1:] if one_file else row))
     console.print(table)
     if len(matters) > rows:
-        console.print(f"… {len(matters) - rows} more episode(s): use --json for all")
+        console.print(f"… {len(matters) - rows} more episode(s): --all lists them, --json "
+                      "gives everything")
 
 
 def replay_markdown(r: ReplayReport, rows: int) -> str:
