@@ -161,13 +161,15 @@ Vec = tuple
 class _Ctx:
     def __init__(self, cols: Columns) -> None:
         self.cols = cols
-        self.bad = np.zeros(cols.n, dtype=bool)
+        self.bad: Optional[np.ndarray] = None  # the rows marked for the scalar path, if any
         self.lets: dict[str, Vec] = {}  # LET variables in scope
         self.memo: dict[int, tuple] = {}  # values of shared sub-formulas, see _shared
 
     def mark(self, rows: np.ndarray) -> None:
         """Remember the rows where ``rows`` (any shape starting with rows or 1) is true."""
-        self.bad |= self.any_per_row(rows)
+        rows = self.any_per_row(rows)
+        if rows.any():
+            self.bad = rows if self.bad is None else self.bad | rows
 
     def any_per_row(self, cells: Any) -> np.ndarray:
         """Per row: whether ``cells`` (a bool, or an array of rows or 1 × axes) holds in any
@@ -182,12 +184,12 @@ class _Ctx:
     def only_where(self, cells: Any) -> Iterator[None]:
         """Inside: what is marked counts only in the rows where ``cells`` holds somewhere (the
         part of a formula evaluated there)."""
-        outer = self.bad
-        self.bad = np.zeros(self.cols.n, dtype=bool)
+        outer, self.bad = self.bad, None
         try:
             yield
         finally:
-            self.bad = outer | (self.bad & self.any_per_row(cells))
+            self.bad = _union(outer, None if self.bad is None
+                              else self.bad & self.any_per_row(cells))
 
 
 class _VecCompiler:
@@ -654,18 +656,24 @@ def _shared(fn: Callable[[_Ctx], Vec], key: int) -> Callable[[_Ctx], Vec]:
     def shared(ctx: _Ctx) -> Vec:
         hit = ctx.memo.get(key)
         if hit is None:
-            outer = ctx.bad
-            ctx.bad = np.zeros(ctx.cols.n, dtype=bool)
+            outer, ctx.bad = ctx.bad, None
             try:
                 value = fn(ctx)
             finally:
-                produced, ctx.bad = ctx.bad, outer | ctx.bad
+                produced, ctx.bad = ctx.bad, _union(outer, ctx.bad)
             ctx.memo[key] = (value, produced)
             return value
         value, produced = hit
-        ctx.bad = ctx.bad | produced
+        ctx.bad = _union(ctx.bad, produced)
         return value
     return shared
+
+
+def _union(a: Optional[np.ndarray], b: Optional[np.ndarray]) -> Optional[np.ndarray]:
+    """Rows marked in ``a`` or ``b`` (None: none)."""
+    if a is None:
+        return b
+    return a if b is None else a | b
 
 
 def _generator(pred: A.Node, var: str) -> Optional[A.Rel]:
@@ -798,7 +806,7 @@ class BatchFormula:
                     if value.ndim < 3:
                         value = value.reshape(value.shape + (1,) * (3 - value.ndim))
                     out = np.array(np.broadcast_to(value, (cols.n, 1, 1))[:, 0, 0])
-                    bad = np.flatnonzero(ctx.bad)
+                    bad = np.flatnonzero(ctx.bad) if ctx.bad is not None else ()
                     for i in bad:
                         out[i] = self._row(cols, i)
                     return out
