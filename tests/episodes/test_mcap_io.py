@@ -304,3 +304,31 @@ def test_writing_nan_or_infinity_names_the_step(tmp_path, episodes, change, mess
     with pytest.raises(InputError) as info:
         write(tmp_path / "run.mcap", [bad])
     assert info.value.message == f"{tmp_path / 'run.mcap'}, {message}"
+
+
+def test_a_finished_file_is_read_from_its_run_blob_with_the_walk_s_answer(tmp_path, episodes,
+                                                                          monkeypatch):
+    """A closed file carries every episode in one blob: read in a few array operations, and
+    exactly what reading it episode by episode gives (which is what happens when any byte
+    the blob stands for has changed)."""
+    import tracecheck.episodes.columns as C
+
+    path = write(tmp_path / "run.mcap", episodes)
+    assert C._from_run_columns(path) is not None
+    fast = read_columns(path)
+    monkeypatch.setattr(C, "_from_run_columns", lambda p: None)
+    slow = read_columns(path)
+    for key in ("episode_ids", "starts", "episode", "step", "time", "action", "reward",
+                "crashed", "values"):
+        assert np.array_equal(getattr(fast, key), getattr(slow, key), equal_nan=True), key
+    assert fast.action_names == slow.action_names and fast.seeds == slow.seeds
+    assert [fast.states.row(i) for i in range(fast.n)] == \
+           [slow.states.row(i) for i in range(slow.n)]
+    assert fast.states.label(5) == slow.states.label(5)
+    monkeypatch.undo()
+    data = bytearray(path.read_bytes())
+    data[data.find(b'"episode":1,"step":2') + 30] ^= 1  # one bit in episode 1's messages
+    path.write_bytes(bytes(data))
+    assert C._from_run_columns(path) is None
+    with pytest.raises(InputError, match="episode 1: "):
+        read_columns(path)

@@ -21,9 +21,11 @@ from ..b.vector import Columns
 from ..errors import InputError, TracecheckError
 
 __all__ = ["encode_state", "decode_state", "encode_columns", "decode_columns",
-           "COLUMNS_MEDIA_TYPE"]
+           "encode_run_columns", "COLUMNS_MEDIA_TYPE", "RUN_COLUMNS_MEDIA_TYPE"]
 
 COLUMNS_MEDIA_TYPE = "application/x-tracecheck-columns"
+#: every episode of a file in one blob, written when the file is closed
+RUN_COLUMNS_MEDIA_TYPE = "application/x-tracecheck-run-columns"
 _MAGIC = b"TCC2"  # TCC1 (files before checksums) are still read
 _OLD_MAGIC = b"TCC1"
 
@@ -113,6 +115,17 @@ def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optio
                 if name in index:
                     table[row, index[name]] = q
         arrays["values"] = table
+    kinds, literals = _state_arrays(cols, arrays)
+    header: dict[str, Any] = {"episode": episode, "seed": seed, **(checksums or {}),
+                              "elements": [str(e) for e in cols.elements],
+                              "actions": list(action_names), "kinds": kinds,
+                              "literals": literals}
+    return _pack(header, arrays)
+
+
+def _state_arrays(cols: Columns, arrays: dict[str, np.ndarray]
+                  ) -> tuple[dict[str, str], dict[str, list[str]]]:
+    """Add the state variables of ``cols`` to ``arrays``; their kinds and literal tables."""
     kinds: dict[str, str] = {}
     for name, arr in cols.numbers.items():
         arrays[f"num:{name}"] = arr
@@ -131,10 +144,13 @@ def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optio
     for name, values in cols.others.items():
         arrays[f"lit:{name}"], literals[name] = _dictionary(values)
         kinds[name] = "lit"
-    header: dict[str, Any] = {"episode": episode, "seed": seed, **(checksums or {}),
-                              "elements": [str(e) for e in cols.elements],
-                              "actions": list(action_names), "kinds": kinds,
-                              "literals": literals, "arrays": []}
+    return kinds, literals
+
+
+def _pack(header: dict[str, Any], arrays: dict[str, np.ndarray]) -> bytes:
+    """The blob: magic, header length, JSON header (with each array's dtype, shape and
+    offset), the arrays' bytes, and a CRC-32 of all of it."""
+    header["arrays"] = []
     blobs, offset = [], 0
     for name, arr in arrays.items():
         arr = np.ascontiguousarray(arr)
@@ -146,6 +162,34 @@ def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optio
     head = orjson.dumps(header)
     body = _MAGIC + struct.pack("<I", len(head)) + head + b"".join(blobs)
     return body + struct.pack("<I", zlib.crc32(body))  # a flipped bit is found, not trusted
+
+
+def encode_run_columns(run, spans: np.ndarray, span_crcs: np.ndarray, head_crc: int) -> bytes:
+    """Every episode of a file in one columns blob (``run``: its
+    :class:`~tracecheck.episodes.columns.RunColumns`, read back through the checked reader
+    when the file is closed), with the byte span of each episode's records and their CRC-32s:
+    a reader that finds the spans unchanged reads the whole file in a few array operations."""
+    arrays: dict[str, np.ndarray] = {
+        "time": np.asarray(run.time, dtype=np.float64),
+        "action": np.asarray(run.action, dtype=np.int16),
+        "reward": np.asarray(run.reward, dtype=np.float64),
+        "crashed": np.asarray(run.crashed, dtype=bool),
+    }
+    if run.values is not None:
+        arrays["values"] = np.asarray(run.values, dtype=np.float64)
+    kinds, literals = _state_arrays(run.states, arrays)
+    arrays["run:episodes"] = np.asarray(run.episode_ids, dtype=np.int64)
+    arrays["run:starts"] = np.asarray(run.starts, dtype=np.int64)
+    arrays["run:seeds"] = np.asarray([-1 if s is None else s for s in run.seeds],
+                                     dtype=np.int64)
+    arrays["run:seeded"] = np.asarray([s is not None for s in run.seeds], dtype=bool)
+    arrays["run:spans"] = np.asarray(spans, dtype=np.int64).reshape(-1, 2)
+    arrays["run:span_crcs"] = np.asarray(span_crcs, dtype=np.uint32)
+    header: dict[str, Any] = {"episode": -1, "run": True, "head_crc": head_crc,
+                              "elements": [str(e) for e in run.states.elements],
+                              "actions": list(run.action_names), "kinds": kinds,
+                              "literals": literals}
+    return _pack(header, arrays)
 
 
 def _dictionary(values: Sequence[Any]) -> tuple[np.ndarray, list[str]]:

@@ -6,6 +6,7 @@ decoding a single step message.
 from __future__ import annotations
 
 import warnings
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional
@@ -14,8 +15,10 @@ import numpy as np
 
 from ..b.vector import Columns
 from ..b.values import Elem
-from .codec import columns_from_arrays
-from .reader import DamagedFileWarning, complete
+from ..errors import InputError
+from .codec import RUN_COLUMNS_MEDIA_TYPE, columns_from_arrays, decode_columns
+from .reader import DamagedFileWarning, check_columns, complete
+from .records import find_attachment, open_buffer
 
 __all__ = ["read_columns", "RunColumns"]
 
@@ -58,6 +61,9 @@ def read_columns(path: str | Path, *, salvage: Optional[bool] = None) -> RunColu
     with a damaged tail gives its complete episodes, with the loss described in ``warnings``.
     """
     path = Path(path)
+    whole = _from_run_columns(path)
+    if whole is not None:
+        return whole
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", DamagedFileWarning)
         decoded = [(p.head.episode, *p.columns)
@@ -87,6 +93,67 @@ def read_columns(path: str | Path, *, salvage: Optional[bool] = None) -> RunColu
         result.values = np.concatenate(values)
     result.seeds = [header.get("seed") for _, header, _ in decoded]
     return result
+
+
+def _from_run_columns(path: Path) -> Optional[RunColumns]:
+    """The whole file from the blob its writer left when it closed the file — only if every
+    byte before the blob is unchanged: the blob's own CRC, the CRC-32 of each episode's
+    records (header to columns attachment, one after the other up to the blob) and of
+    everything before the first episode. Otherwise None: the reader walks the file episode by
+    episode, finding and naming whatever changed, so both ways give the same answer."""
+    buf = open_buffer(path)
+    view = memoryview(buf)
+    try:
+        found = find_attachment(buf, RUN_COLUMNS_MEDIA_TYPE)
+        if found is None:
+            return None
+        offset, blob = found
+        try:
+            header, arrays = decode_columns(blob)
+            spans, crcs = arrays["run:spans"], arrays["run:span_crcs"]
+            starts, ids = arrays["run:starts"], arrays["run:episodes"]
+            seeds, seeded = arrays["run:seeds"], arrays["run:seeded"]
+            e = len(ids)
+            if not (header.get("run") is True and e and spans.shape == (e, 2)
+                    and crcs.shape == seeds.shape == seeded.shape == (e,)
+                    and starts.shape == (e + 1,) and starts[0] == 0
+                    and np.all(np.diff(starts) > 0) and len(np.unique(ids)) == e):
+                return None
+            # the episodes' records follow each other from the first to the blob's record
+            if not (0 < spans[0, 0] and np.all(spans[:, 0] < spans[:, 1])
+                    and np.array_equal(spans[1:, 0], spans[:-1, 1]) and spans[-1, 1] == offset):
+                return None
+            if zlib.crc32(view[:int(spans[0, 0])]) != header.get("head_crc"):
+                return None
+            for (a, b), crc in zip(spans.tolist(), crcs.tolist()):
+                if zlib.crc32(view[a:b]) != crc:
+                    return None
+            body = {k: v for k, v in arrays.items() if not k.startswith("run:")}
+            check_columns({**header, "episode": 0}, body, first_action=False)
+            n = int(starts[-1])
+            if len(body["time"]) != n:
+                return None
+            first = np.zeros(n, dtype=bool)
+            first[starts[:-1]] = True
+            if not np.array_equal(body["action"] == -1, first):  # no action exactly at step 0
+                return None
+            states = columns_from_arrays(header, body, where=f"{path}: ")
+        except (InputError, KeyError, TypeError, ValueError):
+            return None
+    finally:
+        view.release()
+        if hasattr(buf, "close"):
+            buf.close()
+    lengths = np.diff(starts)
+    episode = np.repeat(ids, lengths)
+    step = np.arange(n) - np.repeat(starts[:-1], lengths)
+    states.label = lambda i: f"{path}, episode {int(episode[i])}, step {int(step[i])}"
+    return RunColumns(
+        path=str(path), episode_ids=ids, starts=starts, episode=episode, step=step,
+        time=body["time"], action=body["action"], action_names=tuple(header["actions"]),
+        reward=body["reward"], crashed=body["crashed"].astype(bool), states=states,
+        values=body.get("values"),
+        seeds=[int(x) if ok else None for x, ok in zip(seeds.tolist(), seeded.tolist())])
 
 
 def _widen(cols: Columns, elements: list[str]) -> Columns:

@@ -364,7 +364,7 @@ def _check_names(actions, elements) -> None:
     _NAMES_SEEN[:] = [actions, elements]
 
 
-def check_columns(header: dict, arrays: dict) -> None:
+def check_columns(header: dict, arrays: dict, *, first_action: bool = True) -> None:
     """What the rest of tracecheck relies on: an integer episode id, one row per step in
     every array of the right dtype and shape, action indexes within the episode's actions,
     one array per variable of each kind (an :class:`~tracecheck.errors.InputError` if not)."""
@@ -411,8 +411,11 @@ def check_columns(header: dict, arrays: dict) -> None:
         action = arrays["action"]
         if not n:
             raise ValueError("it has no rows")
-        if int(action[0]) != -1 or (n > 1 and (int(action[1:].min()) < 0 or
-                                               int(action.max()) >= len(actions))):
+        first = action[:1] if first_action else action[:0]
+        rest = action[1:] if first_action else action
+        if (first.size and int(first[0]) != -1) or (rest.size and (
+                int(rest.min()) < (0 if first_action else -1)
+                or int(rest.max()) >= len(actions))):
             raise ValueError(f"an action index lies outside the {len(actions)} actions of the "
                              "episode")
     except KeyError as exc:

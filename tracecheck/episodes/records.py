@@ -16,7 +16,7 @@ import struct
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator, Union
+from typing import Iterator, Optional, Union
 
 from ..errors import InputError
 
@@ -228,3 +228,52 @@ def _lz4(frame, data: bytes, size: int) -> bytes:
     d = frame.LZ4FrameDecompressor()
     out = d.decompress(data, max_length=size + 1)
     return out
+
+
+_FOOTER = struct.Struct("<BQQQI")
+ATTACHMENT_INDEX = 10
+
+
+def find_attachment(buf, media_type: str) -> Optional[tuple[int, bytes]]:
+    """The last attachment of ``media_type`` listed in the file's summary, as (offset of its
+    record, data), or None — where the file has no footer or summary, or anything in them
+    does not fit (a reader then walks the records instead)."""
+    end = len(buf) - 8
+    if end < 8 + _FOOTER.size or bytes(buf[end:]) != MAGIC:
+        return None
+    op, length, summary_start, _, _ = _FOOTER.unpack_from(buf, end - _FOOTER.size)
+    footer = end - _FOOTER.size
+    if op != FOOTER or length != 20 or not 8 <= summary_start <= footer:
+        return None
+    found = None
+    try:
+        at = summary_start
+        while at + 9 <= footer:
+            op, length = _REC.unpack_from(buf, at)
+            start, stop = at + 9, at + 9 + length
+            if stop > footer:
+                return None
+            if op == ATTACHMENT_INDEX:
+                f = _Fields(buf, start, stop)
+                offset, size = f.u64(), f.u64()
+                f.take(24)
+                f.string()
+                if f.string() == media_type:
+                    found = (offset, size)
+            at = stop
+        if found is None:
+            return None
+        offset, size = found
+        if offset < 8 or offset + size > summary_start:
+            return None
+        op, length = _REC.unpack_from(buf, offset)
+        if op != ATTACHMENT or 9 + length != size:
+            return None
+        f = _Fields(buf, offset + 9, offset + size)
+        f.take(16)
+        f.string()
+        if f.string() != media_type:
+            return None
+        return offset, f.blob(f.u64())
+    except (_Bad, struct.error):
+        return None

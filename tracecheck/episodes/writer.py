@@ -53,6 +53,7 @@ class EpisodeWriter:
         self._clock_ns = 0
         self._actions = list(header.actions)
         self._crc = 0  # CRC-32 of the messages of the episode being written
+        self._spans: list[tuple[int, int]] = []  # per episode: its records' bytes in the file
         self._run_crc = 0  # … and of the run header
 
     # -- context
@@ -87,6 +88,8 @@ class EpisodeWriter:
         if self._writer is None:
             return
         try:
+            if self._spans:
+                self._write_run_columns()
             self._writer.finish()
         except OSError:
             pass  # disk full or gone: the episodes flushed so far stay readable
@@ -95,6 +98,37 @@ class EpisodeWriter:
             if self._stream is not None:
                 self._stream.close()
                 self._stream = None
+
+    def _write_run_columns(self) -> None:
+        """Every episode in one columns blob, read back through the checked reader, with the
+        CRC-32 of each episode's records: readers of the finished file take it at once."""
+        import mmap
+        import warnings
+
+        from .codec import RUN_COLUMNS_MEDIA_TYPE, encode_run_columns
+        from .columns import read_columns
+
+        self._stream.flush()
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                run = read_columns(self.path, salvage=False)
+        except TracecheckError:
+            return  # the file reads as it is, without the blob
+        if len(run.episode_ids) != len(self._spans) or run.warnings:
+            return
+        with open(self.path, "rb") as f, \
+                mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+            view = memoryview(mm)
+            try:
+                crcs = [zlib.crc32(view[a:b]) for a, b in self._spans]
+                head = zlib.crc32(view[:self._spans[0][0]])
+            finally:
+                view.release()
+        blob = encode_run_columns(run, self._spans, crcs, head)
+        self._writer.add_attachment(create_time=self._clock_ns, log_time=self._clock_ns,
+                                    name="run.columns", media_type=RUN_COLUMNS_MEDIA_TYPE,
+                                    data=blob)
 
     # -- writing
     def _emit(self, name: str, data: bytes, at_s: float) -> None:
@@ -124,6 +158,7 @@ class EpisodeWriter:
     def _write(self, ep: Episode) -> None:
         header = S.EpisodeHeader(episode=ep.id, seed=ep.seed, origin=ep.origin)
         self._crc = 0
+        start = self._stream.tell()
         self._emit("tracecheck.EpisodeHeader", header.model_dump_json(exclude_none=True).encode(),
                    0.0)
         for s in ep.steps:
@@ -166,3 +201,4 @@ class EpisodeWriter:
                                     name=f"episode-{ep.id}.columns",
                                     media_type=COLUMNS_MEDIA_TYPE, data=blob)
         self._clock_ns += int(round((last + _GAP_S) * _NS))
+        self._spans.append((start, self._stream.tell()))  # header … columns attachment
