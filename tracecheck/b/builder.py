@@ -28,8 +28,13 @@ class OperationSource:
     pos: Optional[A.Pos] = None
 
 
+_ESCAPES = {'"': '"', "\\": "\\", "'": "'", "n": "\n", "t": "\t", "r": "\r"}
+
+
 def unquote(s: str) -> str:
-    return re.sub(r'\\(.)', r'\1', s[1:-1])
+    """The text of a string literal: ``\\"``, ``\\\\``, ``\\n``, ``\\t``, ``\\r`` and ``\\'``
+    are escapes, as in ProB; any other backslash is kept (``"a /\\ b"`` keeps its ``/\\``)."""
+    return re.sub(r"\\(.)", lambda m: _ESCAPES.get(m.group(1), m.group(0)), s[1:-1])
 
 
 def tok_pos(tok: Token) -> A.Pos:

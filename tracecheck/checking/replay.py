@@ -12,7 +12,7 @@ from __future__ import annotations
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Iterable, Optional
+from typing import Iterable, Optional, Sequence
 
 import numpy as np
 
@@ -69,11 +69,14 @@ class ReplayReport:
     per_episode: list[EpisodeReplay] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     resimulation: Optional[dict] = None
+    ltl: list[dict] = field(default_factory=list)  # per formula, see add_ltl
 
     def to_json(self) -> dict:
         data = asdict(self)
         if self.resimulation is None:
             data.pop("resimulation")
+        if not self.ltl:
+            data.pop("ltl")
         data["steps_per_s"] = round(self.steps / self.elapsed_s) if self.elapsed_s else None
         return data
 
@@ -142,8 +145,11 @@ def _postconditions(shield: Shield, cols: RunColumns, rows: np.ndarray,
     return bad
 
 
-def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport) -> None:
+def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport,
+                 ltl: Sequence[tuple] = ()) -> None:
     matrix, ops = enabled_matrix(shield, cols)
+    if ltl:
+        _check_ltl(shield, cols, report, ltl, {o: matrix[:, i] for i, o in enumerate(ops)})
     op_index = {o: i for i, o in enumerate(ops)}
     unknown = [a for a in cols.action_names if a not in op_index]
     rows = np.flatnonzero(cols.step > 0)
@@ -164,6 +170,45 @@ def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport) -> None
         lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
         report.per_episode.append(_episode(cols, shield, ops, matrix, feasible, deadlock,
                                            invariant_ok, post_bad, int(ep), lo, hi))
+
+
+def _check_ltl(shield: Shield, cols: RunColumns, report: ReplayReport, ltl: Sequence[tuple],
+               enabled: dict) -> None:
+    """Each (name, text, formula) on every episode of ``cols``, added to ``report.ltl``."""
+    from .ltl import check_ltl
+
+    for name, text, formula in ltl:
+        result = check_ltl(name, text, formula, cols, shield.machine, enabled)
+        entry = next((e for e in report.ltl if e["name"] == name), None)
+        if entry is None:
+            entry = {"name": name, "formula": text, "episodes": 0, "satisfied": 0,
+                     "violations": []}
+            report.ltl.append(entry)
+        entry["episodes"] += result.episodes
+        entry["satisfied"] += result.satisfied
+        entry["violations"] += [{"file": cols.path, "episode": ep, "first_step": step}
+                                for ep, step in result.violations]
+
+
+def ltl_formulas(shield: Shield, formulas: Sequence[str] = (), assertions: bool = False
+                 ) -> list[tuple]:
+    """(name, text, parsed formula) for ``--ltl`` formulas and, with ``assertions``, the
+    shield machine's ``ASSERT_LTL`` definitions (parse errors located in the formula)."""
+    from .ltl import assertions as machine_assertions
+    from .ltl import parse_ltl
+
+    out = []
+    if assertions:
+        found = machine_assertions(shield.machine)
+        if not found:
+            raise InputError(f"the shield {shield.name} has no ASSERT_LTL definitions",
+                             hint="give formulas with --ltl FORMULA")
+        for name, text in found.items():
+            out.append((name, text, parse_ltl(text, shield.machine, where=name)))
+    for i, text in enumerate(formulas):
+        name = f"--ltl {i + 1}" if len(formulas) > 1 else "--ltl"
+        out.append((name, text, parse_ltl(text, shield.machine, where=name)))
+    return out
 
 
 def _episode(cols, shield, ops, matrix, feasible, deadlock, invariant_ok, post_bad, ep, lo,
@@ -194,7 +239,8 @@ def _episode(cols, shield, ops, matrix, feasible, deadlock, invariant_ok, post_b
     )
 
 
-def _replay_one(path: str, shield_spec: str) -> ReplayReport:
+def _replay_one(path: str, shield_spec: str, formulas: Sequence[str] = (),
+                assertions: bool = False) -> ReplayReport:
     """One file, in whichever process runs it (the shield is loaded there by its path)."""
     from .shield import load_shield
 
@@ -202,31 +248,42 @@ def _replay_one(path: str, shield_spec: str) -> ReplayReport:
     report = ReplayReport(shield=shield.identity, files=[path])
     cols = read_columns(path)
     report.warnings += cols.warnings
-    _replay_file(shield, cols, report)
+    _replay_file(shield, cols, report, ltl_formulas(shield, formulas, assertions))
     return report
 
 
 def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "local",
-           ray_address: Optional[str] = None) -> ReplayReport:
-    """Replay every episode of the files against ``shield`` (see the module docstring).
+           ray_address: Optional[str] = None, ltl: Sequence[str] = (),
+           ltl_assertions: bool = False) -> ReplayReport:
+    """Replay every episode of the files against ``shield`` (see the module docstring);
+    check the LTL formulas ``ltl`` (and, with ``ltl_assertions``, the machine's
+    ``ASSERT_LTL`` definitions) on every episode (see :mod:`tracecheck.checking.ltl`).
 
     With ``executor="ray"`` each file is replayed in a Ray task.
     """
     paths = [str(p) for p in paths]
     report = ReplayReport(shield=shield.identity, files=paths)
+    formulas = ltl_formulas(shield, ltl, ltl_assertions)  # errors before any file is read
     start = time.perf_counter()
     if executor == "local":
         for path in paths:
             cols = read_columns(path)
             report.warnings += cols.warnings
-            _replay_file(shield, cols, report)
+            _replay_file(shield, cols, report, formulas)
     else:
         from ..live.executors import map_files
 
-        for part in map_files(_replay_one, [(p, shield.path) for p in paths], executor,
-                              ray_address):
+        jobs = [(p, shield.path, tuple(ltl), ltl_assertions) for p in paths]
+        for part in map_files(_replay_one, jobs, executor, ray_address):
             report.per_episode += part.per_episode
             report.warnings += part.warnings
+            for entry in part.ltl:
+                mine = next((e for e in report.ltl if e["name"] == entry["name"]), None)
+                if mine is None:
+                    report.ltl.append(entry)
+                else:
+                    for key in ("episodes", "satisfied", "violations"):
+                        mine[key] += entry[key]
     report.elapsed_s = round(time.perf_counter() - start, 6)
     eps = report.per_episode
     report.episodes = len(eps)

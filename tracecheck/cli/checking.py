@@ -21,6 +21,11 @@ def replay_cmd(
     fmt: OutputFormat = typer.Option(OutputFormat.text, "--format", help="text or md."),
     all_rows: bool = typer.Option(False, "--all", help=f"List every episode that matters "
                                   f"(default: the first {ROWS})."),
+    ltl: list[str] = typer.Option([], "--ltl", help="An LTL formula in ProB's syntax to check "
+                                  "on every episode, e.g. 'G({Crash = FALSE})' (repeatable; "
+                                  "see docs/statistics.md)."),
+    ltl_assertions: bool = typer.Option(False, "--ltl-assertions", help="Check the shield "
+                                        "machine's ASSERT_LTL definitions on every episode."),
     fail_on: list[FailOn] = typer.Option([], "--fail-on",
                                          help="Exit 1 when this occurs (repeatable)."),
     resimulate: bool = typer.Option(False, "--resimulate",
@@ -39,7 +44,8 @@ def replay_cmd(
     from ..render.text import replay_markdown, replay_text
 
     loaded = run_shield(shield, runs)
-    report = replay(runs, loaded, executor=executor.value, ray_address=ray_address)
+    report = replay(runs, loaded, executor=executor.value, ray_address=ray_address, ltl=ltl,
+                    ltl_assertions=ltl_assertions)
     warn(report.warnings)
     if resimulate:
         report.resimulation = _resimulate(runs, loaded, report, agent, env)

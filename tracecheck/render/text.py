@@ -78,8 +78,30 @@ def _resim_lines(r: ReplayReport) -> list[str]:
     return lines
 
 
+def _ltl_lines(r: ReplayReport, rows: int) -> list[str]:
+    lines = []
+    for e in r.ltl:
+        head = f"LTL {e['name']}: {e['formula']}"
+        held = f"{e['satisfied']} of {e['episodes']} episode(s) satisfy it"
+        if not e["violations"]:
+            lines.append(f"{head} — {held}")
+            continue
+        shown = []
+        for v in e["violations"][:rows]:
+            where = f"episode {v['episode']}"
+            if len(r.files) > 1:
+                where = f"{v['file'].rsplit('/', 1)[-1]} {where}"
+            if v["first_step"] is not None:
+                where += f" (step {v['first_step']})"
+            shown.append(where)
+        more = len(e["violations"]) - len(shown)
+        lines.append(f"{head} — {held}; violated in {', '.join(shown)}"
+                     + (f" and {more} more" if more > 0 else ""))
+    return lines
+
+
 def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
-    for i, line in enumerate(_summary_lines(r) + _resim_lines(r)):
+    for i, line in enumerate(_summary_lines(r) + _resim_lines(r) + _ltl_lines(r, rows)):
         console.print(f"[bold]{line}[/bold]" if i == 0 else line, markup=i == 0,
                       highlight=False)
     matters = [e for e in r.per_episode if e.matters]
@@ -102,7 +124,7 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
 
 def replay_markdown(r: ReplayReport, rows: int) -> str:
     lines = [f"# Replay: shield `{r.shield['name']}`", ""]
-    lines += [f"- {line}" for line in _summary_lines(r) + _resim_lines(r)]
+    lines += [f"- {line}" for line in _summary_lines(r) + _resim_lines(r) + _ltl_lines(r, rows)]
     matters = [e for e in r.per_episode if e.matters]
     if matters:
         lines += ["", "| " + " | ".join(HEADERS) + " |",
