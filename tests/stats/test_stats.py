@@ -234,3 +234,26 @@ def test_simulate_stops_when_intervals_are_narrow(capsys, tmp_path):
                        str(ROOT / "models" / "agents" / "base.zip"), "--episodes", "3",
                        "--until-ci-width", "2", "-o", str(out))
     assert code == 2 and "must lie strictly between 0 and 1" in err
+
+
+def test_ltl_properties_by_hand(hand_run, tmp_path):
+    """kind = "ltl": the formula holds for the episode, read in the environment's machine
+    (the paper shield for the highway); the same share as the state predicate it restates,
+    and a hypothesis test on it."""
+    path = tmp_path / "ltl.toml"
+    path.write_text('[properties.never_crash]\npredicate = "G({Crash = FALSE})"\n'
+                    'kind = "ltl"\ntest = { p = 0.9, alpha = 0.05, tail = "left" }\n'
+                    '[properties.far_once_moving]\n'
+                    'predicate = "F({VehiclesX(EgoVehicle) > 120.0} & Y true)"\nkind = "ltl"\n'
+                    '[properties.state_form]\npredicate = "Crash = FALSE"\n')
+    (r,) = statistics([hand_run], load_properties(path))["runs"]
+    props = r["properties"]
+    assert props["never_crash"]["holds"] == props["state_form"]["holds"] == 1
+    assert props["far_once_moving"]["holds"] == 2
+    assert "test" in props["never_crash"]
+    path.write_text('[properties.bad]\npredicate = "G({Crash = FALSE}"\nkind = "ltl"\n')
+    with pytest.raises(Exception, match=r"ltl: property bad:1:18: expected '\)'"):
+        statistics([hand_run], load_properties(path))
+    path.write_text('[properties.bad]\npredicate = 3\nkind = "ltl"\n')
+    with pytest.raises(InputError, match="predicate must be a string with an LTL formula"):
+        load_properties(path)

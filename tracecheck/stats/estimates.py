@@ -101,10 +101,41 @@ def prepare(pset: PropertySet, environment="highway", sample: Optional[dict] = N
                    variables)
             formulas[("m", m.name)] = BatchFormula(m.node, constants, source=m.expression)
     for p in pset.properties:
+        if p.kind == "ltl":
+            formulas[("p", p.name)] = _LtlProperty(p, _machine(environment),
+                                                   f"{pset.name}: property {p.name}")
+            continue
         _check(p.node, "predicate", f"{pset.name}: property {p.name}", p.predicate, names,
                variables)
         formulas[("p", p.name)] = BatchFormula(p.node, constants, source=p.predicate)
     return formulas
+
+
+def _machine(environment):
+    """The machine of the environment's default shield (what LTL properties are read in)."""
+    from ..checking.shield import load_shield
+    from ..live.adapter import EnvAdapter, get_adapter
+
+    adapter = environment if isinstance(environment, EnvAdapter) else get_adapter(environment)
+    if adapter.default_shield is None:
+        raise InputError(f"the environment {adapter.name} names no machine to read LTL "
+                         "properties in")
+    return load_shield(adapter.default_shield).machine
+
+
+class _LtlProperty:
+    """An LTL property: per episode, whether the formula holds."""
+
+    def __init__(self, p: Property, machine, where: str) -> None:
+        from ..checking.ltl import parse_ltl
+
+        self.p, self.machine = p, machine
+        self.formula = parse_ltl(p.predicate, machine, where=where)
+
+    def holds(self, cols: RunColumns) -> np.ndarray:
+        from ..checking.ltl import evaluate_ltl
+
+        return evaluate_ltl(self.formula, cols, self.machine)[cols.starts[:-1]]
 
 
 def _aggregate(m: Metric, values: Optional[np.ndarray], cols: RunColumns) -> np.ndarray:
@@ -150,7 +181,9 @@ def evaluate_run(path: str | Path, pset: PropertySet, formulas: dict,
         values = formulas[("m", m.name)](cols.states) if m.node is not None else None
         run.metrics[m.name] = _aggregate(m, values, cols)
     for p in pset.properties:
-        run.properties[p.name] = _holds(p, formulas[("p", p.name)](cols.states), cols)
+        formula = formulas[("p", p.name)]
+        run.properties[p.name] = formula.holds(cols) if p.kind == "ltl" else \
+            _holds(p, formula(cols.states), cols)
     return run
 
 

@@ -16,7 +16,10 @@ Aggregates over the states s0 … sn of an episode (n = steps), as SimB defines 
 ``steps`` is n; ``return`` the sum of the recorded step rewards (no expression); ``average`` the mean over s0…sn; ``sum`` the sum over s0…sn;
 ``sum_between_steps`` Σ_{k=1..n} (value in s(k−1) + value in s(k)) / 2; ``min``, ``max``.
 A property of kind ``invariant`` holds in every state (the initial state included),
-``eventually`` in some state, ``final`` in the last one.
+``eventually`` in some state, ``final`` in the last one; of kind ``ltl``, its ``predicate``
+is an LTL formula in ProB's syntax (``G({Crash = FALSE} => …)``, see
+:mod:`tracecheck.checking.ltl`) that holds for the episode — its atoms are checked against
+the environment's machine, and ``e(Op)`` and ``deadlock`` use that machine as the shield.
 """
 
 from __future__ import annotations
@@ -35,7 +38,7 @@ __all__ = ["Metric", "Property", "HypothesisTest", "PropertySet", "load_properti
            "HIGHWAY_SET", "AGGREGATES", "KINDS", "TAILS"]
 
 AGGREGATES = ("steps", "average", "sum", "sum_between_steps", "min", "max", "return")
-KINDS = ("invariant", "eventually", "final")
+KINDS = ("invariant", "eventually", "final", "ltl")
 TAILS = ("left", "right", "two")
 
 
@@ -60,7 +63,7 @@ class Metric:
 class Property:
     name: str
     predicate: str
-    node: A.Node
+    node: Optional[A.Node]  # None for kind "ltl" (see tracecheck.checking.ltl)
     kind: str = "invariant"
     description: str = ""
     test: Optional[HypothesisTest] = None
@@ -213,7 +216,12 @@ def _property(name: str, spec: dict, file: str) -> Property:
     if kind not in KINDS:
         raise InputError(f"{file}: {where}: unknown kind {kind!r}; the kinds are "
                          f"{', '.join(KINDS)}")
-    node = _formula(spec.get("predicate"), "predicate", f"{where} predicate", file)
+    if kind == "ltl":  # an LTL formula: parsed against the environment's machine (prepare)
+        if not isinstance(spec.get("predicate"), str) or not spec["predicate"].strip():
+            raise InputError(f"{file}: {where} predicate must be a string with an LTL formula")
+        node = None
+    else:
+        node = _formula(spec.get("predicate"), "predicate", f"{where} predicate", file)
     test = None
     if "test" in spec:
         t = spec["test"]
