@@ -26,6 +26,24 @@ def test_viewer_data_marks_first_infeasible_and_crash():
     assert step["values"] and step["live_allowed"]
 
 
+def test_viewer_marks_where_an_ltl_formula_is_first_violated(capsys, tmp_path):
+    from tracecheck.checking.replay import ltl_formulas
+
+    shield = load_shield("paper")
+    formulas = ltl_formulas(shield, ["G({Crash = FALSE})", "F [FASTER]"])
+    data = episode_data(NONE, 3, shield, formulas)
+    assert data["ltl"] == [
+        {"name": "--ltl 1", "formula": "G({Crash = FALSE})", "holds": False, "step": 39},
+        {"name": "--ltl 2", "formula": "F [FASTER]", "holds": True, "step": None}]
+    out = tmp_path / "ep.html"
+    code, _, err = run(capsys, "render", str(NONE), "-e", "3", "--ltl", "G({Crash = FALSE})",
+                       "-o", str(out))
+    assert code == 2 and "--ltl and --ltl-assertions need --shield" in err
+    code, _, _ = run(capsys, "render", str(NONE), "-e", "3", "--shield", "paper", "--ltl",
+                     "G({Crash = FALSE})", "-o", str(out))
+    assert code == 0 and '"step":39' in out.read_text()
+
+
 def test_viewer_page_is_self_contained_and_small(tmp_path):
     page = render_episode(NONE, 0, load_shield("paper"))
     assert len(page.encode()) < 1_000_000  # a 60-step episode stays under 1 MB
@@ -101,7 +119,12 @@ def test_viewer_in_a_browser(tmp_path):
     from selenium.webdriver.common.keys import Keys
 
     page = tmp_path / "episode.html"
-    page.write_text(render_episode(NONE, 3, load_shield("paper")))
+    from tracecheck.checking.replay import ltl_formulas
+
+    shield = load_shield("paper")
+    page.write_text(render_episode(NONE, 3, shield,
+                                   ltl_formulas(shield, ["G({VehiclesVx(EgoVehicle) > 0.0})",
+                                                         "G({Crash = FALSE})"])))
     browser = _browser()
     try:
         browser.get(page.as_uri())
@@ -115,6 +138,9 @@ def test_viewer_in_a_browser(tmp_path):
         assert "step 1 of 39" in browser.find_element(By.ID, "where").text
         assert len(browser.find_elements(By.CSS_SELECTOR, "#scene rect")) >= 5
         assert browser.find_element(By.CSS_SELECTOR, "#timeline span.first").text == "!"
+        assert "LTL --ltl 2 first violated at step 39" in \
+            browser.find_element(By.ID, "summary").text
+        assert "LTL --ltl 1 holds" in browser.find_element(By.ID, "summary").text
         assert _errors(browser) == []
         assert browser.save_screenshot(str(tmp_path / "episode.png"))
     finally:

@@ -17,13 +17,23 @@ def render_cmd(
     episode: int = typer.Option(..., "--episode", "-e", help="The episode number."),
     shield: Optional[str] = typer.Option(None, "--shield", "-s", help=SHIELD_HELP),
     output: Path = typer.Option(..., "--output", "-o", help="The HTML page to write."),
+    ltl: list[str] = typer.Option([], "--ltl", help="Mark where the episode first violates "
+                                  "this LTL formula (repeatable; needs --shield)."),
+    ltl_assertions: bool = typer.Option(False, "--ltl-assertions", help="Mark the shield "
+                                        "machine's ASSERT_LTL definitions."),
 ) -> None:
     """Write one episode as a self-contained HTML viewer (top view, shield zones, timeline)."""
+    from ..checking.replay import ltl_formulas
     from ..render.viewer import render_episode, write_page
     from ..checking.shield import load_shield
+    from ..errors import InputError
 
     loaded = load_shield(shield) if shield else None
-    page = write_page(render_episode(run, episode, loaded), output)
+    if (ltl or ltl_assertions) and loaded is None:
+        raise InputError("--ltl and --ltl-assertions need --shield: the machine the formulas "
+                         "are read in")
+    formulas = ltl_formulas(loaded, ltl, ltl_assertions) if loaded is not None else []
+    page = write_page(render_episode(run, episode, loaded, formulas), output)
     out.print(f"wrote episode {episode} -> {page} ({page.stat().st_size / 1000:.0f} kB)",
               markup=False)
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import html
 import json
 from pathlib import Path
-from typing import Optional
+from typing import Optional, Sequence
 
 from ..b.values import format_value
 from ..episodes.columns import read_columns
@@ -34,8 +34,11 @@ def _ids_text(ids: list[int]) -> str:
     return ", ".join(map(str, ids))
 
 
-def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None) -> dict:
-    """Everything the viewer shows, as JSON-ready data."""
+def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
+                 ltl: Sequence[tuple] = ()) -> dict:
+    """Everything the viewer shows, as JSON-ready data (``ltl``: (name, text, formula) of
+    LTL formulas over ``shield``'s machine, each marked where the episode first violates
+    it)."""
     result = read_run(run, {episode})
     if not result.episodes:
         ids = [int(i) for i in read_columns(run).episode_ids]
@@ -78,6 +81,7 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None)
         "shield": shield.name if shield is not None else None,
         "zones": "paper" if shield is not None and shield.name == "paper" else None,
         "first_infeasible": first_infeasible, "crash_step": crash,
+        "ltl": _ltl_marks(run, ep.id, shield, ltl),
         "end": {"steps": ep.end.steps, "reason": ep.end.reason,
                 "total_reward": ep.end.total_reward},
         "steps": steps,
@@ -118,9 +122,25 @@ def _vehicles(state: dict) -> list[dict]:
             for name, x in state["VehiclesX"].map.items()]
 
 
-def render_episode(run: str | Path, episode: int, shield: Optional[Shield] = None) -> str:
+def _ltl_marks(run, episode: int, shield: Optional[Shield], ltl: Sequence[tuple]) -> list:
+    if not ltl:
+        return []
+    from ..checking.ltl import check_ltl
+
+    cols = read_columns(run)
+    marks = []
+    for name, text, formula in ltl:
+        result = check_ltl(name, text, formula, cols, shield.machine)
+        failed = dict(result.violations)
+        marks.append({"name": name, "formula": text, "holds": episode not in failed,
+                      "step": failed.get(episode)})
+    return marks
+
+
+def render_episode(run: str | Path, episode: int, shield: Optional[Shield] = None,
+                   ltl: Sequence[tuple] = ()) -> str:
     """The viewer page of one episode (see the module docstring)."""
-    data = episode_data(run, episode, shield)
+    data = episode_data(run, episode, shield, ltl)
     title = f"{Path(str(run)).name}, episode {episode}"
     payload = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
     return (_TEMPLATE.replace("{{TITLE}}", html.escape(title))
