@@ -257,3 +257,19 @@ def test_ltl_properties_by_hand(hand_run, tmp_path):
     path.write_text('[properties.bad]\npredicate = 3\nkind = "ltl"\n')
     with pytest.raises(InputError, match="predicate must be a string with an LTL formula"):
         load_properties(path)
+
+
+def test_stl_metrics_and_properties_by_hand(hand_run, tmp_path):
+    """aggregate = "stl": the robustness per episode; kind = "stl": a positive robustness."""
+    path = tmp_path / "stl.toml"
+    path.write_text('[metrics.margin]\nexpression = "G({VehiclesX(EgoVehicle) >= 90.0})"\n'
+                    'aggregate = "stl"\n'
+                    '[properties.far]\npredicate = "F({VehiclesX(EgoVehicle) > 140.0})"\n'
+                    'kind = "stl"\n')
+    result = statistics([hand_run], load_properties(path))
+    (r,) = result["runs"]
+    assert r["metrics"]["margin"]["mean"] == 10.0 and r["metrics"]["margin"]["sd"] == 0.0
+    assert r["properties"]["far"]["holds"] == 1  # ep. 0 peaks at 130 (-10), ep. 1 at 150 (+10)
+    path.write_text('[properties.bad]\npredicate = "G({Crash = FALSE})"\nkind = "stl"\n')
+    with pytest.raises(Exception, match=r"the atom \{Crash = FALSE\} is not a comparison"):
+        statistics([hand_run], load_properties(path))

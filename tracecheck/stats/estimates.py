@@ -96,14 +96,18 @@ def prepare(pset: PropertySet, environment="highway", sample: Optional[dict] = N
     names, constants, variables = _typing_scope(environment, sample)
     formulas = {}
     for m in pset.metrics:
+        if m.aggregate == "stl":
+            formulas[("m", m.name)] = _Temporal("stl", m.expression, _machine(environment),
+                                                f"{pset.name}: metric {m.name}")
+            continue
         if m.node is not None:
             _check(m.node, "expression", f"{pset.name}: metric {m.name}", m.expression, names,
                    variables)
             formulas[("m", m.name)] = BatchFormula(m.node, constants, source=m.expression)
     for p in pset.properties:
-        if p.kind == "ltl":
-            formulas[("p", p.name)] = _LtlProperty(p, _machine(environment),
-                                                   f"{pset.name}: property {p.name}")
+        if p.kind in ("ltl", "stl"):
+            formulas[("p", p.name)] = _Temporal(p.kind, p.predicate, _machine(environment),
+                                                f"{pset.name}: property {p.name}")
             continue
         _check(p.node, "predicate", f"{pset.name}: property {p.name}", p.predicate, names,
                variables)
@@ -123,18 +127,27 @@ def _machine(environment):
     return load_shield(adapter.default_shield).machine
 
 
-class _LtlProperty:
-    """An LTL property: per episode, whether the formula holds."""
+class _Temporal:
+    """An LTL or STL formula over whole episodes: per episode, whether it holds (LTL; STL:
+    a positive robustness) or its robustness (STL)."""
 
-    def __init__(self, p: Property, machine, where: str) -> None:
+    def __init__(self, logic: str, text: str, machine, where: str) -> None:
         from ..checking.ltl import parse_ltl
+        from ..checking.stl import parse_stl
 
-        self.p, self.machine = p, machine
-        self.formula = parse_ltl(p.predicate, machine, where=where)
+        self.logic, self.machine = logic, machine
+        self.formula = (parse_ltl if logic == "ltl" else parse_stl)(text, machine, where=where)
+
+    def values(self, cols: RunColumns) -> np.ndarray:
+        from ..checking.stl import episode_robustness
+
+        return episode_robustness(self.formula, cols, self.machine)
 
     def holds(self, cols: RunColumns) -> np.ndarray:
         from ..checking.ltl import evaluate_ltl
 
+        if self.logic == "stl":
+            return self.values(cols) > 0
         return evaluate_ltl(self.formula, cols, self.machine)[cols.starts[:-1]]
 
 
@@ -178,11 +191,14 @@ def evaluate_run(path: str | Path, pset: PropertySet, formulas: dict,
     if not run.episodes:
         return run
     for m in pset.metrics:
+        if m.aggregate == "stl":
+            run.metrics[m.name] = formulas[("m", m.name)].values(cols)
+            continue
         values = formulas[("m", m.name)](cols.states) if m.node is not None else None
         run.metrics[m.name] = _aggregate(m, values, cols)
     for p in pset.properties:
         formula = formulas[("p", p.name)]
-        run.properties[p.name] = formula.holds(cols) if p.kind == "ltl" else \
+        run.properties[p.name] = formula.holds(cols) if p.kind in ("ltl", "stl") else \
             _holds(p, formula(cols.states), cols)
     return run
 

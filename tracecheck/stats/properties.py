@@ -19,7 +19,10 @@ A property of kind ``invariant`` holds in every state (the initial state include
 ``eventually`` in some state, ``final`` in the last one; of kind ``ltl``, its ``predicate``
 is an LTL formula in ProB's syntax (``G({Crash = FALSE} => …)``, see
 :mod:`tracecheck.checking.ltl`) that holds for the episode — its atoms are checked against
-the environment's machine, and ``e(Op)`` and ``deadlock`` use that machine as the shield.
+the environment's machine, and ``e(Op)`` and ``deadlock`` use that machine as the shield;
+of kind ``stl``, an STL formula (:mod:`tracecheck.checking.stl`) whose robustness is
+positive. A metric with ``aggregate = "stl"`` is the robustness of its STL ``expression``
+per episode.
 """
 
 from __future__ import annotations
@@ -37,8 +40,8 @@ from ..errors import InputError, TracecheckError, read_text
 __all__ = ["Metric", "Property", "HypothesisTest", "PropertySet", "load_properties",
            "HIGHWAY_SET", "AGGREGATES", "KINDS", "TAILS"]
 
-AGGREGATES = ("steps", "average", "sum", "sum_between_steps", "min", "max", "return")
-KINDS = ("invariant", "eventually", "final", "ltl")
+AGGREGATES = ("steps", "average", "sum", "sum_between_steps", "min", "max", "return", "stl")
+KINDS = ("invariant", "eventually", "final", "ltl", "stl")
 TAILS = ("left", "right", "two")
 
 
@@ -195,7 +198,9 @@ def _metric(name: str, spec: dict, file: str) -> Metric:
         raise InputError(f"{file}: {where}: unknown aggregate {aggregate!r}; the aggregates "
                          f"are {', '.join(AGGREGATES)}")
     node = None
-    if aggregate not in ("steps", "return"):
+    if aggregate == "stl":
+        _temporal_text(spec.get("expression"), "expression", "STL", where, file)
+    elif aggregate not in ("steps", "return"):
         node = _formula(spec.get("expression"), "expression", f"{where} expression", file)
     estimate = None
     if "estimate" in spec:
@@ -208,6 +213,11 @@ def _metric(name: str, spec: dict, file: str) -> Metric:
                   estimate)
 
 
+def _temporal_text(text: object, key: str, logic: str, where: str, file: str) -> None:
+    if not isinstance(text, str) or not text.strip():
+        raise InputError(f"{file}: {where} {key} must be a string with an {logic} formula")
+
+
 def _property(name: str, spec: dict, file: str) -> Property:
     where = f"property {name}"
     if not isinstance(spec, dict):
@@ -216,9 +226,8 @@ def _property(name: str, spec: dict, file: str) -> Property:
     if kind not in KINDS:
         raise InputError(f"{file}: {where}: unknown kind {kind!r}; the kinds are "
                          f"{', '.join(KINDS)}")
-    if kind == "ltl":  # an LTL formula: parsed against the environment's machine (prepare)
-        if not isinstance(spec.get("predicate"), str) or not spec["predicate"].strip():
-            raise InputError(f"{file}: {where} predicate must be a string with an LTL formula")
+    if kind in ("ltl", "stl"):  # parsed against the environment's machine (prepare)
+        _temporal_text(spec.get("predicate"), "predicate", kind.upper(), where, file)
         node = None
     else:
         node = _formula(spec.get("predicate"), "predicate", f"{where} predicate", file)
