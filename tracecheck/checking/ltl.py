@@ -198,15 +198,21 @@ class _Parser:
                         "e(Op), deadlock, true, false), '(' or an operator")
 
 
-def parse_ltl(text: str, machine, *, where: str = "<ltl>") -> Formula:
-    """Parse an LTL formula and check its atoms against ``machine`` (B predicates that
-    type-check, operations it has)."""
+def parse_syntax(text: str, where: str, logic: str = "LTL") -> tuple["_Parser", Formula]:
+    """The formula ``text`` as written (atoms unchecked), and its parser (for messages)."""
     if not isinstance(text, str) or not text.strip():
-        raise InputError("an LTL formula is empty", file=where)
+        raise InputError(f"an {logic} formula is empty", file=where)
     p = _Parser(text, where)
     f = p.formula()
     if p.peek():
         raise p.fail(f"unexpected {p.peek()!r} after the formula")
+    return p, f
+
+
+def parse_ltl(text: str, machine, *, where: str = "<ltl>") -> Formula:
+    """Parse an LTL formula and check its atoms against ``machine`` (B predicates that
+    type-check, operations it has)."""
+    _, f = parse_syntax(text, where)
     return _check(f, machine, text, where)
 
 

@@ -19,8 +19,8 @@ from dataclasses import replace
 import numpy as np
 
 from ..b import ast as A
-from ..errors import InputError, TracecheckError
-from .ltl import Formula, _Parser
+from ..errors import TracecheckError
+from .ltl import Formula, parse_syntax
 
 __all__ = ["parse_stl", "robustness", "episode_robustness"]
 
@@ -32,12 +32,7 @@ def parse_stl(text: str, machine, *, where: str = "<stl>") -> Formula:
     """Parse an STL formula; its atoms are comparisons of numbers in ``machine``."""
     from ..b.typecheck import typecheck_formula
 
-    if not isinstance(text, str) or not text.strip():
-        raise InputError("an STL formula is empty", file=where)
-    p = _Parser(text, where)
-    f = p.formula()
-    if p.peek():
-        raise p.fail(f"unexpected {p.peek()!r} after the formula")
+    p, f = parse_syntax(text, where, "STL")
 
     def check(g: Formula) -> Formula:
         if g.op not in _ALLOWED:
