@@ -113,7 +113,7 @@ def test_the_first_violating_step_of_an_always_formula():
     ("G[3,1] {p = TRUE}", BSyntaxError, "<ltl>:1:2: the bounds [3,1] are empty"),
     ("F [C]", InputError, "<ltl>:1:3: unknown operation 'C'; the operations of Toy are A, B"),
     ("e(C)", InputError, "unknown operation 'C'"),
-    ("G({p})", BTypeError, "<ltl>:1:4: in the atom {p}:"),
+    ("G({p})", BTypeError, "<ltl>:1:4: in the atom {p}: the formula must be a predicate"),
     ("G({r = TRUE})", Exception, "in the atom {r = TRUE}: unknown identifier r"),
     ("G(" * 300 + "true" + ")" * 300, BSyntaxError, "nests more than 200 levels"),
     ("", InputError, "an LTL formula is empty"),
