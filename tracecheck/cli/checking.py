@@ -8,6 +8,7 @@ from typing import Optional
 
 import typer
 
+from ..errors import InputError
 from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, RAY_ADDRESS, OutputFormat,
                      FailOn, SHIELD_HELP, ROWS, run_shield, SALVAGE)
 
@@ -87,7 +88,8 @@ def _resimulate(runs: list[Path], shield, report, agent: Optional[Path],
 
 @app.command("diff")
 def diff_cmd(
-    runs: list[Path] = typer.Argument(..., help="MCAP run files."),
+    runs: Optional[list[Path]] = typer.Argument(None, help="MCAP run files (none with "
+                                                "--symbolic)."),
     salvage: bool = SALVAGE,
     shield: str = typer.Option(..., "--shield", "-s", help="The new shield. " + SHIELD_HELP),
     against: str = typer.Option(..., "--against", "-a",
@@ -95,6 +97,14 @@ def diff_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print the full report as JSON."),
     fail_on_change: bool = typer.Option(False, "--fail-on-change",
                                         help="Exit 1 when anything changed."),
+    symbolic: bool = typer.Option(False, "--symbolic", help="Compare over every state that "
+                                  "satisfies both invariants, with an SMT solver: per "
+                                  "operation, equivalent or a state where they differ."),
+    timeout: float = typer.Option(10.0, "--timeout", min=0.1, help="--symbolic: seconds the "
+                                  "solver may take per operation."),
+    counterexamples: Optional[Path] = typer.Option(None, "--counterexamples", help="--symbolic:"
+                                                   " write each differing state as a state file "
+                                                   "into this folder."),
     executor: Executor = FILE_EXECUTOR,
     ray_address: Optional[str] = RAY_ADDRESS,
 ) -> None:
@@ -102,6 +112,18 @@ def diff_cmd(
     from ..checking.replay import diff
     from ..render.text import diff_text
 
+    if symbolic:
+        from ..checking.smt import symbolic_diff
+
+        if runs:
+            raise InputError("--symbolic compares the shields over every state: give no run "
+                             "files")
+        a, b = run_shield(shield, []).machine, run_shield(against, []).machine
+        _print_results(symbolic_diff(a, b, timeout_s=timeout), a, as_json, counterexamples,
+                       failing=fail_on_change)
+        return
+    if not runs:
+        raise InputError("give run files to compare the shields on, or --symbolic")
     report = diff(runs, run_shield(shield, runs), run_shield(against, runs),
                   executor=executor.value, ray_address=ray_address)
     warn(report.warnings)
@@ -111,4 +133,92 @@ def diff_cmd(
         diff_text(out, report, ROWS)
     if fail_on_change and report.anything_changed:
         err.print("failing: the shields differ on these episodes (--fail-on-change)")
+        raise typer.Exit(1)
+
+
+@app.command("prove")
+def prove_cmd(
+    shield: str = typer.Argument(..., help=SHIELD_HELP),
+    deadlock_free: bool = typer.Option(False, "--deadlock-free", help="In every state that "
+                                       "satisfies the invariant, some operation is enabled."),
+    implies: list[str] = typer.Option([], "--implies", help="'OP => PREDICATE': whenever OP "
+                                      "is enabled, the predicate holds (repeatable)."),
+    well_defined: bool = typer.Option(False, "--well-defined", help="No guard is ill-defined "
+                                      "(division by zero, a function outside its domain) in "
+                                      "a state satisfying the invariant."),
+    assume: list[str] = typer.Option([], "--assume", help="A predicate the states satisfy "
+                                     "besides the invariant (repeatable)."),
+    timeout: float = typer.Option(10.0, "--timeout", min=0.1,
+                                  help="Seconds the solver may take per obligation."),
+    counterexamples: Optional[Path] = typer.Option(None, "--counterexamples", help="Write "
+                                                   "each counterexample as a state file into "
+                                                   "this folder."),
+    as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
+) -> None:
+    """Prove properties of a shield over every state, with an SMT solver (z3): deadlock
+    freedom, implications, well-definedness. Exit 0: all proved; 1: a counterexample or an
+    unknown; 3: the solver and tracecheck's evaluator disagree."""
+    from ..checking.shield import load_shield
+    from ..checking.smt import prove
+
+    machine = load_shield(shield).machine
+    pairs = []
+    for item in implies:
+        op, sep, pred = item.partition("=>")
+        if not sep or not op.strip() or not pred.strip():
+            raise InputError(f"--implies takes 'OP => PREDICATE', not {item!r}")
+        pairs.append((op.strip(), pred.strip()))
+    if not (deadlock_free or pairs or well_defined):
+        raise InputError("nothing to prove: give --deadlock-free, --implies or --well-defined")
+    results = prove(machine, deadlock_free=deadlock_free, implies=tuple(pairs),
+                    well_defined=well_defined, assume=tuple(assume), timeout_s=timeout)
+    _print_results(results, machine, as_json, counterexamples, failing=True)
+
+
+def _print_results(results, machine, as_json: bool, folder: Optional[Path],
+                   failing: bool) -> None:
+    """Print proof or symbolic-diff results; write counterexamples; exit 1 on a
+    counterexample or unknown (when ``failing``), 3 where solver and evaluator disagree."""
+    from ..b.values import to_json
+    from ..checking.smt import Disagreement
+
+    written = {}
+    if folder is not None:
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise InputError(f"cannot create {folder}: {exc.strerror or exc}") from None
+        for i, r in enumerate(results):
+            if r.state is not None:
+                slug = "".join(c if c.isalnum() else "-" for c in r.obligation)[:40].strip("-")
+                path = folder / f"{machine.name}-{i + 1}-{slug}.json"
+                path.write_text(json.dumps({k: to_json(v) for k, v in r.state.items()},
+                                           indent=1) + "\n", encoding="utf-8")
+                written[i] = str(path)
+    if as_json:
+        out.print_json(json.dumps([{
+            "obligation": r.obligation, "status": r.status, "reason": r.reason or None,
+            "reading": r.reading or None, "disagreement": r.disagreement or None,
+            "decisions": r.extra or None, "counterexample_file": written.get(i),
+            "state": {k: to_json(v) for k, v in r.state.items()} if r.state else None,
+        } for i, r in enumerate(results)]))
+    else:
+        for i, r in enumerate(results):
+            line = f"{r.obligation}: {r.status}"
+            if r.reason:
+                line += f" ({r.reason})"
+            out.print(line, markup=False)
+            if r.reading:
+                out.print(f"  {r.reading}", markup=False)
+            if r.extra:
+                out.print("  " + ", ".join(f"{k} {'enables' if v else 'blocks'} it"
+                                           for k, v in r.extra.items()), markup=False)
+            if i in written:
+                out.print(f"  state: {written[i]}", markup=False)
+    bad = [r for r in results if r.disagreement]
+    if bad:
+        raise Disagreement(f"{bad[0].obligation}: {bad[0].disagreement}",
+                           hint="please report this: the solver's model and tracecheck's "
+                                "evaluator should agree")
+    if failing and any(r.status in ("counterexample", "unknown") for r in results):
         raise typer.Exit(1)

@@ -1,0 +1,114 @@
+"""Proofs over every state with z3: obligations, counterexamples that tracecheck's evaluator
+confirms, the symbolic diff, and constructs that cannot be translated."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tests.cli.test_cli import run
+from tracecheck.b.machine import load_machine_text
+from tracecheck.checking.shield import load_shield
+
+pytest.importorskip("z3")
+
+from tracecheck.checking.smt import prove, symbolic_diff  # noqa: E402
+
+LIGHTS = """
+MACHINE Lights
+SETS Cars = {c1, c2, c3}
+VARIABLES speed, waiting, X
+INVARIANT speed : REAL & waiting <: Cars & X : Cars --> REAL & speed >= 0.0
+INITIALISATION speed := 0.0 || waiting := {} || X := Cars * {0.0}
+OPERATIONS
+  GO = SELECT waiting = {} & speed < 30.0 THEN skip END;
+  STOP = SELECT #c.(c : waiting & X(c) < 10.0) THEN skip END
+END
+"""
+
+
+@pytest.fixture
+def lights(tmp_path):
+    path = tmp_path / "Lights.mch"
+    path.write_text(LIGHTS)
+    return path
+
+
+def test_the_paper_shield_is_deadlock_free_and_keeps_its_distance():
+    machine = load_shield("paper").machine
+    results = prove(machine, deadlock_free=True, well_defined=True, implies=(
+        ("FASTER", "not(#v.(v : PresentVehicles \\ {EgoVehicle} & VehiclesX(v) > 0.0 & "
+                   "VehiclesX(v) < 40.0 & VehiclesY(v) < 3.5 & VehiclesY(v) > -3.5))"),))
+    assert [(r.obligation[:14], r.status) for r in results] == [
+        ("deadlock-free", "proved"), ("FASTER => not(", "proved"),
+        ("well-defined g", "proved")]
+
+
+def test_a_deadlock_is_a_state_the_evaluator_confirms(capsys, lights, tmp_path):
+    folder = tmp_path / "cx"
+    code, out, err = run(capsys, "prove", str(lights), "--deadlock-free", "--counterexamples",
+                         str(folder))
+    assert code == 1, err
+    assert out.startswith("deadlock-free: counterexample\n  no operation is enabled: ")
+    (state,) = folder.glob("*.json")
+    code, out, _ = run(capsys, "guards", str(lights), "--state", str(state))
+    assert code == 0 and out.splitlines()[0] == "enabled: (none: deadlock)"
+    # the deadlock needs a waiting car at 10 m or more, or speed 30 or more: assume it away
+    code, out, _ = run(capsys, "prove", str(lights), "--deadlock-free",
+                       "--assume", "speed < 30.0", "--assume", "waiting = {}")
+    assert code == 0 and out.strip() == "deadlock-free: proved"
+
+
+def test_implications_and_their_counterexamples(capsys, lights):
+    code, out, _ = run(capsys, "prove", str(lights), "--implies", "GO => speed < 30.0",
+                       "--implies", "STOP => speed > 0.0", "--json")
+    results = json.loads(out)
+    assert code == 1
+    assert [(r["obligation"], r["status"]) for r in results] == [
+        ("GO => speed < 30.0", "proved"), ("STOP => speed > 0.0", "counterexample")]
+    state = results[1]["state"]
+    assert float(state["speed"]) <= 0.0 and state["waiting"] != "{}"
+
+
+def test_what_cannot_be_translated_is_named_with_its_place(capsys, tmp_path):
+    path = tmp_path / "Seq.mch"
+    path.write_text(LIGHTS.replace("speed < 30.0 THEN", "card({c | c : waiting}) < 2 THEN"))
+    code, _, err = run(capsys, "prove", str(path), "--deadlock-free")
+    assert code == 2 and f"{path}:8:35: cannot translate Comprehension to SMT" in err
+    code, _, err = run(capsys, "prove", str(path), "--implies", "GO speed")
+    assert code == 2 and "--implies takes 'OP => PREDICATE'" in err
+    code, _, err = run(capsys, "prove", str(path), "--implies", "JUMP => speed > 0.0")
+    assert code == 2 and "unknown operation 'JUMP' in --implies" in err
+    code, _, err = run(capsys, "prove", str(path))
+    assert code == 2 and "nothing to prove" in err
+
+
+def test_symbolic_diff_of_paper_and_strict(capsys):
+    results = symbolic_diff(load_shield("paper").machine, load_shield("paper").machine)
+    assert {r.status for r in results} == {"equivalent"}
+    code, out, err = run(capsys, "diff", "--symbolic", "--shield", "paper", "--against",
+                         "strict", "--json")
+    assert code == 0, err
+    for r in json.loads(out):
+        assert r["status"] == "counterexample" and r["disagreement"] is None
+        assert r["decisions"]["PaperShield"] != r["decisions"]["StrictRSSShield"]
+    code, _, err = run(capsys, "diff", "runs.mcap", "--symbolic", "--shield", "paper",
+                       "--against", "strict")
+    assert code == 2 and "give no run files" in err
+
+
+def test_a_solver_the_evaluator_contradicts_is_reported(capsys, lights, monkeypatch):
+    from tracecheck.b.machine import Machine
+
+    monkeypatch.setattr(Machine, "enabled", lambda self, state: {"GO"})
+    code, _, err = run(capsys, "prove", str(lights), "--deadlock-free")
+    assert code == 3 and "the solver and the evaluator disagree" in err
+
+
+def test_a_relation_the_invariant_does_not_make_a_function_is_refused():
+    machine = load_machine_text(LIGHTS.replace("X : Cars --> REAL", "X : Cars <-> REAL"),
+                                file="R.mch")
+    with pytest.raises(Exception, match="cannot translate X to SMT: it is a relation the "
+                                        "invariant does not make a function"):
+        prove(machine, deadlock_free=True)

@@ -1,0 +1,623 @@
+"""Shields over every state, not only recorded ones: the B subset translated to SMT (z3).
+
+A machine's state becomes solver variables: a BOOL, INTEGER or REAL variable one each; a
+subset of an enumerated or deferred set of n elements one boolean per element; a function
+from such a set to numbers or booleans (made a function by the invariant: ``S --> T`` or
+``S +-> T``) one value per element, with one "defined" boolean for partial ones. Constants
+take the machine's values. Quantifiers and comprehensions over elements are unrolled,
+applications record their well-definedness condition under the path that reaches them.
+What cannot be translated is an error naming the construct and its position — never
+skipped.
+
+Obligations (:func:`prove`): deadlock freedom (under the invariant and assumptions some
+operation is enabled), implications (whenever an operation is enabled a predicate holds),
+well-definedness of every guard, and the per-operation difference of two shields. A
+counterexample is turned into a state and evaluated again by tracecheck's own evaluator
+before it is reported; where the two disagree, that is said (:class:`Disagreement`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any, Optional
+
+from ..b import ast as A
+from ..b.scope import PRED
+from ..b.typecheck import BOOL, INTEGER, REAL, Base, Pow, Prod, resolve
+from ..b.values import Elem, FuncValue
+from ..errors import InputError, TracecheckError, UnsupportedError
+
+__all__ = ["Translator", "prove", "Result", "symbolic_diff", "state_of_model"]
+
+
+def _z3():
+    try:
+        import z3
+    except ImportError:  # pragma: no cover - a dependency, but say so if it is missing
+        raise InputError("proving needs the z3 solver: pip install z3-solver") from None
+    return z3
+
+
+@dataclass
+class _Set:
+    """A set of elements: for each element of its carrier, the condition that it is in."""
+
+    carrier: str
+    member: dict  # Elem -> z3 Bool
+
+
+@dataclass
+class _Func:
+    """A function from the elements of a set: per element (defined, value)."""
+
+    carrier: str
+    cells: dict  # Elem -> (z3 Bool, z3 value)
+
+
+class Translator:
+    """Translates formulas of one machine; ``wd`` collects the well-definedness conditions
+    met on the way, each under the condition of the path to it."""
+
+    def __init__(self, machine, prefix: str = "") -> None:
+        self.z3 = _z3()
+        self.m = machine
+        self.prefix = prefix
+        self.vars: dict[str, Any] = {}
+        self.domain: list = []  # typing constraints of the variables
+        self.wd: list[tuple[Any, A.Node]] = []
+        self.path: list = []
+        for name in machine.variables:
+            self.vars[name] = self._variable(name, _deep(machine.type_objects.get(name)))
+
+    # -- state
+    def _variable(self, name: str, t) -> Any:
+        z3 = self.z3
+        full = self.prefix + name
+        if t == BOOL:
+            return z3.Bool(full)
+        if t == REAL:
+            return z3.Real(full)
+        if t == INTEGER:
+            return z3.Int(full)
+        if isinstance(t, Pow) and isinstance(t.elem, Base) and t.elem.name in self.m.sets:
+            elems = self.m.sets[t.elem.name]
+            return _Set(t.elem.name, {e: z3.Bool(f"{full}[{e}]") for e in elems})
+        if (isinstance(t, Pow) and isinstance(t.elem, Prod) and isinstance(t.elem.left, Base)
+                and t.elem.left.name in self.m.sets and t.elem.right in (REAL, INTEGER, BOOL)):
+            if not self._function_by_invariant(name):
+                raise UnsupportedError(f"cannot translate {name} to SMT: it is a relation the "
+                                       "invariant does not make a function (S --> T or S +-> T)")
+            make = {REAL: z3.Real, INTEGER: z3.Int, BOOL: z3.Bool}[t.elem.right]
+            elems = self.m.sets[t.elem.left.name]
+            return _Func(t.elem.left.name, {e: (z3.Bool(f"{full}[{e}]?"), make(f"{full}[{e}]"))
+                                            for e in elems})
+        raise UnsupportedError(f"cannot translate the variable {name} of type "
+                               f"{self.m.types.get(name)} to SMT")
+
+    def _function_by_invariant(self, name: str) -> bool:
+        from ..b.bindings import conjuncts
+
+        inv = self.m.invariant_node
+        return inv is not None and any(
+            isinstance(c, A.Rel) and c.op == ":" and isinstance(c.left, A.Name)
+            and c.left.id == name and isinstance(c.right, A.BinOp)
+            and c.right.op in ("-->", "+->") for c in conjuncts(inv))
+
+    # -- errors
+    def fail(self, node: A.Node, what: str) -> UnsupportedError:
+        pos = node.pos
+        return UnsupportedError(f"cannot translate {what} to SMT",
+                                file=self.m.file, source=self.m.source,
+                                line=pos.line if pos else None,
+                                column=pos.column if pos else None)
+
+    # -- formulas
+    def pred(self, node: A.Node, env: Optional[dict] = None) -> Any:
+        value = self.tr(node, env or {})
+        if not self.z3.is_bool(value):
+            raise self.fail(node, "a predicate that is not one")
+        return value
+
+    def tr(self, node: A.Node, env: dict) -> Any:
+        method = getattr(self, "t_" + type(node).__name__, None)
+        if method is None:
+            raise self.fail(node, type(node).__name__)
+        return method(node, env)
+
+    def t_Name(self, node: A.Name, env: dict) -> Any:
+        if node.id in env:
+            return env[node.id]
+        if node.id in self.vars:
+            return self.vars[node.id]
+        if node.id in self.m.base_env:
+            return self._constant(self.m.base_env[node.id], node)
+        if node.id in ("REAL", "INTEGER", "BOOL", "NATURAL", "NATURAL1", "FLOAT"):
+            return ("type", node.id)
+        raise self.fail(node, f"the name {node.id}")
+
+    def _constant(self, value: Any, node: A.Node) -> Any:
+        z3 = self.z3
+        if isinstance(value, bool):
+            return z3.BoolVal(value)
+        if isinstance(value, int):
+            return z3.IntVal(value)
+        if isinstance(value, float):
+            return z3.RealVal(Fraction(value))
+        if isinstance(value, Elem):
+            return value
+        if isinstance(value, frozenset) and all(isinstance(v, Elem) for v in value):
+            carrier = next((s for s, elems in self.m.sets.items() if value <= set(elems)), None)
+            if carrier is not None:
+                return _Set(carrier, {e: z3.BoolVal(e in value) for e in self.m.sets[carrier]})
+        raise self.fail(node, f"the constant value {value!r}")
+
+    def t_IntLit(self, node, env):
+        return self.z3.IntVal(node.value)
+
+    def t_RealLit(self, node, env):
+        return self.z3.RealVal(Fraction(node.value))
+
+    def t_BoolLit(self, node, env):
+        return self.z3.BoolVal(node.value)
+
+    def t_Neg(self, node, env):
+        return -self._num(node.operand, env)
+
+    def _num(self, node, env):
+        value = self.tr(node, env)
+        if not self.z3.is_arith(value):
+            raise self.fail(node, "a number that is not one")
+        return value
+
+    def t_BinOp(self, node: A.BinOp, env: dict) -> Any:
+        z3 = self.z3
+        if node.op in ("+", "-", "*", "/", "**", "mod"):
+            left = self.tr(node.left, env)
+            if isinstance(left, _Set) and node.op == "-":
+                return self._setop(node, left, self.tr(node.right, env))
+            a, b = left, self._num(node.right, env)
+            if node.op == "+":
+                return a + b
+            if node.op == "-":
+                return a - b
+            if node.op == "*":
+                return a * b
+            if node.op == "/":
+                self._need(b != 0, node)
+                if z3.is_int(a) and z3.is_int(b):  # B: towards zero
+                    q = z3.If(a * b >= 0, abs_(z3, a) / abs_(z3, b), -(abs_(z3, a) / abs_(z3, b)))
+                    return q
+                return a / b
+            if node.op == "**":
+                if not isinstance(node.right, A.IntLit) or node.right.value < 0:
+                    raise self.fail(node, "a power whose exponent is not a literal natural")
+                out = z3.RealVal(1) if z3.is_real(a) else z3.IntVal(1)
+                for _ in range(node.right.value):
+                    out = out * a
+                return out
+            self._need(z3.And(a >= 0, b > 0), node)
+            return a % b
+        if node.op in ("\\", "\\/", "/\\"):
+            return self._setop(node, self.tr(node.left, env), self.tr(node.right, env))
+        raise self.fail(node, f"the operator {node.op}")
+
+    def _setop(self, node, a, b) -> _Set:
+        z3 = self.z3
+        a, b = self._as_set(a, node), self._as_set(b, node)
+        if a.carrier != b.carrier:
+            raise self.fail(node, "an operation on sets of different carriers")
+        op = node.op
+        fn = {"-": lambda x, y: z3.And(x, z3.Not(y)), "\\": lambda x, y: z3.And(x, z3.Not(y)),
+              "\\/": z3.Or, "/\\": z3.And}[op]
+        return _Set(a.carrier, {e: fn(a.member[e], b.member[e]) for e in a.member})
+
+    def _as_set(self, value, node) -> _Set:
+        if isinstance(value, _Set):
+            return value
+        raise self.fail(node, "a set of elements that is not one")
+
+    def t_SetExt(self, node: A.SetExt, env: dict) -> Any:
+        z3 = self.z3
+        items = [self.tr(i, env) for i in node.items]
+        if all(isinstance(i, Elem) for i in items):
+            carrier = next((s for s, elems in self.m.sets.items() if set(items) <= set(elems)),
+                           None)
+            if carrier is None and not items:
+                raise self.fail(node, "an empty set whose carrier is unknown")
+            if carrier is not None:
+                return _Set(carrier, {e: z3.BoolVal(e in items) for e in self.m.sets[carrier]})
+        if items and all(z3.is_arith(i) for i in items):
+            return ("numbers", items)
+        raise self.fail(node, "this set")
+
+    def t_Apply(self, node: A.Apply, env: dict) -> Any:
+        f = self.tr(node.fn, env)
+        if not isinstance(f, _Func) or len(node.args) != 1:
+            raise self.fail(node, "this application")
+        x = self.tr(node.args[0], env)
+        if not isinstance(x, Elem) or x not in f.cells:
+            raise self.fail(node, "an application to something that is not an element")
+        defined, value = f.cells[x]
+        self._need(defined, node)
+        return value
+
+    def t_Call(self, node: A.Call, env: dict) -> Any:
+        z3 = self.z3
+        name = node.name
+        if name == "dom":
+            f = self.tr(node.args[0], env)
+            if isinstance(f, _Func):
+                return _Set(f.carrier, {e: d for e, (d, _) in f.cells.items()})
+        if name == "card":
+            s = self.tr(node.args[0], env)
+            if isinstance(s, _Set):
+                return z3.Sum([z3.If(c, 1, 0) for c in s.member.values()]) if s.member \
+                    else z3.IntVal(0)
+        if name == "bool":
+            return self.pred(node.args[0], env)
+        if name in ("RABS", "abs"):
+            x = self._num(node.args[0], env)
+            return z3.If(x >= 0, x, -x)
+        if name == "floor":
+            return z3.ToInt(self._num(node.args[0], env))
+        if name == "ceiling":
+            return -z3.ToInt(-self._num(node.args[0], env))
+        if name == "real":
+            return z3.ToReal(self._num(node.args[0], env))
+        if name in ("min", "max"):
+            s = self.tr(node.args[0], env)
+            if isinstance(s, tuple) and s[0] == "numbers":
+                out = s[1][0]
+                for x in s[1][1:]:
+                    out = z3.If(x < out, x, out) if name == "min" else z3.If(x > out, x, out)
+                return out
+        raise self.fail(node, f"{name}(…) here")
+
+    def t_Rel(self, node: A.Rel, env: dict) -> Any:
+        z3 = self.z3
+        op = node.op
+        if op in ("<", "<=", ">", ">="):
+            a, b = self._num(node.left, env), self._num(node.right, env)
+            return {"<": a < b, "<=": a <= b, ">": a > b, ">=": a >= b}[op]
+        if op in ("=", "/="):
+            a, b = self.tr(node.left, env), self.tr(node.right, env)
+            if isinstance(a, Elem) and isinstance(b, Elem):
+                eq = z3.BoolVal(a == b)
+            elif isinstance(a, _Set) and isinstance(b, _Set) and a.carrier == b.carrier:
+                eq = z3.And([a.member[e] == b.member[e] for e in a.member])
+            elif z3.is_expr(a) and z3.is_expr(b) and not isinstance(a, Elem):
+                eq = a == b
+            else:
+                raise self.fail(node, "this equality")
+            return eq if op == "=" else z3.Not(eq)
+        if op in (":", "/:"):
+            held = self._member(node, self.tr(node.left, env), node.right, env)
+            return held if op == ":" else z3.Not(held)
+        if op in ("<:", "/<:"):
+            a, b = self.tr(node.left, env), self.tr(node.right, env)
+            if isinstance(b, tuple) and b[0] == "type":  # S <: Vehicles-like carrier
+                held = z3.BoolVal(True)
+            elif isinstance(b, _Set) and isinstance(a, _Set) and a.carrier == b.carrier:
+                held = z3.And([z3.Implies(a.member[e], b.member[e]) for e in a.member])
+            else:
+                raise self.fail(node, "this inclusion")
+            return held if op == "<:" else z3.Not(held)
+        raise self.fail(node, f"the relation {op}")
+
+    def _member(self, node, x, right: A.Node, env: dict) -> Any:
+        z3 = self.z3
+        if isinstance(right, A.Name) and right.id in self.m.sets and isinstance(x, Elem):
+            return z3.BoolVal(x in self.m.sets[right.id])
+        if isinstance(right, A.Name) and right.id in ("REAL", "INTEGER", "BOOL", "FLOAT"):
+            return z3.BoolVal(True)  # the type checker made sure
+        if isinstance(right, A.BinOp) and right.op in ("-->", "+->") and isinstance(x, _Func):
+            dom = self.tr(right.left, env) if not (isinstance(right.left, A.Name)
+                                                  and right.left.id in self.m.sets) else None
+            cells = x.cells
+            if dom is None:
+                return z3.And([d for d, _ in cells.values()]) if right.op == "-->" \
+                    else z3.BoolVal(True)
+            dom = self._as_set(dom, right)
+            if right.op == "-->":
+                return z3.And([d == dom.member[e] for e, (d, _) in cells.items()])
+            return z3.And([z3.Implies(d, dom.member[e]) for e, (d, _) in cells.items()])
+        if isinstance(right, A.Call) and right.name == "POW":
+            inner = right.args[0]
+            if isinstance(inner, A.Name) and inner.id in self.m.sets and isinstance(x, _Set):
+                return z3.BoolVal(True)
+        s = self.tr(right, env)
+        if isinstance(s, _Set) and isinstance(x, Elem) and x in s.member:
+            return s.member[x]
+        raise self.fail(node, "this membership")
+
+    def _short_circuit(self, node, env, reached_when_left: bool, combine):
+        """``combine(left, right)``: the right side is reached (for well-definedness) only
+        where the left side is ``reached_when_left``."""
+        a = self.pred(node.left, env)
+        self.path.append(a if reached_when_left else self.z3.Not(a))
+        try:
+            return combine(a, self.pred(node.right, env))
+        finally:
+            self.path.pop()
+
+    def t_And(self, node, env):
+        return self._short_circuit(node, env, True, self.z3.And)
+
+    def t_Or(self, node, env):
+        return self._short_circuit(node, env, False, self.z3.Or)
+
+    def t_Implies(self, node, env):
+        return self._short_circuit(node, env, True, self.z3.Implies)
+
+    def t_Equiv(self, node, env):
+        return self.pred(node.left, env) == self.pred(node.right, env)
+
+    def t_Not(self, node, env):
+        return self.z3.Not(self.pred(node.operand, env))
+
+    def t_IfExpr(self, node: A.IfExpr, env: dict) -> Any:
+        z3 = self.z3
+        conds, values = [], []
+        for cond, value in node.branches:
+            c = self.pred(cond, env)
+            self.path.append(c)
+            try:
+                values.append(self.tr(value, env))
+            finally:
+                self.path.pop()
+            conds.append(c)
+            self.path.append(z3.Not(c))
+        try:
+            out = self.tr(node.else_, env)
+        finally:
+            del self.path[len(self.path) - len(conds):]
+        for c, v in zip(reversed(conds), reversed(values)):
+            out = z3.If(c, v, out)
+        return out
+
+    def t_Let(self, node: A.Let, env: dict) -> Any:
+        from ..b.bindings import conjuncts
+
+        inner = dict(env)
+        for c in conjuncts(node.pred):
+            if (isinstance(c, A.Rel) and c.op == "=" and isinstance(c.left, A.Name)
+                    and c.left.id in node.ids):
+                inner[c.left.id] = self.tr(c.right, inner)
+            else:
+                raise self.fail(c, "a LET condition that is not an equation")
+        return self.tr(node.body, inner)
+
+    def t_Quant(self, node: A.Quant, env: dict) -> Any:
+        z3 = self.z3
+        if len(node.ids) != 1:
+            raise self.fail(node, "a quantifier over several variables")
+        (var,) = node.ids
+        from ..b.bindings import conjuncts
+
+        body = node.body
+        domain = body.left if isinstance(body, A.Implies) else body
+        gen = next((c for c in conjuncts(domain) if isinstance(c, A.Rel) and c.op == ":"
+                    and isinstance(c.left, A.Name) and c.left.id == var), None)
+        if gen is None:
+            raise self.fail(node, "a quantifier without `x : S` over a set of elements")
+        carrier = self._carrier(gen.right, env)
+        if carrier is None:
+            raise self.fail(node, "a quantifier over something that is not a set of elements")
+        parts = [self.pred(body, {**env, var: e}) for e in self.m.sets[carrier]]
+        if node.op == "#":
+            return z3.Or(parts) if parts else z3.BoolVal(False)
+        return z3.And(parts) if parts else z3.BoolVal(True)
+
+    def _carrier(self, node: A.Node, env: dict) -> Optional[str]:
+        if isinstance(node, A.Name) and node.id in self.m.sets:
+            return node.id
+        try:
+            s = self.tr(node, env)
+        except UnsupportedError:
+            return None
+        return s.carrier if isinstance(s, _Set) else None
+
+    def _need(self, cond, node: A.Node) -> None:
+        z3 = self.z3
+        guard = z3.And(self.path) if self.path else z3.BoolVal(True)
+        self.wd.append((z3.Implies(guard, cond), node))
+
+    def invariant(self) -> Any:
+        inv = self.m.invariant_node
+        return self.pred(inv) if inv is not None else self.z3.BoolVal(True)
+
+    def guard(self, op: str) -> Any:
+        operation = self.m.operations[op]
+        if operation.params:
+            raise self.fail(operation.guard, f"the guard of {op}, which has parameters")
+        return self.pred(operation.guard) if operation.guard is not None else \
+            self.z3.BoolVal(True)
+
+
+def _deep(t):
+    """A type with every type variable in it resolved."""
+    t = resolve(t)
+    if isinstance(t, Pow):
+        return Pow(_deep(t.elem))
+    if isinstance(t, Prod):
+        return Prod(_deep(t.left), _deep(t.right))
+    return t
+
+
+def abs_(z3, x):
+    return z3.If(x >= 0, x, -x)
+
+
+# ------------------------------------------------------------------ obligations
+
+
+@dataclass
+class Result:
+    """One obligation: proved, counterexample or unknown (with the solver's reason)."""
+
+    obligation: str
+    status: str
+    reason: str = ""
+    state: Optional[dict] = None  # the counterexample, as B values
+    reading: str = ""
+    disagreement: str = ""  # where tracecheck's evaluator does not confirm the solver
+    extra: dict = field(default_factory=dict)
+
+
+class Disagreement(TracecheckError):
+    """The solver and tracecheck's evaluator disagree on a counterexample (a bug)."""
+
+    exit_code = 3
+
+
+def state_of_model(tr: Translator, model) -> dict:
+    """The counterexample's state as B values (reals as the nearest floats)."""
+    z3 = tr.z3
+    out: dict = {}
+
+    def num(v):
+        v = model.eval(v, model_completion=True)
+        if z3.is_int_value(v):
+            return v.as_long()
+        if z3.is_rational_value(v):
+            return float(Fraction(v.numerator_as_long(), v.denominator_as_long()))
+        if z3.is_algebraic_value(v):
+            return float(v.approx(20).as_decimal(20).rstrip("?"))
+        return bool(z3.is_true(v))
+
+    for name, enc in tr.vars.items():
+        if isinstance(enc, _Set):
+            out[name] = frozenset(e for e, c in enc.member.items()
+                                  if z3.is_true(model.eval(c, model_completion=True)))
+        elif isinstance(enc, _Func):
+            out[name] = FuncValue({e: num(v) for e, (d, v) in enc.cells.items()
+                                   if z3.is_true(model.eval(d, model_completion=True))})
+        elif z3.is_bool(enc):
+            out[name] = bool(z3.is_true(model.eval(enc, model_completion=True)))
+        else:
+            out[name] = num(enc)
+    return out
+
+
+def _solve(z3, constraints: list, timeout_s: float):
+    solver = z3.Solver()
+    solver.set("timeout", int(timeout_s * 1000))
+    solver.add(*constraints)
+    verdict = solver.check()
+    return verdict, (solver.model() if verdict == z3.sat else None), solver.reason_unknown()
+
+
+def _reading(state: dict, machine, limit: int = 6) -> str:
+    from ..b.values import format_value
+
+    parts = [f"{k} = {format_value(v)}" for k, v in state.items()][:limit]
+    return ", ".join(parts) + (", …" if len(state) > limit else "")
+
+
+def prove(machine, *, deadlock_free: bool = False, implies: tuple[tuple[str, str], ...] = (),
+          well_defined: bool = False, assume: tuple[str, ...] = (),
+          timeout_s: float = 10.0) -> list[Result]:
+    """Check the obligations over every state that satisfies the invariant and ``assume``."""
+    z3 = _z3()
+    tr = Translator(machine)
+    base = [tr.invariant()] + [tr.pred(machine.parse(a, kind=PRED)) for a in assume]
+    base += [c for c, _ in tr.wd]  # the invariant and assumptions are read where defined
+    results = []
+    if deadlock_free:
+        guards = {op: tr.guard(op) for op in machine.operations}
+        verdict, model, why = _solve(z3, base + [c for c, _ in tr.wd] +
+                                     [z3.Not(z3.Or(list(guards.values())))], timeout_s)
+        results.append(_result("deadlock-free", verdict, model, why, tr, machine,
+                               lambda s: not machine.enabled(s),
+                               "no operation is enabled"))
+    for op, text in implies:
+        if op not in machine.operations:
+            raise InputError(f"unknown operation {op!r} in --implies; the operations of "
+                             f"{machine.name} are {', '.join(machine.operations)}")
+        tr.wd.clear()
+        g = tr.guard(op)
+        p = tr.pred(machine.parse(text, kind=PRED))
+        conds = [c for c, _ in tr.wd]
+        verdict, model, why = _solve(z3, base + conds + [g, z3.Not(p)], timeout_s)
+        results.append(_result(f"{op} => {text}", verdict, model, why, tr, machine,
+                               lambda s, op=op, text=text: machine.is_enabled(op, s)
+                               and not machine.evaluate(text, s),
+                               f"{op} is enabled and {text} does not hold"))
+    if well_defined:
+        tr.wd.clear()
+        for op in machine.operations:
+            tr.guard(op)
+        checks = list(tr.wd)
+        if not checks:
+            results.append(Result("well-defined guards", "proved",
+                                  reason="no guard applies a partial function or divides"))
+        else:
+            verdict, model, why = _solve(z3, base + [z3.Not(z3.And([c for c, _ in checks]))],
+                                         timeout_s)
+            results.append(_result("well-defined guards", verdict, model, why, tr, machine,
+                                   lambda s: _some_guard_fails(machine, s),
+                                   "a guard is not well-defined"))
+    return results
+
+
+def _some_guard_fails(machine, state) -> bool:
+    from ..errors import WellDefinednessError
+
+    try:
+        machine.enabled(state)
+    except WellDefinednessError:
+        return True
+    return False
+
+
+def _result(name, verdict, model, why, tr, machine, confirm, meaning) -> Result:
+    z3 = tr.z3
+    if verdict == z3.unsat:
+        return Result(name, "proved")
+    if verdict != z3.sat:
+        return Result(name, "unknown", reason=why or "the solver gave up")
+    state = state_of_model(tr, model)
+    result = Result(name, "counterexample", state=state,
+                    reading=f"{meaning}: {_reading(state, machine)}")
+    try:
+        ok_invariant = machine.invariant(state)
+        confirmed = ok_invariant and confirm(state)
+    except TracecheckError as exc:
+        confirmed, ok_invariant = False, False
+        result.disagreement = f"tracecheck's evaluator cannot evaluate the state: {exc.message}"
+    if not confirmed and not result.disagreement:
+        result.disagreement = ("tracecheck's evaluator does not confirm the counterexample "
+                               f"({'the invariant fails' if not ok_invariant else meaning + ' is false'}"
+                               " there): the solver and the evaluator disagree")
+    return result
+
+
+def symbolic_diff(a, b, *, timeout_s: float = 10.0) -> list[Result]:
+    """Per operation of both machines: equivalent over every state satisfying both
+    invariants, or a state where they decide differently."""
+    z3 = _z3()
+    if set(a.variables) != set(b.variables) or any(a.types.get(v) != b.types.get(v)
+                                                   for v in a.variables):
+        raise InputError(f"{a.name} and {b.name} have different variables or types; a "
+                         "symbolic diff compares shields over the same states")
+    ta, tb = Translator(a), Translator(b)
+    tb.vars = ta.vars  # the same state for both
+    base = [ta.invariant(), tb.invariant()] + [c for c, _ in ta.wd + tb.wd]
+    results = []
+    for op in a.operations:
+        if op not in b.operations:
+            continue
+        ga, gb = ta.guard(op), tb.guard(op)
+        conds = [c for c, _ in ta.wd + tb.wd]
+        verdict, model, why = _solve(z3, base + conds + [ga != gb], timeout_s)
+        r = _result(op, verdict, model, why, ta, a,
+                    lambda s, op=op: a.is_enabled(op, s) != b.is_enabled(op, s),
+                    f"{a.name} and {b.name} decide {op} differently")
+        if r.status == "proved":
+            r.status = "equivalent"
+        elif r.state is not None:
+            r.extra = {a.name: a.is_enabled(op, r.state), b.name: b.is_enabled(op, r.state)}
+        results.append(r)
+    return results
+
