@@ -55,6 +55,16 @@ class _Func:
     cells: dict  # Elem -> (z3 Bool, z3 value)
 
 
+@dataclass
+class _Nums:
+    """A set of numbers: (condition, value) pairs — value is in the set where condition."""
+
+    items: list
+
+
+_EMPTY = object()  # the set {} (its carrier comes from the other side)
+
+
 class Translator:
     """Translates formulas of one machine; ``wd`` collects the well-definedness conditions
     met on the way, each under the condition of the path to it."""
@@ -67,6 +77,7 @@ class Translator:
         self.domain: list = []  # typing constraints of the variables
         self.wd: list[tuple[Any, A.Node]] = []
         self.path: list = []
+        self.side: list = []  # definitions of fresh variables (min/max of a set of numbers)
         for name in machine.variables:
             self.vars[name] = self._variable(name, _deep(machine.type_objects.get(name)))
 
@@ -202,8 +213,14 @@ class Translator:
             return self._setop(node, self.tr(node.left, env), self.tr(node.right, env))
         raise self.fail(node, f"the operator {node.op}")
 
-    def _setop(self, node, a, b) -> _Set:
+    def _setop(self, node, a, b) -> Any:
         z3 = self.z3
+        if node.op == "\\/" and isinstance(a, _Nums) and isinstance(b, _Nums):
+            return _Nums(a.items + b.items)
+        if a is _EMPTY and isinstance(b, _Set):
+            a = _Set(b.carrier, {e: z3.BoolVal(False) for e in b.member})
+        if b is _EMPTY and isinstance(a, _Set):
+            b = _Set(a.carrier, {e: z3.BoolVal(False) for e in a.member})
         a, b = self._as_set(a, node), self._as_set(b, node)
         if a.carrier != b.carrier:
             raise self.fail(node, "an operation on sets of different carriers")
@@ -220,16 +237,65 @@ class Translator:
     def t_SetExt(self, node: A.SetExt, env: dict) -> Any:
         z3 = self.z3
         items = [self.tr(i, env) for i in node.items]
+        if not items:
+            return _EMPTY
         if all(isinstance(i, Elem) for i in items):
             carrier = next((s for s, elems in self.m.sets.items() if set(items) <= set(elems)),
                            None)
-            if carrier is None and not items:
-                raise self.fail(node, "an empty set whose carrier is unknown")
             if carrier is not None:
                 return _Set(carrier, {e: z3.BoolVal(e in items) for e in self.m.sets[carrier]})
-        if items and all(z3.is_arith(i) for i in items):
-            return ("numbers", items)
+        if all(z3.is_arith(i) for i in items):
+            return _Nums([(z3.BoolVal(True), i) for i in items])
         raise self.fail(node, "this set")
+
+    def t_Comprehension(self, node: A.Comprehension, env: dict) -> Any:
+        """``{v | v : S & P}`` as a set of elements, ``{v . v : S & P | E}`` as numbers."""
+        z3 = self.z3
+        if len(node.ids) != 1:
+            raise self.fail(node, "a comprehension over several variables")
+        (var,) = node.ids
+        carrier, member = self._generator(node, var, node.pred, env)
+        cells = {}
+        for e in self.m.sets[carrier]:
+            self.path.append(member(e))
+            try:
+                held = z3.And(member(e), self.pred(node.pred, {**env, var: e}))
+                cells[e] = (held, self._num(node.expr, {**env, var: e})
+                            if node.expr is not None else None)
+            finally:
+                self.path.pop()
+        if node.expr is None:
+            return _Set(carrier, {e: c for e, (c, _) in cells.items()})
+        return _Nums(list(cells.values()))
+
+    def _generator(self, node, var: str, pred: A.Node, env: dict):
+        """The carrier of ``var : S`` in ``pred`` and the condition that an element is in S."""
+        from ..b.bindings import conjuncts
+
+        gen = next((c for c in conjuncts(pred) if isinstance(c, A.Rel) and c.op == ":"
+                    and isinstance(c.left, A.Name) and c.left.id == var), None)
+        if gen is None:
+            raise self.fail(node, f"a binding of {var} without `{var} : S` over a set of "
+                                  "elements")
+        if isinstance(gen.right, A.Name) and gen.right.id in self.m.sets:
+            return gen.right.id, lambda e: self.z3.BoolVal(True)
+        try:
+            s = self.tr(gen.right, env)
+        except UnsupportedError:
+            s = None
+        if not isinstance(s, _Set):
+            raise self.fail(node, f"a binding of {var} over something that is not a set of "
+                                  "elements")
+        return s.carrier, lambda e: s.member[e]
+
+    def t_Image(self, node: A.Image, env: dict) -> Any:
+        """``F[S]`` of a function over elements: its values at the members of S."""
+        f, s = self.tr(node.rel, env), self.tr(node.arg, env)
+        if s is _EMPTY:
+            return _Nums([])
+        if not isinstance(f, _Func) or not isinstance(s, _Set) or f.carrier != s.carrier:
+            raise self.fail(node, "this image")
+        return _Nums([(self.z3.And(s.member[e], d), v) for e, (d, v) in f.cells.items()])
 
     def t_Apply(self, node: A.Apply, env: dict) -> Any:
         f = self.tr(node.fn, env)
@@ -267,12 +333,31 @@ class Translator:
             return z3.ToReal(self._num(node.args[0], env))
         if name in ("min", "max"):
             s = self.tr(node.args[0], env)
-            if isinstance(s, tuple) and s[0] == "numbers":
-                out = s[1][0]
-                for x in s[1][1:]:
-                    out = z3.If(x < out, x, out) if name == "min" else z3.If(x > out, x, out)
-                return out
+            if isinstance(s, _Nums):
+                return self._extreme(node, name, s)
         raise self.fail(node, f"{name}(…) here")
+
+    def _extreme(self, node, name: str, s: _Nums) -> Any:
+        """``min``/``max`` of a set of numbers: a fresh variable, defined to be it (where
+        the set is not empty — that is its well-definedness condition)."""
+        z3 = self.z3
+        if not s.items:
+            self._need(z3.BoolVal(False), node)
+            return z3.RealVal(0)
+        if all(z3.is_true(c) for c, _ in s.items):  # {a, b, c}: no fresh variable needed
+            out = s.items[0][1]
+            for _, x in s.items[1:]:
+                out = z3.If(x < out, x, out) if name == "min" else z3.If(x > out, x, out)
+            return out
+        make = z3.Int if z3.is_int(s.items[0][1]) else z3.Real
+        m = make(f"{name}#{len(self.side)}")
+        conds = [c for c, _ in s.items]
+        bound = (lambda v: m <= v) if name == "min" else (lambda v: m >= v)
+        self.side.append(z3.Implies(z3.Or(conds), z3.Or([z3.And(c, m == v)
+                                                          for c, v in s.items])))
+        self.side.append(z3.And([z3.Implies(c, bound(v)) for c, v in s.items]))
+        self._need(z3.Or(conds), node)
+        return m
 
     def t_Rel(self, node: A.Rel, env: dict) -> Any:
         z3 = self.z3
@@ -282,6 +367,10 @@ class Translator:
             return {"<": a < b, "<=": a <= b, ">": a > b, ">=": a >= b}[op]
         if op in ("=", "/="):
             a, b = self.tr(node.left, env), self.tr(node.right, env)
+            if a is _EMPTY and isinstance(b, _Set):
+                a, b = b, a
+            if b is _EMPTY and isinstance(a, _Set):
+                b = _Set(a.carrier, {e: z3.BoolVal(False) for e in a.member})
             if isinstance(a, Elem) and isinstance(b, Elem):
                 eq = z3.BoolVal(a == b)
             elif isinstance(a, _Set) and isinstance(b, _Set) and a.carrier == b.carrier:
@@ -393,30 +482,13 @@ class Translator:
         if len(node.ids) != 1:
             raise self.fail(node, "a quantifier over several variables")
         (var,) = node.ids
-        from ..b.bindings import conjuncts
-
         body = node.body
-        domain = body.left if isinstance(body, A.Implies) else body
-        gen = next((c for c in conjuncts(domain) if isinstance(c, A.Rel) and c.op == ":"
-                    and isinstance(c.left, A.Name) and c.left.id == var), None)
-        if gen is None:
-            raise self.fail(node, "a quantifier without `x : S` over a set of elements")
-        carrier = self._carrier(gen.right, env)
-        if carrier is None:
-            raise self.fail(node, "a quantifier over something that is not a set of elements")
+        carrier, _ = self._generator(node, var, body.left if isinstance(body, A.Implies)
+                                     else body, env)
         parts = [self.pred(body, {**env, var: e}) for e in self.m.sets[carrier]]
         if node.op == "#":
             return z3.Or(parts) if parts else z3.BoolVal(False)
         return z3.And(parts) if parts else z3.BoolVal(True)
-
-    def _carrier(self, node: A.Node, env: dict) -> Optional[str]:
-        if isinstance(node, A.Name) and node.id in self.m.sets:
-            return node.id
-        try:
-            s = self.tr(node, env)
-        except UnsupportedError:
-            return None
-        return s.carrier if isinstance(s, _Set) else None
 
     def _need(self, cond, node: A.Node) -> None:
         z3 = self.z3
@@ -468,7 +540,7 @@ class Result:
 class Disagreement(TracecheckError):
     """The solver and tracecheck's evaluator disagree on a counterexample (a bug)."""
 
-    exit_code = 3
+    exit_code = 4
 
 
 def state_of_model(tr: Translator, model) -> dict:
@@ -500,12 +572,28 @@ def state_of_model(tr: Translator, model) -> dict:
     return out
 
 
-def _solve(z3, constraints: list, timeout_s: float):
+def _solve(tr: "Translator", constraints: list, timeout_s: float):
+    """Check ``constraints`` (with the translator's definitions). A model is then made
+    smaller where the solver manages in a few seconds: as few set members (vehicles present)
+    as possible, for an easier reading."""
+    z3 = tr.z3
     solver = z3.Solver()
     solver.set("timeout", int(timeout_s * 1000))
-    solver.add(*constraints)
+    solver.add(*constraints, *tr.side)
     verdict = solver.check()
-    return verdict, (solver.model() if verdict == z3.sat else None), solver.reason_unknown()
+    if verdict != z3.sat:
+        return verdict, None, solver.reason_unknown()
+    model = solver.model()
+    counts = [z3.Sum([z3.If(c, 1, 0) for c in v.member.values()])
+              for v in tr.vars.values() if isinstance(v, _Set) and v.member]
+    if counts:
+        opt = z3.Optimize()
+        opt.set("timeout", int(min(timeout_s, 3.0) * 1000))
+        opt.add(*constraints, *tr.side)
+        opt.minimize(z3.Sum(counts))
+        if opt.check() == z3.sat:
+            model = opt.model()
+    return verdict, model, ""
 
 
 def _reading(state: dict, machine, limit: int = 6) -> str:
@@ -518,47 +606,61 @@ def _reading(state: dict, machine, limit: int = 6) -> str:
 def prove(machine, *, deadlock_free: bool = False, implies: tuple[tuple[str, str], ...] = (),
           well_defined: bool = False, assume: tuple[str, ...] = (),
           timeout_s: float = 10.0) -> list[Result]:
-    """Check the obligations over every state that satisfies the invariant and ``assume``."""
+    """Check the obligations over every state that satisfies the invariant and ``assume``.
+    An obligation whose formulas cannot be translated is ``unknown``, with the reason."""
     z3 = _z3()
-    tr = Translator(machine)
-    base = [tr.invariant()] + [tr.pred(machine.parse(a, kind=PRED)) for a in assume]
-    base += [c for c, _ in tr.wd]  # the invariant and assumptions are read where defined
-    results = []
-    if deadlock_free:
-        guards = {op: tr.guard(op) for op in machine.operations}
-        verdict, model, why = _solve(z3, base + [c for c, _ in tr.wd] +
-                                     [z3.Not(z3.Or(list(guards.values())))], timeout_s)
-        results.append(_result("deadlock-free", verdict, model, why, tr, machine,
-                               lambda s: not machine.enabled(s),
-                               "no operation is enabled"))
-    for op, text in implies:
+    for op, _ in implies:
         if op not in machine.operations:
             raise InputError(f"unknown operation {op!r} in --implies; the operations of "
                              f"{machine.name} are {', '.join(machine.operations)}")
-        tr.wd.clear()
-        g = tr.guard(op)
-        p = tr.pred(machine.parse(text, kind=PRED))
-        conds = [c for c, _ in tr.wd]
-        verdict, model, why = _solve(z3, base + conds + [g, z3.Not(p)], timeout_s)
-        results.append(_result(f"{op} => {text}", verdict, model, why, tr, machine,
-                               lambda s, op=op, text=text: machine.is_enabled(op, s)
-                               and not machine.evaluate(text, s),
-                               f"{op} is enabled and {text} does not hold"))
+    parsed = [machine.parse(a, kind=PRED) for a in assume]  # bad input: an error, not unknown
+    wanted = (["deadlock-free"] if deadlock_free else []) + \
+        [f"{op} => {text}" for op, text in implies] + \
+        (["well-defined guards"] if well_defined else [])
+    try:
+        tr = Translator(machine)
+        base = [tr.invariant()] + [tr.pred(n) for n in parsed]
+        base += [c for c, _ in tr.wd]  # the invariant and assumptions are read where defined
+    except UnsupportedError as exc:
+        return [Result(name, "unknown", reason=exc.render()) for name in wanted]
+    results = []
+    if deadlock_free:
+        def deadlock():
+            tr.wd.clear()
+            guards = [tr.guard(op) for op in machine.operations]
+            return [c for c, _ in tr.wd] + [z3.Not(z3.Or(guards))]
+        results.append(_obligation("deadlock-free", deadlock, base, tr, machine, timeout_s,
+                                   lambda s: not machine.enabled(s), "no operation is enabled"))
+    for op, text in implies:
+        def implication(op=op, text=text):
+            tr.wd.clear()
+            g = tr.guard(op)
+            p = tr.pred(machine.parse(text, kind=PRED))
+            return [c for c, _ in tr.wd] + [g, z3.Not(p)]
+        results.append(_obligation(f"{op} => {text}", implication, base, tr, machine,
+                                   timeout_s,
+                                   lambda s, op=op, text=text: machine.is_enabled(op, s)
+                                   and not machine.evaluate(text, s),
+                                   f"{op} is enabled and {text} does not hold"))
     if well_defined:
-        tr.wd.clear()
-        for op in machine.operations:
-            tr.guard(op)
-        checks = list(tr.wd)
-        if not checks:
-            results.append(Result("well-defined guards", "proved",
-                                  reason="no guard applies a partial function or divides"))
-        else:
-            verdict, model, why = _solve(z3, base + [z3.Not(z3.And([c for c, _ in checks]))],
-                                         timeout_s)
-            results.append(_result("well-defined guards", verdict, model, why, tr, machine,
-                                   lambda s: _some_guard_fails(machine, s),
+        def defined():
+            tr.wd.clear()
+            for op in machine.operations:
+                tr.guard(op)
+            return [z3.Not(z3.And([c for c, _ in tr.wd]))] if tr.wd else [z3.BoolVal(False)]
+        results.append(_obligation("well-defined guards", defined, base, tr, machine,
+                                   timeout_s, lambda s: _some_guard_fails(machine, s),
                                    "a guard is not well-defined"))
     return results
+
+
+def _obligation(name, build, base, tr, machine, timeout_s, confirm, meaning) -> Result:
+    try:
+        constraints = build()
+    except UnsupportedError as exc:
+        return Result(name, "unknown", reason=exc.render())
+    verdict, model, why = _solve(tr, base + constraints, timeout_s)
+    return _result(name, verdict, model, why, tr, machine, confirm, meaning)
 
 
 def _some_guard_fails(machine, state) -> bool:
@@ -595,29 +697,33 @@ def _result(name, verdict, model, why, tr, machine, confirm, meaning) -> Result:
 
 def symbolic_diff(a, b, *, timeout_s: float = 10.0) -> list[Result]:
     """Per operation of both machines: equivalent over every state satisfying both
-    invariants, or a state where they decide differently."""
-    z3 = _z3()
+    invariants, or a state where they decide differently (unknown where a guard cannot be
+    translated or the solver gives up)."""
+    _z3()
     if set(a.variables) != set(b.variables) or any(a.types.get(v) != b.types.get(v)
                                                    for v in a.variables):
         raise InputError(f"{a.name} and {b.name} have different variables or types; a "
                          "symbolic diff compares shields over the same states")
-    ta, tb = Translator(a), Translator(b)
-    tb.vars = ta.vars  # the same state for both
-    base = [ta.invariant(), tb.invariant()] + [c for c, _ in ta.wd + tb.wd]
+    ops = [op for op in a.operations if op in b.operations]
+    try:
+        ta, tb = Translator(a), Translator(b)
+        tb.vars, tb.side = ta.vars, ta.side  # the same state for both
+        base = [ta.invariant(), tb.invariant()] + [c for c, _ in ta.wd + tb.wd]
+    except UnsupportedError as exc:
+        return [Result(op, "unknown", reason=exc.render()) for op in ops]
     results = []
-    for op in a.operations:
-        if op not in b.operations:
-            continue
-        ga, gb = ta.guard(op), tb.guard(op)
-        conds = [c for c, _ in ta.wd + tb.wd]
-        verdict, model, why = _solve(z3, base + conds + [ga != gb], timeout_s)
-        r = _result(op, verdict, model, why, ta, a,
-                    lambda s, op=op: a.is_enabled(op, s) != b.is_enabled(op, s),
-                    f"{a.name} and {b.name} decide {op} differently")
+    for op in ops:
+        def differ(op=op):
+            ta.wd.clear()
+            tb.wd.clear()
+            ga, gb = ta.guard(op), tb.guard(op)
+            return [c for c, _ in ta.wd + tb.wd] + [ga != gb]
+        r = _obligation(op, differ, base, ta, a, timeout_s,
+                        lambda s, op=op: a.is_enabled(op, s) != b.is_enabled(op, s),
+                        f"{a.name} and {b.name} decide {op} differently")
         if r.status == "proved":
             r.status = "equivalent"
-        elif r.state is not None:
+        elif r.state is not None and not r.disagreement:
             r.extra = {a.name: a.is_enabled(op, r.state), b.name: b.is_enabled(op, r.state)}
         results.append(r)
     return results
-

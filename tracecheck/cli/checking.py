@@ -119,8 +119,7 @@ def diff_cmd(
             raise InputError("--symbolic compares the shields over every state: give no run "
                              "files")
         a, b = run_shield(shield, []).machine, run_shield(against, []).machine
-        _print_results(symbolic_diff(a, b, timeout_s=timeout), a, as_json, counterexamples,
-                       failing=fail_on_change)
+        _print_results(symbolic_diff(a, b, timeout_s=timeout), a, as_json, counterexamples)
         return
     if not runs:
         raise InputError("give run files to compare the shields on, or --symbolic")
@@ -156,8 +155,8 @@ def prove_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
 ) -> None:
     """Prove properties of a shield over every state, with an SMT solver (z3): deadlock
-    freedom, implications, well-definedness. Exit 0: all proved; 1: a counterexample or an
-    unknown; 3: the solver and tracecheck's evaluator disagree."""
+    freedom, implications, well-definedness. Exit 0: all proved; 1: a counterexample; 3:
+    unknown; 4: the solver and tracecheck's evaluator disagree (see docs/prove.md)."""
     from ..checking.shield import load_shield
     from ..checking.smt import prove
 
@@ -172,13 +171,13 @@ def prove_cmd(
         raise InputError("nothing to prove: give --deadlock-free, --implies or --well-defined")
     results = prove(machine, deadlock_free=deadlock_free, implies=tuple(pairs),
                     well_defined=well_defined, assume=tuple(assume), timeout_s=timeout)
-    _print_results(results, machine, as_json, counterexamples, failing=True)
+    _print_results(results, machine, as_json, counterexamples)
 
 
-def _print_results(results, machine, as_json: bool, folder: Optional[Path],
-                   failing: bool) -> None:
-    """Print proof or symbolic-diff results; write counterexamples; exit 1 on a
-    counterexample or unknown (when ``failing``), 3 where solver and evaluator disagree."""
+def _print_results(results, machine, as_json: bool, folder: Optional[Path]) -> None:
+    """Print proof or symbolic-diff results and write the counterexamples. Exit 0: all
+    proved (equivalent); 1: a counterexample (a difference); 3: unknown (a construct that
+    cannot be translated, a timeout); 4: the solver and tracecheck's evaluator disagree."""
     from ..b.values import to_json
     from ..checking.smt import Disagreement
 
@@ -220,5 +219,7 @@ def _print_results(results, machine, as_json: bool, folder: Optional[Path],
         raise Disagreement(f"{bad[0].obligation}: {bad[0].disagreement}",
                            hint="please report this: the solver's model and tracecheck's "
                                 "evaluator should agree")
-    if failing and any(r.status in ("counterexample", "unknown") for r in results):
+    if any(r.status == "counterexample" for r in results):
         raise typer.Exit(1)
+    if any(r.status == "unknown" for r in results):
+        raise typer.Exit(3)
