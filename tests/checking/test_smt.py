@@ -158,3 +158,28 @@ def test_a_changed_distance_changes_only_that_operation(capsys, tmp_path):
         "FASTER": "counterexample", "SLOWER": "equivalent"}
     code, out, _ = run(capsys, "diff", "--symbolic", "--shield", "paper", "--against", "paper")
     assert code == 0 and out.count(": equivalent") == 5
+
+
+def test_obligations_from_a_file(capsys, tmp_path):
+    path = tmp_path / "paper.toml"
+    path.write_text('deadlock_free = true\nassume = ["Crash = FALSE"]\n[[implies]]\n'
+                    'operation = "FASTER"\npredicate = "' + FRONT.split(" => ")[1].replace(
+                        "{d}", "45.0") + '"\n')
+    code, out, err = run(capsys, "prove", "paper", "--obligations", str(path))
+    assert code == 0, err
+    assert out.splitlines() == ["deadlock-free: proved",
+                                "FASTER => " + FRONT.split(" => ")[1].replace("{d}", "45.0")
+                                + ": proved"]
+    path.write_text("deadlock_free = 1\n")
+    code, _, err = run(capsys, "prove", "paper", "--obligations", str(path))
+    assert code == 2 and "deadlock_free must be true or false" in err
+    path.write_text("[[implies]]\noperation = \"FASTER\"\n")
+    code, _, err = run(capsys, "prove", "paper", "--obligations", str(path))
+    assert code == 2 and "implies 1 needs operation = \"OP\" and predicate" in err
+
+
+def test_a_counterexample_reads_like_a_road(capsys):
+    code, out, _ = run(capsys, "diff", "--symbolic", "--shield", "paper", "--against",
+                       "strict")
+    reading = out.splitlines()[1]
+    assert "decide IDLE differently: EgoVehicle at x = " in reading and ", vx = " in reading

@@ -597,10 +597,30 @@ def _solve(tr: "Translator", constraints: list, timeout_s: float):
 
 
 def _reading(state: dict, machine, limit: int = 6) -> str:
+    """One line: on a road (vehicles with positions), each present vehicle's position and
+    speed; otherwise the first variables."""
     from ..b.values import format_value
 
+    x, y = state.get("VehiclesX"), state.get("VehiclesY")
+    present = state.get("PresentVehicles")
+    if isinstance(x, FuncValue) and isinstance(y, FuncValue) and isinstance(present, frozenset):
+        vx = state.get("VehiclesVx")
+        parts = []
+        for e in sorted(present, key=str):
+            speed = f", vx = {_short(vx.map[e])}" if isinstance(vx, FuncValue) and \
+                e in vx.map else ""
+            if e in x.map and e in y.map:
+                parts.append(f"{e} at x = {_short(x.map[e])}, y = {_short(y.map[e])}{speed}")
+        others = [f"{k} = {format_value(v)}" for k, v in state.items()
+                  if not isinstance(v, (FuncValue, frozenset))]
+        return "; ".join(parts or ["no vehicle present"]) + \
+            (f" ({', '.join(others)})" if others else "")
     parts = [f"{k} = {format_value(v)}" for k, v in state.items()][:limit]
     return ", ".join(parts) + (", …" if len(state) > limit else "")
+
+
+def _short(v) -> str:
+    return f"{v:g}" if isinstance(v, float) else str(v)
 
 
 def prove(machine, *, deadlock_free: bool = False, implies: tuple[tuple[str, str], ...] = (),

@@ -147,6 +147,10 @@ def prove_cmd(
                                       "a state satisfying the invariant."),
     assume: list[str] = typer.Option([], "--assume", help="A predicate the states satisfy "
                                      "besides the invariant (repeatable)."),
+    obligations: Optional[Path] = typer.Option(None, "--obligations", help="A TOML file of "
+                                               "obligations: deadlock_free, well_defined, "
+                                               "assume = [...], [[implies]] operation, "
+                                               "predicate (see docs/prove.md)."),
     timeout: float = typer.Option(10.0, "--timeout", min=0.1,
                                   help="Seconds the solver may take per obligation."),
     counterexamples: Optional[Path] = typer.Option(None, "--counterexamples", help="Write "
@@ -162,6 +166,12 @@ def prove_cmd(
 
     machine = load_shield(shield).machine
     pairs = []
+    if obligations is not None:
+        more = _obligations_file(obligations)
+        deadlock_free = deadlock_free or more["deadlock_free"]
+        well_defined = well_defined or more["well_defined"]
+        assume = list(assume) + more["assume"]
+        pairs += more["implies"]
     for item in implies:
         op, sep, pred = item.partition("=>")
         if not sep or not op.strip() or not pred.strip():
@@ -172,6 +182,41 @@ def prove_cmd(
     results = prove(machine, deadlock_free=deadlock_free, implies=tuple(pairs),
                     well_defined=well_defined, assume=tuple(assume), timeout_s=timeout)
     _print_results(results, machine, as_json, counterexamples)
+
+
+def _obligations_file(path: Path) -> dict:
+    """The obligations of a TOML file, checked (each mistake names the file and key)."""
+    import tomllib
+
+    from ..errors import read_text
+
+    text = read_text(path, "obligations file")
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"not valid TOML: {exc}", file=str(path)) from None
+    unknown = set(data) - {"deadlock_free", "well_defined", "assume", "implies"}
+    if unknown:
+        raise InputError(f"{path}: unknown key {sorted(unknown)[0]!r}; the keys are "
+                         "deadlock_free, well_defined, assume, implies")
+    out = {"deadlock_free": data.get("deadlock_free", False),
+           "well_defined": data.get("well_defined", False),
+           "assume": data.get("assume", []), "implies": []}
+    for key in ("deadlock_free", "well_defined"):
+        if not isinstance(out[key], bool):
+            raise InputError(f"{path}: {key} must be true or false")
+    if not isinstance(out["assume"], list) or not all(isinstance(a, str) for a in out["assume"]):
+        raise InputError(f"{path}: assume must be a list of predicates (strings)")
+    items = data.get("implies", [])
+    if not isinstance(items, list):
+        raise InputError(f"{path}: implies must be [[implies]] tables")
+    for i, item in enumerate(items):
+        if not (isinstance(item, dict) and isinstance(item.get("operation"), str)
+                and isinstance(item.get("predicate"), str)):
+            raise InputError(f"{path}: implies {i + 1} needs operation = \"OP\" and "
+                             "predicate = \"…\"")
+        out["implies"].append((item["operation"], item["predicate"]))
+    return out
 
 
 def _print_results(results, machine, as_json: bool, folder: Optional[Path]) -> None:
