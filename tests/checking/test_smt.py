@@ -183,3 +183,14 @@ def test_a_counterexample_reads_like_a_road(capsys):
                        "strict")
     reading = out.splitlines()[1]
     assert "decide IDLE differently: EgoVehicle at x = " in reading and ", vx = " in reading
+
+
+def test_an_environment_s_declared_ranges_are_assumed(capsys, tmp_path):
+    grid = tmp_path / "Grid.mch"
+    grid.write_text("MACHINE Grid\nVARIABLES x, y\nINVARIANT x : INTEGER & y : INTEGER\n"
+                    "INITIALISATION x := 0 || y := 0\nOPERATIONS\n"
+                    "  Move = SELECT x : 0..11 & y <= 3 & y >= 0 THEN skip END\nEND\n")
+    code, out, _ = run(capsys, "prove", str(grid), "--deadlock-free")
+    assert code == 1 and out.startswith("deadlock-free: counterexample")
+    code, out, _ = run(capsys, "prove", str(grid), "--deadlock-free", "--env", "cliffwalking")
+    assert code == 0 and out.strip() == "deadlock-free: proved"

@@ -411,6 +411,9 @@ class Translator:
             if right.op == "-->":
                 return z3.And([d == dom.member[e] for e, (d, _) in cells.items()])
             return z3.And([z3.Implies(d, dom.member[e]) for e, (d, _) in cells.items()])
+        if isinstance(right, A.BinOp) and right.op == ".." and self.z3.is_arith(x):
+            lo, hi = self._num(right.left, env), self._num(right.right, env)
+            return z3.And(lo <= x, x <= hi)
         if isinstance(right, A.Call) and right.name == "POW":
             inner = right.args[0]
             if isinstance(inner, A.Name) and inner.id in self.m.sets and isinstance(x, _Set):

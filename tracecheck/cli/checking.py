@@ -147,6 +147,8 @@ def prove_cmd(
                                       "a state satisfying the invariant."),
     assume: list[str] = typer.Option([], "--assume", help="A predicate the states satisfy "
                                      "besides the invariant (repeatable)."),
+    env: Optional[str] = typer.Option(None, "--env", help="Also assume the value ranges this "
+                                      "environment's adapter declares."),
     obligations: Optional[Path] = typer.Option(None, "--obligations", help="A TOML file of "
                                                "obligations: deadlock_free, well_defined, "
                                                "assume = [...], [[implies]] operation, "
@@ -172,6 +174,10 @@ def prove_cmd(
         well_defined = well_defined or more["well_defined"]
         assume = list(assume) + more["assume"]
         pairs += more["implies"]
+    if env is not None:
+        from ..live.adapter import load_adapter
+
+        assume = list(assume) + list(load_adapter(env).assumptions)
     for item in implies:
         op, sep, pred = item.partition("=>")
         if not sep or not op.strip() or not pred.strip():

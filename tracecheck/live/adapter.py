@@ -82,6 +82,10 @@ class EnvAdapter:
     profiles: dict[str, dict[str, Any]] = {}
     #: the property set ``stats`` uses by default (a built-in name), if any
     properties: Optional[str] = None
+    #: B predicates every state of this environment satisfies (declared value ranges, e.g.
+    #: ``x : 0..7``); ``prove --env`` assumes them. Only what the environment guarantees:
+    #: a range stated too narrowly would make a proof wrong.
+    assumptions: tuple[str, ...] = ()
 
     def default_config(self) -> dict[str, Any]:
         """The environment configuration used when the user gives none."""

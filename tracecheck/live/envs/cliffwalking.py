@@ -23,6 +23,8 @@ class CliffWalkingAdapter(GridAdapter):
     model_name = "CliffWalking"
     default_shield = "cliffwalking"
     horizon = 100
+    #: gymnasium's CliffWalking is always 12 columns by 4 rows
+    assumptions = ("x : 0..11", "y : 0..3")
     properties = "cliffwalking"
     danger = b"C"
     kinds = ("GRASS", "CLIFF")
