@@ -151,3 +151,32 @@ def test_replay_lists_the_first_episodes_that_matter_or_all(capsys, tmp_path):
     code, out, _ = run(capsys, "replay", str(path), "--shield", "paper", "--all")
     assert code == 0 and "more episode(s)" not in out
     assert all(f"\n {i} " in out or f"\n{i} " in out for i in (0, 44))
+
+
+def test_the_replay_report_fits_80_columns_without_breaking_words(capsys):
+    """The main job's output: every line within 80 columns, headers whole, actions
+    abbreviated and explained once."""
+    from tests.conftest import ROOT
+
+    none = ROOT / "sample_traces" / "base_none.mcap"
+    code, out, _ = run(capsys, "replay", str(none), "--shield", "paper")
+    assert code == 0
+    lines = out.splitlines()
+    assert max(len(line) for line in lines) <= 80, max(lines, key=len)
+    header = next(line for line in lines if line.strip().startswith("ep."))
+    assert header.split() == ["ep.", "steps", "first", "allowed", "instead", "blocked",
+                              "crash", "prevented", "other"]
+    assert "actions: F = FASTER, I = IDLE, L = LANE_LEFT, R = LANE_RIGHT, S = SLOWER" in \
+        " ".join(out.split())
+    for word in ("infeasib\n", "LANE_\n", "LANE_LEF\n"):
+        assert word not in out
+
+
+def test_action_codes_are_unique_initials():
+    from tracecheck.render.text import abbreviations
+
+    assert abbreviations(["LANE_LEFT", "IDLE", "LANE_RIGHT", "FASTER", "SLOWER"]) == {
+        "LANE_LEFT": "L", "IDLE": "I", "LANE_RIGHT": "R", "FASTER": "F", "SLOWER": "S"}
+    assert abbreviations(["Move_Left", "Move_Down", "Move_Right", "Move_Up"]) == {
+        "Move_Left": "L", "Move_Down": "D", "Move_Right": "R", "Move_Up": "U"}
+    assert abbreviations(["go_left", "go_long"]) == {"go_left": "LE", "go_long": "LO"}

@@ -19,12 +19,24 @@ def _steps(values: list[int], limit: int = 6) -> str:
     return text + (f", … (+{len(values) - limit})" if len(values) > limit else "")
 
 
-def _row(e: EpisodeReplay) -> list[str]:
+def abbreviations(actions) -> dict[str, str]:
+    """A short, unique code per action name for tables that must fit 80 columns: the
+    initials of its last word (LANE_LEFT → L, Move_Down → D), longer where two collide."""
+    names = sorted(set(actions))
+    words = {a: a.replace("-", "_").split("_")[-1] or a for a in names}
+    size = 1
+    while True:
+        codes = {a: words[a][:size].upper() if size < len(words[a]) + 1 else a for a in names}
+        if len(set(codes.values())) == len(codes) or size > 12:
+            return codes if len(set(codes.values())) == len(codes) else {a: a for a in names}
+        size += 1
+
+
+def _row(e: EpisodeReplay, short=lambda a: a) -> list[str]:
     prevented = ""
     if e.crashed:
         prevented = "yes" if e.crash_after_infeasible else "no"
-    first = "" if e.first_infeasible is None else \
-        f"{e.first_infeasible} {(e.action or '').replace('LANE_', 'L_')}"
+    first = "" if e.first_infeasible is None else f"{e.first_infeasible} {short(e.action or '')}"
     other = []
     for label, steps in (("deadlock", e.deadlock_states),
                          ("postcondition", e.postcondition_violations),
@@ -33,7 +45,7 @@ def _row(e: EpisodeReplay) -> list[str]:
             other.append(f"{label} {_steps(steps, 3)}")
     return [
         e.file.rsplit("/", 1)[-1], str(e.episode), str(e.steps), first,
-        " ".join(a.replace("LANE_", "L_") for a in e.enabled or []), e.alternative or "",
+        " ".join(short(a) for a in e.enabled or []), short(e.alternative or ""),
         str(e.infeasible_steps), "" if e.crash_step is None else str(e.crash_step), prevented,
         "; ".join(other),
     ]
@@ -41,6 +53,9 @@ def _row(e: EpisodeReplay) -> list[str]:
 
 HEADERS = ["file", "episode", "steps", "first infeasible", "allowed there", "shielded",
            "infeasible", "crash", "after it", "other"]
+#: the same columns in a terminal: short enough for 80 columns, explained under the table
+SHORT_HEADERS = ["file", "ep.", "steps", "first", "allowed", "instead", "blocked", "crash",
+                 "prevented", "other"]
 
 
 def _summary_lines(r: ReplayReport) -> list[str]:
@@ -103,20 +118,33 @@ def _ltl_lines(r: ReplayReport, rows: int) -> list[str]:
 def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
     for i, line in enumerate(_summary_lines(r) + _resim_lines(r) + _ltl_lines(r, rows)):
         console.print(f"[bold]{line}[/bold]" if i == 0 else line, markup=i == 0,
-                      highlight=False)
+                      highlight=False, soft_wrap=False)  # wrapped between words
     matters = [e for e in r.per_episode if e.matters]
     if not matters:
         console.print("every step of every episode is feasible; nothing else found")
         return
     one_file = len(r.files) == 1
-    table = Table(title="episodes that matter (L_ = LANE_; crash after it: the crash came at or "
-                        "after the first infeasible step)", box=None, show_lines=False)
-    for header in HEADERS[1:] if one_file else HEADERS:
-        table.add_column(header, overflow="fold")
+    names = {a for e in matters for a in [e.action, e.alternative, *(e.enabled or [])] if a}
+    codes = abbreviations(names)
+    table = Table(title="episodes that matter", box=None, show_lines=False, padding=(0, 1))
+    headers = SHORT_HEADERS[1:] if one_file else SHORT_HEADERS
+    for header in headers:
+        if header == "file":
+            table.add_column(header, no_wrap=True, overflow="ellipsis", max_width=14)
+        else:
+            table.add_column(header, no_wrap=header != "other", overflow="fold")
     for e in matters[:rows]:
-        row = _row(e)
+        row = _row(e, lambda a: codes.get(a, a))
         table.add_row(*(row[1:] if one_file else row))
     console.print(table)
+    legend = ", ".join(f"{c} = {a}" for a, c in sorted(codes.items(), key=lambda x: x[1])
+                       if c != a)
+    console.print("first: the first step the shield would have blocked, and its action; "
+                  "allowed: what the shield allowed there; instead: what a shielded agent "
+                  "would have done; blocked: steps it would have blocked; prevented: the crash "
+                  "came at or after the first blocked step" + (f"; actions: {legend}" if legend
+                                                               else ""), highlight=False,
+                  soft_wrap=False)
     if len(matters) > rows:
         console.print(f"… {len(matters) - rows} more episode(s): --all lists them, --json "
                       "gives everything")
