@@ -180,3 +180,14 @@ def test_action_codes_are_unique_initials():
     assert abbreviations(["Move_Left", "Move_Down", "Move_Right", "Move_Up"]) == {
         "Move_Left": "L", "Move_Down": "D", "Move_Right": "R", "Move_Up": "U"}
     assert abbreviations(["go_left", "go_long"]) == {"go_left": "LE", "go_long": "LO"}
+
+
+def test_the_diff_report_fits_80_columns(capsys):
+    from tests.conftest import ROOT
+
+    none = ROOT / "sample_traces" / "base_none.mcap"
+    code, out, _ = run(capsys, "diff", str(none), "--shield", "strict", "--against", "paper")
+    lines = out.splitlines()
+    assert code == 0 and max(len(line) for line in lines) <= 80, max(lines, key=len)
+    assert any(line.split()[:3] == ["ep.", "step", "action"] for line in lines)
+    assert "actions: F = FASTER" in out

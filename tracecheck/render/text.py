@@ -168,22 +168,39 @@ def diff_text(console: Console, d: DiffReport, rows: int) -> None:
     console.print(f"[bold]Shield {d.shield['name']} ({_short(d.shield['sha256'])}) against "
                   f"{d.against['name']} ({_short(d.against['sha256'])}): {d.episodes} "
                   f"episode(s), {d.steps} step(s), {d.states} state(s)[/bold]",
-                  highlight=False)
+                  highlight=False, soft_wrap=False)
     console.print(f"changed steps: {d.changed_steps} (newly blocked {d.newly_blocked}, newly "
                   f"allowed {d.newly_allowed}); states whose enabled set differs: "
-                  f"{d.enabled_set_changes}", highlight=False)
+                  f"{d.enabled_set_changes}", highlight=False, soft_wrap=False)
     console.print(f"episodes whose first infeasible step moved: {d.episodes_changed} "
-                  f"({d.crashes_in_changed_episodes} of them crashed)", highlight=False)
+                  f"({d.crashes_in_changed_episodes} of them crashed)", highlight=False,
+                  soft_wrap=False)
     if not d.changes:
         return
-    table = Table("file", "episode", "step", "action", d.shield["name"], d.against["name"],
-                  f"enabled by {d.shield['name']}", f"enabled by {d.against['name']}",
-                  title="changed steps")
+    names = {a for c in d.changes[:rows] for a in [c.action, *c.enabled_shield,
+                                                    *c.enabled_against]}
+    codes = abbreviations(names)
+    one_file = len(d.files) == 1
+    table = Table(title="changed steps", box=None, padding=(0, 1))
+    for header in (["file"] if not one_file else []) + ["ep.", "step", "action",
+                                                       d.shield["name"], d.against["name"],
+                                                       "enabled by " + d.shield["name"],
+                                                       "enabled by " + d.against["name"]]:
+        if header == "file":
+            table.add_column(header, no_wrap=True, overflow="ellipsis", max_width=14)
+        else:
+            table.add_column(header, no_wrap=not header.startswith("enabled"))
     for c in d.changes[:rows]:
-        table.add_row(c.file.rsplit("/", 1)[-1], str(c.episode), str(c.step), c.action,
-                      "allowed" if c.feasible_under_shield else "blocked",
-                      "allowed" if c.feasible_under_against else "blocked",
-                      ", ".join(c.enabled_shield), ", ".join(c.enabled_against))
+        row = [str(c.episode), str(c.step), codes.get(c.action, c.action),
+               "allowed" if c.feasible_under_shield else "blocked",
+               "allowed" if c.feasible_under_against else "blocked",
+               " ".join(codes.get(a, a) for a in c.enabled_shield),
+               " ".join(codes.get(a, a) for a in c.enabled_against)]
+        table.add_row(*(([c.file.rsplit("/", 1)[-1]] if not one_file else []) + row))
     console.print(table)
+    legend = ", ".join(f"{c} = {a}" for a, c in sorted(codes.items(), key=lambda x: x[1])
+                       if c != a)
+    if legend:
+        console.print(f"actions: {legend}", highlight=False, soft_wrap=False)
     if len(d.changes) > rows:
         console.print(f"… {len(d.changes) - rows} more changed step(s): use --json for all")
