@@ -56,6 +56,16 @@ def resolve(t: Type) -> Type:
     return t
 
 
+def resolve_all(t: Type) -> Type:
+    """``t`` with every type variable in it resolved (inside POW and products too)."""
+    t = resolve(t)
+    if isinstance(t, Pow):
+        return Pow(resolve_all(t.elem))
+    if isinstance(t, Prod):
+        return Prod(resolve_all(t.left), resolve_all(t.right))
+    return t
+
+
 def show(t: Type) -> str:
     """A type in B notation, e.g. ``POW(Vehicles*REAL)``."""
     t = resolve(t)

@@ -179,15 +179,20 @@ def _check_ltl(shield: Shield, cols: RunColumns, report: ReplayReport, ltl: Sequ
 
     for name, text, formula in ltl:
         result = check_ltl(name, text, formula, cols, shield.machine, enabled)
-        entry = next((e for e in report.ltl if e["name"] == name), None)
-        if entry is None:
-            entry = {"name": name, "formula": text, "episodes": 0, "satisfied": 0,
-                     "violations": []}
-            report.ltl.append(entry)
-        entry["episodes"] += result.episodes
-        entry["satisfied"] += result.satisfied
-        entry["violations"] += [{"file": cols.path, "episode": ep, "first_step": step}
-                                for ep, step in result.violations]
+        _add_ltl(report, {"name": name, "formula": text, "episodes": result.episodes,
+                          "satisfied": result.satisfied,
+                          "violations": [{"file": cols.path, "episode": ep, "first_step": step}
+                                         for ep, step in result.violations]})
+
+
+def _add_ltl(report: ReplayReport, entry: dict) -> None:
+    """One formula's result on one file, added to the report's result for that formula."""
+    mine = next((e for e in report.ltl if e["name"] == entry["name"]), None)
+    if mine is None:
+        report.ltl.append(entry)
+    else:
+        for key in ("episodes", "satisfied", "violations"):
+            mine[key] += entry[key]
 
 
 def ltl_formulas(shield: Shield, formulas: Sequence[str] = (), assertions: bool = False
@@ -278,12 +283,7 @@ def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "loca
             report.per_episode += part.per_episode
             report.warnings += part.warnings
             for entry in part.ltl:
-                mine = next((e for e in report.ltl if e["name"] == entry["name"]), None)
-                if mine is None:
-                    report.ltl.append(entry)
-                else:
-                    for key in ("episodes", "satisfied", "violations"):
-                        mine[key] += entry[key]
+                _add_ltl(report, entry)
     report.elapsed_s = round(time.perf_counter() - start, 6)
     eps = report.per_episode
     report.episodes = len(eps)

@@ -24,7 +24,7 @@ from typing import Any, Optional
 
 from ..b import ast as A
 from ..b.scope import PRED
-from ..b.typecheck import BOOL, INTEGER, REAL, Base, Pow, Prod, resolve
+from ..b.typecheck import BOOL, INTEGER, REAL, Base, Pow, Prod, resolve_all
 from ..b.values import Elem, FuncValue
 from ..errors import InputError, TracecheckError, UnsupportedError
 
@@ -82,7 +82,7 @@ class Translator:
         self._raw: list = []  # every condition met, with the path it was met under
         self._free: dict = {}  # free names by node
         for name in machine.variables:
-            self.vars[name] = self._variable(name, _deep(machine.type_objects.get(name)))
+            self.vars[name] = self._variable(name, resolve_all(machine.type_objects.get(name)))
 
     # -- state
     def _variable(self, name: str, t) -> Any:
@@ -219,8 +219,8 @@ class Translator:
             if node.op == "/":
                 self._need(b != 0, node)
                 if z3.is_int(a) and z3.is_int(b):  # B: towards zero
-                    q = z3.If(a * b >= 0, abs_(z3, a) / abs_(z3, b), -(abs_(z3, a) / abs_(z3, b)))
-                    return q
+                    q = _abs(z3, a) / _abs(z3, b)
+                    return z3.If(a * b >= 0, q, -q)
                 return a / b
             if node.op == "**":
                 if not isinstance(node.right, A.IntLit) or node.right.value < 0:
@@ -345,8 +345,7 @@ class Translator:
         if name == "bool":
             return self.pred(node.args[0], env)
         if name in ("RABS", "abs"):
-            x = self._num(node.args[0], env)
-            return z3.If(x >= 0, x, -x)
+            return _abs(z3, self._num(node.args[0], env))
         if name == "floor":
             return z3.ToInt(self._num(node.args[0], env))
         if name == "ceiling":
@@ -537,17 +536,7 @@ class Translator:
 _SHARED = (A.Comprehension, A.Image, A.Call, A.Quant, A.IfExpr)
 
 
-def _deep(t):
-    """A type with every type variable in it resolved."""
-    t = resolve(t)
-    if isinstance(t, Pow):
-        return Pow(_deep(t.elem))
-    if isinstance(t, Prod):
-        return Prod(_deep(t.left), _deep(t.right))
-    return t
-
-
-def abs_(z3, x):
+def _abs(z3, x):
     return z3.If(x >= 0, x, -x)
 
 

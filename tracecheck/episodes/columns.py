@@ -18,7 +18,7 @@ from ..b.values import Elem
 from ..errors import InputError
 from .codec import RUN_COLUMNS_MEDIA_TYPE, columns_from_arrays, decode_columns
 from .reader import DamagedFileWarning, check_columns, complete
-from .records import find_attachment, open_buffer
+from .records import find_attachment, mapped
 
 __all__ = ["read_columns", "RunColumns"]
 
@@ -101,49 +101,22 @@ def _from_run_columns(path: Path) -> Optional[RunColumns]:
     records (header to columns attachment, one after the other up to the blob) and of
     everything before the first episode. Otherwise None: the reader walks the file episode by
     episode, finding and naming whatever changed, so both ways give the same answer."""
-    buf = open_buffer(path)
-    view = memoryview(buf)
-    try:
-        found = find_attachment(buf, RUN_COLUMNS_MEDIA_TYPE)
-        if found is None:
-            return None
-        offset, blob = found
+    with mapped(path) as buf:
+        view = memoryview(buf)
         try:
-            header, arrays = decode_columns(blob)
-            spans, crcs = arrays["run:spans"], arrays["run:span_crcs"]
-            starts, ids = arrays["run:starts"], arrays["run:episodes"]
-            seeds, seeded = arrays["run:seeds"], arrays["run:seeded"]
-            e = len(ids)
-            if not (header.get("run") is True and e and spans.shape == (e, 2)
-                    and crcs.shape == seeds.shape == seeded.shape == (e,)
-                    and starts.shape == (e + 1,) and starts[0] == 0
-                    and np.all(np.diff(starts) > 0) and len(np.unique(ids)) == e):
-                return None
-            # the episodes' records follow each other from the first to the blob's record
-            if not (0 < spans[0, 0] and np.all(spans[:, 0] < spans[:, 1])
-                    and np.array_equal(spans[1:, 0], spans[:-1, 1]) and spans[-1, 1] == offset):
-                return None
-            if zlib.crc32(view[:int(spans[0, 0])]) != header.get("head_crc"):
-                return None
-            for (a, b), crc in zip(spans.tolist(), crcs.tolist()):
-                if zlib.crc32(view[a:b]) != crc:
-                    return None
-            body = {k: v for k, v in arrays.items() if not k.startswith("run:")}
-            check_columns({**header, "episode": 0}, body, first_action=False)
-            n = int(starts[-1])
-            if len(body["time"]) != n:
-                return None
-            first = np.zeros(n, dtype=bool)
-            first[starts[:-1]] = True
-            if not np.array_equal(body["action"] == -1, first):  # no action exactly at step 0
-                return None
-            states = columns_from_arrays(header, body, where=f"{path}: ")
-        except (InputError, KeyError, TypeError, ValueError):
-            return None
-    finally:
-        view.release()
-        if hasattr(buf, "close"):
-            buf.close()
+            found = _verified_blob(buf, view)
+        finally:
+            view.release()
+    if found is None:
+        return None
+    header, arrays = found
+    starts, ids = arrays["run:starts"], arrays["run:episodes"]
+    body = {k: v for k, v in arrays.items() if not k.startswith("run:")}
+    try:
+        states = columns_from_arrays(header, body, where=f"{path}: ")
+    except (InputError, KeyError, TypeError, ValueError):
+        return None
+    n = int(starts[-1])
     lengths = np.diff(starts)
     episode = np.repeat(ids, lengths)
     step = np.arange(n) - np.repeat(starts[:-1], lengths)
@@ -153,7 +126,45 @@ def _from_run_columns(path: Path) -> Optional[RunColumns]:
         time=body["time"], action=body["action"], action_names=tuple(header["actions"]),
         reward=body["reward"], crashed=body["crashed"].astype(bool), states=states,
         values=body.get("values"),
-        seeds=[int(x) if ok else None for x, ok in zip(seeds.tolist(), seeded.tolist())])
+        seeds=[int(x) if ok else None for x, ok in zip(arrays["run:seeds"].tolist(),
+                                                       arrays["run:seeded"].tolist())])
+
+
+def _verified_blob(buf, view) -> Optional[tuple[dict, dict]]:
+    """The run blob's header and arrays where it fits together and every byte it stands for
+    is as written (see :func:`_from_run_columns`)."""
+    found = find_attachment(buf, RUN_COLUMNS_MEDIA_TYPE)
+    if found is None:
+        return None
+    offset, blob = found
+    try:
+        header, arrays = decode_columns(blob)
+        spans, crcs = arrays["run:spans"], arrays["run:span_crcs"]
+        starts, ids = arrays["run:starts"], arrays["run:episodes"]
+        e = len(ids)
+        if not (header.get("run") is True and e and spans.shape == (e, 2)
+                and crcs.shape == arrays["run:seeds"].shape == arrays["run:seeded"].shape == (e,)
+                and starts.shape == (e + 1,) and starts[0] == 0
+                and np.all(np.diff(starts) > 0) and len(np.unique(ids)) == e):
+            return None
+        # the episodes' records follow each other from the first to the blob's record
+        if not (0 < spans[0, 0] and np.all(spans[:, 0] < spans[:, 1])
+                and np.array_equal(spans[1:, 0], spans[:-1, 1]) and spans[-1, 1] == offset):
+            return None
+        if zlib.crc32(view[:int(spans[0, 0])]) != header.get("head_crc") or any(
+                zlib.crc32(view[a:b]) != crc for (a, b), crc in zip(spans.tolist(),
+                                                                    crcs.tolist())):
+            return None
+        body = {k: v for k, v in arrays.items() if not k.startswith("run:")}
+        check_columns({**header, "episode": 0}, body, first_action=False)
+        n = int(starts[-1])
+        first = np.zeros(n, dtype=bool)
+        first[starts[:-1]] = True
+        if len(body["time"]) != n or not np.array_equal(body["action"] == -1, first):
+            return None  # one row per state, no action exactly at each step 0
+    except (InputError, KeyError, TypeError, ValueError):
+        return None
+    return header, arrays
 
 
 def _widen(cols: Columns, elements: list[str]) -> Columns:

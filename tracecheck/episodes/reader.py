@@ -29,7 +29,7 @@ from ..errors import InputError, TracecheckError
 from . import schema as S
 from .codec import COLUMNS_MEDIA_TYPE, decode_columns, decode_state
 from .model import Episode, EpisodeEnd, StepRecord
-from .records import Attachment, Channel, Damage, Schema, open_buffer, walk
+from .records import Attachment, Channel, Damage, Schema, mapped, walk
 from .salvage import salvage_on, salvaging
 
 __all__ = ["read_run", "read_episodes", "read_header", "Run", "DamagedFileWarning",
@@ -144,16 +144,6 @@ class _Assembler:
         return None
 
     def message(self, name: str, buf, start: int, stop: int) -> Optional[Piece]:
-        if name == "tracecheck.Step" and self.broken is None and self.current is not None \
-                and not (self.decode and self.wanted()):
-            piece = self.current  # counted, and the last one kept for the cross-check
-            if piece.end is not None:
-                self.broken = "steps after the end"
-                self.bad("a step message comes after the episode's end record")
-            piece.count += 1
-            piece.last = (buf, start, stop)
-            piece.crc = zlib.crc32(buf[start:stop], piece.crc)
-            return None
         data = buf[start:stop]
         if self.current is not None:
             self.current.crc = zlib.crc32(data, self.current.crc)
@@ -435,40 +425,44 @@ def complete(path: str | Path, only: Optional[set[int]] = None, *, decode: bool 
     """
     path = Path(path)
     salvage = salvage_on() if salvage is None else salvage
-    buf = open_buffer(path)
-    view = memoryview(buf)  # checksums over parts of the file without copying them
-    try:
-        asm = _Assembler(path, only, decode, salvage)
-        steps = -1  # the channel of step messages, once known
-        for record in walk(path, buf):
-            if type(record) is tuple:
-                if not decode and record[1][record[2]] | record[1][record[2] + 1] << 8 == steps:
-                    piece = asm.current  # the fast path of asm.message for a step not decoded
-                    if piece is not None and piece.end is None and asm.broken is None:
-                        piece.count += 1
-                        piece.last = (record[1], record[2] + 22, record[3])
-                        rec = view if record[1] is buf else memoryview(record[1])
-                        piece.crc = zlib.crc32(rec[record[2] + 22:record[3]], piece.crc)
-                        continue
-            elif isinstance(record, Damage):
-                warnings.warn(asm.lost(record.why), DamagedFileWarning, stacklevel=3)
-                break
-            piece = asm.feed(record)
-            if steps < 0 and isinstance(record, Channel):
-                steps = next((k for k, v in asm.channels.items() if v == "tracecheck.Step"), -1)
-            if piece is not None:
-                yield piece
-        else:
-            if asm.current is not None and asm.broken is None:
-                warnings.warn(asm.lost("the last episode is not complete"), DamagedFileWarning,
-                              stacklevel=3)
-        if asm.header is None:
-            raise InputError(f"{path} is an MCAP file but not a tracecheck run (no "
-                             "/tracecheck/run header)")
-    finally:
-        view.release()
-        if hasattr(buf, "close"):
-            buf.close()
+    with mapped(path) as buf:
+        view = memoryview(buf)  # checksums over parts of the file without copying them
+        try:
+            yield from _pieces(path, buf, view, _Assembler(path, only, decode, salvage))
+        finally:
+            view.release()
+
+
+def _pieces(path: Path, buf, view, asm: "_Assembler") -> Iterator[Piece]:
+    steps = -1  # the channel of step messages, once known
+    for record in walk(path, buf):
+        if type(record) is tuple:
+            piece = asm.current
+            if (record[1][record[2]] | record[1][record[2] + 1] << 8 == steps
+                    and piece is not None and piece.end is None and asm.broken is None
+                    and not (asm.decode and asm.wanted())):
+                # a step that is not decoded: counted, checksummed, the last one kept for
+                # the cross-check (the hot loop of reading a file's columns)
+                piece.count += 1
+                piece.last = (record[1], record[2] + 22, record[3])
+                rec = view if record[1] is buf else memoryview(record[1])
+                piece.crc = zlib.crc32(rec[record[2] + 22:record[3]], piece.crc)
+                continue
+        elif isinstance(record, Damage):
+            warnings.warn(asm.lost(record.why), DamagedFileWarning, stacklevel=4)
+            break
+        piece = asm.feed(record)
+        if steps < 0 and isinstance(record, Channel):
+            steps = next((k for k, v in asm.channels.items() if v == "tracecheck.Step"), -1)
+        if piece is not None:
+            yield piece
+    else:
+        if asm.current is not None and asm.broken is None:
+            warnings.warn(asm.lost("the last episode is not complete"), DamagedFileWarning,
+                          stacklevel=4)
+    if asm.header is None:
+        raise InputError(f"{path} is an MCAP file but not a tracecheck run (no "
+                         "/tracecheck/run header)")
 
 
 def read_episodes(path: str | Path, only: Optional[set[int]] = None, *,
@@ -494,20 +488,13 @@ def read_run(path: str | Path, only: Optional[set[int]] = None, *,
 def read_header(path: str | Path) -> S.RunHeader:
     """The run header of a file (its first message)."""
     path = Path(path)
-    buf = open_buffer(path)
-    try:
+    with mapped(path) as buf:
         asm = _Assembler(path, set(), False, True)
         for record in walk(path, buf):
             if isinstance(record, Damage):
                 break
-            if type(record) is tuple and asm.channels:
-                asm.feed(record)
-                if asm.header is not None:
-                    return asm.header
-            else:
-                asm.feed(record)
-    finally:
-        if hasattr(buf, "close"):
-            buf.close()
+            asm.feed(record)
+            if asm.header is not None:
+                return asm.header
     raise InputError(f"{path} is an MCAP file but not a tracecheck run (no /tracecheck/run "
                      "header)")

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import mmap
 import struct
+from contextlib import contextmanager
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,7 +22,7 @@ from typing import Iterator, Optional, Union
 from ..errors import InputError
 
 __all__ = ["walk", "Damage", "Schema", "Channel", "Attachment", "MESSAGE", "MAGIC",
-           "MAX_CHUNK_RATIO", "MAX_CHUNK_BYTES", "open_buffer"]
+           "MAX_CHUNK_RATIO", "MAX_CHUNK_BYTES", "mapped"]
 
 MAGIC = b"\x89MCAP0\r\n"
 HEADER, FOOTER, SCHEMA, CHANNEL, MESSAGE, CHUNK, ATTACHMENT, DATA_END = 1, 2, 3, 4, 5, 6, 9, 15
@@ -112,8 +113,18 @@ class _Fields:
         return self.buf[at:at + n]
 
 
-def open_buffer(path: Path):
-    """The bytes of ``path`` (memory-mapped; an empty file gives ``b""``)."""
+@contextmanager
+def mapped(path: Path) -> Iterator:
+    """The bytes of ``path``, memory-mapped for the block (an empty file gives ``b""``)."""
+    buf = _open(path)
+    try:
+        yield buf
+    finally:
+        if hasattr(buf, "close"):
+            buf.close()
+
+
+def _open(path: Path):
     try:
         with open(path, "rb") as stream:
             try:

@@ -102,11 +102,11 @@ class EpisodeWriter:
     def _write_run_columns(self) -> None:
         """Every episode in one columns blob, read back through the checked reader, with the
         CRC-32 of each episode's records: readers of the finished file take it at once."""
-        import mmap
         import warnings
 
         from .codec import RUN_COLUMNS_MEDIA_TYPE, encode_run_columns
         from .columns import read_columns
+        from .records import mapped
 
         self._stream.flush()
         try:
@@ -117,9 +117,8 @@ class EpisodeWriter:
             return  # the file reads as it is, without the blob
         if len(run.episode_ids) != len(self._spans) or run.warnings:
             return
-        with open(self.path, "rb") as f, \
-                mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
-            view = memoryview(mm)
+        with mapped(self.path) as buf:
+            view = memoryview(buf)
             try:
                 crcs = [zlib.crc32(view[a:b]) for a, b in self._spans]
                 head = zlib.crc32(view[:self._spans[0][0]])

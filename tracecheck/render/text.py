@@ -24,12 +24,11 @@ def abbreviations(actions) -> dict[str, str]:
     initials of its last word (LANE_LEFT → L, Move_Down → D), longer where two collide."""
     names = sorted(set(actions))
     words = {a: a.replace("-", "_").split("_")[-1] or a for a in names}
-    size = 1
-    while True:
-        codes = {a: words[a][:size].upper() if size < len(words[a]) + 1 else a for a in names}
-        if len(set(codes.values())) == len(codes) or size > 12:
-            return codes if len(set(codes.values())) == len(codes) else {a: a for a in names}
-        size += 1
+    for size in range(1, max((len(w) for w in words.values()), default=0) + 1):
+        codes = {a: words[a][:size].upper() for a in names}
+        if len(set(codes.values())) == len(codes):
+            return codes
+    return {a: a for a in names}  # last words alike: the names themselves
 
 
 def _row(e: EpisodeReplay, short=lambda a: a) -> list[str]:

@@ -193,10 +193,7 @@ def _metric(name: str, spec: dict, file: str) -> Metric:
     where = f"metric {name}"
     if not isinstance(spec, dict):
         raise InputError(f"{file}: {where} must be a table")
-    aggregate = spec.get("aggregate", "average")
-    if aggregate not in AGGREGATES:
-        raise InputError(f"{file}: {where}: unknown aggregate {aggregate!r}; the aggregates "
-                         f"are {', '.join(AGGREGATES)}")
+    aggregate = _choice(spec, "aggregate", "average", AGGREGATES, where, file)
     node = None
     if aggregate == "stl":
         _temporal_text(spec.get("expression"), "expression", "STL", where, file)
@@ -213,6 +210,15 @@ def _metric(name: str, spec: dict, file: str) -> Metric:
                   estimate)
 
 
+def _choice(spec: dict, key: str, default: str, allowed: tuple, where: str, file: str) -> str:
+    """``spec[key]`` (or ``default``), one of ``allowed``."""
+    value = spec.get(key, default)
+    if value not in allowed:
+        raise InputError(f"{file}: {where}: unknown {key} {value!r}; the {key}s are "
+                         f"{', '.join(allowed)}")
+    return value
+
+
 def _temporal_text(text: object, key: str, logic: str, where: str, file: str) -> None:
     if not isinstance(text, str) or not text.strip():
         raise InputError(f"{file}: {where} {key} must be a string with an {logic} formula")
@@ -222,10 +228,7 @@ def _property(name: str, spec: dict, file: str) -> Property:
     where = f"property {name}"
     if not isinstance(spec, dict):
         raise InputError(f"{file}: {where} must be a table")
-    kind = spec.get("kind", "invariant")
-    if kind not in KINDS:
-        raise InputError(f"{file}: {where}: unknown kind {kind!r}; the kinds are "
-                         f"{', '.join(KINDS)}")
+    kind = _choice(spec, "kind", "invariant", KINDS, where, file)
     if kind in ("ltl", "stl"):  # parsed against the environment's machine (prepare)
         _temporal_text(spec.get("predicate"), "predicate", kind.upper(), where, file)
         node = None
@@ -236,10 +239,7 @@ def _property(name: str, spec: dict, file: str) -> Property:
         t = spec["test"]
         if not isinstance(t, dict):
             raise InputError(f"{file}: {where}: test is a table {{p = …, alpha = …, tail = …}}")
-        tail = t.get("tail", "left")
-        if tail not in TAILS:
-            raise InputError(f"{file}: {where}: unknown tail {tail!r}; the tails are "
-                             f"{', '.join(TAILS)}")
+        tail = _choice(t, "tail", "left", TAILS, where, file)
         test = HypothesisTest(_number(t.get("p"), "p", where, file, open01=True),
                               _number(t.get("alpha", 0.05), "alpha", where, file, open01=True),
                               tail)
