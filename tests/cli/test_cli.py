@@ -289,3 +289,22 @@ def test_eval_several_formulas_and_a_file(capsys, tmp_path):
     assert code == 2 and "<expr 2>:1:4: unexpected end" in err
     code, _, err = run(capsys, "eval")
     assert code == 2 and "give a formula to evaluate, or --file with formulas" in err
+
+
+def test_values_and_file_names_are_printed_as_they_are(capsys, tmp_path):
+    """Rich reads ``[bold]`` as markup and ``:smile:`` as an emoji: neither may change a value
+    or a file name the user sees."""
+    code, out, _ = run(capsys, "eval", '"a:smile:b"', '"[red]x[/red]"')
+    assert code == 0 and out.splitlines() == ['"a:smile:b"', '"[red]x[/red]"']
+    odd = tmp_path / "run[bold]:fire:.mcap"
+    odd.write_bytes((ROOT / "sample_traces" / "base_none.mcap").read_bytes())
+    other = tmp_path / "x[red]y.mcap"
+    other.write_bytes((ROOT / "sample_traces" / "base_paper.mcap").read_bytes())
+    code, out, _ = run(capsys, "info", str(odd), str(other), "--format", "csv")
+    assert code == 0 and f"{odd},recorded" in out and f"{other},recorded" in out
+    code, out, _ = run(capsys, "replay", str(odd), str(other), "--shield", "paper")
+    assert code == 0 and " run[bold]:fir… " in out
+    machine = tmp_path / "m[x].mch"
+    machine.write_text(open(TABLE1).read())
+    code, out, _ = run(capsys, "check-model", str(machine))
+    assert code == 0 and f"MACHINE PaperShield  ({machine}, sha256" in out

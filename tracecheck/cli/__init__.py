@@ -10,10 +10,8 @@ import sys
 import warnings
 from typing import Any, Optional
 
-from rich.markup import escape
-
 from ..errors import TracecheckError
-from .common import app, err
+from .common import app, err, escape
 
 # each module registers its commands on `app`, in the order `tracecheck --help` lists them
 from . import model  # noqa: E402,F401  check-model, eval, guards

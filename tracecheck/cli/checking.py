@@ -10,7 +10,8 @@ import typer
 
 from ..errors import InputError
 from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, RAY_ADDRESS, OutputFormat,
-                     FailOn, SHIELD_HELP, ROWS, run_shield, SALVAGE)
+                     FailOn, SHIELD_HELP, ROWS, run_shield, SALVAGE, FORMAT, JSON, output_format,
+                     print_json, print_table, plain)
 
 
 @app.command("replay")
@@ -18,8 +19,8 @@ def replay_cmd(
     runs: list[Path] = typer.Argument(..., help="MCAP run files."),
     salvage: bool = SALVAGE,
     shield: str = typer.Option(..., "--shield", "-s", help=SHIELD_HELP),
-    as_json: bool = typer.Option(False, "--json", help="Print the full report as JSON."),
-    fmt: OutputFormat = typer.Option(OutputFormat.text, "--format", help="text or md."),
+    as_json: bool = JSON,
+    fmt: OutputFormat = FORMAT,
     all_rows: bool = typer.Option(False, "--all", help=f"List every episode that matters "
                                   f"(default: the first {ROWS})."),
     ltl: list[str] = typer.Option([], "--ltl", help="An LTL formula in ProB's syntax to check "
@@ -42,8 +43,9 @@ def replay_cmd(
 ) -> None:
     """Replay episodes against a shield: where would it have blocked the recorded action?"""
     from ..checking.replay import replay
-    from ..render.text import replay_markdown, replay_text
+    from ..render.text import replay_markdown, replay_table, replay_text
 
+    fmt = output_format(fmt, as_json)
     loaded = run_shield(shield, runs)
     report = replay(runs, loaded, executor=executor.value, ray_address=ray_address, ltl=ltl,
                     ltl_assertions=ltl_assertions)
@@ -51,10 +53,12 @@ def replay_cmd(
     if resimulate:
         report.resimulation = _resimulate(runs, loaded, report, agent, env)
     rows = len(report.per_episode) if all_rows else ROWS
-    if as_json:
-        out.print_json(json.dumps(report.to_json()))
+    if fmt == OutputFormat.json:
+        print_json(report.to_json())
     elif fmt == OutputFormat.md:
-        out.print(replay_markdown(report, rows), markup=False)
+        plain(replay_markdown(report, rows))
+    elif fmt == OutputFormat.csv:
+        print_table(fmt, replay_table(report))
     else:
         replay_text(out, report, rows)
     counts = {FailOn.infeasible: report.infeasible_steps,
@@ -77,7 +81,7 @@ def _resimulate(runs: list[Path], shield, report, agent: Optional[Path],
     results = []
     todo = sum(e.first_infeasible is not None for e in report.per_episode)
     with Progress(TextColumn("re-simulating under " + shield.name), BarColumn(),
-                  TextColumn("{task.completed}/{task.total} episodes"), console=err,
+                  TextColumn("{task.completed}/{task.total} episodes"), console=err.console,
                   transient=True) as bar:
         task = bar.add_task("resim", total=todo)
         for run in runs:
@@ -94,7 +98,8 @@ def diff_cmd(
     shield: str = typer.Option(..., "--shield", "-s", help="The new shield. " + SHIELD_HELP),
     against: str = typer.Option(..., "--against", "-a",
                                 help="The shield to compare with (old version, baseline)."),
-    as_json: bool = typer.Option(False, "--json", help="Print the full report as JSON."),
+    as_json: bool = JSON,
+    fmt: OutputFormat = FORMAT,
     fail_on_change: bool = typer.Option(False, "--fail-on-change",
                                         help="Exit 1 when anything changed."),
     symbolic: bool = typer.Option(False, "--symbolic", help="Compare over every state that "
@@ -110,8 +115,9 @@ def diff_cmd(
 ) -> None:
     """Compare two shields on every recorded state: which steps does the change block or allow?"""
     from ..checking.replay import diff
-    from ..render.text import diff_text
+    from ..render.text import diff_table, diff_text
 
+    fmt = output_format(fmt, as_json)
     if symbolic:
         from ..checking.smt import symbolic_diff
 
@@ -119,17 +125,19 @@ def diff_cmd(
             raise InputError("--symbolic compares the shields over every state: give no run "
                              "files")
         a, b = run_shield(shield, []).machine, run_shield(against, []).machine
-        _print_results(symbolic_diff(a, b, timeout_s=timeout), a, as_json, counterexamples)
+        _print_results(symbolic_diff(a, b, timeout_s=timeout), a, fmt, counterexamples)
         return
     if not runs:
         raise InputError("give run files to compare the shields on, or --symbolic")
     report = diff(runs, run_shield(shield, runs), run_shield(against, runs),
                   executor=executor.value, ray_address=ray_address)
     warn(report.warnings)
-    if as_json:
-        out.print_json(json.dumps(report.to_json()))
-    else:
+    if fmt == OutputFormat.json:
+        print_json(report.to_json())
+    elif fmt == OutputFormat.text:
         diff_text(out, report, ROWS)
+    else:
+        print_table(fmt, diff_table(report))
     if fail_on_change and report.anything_changed:
         err.print("failing: the shields differ on these episodes (--fail-on-change)")
         raise typer.Exit(1)
@@ -158,7 +166,8 @@ def prove_cmd(
     counterexamples: Optional[Path] = typer.Option(None, "--counterexamples", help="Write "
                                                    "each counterexample as a state file into "
                                                    "this folder."),
-    as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
+    as_json: bool = JSON,
+    fmt: OutputFormat = FORMAT,
 ) -> None:
     """Prove properties of a shield over every state, with an SMT solver (z3): deadlock
     freedom, implications, well-definedness. Exit 0: all proved; 1: a counterexample; 3:
@@ -166,6 +175,7 @@ def prove_cmd(
     from ..checking.shield import load_shield
     from ..checking.smt import prove
 
+    fmt = output_format(fmt, as_json)
     machine = load_shield(shield).machine
     pairs = []
     if obligations is not None:
@@ -187,7 +197,7 @@ def prove_cmd(
         raise InputError("nothing to prove: give --deadlock-free, --implies or --well-defined")
     results = prove(machine, deadlock_free=deadlock_free, implies=tuple(pairs),
                     well_defined=well_defined, assume=tuple(assume), timeout_s=timeout)
-    _print_results(results, machine, as_json, counterexamples)
+    _print_results(results, machine, fmt, counterexamples)
 
 
 def _obligations_file(path: Path) -> dict:
@@ -225,7 +235,12 @@ def _obligations_file(path: Path) -> dict:
     return out
 
 
-def _print_results(results, machine, as_json: bool, folder: Optional[Path]) -> None:
+def _decisions(extra) -> str:
+    """Which shield enables the operation in a distinguishing state (``diff --symbolic``)."""
+    return ", ".join(f"{k} {'enables' if v else 'blocks'} it" for k, v in (extra or {}).items())
+
+
+def _print_results(results, machine, fmt: OutputFormat, folder: Optional[Path]) -> None:
     """Print proof or symbolic-diff results and write the counterexamples. Exit 0: all
     proved (equivalent); 1: a counterexample (a difference); 3: unknown (a construct that
     cannot be translated, a timeout); 4: the solver and tracecheck's evaluator disagree."""
@@ -245,13 +260,20 @@ def _print_results(results, machine, as_json: bool, folder: Optional[Path]) -> N
                 path.write_text(json.dumps({k: to_json(v) for k, v in r.state.items()},
                                            indent=1) + "\n", encoding="utf-8")
                 written[i] = str(path)
-    if as_json:
-        out.print_json(json.dumps([{
+    if fmt == OutputFormat.json:
+        print_json([{
             "obligation": r.obligation, "status": r.status, "reason": r.reason or None,
             "reading": r.reading or None, "disagreement": r.disagreement or None,
             "decisions": r.extra or None, "counterexample_file": written.get(i),
             "state": {k: to_json(v) for k, v in r.state.items()} if r.state else None,
-        } for i, r in enumerate(results)]))
+        } for i, r in enumerate(results)])
+    elif fmt != OutputFormat.text:
+        from ..render.tables import TableData
+
+        print_table(fmt, TableData.of(
+            ["obligation", "status", "reason", "reading", "decisions", "counterexample file"],
+            ([r.obligation, r.status, r.reason, r.reading, _decisions(r.extra), written.get(i)]
+             for i, r in enumerate(results))))
     else:
         for i, r in enumerate(results):
             line = f"{r.obligation}: {r.status}"
@@ -261,8 +283,7 @@ def _print_results(results, machine, as_json: bool, folder: Optional[Path]) -> N
             if r.reading:
                 out.print(f"  {r.reading}", markup=False)
             if r.extra:
-                out.print("  " + ", ".join(f"{k} {'enables' if v else 'blocks'} it"
-                                           for k, v in r.extra.items()), markup=False)
+                out.print("  " + _decisions(r.extra), markup=False)
             if i in written:
                 out.print(f"  state: {written[i]}", markup=False)
     bad = [r for r in results if r.disagreement]

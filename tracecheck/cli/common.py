@@ -4,15 +4,17 @@ and small helpers. A thin layer: each command calls the library and prints.
 
 from __future__ import annotations
 
+import json
+import sys
+from contextlib import contextmanager
 from enum import Enum
 from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.console import Console
-from rich.markup import escape
 
 from .. import __version__
+from ..errors import InputError
 
 app = typer.Typer(
     name="tracecheck",
@@ -21,8 +23,46 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
 )
-out = Console(highlight=False, soft_wrap=True)
-err = Console(stderr=True, highlight=False, soft_wrap=True)
+
+
+class _Console:
+    """A rich console made on first use, so commands that print plain lines (``eval``) do not
+    import rich. Markup and emoji codes are off unless a call asks for markup (and escapes
+    what it interpolates): a file named ``run[bold].mcap`` or a B string with ``:smile:`` in
+    it is data."""
+
+    def __init__(self, **options) -> None:
+        self._options = options
+        self._console = None
+
+    @property
+    def console(self):
+        """The rich ``Console`` itself (for progress bars and the like)."""
+        if self._console is None:
+            from rich.console import Console
+
+            self._console = Console(highlight=False, soft_wrap=True, emoji=False,
+                                    markup=False, **self._options)
+        return self._console
+
+    def __getattr__(self, name: str):
+        return getattr(self.console, name)
+
+
+def escape(text: str) -> str:
+    """``text`` with rich markup escaped (rich imported only when something is printed)."""
+    from rich.markup import escape as rich_escape
+
+    return rich_escape(text)
+
+
+def plain(line: str) -> None:
+    """Print one line to standard output as it is: no markup, no emoji codes, no rich."""
+    sys.stdout.write(line + "\n")
+
+
+out = _Console()
+err = _Console(stderr=True)
 
 
 def _version(value: bool) -> None:
@@ -80,6 +120,37 @@ RAY_ADDRESS = typer.Option(None, "--ray-address",
 class OutputFormat(str, Enum):
     text = "text"
     md = "md"
+    csv = "csv"
+    json = "json"
+
+
+# every command that prints a table takes these two
+FORMAT = typer.Option(OutputFormat.text, "--format", help="text (for people, fitted to the "
+                      "terminal), md (a Markdown table), csv (the table, every row) or json "
+                      "(the full report).")
+JSON = typer.Option(False, "--json", help="The same as --format json.")
+
+
+def output_format(fmt: OutputFormat, as_json: bool) -> OutputFormat:
+    """The format asked for: ``--json`` is ``--format json``."""
+    if as_json and fmt not in (OutputFormat.text, OutputFormat.json):
+        raise InputError(f"--json and --format {fmt.value} ask for two formats; give one")
+    return OutputFormat.json if as_json else fmt
+
+
+def print_json(data) -> None:
+    """``data`` as indented JSON on standard output."""
+    out.print_json(json.dumps(data))
+
+
+def print_table(fmt: OutputFormat, table) -> None:
+    """A ``TableData`` as Markdown or CSV on standard output, as it is."""
+    from ..render.tables import csv_text, markdown
+
+    if fmt == OutputFormat.csv:
+        sys.stdout.write(csv_text(table))
+    else:
+        plain(markdown(table))
 
 
 class FailOn(str, Enum):
@@ -108,12 +179,6 @@ def run_shield(spec: str, runs: list[Path]):
         return load_shield(spec)
     header = read_header(runs[0])
     return load_shield(spec, actions=tuple(header.actions) or None)
-
-
-class StatsFormat(str, Enum):
-    text = "text"
-    md = "md"
-    csv = "csv"
 
 
 class Interval(str, Enum):
@@ -152,10 +217,25 @@ class Algorithm(str, Enum):
     q_learning = "q-learning"
 
 
+@contextmanager
+def progress(label: str, total: Optional[int] = None, unit: str = "episodes"):
+    """A progress bar on standard error (drawn only on a terminal, gone when done); yields
+    ``advance(n=1)``."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    columns = [TextColumn(label), BarColumn(),
+               TextColumn("{task.completed}" + ("/{task.total}" if total else "") + f" {unit}")]
+    if total:
+        columns.append(TimeRemainingColumn())
+    with Progress(*columns, console=err.console, transient=True) as bar:
+        task = bar.add_task(label, total=total)
+        yield lambda n=1: bar.advance(task, n)
+
+
 def warn(messages) -> None:
     """Print each warning of a library result (damaged files and the like)."""
     for warning in messages:
-        err.print(f"[yellow]warning[/yellow]: {escape(warning)}")
+        err.print(f"[yellow]warning[/yellow]: {escape(warning)}", markup=True)
 
 
 FORCE = typer.Option(False, "--force", help="Replace an existing output (a recording only once "

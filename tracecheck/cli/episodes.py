@@ -2,19 +2,20 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Optional
 
 import typer
 
 from ..errors import InputError
-from .common import app, out, err, warn, load_model, SALVAGE
+from .common import (app, out, err, warn, load_model, SALVAGE, FORMAT, JSON, OutputFormat,
+                     output_format, plain, print_json, print_table, progress, FORCE)
 
 
 import_app = typer.Typer(help="Import ProB/SimB traces into an MCAP run file.",
                          no_args_is_help=True)
-export_app = typer.Typer(help="Export episodes as ProB/SimB traces.", no_args_is_help=True)
+export_app = typer.Typer(help="Export episodes: ProB/SimB traces, Foxglove channels, Minari "
+                                "datasets.", no_args_is_help=True)
 app.add_typer(import_app, name="import")
 app.add_typer(export_app, name="export")
 
@@ -76,6 +77,49 @@ def import_prob2trace_cmd(
 ) -> None:
     """Import ProB2 trace files (one episode each; 1 s between steps)."""
     _import("prob2trace", paths, output, model)
+
+
+@import_app.command("minari")
+def import_minari_cmd(
+    dataset: str = typer.Argument(..., help="A local Minari dataset id, e.g. "
+                                            "tracecheck/highway/paper-v0."),
+    env: str = typer.Option(..., "--env", help="The adapter that makes the dataset's "
+                            "observations B states: an installed one (see `tracecheck envs`) "
+                            "or package.module:Class (importing it runs its code)."),
+    output: Path = _OUTPUT,
+) -> None:
+    """Import a Minari dataset, so that replay, diff and stats can check it against a shield."""
+    from ..episodes.files import write_run
+    from ..interop.minari import import_minari
+
+    existed = output.exists()
+    try:
+        with progress(f"importing {dataset}") as advance:
+            header, episodes = import_minari(dataset, env, progress=advance)
+            n, steps, crashes = write_run(output, header, episodes)
+    except KeyboardInterrupt:
+        err.print(f"interrupted: {output} was not " + ("changed" if existed else "written"))
+        raise typer.Exit(130) from None
+    plain(f"imported {n} episode(s), {steps} step(s), {crashes} crash(es) -> {output}")
+
+
+@export_app.command("minari")
+def export_minari_cmd(
+    run: Path = typer.Argument(..., help="An MCAP run file recorded by tracecheck (with "
+                                         "observations)."),
+    salvage: bool = SALVAGE,
+    dataset_id: str = typer.Option(..., "--dataset-id", help="NAMESPACE/ENV/NAME-v0: the "
+                                   "local Minari dataset to create (MINARI_DATASETS_PATH, "
+                                   "default ~/.minari/datasets)."),
+) -> None:
+    """Export a run as a Minari dataset: observations, actions, rewards, terminations,
+    truncations, seeds, and per step the shield's mask, interventions, deadlocks, B states."""
+    from ..interop.minari import export_minari
+
+    with progress("exporting to Minari") as advance:
+        dataset = export_minari(run, dataset_id, progress=advance)
+    plain(f"wrote {dataset.total_episodes} episode(s), {dataset.total_steps} step(s) -> Minari "
+          f"dataset {dataset_id}")
 
 
 def _episodes(run: Path, only: Optional[set[int]] = None) -> list:
@@ -145,6 +189,43 @@ def export_simb_cmd(
     out.print(f"wrote {len(written)} SimB trace(s) -> {output}", markup=False)
 
 
+@export_app.command("foxglove")
+def export_foxglove_cmd(
+    run: Path = typer.Argument(..., help="An MCAP run file (recorded before Foxglove's "
+                                         "channels were written, or imported)."),
+    salvage: bool = SALVAGE,
+    output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
+    force: bool = FORCE,
+) -> None:
+    """Copy a run with Foxglove's own channels added: a 3D scene (foxglove.SceneUpdate), a
+    log of interventions, deadlocks and crashes (foxglove.Log) and scalars to plot."""
+    from ..episodes.files import refuse_existing, write_run
+    from ..episodes.reader import read_run
+
+    if output.resolve() == run.resolve():
+        raise InputError(f"the output {output} is the input; give another name")
+    refuse_existing(output, force)
+    result = read_run(run)
+    warn(result.warnings)
+    if not result.episodes:
+        raise InputError(f"{run} holds no complete episode")
+
+    def counted(advance):
+        for episode in result.episodes:
+            yield episode
+            advance()
+
+    existed = output.exists()
+    try:
+        with progress("adding Foxglove channels", len(result.episodes)) as advance:
+            episodes, steps, _ = write_run(output, result.header, counted(advance),
+                                           foxglove=True)
+    except KeyboardInterrupt:
+        err.print(f"interrupted: {output} was not " + ("changed" if existed else "written"))
+        raise typer.Exit(130) from None
+    plain(f"wrote {episodes} episode(s), {steps} step(s) with Foxglove channels -> {output}")
+
+
 def _ranges(ids: list[int]) -> str:
     ids = sorted(ids)
     parts, start = [], ids[0]
@@ -159,23 +240,34 @@ def _ranges(ids: list[int]) -> str:
 def info(
     runs: list[Path] = typer.Argument(..., help="MCAP run files."),
     salvage: bool = SALVAGE,
-    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+    as_json: bool = JSON,
+    fmt: OutputFormat = FORMAT,
 ) -> None:
     """Summarise run files: episodes, steps, crashes, sources, agents and shields."""
     from ..episodes.summary import summarise
+    from ..render.tables import TableData
 
+    fmt = output_format(fmt, as_json)
     summary = summarise(runs)
     warn(summary["warnings"])
-    if as_json:
-        out.print_json(json.dumps(summary))
+    if fmt == OutputFormat.json:
+        print_json(summary)
         return
-    for f in summary["files"]:
-        model = f", model {f['model_name']}" if f["model_name"] else ""
-        out.print(f"{f['path']}: {f['source']}, {f['episodes']} episode(s), {f['steps']} "
-                  f"step(s), {f['crashes']} crash(es){model}", markup=False)
+    table = TableData.of(["file", "source", "episodes", "steps", "crashes", "model"],
+                         ([f["path"], f["source"], f["episodes"], f["steps"], f["crashes"],
+                           f["model_name"]] for f in summary["files"]))
+    if fmt != OutputFormat.text:
+        print_table(fmt, table)
+        return
+    from ..render.tables import fitted, terminal_width, wrapped
+
+    width = terminal_width()
+    for line in fitted(table, width):
+        plain(line)
     rate = summary["crashes"] / summary["episodes"] if summary["episodes"] else 0.0
-    out.print(f"total: {summary['episodes']} episode(s), {summary['steps']} step(s), "
-              f"{summary['crashes']} crash(es) ({rate:.1%})", markup=False)
-    for key in ("agents", "shields"):
-        if summary[key]:
-            out.print(f"{key}: {', '.join(summary[key])}", markup=False)
+    lines = [f"total: {summary['episodes']} episode(s), {summary['steps']} step(s), "
+             f"{summary['crashes']} crash(es) ({rate:.1%})"]
+    lines += [f"{key}: {', '.join(summary[key])}" for key in ("agents", "shields")
+              if summary[key]]
+    for line in lines:  # wrapped between words, never inside one
+        plain(wrapped(line, width))

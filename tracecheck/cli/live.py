@@ -2,17 +2,16 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.table import Table
 
 from ..errors import InputError
 from .common import (app, out, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, Profile, ENV,
                      ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, Algorithm, FORCE,
-                     RUN_SHIELD, SEED, WORKERS)
+                     RUN_SHIELD, SEED, WORKERS, FORMAT, JSON, OutputFormat, output_format,
+                     plain, print_json, print_table)
 
 
 @app.command("train")
@@ -54,7 +53,7 @@ def train_cmd(
 
     with Progress(TextColumn("training {task.fields[profile]}"), BarColumn(),
                   TextColumn("{task.completed}/{task.total} steps"), TimeRemainingColumn(),
-                  console=err, transient=True) as bar:
+                  console=err.console, transient=True) as bar:
         task = bar.add_task("train", total=steps, profile=profile.value)
         card = train(profile.value, output, steps=steps, seed=seed, duration=duration or 60,
                      progress=lambda done, total: bar.update(task, completed=done))
@@ -97,7 +96,7 @@ def record_cmd(
     with Progress(TextColumn("recording"), BarColumn(),
                   TextColumn("{task.completed}/{task.total} episodes, {task.fields[crashes]} "
                              "crash(es), {task.fields[rate]} steps/s"),
-                  TimeRemainingColumn(), console=err, transient=True) as bar:
+                  TimeRemainingColumn(), console=err.console, transient=True) as bar:
         task = bar.add_task("record", total=episodes, crashes=0, rate="-")
 
         def progress(ep) -> None:
@@ -120,14 +119,17 @@ def record_cmd(
 
 @app.command("envs")
 def envs_cmd(
-    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+    as_json: bool = JSON,
+    fmt: OutputFormat = FORMAT,
 ) -> None:
     """List the environment adapters: actions, state variables, default shield, and whether
     the packages they need are installed."""
     import importlib.util
 
     from ..live.adapter import adapters
+    from ..render.tables import TableData
 
+    fmt = output_format(fmt, as_json)
     rows = []
     for info in adapters():
         a = info.adapter
@@ -138,17 +140,27 @@ def envs_cmd(
                        variables=list(a.variables), default_shield=a.default_shield,
                        horizon=a.horizon, installed=not missing, missing=missing)
         rows.append(row)
-    if as_json:
-        out.print_json(json.dumps(rows))
+    if fmt == OutputFormat.json:
+        print_json(rows)
         return
-    table = Table(box=None, header_style="bold")
-    for col in ("name", "environment", "actions", "variables", "shield", "installed"):
-        table.add_column(col, overflow="fold")
-    for r in rows:
-        if r["problem"]:
-            table.add_row(r["name"], r["adapter"], "", "", "", f"no: {r['problem']}")
+    table = TableData.of(
+        ["name", "environment", "actions", "variables", "shield", "installed"],
+        ([r["name"], r["adapter"], "", "", "", f"no: {r['problem']}"] if r["problem"] else
+         [r["name"], r["environment"], ", ".join(r["actions"]), ", ".join(r["variables"]),
+          r["default_shield"] or "",
+          "yes" if r["installed"] else "no: needs " + ", ".join(r["missing"])]
+         for r in rows))
+    if fmt != OutputFormat.text:
+        print_table(fmt, table)
+        return
+    from ..render.tables import terminal_width, wrapped
+
+    width = terminal_width()  # a block per environment, wrapped between items
+    for name, environment, actions, variables, shield, installed in table.rows:
+        if not actions:
+            plain(wrapped(f"{name} ({environment}): {installed}", width))
             continue
-        table.add_row(r["name"], r["environment"], ", ".join(r["actions"]),
-                      ", ".join(r["variables"]), r["default_shield"] or "",
-                      "yes" if r["installed"] else "no: needs " + ", ".join(r["missing"]))
-    out.print(table)
+        plain(wrapped(f"{name} ({environment}), shield {shield or '(none)'}, installed: "
+                      f"{installed}", width))
+        plain(wrapped(f"  actions: {actions}", width, "    "))
+        plain(wrapped(f"  variables: {variables}", width, "    "))

@@ -7,21 +7,24 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.table import Table
 
 from ..errors import EvaluationError, InputError, TracecheckError
-from .common import app, out, load_model
+from .common import (app, escape, out, load_model, plain, FORMAT, JSON, OutputFormat,
+                     output_format, print_json, print_table)
 
 
 @app.command("check-model")
 def check_model(
     model: Path = typer.Argument(..., help="A classical B machine (.mch), or none, paper, "
                                            "strict."),
-    as_json: bool = typer.Option(False, "--json", help="Print a JSON summary."),
+    as_json: bool = JSON,
+    fmt: OutputFormat = FORMAT,
 ) -> None:
     """Parse and check a B machine; list its sets, constants, variables and operations."""
     from ..b.values import format_value
+    from ..render.tables import TableData, terminal_width
 
+    fmt = output_format(fmt, as_json)
     machine = load_model(model)
     types = machine.types
     summary = {
@@ -37,25 +40,39 @@ def check_model(
             for name, op in machine.operations.items()
         },
     }
-    if as_json:
-        out.print_json(json.dumps(summary))
+    if fmt == OutputFormat.json:
+        print_json(summary)
         return
-    out.print(f"[bold]MACHINE {machine.name}[/bold]  ({model}, sha256 {machine.sha256[:12]}…)")
+    if fmt != OutputFormat.text:  # one row per set, constant, variable and operation
+        print_table(fmt, TableData.of(["kind", "name", "value or type", "description or guard"], [
+            *(["set", n, "{" + ", ".join(e) + "}", ""] for n, e in summary["sets"].items()),
+            *(["constant", n, v, ""] for n, v in summary["constants"].items()),
+            *(["variable", n, i["type"] or "?", i["description"] or ""]
+              for n, i in summary["variables"].items()),
+            *(["operation", n + (f"({', '.join(i['parameters'])})" if i["parameters"] else ""),
+               "", i["guard"] or "TRUE"] for n, i in summary["operations"].items())]))
+        return
+    out.print(f"[bold]MACHINE {escape(machine.name)}[/bold]  ({escape(str(model))}, sha256 "
+              f"{machine.sha256[:12]}…)", markup=True)
     for name, elems in summary["sets"].items():
         out.print(f"  set {name} = {{{', '.join(elems)}}}", markup=False)
     for name, value in summary["constants"].items():
         out.print(f"  constant {name} = {value}", markup=False)
+    from rich.table import Table
+
+    from ..render.text import literal_row
+
     table = Table("variable", "type", "description", box=None, pad_edge=False)
     for name, info in summary["variables"].items():
-        table.add_row(name, info["type"] or "?", info["description"] or "")
+        literal_row(table, [name, info["type"] or "?", info["description"] or ""])
     if machine.variables:
         out.print(table)
     for name, info in summary["operations"].items():
         guard = info["guard"] or "TRUE"
         params = f"({', '.join(info['parameters'])})" if info["parameters"] else ""
-        out.print(f"  operation {name}{params}: guard {_clip(guard)}", markup=False)
+        plain(_clip(f"  operation {name}{params}: guard {guard}", terminal_width()))
     out.print(f"[green]ok[/green]: {len(machine.operations)} operation(s), "
-              f"{len(machine.variables)} variable(s)")
+              f"{len(machine.variables)} variable(s)", markup=True)
 
 
 def _clip(text: str, width: int = 100) -> str:
@@ -101,7 +118,7 @@ def eval_(
         out.print_json(json.dumps(results[0] if len(results) == 1 else results))
     else:
         for r in results:
-            out.print(r["value"], markup=False)
+            plain(r["value"])
 
 
 def _evaluator(model: Optional[Path], state: Optional[Path]):

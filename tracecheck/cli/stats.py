@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 from typing import Optional
@@ -11,11 +10,11 @@ import typer
 
 from ..errors import InputError
 from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, EPISODE_EXECUTOR, RAY_ADDRESS,
-                     StatsFormat, Interval, ENV, ENV_CONFIG, PROFILE, DURATION, AGENT,
+                     OutputFormat, FORMAT, JSON, output_format, print_json, plain, Interval, ENV, ENV_CONFIG, PROFILE, DURATION, AGENT,
                      record_settings, FORCE, RUN_SHIELD, SEED, WORKERS, SALVAGE)
 
 
-def _print_stats(result: dict, as_json: bool, fmt: "StatsFormat", plot: Optional[Path]) -> None:
+def _print_stats(result: dict, fmt: OutputFormat, plot: Optional[Path]) -> None:
     from ..render.stats_text import stats_csv, stats_markdown, stats_plots, stats_text
 
     warn(result["warnings"])
@@ -25,11 +24,11 @@ def _print_stats(result: dict, as_json: bool, fmt: "StatsFormat", plot: Optional
         except OSError as exc:
             raise InputError(f"cannot write the plots into {plot}: {exc}") from None
         err.print(f"wrote {len(written)} plot file(s) into {plot}")
-    if as_json:
-        out.print_json(json.dumps(result))
-    elif fmt == StatsFormat.md:
-        out.print(stats_markdown(result), markup=False)
-    elif fmt == StatsFormat.csv:
+    if fmt == OutputFormat.json:
+        print_json(result)
+    elif fmt == OutputFormat.md:
+        plain(stats_markdown(result))
+    elif fmt == OutputFormat.csv:
         sys.stdout.write(stats_csv(result))
     else:
         stats_text(out, result)
@@ -44,8 +43,8 @@ def stats_cmd(
         "cliffwalking) or a property file (TOML). Default: the runs' environment's."),
     names: Optional[list[str]] = typer.Option(None, "--names",
                                               help="Only these metrics and properties."),
-    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
-    fmt: StatsFormat = typer.Option(StatsFormat.text, "--format", help="text, md or csv."),
+    as_json: bool = JSON,
+    fmt: OutputFormat = FORMAT,
     interval: Interval = typer.Option(Interval.wilson, "--interval",
                                       help="Interval for property shares."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Write PNG and SVG plots here."),
@@ -53,13 +52,14 @@ def stats_cmd(
     ray_address: Optional[str] = RAY_ADDRESS,
 ) -> None:
     """Estimate metrics and property shares per run, side by side like the paper's tables."""
+    fmt = output_format(fmt, as_json)
     from ..stats.properties import load_properties
     from ..stats.estimates import default_properties, statistics
 
     pset = load_properties(properties or default_properties(runs)).select(names)
     result = statistics(runs, pset, interval=interval.value, executor=executor.value,
                         ray_address=ray_address)
-    _print_stats(result, as_json, fmt, plot)
+    _print_stats(result, fmt, plot)
 
 
 
@@ -83,8 +83,8 @@ def simulate_cmd(
     until_ci_width: Optional[float] = typer.Option(
         None, "--until-ci-width", help="Stop once every property's 95 % interval is narrower "
                                        "than this (a share, e.g. 0.1)."),
-    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
-    fmt: StatsFormat = typer.Option(StatsFormat.text, "--format", help="text, md or csv."),
+    as_json: bool = JSON,
+    fmt: OutputFormat = FORMAT,
     output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
     force: bool = FORCE,
 ) -> None:
@@ -95,13 +95,15 @@ def simulate_cmd(
     from ..live.record import resolve
     from ..stats.simulate import simulate
 
+    fmt = output_format(fmt, as_json)
+
     settings = record_settings(env, env_config, agent=str(agent), shield=shield, episodes=episodes,
                          seed=seed, duration=duration, profile=profile, workers=workers,
                          executor=executor.value, ray_address=ray_address)
     pset = load_properties(properties or resolve(settings)[0].properties or "highway")
     with Progress(TextColumn("simulating"), BarColumn(),
                   TextColumn("{task.completed}/{task.total} episodes"), TimeRemainingColumn(),
-                  console=err, transient=True) as bar:
+                  console=err.console, transient=True) as bar:
         task = bar.add_task("simulate", total=episodes)
         result = simulate(settings, output, pset, until_width=until_ci_width, force=force,
                           progress=lambda ep: bar.advance(task))
@@ -111,4 +113,4 @@ def simulate_cmd(
         err.print(f"sequential rule: {seq['rule']}; {seq['looks']} look(s), "
                   f"{'stopped early' if seq['stopped_early'] else 'ran to the end'}; "
                   f"widths {widths}", highlight=False, markup=False)
-    _print_stats(result, as_json, fmt, None)
+    _print_stats(result, fmt, None)

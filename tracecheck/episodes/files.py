@@ -16,9 +16,10 @@ from .schema import RunHeader
 __all__ = ["write_run", "recording_into", "refuse_existing"]
 
 
-def write_run(path: str | Path, header: RunHeader,
-              episodes: Iterable[Episode]) -> tuple[int, int, int]:
-    """Write ``episodes`` to ``path``; (episodes, steps, crashes) written.
+def write_run(path: str | Path, header: RunHeader, episodes: Iterable[Episode], *,
+              foxglove: bool = False) -> tuple[int, int, int]:
+    """Write ``episodes`` to ``path``; (episodes, steps, crashes) written; ``foxglove`` adds
+    Foxglove's channels (``interop/foxglove.py``).
 
     An error while producing the episodes (a bad input file, say) leaves any existing
     ``path`` untouched and no partial file behind.
@@ -29,7 +30,7 @@ def write_run(path: str | Path, header: RunHeader,
     part = path.with_name(path.name + ".part")
     counts = [0, 0, 0]
     try:
-        with EpisodeWriter(part, header) as out:
+        with EpisodeWriter(part, header, foxglove=foxglove) as out:
             for episode in episodes:
                 out.write(episode)
                 counts[0] += 1
@@ -50,9 +51,10 @@ def refuse_existing(path: Path, force: bool) -> None:
 
 
 @contextmanager
-def recording_into(path: str | Path, header: RunHeader, *, force: bool = False
-                   ) -> Iterator[EpisodeWriter]:
-    """An :class:`EpisodeWriter` for a recording into ``path``.
+def recording_into(path: str | Path, header: RunHeader, *, force: bool = False,
+                   foxglove: bool = True) -> Iterator[EpisodeWriter]:
+    """An :class:`EpisodeWriter` for a recording into ``path`` (with Foxglove's channels
+    unless ``foxglove`` is false).
 
     An existing ``path`` is refused unless ``force``; a lock file (``NAME.lock``) makes a
     second writer of the same path fail at once. A new file is written in place (each
@@ -79,7 +81,7 @@ def recording_into(path: str | Path, header: RunHeader, *, force: bool = False
         raise
     replacing = path.exists()
     part = path.with_name(path.name + ".part") if replacing else path
-    writer = EpisodeWriter(part, header)
+    writer = EpisodeWriter(part, header, foxglove=foxglove)
     try:
         with writer:
             yield writer

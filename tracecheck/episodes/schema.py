@@ -23,7 +23,7 @@ from pydantic import BaseModel, ConfigDict, Field
 __all__ = ["RunHeader", "EpisodeHeader", "Step", "EpisodeEnd", "MESSAGES", "TOPICS",
            "export_schemas", "SCHEMA_DIR"]
 
-Source = Literal["recorded", "imported-simb", "imported-prob2trace"]
+Source = Literal["recorded", "imported-simb", "imported-prob2trace", "imported-minari"]
 EndReason = Literal["crashed", "time-limit", "end-of-trace", "deadlock", "interrupted"]
 
 

@@ -43,9 +43,10 @@ class EpisodeWriter:
     ...     out.write(episode)
     """
 
-    def __init__(self, path: str | Path, header: S.RunHeader) -> None:
+    def __init__(self, path: str | Path, header: S.RunHeader, foxglove: bool = False) -> None:
         self.path = Path(path)
         self.header = header
+        self.foxglove = foxglove  # also Foxglove's own channels (interop/foxglove.py)
         self.episodes = 0
         self._stream: Optional[IO[bytes]] = None
         self._writer: Optional[Writer] = None
@@ -77,11 +78,40 @@ class EpisodeWriter:
                                                data=S.schema_json(name).encode())
             self._channels[name] = self._writer.register_channel(
                 topic=S.TOPICS[name], message_encoding="json", schema_id=sid)
+        if self.foxglove:
+            self._register_foxglove()
         self._clock_ns = _time.time_ns()
         self._crc = 0
         self._emit("tracecheck.RunHeader", self.header.model_dump_json().encode(), 0.0)
         self._run_crc = self._crc
         self._flush()
+
+    def _register_foxglove(self) -> None:
+        import orjson
+
+        from ..interop.foxglove import SCHEMAS, TOPICS
+
+        ids = {name: self._writer.register_schema(name=name, encoding="jsonschema",
+                                                  data=orjson.dumps(schema))
+               for name, schema in SCHEMAS.items()}
+        for topic, name in TOPICS.items():
+            self._channels[topic] = self._writer.register_channel(
+                topic=topic, message_encoding="json", schema_id=ids[name])
+
+    def _emit_foxglove(self, episode: int, step, previous_crashed: bool) -> None:
+        """Foxglove's channels for one step, right after its step message (not in the
+        episode's checksum: tracecheck never reads them; the run blob's checksum of the
+        file's bytes covers them)."""
+        import orjson
+
+        from ..interop.foxglove import step_messages
+
+        t = self._clock_ns + int(round(step.time * _NS))
+        for m in step_messages(step, episode=episode, stamp_ns=t,
+                               zones=self.header.shield_name == "paper",
+                               previous_crashed=previous_crashed):
+            self._writer.add_message(channel_id=self._channels[m.topic], log_time=t,
+                                     publish_time=t, data=orjson.dumps(m.data))
 
     def close(self) -> None:
         """Write the summary (index and statistics) and close the file."""
@@ -160,7 +190,7 @@ class EpisodeWriter:
         start = self._stream.tell()
         self._emit("tracecheck.EpisodeHeader", header.model_dump_json(exclude_none=True).encode(),
                    0.0)
-        for s in ep.steps:
+        for k, s in enumerate(ep.steps):
             try:
                 state = encode_state(s.state)
             except TracecheckError as exc:
@@ -180,6 +210,8 @@ class EpisodeWriter:
                 raise InputError(f"{self.path}, episode {ep.id}, step {s.step}: "
                                  f"{'.'.join(map(str, first['loc']))}: {first['msg']}") from None
             self._emit("tracecheck.Step", data, s.time)
+            if self.foxglove:
+                self._emit_foxglove(ep.id, s, k > 0 and ep.steps[k - 1].crashed)
         last = ep.steps[-1].time
         end = S.EpisodeEnd(episode=ep.id, steps=ep.end.steps, crashed=ep.end.crashed,
                            total_reward=ep.end.total_reward, reason=ep.end.reason)

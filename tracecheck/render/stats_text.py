@@ -8,53 +8,61 @@ from pathlib import Path
 
 from rich.console import Console
 from rich.table import Table
+from rich.text import Text
 
 __all__ = ["stats_text", "stats_markdown", "stats_csv", "stats_plots"]
 
 
-def _metric_cell(m: dict) -> str:
+def _metric_cell(m: dict, sep: str = " ") -> str:
+    """Mean ± sd and the interval; ``sep`` "\n" puts the interval on a line of its own (a
+    terminal table then wraps between the parts, never inside one)."""
     if m["sd"] is None:
         return f"{m['mean']:.2f}"
     lo, hi = m["ci95"]
-    return f"{m['mean']:.2f} ± {m['sd']:.2f} [{lo:.2f}, {hi:.2f}]"
+    return f"{m['mean']:.2f} ± {m['sd']:.2f}{sep}[{lo:.2f}, {hi:.2f}]"
 
 
-def _property_cell(p: dict) -> str:
+def _property_cell(p: dict, sep: str = "; ") -> str:
     lo, hi = p["ci95"]
-    text = f"{100 * p['ratio']:.1f} % [{100 * lo:.1f}, {100 * hi:.1f}]"
+    text = f"{100 * p['ratio']:.1f} %{' ' if sep == '; ' else sep}[{100 * lo:.1f}, {100 * hi:.1f}]"
     if "test" in p:
         t = p["test"]
         verdict = "rejected" if t["exact_rejected"] else "not rejected"
-        text += f"; H0 {verdict} (p={t['exact_p_value']:.3g})"
+        text += f"{sep}H0 {verdict}{' ' if sep == '; ' else sep}(p={t['exact_p_value']:.3g})"
     return text
 
 
-def _rows(result: dict) -> tuple[list[str], list[list[str]]]:
+def _rows(result: dict, sep: str = "") -> tuple[list[str], list[list[str]]]:
+    """Header and rows; ``sep`` "\n" splits cells into lines for a terminal."""
     runs = result["runs"]
-    header = ["", *[f"{r['name']} ({r['episodes']} ep.)" for r in runs]]
+    header = ["", *[f"{r['name']}{sep or ' '}({r['episodes']} ep.)" for r in runs]]
     rows = []
     first = next((r for r in runs if r["episodes"]), None)
     if first is None:
         return header, [["(no episodes in any run)", *["" for _ in runs]]]
     for name in first["metrics"]:
         label = result["descriptions"].get(name) or name
-        rows.append([label, *[_metric_cell(r["metrics"][name]) if r["episodes"] else
+        rows.append([label, *[_metric_cell(r["metrics"][name], sep or " ") if r["episodes"] else
                               "no episodes" for r in runs]])
     for name in first["properties"]:
         label = f"{name}: {result['descriptions'].get(name) or ''}".rstrip(": ")
-        rows.append([label, *[_property_cell(r["properties"][name]) if r["episodes"] else
+        rows.append([label, *[_property_cell(r["properties"][name], sep or "; ") if r["episodes"] else
                               "no episodes" for r in runs]])
     return header, rows
 
 
 def stats_text(console: Console, result: dict) -> None:
-    header, rows = _rows(result)
-    table = Table(*header, title=f"{result['properties_set']}: metrics mean ± sd [95 % t "
-                                 f"interval]; properties % of episodes [95 % "
-                                 f"{result['interval']} interval]")
+    from .text import literal_row
+
+    header, rows = _rows(result, "\n")
+    table = Table(title=Text(f"{result['properties_set']}: metrics mean ± sd [95 % t interval]; "
+                             f"properties % of episodes [95 % {result['interval']} interval]"),
+                  show_lines=True)
+    for i, name in enumerate(header):  # a value column keeps each item on a line of its own
+        table.add_column(Text(name), no_wrap=i > 0)
     for row in rows:
-        table.add_row(*row)
-    console.print(table)
+        literal_row(table, row)
+    console.print(table, soft_wrap=False)
     for c in result["comparisons"]:
         console.print(f"paired {c['runs'][0]} vs {c['runs'][1]} ({c['pairs']} shared seeds):",
                       highlight=False)

@@ -3,11 +3,21 @@
 from __future__ import annotations
 
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
+from rich.text import Text
 
 from ..checking.replay import DiffReport, EpisodeReplay, ReplayReport
+from .tables import TableData, markdown
 
-__all__ = ["replay_text", "replay_markdown", "diff_text"]
+__all__ = ["replay_text", "replay_markdown", "replay_table", "diff_text", "diff_table",
+           "literal_row"]
+
+
+def literal_row(table: Table, cells) -> None:
+    """Add a row whose cells are shown as they are: a file named ``run[bold].mcap`` keeps its
+    brackets (a plain string in a rich table is read as markup)."""
+    table.add_row(*(Text(str(cell)) for cell in cells))
 
 
 def _short(sha: str) -> str:
@@ -116,7 +126,7 @@ def _ltl_lines(r: ReplayReport, rows: int) -> list[str]:
 
 def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
     for i, line in enumerate(_summary_lines(r) + _resim_lines(r) + _ltl_lines(r, rows)):
-        console.print(f"[bold]{line}[/bold]" if i == 0 else line, markup=i == 0,
+        console.print(f"[bold]{escape(line)}[/bold]" if i == 0 else line, markup=i == 0,
                       highlight=False, soft_wrap=False)  # wrapped between words
     matters = [e for e in r.per_episode if e.matters]
     if not matters:
@@ -134,7 +144,7 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
             table.add_column(header, no_wrap=header != "other", overflow="fold")
     for e in matters[:rows]:
         row = _row(e, lambda a: codes.get(a, a))
-        table.add_row(*(row[1:] if one_file else row))
+        literal_row(table, row[1:] if one_file else row)
     console.print(table)
     legend = ", ".join(f"{c} = {a}" for a, c in sorted(codes.items(), key=lambda x: x[1])
                        if c != a)
@@ -149,24 +159,30 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
                       "gives everything")
 
 
+def replay_table(r: ReplayReport, episodes=None) -> TableData:
+    """The episode table with full names: ``episodes`` (default: every episode replayed)."""
+    return TableData.of(HEADERS, (_row(e) for e in (r.per_episode if episodes is None
+                                                   else episodes)))
+
+
 def replay_markdown(r: ReplayReport, rows: int) -> str:
     lines = [f"# Replay: shield `{r.shield['name']}`", ""]
     lines += [f"- {line}" for line in _summary_lines(r) + _resim_lines(r) + _ltl_lines(r, rows)]
     matters = [e for e in r.per_episode if e.matters]
     if matters:
-        lines += ["", "| " + " | ".join(HEADERS) + " |",
-                  "|" + "---|" * len(HEADERS)]
-        lines += ["| " + " | ".join(cell.replace("|", "\\|") for cell in _row(e)) + " |"
-                  for e in matters[:rows]]
+        lines += ["", markdown(replay_table(r, matters[:rows]))]
         if len(matters) > rows:
-            lines.append(f"\n{len(matters) - rows} more episode(s) in the JSON report.")
+            lines.append(f"\n{len(matters) - rows} more episode(s): --all lists them, the "
+                         "JSON report has everything.")
     return "\n".join(lines)
 
 
 def diff_text(console: Console, d: DiffReport, rows: int) -> None:
-    console.print(f"[bold]Shield {d.shield['name']} ({_short(d.shield['sha256'])}) against "
-                  f"{d.against['name']} ({_short(d.against['sha256'])}): {d.episodes} "
-                  f"episode(s), {d.steps} step(s), {d.states} state(s)[/bold]",
+    console.print("[bold]" + escape(f"Shield {d.shield['name']} ({_short(d.shield['sha256'])}) "
+                                    f"against {d.against['name']} "
+                                    f"({_short(d.against['sha256'])}): {d.episodes} "
+                                    f"episode(s), {d.steps} step(s), {d.states} state(s)")
+                  + "[/bold]",
                   highlight=False, soft_wrap=False)
     console.print(f"changed steps: {d.changed_steps} (newly blocked {d.newly_blocked}, newly "
                   f"allowed {d.newly_allowed}); states whose enabled set differs: "
@@ -188,18 +204,30 @@ def diff_text(console: Console, d: DiffReport, rows: int) -> None:
         if header == "file":
             table.add_column(header, no_wrap=True, overflow="ellipsis", max_width=14)
         else:
-            table.add_column(header, no_wrap=not header.startswith("enabled"))
+            table.add_column(Text(header), no_wrap=not header.startswith("enabled"))
     for c in d.changes[:rows]:
-        row = [str(c.episode), str(c.step), codes.get(c.action, c.action),
-               "allowed" if c.feasible_under_shield else "blocked",
-               "allowed" if c.feasible_under_against else "blocked",
-               " ".join(codes.get(a, a) for a in c.enabled_shield),
-               " ".join(codes.get(a, a) for a in c.enabled_against)]
-        table.add_row(*(([c.file.rsplit("/", 1)[-1]] if not one_file else []) + row))
+        row = _diff_row(c, lambda a: codes.get(a, a))
+        literal_row(table, row[1:] if one_file else row)
     console.print(table)
     legend = ", ".join(f"{c} = {a}" for a, c in sorted(codes.items(), key=lambda x: x[1])
                        if c != a)
     if legend:
         console.print(f"actions: {legend}", highlight=False, soft_wrap=False)
     if len(d.changes) > rows:
-        console.print(f"… {len(d.changes) - rows} more changed step(s): use --json for all")
+        console.print(f"… {len(d.changes) - rows} more changed step(s): --format csv or json "
+                      "lists them all")
+
+
+def _diff_row(c, short=lambda a: a) -> list[str]:
+    return [c.file.rsplit("/", 1)[-1], str(c.episode), str(c.step), short(c.action),
+            "allowed" if c.feasible_under_shield else "blocked",
+            "allowed" if c.feasible_under_against else "blocked",
+            " ".join(short(a) for a in c.enabled_shield),
+            " ".join(short(a) for a in c.enabled_against)]
+
+
+def diff_table(d: DiffReport) -> TableData:
+    """Every changed step, with full action names."""
+    a, b = d.shield["name"], d.against["name"]
+    return TableData.of(["file", "episode", "step", "action", a, b, f"enabled by {a}",
+                         f"enabled by {b}"], (_diff_row(c) for c in d.changes))

@@ -21,6 +21,7 @@ from ..episodes.columns import read_columns
 from ..episodes.reader import read_run
 from ..errors import InputError
 from ..checking.shield import Shield
+from .scene import grid_cells, scene_kind, vehicles
 
 __all__ = ["render_episode", "episode_data"]
 
@@ -47,7 +48,7 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
         raise InputError(f"{run} has no episode {episode}; it has {_ids_text(ids)}",
                          hint=result.warnings[0] if result.warnings else None)
     ep = result.episodes[0]
-    scene = _scene(ep.steps[0].state)
+    scene = scene_kind(ep.steps[0].state)
     machine = shield.machine if shield is not None else None
     steps = []
     first_infeasible = None
@@ -58,7 +59,7 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
             if s.action not in steps[-1]["shield_allows"]:
                 first_infeasible = k
         ego = "EgoVehicle"
-        vehicles = _vehicles(state) if scene == "road" else []
+        cars = vehicles(state) if scene == "road" else []
         extra = {}
         if scene == "grid":
             extra = {"agent": [state["x"], state["y"]],
@@ -69,7 +70,7 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
             "crashed": s.crashed, "live_allowed": list(s.allowed_actions)
             if s.allowed_actions is not None else None,
             "shield_allows": enabled, "values": dict(s.action_values or {}) or None,
-            "preferred": s.preferred_action, "ego": ego, "vehicles": vehicles,
+            "preferred": s.preferred_action, "ego": ego, "vehicles": cars,
             "state": {k2: format_value(v) for k2, v in state.items()},
         })
     crash = next((s["step"] for s in steps if s["crashed"]), None)
@@ -77,7 +78,7 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
         "file": str(run), "episode": ep.id, "seed": ep.seed, "origin": ep.origin,
         "actions": list(result.header.actions) if result.header is not None
         and result.header.actions else sorted({s.action for s in ep.steps if s.action}),
-        "scene": scene, "grid": _grid(ep.steps[0].state) if scene == "grid" else None,
+        "scene": scene, "grid": grid_cells(ep.steps[0].state) if scene == "grid" else None,
         "shield": shield.name if shield is not None else None,
         "zones": "paper" if shield is not None and shield.name == "paper" else None,
         "first_infeasible": first_infeasible, "crash_step": crash,
@@ -86,40 +87,6 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
                 "total_reward": ep.end.total_reward},
         "steps": steps,
     }
-
-
-_ROAD = ("VehiclesX", "VehiclesY", "VehiclesVx", "VehiclesVy")
-
-
-def _scene(state: dict) -> str:
-    """road (the highway), grid (a grid world: x, y and a field keyed by (x, y)), or none
-    (the page then shows the steps and states only)."""
-    if all(hasattr(state.get(v), "map") for v in _ROAD):
-        return "road"
-    field = state.get("field")
-    if (type(state.get("x")) is int and type(state.get("y")) is int and hasattr(field, "map")
-            and all(isinstance(k, tuple) and len(k) == 2 and all(type(c) is int for c in k)
-                    for k in field.map)):
-        return "grid"
-    return "none"
-
-
-_DANGER = {"HOLE", "CLIFF"}
-
-
-def _grid(state: dict) -> dict:
-    cells = [[x, y, str(v) in _DANGER, format_value(v)]
-             for (x, y), v in sorted(state["field"].map.items())]
-    return {"cols": max(c[0] for c in cells) + 1, "rows": max(c[1] for c in cells) + 1,
-            "cells": cells}
-
-
-def _vehicles(state: dict) -> list[dict]:
-    present = {str(v) for v in state.get("PresentVehicles", ())}
-    return [{"name": str(name), "present": str(name) in present, "x": x,
-             "y": state["VehiclesY"].map[name], "vx": state["VehiclesVx"].map[name],
-             "vy": state["VehiclesVy"].map[name]}
-            for name, x in state["VehiclesX"].map.items()]
 
 
 def _ltl_marks(run, episode: int, shield: Optional[Shield], ltl: Sequence[tuple]) -> list:

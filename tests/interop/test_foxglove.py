@@ -1,0 +1,186 @@
+"""Foxglove's own channels: in new recordings, added by `export foxglove`, each message valid
+against the schema of its name, and the run read by tracecheck as before."""
+
+from __future__ import annotations
+
+import json
+
+import jsonschema
+import pytest
+from mcap.reader import make_reader
+
+from tests.cli.test_cli import run
+from tests.cli.test_formats import _untimed
+from tests.conftest import ROOT
+from tracecheck.episodes.model import StepRecord
+from tracecheck.interop.foxglove import SCHEMAS, TOPICS, step_messages
+
+PAPER = ROOT / "sample_traces" / "base_paper.mcap"
+
+# Written from Foxglove's published JSON schemas (foxglove-sdk, schemas/jsonschema): every
+# field tracecheck writes with its type, and no other field (a misspelt key fails).
+_TIME = {"type": "object", "additionalProperties": False, "required": ["sec", "nsec"],
+         "properties": {"sec": {"type": "integer", "minimum": 0},
+                        "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999}}}
+
+
+def _closed(*keys):
+    return {"type": "object", "additionalProperties": False, "required": list(keys),
+            "properties": {k: {"type": "number"} for k in keys}}
+
+
+PUBLISHED = {
+    "foxglove.SceneUpdate": {
+        "type": "object", "additionalProperties": False, "required": ["deletions", "entities"],
+        "properties": {
+            "deletions": {"type": "array", "items": {
+                "type": "object", "additionalProperties": False,
+                "required": ["timestamp", "type", "id"],
+                "properties": {"timestamp": _TIME, "type": {"enum": [0, 1]},
+                               "id": {"type": "string"}}}},
+            "entities": {"type": "array", "items": {
+                "type": "object", "additionalProperties": False,
+                "required": ["timestamp", "frame_id", "id", "lifetime", "frame_locked",
+                             "metadata", "arrows", "cubes", "spheres", "cylinders", "lines",
+                             "triangles", "texts", "models"],
+                "properties": {
+                    "timestamp": _TIME, "frame_id": {"type": "string"},
+                    "id": {"type": "string"}, "lifetime": _TIME,
+                    "frame_locked": {"type": "boolean"},
+                    "metadata": {"type": "array", "items": {
+                        "type": "object", "additionalProperties": False,
+                        "required": ["key", "value"],
+                        "properties": {"key": {"type": "string"}, "value": {"type": "string"}}}},
+                    "cubes": {"type": "array", "items": {
+                        "type": "object", "additionalProperties": False,
+                        "required": ["pose", "size", "color"],
+                        "properties": {
+                            "pose": {"type": "object", "additionalProperties": False,
+                                     "required": ["position", "orientation"],
+                                     "properties": {"position": _closed("x", "y", "z"),
+                                                    "orientation": _closed("x", "y", "z", "w")}},
+                            "size": _closed("x", "y", "z"),
+                            "color": _closed("r", "g", "b", "a")}}},
+                    **{k: {"type": "array"} for k in ("arrows", "spheres", "cylinders",
+                                                      "lines", "triangles", "texts",
+                                                      "models")}}}}}},
+    "foxglove.Log": {
+        "type": "object", "additionalProperties": False,
+        "required": ["timestamp", "level", "message", "name", "file", "line"],
+        "properties": {"timestamp": _TIME, "level": {"enum": [0, 1, 2, 3, 4, 5]},
+                       "message": {"type": "string"}, "name": {"type": "string"},
+                       "file": {"type": "string"}, "line": {"type": "integer", "minimum": 0}}},
+    "tracecheck.Scalar": {"type": "object", "additionalProperties": False,
+                          "required": ["value"], "properties": {"value": {"type": "number"}}},
+}
+
+
+def channels_and_messages(path):
+    """topic -> (schema name, schema encoding, [decoded messages])."""
+    found = {}
+    with open(path, "rb") as f:
+        for schema, channel, message in make_reader(f).iter_messages():
+            entry = found.setdefault(channel.topic, (schema.name, schema.encoding, []))
+            entry[2].append(json.loads(message.data))
+    return found
+
+
+def check_all(found, absent=()):
+    """Every channel has messages (but those in ``absent``), each valid."""
+    for topic, name in TOPICS.items():
+        if topic in absent:
+            assert topic not in found, topic
+            continue
+        schema_name, encoding, messages = found[topic]
+        assert (schema_name, encoding) == (name, "jsonschema"), topic
+        published = jsonschema.Draft202012Validator(PUBLISHED[name])
+        registered = jsonschema.Draft202012Validator(SCHEMAS[name])  # the one in the file
+        for m in messages:
+            published.validate(m)
+            registered.validate(m)
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    path = tmp_path_factory.mktemp("fox") / "paper-fox.mcap"
+    with pytest.raises(SystemExit) as info:
+        from tracecheck.cli import main
+        main(["export", "foxglove", str(PAPER), "-o", str(path)])
+    assert info.value.code in (0, None)
+    return path
+
+
+def test_export_adds_every_channel_and_each_message_is_valid(exported):
+    found = channels_and_messages(exported)
+    check_all(found)
+    steps = len(found["/tracecheck/step"][2])
+    assert len(found["/foxglove/scene"][2]) == steps == len(found["/plot/speed"][2])
+    scene = found["/foxglove/scene"][2][5]
+    ids = [e["id"] for e in scene["entities"]]
+    assert "EgoVehicle" in ids and "shield zones" in ids  # recorded under paper: its zones
+    ego = next(e for e in scene["entities"] if e["id"] == "EgoVehicle")
+    assert ego["cubes"][0]["pose"]["position"]["x"] == 0.0
+    assert ego["cubes"][0]["color"]["b"] > 0.8  # blue
+    logs = [m["message"] for m in found["/foxglove/log"][2]]
+    assert any("the shield replaced" in m for m in logs)
+    assert sum(m.endswith(": crash") for m in logs) == 2  # the run's two crashes, once each
+
+
+def test_export_keeps_what_tracecheck_reads(capsys, exported):
+    reports = []
+    for path in (PAPER, exported):
+        code, out, _ = run(capsys, "replay", str(path), "--shield", "paper", "--json")
+        assert code == 0
+        data = _untimed(json.loads(out))
+        data.pop("files")
+        for e in data["per_episode"]:
+            e.pop("file")
+        reports.append(data)
+    assert reports[0] == reports[1]
+    code, _, err = run(capsys, "export", "foxglove", str(PAPER), "-o", str(exported))
+    assert code == 2 and "exists; give another name, or --force" in err
+    code, _, err = run(capsys, "export", "foxglove", str(PAPER), "-o", str(PAPER))
+    assert code == 2 and "is the input" in err
+
+
+def test_a_new_recording_carries_the_channels(tmp_path):
+    from tracecheck.live.record import RecordSettings, record
+
+    path = tmp_path / "run.mcap"
+    record(RecordSettings(agent=str(ROOT / "models" / "agents" / "base.zip"), shield="paper",
+                          episodes=1, seed=3, duration=6), path)
+    found = channels_and_messages(path)
+    check_all(found)
+    allowed = [m["value"] for m in found["/plot/allowed_actions"][2]]
+    assert allowed and all(1 <= v <= 5 for v in allowed)
+
+
+def test_grid_worlds_are_tiles_with_the_agent(tmp_path):
+    from tracecheck.live.record import RecordSettings, record
+
+    path = tmp_path / "lake.mcap"
+    record(RecordSettings(env="frozenlake", agent=str(ROOT / "models" / "agents" /
+                                                      "frozenlake.npy"),
+                          shield="frozenlake", episodes=1, seed=0, duration=10), path)
+    found = channels_and_messages(path)
+    check_all(found, absent={"/plot/speed", "/plot/nearest_gap"})  # no vehicles to measure
+    scene = found["/foxglove/scene"][2][0]
+    tiles = next(e for e in scene["entities"] if e["id"] == "map")["cubes"]
+    assert len(tiles) == 64  # the 8 x 8 lake
+
+
+def test_log_entries_name_episode_step_and_what_happened():
+    state = {"x": 1, "y": 2}
+    step = StepRecord(step=4, time=4.0, action="SLOWER", state=state, reward=0.5, crashed=True,
+                      preferred_action="FASTER", allowed_actions=("SLOWER",), deadlock=True)
+    messages = list(step_messages(step, episode=7, stamp_ns=3_500_000_000))
+    logs = [m.data for m in messages if m.topic == "/foxglove/log"]
+    assert [(m["level"], m["message"]) for m in logs] == [
+        (3, "episode 7, step 4: the shield replaced FASTER by SLOWER"),
+        (4, "episode 7, step 4: deadlock, the shield allowed no action; the fallback was taken"),
+        (4, "episode 7, step 4: crash")]
+    assert logs[0]["timestamp"] == {"sec": 3, "nsec": 500_000_000}
+    again = list(step_messages(step, episode=7, stamp_ns=0, previous_crashed=True))
+    assert sum(m.data.get("message", "").endswith("crash") for m in again) == 0
+    scalars = {m.topic: m.data["value"] for m in messages if m.topic.startswith("/plot/")}
+    assert scalars == {"/plot/reward": 0.5, "/plot/allowed_actions": 1.0}
