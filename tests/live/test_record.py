@@ -233,6 +233,9 @@ def test_cli_record_and_resimulate(capsys, tmp_path):
     code, out, _ = run(capsys, "record", "--agent", str(BASE), "--episodes", "2",
                        "--duration", "6", "--seed", "5", "-o", str(path))
     assert code == 0 and out.startswith("recorded 2 episode(s)")
+    # the quick start's first line: wrapped between words at 80 columns, the path whole
+    assert max(map(len, out.splitlines())) <= max(80, len(str(path)))
+    assert str(path) in out.splitlines()[-1]
     code, out, _ = run(capsys, "replay", str(path), "--shield", "strict", "--resimulate",
                        "--json")
     data = json.loads(out)

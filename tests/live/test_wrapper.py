@@ -66,7 +66,10 @@ def test_deadlock_fails_closed(tmp_path):
     path.write_text(NOTHING)
     env = ShieldWrapper(make_env(), load_shield(path), fallback="IDLE")
     _, info = env.reset(seed=1)
-    assert info["shield"]["deadlock"] and not env.action_masks().any()
+    # in a deadlock the mask holds the fallback alone: what the wrapper takes, and never an
+    # empty mask for a masked learner
+    assert info["shield"]["deadlock"] and info["shield"]["allowed"] == []
+    assert env.action_masks().tolist() == [a == "IDLE" for a in ACTIONS]
     *_, info = env.step(3)
     assert info["shield"]["taken"] == "IDLE"  # the fallback, never silently action 0
 

@@ -61,6 +61,14 @@ def plain(line: str) -> None:
     sys.stdout.write(line + "\n")
 
 
+def say(line: str) -> None:
+    """A message line for people, wrapped between words at the terminal's width (80 when
+    there is none); a long file name stays whole on a line of its own."""
+    from ..render.tables import terminal_width, wrapped
+
+    plain(wrapped(line, terminal_width()))
+
+
 out = _Console()
 err = _Console(stderr=True)
 
@@ -215,12 +223,16 @@ def record_settings(env: Optional[str], env_config: list[str], **fields):
 class Algorithm(str, Enum):
     dqn = "dqn"
     q_learning = "q-learning"
+    maskable_ppo = "maskable-ppo"
 
 
 @contextmanager
 def progress(label: str, total: Optional[int] = None, unit: str = "episodes"):
     """A progress bar on standard error (drawn only on a terminal, gone when done); yields
     ``advance(n=1)``."""
+    if not err.console.is_terminal:  # a log file or a pipe: no bar, not even a blank line
+        yield lambda n=1: None
+        return
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
     columns = [TextColumn(label), BarColumn(),

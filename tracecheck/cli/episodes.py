@@ -9,7 +9,7 @@ import typer
 
 from ..errors import InputError
 from .common import (app, out, err, warn, load_model, SALVAGE, FORMAT, JSON, OutputFormat,
-                     output_format, plain, print_json, print_table, progress, FORCE)
+                     output_format, plain, print_json, print_table, progress, FORCE, say)
 
 
 import_app = typer.Typer(help="Import ProB/SimB traces into an MCAP run file.",
@@ -42,15 +42,24 @@ def _import(kind: str, paths: list[Path], output: Path, model: Optional[Path]) -
                         shield_name=machine.name if machine is not None else None,
                         shield_sha256=machine.sha256 if machine is not None else None)
     existed = output.exists()
+
     try:
-        episodes, steps, crashes = write_run(output, header,
-                                             reader(paths, vocab=vocab, machine=machine))
+        with progress(f"importing {kind} traces") as advance:
+            episodes, steps, crashes = write_run(
+                output, header, _counted(reader(paths, vocab=vocab, machine=machine), advance))
     except KeyboardInterrupt:
         err.print(f"interrupted: {output} was not " +
                   ("changed" if existed else "written"), markup=False)
         raise typer.Exit(130) from None
     out.print(f"imported {episodes} episode(s), {steps} step(s), {crashes} crash(es) "
               f"-> {output}", markup=False)
+
+
+def _counted(episodes, advance):
+    """``episodes``, calling ``advance()`` after each (for a progress bar)."""
+    for episode in episodes:
+        yield episode
+        advance()
 
 
 _OUTPUT = typer.Option(..., "--output", "-o", help="The MCAP file to write.")
@@ -100,7 +109,7 @@ def import_minari_cmd(
     except KeyboardInterrupt:
         err.print(f"interrupted: {output} was not " + ("changed" if existed else "written"))
         raise typer.Exit(130) from None
-    plain(f"imported {n} episode(s), {steps} step(s), {crashes} crash(es) -> {output}")
+    say(f"imported {n} episode(s), {steps} step(s), {crashes} crash(es) -> {output}")
 
 
 @export_app.command("minari")
@@ -118,7 +127,7 @@ def export_minari_cmd(
 
     with progress("exporting to Minari") as advance:
         dataset = export_minari(run, dataset_id, progress=advance)
-    plain(f"wrote {dataset.total_episodes} episode(s), {dataset.total_steps} step(s) -> Minari "
+    say(f"wrote {dataset.total_episodes} episode(s), {dataset.total_steps} step(s) -> Minari "
           f"dataset {dataset_id}")
 
 
@@ -210,20 +219,15 @@ def export_foxglove_cmd(
     if not result.episodes:
         raise InputError(f"{run} holds no complete episode")
 
-    def counted(advance):
-        for episode in result.episodes:
-            yield episode
-            advance()
-
     existed = output.exists()
     try:
         with progress("adding Foxglove channels", len(result.episodes)) as advance:
-            episodes, steps, _ = write_run(output, result.header, counted(advance),
-                                           foxglove=True)
+            episodes, steps, _ = write_run(output, result.header,
+                                           _counted(result.episodes, advance), foxglove=True)
     except KeyboardInterrupt:
         err.print(f"interrupted: {output} was not " + ("changed" if existed else "written"))
         raise typer.Exit(130) from None
-    plain(f"wrote {episodes} episode(s), {steps} step(s) with Foxglove channels -> {output}")
+    say(f"wrote {episodes} episode(s), {steps} step(s) with Foxglove channels -> {output}")
 
 
 def _ranges(ids: list[int]) -> str:

@@ -11,7 +11,7 @@ from ..errors import InputError
 from .common import (app, out, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, Profile, ENV,
                      ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, Algorithm, FORCE,
                      RUN_SHIELD, SEED, WORKERS, FORMAT, JSON, OutputFormat, output_format,
-                     plain, print_json, print_table)
+                     plain, print_json, print_table, progress, say, SHIELD_HELP)
 
 
 @app.command("train")
@@ -19,23 +19,32 @@ def train_cmd(
     env: Optional[str] = ENV,
     env_config: list[str] = ENV_CONFIG,
     algorithm: Algorithm = typer.Option(Algorithm.dqn, "--algorithm", help="dqn (the paper's "
-                                        "settings, highway) or q-learning (a Q-table, for "
-                                        "environments with discrete observations)."),
+                                        "settings on the highway; masked under --shield), "
+                                        "maskable-ppo (sb3-contrib, with --shield) or "
+                                        "q-learning (a Q-table, for environments with discrete "
+                                        "observations)."),
+    shield: Optional[str] = typer.Option(None, "--shield", "-s", help="Train with this shield "
+                                         "in the loop: the agent explores and exploits only "
+                                         "the actions it allows. " + SHIELD_HELP),
     profile: Profile = typer.Option(Profile.base, "--profile", help="Reward profile."),
     steps: Optional[int] = typer.Option(None, "--steps", min=1, help="Environment steps "
-                                        "(default: 20000 for dqn, 200000 for q-learning)."),
+                                        "(default: 20000 for dqn and maskable-ppo, 200000 for "
+                                        "q-learning)."),
     seed: int = typer.Option(0, "--seed", help="Random seed."),
     duration: Optional[int] = DURATION,
     output: Path = typer.Option(..., "--output", "-o", help="The agent file to write (.zip "
-                                "for dqn, .npy for q-learning)."),
+                                "for dqn and maskable-ppo, .npy for q-learning)."),
 ) -> None:
-    """Train an agent: a DQN with the paper's settings on the highway, or a Q-table."""
-    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-
+    """Train an agent: a DQN with the paper's settings on the highway, a Q-table, or — with
+    --shield — a DQN or MaskablePPO that only ever takes what the shield allows."""
     from ..live.agents import train
     from ..live.adapter import load_adapter, parse_config
 
     adapter = load_adapter(env)
+    if shield is not None or algorithm == Algorithm.maskable_ppo:
+        _train_shielded(adapter, parse_config(env_config), shield or "none", algorithm,
+                        profile, steps, seed, duration, output)
+        return
     if algorithm == Algorithm.q_learning:
         from ..live.agents import train_q_table
 
@@ -48,18 +57,46 @@ def train_cmd(
         return
     if adapter.name != "highway":
         raise InputError(f"--algorithm dqn trains the paper's highway agent; for {adapter.name} "
-                         "use --algorithm q-learning")
+                         "use --algorithm q-learning, or give --shield")
     steps = steps or 20_000
+    with progress(f"training {profile.value}", steps, "steps") as advance:
+        done = [0]
 
-    with Progress(TextColumn("training {task.fields[profile]}"), BarColumn(),
-                  TextColumn("{task.completed}/{task.total} steps"), TimeRemainingColumn(),
-                  console=err.console, transient=True) as bar:
-        task = bar.add_task("train", total=steps, profile=profile.value)
+        def report(now: int, total: int) -> None:
+            advance(now - done[0])
+            done[0] = now
+
         card = train(profile.value, output, steps=steps, seed=seed, duration=duration or 60,
-                     progress=lambda done, total: bar.update(task, completed=done))
+                     progress=report)
     out.print(f"trained {card['agent']} ({profile.value}, {steps} steps, seed {seed}) in "
               f"{card['wall_time_s']:.0f} s -> {output}; model card "
               f"{Path(output).with_suffix('.json')}", markup=False)
+
+
+def _train_shielded(adapter, env_config: dict, shield: str, algorithm: Algorithm, profile,
+                    steps: Optional[int], seed: int, duration: Optional[int],
+                    output: Path) -> None:
+    from ..checking.shield import load_shield
+    from ..live.training import train_shielded
+
+    if algorithm == Algorithm.q_learning:
+        raise InputError("shielded training takes --algorithm dqn or maskable-ppo")
+    loaded = load_shield(shield, actions=tuple(adapter.actions))
+    profile_name = profile.value if adapter.name == "highway" else None
+    config = adapter.config(env_config, profile_name, duration)
+    steps = steps or 20_000
+    with progress(f"training under {loaded.name}", steps, "steps") as advance:
+        done = [0]
+
+        def report(now: int, total: int) -> None:
+            advance(now - done[0])
+            done[0] = now
+
+        card = train_shielded(adapter, config, loaded, algorithm.value, output, steps=steps,
+                              seed=seed, progress=report)
+    say(f"trained {card['agent']} ({card['algorithm']} under shield {loaded.name}, {steps} "
+          f"steps, seed {seed}) in {card['wall_time_s']:.0f} s -> {output}; model card "
+          f"{Path(output).with_suffix('.json')}")
 
 
 @app.command("record")
@@ -111,9 +148,8 @@ def record_cmd(
             err.print(f"interrupted: {output} keeps every finished episode")
             raise typer.Exit(130) from None
     took = _time.perf_counter() - start
-    out.print(f"recorded {n} episode(s), {steps} step(s), {crashes} crash(es) with shield "
-              f"{shield} in {took:.1f} s ({steps / took:.0f} steps/s) -> {output}",
-              markup=False)
+    say(f"recorded {n} episode(s), {steps} step(s), {crashes} crash(es) with shield "
+        f"{shield} in {took:.1f} s ({steps / took:.0f} steps/s) -> {output}")
 
 
 

@@ -1,7 +1,7 @@
 """Agents: train a DQN with the paper's settings, load one, rank its actions.
 
-Two kinds of agent file: a stable-baselines3 model (``.zip``: DQN, PPO or A2C, for any
-environment whose spaces match it) and a tabular Q-learning agent (``.npy``: a table of one
+Two kinds of agent file: a stable-baselines3 model (``.zip``: DQN, PPO or A2C, or
+sb3-contrib's MaskablePPO, for any environment whose spaces match it) and a tabular Q-learning agent (``.npy``: a table of one
 row per discrete observation and one column per action, read with ``allow_pickle=False``).
 Loading a stable-baselines3 agent unpickles Python code from the file: tracecheck only
 loads agent files from paths the user gives. Only load files you trust; a ``.npy`` table
@@ -111,19 +111,35 @@ def load_agent(path: str | Path, adapter=None, env=None) -> Agent:
     torch.set_num_threads(1)
 
     last: Optional[Exception] = None
-    for name in ("DQN", "PPO", "A2C"):
+    for name, cls in _algorithms(sb3):
         try:
-            model = getattr(sb3, name).load(path, device="cpu")
+            model = cls.load(path, device="cpu")
         except Exception as exc:  # noqa: BLE001 - try the next algorithm
             last = exc
             continue
+        if (name == "MaskablePPO") != type(model.policy).__name__.startswith("Maskable"):
+            continue  # a plain PPO file loads as MaskablePPO too (and the other way round)
         space = model.action_space
         if getattr(space, "n", None) != len(actions):
             raise InputError(f"{path}: the agent has action space {space}; {adapter.name} "
                              f"has {len(actions)} discrete actions ({', '.join(actions)})")
         _check_observations(path, model.observation_space, adapter, env)
         return Agent(str(path), file_sha256(path), name, model)
-    raise InputError(f"{path} is not a stable-baselines3 DQN, PPO or A2C agent ({last})")
+    raise InputError(f"{path} is not a stable-baselines3 DQN, PPO or A2C agent nor an "
+                     f"sb3-contrib MaskablePPO one ({last})")
+
+
+def _algorithms(sb3):
+    """The algorithms an agent file may hold: stable-baselines3's, and MaskablePPO when
+    sb3-contrib is installed."""
+    found = [("DQN", sb3.DQN)]
+    try:
+        from sb3_contrib import MaskablePPO
+
+        found.append(("MaskablePPO", MaskablePPO))
+    except ImportError:
+        pass
+    return found + [("PPO", sb3.PPO), ("A2C", sb3.A2C)]
 
 
 def _check_observations(path: Path, space, adapter, env) -> None:

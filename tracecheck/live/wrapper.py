@@ -94,7 +94,13 @@ class ShieldWrapper(gym.Wrapper):
         return info
 
     def action_masks(self) -> np.ndarray:
-        """Which actions the shield allows in the current state."""
+        """Which actions the shield allows in the current state; in a deadlock (nothing
+        allowed) the fallback alone — the action :meth:`step` takes then — so that a masked
+        learner never sees an empty mask (``info["shield"]["deadlock"]`` still says so)."""
+        if not self.allowed.any():
+            masks = np.zeros_like(self.allowed)
+            masks[self.fallback] = True
+            return masks
         return self.allowed.copy()
 
     def reset(self, **kwargs):
