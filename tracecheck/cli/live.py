@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Optional
 
@@ -59,18 +60,25 @@ def train_cmd(
         raise InputError(f"--algorithm dqn trains the paper's highway agent; for {adapter.name} "
                          "use --algorithm q-learning, or give --shield")
     steps = steps or 20_000
-    with progress(f"training {profile.value}", steps, "steps") as advance:
+    with _training_progress(f"training {profile.value}", steps) as report:
+        card = train(profile.value, output, steps=steps, seed=seed, duration=duration or 60,
+                     progress=report)
+    out.print(f"trained {card['agent']} ({profile.value}, {steps} steps, seed {seed}) in "
+              f"{card['wall_time_s']:.0f} s -> {output}; model card "
+              f"{Path(output).with_suffix('.json')}", markup=False)
+
+
+@contextmanager
+def _training_progress(label: str, steps: int):
+    """A progress bar over training steps; yields ``report(done, total)``."""
+    with progress(label, steps, "steps") as advance:
         done = [0]
 
         def report(now: int, total: int) -> None:
             advance(now - done[0])
             done[0] = now
 
-        card = train(profile.value, output, steps=steps, seed=seed, duration=duration or 60,
-                     progress=report)
-    out.print(f"trained {card['agent']} ({profile.value}, {steps} steps, seed {seed}) in "
-              f"{card['wall_time_s']:.0f} s -> {output}; model card "
-              f"{Path(output).with_suffix('.json')}", markup=False)
+        yield report
 
 
 def _train_shielded(adapter, env_config: dict, shield: str, algorithm: Algorithm, profile,
@@ -85,13 +93,7 @@ def _train_shielded(adapter, env_config: dict, shield: str, algorithm: Algorithm
     profile_name = profile.value if adapter.name == "highway" else None
     config = adapter.config(env_config, profile_name, duration)
     steps = steps or 20_000
-    with progress(f"training under {loaded.name}", steps, "steps") as advance:
-        done = [0]
-
-        def report(now: int, total: int) -> None:
-            advance(now - done[0])
-            done[0] = now
-
+    with _training_progress(f"training under {loaded.name}", steps) as report:
         card = train_shielded(adapter, config, loaded, algorithm.value, output, steps=steps,
                               seed=seed, progress=report)
     say(f"trained {card['agent']} ({card['algorithm']} under shield {loaded.name}, {steps} "

@@ -64,7 +64,6 @@ def train_shielded(adapter, config: dict, shield, algorithm: str, out: str | Pat
                    progress: Optional[Callable[[int, int], None]] = None) -> dict[str, Any]:
     """Train ``algorithm`` on the adapter's environment under ``shield``; save the agent
     (``.zip``) and its model card (``.json`` next to it); the card."""
-    import stable_baselines3 as sb3
     import torch
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.monitor import Monitor
