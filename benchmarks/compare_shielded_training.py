@@ -17,6 +17,8 @@ import argparse
 import tempfile
 from pathlib import Path
 
+from tracecheck.checking.replay import replay
+from tracecheck.checking.shield import load_shield
 from tracecheck.live.record import RecordSettings, record
 from tracecheck.stats.estimates import statistics
 from tracecheck.stats.properties import load_properties
@@ -35,9 +37,10 @@ def main() -> None:
     agents = {"base (trained without a shield)": ROOT / "models" / "agents" / "base.zip",
               f"{args.agent.stem} (trained under paper)": args.agent}
     saf1 = load_properties("highway").select(["SAF1"])
-    print("| agent | shield at evaluation | episodes | crashes [95 % Wilson] | paired by seed "
-          "(exact McNemar) |")
-    print("|---|---|---|---|---|")
+    print("| agent | shield at evaluation | episodes | crashes [95 % Wilson] | infeasible steps "
+          "(replay against paper) | paired by seed (exact McNemar) |")
+    print("|---|---|---|---|---|---|")
+    paper = load_shield("paper")
     with tempfile.TemporaryDirectory() as tmp:
         for label, agent in agents.items():
             runs = []
@@ -47,8 +50,9 @@ def main() -> None:
                                       seed=args.seed, workers=args.workers), path)
                 runs.append(path)
             result = statistics(runs, saf1)
+            infeasible = [replay([run], paper).infeasible_steps for run in runs]
             pair = result["comparisons"][0]["properties"]["SAF1"]
-            for run, shield in zip(result["runs"], ("none", "paper")):
+            for run, shield, blocked in zip(result["runs"], ("none", "paper"), infeasible):
                 p = run["properties"]["SAF1"]
                 n = run["episodes"]
                 crashes = n - round(p["ratio"] * n)
@@ -59,7 +63,7 @@ def main() -> None:
                           f"it: {pair['only_first']}; p = {pair['p_value']:.3g}"
                           if shield == "paper" else "")
                 print(f"| {label} | {shield} | {n} | {crashes} ({crashes / n:.0%}) "
-                      f"[{lo:.0%}, {hi:.0%}] | {paired} |")
+                      f"[{lo:.0%}, {hi:.0%}] | {blocked} | {paired} |")
 
 
 if __name__ == "__main__":

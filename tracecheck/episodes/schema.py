@@ -28,7 +28,7 @@ EndReason = Literal["crashed", "time-limit", "end-of-trace", "deadlock", "interr
 
 
 class _Message(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, defer_build=True)
 
 
 class RunHeader(_Message):

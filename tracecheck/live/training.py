@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import json
 import platform
+import sys
 import time
 from pathlib import Path
 from typing import Any, Callable, Optional
@@ -130,5 +131,9 @@ def train_shielded(adapter, config: dict, shield, algorithm: str, out: str | Pat
         import sb3_contrib
 
         card["versions"]["sb3_contrib"] = sb3_contrib.__version__
+    for package in adapter.requires:  # the environment's own packages (highway_env, …)
+        module = sys.modules.get(package)
+        if getattr(module, "__version__", None):
+            card["versions"][package] = module.__version__
     out.with_suffix(".json").write_text(json.dumps(card, indent=2) + "\n")
     return card
