@@ -184,3 +184,48 @@ def test_log_entries_name_episode_step_and_what_happened():
     assert sum(m.data.get("message", "").endswith("crash") for m in again) == 0
     scalars = {m.topic: m.data["value"] for m in messages if m.topic.startswith("/plot/")}
     assert scalars == {"/plot/reward": 0.5, "/plot/allowed_actions": 1.0}
+
+
+def _as_protobuf_json(data, key=None):
+    """Foxglove's JSON encoding as protobuf's JSON mapping: times and durations are
+    ``{"sec", "nsec"}`` objects in the one and RFC 3339 / "1.5s" strings in the other."""
+    import datetime
+
+    if isinstance(data, dict) and set(data) == {"sec", "nsec"}:
+        if key == "lifetime":
+            return f"{data['sec'] + data['nsec'] / 1e9:.9f}s"
+        stamp = datetime.datetime.fromtimestamp(data["sec"], datetime.timezone.utc)
+        return stamp.strftime("%Y-%m-%dT%H:%M:%S") + f".{data['nsec']:09d}Z"
+    if isinstance(data, dict):
+        return {k: _as_protobuf_json(v, k) for k, v in data.items()}
+    if isinstance(data, list):
+        return [_as_protobuf_json(v) for v in data]
+    return data
+
+
+def test_every_message_parses_as_foxglove_s_own_schema(exported):
+    """Against the schemas Foxglove publishes in its SDK (protobuf descriptors of
+    foxglove.SceneUpdate and foxglove.Log): every field name and type must be theirs."""
+    import warnings
+
+    pytest.importorskip("foxglove")
+    from google.protobuf import descriptor_pb2, descriptor_pool, json_format, message_factory
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        import foxglove.messages as published
+
+    found = channels_and_messages(exported)
+    for topic, name in (("/foxglove/scene", "SceneUpdate"), ("/foxglove/log", "Log")):
+        schema = getattr(published, name).get_schema()
+        files = descriptor_pb2.FileDescriptorSet.FromString(bytes(schema.data))
+        pool = descriptor_pool.DescriptorPool()
+        for file in files.file:
+            pool.Add(file)
+        message = message_factory.GetMessageClass(pool.FindMessageTypeByName(schema.name))
+        assert found[topic][0] == schema.name
+        for data in found[topic][2]:
+            parsed = json_format.ParseDict(_as_protobuf_json(data), message())
+            assert parsed.ByteSize() > 0
+        with pytest.raises(json_format.ParseError):  # the check can fail: a misspelt field
+            json_format.ParseDict({**_as_protobuf_json(data), "mesage": "x"}, message())
