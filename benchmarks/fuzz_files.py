@@ -92,7 +92,7 @@ def run_command(name: str, run: Path, out: Path) -> Outcome:
 class Fuzzer:
     """The intact recording's answers, and those of each prefix of its episodes."""
 
-    def __init__(self, folder: Path, traces: int = 4) -> None:
+    def __init__(self, folder: Path, traces: int = 4, foxglove: bool = False) -> None:
         from tracecheck.episodes import EpisodeWriter, read_header, read_run
         from tracecheck.interop import import_simb
 
@@ -108,13 +108,14 @@ class Fuzzer:
 
         write_run(self.run, new_header("imported-simb", model_name=HIGHWAY.name,
                                        variables=list(HIGHWAY.variables),
-                                       actions=list(HIGHWAY.actions)), import_simb(sources))
+                                       actions=list(HIGHWAY.actions)), import_simb(sources),
+                  foxglove=foxglove)
         self.intact = self.run.read_bytes()
         header, episodes = read_header(self.run), read_run(self.run).episodes
         # the answers for the first k episodes, k = 0 … n (a file cut after episode k)
         self.prefix: dict[int, dict[str, Outcome]] = {}
         for k in range(len(episodes) + 1):
-            with EpisodeWriter(self.run, header) as w:
+            with EpisodeWriter(self.run, header, foxglove=foxglove) as w:
                 for e in episodes[:k]:
                     w.write(e)
             self.prefix[k] = {name: run_command(name, self.run, self.out) for name in COMMANDS}
@@ -161,10 +162,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", type=int, default=10_000)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--foxglove", action="store_true",
+                        help="the recording also carries Foxglove's channels")
     args = parser.parse_args()
     rng = random.Random(args.seed)
     with tempfile.TemporaryDirectory() as tmp:
-        fuzzer = Fuzzer(Path(tmp))
+        fuzzer = Fuzzer(Path(tmp), foxglove=args.foxglove)
         print(f"recording: {len(fuzzer.intact):,} bytes, {len(fuzzer.prefix)} episodes; "
               f"commands: {', '.join(COMMANDS)}")
         totals: Counter = Counter()

@@ -33,6 +33,9 @@ TABLES = {
              None),
     "check-model": (["check-model", "paper"],
                     ["kind", "name", "value or type", "description or guard"], 1 + 1 + 9 + 5),
+    "guards": (["guards", "paper", "--state", str(ROOT / "models" / "examples" /
+                                                  "state_approaching.json")],
+               ["operation", "enabled"], 5),
     "prove": (["prove", "paper", "--deadlock-free"],
               ["obligation", "status", "reason", "reading", "decisions",
                "counterexample file"], 1),

@@ -118,3 +118,12 @@ def test_what_cannot_be_exported_or_imported_is_said(capsys, tmp_path, paper_tra
                        str(tmp_path / "x.mcap"))
     assert code == 2 and "cannot load the Minari dataset t/h/missing-v0" in err
     assert not (tmp_path / "x.mcap").exists()
+
+
+def test_without_minari_the_commands_say_how_to_get_it(capsys, tmp_path, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "minari", None)  # as if not installed
+    code, _, err = run(capsys, "export", "minari", str(PAPER), "--dataset-id", "t/h/x-v0")
+    assert code == 2 and "Minari is not installed" in err
+    assert "pip install 'tracecheck[minari]'" in err

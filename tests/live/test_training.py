@@ -82,3 +82,14 @@ def test_shielded_training_says_what_it_cannot_do(capsys, tmp_path):
     code, _, err = run(capsys, "train", "--env", "frozenlake", "--shield", "frozenlake",
                        "--algorithm", "dqn", "-o", str(tmp_path / "a.npy"))
     assert code == 2 and "saved as .zip, not a.npy" in err
+
+
+def test_without_sb3_contrib_maskable_ppo_says_how_to_get_it(capsys, tmp_path, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "sb3_contrib", None)  # as if not installed
+    code, _, err = run(capsys, "train", "--env", "cliffwalking", "--shield", "cliffwalking",
+                       "--algorithm", "maskable-ppo", "--steps", "10", "-o",
+                       str(tmp_path / "a.zip"))
+    assert code == 2 and "--algorithm maskable-ppo needs sb3-contrib" in err
+    assert "pip install 'tracecheck[maskable]'" in err

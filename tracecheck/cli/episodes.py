@@ -12,7 +12,8 @@ from .common import (app, out, err, warn, load_model, SALVAGE, FORMAT, JSON, Out
                      output_format, plain, print_json, print_table, progress, FORCE, say)
 
 
-import_app = typer.Typer(help="Import ProB/SimB traces into an MCAP run file.",
+import_app = typer.Typer(help="Import ProB/SimB traces or a Minari dataset into an MCAP run "
+                                "file.",
                          no_args_is_help=True)
 export_app = typer.Typer(help="Export episodes: ProB/SimB traces, Foxglove channels, Minari "
                                 "datasets.", no_args_is_help=True)
@@ -121,8 +122,10 @@ def export_minari_cmd(
                                    "local Minari dataset to create (MINARI_DATASETS_PATH, "
                                    "default ~/.minari/datasets)."),
 ) -> None:
-    """Export a run as a Minari dataset: observations, actions, rewards, terminations,
-    truncations, seeds, and per step the shield's mask, interventions, deadlocks, B states."""
+    """Export a run as a Minari dataset.
+
+    Observations, actions, rewards, terminations, truncations, seeds, and per step the
+    shield's mask, interventions, deadlocks and B states (see docs/ecosystem.md)."""
     from ..interop.minari import export_minari
 
     with progress("exporting to Minari") as advance:
@@ -206,8 +209,10 @@ def export_foxglove_cmd(
     output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
     force: bool = FORCE,
 ) -> None:
-    """Copy a run with Foxglove's own channels added: a 3D scene (foxglove.SceneUpdate), a
-    log of interventions, deadlocks and crashes (foxglove.Log) and scalars to plot."""
+    """Copy a run with Foxglove's own channels added.
+
+    A 3D scene (foxglove.SceneUpdate), a log of interventions, deadlocks and crashes
+    (foxglove.Log) and scalars to plot (see docs/ecosystem.md)."""
     from ..episodes.files import refuse_existing, write_run
     from ..episodes.reader import read_run
 

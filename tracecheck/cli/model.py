@@ -10,7 +10,7 @@ import typer
 
 from ..errors import EvaluationError, InputError, TracecheckError
 from .common import (app, escape, out, load_model, plain, FORMAT, JSON, OutputFormat,
-                     output_format, print_json, print_table)
+                     output_format, print_json, print_table, say)
 
 
 @app.command("check-model")
@@ -155,11 +155,14 @@ def _evaluator(model: Optional[Path], state: Optional[Path]):
 def guards(
     model: Path = typer.Argument(..., help="A classical B machine (.mch)."),
     state: Path = typer.Option(..., "--state", "-s", help="JSON file: variable -> B literal."),
-    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+    as_json: bool = JSON,
+    fmt: OutputFormat = FORMAT,
 ) -> None:
     """List the operations whose guard holds in a state."""
     from ..b.state import read_state_file
+    from ..render.tables import TableData
 
+    fmt = output_format(fmt, as_json)
     machine = load_model(model)
     values = read_state_file(state)
     machine.check_state(values, where=str(state))
@@ -175,9 +178,14 @@ def guards(
                          hint=f'add "{name}": … to the state file') from None
     ordered = [op for op in machine.operations if op in enabled]
     blocked = [op for op in machine.operations if op not in enabled]
-    if as_json:
-        out.print_json(json.dumps({"machine": machine.name, "enabled": ordered,
-                                   "disabled": blocked, "missing_variables": missing}))
+    if fmt == OutputFormat.json:
+        print_json({"machine": machine.name, "enabled": ordered, "disabled": blocked,
+                    "missing_variables": missing})
         return
-    out.print(f"enabled: {', '.join(ordered) or '(none: deadlock)'}")
-    out.print(f"disabled: {', '.join(blocked) or '(none)'}")
+    if fmt != OutputFormat.text:
+        print_table(fmt, TableData.of(["operation", "enabled"],
+                                      ([op, "yes" if op in enabled else "no"]
+                                       for op in machine.operations)))
+        return
+    say(f"enabled: {', '.join(ordered) or '(none: deadlock)'}")
+    say(f"disabled: {', '.join(blocked) or '(none)'}")
