@@ -127,3 +127,26 @@ def test_without_minari_the_commands_say_how_to_get_it(capsys, tmp_path, monkeyp
     code, _, err = run(capsys, "export", "minari", str(PAPER), "--dataset-id", "t/h/x-v0")
     assert code == 2 and "Minari is not installed" in err
     assert "pip install 'tracecheck[minari]'" in err
+
+
+def test_a_users_own_adapter_is_named_on_the_command_line(capsys, tmp_path):
+    """A run of the user's own environment: the file names its adapter, but only the command
+    line may import one (--env package.module:Class)."""
+    import numpy as np
+
+    from tests.live.toy import SHIELD, left_leaning_table
+
+    shield, agent = tmp_path / "corridor.mch", tmp_path / "left.npy"
+    shield.write_text(SHIELD)
+    np.save(agent, left_leaning_table())
+    recorded = tmp_path / "toy.mcap"
+    toy = "tests.live.toy:Corridor"
+    assert run(capsys, "record", "--env", toy, "--agent", str(agent), "--shield", "none", "-n",
+               "4", "-o", str(recorded))[0] == 0
+    code, _, err = run(capsys, "export", "minari", str(recorded), "--dataset-id", "t/toy/x-v0")
+    assert code == 2 and "unknown environment 'corridor'" in err and "--env" in err
+    assert run(capsys, "export", "minari", str(recorded), "--dataset-id", "t/toy/x-v0",
+               "--env", toy)[0] == 0
+    back = tmp_path / "back.mcap"
+    assert run(capsys, "import", "minari", "t/toy/x-v0", "--env", toy, "-o", str(back))[0] == 0
+    assert _replay(capsys, back, str(shield)) == _replay(capsys, recorded, str(shield))

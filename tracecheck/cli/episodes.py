@@ -121,6 +121,9 @@ def export_minari_cmd(
     dataset_id: str = typer.Option(..., "--dataset-id", help="NAMESPACE/ENV/NAME-v0: the "
                                    "local Minari dataset to create (MINARI_DATASETS_PATH, "
                                    "default ~/.minari/datasets)."),
+    env: Optional[str] = typer.Option(None, "--env", help="The environment's adapter "
+                                      "(default: the installed one the file names); "
+                                      "package.module:Class imports it, which runs its code."),
 ) -> None:
     """Export a run as a Minari dataset.
 
@@ -129,7 +132,7 @@ def export_minari_cmd(
     from ..interop.minari import export_minari
 
     with progress("exporting to Minari") as advance:
-        dataset = export_minari(run, dataset_id, progress=advance)
+        dataset = export_minari(run, dataset_id, env=env, progress=advance)
     say(f"wrote {dataset.total_episodes} episode(s), {dataset.total_steps} step(s) -> Minari "
           f"dataset {dataset_id}")
 

@@ -48,25 +48,30 @@ def _minari():
     return minari
 
 
-def _adapter_and_env(name: Optional[str], config: Optional[dict], what: str,
-                     env_id: Optional[str] = None):
+def _recorded_adapter(header, run: Path):
+    """The installed adapter a run file names (by name, or for files from before adapters
+    were named, by environment id) — never a module named inside the file."""
     from ..live.adapter import adapters, get_adapter
 
-    if not name and env_id:  # files from before adapters were named: the installed one
-        name = next((a.name for a in adapters()  # of that environment id
-                     if a.adapter is not None and a.adapter.env_id == env_id), None)
+    name = header.environment
+    if not name and header.environment_id:
+        name = next((a.name for a in adapters()
+                     if a.adapter is not None and a.adapter.env_id == header.environment_id),
+                    None)
     if not name:
-        raise InputError(f"{what} names no environment adapter; Minari needs the environment's "
-                         "spaces")
-    adapter = get_adapter(name)
+        raise InputError(f"{run} names no environment adapter; Minari needs the environment's "
+                         "spaces", hint="give the adapter with --env")
+    return get_adapter(name)
+
+
+def _make_env(adapter, config: Optional[dict], what: str):
     try:
-        env = adapter.make_env(adapter.config(config or {}))
+        return adapter.make_env(adapter.config(config or {}))
     except InputError:
         raise
     except Exception as exc:  # a package missing, a configuration the environment rejects
         raise InputError(f"{what}: cannot make the environment {adapter.env_id}: {exc}") \
             from None
-    return adapter, env
 
 
 def _observation(rows, space, where: str):
@@ -79,8 +84,12 @@ def _observation(rows, space, where: str):
     return value.reshape(space.shape).astype(space.dtype)
 
 
-def export_minari(run: Path, dataset_id: str, *, progress=lambda: None):
-    """Write the episodes of ``run`` as the local Minari dataset ``dataset_id``; the dataset."""
+def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
+                  progress=lambda: None):
+    """Write the episodes of ``run`` as the local Minari dataset ``dataset_id``; the dataset.
+    ``env``: the adapter as the user names it (default: the installed one the file names)."""
+    from ..live.adapter import load_adapter
+
     from ..episodes.codec import encode_state
     from ..episodes.reader import read_run
 
@@ -91,13 +100,13 @@ def export_minari(run: Path, dataset_id: str, *, progress=lambda: None):
     header = result.header
     if not result.episodes:
         raise InputError(f"{run} holds no complete episode")
-    adapter, env = _adapter_and_env(header.environment, header.environment_config, str(run),
-                                    header.environment_id)
+    adapter = load_adapter(env) if env else _recorded_adapter(header, run)
+    made = _make_env(adapter, header.environment_config, str(run))
     actions = list(adapter.actions)
     buffers = []
     for ep in result.episodes:
         where = f"{run}, episode {ep.id}"
-        obs = [_observation(s.observation, env.observation_space, f"{where}, step {s.step}")
+        obs = [_observation(s.observation, made.observation_space, f"{where}, step {s.step}")
                for s in ep.steps]
         try:
             acts = [actions.index(s.action) for s in ep.steps[1:]]
@@ -140,18 +149,18 @@ def export_minari(run: Path, dataset_id: str, *, progress=lambda: None):
         with warnings.catch_warnings():  # its advice to add an e-mail address and a link
             warnings.simplefilter("ignore", UserWarning)
             dataset = minari.create_dataset_from_buffers(
-                dataset_id=dataset_id, buffer=buffers, env=env.spec,
+                dataset_id=dataset_id, buffer=buffers, env=made.spec,
                 algorithm_name=header.agent_id or "unknown", author="tracecheck", description=(
                     f"Episodes of agent {header.agent_id or 'unknown'} under the B shield "
                     f"{shield} (sha256 {header.shield_sha256 or '-'}), recorded by tracecheck. "
                     f"infos: allowed (shield mask over {', '.join(actions)}), intervened, "
                     "deadlock, b_state (JSON)."),
-                action_space=env.action_space, observation_space=env.observation_space,
+                action_space=made.action_space, observation_space=made.observation_space,
                 data_format="hdf5")
     except ValueError as exc:  # minari's own checks: an id taken or malformed
         raise InputError(f"cannot create the Minari dataset {dataset_id}: {exc}") from None
     dataset.storage.update_metadata({"tracecheck": json.dumps(about)})
-    env.close()
+    made.close()
     return dataset
 
 
@@ -196,7 +205,10 @@ def import_minari(dataset_id: str, adapter_name: str, *,
     except (FileNotFoundError, ValueError) as exc:
         raise InputError(f"cannot load the Minari dataset {dataset_id}: {exc}",
                          hint="list the local ones with `minari list local`") from None
-    adapter, env = _adapter_and_env(adapter_name, None, f"--env {adapter_name}")
+    from ..live.adapter import load_adapter
+
+    adapter = load_adapter(adapter_name)
+    env = _make_env(adapter, None, f"--env {adapter_name}")
     meta = json.loads(dataset.storage.metadata.get("tracecheck", "null") or "null") or {}
     header = new_header("imported-minari", environment=adapter.name,
                         environment_id=adapter.env_id, model_name=adapter.model_name or None,
