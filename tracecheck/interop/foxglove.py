@@ -39,8 +39,13 @@ _TIME = {"type": "object", "properties": {"sec": {"type": "integer", "minimum": 
                                           "nsec": {"type": "integer", "minimum": 0,
                                                    "maximum": 999_999_999}},
          "required": ["sec", "nsec"]}
-_NUMBERS = lambda *keys: {"type": "object", "required": list(keys),  # noqa: E731
-                          "properties": {k: {"type": "number"} for k in keys}}
+
+
+def _numbers(*keys: str) -> dict:
+    return {"type": "object", "required": list(keys),
+            "properties": {k: {"type": "number"} for k in keys}}
+
+
 _ENTITY_LISTS = ("arrows", "cubes", "spheres", "cylinders", "lines", "triangles", "texts",
                  "models")
 #: The JSON schemas registered with the channels: the fields, types and required keys of
@@ -69,10 +74,10 @@ SCHEMAS: dict[str, dict] = {
                         "type": "object", "required": ["pose", "size", "color"],
                         "properties": {
                             "pose": {"type": "object", "required": ["position", "orientation"],
-                                     "properties": {"position": _NUMBERS("x", "y", "z"),
-                                                    "orientation": _NUMBERS("x", "y", "z", "w")}},
-                            "size": _NUMBERS("x", "y", "z"),
-                            "color": _NUMBERS("r", "g", "b", "a")}}},
+                                     "properties": {"position": _numbers("x", "y", "z"),
+                                                    "orientation": _numbers("x", "y", "z", "w")}},
+                            "size": _numbers("x", "y", "z"),
+                            "color": _numbers("r", "g", "b", "a")}}},
                     **{k: {"type": "array", "maxItems": 0} for k in _ENTITY_LISTS
                        if k != "cubes"}}}}}},
     LOG: {
@@ -108,12 +113,10 @@ _WHICH = {"any": lambda vx: True, "oncoming": lambda vx: vx < 0, "faster": lambd
 
 @dataclass(frozen=True)
 class FoxgloveMessage:
+    """One message: its topic (its schema is ``TOPICS[topic]``) and its JSON data."""
+
     topic: str
     data: dict[str, Any]
-
-    @property
-    def schema(self) -> str:
-        return TOPICS[self.topic]
 
 
 def _stamp(ns: int) -> dict:
