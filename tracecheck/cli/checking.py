@@ -11,7 +11,7 @@ import typer
 from ..errors import InputError
 from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, RAY_ADDRESS, OutputFormat,
                      FailOn, SHIELD_HELP, ROWS, run_shield, SALVAGE, FORMAT, JSON, output_format,
-                     print_json, print_table, plain)
+                     print_json, print_table, plain, progress)
 
 
 @app.command("replay")
@@ -74,19 +74,14 @@ def replay_cmd(
 
 def _resimulate(runs: list[Path], shield, report, agent: Optional[Path],
                 env: Optional[str] = None) -> dict:
-    from rich.progress import BarColumn, Progress, TextColumn
-
     from ..checking.resimulate import resimulate, summary
 
     results = []
     todo = sum(e.first_infeasible is not None for e in report.per_episode)
-    with Progress(TextColumn("re-simulating under " + shield.name), BarColumn(),
-                  TextColumn("{task.completed}/{task.total} episodes"), console=err.console,
-                  transient=True) as bar:
-        task = bar.add_task("resim", total=todo)
+    with progress("re-simulating under " + shield.name, todo) as advance:
         for run in runs:
             results += resimulate(run, shield, report, agent=agent, env=env,
-                                  progress=lambda r: bar.advance(task))
+                                  progress=lambda r: advance())
     return summary(results)
 
 

@@ -227,21 +227,24 @@ class Algorithm(str, Enum):
 
 
 @contextmanager
-def progress(label: str, total: Optional[int] = None, unit: str = "episodes"):
-    """A progress bar on standard error (drawn only on a terminal, gone when done); yields
-    ``advance(n=1)``."""
-    if not err.console.is_terminal:  # a log file or a pipe: no bar, not even a blank line
-        yield lambda n=1: None
+def progress(label: str, total: Optional[int] = None, unit: str = "episodes",
+             detail: str = "", **fields):
+    """A progress bar on standard error, drawn only on a terminal and gone when done (a pipe
+    or log file gets nothing, not even a blank line); yields ``advance(n=1, **fields)``.
+    ``detail`` is a rich column template over ``fields`` (their first values given here)."""
+    if not err.console.is_terminal:
+        yield lambda n=1, **changed: None
         return
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
     columns = [TextColumn(label), BarColumn(),
-               TextColumn("{task.completed}" + ("/{task.total}" if total else "") + f" {unit}")]
+               TextColumn("{task.completed}" + ("/{task.total}" if total else "") + f" {unit}"
+                          + detail)]
     if total:
         columns.append(TimeRemainingColumn())
     with Progress(*columns, console=err.console, transient=True) as bar:
-        task = bar.add_task(label, total=total)
-        yield lambda n=1: bar.advance(task, n)
+        task = bar.add_task(label, total=total, **fields)
+        yield lambda n=1, **changed: bar.update(task, advance=n, **changed)
 
 
 def warn(messages) -> None:

@@ -123,8 +123,6 @@ def record_cmd(
     """Run an agent under a shield (pre-shielding) and record every episode to MCAP."""
     import time as _time
 
-    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-
     from ..live.record import record
 
     settings = record_settings(env, env_config, agent=str(agent), shield=shield, episodes=episodes,
@@ -132,20 +130,17 @@ def record_cmd(
                          workers=workers, executor=executor.value, ray_address=ray_address)
     stats = {"crashes": 0, "steps": 0}
     start = _time.perf_counter()
-    with Progress(TextColumn("recording"), BarColumn(),
-                  TextColumn("{task.completed}/{task.total} episodes, {task.fields[crashes]} "
-                             "crash(es), {task.fields[rate]} steps/s"),
-                  TimeRemainingColumn(), console=err.console, transient=True) as bar:
-        task = bar.add_task("record", total=episodes, crashes=0, rate="-")
+    with progress("recording", episodes, detail=", {task.fields[crashes]} crash(es), "
+                  "{task.fields[rate]} steps/s", crashes=0, rate="-") as advance:
 
-        def progress(ep) -> None:
+        def report(ep) -> None:
             stats["crashes"] += ep.end.crashed
             stats["steps"] += ep.end.steps
             rate = stats["steps"] / max(_time.perf_counter() - start, 1e-9)
-            bar.update(task, advance=1, crashes=stats["crashes"], rate=f"{rate:.0f}")
+            advance(crashes=stats["crashes"], rate=f"{rate:.0f}")
 
         try:
-            n, steps, crashes = record(settings, output, progress, force=force)
+            n, steps, crashes = record(settings, output, report, force=force)
         except KeyboardInterrupt:
             err.print(f"interrupted: {output} keeps every finished episode")
             raise typer.Exit(130) from None

@@ -10,8 +10,9 @@ import typer
 
 from ..errors import InputError
 from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, EPISODE_EXECUTOR, RAY_ADDRESS,
-                     OutputFormat, FORMAT, JSON, output_format, print_json, plain, Interval, ENV, ENV_CONFIG, PROFILE, DURATION, AGENT,
-                     record_settings, FORCE, RUN_SHIELD, SEED, WORKERS, SALVAGE)
+                     OutputFormat, FORMAT, JSON, output_format, print_json, plain, progress,
+                     Interval, ENV, ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, FORCE,
+                     RUN_SHIELD, SEED, WORKERS, SALVAGE)
 
 
 def _print_stats(result: dict, fmt: OutputFormat, plot: Optional[Path]) -> None:
@@ -89,8 +90,6 @@ def simulate_cmd(
     force: bool = FORCE,
 ) -> None:
     """Monte Carlo: record episodes and validate them in one go (SimB-style)."""
-    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-
     from ..stats.properties import load_properties
     from ..live.record import resolve
     from ..stats.simulate import simulate
@@ -101,12 +100,9 @@ def simulate_cmd(
                          seed=seed, duration=duration, profile=profile, workers=workers,
                          executor=executor.value, ray_address=ray_address)
     pset = load_properties(properties or resolve(settings)[0].properties or "highway")
-    with Progress(TextColumn("simulating"), BarColumn(),
-                  TextColumn("{task.completed}/{task.total} episodes"), TimeRemainingColumn(),
-                  console=err.console, transient=True) as bar:
-        task = bar.add_task("simulate", total=episodes)
+    with progress("simulating", episodes) as advance:
         result = simulate(settings, output, pset, until_width=until_ci_width, force=force,
-                          progress=lambda ep: bar.advance(task))
+                          progress=lambda ep: advance())
     seq = result.get("sequential")
     if seq is not None:
         widths = ", ".join(f"{k} {v:.3f}" for k, v in seq["widths"].items())

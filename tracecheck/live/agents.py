@@ -1,8 +1,9 @@
 """Agents: train a DQN with the paper's settings, load one, rank its actions.
 
 Two kinds of agent file: a stable-baselines3 model (``.zip``: DQN, PPO or A2C, or
-sb3-contrib's MaskablePPO, for any environment whose spaces match it) and a tabular Q-learning agent (``.npy``: a table of one
-row per discrete observation and one column per action, read with ``allow_pickle=False``).
+sb3-contrib's MaskablePPO, for any environment whose spaces match it) and a tabular
+Q-learning agent (``.npy``: a table of one row per discrete observation and one column per
+action, read with ``allow_pickle=False``).
 Loading a stable-baselines3 agent unpickles Python code from the file: tracecheck only
 loads agent files from paths the user gives. Only load files you trust; a ``.npy`` table
 runs no code.

@@ -46,8 +46,8 @@ def _rows(result: dict, sep: str = "") -> tuple[list[str], list[list[str]]]:
                               "no episodes" for r in runs]])
     for name in first["properties"]:
         label = f"{name}: {result['descriptions'].get(name) or ''}".rstrip(": ")
-        rows.append([label, *[_property_cell(r["properties"][name], sep or "; ") if r["episodes"] else
-                              "no episodes" for r in runs]])
+        rows.append([label, *[_property_cell(r["properties"][name], sep or "; ")
+                              if r["episodes"] else "no episodes" for r in runs]])
     return header, rows
 
 
