@@ -147,6 +147,36 @@ def test_a_users_own_adapter_is_named_on_the_command_line(capsys, tmp_path):
     assert code == 2 and "unknown environment 'corridor'" in err and "--env" in err
     assert run(capsys, "export", "minari", str(recorded), "--dataset-id", "t/toy/x-v0",
                "--env", toy)[0] == 0
+    code, _, err = run(capsys, "export", "minari", str(recorded), "--dataset-id", "t/toy/y-v0",
+                       "--env", "highway")  # the wrong adapter: its spaces do not fit
+    assert code == 2 and "episode 0, step 0: an observation of shape (1, 1) does not fit" in err
     back = tmp_path / "back.mcap"
     assert run(capsys, "import", "minari", "t/toy/x-v0", "--env", toy, "-o", str(back))[0] == 0
     assert _replay(capsys, back, str(shield)) == _replay(capsys, recorded, str(shield))
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+@pytest.mark.parametrize("actions,space,message", [
+    ([0.5, 0.75], "box", "the action [0.5] is not an action index"),
+    ([1, 7], "discrete", "action 7 is not one of the adapter's 2 actions"),
+], ids=["continuous", "out-of-range"])
+def test_a_dataset_whose_actions_are_not_the_adapter_s_is_refused(capsys, tmp_path, actions,
+                                                                  space, message):
+    """Never rounded or cut to fit: a wrong action would replay as another one."""
+    import gymnasium as gym
+    import numpy as np
+    from minari.data_collector.episode_buffer import EpisodeBuffer
+
+    spaces = {"box": gym.spaces.Box(0.0, 1.0, (1,)), "discrete": gym.spaces.Discrete(8)}
+    values = ([np.array([a], dtype=np.float32) for a in actions] if space == "box"
+              else actions)
+    minari.create_dataset_from_buffers(
+        dataset_id=f"t/toy/{space}-v0", buffer=[EpisodeBuffer(
+            observations=[2, 3, 4], actions=values, rewards=[0.0, 0.0],
+            terminations=[False, False], truncations=[False, True])],
+        action_space=spaces[space], observation_space=gym.spaces.Discrete(6),
+        algorithm_name="x", author="x", author_email="x", code_permalink="x")
+    code, _, err = run(capsys, "import", "minari", f"t/toy/{space}-v0", "--env",
+                       "tests.live.toy:Corridor", "-o", str(tmp_path / "x.mcap"))
+    assert code == 2 and message in err and f"t/toy/{space}-v0, episode 0, step" in err
+    assert not (tmp_path / "x.mcap").exists()

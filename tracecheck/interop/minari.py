@@ -80,7 +80,13 @@ def _observation(rows, space, where: str):
                          "dataset needs the observations of a recording")
     value = np.asarray(rows, dtype=np.float64)
     if space.shape == ():
+        if value.size != 1 or not float(value.reshape(-1)[0]).is_integer():
+            raise InputError(f"{where}: the observation {value.tolist()!r} is not one of "
+                             f"{space}")
         return np.asarray(value.reshape(-1)[0]).astype(space.dtype)
+    if value.size != int(np.prod(space.shape)):
+        raise InputError(f"{where}: an observation of shape {value.shape} does not fit the "
+                         f"environment's {space} (was it recorded with another configuration?)")
     return value.reshape(space.shape).astype(space.dtype)
 
 
@@ -164,6 +170,28 @@ def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
     return dataset
 
 
+def _action_index(value, count: int, where: str) -> int:
+    """A discrete action: one integer in 0 … count-1 (a float, a vector or a value out of
+    range is refused, never rounded or cut to fit)."""
+    a = np.asarray(value)
+    if a.size != 1 or a.dtype.kind not in "iu":
+        raise InputError(f"{where}: the action {a.tolist()!r} is not an action index; the "
+                         f"adapter has {count} discrete actions")
+    index = int(a.reshape(-1)[0])
+    if not 0 <= index < count:
+        raise InputError(f"{where}: action {index} is not one of the adapter's {count} actions")
+    return index
+
+
+def _check_lengths(data, n: int, where: str) -> None:
+    """n actions, rewards, terminations and truncations; n + 1 observations."""
+    for name, want in (("rewards", n), ("terminations", n), ("truncations", n),
+                       ("observations", n + 1)):
+        got = len(getattr(data, name))
+        if got != want:
+            raise InputError(f"{where}: {got} {name} for {n} actions (want {want})")
+
+
 def _shield_infos(infos, k: int, n: int, actions) -> dict:
     """What tracecheck's own infos say of step ``k`` (nothing for other datasets, or where a
     value is missing or malformed)."""
@@ -181,7 +209,8 @@ def _shield_infos(infos, k: int, n: int, actions) -> dict:
     if allowed is not None and allowed.dtype == bool and allowed.any():
         out["allowed_actions"] = tuple(a for a, on in zip(actions, allowed) if on)
     preferred = column("preferred", (n + 1,))
-    if preferred is not None and 0 <= int(preferred) < len(actions):
+    if preferred is not None and preferred.dtype.kind in "iu" \
+            and 0 <= int(preferred) < len(actions):
         out["preferred_action"] = actions[int(preferred)]
     values = column("action_values", (n + 1, len(actions)))
     if values is not None and np.isfinite(values).all():
@@ -222,9 +251,12 @@ def import_minari(dataset_id: str, adapter_name: str, *,
             where = f"{dataset_id}, episode {data.id}"
             n = len(data.actions)
             steps = []
+            _check_lengths(data, n, where)
             for k in range(n + 1):
                 crashed = bool(k == n and n and data.terminations[-1])
                 reward = 0.0 if k == 0 else float(data.rewards[k - 1])
+                if not np.isfinite(reward):
+                    raise InputError(f"{where}, step {k}: the reward is {reward}")
                 try:
                     state = observer.state(data.observations[k], {"crashed": crashed}, reward,
                                            initial=k == 0)
@@ -233,11 +265,9 @@ def import_minari(dataset_id: str, adapter_name: str, *,
                                      f"read the observation: {exc}") from None
                 action = None
                 if k:
-                    index = int(np.asarray(data.actions[k - 1]).reshape(-1)[0])
-                    if not 0 <= index < len(adapter.actions):
-                        raise InputError(f"{where}, step {k}: action {index} is not one of "
-                                         f"{adapter.name}'s {len(adapter.actions)} actions")
-                    action = adapter.actions[index]
+                    action = adapter.actions[_action_index(data.actions[k - 1],
+                                                           len(adapter.actions),
+                                                           f"{where}, step {k}")]
                 steps.append(StepRecord(step=k, time=k * adapter.seconds_per_step,
                                         action=action, state=state, reward=reward,
                                         crashed=crashed, **_shield_infos(data.infos, k, n,
