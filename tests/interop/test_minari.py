@@ -180,3 +180,12 @@ def test_a_dataset_whose_actions_are_not_the_adapter_s_is_refused(capsys, tmp_pa
                        "tests.live.toy:Corridor", "-o", str(tmp_path / "x.mcap"))
     assert code == 2 and message in err and f"t/toy/{space}-v0, episode 0, step" in err
     assert not (tmp_path / "x.mcap").exists()
+
+
+@pytest.mark.parametrize("meta", ['{"agent": ', '[1, 2]', '{"shield": 5}'])
+def test_malformed_provenance_is_refused(capsys, tmp_path, meta):
+    assert run(capsys, "export", "minari", str(PAPER), "--dataset-id", "t/h/p-v0")[0] == 0
+    minari.load_dataset("t/h/p-v0").storage.update_metadata({"tracecheck": meta})
+    code, _, err = run(capsys, "import", "minari", "t/h/p-v0", "--env", "highway", "-o",
+                       str(tmp_path / "x.mcap"))
+    assert code == 2 and "t/h/p-v0: its 'tracecheck' metadata is not what tracecheck" in err

@@ -221,6 +221,23 @@ def _shield_infos(infos, k: int, n: int, actions) -> dict:
     return out
 
 
+def _provenance(text, dataset_id: str) -> dict:
+    """Agent and shield of a dataset tracecheck exported (its ``tracecheck`` metadata key);
+    {} for other datasets. Malformed provenance is refused, not guessed at."""
+    if text is None:
+        return {}
+    try:
+        meta = json.loads(text) if isinstance(text, (str, bytes)) else None
+    except ValueError:
+        meta = None
+    keys = ("agent", "agent_sha256", "shield", "shield_sha256")
+    if not isinstance(meta, dict) or not all(meta.get(k) is None or isinstance(meta[k], str)
+                                             for k in keys):
+        raise InputError(f"{dataset_id}: its 'tracecheck' metadata is not what tracecheck "
+                         "writes (a JSON object naming agent and shield)")
+    return meta
+
+
 def import_minari(dataset_id: str, adapter_name: str, *,
                   progress=lambda: None) -> tuple[object, Iterator]:
     """(header, episodes) of a local Minari dataset, its observations made B states by the
@@ -238,7 +255,7 @@ def import_minari(dataset_id: str, adapter_name: str, *,
 
     adapter = load_adapter(adapter_name)
     env = _make_env(adapter, None, f"--env {adapter_name}")
-    meta = json.loads(dataset.storage.metadata.get("tracecheck", "null") or "null") or {}
+    meta = _provenance(dataset.storage.metadata.get("tracecheck"), dataset_id)
     header = new_header("imported-minari", environment=adapter.name,
                         environment_id=adapter.env_id, model_name=adapter.model_name or None,
                         variables=list(adapter.variables), actions=list(adapter.actions),
