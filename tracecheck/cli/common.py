@@ -61,12 +61,12 @@ def plain(line: str) -> None:
     sys.stdout.write(line + "\n")
 
 
-def say(line: str) -> None:
+def say(line: str, indent: str = "  ") -> None:
     """A message line for people, wrapped between words at the terminal's width (80 when
-    there is none); a long file name stays whole on a line of its own."""
+    there is none), later lines indented; a long file name stays whole on a line of its own."""
     from ..render.tables import terminal_width, wrapped
 
-    plain(wrapped(line, terminal_width()))
+    plain(wrapped(line, terminal_width(), indent))
 
 
 out = _Console()

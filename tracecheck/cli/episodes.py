@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Optional
 
@@ -42,18 +43,24 @@ def _import(kind: str, paths: list[Path], output: Path, model: Optional[Path]) -
                         variables=list(vocab.variables), actions=list(vocab.actions),
                         shield_name=machine.name if machine is not None else None,
                         shield_sha256=machine.sha256 if machine is not None else None)
-    existed = output.exists()
-
-    try:
-        with progress(f"importing {kind} traces") as advance:
-            episodes, steps, crashes = write_run(
-                output, header, _counted(reader(paths, vocab=vocab, machine=machine), advance))
-    except KeyboardInterrupt:
-        err.print(f"interrupted: {output} was not " +
-                  ("changed" if existed else "written"), markup=False)
-        raise typer.Exit(130) from None
+    with _writing(output, f"importing {kind} traces") as advance:
+        episodes, steps, crashes = write_run(
+            output, header, _counted(reader(paths, vocab=vocab, machine=machine), advance))
     out.print(f"imported {episodes} episode(s), {steps} step(s), {crashes} crash(es) "
               f"-> {output}", markup=False)
+
+
+@contextmanager
+def _writing(output: Path, label: str, total: Optional[int] = None):
+    """A progress bar while ``output`` is written (all or nothing, by ``write_run``); yields
+    its ``advance``. Ctrl-C says that the output was not written or changed (exit 130)."""
+    existed = output.exists()
+    try:
+        with progress(label, total) as advance:
+            yield advance
+    except KeyboardInterrupt:
+        err.print(f"interrupted: {output} was not " + ("changed" if existed else "written"))
+        raise typer.Exit(130) from None
 
 
 def _counted(episodes, advance):
@@ -102,14 +109,9 @@ def import_minari_cmd(
     from ..episodes.files import write_run
     from ..interop.minari import import_minari
 
-    existed = output.exists()
-    try:
-        with progress(f"importing {dataset}") as advance:
-            header, episodes = import_minari(dataset, env, progress=advance)
-            n, steps, crashes = write_run(output, header, episodes)
-    except KeyboardInterrupt:
-        err.print(f"interrupted: {output} was not " + ("changed" if existed else "written"))
-        raise typer.Exit(130) from None
+    with _writing(output, f"importing {dataset}") as advance:
+        header, episodes = import_minari(dataset, env, progress=advance)
+        n, steps, crashes = write_run(output, header, episodes)
     say(f"imported {n} episode(s), {steps} step(s), {crashes} crash(es) -> {output}")
 
 
@@ -226,15 +228,9 @@ def export_foxglove_cmd(
     warn(result.warnings)
     if not result.episodes:
         raise InputError(f"{run} holds no complete episode")
-
-    existed = output.exists()
-    try:
-        with progress("adding Foxglove channels", len(result.episodes)) as advance:
-            episodes, steps, _ = write_run(output, result.header,
-                                           _counted(result.episodes, advance), foxglove=True)
-    except KeyboardInterrupt:
-        err.print(f"interrupted: {output} was not " + ("changed" if existed else "written"))
-        raise typer.Exit(130) from None
+    with _writing(output, "adding Foxglove channels", len(result.episodes)) as advance:
+        episodes, steps, _ = write_run(output, result.header, _counted(result.episodes, advance),
+                                       foxglove=True)
     say(f"wrote {episodes} episode(s), {steps} step(s) with Foxglove channels -> {output}")
 
 
@@ -271,15 +267,14 @@ def info(
     if fmt != OutputFormat.text:
         print_table(fmt, table)
         return
-    from ..render.tables import fitted, terminal_width, wrapped
+    from ..render.tables import fitted, terminal_width
 
-    width = terminal_width()
-    for line in fitted(table, width):
+    for line in fitted(table, terminal_width()):
         plain(line)
     rate = summary["crashes"] / summary["episodes"] if summary["episodes"] else 0.0
     lines = [f"total: {summary['episodes']} episode(s), {summary['steps']} step(s), "
              f"{summary['crashes']} crash(es) ({rate:.1%})"]
     lines += [f"{key}: {', '.join(summary[key])}" for key in ("agents", "shields")
               if summary[key]]
-    for line in lines:  # wrapped between words, never inside one
-        plain(wrapped(line, width))
+    for line in lines:
+        say(line)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Optional
 
@@ -12,7 +11,7 @@ from ..errors import InputError
 from .common import (app, out, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, Profile, ENV,
                      ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, Algorithm, FORCE,
                      RUN_SHIELD, SEED, WORKERS, FORMAT, JSON, OutputFormat, output_format,
-                     plain, print_json, print_table, progress, say, SHIELD_HELP)
+                     print_json, print_table, progress, say, SHIELD_HELP)
 
 
 @app.command("train")
@@ -60,25 +59,12 @@ def train_cmd(
         raise InputError(f"--algorithm dqn trains the paper's highway agent; for {adapter.name} "
                          "use --algorithm q-learning, or give --shield")
     steps = steps or 20_000
-    with _training_progress(f"training {profile.value}", steps) as report:
+    with progress(f"training {profile.value}", steps, "steps") as advance:
         card = train(profile.value, output, steps=steps, seed=seed, duration=duration or 60,
-                     progress=report)
+                     progress=lambda done, total: advance(0, completed=done))
     out.print(f"trained {card['agent']} ({profile.value}, {steps} steps, seed {seed}) in "
               f"{card['wall_time_s']:.0f} s -> {output}; model card "
               f"{Path(output).with_suffix('.json')}", markup=False)
-
-
-@contextmanager
-def _training_progress(label: str, steps: int):
-    """A progress bar over training steps; yields ``report(done, total)``."""
-    with progress(label, steps, "steps") as advance:
-        done = [0]
-
-        def report(now: int, total: int) -> None:
-            advance(now - done[0])
-            done[0] = now
-
-        yield report
 
 
 def _train_shielded(adapter, env_config: dict, shield: str, algorithm: Algorithm, profile,
@@ -93,9 +79,9 @@ def _train_shielded(adapter, env_config: dict, shield: str, algorithm: Algorithm
     profile_name = profile.value if adapter.name == "highway" else None
     config = adapter.config(env_config, profile_name, duration)
     steps = steps or 20_000
-    with _training_progress(f"training under {loaded.name}", steps) as report:
+    with progress(f"training under {loaded.name}", steps, "steps") as advance:
         card = train_shielded(adapter, config, loaded, algorithm.value, output, steps=steps,
-                              seed=seed, progress=report)
+                              seed=seed, progress=lambda done, total: advance(0, completed=done))
     say(f"trained {card['agent']} ({card['algorithm']} under shield {loaded.name}, {steps} "
           f"steps, seed {seed}) in {card['wall_time_s']:.0f} s -> {output}; model card "
           f"{Path(output).with_suffix('.json')}")
@@ -186,14 +172,10 @@ def envs_cmd(
     if fmt != OutputFormat.text:
         print_table(fmt, table)
         return
-    from ..render.tables import terminal_width, wrapped
-
-    width = terminal_width()  # a block per environment, wrapped between items
     for name, environment, actions, variables, shield, installed in table.rows:
-        if not actions:
-            plain(wrapped(f"{name} ({environment}): {installed}", width))
+        if not actions:  # a block per environment, wrapped between items
+            say(f"{name} ({environment}): {installed}")
             continue
-        plain(wrapped(f"{name} ({environment}), shield {shield or '(none)'}, installed: "
-                      f"{installed}", width))
-        plain(wrapped(f"  actions: {actions}", width, "    "))
-        plain(wrapped(f"  variables: {variables}", width, "    "))
+        say(f"{name} ({environment}), shield {shield or '(none)'}, installed: {installed}")
+        say(f"  actions: {actions}", "    ")
+        say(f"  variables: {variables}", "    ")

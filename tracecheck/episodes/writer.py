@@ -89,7 +89,7 @@ class EpisodeWriter:
     def _register_foxglove(self) -> None:
         import orjson
 
-        from ..interop.foxglove import SCHEMAS, TOPICS
+        from ..interop.foxglove import SCHEMAS, TOPICS, step_messages
 
         ids = {name: self._writer.register_schema(name=name, encoding="jsonschema",
                                                   data=orjson.dumps(schema))
@@ -97,21 +97,19 @@ class EpisodeWriter:
         for topic, name in TOPICS.items():
             self._channels[topic] = self._writer.register_channel(
                 topic=topic, message_encoding="json", schema_id=ids[name])
+        # looked up once, not per step
+        self._step_messages, self._dumps = step_messages, orjson.dumps
+        self._zones = self.header.shield_name == "paper"
 
     def _emit_foxglove(self, episode: int, step, previous_crashed: bool) -> None:
         """Foxglove's channels for one step, right after its step message (not in the
         episode's checksum: tracecheck never reads them; the run blob's checksum of the
         file's bytes covers them)."""
-        import orjson
-
-        from ..interop.foxglove import step_messages
-
         t = self._clock_ns + int(round(step.time * _NS))
-        for m in step_messages(step, episode=episode, stamp_ns=t,
-                               zones=self.header.shield_name == "paper",
-                               previous_crashed=previous_crashed):
+        for m in self._step_messages(step, episode=episode, stamp_ns=t, zones=self._zones,
+                                     previous_crashed=previous_crashed):
             self._writer.add_message(channel_id=self._channels[m.topic], log_time=t,
-                                     publish_time=t, data=orjson.dumps(m.data))
+                                     publish_time=t, data=self._dumps(m.data))
 
     def close(self) -> None:
         """Write the summary (index and statistics) and close the file."""

@@ -25,7 +25,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Iterator, Optional
 
-from ..render.scene import grid_cells, scene_kind, vehicles
+from ..render.scene import grid_cells, paper_zones, scene_kind, vehicles
 
 __all__ = ["FoxgloveMessage", "step_messages", "SCHEMAS", "TOPICS", "SCALARS"]
 
@@ -96,21 +96,6 @@ _EGO, _CRASHED, _OTHER, _ABSENT = ((0.16, 0.4, 0.9, 1.0), (0.85, 0.1, 0.1, 1.0),
 _ZONE, _BLOCKING = (0.95, 0.8, 0.2, 0.2), (0.9, 0.15, 0.15, 0.35)
 _TILE, _DARK, _GOAL, _AGENT = ((0.85, 0.9, 0.95, 1.0), (0.15, 0.2, 0.3, 1.0),
                                (0.3, 0.75, 0.35, 1.0), (0.16, 0.4, 0.9, 1.0))
-# the regions of the paper shield's guards around the ego vehicle (its Table 1): action, x
-# from, x to, y from, y to (relative, m), and which vehicles there block it
-_PAPER_ZONES = (
-    *((a, 15, 35, dy - 2, dy + 2, "oncoming") for a, dy in (("LANE_LEFT", -4),
-                                                           ("LANE_RIGHT", 4))),
-    *((a, -15, 15, dy - 2, dy + 2, "any") for a, dy in (("LANE_LEFT", -4), ("LANE_RIGHT", 4))),
-    *((a, -25, -15, dy - 2, dy + 2, "faster") for a, dy in (("LANE_LEFT", -4),
-                                                            ("LANE_RIGHT", 4))),
-    ("FASTER", 0, 45, -3.5, 3.5, "any"),
-    ("IDLE", 0, 35, -3.5, 3.5, "oncoming"),
-)
-
-_WHICH = {"any": lambda vx: True, "oncoming": lambda vx: vx < 0, "faster": lambda vx: vx > 0}
-
-
 @dataclass(frozen=True)
 class FoxgloveMessage:
     """One message: its topic (its schema is ``TOPICS[topic]``) and its JSON data."""
@@ -138,12 +123,14 @@ def _entity(ns: int, name: str, cubes: list, **metadata: str) -> dict:
     return entity
 
 
-def _road(state, ns: int, crashed: bool, zones: bool) -> tuple[list, Optional[float]]:
-    """Entities of the highway and the distance to the nearest other present vehicle."""
+def _road(state, ns: int, crashed: bool, zones: bool
+          ) -> tuple[list, Optional[float], Optional[float]]:
+    """Entities of the highway, the ego vehicle's speed and the distance to the nearest other
+    present vehicle."""
     cars = vehicles(state)
     ego = next((v for v in cars if v["name"] == "EgoVehicle"), None)
     if ego is None:
-        return [], None
+        return [], None, None
     entities, gaps = [], []
     for v in cars:
         is_ego = v is ego
@@ -155,15 +142,12 @@ def _road(state, ns: int, crashed: bool, zones: bool) -> tuple[list, Optional[fl
         if not is_ego and v["present"]:
             gaps.append(math.hypot(v["x"], v["y"]))
     if zones:
-        cubes = []
-        for action, x0, x1, y0, y1, which in _PAPER_ZONES:
-            blocking = any(v is not ego and v["present"] and x0 < v["x"] <= x1
-                           and y0 < v["y"] < y1
-                           and _WHICH[which](v["vx"]) for v in cars)
-            cubes.append(_cube((x0 + x1) / 2, -(ego["y"] + (y0 + y1) / 2), 0.05,
-                               (x1 - x0, y1 - y0, 0.1), _BLOCKING if blocking else _ZONE))
-        entities.append(_entity(ns, "shield zones", cubes, shield="paper"))
-    return entities, (min(gaps) if gaps else None)
+        entities.append(_entity(ns, "shield zones", [
+            _cube((z["x0"] + z["x1"]) / 2, -(ego["y"] + (z["y0"] + z["y1"]) / 2), 0.05,
+                  (z["x1"] - z["x0"], z["y1"] - z["y0"], 0.1),
+                  _BLOCKING if z["blocking"] else _ZONE) for z in paper_zones(cars)],
+            shield="paper"))
+    return entities, ego["vx"], (min(gaps) if gaps else None)
 
 
 def _grid(state, ns: int) -> list:
@@ -183,9 +167,9 @@ def step_messages(step, *, episode: int, stamp_ns: int, zones: bool = False,
     the paper shield's zones; ``previous_crashed`` keeps a crash from being logged twice."""
     state = step.state
     kind = scene_kind(state)
-    gap = None
+    speed = gap = None
     if kind == "road":
-        entities, gap = _road(state, stamp_ns, bool(step.crashed), zones)
+        entities, speed, gap = _road(state, stamp_ns, bool(step.crashed), zones)
     elif kind == "grid":
         entities = _grid(state, stamp_ns)
     else:
@@ -209,9 +193,6 @@ def step_messages(step, *, episode: int, stamp_ns: int, zones: bool = False,
         yield FoxgloveMessage("/foxglove/log", {
             "timestamp": _stamp(stamp_ns), "level": level, "message": message,
             "name": "tracecheck", "file": f"episode {episode}", "line": step.step})
-    speed = None
-    if kind == "road":
-        speed = state["VehiclesVx"].map.get(_ego_key(state))
     values = {"speed": speed, "reward": step.reward, "nearest_gap": gap,
               "allowed_actions": (len(step.allowed_actions)
                                   if step.allowed_actions is not None else None)}
@@ -219,8 +200,3 @@ def step_messages(step, *, episode: int, stamp_ns: int, zones: bool = False,
         value = values[name]
         if value is not None and math.isfinite(value):
             yield FoxgloveMessage(f"/plot/{name}", {"value": float(value)})
-
-
-def _ego_key(state):
-    return next((k for k in state["VehiclesX"].map if str(k) == "EgoVehicle"), None)
-

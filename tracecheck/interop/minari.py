@@ -263,6 +263,8 @@ def import_minari(dataset_id: str, adapter_name: str, *,
                         shield_sha256=meta.get("shield_sha256"))
 
     def episodes():
+        seeds = {int(m["id"]): m.get("seed")  # every episode's, read once
+                 for m in dataset.storage.get_episode_metadata(dataset.episode_indices)}
         for data in dataset.iterate_episodes():
             observer = adapter.observer(env)
             where = f"{dataset_id}, episode {data.id}"
@@ -292,7 +294,7 @@ def import_minari(dataset_id: str, adapter_name: str, *,
             steps = tuple(steps)
             reason = ("time-limit" if n and data.truncations[-1] else
                       "crashed" if steps[-1].crashed else "end-of-trace")
-            seed = next(iter(dataset.storage.get_episode_metadata([data.id]))).get("seed")
+            seed = seeds.get(int(data.id))
             yield Episode(id=int(data.id), steps=steps, end=make_end(steps, reason),
                           seed=None if seed is None else int(seed),
                           origin=f"minari:{dataset_id}")

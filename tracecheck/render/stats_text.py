@@ -13,48 +13,54 @@ from rich.text import Text
 __all__ = ["stats_text", "stats_markdown", "stats_csv", "stats_plots"]
 
 
-def _metric_cell(m: dict, sep: str = " ") -> str:
-    """Mean ± sd and the interval; ``sep`` "\n" puts the interval on a line of its own (a
-    terminal table then wraps between the parts, never inside one)."""
+def _metric_cell(m: dict, lines: bool = False) -> str:
+    """Mean ± sd and its interval; ``lines``: the interval on a line of its own (a terminal
+    table then wraps between the parts, never inside one)."""
     if m["sd"] is None:
         return f"{m['mean']:.2f}"
     lo, hi = m["ci95"]
-    return f"{m['mean']:.2f} ± {m['sd']:.2f}{sep}[{lo:.2f}, {hi:.2f}]"
+    return f"{m['mean']:.2f} ± {m['sd']:.2f}{_SEP[lines]}[{lo:.2f}, {hi:.2f}]"
 
 
-def _property_cell(p: dict, sep: str = "; ") -> str:
+def _property_cell(p: dict, lines: bool = False) -> str:
+    """Share and interval (then the test's verdict and p-value, after "; "); ``lines``: each
+    part on a line of its own."""
     lo, hi = p["ci95"]
-    text = f"{100 * p['ratio']:.1f} %{' ' if sep == '; ' else sep}[{100 * lo:.1f}, {100 * hi:.1f}]"
+    text = f"{100 * p['ratio']:.1f} %{_SEP[lines]}[{100 * lo:.1f}, {100 * hi:.1f}]"
     if "test" in p:
         t = p["test"]
         verdict = "rejected" if t["exact_rejected"] else "not rejected"
-        text += f"{sep}H0 {verdict}{' ' if sep == '; ' else sep}(p={t['exact_p_value']:.3g})"
+        then = "\n" if lines else "; "
+        text += f"{then}H0 {verdict}{_SEP[lines]}(p={t['exact_p_value']:.3g})"
     return text
 
 
-def _rows(result: dict, sep: str = "") -> tuple[list[str], list[list[str]]]:
-    """Header and rows; ``sep`` "\n" splits cells into lines for a terminal."""
+_SEP = {False: " ", True: "\n"}  # between the parts of a cell: on one line, or one per line
+
+
+def _rows(result: dict, lines: bool = False) -> tuple[list[str], list[list[str]]]:
+    """Header and rows; ``lines``: cells split into lines for a terminal."""
     runs = result["runs"]
-    header = ["", *[f"{r['name']}{sep or ' '}({r['episodes']} ep.)" for r in runs]]
+    header = ["", *[f"{r['name']}{_SEP[lines]}({r['episodes']} ep.)" for r in runs]]
     rows = []
     first = next((r for r in runs if r["episodes"]), None)
     if first is None:
         return header, [["(no episodes in any run)", *["" for _ in runs]]]
     for name in first["metrics"]:
         label = result["descriptions"].get(name) or name
-        rows.append([label, *[_metric_cell(r["metrics"][name], sep or " ") if r["episodes"] else
+        rows.append([label, *[_metric_cell(r["metrics"][name], lines) if r["episodes"] else
                               "no episodes" for r in runs]])
     for name in first["properties"]:
         label = f"{name}: {result['descriptions'].get(name) or ''}".rstrip(": ")
-        rows.append([label, *[_property_cell(r["properties"][name], sep or "; ")
-                              if r["episodes"] else "no episodes" for r in runs]])
+        rows.append([label, *[_property_cell(r["properties"][name], lines) if r["episodes"]
+                              else "no episodes" for r in runs]])
     return header, rows
 
 
 def stats_text(console: Console, result: dict) -> None:
     from .text import literal_row
 
-    header, rows = _rows(result, "\n")
+    header, rows = _rows(result, lines=True)
     table = Table(title=Text(f"{result['properties_set']}: metrics mean ± sd [95 % t interval]; "
                              f"properties % of episodes [95 % {result['interval']} interval]"),
                   show_lines=True)
@@ -78,10 +84,9 @@ def stats_text(console: Console, result: dict) -> None:
 
 
 def stats_markdown(result: dict) -> str:
-    header, rows = _rows(result)
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(c.replace("|", "\\|") for c in row) + " |" for row in rows]
-    return "\n".join(lines)
+    from .tables import TableData, markdown
+
+    return markdown(TableData.of(*_rows(result)))
 
 
 def stats_csv(result: dict) -> str:

@@ -21,7 +21,7 @@ from ..episodes.columns import read_columns
 from ..episodes.reader import read_run
 from ..errors import InputError
 from ..checking.shield import Shield
-from .scene import grid_cells, scene_kind, vehicles
+from .scene import grid_cells, paper_zones, scene_kind, vehicles
 
 __all__ = ["render_episode", "episode_data"]
 
@@ -50,6 +50,7 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
     ep = result.episodes[0]
     scene = scene_kind(ep.steps[0].state)
     machine = shield.machine if shield is not None else None
+    zones = scene == "road" and shield is not None and shield.name == "paper"
     steps = []
     first_infeasible = None
     for k, s in enumerate(ep.steps):
@@ -71,6 +72,7 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
             if s.allowed_actions is not None else None,
             "shield_allows": enabled, "values": dict(s.action_values or {}) or None,
             "preferred": s.preferred_action, "ego": ego, "vehicles": cars,
+            "zones": paper_zones(cars, ego) if zones else None,
             "state": {k2: format_value(v) for k2, v in state.items()},
         })
     crash = next((s["step"] for s in steps if s["crashed"]), None)
