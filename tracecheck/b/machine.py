@@ -131,6 +131,20 @@ class Machine:
         check_kind(node, kind, source=text, context="the formula")
         return node
 
+    def check_formula(self, text: str, *, file: str, kind: str = PRED) -> A.Node:
+        """``text`` parsed, its definitions expanded and type-checked in this machine's
+        scope — the one path ``eval --model`` takes too (:func:`.typecheck.check_formula`).
+        For formulas a user gives (``prove --assume``); ``file`` names where they came from
+        (``--assume``, ``obs.toml: implies[2].predicate``)."""
+        from .typecheck import check_formula
+
+        names = ", ".join([*self.variables, *self.constants]) or "none"
+        node, _ = check_formula(text, self.type_objects, file=file, kind=kind,
+                                definitions=self.definitions,
+                                unknown_hint=f"the variables and constants of {self.name} are "
+                                             f"{names}")
+        return node
+
     def compile(self, node: A.Node, *, source: Optional[str] = None) -> Callable[[dict], Any]:
         return Compiler(source=source or self.source, file=None if source else self.file
                         ).compile(node)

@@ -11,12 +11,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional, Union
 
-from ..errors import BScopeError, BTypeError, UnsupportedError
+from ..errors import BScopeError, BTypeError, TracecheckError, UnsupportedError
 from . import ast as A
-from .scope import render
+from .scope import check_kind, expand, kind_of, render
 
-__all__ = ["typecheck_machine", "typecheck_formula", "Typer", "show", "type_of_value",
-           "describe_value_type"]
+__all__ = ["typecheck_machine", "typecheck_formula", "check_formula", "Typer", "show",
+           "type_of_value", "describe_value_type"]
 
 
 @dataclass(frozen=True)
@@ -588,3 +588,33 @@ def typecheck_formula(node: A.Node, names: dict[str, Type], *, kind: str = "pred
         typer.pred(node)
         return BOOL
     return typer.expr(node)
+
+
+def check_formula(text: str, names: dict[str, Type], *, file: str,
+                  definitions: Optional[dict] = None, kind: Optional[str] = None,
+                  unknown_hint: Optional[str] = None) -> tuple[A.Node, str]:
+    """Parse ``text``, expand ``definitions``, check that predicates and expressions stand
+    where they belong (``kind``: what the whole must be; None: either) and type it with
+    ``names`` in scope — what every formula a user gives goes through (``eval``, and
+    ``prove``'s assumptions and claims) before anything evaluates or translates it. Errors
+    name ``file`` (a file, ``<expr>``, an option such as ``--assume``) and point into
+    ``text``. Returns the node and its kind.
+
+    >>> node, kind = check_formula("n + 1 > 2", {"n": INTEGER}, file="<expr>")
+    >>> kind
+    'predicate'
+    """
+    from .parser import parse_formula
+
+    try:
+        node = parse_formula(text, file=file)
+        if definitions:
+            node = expand(node, definitions)
+        found = kind_of(node)
+        check_kind(node, kind or found, source=text, context="the formula")
+        hint = {"unknown_hint": unknown_hint} if unknown_hint else {}
+        typecheck_formula(node, dict(names), kind=kind or found, source=text, file=file,
+                          **hint)
+    except TracecheckError as exc:
+        raise exc.located(file=file, source=text) from None
+    return node, kind or found

@@ -7,28 +7,22 @@ from such a set to numbers or booleans (made a function by the invariant: ``S --
 take the machine's values. Quantifiers and comprehensions over elements are unrolled,
 applications record their well-definedness condition under the path that reaches them.
 What cannot be translated is an error naming the construct and its position — never
-skipped.
-
-Obligations (:func:`prove`): deadlock freedom (under the invariant and assumptions some
-operation is enabled), implications (whenever an operation is enabled a predicate holds),
-well-definedness of every guard, and the per-operation difference of two shields. A
-counterexample is turned into a state and evaluated again by tracecheck's own evaluator
-before it is reported; where the two disagree, that is said (:class:`Disagreement`).
+skipped. The obligations asked of the solver are in :mod:`.prove`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from contextlib import contextmanager
+from dataclasses import dataclass
 from fractions import Fraction
-from typing import Any, Optional
+from typing import Any, Callable, Optional
 
 from ..b import ast as A
-from ..b.scope import PRED
 from ..b.typecheck import BOOL, INTEGER, REAL, Base, Pow, Prod, resolve_all
 from ..b.values import Elem, FuncValue
-from ..errors import InputError, TracecheckError, UnsupportedError
+from ..errors import InputError, UnsupportedError
 
-__all__ = ["Translator", "prove", "Result", "symbolic_diff", "state_of_model"]
+__all__ = ["Translator", "state_of_model", "MAX_EXPONENT"]
 
 
 def _z3():
@@ -64,6 +58,9 @@ class _Nums:
 
 _EMPTY = object()  # the set {} (its carrier comes from the other side)
 
+#: The largest literal exponent ``x ** n`` is translated with (larger: ``unknown``).
+MAX_EXPONENT = 64
+
 
 class Translator:
     """Translates formulas of one machine; ``wd`` collects the well-definedness conditions
@@ -81,6 +78,7 @@ class Translator:
         self._memo: dict = {}  # translated sub-formulas, see tr
         self._raw: list = []  # every condition met, with the path it was met under
         self._free: dict = {}  # free names by node
+        self.file, self.source = machine.file, machine.source  # what positions refer to
         for name in machine.variables:
             self.vars[name] = self._variable(name, resolve_all(machine.type_objects.get(name)))
 
@@ -122,9 +120,28 @@ class Translator:
     def fail(self, node: A.Node, what: str) -> UnsupportedError:
         pos = node.pos
         return UnsupportedError(f"cannot translate {what} to SMT",
-                                file=self.m.file, source=self.m.source,
+                                file=self.file, source=self.source,
                                 line=pos.line if pos else None,
                                 column=pos.column if pos else None)
+
+    @contextmanager
+    def reading(self, file: str, source: str):
+        """Translate a formula the user gave: what cannot be translated points into
+        ``source`` (named ``file``: ``--implies``), not into the machine."""
+        saved = self.file, self.source
+        self.file, self.source = file, source
+        try:
+            yield
+        finally:
+            self.file, self.source = saved
+
+    def defined(self, build: Callable[[], Any]) -> tuple[Any, Any]:
+        """``build()`` (a translation) and the condition that it is well-defined: the
+        conditions met while translating it, each under its path."""
+        start = len(self.wd)
+        value = build()
+        conds = [c for c, _ in self.wd[start:]]
+        return value, self.z3.And(conds) if conds else self.z3.BoolVal(True)
 
     # -- formulas
     def pred(self, node: A.Node, env: Optional[dict] = None) -> Any:
@@ -223,17 +240,30 @@ class Translator:
                     return z3.If(a * b >= 0, q, -q)
                 return a / b
             if node.op == "**":
-                if not isinstance(node.right, A.IntLit) or node.right.value < 0:
-                    raise self.fail(node, "a power whose exponent is not a literal natural")
-                out = z3.RealVal(1) if z3.is_real(a) else z3.IntVal(1)
-                for _ in range(node.right.value):
-                    out = out * a
-                return out
+                return self._power(node, a)
             self._need(z3.And(a >= 0, b > 0), node)
             return a % b
         if node.op in ("\\", "\\/", "/\\"):
             return self._setop(node, self.tr(node.left, env), self.tr(node.right, env))
         raise self.fail(node, f"the operator {node.op}")
+
+    def _power(self, node: A.BinOp, a) -> Any:
+        """``a ** n`` for a literal natural n up to :data:`MAX_EXPONENT`, by repeated
+        squaring (a term of about log n products, not n)."""
+        n = node.right.value if isinstance(node.right, A.IntLit) else None
+        if n is None or n < 0:
+            raise self.fail(node, "a power whose exponent is not a literal natural")
+        if n > MAX_EXPONENT:
+            raise self.fail(node, f"a power with exponent {n} (at most {MAX_EXPONENT}: "
+                                  "the solver cannot decide such products in useful time)")
+        out = self.z3.RealVal(1) if self.z3.is_real(a) else self.z3.IntVal(1)
+        while n:
+            if n & 1:
+                out = out * a
+            n >>= 1
+            if n:
+                a = a * a
+        return out
 
     def _setop(self, node, a, b) -> Any:
         z3 = self.z3
@@ -540,26 +570,7 @@ def _abs(z3, x):
     return z3.If(x >= 0, x, -x)
 
 
-# ------------------------------------------------------------------ obligations
-
-
-@dataclass
-class Result:
-    """One obligation: proved, counterexample or unknown (with the solver's reason)."""
-
-    obligation: str
-    status: str
-    reason: str = ""
-    state: Optional[dict] = None  # the counterexample, as B values
-    reading: str = ""
-    disagreement: str = ""  # where tracecheck's evaluator does not confirm the solver
-    extra: dict = field(default_factory=dict)
-
-
-class Disagreement(TracecheckError):
-    """The solver and tracecheck's evaluator disagree on a counterexample (a bug)."""
-
-    exit_code = 4
+# ------------------------------------------------------------------ models
 
 
 def state_of_model(tr: Translator, model) -> dict:
@@ -589,212 +600,3 @@ def state_of_model(tr: Translator, model) -> dict:
         else:
             out[name] = num(enc)
     return out
-
-
-def _solve(tr: "Translator", constraints: list, timeout_s: float):
-    """Check ``constraints`` (with the translator's definitions). A model is then made
-    smaller where the solver manages in a few seconds: as few set members (vehicles present)
-    as possible, for an easier reading."""
-    z3 = tr.z3
-    constraints = list({c.get_id(): c for c in constraints}.values())  # z3 shares equal terms
-    solver = z3.Solver()
-    solver.set("timeout", int(timeout_s * 1000))
-    solver.add(*constraints, *tr.side)
-    verdict = solver.check()
-    if verdict != z3.sat:
-        return verdict, None, solver.reason_unknown()
-    model = solver.model()
-    counts = [z3.Sum([z3.If(c, 1, 0) for c in v.member.values()])
-              for v in tr.vars.values() if isinstance(v, _Set) and v.member]
-    if counts:
-        opt = z3.Optimize()
-        opt.set("timeout", int(min(timeout_s, 1.0) * 1000))
-        opt.add(*constraints, *tr.side)
-        opt.minimize(z3.Sum(counts))
-        if opt.check() == z3.sat:
-            model = opt.model()
-    return verdict, model, ""
-
-
-def _reading(state: dict, machine, limit: int = 6) -> str:
-    """One line: on a road (vehicles with positions), each present vehicle's position and
-    speed; otherwise the first variables."""
-    from ..b.values import format_value
-
-    x, y = state.get("VehiclesX"), state.get("VehiclesY")
-    present = state.get("PresentVehicles")
-    if isinstance(x, FuncValue) and isinstance(y, FuncValue) and isinstance(present, frozenset):
-        vx = state.get("VehiclesVx")
-        parts = []
-        for e in sorted(present, key=str):
-            speed = f", vx = {_short(vx.map[e])}" if isinstance(vx, FuncValue) and \
-                e in vx.map else ""
-            if e in x.map and e in y.map:
-                parts.append(f"{e} at x = {_short(x.map[e])}, y = {_short(y.map[e])}{speed}")
-        others = [f"{k} = {format_value(v)}" for k, v in state.items()
-                  if not isinstance(v, (FuncValue, frozenset))]
-        return "; ".join(parts or ["no vehicle present"]) + \
-            (f" ({', '.join(others)})" if others else "")
-    parts = [f"{k} = {format_value(v)}" for k, v in state.items()][:limit]
-    return ", ".join(parts) + (", …" if len(state) > limit else "")
-
-
-def _short(v) -> str:
-    return f"{v:g}" if isinstance(v, float) else str(v)
-
-
-def prove(machine, *, deadlock_free: bool = False, implies: tuple[tuple[str, str], ...] = (),
-          well_defined: bool = False, assume: tuple[str, ...] = (),
-          timeout_s: float = 10.0) -> list[Result]:
-    """Check the obligations over every state that satisfies the invariant and ``assume``.
-    An obligation whose formulas cannot be translated is ``unknown``, with the reason."""
-    z3 = _z3()
-    for op, _ in implies:
-        if op not in machine.operations:
-            raise InputError(f"unknown operation {op!r} in --implies; the operations of "
-                             f"{machine.name} are {', '.join(machine.operations)}")
-    parsed = [machine.parse(a, kind=PRED) for a in assume]  # bad input: an error, not unknown
-    wanted = (["deadlock-free"] if deadlock_free else []) + \
-        [f"{op} => {text}" for op, text in implies] + \
-        (["well-defined guards"] if well_defined else [])
-    try:
-        tr = Translator(machine)
-        base = [tr.invariant()] + [tr.pred(n) for n in parsed]
-        base += [c for c, _ in tr.wd]  # the invariant and assumptions are read where defined
-    except UnsupportedError as exc:
-        return [Result(name, "unknown", reason=exc.render()) for name in wanted]
-    results = []
-    if deadlock_free:
-        def deadlock():
-            tr.wd.clear()
-            guards = [tr.guard(op) for op in machine.operations]
-            return [c for c, _ in tr.wd] + [z3.Not(z3.Or(guards))]
-        results.append(_obligation("deadlock-free", deadlock, base, tr, machine, timeout_s,
-                                   lambda s: not machine.enabled(s), "no operation is enabled"))
-    for op, text in implies:
-        def implication(op=op, text=text):
-            tr.wd.clear()
-            g = tr.guard(op)
-            p = tr.pred(machine.parse(text, kind=PRED))
-            return [c for c, _ in tr.wd] + [g, z3.Not(p)]
-        results.append(_obligation(f"{op} => {text}", implication, base, tr, machine,
-                                   timeout_s,
-                                   lambda s, op=op, text=text: machine.is_enabled(op, s)
-                                   and not machine.evaluate(text, s),
-                                   f"{op} is enabled and {text} does not hold"))
-    if well_defined:
-        def defined():
-            tr.wd.clear()
-            for op in machine.operations:
-                tr.guard(op)
-            return [z3.Not(z3.And([c for c, _ in tr.wd]))] if tr.wd else [z3.BoolVal(False)]
-        results.append(_obligation("well-defined guards", defined, base, tr, machine,
-                                   timeout_s, lambda s: _some_guard_fails(machine, s),
-                                   "a guard is not well-defined"))
-    return results
-
-
-def _obligation(name, build, base, tr, machine, timeout_s, confirm, meaning) -> Result:
-    try:
-        constraints = build()
-    except UnsupportedError as exc:
-        return Result(name, "unknown", reason=exc.render())
-    verdict, model, why = _solve(tr, base + constraints, timeout_s)
-    return _result(name, verdict, model, why, tr, machine, confirm, meaning,
-                   base + constraints)
-
-
-def _some_guard_fails(machine, state) -> bool:
-    from ..errors import WellDefinednessError
-
-    try:
-        machine.enabled(state)
-    except WellDefinednessError:
-        return True
-    return False
-
-
-def _result(name, verdict, model, why, tr, machine, confirm, meaning,
-            constraints=()) -> Result:
-    z3 = tr.z3
-    if verdict == z3.unsat:
-        return Result(name, "proved")
-    if verdict != z3.sat:
-        return Result(name, "unknown", reason=why or "the solver gave up")
-    state = state_of_model(tr, model)
-    result = Result(name, "counterexample", state=state,
-                    reading=f"{meaning}: {_reading(state, machine)}")
-    try:
-        ok_invariant = machine.invariant(state)
-        confirmed = ok_invariant and confirm(state)
-    except TracecheckError as exc:
-        confirmed, ok_invariant = False, False
-        result.disagreement = f"tracecheck's evaluator cannot evaluate the state: {exc.message}"
-    if not confirmed and not result.disagreement:
-        if constraints and not _holds_at(tr, model, list(constraints) + tr.side):
-            # the solver's exact reals, rounded to floats, moved the state across a boundary:
-            # a counterexample over the reals that floats cannot show — no disagreement
-            result.reason = ("over the exact reals, at a boundary: the nearest float state "
-                             "does not show it (see docs/prove.md, reals and floats)")
-            return result
-        result.disagreement = ("tracecheck's evaluator does not confirm the counterexample "
-                               f"({'the invariant fails' if not ok_invariant else meaning + ' is false'}"
-                               " there): the solver and the evaluator disagree")
-    return result
-
-
-def _holds_at(tr: Translator, model, constraints: list) -> bool:
-    """Whether ``constraints`` still hold when every real of ``model`` is rounded to the
-    nearest float (the state tracecheck's evaluator sees), fresh variables re-solved."""
-    z3 = tr.z3
-    fixed = []
-    for enc in tr.vars.values():
-        cells = enc.cells.values() if isinstance(enc, _Func) else \
-            [(None, v) for v in enc.member.values()] if isinstance(enc, _Set) else [(None, enc)]
-        for defined, value in cells:
-            for var in ([defined] if defined is not None else []) + [value]:
-                got = model.eval(var, model_completion=True)
-                if z3.is_rational_value(got) or z3.is_algebraic_value(got):
-                    if z3.is_algebraic_value(got):
-                        got = got.approx(20)
-                    exact = Fraction(got.numerator_as_long(), got.denominator_as_long())
-                    got = z3.RealVal(Fraction(float(exact)))
-                fixed.append(var == got)
-    solver = z3.Solver()
-    solver.set("timeout", 5000)
-    solver.add(*constraints, *fixed)
-    return solver.check() != z3.unsat
-
-
-def symbolic_diff(a, b, *, timeout_s: float = 10.0) -> list[Result]:
-    """Per operation of both machines: equivalent over every state satisfying both
-    invariants, or a state where they decide differently (unknown where a guard cannot be
-    translated or the solver gives up)."""
-    _z3()
-    if set(a.variables) != set(b.variables) or any(a.types.get(v) != b.types.get(v)
-                                                   for v in a.variables):
-        raise InputError(f"{a.name} and {b.name} have different variables or types; a "
-                         "symbolic diff compares shields over the same states")
-    ops = [op for op in a.operations if op in b.operations]
-    try:
-        ta, tb = Translator(a), Translator(b)
-        tb.vars, tb.side = ta.vars, ta.side  # the same state for both
-        base = [ta.invariant(), tb.invariant()] + [c for c, _ in ta.wd + tb.wd]
-    except UnsupportedError as exc:
-        return [Result(op, "unknown", reason=exc.render()) for op in ops]
-    results = []
-    for op in ops:
-        def differ(op=op):
-            ta.wd.clear()
-            tb.wd.clear()
-            ga, gb = ta.guard(op), tb.guard(op)
-            return [c for c, _ in ta.wd + tb.wd] + [ga != gb]
-        r = _obligation(op, differ, base, ta, a, timeout_s,
-                        lambda s, op=op: a.is_enabled(op, s) != b.is_enabled(op, s),
-                        f"{a.name} and {b.name} decide {op} differently")
-        if r.status == "proved":
-            r.status = "equivalent"
-        elif r.state is not None and not r.disagreement and not r.reason:
-            r.extra = {a.name: a.is_enabled(op, r.state), b.name: b.is_enabled(op, r.state)}
-        results.append(r)
-    return results

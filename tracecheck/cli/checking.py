@@ -85,6 +85,13 @@ def _resimulate(runs: list[Path], shield, report, agent: Optional[Path],
     return summary(results)
 
 
+def _seconds(value: float) -> float:
+    """The ``--timeout`` option: a finite number of seconds above 0."""
+    from ..checking.prove import check_timeout
+
+    return check_timeout(value, "--timeout")
+
+
 @app.command("diff")
 def diff_cmd(
     runs: Optional[list[Path]] = typer.Argument(None, help="MCAP run files (none with "
@@ -100,8 +107,8 @@ def diff_cmd(
     symbolic: bool = typer.Option(False, "--symbolic", help="Compare over every state that "
                                   "satisfies both invariants, with an SMT solver: per "
                                   "operation, equivalent or a state where they differ."),
-    timeout: float = typer.Option(10.0, "--timeout", min=0.1, help="--symbolic: seconds the "
-                                  "solver may take per operation."),
+    timeout: float = typer.Option(10.0, "--timeout", callback=_seconds, help="--symbolic: "
+                                  "seconds the solver may take per question (each operation)."),
     counterexamples: Optional[Path] = typer.Option(None, "--counterexamples", help="--symbolic:"
                                                    " write each differing state as a state file "
                                                    "into this folder."),
@@ -114,13 +121,14 @@ def diff_cmd(
 
     fmt = output_format(fmt, as_json)
     if symbolic:
-        from ..checking.smt import symbolic_diff
+        from ..checking.prove import symbolic_diff
 
         if runs:
             raise InputError("--symbolic compares the shields over every state: give no run "
                              "files")
         a, b = run_shield(shield, []).machine, run_shield(against, []).machine
-        _print_results(symbolic_diff(a, b, timeout_s=timeout), a, fmt, counterexamples)
+        _print_results(symbolic_diff(a, b, timeout_s=timeout, labels=(shield, against)), a,
+                       fmt, counterexamples)
         return
     if not runs:
         raise InputError("give run files to compare the shields on, or --symbolic")
@@ -156,8 +164,9 @@ def prove_cmd(
                                                "obligations: deadlock_free, well_defined, "
                                                "assume = [...], [[implies]] operation, "
                                                "predicate (see docs/prove.md)."),
-    timeout: float = typer.Option(10.0, "--timeout", min=0.1,
-                                  help="Seconds the solver may take per obligation."),
+    timeout: float = typer.Option(10.0, "--timeout", callback=_seconds, help="Seconds the "
+                                  "solver may take per question (each obligation, and whether "
+                                  "any state satisfies the invariant and assumptions)."),
     counterexamples: Optional[Path] = typer.Option(None, "--counterexamples", help="Write "
                                                    "each counterexample as a state file into "
                                                    "this folder."),
@@ -166,15 +175,16 @@ def prove_cmd(
 ) -> None:
     """Prove properties of a shield over every state, with an SMT solver (z3): deadlock
     freedom, implications, well-definedness. Exit 0: all proved; 1: a counterexample; 3:
-    unknown; 4: the solver and tracecheck's evaluator disagree (see docs/prove.md)."""
+    unknown; 4: the solver and tracecheck's evaluator disagree; 5: vacuous, no state
+    satisfies the invariant and assumptions (see docs/prove.md)."""
+    from ..checking.prove import Given, prove
     from ..checking.shield import load_shield
-    from ..checking.smt import prove
 
     fmt = output_format(fmt, as_json)
     machine = load_shield(shield).machine
     pairs = []
     if obligations is not None:
-        more = _obligations_file(obligations)
+        more = _obligations_file(obligations, machine)
         deadlock_free = deadlock_free or more["deadlock_free"]
         well_defined = well_defined or more["well_defined"]
         assume = list(assume) + more["assume"]
@@ -182,12 +192,13 @@ def prove_cmd(
     if env is not None:
         from ..live.adapter import load_adapter
 
-        assume = list(assume) + list(load_adapter(env).assumptions)
+        assume = list(assume) + [Given(a, f"--env {env}")
+                                 for a in load_adapter(env).assumptions]
     for item in implies:
         op, sep, pred = item.partition("=>")
         if not sep or not op.strip() or not pred.strip():
             raise InputError(f"--implies takes 'OP => PREDICATE', not {item!r}")
-        pairs.append((op.strip(), pred.strip()))
+        pairs.append((op.strip(), Given(pred.strip(), "--implies")))
     if not (deadlock_free or pairs or well_defined):
         raise InputError("nothing to prove: give --deadlock-free, --implies or --well-defined")
     results = prove(machine, deadlock_free=deadlock_free, implies=tuple(pairs),
@@ -195,10 +206,12 @@ def prove_cmd(
     _print_results(results, machine, fmt, counterexamples)
 
 
-def _obligations_file(path: Path) -> dict:
-    """The obligations of a TOML file, checked (each mistake names the file and key)."""
+def _obligations_file(path: Path, machine) -> dict:
+    """The obligations of a TOML file, checked (each mistake names the file and key; the
+    predicates are type-checked by ``prove``, with the same names)."""
     import tomllib
 
+    from ..checking.prove import Given
     from ..errors import read_text
 
     text = read_text(path, "obligations file")
@@ -218,15 +231,21 @@ def _obligations_file(path: Path) -> dict:
             raise InputError(f"{path}: {key} must be true or false")
     if not isinstance(out["assume"], list) or not all(isinstance(a, str) for a in out["assume"]):
         raise InputError(f"{path}: assume must be a list of predicates (strings)")
+    out["assume"] = [Given(a, f"{path}: assume[{i + 1}]") for i, a in enumerate(out["assume"])]
     items = data.get("implies", [])
     if not isinstance(items, list):
         raise InputError(f"{path}: implies must be [[implies]] tables")
     for i, item in enumerate(items):
         if not (isinstance(item, dict) and isinstance(item.get("operation"), str)
                 and isinstance(item.get("predicate"), str)):
-            raise InputError(f"{path}: implies {i + 1} needs operation = \"OP\" and "
+            raise InputError(f"{path}: implies[{i + 1}] needs operation = \"OP\" and "
                              "predicate = \"…\"")
-        out["implies"].append((item["operation"], item["predicate"]))
+        if item["operation"] not in machine.operations:
+            raise InputError(f"{path}: implies[{i + 1}].operation: unknown operation "
+                             f"{item['operation']!r}; the operations of {machine.name} are "
+                             f"{', '.join(machine.operations)}")
+        out["implies"].append((item["operation"], Given(item["predicate"],
+                                                        f"{path}: implies[{i + 1}].predicate")))
     return out
 
 
@@ -237,10 +256,12 @@ def _decisions(extra) -> str:
 
 def _print_results(results, machine, fmt: OutputFormat, folder: Optional[Path]) -> None:
     """Print proof or symbolic-diff results and write the counterexamples. Exit 0: all
-    proved (equivalent); 1: a counterexample (a difference); 3: unknown (a construct that
-    cannot be translated, a timeout); 4: the solver and tracecheck's evaluator disagree."""
+    proved (equivalent); 1: a counterexample, a claim not well-defined (a difference, an
+    operation only one shield has); 3: unknown (a construct that cannot be translated, a
+    timeout); 4: the solver and tracecheck's evaluator disagree; 5: vacuous (no state
+    satisfies the invariants and assumptions: nothing was proved)."""
     from ..b.values import to_json
-    from ..checking.smt import Disagreement
+    from ..checking.prove import VACUOUS, Disagreement
 
     written = {}
     if folder is not None:
@@ -270,9 +291,12 @@ def _print_results(results, machine, fmt: OutputFormat, folder: Optional[Path]) 
             ([r.obligation, r.status, r.reason, r.reading, _decisions(r.extra), written.get(i)]
              for i, r in enumerate(results))))
     else:
+        vacuous = next((r.reason for r in results if r.status == VACUOUS), None)
+        if vacuous:
+            out.print(f"{VACUOUS}: {vacuous}", markup=False)
         for i, r in enumerate(results):
             line = f"{r.obligation}: {r.status}"
-            if r.reason:
+            if r.reason and r.status != VACUOUS:
                 line += f" ({r.reason})"
             out.print(line, markup=False)
             if r.reading:
@@ -286,7 +310,9 @@ def _print_results(results, machine, fmt: OutputFormat, folder: Optional[Path]) 
         raise Disagreement(f"{bad[0].obligation}: {bad[0].disagreement}",
                            hint="please report this: the solver's model and tracecheck's "
                                 "evaluator should agree")
-    if any(r.status == "counterexample" for r in results):
+    if any(r.failed for r in results):
         raise typer.Exit(1)
     if any(r.status == "unknown" for r in results):
         raise typer.Exit(3)
+    if any(r.status == VACUOUS for r in results):
+        raise typer.Exit(5)

@@ -124,10 +124,8 @@ def eval_(
 def _evaluator(model: Optional[Path], state: Optional[Path]):
     """``evaluate(text, where)`` in the scope of ``model`` and the values of ``state``."""
     from ..b.evaluate import Compiler
-    from ..b.parser import parse_formula
-    from ..b.scope import check_kind, expand, kind_of
     from ..b.state import read_state_file
-    from ..b.typecheck import type_of_value, typecheck_formula
+    from ..b.typecheck import check_formula, type_of_value
 
     machine = load_model(model) if model is not None else None
     values = read_state_file(state) if state is not None else {}
@@ -140,12 +138,8 @@ def _evaluator(model: Optional[Path], state: Optional[Path]):
     env = machine.env(values) if machine is not None else dict(values)
 
     def evaluate(expr: str, where: str):
-        node = parse_formula(expr, file=where)
-        if machine is not None:
-            node = expand(node, machine.definitions)
-        kind = kind_of(node)
-        check_kind(node, kind, source=expr, context="the formula")
-        typecheck_formula(node, dict(names), kind=kind, source=expr, file=where)
+        node, _ = check_formula(expr, names, file=where,
+                                definitions=machine.definitions if machine else None)
         return Compiler(source=expr, file=where).compile(node)(env)
 
     return evaluate

@@ -1,0 +1,515 @@
+"""Obligations over every state, decided by an SMT solver (z3) on the translation of
+:mod:`.smt`: deadlock freedom, implications, well-defined guards (:func:`prove`) and the
+per-operation difference of two shields (:func:`symbolic_diff`).
+
+Nothing here may pass wrongly:
+
+* every formula a user gives is parsed and type-checked in the machine's scope, as
+  ``eval --model`` does, before the solver sees any (:meth:`Machine.check_formula`);
+* before any obligation, some state must satisfy the invariant and assumptions — if none
+  does, every obligation is ``vacuous``, never ``proved``;
+* a claim's own well-definedness is part of the claim (``1 / 0 = 7`` is ``not
+  well-defined``), and a guard that is not well-defined in a state does not enable its
+  operation there (deadlock freedom, the diff) — tracecheck's evaluator, which raises on
+  such a guard, is read the same way when it confirms a counterexample;
+* the symbolic diff covers every operation of either shield.
+
+A counterexample is turned into a state and evaluated again by tracecheck's own evaluator
+before it is reported; where the two disagree, that is said (:class:`Disagreement`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Callable, Optional, Union
+
+from ..errors import InputError, TracecheckError, UnsupportedError, WellDefinednessError
+from .smt import Translator, _Func, _Set, _z3, state_of_model
+
+__all__ = ["prove", "symbolic_diff", "Result", "Given", "Disagreement", "check_timeout",
+           "PROVED", "EQUIVALENT", "COUNTEREXAMPLE", "NOT_DEFINED", "UNKNOWN", "VACUOUS"]
+
+PROVED, EQUIVALENT, COUNTEREXAMPLE = "proved", "equivalent", "counterexample"
+NOT_DEFINED, UNKNOWN, VACUOUS = "not well-defined", "unknown", "vacuous"
+ONLY_IN = "only in "  # + the shield: an operation the other shield does not have
+
+#: z3 counts its timeout in milliseconds in an unsigned 32-bit number (about 49 days).
+MAX_TIMEOUT_S = 4_294_967
+
+
+@dataclass
+class Result:
+    """One obligation: proved, counterexample, not well-defined, unknown (with the solver's
+    reason) or vacuous; for the diff equivalent or only in one shield."""
+
+    obligation: str
+    status: str
+    reason: str = ""
+    state: Optional[dict] = None  # the counterexample, as B values
+    reading: str = ""
+    disagreement: str = ""  # where tracecheck's evaluator does not confirm the solver
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def failed(self) -> bool:
+        """A counterexample, a claim that is not well-defined, an operation one shield
+        lacks: what makes ``prove`` and ``diff --symbolic`` exit 1."""
+        return self.status in (COUNTEREXAMPLE, NOT_DEFINED) or self.status.startswith(ONLY_IN)
+
+
+class Disagreement(TracecheckError):
+    """The solver and tracecheck's evaluator disagree on a counterexample (a bug)."""
+
+    exit_code = 4
+
+
+@dataclass(frozen=True)
+class Given:
+    """A formula a user gave, and where it came from, for messages: an option
+    (``--assume``) or a file and entry (``obs.toml: implies[2].predicate``)."""
+
+    text: str
+    where: str
+
+
+def check_timeout(seconds, what: str = "the timeout") -> float:
+    """``seconds`` if the solver can take it as a time limit: a finite number above 0, at
+    most z3's largest (:data:`MAX_TIMEOUT_S`); else an :class:`InputError` naming ``what``.
+
+    >>> check_timeout(2)
+    2.0
+    """
+    ok = isinstance(seconds, (int, float)) and not isinstance(seconds, bool) and \
+        math.isfinite(seconds) and 0 < seconds <= MAX_TIMEOUT_S
+    if not ok:
+        raise InputError(f"{what} must be a finite number of seconds above 0 (at most "
+                         f"{MAX_TIMEOUT_S:,}), not {seconds!r}",
+                         hint="give the seconds the solver may take per question, e.g. 10")
+    return float(seconds)
+
+
+def _ms(seconds: float) -> int:
+    return max(1, min(int(seconds * 1000), MAX_TIMEOUT_S * 1000))
+
+
+# ------------------------------------------------------------------ the solver
+
+
+@dataclass
+class _Context:
+    """What every obligation of one run shares: the translation, the machines whose
+    invariants a counterexample must satisfy, the constraints every state satisfies."""
+
+    tr: Translator
+    machines: tuple
+    base: list
+    timeout_s: float
+
+
+@dataclass
+class _Finding:
+    """What a model of an obligation's constraints shows, and how tracecheck's evaluator
+    confirms it in the state (``confirm(state)``; it may raise for a state it cannot
+    evaluate)."""
+
+    status: str
+    meaning: str
+    confirm: Callable[[dict], bool]
+
+
+def _solve(tr: Translator, constraints: list, timeout_s: float):
+    """Check ``constraints`` (with the translator's definitions) within ``timeout_s``. A
+    model is then made smaller in what is left of that time (at most 1 s): as few set
+    members (vehicles present) as possible, for an easier reading."""
+    z3 = tr.z3
+    deadline = time.monotonic() + timeout_s
+    constraints = list({c.get_id(): c for c in constraints}.values())  # z3 shares equal terms
+    solver = z3.Solver()
+    solver.set("timeout", _ms(timeout_s))
+    solver.add(*constraints, *tr.side)
+    verdict = solver.check()
+    if verdict != z3.sat:
+        return verdict, None, solver.reason_unknown()
+    model = solver.model()
+    counts = [z3.Sum([z3.If(c, 1, 0) for c in v.member.values()])
+              for v in tr.vars.values() if isinstance(v, _Set) and v.member]
+    left = min(deadline - time.monotonic(), 1.0)
+    if counts and left > 0.05:
+        opt = z3.Optimize()
+        opt.set("timeout", _ms(left))
+        opt.add(*constraints, *tr.side)
+        opt.minimize(z3.Sum(counts))
+        if opt.check() == z3.sat:
+            model = opt.model()
+    return verdict, model, ""
+
+
+def _satisfiable(tr: Translator, parts: list[tuple[str, object]], timeout_s: float,
+                 what: str) -> tuple[str, str]:
+    """Whether some state satisfies every ``(label, constraint)`` of ``parts``: ``("sat",
+    "")``, ``("unsat", why)`` naming the parts that contradict each other, or
+    ``("unknown", the solver's reason)``."""
+    z3 = tr.z3
+    solver = z3.Solver()
+    solver.set("timeout", _ms(timeout_s))
+    solver.add(*tr.side)
+    for i, (_, constraint) in enumerate(parts):
+        solver.assert_and_track(constraint, z3.Bool(f"part#{i}"))
+    verdict = solver.check()
+    if verdict == z3.sat:
+        return "sat", ""
+    if verdict != z3.unsat:
+        return "unknown", solver.reason_unknown() or "the solver gave up"
+    core = {str(m) for m in solver.unsat_core()}
+    labels = [label for i, (label, _) in enumerate(parts) if f"part#{i}" in core]
+    why = f"no state satisfies {what}"
+    if len(labels) == 1:
+        why += f" ({labels[0]} alone is unsatisfiable)"
+    elif labels:
+        why += f" (these contradict each other: {'; '.join(labels)})"
+    return "unsat", why
+
+
+def _obligation(name: str, build: Callable[[], list], ctx: _Context,
+                explain: Callable[[object], _Finding]) -> Result:
+    """Solve ``build()``'s constraints under ``ctx.base``: unsat is proved; a model is read
+    by ``explain`` and confirmed by tracecheck's evaluator."""
+    tr = ctx.tr
+    try:
+        constraints = ctx.base + build()
+    except UnsupportedError as exc:
+        return Result(name, UNKNOWN, reason=exc.render())
+    verdict, model, why = _solve(tr, constraints, ctx.timeout_s)
+    if verdict == tr.z3.unsat:
+        return Result(name, PROVED)
+    if verdict != tr.z3.sat:
+        return Result(name, UNKNOWN, reason=why or "the solver gave up")
+    state = state_of_model(tr, model)
+    finding = explain(model)
+    result = Result(name, finding.status, state=state,
+                    reading=f"{finding.meaning}: {_reading(state, ctx.machines[0])}")
+    try:
+        ok_invariant = all(m.invariant(state) for m in ctx.machines)
+        confirmed = ok_invariant and finding.confirm(state)
+    except TracecheckError as exc:
+        result.disagreement = f"tracecheck's evaluator cannot evaluate the state: {exc.message}"
+        return result
+    if not confirmed:
+        if not _holds_at(tr, model, constraints + tr.side, ctx.timeout_s):
+            # the solver's exact reals, rounded to floats, moved the state across a boundary:
+            # a counterexample over the reals that floats cannot show — no disagreement
+            result.reason = ("over the exact reals, at a boundary: the nearest float state "
+                             "does not show it (see docs/prove.md, reals and floats)")
+            return result
+        result.disagreement = ("tracecheck's evaluator does not confirm the counterexample "
+                               f"({'the invariant fails' if not ok_invariant else finding.meaning + ' is false'}"
+                               " there): the solver and the evaluator disagree")
+    return result
+
+
+def _holds_at(tr: Translator, model, constraints: list, timeout_s: float) -> bool:
+    """Whether ``constraints`` still hold when every real of ``model`` is rounded to the
+    nearest float (the state tracecheck's evaluator sees), fresh variables re-solved."""
+    z3 = tr.z3
+    fixed = []
+    for enc in tr.vars.values():
+        cells = enc.cells.values() if isinstance(enc, _Func) else \
+            [(None, v) for v in enc.member.values()] if isinstance(enc, _Set) else [(None, enc)]
+        for defined, value in cells:
+            for var in ([defined] if defined is not None else []) + [value]:
+                got = model.eval(var, model_completion=True)
+                if z3.is_rational_value(got) or z3.is_algebraic_value(got):
+                    if z3.is_algebraic_value(got):
+                        got = got.approx(20)
+                    exact = Fraction(got.numerator_as_long(), got.denominator_as_long())
+                    got = z3.RealVal(Fraction(float(exact)))
+                fixed.append(var == got)
+    solver = z3.Solver()
+    solver.set("timeout", _ms(timeout_s))
+    solver.add(*constraints, *fixed)
+    return solver.check() != z3.unsat
+
+
+def _reading(state: dict, machine, limit: int = 6) -> str:
+    """One line: on a road (vehicles with positions), each present vehicle's position and
+    speed; otherwise the first variables."""
+    from ..b.values import FuncValue, format_value
+
+    x, y = state.get("VehiclesX"), state.get("VehiclesY")
+    present = state.get("PresentVehicles")
+    if isinstance(x, FuncValue) and isinstance(y, FuncValue) and isinstance(present, frozenset):
+        vx = state.get("VehiclesVx")
+        parts = []
+        for e in sorted(present, key=str):
+            speed = f", vx = {_short(vx.map[e])}" if isinstance(vx, FuncValue) and \
+                e in vx.map else ""
+            if e in x.map and e in y.map:
+                parts.append(f"{e} at x = {_short(x.map[e])}, y = {_short(y.map[e])}{speed}")
+        others = [f"{k} = {format_value(v)}" for k, v in state.items()
+                  if not isinstance(v, (FuncValue, frozenset))]
+        return "; ".join(parts or ["no vehicle present"]) + \
+            (f" ({', '.join(others)})" if others else "")
+    parts = [f"{k} = {format_value(v)}" for k, v in state.items()][:limit]
+    return ", ".join(parts) + (", …" if len(state) > limit else "")
+
+
+def _short(v) -> str:
+    return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+# ------------------------------------------------------------------ the evaluator's view
+
+
+def _decides(machine, op: str, state: dict) -> Optional[bool]:
+    """Whether ``op`` is enabled in ``state`` by tracecheck's evaluator; None where its
+    guard is not well-defined there — which does not enable the operation."""
+    try:
+        return machine.is_enabled(op, state)
+    except WellDefinednessError:
+        return None
+
+
+def _undefined(tr: Translator, model, conditions: dict) -> list[str]:
+    """The names whose well-definedness condition is false in ``model``."""
+    z3 = tr.z3
+    return [name for name, wd in conditions.items()
+            if not z3.is_true(model.eval(wd, model_completion=True))]
+
+
+def _guards(ops) -> str:
+    return ("the guard of " if len(ops) == 1 else "the guards of ") + ", ".join(ops)
+
+
+# ------------------------------------------------------------------ prove
+
+
+def _given(item: Union[str, Given], where: str) -> Given:
+    return item if isinstance(item, Given) else Given(item, where)
+
+
+def prove(machine, *, deadlock_free: bool = False,
+          implies: tuple[tuple[str, Union[str, Given]], ...] = (), well_defined: bool = False,
+          assume: tuple[Union[str, Given], ...] = (), timeout_s: float = 10.0) -> list[Result]:
+    """Check the obligations over every state that satisfies the invariant and ``assume``
+    (read where they are defined). Every formula is type-checked first (a mistake is an
+    error naming its option, ``--assume`` or ``--implies``, or the place a :class:`Given`
+    says); an obligation whose formulas cannot be translated is ``unknown``, with the
+    reason; if no state satisfies the invariant and assumptions, each is ``vacuous``.
+
+    >>> from tracecheck.b.machine import load_machine_text
+    >>> m = load_machine_text("MACHINE C VARIABLES n INVARIANT n : 0..5 INITIALISATION "
+    ...                       "n := 0 OPERATIONS inc = PRE n < 3 THEN n := n + 1 END END")
+    >>> [r.status for r in prove(m, deadlock_free=True, assume=("n > 4",))]
+    ['counterexample']
+    """
+    timeout_s = check_timeout(timeout_s)
+    z3 = _z3()
+    assumed = [_given(a, "--assume") for a in assume]
+    claims = [(op, _given(p, "--implies")) for op, p in implies]
+    for op, claim in claims:
+        if op not in machine.operations:
+            raise InputError(f"unknown operation {op!r} in {claim.where}; the operations of "
+                             f"{machine.name} are {', '.join(machine.operations)}")
+    # every formula the user gave is checked before the solver sees any of them
+    assumed = [(g, machine.check_formula(g.text, file=g.where)) for g in assumed]
+    claims = [(op, g, machine.check_formula(g.text, file=g.where)) for op, g in claims]
+    names = (["deadlock-free"] if deadlock_free else []) + \
+        [f"{op} => {g.text}" for op, g, _ in claims] + \
+        (["well-defined guards"] if well_defined else [])
+    try:
+        tr = Translator(machine)
+        parts = [("the invariant", z3.And(*tr.defined(tr.invariant)))]
+        for g, node in assumed:  # the invariant and assumptions are read where defined
+            with tr.reading(g.where, g.text):
+                parts.append((f"{g.where} {g.text!r}",
+                              z3.And(*tr.defined(lambda node=node: tr.pred(node)))))
+    except UnsupportedError as exc:
+        return [Result(name, UNKNOWN, reason=exc.render()) for name in names]
+    satisfiable, why = _satisfiable(tr, parts, timeout_s, "the invariant and assumptions")
+    if satisfiable == "unsat":
+        return [Result(name, VACUOUS, reason=why) for name in names]
+    ctx = _Context(tr, (machine,), [c for _, c in parts], timeout_s)
+    results = []
+    if deadlock_free:
+        results.append(_deadlock_free(machine, ctx))
+    for op, given, node in claims:
+        results.append(_implication(machine, ctx, op, given, node))
+    if well_defined:
+        results.append(_well_defined(machine, ctx))
+    return _if_satisfiable(results, satisfiable, why, "the invariant and assumptions")
+
+
+def _if_satisfiable(results: list[Result], satisfiable: str, why: str,
+                    what: str) -> list[Result]:
+    """Where the solver could not tell whether any state satisfies ``what``, a proof may
+    be vacuous: it is ``unknown``, not ``proved`` (a counterexample shows a state)."""
+    if satisfiable == "unknown":
+        for r in results:
+            if r.status in (PROVED, EQUIVALENT):
+                r.status, r.reason = UNKNOWN, (
+                    f"{r.status}, but the solver could not tell whether any state satisfies "
+                    f"{what} ({why}): that may be vacuous")
+    return results
+
+
+def _deadlock_free(machine, ctx: _Context) -> Result:
+    """Some operation is enabled in every state: a guard that is not well-defined in a
+    state does not enable its operation there."""
+    tr, z3 = ctx.tr, ctx.tr.z3
+    wds: dict = {}
+
+    def build():
+        enabled = []
+        for op in machine.operations:
+            guard, wds[op] = tr.defined(lambda op=op: tr.guard(op))
+            enabled.append(z3.And(wds[op], guard))
+        return [z3.Not(z3.Or(enabled))]
+
+    def explain(model) -> _Finding:
+        bad = _undefined(tr, model, wds)
+        note = f" ({_guards(bad)} {'is' if len(bad) == 1 else 'are'} not well-defined " \
+               "there)" if bad else ""
+
+        def confirm(state):
+            decided = {op: _decides(machine, op, state) for op in machine.operations}
+            return not any(decided.values()) and \
+                [op for op, d in decided.items() if d is None] == bad
+        return _Finding(COUNTEREXAMPLE, "no operation is enabled" + note, confirm)
+
+    return _obligation("deadlock-free", build, ctx, explain)
+
+
+def _implication(machine, ctx: _Context, op: str, given: Given, node) -> Result:
+    """Whenever ``op`` is enabled (its guard defined and true), ``node`` is defined and
+    true: a state where it is not defined is a failure of the claim, not an assumption."""
+    tr, z3 = ctx.tr, ctx.tr.z3
+    wd: dict = {}
+
+    def build():
+        guard, defined = tr.defined(lambda: tr.guard(op))
+        with tr.reading(given.where, given.text):
+            claim, wd["claim"] = tr.defined(lambda: tr.pred(node))
+        return [defined, guard, z3.Not(z3.And(wd["claim"], claim))]
+
+    def holds(state):
+        return bool(machine.compile(node, source=given.text)(machine.env(state)))
+
+    def explain(model) -> _Finding:
+        if _undefined(tr, model, wd):
+            def confirm(state):
+                try:
+                    holds(state)
+                except WellDefinednessError:
+                    return bool(_decides(machine, op, state))
+                return False
+            return _Finding(NOT_DEFINED, f"{op} is enabled and {given.text} is not "
+                                         "well-defined", confirm)
+        return _Finding(COUNTEREXAMPLE, f"{op} is enabled and {given.text} does not hold",
+                        lambda state: bool(_decides(machine, op, state)) and not holds(state))
+
+    return _obligation(f"{op} => {given.text}", build, ctx, explain)
+
+
+def _well_defined(machine, ctx: _Context) -> Result:
+    """No guard is ill-defined in any state."""
+    tr, z3 = ctx.tr, ctx.tr.z3
+    wds: dict = {}
+
+    def build():
+        for op in machine.operations:
+            wds[op] = tr.defined(lambda op=op: tr.guard(op))[1]
+        return [z3.Not(z3.And(list(wds.values())))]
+
+    def explain(model) -> _Finding:
+        bad = _undefined(tr, model, wds)
+        return _Finding(COUNTEREXAMPLE, f"{_guards(bad)} {'is' if len(bad) == 1 else 'are'} "
+                                        "not well-defined",
+                        lambda state: [op for op in machine.operations
+                                       if _decides(machine, op, state) is None] == bad)
+
+    return _obligation("well-defined guards", build, ctx, explain)
+
+
+# ------------------------------------------------------------------ symbolic diff
+
+
+def symbolic_diff(a, b, *, timeout_s: float = 10.0,
+                  labels: Optional[tuple[str, str]] = None) -> list[Result]:
+    """Per operation of either machine: equivalent over every state satisfying both
+    invariants, a state where they decide differently (a guard not well-defined there does
+    not enable its operation), unknown where a guard cannot be translated or the solver
+    gives up, or ``only in`` one of them. ``labels`` name the two shields in messages
+    (default: their machine names). Vacuous where no state satisfies both invariants."""
+    timeout_s = check_timeout(timeout_s)
+    z3 = _z3()
+    la, lb = labels or (a.name, b.name)
+    if set(a.variables) != set(b.variables) or any(a.types.get(v) != b.types.get(v)
+                                                   for v in a.variables):
+        raise InputError(f"{la} and {lb} have different variables or types; a symbolic diff "
+                         "compares shields over the same states")
+    _same_sets(a, b, la, lb)
+    ops = list(a.operations) + [op for op in b.operations if op not in a.operations]
+    try:
+        ta, tb = Translator(a), Translator(b)
+        tb.vars, tb.side = ta.vars, ta.side  # the same state for both
+        parts = [(f"the invariant of {la}", z3.And(*ta.defined(ta.invariant))),
+                 (f"the invariant of {lb}", z3.And(*tb.defined(tb.invariant)))]
+    except UnsupportedError as exc:
+        return [Result(op, UNKNOWN, reason=exc.render()) for op in ops]
+    what = "both shields' invariants"
+    satisfiable, why = _satisfiable(ta, parts, timeout_s, what)
+    if satisfiable == "unsat":
+        return [Result(op, VACUOUS, reason=why) for op in ops]
+    ctx = _Context(ta, (a, b), [c for _, c in parts], timeout_s)
+    results = []
+    for op in ops:
+        if op not in b.operations or op not in a.operations:
+            results.append(Result(op, ONLY_IN + (la if op in a.operations else lb)))
+        else:
+            results.append(_differ(a, b, tb, ctx, op, (la, lb)))
+    return _if_satisfiable(results, satisfiable, why, what)
+
+
+def _same_sets(a, b, la: str, lb: str) -> None:
+    """Refuse shields whose sets differ: their states are not the same."""
+    def shown(elems) -> str:
+        return "not declared" if elems is None else "{" + ",".join(map(str, elems)) + "}"
+
+    for name in sorted(set(a.sets) | set(b.sets)):
+        ea, eb = a.sets.get(name), b.sets.get(name)
+        if ea is None or eb is None or set(ea) != set(eb):
+            raise InputError(f"the shields' sets differ: {name} is {shown(ea)} in {la} and "
+                             f"{shown(eb)} in {lb}; diff --symbolic compares shields over the "
+                             "same sets and constants",
+                             hint="give both shields the same SETS (and the same sizes to "
+                                  "deferred sets)")
+
+
+def _differ(a, b, tb: Translator, ctx: _Context, op: str, labels: tuple[str, str]) -> Result:
+    ta, z3 = ctx.tr, ctx.tr.z3
+    la, lb = labels
+    wds: dict = {}
+
+    def build():
+        ga, wds[la] = ta.defined(lambda: ta.guard(op))
+        gb, wds[lb] = tb.defined(lambda: tb.guard(op))
+        return [z3.And(wds[la], ga) != z3.And(wds[lb], gb)]
+
+    def explain(model) -> _Finding:
+        bad = _undefined(ta, model, wds)
+        note = f" ({op}'s guard in {' and '.join(bad)} is not well-defined there)" if bad \
+            else ""
+        return _Finding(COUNTEREXAMPLE, f"{la} and {lb} decide {op} differently{note}",
+                        lambda s: bool(_decides(a, op, s)) != bool(_decides(b, op, s)))
+
+    r = _obligation(op, build, ctx, explain)
+    if r.status == PROVED:
+        r.status = EQUIVALENT
+    elif r.state is not None and not r.disagreement and not r.reason:
+        keys = (a.name, b.name) if a.name != b.name else labels
+        r.extra = {keys[0]: bool(_decides(a, op, r.state)),
+                   keys[1]: bool(_decides(b, op, r.state))}
+    return r
