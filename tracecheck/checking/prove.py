@@ -132,7 +132,7 @@ def _solve(tr: Translator, constraints: list, timeout_s: float):
     solver.add(*constraints, *tr.side)
     verdict = solver.check()
     if verdict != z3.sat:
-        return verdict, None, solver.reason_unknown()
+        return verdict, None, _why(solver)
     model = solver.model()
     counts = [z3.Sum([z3.If(c, 1, 0) for c in v.member.values()])
               for v in tr.vars.values() if isinstance(v, _Set) and v.member]
@@ -145,6 +145,12 @@ def _solve(tr: Translator, constraints: list, timeout_s: float):
         if opt.check() == z3.sat:
             model = opt.model()
     return verdict, model, ""
+
+
+def _why(solver) -> str:
+    """Why the solver gave up (z3 says "canceled" for a timeout it ran into)."""
+    reason = solver.reason_unknown()
+    return "timeout" if reason == "canceled" else reason or "the solver gave up"
 
 
 def _satisfiable(tr: Translator, parts: list[tuple[str, object]], timeout_s: float,
@@ -162,7 +168,7 @@ def _satisfiable(tr: Translator, parts: list[tuple[str, object]], timeout_s: flo
     if verdict == z3.sat:
         return "sat", ""
     if verdict != z3.unsat:
-        return "unknown", solver.reason_unknown() or "the solver gave up"
+        return "unknown", _why(solver)
     core = {str(m) for m in solver.unsat_core()}
     labels = [label for i, (label, _) in enumerate(parts) if f"part#{i}" in core]
     why = f"no state satisfies {what}"
@@ -186,7 +192,7 @@ def _obligation(name: str, build: Callable[[], list], ctx: _Context,
     if verdict == tr.z3.unsat:
         return Result(name, PROVED)
     if verdict != tr.z3.sat:
-        return Result(name, UNKNOWN, reason=why or "the solver gave up")
+        return Result(name, UNKNOWN, reason=why)
     state = state_of_model(tr, model)
     finding = explain(model)
     result = Result(name, finding.status, state=state,
@@ -204,9 +210,9 @@ def _obligation(name: str, build: Callable[[], list], ctx: _Context,
             result.reason = ("over the exact reals, at a boundary: the nearest float state "
                              "does not show it (see docs/prove.md, reals and floats)")
             return result
+        failing = "the invariant fails" if not ok_invariant else finding.meaning + " is false"
         result.disagreement = ("tracecheck's evaluator does not confirm the counterexample "
-                               f"({'the invariant fails' if not ok_invariant else finding.meaning + ' is false'}"
-                               " there): the solver and the evaluator disagree")
+                               f"({failing} there): the solver and the evaluator disagree")
     return result
 
 

@@ -162,7 +162,7 @@ def prove_cmd(
                                       "environment's adapter declares."),
     obligations: Optional[Path] = typer.Option(None, "--obligations", help="A TOML file of "
                                                "obligations: deadlock_free, well_defined, "
-                                               "assume = [...], [[implies]] operation, "
+                                               "assume = a list, implies tables of operation and "
                                                "predicate (see docs/prove.md)."),
     timeout: float = typer.Option(10.0, "--timeout", callback=_seconds, help="Seconds the "
                                   "solver may take per question (each obligation, and whether "
