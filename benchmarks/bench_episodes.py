@@ -48,7 +48,7 @@ def main() -> None:
         imports = []
         for _ in range(max(1, args.repeat // 2)):
             t = time.perf_counter()
-            episodes, steps, _ = write_run(out, header, import_simb([folder]))
+            episodes, steps, _ = write_run(out, header, import_simb([folder]), force=True)
             imports.append(time.perf_counter() - t)
         reads = []
         for _ in range(args.repeat):

@@ -92,11 +92,13 @@ def test_interrupted_import_says_what_it_kept(capsys, tmp_path, monkeypatch, exi
         target.write_bytes(b"old")
     trace = tmp_path / "t.json"
     trace.write_text("{}")
-    code, _, err = run(capsys, "import", "simb", str(trace), "-o", str(target))
+    code, _, err = run(capsys, "import", "simb", str(trace), "-o", str(target),
+                       *(["--force"] if existing else []))
     assert code == 130
     assert err.strip() == f"interrupted: {target} was not {'changed' if existing else 'written'}"
     assert (target.read_bytes() == b"old") if existing else not target.exists()
-    assert not list(tmp_path.glob("*.part"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == (["out.mcap"] if existing else []) + \
+        ["t.json"]  # no temporary file left behind
 
 
 def test_an_interrupt_typer_catches_is_reported(capsys, monkeypatch):

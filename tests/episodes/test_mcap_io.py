@@ -78,10 +78,10 @@ def test_write_run_leaves_no_partial_file(tmp_path, episodes):
         yield episodes[0]
         raise InputError("bad input file")
 
-    with pytest.raises(InputError):
-        write_run(target, new_header("imported-simb"), failing())
+    with pytest.raises(InputError, match="bad input file"):
+        write_run(target, new_header("imported-simb"), failing(), force=True)
     assert target.read_bytes() == b"old"
-    assert not (tmp_path / "run.mcap.part").exists()
+    assert [p.name for p in tmp_path.iterdir()] == ["run.mcap"]  # no temporary file
 
 
 def test_truncated_file_keeps_complete_episodes(tmp_path, episodes):

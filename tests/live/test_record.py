@@ -293,7 +293,8 @@ def test_an_existing_output_is_kept_until_a_new_episode_is_complete(tmp_path, ca
     with pytest.raises(RuntimeError):
         with recording_into(out, new_header("recorded"), force=True):
             raise RuntimeError("the agent broke before its first episode")
-    assert out.read_bytes() == before and not (tmp_path / "run.mcap.part").exists()
+    assert out.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["run.mcap"]  # no temporary file, no lock
     with recording_into(tmp_path / "other.mcap", new_header("recorded")):
         with pytest.raises(InputError, match="another tracecheck is writing .*other.mcap"):
             with recording_into(tmp_path / "other.mcap", new_header("recorded")):
@@ -310,7 +311,7 @@ def test_export_simb_refuses_a_folder_that_is_not_empty(tmp_path, capsys):
     (folder / "Timed_Simulation_99.json").write_text("{}")
     sample = ROOT / "sample_traces" / "base_none.mcap"
     code, _, err = run(capsys, "export", "simb", str(sample), "-o", str(folder))
-    assert code == 2 and "is not empty; a later import would mix its files in" in err
+    assert code == 2 and "simb is not empty" in err and "or --force to replace" in err
     code, _, err = run(capsys, "export", "simb", str(sample), "-o", str(folder), "--force")
     assert code == 0 and not (folder / "Timed_Simulation_99.json").exists()
     assert len(list(folder.glob("Timed_Simulation_*.json"))) == 24

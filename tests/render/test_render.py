@@ -58,6 +58,7 @@ def test_render_cli_and_errors(capsys, tmp_path):
     code, text, _ = run(capsys, "render", str(NONE), "--episode", "3", "--shield", "paper",
                         "-o", str(out))
     assert code == 0 and out.exists() and "wrote episode 3" in text
+    out = tmp_path / "other.html"  # (the first exists: it would need --force)
     code, _, err = run(capsys, "render", str(NONE), "--episode", "99", "-o", str(out))
     assert code == 2 and "has no episode 99; it has 0, 1, 2" in err
     empty = tmp_path / "empty.mcap"

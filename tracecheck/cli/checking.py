@@ -11,7 +11,7 @@ import typer
 from ..errors import InputError
 from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, RAY_ADDRESS, OutputFormat,
                      FailOn, SHIELD_HELP, ROWS, run_shield, SALVAGE, FORMAT, JSON, output_format,
-                     print_json, print_table, plain, progress)
+                     print_json, print_table, plain, progress, FORCE)
 
 
 @app.command("replay")
@@ -111,7 +111,9 @@ def diff_cmd(
                                   "seconds the solver may take per question (each operation)."),
     counterexamples: Optional[Path] = typer.Option(None, "--counterexamples", help="--symbolic:"
                                                    " write each differing state as a state file "
-                                                   "into this folder."),
+                                                   "into this folder (a new or empty one, or "
+                                                   "--force)."),
+    force: bool = FORCE,
     executor: Executor = FILE_EXECUTOR,
     ray_address: Optional[str] = RAY_ADDRESS,
 ) -> None:
@@ -126,6 +128,7 @@ def diff_cmd(
         if runs:
             raise InputError("--symbolic compares the shields over every state: give no run "
                              "files")
+        _check_counterexamples(counterexamples, [shield, against], force)
         a, b = run_shield(shield, []).machine, run_shield(against, []).machine
         _print_results(symbolic_diff(a, b, timeout_s=timeout, labels=(shield, against)), a,
                        fmt, counterexamples)
@@ -169,7 +172,9 @@ def prove_cmd(
                                   "any state satisfies the invariant and assumptions)."),
     counterexamples: Optional[Path] = typer.Option(None, "--counterexamples", help="Write "
                                                    "each counterexample as a state file into "
-                                                   "this folder."),
+                                                   "this folder (a new or empty one, or "
+                                                   "--force)."),
+    force: bool = FORCE,
     as_json: bool = JSON,
     fmt: OutputFormat = FORMAT,
 ) -> None:
@@ -181,6 +186,7 @@ def prove_cmd(
     from ..checking.shield import load_shield
 
     fmt = output_format(fmt, as_json)
+    _check_counterexamples(counterexamples, [shield, obligations], force)
     machine = load_shield(shield).machine
     pairs = []
     if obligations is not None:
@@ -263,19 +269,7 @@ def _print_results(results, machine, fmt: OutputFormat, folder: Optional[Path]) 
     from ..b.values import to_json
     from ..checking.prove import VACUOUS, Disagreement
 
-    written = {}
-    if folder is not None:
-        try:
-            folder.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise InputError(f"cannot create {folder}: {exc.strerror or exc}") from None
-        for i, r in enumerate(results):
-            if r.state is not None:
-                slug = "".join(c if c.isalnum() else "-" for c in r.obligation)[:40].strip("-")
-                path = folder / f"{machine.name}-{i + 1}-{slug}.json"
-                path.write_text(json.dumps({k: to_json(v) for k, v in r.state.items()},
-                                           indent=1) + "\n", encoding="utf-8")
-                written[i] = str(path)
+    written = {} if folder is None else _write_counterexamples(results, machine, folder)
     if fmt == OutputFormat.json:
         print_json([{
             "obligation": r.obligation, "status": r.status, "reason": r.reason or None,
@@ -316,3 +310,32 @@ def _print_results(results, machine, fmt: OutputFormat, folder: Optional[Path]) 
         raise typer.Exit(3)
     if any(r.status == VACUOUS for r in results):
         raise typer.Exit(5)
+
+
+def _check_counterexamples(folder: Optional[Path], inputs, force: bool) -> None:
+    """The output rule for a --counterexamples folder, before anything is proved: not an
+    input's folder, a new or empty one, or with --force one of state files (.json)."""
+    if folder is not None:
+        from ..outputs import check_output, input_paths
+
+        check_output(folder, input_paths(*inputs), force=force, kind="folder",
+                     what="--counterexamples folder", contents=("*.json",))
+
+
+def _write_counterexamples(results, machine, folder: Path) -> dict[int, str]:
+    """Each counterexample state as MACHINE-N-OBLIGATION.json (a safe name), written into a
+    new folder that replaces ``folder`` once all are written; {result index: path}."""
+    from ..b.values import to_json
+    from ..outputs import atomic_folder, inside, open_new, safe_name
+
+    written, taken = {}, set()
+    with atomic_folder(folder) as tmp:
+        for i, r in enumerate(results):
+            if r.state is None:
+                continue
+            name = safe_name(f"{machine.name}-{i + 1}-{r.obligation[:40]}", taken) + ".json"
+            with open_new(inside(tmp, name)) as stream:
+                stream.write((json.dumps({k: to_json(v) for k, v in r.state.items()},
+                                         indent=1) + "\n").encode("utf-8"))
+            written[i] = str(folder / name)
+    return written

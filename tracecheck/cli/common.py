@@ -253,5 +253,5 @@ def warn(messages) -> None:
         err.print(f"[yellow]warning[/yellow]: {escape(warning)}", markup=True)
 
 
-FORCE = typer.Option(False, "--force", help="Replace an existing output (a recording only once "
-                     "a new episode is complete).")
+FORCE = typer.Option(False, "--force", help="Replace an existing output, only once the new "
+                     "one is complete (a recording: once a new episode is). Never an input.")

@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 
 from ..errors import InputError
+from ..outputs import input_paths
 from .common import (app, out, err, warn, load_model, SALVAGE, FORMAT, JSON, OutputFormat,
                      output_format, plain, print_json, print_table, progress, FORCE, say)
 
@@ -32,11 +33,14 @@ def _vocabulary(model: Optional[Path]):
     return vocabulary_of(machine), machine
 
 
-def _import(kind: str, paths: list[Path], output: Path, model: Optional[Path]) -> None:
-    from ..episodes.files import write_run
+def _import(kind: str, paths: list[Path], output: Path, model: Optional[Path],
+            force: bool) -> None:
+    from ..episodes.files import check_run_output, write_run
     from ..episodes.writer import new_header
     from ..interop import import_prob2trace, import_simb
 
+    inputs = [*paths, *input_paths(model)]
+    check_run_output(output, inputs, force=force)
     vocab, machine = _vocabulary(model)
     reader = import_simb if kind == "simb" else import_prob2trace
     header = new_header(f"imported-{kind}", model_name=vocab.name,
@@ -45,7 +49,8 @@ def _import(kind: str, paths: list[Path], output: Path, model: Optional[Path]) -
                         shield_sha256=machine.sha256 if machine is not None else None)
     with _writing(output, f"importing {kind} traces") as advance:
         episodes, steps, crashes = write_run(
-            output, header, _counted(reader(paths, vocab=vocab, machine=machine), advance))
+            output, header, _counted(reader(paths, vocab=vocab, machine=machine), advance),
+            force=force, inputs=inputs)
     out.print(f"imported {episodes} episode(s), {steps} step(s), {crashes} crash(es) "
               f"-> {output}", markup=False)
 
@@ -81,9 +86,10 @@ def import_simb_cmd(
     paths: list[Path] = typer.Argument(..., help="Timed_Simulation_N.json files or folders."),
     output: Path = _OUTPUT,
     model: Optional[Path] = _MODEL,
+    force: bool = FORCE,
 ) -> None:
     """Import SimB timed-simulation traces."""
-    _import("simb", paths, output, model)
+    _import("simb", paths, output, model, force)
 
 
 @import_app.command("prob2trace")
@@ -91,9 +97,10 @@ def import_prob2trace_cmd(
     paths: list[Path] = typer.Argument(..., help=".prob2trace files or folders."),
     output: Path = _OUTPUT,
     model: Optional[Path] = _MODEL,
+    force: bool = FORCE,
 ) -> None:
     """Import ProB2 trace files (one episode each; 1 s between steps)."""
-    _import("prob2trace", paths, output, model)
+    _import("prob2trace", paths, output, model, force)
 
 
 @import_app.command("minari")
@@ -104,14 +111,16 @@ def import_minari_cmd(
                             "observations B states: an installed one (see `tracecheck envs`) "
                             "or package.module:Class (importing it runs its code)."),
     output: Path = _OUTPUT,
+    force: bool = FORCE,
 ) -> None:
     """Import a Minari dataset, so that replay, diff and stats can check it against a shield."""
-    from ..episodes.files import write_run
+    from ..episodes.files import check_run_output, write_run
     from ..interop.minari import import_minari
 
+    check_run_output(output, force=force)
     with _writing(output, f"importing {dataset}") as advance:
         header, episodes = import_minari(dataset, env, progress=advance)
-        n, steps, crashes = write_run(output, header, episodes)
+        n, steps, crashes = write_run(output, header, episodes, force=force)
     say(f"imported {n} episode(s), {steps} step(s), {crashes} crash(es) -> {output}")
 
 
@@ -155,11 +164,14 @@ def export_prob2trace_cmd(
     salvage: bool = SALVAGE,
     episode: int = typer.Option(..., "--episode", "-e", help="The episode number."),
     output: Path = typer.Option(..., "--output", "-o", help="The .prob2trace file to write."),
+    force: bool = FORCE,
 ) -> None:
     """Export one episode as a ProB2 trace (opens in ProB2-UI)."""
     from ..episodes.model import HIGHWAY, Vocabulary
     from ..interop import export_prob2trace
+    from ..outputs import check_output
 
+    check_output(output, [run], force=force, example="episode.prob2trace")
     from ..episodes.columns import read_columns
 
     from ..episodes.reader import read_run
@@ -175,7 +187,7 @@ def export_prob2trace_cmd(
     header = result.header
     vocab = HIGHWAY if header is None or not header.model_name else Vocabulary(
         HIGHWAY.variables, HIGHWAY.actions, header.model_name)
-    export_prob2trace(chosen[0], output, vocab)
+    export_prob2trace(chosen[0], output, vocab, force=force, inputs=[run])
     out.print(f"wrote episode {episode} ({chosen[0].end.steps} steps) -> {output}",
               markup=False)
 
@@ -184,25 +196,21 @@ def export_prob2trace_cmd(
 def export_simb_cmd(
     run: Path = typer.Argument(..., help="An MCAP run file."),
     salvage: bool = SALVAGE,
-    output: Path = typer.Option(..., "--output", "-o", help="The folder to write into."),
-    force: bool = typer.Option(False, "--force", help="Write into a folder that is not empty: "
-                               "its SimB traces are removed first."),
+    output: Path = typer.Option(..., "--output", "-o", help="The folder to write into (a new "
+                                "or empty one, or --force)."),
+    force: bool = typer.Option(False, "--force", help="Replace a folder of SimB traces: the "
+                               "old traces are removed only once the new ones are all "
+                               "written (a folder that holds other files is refused)."),
 ) -> None:
     """Export every episode as a SimB timed trace (Timed_Simulation_N.json)."""
     from ..interop import export_simb
+    from ..interop.simb import check_simb_folder
 
-    if output.exists() and not output.is_dir():
-        raise InputError(f"the output {output} is a file; give a folder")
-    if output.is_dir() and any(output.iterdir()):
-        if not force:
-            raise InputError(f"the folder {output} is not empty; a later import would mix its "
-                             "files in", hint="give an empty or new folder, or --force to "
-                                              "remove its SimB traces first")
-        for old in output.glob("Timed_Simulation_*.json"):
-            old.unlink()
+    check_simb_folder(output, [run], force=force)
     episodes, header = _episodes(run)
     written = export_simb(episodes, output, (header.model_name if header and header.model_name
-                                             else "HighwayEnvironment"))
+                                             else "HighwayEnvironment"), force=force,
+                          inputs=[run])
     out.print(f"wrote {len(written)} SimB trace(s) -> {output}", markup=False)
 
 
@@ -218,19 +226,17 @@ def export_foxglove_cmd(
 
     A 3D scene (foxglove.SceneUpdate), a log of interventions, deadlocks and crashes
     (foxglove.Log) and scalars to plot (see docs/ecosystem.md)."""
-    from ..episodes.files import refuse_existing, write_run
+    from ..episodes.files import check_run_output, write_run
     from ..episodes.reader import read_run
 
-    if output.resolve() == run.resolve():
-        raise InputError(f"the output {output} is the input; give another name")
-    refuse_existing(output, force)
+    check_run_output(output, [run], force=force)
     result = read_run(run)
     warn(result.warnings)
     if not result.episodes:
         raise InputError(f"{run} holds no complete episode")
     with _writing(output, "adding Foxglove channels", len(result.episodes)) as advance:
         episodes, steps, _ = write_run(output, result.header, _counted(result.episodes, advance),
-                                       foxglove=True)
+                                       foxglove=True, force=force, inputs=[run])
     say(f"wrote {episodes} episode(s), {steps} step(s) with Foxglove channels -> {output}")
 
 

@@ -8,6 +8,7 @@ from typing import Optional
 import typer
 
 from ..errors import InputError
+from ..outputs import input_paths
 from .common import (app, out, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, Profile, ENV,
                      ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, Algorithm, FORCE,
                      RUN_SHIELD, SEED, WORKERS, FORMAT, JSON, OutputFormat, output_format,
@@ -33,7 +34,9 @@ def train_cmd(
     seed: int = typer.Option(0, "--seed", help="Random seed."),
     duration: Optional[int] = DURATION,
     output: Path = typer.Option(..., "--output", "-o", help="The agent file to write (.zip "
-                                "for dqn and maskable-ppo, .npy for q-learning)."),
+                                "for dqn and maskable-ppo, .npy for q-learning; its model card "
+                                "NAME.json goes beside it)."),
+    force: bool = FORCE,
 ) -> None:
     """Train an agent: a DQN with the paper's settings on the highway, a Q-table, or — with
     --shield — a DQN or MaskablePPO that only ever takes what the shield allows."""
@@ -43,14 +46,14 @@ def train_cmd(
     adapter = load_adapter(env)
     if shield is not None or algorithm == Algorithm.maskable_ppo:
         _train_shielded(adapter, parse_config(env_config), shield or "none", algorithm,
-                        profile, steps, seed, duration, output)
+                        profile, steps, seed, duration, output, force)
         return
     if algorithm == Algorithm.q_learning:
         from ..live.agents import train_q_table
 
         card = train_q_table(adapter, adapter.config(parse_config(env_config)), output,
                              steps=steps or 200_000, seed=seed,
-                             horizon=duration or adapter.horizon)
+                             horizon=duration or adapter.horizon, force=force)
         out.print(f"trained {card['agent']} (Q-learning on {adapter.name}, {card['steps']} "
                   f"steps, seed {seed}) in {card['wall_time_s']:.1f} s -> {output}; model "
                   f"card {Path(output).with_suffix('.json')}", markup=False)
@@ -61,7 +64,7 @@ def train_cmd(
     steps = steps or 20_000
     with progress(f"training {profile.value}", steps, "steps") as advance:
         card = train(profile.value, output, steps=steps, seed=seed, duration=duration or 60,
-                     progress=lambda done, total: advance(0, completed=done))
+                     progress=lambda done, total: advance(0, completed=done), force=force)
     out.print(f"trained {card['agent']} ({profile.value}, {steps} steps, seed {seed}) in "
               f"{card['wall_time_s']:.0f} s -> {output}; model card "
               f"{Path(output).with_suffix('.json')}", markup=False)
@@ -69,7 +72,7 @@ def train_cmd(
 
 def _train_shielded(adapter, env_config: dict, shield: str, algorithm: Algorithm, profile,
                     steps: Optional[int], seed: int, duration: Optional[int],
-                    output: Path) -> None:
+                    output: Path, force: bool) -> None:
     from ..checking.shield import load_shield
     from ..live.training import train_shielded
 
@@ -81,7 +84,8 @@ def _train_shielded(adapter, env_config: dict, shield: str, algorithm: Algorithm
     steps = steps or 20_000
     with progress(f"training under {loaded.name}", steps, "steps") as advance:
         card = train_shielded(adapter, config, loaded, algorithm.value, output, steps=steps,
-                              seed=seed, progress=lambda done, total: advance(0, completed=done))
+                              seed=seed, progress=lambda done, total: advance(0, completed=done),
+                              force=force, inputs=input_paths(shield))
     say(f"trained {card['agent']} ({card['algorithm']} under shield {loaded.name}, {steps} "
           f"steps, seed {seed}) in {card['wall_time_s']:.0f} s -> {output}; model card "
           f"{Path(output).with_suffix('.json')}")

@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from .common import app, out, SHIELD_HELP, SALVAGE
+from .common import app, out, SHIELD_HELP, SALVAGE, FORCE
 
 
 @app.command("render")
@@ -21,19 +21,24 @@ def render_cmd(
                                   "this LTL formula (repeatable; needs --shield)."),
     ltl_assertions: bool = typer.Option(False, "--ltl-assertions", help="Mark the shield "
                                         "machine's ASSERT_LTL definitions."),
+    force: bool = FORCE,
 ) -> None:
     """Write one episode as a self-contained HTML viewer (top view, shield zones, timeline)."""
     from ..checking.replay import ltl_formulas
     from ..render.viewer import render_episode, write_page
     from ..checking.shield import load_shield
     from ..errors import InputError
+    from ..outputs import check_output, input_paths
 
+    inputs = [run, *input_paths(shield)]
+    check_output(output, inputs, force=force, example="episode.html")
     loaded = load_shield(shield) if shield else None
     if (ltl or ltl_assertions) and loaded is None:
         raise InputError("--ltl and --ltl-assertions need --shield: the machine the formulas "
                          "are read in")
     formulas = ltl_formulas(loaded, ltl, ltl_assertions) if loaded is not None else []
-    page = write_page(render_episode(run, episode, loaded, formulas), output)
+    page = write_page(render_episode(run, episode, loaded, formulas), output, force=force,
+                      inputs=inputs)
     out.print(f"wrote episode {episode} -> {page} ({page.stat().st_size / 1000:.0f} kB)",
               markup=False)
 
@@ -46,16 +51,20 @@ def report_cmd(
     properties: Optional[str] = typer.Option(
         None, "--properties", "-p", help="A built-in set (highway, frozenlake, cliffwalking) "
         "or a property file (TOML). Default: the environment's."),
-    output: Path = typer.Option(..., "--output", "-o", help="The HTML report to write."),
+    output: Path = typer.Option(..., "--output", "-o", help="The HTML report to write (its "
+                                "viewer pages go into NAME_files/ beside it)."),
+    force: bool = FORCE,
 ) -> None:
     """Write an HTML validation report: replay, statistics with plots, episode viewers."""
     from ..stats.properties import load_properties
     from ..render.report import render_report
     from ..checking.shield import load_shield
+    from ..outputs import input_paths
 
     loaded = load_shield(shield) if shield else None
     from ..stats.estimates import default_properties
 
     pset = load_properties(properties or default_properties(runs))
-    page, pages = render_report(runs, output, shield=loaded, pset=pset)
+    page, pages = render_report(runs, output, shield=loaded, pset=pset, force=force,
+                                inputs=input_paths(shield, properties))
     out.print(f"wrote {page} and {pages} episode page(s)", markup=False)

@@ -8,22 +8,20 @@ from typing import Optional
 
 import typer
 
-from ..errors import InputError
+from ..outputs import input_paths
 from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, EPISODE_EXECUTOR, RAY_ADDRESS,
                      OutputFormat, FORMAT, JSON, output_format, print_json, plain, progress,
                      Interval, ENV, ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, FORCE,
                      RUN_SHIELD, SEED, WORKERS, SALVAGE)
 
 
-def _print_stats(result: dict, fmt: OutputFormat, plot: Optional[Path]) -> None:
+def _print_stats(result: dict, fmt: OutputFormat, plot: Optional[Path],
+                 force: bool = False) -> None:
     from ..render.stats_text import stats_csv, stats_markdown, stats_plots, stats_text
 
     warn(result["warnings"])
     if plot is not None:
-        try:
-            written = stats_plots(result, plot)
-        except OSError as exc:
-            raise InputError(f"cannot write the plots into {plot}: {exc}") from None
+        written = stats_plots(result, plot, force=force)
         err.print(f"wrote {len(written)} plot file(s) into {plot}")
     if fmt == OutputFormat.json:
         print_json(result)
@@ -48,7 +46,9 @@ def stats_cmd(
     fmt: OutputFormat = FORMAT,
     interval: Interval = typer.Option(Interval.wilson, "--interval",
                                       help="Interval for property shares."),
-    plot: Optional[Path] = typer.Option(None, "--plot", help="Write PNG and SVG plots here."),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Write PNG and SVG plots into "
+                                        "this folder (a new or empty one, or --force)."),
+    force: bool = FORCE,
     executor: Executor = FILE_EXECUTOR,
     ray_address: Optional[str] = RAY_ADDRESS,
 ) -> None:
@@ -57,10 +57,14 @@ def stats_cmd(
     from ..stats.properties import load_properties
     from ..stats.estimates import default_properties, statistics
 
+    from ..render.stats_text import check_plot_folder
+
+    if plot is not None:  # before the statistics are computed
+        check_plot_folder(plot, [*runs, *input_paths(properties)], force)
     pset = load_properties(properties or default_properties(runs)).select(names)
     result = statistics(runs, pset, interval=interval.value, executor=executor.value,
                         ray_address=ray_address)
-    _print_stats(result, fmt, plot)
+    _print_stats(result, fmt, plot, force)
 
 
 
@@ -102,7 +106,7 @@ def simulate_cmd(
     pset = load_properties(properties or resolve(settings)[0].properties or "highway")
     with progress("simulating", episodes) as advance:
         result = simulate(settings, output, pset, until_width=until_ci_width, force=force,
-                          progress=lambda ep: advance())
+                          inputs=input_paths(properties), progress=lambda ep: advance())
     seq = result.get("sequential")
     if seq is not None:
         widths = ", ".join(f"{k} {v:.3f}" for k, v in seq["widths"].items())

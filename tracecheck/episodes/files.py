@@ -1,89 +1,95 @@
-"""Writing runs safely: into ``NAME.part``, renamed into place only when there is something to
-keep, so that an existing file is never lost to a run that failed or was interrupted early."""
+"""Writing runs safely, by the output rule (:mod:`tracecheck.outputs`): never over an input,
+an existing file only with ``force``, through an exclusively created temporary file that is
+renamed into place only when there is something to keep, so that an existing file is never
+lost to a run that failed or was interrupted early."""
 
 from __future__ import annotations
 
 import os
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterable, Iterator
+from typing import Iterable, Iterator, Sequence
 
 from ..errors import InputError
+from ..outputs import atomic_temp, check_output, open_new, temp_file
 from .writer import EpisodeWriter
 from .model import Episode
 from .schema import RunHeader
 
-__all__ = ["write_run", "recording_into", "refuse_existing"]
+__all__ = ["write_run", "recording_into", "check_run_output"]
+
+_NO_FOLLOW = getattr(os, "O_NOFOLLOW", 0)
+
+
+def check_run_output(path: str | Path, inputs: Sequence[Path] = (), *,
+                     force: bool = False) -> Path:
+    """The output rule for a run file: not an input, not a folder, an existing file only
+    with ``force``."""
+    return check_output(Path(path), inputs, force=force, example="run.mcap")
 
 
 def write_run(path: str | Path, header: RunHeader, episodes: Iterable[Episode], *,
-              foxglove: bool = False) -> tuple[int, int, int]:
+              foxglove: bool = False, force: bool = False,
+              inputs: Sequence[Path] = ()) -> tuple[int, int, int]:
     """Write ``episodes`` to ``path``; (episodes, steps, crashes) written; ``foxglove`` adds
     Foxglove's channels (``interop/foxglove.py``).
 
-    An error while producing the episodes (a bad input file, say) leaves any existing
-    ``path`` untouched and no partial file behind.
+    ``path`` must not be one of ``inputs``, and an existing ``path`` is replaced only with
+    ``force``. An error while producing the episodes (a bad input file, say) leaves any
+    existing ``path`` untouched and no partial file behind.
     """
-    path = Path(path)
-    if path.is_dir():
-        raise InputError(f"the output {path} is a folder; give a file name such as run.mcap")
-    part = path.with_name(path.name + ".part")
+    path = check_run_output(path, inputs, force=force)
     counts = [0, 0, 0]
-    try:
-        with EpisodeWriter(part, header, foxglove=foxglove) as out:
+    with atomic_temp(path) as (stream, part):
+        with EpisodeWriter(part, header, foxglove=foxglove, stream=stream, name=path) as out:
             for episode in episodes:
                 out.write(episode)
                 counts[0] += 1
                 counts[1] += episode.end.steps
                 counts[2] += episode.end.crashed
-        os.replace(part, path)
-    except BaseException:
-        part.unlink(missing_ok=True)
-        raise
     return counts[0], counts[1], counts[2]
 
 
-def refuse_existing(path: Path, force: bool) -> None:
-    """An existing recording is replaced only when the user says so (``--force``)."""
-    if path.exists() and not force:
-        raise InputError(f"{path} exists; give another name, or --force to replace it (it is "
-                         "replaced only once a new episode is complete)")
-
-
-@contextmanager
-def recording_into(path: str | Path, header: RunHeader, *, force: bool = False,
-                   foxglove: bool = True) -> Iterator[EpisodeWriter]:
-    """An :class:`EpisodeWriter` for a recording into ``path`` (with Foxglove's channels
-    unless ``foxglove`` is false).
-
-    An existing ``path`` is refused unless ``force``; a lock file (``NAME.lock``) makes a
-    second writer of the same path fail at once. A new file is written in place (each
-    finished episode can be read while the recording goes on); one that replaces a file goes
-    to ``NAME.part`` first, which replaces ``path`` once at least one episode is complete —
-    also when the recording is interrupted — and is removed otherwise, so the old file stays.
-    """
-    path = Path(path)
-    if path.is_dir():
-        raise InputError(f"the output {path} is a folder; give a file name such as run.mcap")
+def _lock(path: Path) -> Path:
+    """Create ``NAME.lock`` beside ``path`` (never through a link); a second writer fails."""
     lock = path.with_name(path.name + ".lock")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        os.close(os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+        os.close(os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY | _NO_FOLLOW, 0o666))
     except FileExistsError:
         raise InputError(f"another tracecheck is writing {path} (its lock file {lock} exists); "
                          "remove the lock file if no other run is going on") from None
     except OSError as exc:
         raise InputError(f"cannot write {path}: {exc.strerror or exc}") from None
+    return lock
+
+
+@contextmanager
+def recording_into(path: str | Path, header: RunHeader, *, force: bool = False,
+                   foxglove: bool = True,
+                   inputs: Sequence[Path] = ()) -> Iterator[EpisodeWriter]:
+    """An :class:`EpisodeWriter` for a recording into ``path`` (with Foxglove's channels
+    unless ``foxglove`` is false).
+
+    ``path`` follows the output rule (not an input; an existing one only with ``force``); a
+    lock file (``NAME.lock``) makes a second writer of the same path fail at once. A new file
+    is written in place, created exclusively (each finished episode can be read while the
+    recording goes on); one that replaces a file goes to a temporary file beside it, which
+    replaces ``path`` once at least one episode is complete — also when the recording is
+    interrupted — and is removed otherwise, so the old file stays.
+    """
+    path = Path(path)
+    lock = _lock(path)
     try:
-        refuse_existing(path, force)
-    except InputError:
+        check_run_output(path, inputs, force=force)
+        replacing = os.path.lexists(path)
+        stream, part = temp_file(path) if replacing else (open_new(path), path)
+    except BaseException:
         lock.unlink(missing_ok=True)
         raise
-    replacing = path.exists()
-    part = path.with_name(path.name + ".part") if replacing else path
-    writer = EpisodeWriter(part, header, foxglove=foxglove)
+    writer = EpisodeWriter(part, header, foxglove=foxglove, stream=stream, name=path)
     try:
-        with writer:
+        with stream, writer:
             yield writer
     finally:
         try:

@@ -122,13 +122,17 @@ def schema_json(name: str) -> str:
 
 
 def export_schemas(folder: Path = SCHEMA_DIR) -> list[Path]:
-    """Write every message's JSON schema into ``folder``; the files written."""
-    folder.mkdir(parents=True, exist_ok=True)
+    """Write every message's JSON schema into ``folder``; the files written.
+
+    A developer's command whose purpose is to regenerate the repository's ``schemas/``: it
+    replaces those files without ``--force``, each through a temporary file renamed into place
+    (never through a link: :func:`tracecheck.outputs.check_output` refuses one)."""
+    from ..outputs import check_output, write_file
+
     paths = []
     for name in MESSAGES:
-        path = folder / f"{name}.json"
-        path.write_text(schema_json(name), encoding="utf-8")
-        paths.append(path)
+        path = check_output(Path(folder) / f"{name}.json", force=True, what="schema file")
+        paths.append(write_file(path, schema_json(name)))
     return paths
 
 

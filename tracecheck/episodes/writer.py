@@ -43,8 +43,11 @@ class EpisodeWriter:
     ...     out.write(episode)
     """
 
-    def __init__(self, path: str | Path, header: S.RunHeader, foxglove: bool = False) -> None:
-        self.path = Path(path)
+    def __init__(self, path: str | Path, header: S.RunHeader, foxglove: bool = False, *,
+                 stream: Optional[IO[bytes]] = None, name: Optional[str | Path] = None) -> None:
+        self.path = Path(path)  # the file on disk (read back for the run's columns)
+        self.name = str(name or path)  # … and how messages call it (the output's own name)
+        self._given = stream  # a stream opened by the caller, which also closes it
         self.header = header
         self.foxglove = foxglove  # also Foxglove's own channels (interop/foxglove.py)
         self.episodes = 0
@@ -67,9 +70,9 @@ class EpisodeWriter:
 
     def open(self) -> None:
         try:
-            self._stream = open(self.path, "wb")
+            self._stream = self._given or open(self.path, "wb")
         except OSError as exc:
-            raise InputError(f"cannot write {self.path}: {exc.strerror or exc}") from None
+            raise InputError(f"cannot write {self.name}: {exc.strerror or exc}") from None
         self._writer = Writer(self._stream, use_chunking=False,
                               compression=CompressionType.NONE)
         self._writer.start(profile="tracecheck", library=f"tracecheck {__version__}")
@@ -123,9 +126,9 @@ class EpisodeWriter:
             pass  # disk full or gone: the episodes flushed so far stay readable
         finally:
             self._writer = None
-            if self._stream is not None:
+            if self._stream is not None and self._stream is not self._given:
                 self._stream.close()
-                self._stream = None
+            self._stream = None
 
     def _write_run_columns(self) -> None:
         """Every episode in one columns blob, read back through the checked reader, with the
@@ -178,7 +181,7 @@ class EpisodeWriter:
             self._write(episode)
             self._flush()
         except OSError as exc:
-            raise InputError(f"cannot write episode {episode.id} to {self.path}: "
+            raise InputError(f"cannot write episode {episode.id} to {self.name}: "
                              f"{exc.strerror or exc}") from None
         self.episodes += 1
 
@@ -192,7 +195,7 @@ class EpisodeWriter:
             try:
                 state = encode_state(s.state)
             except TracecheckError as exc:
-                raise InputError(f"{self.path}, episode {ep.id}, step {s.step}: {exc.message}",
+                raise InputError(f"{self.name}, episode {ep.id}, step {s.step}: {exc.message}",
                                  hint=exc.hint) from None
             msg = {"episode": ep.id, "step": s.step, "time": s.time, "action": s.action,
                    "state": state, "reward": s.reward, "crashed": s.crashed}
@@ -205,7 +208,7 @@ class EpisodeWriter:
                 data = S.Step.model_validate(msg).model_dump_json(exclude_none=True).encode()
             except ValidationError as exc:
                 first = exc.errors()[0]
-                raise InputError(f"{self.path}, episode {ep.id}, step {s.step}: "
+                raise InputError(f"{self.name}, episode {ep.id}, step {s.step}: "
                                  f"{'.'.join(map(str, first['loc']))}: {first['msg']}") from None
             self._emit("tracecheck.Step", data, s.time)
             if self.foxglove:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import datetime as _dt
 import json
 from pathlib import Path
-from typing import Iterable, Optional
+from typing import Iterable, Optional, Sequence
 
 from .. import __version__
 from ..b.values import format_value
@@ -106,12 +106,13 @@ def _operation_info(op, variables):
             "writtenVariables": variables, "nonDetWrittenVariables": variables}
 
 
-def export_prob2trace(episode: Episode, path: str | Path, vocab: Vocabulary = HIGHWAY) -> Path:
-    """Write ``episode`` as a ``.prob2trace`` file."""
-    path = Path(path)
-    try:
-        path.write_text(json.dumps(prob2trace_document(episode, vocab), indent=2,
-                                   ensure_ascii=False), encoding="utf-8")
-    except OSError as exc:
-        raise InputError(f"cannot write {path}: {exc.strerror or exc}") from None
-    return path
+def export_prob2trace(episode: Episode, path: str | Path, vocab: Vocabulary = HIGHWAY, *,
+                      force: bool = False, inputs: Sequence[Path] = ()) -> Path:
+    """Write ``episode`` as a ``.prob2trace`` file, by the output rule
+    (:mod:`tracecheck.outputs`): not one of ``inputs``, an existing file only with
+    ``force``, renamed into place once complete."""
+    from ..outputs import check_output, write_file
+
+    path = check_output(Path(path), inputs, force=force, example="episode.prob2trace")
+    return write_file(path, json.dumps(prob2trace_document(episode, vocab), indent=2,
+                                       ensure_ascii=False))

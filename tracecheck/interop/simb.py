@@ -12,7 +12,7 @@ import json
 import math
 import re
 from pathlib import Path
-from typing import Any, Iterable, Optional
+from typing import Any, Iterable, Optional, Sequence
 
 from .. import __version__
 from ..b.values import format_value
@@ -133,21 +133,37 @@ def _activation(act_id, op, after_ms, state, activating):
     }
 
 
+#: What ``export simb`` writes into its folder (``--force`` replaces only such a folder).
+SIMB_FILES = ("Timed_Simulation_*.json",)
+
+
+def check_simb_folder(folder: str | Path, inputs: Sequence[Path] = (), *,
+                      force: bool = False) -> Path:
+    """The output rule (:mod:`tracecheck.outputs`) for a folder of SimB traces: a new or
+    empty folder, or with ``force`` one that holds only SimB traces; none of ``inputs``."""
+    from ..outputs import check_output
+
+    return check_output(Path(folder), inputs, force=force, kind="folder", contents=SIMB_FILES)
+
+
 def export_simb(episodes: Iterable[Episode], folder: str | Path,
-                model_name: str = "HighwayEnvironment") -> list[Path]:
-    """Write one ``Timed_Simulation_N.json`` per episode (N from 1) into ``folder``."""
-    folder = Path(folder)
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"cannot create the folder {folder}: {exc.strerror or exc}") from None
-    written = []
-    for n, episode in enumerate(episodes, start=1):
-        path = folder / f"Timed_Simulation_{n}.json"
-        try:
-            path.write_text(json.dumps(simb_document(episode, model_name), indent=2,
-                                       ensure_ascii=False), encoding="utf-8")
-        except OSError as exc:
-            raise InputError(f"cannot write {path}: {exc.strerror or exc}") from None
-        written.append(path)
-    return written
+                model_name: str = "HighwayEnvironment", *, force: bool = False,
+                inputs: Sequence[Path] = ()) -> list[Path]:
+    """Write one ``Timed_Simulation_N.json`` per episode (N from 1) into ``folder``.
+
+    The traces go into a new folder beside it, which replaces ``folder`` once every trace
+    is written: an error leaves an existing folder as it was (see :func:`check_simb_folder`
+    for which folders may be replaced).
+    """
+    from ..outputs import atomic_folder, inside, open_new
+
+    folder = check_simb_folder(folder, inputs, force=force)
+    names = []
+    with atomic_folder(folder) as tmp:
+        for n, episode in enumerate(episodes, start=1):
+            name = f"Timed_Simulation_{n}.json"
+            with open_new(inside(tmp, name)) as stream:
+                stream.write(json.dumps(simb_document(episode, model_name), indent=2,
+                                        ensure_ascii=False).encode("utf-8"))
+            names.append(name)
+    return [folder / name for name in names]

@@ -18,7 +18,7 @@ import time
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any, Optional, Sequence
 
 import numpy as np
 
@@ -178,11 +178,13 @@ def _load_table(path: Path, actions: tuple[str, ...], env) -> Agent:
 
 
 def train(profile: str, out: str | Path, *, steps: int = 20_000, seed: int = 0,
-          duration: int = 60, progress: Optional[Any] = None) -> dict[str, Any]:
+          duration: int = 60, progress: Optional[Any] = None, force: bool = False,
+          inputs: Sequence[Path] = ()) -> dict[str, Any]:
     """Train a DQN with the paper's settings on a reward profile; save it and its card.
 
     ``progress`` is called with (steps done, total) as training goes. Returns the model card
-    (also written next to the agent as ``NAME.json``).
+    (also written next to the agent as ``NAME.json``). Both files follow the output rule
+    (see :func:`agent_outputs`).
     """
     import stable_baselines3 as sb3
     import torch
@@ -190,7 +192,8 @@ def train(profile: str, out: str | Path, *, steps: int = 20_000, seed: int = 0,
 
     out = Path(out)
     env_config(profile, duration)  # validates the profile
-    _writable(out, "agent.zip")
+    path = out if out.suffix == ".zip" else out.with_suffix(out.suffix + ".zip")
+    path, card_path = agent_outputs(path, "agent.zip", force=force, inputs=inputs)
     torch.set_num_threads(1)
     env = make_env(profile, duration)
     settings = dict(PAPER_DQN, exploration_fraction=min(1.0, 6000 / steps))
@@ -205,8 +208,7 @@ def train(profile: str, out: str | Path, *, steps: int = 20_000, seed: int = 0,
     start = time.perf_counter()
     model.learn(total_timesteps=steps, callback=Report())
     wall = time.perf_counter() - start
-    model.save(out)
-    path = out if out.suffix == ".zip" else out.with_suffix(out.suffix + ".zip")
+    save_model(model, path)
     import gymnasium
     import highway_env
     import stable_baselines3
@@ -221,23 +223,40 @@ def train(profile: str, out: str | Path, *, steps: int = 20_000, seed: int = 0,
                      "gymnasium": gymnasium.__version__, "highway_env": highway_env.__version__},
         "sha256": file_sha256(path),
     }
-    path.with_suffix(".json").write_text(json.dumps(card, indent=2) + "\n")
+    write_card(card, card_path)
     return card
 
 
-def _writable(out: Path, example: str) -> None:
-    if out.is_dir():
-        raise InputError(f"the output {out} is a folder; give a file name such as {example}")
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.with_suffix(".probe").write_bytes(b"")
-        out.with_suffix(".probe").unlink()
-    except OSError as exc:
-        raise InputError(f"cannot write {out}: {exc.strerror or exc}") from None
+def agent_outputs(out: Path, example: str, *, force: bool = False,
+                  inputs: Sequence[Path] = ()) -> tuple[Path, Path]:
+    """The agent file and its model card (``NAME.json`` beside it), checked by the output
+    rule (:mod:`tracecheck.outputs`) before any training: neither is one of ``inputs``, and
+    existing ones are replaced only with ``force``, each once complete."""
+    from ..outputs import check_output
+
+    card = out.with_suffix(".json")
+    check_output(out, inputs, force=force, example=example)
+    check_output(card, inputs, force=force, what="model card")
+    return out, card
+
+
+def save_model(model, path: Path) -> None:
+    """A stable-baselines3 model saved to ``path`` (renamed into place once complete)."""
+    from ..outputs import atomic_file
+
+    with atomic_file(path) as stream:
+        model.save(stream)
+
+
+def write_card(card: dict, path: Path) -> None:
+    from ..outputs import write_file
+
+    write_file(path, json.dumps(card, indent=2) + "\n")
 
 
 def train_q_table(adapter, config: dict, out: str | Path, *, steps: int = 200_000,
-                  seed: int = 0, horizon: int = 100) -> dict[str, Any]:
+                  seed: int = 0, horizon: int = 100, force: bool = False,
+                  inputs: Sequence[Path] = ()) -> dict[str, Any]:
     """Tabular Q-learning (see :data:`Q_LEARNING`) on an environment with discrete
     observations; saves the table as ``.npy`` and a model card next to it.
 
@@ -247,7 +266,7 @@ def train_q_table(adapter, config: dict, out: str | Path, *, steps: int = 200_00
     out = Path(out)
     if out.suffix != ".npy":
         raise InputError(f"a Q-table is saved as .npy, not {out.name}")
-    _writable(out, "agent.npy")
+    out, card_path = agent_outputs(out, "agent.npy", force=force, inputs=inputs)
     env = adapter.make_env(config)
     n_obs = getattr(env.observation_space, "n", None)
     if n_obs is None:
@@ -275,7 +294,10 @@ def train_q_table(adapter, config: dict, out: str | Path, *, steps: int = 200_00
             obs, _ = env.reset()
             t = 0
     wall = time.perf_counter() - start
-    np.save(out, q, allow_pickle=False)
+    from ..outputs import atomic_file
+
+    with atomic_file(out) as stream:
+        np.save(stream, q, allow_pickle=False)
     import gymnasium
 
     card = {
@@ -287,5 +309,5 @@ def train_q_table(adapter, config: dict, out: str | Path, *, steps: int = 200_00
                      "gymnasium": gymnasium.__version__},
         "sha256": file_sha256(out),
     }
-    out.with_suffix(".json").write_text(json.dumps(card, indent=2) + "\n")
+    write_card(card, card_path)
     return card

@@ -12,9 +12,10 @@ from __future__ import annotations
 import multiprocessing as mp
 import signal
 from pathlib import Path
-from typing import Callable, Iterator, Optional
+from typing import Callable, Iterator, Optional, Sequence
 
-from ..episodes.files import recording_into, refuse_existing
+from ..episodes.files import check_run_output, recording_into
+from ..outputs import input_paths
 from ..episodes.writer import new_header
 from ..episodes.model import Episode
 from ..errors import InputError
@@ -72,10 +73,16 @@ def episodes(settings: RecordSettings) -> Iterator[Episode]:
             pool.terminate()
 
 
-def check_settings(settings: RecordSettings, out: Path, *, force: bool = False):
-    """Everything that can be checked before an episode runs: environment, agent (its spaces
-    against the environment's), shield (its operations and variables against the
-    environment's actions and states), output."""
+def run_inputs(settings: RecordSettings, *more) -> list[Path]:
+    """The files a recording reads (agent, shield file, …): its output must be none of them."""
+    return input_paths(settings.agent, settings.shield, *more)
+
+
+def check_settings(settings: RecordSettings, out: Path, *, force: bool = False,
+                   inputs: Sequence[Path] = ()):
+    """Everything that can be checked before an episode runs: output (the output rule, see
+    :mod:`tracecheck.outputs`), environment, agent (its spaces against the environment's),
+    shield (its operations and variables against the environment's actions and states)."""
     from .agents import load_agent
     from ..checking.shield import check_vocabulary, load_shield
 
@@ -83,6 +90,7 @@ def check_settings(settings: RecordSettings, out: Path, *, force: bool = False):
         raise InputError("--episodes must be at least 1")
     if settings.executor not in ("local", "ray"):
         raise InputError(f"unknown executor {settings.executor!r}; the executors are local, ray")
+    check_run_output(out, [*run_inputs(settings), *inputs], force=force)
     adapter, config, _ = resolve(settings)
     actions = adapter.actions
     if settings.fallback is not None and settings.fallback not in actions:
@@ -95,16 +103,6 @@ def check_settings(settings: RecordSettings, out: Path, *, force: bool = False):
         check_vocabulary(shield, adapter, env)
     finally:
         env.close()
-    if out.is_dir():
-        raise InputError(f"the output {out} is a folder; give a file name such as run.mcap")
-    refuse_existing(out, force)  # before any environment or agent is loaded
-    probe = out.with_name(out.name + ".probe")
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        probe.write_bytes(b"")
-        probe.unlink()
-    except OSError as exc:
-        raise InputError(f"cannot write {out}: {exc.strerror or exc}") from None
     return agent, shield
 
 
@@ -134,7 +132,7 @@ def record(settings: RecordSettings, out: str | Path,
     agent, shield = check_settings(settings, out, force=force)
     header = recording_header(settings, agent, shield)
     counts = [0, 0, 0]
-    with recording_into(out, header, force=force) as writer:
+    with recording_into(out, header, force=force, inputs=run_inputs(settings)) as writer:
         for episode in episodes(settings):
             writer.write(episode)
             counts[0] += 1

@@ -20,17 +20,16 @@ and its sha256.
 
 from __future__ import annotations
 
-import json
 import platform
 import sys
 import time
 from pathlib import Path
-from typing import Any, Callable, Optional
+from typing import Any, Callable, Optional, Sequence
 
 import numpy as np
 
 from ..errors import InputError
-from .agents import PAPER_DQN, _writable, file_sha256
+from .agents import PAPER_DQN, agent_outputs, file_sha256, save_model, write_card
 
 __all__ = ["train_shielded", "ALGORITHMS"]
 
@@ -62,9 +61,11 @@ def _masked_dqn():
 
 def train_shielded(adapter, config: dict, shield, algorithm: str, out: str | Path, *,
                    steps: int, seed: int = 0,
-                   progress: Optional[Callable[[int, int], None]] = None) -> dict[str, Any]:
+                   progress: Optional[Callable[[int, int], None]] = None,
+                   force: bool = False, inputs: Sequence[Path] = ()) -> dict[str, Any]:
     """Train ``algorithm`` on the adapter's environment under ``shield``; save the agent
-    (``.zip``) and its model card (``.json`` next to it); the card."""
+    (``.zip``) and its model card (``.json`` next to it), by the output rule (see
+    :func:`~tracecheck.live.agents.agent_outputs`); the card."""
     import torch
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.monitor import Monitor
@@ -78,7 +79,7 @@ def train_shielded(adapter, config: dict, shield, algorithm: str, out: str | Pat
     out = Path(out)
     if out.suffix != ".zip":
         raise InputError(f"a trained agent is saved as .zip, not {out.name}")
-    _writable(out, "agent.zip")
+    out, card_path = agent_outputs(out, "agent.zip", force=force, inputs=inputs)
     torch.set_num_threads(1)
     vec = DummyVecEnv([lambda: ShieldWrapper(Monitor(adapter.make_env(config)), shield,
                                              adapter=adapter)])
@@ -111,7 +112,7 @@ def train_shielded(adapter, config: dict, shield, algorithm: str, out: str | Pat
     start = time.perf_counter()
     model.learn(total_timesteps=steps, callback=Report())
     wall = time.perf_counter() - start
-    model.save(out)
+    save_model(model, out)
     vec.close()
     import gymnasium
     import stable_baselines3
@@ -135,5 +136,5 @@ def train_shielded(adapter, config: dict, shield, algorithm: str, out: str | Pat
         module = sys.modules.get(package)
         if getattr(module, "__version__", None):
             card["versions"][package] = module.__version__
-    out.with_suffix(".json").write_text(json.dumps(card, indent=2) + "\n")
+    write_card(card, card_path)
     return card

@@ -7,12 +7,13 @@ from __future__ import annotations
 import html
 import io
 from pathlib import Path
-from typing import Optional
+from typing import Optional, Sequence
 
 from ..errors import InputError
 from ..stats.properties import PropertySet
 from ..checking.shield import Shield
-from .viewer import render_episode, write_page
+from ..outputs import write_file
+from .viewer import render_episode
 
 __all__ = ["render_report"]
 
@@ -41,7 +42,7 @@ def _svg_plots(result: dict) -> list[str]:
     original = plt.Figure.savefig
 
     def capture(fig, path, *args, **kwargs):
-        if str(path).endswith(".svg"):
+        if kwargs.get("format") == "svg" or str(path).endswith(".svg"):
             buf = io.StringIO()
             original(fig, buf, format="svg")
             text = buf.getvalue()
@@ -59,14 +60,24 @@ def _svg_plots(result: dict) -> list[str]:
 
 
 def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
-                  pset: PropertySet, max_pages: int = 20) -> tuple[Path, int]:
-    """Write the report to ``out`` and viewer pages beside it; (report, pages written)."""
+                  pset: PropertySet, max_pages: int = 20, force: bool = False,
+                  inputs: Sequence[Path] = ()) -> tuple[Path, int]:
+    """Write the report to ``out`` and viewer pages beside it (``NAME_files/``); (report,
+    pages written). Both follow the output rule (:mod:`tracecheck.outputs`): neither is one
+    of the runs or ``inputs``, existing ones are replaced only with ``force``, and only once
+    the new ones are complete."""
     from ..checking.replay import replay
+    from ..outputs import check_output, safe_name
     from ..stats.estimates import statistics
     from .stats_text import _rows
 
     from ..episodes.columns import read_columns
 
+    out = Path(out)
+    pages_dir = out.with_name(out.stem + "_files")
+    check_output(out, [*runs, *inputs], force=force, example="report.html")
+    check_output(pages_dir, [*runs, *inputs], force=force, kind="folder",
+                 what="folder of viewer pages", contents=("*.html",))
     for run in runs:
         if not Path(run).exists():
             raise InputError(f"no such file: {run}")
@@ -75,10 +86,9 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
     parts = [f"<h1>tracecheck validation report</h1><p class='note'>runs: "
              f"{html.escape(', '.join(map(str, runs)))}</p>"]
     pages = []
-    pages_dir = out.with_name(out.stem + "_files")
     # one page name per run, also for runs with the same file name in different folders
-    stems = [Path(r).stem for r in runs]
-    page_stem = {str(r): stem if stems.count(stem) == 1 else f"{stem}_{i + 1}"
+    stems, taken = [Path(r).stem for r in runs], set()
+    page_stem = {str(r): safe_name(stem if stems.count(stem) == 1 else f"{stem}_{i + 1}", taken)
                  for i, (r, stem) in enumerate(zip(runs, stems))}
     if shield is not None:
         report = replay(runs, shield)
@@ -97,8 +107,9 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
         for e in matters:
             link = ""
             if len(pages) < max_pages:
-                name = f"{page_stem.get(str(e.file), Path(e.file).stem)}_episode_{e.episode}.html"
-                pages.append((e.file, e.episode, pages_dir / name))
+                stem = page_stem.get(str(e.file)) or safe_name(Path(e.file).stem)
+                name = f"{stem}_episode_{e.episode}.html"
+                pages.append((e.file, e.episode, name))
                 link = f"{pages_dir.name}/{name}"
             rows.append((e, link))
         parts.append("<h2>Episodes that matter</h2><table><tr><th>file</th><th>episode</th>"
@@ -122,7 +133,17 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
         parts.append(f"<figure>{svg}</figure>")
     page = (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>tracecheck "
             f"report</title><style>{_STYLE}</style></head><body>{''.join(parts)}</body></html>")
-    write_page(page, out)
-    for file, episode, path in pages:
-        write_page(render_episode(file, episode, shield), path)
+    if pages:
+        _write_pages(pages_dir, pages, shield)
+    write_file(out, page)
     return out, len(pages)
+
+
+def _write_pages(folder: Path, pages: list, shield: Optional[Shield]) -> None:
+    """The viewer pages, into a new folder that replaces ``folder`` once all are written."""
+    from ..outputs import atomic_folder, inside, open_new
+
+    with atomic_folder(folder) as tmp:
+        for file, episode, name in pages:
+            with open_new(inside(tmp, name)) as stream:
+                stream.write(render_episode(file, episode, shield).encode("utf-8"))

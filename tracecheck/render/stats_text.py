@@ -10,7 +10,10 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-__all__ = ["stats_text", "stats_markdown", "stats_csv", "stats_plots"]
+__all__ = ["stats_text", "stats_markdown", "stats_csv", "stats_plots", "check_plot_folder"]
+
+#: What ``stats --plot`` writes into its folder (``--force`` replaces only such a folder).
+PLOT_FILES = ("*.png", "*.svg")
 
 
 def _metric_cell(m: dict, lines: bool = False) -> str:
@@ -107,15 +110,38 @@ def stats_csv(result: dict) -> str:
     return buf.getvalue()
 
 
-def stats_plots(result: dict, folder: Path) -> list[Path]:
-    """PNG and SVG: property shares with intervals per run; metric distributions per run."""
+def check_plot_folder(folder: Path, inputs=(), force: bool = False) -> Path:
+    """The output rule (:mod:`tracecheck.outputs`) for a folder of plots."""
+    from ..outputs import check_output
+
+    return check_output(folder, inputs, force=force, kind="folder", what="--plot folder",
+                        contents=PLOT_FILES)
+
+
+def stats_plots(result: dict, folder: Path, *, force: bool = False) -> list[Path]:
+    """PNG and SVG: property shares with intervals per run; metric distributions per run.
+
+    The folder follows the output rule: written beside it and renamed into place when every
+    plot is drawn; an existing folder of plots is replaced only with ``force``; a metric's
+    file name is its name made safe (``metric_x_._._escaped.png`` for ``x/../../escaped``).
+    """
+    from ..outputs import atomic_folder
+
+    folder = check_plot_folder(Path(folder), force=force)
+    with atomic_folder(folder) as tmp:
+        written = _plots(result, tmp)
+    return [folder / p.name for p in written]
+
+
+def _plots(result: dict, folder: Path) -> list[Path]:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import numpy as np
 
-    folder.mkdir(parents=True, exist_ok=True)
+    from ..outputs import safe_name
+
     runs = [r for r in result["runs"] if r["episodes"]]
     values = {v.name: v for v in result.values}
     written: list[Path] = []
@@ -135,22 +161,30 @@ def stats_plots(result: dict, folder: Path) -> list[Path]:
         ax.set_ylabel(f"% of episodes (95 % {result['interval']} interval)")
         ax.set_ylim(0, 105)
         ax.legend()
-        written += _save(fig, folder / "properties")
+        written += _save(fig, folder, "properties")
+    taken = {"properties"}
     for name in runs[0]["metrics"]:
         fig, ax = plt.subplots(figsize=(max(5, 1.5 * len(runs)), 4))
         ax.boxplot([values[r["name"]].metrics[name] for r in runs])
         ax.set_xticks(range(1, len(runs) + 1), [r["name"] for r in runs])
         ax.set_title(result["descriptions"].get(name) or name)
-        written += _save(fig, folder / f"metric_{name}")
+        written += _save(fig, folder, safe_name(f"metric_{name}", taken))
     return written
 
 
-def _save(fig, stem: Path) -> list[Path]:
+def _save(fig, folder: Path, stem: str) -> list[Path]:
+    """``fig`` as ``STEM.png`` and ``STEM.svg`` in ``folder``, each a file created anew
+    (never through a link)."""
     import matplotlib.pyplot as plt
 
+    from ..outputs import inside, open_new
+
     fig.tight_layout()
-    paths = [stem.with_suffix(".png"), stem.with_suffix(".svg")]
-    for p in paths:
-        fig.savefig(p)
+    paths = []
+    for fmt in ("png", "svg"):
+        path = inside(folder, f"{stem}.{fmt}")
+        with open_new(path) as stream:
+            fig.savefig(stream, format=fmt)
+        paths.append(path)
     plt.close(fig)
     return paths

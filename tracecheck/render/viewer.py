@@ -116,11 +116,11 @@ def render_episode(run: str | Path, episode: int, shield: Optional[Shield] = Non
             .replace("{{DATA}}", payload))
 
 
-def write_page(text: str, out: str | Path) -> Path:
-    out = Path(out)
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(text, encoding="utf-8")
-    except OSError as exc:
-        raise InputError(f"cannot write {out}: {exc.strerror or exc}") from None
-    return out
+def write_page(text: str, out: str | Path, *, force: bool = False,
+               inputs: Sequence[Path] = ()) -> Path:
+    """Write a page to ``out`` by the output rule (:mod:`tracecheck.outputs`): none of
+    ``inputs``, an existing file only with ``force``, renamed into place once complete."""
+    from ..outputs import check_output, write_file
+
+    out = check_output(Path(out), inputs, force=force, example="episode.html")
+    return write_file(out, text)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Callable, Optional
+from typing import Callable, Optional, Sequence
 
 import numpy as np
 
@@ -20,7 +20,8 @@ from ..b.vector import Columns
 from ..episodes.files import recording_into
 from ..episodes.model import Episode
 from .properties import PropertySet
-from ..live.record import RecordSettings, check_settings, episodes, recording_header
+from ..live.record import (RecordSettings, check_settings, episodes, recording_header,
+                           run_inputs)
 from .estimates import prepare, statistics
 
 __all__ = ["simulate"]
@@ -50,16 +51,18 @@ def _widths(holds: dict[str, list[bool]], level: float) -> dict[str, float]:
 def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
              until_width: Optional[float] = None, batch: Optional[int] = None,
              progress: Optional[Callable[[Episode], None]] = None,
-             force: bool = False) -> dict:
+             force: bool = False, inputs: Sequence[Path] = ()) -> dict:
     """Record up to ``settings.episodes`` episodes into ``out`` and return their statistics
-    (see the module docstring for the early stop)."""
+    (see the module docstring for the early stop). ``out`` follows the output rule: none of
+    ``inputs`` (the property file, say) nor the agent or shield file, an existing file only
+    with ``force``."""
     out = Path(out)
     if until_width is not None and not 0.0 < until_width < 1.0:
         from ..errors import InputError
 
         raise InputError(f"--until-ci-width must lie strictly between 0 and 1 (a width of a "
                          f"share), not {until_width}")
-    agent, shield = check_settings(settings, out, force=force)
+    agent, shield = check_settings(settings, out, force=force, inputs=inputs)
     from ..live.record import resolve
 
     formulas = prepare(pset, resolve(settings)[0])
@@ -73,7 +76,8 @@ def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
         sequential = {"rule": f"Bonferroni over {looks} planned looks, Wilson intervals at "
                               f"level {level:.4f} per look", "width": until_width,
                       "batch": batch, "looks": 0, "stopped_early": False, "widths": {}}
-    with recording_into(out, header, force=force) as writer:
+    with recording_into(out, header, force=force,
+                        inputs=[*run_inputs(settings), *inputs]) as writer:
         for episode in episodes(settings):
             writer.write(episode)
             if progress is not None:
