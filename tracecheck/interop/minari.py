@@ -298,7 +298,10 @@ def _check_lengths(data, n: int, where: str) -> None:
     """n actions, rewards, terminations and truncations; n + 1 observations."""
     for name, want in (("rewards", n), ("terminations", n), ("truncations", n),
                        ("observations", n + 1)):
-        got = len(getattr(data, name))
+        try:
+            got = len(getattr(data, name))
+        except TypeError:  # a scalar
+            raise InputError(f"{where}: the {name} are one value, not one per step") from None
         if got != want:
             raise InputError(f"{where}: {got} {name} for {n} actions (want {want})")
 
@@ -608,6 +611,8 @@ def _check_episode(group, where: str) -> None:
     for name in ("observations", "actions", "rewards", "terminations", "truncations"):
         if name not in group:
             raise InputError(f"{where}: it has no {name}")
+        if isinstance(group[name], h5py.Dataset) and group[name].ndim == 0:
+            raise InputError(f"{where}: the {name} are one value, not one per step")
     for name, kinds, what in (("rewards", "biuf", "numbers"), ("terminations", "biu", "flags"),
                               ("truncations", "biu", "flags")):
         item = group[name]
