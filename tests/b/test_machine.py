@@ -8,6 +8,7 @@ from tests.conftest import simb_states
 from tracecheck.b.machine import load_machine, load_machine_text
 from tracecheck.b.values import Elem, FuncValue
 from tracecheck.errors import (BScopeError, BSyntaxError, BTypeError, InputError, ModelError,
+                               TracecheckError,
                                UnsupportedError)
 
 E = Elem
@@ -186,6 +187,41 @@ END""")
 def test_deferred_set_default_size():
     m = load_machine_text("MACHINE D SETS S CONSTANTS c PROPERTIES c : S END")
     assert m.sets["S"] == (E("c"), E("S2"))
+
+
+@pytest.mark.parametrize("scope", ["1..3", "3", "4..6", "2 + 1"])
+def test_a_deferred_set_sized_by_its_scope_definition(scope):
+    """ProB's DEFINITIONS scope_S == a..b (b - a + 1 elements) or == n."""
+    m = load_machine_text(f"MACHINE D SETS PID DEFINITIONS scope_PID == {scope} "
+                          "VARIABLES x INVARIANT x : PID INITIALISATION x :: PID END")
+    assert m.sets["PID"] == (E("PID1"), E("PID2"), E("PID3"))
+    assert m.evaluate("card(PID)", {"x": E("PID1")}) == 3
+
+
+def test_a_deferred_set_enumerated_in_the_properties():
+    m = load_machine_text("MACHINE D SETS PID CONSTANTS a, b, c, d "
+                          "PROPERTIES PID = {a, b, c} & a /= b & d : PID END")
+    assert m.sets["PID"] == (E("a"), E("b"), E("c"))
+    assert m.constants == {"a": E("a"), "b": E("b"), "c": E("c"), "d": E("a")}
+    assert load_machine_text("MACHINE D SETS PID PROPERTIES card(PID) = 3 "
+                             "DEFINITIONS scope_PID == 1..3 END").sets["PID"][2] == E("PID3")
+
+
+@pytest.mark.parametrize("text,message", [
+    ("DEFINITIONS scope_PID == 1..3 PROPERTIES card(PID) = 4",
+     "PID has 4 element(s) by card(PID) = 4 but 3 by scope_PID in DEFINITIONS"),
+    ("CONSTANTS a, b PROPERTIES PID = {a, b} & card(PID) = 3",
+     "PID has 2 element(s) by PID = {a, b} but 3 by card(PID) = 3"),
+    ("DEFINITIONS scope_PID == TRUE", "write scope_PID == n or scope_PID == a..b"),
+    ("DEFINITIONS scope_PID == 3..1", "would have 0 elements; a deferred set is not empty"),
+    ("PROPERTIES card(PID) = 100000000", "the set PID has 100,000,000 elements"),
+])
+def test_deferred_set_sizes_that_cannot_be(text, message):
+    """Sizes that disagree have no model (ProB finds no constants): an error, not one of
+    them; a huge size is refused before 10^8 elements are made."""
+    with pytest.raises(TracecheckError) as info:
+        load_machine_text(f"MACHINE D SETS PID {text} END", file="D.mch")
+    assert message in info.value.message
 
 
 def test_properties_that_do_not_hold():

@@ -149,7 +149,8 @@ def test_a_users_own_adapter_is_named_on_the_command_line(capsys, tmp_path):
                "--env", toy)[0] == 0
     code, _, err = run(capsys, "export", "minari", str(recorded), "--dataset-id", "t/toy/y-v0",
                        "--env", "highway")  # the wrong adapter: its spaces do not fit
-    assert code == 2 and "episode 0, step 0: an observation of shape (1, 1) does not fit" in err
+    assert code == 2 and f"{recorded}: unknown setting 'slip' for the environment highway" \
+        in " ".join(err.split())
     back = tmp_path / "back.mcap"
     assert run(capsys, "import", "minari", "t/toy/x-v0", "--env", toy, "-o", str(back))[0] == 0
     assert _replay(capsys, back, str(shield)) == _replay(capsys, recorded, str(shield))
@@ -189,3 +190,201 @@ def test_malformed_provenance_is_refused(capsys, tmp_path, meta):
     code, _, err = run(capsys, "import", "minari", "t/h/p-v0", "--env", "highway", "-o",
                        str(tmp_path / "x.mcap"))
     assert code == 2 and "t/h/p-v0: its 'tracecheck' metadata is not what tracecheck" in err
+
+
+TOY = "tests.live.toy:Corridor"
+
+
+def _toy_dataset(dataset_id="t/toy/base-v0", episodes=3):
+    """A small valid dataset of the corridor (Discrete observations), seeds 10, 11, …"""
+    import gymnasium as gym
+    from minari.data_collector.episode_buffer import EpisodeBuffer
+
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        minari.create_dataset_from_buffers(
+            dataset_id=dataset_id, buffer=[EpisodeBuffer(
+                id=i, seed=10 + i, observations=[2, 3, 2 + i % 2], actions=[1, i % 2],
+                rewards=[0.0, 0.5], terminations=[False, i == 0], truncations=[False, i != 0])
+                for i in range(episodes)],
+            action_space=gym.spaces.Discrete(2), observation_space=gym.spaces.Discrete(6),
+            algorithm_name="x", author="x", author_email="x", code_permalink="x")
+    return dataset_id
+
+
+def _box_dataset(dataset_id="t/toy/box-v0"):
+    """The corridor with its position as a one-element Box (float observations)."""
+    import gymnasium as gym
+    from minari.data_collector.episode_buffer import EpisodeBuffer
+
+    import warnings
+
+    obs = [np.array([p], dtype=np.float64) for p in (2.0, 3.0, 4.0)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        minari.create_dataset_from_buffers(
+            dataset_id=dataset_id, buffer=[EpisodeBuffer(
+                observations=obs, actions=[1, 1], rewards=[0.0, 1.0],
+                terminations=[False, True], truncations=[False, False])],
+            action_space=gym.spaces.Discrete(2),
+            observation_space=gym.spaces.Box(0.0, 5.0, (1,), dtype=np.float64),
+            algorithm_name="x", author="x", author_email="x", code_permalink="x")
+    return dataset_id
+
+
+def _mutate(datasets, dataset_id, *, meta=None, h5=None):
+    import h5py
+
+    data = datasets / dataset_id / "data"
+    if meta is not None:
+        text = json.loads((data / "metadata.json").read_text())
+        meta(text)
+        (data / "metadata.json").write_text(json.dumps(text))
+    if h5 is not None:
+        with h5py.File(data / "main_data.hdf5", "a") as f:
+            h5(f)
+
+
+def _replace(f, path, values):
+    del f[path]
+    f.create_dataset(path, data=values)
+
+
+def _import(capsys, tmp_path, dataset_id, env=TOY):
+    out = tmp_path / "x.mcap"
+    code, _, err = run(capsys, "import", "minari", dataset_id, "--env", env, "-o", str(out))
+    return code, " ".join(err.split()), out
+
+
+@pytest.mark.parametrize("meta,h5,message", [
+    (None, lambda f: _replace(f, "episode_1/rewards", np.array([b"a", b"b"])),
+     "t/toy/base-v0, episode 1: the rewards are |S1 of shape (2,), not numbers"),
+    (None, lambda f: f["episode_1"].attrs.__setitem__("seed", "abc"),
+     "t/toy/base-v0, episode 1: the seed 'abc' is not an integer"),
+    (None, lambda f: f["episode_1"].attrs.__setitem__("seed", 1.5),
+     "t/toy/base-v0, episode 1: the seed 1.5 is not an integer (a seed is never rounded)"),
+    (None, lambda f: f["episode_1"].attrs.__setitem__("seed", np.uint64(2**64 - 1)),
+     "episode 1: the seed 18446744073709551615 is out of range: a seed is 0 … 2^63 - 1"),
+    (None, lambda f: f["episode_2"].attrs.__setitem__("seed", -3),
+     "episode 2: the seed -3 is out of range"),
+    (lambda m: m.update(total_episodes=10**12), None,
+     "t/toy/base-v0: the metadata field total_episodes says 1000000000000, the data file "
+     "holds 3 group(s)"),
+    (lambda m: m.pop("dataset_id"), None,
+     "t/toy/base-v0: the metadata field dataset_id is missing, not a string"),
+    (lambda m: m.update(observation_space=json.dumps({"type": "Graph"})), None,
+     "the metadata field observation_space is 'Graph', not a space Minari writes"),
+    (lambda m: m.update(observation_space=json.dumps(
+        {"type": "Box", "shape": [10**12], "low": 0, "high": 1, "dtype": "float32"})), None,
+     "the metadata field observation_space has more than 16,777,216 elements"),
+    (lambda m: m.update(env_spec=5), None, "the metadata field env_spec is 5, not a string"),
+    (lambda m: m.update(env_spec="{"), None,
+     "the metadata field env_spec is not a Gymnasium environment spec"),
+    (lambda m: m.update(data_format="arrow"), None,
+     "it is stored as 'arrow'; tracecheck imports Minari's hdf5 format"),
+    (None, lambda f: (f["episode_0"].pop("rewards"), f["episode_0"].create_dataset(
+        "rewards", shape=(10**12,), chunks=True, dtype="f8")),
+     "episode 0: its arrays would take 8,000,000,000,0"),
+    (None, lambda f: (f.pop("episode_1"), f.create_group("junk")),
+     "episode 1: the data file has no group episode_1"),
+    (None, lambda f: f["episode_0"].pop("truncations"), "episode 0: it has no truncations"),
+], ids=["string-rewards", "seed-abc", "seed-1.5", "seed-2^64-1", "seed-negative",
+        "10^12-episodes", "no-dataset-id", "unknown-space", "huge-space", "env-spec-5",
+        "env-spec-not-json", "arrow", "huge-array", "missing-episode", "missing-key"])
+def test_a_malformed_dataset_is_refused_naming_what(capsys, tmp_path, datasets, meta, h5,
+                                                    message):
+    """Field by field, before Minari reads it (and before a 7 TiB allocation): exit 2 with
+    the dataset and the episode or metadata field, no traceback, no output."""
+    dataset_id = _toy_dataset()
+    assert _import(capsys, tmp_path, dataset_id)[0] == 0
+    _mutate(datasets, dataset_id, meta=meta, h5=h5)
+    code, err, out = _import(capsys, tmp_path / "again", dataset_id)
+    assert code == 2 and message in err and "Traceback" not in err, err
+    assert not out.exists()
+
+
+def test_seeds_follow_their_episode_when_the_stored_id_differs(capsys, tmp_path, datasets):
+    """Minari's episode is its group ``episode_N``; an ``id`` attribute that says otherwise
+    does not move the seeds to other episodes."""
+    dataset_id = _toy_dataset()
+
+    def swap(f):
+        f["episode_0"].attrs["id"], f["episode_2"].attrs["id"] = 2, 0
+
+    _mutate(datasets, dataset_id, h5=swap)
+    code, err, out = _import(capsys, tmp_path, dataset_id)
+    assert code == 0, err
+    episodes = read_run(out).episodes
+    assert [(e.id, e.seed) for e in episodes] == [(0, 10), (1, 11), (2, 12)]
+    assert [e.steps[-1].state["pos"] for e in episodes] == [2, 3, 2]  # episode_N's own data
+
+
+def test_a_nan_observation_is_reported_at_its_episode_and_step(capsys, tmp_path, datasets):
+    dataset_id = _box_dataset()
+
+    def nan(f):
+        f["episode_0/observations"][1] = np.nan
+
+    _mutate(datasets, dataset_id, h5=nan)
+    code, err, out = _import(capsys, tmp_path, dataset_id, env="tests.live.toy:Corridor")
+    assert code == 2 and "t/toy/box-v0, episode 0, step 1: the observation holds NaN" in err
+    assert ".part" not in err and not out.exists()
+
+
+@pytest.mark.parametrize("dataset_id", ["../escape-v0", "/tmp/abs-v0", "", "x", "a//b-v0",
+                                        "t/x-v0", "ns/../../up-v0", "ns/name"])
+def test_a_malformed_dataset_id_is_refused_before_anything_is_written(capsys, tmp_path,
+                                                                      datasets, dataset_id):
+    """Minari itself makes the folders (outside MINARI_DATASETS_PATH for ../escape-v0)
+    before it parses the id; ``x`` was a traceback, ``''`` 'a dataset with ID  exists'."""
+    cwd = tmp_path / "cwd"
+    cwd.mkdir()
+    with pytest.MonkeyPatch.context() as mp:
+        mp.chdir(cwd)
+        code, _, err = run(capsys, "export", "minari", str(PAPER), "--dataset-id", dataset_id)
+        assert code == 2 and f"{dataset_id!r} is not a Minari dataset id: write " \
+            "(namespace/)name-vN" in " ".join(err.split()) and "Traceback" not in err
+        code, _, err = run(capsys, "import", "minari", dataset_id, "--env", "highway", "-o",
+                           str(tmp_path / "x.mcap"))
+        assert code == 2 and "is not a Minari dataset id" in err
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["cwd"]  # nothing, anywhere
+
+
+def test_an_unusable_datasets_folder_is_exit_2(capsys, tmp_path, monkeypatch):
+    """Tests run as root: a folder under a regular file cannot be made by anyone."""
+    plain = tmp_path / "plain"
+    plain.write_text("x")
+    for path, message in ((plain, "is a file, not a folder"),
+                          (plain / "datasets", "cannot use the Minari datasets folder")):
+        monkeypatch.setenv("MINARI_DATASETS_PATH", str(path))
+        for args in (["export", "minari", str(PAPER), "--dataset-id", "t/h/x-v0"],
+                     ["import", "minari", "t/h/x-v0", "--env", "highway", "-o",
+                      str(tmp_path / "x.mcap")]):
+            code, _, err = run(capsys, *args)
+            assert code == 2 and message in err and "Traceback" not in err, err
+    assert plain.read_text() == "x" and not (tmp_path / "x.mcap").exists()
+
+
+def test_a_failed_export_leaves_no_half_written_dataset(capsys, tmp_path, datasets,
+                                                        monkeypatch):
+    """Written in a hidden folder and moved into place once complete: a failure midway
+    leaves the datasets folder as it was (a namespace the user had stays)."""
+    from minari.dataset._storages.hdf5_storage import HDF5Storage
+
+    _toy_dataset("t/h/mine-v0")
+    before = sorted(str(p.relative_to(datasets)) for p in datasets.rglob("*"))
+
+    def fail(self, episodes):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(HDF5Storage, "update_episodes", fail)
+    code, _, err = run(capsys, "export", "minari", str(PAPER), "--dataset-id", "t/h/new-v0")
+    assert code == 2 and "cannot write the Minari dataset t/h/new-v0" in err
+    assert "No space left on device" in err
+    assert sorted(str(p.relative_to(datasets)) for p in datasets.rglob("*")) == before
+    monkeypatch.undo()
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(datasets))
+    assert run(capsys, "export", "minari", str(PAPER), "--dataset-id", "t/h/new-v0")[0] == 0
+    assert {"t/h/mine-v0", "t/h/new-v0"} <= set(minari.list_local_datasets())

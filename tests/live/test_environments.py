@@ -331,3 +331,109 @@ def test_a_header_config_the_environment_rejects(frozen, tmp_path, capsys, confi
             w.write(e)
     code, _, err = run(capsys, "replay", bad, "--shield", "frozenlake", "--resimulate")
     assert code == 2 and f"{bad}: {message}" in err and "Traceback" not in err
+
+
+BROKEN = '''
+from tests.live.toy import Corridor
+
+
+class Fine(Corridor):
+    pass
+
+
+class InInit(Corridor):
+    def __init__(self):
+        raise ValueError("no config file")
+
+
+class InMakeEnv(Corridor):
+    def make_env(self, config, render_mode=None):
+        raise RuntimeError("simulator down")
+
+
+class InState(Corridor):
+    def state(self, obs, info, reward, env, initial):
+        raise ValueError("speed sensor missing")
+
+
+class Twice(Corridor):
+    actions = ("Left", "Left")
+'''
+
+
+@pytest.fixture
+def broken(tmp_path, monkeypatch):
+    """A module of adapters that fail in each hook, importable as ``broken_adapters``."""
+    (tmp_path / "broken_adapters.py").write_text(BROKEN)
+    (tmp_path / "raising_adapters.py").write_text("raise ValueError('bad import')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    return tmp_path
+
+
+@pytest.mark.parametrize("spec,message", [
+    ("raising_adapters:ACC", "the adapter raising_adapters:ACC raised ValueError when its "
+                             "module was imported: bad import"),
+    ("broken_adapters:InInit", "the adapter broken_adapters:InInit raised ValueError in its "
+                               "constructor: no config file"),
+    ("broken_adapters:InMakeEnv", "the adapter broken_adapters:InMakeEnv raised RuntimeError "
+                                  "in make_env(): simulator down"),
+    ("broken_adapters:InState", "the adapter broken_adapters:InState raised ValueError in "
+                                "state(): speed sensor missing"),
+    ("broken_adapters:Twice", "the adapter broken_adapters:Twice names the action 'Left' "
+                              "twice in its actions ('Left', 'Left')"),
+    (":Corridor", "--env ':Corridor' is not an adapter: give an installed one's name"),
+    ("tests.live.toy:", "--env 'tests.live.toy:' is not an adapter"),
+])
+def test_errors_in_a_users_adapter_name_the_adapter_and_the_hook(broken, toy, capsys, spec,
+                                                                message):
+    """Exit 2, no traceback; --debug shows the adapter's own traceback."""
+    _, agent = toy
+    args = ["record", "--env", spec, "--agent", agent, "-n", 1, "-o", broken / "x.mcap"]
+    code, _, err = run(capsys, *args)
+    assert code == 2 and message in " ".join(err.split()) and "Traceback" not in err
+    assert not (broken / "x.mcap").exists() or not list(read_episodes(broken / "x.mcap"))
+    if "raised" in message:
+        assert "--debug" in err
+        code, _, err = run(capsys, "--debug", *args, "--force")
+        assert code == 2 and message in " ".join(err.split())
+        assert "Traceback (most recent call last)" in err
+        assert ("broken_adapters.py" in err) != ("raising_adapters.py" in err)
+
+
+def test_a_working_user_adapter_is_not_changed_by_the_guard(broken, toy, tmp_path, capsys):
+    _, agent = toy
+    assert run(capsys, "record", "--env", "broken_adapters:Fine", "--agent", agent, "-n", 2,
+               "-o", tmp_path / "a.mcap")[0] == 0
+    assert run(capsys, "record", "--env", TOY, "--agent", agent, "-n", 2,
+               "-o", tmp_path / "b.mcap")[0] == 0
+    a, b = read_episodes(tmp_path / "a.mcap"), read_episodes(tmp_path / "b.mcap")
+    assert [[s.state for s in e.steps] for e in a] == [[s.state for s in e.steps] for e in b]
+
+
+@pytest.mark.parametrize("args,message", [
+    (["record", "--env", "frozenlake", "--agent", AGENTS / "frozenlake.npy", "-n", 1,
+      "--env-config", "nonsense=1"],
+     "unknown setting 'nonsense' for the environment frozenlake; it takes desc, "
+     "disable_env_checker, is_slippery, map_name"),
+    (["record", "--env", "frozenlake", "--agent", AGENTS / "frozenlake.npy", "-n", 1,
+      "--seed", -1], "--seed -1: episode i uses seed SEED + i, and a seed is 0 … 2^63 - 1"),
+    (["record", "--env", "frozenlake", "--agent", AGENTS / "frozenlake.npy", "-n", 2,
+      "--seed", 2**63 - 1], "--seed 9223372036854775807: episode i uses seed SEED + i"),
+    (["train", "--env", "frozenlake", "--algorithm", "q-learning", "--steps", 10,
+      "--env-config", "nonsense=1"], "unknown setting 'nonsense' for the environment "
+                                     "frozenlake"),
+    (["train", "--env", "frozenlake", "--algorithm", "q-learning", "--steps", 10, "--seed",
+      -1], "Invalid value for '--seed': -1 is not in the range 0<=x<=4294967295"),
+    (["train", "--steps", 10, "--env-config", "nonsense=1"],
+     "unknown setting 'nonsense' for the environment highway; it takes action, "),
+    (["train", "--steps", 10, "--seed", -1], "Invalid value for '--seed'"),
+])
+def test_bad_training_and_recording_options(tmp_path, capsys, args, message):
+    """Refused before anything runs (highway-env would have ignored the setting silently;
+    NumPy's seeding raised a traceback)."""
+    out = tmp_path / ("x.zip" if "--algorithm" not in args else "x.npy")
+    if args[0] == "record":
+        out = tmp_path / "x.mcap"
+    code, _, err = run(capsys, *args, "-o", out)
+    assert code == 2 and message in " ".join(err.split()) and "Traceback" not in err
+    assert not out.exists()

@@ -26,6 +26,7 @@ from .evaluate import Compiler
 from .parser import MachineSource, parse_formula, parse_machine_source
 from .scope import PRED, check_kind, check_subst, expand, render
 from .substitution import SubstCompiler, before_after, guard_of, strip_guards, written
+from . import values as V
 from .values import Elem
 
 __all__ = ["Machine", "Operation", "load_machine", "load_machine_text", "DEFAULT_SETSIZE"]
@@ -411,14 +412,13 @@ def _setup_constants(src: MachineSource, properties: Optional[A.Node]):
                                    if elems is not None}
     enumerated = frozenset(sets)
     const_names = {n for n, _ in src.constants}
-    sizes = {name: DEFAULT_SETSIZE for name in deferred}
-    for conj in conjs:
-        size = _card_equation(conj, deferred)
-        if size is not None:
-            sizes[size[0]] = size[1]
-    for name in deferred:
-        sets[name] = [Elem(f"{name}{i}") for i in range(1, sizes[name] + 1)]
     values: dict[str, Any] = {}
+    named = set()  # deferred sets whose elements PROPERTIES names: S = {a, b, c}
+    for name, elems in _deferred_sizes(src, conjs, deferred, const_names).items():
+        sets[name] = elems
+        if str(elems[0]) in const_names:
+            named.add(name)
+            values.update({str(e): e for e in elems})
     claimed = {name: 0 for name in deferred}
     for conj in conjs:
         if (isinstance(conj, A.Rel) and conj.op == ":" and isinstance(conj.left, A.Name)
@@ -426,7 +426,7 @@ def _setup_constants(src: MachineSource, properties: Optional[A.Node]):
                 and isinstance(conj.right, A.Name) and conj.right.id in sets):
             name, set_name = conj.left.id, conj.right.id
             elems = sets[set_name]
-            if set_name in deferred:
+            if set_name in deferred and set_name not in named:
                 if claimed[set_name] >= len(elems):
                     raise ModelError(f"{set_name} has only {len(elems)} element(s), too few "
                                      f"for the constant {name}", line=conj.pos.line,
@@ -456,6 +456,81 @@ def _setup_constants(src: MachineSource, properties: Optional[A.Node]):
                              hint="tracecheck sets constants from `c = value` and "
                                   "`c : DeferredSet`, and deferred sets from `card(S) = n`")
     return frozen_sets, enumerated, values
+
+
+def _deferred_sizes(src: MachineSource, conjs, deferred: list[str],
+                    const_names: set[str]) -> dict[str, list[Elem]]:
+    """The elements of each deferred set, from what fixes its size as in ProB: ``card(S) = n``
+    or ``S = {c1, …, cn}`` (distinct constants, which become its elements) in PROPERTIES, or
+    ``scope_S == n`` / ``a..b`` in DEFINITIONS; else :data:`DEFAULT_SETSIZE` elements
+    ``S1 … Sn``. Sources that disagree are an error (no values satisfy the PROPERTIES)."""
+    found: dict[str, dict[str, tuple[int, Optional[A.Node]]]] = {n: {} for n in deferred}
+    members: dict[str, list[str]] = {}
+    for conj in conjs:
+        size = _card_equation(conj, deferred)
+        if size is not None:
+            found[size[0]].setdefault(f"card({size[0]}) = {size[1]}", (size[1], conj))
+        listed = _enumeration(conj, deferred, const_names)
+        if listed is not None:
+            name, consts = listed
+            members.setdefault(name, consts)
+            found[name].setdefault(f"{name} = {{{', '.join(consts)}}}", (len(consts), conj))
+    for name in deferred:
+        scope = _scope(src, name)
+        if scope is not None:
+            found[name][f"scope_{name} in DEFINITIONS"] = (scope, None)
+    out = {}
+    for name in deferred:
+        sizes = set(n for n, _ in found[name].values())
+        if len(sizes) > 1:
+            (one, (n1, _)), (two, (n2, _)) = list(found[name].items())[:2]
+            pos = next((node.pos for _, node in found[name].values() if node is not None), None)
+            raise ModelError(f"the deferred set {name} has {n1} element(s) by {one} but {n2} "
+                             f"by {two}: no values satisfy the PROPERTIES (as in ProB)",
+                             line=pos.line if pos else None,
+                             column=pos.column if pos else None,
+                             hint="give the set one size")
+        size = sizes.pop() if sizes else DEFAULT_SETSIZE
+        V.check_size(size, name)
+        if size < 1:
+            raise ModelError(f"the deferred set {name} would have {size} elements; a deferred "
+                             "set is not empty")
+        out[name] = ([Elem(c) for c in members[name]] if name in members
+                     else [Elem(f"{name}{i}") for i in range(1, size + 1)])
+    return out
+
+
+def _scope(src: MachineSource, name: str) -> Optional[int]:
+    """The size ``DEFINITIONS scope_S == n`` or ``scope_S == a..b`` gives S (ProB's
+    convention: ``a..b`` has b - a + 1 elements), None without one."""
+    d = src.definitions.get(f"scope_{name}")
+    if d is None:
+        return None
+    line = d.line or None
+    body = d.body if d.kind == "formula" and not d.params else None
+    try:
+        value = Compiler(source=src.text, file=src.file).compile(
+            expand(body, src.definitions))({}) if body is not None else None
+    except TracecheckError:
+        value = None
+    if isinstance(value, bool) or not isinstance(value, (int, V.Interval)):
+        raise ModelError(f"scope_{name} sets the size of the deferred set {name}: write "
+                         f"scope_{name} == n or scope_{name} == a..b with integers",
+                         line=line)
+    return value if isinstance(value, int) else value.card()
+
+
+def _enumeration(conj: A.Node, deferred: list[str], const_names: set[str]):
+    """(S, [c1, …, cn]) for ``S = {c1, …, cn}`` with distinct constants, else None."""
+    if not (isinstance(conj, A.Rel) and conj.op == "="):
+        return None
+    for a, b in ((conj.left, conj.right), (conj.right, conj.left)):
+        if (isinstance(a, A.Name) and a.id in deferred and isinstance(b, A.SetExt)
+                and all(isinstance(e, A.Name) and e.id in const_names for e in b.items)):
+            names = [e.id for e in b.items]
+            if len(set(names)) == len(names):
+                return a.id, names
+    return None
 
 
 def _card_equation(conj: A.Node, deferred: list[str]):

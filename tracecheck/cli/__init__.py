@@ -11,7 +11,7 @@ import warnings
 from typing import Any, Optional
 
 from ..errors import TracecheckError
-from .common import app, err, escape
+from .common import DEBUG, app, err, escape
 
 # each module registers its commands on `app`, in the order `tracecheck --help` lists them
 from . import model  # noqa: E402,F401  check-model, eval, guards
@@ -29,12 +29,17 @@ def main(argv: Optional[list[str]] = None) -> Any:
     from ..episodes.salvage import salvaging
 
     _stop_on_sigterm()
+    DEBUG["on"] = False
     try:
         with warnings.catch_warnings(), salvaging(False):  # --salvage lasts one command
             warnings.simplefilter("ignore", DeprecationWarning)
             return app(args=argv, standalone_mode=True)
     except TracecheckError as exc:
         err.print("[red]error[/red]: " + escape(exc.render()), markup=True, highlight=False)
+        if DEBUG["on"] and exc.__cause__ is not None:  # the user's own code: its traceback
+            import traceback
+
+            sys.stderr.write("".join(traceback.format_exception(exc.__cause__)))
         sys.exit(exc.exit_code)
     except KeyboardInterrupt:
         err.print("interrupted")

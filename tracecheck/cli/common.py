@@ -79,12 +79,19 @@ def _version(value: bool) -> None:
         raise typer.Exit()
 
 
+#: ``--debug``: on an error, also print the traceback of what caused it (set per command)
+DEBUG = {"on": False}
+
+
 @app.callback()
 def _root(
     version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
                                  help="Print the version and exit."),
+    debug: bool = typer.Option(False, "--debug", help="On an error from your own code (an "
+                               "environment adapter), also print its Python traceback."),
 ) -> None:
     """Validate reinforcement-learning agents and their B safety shields."""
+    DEBUG["on"] = debug
 
 
 def salvage(value: bool) -> bool:

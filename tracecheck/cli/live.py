@@ -31,7 +31,8 @@ def train_cmd(
     steps: Optional[int] = typer.Option(None, "--steps", min=1, help="Environment steps "
                                         "(default: 20000 for dqn and maskable-ppo, 200000 for "
                                         "q-learning)."),
-    seed: int = typer.Option(0, "--seed", help="Random seed."),
+    seed: int = typer.Option(0, "--seed", min=0, max=2**32 - 1, help="Random seed, 0 … "
+                             "2^32 - 1 (what stable-baselines3 and NumPy take)."),
     duration: Optional[int] = DURATION,
     output: Path = typer.Option(..., "--output", "-o", help="The agent file to write (.zip "
                                 "for dqn and maskable-ppo, .npy for q-learning; its model card "
@@ -62,9 +63,11 @@ def train_cmd(
         raise InputError(f"--algorithm dqn trains the paper's highway agent; for {adapter.name} "
                          "use --algorithm q-learning, or give --shield")
     steps = steps or 20_000
+    config = adapter.config(parse_config(env_config), profile.value, duration or 60)
     with progress(f"training {profile.value}", steps, "steps") as advance:
         card = train(profile.value, output, steps=steps, seed=seed, duration=duration or 60,
-                     progress=lambda done, total: advance(0, completed=done), force=force)
+                     progress=lambda done, total: advance(0, completed=done), force=force,
+                     config=config)
     out.print(f"trained {card['agent']} ({profile.value}, {steps} steps, seed {seed}) in "
               f"{card['wall_time_s']:.0f} s -> {output}; model card "
               f"{Path(output).with_suffix('.json')}", markup=False)

@@ -10,6 +10,12 @@ ones are registered there too) or given on the command line as ``package.module:
 name stored in a file is only ever looked up among the installed entry points — never
 imported as a module path — because importing an adapter runs code.
 
+An adapter is checked when it is loaded (a name, actions that are distinct strings), and an
+exception from a user's adapter — its module, constructor, ``make_env``, ``state`` and the
+other hooks — comes out as an :class:`~tracecheck.errors.InputError` naming the adapter and the hook
+(``the adapter acc_cruise:ACC raised ValueError in state(): …``), the original exception as
+its ``__cause__`` (``tracecheck --debug`` prints its traceback).
+
 A minimal adapter::
 
     class Corridor(EnvAdapter):
@@ -29,11 +35,12 @@ from __future__ import annotations
 
 import functools
 import importlib
+import re
 from dataclasses import dataclass
 from importlib import metadata
-from typing import Any, Optional
+from typing import Any, Collection, Optional
 
-from ..errors import InputError
+from ..errors import InputError, TracecheckError
 
 __all__ = ["EnvAdapter", "Observer", "adapters", "get_adapter", "load_adapter", "AdapterInfo",
            "ENTRY_POINT_GROUP", "parse_config"]
@@ -95,6 +102,7 @@ class EnvAdapter:
                profile: Optional[str] = None, horizon: Optional[int] = None) -> dict[str, Any]:
         """The default configuration, a profile on top, then the user's settings (an
         environment whose configuration holds its episode length also takes ``horizon``)."""
+        self.check_config(overrides)
         config = dict(self.default_config())
         if profile is not None:
             if profile not in self.profiles:
@@ -103,6 +111,22 @@ class EnvAdapter:
             config.update(self.profiles[profile])
         config.update(overrides or {})
         return config
+
+    def config_keys(self) -> Optional[Collection[str]]:
+        """The settings ``make_env`` takes (``--env-config`` keys); None: not known, so not
+        checked (the environment itself may then refuse one)."""
+        return None
+
+    def check_config(self, overrides: Optional[dict[str, Any]]) -> None:
+        """Refuse a setting the environment does not take (some would ignore it silently)."""
+        if not overrides:
+            return
+        keys = self.config_keys()
+        unknown = sorted(set(overrides or ()) - set(keys)) if keys is not None else []
+        if unknown:
+            raise InputError(f"unknown setting {unknown[0]!r} for the environment {self.name}; "
+                             f"it takes {', '.join(sorted(keys)) or 'none'}",
+                             hint="--env-config key=value, one of those keys")
 
     def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
         raise NotImplementedError
@@ -169,31 +193,113 @@ def get_adapter(name: Optional[str]) -> EnvAdapter:
         raise InputError(f"unknown environment {name!r}; the installed ones are "
                          f"{', '.join(sorted(_entry_points()))}",
                          hint="give your own adapter as --env package.module:Class")
-    return _instance(ep.load(), ep.value)
+    try:
+        loaded = ep.load()
+    except Exception as exc:  # noqa: BLE001 - the plug-in's own code
+        raise _raised(name, exc, "when it was imported") from exc
+    return _instance(loaded, name)
+
+
+_SPEC = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z_]\w*)*")
 
 
 def load_adapter(spec: Optional[str]) -> EnvAdapter:
     """An adapter from the command line: an installed name, or ``package.module:Class``."""
     if spec is None or ":" not in spec:
         return get_adapter(spec)
+    if not _SPEC.fullmatch(spec):
+        raise InputError(f"--env {spec!r} is not an adapter: give an installed one's name "
+                         f"({', '.join(sorted(_entry_points()))}) or package.module:Class, "
+                         "e.g. my_envs.corridor:Corridor")
     module_name, _, attr = spec.partition(":")
     try:
         module = importlib.import_module(module_name)
     except ImportError as exc:
         raise InputError(f"cannot import the adapter module {module_name!r}: {exc}") from None
-    cls = getattr(module, attr, None)
+    except Exception as exc:  # noqa: BLE001 - the module's own code
+        raise _raised(spec, exc, "when its module was imported") from exc
+    cls = module
+    for part in attr.split("."):
+        cls = getattr(cls, part, None)
     if cls is None:
         raise InputError(f"the module {module_name} has no {attr!r}")
     return _instance(cls, spec)
 
 
+#: the hooks whose exceptions are reported as the adapter's (with its name and the hook)
+_HOOKS = ("make_env", "state", "crashed", "default_config", "config", "config_keys",
+          "fallback_index")
+
+
+def _raised(where: str, exc: BaseException, hook: str) -> InputError:
+    return InputError(f"the adapter {where} raised {type(exc).__name__} {hook}: {exc}",
+                      hint="tracecheck --debug … shows its traceback")
+
+
+def _guarded(method, where: str, hook: str):
+    @functools.wraps(method)
+    def call(*args, **kwargs):
+        try:
+            return method(*args, **kwargs)
+        except TracecheckError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - the user's code: say whose it is
+            raise _raised(where, exc, f"in {hook}()") from exc
+    return call
+
+
 def _instance(cls, where: str) -> EnvAdapter:
-    adapter = cls() if isinstance(cls, type) else cls
+    try:
+        adapter = cls() if isinstance(cls, type) else cls
+    except Exception as exc:  # noqa: BLE001 - the user's constructor
+        raise _raised(where, exc, "in its constructor") from exc
     if not isinstance(adapter, EnvAdapter):
         raise InputError(f"{where} is not a tracecheck EnvAdapter")
     if not adapter.name or not adapter.actions:
         raise InputError(f"the adapter {where} needs a name and actions")
+    actions = tuple(adapter.actions) if isinstance(adapter.actions, (tuple, list)) else None
+    if actions is None or not all(isinstance(a, str) and a for a in actions):
+        raise InputError(f"the adapter {where} has actions {adapter.actions!r}; give a tuple "
+                         "of operation names, one per action index")
+    twice = next((a for i, a in enumerate(actions) if a in actions[:i]), None)
+    if twice is not None:
+        raise InputError(f"the adapter {where} names the action {twice!r} twice in its "
+                         f"actions {actions!r}: each action index needs its own name (the B "
+                         "operation it stands for)")
+    own = type(adapter).__module__.split(".")[0] == "tracecheck"  # built-in: not guarded
+    if not own and not getattr(adapter, "_tracecheck_guarded", False):
+        for hook in _HOOKS:
+            setattr(adapter, hook, _guarded(getattr(adapter, hook), where, hook))
+        observer = adapter.observer
+
+        def guarded_observer(env):
+            made = _guarded(observer, where, "observer")(env)
+            made.state = _guarded(made.state, where, "state")
+            return made
+
+        adapter.observer = guarded_observer
+        adapter._tracecheck_guarded = True
     return adapter
+
+
+def gymnasium_keys(env_id: str) -> Optional[frozenset[str]]:
+    """The keyword arguments ``gymnasium.make(env_id, **config)`` takes: those of the
+    registered environment class and of ``make`` itself (None where they cannot be known)."""
+    import inspect
+
+    import gymnasium as gym
+    from gymnasium.envs.registration import load_env_creator
+
+    try:
+        entry = gym.spec(env_id).entry_point
+        params = inspect.signature(load_env_creator(entry) if isinstance(entry, str)
+                                   else entry).parameters
+    except Exception:  # noqa: BLE001 - a package missing: make_env will say so
+        return None
+    if any(p.kind == p.VAR_KEYWORD for p in params.values()):
+        return None
+    own = {"max_episode_steps", "disable_env_checker"}
+    return frozenset(params) - {"render_mode"} | own
 
 
 def parse_config(items: list[str]) -> dict[str, Any]:

@@ -23,7 +23,7 @@ from typing import Any, Optional, Sequence
 import numpy as np
 
 from ..errors import InputError
-from .envs.highway import ENV_ID, env_config, make_env
+from .envs.highway import ENV_ID, env_config
 
 __all__ = ["Agent", "load_agent", "train", "train_q_table", "PAPER_DQN", "Q_LEARNING",
            "file_sha256"]
@@ -179,23 +179,27 @@ def _load_table(path: Path, actions: tuple[str, ...], env) -> Agent:
 
 def train(profile: str, out: str | Path, *, steps: int = 20_000, seed: int = 0,
           duration: int = 60, progress: Optional[Any] = None, force: bool = False,
-          inputs: Sequence[Path] = ()) -> dict[str, Any]:
+          inputs: Sequence[Path] = (), config: Optional[dict[str, Any]] = None) -> dict[str, Any]:
     """Train a DQN with the paper's settings on a reward profile; save it and its card.
 
-    ``progress`` is called with (steps done, total) as training goes. Returns the model card
-    (also written next to the agent as ``NAME.json``). Both files follow the output rule
-    (see :func:`agent_outputs`).
+    ``progress`` is called with (steps done, total) as training goes; ``config`` is the
+    environment's whole configuration (default: the profile's for ``duration``). Returns the
+    model card (also written next to the agent as ``NAME.json``). Both files follow the
+    output rule (see :func:`agent_outputs`).
     """
     import stable_baselines3 as sb3
     import torch
     from stable_baselines3.common.callbacks import BaseCallback
 
+    import gymnasium as gym
+    import highway_env  # noqa: F401 - registers the environments
+
     out = Path(out)
-    env_config(profile, duration)  # validates the profile
+    config = env_config(profile, duration) if config is None else config  # checks the profile
     path = out if out.suffix == ".zip" else out.with_suffix(out.suffix + ".zip")
     path, card_path = agent_outputs(path, "agent.zip", force=force, inputs=inputs)
     torch.set_num_threads(1)
-    env = make_env(profile, duration)
+    env = gym.make(ENV_ID, config=config)
     settings = dict(PAPER_DQN, exploration_fraction=min(1.0, 6000 / steps))
 
     class Report(BaseCallback):
@@ -209,18 +213,16 @@ def train(profile: str, out: str | Path, *, steps: int = 20_000, seed: int = 0,
     model.learn(total_timesteps=steps, callback=Report())
     wall = time.perf_counter() - start
     save_model(model, path)
-    import gymnasium
-    import highway_env
     import stable_baselines3
 
     card = {
         "agent": path.name, "algorithm": "DQN", "environment": ENV_ID,
-        "environment_config": env_config(profile, duration), "reward_profile": profile,
+        "environment_config": config, "reward_profile": profile,
         "seed": seed, "steps": steps, "wall_time_s": round(wall, 1),
         "settings": {**settings, "policy": "MlpPolicy"},
         "versions": {"python": platform.python_version(), "torch": torch.__version__,
                      "stable_baselines3": stable_baselines3.__version__,
-                     "gymnasium": gymnasium.__version__, "highway_env": highway_env.__version__},
+                     "gymnasium": gym.__version__, "highway_env": highway_env.__version__},
         "sha256": file_sha256(path),
     }
     write_card(card, card_path)

@@ -88,6 +88,9 @@ def check_settings(settings: RecordSettings, out: Path, *, force: bool = False,
 
     if settings.episodes < 1:
         raise InputError("--episodes must be at least 1")
+    if settings.seed < 0 or settings.seed + settings.episodes - 1 > 2**63 - 1:
+        raise InputError(f"--seed {settings.seed}: episode i uses seed SEED + i, and a seed is "
+                         "0 … 2^63 - 1 (what Gymnasium takes and a run file stores)")
     if settings.executor not in ("local", "ray"):
         raise InputError(f"unknown executor {settings.executor!r}; the executors are local, ray")
     check_run_output(out, [*run_inputs(settings), *inputs], force=force)

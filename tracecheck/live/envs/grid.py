@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import Any, Optional
 
 from ...b.values import Elem, FuncValue
-from ..adapter import EnvAdapter
+from ..adapter import EnvAdapter, gymnasium_keys
 
 __all__ = ["GridAdapter"]
 
@@ -23,6 +23,9 @@ class GridAdapter(EnvAdapter):
     danger: bytes = b""
     #: (the kind of a safe tile, the kind of a tile to avoid)
     kinds: tuple[str, str] = ("SAFE", "DANGER")
+
+    def config_keys(self):
+        return gymnasium_keys(self.env_id)
 
     def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
         import gymnasium as gym

@@ -130,9 +130,22 @@ class HighwayAdapter(EnvAdapter):
                profile: Optional[str] = None, horizon: Optional[int] = None) -> dict[str, Any]:
         """highway-env's configuration: the reward profile, and ``duration`` one past the
         horizon so that highway-env's own time limit never cuts an episode short."""
+        self.check_config(overrides)
         config = env_config(profile or "base", horizon or self.horizon)
         config.update(overrides or {})
         return config
+
+    def config_keys(self):
+        """highway-env's own configuration keys (it ignores others without a word)."""
+        import gymnasium as gym
+        from gymnasium.envs.registration import load_env_creator
+
+        try:
+            import highway_env  # noqa: F401 - registers the environments
+
+            return frozenset(load_env_creator(gym.spec(ENV_ID).entry_point).default_config())
+        except Exception:  # noqa: BLE001 - not installed: make_env says so
+            return None
 
     def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
         import gymnasium as gym

@@ -15,7 +15,7 @@ from __future__ import annotations
 from typing import Any, Optional
 
 from ...b.values import FuncValue
-from ..adapter import EnvAdapter, Observer
+from ..adapter import EnvAdapter, Observer, gymnasium_keys
 
 __all__ = ["LunarLanderAdapter"]
 
@@ -54,6 +54,9 @@ class LunarLanderAdapter(EnvAdapter):
     horizon = 1000
     requires = ("gymnasium", "Box2D")
     properties = "lunarlander"
+
+    def config_keys(self):
+        return gymnasium_keys(self.env_id)
 
     def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
         import gymnasium as gym
