@@ -252,7 +252,7 @@ def test_ltl_properties_by_hand(hand_run, tmp_path):
     assert props["far_once_moving"]["holds"] == 2
     assert "test" in props["never_crash"]
     path.write_text('[properties.bad]\npredicate = "G({Crash = FALSE}"\nkind = "ltl"\n')
-    with pytest.raises(Exception, match=r"ltl: property bad:1:18: expected '\)'"):
+    with pytest.raises(Exception, match=r"ltl.toml: property bad:1:18: expected '\)'"):
         statistics([hand_run], load_properties(path))
     path.write_text('[properties.bad]\npredicate = 3\nkind = "ltl"\n')
     with pytest.raises(InputError, match="predicate must be a string with an LTL formula"):

@@ -98,18 +98,18 @@ def prepare(pset: PropertySet, environment="highway", sample: Optional[dict] = N
     for m in pset.metrics:
         if m.aggregate == "stl":
             formulas[("m", m.name)] = _Temporal("stl", m.expression, _machine(environment),
-                                                f"{pset.name}: metric {m.name}")
+                                                f"{pset.where}: metric {m.name}")
             continue
         if m.node is not None:
-            _check(m.node, "expression", f"{pset.name}: metric {m.name}", m.expression, names,
+            _check(m.node, "expression", f"{pset.where}: metric {m.name}", m.expression, names,
                    variables)
             formulas[("m", m.name)] = BatchFormula(m.node, constants, source=m.expression)
     for p in pset.properties:
         if p.kind in ("ltl", "stl"):
             formulas[("p", p.name)] = _Temporal(p.kind, p.predicate, _machine(environment),
-                                                f"{pset.name}: property {p.name}")
+                                                f"{pset.where}: property {p.name}")
             continue
-        _check(p.node, "predicate", f"{pset.name}: property {p.name}", p.predicate, names,
+        _check(p.node, "predicate", f"{pset.where}: property {p.name}", p.predicate, names,
                variables)
         formulas[("p", p.name)] = BatchFormula(p.node, constants, source=p.predicate)
     return formulas

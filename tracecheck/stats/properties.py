@@ -79,6 +79,11 @@ class PropertySet:
     name: str
     metrics: tuple[Metric, ...] = ()
     properties: tuple[Property, ...] = field(default_factory=tuple)
+    file: str = ""  # where it was read (messages name it); the name if empty
+
+    @property
+    def where(self) -> str:
+        return self.file or self.name
 
     def select(self, names: Optional[list[str]]) -> "PropertySet":
         """Only the metrics and properties named (all when ``names`` is empty)."""
@@ -90,7 +95,7 @@ class PropertySet:
             raise InputError(f"the set {self.name} has no metric or property "
                              f"{', '.join(unknown)}; it has {', '.join(sorted(known))}")
         return PropertySet(self.name, tuple(m for m in self.metrics if m.name in names),
-                           tuple(p for p in self.properties if p.name in names))
+                           tuple(p for p in self.properties if p.name in names), self.file)
 
 
 SPEED = "RSQRT(VehiclesVx(EgoVehicle)**2 + VehiclesVy(EgoVehicle)**2)"
@@ -255,7 +260,7 @@ def parse_properties(text: str, *, name: str, file: str) -> PropertySet:
     props = tuple(_property(n, spec, file) for n, spec in property_specs.items())
     if not metrics and not props:
         raise InputError(f"{file}: no metrics and no properties")
-    return PropertySet(name, metrics, props)
+    return PropertySet(name, metrics, props, file)
 
 
 def _metric(name: str, spec: dict, file: str) -> Metric:
