@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Optional
 
@@ -241,6 +240,7 @@ def _print_results(results, machine, fmt: OutputFormat, folder: Optional[Path]) 
     cannot be translated, a timeout); 4: the solver and tracecheck's evaluator disagree."""
     from ..b.values import to_json
     from ..checking.smt import Disagreement
+    from ..render.jsontext import json_text
 
     written = {}
     if folder is not None:
@@ -252,7 +252,7 @@ def _print_results(results, machine, fmt: OutputFormat, folder: Optional[Path]) 
             if r.state is not None:
                 slug = "".join(c if c.isalnum() else "-" for c in r.obligation)[:40].strip("-")
                 path = folder / f"{machine.name}-{i + 1}-{slug}.json"
-                path.write_text(json.dumps({k: to_json(v) for k, v in r.state.items()},
+                path.write_text(json_text({k: to_json(v) for k, v in r.state.items()},
                                            indent=1) + "\n", encoding="utf-8")
                 written[i] = str(path)
     if fmt == OutputFormat.json:

@@ -9,7 +9,6 @@ second between steps.
 from __future__ import annotations
 
 import datetime as _dt
-import json
 from pathlib import Path
 from typing import Iterable, Optional
 
@@ -109,8 +108,10 @@ def _operation_info(op, variables):
 def export_prob2trace(episode: Episode, path: str | Path, vocab: Vocabulary = HIGHWAY) -> Path:
     """Write ``episode`` as a ``.prob2trace`` file."""
     path = Path(path)
+    from ..render.jsontext import json_text
+
     try:
-        path.write_text(json.dumps(prob2trace_document(episode, vocab), indent=2,
+        path.write_text(json_text(prob2trace_document(episode, vocab), indent=2,
                                    ensure_ascii=False), encoding="utf-8")
     except OSError as exc:
         raise InputError(f"cannot write {path}: {exc.strerror or exc}") from None

@@ -8,7 +8,6 @@ it as B literals and ``after`` the delay before it in milliseconds.
 from __future__ import annotations
 
 import datetime as _dt
-import json
 import math
 import re
 from pathlib import Path
@@ -137,6 +136,8 @@ def export_simb(episodes: Iterable[Episode], folder: str | Path,
                 model_name: str = "HighwayEnvironment") -> list[Path]:
     """Write one ``Timed_Simulation_N.json`` per episode (N from 1) into ``folder``."""
     folder = Path(folder)
+    from ..render.jsontext import json_text
+
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -145,7 +146,7 @@ def export_simb(episodes: Iterable[Episode], folder: str | Path,
     for n, episode in enumerate(episodes, start=1):
         path = folder / f"Timed_Simulation_{n}.json"
         try:
-            path.write_text(json.dumps(simb_document(episode, model_name), indent=2,
+            path.write_text(json_text(simb_document(episode, model_name), indent=2,
                                        ensure_ascii=False), encoding="utf-8")
         except OSError as exc:
             raise InputError(f"cannot write {path}: {exc.strerror or exc}") from None

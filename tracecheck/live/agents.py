@@ -12,7 +12,6 @@ runs no code.
 from __future__ import annotations
 
 import hashlib
-import json
 import platform
 import time
 import zipfile
@@ -221,7 +220,8 @@ def train(profile: str, out: str | Path, *, steps: int = 20_000, seed: int = 0,
                      "gymnasium": gymnasium.__version__, "highway_env": highway_env.__version__},
         "sha256": file_sha256(path),
     }
-    path.with_suffix(".json").write_text(json.dumps(card, indent=2) + "\n")
+    from ..render.jsontext import json_text
+    path.with_suffix(".json").write_text(json_text(card, indent=2) + "\n")
     return card
 
 
@@ -287,5 +287,6 @@ def train_q_table(adapter, config: dict, out: str | Path, *, steps: int = 200_00
                      "gymnasium": gymnasium.__version__},
         "sha256": file_sha256(out),
     }
-    out.with_suffix(".json").write_text(json.dumps(card, indent=2) + "\n")
+    from ..render.jsontext import json_text
+    out.with_suffix(".json").write_text(json_text(card, indent=2) + "\n")
     return card

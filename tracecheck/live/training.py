@@ -20,7 +20,6 @@ and its sha256.
 
 from __future__ import annotations
 
-import json
 import platform
 import sys
 import time
@@ -135,5 +134,6 @@ def train_shielded(adapter, config: dict, shield, algorithm: str, out: str | Pat
         module = sys.modules.get(package)
         if getattr(module, "__version__", None):
             card["versions"][package] = module.__version__
-    out.with_suffix(".json").write_text(json.dumps(card, indent=2) + "\n")
+    from ..render.jsontext import json_text
+    out.with_suffix(".json").write_text(json_text(card, indent=2) + "\n")
     return card
