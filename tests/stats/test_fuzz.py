@@ -14,6 +14,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from tests.cli.test_cli import run
+from tests.stats.test_stats import _strict_json as strict
 from tests.stats.test_stats import hand_run  # noqa: F401 - the fixture
 
 #: a valid file using every kind of entry: aggregates, an estimate, tests, LTL and STL
@@ -116,13 +117,6 @@ def mutations(draw):
         source = source[:at] + draw(st.sampled_from(["", "\x00", "\"", "[", "=", "\n", "{"]))
         touched = None
     return source, touched
-
-
-def strict(out: str) -> dict:
-    def refuse(constant):
-        raise AssertionError(f"{constant} in --json output")
-
-    return json.loads(out, parse_constant=refuse)
 
 
 def _entries(data: dict) -> dict:

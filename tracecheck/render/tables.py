@@ -31,8 +31,8 @@ class Number(str):
 
 
 def _is_number(value) -> bool:
-    return (isinstance(value, numbers.Real) and not isinstance(value, bool)
-            and type(value).__name__ != "bool_" and math.isfinite(value))
+    return (isinstance(value, numbers.Real) and not isinstance(value, bool)  # numpy's too
+            and math.isfinite(value))
 
 
 def _text_cell(value) -> str:
