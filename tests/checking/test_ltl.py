@@ -105,6 +105,45 @@ def test_the_first_violating_step_of_an_always_formula():
     assert (result.episodes, result.satisfied, result.violations) == (2, 1, ((0, 3),))
 
 
+HUGE = "99999999999999999999"  # beyond int64: numpy overflowed on it (a traceback)
+
+
+@settings(max_examples=100, deadline=None)
+@given(eps=episodes, lo=st.sampled_from([0, 1, 2, 5, 10 ** 18, 10 ** 40]),
+       span=st.sampled_from([0, 1, 3, 10 ** 18, 10 ** 60]), op=st.sampled_from("GF"))
+def test_bounds_of_any_size_give_the_reference_semantics(eps, lo, span, op):
+    """A bound past the episode's end is its end: any integer the parser reads, with the
+    reference (plain Python, no numpy) as the judge."""
+    text = f"{op}[{lo},{lo + span}]({{p = TRUE}} or [B])"
+    f = parse_ltl(text, TOY)
+    got = evaluate_ltl(f, columns(eps), TOY)
+    assert list(got) == [v for ep in eps for v in reference_ltl(f, trace(ep))], text
+
+
+def test_a_bound_past_every_end_is_the_unbounded_operator(capsys, tmp_path):
+    eps = [[(True, False, "A"), (True, True, "B"), (False, True, "A")], [(True, True, "A")]]
+    cols = columns(eps)
+    for op in "GF":
+        for text in (f"{op}[0,{HUGE}] {{p = TRUE}}", f"{op}[0,{'9' * 5000}] {{p = TRUE}}"):
+            assert list(evaluate_ltl(parse_ltl(text, TOY), cols, TOY)) == list(
+                evaluate_ltl(parse_ltl(f"{op} {{p = TRUE}}", TOY), cols, TOY)), text
+    late = parse_ltl(f"G[{HUGE},{HUGE}1] false", TOY)
+    assert list(evaluate_ltl(late, cols, TOY)) == [True] * 4  # no position: G holds
+    with pytest.raises(BSyntaxError, match=r"the bounds \[999999999999…\(5000 digits\),5\] "
+                                           "are empty"):
+        parse_ltl(f"F[{'9' * 5000},5] true", TOY)
+    from tests.episodes.conftest import episode
+    from tracecheck.episodes import EpisodeWriter, new_header
+
+    path = tmp_path / "run.mcap"
+    with EpisodeWriter(path, new_header("recorded")) as w:
+        w.write(episode(0, 3, crash_at_end=True))
+    code, out, err = run(capsys, "replay", str(path), "--shield", "paper", "--json",
+                         "--ltl", f"G[0,{HUGE}] true", "--ltl", f"G[0,{HUGE}] {{Crash = FALSE}}")
+    assert code == 0, err
+    assert [e["satisfied"] for e in json.loads(out)["ltl"]] == [1, 0]
+
+
 @pytest.mark.parametrize("text,error,message", [
     ("G({p = TRUE}", BSyntaxError, "<ltl>:1:13: expected ')' but found 'the end of the "
                                    "formula'"),

@@ -85,6 +85,42 @@ def test_episodes_are_kept_apart():
                                    SIGNALS)) == [-0.5, 2.5]
 
 
+def test_bounded_windows_are_the_sample_by_sample_definition():
+    """The O(n) windows against the obvious loop: random episodes, bounds small, past the
+    end, and far past any integer numpy holds."""
+    rng = random.Random(7)
+    for case in range(300):
+        eps = [([round(rng.uniform(-2, 2), 2) for _ in range(rng.randint(1, 9))], None)
+               for _ in range(rng.randint(1, 4))]
+        eps = [(x, [0.0] * len(x)) for x, _ in eps]
+        lo = rng.choice([0, 1, 2, 4, 12, 10 ** 18])
+        hi = lo + rng.choice([0, 1, 2, 5, 30, 10 ** 18])
+        op = rng.choice("GF")
+        got = robustness(parse_stl(f"{op}[{lo},{hi}]({{x > 0.0}})", SIGNALS), columns(eps),
+                         SIGNALS)
+        want = []
+        for x, _ in eps:
+            for i in range(len(x)):
+                window = x[i + lo:i + hi + 1] if i + lo < len(x) else []
+                want.append((min if op == "G" else max)(window, default=np.inf if op == "G"
+                                                        else -np.inf))
+        assert list(got) == want, (case, op, lo, hi, eps)
+
+
+def test_any_bound_answers_at_once():
+    """G[0,100000000] looped over the bound (minutes); a bound beyond int64 overflowed."""
+    import time
+
+    cols = columns([([1.0, 2.0, 3.0] * 100, [0.0] * 300), ([-1.0, 5.0], [0.0] * 2)])
+    start = time.perf_counter()
+    for text in ("G[0,100000000]({x >= 0.0})", "F[3,99999999999999999999]({x > 2.5})",
+                 "G[99999999999999999999,99999999999999999999]({x > 0.0})"):
+        robustness(parse_stl(text, SIGNALS), cols, SIGNALS)
+    assert time.perf_counter() - start < 5
+    assert list(episode_robustness(parse_stl("G[0,100000000]({x >= 0.0})", SIGNALS), cols,
+                                   SIGNALS)) == [1.0, -1.0]
+
+
 @pytest.mark.parametrize("text,message", [
     ("G({x = 1.0})", "the atom {x = 1.0} is not a comparison"),
     ("G([op])", "'next_op' has no robustness"),

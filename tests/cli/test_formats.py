@@ -117,3 +117,77 @@ def test_markdown_and_csv_escape_what_they_must():
         ["a|b", "c"], ["x|y", "line\nbreak"], ['"q", r', "\\"]]
     with pytest.raises(ValueError):
         TableData.of(["a"], [["1", "2"]])
+
+
+# ------------------------------------------------------------------ inert formats
+
+def test_csv_cells_a_spreadsheet_would_evaluate_are_prefixed():
+    """OWASP's rule for text cells; numbers from typed data stay numbers (-3.5 is a number
+    to a spreadsheet, not a formula), a float that is not finite is text like any other."""
+    from tracecheck.render.tables import csv_rows
+
+    cells = ["=1+1", "+cmd", "-2+3", "@SUM(A1)", "\tx", "\rx", "a=b", "", -3.5, 7, -2,
+             float("-inf"), None, "-3.5"]
+    table = TableData.of([f"c{i}" for i in range(len(cells))], [cells])
+    expected = ["'=1+1", "'+cmd", "'-2+3", "'@SUM(A1)", "'\tx", "'\rx", "a=b", "", "-3.5", "7",
+                "-2", "'-inf", "", "'-3.5"]
+    assert list(csv.reader(io.StringIO(csv_text(table), newline="")))[1] == expected
+    assert list(csv.reader(io.StringIO(csv_rows([cells]), newline="")))[0] == expected
+    assert csv_rows([["=HYPERLINK(\"x\")", True]]) == "\"'=HYPERLINK(\"\"x\"\")\",True\r\n"
+
+
+def test_markdown_cells_render_as_their_text():
+    table = TableData.of(["<b>h</b>"], [["<img src=x onerror=alert(1)>"], ["a `code` & b|c"],
+                                         ["\\|"], ["two\r\nlines"]])
+    lines = markdown(table).splitlines()
+    assert lines[0] == "| &lt;b&gt;h&lt;/b&gt; |"
+    assert lines[2:] == ["| &lt;img src=x onerror=alert(1)&gt; |", "| a \\`code\\` &amp; b\\|c |",
+                         "| \\\\\\| |", "| two<br>lines |"]
+
+
+def test_file_names_reach_csv_and_markdown_inert(capsys, tmp_path, monkeypatch):
+    """A run file named like a formula, or like HTML, is text in every table."""
+    import shutil
+
+    monkeypatch.chdir(tmp_path)
+    for name in ("=1+2.mcap", "<img src=x onerror=alert(1)>.mcap"):
+        shutil.copy(NONE, tmp_path / name)
+    code, out, _ = run(capsys, "replay", "=1+2.mcap", "--shield", "paper", "--format", "csv")
+    assert code == 0 and list(csv.DictReader(io.StringIO(out)))[0]["file"] == "'=1+2.mcap"
+    code, out, _ = run(capsys, "stats", "=1+2.mcap", "--format", "csv")
+    row = list(csv.DictReader(io.StringIO(out)))[0]
+    assert code == 0 and (row["run"], row["file"]) == ("'=1+2", "'=1+2.mcap")
+    float(row["value"])  # a number, as it was
+    name = "<img src=x onerror=alert(1)>.mcap"
+    for args in (["replay", name, "--shield", "paper", "--ltl", "G({1 < 2})"], ["stats", name]):
+        code, out, _ = run(capsys, *args, "--format", "md")
+        assert code == 0 and "<img" not in out and "&lt;img src=x onerror=alert(1)&gt;" in out
+    assert "G({1 &lt; 2})" in out or "stats" == args[0]
+
+
+def test_stats_csv_keeps_numbers_and_makes_text_inert():
+    from tracecheck.render.stats_text import stats_csv
+
+    result = {"runs": [{"name": "=run", "file": "@f.mcap", "episodes": 2,
+                        "metrics": {"-m": {"mean": -3.5, "sd": 0.5, "ci95": [-4.0, -3.0],
+                                           "method": "t"}},
+                        "properties": {}}]}
+    rows = list(csv.reader(io.StringIO(stats_csv(result))))
+    assert rows[1] == ["'=run", "'@f.mcap", "2", "'-m", "metric", "-3.5", "0.5", "-4.0", "-3.0",
+                       "", "t"]
+
+
+def test_replay_csv_and_markdown_carry_the_ltl_results(capsys):
+    """--format csv used to drop the LTL results; now a column per formula, as in md."""
+    args = ["replay", NONE, "--shield", "paper", "--ltl", "G({Crash = FALSE})", "--ltl",
+            "F [FASTER]"]
+    code, out, _ = run(capsys, *args, "--format", "csv")
+    rows = list(csv.DictReader(io.StringIO(out)))
+    assert code == 0 and list(rows[0])[-2:] == ["LTL --ltl 1", "LTL --ltl 2"]
+    assert rows[3]["LTL --ltl 1"] == "violated at step 39" and rows[0]["LTL --ltl 1"] == "holds"
+    assert {r["LTL --ltl 2"] for r in rows} == {"holds", "violated"}  # F: no step to name
+    code, as_json, _ = run(capsys, *args, "--json")
+    violated = {v["episode"] for v in json.loads(as_json)["ltl"][0]["violations"]}
+    assert violated == {int(r["episode"]) for r in rows if r["LTL --ltl 1"] != "holds"}
+    code, md, _ = run(capsys, *args, "--format", "md")
+    assert "| LTL --ltl 1 | LTL --ltl 2 |" in md and "| violated at step 39 | holds |" in md

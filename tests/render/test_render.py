@@ -185,3 +185,61 @@ def test_report_pages_of_runs_with_the_same_file_name_do_not_collide(tmp_path):
     assert len(written) == count
     assert any(n.startswith("run_1_") for n in written)
     assert any(n.startswith("run_2_") for n in written)
+
+
+# ------------------------------------------------------------------ inert embedded data
+
+HOSTILE = "<!--<script>\u2028</script><b>&amp;\u2029"
+
+
+def _hostile_run(path):
+    from tests.episodes.conftest import state
+    from tracecheck.episodes.model import Episode, StepRecord, make_end
+
+    steps = []
+    for k in range(3):
+        s = state(100.0 + k)
+        s["Label"] = HOSTILE
+        steps.append(StepRecord(k, float(k), None if k == 0 else "IDLE", s, 0.0, False))
+    steps = tuple(steps)
+    with EpisodeWriter(path, new_header("recorded")) as w:
+        w.write(Episode(0, steps, make_end(steps), seed=1))
+    return path
+
+
+def test_no_string_can_end_or_comment_out_the_viewer_script(tmp_path):
+    """A B string "<!--<script>" in a state used to swallow the rest of the page (the
+    browser's script-data-escaped state): the embedded JSON has no <, >, & or U+2028/2029
+    left, only their \\u escapes, and reads back as the same data."""
+    import json
+
+    run_ = _hostile_run(tmp_path / "{{DATA}} {{TITLE}}.mcap")
+    page = render_episode(run_, 0)
+    script = page[page.index("const DATA = ") + len("const DATA = "):]
+    payload = script[:script.index(";\nconst ACTIONS")]
+    for bad in ("<", ">", "&", "\u2028", "\u2029"):
+        assert bad not in payload, bad
+    assert "\\u003c!--\\u003cscript\\u003e" in payload
+    assert json.loads(payload) == json.loads(json.dumps(episode_data(run_, 0)))
+    assert json.loads(payload)["steps"][0]["state"]["Label"] == f'"{HOSTILE}"'
+    assert page.count("</script>") == 1 and page.count("<script>") == 1
+    # a file named {{DATA}} stays a title: the data goes in once, into the script
+    assert "<title>{{DATA}} {{TITLE}}.mcap, episode 0 — tracecheck</title>" in page
+    assert page.count("const DATA = {") == 1 and page.count('"steps":[') == 1
+
+
+def test_report_plots_take_dollars_and_markup_as_text(capsys, tmp_path):
+    """matplotlib read "$\\frac{1}$" in a description or a file name as TeX and crashed
+    `report`; the page shows such text, and HTML in it, as text."""
+    props = tmp_path / "p.toml"
+    props.write_text('[metrics.m]\nexpression = "Reward"\ndescription = "$\\\\frac{1}$ '
+                     '<script>alert(1)</script>"\n[properties.p]\npredicate = "Crash = FALSE"\n'
+                     'description = "$x$ and $"\n')
+    run_ = tmp_path / "$\\frac{1}$.mcap"
+    shutil.copy(NONE, run_)
+    out = tmp_path / "report.html"
+    code, _, err = run(capsys, "report", str(run_), "--properties", str(props), "-o", str(out))
+    assert code == 0, err
+    page = out.read_text()
+    assert "<script>alert(1)</script>" not in page and page.count("<svg") >= 2
+    assert "$\\frac{1}$" in page  # the file name, as text

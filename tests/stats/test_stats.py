@@ -252,7 +252,7 @@ def test_ltl_properties_by_hand(hand_run, tmp_path):
     assert props["far_once_moving"]["holds"] == 2
     assert "test" in props["never_crash"]
     path.write_text('[properties.bad]\npredicate = "G({Crash = FALSE}"\nkind = "ltl"\n')
-    with pytest.raises(Exception, match=r"ltl: property bad:1:18: expected '\)'"):
+    with pytest.raises(Exception, match=r"ltl.toml: property bad:1:18: expected '\)'"):
         statistics([hand_run], load_properties(path))
     path.write_text('[properties.bad]\npredicate = 3\nkind = "ltl"\n')
     with pytest.raises(InputError, match="predicate must be a string with an LTL formula"):
@@ -273,3 +273,123 @@ def test_stl_metrics_and_properties_by_hand(hand_run, tmp_path):
     path.write_text('[properties.bad]\npredicate = "G({Crash = FALSE})"\nkind = "stl"\n')
     with pytest.raises(Exception, match=r"the atom \{Crash = FALSE\} is not a comparison"):
         statistics([hand_run], load_properties(path))
+
+
+# ------------------------------------------------------------------ inert outputs, bounds
+
+
+def _strict_json(text: str):
+    def refuse(name):
+        raise AssertionError(f"{name} is not JSON")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_stats_json_is_strict_with_an_infinite_stl_robustness(capsys, hand_run, tmp_path):
+    """G[a,b] past every episode's end has robustness +inf: the JSON said Infinity / NaN,
+    which is not JSON; now null, with a note saying why."""
+    path = tmp_path / "inf.toml"
+    path.write_text('[metrics.late]\nexpression = "G[10,20]({VehiclesX(EgoVehicle) > 0.0})"\n'
+                    'aggregate = "stl"\n[metrics.fine]\nexpression = "Reward"\n')
+    code, out, err = run(capsys, "stats", str(hand_run), str(hand_run), "-p", str(path), "--json")
+    assert code == 0 and "Warning" not in err, err
+    data = _strict_json(out)
+    late = data["runs"][0]["metrics"]["late"]
+    assert late["mean"] is None and late["sd"] is None and late["ci95"] == [None, None]
+    assert late["mean_note"].startswith("not finite: of 2 episodes, 2 +inf (the formula has no "
+                                        "sample to judge there")
+    assert "G[a,b] past its end" in late["sd_note"]
+    assert data["runs"][0]["metrics"]["fine"]["mean"] == pytest.approx(1.5)  # (1 + 2) / 2
+    paired = data["comparisons"][0]["metrics"]["late"]
+    assert paired["mean_difference"] is None and paired["wilcoxon_p"] is None
+    assert "not finite" in paired["mean_difference_note"]
+    code, out, _ = run(capsys, "stats", str(hand_run), "-p", str(path), "--format", "csv")
+    assert code == 0 and ",late,metric,inf,nan,nan,nan,," in out
+
+
+def test_stats_plots_draw_dollars_as_text(capsys, hand_run, tmp_path):
+    """"$\\frac{1}$" in a description or a run's name crashed stats --plot (matplotlib read
+    it as mathtext)."""
+    import shutil
+
+    path = tmp_path / "dollars.toml"
+    path.write_text('[metrics.m]\nexpression = "Reward"\ndescription = "$\\\\frac{1}$"\n'
+                    '[properties.p]\npredicate = "Crash = FALSE"\ndescription = "$$"\n')
+    run_ = tmp_path / "$\\frac{1}$ run.mcap"
+    shutil.copy(hand_run, run_)
+    code, _, err = run(capsys, "stats", str(run_), "-p", str(path), "--plot",
+                       str(tmp_path / "plots"))
+    assert code == 0, err
+    svg = (tmp_path / "plots" / "metric_m.svg").read_text()
+    assert "$\\frac{1}$" in svg  # the title, as text (matplotlib keeps it in a comment)
+    import matplotlib
+
+    assert matplotlib.rcParams["text.parse_math"]  # only the plots are plain
+
+
+def test_huge_stl_bounds_answer_at_once(hand_run, tmp_path):
+    """G[0,100000000] looped over the bound; any bound now costs one pass."""
+    import time
+
+    path = tmp_path / "big.toml"
+    path.write_text('[metrics.a]\nexpression = "G[0,100000000]({VehiclesX(EgoVehicle) >= 90.0})"'
+                    '\naggregate = "stl"\n[metrics.b]\nexpression = '
+                    '"G[0,99999999999999999999999]({VehiclesX(EgoVehicle) >= 90.0})"\n'
+                    'aggregate = "stl"\n[metrics.c]\nexpression = "G({VehiclesX(EgoVehicle) >= 90.0})"'
+                    '\naggregate = "stl"\n')
+    start = time.perf_counter()
+    (r,) = statistics([hand_run], load_properties(path))["runs"]
+    assert time.perf_counter() - start < 10
+    assert r["metrics"]["a"]["mean"] == r["metrics"]["b"]["mean"] == r["metrics"]["c"]["mean"] \
+        == 10.0
+
+
+@pytest.mark.parametrize("text,fragment", [
+    ('metrics = "x"', "metrics: expected tables [metrics.NAME], got the string 'x'"),
+    ("properties = [1, 2]", "properties: expected tables [properties.NAME], got the array "
+                            "[1, 2]"),
+    ("[properties]\np = 1", "property p: expected a table (a property), got the number 1"),
+    ('[metrics."a\\u0000b"]\naggregate = "steps"', "metrics.'a\\x00b': a metric name must be "
+                                                  "non-empty printable text"),
+    ('[properties."x\\u001b[2J"]\npredicate = "Crash = FALSE"', "a property name must be"),
+    ('[metrics.""]\naggregate = "steps"', "metrics.'': a metric name must be non-empty"),
+    ('[metrics.m]\nagregate = "sum"\nexpression = "Reward"',
+     "metric m: unknown key 'agregate'; a metric has expression, aggregate, estimate, "
+     "description"),
+    ('[properties.p]\npredicate = "Crash = FALSE"\ntest = { p = 0.5, alfa = 0.1 }',
+     "property p: test: unknown key 'alfa'"),
+    ('[metrics.m]\naggregate = 5', "metric m: unknown aggregate 5"),
+    ('[properties.p]\npredicate = "Crash = FALSE"\nkind = ["ltl"]', "unknown kind ['ltl']"),
+    ('[metrics.m]\nexpression = "Reward"\nestimate = 3',
+     "metric m: estimate: expected a table (an estimate {value = …, epsilon = …}), got the "
+     "number 3"),
+    ('[metrics.m]\nexpression = "Reward"\nestimate = { value = 1e400, epsilon = 1 }',
+     "estimate value must be a finite number, not the number inf"),
+    ('[metrics.m]\nexpression = "Reward"\nestimate = { value = ' + "9" * 400 + ', epsilon = 1 }',
+     "estimate value must be a finite number, not the number 999"),
+    ('[metrics.m]\nexpression = "Reward"\nestimate = { value = nan, epsilon = 1 }',
+     "must be a finite number, not the number nan"),
+    ('[metrics.m]\nexpression = "Reward"\nestimate = { value = 1, epsilon = -1 }',
+     "estimate epsilon must be at least 0, not -1"),
+    ('[metrics.m]\nexpression = "Reward"\ndescription = 3',
+     "metric m: description must be a string, not the number 3"),
+    ('[metrics.m]\nexpression = "Reward"\ndescription = "\\u001b[31mred"',
+     "description holds a control character"),
+    ('[properties.p]\npredicate = "Crash = FALSE"\ntest = { p = true }',
+     "p must be a number, not the boolean true"),
+    ('[properties.p]\npredicate = "Crash = FALSE"\n[metrics.p]\naggregate = "steps"',
+     "'p' names both a metric and a property"),
+    ("[properties.p]", "property p predicate must be a string with a B predicate"),
+])
+def test_wrongly_typed_property_files_name_the_file_and_entry(capsys, tmp_path, hand_run, text,
+                                                             fragment):
+    """Each was a traceback (AttributeError, OverflowError) or silently ignored (a misspelt
+    key); now exit 2 naming the file and the entry."""
+    path = tmp_path / "props.toml"
+    path.write_text(text)
+    with pytest.raises(InputError) as info:
+        load_properties(path)
+    assert f"{path}: " in str(info.value) and fragment in str(info.value)
+    code, _, err = run(capsys, "stats", str(hand_run), "-p", str(path))
+    assert code == 2 and err.startswith("error: ") and fragment in err
+    assert "Traceback" not in err

@@ -22,7 +22,9 @@ Finite-trace semantics (positions 0 … n of an episode with n steps):
   ``f U g``: g holds here or later and f until then; ``f W g``: ``f U g`` or ``G f``;
   ``f R g``: ``not(not f U not g)``; the past operators mirror them towards position 0.
 * ``G[a,b] f``: f at every position from here + a to here + b that the episode has (true
-  if it has none); ``F[a,b] f``: at one of them.
+  if it has none); ``F[a,b] f``: at one of them. The bounds are whole numbers of any size:
+  one past the episode's end is the same as its end (``G[0,99999999999999999999] f`` is
+  ``G f``), and they are checked in time independent of their size.
 """
 
 from __future__ import annotations
@@ -63,6 +65,19 @@ _RIGHT = {"U", "W", "R", "S", "T", "=>"}
 _WORD = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _BOUND = re.compile(r"\[\s*-?\d")
 MAX_NESTING = 200
+
+
+#: Bounds above this are read as this: no episode has that many steps, and past its last
+#: step a window ends where the episode ends (see the module docstring).
+MAX_BOUND = 10 ** 18
+
+
+def _bound(digits: str) -> int:
+    return int(digits) if len(digits) <= 18 else MAX_BOUND
+
+
+def _short(digits: str) -> str:
+    return digits if len(digits) <= 30 else f"{digits[:12]}…({len(digits)} digits)"
 
 
 class _Parser:
@@ -140,12 +155,12 @@ class _Parser:
         m = re.compile(r"\s*(\d+)\s*,\s*(\d+)\s*\]").match(self.text, self.i)
         if not m:
             raise self.fail("expected bounds [a,b] with whole numbers of steps, e.g. [0,3]")
-        lo, hi = int(m.group(1)), int(m.group(2))
-        if lo > hi:
-            raise self.fail(f"the bounds [{lo},{hi}] are empty: the first is larger than the "
-                            "second", at=start)
+        lo, hi = (m.group(k).lstrip("0") or "0" for k in (1, 2))
+        if (len(lo), lo) > (len(hi), hi):  # compared as written: any number of digits
+            raise self.fail(f"the bounds [{_short(lo)},{_short(hi)}] are empty: the first is "
+                            "larger than the second", at=start)
         self.i = m.end()
-        return lo, hi
+        return _bound(lo), _bound(hi)
 
     def braces(self) -> tuple[str, int]:
         """The B text between ``{`` and its matching ``}``."""
@@ -342,8 +357,8 @@ def _eval(f: Formula, ev, rows: _Rows, cols, machine, ops) -> np.ndarray:
         return (idx + 1 < end) & a[np.minimum(idx + 1, n - 1)]
     if op == "Y":
         return (idx - 1 >= start) & a[np.maximum(idx - 1, 0)]
-    if op in ("G", "F") and f.lo is not None:
-        lo, hi = idx + f.lo, np.minimum(idx + f.hi, end - 1)
+    if op in ("G", "F") and f.lo is not None:  # bounds past every episode's end: n
+        lo, hi = idx + min(f.lo, n), np.minimum(idx + min(f.hi, n), end - 1)
         some = lo <= hi
         at = np.minimum(lo, n - 1)
         if op == "G":

@@ -78,11 +78,7 @@ def robustness(f: Formula, cols, machine) -> np.ndarray:
             empty = np.inf if op == "G" else -np.inf
             if g.lo is None:
                 return _suffix(a, cols.starts, pick)
-            out = np.full(n, empty)
-            for k in range(g.lo, g.hi + 1):
-                at = idx + k
-                out = pick(out, np.where(at < end, a[np.minimum(at, n - 1)], empty))
-            return out
+            return _window(a, cols.starts, g.lo, g.hi, pick, empty)
         b = ev(g.args[1])
         if op == "&":
             return np.minimum(a, b)
@@ -99,6 +95,34 @@ def _suffix(a: np.ndarray, starts: np.ndarray, pick) -> np.ndarray:
     for lo, hi in zip(starts[:-1].tolist(), starts[1:].tolist()):
         out[lo:hi] = pick.accumulate(a[lo:hi][::-1])[::-1]
     return out
+
+
+def _window(a: np.ndarray, starts: np.ndarray, lo: int, hi: int, pick, empty: float
+            ) -> np.ndarray:
+    """``pick`` over the rows lo … hi ahead of each row that its episode has (``empty``
+    where it has none): O(rows) whatever the bounds, which may exceed any episode (Python
+    ints, never converted to numpy's)."""
+    out = np.full(len(a), empty)
+    for first, stop in zip(starts[:-1].tolist(), starts[1:].tolist()):
+        if lo < stop - first:
+            seg = a[first + lo:stop]  # out[first + i] = pick(seg[i : i + width])
+            out[first:first + len(seg)] = _sliding(seg, min(hi - lo + 1, len(seg)), pick,
+                                                   empty)
+    return out
+
+
+def _sliding(x: np.ndarray, width: int, pick, empty: float) -> np.ndarray:
+    """``pick`` of ``x[i : i + width]`` for every i, past the end padded with ``empty``
+    (van Herk / Gil-Werman: running picks forwards and backwards within blocks of
+    ``width``, then one pick of two per window)."""
+    m = len(x)
+    blocks = -(-(m + width - 1) // width)
+    padded = np.full(blocks * width, empty)
+    padded[:m] = x
+    grid = padded.reshape(blocks, width)
+    forward = pick.accumulate(grid, axis=1).ravel()
+    backward = pick.accumulate(grid[:, ::-1], axis=1)[:, ::-1].ravel()
+    return pick(backward[:m], forward[width - 1:width - 1 + m])
 
 
 def episode_robustness(f: Formula, cols, machine) -> np.ndarray:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Optional
 
@@ -327,6 +326,7 @@ def _write_counterexamples(results, machine, folder: Path) -> dict[int, str]:
     new folder that replaces ``folder`` once all are written; {result index: path}."""
     from ..b.values import to_json
     from ..outputs import atomic_folder, inside, open_new, safe_name
+    from ..render.jsontext import json_text
 
     written, taken = {}, set()
     with atomic_folder(folder) as tmp:
@@ -335,7 +335,7 @@ def _write_counterexamples(results, machine, folder: Path) -> dict[int, str]:
                 continue
             name = safe_name(f"{machine.name}-{i + 1}-{r.obligation[:40]}", taken) + ".json"
             with open_new(inside(tmp, name)) as stream:
-                stream.write((json.dumps({k: to_json(v) for k, v in r.state.items()},
+                stream.write((json_text({k: to_json(v) for k, v in r.state.items()},
                                          indent=1) + "\n").encode("utf-8"))
             written[i] = str(folder / name)
     return written

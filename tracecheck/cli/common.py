@@ -4,7 +4,6 @@ and small helpers. A thin layer: each command calls the library and prints.
 
 from __future__ import annotations
 
-import json
 import sys
 from contextlib import contextmanager
 from enum import Enum
@@ -154,8 +153,11 @@ def output_format(fmt: OutputFormat, as_json: bool) -> OutputFormat:
 
 
 def print_json(data) -> None:
-    """``data`` as indented JSON on standard output."""
-    out.print_json(json.dumps(data))
+    """``data`` as indented, strict JSON on standard output: a number that is not finite is
+    null with a ``KEY_note`` beside it (:mod:`tracecheck.render.jsontext`)."""
+    from ..render.jsontext import json_text
+
+    out.print_json(json_text(data))
 
 
 def print_table(fmt: OutputFormat, table) -> None:

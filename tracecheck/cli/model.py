@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Optional
 
@@ -115,7 +114,7 @@ def eval_(
         results.append({"expression": expr, "value": format_value(value),
                         "json": to_json(value)})
     if as_json:
-        out.print_json(json.dumps(results[0] if len(results) == 1 else results))
+        print_json(results[0] if len(results) == 1 else results)
     else:
         for r in results:
             plain(r["value"])

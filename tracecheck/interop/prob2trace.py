@@ -9,7 +9,6 @@ second between steps.
 from __future__ import annotations
 
 import datetime as _dt
-import json
 from pathlib import Path
 from typing import Iterable, Optional, Sequence
 
@@ -112,7 +111,8 @@ def export_prob2trace(episode: Episode, path: str | Path, vocab: Vocabulary = HI
     (:mod:`tracecheck.outputs`): not one of ``inputs``, an existing file only with
     ``force``, renamed into place once complete."""
     from ..outputs import check_output, write_file
+    from ..render.jsontext import json_text
 
     path = check_output(Path(path), inputs, force=force, example="episode.prob2trace")
-    return write_file(path, json.dumps(prob2trace_document(episode, vocab), indent=2,
+    return write_file(path, json_text(prob2trace_document(episode, vocab), indent=2,
                                        ensure_ascii=False))

@@ -8,7 +8,6 @@ it as B literals and ``after`` the delay before it in milliseconds.
 from __future__ import annotations
 
 import datetime as _dt
-import json
 import math
 import re
 from pathlib import Path
@@ -156,6 +155,7 @@ def export_simb(episodes: Iterable[Episode], folder: str | Path,
     for which folders may be replaced).
     """
     from ..outputs import atomic_folder, inside, open_new
+    from ..render.jsontext import json_text
 
     folder = check_simb_folder(folder, inputs, force=force)
     names = []
@@ -163,7 +163,7 @@ def export_simb(episodes: Iterable[Episode], folder: str | Path,
         for n, episode in enumerate(episodes, start=1):
             name = f"Timed_Simulation_{n}.json"
             with open_new(inside(tmp, name)) as stream:
-                stream.write(json.dumps(simb_document(episode, model_name), indent=2,
+                stream.write(json_text(simb_document(episode, model_name), indent=2,
                                         ensure_ascii=False).encode("utf-8"))
             names.append(name)
     return [folder / name for name in names]

@@ -12,7 +12,6 @@ runs no code.
 from __future__ import annotations
 
 import hashlib
-import json
 import platform
 import time
 import zipfile
@@ -252,8 +251,9 @@ def save_model(model, path: Path) -> None:
 
 def write_card(card: dict, path: Path) -> None:
     from ..outputs import write_file
+    from ..render.jsontext import json_text
 
-    write_file(path, json.dumps(card, indent=2) + "\n")
+    write_file(path, json_text(card, indent=2) + "\n")
 
 
 def train_q_table(adapter, config: dict, out: str | Path, *, steps: int = 200_000,

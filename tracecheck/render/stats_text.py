@@ -2,15 +2,15 @@
 
 from __future__ import annotations
 
-import csv
-import io
+from contextlib import contextmanager
 from pathlib import Path
 
 from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-__all__ = ["stats_text", "stats_markdown", "stats_csv", "stats_plots", "check_plot_folder"]
+__all__ = ["stats_text", "stats_markdown", "stats_csv", "stats_plots", "check_plot_folder",
+           "plain_plot_text"]
 
 #: What ``stats --plot`` writes into its folder (``--force`` replaces only such a folder).
 PLOT_FILES = ("*.png", "*.svg")
@@ -93,21 +93,35 @@ def stats_markdown(result: dict) -> str:
 
 
 def stats_csv(result: dict) -> str:
-    buf = io.StringIO()
-    w = csv.writer(buf)
-    w.writerow(["run", "file", "episodes", "name", "kind", "value", "sd", "ci95_low",
-                "ci95_high", "holds", "method"])
+    """One row per run and metric or property; numbers stay numbers, text is made inert
+    (:func:`~tracecheck.render.tables.csv_cell`)."""
+    from .tables import csv_rows
+
+    rows = [["run", "file", "episodes", "name", "kind", "value", "sd", "ci95_low",
+             "ci95_high", "holds", "method"]]
     for r in result["runs"]:
         if not r["episodes"]:
-            w.writerow([r["name"], r["file"], 0, "", "", "", "", "", "", "", "no episodes"])
+            rows.append([r["name"], r["file"], 0, "", "", "", "", "", "", "", "no episodes"])
         for name, m in r["metrics"].items():
             lo, hi = m["ci95"] or ("", "")
-            w.writerow([r["name"], r["file"], r["episodes"], name, "metric", m["mean"],
-                        m["sd"] if m["sd"] is not None else "", lo, hi, "", m["method"]])
+            rows.append([r["name"], r["file"], r["episodes"], name, "metric", m["mean"],
+                         m["sd"] if m["sd"] is not None else "", lo, hi, "", m["method"]])
         for name, p in r["properties"].items():
-            w.writerow([r["name"], r["file"], r["episodes"], name, "property", p["ratio"], "",
-                        p["ci95"][0], p["ci95"][1], p["holds"], p["method"]])
-    return buf.getvalue()
+            rows.append([r["name"], r["file"], r["episodes"], name, "property", p["ratio"], "",
+                         p["ci95"][0], p["ci95"][1], p["holds"], p["method"]])
+    return csv_rows(rows)
+
+
+@contextmanager
+def plain_plot_text():
+    """matplotlib shows every string as the text it is: no TeX (``text.usetex`` off) and no
+    mathtext (``text.parse_math`` off, the same as escaping every ``$``), so a description,
+    a property or a file name with ``$\\frac{1}$`` in it is drawn, not parsed (and cannot
+    crash the plot). Every plot is drawn inside this; usable as a decorator."""
+    import matplotlib
+
+    with matplotlib.rc_context({"text.usetex": False, "text.parse_math": False}):
+        yield
 
 
 def check_plot_folder(folder: Path, inputs=(), force: bool = False) -> Path:
@@ -118,6 +132,7 @@ def check_plot_folder(folder: Path, inputs=(), force: bool = False) -> Path:
                         contents=PLOT_FILES)
 
 
+@plain_plot_text()
 def stats_plots(result: dict, folder: Path, *, force: bool = False) -> list[Path]:
     """PNG and SVG: property shares with intervals per run; metric distributions per run.
 

@@ -3,17 +3,44 @@
 Every command that prints a table for people (rich text, fitted to the terminal) builds the
 same rows here with full names, so ``--format md`` and ``--format csv`` give the whole
 table, unabbreviated, and ``--format json`` the command's full report.
+
+Both formats are inert (docs/safety.md, "Output formats are inert"): a CSV cell of text that
+a spreadsheet would evaluate (it starts with ``=``, ``+``, ``-``, ``@``, a tab or a carriage
+return) gets a leading ``'`` (OWASP's rule), while a number from typed data (an int or a
+finite float, ``-3.5``) stays a number; a Markdown cell shows ``|``, ``<``, ``>``, ``&``,
+backticks and backslashes as the characters themselves, never as table syntax, HTML or code.
 """
 
 from __future__ import annotations
 
 import csv
 import io
+import math
+import numbers
 import shutil
 import textwrap
 from dataclasses import dataclass
 
-__all__ = ["TableData", "markdown", "csv_text", "fitted", "wrapped", "terminal_width"]
+__all__ = ["TableData", "Number", "markdown", "md_text", "csv_text", "csv_cell", "csv_rows", "fitted",
+           "wrapped", "terminal_width"]
+
+
+class Number(str):
+    """The text of a cell that holds a number from typed data (an int or a finite float):
+    CSV writes it as it is, a spreadsheet reads it as that number."""
+
+
+def _is_number(value) -> bool:
+    return (isinstance(value, numbers.Real) and not isinstance(value, bool)  # numpy's too
+            and math.isfinite(value))
+
+
+def _text_cell(value) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, Number):
+        return value
+    return Number(value) if _is_number(value) else str(value)
 
 
 @dataclass(frozen=True)
@@ -30,29 +57,58 @@ class TableData:
 
     @classmethod
     def of(cls, headers, rows) -> TableData:
+        """Cells from any values: None is empty, a number keeps its kind (see :class:`Number`),
+        anything else is its ``str``."""
         return cls(tuple(str(h) for h in headers),
-                   tuple(tuple("" if c is None else str(c) for c in row) for row in rows))
+                   tuple(tuple(_text_cell(c) for c in row) for row in rows))
 
 
-def _md_cell(text: str) -> str:
-    return text.replace("\\", "\\\\").replace("|", "\\|").replace("\n", "<br>")
+_MD = {"\\": "\\\\", "|": "\\|", "`": "\\`", "&": "&amp;", "<": "&lt;", ">": "&gt;",
+       "\r": "<br>", "\n": "<br>"}
+_MD_TABLE = str.maketrans(_MD)
+_MD_LINE = str.maketrans({**_MD, "\r": " ", "\n": " "})
+
+
+def md_text(text: str, *, cell: bool = True) -> str:
+    """``text`` as Markdown that renders as exactly that text: ``|``, backticks and
+    backslashes escaped with a backslash, ``& < >`` as entities (no HTML gets through); a
+    line break is ``<br>`` in a table cell, a space elsewhere (``cell=False``)."""
+    return str(text).replace("\r\n", "\n").translate(_MD_TABLE if cell else _MD_LINE)
 
 
 def markdown(table: TableData) -> str:
-    """A GitHub-flavoured Markdown table (``|`` and line breaks in cells escaped)."""
-    lines = ["| " + " | ".join(_md_cell(h) for h in table.headers) + " |",
+    """A GitHub-flavoured Markdown table, every cell through :func:`md_text`."""
+    lines = ["| " + " | ".join(md_text(h) for h in table.headers) + " |",
              "|" + "---|" * len(table.headers)]
-    lines += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in table.rows]
+    lines += ["| " + " | ".join(md_text(c) for c in row) + " |" for row in table.rows]
     return "\n".join(lines)
 
 
-def csv_text(table: TableData) -> str:
-    """RFC 4180 CSV with a header row (``\\r\\n`` line ends, as the csv module writes)."""
+#: what makes a spreadsheet read a cell as a formula (OWASP, "CSV Injection")
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def csv_cell(value):
+    """One CSV cell: a number from typed data as it is (``-3.5`` stays a number); text, and
+    a float that is not finite (``-inf`` is no number to a spreadsheet), with a ``'`` in
+    front when it starts with ``= + - @``, a tab or a carriage return."""
+    if isinstance(value, Number) or _is_number(value):
+        return value
+    text = "" if value is None else str(value)
+    return "'" + text if text.startswith(_FORMULA_START) else text
+
+
+def csv_rows(rows) -> str:
+    """RFC 4180 CSV of ``rows`` (the first one the header), every cell through
+    :func:`csv_cell` (``\\r\\n`` line ends, as the csv module writes)."""
     buf = io.StringIO()
-    writer = csv.writer(buf)
-    writer.writerow(table.headers)
-    writer.writerows(table.rows)
+    csv.writer(buf).writerows([csv_cell(c) for c in row] for row in rows)
     return buf.getvalue()
+
+
+def csv_text(table: TableData) -> str:
+    """The table as CSV with a header row (:func:`csv_rows`)."""
+    return csv_rows([table.headers, *table.rows])
 
 
 def fitted(table: TableData, width: int, shrink: int = 0) -> list[str]:

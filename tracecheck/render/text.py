@@ -8,7 +8,7 @@ from rich.table import Table
 from rich.text import Text
 
 from ..checking.replay import DiffReport, EpisodeReplay, ReplayReport
-from .tables import TableData, markdown
+from .tables import TableData, markdown, md_text
 
 __all__ = ["replay_text", "replay_markdown", "replay_table", "diff_text", "diff_table",
            "literal_row"]
@@ -160,14 +160,27 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
 
 
 def replay_table(r: ReplayReport, episodes=None) -> TableData:
-    """The episode table with full names: ``episodes`` (default: every episode replayed)."""
-    return TableData.of(HEADERS, (_row(e) for e in (r.per_episode if episodes is None
-                                                   else episodes)))
+    """The episode table with full names: ``episodes`` (default: every episode replayed);
+    then a column ``LTL NAME`` per LTL formula checked: holds, violated, or violated at step
+    k (the first step where ``G f`` fails)."""
+    chosen = r.per_episode if episodes is None else episodes
+    failed = [{(v["file"], v["episode"]): v["first_step"] for v in e["violations"]}
+              for e in r.ltl]
+
+    def ltl_cell(e: EpisodeReplay, violations: dict) -> str:
+        if (e.file, e.episode) not in violations:
+            return "holds"
+        step = violations[(e.file, e.episode)]
+        return "violated" if step is None else f"violated at step {step}"
+
+    return TableData.of(HEADERS + [f"LTL {e['name']}" for e in r.ltl],
+                        (_row(e) + [ltl_cell(e, v) for v in failed] for e in chosen))
 
 
 def replay_markdown(r: ReplayReport, rows: int) -> str:
     lines = [f"# Replay: shield `{r.shield['name']}`", ""]
-    lines += [f"- {line}" for line in _summary_lines(r) + _resim_lines(r) + _ltl_lines(r, rows)]
+    lines += [f"- {md_text(line, cell=False)}"
+              for line in _summary_lines(r) + _resim_lines(r) + _ltl_lines(r, rows)]
     matters = [e for e in r.per_episode if e.matters]
     if matters:
         lines += ["", markdown(replay_table(r, matters[:rows]))]

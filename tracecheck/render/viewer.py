@@ -12,7 +12,7 @@ values, the reward and the B state.
 from __future__ import annotations
 
 import html
-import json
+import re
 from pathlib import Path
 from typing import Optional, Sequence
 
@@ -21,6 +21,7 @@ from ..episodes.columns import read_columns
 from ..episodes.reader import read_run
 from ..errors import InputError
 from ..checking.shield import Shield
+from .jsontext import script_json
 from .scene import grid_cells, paper_zones, scene_kind, vehicles
 
 __all__ = ["render_episode", "episode_data"]
@@ -111,9 +112,9 @@ def render_episode(run: str | Path, episode: int, shield: Optional[Shield] = Non
     """The viewer page of one episode (see the module docstring)."""
     data = episode_data(run, episode, shield, ltl)
     title = f"{Path(str(run)).name}, episode {episode}"
-    payload = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
-    return (_TEMPLATE.replace("{{TITLE}}", html.escape(title))
-            .replace("{{DATA}}", payload))
+    fields = {"TITLE": html.escape(title), "DATA": script_json(data)}
+    # one pass: a file named {{DATA}}.mcap stays a title
+    return re.sub(r"\{\{(TITLE|DATA)\}\}", lambda m: fields[m.group(1)], _TEMPLATE)
 
 
 def write_page(text: str, out: str | Path, *, force: bool = False,

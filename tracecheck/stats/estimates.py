@@ -98,18 +98,18 @@ def prepare(pset: PropertySet, environment="highway", sample: Optional[dict] = N
     for m in pset.metrics:
         if m.aggregate == "stl":
             formulas[("m", m.name)] = _Temporal("stl", m.expression, _machine(environment),
-                                                f"{pset.name}: metric {m.name}")
+                                                f"{pset.where}: metric {m.name}")
             continue
         if m.node is not None:
-            _check(m.node, "expression", f"{pset.name}: metric {m.name}", m.expression, names,
+            _check(m.node, "expression", f"{pset.where}: metric {m.name}", m.expression, names,
                    variables)
             formulas[("m", m.name)] = BatchFormula(m.node, constants, source=m.expression)
     for p in pset.properties:
         if p.kind in ("ltl", "stl"):
             formulas[("p", p.name)] = _Temporal(p.kind, p.predicate, _machine(environment),
-                                                f"{pset.name}: property {p.name}")
+                                                f"{pset.where}: property {p.name}")
             continue
-        _check(p.node, "predicate", f"{pset.name}: property {p.name}", p.predicate, names,
+        _check(p.node, "predicate", f"{pset.where}: property {p.name}", p.predicate, names,
                variables)
         formulas[("p", p.name)] = BatchFormula(p.node, constants, source=p.predicate)
     return formulas
@@ -213,14 +213,35 @@ def _metric_stats(values: np.ndarray, m: Metric) -> dict:
     mean = float(np.mean(values))
     out = {"mean": mean, "sd": None, "ci95": None, "n": n, "method": "t"}
     if n >= 2:
-        sd = float(np.std(values, ddof=1))
+        with np.errstate(invalid="ignore"):  # inf - inf: nan, noted below
+            sd = float(np.std(values, ddof=1))
         half = float(stats.t.ppf(0.975, n - 1)) * sd / math.sqrt(n)
         out.update(sd=sd, ci95=[mean - half, mean + half])
     if m.estimate is not None:
         value, eps = m.estimate
         out["estimate"] = {"value": value, "epsilon": eps,
                            "within": abs(mean - value) <= eps}
+    why = _nonfinite_why(values, m)
+    if why:  # JSON writes these as null; the note says why (tracecheck.render.jsontext)
+        for key in ("mean", "sd", "ci95"):
+            numbers = np.atleast_1d(np.asarray(out[key] if out[key] is not None else [],
+                                               dtype=float))
+            if not np.all(np.isfinite(numbers)):
+                out[f"{key}_note"] = why
     return out
+
+
+def _nonfinite_why(values: np.ndarray, m: Metric) -> Optional[str]:
+    """Which episode values are not finite, and where that comes from; None if all are."""
+    counts = {"+inf": int(np.sum(values == np.inf)), "-inf": int(np.sum(values == -np.inf)),
+              "nan": int(np.sum(np.isnan(values)))}
+    if not any(counts.values()):
+        return None
+    what = ", ".join(f"{n} {name}" for name, n in counts.items() if n)
+    why = ("the formula has no sample to judge there: +inf for X at an episode's last state "
+           "or G[a,b] past its end, -inf for F[a,b] past its end" if m.aggregate == "stl"
+           else "the per-episode values overflow")
+    return f"not finite: of {len(values)} episodes, {what} ({why})"
 
 
 def _property_stats(holds: np.ndarray, p: Property, interval: str) -> dict:
@@ -277,13 +298,18 @@ def _paired(a: RunValues, b: RunValues, pset: PropertySet) -> Optional[dict]:
             "neither": int(np.sum(~x & ~y)), "p_value": pv, "method": "exact McNemar"}
     for m in pset.metrics:
         x, y = a.metrics[m.name][ia], b.metrics[m.name][ib]
-        diff = x - y
+        with np.errstate(invalid="ignore"):
+            diff = x - y
         entry = {"mean_difference": float(np.mean(diff)), "paired_t_p": None,
                  "wilcoxon_p": None}
-        if len(diff) >= 2 and np.std(diff) > 0:
-            entry["paired_t_p"] = float(stats.ttest_rel(x, y).pvalue)
-        if np.any(diff != 0):
-            entry["wilcoxon_p"] = float(stats.wilcoxon(x, y).pvalue)
+        if not np.all(np.isfinite(diff)):
+            entry["mean_difference_note"] = ("not finite: a pair of episodes has a value that "
+                                             "is not finite (see the runs' metrics); no test")
+        else:
+            if len(diff) >= 2 and np.std(diff) > 0:
+                entry["paired_t_p"] = float(stats.ttest_rel(x, y).pvalue)
+            if np.any(diff != 0):
+                entry["wilcoxon_p"] = float(stats.wilcoxon(x, y).pvalue)
         result["metrics"][m.name] = entry
     return result
 

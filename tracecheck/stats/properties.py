@@ -27,7 +27,9 @@ per episode.
 
 from __future__ import annotations
 
+import math
 import tomllib
+import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional
@@ -77,6 +79,11 @@ class PropertySet:
     name: str
     metrics: tuple[Metric, ...] = ()
     properties: tuple[Property, ...] = field(default_factory=tuple)
+    file: str = ""  # where it was read (messages name it); the name if empty
+
+    @property
+    def where(self) -> str:
+        return self.file or self.name
 
     def select(self, names: Optional[list[str]]) -> "PropertySet":
         """Only the metrics and properties named (all when ``names`` is empty)."""
@@ -88,7 +95,7 @@ class PropertySet:
             raise InputError(f"the set {self.name} has no metric or property "
                              f"{', '.join(unknown)}; it has {', '.join(sorted(known))}")
         return PropertySet(self.name, tuple(m for m in self.metrics if m.name in names),
-                           tuple(p for p in self.properties if p.name in names))
+                           tuple(p for p in self.properties if p.name in names), self.file)
 
 
 SPEED = "RSQRT(VehiclesVx(EgoVehicle)**2 + VehiclesVy(EgoVehicle)**2)"
@@ -159,17 +166,78 @@ def _formula(text: object, kind: str, where: str, file: str) -> A.Node:
     return node
 
 
-def _number(value: object, name: str, where: str, file: str, *, open01: bool = False) -> float:
+def _number(value: object, name: str, where: str, file: str, *, open01: bool = False,
+            at_least: Optional[float] = None) -> float:
     if type(value) not in (int, float):
-        raise InputError(f"{file}: {where}: {name} must be a number, not {value!r}")
-    if open01 and not 0.0 < float(value) < 1.0:
+        raise InputError(f"{file}: {where}: {name} must be a number, not {_shown(value)}")
+    try:
+        number = float(value)
+    except OverflowError:  # a TOML integer beyond any float
+        number = math.inf
+    if not math.isfinite(number):
+        raise InputError(f"{file}: {where}: {name} must be a finite number, not "
+                         f"{_shown(value)}")
+    if open01 and not 0.0 < number < 1.0:
         raise InputError(f"{file}: {where}: {name} must lie strictly between 0 and 1, "
                          f"not {value}")
-    return float(value)
+    if at_least is not None and number < at_least:
+        raise InputError(f"{file}: {where}: {name} must be at least {at_least:g}, not {value}")
+    return number
+
+
+def _shown(value: object) -> str:
+    """A TOML value for a message: what it is, cut short."""
+    kind = {bool: "the boolean", str: "the string", int: "the number", float: "the number",
+            list: "the array", dict: "the table"}.get(type(value), "the value")
+    text = repr(value).replace("True", "true").replace("False", "false")
+    return f"{kind} {text if len(text) <= 60 else text[:57] + '...'}"
+
+
+def _controls(text: str) -> bool:
+    return any(unicodedata.category(c) == "Cc" for c in text)
+
+
+def _string(spec: dict, key: str, where: str, file: str, default: str = "") -> str:
+    """``spec[key]``: a string without control characters (names and descriptions reach
+    terminals, tables and plots)."""
+    value = spec.get(key, default)
+    if not isinstance(value, str):
+        raise InputError(f"{file}: {where}: {key} must be a string, not {_shown(value)}")
+    if _controls(value):
+        raise InputError(f"{file}: {where}: {key} holds a control character (NUL, escape, "
+                         "line break, …); write it on one line without them")
+    return value
+
+
+def _keys(spec: object, allowed: tuple, where: str, file: str, what: str) -> dict:
+    """``spec`` as a table with only ``allowed`` keys (a misspelt key would be ignored)."""
+    if not isinstance(spec, dict):
+        raise InputError(f"{file}: {where}: expected a table ({what}), got {_shown(spec)}")
+    unknown = [k for k in spec if k not in allowed]
+    if unknown:
+        raise InputError(f"{file}: {where}: unknown key {unknown[0]!r}; {what} has "
+                         f"{', '.join(allowed)}")
+    return spec
+
+
+def _entries(data: dict, section: str, file: str) -> dict:
+    """The [section.NAME] tables of a property file, their names checked."""
+    entries = data.get(section, {})
+    if not isinstance(entries, dict):
+        raise InputError(f"{file}: {section}: expected tables [{section}.NAME], got "
+                         f"{_shown(entries)}")
+    single = {"metrics": "metric", "properties": "property"}[section]
+    for name in entries:
+        if not name.strip() or _controls(name):
+            raise InputError(f"{file}: {section}.{name!r}: a {single} name must be non-empty "
+                             "printable text, without control characters (NUL, escape, line "
+                             "break, …)")
+    return entries
 
 
 def parse_properties(text: str, *, name: str, file: str) -> PropertySet:
-    """A property set from TOML text (see the module docstring)."""
+    """A property set from TOML text (see the module docstring). Every mistake is an
+    :class:`InputError` naming the file and the entry."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -182,17 +250,23 @@ def parse_properties(text: str, *, name: str, file: str) -> PropertySet:
     if extra:
         raise InputError(f"{file}: unknown section {sorted(extra)[0]!r}; a property file has "
                          "[metrics.NAME] and [properties.NAME] tables")
-    metrics = tuple(_metric(n, spec, file) for n, spec in data.get("metrics", {}).items())
-    props = tuple(_property(n, spec, file) for n, spec in data.get("properties", {}).items())
+    metric_specs, property_specs = _entries(data, "metrics", file), _entries(data, "properties",
+                                                                            file)
+    both = sorted(set(metric_specs) & set(property_specs))
+    if both:
+        raise InputError(f"{file}: {both[0]!r} names both a metric and a property; give each "
+                         "its own name")
+    metrics = tuple(_metric(n, spec, file) for n, spec in metric_specs.items())
+    props = tuple(_property(n, spec, file) for n, spec in property_specs.items())
     if not metrics and not props:
         raise InputError(f"{file}: no metrics and no properties")
-    return PropertySet(name, metrics, props)
+    return PropertySet(name, metrics, props, file)
 
 
 def _metric(name: str, spec: dict, file: str) -> Metric:
     where = f"metric {name}"
-    if not isinstance(spec, dict):
-        raise InputError(f"{file}: {where} must be a table")
+    spec = _keys(spec, ("expression", "aggregate", "estimate", "description"), where, file,
+                 "a metric")
     aggregate = _choice(spec, "aggregate", "average", AGGREGATES, where, file)
     node = None
     if aggregate == "stl":
@@ -201,19 +275,18 @@ def _metric(name: str, spec: dict, file: str) -> Metric:
         node = _formula(spec.get("expression"), "expression", f"{where} expression", file)
     estimate = None
     if "estimate" in spec:
-        est = spec["estimate"]
-        if not isinstance(est, dict):
-            raise InputError(f"{file}: {where}: estimate is a table {{value = …, epsilon = …}}")
+        est = _keys(spec["estimate"], ("value", "epsilon"), f"{where}: estimate", file,
+                    "an estimate {value = …, epsilon = …}")
         estimate = (_number(est.get("value"), "estimate value", where, file),
-                    _number(est.get("epsilon"), "estimate epsilon", where, file))
-    return Metric(name, aggregate, spec.get("expression"), node, spec.get("description", ""),
-                  estimate)
+                    _number(est.get("epsilon"), "estimate epsilon", where, file, at_least=0))
+    return Metric(name, aggregate, spec.get("expression"), node,
+                  _string(spec, "description", where, file), estimate)
 
 
 def _choice(spec: dict, key: str, default: str, allowed: tuple, where: str, file: str) -> str:
     """``spec[key]`` (or ``default``), one of ``allowed``."""
     value = spec.get(key, default)
-    if value not in allowed:
+    if not isinstance(value, str) or value not in allowed:
         raise InputError(f"{file}: {where}: unknown {key} {value!r}; the {key}s are "
                          f"{', '.join(allowed)}")
     return value
@@ -226,8 +299,8 @@ def _temporal_text(text: object, key: str, logic: str, where: str, file: str) ->
 
 def _property(name: str, spec: dict, file: str) -> Property:
     where = f"property {name}"
-    if not isinstance(spec, dict):
-        raise InputError(f"{file}: {where} must be a table")
+    spec = _keys(spec, ("predicate", "kind", "description", "test"), where, file,
+                 "a property")
     kind = _choice(spec, "kind", "invariant", KINDS, where, file)
     if kind in ("ltl", "stl"):  # parsed against the environment's machine (prepare)
         _temporal_text(spec.get("predicate"), "predicate", kind.upper(), where, file)
@@ -236,14 +309,14 @@ def _property(name: str, spec: dict, file: str) -> Property:
         node = _formula(spec.get("predicate"), "predicate", f"{where} predicate", file)
     test = None
     if "test" in spec:
-        t = spec["test"]
-        if not isinstance(t, dict):
-            raise InputError(f"{file}: {where}: test is a table {{p = …, alpha = …, tail = …}}")
+        t = _keys(spec["test"], ("p", "alpha", "tail"), f"{where}: test", file,
+                  "a test {p = …, alpha = …, tail = …}")
         tail = _choice(t, "tail", "left", TAILS, where, file)
         test = HypothesisTest(_number(t.get("p"), "p", where, file, open01=True),
                               _number(t.get("alpha", 0.05), "alpha", where, file, open01=True),
                               tail)
-    return Property(name, spec["predicate"], node, kind, spec.get("description", ""), test)
+    return Property(name, spec["predicate"], node, kind,
+                    _string(spec, "description", where, file), test)
 
 
 HIGHWAY_SET = parse_properties(HIGHWAY_TOML, name="highway", file="<highway>")
