@@ -4,6 +4,7 @@ confirms, the symbolic diff, and constructs that cannot be translated."""
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 
@@ -187,7 +188,11 @@ def test_a_counterexample_reads_like_a_road(capsys):
     code, out, _ = run(capsys, "diff", "--symbolic", "--shield", "paper", "--against",
                        "strict")
     reading = out.splitlines()[1]
-    assert "decide IDLE differently: EgoVehicle at x = " in reading and ", vx = " in reading
+    # which state the solver finds depends on its time budget: one where the guards differ,
+    # or one where strict's guard is ill-defined (named in parentheses); both read as a road
+    assert re.search(r"decide IDLE differently( \(IDLE's guard in \w+ is not well-defined "
+                     r"there\))?: EgoVehicle at x = ", reading), reading
+    assert ", vx = " in reading
 
 
 def test_an_environment_s_declared_ranges_are_assumed(capsys, tmp_path):
