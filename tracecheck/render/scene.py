@@ -30,7 +30,7 @@ from ..errors import InputError
 
 __all__ = ["Scene", "Box", "Circle", "Line", "Text", "Color", "scene_kind", "grid_cells",
            "vehicles", "paper_zones", "road_scene", "grid_scene", "builtin_scene",
-           "scene_drawer", "css", "DANGER", "ROAD_CAPTION", "GRID_CAPTION"]
+           "scene_drawer", "scene_svg", "css", "DANGER", "ROAD_CAPTION", "GRID_CAPTION"]
 
 Color = tuple[float, float, float, float]
 WHITE, BLACK, GREY = (1.0, 1.0, 1.0, 1.0), (0.1, 0.1, 0.1, 1.0), (0.55, 0.55, 0.55, 1.0)
@@ -366,3 +366,42 @@ def _hook(adapter):
     if method is None or method is EnvAdapter.scene:
         return None
     return adapter.scene
+
+
+def scene_svg(scene: Scene, width: int = 360, max_height: int = 180,
+              view: Optional[tuple[float, float, float, float]] = None) -> str:
+    """A scene as a static inline SVG (the report's pictures; ``view`` instead of the
+    scene's own); every text escaped."""
+    from html import escape
+
+    x0, y0, w, h = view or scene.view
+    width = min(width, round(max_height * w / h))
+    height = max(10, round(width * h / w))
+    parts = [f'<svg xmlns="http://www.w3.org/2000/svg" viewBox="{x0:g} {y0:g} {w:g} {h:g}" '
+             f'width="{width}" height="{height}" role="img">']
+    if scene.background is not None:
+        parts.append(f'<rect x="{x0:g}" y="{y0:g}" width="{w:g}" height="{h:g}" '
+                     f'fill="{css(scene.background)}"/>')
+    for s in scene.shapes:
+        title = f"<title>{escape(s.label)}</title>" if getattr(s, "label", "") else ""
+        if isinstance(s, Box):
+            dash = f' stroke-dasharray="{s.stroke_width * 4:g}"' if s.dashed else ""
+            parts.append(f'<rect x="{s.x - s.width / 2:g}" y="{s.y - s.height / 2:g}" '
+                         f'width="{s.width:g}" height="{s.height:g}" fill="{css(s.fill)}" '
+                         f'stroke="{css(s.stroke)}" stroke-width="{s.stroke_width:g}"{dash}>'
+                         f'{title}</rect>')
+        elif isinstance(s, Circle):
+            parts.append(f'<circle cx="{s.x:g}" cy="{s.y:g}" r="{s.radius:g}" '
+                         f'fill="{css(s.fill)}" stroke="{css(s.stroke)}" '
+                         f'stroke-width="{s.stroke_width:g}">{title}</circle>')
+        elif isinstance(s, Line):
+            points = " ".join(f"{x:g},{y:g}" for x, y in s.points)
+            dash = f' stroke-dasharray="{s.width * 4:g}"' if s.dashed else ""
+            parts.append(f'<polyline points="{points}" fill="none" stroke="{css(s.color)}" '
+                         f'stroke-width="{s.width:g}"{dash}>{title}</polyline>')
+        else:
+            parts.append(f'<text x="{s.x:g}" y="{s.y:g}" font-size="{s.size:g}" '
+                         f'fill="{css(s.color)}" text-anchor="middle" '
+                         f'dominant-baseline="middle">{escape(s.text)}</text>')
+    parts.append("</svg>")
+    return "".join(parts)
