@@ -330,7 +330,7 @@ def _pictures(c: dict, shown: list, adapter, shield) -> dict[int, str]:
     if not shown:
         return {}
     result = read_run(c["file"], {e.episode for e in shown})
-    draw = scene_drawer(c["header"].environment, adapter, zones=shield.name == "paper")
+    draw = scene_drawer(adapter=adapter, zones=shield.name == "paper")
     wanted = {e.episode: e.first_infeasible if e.first_infeasible is not None else
               (e.crash_step or 0) for e in shown}
     out = {}

@@ -328,7 +328,8 @@ def scene_drawer(environment: Optional[str] = None, adapter=None, *, zones: bool
                  ) -> Callable[..., Optional[Scene]]:
     """A function from a step (a ``StepRecord``) to its scene: the adapter's own ``scene``
     hook where it has one (``adapter``, or the installed adapter named ``environment`` — only
-    ever looked up among the installed entry points), else the built-in scenes."""
+    ever looked up among the installed entry points: the recorder, which has it loaded
+    anyway), else the built-in scenes."""
     hook = _hook(adapter if adapter is not None else _installed(environment))
 
     def draw(step) -> Optional[Scene]:

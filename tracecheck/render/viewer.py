@@ -137,8 +137,8 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
                  ltl: Sequence[tuple] = (), adapter=None) -> dict:
     """Everything the viewer shows, as JSON-ready data (``ltl``: (name, text, formula) of
     LTL formulas over ``shield``'s machine, each marked where the episode first violates
-    it; ``adapter``: the environment's adapter, whose ``scene`` hook draws the steps — by
-    default the installed adapter the run names, if any)."""
+    it; ``adapter``: the environment's adapter (``--env``), whose ``scene`` hook draws the
+    steps; without one, the built-in scenes — render imports no environment package)."""
     result = read_run(run, {episode})
     if not result.episodes:
         ids = [int(i) for i in read_columns(run).episode_ids]
@@ -150,8 +150,7 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
     header = result.header
     machine = shield.machine if shield is not None else None
     zones = shield is not None and shield.name == "paper"
-    draw = scene_drawer(header.environment if header is not None else None, adapter,
-                        zones=zones)
+    draw = scene_drawer(adapter=adapter, zones=zones)  # render imports no environment
     scene, per_step = _scenes(ep, draw)
     steps, blocked, interventions = [], [], []
     first_infeasible = None
