@@ -74,3 +74,75 @@ def left_leaning_table() -> np.ndarray:
     table = np.zeros((6, 2))
     table[:, 0] = 1.0
     return table
+
+
+# ------------------------------------------------------------------ a continuous observation
+
+CRUISE_SHIELD = """
+MACHINE CruiseShield
+VARIABLES Gap, Speed, LeadSpeed
+INVARIANT Gap : REAL & Speed : REAL & LeadSpeed : REAL
+INITIALISATION Gap := 30.0 || Speed := 20.0 || LeadSpeed := 20.0
+OPERATIONS
+  KEEP = SELECT Gap - 2.0 * (Speed - LeadSpeed) > 10.0 THEN skip END;
+  ACCEL = SELECT Gap - 3.0 * (Speed - LeadSpeed) > 25.0 THEN skip END;
+  BRAKE = skip
+END
+"""
+
+
+class CruiseEnv(gym.Env):
+    """1-D adaptive cruise control: the gap to a lead car that brakes now and then, the ego
+    speed and the lead speed (m, m/s) as a float32 Box; a crash when the gap closes."""
+
+    def __init__(self, render_mode: Optional[str] = None) -> None:
+        self.observation_space = gym.spaces.Box(0.0, 200.0, (3,), np.float32)
+        self.action_space = gym.spaces.Discrete(3)
+        self.obs = np.zeros(3, np.float32)
+
+    def reset(self, *, seed: Optional[int] = None, options=None):
+        super().reset(seed=seed)
+        self.obs = np.array([30.0 + self.np_random.uniform(0, 5), 20.0, 20.0], np.float32)
+        return self.obs.copy(), {}
+
+    def step(self, action):
+        gap, speed, lead = (float(v) for v in self.obs)
+        speed = max(0.0, speed + (0.0, 1.5, -3.0)[int(action)])
+        lead = max(0.0, lead + float(self.np_random.uniform(-2.0, 1.0)))
+        gap = gap + lead - speed
+        self.obs = np.array([max(gap, 0.0), speed, lead], np.float32)
+        crashed = gap <= 0.0
+        return self.obs.copy(), -1.0 if crashed else speed / 30.0, crashed, False, \
+            {"crashed": crashed}
+
+
+class Cruise(EnvAdapter):
+    name = "cruise"
+    env_id = "Cruise-v0"
+    actions = ("KEEP", "ACCEL", "BRAKE")
+    variables = ("Gap", "Speed", "LeadSpeed")
+    model_name = "CruiseShield"
+    horizon = 40
+
+    def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
+        return CruiseEnv(**config)
+
+    def state(self, obs, info: dict, reward: float, env, initial: bool) -> dict[str, Any]:
+        gap, speed, lead = (float(v) for v in obs)
+        return {"Gap": gap, "Speed": speed, "LeadSpeed": lead}
+
+    def scene(self, step):
+        """The two cars on a road, drawn through the adapter's scene hook."""
+        from tracecheck.render.scene import Box, Line, Scene, Text
+
+        gap = step.state["Gap"]
+        ego = (0.85, 0.2, 0.2, 1.0) if step.crashed else (0.16, 0.4, 0.9, 1.0)
+        return Scene(shapes=(
+            Line(((-10.0, 1.5), (80.0, 1.5)), (0.6, 0.6, 0.6, 1.0), 0.2, group="road"),
+            Box(-2.0, 0.0, 4.0, 2.0, fill=ego, label=f"ego, {step.state['Speed']:.1f} m/s",
+                group="ego"),
+            Box(gap + 2.0, 0.0, 4.0, 2.0, fill=(0.55, 0.55, 0.55, 1.0),
+                label=f"lead, {step.state['LeadSpeed']:.1f} m/s", group="lead"),
+            Text(gap / 2, -2.2, f"gap {gap:.1f} m", 1.6, group="gap")),
+            view=(-10.0, -5.0, 90.0, 8.0), caption="The ego car (blue, red once crashed) "
+            "behind the lead car (grey), 4 m long each; the label is the gap between them.")

@@ -19,10 +19,13 @@ NONE = ROOT / "sample_traces" / "base_none.mcap"
 def test_viewer_data_marks_first_infeasible_and_crash():
     data = episode_data(NONE, 3, load_shield("paper"))
     assert data["first_infeasible"] == 5 and data["crash_step"] == 39
-    assert data["zones"] == "paper" and len(data["steps"]) == 40
+    assert len(data["steps"]) == 40 and data["blocked"][0] == 5
+    zones = {s["label"] for s in data["scene"]["shapes"] if s.get("kind") == "box"
+             and s["label"].split(":")[0] in ("LANE_LEFT", "FASTER", "IDLE")}
+    assert zones  # the paper shield's zones, drawn
     step = data["steps"][5]
     assert step["action"] not in data["steps"][4]["shield_allows"]
-    assert set(step["state"]) >= {"VehiclesX", "Crash"}
+    assert {row[0] for row in step["state"]} >= {"VehiclesX", "Crash"}
     assert step["values"] and step["live_allowed"]
 
 
@@ -76,7 +79,8 @@ def test_report_cli(capsys, tmp_path):
     code, text, _ = run(capsys, "report", str(NONE), "--shield", "paper", "-o", str(out))
     assert code == 0 and "episode page(s)" in text
     page = out.read_text()
-    assert "Replay against shield paper" in page and "Statistics (highway)" in page
+    assert "<h2>Runs</h2>" in page and "shield paper (sha256" in page
+    assert "Statistics (highway)" in page
     assert page.count("<svg") >= 2  # the plots, inline
     links = re.findall(r"href='([^']+)'", page)
     assert links and all((tmp_path / link).exists() for link in links)
@@ -137,7 +141,7 @@ def test_viewer_in_a_browser(tmp_path):
         assert browser.find_element(By.ID, "step").text.startswith("step 2")
         browser.find_element(By.ID, "back").click()
         assert "step 1 of 39" in browser.find_element(By.ID, "where").text
-        assert len(browser.find_elements(By.CSS_SELECTOR, "#scene rect")) >= 5
+        assert len(browser.find_elements(By.CSS_SELECTOR, "#picture rect")) >= 5
         assert browser.find_element(By.CSS_SELECTOR, "#timeline span.first").text == "!"
         assert "LTL --ltl 2 first violated at step 39" in \
             browser.find_element(By.ID, "summary").text
@@ -221,7 +225,8 @@ def test_no_string_can_end_or_comment_out_the_viewer_script(tmp_path):
         assert bad not in payload, bad
     assert "\\u003c!--\\u003cscript\\u003e" in payload
     assert json.loads(payload) == json.loads(json.dumps(episode_data(run_, 0)))
-    assert json.loads(payload)["steps"][0]["state"]["Label"] == f'"{HOSTILE}"'
+    state = {name: full for name, _, full in json.loads(payload)["steps"][0]["state"]}
+    assert state["Label"] == f'"{HOSTILE}"'
     assert page.count("</script>") == 1 and page.count("<script>") == 1
     # a file named {{DATA}} stays a title: the data goes in once, into the script
     assert "<title>{{DATA}} {{TITLE}}.mcap, episode 0 — tracecheck</title>" in page

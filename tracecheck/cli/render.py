@@ -53,9 +53,17 @@ def report_cmd(
         "or a property file (TOML). Default: the environment's."),
     output: Path = typer.Option(..., "--output", "-o", help="The HTML report to write (its "
                                 "viewer pages go into NAME_files/ beside it)."),
+    resimulate: bool = typer.Option(False, "--resimulate", help="Re-run the episodes the "
+                                    "shield would have blocked, under the shield (as replay "
+                                    "--resimulate): the report's headline says how many "
+                                    "crashes it would have prevented."),
+    agent: Optional[Path] = typer.Option(None, "--agent", help="For --resimulate: the agent "
+                                         "that recorded the episodes (default: the bundled "
+                                         "agent of that name)."),
     force: bool = FORCE,
 ) -> None:
-    """Write an HTML validation report: replay, statistics with plots, episode viewers."""
+    """Write an HTML validation report: the runs side by side, replay and re-simulation,
+    comparisons, statistics with plots, episode pictures and viewers."""
     from ..stats.properties import load_properties
     from ..render.report import render_report
     from ..checking.shield import load_shield
@@ -66,5 +74,6 @@ def report_cmd(
 
     pset = load_properties(properties or default_properties(runs))
     page, pages = render_report(runs, output, shield=loaded, pset=pset, force=force,
-                                inputs=input_paths(shield, properties))
+                                inputs=input_paths(shield, properties), resimulate=resimulate,
+                                agent=agent)
     out.print(f"wrote {page} and {pages} episode page(s)", markup=False)

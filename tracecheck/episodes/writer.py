@@ -103,6 +103,10 @@ class EpisodeWriter:
         # looked up once, not per step
         self._step_messages, self._dumps = step_messages, orjson.dumps
         self._zones = self.header.shield_name == "paper"
+        from ..render.scene import scene_drawer
+
+        # the environment's own scene() hook where its adapter is installed, else built-ins
+        self._draw = scene_drawer(self.header.environment, zones=self._zones)
 
     def _emit_foxglove(self, episode: int, step, previous_crashed: bool) -> None:
         """Foxglove's channels for one step, right after its step message (not in the
@@ -110,7 +114,7 @@ class EpisodeWriter:
         file's bytes covers them)."""
         t = self._clock_ns + int(round(step.time * _NS))
         for m in self._step_messages(step, episode=episode, stamp_ns=t, zones=self._zones,
-                                     previous_crashed=previous_crashed):
+                                     previous_crashed=previous_crashed, draw=self._draw):
             self._writer.add_message(channel_id=self._channels[m.topic], log_time=t,
                                      publish_time=t, data=self._dumps(m.data))
 

@@ -2,12 +2,14 @@
 
 Every step of an episode becomes, next to tracecheck's own messages:
 
-* ``/foxglove/scene`` (``foxglove.SceneUpdate``): the vehicles of the highway as 5 m × 2 m
-  cubes in the frame ``road`` (the ego vehicle at x = 0, as in tracecheck's viewer; y is the
-  road's lateral position, flipped to Foxglove's left-handed-up convention), the ego vehicle
-  blue (red once crashed); for the ``paper`` shield the zones its guards test, red where a
-  vehicle blocks an action; a grid world as 1 × 1 tiles (holes and cliffs dark, the goal
-  green) with the agent on them;
+* ``/foxglove/scene`` (``foxglove.SceneUpdate``): the step's scene
+  (:mod:`tracecheck.render.scene`, the one the HTML viewer draws) in the frame ``road``, one
+  entity per group of shapes: boxes as cubes, circles as spheres, lines as line strips, text
+  as billboards, y flipped to Foxglove's left-handed-up convention. On the highway the
+  vehicles are 5 m × 2 m cubes (the ego vehicle at x = 0, blue, red once crashed) with their
+  velocity as lines, and for the ``paper`` shield the zones its guards test, red where a
+  vehicle blocks an action; a grid world is 1 × 1 tiles (holes and cliffs dark), the goal
+  and the agent on them; an adapter with a ``scene`` hook draws its own;
 * ``/foxglove/log`` (``foxglove.Log``): one entry per shield intervention (the agent's choice
   replaced), deadlock (nothing allowed) and crash;
 * ``/plot/speed``, ``/plot/reward``, ``/plot/nearest_gap``, ``/plot/allowed_actions``
@@ -23,11 +25,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Iterator, Optional
+from typing import Any, Callable, Iterator, Optional
 
-from ..render.scene import grid_cells, paper_zones, scene_kind, vehicles
+from ..render.scene import Box, Circle, Line, Scene, builtin_scene, scene_kind, vehicles
 
-__all__ = ["FoxgloveMessage", "step_messages", "SCHEMAS", "TOPICS", "SCALARS"]
+__all__ = ["FoxgloveMessage", "step_messages", "scene_entities", "SCHEMAS", "TOPICS",
+           "SCALARS"]
 
 SCENE, LOG, SCALAR = "foxglove.SceneUpdate", "foxglove.Log", "tracecheck.Scalar"
 SCALARS = ("speed", "reward", "nearest_gap", "allowed_actions")
@@ -48,6 +51,11 @@ def _numbers(*keys: str) -> dict:
 
 _ENTITY_LISTS = ("arrows", "cubes", "spheres", "cylinders", "lines", "triangles", "texts",
                  "models")
+_DRAWN = ("cubes", "spheres", "lines", "texts")  # what a scene's shapes become
+_POSE = {"type": "object", "required": ["position", "orientation"],
+         "properties": {"position": _numbers("x", "y", "z"),
+                        "orientation": _numbers("x", "y", "z", "w")}}
+_COLOR = _numbers("r", "g", "b", "a")
 #: The JSON schemas registered with the channels: the fields, types and required keys of
 #: Foxglove's published schemas (foxglove-sdk, schemas/jsonschema) for what tracecheck writes.
 SCHEMAS: dict[str, dict] = {
@@ -72,14 +80,35 @@ SCHEMAS: dict[str, dict] = {
                                        "value": {"type": "string"}}}},
                     "cubes": {"type": "array", "items": {
                         "type": "object", "required": ["pose", "size", "color"],
-                        "properties": {
-                            "pose": {"type": "object", "required": ["position", "orientation"],
-                                     "properties": {"position": _numbers("x", "y", "z"),
-                                                    "orientation": _numbers("x", "y", "z", "w")}},
-                            "size": _numbers("x", "y", "z"),
-                            "color": _numbers("r", "g", "b", "a")}}},
+                        "properties": {"pose": _POSE, "size": _numbers("x", "y", "z"),
+                                       "color": _COLOR}}},
+                    "spheres": {"type": "array", "items": {
+                        "type": "object", "required": ["pose", "size", "color"],
+                        "properties": {"pose": _POSE, "size": _numbers("x", "y", "z"),
+                                       "color": _COLOR}}},
+                    "lines": {"type": "array", "items": {
+                        "type": "object",
+                        "required": ["type", "pose", "thickness", "scale_invariant", "points",
+                                     "color", "colors", "indices"],
+                        "properties": {"type": {"enum": [0, 1, 2]}, "pose": _POSE,
+                                       "thickness": {"type": "number"},
+                                       "scale_invariant": {"type": "boolean"},
+                                       "points": {"type": "array",
+                                                  "items": _numbers("x", "y", "z")},
+                                       "color": _COLOR,
+                                       "colors": {"type": "array", "items": _COLOR},
+                                       "indices": {"type": "array",
+                                                   "items": {"type": "integer"}}}}},
+                    "texts": {"type": "array", "items": {
+                        "type": "object",
+                        "required": ["pose", "billboard", "font_size", "scale_invariant",
+                                     "color", "text"],
+                        "properties": {"pose": _POSE, "billboard": {"type": "boolean"},
+                                       "font_size": {"type": "number"},
+                                       "scale_invariant": {"type": "boolean"},
+                                       "color": _COLOR, "text": {"type": "string"}}}},
                     **{k: {"type": "array", "maxItems": 0} for k in _ENTITY_LISTS
-                       if k != "cubes"}}}}}},
+                       if k not in _DRAWN}}}}}},
     LOG: {
         "title": LOG, "type": "object",
         "required": ["timestamp", "level", "message", "name", "file", "line"],
@@ -91,11 +120,9 @@ SCHEMAS: dict[str, dict] = {
 }
 
 WARNING, ERROR = 3, 4  # foxglove.LogLevel
-_EGO, _CRASHED, _OTHER, _ABSENT = ((0.16, 0.4, 0.9, 1.0), (0.85, 0.1, 0.1, 1.0),
-                                   (0.55, 0.55, 0.55, 1.0), (0.55, 0.55, 0.55, 0.25))
-_ZONE, _BLOCKING = (0.95, 0.8, 0.2, 0.2), (0.9, 0.15, 0.15, 0.35)
-_TILE, _DARK, _GOAL, _AGENT = ((0.85, 0.9, 0.95, 1.0), (0.15, 0.2, 0.3, 1.0),
-                               (0.3, 0.75, 0.35, 1.0), (0.16, 0.4, 0.9, 1.0))
+_FLAT = {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}  # no rotation
+
+
 @dataclass(frozen=True)
 class FoxgloveMessage:
     """One message: its topic (its schema is ``TOPICS[topic]``) and its JSON data."""
@@ -108,72 +135,89 @@ def _stamp(ns: int) -> dict:
     return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
 
 
-def _cube(x: float, y: float, z: float, size: tuple, color: tuple) -> dict:
-    return {"pose": {"position": {"x": float(x), "y": float(y), "z": float(z)},
-                     "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}},
-            "size": dict(zip("xyz", map(float, size))), "color": dict(zip("rgba", color))}
+def _pose(x: float, y: float, z: float) -> dict:
+    # the scene's y points down the page; Foxglove's (left-handed up) the other way
+    return {"position": {"x": float(x), "y": -float(y), "z": float(z)},
+            "orientation": dict(_FLAT)}
 
 
-def _entity(ns: int, name: str, cubes: list, **metadata: str) -> dict:
-    entity = {"timestamp": _stamp(ns), "frame_id": "road", "id": name,
-              "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": False,
-              "metadata": [{"key": k, "value": v} for k, v in metadata.items()]}
-    entity.update({k: [] for k in _ENTITY_LISTS})
-    entity["cubes"] = cubes
-    return entity
+def _rgba(color) -> dict:
+    return dict(zip("rgba", map(float, color)))
 
 
-def _road(state, ns: int, crashed: bool, zones: bool
-          ) -> tuple[list, Optional[float], Optional[float]]:
-    """Entities of the highway, the ego vehicle's speed and the distance to the nearest other
-    present vehicle."""
+def _primitive(shape) -> tuple[str, dict]:
+    """(the entity's list, the primitive) of one scene shape."""
+    if isinstance(shape, Box):
+        color = shape.fill if shape.fill is not None else (shape.stroke or (0.5, 0.5, 0.5, 1))
+        if shape.fill is None:
+            color = color[:3] + (0.25,)
+        return "cubes", {"pose": _pose(shape.x, shape.y, shape.depth / 2),
+                         "size": {"x": float(shape.width), "y": float(shape.height),
+                                  "z": float(shape.depth)},
+                         "color": _rgba(color)}
+    if isinstance(shape, Circle):
+        d = 2.0 * shape.radius
+        return "spheres", {"pose": _pose(shape.x, shape.y, shape.radius),
+                           "size": {"x": d, "y": d, "z": d},
+                           "color": _rgba(shape.fill or shape.stroke or (0.5, 0.5, 0.5, 1))}
+    if isinstance(shape, Line):
+        return "lines", {"type": 0, "pose": _pose(0, 0, 0.05), "thickness": float(shape.width),
+                         "scale_invariant": False,
+                         "points": [{"x": float(x), "y": -float(y), "z": 0.0}
+                                    for x, y in shape.points],
+                         "color": _rgba(shape.color), "colors": [], "indices": []}
+    return "texts", {"pose": _pose(shape.x, shape.y, 0.2), "billboard": True,
+                     "font_size": float(shape.size), "scale_invariant": False,
+                     "color": _rgba(shape.color), "text": shape.text}
+
+
+def scene_entities(scene: Scene, ns: int) -> list[dict]:
+    """A scene as Foxglove entities in the frame ``road``: one per group of shapes (each
+    vehicle, ``shield zones``, a grid world's ``map`` and ``agent``), in the scene's order."""
+    entities: dict[str, dict] = {}
+    labels: dict[str, list[str]] = {}
+    for shape in scene.shapes:
+        entity = entities.get(shape.group)
+        if entity is None:
+            entity = entities[shape.group] = {
+                "timestamp": _stamp(ns), "frame_id": "road", "id": shape.group,
+                "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": False, "metadata": [],
+                **{k: [] for k in _ENTITY_LISTS}}
+        kind, primitive = _primitive(shape)
+        entity[kind].append(primitive)
+        if getattr(shape, "label", ""):
+            labels.setdefault(shape.group, []).append(shape.label)
+    for group, found in labels.items():
+        if len(found) == 1:  # one labelled shape (a vehicle): its label says what it is
+            entities[group]["metadata"] = [{"key": "label", "value": found[0]}]
+    return list(entities.values())
+
+
+def _road_scalars(state) -> tuple[Optional[float], Optional[float]]:
+    """The ego vehicle's speed and the distance to the nearest other present vehicle."""
     cars = vehicles(state)
     ego = next((v for v in cars if v["name"] == "EgoVehicle"), None)
     if ego is None:
-        return [], None, None
-    entities, gaps = [], []
-    for v in cars:
-        is_ego = v is ego
-        x, y = (0.0, ego["y"]) if is_ego else (v["x"], ego["y"] + v["y"])
-        color = ((_CRASHED if crashed else _EGO) if is_ego else
-                 _OTHER if v["present"] else _ABSENT)
-        entities.append(_entity(ns, v["name"], [_cube(x, -y, 0.75, (5, 2, 1.5), color)],
-                                vx=f"{v['vx']:.2f}", present=str(v["present"]).lower()))
-        if not is_ego and v["present"]:
-            gaps.append(math.hypot(v["x"], v["y"]))
-    if zones:
-        entities.append(_entity(ns, "shield zones", [
-            _cube((z["x0"] + z["x1"]) / 2, -(ego["y"] + (z["y0"] + z["y1"]) / 2), 0.05,
-                  (z["x1"] - z["x0"], z["y1"] - z["y0"], 0.1),
-                  _BLOCKING if z["blocking"] else _ZONE) for z in paper_zones(cars)],
-            shield="paper"))
-    return entities, ego["vx"], (min(gaps) if gaps else None)
-
-
-def _grid(state, ns: int) -> list:
-    grid = grid_cells(state)
-    goal = (state.get("goal_x"), state.get("goal_y"))
-    tiles = [_cube(x, -y, 0.0, (0.96, 0.96, 0.05),
-                   _DARK if danger else _GOAL if (x, y) == goal else _TILE)
-             for x, y, danger, _ in grid["cells"]]
-    return [_entity(ns, "map", tiles),
-            _entity(ns, "agent", [_cube(state["x"], -state["y"], 0.3, (0.6, 0.6, 0.6),
-                                        _AGENT)])]
+        return None, None
+    gaps = [math.hypot(v["x"], v["y"]) for v in cars if v is not ego and v["present"]]
+    return ego["vx"], (min(gaps) if gaps else None)
 
 
 def step_messages(step, *, episode: int, stamp_ns: int, zones: bool = False,
-                  previous_crashed: bool = False) -> Iterator[FoxgloveMessage]:
+                  previous_crashed: bool = False,
+                  draw: Optional[Callable[[Any], Optional[Scene]]] = None
+                  ) -> Iterator[FoxgloveMessage]:
     """The Foxglove messages of one step (a ``StepRecord``) at ``stamp_ns``; ``zones`` draws
-    the paper shield's zones; ``previous_crashed`` keeps a crash from being logged twice."""
+    the paper shield's zones; ``previous_crashed`` keeps a crash from being logged twice;
+    ``draw`` gives the step's scene (:func:`tracecheck.render.scene.scene_drawer`; default:
+    the built-in scenes)."""
     state = step.state
-    kind = scene_kind(state)
     speed = gap = None
-    if kind == "road":
-        entities, speed, gap = _road(state, stamp_ns, bool(step.crashed), zones)
-    elif kind == "grid":
-        entities = _grid(state, stamp_ns)
-    else:
-        entities = []
+    if scene_kind(state) == "road":
+        speed, gap = _road_scalars(state)
+    scene = (draw(step) if draw is not None
+             else builtin_scene(state, bool(step.crashed), zones))
+    entities = scene_entities(scene, stamp_ns) if scene is not None else []
     if entities:
         yield FoxgloveMessage("/foxglove/scene", {
             "deletions": [{"timestamp": _stamp(stamp_ns), "type": 1, "id": ""}],

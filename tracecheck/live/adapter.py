@@ -38,9 +38,12 @@ import importlib
 import re
 from dataclasses import dataclass
 from importlib import metadata
-from typing import Any, Collection, Optional
+from typing import TYPE_CHECKING, Any, Collection, Optional
 
 from ..errors import InputError, TracecheckError
+
+if TYPE_CHECKING:
+    from ..render.scene import Scene
 
 __all__ = ["EnvAdapter", "Observer", "adapters", "get_adapter", "load_adapter", "AdapterInfo",
            "ENTRY_POINT_GROUP", "parse_config"]
@@ -146,6 +149,14 @@ class EnvAdapter:
     def fallback_index(self) -> int:
         return self.actions.index(self.fallback) if self.fallback else 0
 
+    def scene(self, step) -> Optional["Scene"]:
+        """What a step looks like, for the viewer and Foxglove (optional): a
+        :class:`tracecheck.render.scene.Scene` of boxes, circles, lines and text, drawn from
+        ``step.state`` (its B state) and ``step.crashed``; None: no picture (the viewer then
+        shows the time series and the state table). See docs/environments.md, "Drawing your
+        environment"."""
+        return None
+
 
 @dataclass(frozen=True)
 class AdapterInfo:
@@ -228,7 +239,7 @@ def load_adapter(spec: Optional[str]) -> EnvAdapter:
 
 #: the hooks whose exceptions are reported as the adapter's (with its name and the hook)
 _HOOKS = ("make_env", "state", "crashed", "default_config", "config", "config_keys",
-          "fallback_index")
+          "fallback_index", "scene")
 
 
 def _raised(where: str, exc: BaseException, hook: str) -> InputError:

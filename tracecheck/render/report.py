@@ -1,6 +1,13 @@
-"""The validation report: one HTML page with the replay summary, the statistics tables with
-intervals, the plots (inline SVG), and links to viewer pages of the episodes that matter
-(crashes, crashes the shield would have prevented, first infeasible steps)."""
+"""The validation report: one HTML page for a supervisor.
+
+One section per run, side by side (what was recorded, what the shield would have blocked,
+and — when re-simulation ran — the headline "shield X would have prevented 5 of 6 crashes;
+0 new"); the paired comparisons of the runs as sentences naming their test; the statistics
+tables with intervals and the plots (inline SVG); then, per run, the episodes that matter
+first (each with its picture, or its variables over time where the environment draws none,
+and a link to its viewer page), the long tail collapsed. Every text from the runs is
+escaped: the page is inert (docs/safety.md).
+"""
 
 from __future__ import annotations
 
@@ -13,19 +20,35 @@ from ..errors import InputError
 from ..stats.properties import PropertySet
 from ..checking.shield import Shield
 from ..outputs import write_file
-from .viewer import render_episode
+from .viewer import numeric_series, render_episode
 
-__all__ = ["render_report"]
+__all__ = ["render_report", "comparison_sentences", "resimulation_headline"]
 
-_STYLE = """body{font-family:system-ui,sans-serif;margin:1.5em;color:#222;max-width:1200px}
+_STYLE = """body{font-family:system-ui,sans-serif;margin:1.5em;color:#222;max-width:1400px}
 table{border-collapse:collapse;font-size:.85em;margin:.5em 0}td,th{border:1px solid #ccc;
-padding:.2em .5em;text-align:left}h2{margin-top:1.5em}.note{color:#666;font-size:.85em}
-figure{display:inline-block;margin:.5em}figure svg{max-width:560px;height:auto}"""
+padding:.2em .5em;text-align:left;vertical-align:top}h2{margin-top:1.5em}
+.note{color:#666;font-size:.85em}figure{display:inline-block;margin:.5em}
+figure svg{max-width:560px;height:auto}
+.runs{display:grid;grid-template-columns:repeat(auto-fit,minmax(320px,1fr));gap:1em}
+.run{border:1px solid #ddd;border-radius:6px;padding:.2em 1em .6em 1em}
+.run h3{margin:.4em 0;font-size:1.05em;word-break:break-all}
+.headline{font-size:1.05em;font-weight:600}.sentences li{margin:.3em 0}
+details{margin:.5em 0}summary{cursor:pointer;color:#444}
+td.pic svg{display:block}.bad{color:#c62828;font-weight:600}.good{color:#2e7d32;font-weight:600}"""
+
+#: how many episodes per run are shown before the rest is collapsed
+SHOWN = 8
+#: significance level of the sentences
+ALPHA = 0.05
+
+
+def _e(text) -> str:
+    return html.escape(str(text), quote=True)
 
 
 def _table(header: list[str], rows: list[list[str]]) -> str:
-    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
-    body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>"
+    head = "".join(f"<th>{_e(h)}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{_e(c)}</td>" for c in row) + "</tr>"
                    for row in rows)
     return f"<table><tr>{head}</tr>{body}</table>"
 
@@ -59,91 +82,304 @@ def _svg_plots(result: dict) -> list[str]:
     return figures
 
 
+# ------------------------------------------------------------------ words
+
+def _p(value: float) -> str:
+    return f"p = {value:.3f}" if value >= 0.001 else "p < 0.001"
+
+
+def _share(x: float) -> str:
+    return f"{x:.0%}"
+
+
+def resimulation_headline(shield: str, crashes: int, summary: dict) -> str:
+    """"shield X would have prevented 5 of 6 crashes; 0 new" (and what did not reproduce)."""
+    text = (f"shield {shield} would have prevented {summary['crashes_prevented']} of "
+            f"{crashes} crash{'es' if crashes != 1 else ''}; {summary['new_crashes']} new")
+    left = []
+    if summary.get("mismatches"):
+        left.append(f"{summary['mismatches']} episode(s) did not reproduce from their seed "
+                    "and are not counted")
+    if summary.get("without_seed"):
+        left.append(f"{summary['without_seed']} episode(s) have no seed to re-run")
+    return text + (f" ({'; '.join(left)})" if left else "")
+
+
+def comparison_sentences(result: dict) -> list[str]:
+    """The paired comparisons of ``statistics`` as sentences naming their test: "The share
+    of episodes where … is lower in B than in A (12% vs 35%; exact McNemar test on 24 pairs
+    of episodes with the same seed, p = 0.004)", or "No significant difference …"."""
+    runs = {r["name"]: r for r in result.get("runs", [])}
+    descriptions = result.get("descriptions", {})
+    out = []
+    for c in result.get("comparisons", []):
+        a, b = c["runs"]
+        pairs = c["pairs"]
+        for name, entry in c.get("properties", {}).items():
+            what = f"{name} (“{descriptions[name]}”)" if descriptions.get(name) else name
+            ra = runs.get(a, {}).get("properties", {}).get(name, {}).get("ratio")
+            rb = runs.get(b, {}).get("properties", {}).get(name, {}).get("ratio")
+            shares = f"{_share(rb)} vs {_share(ra)}; " if ra is not None and rb is not None \
+                else ""
+            test = (f"{entry.get('method', 'exact McNemar')} test on {pairs} pair(s) of "
+                    f"episodes with the same seed, {_p(entry['p_value'])}")
+            if entry["p_value"] < ALPHA and ra is not None and rb is not None and ra != rb:
+                way = "lower" if rb < ra else "higher"
+                out.append(f"The share of episodes that satisfy {what} is {way} in {b} "
+                           f"than in {a} ({shares}{test}).")
+            else:
+                out.append(f"No significant difference in the share of episodes that "
+                           f"satisfy {what} between {b} and {a} ({shares}{test}).")
+        for name, entry in c.get("metrics", {}).items():
+            what = descriptions.get(name) or name
+            diff = entry.get("mean_difference")
+            for key, test in (("paired_t_p", "paired t-test"), ("wilcoxon_p",
+                                                                 "Wilcoxon signed-rank test")):
+                if entry.get(key) is not None:
+                    break
+            else:
+                out.append(f"{what}: no test between {a} and {b} "
+                           f"({entry.get('mean_difference_note') or 'the paired values do not differ'}).")
+                continue
+            pv = entry[key]
+            detail = (f"mean difference {a} − {b} {diff:.3g} over {pairs} pair(s); {test}, "
+                      f"{_p(pv)}")
+            if pv < ALPHA and diff:
+                way = "higher" if diff > 0 else "lower"
+                out.append(f"{what} is {way} in {a} than in {b} ({detail}).")
+            else:
+                out.append(f"No significant difference in {what} between {a} and {b} "
+                           f"({detail}).")
+    return out
+
+
+# ------------------------------------------------------------------ the report
+
 def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
                   pset: PropertySet, max_pages: int = 20, force: bool = False,
-                  inputs: Sequence[Path] = ()) -> tuple[Path, int]:
+                  inputs: Sequence[Path] = (), resimulate: bool = False,
+                  agent: Optional[Path] = None, env: Optional[str] = None,
+                  adapter=None) -> tuple[Path, int]:
     """Write the report to ``out`` and viewer pages beside it (``NAME_files/``); (report,
-    pages written). Both follow the output rule (:mod:`tracecheck.outputs`): neither is one
-    of the runs or ``inputs``, existing ones are replaced only with ``force``, and only once
-    the new ones are complete."""
-    from ..checking.replay import replay
+    pages written). With ``resimulate`` (needs ``shield``), the episodes the shield would
+    have blocked are re-simulated under it (as ``replay --resimulate``; ``agent`` and
+    ``env`` as there). Both outputs follow the output rule (:mod:`tracecheck.outputs`)."""
+    from ..episodes.columns import read_columns
     from ..outputs import check_output, safe_name
     from ..stats.estimates import statistics
     from .stats_text import _rows
-
-    from ..episodes.columns import read_columns
 
     out = Path(out)
     pages_dir = out.with_name(out.stem + "_files")
     check_output(out, [*runs, *inputs], force=force, example="report.html")
     check_output(pages_dir, [*runs, *inputs], force=force, kind="folder",
                  what="folder of viewer pages", contents=("*.html",))
+    if resimulate and shield is None:
+        raise InputError("--resimulate needs --shield: the shield to re-simulate under")
     for run in runs:
         if not Path(run).exists():
             raise InputError(f"no such file: {run}")
         if not len(read_columns(run).episode_ids):
             raise InputError(f"{run} holds no complete episode: nothing to report")
-    parts = [f"<h1>tracecheck validation report</h1><p class='note'>runs: "
-             f"{html.escape(', '.join(map(str, runs)))}</p>"]
-    pages = []
-    # one page name per run, also for runs with the same file name in different folders
     stems, taken = [Path(r).stem for r in runs], set()
     page_stem = {str(r): safe_name(stem if stems.count(stem) == 1 else f"{stem}_{i + 1}", taken)
                  for i, (r, stem) in enumerate(zip(runs, stems))}
-    if shield is not None:
-        report = replay(runs, shield)
-        parts.append(f"<h2>Replay against shield {html.escape(shield.name)}</h2><p>"
-                     f"{report.episodes} episode(s), {report.steps} step(s): "
-                     f"{report.infeasible_steps} infeasible step(s) in "
-                     f"{report.infeasible_episodes} episode(s); {report.crashes} crash(es), "
-                     f"{report.crashes_after_infeasible} at or after the first infeasible step "
-                     f"(would have been blocked); {report.deadlock_states} deadlock state(s), "
-                     f"{report.postcondition_violations} postcondition and "
-                     f"{report.invariant_violations} invariant violation(s).</p>"
-                     f"<p class='note'>shield sha256 {shield.sha256}</p>")
-        matters = [e for e in report.per_episode if e.crashed or e.first_infeasible is not None]
-        matters.sort(key=lambda e: (not e.crash_after_infeasible, not e.crashed))
-        rows = []
-        for e in matters:
-            link = ""
-            if len(pages) < max_pages:
-                stem = page_stem.get(str(e.file)) or safe_name(Path(e.file).stem)
-                name = f"{stem}_episode_{e.episode}.html"
-                pages.append((e.file, e.episode, name))
-                link = f"{pages_dir.name}/{name}"
-            rows.append((e, link))
-        parts.append("<h2>Episodes that matter</h2><table><tr><th>file</th><th>episode</th>"
-                     "<th>steps</th><th>first infeasible</th><th>crash step</th>"
-                     "<th>crash after it</th><th>viewer</th></tr>")
-        for e, link in rows:
-            cell = f"<a href='{html.escape(link)}'>open</a>" if link else "(not rendered)"
-            parts.append(
-                f"<tr><td>{html.escape(Path(e.file).name)}</td><td>{e.episode}</td>"
-                f"<td>{e.steps}</td><td>{'' if e.first_infeasible is None else e.first_infeasible}"
-                f" {html.escape(e.action or '')}</td><td>{'' if e.crash_step is None else e.crash_step}"
-                f"</td><td>{'yes' if e.crash_after_infeasible else ''}</td><td>{cell}</td></tr>")
-        parts.append("</table>")
+    checked = [_check_run(run, shield, resimulate, agent, env) for run in runs]
     result = statistics(runs, pset)
+    parts = [f"<h1>tracecheck validation report</h1><p class='note'>"
+             f"{len(runs)} run(s)" + (f"; shield {_e(shield.name)} (sha256 {_e(shield.sha256)})"
+                                      if shield is not None else "; no shield to replay")
+             + f"; properties {_e(pset.name)}</p>",
+             "<h2>Runs</h2><div class='runs'>",
+             *(_run_section(c, shield) for c in checked), "</div>"]
+    sentences = comparison_sentences(result)
+    if sentences:
+        parts.append("<h2>Comparison</h2><p class='note'>Runs paired episode by episode "
+                     f"through their seeds; significant at the {ALPHA:g} level.</p>"
+                     "<ul class='sentences'>" + "".join(f"<li>{_e(s)}</li>" for s in sentences)
+                     + "</ul>")
     header, rows = _rows(result)
-    parts.append(f"<h2>Statistics ({html.escape(pset.name)})</h2><p class='note'>metrics: "
+    parts.append(f"<h2>Statistics ({_e(pset.name)})</h2><p class='note'>metrics: "
                  f"mean ± sd [95 % t interval]; properties: % of episodes [95 % "
-                 f"{result['interval']} interval]</p>")
+                 f"{_e(result['interval'])} interval]</p>")
     parts.append(_table(header, rows))
-    for svg in _svg_plots(result):
-        parts.append(f"<figure>{svg}</figure>")
+    parts += [f"<figure>{svg}</figure>" for svg in _svg_plots(result)]
+    pages: list = []
+    if shield is not None:
+        parts.append("<h2>Episodes that matter</h2><p class='note'>Per run, those that matter "
+                     "most first: crashes the shield prevented in re-simulation, new crashes, "
+                     "crashes after a blocked step, other crashes, blocked steps. The picture "
+                     "shows the first blocked step (else the crash).</p>")
+        budget = max(1, max_pages // len(checked))  # every run gets its viewer pages
+        for c in checked:
+            parts.append(_episodes_section(c, shield, pages, page_stem, pages_dir,
+                                           len(pages) + budget, adapter))
     page = (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>tracecheck "
             f"report</title><style>{_STYLE}</style></head><body>{''.join(parts)}</body></html>")
     if pages:
-        _write_pages(pages_dir, pages, shield)
+        _write_pages(pages_dir, pages, shield, adapter)
     write_file(out, page)
     return out, len(pages)
 
 
-def _write_pages(folder: Path, pages: list, shield: Optional[Shield]) -> None:
+def _check_run(run, shield, resimulate: bool, agent, env) -> dict:
+    """One run: its header, replay and (with ``resimulate``) re-simulation."""
+    from ..checking.replay import replay
+    from ..episodes.reader import read_header
+
+    entry = {"file": str(run), "header": read_header(run), "replay": None, "resim": None}
+    if shield is not None:
+        entry["replay"] = replay([run], shield)
+        if resimulate:
+            from ..checking.resimulate import resimulate as again, summary
+
+            entry["resim"] = summary(again(run, shield, entry["replay"], agent=agent, env=env))
+    return entry
+
+
+def _run_section(c: dict, shield: Optional[Shield]) -> str:
+    h, r = c["header"], c["replay"]
+    rows = [("environment", h.environment or "highway"), ("source", h.source),
+            ("recorded under shield", h.shield_name or "—"), ("agent", h.agent_id or "—")]
+    if r is not None:
+        rows += [("episodes", r.episodes), ("steps", r.steps),
+                 ("crashes", f"{r.crashes} ({_share(r.crashes / r.episodes)})"
+                  if r.episodes else "0"),
+                 (f"steps {shield.name} would have blocked",
+                  f"{r.infeasible_steps} in {r.infeasible_episodes} episode(s)"),
+                 ("crashes after a blocked step", r.crashes_after_infeasible)]
+        if r.deadlock_states or r.postcondition_violations or r.invariant_violations:
+            rows.append(("deadlocks / postcondition / invariant violations",
+                         f"{r.deadlock_states} / {r.postcondition_violations} / "
+                         f"{r.invariant_violations}"))
+    body = "".join(f"<tr><th>{_e(k)}</th><td>{_e(v)}</td></tr>" for k, v in rows)
+    text = f"<section class='run'><h3>{_e(Path(c['file']).name)}</h3><table>{body}</table>"
+    if c["resim"] is not None:
+        text += (f"<p class='headline'>Re-simulation: "
+                 f"{_e(resimulation_headline(shield.name, r.crashes, c['resim']))}.</p>")
+    elif r is not None and r.crashes:
+        text += ("<p class='note'>Whether blocking would have prevented a crash needs "
+                 "re-simulation: <code>tracecheck report --resimulate</code>.</p>")
+    return text + "</section>"
+
+
+_ORDER = {"crash prevented": 0, "new crash": 1, "still crashed": 2, "mismatch": 3,
+          "no seed": 4, "no crash": 6}
+
+
+def _ranked(c: dict) -> list[tuple]:
+    """(episode replay, re-simulation outcome or None) of the episodes that matter, those
+    that matter most first."""
+    outcomes = {r["episode"]: r for r in (c["resim"] or {}).get("per_episode", [])}
+    matters = [e for e in c["replay"].per_episode if e.matters]
+
+    def rank(e):
+        o = outcomes.get(e.episode)
+        if o is not None:
+            return (_ORDER.get(o["outcome"], 5), e.episode)
+        return (1 if e.crash_after_infeasible else 2 if e.crashed else 3, e.episode)
+    return [(e, outcomes.get(e.episode)) for e in sorted(matters, key=rank)]
+
+
+def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter) -> str:
+    from ..outputs import safe_name
+
+    ranked = _ranked(c)
+    name = Path(c["file"]).name
+    if not ranked:
+        return f"<h3>{_e(name)}</h3><p>No episode crashed or had a blocked step.</p>"
+    pictures = _pictures(c, [e for e, _ in ranked[:SHOWN]], adapter, shield)
+    head = ["episode", "steps", "first blocked step", "crash step",
+            "re-simulated" if c["resim"] is not None else "crash after a blocked step",
+            "picture", "viewer"]
+    rows = []
+    for i, (e, o) in enumerate(ranked):
+        link = ""
+        if len(pages) < max_pages:
+            stem = page_stem.get(str(e.file)) or safe_name(Path(e.file).stem)
+            page = f"{stem}_episode_{e.episode}.html"
+            pages.append((e.file, e.episode, page))
+            link = f"<a href='{_e(pages_dir.name + '/' + page)}'>open</a>"
+        if o is not None:
+            verdict = o["outcome"] + (f" (at step {o['new_crash_step']})"
+                                      if o.get("new_crash_step") is not None else "")
+            cls = "good" if o["outcome"] == "crash prevented" else \
+                "bad" if o["outcome"] in ("new crash", "still crashed", "mismatch") else ""
+        else:
+            verdict, cls = ("yes" if e.crash_after_infeasible else ""), ""
+        first = "" if e.first_infeasible is None else f"{e.first_infeasible} {e.action or ''}"
+        rows.append(f"<tr><td>{e.episode}</td><td>{e.steps}</td><td>{_e(first)}</td>"
+                    f"<td>{'' if e.crash_step is None else e.crash_step}</td>"
+                    f"<td class='{cls}'>{_e(verdict)}</td>"
+                    f"<td class='pic'>{pictures.get(e.episode, '')}</td>"
+                    f"<td>{link or '(not rendered)'}</td></tr>")
+    head_row = "<tr>" + "".join(f"<th>{_e(h)}</th>" for h in head) + "</tr>"
+    text = (f"<h3>{_e(name)}</h3><table>{head_row}{''.join(rows[:SHOWN])}</table>")
+    if len(rows) > SHOWN:
+        text += (f"<details><summary>{len(rows) - SHOWN} more episode(s)</summary>"
+                 f"<table>{head_row}{''.join(rows[SHOWN:])}</table></details>")
+    return text
+
+
+def _pictures(c: dict, shown: list, adapter, shield) -> dict[int, str]:
+    """Per episode shown: the scene at its first blocked step (else at its crash), or where
+    the environment draws none, its numeric variables over time."""
+    from ..episodes.reader import read_run
+    from .scene import scene_drawer, scene_kind, scene_svg
+
+    if not shown:
+        return {}
+    result = read_run(c["file"], {e.episode for e in shown})
+    draw = scene_drawer(adapter=adapter, zones=shield.name == "paper")
+    wanted = {e.episode: e.first_infeasible if e.first_infeasible is not None else
+              (e.crash_step or 0) for e in shown}
+    out = {}
+    for ep in result.episodes:
+        k = min(wanted.get(ep.id, 0), len(ep.steps) - 1)
+        scene = draw(ep.steps[k])
+        # the road near the ego vehicle: a thumbnail of the whole view would be a thin strip
+        near = (-30.0, -4.0, 100.0, 16.0) if scene_kind(ep.steps[k].state) == "road" else None
+        out[ep.id] = (scene_svg(scene, 300, view=near) if scene is not None
+                      else _sparklines(ep, wanted.get(ep.id)))
+    return out
+
+
+def _sparklines(ep, mark: Optional[int], width: int = 260, row: int = 26) -> str:
+    """Up to four numeric variables of an episode as small lines, the marked step as a red
+    rule."""
+    series = [(line["label"], line["values"]) for entry in numeric_series(
+        [s.state for s in ep.steps]) for line in entry["lines"]][:4]
+    if not series:
+        return ""
+    n = len(ep.steps)
+    label_w = 90
+    parts = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" '
+             f'height="{row * len(series)}" role="img">']
+    x = lambda k: label_w + (width - label_w - 4) * (k / (n - 1) if n > 1 else 0.5)  # noqa: E731
+    if mark is not None:
+        parts.append(f'<line x1="{x(mark):.1f}" x2="{x(mark):.1f}" y1="0" '
+                     f'y2="{row * len(series)}" stroke="#e53935"/>')
+    for i, (label, values) in enumerate(series):
+        given = [v for v in values if v is not None]
+        lo, hi = (min(given), max(given)) if given else (0.0, 1.0)
+        hi = hi if hi > lo else lo + 1.0
+        top = i * row
+        points = " ".join(f"{x(k):.1f},{top + 3 + (row - 8) * (1 - (v - lo) / (hi - lo)):.1f}"
+                          for k, v in enumerate(values) if v is not None)
+        parts.append(f'<text x="0" y="{top + row / 2 + 4:.0f}" font-size="10" fill="#444">'
+                     f'{_e(label[:16])}<title>{_e(label)}</title></text>'
+                     f'<polyline points="{points}" fill="none" stroke="#1f77b4" '
+                     f'stroke-width="1.2"/>')
+    parts.append("</svg>")
+    return "".join(parts)
+
+
+def _write_pages(folder: Path, pages: list, shield: Optional[Shield], adapter=None) -> None:
     """The viewer pages, into a new folder that replaces ``folder`` once all are written."""
     from ..outputs import atomic_folder, inside, open_new
 
     with atomic_folder(folder) as tmp:
         for file, episode, name in pages:
             with open_new(inside(tmp, name)) as stream:
-                stream.write(render_episode(file, episode, shield).encode("utf-8"))
+                stream.write(render_episode(file, episode, shield,
+                                            adapter=adapter).encode("utf-8"))

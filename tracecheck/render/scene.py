@@ -1,24 +1,213 @@
-"""What a state shows, for every picture of it (the HTML viewer, Foxglove scenes): a road of
-vehicles (the highway), a grid world, or nothing to draw."""
+"""What a state shows, for every picture of it: a small declarative scene of boxes, circles,
+lines and text that the HTML viewer draws as SVG and the Foxglove writer converts to a
+``foxglove.SceneUpdate`` (:mod:`tracecheck.interop.foxglove`).
+
+Coordinates are the environment's own units (metres on the highway, cells in a grid world),
+x to the right and y *down*, as on a page; Foxglove's y points the other way and its writer
+flips it. Colours are RGBA in 0..1. Every shape has a ``group`` (the Foxglove entity it joins,
+e.g. one per vehicle) and an optional ``label`` (the viewer's hover text).
+
+Built-in scenes: the highway (:func:`road_scene`) and the grid worlds FrozenLake and
+CliffWalking (:func:`grid_scene`), recognised by the shape of their states. An adapter draws
+its own environment by implementing ``scene(step)`` (docs/environments.md, "Drawing your
+environment")::
+
+    def scene(self, step):
+        gap = step.state["Gap"]
+        return Scene(shapes=(Box(x=0, y=0, width=4, height=2, fill=BLUE, label="ego"),
+                             Box(x=gap, y=0, width=4, height=2, fill=GREY, label="lead")),
+                     view=(-10, -5, gap + 20, 10), caption="ego (blue) and lead car")
+"""
 
 from __future__ import annotations
 
-from ..b.values import format_value
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Optional, Union
 
-__all__ = ["scene_kind", "grid_cells", "vehicles", "paper_zones", "DANGER"]
+from ..b.values import format_value
+from ..errors import InputError
+
+__all__ = ["Scene", "Box", "Circle", "Line", "Text", "Color", "scene_kind", "grid_cells",
+           "vehicles", "paper_zones", "road_scene", "grid_scene", "builtin_scene",
+           "scene_drawer", "scene_svg", "css", "DANGER", "ROAD_CAPTION", "GRID_CAPTION"]
+
+Color = tuple[float, float, float, float]
+WHITE, BLACK, GREY = (1.0, 1.0, 1.0, 1.0), (0.1, 0.1, 0.1, 1.0), (0.55, 0.55, 0.55, 1.0)
+BLUE, GREEN, RED, YELLOW = ((0.29, 0.48, 0.82, 1.0), (0.24, 0.69, 0.26, 1.0),
+                            (0.83, 0.2, 0.2, 1.0), (1.0, 0.84, 0.31, 1.0))
+EGO = (0.16, 0.4, 0.9, 1.0)
+
+
+def _number(owner: str, name: str, value) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(f"a scene's {owner} has {name} {value!r}: give a finite number")
+
+
+def _color(owner: str, name: str, value) -> None:
+    if value is None:
+        return
+    if (not isinstance(value, tuple) or len(value) != 4
+            or not all(isinstance(c, (int, float)) and 0 <= c <= 1 for c in value)):
+        raise InputError(f"a scene's {owner} has {name} {value!r}: give (r, g, b, a), each "
+                         "from 0 to 1")
+
+
+def _check(shape, numbers: tuple[str, ...], colors: tuple[str, ...]) -> None:
+    owner = type(shape).__name__
+    for name in numbers:
+        _number(owner, name, getattr(shape, name))
+    for name in colors:
+        _color(owner, name, getattr(shape, name))
+
+
+@dataclass(frozen=True, slots=True)
+class Box:
+    """A rectangle centred on (x, y); ``depth`` is its height in Foxglove's 3D view."""
+
+    x: float
+    y: float
+    width: float
+    height: float
+    fill: Optional[Color] = GREY
+    stroke: Optional[Color] = None
+    stroke_width: float = 0.1
+    dashed: bool = False
+    label: str = ""
+    group: str = "scene"
+    depth: float = 0.1
+
+    def __post_init__(self):
+        _check(self, ("x", "y", "width", "height", "stroke_width", "depth"), ("fill", "stroke"))
+
+
+@dataclass(frozen=True, slots=True)
+class Circle:
+    """A disc centred on (x, y) (a sphere in Foxglove)."""
+
+    x: float
+    y: float
+    radius: float
+    fill: Optional[Color] = GREY
+    stroke: Optional[Color] = None
+    stroke_width: float = 0.05
+    label: str = ""
+    group: str = "scene"
+
+    def __post_init__(self):
+        _check(self, ("x", "y", "radius", "stroke_width"), ("fill", "stroke"))
+
+
+@dataclass(frozen=True, slots=True)
+class Line:
+    """A polyline through ``points``; ``arrow`` puts a head on its last point."""
+
+    points: tuple[tuple[float, float], ...]
+    color: Color = BLACK
+    width: float = 0.1
+    dashed: bool = False
+    arrow: bool = False
+    label: str = ""
+    group: str = "scene"
+
+    def __post_init__(self):
+        if not isinstance(self.points, tuple) or len(self.points) < 2:
+            raise InputError(f"a scene's Line has points {self.points!r}: give a tuple of at "
+                             "least two (x, y) pairs")
+        for p in self.points:
+            if not isinstance(p, tuple) or len(p) != 2:
+                raise InputError(f"a scene's Line has the point {p!r}: give an (x, y) pair")
+            _number("Line", "a point coordinate", p[0])
+            _number("Line", "a point coordinate", p[1])
+        _check(self, ("width",), ("color",))
+
+
+@dataclass(frozen=True, slots=True)
+class Text:
+    """``text`` centred on (x, y), ``size`` high."""
+
+    x: float
+    y: float
+    text: str
+    size: float = 1.0
+    color: Color = BLACK
+    group: str = "scene"
+
+    def __post_init__(self):
+        _check(self, ("x", "y", "size"), ("color",))
+        if not isinstance(self.text, str):
+            raise InputError(f"a scene's Text has text {self.text!r}: give a string")
+
+
+Shape = Union[Box, Circle, Line, Text]
+
+
+@dataclass(frozen=True, slots=True)
+class Scene:
+    """What one state shows: ``shapes`` drawn in order (later ones on top) inside ``view``
+    (x, y, width, height: the region to show), a ``caption`` saying how to read it."""
+
+    shapes: tuple[Shape, ...]
+    view: tuple[float, float, float, float]
+    background: Optional[Color] = None
+    caption: str = ""
+    #: the picture's size on the page relative to its view (pixels per unit), None: fit
+    scale: Optional[float] = field(default=None)
+
+    def __post_init__(self):
+        if not isinstance(self.shapes, tuple) or not all(
+                isinstance(s, (Box, Circle, Line, Text)) for s in self.shapes):
+            raise InputError("a Scene's shapes must be a tuple of Box, Circle, Line and Text")
+        if not isinstance(self.view, tuple) or len(self.view) != 4:
+            raise InputError(f"a Scene has view {self.view!r}: give (x, y, width, height)")
+        for v in self.view:
+            _number("view", "a bound", v)
+        if self.view[2] <= 0 or self.view[3] <= 0:
+            raise InputError(f"a Scene has view {self.view!r}: its width and height must be "
+                             "above 0")
+        _color("Scene", "background", self.background)
+
+
+def css(color: Optional[Color]) -> str:
+    """A colour as CSS (``none`` for None)."""
+    if color is None:
+        return "none"
+    r, g, b, a = color
+    return f"rgba({round(r * 255)},{round(g * 255)},{round(b * 255)},{a:g})"
+
+
+def shape_json(shape: Shape) -> dict:
+    """A shape as the HTML viewer reads it (colours as CSS)."""
+    if isinstance(shape, Box):
+        return {"kind": "box", "x": shape.x, "y": shape.y, "w": shape.width,
+                "h": shape.height, "fill": css(shape.fill), "stroke": css(shape.stroke),
+                "sw": shape.stroke_width, "dashed": shape.dashed, "label": shape.label}
+    if isinstance(shape, Circle):
+        return {"kind": "circle", "x": shape.x, "y": shape.y, "r": shape.radius,
+                "fill": css(shape.fill), "stroke": css(shape.stroke),
+                "sw": shape.stroke_width, "label": shape.label}
+    if isinstance(shape, Line):
+        return {"kind": "line", "points": [list(p) for p in shape.points],
+                "stroke": css(shape.color), "sw": shape.width, "dashed": shape.dashed,
+                "arrow": shape.arrow, "label": shape.label}
+    return {"kind": "text", "x": shape.x, "y": shape.y, "text": shape.text,
+            "size": shape.size, "fill": css(shape.color)}
+
+
+# ------------------------------------------------------------------ the built-in scenes
 
 _ROAD = ("VehiclesX", "VehiclesY", "VehiclesVx", "VehiclesVy")
 
 
 def scene_kind(state: dict) -> str:
-    """road (the highway), grid (a grid world: x, y and a field keyed by (x, y)), or none
-    (the page then shows the steps and states only)."""
+    """road (the highway), grid (a grid world: x, y and a field keyed by (x, y)), or none."""
     if all(hasattr(state.get(v), "map") for v in _ROAD):
         return "road"
-    field = state.get("field")
-    if (type(state.get("x")) is int and type(state.get("y")) is int and hasattr(field, "map")
+    field_ = state.get("field")
+    if (type(state.get("x")) is int and type(state.get("y")) is int and hasattr(field_, "map")
+            and field_.map
             and all(isinstance(k, tuple) and len(k) == 2 and all(type(c) is int for c in k)
-                    for k in field.map)):
+                    for k in field_.map)):
         return "grid"
     return "none"
 
@@ -56,10 +245,164 @@ _BLOCKS = {"any": lambda vx: True, "slower": lambda vx: vx < 0, "faster": lambda
 
 def paper_zones(cars: list[dict], ego: str = "EgoVehicle") -> list[dict]:
     """The paper shield's zones for the vehicles of :func:`vehicles`: each with its action,
-    bounds relative to the ego vehicle and whether a present vehicle in it blocks the action
-    (drawn by the HTML viewer and in Foxglove scenes alike)."""
+    bounds relative to the ego vehicle and whether a present vehicle in it blocks the action."""
     others = [v for v in cars if v["name"] != ego and v["present"]]
     return [{"action": action, "x0": x0, "x1": x1, "y0": y0, "y1": y1,
              "blocking": any(x0 < v["x"] <= x1 and y0 < v["y"] < y1 and _BLOCKS[which](v["vx"])
                              for v in others)}
             for action, x0, x1, y0, y1, which in _PAPER_ZONES]
+
+
+ROAD_CAPTION = ("Positions are vehicle centres; vehicles are drawn as 5 m × 2 m boxes; the ego "
+                "vehicle is blue (red once crashed), the others grey, absent ones dashed; arrows show "
+                "velocity (1 s of travel, relative speeds for others). Shaded: the zones the "
+                "paper shield's guards test; red: a zone holding a vehicle, blocking an action.")
+GRID_CAPTION = ("The grid world from above: dark cells are holes or cliffs, the yellow square "
+                "the goal, the green disc the agent (red once it fell).")
+_ZONE, _BLOCKING = (1.0, 0.84, 0.31, 0.18), (1.0, 0.32, 0.32, 0.3)
+_EDGE, _LANE, _ASPHALT = (1.0, 1.0, 1.0, 1.0), (0.93, 0.93, 0.93, 1.0), (0.36, 0.36, 0.36, 1.0)
+
+
+def road_scene(state: dict, crashed: bool = False, zones: bool = False,
+               ego: str = "EgoVehicle") -> Scene:
+    """The highway around the ego vehicle (at x = 0): three lanes, every vehicle as a
+    5 m × 2 m box with its velocity arrow, and with ``zones`` the paper shield's zones."""
+    cars = vehicles(state)
+    me = next((v for v in cars if v["name"] == ego), None)
+    ey = me["y"] if me is not None else 0.0
+    shapes: list[Shape] = [Line(((-60.0, y), (140.0, y)), _EDGE, 0.3, group="road")
+                           for y in (-2.0, 10.0)]
+    shapes += [Line(((-60.0, y), (140.0, y)), _LANE, 0.15, dashed=True, group="road")
+               for y in (2.0, 6.0)]
+    if zones and me is not None:
+        for z in paper_zones(cars, ego):
+            color = _BLOCKING if z["blocking"] else _ZONE
+            shapes.append(Box((z["x0"] + z["x1"]) / 2, ey + (z["y0"] + z["y1"]) / 2,
+                              z["x1"] - z["x0"], z["y1"] - z["y0"], fill=color,
+                              stroke=color[:3] + (1.0,),
+                              label=z["action"] + (": blocked" if z["blocking"] else ""),
+                              group="shield zones"))
+    for v in cars:
+        is_ego = v["name"] == ego
+        x, y = (0.0, v["y"]) if is_ego else (v["x"], ey + v["y"])
+        fill = (RED if crashed else EGO) if is_ego else GREY if v["present"] else None
+        shapes.append(Box(x, y, 5.0, 2.0, fill=fill, stroke=(0.07, 0.07, 0.2, 1.0)
+                          if v["present"] else GREY, dashed=not v["present"],
+                          label=f"{v['name']}: x {v['x']:.1f}, y {v['y']:.1f}, vx {v['vx']:.1f}",
+                          group=v["name"], depth=1.5))
+        if v["present"] and (abs(v["vx"]) > 0.1 or abs(v["vy"]) > 0.1):
+            shapes.append(Line(((x, y), (x + v["vx"], y + v["vy"])), WHITE, 0.2, arrow=True,
+                               group=v["name"]))
+    return Scene(tuple(shapes), (-60.0, -4.0, 200.0, 16.0), _ASPHALT, ROAD_CAPTION)
+
+
+def grid_scene(state: dict, crashed: bool = False) -> Scene:
+    """A grid world: one tile per cell (holes and cliffs dark), the goal, the agent."""
+    grid = grid_cells(state)
+    shapes: list[Shape] = [
+        Box(x + 0.5, y + 0.5, 1.0, 1.0, fill=(0.15, 0.2, 0.22, 1.0) if danger
+            else (0.87, 0.94, 0.98, 1.0), stroke=WHITE, stroke_width=0.04,
+            label=f"({x}, {y}): {label}", group="map", depth=0.05)
+        for x, y, danger, label in grid["cells"]]
+    if "goal_x" in state and "goal_y" in state:
+        shapes.append(Box(state["goal_x"] + 0.5, state["goal_y"] + 0.5, 0.6, 0.6, fill=YELLOW,
+                          label="goal", group="goal", depth=0.1))
+    shapes.append(Circle(state["x"] + 0.5, state["y"] + 0.5, 0.3,
+                         fill=RED if crashed else GREEN, stroke=BLACK,
+                         label=f"agent at ({state['x']}, {state['y']})", group="agent"))
+    return Scene(tuple(shapes), (0.0, 0.0, float(grid["cols"]), float(grid["rows"])),
+                 None, GRID_CAPTION, scale=40.0)
+
+
+def builtin_scene(state: dict, crashed: bool = False, zones: bool = False) -> Optional[Scene]:
+    """The highway's or a grid world's scene when ``state`` is one of theirs, else None."""
+    kind = scene_kind(state)
+    if kind == "road":
+        return road_scene(state, crashed, zones)
+    if kind == "grid":
+        return grid_scene(state, crashed)
+    return None
+
+
+def scene_drawer(environment: Optional[str] = None, adapter=None, *, zones: bool = False
+                 ) -> Callable[..., Optional[Scene]]:
+    """A function from a step (a ``StepRecord``) to its scene: the adapter's own ``scene``
+    hook where it has one (``adapter``, or the installed adapter named ``environment`` — only
+    ever looked up among the installed entry points: the recorder, which has it loaded
+    anyway), else the built-in scenes."""
+    hook = _hook(adapter if adapter is not None else _installed(environment))
+
+    def draw(step) -> Optional[Scene]:
+        if hook is not None:
+            scene = hook(step)
+            if scene is not None and not isinstance(scene, Scene):
+                raise InputError(f"the adapter's scene() returned {type(scene).__name__}, "
+                                 "not a tracecheck.render.scene.Scene (or None)")
+            if scene is not None:
+                return scene
+        return builtin_scene(step.state, bool(step.crashed), zones)
+    return draw
+
+
+_BUILTIN_ENVS = {None, "highway", "frozenlake", "cliffwalking"}
+
+
+def _installed(environment: Optional[str]):
+    """The installed adapter of that name, None when there is none (a run renders without
+    its adapter) or the built-in scenes draw it (no environment package is imported)."""
+    if environment in _BUILTIN_ENVS:
+        return None
+    from ..live.adapter import get_adapter
+
+    try:
+        return get_adapter(environment)
+    except InputError:
+        return None
+
+
+def _hook(adapter):
+    from ..live.adapter import EnvAdapter
+
+    method = getattr(type(adapter), "scene", None) if adapter is not None else None
+    if method is None or method is EnvAdapter.scene:
+        return None
+    return adapter.scene
+
+
+def scene_svg(scene: Scene, width: int = 360, max_height: int = 180,
+              view: Optional[tuple[float, float, float, float]] = None) -> str:
+    """A scene as a static inline SVG (the report's pictures; ``view`` instead of the
+    scene's own); every text escaped."""
+    from html import escape
+
+    x0, y0, w, h = view or scene.view
+    width = min(width, round(max_height * w / h))
+    height = max(10, round(width * h / w))
+    parts = [f'<svg xmlns="http://www.w3.org/2000/svg" viewBox="{x0:g} {y0:g} {w:g} {h:g}" '
+             f'width="{width}" height="{height}" role="img">']
+    if scene.background is not None:
+        parts.append(f'<rect x="{x0:g}" y="{y0:g}" width="{w:g}" height="{h:g}" '
+                     f'fill="{css(scene.background)}"/>')
+    for s in scene.shapes:
+        title = f"<title>{escape(s.label)}</title>" if getattr(s, "label", "") else ""
+        if isinstance(s, Box):
+            dash = f' stroke-dasharray="{s.stroke_width * 4:g}"' if s.dashed else ""
+            parts.append(f'<rect x="{s.x - s.width / 2:g}" y="{s.y - s.height / 2:g}" '
+                         f'width="{s.width:g}" height="{s.height:g}" fill="{css(s.fill)}" '
+                         f'stroke="{css(s.stroke)}" stroke-width="{s.stroke_width:g}"{dash}>'
+                         f'{title}</rect>')
+        elif isinstance(s, Circle):
+            parts.append(f'<circle cx="{s.x:g}" cy="{s.y:g}" r="{s.radius:g}" '
+                         f'fill="{css(s.fill)}" stroke="{css(s.stroke)}" '
+                         f'stroke-width="{s.stroke_width:g}">{title}</circle>')
+        elif isinstance(s, Line):
+            points = " ".join(f"{x:g},{y:g}" for x, y in s.points)
+            dash = f' stroke-dasharray="{s.width * 4:g}"' if s.dashed else ""
+            parts.append(f'<polyline points="{points}" fill="none" stroke="{css(s.color)}" '
+                         f'stroke-width="{s.width:g}"{dash}>{title}</polyline>')
+        else:
+            parts.append(f'<text x="{s.x:g}" y="{s.y:g}" font-size="{s.size:g}" '
+                         f'fill="{css(s.color)}" text-anchor="middle" '
+                         f'dominant-baseline="middle">{escape(s.text)}</text>')
+    parts.append("</svg>")
+    return "".join(parts)

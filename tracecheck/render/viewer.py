@@ -1,32 +1,41 @@
 """One episode as a self-contained HTML page (inline SVG, CSS and JS; nothing from the web).
 
-A top view of the three-lane road follows the ego vehicle: vehicles drawn to scale as
-5 m × 2 m boxes at their centres, the ego vehicle highlighted, velocity arrows. For the chosen
-shield, the zones its guards test around the ego vehicle (the regions of the paper's Table 1
-for ``paper``) and the actions it blocks. A timeline marks the first infeasible step and the
-crash; back, forward and play (buttons and arrow keys). Beside the picture, per step: the
-action taken, what the live shield allowed, what the chosen shield allows, the agent's action
-values, the reward and the B state.
+For any environment: a time-series panel with one chart per numeric variable of the B state
+(a function into numbers, such as ``VehiclesVx``, is one chart with a line per element), the
+steps the chosen shield would have blocked, the live shield's interventions and the crash
+marked; a timeline; back, forward and play (buttons and arrow keys); per step the action
+taken, what the live shield allowed, what the chosen shield allows, the agent's action values,
+the reward and the B state (numbers rounded for people, full precision on hover and in a copy
+button).
+
+Above them, the step's scene (:mod:`tracecheck.render.scene`) where the environment has one:
+the highway's road around the ego vehicle with the zones of the ``paper`` shield, a grid
+world's map, or what a user's adapter draws with its ``scene`` hook — with a caption saying
+how to read it. An environment without a scene gets no empty canvas.
 """
 
 from __future__ import annotations
 
 import html
+import math
 import re
 from pathlib import Path
 from typing import Optional, Sequence
 
-from ..b.values import format_value
+from ..b.values import Elem, SymbolicSet, format_value, sort_key
 from ..episodes.columns import read_columns
 from ..episodes.reader import read_run
 from ..errors import InputError
 from ..checking.shield import Shield
 from .jsontext import script_json
-from .scene import grid_cells, paper_zones, scene_kind, vehicles
+from .scene import scene_drawer, shape_json, css
 
-__all__ = ["render_episode", "episode_data"]
+__all__ = ["render_episode", "episode_data", "short_value", "numeric_series"]
 
 _TEMPLATE = (Path(__file__).with_name("viewer.html")).read_text(encoding="utf-8")
+NO_SCENE = ("This environment draws no picture (its adapter has no scene() hook: see "
+            "docs/environments.md, \"Drawing your environment\"); the charts show every "
+            "numeric variable over the episode.")
 
 
 def _ids_text(ids: list[int]) -> str:
@@ -36,11 +45,100 @@ def _ids_text(ids: list[int]) -> str:
     return ", ".join(map(str, ids))
 
 
+def _round(x: float) -> str:
+    if not math.isfinite(x):
+        return str(x)
+    if 1e4 <= abs(x) < 1e15:
+        return f"{x:.0f}"
+    text = f"{x:.4g}"
+    return text if any(c in text for c in ".en") else text + ".0"
+
+
+def short_value(value) -> str:
+    """``value`` in B notation with every real rounded to 4 significant digits, for people
+    (``52.2``, not ``52.20011520385742``); :func:`format_value` gives the exact text.
+
+    >>> short_value(52.20011520385742)
+    '52.2'
+    """
+    if isinstance(value, float):
+        return _round(value)
+    if isinstance(value, tuple):
+        parts, left = [short_value(value[1])], value[0]
+        while isinstance(left, tuple):
+            parts.append(short_value(left[1]))
+            left = left[0]
+        parts.append(short_value(left))
+        return "(" + "↦".join(reversed(parts)) + ")"
+    if isinstance(value, frozenset) and not isinstance(value, SymbolicSet) and value:
+        return "{" + ",".join(short_value(v) for v in sorted(value, key=sort_key)) + "}"
+    return format_value(value)
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def numeric_series(states: Sequence[dict]) -> list[dict]:
+    """One entry per numeric variable of ``states`` (each ``{"name", "lines": [{"label",
+    "values"}]}``, a value per state, None where the state has none): a number is one line, a
+    function into numbers one line per element of its domain (``VehiclesVx(EgoVehicle)``)."""
+    names = list(dict.fromkeys(k for s in states for k in s))
+    out = []
+    for name in names:
+        values = [s.get(name) for s in states]
+        given = [v for v in values if v is not None]
+        if given and all(_is_number(v) for v in given):
+            out.append({"name": name, "lines": [{"label": name, "values": [
+                float(v) if v is not None else None for v in values]}]})
+            continue
+        maps = [getattr(v, "map", None) for v in given]
+        if not given or any(m is None for m in maps) or not all(
+                _is_number(x) for m in maps for x in m.values()):
+            continue
+        keys = list(dict.fromkeys(k for m in maps for k in m))
+        if not keys:
+            continue
+        lines = [{"label": f"{name}({k if isinstance(k, Elem) else format_value(k)})",
+                  "values": [float(getattr(v, "map", {}).get(k)) if v is not None and
+                             getattr(v, "map", {}).get(k) is not None else None
+                             for v in values]} for k in keys]
+        out.append({"name": name, "lines": lines})
+    return out
+
+
+def _scenes(ep, draw) -> tuple[Optional[dict], list]:
+    """(the scene common to the episode: view, background, caption and a table of distinct
+    shapes; None when there is no picture), per step the indices of its shapes."""
+    table: dict[str, int] = {}
+    shapes, per_step, first = [], [], None
+    for s in ep.steps:
+        scene = draw(s)
+        if scene is None:
+            per_step.append(None)
+            continue
+        first = first or scene
+        indices = []
+        for shape in scene.shapes:
+            data = shape_json(shape)
+            key = repr(sorted(data.items()))
+            if key not in table:
+                table[key] = len(shapes)
+                shapes.append(data)
+            indices.append(table[key])
+        per_step.append({"shapes": indices, "view": list(scene.view)})
+    if first is None:
+        return None, per_step
+    return {"shapes": shapes, "background": css(first.background), "caption": first.caption,
+            "scale": first.scale}, per_step
+
+
 def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
-                 ltl: Sequence[tuple] = ()) -> dict:
+                 ltl: Sequence[tuple] = (), adapter=None) -> dict:
     """Everything the viewer shows, as JSON-ready data (``ltl``: (name, text, formula) of
     LTL formulas over ``shield``'s machine, each marked where the episode first violates
-    it)."""
+    it; ``adapter``: the environment's adapter (``--env``), whose ``scene`` hook draws the
+    steps; without one, the built-in scenes — render imports no environment package)."""
     result = read_run(run, {episode})
     if not result.episodes:
         ids = [int(i) for i in read_columns(run).episode_ids]
@@ -49,43 +147,46 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
         raise InputError(f"{run} has no episode {episode}; it has {_ids_text(ids)}",
                          hint=result.warnings[0] if result.warnings else None)
     ep = result.episodes[0]
-    scene = scene_kind(ep.steps[0].state)
+    header = result.header
     machine = shield.machine if shield is not None else None
-    zones = scene == "road" and shield is not None and shield.name == "paper"
-    steps = []
+    zones = shield is not None and shield.name == "paper"
+    draw = scene_drawer(adapter=adapter, zones=zones)  # render imports no environment
+    scene, per_step = _scenes(ep, draw)
+    steps, blocked, interventions = [], [], []
     first_infeasible = None
     for k, s in enumerate(ep.steps):
-        state = s.state
-        enabled = sorted(machine.enabled(state)) if machine is not None else None
-        if k and machine is not None and first_infeasible is None:
-            if s.action not in steps[-1]["shield_allows"]:
-                first_infeasible = k
-        ego = "EgoVehicle"
-        cars = vehicles(state) if scene == "road" else []
-        extra = {}
-        if scene == "grid":
-            extra = {"agent": [state["x"], state["y"]],
-                     "goal": [state["goal_x"], state["goal_y"]]
-                     if "goal_x" in state and "goal_y" in state else None}
-        steps.append({**extra,
+        enabled = sorted(machine.enabled(s.state)) if machine is not None else None
+        if k and machine is not None and s.action not in steps[-1]["shield_allows"]:
+            blocked.append(s.step)
+            if first_infeasible is None:
+                first_infeasible = s.step
+        if s.preferred_action is not None and s.action is not None \
+                and s.preferred_action != s.action:
+            interventions.append(s.step)
+        steps.append({
             "step": s.step, "time": s.time, "action": s.action, "reward": s.reward,
             "crashed": s.crashed, "live_allowed": list(s.allowed_actions)
             if s.allowed_actions is not None else None,
             "shield_allows": enabled, "values": dict(s.action_values or {}) or None,
-            "preferred": s.preferred_action, "ego": ego, "vehicles": cars,
-            "zones": paper_zones(cars, ego) if zones else None,
-            "state": {k2: format_value(v) for k2, v in state.items()},
+            "preferred": s.preferred_action, "scene": per_step[k],
+            "state": [[name, short_value(v), format_value(v)] for name, v in s.state.items()],
         })
     crash = next((s["step"] for s in steps if s["crashed"]), None)
+    series = numeric_series([s.state for s in ep.steps])
+    rewards = [float(s.reward) for s in ep.steps]
+    if not any(line["values"] == rewards for entry in series for line in entry["lines"]):
+        series.append({"name": "reward", "lines": [{"label": "reward (of the step)",
+                                                    "values": rewards}]})
     return {
         "file": str(run), "episode": ep.id, "seed": ep.seed, "origin": ep.origin,
-        "actions": list(result.header.actions) if result.header is not None
-        and result.header.actions else sorted({s.action for s in ep.steps if s.action}),
-        "scene": scene, "grid": grid_cells(ep.steps[0].state) if scene == "grid" else None,
+        "environment": header.environment if header is not None else None,
+        "actions": list(header.actions) if header is not None
+        and header.actions else sorted({s.action for s in ep.steps if s.action}),
+        "scene": scene, "no_scene_caption": NO_SCENE,
         "shield": shield.name if shield is not None else None,
-        "zones": "paper" if shield is not None and shield.name == "paper" else None,
-        "first_infeasible": first_infeasible, "crash_step": crash,
-        "ltl": _ltl_marks(run, ep.id, shield, ltl),
+        "first_infeasible": first_infeasible, "blocked": blocked,
+        "interventions": interventions, "crash_step": crash,
+        "ltl": _ltl_marks(run, ep.id, shield, ltl), "series": series,
         "end": {"steps": ep.end.steps, "reason": ep.end.reason,
                 "total_reward": ep.end.total_reward},
         "steps": steps,
@@ -108,9 +209,9 @@ def _ltl_marks(run, episode: int, shield: Optional[Shield], ltl: Sequence[tuple]
 
 
 def render_episode(run: str | Path, episode: int, shield: Optional[Shield] = None,
-                   ltl: Sequence[tuple] = ()) -> str:
+                   ltl: Sequence[tuple] = (), adapter=None) -> str:
     """The viewer page of one episode (see the module docstring)."""
-    data = episode_data(run, episode, shield, ltl)
+    data = episode_data(run, episode, shield, ltl, adapter)
     title = f"{Path(str(run)).name}, episode {episode}"
     fields = {"TITLE": html.escape(title), "DATA": script_json(data)}
     # one pass: a file named {{DATA}}.mcap stays a title

@@ -1,0 +1,141 @@
+"""The report, as a supervisor reads it: the runs side by side, the re-simulation headline,
+comparisons in words, the episodes that matter first — for any environment."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from tests.conftest import ROOT
+from tracecheck.checking.shield import load_shield
+from tracecheck.render.report import (comparison_sentences, render_report,
+                                      resimulation_headline)
+from tracecheck.stats.properties import load_properties
+
+NONE = ROOT / "sample_traces" / "base_none.mcap"
+PAPER = ROOT / "sample_traces" / "base_paper.mcap"
+CORRIDOR = "tests.live.toy:Corridor"
+
+
+@pytest.fixture(scope="module")
+def highway_report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("report") / "report.html"
+    render_report([NONE, PAPER], out, shield=load_shield("paper"),
+                  pset=load_properties("highway"), max_pages=6)
+    return out
+
+
+def test_each_run_has_its_own_section_side_by_side(highway_report):
+    page = highway_report.read_text()
+    sections = re.findall(r"<section class='run'>(.*?)</section>", page)
+    assert len(sections) == 2
+    assert "base_none.mcap" in sections[0] and "base_paper.mcap" in sections[1]
+    assert "<th>recorded under shield</th><td>none</td>" in sections[0]
+    assert "<th>recorded under shield</th><td>paper</td>" in sections[1]
+    assert "<th>crashes</th><td>6 (25%)</td>" in sections[0]
+    # without re-simulation nothing claims a crash was prevented
+    assert "prevented" not in " ".join(sections).replace("would have prevented a crash", "")
+
+
+def test_comparisons_are_sentences_that_name_their_test(highway_report):
+    page = highway_report.read_text()
+    assert "H0" not in page and "not rejected" not in page
+    assert ("The share of episodes that satisfy SAF2 (“The agent must drive faster than 20 "
+            "m/s”) is lower in base_paper than in base_none (33% vs 71%; exact McNemar test "
+            "on 24 pair(s) of episodes with the same seed, p = 0.012).") in page
+    assert "No significant difference in the share of episodes that satisfy SAF1" in page
+    assert "paired t-test, p = 0.029" in page
+
+
+def test_episodes_that_matter_come_first_and_the_tail_is_collapsed(highway_report):
+    page = highway_report.read_text()
+    none = page[page.index("<h3>base_none.mcap</h3>", page.index("Episodes that matter")):]
+    shown, hidden = none.split("<details>", 1)
+    first = re.findall(r"<tr><td>(\d+)</td>", shown)
+    assert first[:6] == ["1", "3", "4", "8", "18", "21"]  # the six crashes after a block
+    assert "<summary>16 more episode(s)</summary>" in hidden
+    assert shown.count("<td class='pic'><svg") == 8  # each shown episode's picture
+    links = re.findall(r"href='([^']+)'", page)
+    # 6 pages shared by the runs: 3 each, of which base_paper needs only its 2 crashes
+    assert len(links) == 5 and sum("base_paper" in link for link in links) == 2
+    assert all((highway_report.parent / link).exists() for link in links)
+
+
+def test_the_resimulation_headline():
+    summary = {"crashes_prevented": 5, "new_crashes": 0, "mismatches": 0, "without_seed": 0}
+    assert resimulation_headline("paper", 6, summary) == \
+        "shield paper would have prevented 5 of 6 crashes; 0 new"
+    assert resimulation_headline("paper", 1, {**summary, "crashes_prevented": 1,
+                                              "mismatches": 2}) == (
+        "shield paper would have prevented 1 of 1 crash; 0 new (2 episode(s) did not "
+        "reproduce from their seed and are not counted)")
+
+
+def test_a_non_significant_metric_reads_as_no_difference():
+    result = {"runs": [{"name": "a", "properties": {}}, {"name": "b", "properties": {}}],
+              "descriptions": {"len": "Episode length"},
+              "comparisons": [{"runs": ["a", "b"], "pairs": 10, "properties": {},
+                               "metrics": {"len": {"mean_difference": 1.5,
+                                                   "paired_t_p": 0.384, "wilcoxon_p": 0.4}}}]}
+    assert comparison_sentences(result) == [
+        "No significant difference in Episode length between a and b (mean difference a − b "
+        "1.5 over 10 pair(s); paired t-test, p = 0.384)."]
+
+
+@pytest.fixture(scope="module")
+def corridor(tmp_path_factory):
+    from tests.live.toy import SHIELD, left_leaning_table
+    from tracecheck.cli import main
+
+    folder = tmp_path_factory.mktemp("corridor")
+    shield, agent = folder / "corridor.mch", folder / "left.npy"
+    shield.write_text(SHIELD)
+    np.save(agent, left_leaning_table())
+    recorded = folder / "toy.mcap"
+    with pytest.raises(SystemExit) as info:
+        main(["record", "--env", CORRIDOR, "--agent", str(agent), "--shield", "none", "-n",
+              "4", "-o", str(recorded)])
+    assert info.value.code in (0, None)
+    props = folder / "corridor.toml"
+    props.write_text('[metrics.position]\nexpression = "pos"\ndescription = "Cell"\n'
+                     '[properties.safe]\npredicate = "pos > 0"\n'
+                     'description = "never in the pit"\n')
+    return recorded, shield, agent, props
+
+
+def test_a_users_environment_gets_the_headline_and_time_series(corridor, tmp_path):
+    recorded, shield, agent, props = corridor
+    out = tmp_path / "report.html"
+    render_report([recorded], out, shield=load_shield(str(shield)),
+                  pset=load_properties(str(props)), resimulate=True, agent=agent,
+                  env=CORRIDOR)
+    page = out.read_text()
+    crashes = int(re.search(r"<th>crashes</th><td>(\d+)", page).group(1))
+    assert crashes >= 1
+    assert (f"Re-simulation: shield corridor would have prevented {crashes} of {crashes} "
+            f"crash{'es' if crashes > 1 else ''}; 0 new.") in page
+    assert "crash prevented" in page
+    # the corridor draws no scene: its episodes show their variables over time instead
+    assert "<td class='pic'><svg" in page and ">pos<title>pos</title></text><polyline" in page
+
+
+def test_report_text_is_inert(tmp_path):
+    import shutil
+
+    hostile = tmp_path / "<b>x<i>&.mcap"
+    shutil.copy(NONE, hostile)
+    out = tmp_path / "r.html"
+    render_report([hostile], out, shield=load_shield("paper"), pset=load_properties("highway"),
+                  max_pages=1)
+    page = out.read_text()
+    assert "<b>x<i>" not in page and "&lt;b&gt;x&lt;i&gt;&amp;.mcap" in page
+
+
+def test_report_resimulate_needs_a_shield(capsys, tmp_path):
+    from tests.cli.test_cli import run
+
+    code, _, err = run(capsys, "report", str(NONE), "--resimulate", "-o",
+                       str(tmp_path / "r.html"))
+    assert code == 2 and "--resimulate needs --shield" in err

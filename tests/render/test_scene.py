@@ -1,0 +1,50 @@
+"""The scene model: checked when built, drawn by the viewer and sent to Foxglove alike."""
+
+from __future__ import annotations
+
+import jsonschema
+import pytest
+
+from tests.interop.test_foxglove import PUBLISHED
+from tracecheck.errors import InputError
+from tracecheck.interop.foxglove import SCHEMAS, scene_entities, step_messages
+from tracecheck.render.scene import Box, Circle, Line, Scene, Text, scene_svg
+
+
+@pytest.mark.parametrize("make,message", [
+    (lambda: Box(0, float("nan"), 1, 1), "Box has y nan: give a finite number"),
+    (lambda: Circle(0, 0, 1, fill=(1, 0, 0)), "Circle has fill (1, 0, 0): give (r, g, b, a)"),
+    (lambda: Line(((0, 0),)), "Line has points ((0, 0),): give a tuple of at least two"),
+    (lambda: Scene((Box(0, 0, 1, 1),), (0, 0, 0, 1)), "its width and height must be above 0"),
+    (lambda: Scene(["box"], (0, 0, 1, 1)), "shapes must be a tuple of Box, Circle"),
+], ids=["nan", "colour", "line", "view", "shapes"])
+def test_a_bad_scene_is_refused_naming_the_shape(make, message):
+    with pytest.raises(InputError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        make()
+
+
+SCENE = Scene((Box(1, 2, 4, 2, fill=(0.2, 0.4, 0.9, 1.0), label="ego", group="ego"),
+               Circle(5, 1, 0.5, group="ball"), Line(((0, 0), (3, 4)), arrow=True),
+               Text(2, -1, "gap <3> & m")), (0, -2, 10, 6), caption="c")
+
+
+def test_every_shape_becomes_a_valid_foxglove_primitive():
+    from types import SimpleNamespace
+
+    entities = {e["id"]: e for e in scene_entities(SCENE, 1_500_000_000)}
+    assert entities["ego"]["cubes"][0]["pose"]["position"] == {"x": 1.0, "y": -2.0, "z": 0.05}
+    assert entities["ego"]["metadata"] == [{"key": "label", "value": "ego"}]
+    assert len(entities["ball"]["spheres"]) == 1
+    assert entities["scene"]["lines"][0]["points"][1] == {"x": 3.0, "y": -4.0, "z": 0.0}
+    assert entities["scene"]["texts"][0]["text"] == "gap <3> & m"
+    step = SimpleNamespace(state={}, crashed=False, preferred_action=None, action=None,
+                           deadlock=None, step=0, reward=0.0, allowed_actions=None)
+    [message] = [m for m in step_messages(step, episode=0, stamp_ns=0, draw=lambda s: SCENE)
+                 if m.topic == "/foxglove/scene"]
+    for schema in (PUBLISHED["foxglove.SceneUpdate"], SCHEMAS["foxglove.SceneUpdate"]):
+        jsonschema.Draft202012Validator(schema).validate(message.data)
+
+
+def test_the_report_s_svg_escapes_text():
+    svg = scene_svg(SCENE)
+    assert "gap &lt;3&gt; &amp; m" in svg and "<title>ego</title>" in svg
