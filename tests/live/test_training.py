@@ -139,6 +139,7 @@ def test_the_paper_settings_stay_the_highways_and_others_get_their_own():
     assert LEARNERS["ppo"].settings(True, 20_000) == {
         "n_steps": 2048, "batch_size": 64, "learning_rate": 3e-4, "gamma": 0.8}
     assert LEARNERS["ppo"].settings(False, 300)["n_steps"] == 320  # one rollout, whole batches
+    assert LEARNERS["ppo"].settings(False, 3000)["n_steps"] == 1536  # two, not 2 × 2048
     assert LEARNERS["ppo"] is not LEARNERS["maskable-ppo"]
     assert LEARNERS["maskable-ppo"].settings is LEARNERS["ppo"].settings
 
@@ -163,6 +164,7 @@ def test_the_progress_bar_shows_the_running_mean_return(capsys, tmp_path, monkey
                                             {"mean": "-"})
     assert "mean return {task.fields[mean]}" in detail
     assert [c["completed"] for c in seen[1:]] == list(range(50, 301, 50))
+    assert {c["total"] for c in seen[1:]} == {300}
     curve = json.loads(agent.with_suffix(".json").read_text())["learning_curve"]
     assert seen[-1]["mean"] == f"{np.mean(curve['returns'][-20:]):.2f}"
 

@@ -9,7 +9,7 @@ import typer
 
 from ..errors import InputError
 from ..outputs import input_paths
-from .common import (app, out, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, Profile, ENV,
+from .common import (app, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, Profile, ENV,
                      ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, Algorithm, FORCE,
                      RUN_SHIELD, SEED, WORKERS, FORMAT, JSON, OutputFormat, output_format,
                      print_json, print_table, progress, say, SHIELD_HELP)
@@ -64,7 +64,8 @@ def train_cmd(
                   detail=", mean return {task.fields[mean]}", mean="-") as advance:
 
         def report(done: int, total: int, mean: Optional[float]) -> None:
-            advance(0, completed=done, mean="-" if mean is None else f"{mean:.2f}")
+            advance(0, completed=done, total=total,
+                    mean="-" if mean is None else f"{mean:.2f}")
 
         card = _train(adapter, config, algorithm, loaded, steps=steps, seed=seed,
                       horizon=horizon, profile=profile.value if highway else None,

@@ -55,8 +55,10 @@ def _dqn_settings(highway: bool, steps: int) -> dict[str, Any]:
 
 
 def _ppo_settings(highway: bool, steps: int) -> dict[str, Any]:
-    # rollouts of SB3's 2048 steps, or one rollout of whole batches of 64 for a short run
-    return {"n_steps": min(2048, -(-steps // 64) * 64), "batch_size": 64,
+    # rollouts of at most SB3's 2048 steps, as equal as whole batches of 64 make them, so
+    # that the last one ends close to ``steps``
+    rollouts = -(-steps // 2048)
+    return {"n_steps": -(-steps // (rollouts * 64)) * 64, "batch_size": 64,
             "learning_rate": 3e-4, "gamma": 0.8 if highway else 0.99}
 
 
@@ -166,7 +168,9 @@ def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
                                                         device="cpu", **settings)
     returns = Returns()
     start = time.perf_counter()
-    model.learn(total_timesteps=steps, callback=_callback(returns, steps, progress))
+    rollout = settings.get("n_steps", 1)  # PPO and A2C take whole rollouts
+    total = -(-steps // rollout) * rollout
+    model.learn(total_timesteps=steps, callback=_callback(returns, total, progress))
     wall = time.perf_counter() - start
     vec.close()
     save_model(model, out)
@@ -250,9 +254,9 @@ def _masked_dqn():
     return MaskedDQN
 
 
-def _callback(returns: Returns, steps: int, progress: Optional[Progress]):
+def _callback(returns: Returns, total: int, progress: Optional[Progress]):
     """A stable-baselines3 callback: each finished episode's return into ``returns`` (from
-    the Monitor's ``info["episode"]``), and ``progress`` every 50 steps."""
+    the Monitor's ``info["episode"]``), and ``progress`` every 50 of ``total`` steps."""
     from stable_baselines3.common.callbacks import BaseCallback
 
     class Report(BaseCallback):
@@ -261,7 +265,7 @@ def _callback(returns: Returns, steps: int, progress: Optional[Progress]):
                 if "episode" in info:
                     returns.add(self.num_timesteps, info["episode"]["r"])
             if progress is not None and self.num_timesteps % 50 == 0:
-                progress(self.num_timesteps, steps, returns.mean())
+                progress(self.num_timesteps, total, returns.mean())
             return True
 
     return Report()
