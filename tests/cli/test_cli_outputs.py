@@ -261,4 +261,5 @@ def test_record_and_train_refuse_to_write_over_their_inputs(capsys, tmp_path):
     out.with_suffix(".json").write_text("old")
     code, _, err = run(capsys, *argv, "--force")
     assert code == 0 and out.exists() and '"sha256"' in out.with_suffix(".json").read_text()
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["agent.npy", "q.json", "q.npy"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["agent.npy", "q.curve.png", "q.json",
+                                                          "q.npy"]

@@ -1,34 +1,90 @@
-"""Shielded training: the learner never asks for an action the shield blocks, in exploration
-or exploitation, and what it learns records with no infeasible step."""
+"""Training: every algorithm on any environment with an adapter, one path; the shield in the
+loop (masked learners never ask for a blocked action, PPO and A2C have theirs replaced); the
+model card, the learning curve and the progress bar's mean return."""
 
 from __future__ import annotations
 
 import json
+import struct
+from contextlib import contextmanager
 
+import numpy as np
 import pytest
 
 from tests.cli.test_cli import run
+from tests.live.toy import SHIELD, Corridor
 from tracecheck.checking.shield import load_shield
+from tracecheck.errors import InputError
 from tracecheck.live.adapter import get_adapter
-from tracecheck.live.training import train_shielded
+from tracecheck.live.agents import PAPER_DQN, load_agent
+from tracecheck.live.training import LEARNERS, train_agent
 from tracecheck.live.wrapper import ShieldWrapper
+from tracecheck.render.curves import CURVE_SIZE
 
 pytest.importorskip("stable_baselines3")
+
+TOY = "tests.live.toy:Corridor"
+CLASSES = {"dqn": "DQN", "ppo": "PPO", "a2c": "A2C", "maskable-ppo": "MaskablePPO",
+           "q-learning": "q-learning"}
+
+
+def png_size(path) -> tuple[int, int]:
+    """Width and height from a PNG's header (its IHDR chunk comes first)."""
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and data[12:16] == b"IHDR"
+    return struct.unpack(">II", data[16:24])
 
 
 @pytest.fixture
 def blocked_requests(monkeypatch):
-    """Every step's request, and how many were actions the shield blocked."""
-    seen = {"steps": 0, "blocked": 0}
+    """Every step's request, how many were actions the shield blocked, and how many blocked
+    actions the environment was given."""
+    seen = {"steps": 0, "blocked": 0, "taken_blocked": 0}
     step = ShieldWrapper.step
 
     def spy(self, action):
         seen["steps"] += 1
         seen["blocked"] += not self.action_masks()[int(action)]
-        return step(self, action)
+        allowed = self.action_masks().copy()
+        result = step(self, action)
+        taken = self.actions.index(result[4]["shield"]["taken"])
+        seen["taken_blocked"] += not allowed[taken]
+        return result
 
     monkeypatch.setattr(ShieldWrapper, "step", spy)
     return seen
+
+
+@pytest.mark.parametrize("algorithm", list(CLASSES))
+def test_every_algorithm_trains_on_a_users_environment_and_records(capsys, tmp_path,
+                                                                   algorithm):
+    """No --shield needed (dqn was refused off the highway; ppo and a2c were no choice), and
+    what is trained records; PPO and A2C files load as what they are (an A2C file loads as a
+    PPO too)."""
+    if algorithm == "maskable-ppo":
+        pytest.importorskip("sb3_contrib")
+    agent = tmp_path / ("a.npy" if algorithm == "q-learning" else "a.zip")
+    code, out, err = run(capsys, "train", "--env", TOY, "--algorithm", algorithm, "--steps",
+                         "300", "-o", str(agent))
+    said = " ".join(out.split())
+    assert code == 0, err
+    assert f"trained {agent.name} ({CLASSES[algorithm]} on corridor" in said
+    assert "episodes" in said and str(tmp_path / "a.curve.png") in said
+    card = json.loads(agent.with_suffix(".json").read_text())
+    assert card["algorithm"] == CLASSES[algorithm] and card["environment"] == "corridor"
+    assert card["steps"] == 300 and card["environment_steps"] >= 300
+    assert card["horizon"] == Corridor.horizon and card["seed"] == 0
+    assert card["shielding"] == ("masked" if algorithm == "maskable-ppo" else "none")
+    curve = card["learning_curve"]
+    assert curve["file"] == "a.curve.png" and curve["episodes"] == len(curve["returns"]) > 0
+    assert all(0 <= r <= 1 for r in curve["returns"])  # the corridor pays 1 at its end
+    assert curve["end_steps"] == sorted(curve["end_steps"])
+    assert png_size(tmp_path / "a.curve.png") == CURVE_SIZE
+    assert load_agent(agent, Corridor(), Corridor().make_env({})).algorithm == \
+        CLASSES[algorithm]
+    code, out, err = run(capsys, "record", "--env", TOY, "--agent", str(agent), "-n", "2",
+                         "-o", str(tmp_path / "run.mcap"))
+    assert code == 0 and "recorded 2 episode(s)" in out, err
 
 
 @pytest.mark.parametrize("algorithm", ["dqn", "maskable-ppo"])
@@ -38,11 +94,31 @@ def test_a_masked_learner_never_asks_for_a_blocked_action(tmp_path, blocked_requ
         pytest.importorskip("sb3_contrib")
     adapter = get_adapter("cliffwalking")
     shield = load_shield("cliffwalking", actions=adapter.actions)
-    card = train_shielded(adapter, adapter.config(), shield, algorithm, tmp_path / "a.zip",
-                          steps=600, seed=1)
+    card = train_agent(adapter, adapter.config(), algorithm, tmp_path / "a.zip", shield=shield,
+                       steps=600, seed=1)
     assert blocked_requests["steps"] >= 600 and blocked_requests["blocked"] == 0
     assert (card["shield"], card["shield_sha256"]) == ("cliffwalking", shield.sha256)
-    assert json.loads((tmp_path / "a.json").read_text())["masked"] is True
+    card = json.loads((tmp_path / "a.json").read_text())
+    assert card["masked"] is True and card["shielding"] == "masked"
+
+
+@pytest.mark.parametrize("algorithm", ["ppo", "a2c"])
+def test_ppo_and_a2c_under_a_shield_have_blocked_actions_replaced(capsys, tmp_path,
+                                                                  blocked_requests, algorithm):
+    """They take no mask: the learner asks for blocked actions, the environment never gets
+    one, and the card and the output line say how the shield reached the learner."""
+    shield = tmp_path / "corridor.mch"
+    shield.write_text(SHIELD)
+    agent = tmp_path / "a.zip"
+    code, out, err = run(capsys, "train", "--env", TOY, "--algorithm", algorithm, "--shield",
+                         str(shield), "--steps", "300", "-o", str(agent))
+    assert code == 0, err
+    assert f"({CLASSES[algorithm]} on corridor under shield corridor, blocked actions " \
+           "replaced, 300 steps" in " ".join(out.split())
+    assert blocked_requests["blocked"] > 0 and blocked_requests["taken_blocked"] == 0
+    card = json.loads(agent.with_suffix(".json").read_text())
+    assert (card["shielding"], card["masked"], card["shield"]) == ("replaced", False,
+                                                                   "corridor")
 
 
 def test_an_unmasked_learner_does_ask_for_blocked_actions(blocked_requests):
@@ -56,15 +132,54 @@ def test_an_unmasked_learner_does_ask_for_blocked_actions(blocked_requests):
     assert blocked_requests["blocked"] > 0
 
 
+def test_the_paper_settings_stay_the_highways_and_others_get_their_own():
+    dqn = LEARNERS["dqn"].settings
+    assert dqn(True, 20_000) == dict(PAPER_DQN, exploration_fraction=0.3)
+    assert dqn(False, 20_000)["gamma"] == 0.99 and "policy_kwargs" not in dqn(False, 20_000)
+    assert LEARNERS["ppo"].settings(True, 20_000) == {
+        "n_steps": 2048, "batch_size": 64, "learning_rate": 3e-4, "gamma": 0.8}
+    assert LEARNERS["ppo"].settings(False, 300)["n_steps"] == 320  # one rollout, whole batches
+    assert LEARNERS["ppo"].settings(False, 3000)["n_steps"] == 1536  # two, not 2 × 2048
+    assert LEARNERS["ppo"] is not LEARNERS["maskable-ppo"]
+    assert LEARNERS["maskable-ppo"].settings is LEARNERS["ppo"].settings
+
+
+def test_the_progress_bar_shows_the_running_mean_return(capsys, tmp_path, monkeypatch):
+    """The one progress helper, given the mean of the last 20 finished episodes."""
+    import tracecheck.cli.live as live
+
+    seen = []
+
+    @contextmanager
+    def fake(label, total=None, unit="episodes", detail="", **fields):
+        seen.append((label, total, unit, detail, fields))
+        yield lambda n=1, **changed: seen.append(changed)
+
+    monkeypatch.setattr(live, "progress", fake)
+    agent = tmp_path / "a.zip"
+    assert run(capsys, "train", "--env", TOY, "--algorithm", "a2c", "--steps", "300", "-o",
+               str(agent))[0] == 0
+    label, total, unit, detail, fields = seen[0]
+    assert (label, total, unit, fields) == ("training a2c on corridor", 300, "steps",
+                                            {"mean": "-"})
+    assert "mean return {task.fields[mean]}" in detail
+    assert [c["completed"] for c in seen[1:]] == list(range(50, 301, 50))
+    assert {c["total"] for c in seen[1:]} == {300}
+    curve = json.loads(agent.with_suffix(".json").read_text())["learning_curve"]
+    assert seen[-1]["mean"] == f"{np.mean(curve['returns'][-20:]):.2f}"
+
+
 def test_train_on_the_highway_then_record_with_no_infeasible_step(capsys, tmp_path):
     pytest.importorskip("sb3_contrib")
     agent = tmp_path / "shielded.zip"
     code, out, _ = run(capsys, "train", "--env", "highway", "--shield", "paper", "--algorithm",
                        "maskable-ppo", "--steps", "200", "--duration", "10", "-o", str(agent))
     said = " ".join(out.split())  # wrapped between words at 80 columns
-    assert code == 0 and "(MaskablePPO under shield paper, 200 steps, seed 0)" in said
+    assert code == 0 and "(MaskablePPO on highway under shield paper, 200 steps, seed 0)" in said
     card = json.loads(agent.with_suffix(".json").read_text())
     assert card["shield_sha256"] == load_shield("paper").sha256
+    assert card["horizon"] == 10 and card["settings"]["gamma"] == 0.8
+    assert max(np.diff([0] + card["learning_curve"]["end_steps"])) <= 10  # cut at --duration
     recorded = tmp_path / "run.mcap"
     assert run(capsys, "record", "--agent", str(agent), "--shield", "paper", "--episodes", "2",
                "--duration", "10", "-o", str(recorded))[0] == 0
@@ -72,16 +187,69 @@ def test_train_on_the_highway_then_record_with_no_infeasible_step(capsys, tmp_pa
     assert code == 0 and json.loads(out)["infeasible_steps"] == 0
 
 
-def test_shielded_training_says_what_it_cannot_do(capsys, tmp_path):
+def test_replay_resimulates_with_a_ppo_agent(capsys, tmp_path):
+    """A run of an agent that walks Right from the start, into the cliff; re-simulated under
+    the shield, the PPO agent takes over at the first blocked step."""
+    agent = tmp_path / "ppo.zip"
+    assert run(capsys, "train", "--env", "cliffwalking", "--algorithm", "ppo", "--steps", "64",
+               "-o", str(agent))[0] == 0
+    right = tmp_path / "right.npy"
+    np.save(right, np.eye(4)[[1] * 48])  # Move_Right everywhere
+    recorded = tmp_path / "run.mcap"
+    assert run(capsys, "record", "--env", "cliffwalking", "--agent", str(right), "-n", "2",
+               "--duration", "20", "-o", str(recorded))[0] == 0
+    code, out, err = run(capsys, "replay", str(recorded), "--shield", "cliffwalking",
+                         "--resimulate", "--agent", str(agent), "--json")
+    assert code == 0, err
+    resimulated = json.loads(out)["resimulation"]
+    assert (resimulated["resimulated"], resimulated["mismatches"]) == (2, 0)
+    assert [e["first_infeasible"] for e in resimulated["per_episode"]] == [1, 1]
+
+
+def test_training_says_what_it_cannot_do(capsys, tmp_path):
     code, _, err = run(capsys, "train", "--env", "frozenlake", "--shield", "paper",
                        "--algorithm", "dqn", "-o", str(tmp_path / "a.zip"))
     assert code == 2 and "Move_" in err
     code, _, err = run(capsys, "train", "--env", "frozenlake", "--shield", "frozenlake",
                        "--algorithm", "q-learning", "-o", str(tmp_path / "a.npy"))
-    assert code == 2 and "shielded training takes --algorithm dqn or maskable-ppo" in err
-    code, _, err = run(capsys, "train", "--env", "frozenlake", "--shield", "frozenlake",
-                       "--algorithm", "dqn", "-o", str(tmp_path / "a.npy"))
-    assert code == 2 and "saved as .zip, not a.npy" in err
+    assert code == 2 and "--algorithm q-learning trains without a shield; with --shield, give " \
+                         "--algorithm dqn, maskable-ppo, ppo or a2c" in " ".join(err.split())
+    for algorithm, name, message in [("ppo", "a.npy", "a trained agent is saved as .zip, not "
+                                      "a.npy"),
+                                     ("q-learning", "a.zip", "a Q-table is saved as .npy, not "
+                                      "a.zip")]:
+        code, _, err = run(capsys, "train", "--env", "frozenlake", "--algorithm", algorithm,
+                           "-o", str(tmp_path / name))
+        assert code == 2 and message in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_existing_learning_curve_is_kept_without_force(capsys, tmp_path):
+    """The curve is an output like the agent and its card: checked before training starts."""
+    (tmp_path / "a.curve.png").write_bytes(b"old")
+    argv = ["train", "--env", TOY, "--algorithm", "a2c", "--steps", "50", "-o",
+            str(tmp_path / "a.zip")]
+    code, _, err = run(capsys, *argv)
+    assert code == 2 and "a.curve.png exists; give another name, or --force" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.curve.png"]
+    assert run(capsys, *argv, "--force")[0] == 0
+    assert png_size(tmp_path / "a.curve.png") == CURVE_SIZE
+
+
+def test_an_environment_without_discrete_actions_is_refused(tmp_path):
+    import gymnasium as gym
+
+    class Sliding(Corridor):
+        def make_env(self, config, render_mode=None):
+            env = super().make_env(config)
+            env.action_space = gym.spaces.Box(-1.0, 1.0, (1,))
+            return env
+
+    with pytest.raises(InputError, match=r"corridor has the action space Box\(-1\.0, 1\.0, "
+                       r"\(1,\), float32\); train needs 2 discrete actions, one per action of "
+                       r"the adapter \(Left, Right\)"):
+        train_agent(Sliding(), {}, "ppo", tmp_path / "a.zip", steps=10)
+    assert not (tmp_path / "a.zip").exists()
 
 
 def test_without_sb3_contrib_maskable_ppo_says_how_to_get_it(capsys, tmp_path, monkeypatch):

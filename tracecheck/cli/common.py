@@ -231,8 +231,10 @@ def record_settings(env: Optional[str], env_config: list[str], **fields):
 
 class Algorithm(str, Enum):
     dqn = "dqn"
-    q_learning = "q-learning"
+    ppo = "ppo"
+    a2c = "a2c"
     maskable_ppo = "maskable-ppo"
+    q_learning = "q-learning"
 
 
 @contextmanager

@@ -9,7 +9,7 @@ import typer
 
 from ..errors import InputError
 from ..outputs import input_paths
-from .common import (app, out, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, Profile, ENV,
+from .common import (app, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, Profile, ENV,
                      ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, Algorithm, FORCE,
                      RUN_SHIELD, SEED, WORKERS, FORMAT, JSON, OutputFormat, output_format,
                      print_json, print_table, progress, say, SHIELD_HELP)
@@ -20,78 +20,84 @@ def train_cmd(
     env: Optional[str] = ENV,
     env_config: list[str] = ENV_CONFIG,
     algorithm: Algorithm = typer.Option(Algorithm.dqn, "--algorithm", help="dqn (the paper's "
-                                        "settings on the highway; masked under --shield), "
-                                        "maskable-ppo (sb3-contrib, with --shield) or "
-                                        "q-learning (a Q-table, for environments with discrete "
+                                        "settings on the highway), ppo, a2c (stable-"
+                                        "baselines3), maskable-ppo (sb3-contrib) or q-learning "
+                                        "(a Q-table, for environments with discrete "
                                         "observations)."),
     shield: Optional[str] = typer.Option(None, "--shield", "-s", help="Train with this shield "
-                                         "in the loop: the agent explores and exploits only "
-                                         "the actions it allows. " + SHIELD_HELP),
-    profile: Profile = typer.Option(Profile.base, "--profile", help="Reward profile."),
+                                         "in the loop: dqn and maskable-ppo explore and exploit "
+                                         "only the actions it allows; for ppo and a2c an action "
+                                         "it blocks is replaced by the fallback. " + SHIELD_HELP),
+    profile: Profile = typer.Option(Profile.base, "--profile", help="Reward profile (the "
+                                    "highway's)."),
     steps: Optional[int] = typer.Option(None, "--steps", min=1, help="Environment steps "
-                                        "(default: 20000 for dqn and maskable-ppo, 200000 for "
-                                        "q-learning)."),
+                                        "(default: 20000, 200000 for q-learning)."),
     seed: int = typer.Option(0, "--seed", min=0, max=2**32 - 1, help="Random seed, 0 … "
                              "2^32 - 1 (what stable-baselines3 and NumPy take)."),
     duration: Optional[int] = DURATION,
-    output: Path = typer.Option(..., "--output", "-o", help="The agent file to write (.zip "
-                                "for dqn and maskable-ppo, .npy for q-learning; its model card "
-                                "NAME.json goes beside it)."),
+    output: Path = typer.Option(..., "--output", "-o", help="The agent file to write (.zip, "
+                                ".npy for q-learning); its model card NAME.json and learning "
+                                "curve NAME.curve.png go beside it."),
     force: bool = FORCE,
 ) -> None:
-    """Train an agent: a DQN with the paper's settings on the highway, a Q-table, or — with
-    --shield — a DQN or MaskablePPO that only ever takes what the shield allows."""
-    from ..live.agents import train
+    """Train an agent on any environment with an adapter — DQN (the paper's settings on the
+    highway), PPO, A2C, MaskablePPO or a Q-table — optionally with a shield in the loop; a
+    progress bar shows the mean return of the last 20 episodes."""
     from ..live.adapter import load_adapter, parse_config
 
     adapter = load_adapter(env)
-    if shield is not None or algorithm == Algorithm.maskable_ppo:
-        _train_shielded(adapter, parse_config(env_config), shield or "none", algorithm,
-                        profile, steps, seed, duration, output, force)
-        return
+    highway = adapter.name == "highway"
+    config = adapter.config(parse_config(env_config), profile.value if highway else None,
+                            duration)
+    horizon = duration or adapter.horizon
+    if algorithm == Algorithm.q_learning and shield is not None:
+        raise InputError("--algorithm q-learning trains without a shield; with --shield, "
+                         "give --algorithm dqn, maskable-ppo, ppo or a2c")
+    loaded = None
+    if shield is not None:
+        from ..checking.shield import load_shield
+
+        loaded = load_shield(shield, actions=tuple(adapter.actions))
+    steps = steps or (200_000 if algorithm == Algorithm.q_learning else 20_000)
+    under = f" under {loaded.name}" if loaded is not None else ""
+    with progress(f"training {algorithm.value} on {adapter.name}{under}", steps, "steps",
+                  detail=", mean return {task.fields[mean]}", mean="-") as advance:
+
+        def report(done: int, total: int, mean: Optional[float]) -> None:
+            advance(0, completed=done, total=total,
+                    mean="-" if mean is None else f"{mean:.2f}")
+
+        card = _train(adapter, config, algorithm, loaded, steps=steps, seed=seed,
+                      horizon=horizon, profile=profile.value if highway else None,
+                      progress=report, output=output, force=force,
+                      inputs=input_paths(shield))
+    _say_trained(card, output)
+
+
+def _train(adapter, config: dict, algorithm: Algorithm, shield, *, output: Path, **options):
     if algorithm == Algorithm.q_learning:
-        from ..live.agents import train_q_table
+        from ..live.training import train_q_table
 
-        card = train_q_table(adapter, adapter.config(parse_config(env_config)), output,
-                             steps=steps or 200_000, seed=seed,
-                             horizon=duration or adapter.horizon, force=force)
-        out.print(f"trained {card['agent']} (Q-learning on {adapter.name}, {card['steps']} "
-                  f"steps, seed {seed}) in {card['wall_time_s']:.1f} s -> {output}; model "
-                  f"card {Path(output).with_suffix('.json')}", markup=False)
-        return
-    if adapter.name != "highway":
-        raise InputError(f"--algorithm dqn trains the paper's highway agent; for {adapter.name} "
-                         "use --algorithm q-learning, or give --shield")
-    steps = steps or 20_000
-    config = adapter.config(parse_config(env_config), profile.value, duration or 60)
-    with progress(f"training {profile.value}", steps, "steps") as advance:
-        card = train(profile.value, output, steps=steps, seed=seed, duration=duration or 60,
-                     progress=lambda done, total: advance(0, completed=done), force=force,
-                     config=config)
-    out.print(f"trained {card['agent']} ({profile.value}, {steps} steps, seed {seed}) in "
-              f"{card['wall_time_s']:.0f} s -> {output}; model card "
-              f"{Path(output).with_suffix('.json')}", markup=False)
+        options.pop("profile")
+        return train_q_table(adapter, config, output, **options)
+    from ..live.training import train_agent
+
+    return train_agent(adapter, config, algorithm.value, output, shield=shield, **options)
 
 
-def _train_shielded(adapter, env_config: dict, shield: str, algorithm: Algorithm, profile,
-                    steps: Optional[int], seed: int, duration: Optional[int],
-                    output: Path, force: bool) -> None:
-    from ..checking.shield import load_shield
-    from ..live.training import train_shielded
-
-    if algorithm == Algorithm.q_learning:
-        raise InputError("shielded training takes --algorithm dqn or maskable-ppo")
-    loaded = load_shield(shield, actions=tuple(adapter.actions))
-    profile_name = profile.value if adapter.name == "highway" else None
-    config = adapter.config(env_config, profile_name, duration)
-    steps = steps or 20_000
-    with progress(f"training under {loaded.name}", steps, "steps") as advance:
-        card = train_shielded(adapter, config, loaded, algorithm.value, output, steps=steps,
-                              seed=seed, progress=lambda done, total: advance(0, completed=done),
-                              force=force, inputs=input_paths(shield))
-    say(f"trained {card['agent']} ({card['algorithm']} under shield {loaded.name}, {steps} "
-          f"steps, seed {seed}) in {card['wall_time_s']:.0f} s -> {output}; model card "
-          f"{Path(output).with_suffix('.json')}")
+def _say_trained(card: dict, output: Path) -> None:
+    """What was trained, how the shield reached it, the last mean return, and the files."""
+    how = {"none": "", "masked": f" under shield {card['shield']}",
+           "replaced": f" under shield {card['shield']}, blocked actions replaced"}
+    curve = card["learning_curve"]
+    mean = curve["mean_return_last"]
+    result = (f"mean return of the last {min(curve['window'], curve['episodes'])} of "
+              f"{curve['episodes']} episodes {mean:.2f}" if mean is not None else
+              "no episode finished")
+    say(f"trained {card['agent']} ({card['algorithm']} on {card['environment']}"
+        f"{how[card['shielding']]}, {card['steps']} steps, seed {card['seed']}) in "
+        f"{card['wall_time_s']:.1f} s; {result} -> {output}; model card "
+        f"{output.with_suffix('.json')}, learning curve {output.parent / curve['file']}")
 
 
 @app.command("record")

@@ -1,4 +1,5 @@
-"""Agents: train a DQN with the paper's settings, load one, rank its actions.
+"""Agents: load one, rank its actions; the settings and files training uses
+(:mod:`tracecheck.live.training` trains them).
 
 Two kinds of agent file: a stable-baselines3 model (``.zip``: DQN, PPO or A2C, or
 sb3-contrib's MaskablePPO, for any environment whose spaces match it) and a tabular
@@ -12,8 +13,7 @@ runs no code.
 from __future__ import annotations
 
 import hashlib
-import platform
-import time
+import json
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,10 +22,8 @@ from typing import Any, Optional, Sequence
 import numpy as np
 
 from ..errors import InputError
-from .envs.highway import ENV_ID, env_config
 
-__all__ = ["Agent", "load_agent", "train", "train_q_table", "PAPER_DQN", "Q_LEARNING",
-           "file_sha256"]
+__all__ = ["Agent", "load_agent", "PAPER_DQN", "Q_LEARNING", "file_sha256"]
 
 #: The paper's DQN settings (§4.2), for stable-baselines3.
 PAPER_DQN: dict[str, Any] = {
@@ -111,7 +109,11 @@ def load_agent(path: str | Path, adapter=None, env=None) -> Agent:
     torch.set_num_threads(1)
 
     last: Optional[Exception] = None
+    saved = _saved_settings(path)
     for name, cls in _algorithms(sb3):
+        if name in _CLIPPED and "clip_range" not in saved or \
+                name == "A2C" and "clip_range" in saved:
+            continue  # PPO and A2C files load as each other: PPO's settings tell them apart
         try:
             model = cls.load(path, device="cpu")
         except Exception as exc:  # noqa: BLE001 - try the next algorithm
@@ -127,6 +129,21 @@ def load_agent(path: str | Path, adapter=None, env=None) -> Agent:
         return Agent(str(path), file_sha256(path), name, model)
     raise InputError(f"{path} is not a stable-baselines3 DQN, PPO or A2C agent nor an "
                      f"sb3-contrib MaskablePPO one ({last})")
+
+
+#: the algorithms whose files hold ``clip_range`` (A2C's do not)
+_CLIPPED = ("PPO", "MaskablePPO")
+
+
+def _saved_settings(path: Path) -> set[str]:
+    """The names of the settings a stable-baselines3 file holds (its ``data`` member; none
+    when it has no such member, and then no algorithm loads it)."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data"))
+    except (KeyError, ValueError, OSError, zipfile.BadZipFile):
+        return set()
+    return set(data) if isinstance(data, dict) else set()
 
 
 def _algorithms(sb3):
@@ -176,58 +193,6 @@ def _load_table(path: Path, actions: tuple[str, ...], env) -> Agent:
     return Agent(str(path), file_sha256(path), "q-learning", table.astype(np.float64))
 
 
-def train(profile: str, out: str | Path, *, steps: int = 20_000, seed: int = 0,
-          duration: int = 60, progress: Optional[Any] = None, force: bool = False,
-          inputs: Sequence[Path] = (), config: Optional[dict[str, Any]] = None) -> dict[str, Any]:
-    """Train a DQN with the paper's settings on a reward profile; save it and its card.
-
-    ``progress`` is called with (steps done, total) as training goes; ``config`` is the
-    environment's whole configuration (default: the profile's for ``duration``). Returns the
-    model card (also written next to the agent as ``NAME.json``). Both files follow the
-    output rule (see :func:`agent_outputs`).
-    """
-    import stable_baselines3 as sb3
-    import torch
-    from stable_baselines3.common.callbacks import BaseCallback
-
-    import gymnasium as gym
-    import highway_env  # noqa: F401 - registers the environments
-
-    out = Path(out)
-    config = env_config(profile, duration) if config is None else config  # checks the profile
-    path = out if out.suffix == ".zip" else out.with_suffix(out.suffix + ".zip")
-    path, card_path = agent_outputs(path, "agent.zip", force=force, inputs=inputs)
-    torch.set_num_threads(1)
-    env = gym.make(ENV_ID, config=config)
-    settings = dict(PAPER_DQN, exploration_fraction=min(1.0, 6000 / steps))
-
-    class Report(BaseCallback):
-        def _on_step(self) -> bool:
-            if progress is not None and self.num_timesteps % 100 == 0:
-                progress(self.num_timesteps, steps)
-            return True
-
-    model = sb3.DQN("MlpPolicy", env, seed=seed, verbose=0, device="cpu", **settings)
-    start = time.perf_counter()
-    model.learn(total_timesteps=steps, callback=Report())
-    wall = time.perf_counter() - start
-    save_model(model, path)
-    import stable_baselines3
-
-    card = {
-        "agent": path.name, "algorithm": "DQN", "environment": ENV_ID,
-        "environment_config": config, "reward_profile": profile,
-        "seed": seed, "steps": steps, "wall_time_s": round(wall, 1),
-        "settings": {**settings, "policy": "MlpPolicy"},
-        "versions": {"python": platform.python_version(), "torch": torch.__version__,
-                     "stable_baselines3": stable_baselines3.__version__,
-                     "gymnasium": gym.__version__, "highway_env": highway_env.__version__},
-        "sha256": file_sha256(path),
-    }
-    write_card(card, card_path)
-    return card
-
-
 def agent_outputs(out: Path, example: str, *, force: bool = False,
                   inputs: Sequence[Path] = ()) -> tuple[Path, Path]:
     """The agent file and its model card (``NAME.json`` beside it), checked by the output
@@ -254,62 +219,3 @@ def write_card(card: dict, path: Path) -> None:
     from ..render.jsontext import json_text
 
     write_file(path, json_text(card, indent=2) + "\n")
-
-
-def train_q_table(adapter, config: dict, out: str | Path, *, steps: int = 200_000,
-                  seed: int = 0, horizon: int = 100, force: bool = False,
-                  inputs: Sequence[Path] = ()) -> dict[str, Any]:
-    """Tabular Q-learning (see :data:`Q_LEARNING`) on an environment with discrete
-    observations; saves the table as ``.npy`` and a model card next to it.
-
-    The same seed gives the same table: exploration draws from a generator seeded with it,
-    and the environment is reset with it once.
-    """
-    out = Path(out)
-    if out.suffix != ".npy":
-        raise InputError(f"a Q-table is saved as .npy, not {out.name}")
-    out, card_path = agent_outputs(out, "agent.npy", force=force, inputs=inputs)
-    env = adapter.make_env(config)
-    n_obs = getattr(env.observation_space, "n", None)
-    if n_obs is None:
-        raise InputError(f"{adapter.name} has observations {env.observation_space}; Q-learning "
-                         "needs a discrete observation space")
-    rng = np.random.default_rng(seed)
-    n_act = len(adapter.actions)
-    q = np.zeros((n_obs, n_act))
-    p = Q_LEARNING
-    decay = max(1, int(steps * p["decay_fraction"]))
-    start = time.perf_counter()
-    obs, _ = env.reset(seed=seed)
-    t = 0
-    for k in range(steps):
-        if rng.random() < max(p["epsilon_floor"], 1.0 - k / decay):
-            a = int(rng.integers(n_act))
-        else:
-            row = q[obs]
-            a = int(rng.choice(np.flatnonzero(row == row.max())))
-        nxt, reward, terminated, truncated, _ = env.step(a)
-        target = reward if terminated else reward + p["gamma"] * q[nxt].max()
-        q[obs, a] += p["alpha"] * (target - q[obs, a])
-        obs, t = nxt, t + 1
-        if terminated or truncated or t >= horizon:
-            obs, _ = env.reset()
-            t = 0
-    wall = time.perf_counter() - start
-    from ..outputs import atomic_file
-
-    with atomic_file(out) as stream:
-        np.save(stream, q, allow_pickle=False)
-    import gymnasium
-
-    card = {
-        "agent": out.name, "algorithm": "q-learning", "environment": adapter.name,
-        "environment_id": adapter.env_id, "environment_config": config, "horizon": horizon,
-        "seed": seed, "steps": steps, "wall_time_s": round(wall, 2), "settings": dict(p),
-        "actions": list(adapter.actions),
-        "versions": {"python": platform.python_version(), "numpy": np.__version__,
-                     "gymnasium": gymnasium.__version__},
-        "sha256": file_sha256(out),
-    }
-    write_card(card, card_path)
-    return card

@@ -1,21 +1,30 @@
-"""Shielded training: the shield in the loop, for every environment with an adapter.
+"""Training, for every environment with an adapter and every algorithm: one path.
 
-The environment is wrapped in :class:`~tracecheck.live.wrapper.ShieldWrapper`, whose
-``action_masks()`` say which actions the shield allows in the current state.
+:data:`LEARNERS` is the table: each stable-baselines3 algorithm ``train --algorithm`` takes,
+its settings, and whether it learns from the shield's mask. Every learner runs on the
+adapter's environment, its episodes cut at the horizon (``--duration``, else the adapter's:
+the same length as ``record``), and with ``--shield`` wrapped in
+:class:`~tracecheck.live.wrapper.ShieldWrapper`:
 
 * ``maskable-ppo`` — sb3-contrib's MaskablePPO (``pip install 'tracecheck[maskable]'``): the
-  policy's distribution is restricted to the allowed actions, in rollouts and updates alike.
-* ``dqn`` — stable-baselines3's DQN whose action selection is masked: exploration draws
-  uniformly among the allowed actions (also before learning starts) and the greedy choice is
-  the best-valued allowed action. The TD target is left as DQN has it — the maximum over
-  *all* actions of the next state — because the replay buffer does not keep the next state's
-  mask: the values of actions the shield blocks are still learned from, and may be
-  overestimated, but never chosen. At evaluation the agent runs under the shield (pre-shielding,
-  ``tracecheck record --shield``), which masks its greedy choice the same way.
+  policy's distribution is restricted to the allowed actions, in rollouts and updates alike
+  (without ``--shield``, under ``none``: every action allowed).
+* ``dqn`` — stable-baselines3's DQN; under a shield its action selection is masked:
+  exploration draws uniformly among the allowed actions (also before learning starts) and the
+  greedy choice is the best-valued allowed action. The TD target is left as DQN has it — the
+  maximum over *all* actions of the next state — because the replay buffer does not keep the
+  next state's mask: the values of actions the shield blocks are still learned from, and may
+  be overestimated, but never chosen. On the highway, the paper's settings (:data:`PAPER_DQN`).
+* ``ppo``, ``a2c`` — stable-baselines3's PPO and A2C do not take a mask. Under a shield an
+  action it blocks is *replaced* (the wrapper's rule: the fallback if the shield allows it,
+  else the first allowed action): the learner learns in the shielded environment, crediting
+  what happened to the action it asked for. The card says ``"shielding": "replaced"``.
+* ``q-learning`` — a table (:func:`train_q_table`), for discrete observations, no shield.
 
 In a deadlock (the shield allows nothing) the mask holds the fallback action only, which is
-what the wrapper takes: training never sees an empty mask. The model card names the shield
-and its sha256.
+what the wrapper takes: a masked learner never sees an empty mask. Beside the agent: its model
+card (``NAME.json``: algorithm, settings, shield and its sha256, the episode returns) and its
+learning curve (``NAME.curve.png``), all by the output rule.
 """
 
 from __future__ import annotations
@@ -23,17 +32,203 @@ from __future__ import annotations
 import platform
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
 
 import numpy as np
 
 from ..errors import InputError
-from .agents import PAPER_DQN, agent_outputs, file_sha256, save_model, write_card
+from .agents import PAPER_DQN, Q_LEARNING, agent_outputs, file_sha256, save_model, write_card
 
-__all__ = ["train_shielded", "ALGORITHMS"]
+__all__ = ["train_agent", "train_q_table", "LEARNERS", "ALGORITHMS", "Learner", "Returns"]
 
-ALGORITHMS = ("maskable-ppo", "dqn")
+#: ``progress(steps done, total, mean return of the last episodes or None)``
+Progress = Callable[[int, int, Optional[float]], None]
+
+
+def _dqn_settings(highway: bool, steps: int) -> dict[str, Any]:
+    if highway:  # the paper's (§4.2), exploration over its first 6000 of 20 000 steps
+        return dict(PAPER_DQN, exploration_fraction=min(1.0, 6000 / steps))
+    return {"learning_starts": min(1000, steps // 10), "exploration_fraction": 0.5,
+            "learning_rate": 1e-3, "gamma": 0.99, "target_update_interval": 250}
+
+
+def _ppo_settings(highway: bool, steps: int) -> dict[str, Any]:
+    # rollouts of at most SB3's 2048 steps, as equal as whole batches of 64 make them, so
+    # that the last one ends close to ``steps``
+    rollouts = -(-steps // 2048)
+    return {"n_steps": -(-steps // (rollouts * 64)) * 64, "batch_size": 64,
+            "learning_rate": 3e-4, "gamma": 0.8 if highway else 0.99}
+
+
+def _a2c_settings(highway: bool, steps: int) -> dict[str, Any]:
+    return {"n_steps": 5, "learning_rate": 7e-4, "gamma": 0.8 if highway else 0.99}
+
+
+@dataclass(frozen=True)
+class Learner:
+    """One ``--algorithm``: its class, its settings, and how a shield reaches it."""
+
+    name: str                       #: the class name, as the model card says it
+    package: str                    #: where the class lives
+    masks: bool                     #: chooses among ``action_masks()`` (else: replaced)
+    settings: Callable[[bool, int], dict[str, Any]]  #: (on the highway?, steps) -> settings
+    needs_mask: bool = False        #: cannot run without the wrapper (MaskablePPO)
+
+
+LEARNERS: dict[str, Learner] = {
+    "dqn": Learner("DQN", "stable_baselines3", True, _dqn_settings),
+    "ppo": Learner("PPO", "stable_baselines3", False, _ppo_settings),
+    "a2c": Learner("A2C", "stable_baselines3", False, _a2c_settings),
+    "maskable-ppo": Learner("MaskablePPO", "sb3_contrib", True, _ppo_settings, True),
+}
+ALGORITHMS = (*LEARNERS, "q-learning")
+
+
+class Returns:
+    """The returns of the finished episodes, with the environment step each ended at.
+
+    >>> r = Returns(window=2); r.add(5, 1.0); r.add(9, 3.0); r.add(12, 5.0); r.mean()
+    4.0
+    """
+
+    def __init__(self, window: int = 20) -> None:
+        self.window = window
+        self.steps: list[int] = []
+        self.returns: list[float] = []
+
+    def add(self, step: int, value: float) -> None:
+        self.steps.append(int(step))
+        self.returns.append(float(value))
+
+    def mean(self) -> Optional[float]:
+        """The mean return of the last ``window`` finished episodes (None before the first)."""
+        return float(np.mean(self.returns[-self.window:])) if self.returns else None
+
+    def summary(self, curve: Path, points: int = 1000) -> dict[str, Any]:
+        """For the model card: every episode's (end step, return), or — past ``points``
+        episodes — the mean return of each block of consecutive episodes at its last step."""
+        n = len(self.returns)
+        per = max(1, -(-n // points))
+        ends = [self.steps[min(i + per, n) - 1] for i in range(0, n, per)]
+        means = [round(float(np.mean(self.returns[i:i + per])), 6) for i in range(0, n, per)]
+        last = self.mean()
+        return {"file": curve.name, "episodes": n, "window": self.window,
+                "mean_return_last": None if last is None else round(last, 6),
+                "episodes_per_point": per, "end_steps": ends, "returns": means}
+
+
+def curve_path(out: Path) -> Path:
+    """The learning curve beside an agent file: ``NAME.curve.png``."""
+    return out.with_suffix(".curve.png")
+
+
+def _outputs(out: Path, suffix: str, example: str, force: bool,
+             inputs: Sequence[Path]) -> tuple[Path, Path, Path]:
+    """Agent, card and curve, checked by the output rule before anything trains."""
+    from ..outputs import check_output
+
+    what = "a Q-table" if suffix == ".npy" else "a trained agent"
+    if out.suffix != suffix:
+        raise InputError(f"{what} is saved as {suffix}, not {out.name}")
+    out, card = agent_outputs(out, example, force=force, inputs=inputs)
+    curve = check_output(curve_path(out), inputs, force=force, what="learning curve")
+    return out, card, curve
+
+
+def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
+                shield=None, steps: int, seed: int = 0, horizon: Optional[int] = None,
+                profile: Optional[str] = None, progress: Optional[Progress] = None,
+                force: bool = False, inputs: Sequence[Path] = ()) -> dict[str, Any]:
+    """Train ``algorithm`` (a key of :data:`LEARNERS`) on the adapter's environment, under
+    ``shield`` if given; save the agent (``.zip``), its learning curve and its model card
+    (see the module docstring); returns the card.
+
+    Example: ``train_agent(get_adapter("cliffwalking"), {}, "ppo", "a.zip", steps=2000)``.
+    """
+    import torch
+
+    if algorithm not in LEARNERS:
+        raise InputError(f"unknown algorithm {algorithm!r}; the algorithms are "
+                         f"{', '.join(ALGORITHMS)}")
+    learner = LEARNERS[algorithm]
+    out, card_path, curve = _outputs(Path(out), ".zip", "agent.zip", force, inputs)
+    if shield is None and learner.needs_mask:
+        from ..checking.shield import load_shield
+
+        shield = load_shield("none", actions=tuple(adapter.actions))
+    torch.set_num_threads(1)
+    horizon = horizon or adapter.horizon
+    vec = _vec_env(adapter, config, shield, horizon)
+    settings = learner.settings(adapter.name == "highway", steps)
+    policy = "MultiInputPolicy" if type(vec.observation_space).__name__ == "Dict" else \
+        "MlpPolicy"
+    model = _learner_class(learner, shield is not None)(policy, vec, seed=seed, verbose=0,
+                                                        device="cpu", **settings)
+    returns = Returns()
+    start = time.perf_counter()
+    rollout = settings.get("n_steps", 1)  # PPO and A2C take whole rollouts
+    total = -(-steps // rollout) * rollout
+    model.learn(total_timesteps=steps, callback=_callback(returns, total, progress))
+    wall = time.perf_counter() - start
+    vec.close()
+    save_model(model, out)
+    card = _card(adapter, config, learner.name, out, seed=seed, steps=steps, wall=wall,
+                 horizon=horizon, settings={**settings, "policy": policy}, profile=profile,
+                 shield=shield, shielding=_shielding(learner, shield), returns=returns,
+                 curve=curve, packages=("torch", "stable_baselines3", learner.package),
+                 done=int(model.num_timesteps))
+    _finish(card, returns, curve, card_path)
+    return card
+
+
+def _shielding(learner: Learner, shield) -> str:
+    """How the shield reached the learner: none, masked or replaced."""
+    if shield is None:
+        return "none"
+    return "masked" if learner.masks else "replaced"
+
+
+def _vec_env(adapter, config: dict, shield, horizon: int):
+    """One environment, cut at ``horizon``, its episodes' returns reported (Monitor), under
+    the shield's wrapper when there is one; checked to have the adapter's actions."""
+    from gymnasium import spaces
+    from gymnasium.wrappers import TimeLimit
+    from stable_baselines3.common.monitor import Monitor
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    def make():
+        env = Monitor(TimeLimit(adapter.make_env(config), max_episode_steps=horizon))
+        if shield is None:
+            return env
+        from .wrapper import ShieldWrapper
+
+        return ShieldWrapper(env, shield, adapter=adapter)
+
+    vec = DummyVecEnv([make])
+    space = vec.action_space
+    if not isinstance(space, spaces.Discrete) or int(space.n) != len(adapter.actions):
+        vec.close()
+        raise InputError(f"{adapter.name} has the action space {space}; train needs "
+                         f"{len(adapter.actions)} discrete actions, one per action of the "
+                         f"adapter ({', '.join(adapter.actions)})")
+    return vec
+
+
+def _learner_class(learner: Learner, shielded: bool):
+    if learner.package == "sb3_contrib":
+        try:
+            import sb3_contrib
+        except ImportError:
+            raise InputError("--algorithm maskable-ppo needs sb3-contrib",
+                             hint="pip install 'tracecheck[maskable]'") from None
+        return getattr(sb3_contrib, learner.name)
+    if learner.name == "DQN" and shielded:
+        return _masked_dqn()
+    import stable_baselines3
+
+    return getattr(stable_baselines3, learner.name)
 
 
 def _masked_dqn():
@@ -59,82 +254,123 @@ def _masked_dqn():
     return MaskedDQN
 
 
-def train_shielded(adapter, config: dict, shield, algorithm: str, out: str | Path, *,
-                   steps: int, seed: int = 0,
-                   progress: Optional[Callable[[int, int], None]] = None,
-                   force: bool = False, inputs: Sequence[Path] = ()) -> dict[str, Any]:
-    """Train ``algorithm`` on the adapter's environment under ``shield``; save the agent
-    (``.zip``) and its model card (``.json`` next to it), by the output rule (see
-    :func:`~tracecheck.live.agents.agent_outputs`); the card."""
-    import torch
+def _callback(returns: Returns, total: int, progress: Optional[Progress]):
+    """A stable-baselines3 callback: each finished episode's return into ``returns`` (from
+    the Monitor's ``info["episode"]``), and ``progress`` every 50 of ``total`` steps."""
     from stable_baselines3.common.callbacks import BaseCallback
-    from stable_baselines3.common.monitor import Monitor
-    from stable_baselines3.common.vec_env import DummyVecEnv
-
-    from .wrapper import ShieldWrapper
-
-    if algorithm not in ALGORITHMS:
-        raise InputError(f"unknown algorithm {algorithm!r}; shielded training takes "
-                         f"{', '.join(ALGORITHMS)}")
-    out = Path(out)
-    if out.suffix != ".zip":
-        raise InputError(f"a trained agent is saved as .zip, not {out.name}")
-    out, card_path = agent_outputs(out, "agent.zip", force=force, inputs=inputs)
-    torch.set_num_threads(1)
-    vec = DummyVecEnv([lambda: ShieldWrapper(Monitor(adapter.make_env(config)), shield,
-                                             adapter=adapter)])
 
     class Report(BaseCallback):
         def _on_step(self) -> bool:
+            for info in self.locals.get("infos", ()):
+                if "episode" in info:
+                    returns.add(self.num_timesteps, info["episode"]["r"])
             if progress is not None and self.num_timesteps % 50 == 0:
-                progress(self.num_timesteps, steps)
+                progress(self.num_timesteps, total, returns.mean())
             return True
 
-    if algorithm == "maskable-ppo":
-        try:
-            from sb3_contrib import MaskablePPO
-        except ImportError:
-            raise InputError("--algorithm maskable-ppo needs sb3-contrib",
-                             hint="pip install 'tracecheck[maskable]'") from None
-        n_steps = max(64, min(2048, steps))
-        settings = {"n_steps": n_steps, "batch_size": 64, "learning_rate": 3e-4,
-                    "gamma": 0.8 if adapter.name == "highway" else 0.99}
-        model = MaskablePPO("MlpPolicy", vec, seed=seed, verbose=0, device="cpu", **settings)
-        name = "MaskablePPO"
-    else:
-        if adapter.name == "highway":
-            settings = dict(PAPER_DQN, exploration_fraction=min(1.0, 6000 / steps))
-        else:
-            settings = {"learning_starts": min(1000, steps // 10), "exploration_fraction": 0.5,
-                        "learning_rate": 1e-3, "gamma": 0.99, "target_update_interval": 250}
-        model = _masked_dqn()("MlpPolicy", vec, seed=seed, verbose=0, device="cpu", **settings)
-        name = "DQN"
-    start = time.perf_counter()
-    model.learn(total_timesteps=steps, callback=Report())
-    wall = time.perf_counter() - start
-    save_model(model, out)
-    vec.close()
-    import gymnasium
-    import stable_baselines3
+    return Report()
 
-    card = {
-        "agent": out.name, "algorithm": name, "masked": True,
-        "environment": adapter.name, "environment_id": adapter.env_id,
-        "environment_config": config, "shield": shield.name, "shield_sha256": shield.sha256,
-        "seed": seed, "steps": steps, "wall_time_s": round(wall, 1),
-        "settings": {**settings, "policy": "MlpPolicy"}, "actions": list(adapter.actions),
-        "versions": {"python": platform.python_version(), "torch": torch.__version__,
-                     "stable_baselines3": stable_baselines3.__version__,
-                     "gymnasium": gymnasium.__version__},
-        "sha256": file_sha256(out),
-    }
-    if name == "MaskablePPO":
-        import sb3_contrib
 
-        card["versions"]["sb3_contrib"] = sb3_contrib.__version__
-    for package in adapter.requires:  # the environment's own packages (highway_env, …)
-        module = sys.modules.get(package)
-        if getattr(module, "__version__", None):
-            card["versions"][package] = module.__version__
-    write_card(card, card_path)
+def _card(adapter, config: dict, algorithm: str, out: Path, *, seed: int, steps: int,
+          wall: float, horizon: int, settings: dict, profile: Optional[str], shield,
+          shielding: str, returns: Returns, curve: Path,
+          packages: Sequence[str], done: Optional[int] = None) -> dict[str, Any]:
+    """The model card: what was trained, how, on what, with which libraries; ``done`` the
+    steps taken (whole rollouts: PPO's and A2C's may pass ``steps``)."""
+    card: dict[str, Any] = {
+        "agent": out.name, "algorithm": algorithm, "environment": adapter.name,
+        "environment_id": adapter.env_id, "environment_config": config}
+    if profile is not None:
+        card["reward_profile"] = profile
+    card.update({
+        "horizon": horizon, "seed": seed, "steps": steps,
+        "environment_steps": steps if done is None else done, "wall_time_s": round(wall, 2),
+        "settings": settings, "actions": list(adapter.actions),
+        "shield": shield.name if shield is not None else None,
+        "shield_sha256": shield.sha256 if shield is not None else None,
+        "shielding": shielding, "masked": shielding == "masked",
+        "learning_curve": returns.summary(curve),
+        "versions": _versions((*packages, "gymnasium", *adapter.requires)),
+        "sha256": file_sha256(out)})
     return card
+
+
+def _versions(packages: Sequence[str]) -> dict[str, str]:
+    """Python's version and each package's (those imported that say theirs)."""
+    versions = {"python": platform.python_version(), "numpy": np.__version__}
+    for package in packages:
+        version = getattr(sys.modules.get(package), "__version__", None)
+        if version:
+            versions[package] = str(version)
+    return versions
+
+
+def _finish(card: dict, returns: Returns, curve: Path, card_path: Path) -> None:
+    """The learning curve, then the model card (last: a card means the rest is there)."""
+    from ..render.curves import learning_curve
+
+    shield = {"none": "", "masked": f" under shield {card['shield']} (masked)",
+              "replaced": f" under shield {card['shield']}, blocked actions replaced"}
+    title = (f"{card['algorithm']} on {card['environment']}{shield[card['shielding']]}, "
+             f"seed {card['seed']}")
+    learning_curve(returns.steps, returns.returns, curve, window=returns.window,
+                   steps=card["environment_steps"], title=title)
+    write_card(card, card_path)
+
+
+def train_q_table(adapter, config: dict, out: str | Path, *, steps: int = 200_000,
+                  seed: int = 0, horizon: int = 100, progress: Optional[Progress] = None,
+                  force: bool = False, inputs: Sequence[Path] = ()) -> dict[str, Any]:
+    """Tabular Q-learning (see :data:`~tracecheck.live.agents.Q_LEARNING`) on an environment
+    with discrete observations; saves the table as ``.npy``, its learning curve and its
+    model card beside it.
+
+    The same seed gives the same table: exploration draws from a generator seeded with it,
+    and the environment is reset with it once.
+    """
+    out, card_path, curve = _outputs(Path(out), ".npy", "agent.npy", force, inputs)
+    env = adapter.make_env(config)
+    n_obs = getattr(env.observation_space, "n", None)
+    if n_obs is None:
+        raise InputError(f"{adapter.name} has observations {env.observation_space}; Q-learning "
+                         "needs a discrete observation space")
+    returns = Returns()
+    start = time.perf_counter()
+    q = _q_learning(env, n_obs, len(adapter.actions), steps, seed, horizon, returns, progress)
+    wall = time.perf_counter() - start
+    from ..outputs import atomic_file
+
+    with atomic_file(out) as stream:
+        np.save(stream, q, allow_pickle=False)
+    card = _card(adapter, config, "q-learning", out, seed=seed, steps=steps, wall=wall,
+                 horizon=horizon, settings=dict(Q_LEARNING), profile=None, shield=None,
+                 shielding="none", returns=returns, curve=curve, packages=())
+    _finish(card, returns, curve, card_path)
+    return card
+
+
+def _q_learning(env, n_obs: int, n_act: int, steps: int, seed: int, horizon: int,
+                returns: Returns, progress: Optional[Progress]) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    q = np.zeros((n_obs, n_act))
+    p = Q_LEARNING
+    decay = max(1, int(steps * p["decay_fraction"]))
+    obs, _ = env.reset(seed=seed)
+    t, total = 0, 0.0
+    for k in range(steps):
+        if rng.random() < max(p["epsilon_floor"], 1.0 - k / decay):
+            a = int(rng.integers(n_act))
+        else:
+            row = q[obs]
+            a = int(rng.choice(np.flatnonzero(row == row.max())))
+        nxt, reward, terminated, truncated, _ = env.step(a)
+        target = reward if terminated else reward + p["gamma"] * q[nxt].max()
+        q[obs, a] += p["alpha"] * (target - q[obs, a])
+        obs, t, total = nxt, t + 1, total + float(reward)
+        if terminated or truncated or t >= horizon:
+            returns.add(k + 1, total)
+            obs, _ = env.reset()
+            t, total = 0, 0.0
+        if progress is not None and (k + 1) % 500 == 0:
+            progress(k + 1, steps, returns.mean())
+    return q
