@@ -76,7 +76,7 @@ def test_report_cli(capsys, tmp_path):
     code, text, _ = run(capsys, "report", str(NONE), "--shield", "paper", "-o", str(out))
     assert code == 0 and "episode page(s)" in text
     page = out.read_text()
-    assert "Replay against shield paper" in page and "Statistics (highway)" in page
+    assert "Replay against shield paper" in page and "Statistics (generic+highway)" in page
     assert page.count("<svg") >= 2  # the plots, inline
     links = re.findall(r"href='([^']+)'", page)
     assert links and all((tmp_path / link).exists() for link in links)

@@ -61,7 +61,7 @@ def _svg_plots(result: dict) -> list[str]:
 
 def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
                   pset: PropertySet, max_pages: int = 20, force: bool = False,
-                  inputs: Sequence[Path] = ()) -> tuple[Path, int]:
+                  inputs: Sequence[Path] = (), adapter=None) -> tuple[Path, int]:
     """Write the report to ``out`` and viewer pages beside it (``NAME_files/``); (report,
     pages written). Both follow the output rule (:mod:`tracecheck.outputs`): neither is one
     of the runs or ``inputs``, existing ones are replaced only with ``force``, and only once
@@ -123,7 +123,7 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
                 f" {html.escape(e.action or '')}</td><td>{'' if e.crash_step is None else e.crash_step}"
                 f"</td><td>{'yes' if e.crash_after_infeasible else ''}</td><td>{cell}</td></tr>")
         parts.append("</table>")
-    result = statistics(runs, pset)
+    result = statistics(runs, pset, adapter=adapter)
     header, rows = _rows(result)
     parts.append(f"<h2>Statistics ({html.escape(pset.name)})</h2><p class='note'>metrics: "
                  f"mean ± sd [95 % t interval]; properties: % of episodes [95 % "
