@@ -322,6 +322,7 @@ def test_a_finished_file_is_read_from_its_run_blob_with_the_walk_s_answer(tmp_pa
                 "crashed", "values"):
         assert np.array_equal(getattr(fast, key), getattr(slow, key), equal_nan=True), key
     assert fast.action_names == slow.action_names and fast.seeds == slow.seeds
+    assert fast.reasons == slow.reasons == [ep.end.reason for ep in episodes]
     assert [fast.states.row(i) for i in range(fast.n)] == \
            [slow.states.row(i) for i in range(slow.n)]
     assert fast.states.label(5) == slow.states.label(5)

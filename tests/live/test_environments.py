@@ -116,8 +116,8 @@ def test_frozenlake_replay_resimulate_stats_render(frozen, tmp_path, capsys):
     assert resim["resimulated"] == report["infeasible_episodes"] and resim["mismatches"] == 0
     code, out, _ = run(capsys, "stats", frozen, "--json")
     stats = json.loads(out)
-    assert code == 0 and stats["properties_set"] == "frozenlake"
-    assert set(stats["runs"][0]["properties"]) == {"GOAL", "HOLE"}
+    assert code == 0 and stats["properties_set"] == "generic+frozenlake"
+    assert set(stats["runs"][0]["properties"]) == {"CRASH", "TIME_LIMIT", "GOAL", "HOLE"}
     code, out, _ = run(capsys, "diff", frozen, "--shield", "frozenlake", "--against", "none")
     assert code == 0 and "newly blocked" in out
     page = tmp_path / "ep.html"
@@ -282,7 +282,7 @@ def test_lunarlander_records_and_the_authors_machine_replays_it(tmp_path, capsys
     assert len(first["surface"].map) == 10 and isinstance(first["left_leg_on_ground"], bool)
     assert 0.0 < first["x"] < 600.0
     code, out_text, err = run(capsys, "stats", out, "--json")
-    assert code == 0 and json.loads(out_text)["properties_set"] == "lunarlander", err
+    assert code == 0 and json.loads(out_text)["properties_set"] == "generic+lunarlander", err
     if MODELS.is_dir():
         code, out_text, err = run(capsys, "replay", out, "--shield",
                                   MODELS / "LunarLander" / "LunarLander.mch", "--json")

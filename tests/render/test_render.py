@@ -80,7 +80,7 @@ def test_report_cli(capsys, tmp_path):
     assert code == 0 and "episode page(s)" in text
     page = out.read_text()
     assert "<h2>Runs</h2>" in page and "shield paper (sha256" in page
-    assert "Statistics (highway)" in page
+    assert "Statistics (generic+highway)" in page
     assert page.count("<svg") >= 2  # the plots, inline
     links = re.findall(r"href='([^']+)'", page)
     assert links and all((tmp_path / link).exists() for link in links)

@@ -266,3 +266,21 @@ def warn(messages) -> None:
 
 FORCE = typer.Option(False, "--force", help="Replace an existing output, only once the new "
                      "one is complete (a recording: once a new episode is). Never an input.")
+
+
+#: ``--env`` of the commands that read runs (stats, report, render, replay, …): the same
+#: lookup as ``ENV`` (:func:`tracecheck.live.adapter.load_adapter`), but optional there — a
+#: run names its environment, and one whose adapter is not installed still works without it
+RUN_ENV = typer.Option(None, "--env", help="The runs' environment adapter: an installed one's "
+                       "name or package.module:Class (importing it runs its code). Default: "
+                       "the one the files name, where it is installed; without it, what "
+                       "needs no adapter still works.")
+
+
+def run_adapter(env: Optional[str]):
+    """The adapter ``--env`` names (None when not given)."""
+    if env is None:
+        return None
+    from ..live.adapter import load_adapter
+
+    return load_adapter(env)

@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from .common import app, out, SHIELD_HELP, SALVAGE, FORCE
+from .common import app, out, err, SHIELD_HELP, SALVAGE, FORCE, RUN_ENV, run_adapter
 
 
 @app.command("render")
@@ -21,6 +21,7 @@ def render_cmd(
                                   "this LTL formula (repeatable; needs --shield)."),
     ltl_assertions: bool = typer.Option(False, "--ltl-assertions", help="Mark the shield "
                                         "machine's ASSERT_LTL definitions."),
+    env: Optional[str] = RUN_ENV,
     force: bool = FORCE,
 ) -> None:
     """Write one episode as a self-contained HTML viewer (top view, shield zones, timeline)."""
@@ -32,12 +33,13 @@ def render_cmd(
 
     inputs = [run, *input_paths(shield)]
     check_output(output, inputs, force=force, example="episode.html")
+    adapter = run_adapter(env)  # its scene() hook draws the picture; without it, the built-ins
     loaded = load_shield(shield) if shield else None
     if (ltl or ltl_assertions) and loaded is None:
         raise InputError("--ltl and --ltl-assertions need --shield: the machine the formulas "
                          "are read in")
     formulas = ltl_formulas(loaded, ltl, ltl_assertions) if loaded is not None else []
-    page = write_page(render_episode(run, episode, loaded, formulas), output, force=force,
+    page = write_page(render_episode(run, episode, loaded, formulas, adapter=adapter), output, force=force,
                       inputs=inputs)
     out.print(f"wrote episode {episode} -> {page} ({page.stat().st_size / 1000:.0f} kB)",
               markup=False)
@@ -49,8 +51,10 @@ def report_cmd(
     salvage: bool = SALVAGE,
     shield: Optional[str] = typer.Option(None, "--shield", "-s", help=SHIELD_HELP),
     properties: Optional[str] = typer.Option(
-        None, "--properties", "-p", help="A built-in set (highway, frozenlake, cliffwalking) "
-        "or a property file (TOML). Default: the environment's."),
+        None, "--properties", "-p", help="A built-in set (generic, highway, frozenlake, "
+        "cliffwalking) or a property file (TOML). Default: generic and the environment's "
+        "own."),
+    env: Optional[str] = RUN_ENV,
     output: Path = typer.Option(..., "--output", "-o", help="The HTML report to write (its "
                                 "viewer pages go into NAME_files/ beside it)."),
     resimulate: bool = typer.Option(False, "--resimulate", help="Re-run the episodes the "
@@ -70,10 +74,13 @@ def report_cmd(
     from ..outputs import input_paths
 
     loaded = load_shield(shield) if shield else None
-    from ..stats.estimates import default_properties
+    from ..stats.estimates import default_set
 
-    pset = load_properties(properties or default_properties(runs))
+    adapter = run_adapter(env)
+    pset, notes = (load_properties(properties), []) if properties else default_set(runs, adapter)
+    for line in notes:
+        err.print(f"note: {line}")
     page, pages = render_report(runs, output, shield=loaded, pset=pset, force=force,
                                 inputs=input_paths(shield, properties), resimulate=resimulate,
-                                agent=agent)
+                                agent=agent, env=env, adapter=adapter)
     out.print(f"wrote {page} and {pages} episode page(s)", markup=False)

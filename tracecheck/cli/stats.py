@@ -12,7 +12,7 @@ from ..outputs import input_paths
 from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, EPISODE_EXECUTOR, RAY_ADDRESS,
                      OutputFormat, FORMAT, JSON, output_format, print_json, plain, progress,
                      Interval, ENV, ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, FORCE,
-                     RUN_SHIELD, SEED, WORKERS, SALVAGE)
+                     RUN_SHIELD, SEED, WORKERS, SALVAGE, RUN_ENV, run_adapter)
 
 
 def _print_stats(result: dict, fmt: OutputFormat, plot: Optional[Path],
@@ -38,8 +38,10 @@ def stats_cmd(
     runs: list[Path] = typer.Argument(..., help="MCAP run files: one column each."),
     salvage: bool = SALVAGE,
     properties: Optional[str] = typer.Option(
-        None, "--properties", "-p", help="A built-in set (highway: the paper's; frozenlake; "
-        "cliffwalking) or a property file (TOML). Default: the runs' environment's."),
+        None, "--properties", "-p", help="A built-in set (generic; highway: the paper's; "
+        "frozenlake; cliffwalking) or a property file (TOML). Default: generic (episode "
+        "length, return, interventions, crashes, time limits) and the environment's own."),
+    env: Optional[str] = RUN_ENV,
     names: Optional[list[str]] = typer.Option(None, "--names",
                                               help="Only these metrics and properties."),
     as_json: bool = JSON,
@@ -55,15 +57,19 @@ def stats_cmd(
     """Estimate metrics and property shares per run, side by side like the paper's tables."""
     fmt = output_format(fmt, as_json)
     from ..stats.properties import load_properties
-    from ..stats.estimates import default_properties, statistics
+    from ..stats.estimates import default_set, statistics
 
     from ..render.stats_text import check_plot_folder
 
     if plot is not None:  # before the statistics are computed
         check_plot_folder(plot, [*runs, *input_paths(properties)], force)
-    pset = load_properties(properties or default_properties(runs)).select(names)
+    adapter = run_adapter(env)
+    pset, notes = (load_properties(properties), []) if properties else default_set(runs, adapter)
+    pset = pset.select(names)
+    for line in notes:
+        err.print(f"note: {line}")
     result = statistics(runs, pset, interval=interval.value, executor=executor.value,
-                        ray_address=ray_address)
+                        ray_address=ray_address, adapter=adapter)
     _print_stats(result, fmt, plot, force)
 
 
@@ -83,8 +89,9 @@ def simulate_cmd(
     ray_address: Optional[str] = RAY_ADDRESS,
     profile: Optional[str] = PROFILE,
     properties: Optional[str] = typer.Option(
-        None, "--properties", "-p", help="A built-in set (highway, frozenlake, cliffwalking) "
-        "or a property file (TOML). Default: the environment's."),
+        None, "--properties", "-p", help="A built-in set (generic, highway, frozenlake, "
+        "cliffwalking) or a property file (TOML). Default: generic and the environment's "
+        "own."),
     until_ci_width: Optional[float] = typer.Option(
         None, "--until-ci-width", help="Stop once every property's 95 % interval is narrower "
                                        "than this (a share, e.g. 0.1)."),
@@ -103,7 +110,9 @@ def simulate_cmd(
     settings = record_settings(env, env_config, agent=str(agent), shield=shield, episodes=episodes,
                          seed=seed, duration=duration, profile=profile, workers=workers,
                          executor=executor.value, ray_address=ray_address)
-    pset = load_properties(properties or resolve(settings)[0].properties or "highway")
+    from ..stats.estimates import adapter_set
+
+    pset = load_properties(properties) if properties else adapter_set(resolve(settings)[0])
     with progress("simulating", episodes) as advance:
         result = simulate(settings, output, pset, until_width=until_ci_width, force=force,
                           inputs=input_paths(properties), progress=lambda ep: advance())

@@ -183,9 +183,14 @@ def encode_run_columns(run, spans: np.ndarray, span_crcs: np.ndarray, head_crc: 
     arrays["run:seeds"] = np.asarray([-1 if s is None else s for s in run.seeds],
                                      dtype=np.int64)
     arrays["run:seeded"] = np.asarray([s is not None for s in run.seeds], dtype=bool)
+    from .schema import END_REASONS
+
+    arrays["run:reasons"] = np.asarray([END_REASONS.index(r) for r in run.reasons],
+                                       dtype=np.int16)
     arrays["run:spans"] = np.asarray(spans, dtype=np.int64).reshape(-1, 2)
     arrays["run:span_crcs"] = np.asarray(span_crcs, dtype=np.uint32)
     header: dict[str, Any] = {"episode": -1, "run": True, "head_crc": head_crc,
+                              "reasons": list(END_REASONS),
                               "elements": [str(e) for e in run.states.elements],
                               "actions": list(run.action_names), "kinds": kinds,
                               "literals": literals}

@@ -20,7 +20,7 @@ from .codec import RUN_COLUMNS_MEDIA_TYPE, columns_from_arrays, decode_columns
 from .reader import DamagedFileWarning, check_columns, complete
 from .records import find_attachment, mapped
 
-__all__ = ["read_columns", "RunColumns"]
+__all__ = ["read_columns", "RunColumns", "episode_columns"]
 
 
 @dataclass
@@ -47,6 +47,8 @@ class RunColumns:
     warnings: list[str] = field(default_factory=list)
     values: Optional[np.ndarray] = None  # (rows, actions): the agent's values, NaN if none
     seeds: list[Optional[int]] = field(default_factory=list)  # per episode
+    #: per episode, why it ended (its end record: crashed, time-limit, end-of-trace, …)
+    reasons: list[str] = field(default_factory=list)
 
     @property
     def n(self) -> int:
@@ -66,8 +68,10 @@ def read_columns(path: str | Path, *, salvage: Optional[bool] = None) -> RunColu
         return whole
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", DamagedFileWarning)
-        decoded = [(p.head.episode, *p.columns)
-                   for p in complete(path, decode=False, salvage=salvage)]
+        decoded, reasons = [], []
+        for piece in complete(path, decode=False, salvage=salvage):
+            decoded.append((piece.head.episode, *piece.columns))
+            reasons.append(piece.end.reason)
     notes = [str(w.message) for w in caught if issubclass(w.category, DamagedFileWarning)]
     actions: list[str] = []
     elements: list[str] = []
@@ -92,6 +96,7 @@ def read_columns(path: str | Path, *, salvage: Optional[bool] = None) -> RunColu
     if any("values" in arrays for _, _, arrays in decoded):
         result.values = np.concatenate(values)
     result.seeds = [header.get("seed") for _, header, _ in decoded]
+    result.reasons = reasons
     return result
 
 
@@ -127,7 +132,8 @@ def _from_run_columns(path: Path) -> Optional[RunColumns]:
         reward=body["reward"], crashed=body["crashed"].astype(bool), states=states,
         values=body.get("values"),
         seeds=[int(x) if ok else None for x, ok in zip(arrays["run:seeds"].tolist(),
-                                                       arrays["run:seeded"].tolist())])
+                                                       arrays["run:seeded"].tolist())],
+        reasons=[header["reasons"][int(k)] for k in arrays["run:reasons"]])
 
 
 def _verified_blob(buf, view) -> Optional[tuple[dict, dict]]:
@@ -144,6 +150,7 @@ def _verified_blob(buf, view) -> Optional[tuple[dict, dict]]:
         e = len(ids)
         if not (header.get("run") is True and e and spans.shape == (e, 2)
                 and crcs.shape == arrays["run:seeds"].shape == arrays["run:seeded"].shape == (e,)
+                and _reasons_fit(header, arrays, e)
                 and starts.shape == (e + 1,) and starts[0] == 0
                 and np.all(np.diff(starts) > 0) and len(np.unique(ids)) == e):
             return None
@@ -165,6 +172,45 @@ def _verified_blob(buf, view) -> Optional[tuple[dict, dict]]:
     except (InputError, KeyError, TypeError, ValueError):
         return None
     return header, arrays
+
+
+def _reasons_fit(header: dict, arrays: dict, episodes: int) -> bool:
+    """The blob names each episode's end reason (files written before it did: walked)."""
+    from .schema import END_REASONS
+
+    names, codes = header.get("reasons"), arrays.get("run:reasons")
+    return (isinstance(names, list) and all(n in END_REASONS for n in names)
+            and codes is not None and codes.shape == (episodes,) and codes.dtype.kind == "i"
+            and bool(np.all((codes >= 0) & (codes < len(names)))))
+
+
+def episode_columns(episodes, action_names) -> RunColumns:
+    """The columns of episodes in memory (``simulate`` checks each new one as a run of its
+    own), as :func:`read_columns` gives them for a file."""
+    episodes = list(episodes)
+    steps = [s for ep in episodes for s in ep.steps]
+    lengths = [len(ep.steps) for ep in episodes]
+    starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+    ids = np.array([ep.id for ep in episodes], dtype=np.int64)
+    index = {a: i for i, a in enumerate(action_names)}
+    values = np.full((len(steps), len(action_names)), np.nan)
+    for row, s in enumerate(steps):
+        for name, q in (s.action_values or {}).items():
+            if name in index:
+                values[row, index[name]] = q
+    episode = np.repeat(ids, lengths)
+    return RunColumns(
+        path="<memory>", episode_ids=ids, starts=starts, episode=episode,
+        step=np.array([s.step for s in steps], dtype=np.int64),
+        time=np.array([s.time for s in steps], dtype=float),
+        action=np.array([index[s.action] if s.action is not None else -1 for s in steps],
+                        dtype=np.int16),
+        action_names=tuple(action_names),
+        reward=np.array([s.reward for s in steps], dtype=float),
+        crashed=np.array([s.crashed for s in steps], dtype=bool),
+        states=Columns.from_states([s.state for s in steps]),
+        values=values if np.any(~np.isnan(values)) else None,
+        seeds=[ep.seed for ep in episodes], reasons=[ep.end.reason for ep in episodes])
 
 
 def _widen(cols: Columns, elements: list[str]) -> Columns:

@@ -25,6 +25,8 @@ __all__ = ["RunHeader", "EpisodeHeader", "Step", "EpisodeEnd", "MESSAGES", "TOPI
 
 Source = Literal["recorded", "imported-simb", "imported-prob2trace", "imported-minari"]
 EndReason = Literal["crashed", "time-limit", "end-of-trace", "deadlock", "interrupted"]
+#: the end reasons, in a fixed order (the run columns blob stores their index)
+END_REASONS: tuple[str, ...] = EndReason.__args__
 
 
 class _Message(BaseModel):

@@ -78,7 +78,8 @@ class EnvAdapter:
     variables: tuple[str, ...] = ()
     #: the B machine the states belong to (run headers name it)
     model_name: str = ""
-    #: a built-in shield that fits, for ``tracecheck envs``
+    #: a shield that fits (a built-in one's name or a .mch path): ``tracecheck envs`` lists
+    #: it, and LTL/STL properties in ``stats`` are read in its machine
     default_shield: Optional[str] = None
     #: taken when the shield allows nothing (None: the first action)
     fallback: Optional[str] = None
@@ -90,7 +91,8 @@ class EnvAdapter:
     requires: tuple[str, ...] = ("gymnasium",)
     #: named configurations (the highway's reward profiles)
     profiles: dict[str, dict[str, Any]] = {}
-    #: the property set ``stats`` uses by default (a built-in name), if any
+    #: the environment's own property set, which ``stats`` adds to the generic one (a
+    #: built-in set's name or the path of a property file), if any
     properties: Optional[str] = None
     #: B predicates every state of this environment satisfies (declared value ranges, e.g.
     #: ``x : 0..7``); ``prove --env`` assumes them. Only what the environment guarantees:

@@ -15,7 +15,7 @@ import numpy as np
 from ..episodes.model import Episode, StepRecord, make_end
 from ..errors import InputError
 
-__all__ = ["RecordSettings", "resolve", "Session", "run_episode", "Mismatch"]
+__all__ = ["RecordSettings", "resolve", "Session", "run_episode", "Mismatch", "end_reason"]
 
 
 class Mismatch(Exception):
@@ -120,14 +120,21 @@ def run_episode(session: Session, index: int, *, seed: Optional[int] = None,
             preferred_action=actions[int(np.argmax(values))],
             allowed_actions=tuple(a for a, ok in zip(actions, allowed) if ok),
             shield_time_us=round(decision_us, 3), deadlock=deadlock or None))
-        if crashed:
-            reason = "crashed"
-            break
-        if terminated or truncated:
-            reason = "end-of-trace"
+        if crashed or terminated or truncated:
+            reason = end_reason(crashed, terminated, truncated)
             break
     steps_t = tuple(steps)
     return Episode(id=index, steps=steps_t, end=make_end(steps_t, reason), seed=seed)
+
+
+def end_reason(crashed: bool, terminated: bool, truncated: bool) -> str:
+    """Why an episode ended, from Gymnasium's own flags: a crash; ``time-limit`` where the
+    environment truncated it (its own time limit, like ``--duration``'s); else
+    ``end-of-trace`` (it terminated: a goal reached, a terminal state). Gymnasium's rule:
+    a step both terminated and truncated ended in a terminal state."""
+    if crashed:
+        return "crashed"
+    return "time-limit" if truncated and not terminated else "end-of-trace"
 
 
 def _rows(obs) -> tuple[tuple[float, ...], ...]:

@@ -185,7 +185,7 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
     page_stem = {str(r): safe_name(stem if stems.count(stem) == 1 else f"{stem}_{i + 1}", taken)
                  for i, (r, stem) in enumerate(zip(runs, stems))}
     checked = [_check_run(run, shield, resimulate, agent, env) for run in runs]
-    result = statistics(runs, pset)
+    result = statistics(runs, pset, adapter=adapter)
     parts = [f"<h1>tracecheck validation report</h1><p class='note'>"
              f"{len(runs)} run(s)" + (f"; shield {_e(shield.name)} (sha256 {_e(shield.sha256)})"
                                       if shield is not None else "; no shield to replay")

@@ -78,12 +78,12 @@ def stats_text(console: Console, result: dict) -> None:
         for name, p in c["properties"].items():
             console.print(f"  {name}: only {c['runs'][0]} {p['only_first']}, only "
                           f"{c['runs'][1]} {p['only_second']} (exact McNemar p="
-                          f"{p['p_value']:.3g})", highlight=False)
+                          f"{p['p_value']:.3g})", highlight=False, soft_wrap=False)
         for name, m in c["metrics"].items():
             t = "n/a" if m["paired_t_p"] is None else f"{m['paired_t_p']:.3g}"
             w = "n/a" if m["wilcoxon_p"] is None else f"{m['wilcoxon_p']:.3g}"
             console.print(f"  {name}: mean difference {m['mean_difference']:.3f} (paired t "
-                          f"p={t}, Wilcoxon p={w})", highlight=False)
+                          f"p={t}, Wilcoxon p={w})", highlight=False, soft_wrap=False)
 
 
 def stats_markdown(result: dict) -> str:

@@ -22,9 +22,10 @@ from ..b.typecheck import typecheck_formula
 from ..b.vector import BatchFormula
 from ..episodes.columns import RunColumns, read_columns
 from ..errors import InputError, TracecheckError
-from .properties import Metric, Property, PropertySet
+from .properties import CRASH_FLAG, Metric, Property, PropertySet, load_properties, with_generic
 
-__all__ = ["RunValues", "StatsResult", "evaluate_run", "statistics", "INTERVALS"]
+__all__ = ["RunValues", "StatsResult", "evaluate_run", "statistics", "INTERVALS",
+           "default_set", "adapter_set", "run_adapter"]
 
 INTERVALS = {"wilson": "wilson", "clopper-pearson": "exact"}
 
@@ -49,82 +50,175 @@ def environment_of(path: str | Path) -> str:
     return read_header(path).environment or "highway"
 
 
-def _typing_scope(environment="highway", sample: Optional[dict] = None):
-    """The names and constants properties are checked against: those of the environment's
-    machine (the shield its adapter names), else the types of a sample state's values."""
+def run_adapter(environment, *, required: bool = True):
+    """The adapter of an environment name (installed adapters only: a name in a file is
+    never imported), or the adapter itself; None when ``required`` is False and it is not
+    installed."""
     from ..live.adapter import EnvAdapter, get_adapter
+
+    if isinstance(environment, EnvAdapter):
+        return environment
+    try:
+        return get_adapter(environment)
+    except InputError:
+        if required:
+            raise
+        return None
+
+
+@dataclass
+class _Scope:
+    """What formulas are checked against: names with their types, constants, the state
+    variables (for hints), and whether ``crashed`` is the environment's own name."""
+
+    names: dict
+    constants: dict
+    variables: tuple
+    own_crashed: bool
+
+
+def _typing_scope(environment="highway", sample: Optional[dict] = None) -> _Scope:
+    """The names and constants properties are checked against: those of the environment's
+    machine (the shield its adapter names), else the types of a sample state's values —
+    and the recorded crash flag ``crashed``, unless they have a ``crashed`` of their own."""
+    from ..b.typecheck import BOOL, type_of_value
     from ..checking.shield import load_shield
 
-    adapter = environment if isinstance(environment, EnvAdapter) else None
-    if adapter is None:
-        try:
-            adapter = get_adapter(environment)
-        except InputError:
-            if sample is None:
-                raise
+    adapter = run_adapter(environment, required=False)
     if adapter is not None and adapter.default_shield is not None:
         machine = load_shield(adapter.default_shield).machine
-        return machine.type_objects, dict(machine.base_env), machine.variables
-    if sample is None:
-        raise InputError(f"the environment {environment} names no machine to type-check "
-                         "properties against")
-    from ..b.typecheck import type_of_value
+        names, constants, variables = (dict(machine.type_objects), dict(machine.base_env),
+                                       machine.variables)
+    else:  # no machine: the recorded states' own types (none before the first episode)
+        sample = sample or {}
+        names, constants = {k: type_of_value(v) for k, v in sample.items()}, {}
+        variables = tuple(sample) or (tuple(adapter.variables) if adapter else ())
+    own = CRASH_FLAG in names
+    if not own:
+        names[CRASH_FLAG] = BOOL
+    return _Scope(names, constants, variables, own)
 
-    return ({k: type_of_value(v) for k, v in sample.items()}, {}, tuple(sample))
+
+def _class(adapter) -> str:
+    return f"{type(adapter).__module__}:{type(adapter).__qualname__}"
 
 
-def _check(node, kind: str, where: str, text: str, names, variables) -> None:
+def _reads_crashed(node, text: Optional[str]) -> bool:
+    import re
+
+    from ..b.ast import free_names
+
+    if node is not None:
+        return CRASH_FLAG in free_names(node)
+    return bool(re.search(rf"\b{CRASH_FLAG}\b", text or ""))
+
+
+def _check(node, kind: str, where: str, text: str, scope: _Scope) -> None:
     try:
-        typecheck_formula(node, names, kind=kind, source=text, file=where,
-                          unknown_hint=f"the state variables are {', '.join(variables)}")
+        typecheck_formula(node, scope.names, kind=kind, source=text, file=where,
+                          unknown_hint="the state variables are "
+                                       f"{', '.join([*scope.variables, CRASH_FLAG])}")
     except TracecheckError as exc:
         raise exc.located(file=where, source=text) from None
 
 
-def default_properties(paths: list[str | Path]) -> str:
-    """The property set of the runs' environment (the highway's when it has none)."""
-    from ..live.adapter import get_adapter
-
+def default_set(paths: list[str | Path], adapter=None) -> tuple[PropertySet, list[str]]:
+    """The generic set with the runs' environment's own set added where it has one (its
+    adapter given, or installed), and notes for people (an adapter not installed here)."""
     environment = environment_of(paths[0]) if paths else "highway"
-    return get_adapter(environment).properties or "highway"
+    adapter = adapter if adapter is not None else run_adapter(environment, required=False)
+    if adapter is None:
+        return with_generic(None), [
+            f"the environment {environment} of these runs is not installed here: generic "
+            "statistics only (give --env package.module:Class for its own property set)"]
+    return adapter_set(adapter), []
+
+
+def adapter_set(adapter) -> PropertySet:
+    """The generic set with the adapter's own added (``stats`` and ``simulate`` without
+    ``--properties``)."""
+    return with_generic(load_properties(adapter.properties) if adapter.properties else None)
 
 
 def prepare(pset: PropertySet, environment="highway", sample: Optional[dict] = None) -> dict:
     """Type-check every formula of ``pset`` against the environment's machine (a name or an
     adapter; ``sample``: a state to take types from where there is no machine) and prepare
-    it for batch evaluation."""
-    names, constants, variables = _typing_scope(environment, sample)
-    formulas = {}
+    it for batch evaluation. ``formulas["warnings"]`` says where ``crashed`` is the
+    environment's own name, not the recorded crash flag."""
+    needs_scope = any(m.node is not None for m in pset.metrics) or any(
+        p.node is not None for p in pset.properties)
+    scope = _typing_scope(environment, sample) if needs_scope else None
+    formulas: dict = {"warnings": []}
+
+    def note(node, text, where) -> None:
+        if scope is not None and scope.own_crashed and _reads_crashed(node, text):
+            formulas["warnings"].append(f"{where}: crashed is the environment's own "
+                                        "variable here, not the recorded crash flag")
+
     for m in pset.metrics:
+        where = f"{pset.where}: metric {m.name}"
         if m.aggregate == "stl":
             formulas[("m", m.name)] = _Temporal("stl", m.expression, _machine(environment),
-                                                f"{pset.where}: metric {m.name}")
-            continue
-        if m.node is not None:
-            _check(m.node, "expression", f"{pset.where}: metric {m.name}", m.expression, names,
-                   variables)
-            formulas[("m", m.name)] = BatchFormula(m.node, constants, source=m.expression)
+                                                where)
+            note(None, m.expression, where)
+        elif m.node is not None:
+            _check(m.node, "expression", where, m.expression, scope)
+            formulas[("m", m.name)] = BatchFormula(m.node, scope.constants,
+                                                   source=m.expression)
+            note(m.node, None, where)
     for p in pset.properties:
+        where = f"{pset.where}: property {p.name}"
         if p.kind in ("ltl", "stl"):
             formulas[("p", p.name)] = _Temporal(p.kind, p.predicate, _machine(environment),
-                                                f"{pset.where}: property {p.name}")
-            continue
-        _check(p.node, "predicate", f"{pset.where}: property {p.name}", p.predicate, names,
-               variables)
-        formulas[("p", p.name)] = BatchFormula(p.node, constants, source=p.predicate)
+                                                where)
+            note(None, p.predicate, where)
+        elif p.node is not None:
+            _check(p.node, "predicate", where, p.predicate, scope)
+            formulas[("p", p.name)] = BatchFormula(p.node, scope.constants, source=p.predicate)
+            note(p.node, None, where)
     return formulas
 
 
 def _machine(environment):
-    """The machine of the environment's default shield (what LTL properties are read in)."""
+    """The machine of the environment's default shield (what LTL properties are read in),
+    with the recorded crash flag as one more variable (unless it has a ``crashed``)."""
     from ..checking.shield import load_shield
-    from ..live.adapter import EnvAdapter, get_adapter
 
-    adapter = environment if isinstance(environment, EnvAdapter) else get_adapter(environment)
+    adapter = run_adapter(environment)
     if adapter.default_shield is None:
-        raise InputError(f"the environment {adapter.name} names no machine to read LTL "
-                         "properties in")
-    return load_shield(adapter.default_shield).machine
+        raise InputError(f"the environment {adapter.name} names no machine to read LTL and "
+                         "STL properties in: its adapter has no default_shield",
+                         hint=f"set default_shield = \"NAME_OR_PATH.mch\" (a built-in shield's "
+                              f"name or the path of a .mch file) on {_class(adapter)}")
+    machine = load_shield(adapter.default_shield).machine
+    return machine if CRASH_FLAG in machine.type_objects else _Flagged(machine)
+
+
+class _Flagged:
+    """A machine, with the recorded crash flag ``crashed`` as one more BOOL variable (LTL
+    atoms are type-checked and evaluated through it; everything else is the machine's)."""
+
+    def __init__(self, machine) -> None:
+        from ..b.typecheck import BOOL
+
+        self._machine = machine
+        self.type_objects = {**machine.type_objects, CRASH_FLAG: BOOL}
+        self.variables = (*machine.variables, CRASH_FLAG)
+
+    def __getattr__(self, name: str):
+        return getattr(self._machine, name)
+
+
+def with_crash_flag(cols: RunColumns) -> RunColumns:
+    """``cols`` whose states also hold the recorded crash flag as ``crashed`` (unless they
+    have a ``crashed`` of their own)."""
+    from dataclasses import replace
+
+    if CRASH_FLAG in cols.states.names():
+        return cols
+    states = replace(cols.states, booleans={**cols.states.booleans,
+                                            CRASH_FLAG: np.asarray(cols.crashed, dtype=bool)})
+    return replace(cols, states=states)
 
 
 class _Temporal:
@@ -151,6 +245,27 @@ class _Temporal:
         return evaluate_ltl(self.formula, cols, self.machine)[cols.starts[:-1]]
 
 
+def interventions(cols: RunColumns) -> np.ndarray:
+    """Per row: did the shield replace the agent's preferred action (the best of its
+    recorded action values) by another? False at step 0 and where no values were recorded."""
+    out = np.zeros(cols.n, dtype=bool)
+    if cols.values is None or not cols.n:
+        return out
+    known = np.all(np.isfinite(cols.values), axis=1) & (cols.action >= 0)
+    preferred = np.argmax(np.where(np.isfinite(cols.values), cols.values, -np.inf), axis=1)
+    out[known] = preferred[known] != cols.action[known]
+    return out
+
+
+def _recorded_choices(cols: RunColumns) -> np.ndarray:
+    """Per episode: were the agent's action values recorded at its steps?"""
+    if cols.values is None:
+        return np.zeros(len(cols.episode_ids), dtype=bool)
+    known = np.all(np.isfinite(cols.values), axis=1)
+    known[cols.starts[:-1]] = True  # step 0 has no action to judge
+    return np.logical_and.reduceat(known, cols.starts[:-1])
+
+
 def _aggregate(m: Metric, values: Optional[np.ndarray], cols: RunColumns) -> np.ndarray:
     starts = cols.starts[:-1]
     lengths = np.diff(cols.starts)
@@ -158,6 +273,9 @@ def _aggregate(m: Metric, values: Optional[np.ndarray], cols: RunColumns) -> np.
         return (lengths - 1).astype(float)
     if m.aggregate == "return":
         return np.add.reduceat(cols.reward, starts) - cols.reward[starts]
+    if m.aggregate == "interventions":
+        share = np.add.reduceat(interventions(cols), starts) / np.maximum(lengths - 1, 1)
+        return np.where(_recorded_choices(cols), share, np.nan)
     v = np.asarray(values, dtype=float)
     if m.aggregate == "average":
         return np.add.reduceat(v, starts) / lengths
@@ -190,6 +308,7 @@ def evaluate_run(path: str | Path, pset: PropertySet, formulas: dict,
                     warnings=list(cols.warnings))
     if not run.episodes:
         return run
+    cols = with_crash_flag(cols)
     for m in pset.metrics:
         if m.aggregate == "stl":
             run.metrics[m.name] = formulas[("m", m.name)].values(cols)
@@ -197,6 +316,10 @@ def evaluate_run(path: str | Path, pset: PropertySet, formulas: dict,
         values = formulas[("m", m.name)](cols.states) if m.node is not None else None
         run.metrics[m.name] = _aggregate(m, values, cols)
     for p in pset.properties:
+        if p.kind == "end":
+            run.properties[p.name] = np.array([r == p.predicate for r in cols.reasons],
+                                              dtype=bool)
+            continue
         formula = formulas[("p", p.name)]
         run.properties[p.name] = formula.holds(cols) if p.kind in ("ltl", "stl") else \
             _holds(p, formula(cols.states), cols)
@@ -240,6 +363,8 @@ def _nonfinite_why(values: np.ndarray, m: Metric) -> Optional[str]:
     what = ", ".join(f"{n} {name}" for name, n in counts.items() if n)
     why = ("the formula has no sample to judge there: +inf for X at an episode's last state "
            "or G[a,b] past its end, -inf for F[a,b] past its end" if m.aggregate == "stl"
+           else "the agent's action values were not recorded (imported traces), so the "
+           "shield's interventions cannot be told" if m.aggregate == "interventions"
            else "the per-episode values overflow")
     return f"not finite: of {len(values)} episodes, {what} ({why})"
 
@@ -314,11 +439,23 @@ def _paired(a: RunValues, b: RunValues, pset: PropertySet) -> Optional[dict]:
     return result
 
 
-def _evaluate_one(path: str, pset: PropertySet, name: Optional[str]) -> RunValues:
+def _evaluate_one(path: str, pset: PropertySet, name: Optional[str],
+                  environment=None) -> RunValues:
     """One file, in whichever process runs it."""
     cols = read_columns(path)
     sample = cols.states.row(0) if cols.states.n else None
-    return evaluate_run(path, pset, prepare(pset, environment_of(path), sample), name, cols)
+    formulas = prepare(pset, environment or environment_of(path), sample)
+    run = evaluate_run(path, pset, formulas, name, cols)
+    run.warnings += formulas["warnings"]
+    return run
+
+
+def check_environment(adapter, environment: str) -> None:
+    """``--env`` must be the adapter of the runs' environment (the name in their files)."""
+    if adapter.name != environment:
+        raise InputError(f"the runs come from the environment {environment}, but --env gives "
+                         f"the adapter of {adapter.name}",
+                         hint=f"give the adapter of {environment}, or leave --env out")
 
 
 class StatsResult(dict):
@@ -333,11 +470,12 @@ class StatsResult(dict):
 def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "wilson",
                names: Optional[list[str]] = None,
                columns: Optional[list[RunColumns]] = None, executor: str = "local",
-               ray_address: Optional[str] = None) -> StatsResult:
+               ray_address: Optional[str] = None, adapter=None) -> StatsResult:
     """The statistics of the runs in ``paths`` (JSON-ready; see the module docstring).
 
-    ``columns``: the runs' columns when they were read already; ``statistics_s`` in the
-    result is the time spent after reading."""
+    ``columns``: the runs' columns when they were read already; ``adapter``: the runs'
+    environment adapter, when given by the user (``--env``; else the installed one their
+    files name, if any); ``statistics_s`` in the result is the time spent after reading."""
     if interval not in INTERVALS:
         raise InputError(f"unknown interval method {interval!r}; the methods are "
                          f"{', '.join(INTERVALS)}")
@@ -347,12 +485,16 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
         raise InputError(f"the runs come from different environments ({names}); "
                          "compare runs of one environment")
     environment = environments.pop() if environments else "highway"
+    if adapter is not None:
+        check_environment(adapter, environment)
+        environment = adapter
     if executor != "local":
         from ..live.executors import map_files
 
         start = time.perf_counter()
-        runs = map_files(_evaluate_one, [(str(p), pset, names[i] if names else None)
-                                         for i, p in enumerate(paths)], executor, ray_address)
+        runs = map_files(_evaluate_one, [(str(p), pset, names[i] if names else None,
+                                          adapter) for i, p in enumerate(paths)], executor,
+                         ray_address)
     else:
         cols = columns or [read_columns(p) for p in paths]
         sample = cols[0].states.row(0) if cols and cols[0].states.n else None
@@ -360,8 +502,10 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
         start = time.perf_counter()
         runs = [evaluate_run(p, pset, formulas, names[i] if names else None, cols[i])
                 for i, p in enumerate(paths)]
+        if runs:
+            runs[0].warnings += formulas["warnings"]
     out = {"properties_set": pset.name, "interval": interval, "runs": [], "comparisons": [],
-           "warnings": [w for r in runs for w in r.warnings]}
+           "warnings": list(dict.fromkeys(w for r in runs for w in r.warnings))}
     for run in runs:
         entry = {"name": run.name, "file": run.file, "episodes": run.episodes,
                  "metrics": {}, "properties": {}}

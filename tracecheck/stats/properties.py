@@ -15,14 +15,25 @@ A property file is TOML::
 Aggregates over the states s0 … sn of an episode (n = steps), as SimB defines them:
 ``steps`` is n; ``return`` the sum of the recorded step rewards (no expression); ``average`` the mean over s0…sn; ``sum`` the sum over s0…sn;
 ``sum_between_steps`` Σ_{k=1..n} (value in s(k−1) + value in s(k)) / 2; ``min``, ``max``.
+``interventions`` the share of the episode's steps where the shield replaced the agent's
+preferred action (from the recorded action values; no expression).
 A property of kind ``invariant`` holds in every state (the initial state included),
 ``eventually`` in some state, ``final`` in the last one; of kind ``ltl``, its ``predicate``
 is an LTL formula in ProB's syntax (``G({Crash = FALSE} => …)``, see
 :mod:`tracecheck.checking.ltl`) that holds for the episode — its atoms are checked against
 the environment's machine, and ``e(Op)`` and ``deadlock`` use that machine as the shield;
 of kind ``stl``, an STL formula (:mod:`tracecheck.checking.stl`) whose robustness is
-positive. A metric with ``aggregate = "stl"`` is the robustness of its STL ``expression``
-per episode.
+positive; of kind ``end``, its ``predicate`` is an end reason (``crashed``, ``time-limit``,
+``end-of-trace``, ``deadlock``, ``interrupted``) and it holds when the episode ended so. A
+metric with ``aggregate = "stl"`` is the robustness of its STL ``expression`` per episode.
+
+Every formula (B, LTL atoms, STL) can read ``crashed``, the crash flag recorded with each
+state (a BOOL: ``crashed = TRUE``, in LTL ``{crashed = TRUE}``), in every environment — unless
+the environment's machine or states have a ``crashed`` of their own, which is then what the
+name means (with a warning).
+
+Without a property file, ``stats`` uses :data:`GENERIC_TOML` (any run) with the adapter's own
+set added (:func:`with_generic`).
 """
 
 from __future__ import annotations
@@ -40,10 +51,14 @@ from ..b.scope import EXPR, PRED, check_kind
 from ..errors import InputError, TracecheckError, read_text
 
 __all__ = ["Metric", "Property", "HypothesisTest", "PropertySet", "load_properties",
-           "HIGHWAY_SET", "AGGREGATES", "KINDS", "TAILS"]
+           "HIGHWAY_SET", "GENERIC_SET", "AGGREGATES", "KINDS", "TAILS", "CRASH_FLAG",
+           "with_generic"]
 
-AGGREGATES = ("steps", "average", "sum", "sum_between_steps", "min", "max", "return", "stl")
-KINDS = ("invariant", "eventually", "final", "ltl", "stl")
+AGGREGATES = ("steps", "average", "sum", "sum_between_steps", "min", "max", "return", "stl",
+              "interventions")
+KINDS = ("invariant", "eventually", "final", "ltl", "stl", "end")
+#: the recorded crash flag, a BOOL that every formula can read (see the module docstring)
+CRASH_FLAG = "crashed"
 TAILS = ("left", "right", "two")
 
 
@@ -68,7 +83,7 @@ class Metric:
 class Property:
     name: str
     predicate: str
-    node: Optional[A.Node]  # None for kind "ltl" (see tracecheck.checking.ltl)
+    node: Optional[A.Node]  # None for kinds "ltl", "stl" (see tracecheck.checking.ltl), "end"
     kind: str = "invariant"
     description: str = ""
     test: Optional[HypothesisTest] = None
@@ -271,7 +286,7 @@ def _metric(name: str, spec: dict, file: str) -> Metric:
     node = None
     if aggregate == "stl":
         _temporal_text(spec.get("expression"), "expression", "STL", where, file)
-    elif aggregate not in ("steps", "return"):
+    elif aggregate not in ("steps", "return", "interventions"):
         node = _formula(spec.get("expression"), "expression", f"{where} expression", file)
     estimate = None
     if "estimate" in spec:
@@ -302,7 +317,14 @@ def _property(name: str, spec: dict, file: str) -> Property:
     spec = _keys(spec, ("predicate", "kind", "description", "test"), where, file,
                  "a property")
     kind = _choice(spec, "kind", "invariant", KINDS, where, file)
-    if kind in ("ltl", "stl"):  # parsed against the environment's machine (prepare)
+    if kind == "end":
+        from ..episodes.schema import END_REASONS
+
+        if spec.get("predicate") not in END_REASONS:
+            raise InputError(f"{file}: {where}: a property of kind end names an end reason "
+                             f"({', '.join(END_REASONS)}), not {_shown(spec.get('predicate'))}")
+        node = None
+    elif kind in ("ltl", "stl"):  # parsed against the environment's machine (prepare)
         _temporal_text(spec.get("predicate"), "predicate", kind.upper(), where, file)
         node = None
     else:
@@ -373,15 +395,58 @@ kind = "eventually"
 description = "both legs on the ground at some point"
 """
 
+#: What ``stats`` gives for any run, whatever its environment (and whether or not its
+#: adapter is installed): from what every recording holds.
+GENERIC_TOML = """
+[metrics.episode_length]
+aggregate = "steps"
+description = "Episode length (steps)"
+
+[metrics.return]
+aggregate = "return"
+description = "Return"
+
+[metrics.interventions]
+aggregate = "interventions"
+description = "Interventions (share of steps)"
+
+[properties.CRASH]
+predicate = "crashed = TRUE"
+kind = "eventually"
+description = "crashed (the recorded crash flag)"
+
+[properties.TIME_LIMIT]
+predicate = "time-limit"
+kind = "end"
+description = "ran until a time limit (the environment's own or --duration)"
+"""
+
+GENERIC_SET = parse_properties(GENERIC_TOML, name="generic", file="<generic>")
+
+
+def with_generic(own: Optional[PropertySet]) -> PropertySet:
+    """The generic set, with an environment's own set added (its entries replace generic
+    ones of the same name, in place: the highway's ``episode_length`` is in seconds)."""
+    if own is None:
+        return GENERIC_SET
+    mine = {m.name: m for m in own.metrics}
+    props = {p.name: p for p in own.properties}
+    metrics = [mine.pop(m.name, m) for m in GENERIC_SET.metrics] + list(mine.values())
+    properties = [props.pop(p.name, p) for p in GENERIC_SET.properties] + list(props.values())
+    return PropertySet(f"generic+{own.name}", tuple(metrics), tuple(properties), own.file)
+
+
 BUILTIN_SETS = {"highway": HIGHWAY_TOML, "frozenlake": FROZENLAKE_TOML,
                 "cliffwalking": CLIFFWALKING_TOML, "lunarlander": LUNARLANDER_TOML}
 
 
 def load_properties(spec: str | Path) -> PropertySet:
-    """A built-in set (``highway``, ``frozenlake``, ``cliffwalking``, ``lunarlander``), or a
-    property file."""
+    """A built-in set (``generic``, ``highway``, ``frozenlake``, ``cliffwalking``,
+    ``lunarlander``), or a property file."""
     if str(spec) == "highway":
         return HIGHWAY_SET
+    if str(spec) == "generic":
+        return GENERIC_SET
     if str(spec) in BUILTIN_SETS:
         return parse_properties(BUILTIN_SETS[str(spec)], name=str(spec), file=f"<{spec}>")
     path = Path(spec)

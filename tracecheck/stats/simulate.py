@@ -14,27 +14,24 @@ import math
 from pathlib import Path
 from typing import Callable, Optional, Sequence
 
-import numpy as np
-
-from ..b.vector import Columns
+from ..episodes.columns import episode_columns
 from ..episodes.files import recording_into
 from ..episodes.model import Episode
 from .properties import PropertySet
 from ..live.record import (RecordSettings, check_settings, episodes, recording_header,
                            run_inputs)
-from .estimates import prepare, statistics
+from .estimates import evaluate_run, prepare, statistics
 
 __all__ = ["simulate"]
 
 
-def _holds(episode: Episode, pset: PropertySet, formulas: dict) -> dict[str, bool]:
-    cols = Columns.from_states([s.state for s in episode.steps])
-    out = {}
-    for p in pset.properties:
-        values = np.asarray(formulas[("p", p.name)](cols), dtype=bool)
-        out[p.name] = bool(values.all() if p.kind == "invariant" else
-                           values.any() if p.kind == "eventually" else values[-1])
-    return out
+def _holds(episode: Episode, pset: PropertySet, formulas: dict,
+           action_names: Sequence[str]) -> dict[str, bool]:
+    """Which properties one new episode satisfies: the very evaluation ``stats`` makes of a
+    file (every kind: state predicates, LTL, STL, end reasons)."""
+    cols = episode_columns([episode], action_names)
+    values = evaluate_run("<episode>", pset, formulas, cols=cols)
+    return {name: bool(v[0]) for name, v in values.properties.items()}
 
 
 def _widths(holds: dict[str, list[bool]], level: float) -> dict[str, float]:
@@ -65,7 +62,8 @@ def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
     agent, shield = check_settings(settings, out, force=force, inputs=inputs)
     from ..live.record import resolve
 
-    formulas = prepare(pset, resolve(settings)[0])
+    adapter = resolve(settings)[0]
+    formulas = prepare(pset, adapter)
     batch = batch or max(10, 10 * settings.workers)
     looks = math.ceil(settings.episodes / batch)
     level = 1.0 - 0.05 / looks
@@ -84,7 +82,7 @@ def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
                 progress(episode)
             if sequential is None:
                 continue
-            for name, value in _holds(episode, pset, formulas).items():
+            for name, value in _holds(episode, pset, formulas, adapter.actions).items():
                 holds[name].append(value)
             done = writer.episodes
             if done % batch == 0 or done == settings.episodes:
@@ -94,7 +92,7 @@ def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
                 if widths and max(widths.values()) < until_width and done < settings.episodes:
                     sequential["stopped_early"] = True
                     break
-    result = statistics([out], pset)
+    result = statistics([out], pset, adapter=adapter)
     if sequential is not None:
         result["sequential"] = sequential
     return result
