@@ -124,7 +124,12 @@ def test_frozenlake_replay_resimulate_stats_render(frozen, tmp_path, capsys):
     code, _, err = run(capsys, "render", frozen, "-e", 0, "--shield", "frozenlake", "-o", page)
     assert code == 0, err
     text = page.read_text()
-    assert '"scene":"grid"' in text and '"cols":8' in text
+    data = json.loads(text.split("const DATA = ", 1)[1].split(";\nconst ACTIONS", 1)[0])
+    from tracecheck.render.scene import GRID_CAPTION
+
+    assert data["scene"]["caption"] == GRID_CAPTION
+    tiles = {s["label"] for s in data["scene"]["shapes"] if s["kind"] == "box"}
+    assert len(tiles - {"goal"}) == 64  # 8 x 8
     code, _, err = run(capsys, "report", frozen, "--shield", "frozenlake",
                        "-o", tmp_path / "r" / "report.html")
     assert code == 0, err
