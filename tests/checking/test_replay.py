@@ -277,3 +277,41 @@ def test_state_without_a_value_the_guard_needs(tmp_path):
         replay([path], load_shield(shield_path))
     assert "gap.mcap, episode 7, step 2: EgoVehicle is not in the domain of the function" \
         in str(info.value)
+
+
+@pytest.mark.parametrize("spec", ["none-for-frozenlake", "paper", "file"])
+def test_a_shield_travels_to_a_worker_as_itself(spec, tmp_path):
+    """What a Ray task receives (issue 23): the shield pickled as its machine's text and
+    rebuilt there — ``none`` made from a run's actions stays that ``none``, a file's shield
+    needs no file on the worker."""
+    import pickle
+
+    from tracecheck.checking.replay import _replay_one
+
+    if spec == "none-for-frozenlake":
+        shield = load_shield("none", actions=("Move_Left", "Move_Down", "Move_Right",
+                                              "Move_Up"))
+    elif spec == "paper":
+        shield = load_shield("paper")
+    else:
+        path = tmp_path / "mine.mch"
+        path.write_text((ROOT / "models" / "shields" / "paper.mch").read_text())
+        shield = load_shield(path)
+    data = pickle.dumps(shield)
+    if spec == "file":
+        path.unlink()  # the worker never reads it
+    sent = pickle.loads(data)
+    assert (sent.name, sent.sha256, sent.path) == (shield.name, shield.sha256, shield.path)
+    assert list(sent.machine.operations) == list(shield.machine.operations)
+    if spec != "none-for-frozenlake":
+        run = ROOT / "sample_traces" / "base_none.mcap"
+        assert _replay_one(str(run), sent).per_episode == replay([run], shield).per_episode
+
+
+def test_a_shield_changed_on_the_way_is_refused():
+    from tracecheck.checking.shield import _rebuilt
+
+    shield = load_shield("paper")
+    name, sha, path, text, file = shield.__reduce__()[1]
+    with pytest.raises(InputError, match="arrived changed"):
+        _rebuilt(name, sha, path, text.replace("40.0", "30.0"), file)

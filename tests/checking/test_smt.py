@@ -101,7 +101,8 @@ def test_symbolic_diff_of_paper_and_strict(capsys):
         if r["reason"]:  # the solver's exact reals sit on a boundary floats round across
             assert r["reason"].startswith("over the exact reals, at a boundary")
         else:
-            assert r["decisions"]["PaperShield"] != r["decisions"]["StrictRSSShield"]
+            assert r["decisions"]["paper (MACHINE PaperShield)"] != \
+                r["decisions"]["strict (MACHINE StrictRSSShield)"]
     code, _, err = run(capsys, "diff", "runs.mcap", "--symbolic", "--shield", "paper",
                        "--against", "strict")
     assert code == 2 and "give no run files" in err

@@ -308,3 +308,91 @@ def test_values_and_file_names_are_printed_as_they_are(capsys, tmp_path):
     machine.write_text(open(TABLE1).read())
     code, out, _ = run(capsys, "check-model", str(machine))
     assert code == 0 and f"MACHINE PaperShield  ({machine}, sha256" in out
+
+
+# ------------------------------------------------------------------ issue 23: check-model
+# shows every /*@desc*/ (bug 8), guards warns of states the invariant excludes
+
+DESCRIBED = """
+MACHINE D
+SETS Mode /*@desc driving modes */ = {Eco, Sport}
+CONSTANTS Lim /*@desc "the limit" */
+PROPERTIES Lim = 3
+VARIABLES x /*@desc the count */
+INVARIANT x : 0..5
+INITIALISATION x := 0
+OPERATIONS
+  Inc /*@desc after the name */ = SELECT x < Lim THEN x := x + 1 END;
+  Dec = /*@desc after the equals */ SELECT x > 0 THEN x := x - 1 END;
+  Set(v) /*@desc with a parameter */ = PRE v : 0..5 THEN x := v END;
+  Reset = BEGIN x := 0 END /*@desc after the body */;
+  Plain = skip
+END
+"""
+
+
+def test_check_model_shows_every_description(capsys, tmp_path):
+    path = tmp_path / "d.mch"
+    path.write_text(DESCRIBED)
+    code, out, _ = run(capsys, "check-model", str(path))
+    assert code == 0
+    for line in ["  set Mode = {Eco, Sport} — driving modes", "  constant Lim = 3 — the limit",
+                 "  operation Inc (after the name): guard x < Lim",
+                 "  operation Dec (after the equals): guard x > 0",
+                 "  operation Set(v) (with a parameter): guard v : 0..5",
+                 "  operation Reset (after the body): guard TRUE",
+                 "  operation Plain: guard TRUE"]:
+        assert line in out.splitlines()
+    code, out, _ = run(capsys, "check-model", str(path), "--json")
+    data = json.loads(out)
+    assert data["descriptions"] == {"Mode": "driving modes", "Lim": "the limit",
+                                    "x": "the count", "Inc": "after the name",
+                                    "Dec": "after the equals", "Set": "with a parameter",
+                                    "Reset": "after the body"}
+    assert data["operations"]["Reset"]["description"] == "after the body"
+    assert data["operations"]["Plain"]["description"] is None
+    code, out, _ = run(capsys, "check-model", str(path), "--format", "csv")
+    assert "constant,Lim,3,,the limit" in out and "operation,Inc,,x < Lim,after the name" in out
+
+
+def test_check_model_shows_the_paper_shields_constant_description(capsys):
+    code, out, _ = run(capsys, "check-model", "paper")
+    assert code == 0 and "constant EgoVehicle = EgoVehicle — the vehicle the agent drives" in out
+
+
+INVARIANT3 = """
+MACHINE T
+VARIABLES Gap, EgoSpeed, Lead
+INVARIANT Gap : REAL & EgoSpeed : REAL & Lead : REAL & EgoSpeed >= 0.0 & Lead >= 0.0
+INITIALISATION Gap := 1.0 || EgoSpeed := 1.0 || Lead := 0.0
+OPERATIONS
+  KEEP = SELECT Gap > 10.0 THEN skip END;
+  BRAKE = SELECT EgoSpeed > 0.0 THEN skip END
+END
+"""
+
+
+def test_guards_warns_of_a_state_the_invariant_excludes(capsys, tmp_path):
+    model, state = tmp_path / "t.mch", tmp_path / "s.json"
+    model.write_text(INVARIANT3)
+    state.write_text('{"Gap": 30.0, "EgoSpeed": -1.0, "Lead": 2.0}')
+    code, out, err = run(capsys, "guards", str(model), "--state", str(state))
+    assert code == 0 and "enabled: KEEP" in out
+    assert (f"warning: {state} breaks the INVARIANT of T: EgoSpeed >= 0.0 does not hold"
+            in " ".join(err.split()))
+    code, out, err = run(capsys, "guards", str(model), "--state", str(state), "--json")
+    data = json.loads(out)
+    assert data["invariant_holds"] is False and data["invariant_violations"] == ["EgoSpeed >= 0.0"]
+    state.write_text('{"Gap": 30.0, "EgoSpeed": 2.0}')
+    code, out, err = run(capsys, "guards", str(model), "--state", str(state))
+    assert code == 0 and "enabled: KEEP, BRAKE" in out
+    assert (f"warning: {state} gives no value for Lead (a variable of T): no guard reads it; "
+            "the INVARIANT is not checked where it does (Lead : REAL; Lead >= 0.0)"
+            in " ".join(err.split()))
+    code, out, _ = run(capsys, "guards", str(model), "--state", str(state), "--json")
+    data = json.loads(out)
+    assert data["missing_variables"] == ["Lead"] and data["invariant_holds"] is None
+    assert [u["conjunct"] for u in data["invariant_unchecked"]] == ["Lead : REAL", "Lead >= 0.0"]
+    state.write_text('{"Gap": 30.0, "EgoSpeed": 2.0, "Lead": 1.0}')
+    code, out, err = run(capsys, "guards", str(model), "--state", str(state), "--json")
+    assert code == 0 and err == "" and json.loads(out)["invariant_holds"] is True

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import csv
+import io
 import json
 
 import pytest
 
 from tests.cli.test_cli import run
+from tracecheck.cli import main
 from tests.checking.test_replay import TOY, run_file, toy  # noqa: F401 - fixtures
 from tracecheck.episodes import new_header
 from tracecheck.episodes.files import write_run
@@ -164,8 +167,9 @@ def test_the_replay_report_fits_80_columns_without_breaking_words(capsys):
     lines = out.splitlines()
     assert max(len(line) for line in lines) <= 80, max(lines, key=len)
     header = next(line for line in lines if line.strip().startswith("ep."))
+    # without re-simulation the crash column says what it is, never "prevented"
     assert header.split() == ["ep.", "steps", "first", "allowed", "instead", "blocked",
-                              "crash", "prevented", "other"]
+                              "crash", "after", "block", "other"]
     assert "actions: F = FASTER, I = IDLE, L = LANE_LEFT, R = LANE_RIGHT, S = SLOWER" in \
         " ".join(out.split())
     for word in ("infeasib\n", "LANE_\n", "LANE_LEF\n"):
@@ -191,3 +195,163 @@ def test_the_diff_report_fits_80_columns(capsys):
     assert code == 0 and max(len(line) for line in lines) <= 80, max(lines, key=len)
     assert any(line.split()[:3] == ["ep.", "step", "action"] for line in lines)
     assert "actions: F = FASTER" in out
+
+
+# ------------------------------------------------------------------ one truth: the table and
+# the re-simulation lines (issue 23, part 4), on the corridor of tests/live/toy.py
+
+#: blocks everything in cell 2: the fallback (Left) is taken there, so an episode that the
+#: shield blocks in cell 2 still falls into the pit — a crash after a blocked step that
+#: re-simulation finds was not prevented
+DEADLOCK_AT_2 = """
+MACHINE CorridorShield
+VARIABLES pos
+INVARIANT pos : 0..5
+INITIALISATION pos := 2
+OPERATIONS
+  Left = SELECT pos /= 2 THEN pos := pos - 1 END;
+  Right = SELECT pos /= 2 & pos < 5 THEN pos := pos + 1 END
+END
+"""
+CORRIDOR = "tests.live.toy:Corridor"
+
+
+@pytest.fixture(scope="module")
+def corridor(tmp_path_factory):
+    """(run, agent, deadlock-at-2 shield): 12 unshielded episodes of the left-leaning agent,
+    each starting in cell 1 to 4 (seeded) and falling into the pit."""
+    import numpy as np
+
+    from tests.live.toy import left_leaning_table
+
+    folder = tmp_path_factory.mktemp("corridor")
+    agent, shield, out = folder / "left.npy", folder / "stuck.mch", folder / "c.mcap"
+    np.save(agent, left_leaning_table())
+    shield.write_text(DEADLOCK_AT_2)
+    with pytest.raises(SystemExit) as stop:
+        main(["record", "--env", CORRIDOR, "--agent", str(agent), "--shield", "none",
+              "-n", "12", "--seed", "0", "-o", str(out)])
+    assert stop.value.code in (0, None)
+    return str(out), str(agent), str(shield)
+
+
+def _starts(path) -> dict[int, int]:
+    from tracecheck.episodes import read_run
+
+    return {e.id: e.steps[0].state["pos"] for e in read_run(path).episodes}
+
+
+def test_the_table_says_what_resimulation_found(capsys, corridor):
+    run_path, agent, shield = corridor
+    starts = _starts(run_path)
+    blocked = sorted(ep for ep, pos in starts.items() if pos >= 2)  # they pass cell 2
+    assert blocked and len(blocked) < len(starts)  # some start in cell 1: never blocked
+    args = ["replay", run_path, "--shield", shield, "--resimulate", "--agent", agent,
+            "--env", CORRIDOR]
+    code, out, err = run(capsys, *args)
+    assert code == 0, err
+    for ep in blocked:
+        assert f"episode {ep} (seed {ep}): not prevented, crash at step" in out
+    rows = {line.split()[0]: line for line in out.splitlines()
+            if line.split() and line.split()[0].isdigit()}
+    header = next(line for line in out.splitlines() if line.strip().startswith("ep."))
+    assert "re-simulated" in header.split()
+    for ep in blocked:  # the same words as the lines above: never "prevented" alone
+        assert " not prevented " in rows[str(ep)], rows[str(ep)]
+        assert " prevented" not in rows[str(ep)].replace(" not prevented", "")
+    for ep in set(starts) - set(blocked):
+        assert " never blocked" in rows[str(ep)] and "prevented" not in rows[str(ep)]
+    code, out, _ = run(capsys, *args, "--format", "csv")
+    table = list(csv.DictReader(io.StringIO(out)))
+    assert code == 0 and "crash after a blocked step" not in table[0]
+    assert {int(r["episode"]): r["re-simulated"] for r in table} == {
+        ep: "not prevented" if ep in blocked else "never blocked" for ep in starts}
+    code, out, _ = run(capsys, *args, "--format", "md")
+    assert code == 0 and "| re-simulated |" in out and "| not prevented |" in out
+    code, out, _ = run(capsys, *args, "--json")
+    data = json.loads(out)
+    assert {e["episode"]: e["resimulated"] for e in data["per_episode"]} == {
+        ep: "not prevented" if ep in blocked else "never blocked" for ep in starts}
+    assert {r["outcome"] for r in data["resimulation"]["per_episode"]} == {"not prevented"}
+    assert data["resimulation"]["crashes_not_prevented"] == len(blocked)
+
+
+def test_without_resimulation_the_column_never_says_prevented(capsys, corridor):
+    run_path, _, shield = corridor
+    code, out, _ = run(capsys, "replay", run_path, "--shield", shield)
+    assert code == 0 and "after block" in out and "prevented" not in out
+    code, out, _ = run(capsys, "replay", run_path, "--shield", shield, "--format", "csv")
+    table = list(csv.DictReader(io.StringIO(out)))
+    assert code == 0 and "prevented" not in out
+    assert {r["crash after a blocked step"] for r in table} == {"yes", "no"}
+
+
+def test_fail_on_mismatch(capsys, corridor, tmp_path):
+    """Episodes that do not reproduce the recording are counted, warned of, and with
+    --fail-on mismatch exit 1 (a run whose header says slip=false, recorded with slip)."""
+    from tracecheck.episodes import read_run
+
+    run_path, agent, shield = corridor
+    recorded = read_run(run_path)
+    header = recorded.header.model_copy(update={"environment_config": {"slip": False}})
+    edited = tmp_path / "edited.mcap"
+    write_run(edited, header, recorded.episodes)
+    starts = _starts(run_path)
+    # without slipping every episode starts in cell 2: the others do not reproduce
+    wrong = sum(pos in (3, 4) for pos in starts.values())
+    resimulated = sum(pos >= 2 for pos in starts.values())
+    assert wrong
+    args = ["replay", str(edited), "--shield", shield, "--resimulate", "--agent", agent,
+            "--env", CORRIDOR]
+    code, out, err = run(capsys, *args)
+    assert code == 0
+    assert f"{wrong} did not reproduce the recording" in " ".join(out.split())
+    assert (f"warning: {wrong} of {resimulated} re-simulated episode(s) did not reproduce "
+            "the recording") in " ".join(err.split())
+    assert "did not reproduce" in out.split("episodes that matter")[1]  # in the table too
+    code, out, err = run(capsys, *args, "--fail-on", "mismatch", "--json")
+    assert code == 1 and "failing: mismatch found (--fail-on)" in err
+    assert json.loads(out)["resimulation"]["mismatches"] == wrong
+    code, _, err = run(capsys, "replay", run_path, "--shield", shield, "--fail-on", "mismatch")
+    assert code == 2 and "--fail-on mismatch needs --resimulate" in err
+
+
+def test_diff_prints_no_markup_and_names_as_they_are(capsys, tmp_path):
+    """Bug 3: the headline was printed as ``[bold]Shield …[/bold]``; a shield file with
+    brackets in its name is printed as it is, too."""
+    from tests.conftest import PAPER_SHIELD, ROOT
+
+    odd = tmp_path / "paper[bold]v2.mch"
+    odd.write_text(PAPER_SHIELD.read_text())
+    code, out, _ = run(capsys, "diff", str(ROOT / "sample_traces" / "base_none.mcap"),
+                       "--shield", str(odd), "--against", "strict")
+    first = out.splitlines()[0]
+    assert code == 0 and first.startswith("Shield paper[bold]v2 (")
+    assert " against strict (" in first and "[/bold]" not in out and "\\[" not in out
+
+
+def test_diff_symbolic_names_two_versions_of_one_machine_by_file(capsys, tmp_path):
+    """Bug 4: two versions of one MACHINE are named by their files; different machines by
+    file and MACHINE name."""
+    from tests.live.cruise import SHIELD_V1, SHIELD_V2
+
+    v1, v2 = tmp_path / "acc_v1.mch", tmp_path / "acc_v2.mch"
+    v1.write_text(SHIELD_V1)
+    v2.write_text(SHIELD_V2)
+    code, out, _ = run(capsys, "diff", "--symbolic", "--shield", str(v2), "--against", str(v1))
+    assert code == 1
+    assert f"  {v2} and {v1} decide KEEP differently: Gap = " in out
+    assert "ACCShield" not in out
+    code, out, _ = run(capsys, "diff", "--symbolic", "--shield", str(v2), "--against", str(v1),
+                       "--json")
+    keep = next(r for r in json.loads(out) if r["obligation"] == "KEEP")
+    assert keep["decisions"] == {str(v2): False, str(v1): True}
+    other = tmp_path / "acc_other.mch"
+    other.write_text(SHIELD_V1.replace("MACHINE ACCShield", "MACHINE CruiseShield"))
+    code, out, _ = run(capsys, "diff", "--symbolic", "--shield", str(v2), "--against",
+                       str(other))
+    assert (f"  {v2} (MACHINE ACCShield) and {other} (MACHINE CruiseShield) decide KEEP "
+            "differently") in out
+    code, out, _ = run(capsys, "diff", "--symbolic", "--shield", str(v1), "--against", str(v1),
+                       "--json")
+    assert code == 0 and {r["status"] for r in json.loads(out)} == {"equivalent"}

@@ -20,7 +20,7 @@ PAPER = str(ROOT / "sample_traces" / "base_paper.mcap")
 TABLES = {
     "replay": (["replay", NONE, "--shield", "paper"],
                ["file", "episode", "steps", "first infeasible", "allowed there", "shielded",
-                "infeasible", "crash", "after it", "other"], 24),
+                "infeasible", "crash", "crash after a blocked step", "other"], 24),
     "diff": (["diff", NONE, "--shield", "strict", "--against", "paper"],
              ["file", "episode", "step", "action", "strict", "paper", "enabled by strict",
               "enabled by paper"], None),
@@ -32,7 +32,7 @@ TABLES = {
     "envs": (["envs"], ["name", "environment", "actions", "variables", "shield", "installed"],
              None),
     "check-model": (["check-model", "paper"],
-                    ["kind", "name", "value or type", "description or guard"], 1 + 1 + 9 + 5),
+                    ["kind", "name", "value or type", "guard", "description"], 1 + 1 + 9 + 5),
     "guards": (["guards", "paper", "--state", str(ROOT / "models" / "examples" /
                                                   "state_approaching.json")],
                ["operation", "enabled"], 5),

@@ -88,3 +88,35 @@ def test_replay_diff_stats_per_file_on_ray(local_ray):
     sa = statistics(files, HIGHWAY_SET)
     sb = statistics(files, HIGHWAY_SET, executor="ray")
     assert sa["runs"] == sb["runs"] and sa["comparisons"] == sb["comparisons"]
+
+
+@pytest.fixture(scope="module")
+def frozen_runs(tmp_path_factory):
+    """Two short unshielded frozenlake runs of the bundled Q-table."""
+    folder = tmp_path_factory.mktemp("frozen")
+    paths = []
+    for i in range(2):
+        path = folder / f"fl{i}.mcap"
+        record(RecordSettings(agent=str(ROOT / "models" / "agents" / "frozenlake.npy"),
+                              shield="none", episodes=4, seed=10 * i, env="frozenlake",
+                              env_config={"is_slippery": True}), path)
+        paths.append(path)
+    return paths
+
+
+def test_ray_tasks_get_the_shield_itself_not_a_name(local_ray, frozen_runs):
+    """Issue 23: ``replay --executor ray --shield none`` on a frozenlake run loaded the
+    highway's ``none`` by name in the workers; they now get the shield (pickled as its
+    text), ``none`` made from the run's actions included."""
+    from tracecheck.checking.replay import diff, replay
+    from tracecheck.checking.shield import load_shield
+    from tracecheck.cli.common import run_shield
+
+    none = run_shield("none", frozen_runs)
+    assert list(none.machine.operations) == ["Move_Left", "Move_Down", "Move_Right", "Move_Up"]
+    a, b = replay(frozen_runs, none), replay(frozen_runs, none, executor="ray")
+    assert a.per_episode == b.per_episode and b.episodes == 8
+    lake = load_shield("frozenlake")
+    da, db = diff(frozen_runs, lake, none), diff(frozen_runs, lake, none, executor="ray")
+    assert (da.changed_steps, da.changes) == (db.changed_steps, db.changes)
+    assert db.shield == lake.identity and db.against == none.identity

@@ -152,7 +152,7 @@ def test_resimulation(tmp_path):
     results = resimulate(path, shield, report)
     assert len(results) == sum(e.first_infeasible is not None for e in report.per_episode)
     assert all(r.outcome in OUTCOMES for r in results)
-    assert not [r for r in results if r.outcome == "mismatch"]  # the states reproduce
+    assert not [r for r in results if r.outcome == "did not reproduce"]  # they reproduce
     data = summary(results)
     for key in ("crashes_prevented", "crashes_not_prevented", "new_crashes"):
         assert key in data
@@ -177,7 +177,7 @@ def test_resimulation_reports_a_mismatch(tmp_path):
     item = report.per_episode[0]
     report.per_episode[0] = type(item)(**{**item.__dict__, "first_infeasible": 1})
     (result,) = resimulate(fake, shield, report, agent=BASE)
-    assert result.outcome == "mismatch" and result.detail.startswith("step 0: Reward")
+    assert result.outcome == "did not reproduce" and result.detail.startswith("step 0: Reward")
 
 
 def test_agent_errors(tmp_path):

@@ -77,3 +77,118 @@ def test_deadlock_fails_closed(tmp_path):
 def test_unknown_fallback():
     with pytest.raises(InputError, match="unknown fallback action 'BRAKE'"):
         ShieldWrapper(make_env(), load_shield("none"), fallback="BRAKE")
+
+
+# ------------------------------------------------------------------ any environment
+# (issue 23, bug 9): the adapter from the env's id, numpy observations, vector envs, the docs
+
+
+def cruise_shield(text=None):
+    from tests.live.cruise import SHIELD_V1
+    from tracecheck.b.machine import load_machine_text
+    from tracecheck.checking.shield import Shield
+
+    machine = load_machine_text(text or SHIELD_V1, file="acc_v1.mch")
+    return Shield("acc_v1", machine.sha256, "acc_v1.mch", machine)
+
+
+def test_the_adapter_is_found_from_the_envs_id(monkeypatch):
+    import gymnasium as gym
+
+    from tests.live.cruise import ENV_ID, install
+
+    install(monkeypatch)
+    env = ShieldWrapper(gym.make(ENV_ID), cruise_shield())
+    obs, info = env.reset(seed=3)
+    assert env.env_adapter.name == "cruise" and obs.dtype == np.float32
+    gap = info["b_state"]["Gap"]
+    # the float32 observation as the float it is, exactly: what the shield decided on
+    assert type(gap) is float and gap == float(obs[0]) and np.float32(gap) == obs[0]
+    assert info["shield"]["allowed"] == ["KEEP", "ACCEL", "BRAKE"]
+    *_, info = env.step(2)
+    assert info["shield"]["taken"] == "BRAKE" and type(info["b_state"]["EgoSpeed"]) is float
+
+
+def test_an_env_no_installed_adapter_is_for_asks_for_one():
+    import gymnasium as gym
+
+    from tests.live.cruise import ENV_ID
+
+    with pytest.raises(InputError) as info:
+        ShieldWrapper(gym.make(ENV_ID), cruise_shield())
+    text = info.value.render()
+    assert f"no installed adapter is for the environment {ENV_ID!r}" in text
+    assert "adapter=MyAdapter()" in text and "frozenlake (FrozenLake-v1)" in text
+
+
+def test_an_env_without_a_gymnasium_id_asks_for_its_adapter():
+    from tests.live.cruise import Cruise, CruiseEnv
+
+    with pytest.raises(InputError, match="the environment has no Gymnasium id"):
+        ShieldWrapper(CruiseEnv(), cruise_shield())
+    env = ShieldWrapper(CruiseEnv(), cruise_shield(), adapter=Cruise())
+    assert env.reset(seed=0)[1]["shield"]["allowed"] == ["KEEP", "ACCEL", "BRAKE"]
+
+
+def test_two_adapters_for_one_id_are_ambiguous(monkeypatch):
+    from importlib import metadata
+
+    import gymnasium as gym
+
+    from tests.live.cruise import ENV_ID, install
+    from tracecheck.live import adapter
+
+    install(monkeypatch)
+    points = dict(adapter._entry_points())
+    points["cruise2"] = metadata.EntryPoint("cruise2", "tests.live.cruise:Cruise",
+                                            adapter.ENTRY_POINT_GROUP)
+    monkeypatch.setattr(adapter, "_entry_points", lambda: points)
+    with pytest.raises(InputError, match="are all for 'TracecheckCruise-v0'; give the one"):
+        ShieldWrapper(gym.make(ENV_ID), cruise_shield())
+
+
+@pytest.mark.parametrize("how", ["make_vec", "SyncVectorEnv"])
+def test_under_a_vector_env(monkeypatch, how):
+    import gymnasium as gym
+
+    from tests.live.cruise import ENV_ID, install
+
+    install(monkeypatch)
+    shield = cruise_shield()
+    if how == "make_vec":
+        envs = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="sync",
+                            wrappers=[lambda e: ShieldWrapper(e, shield)])
+    else:
+        envs = gym.vector.SyncVectorEnv([lambda: ShieldWrapper(gym.make(ENV_ID), shield)] * 2)
+    obs, infos = envs.reset(seed=0)
+    assert [m.tolist() for m in envs.call("action_masks")] == [[True, True, True]] * 2
+    assert infos["b_state"]["Gap"].tolist() == [float(g) for g in obs[:, 0]]
+    for _ in range(12):  # accelerate into the lead car: the shield takes KEEP off
+        obs, _, _, _, infos = envs.step(np.array([1, 1]))
+        if not all(m[1] for m in envs.call("action_masks")):
+            break
+    masks = envs.call("action_masks")
+    assert not all(m[1] for m in masks)  # ACCEL blocked in some sub-environment
+    states = envs.get_attr("state")
+    assert all(m.tolist() == [s["Gap"] > 10.0, s["Gap"] > 20.0 and s["EgoSpeed"] < 40.0,
+                              s["EgoSpeed"] > 0.0] for m, s in zip(masks, states))
+    envs.close()
+
+
+def test_the_python_section_of_docs_environments_runs():
+    """docs/environments.md, "Using the shield from Python": its code blocks as a doctest."""
+    import doctest
+    import re
+
+    from tests.conftest import ROOT
+
+    text = (ROOT / "docs" / "environments.md").read_text()
+    section = text.split("## Using the shield from Python", 1)[1].split("\n## ", 1)[0]
+    blocks = re.findall(r"```python\n(.*?)```", section, re.S)
+    assert len(blocks) >= 3
+    test = doctest.DocTestParser().get_doctest("\n".join(blocks), {}, "environments.md",
+                                               "docs/environments.md", 0)
+    runner = doctest.DocTestRunner(optionflags=doctest.NORMALIZE_WHITESPACE)
+    runner.run(test)
+    result = runner.summarize(verbose=False)
+    assert result.attempted >= 15 and result.failed == 0

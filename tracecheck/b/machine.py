@@ -24,6 +24,7 @@ from . import ast as A
 from .bindings import conjuncts
 from .evaluate import Compiler
 from .parser import MachineSource, parse_formula, parse_machine_source
+from .state import native_state
 from .scope import PRED, check_kind, check_subst, expand, render
 from .substitution import SubstCompiler, before_after, guard_of, strip_guards, written
 from . import values as V
@@ -86,9 +87,19 @@ class Machine:
         return env
 
     def env(self, state: Mapping[str, Any]) -> dict[str, Any]:
+        """What a formula sees in ``state``: the constants and sets, and the state's values
+        — numpy scalars and arrays converted exactly at this boundary (see
+        :func:`~tracecheck.b.state.native_state`), so a Gymnasium observation's float32
+        can be given as it is."""
         env = dict(self.base_env)
-        env.update(state)
+        env.update(self.native(state))
         return env
+
+    def native(self, state: Mapping[str, Any], *, where: str = "the state"
+               ) -> Mapping[str, Any]:
+        """``state`` with numpy values converted for B (:func:`.state.native_state`, arrays
+        by this machine's variable types); the same mapping when it has none."""
+        return native_state(state, self.type_objects, where=where)
 
     def element_sets(self) -> dict[Elem, str]:
         """Which set each element belongs to."""
@@ -103,7 +114,7 @@ class Machine:
         from .typecheck import describe_value_type, type_of_value, unify_quiet
 
         owners = self.element_sets()
-        for name, value in state.items():
+        for name, value in self.native(state, where=where).items():
             if name not in self.variables:
                 if name in self.constants or name in self.sets:
                     continue
@@ -212,6 +223,7 @@ class Machine:
         if missing:
             raise EvaluationError(f"the state after {op} has no value for "
                                   f"{', '.join(missing)}")
+        after = self.native(after, where=f"the state after {op}")
         pre = self.env(before)
         if any(after[v] != pre.get(v) for v in frame):
             return False
@@ -237,6 +249,7 @@ class Machine:
             frame = tuple(v for v in self.variables if v not in written(body))
             cache[op] = (SubstCompiler(self.compiler()).compile(body), frame)
         check, frame = cache[op]
+        after = self.native(after, where=f"the state after {op}")
         pre = self.env(before)
         if any(after[v] != pre.get(v) for v in frame):
             return False
@@ -306,6 +319,24 @@ class Machine:
         return [render(c, self.source) for c in conjuncts(self.invariant_node)
                 if not comp.compile(c)(env)]
 
+    def invariant_check(self, state: Mapping[str, Any]
+                        ) -> tuple[list[str], list[tuple[str, str]]]:
+        """(the INVARIANT conjuncts that do not hold in ``state``, (conjunct, reason) for
+        those that cannot be evaluated there, e.g. ``x has no value here``), as source text:
+        for a partial state too (``tracecheck guards``)."""
+        if self.invariant_node is None:
+            return [], []
+        env = self.env(state)
+        comp = self.compiler()
+        broken, unchecked = [], []
+        for c in conjuncts(self.invariant_node):
+            try:
+                if not comp.compile(c)(env):
+                    broken.append(render(c, self.source))
+            except EvaluationError as exc:
+                unchecked.append((render(c, self.source), exc.message))
+        return broken, unchecked
+
     def assertions(self, state: Mapping[str, Any]) -> list[bool]:
         env = self.env(state)
         return [bool(self.compile(a)(env)) for a in self.assertion_nodes]
@@ -342,12 +373,13 @@ def _build(src: MachineSource) -> Machine:
     invariant = pred(src.invariant, "the INVARIANT")
     assertions = tuple(pred(a, "each assertion") for a in src.assertions)
     operations = {}
-    for op in src.operations:
+    starts = [op.pos.start if op.pos is not None else len(src.text) for op in src.operations]
+    for op, until in zip(src.operations, starts[1:] + [len(src.text)]):
         body = expand(op.body, defs)
         check_subst(body, source=src.text)
         written_guard = guard_of(op.body)
         operations[op.name] = Operation(
-            op.name, op.params, op.outputs, guard_of(body), body, src.description_after(op.pos),
+            op.name, op.params, op.outputs, guard_of(body), body, _op_description(src, op, until),
             render(written_guard, src.text) if written_guard is not None else None)
     descriptions = {}
     for name, pos in src.constants + src.variables:
@@ -376,6 +408,19 @@ def _build(src: MachineSource) -> Machine:
 
     machine.types = typecheck_machine(machine)
     return machine
+
+
+def _op_description(src: MachineSource, op, until: int) -> Optional[str]:
+    """An operation's ``/*@desc …*/``: after its name or header (``Op(x) /*@desc …*/ =``),
+    after the ``=`` (``Op = /*@desc …*/ SELECT …``), or after its body (``… END /*@desc
+    …*/;``, before ``until``, where the next operation starts)."""
+    found = src.description_after(op.pos)
+    body = op.body.pos
+    if found is not None or body is None or op.pos is None:
+        return found
+    before = [t for end, t in src.descriptions.items() if op.pos.end < end <= body.start]
+    after = [t for end, t in sorted(src.descriptions.items()) if body.end <= end < until]
+    return (before or after or [None])[0]
 
 
 def _unknown_elements(value: Any, owners: dict) -> set[str]:

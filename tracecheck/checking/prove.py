@@ -515,7 +515,5 @@ def _differ(a, b, tb: Translator, ctx: _Context, op: str, labels: tuple[str, str
     if r.status == PROVED:
         r.status = EQUIVALENT
     elif r.state is not None and not r.disagreement and not r.reason:
-        keys = (a.name, b.name) if a.name != b.name else labels
-        r.extra = {keys[0]: bool(_decides(a, op, r.state)),
-                   keys[1]: bool(_decides(b, op, r.state))}
+        r.extra = {la: bool(_decides(a, op, r.state)), lb: bool(_decides(b, op, r.state))}
     return r

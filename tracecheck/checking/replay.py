@@ -23,7 +23,17 @@ from ..errors import InputError
 from .shield import Shield
 
 __all__ = ["replay", "diff", "ReplayReport", "EpisodeReplay", "DiffReport", "ChangedStep",
-           "enabled_matrix"]
+           "enabled_matrix", "OUTCOMES", "NEVER_BLOCKED"]
+
+#: what re-simulating one episode can find, in the words every output uses (the lines under
+#: the summary, the episode table in every format, the JSON): the recorded crash prevented or
+#: not, a new crash, no crash either way, a run that did not reproduce the recording up to
+#: the first blocked step (its outcome is unknown), an imported episode without a seed
+PREVENTED, NOT_PREVENTED, NEW_CRASH, NO_CRASH, MISMATCH, NO_SEED = OUTCOMES = (
+    "prevented", "not prevented", "new crash", "no crash", "did not reproduce", "no seed")
+#: what re-simulation says of a crash in an episode the shield would not have blocked
+#: anything in: nothing to re-run, the recorded crash stands
+NEVER_BLOCKED = "never blocked"
 
 
 @dataclass(frozen=True)
@@ -71,10 +81,26 @@ class ReplayReport:
     resimulation: Optional[dict] = None
     ltl: list[dict] = field(default_factory=list)  # per formula, see add_ltl
 
+    def resimulated(self) -> Optional[dict[tuple[str, int], str]]:
+        """With a re-simulation (``resimulation`` set): per (file, episode) what it found, one
+        of :data:`tracecheck.checking.resimulate.OUTCOMES`, or ``NEVER_BLOCKED`` for a crash
+        the shield would not have intervened in, or "" (neither); None without one. Every
+        output's episode table shows this, so the table and the re-simulation lines agree."""
+        if self.resimulation is None:
+            return None
+        found = {(r["file"], r["episode"]): r["outcome"]
+                 for r in self.resimulation["per_episode"]}
+        return {(e.file, e.episode): found.get((e.file, e.episode))
+                or (NEVER_BLOCKED if e.crashed else "") for e in self.per_episode}
+
     def to_json(self) -> dict:
         data = asdict(self)
         if self.resimulation is None:
             data.pop("resimulation")
+        else:
+            outcomes = self.resimulated()
+            for entry in data["per_episode"]:
+                entry["resimulated"] = outcomes[(entry["file"], entry["episode"])] or None
         if not self.ltl:
             data.pop("ltl")
         data["steps_per_s"] = round(self.steps / self.elapsed_s) if self.elapsed_s else None
@@ -244,12 +270,10 @@ def _episode(cols, shield, ops, matrix, feasible, deadlock, invariant_ok, post_b
     )
 
 
-def _replay_one(path: str, shield_spec: str, formulas: Sequence[str] = (),
+def _replay_one(path: str, shield: Shield, formulas: Sequence[str] = (),
                 assertions: bool = False) -> ReplayReport:
-    """One file, in whichever process runs it (the shield is loaded there by its path)."""
-    from .shield import load_shield
-
-    shield = load_shield(shield_spec)
+    """One file, in whichever process runs it (the shield itself is sent there: pickled as
+    its text, see :class:`Shield`)."""
     report = ReplayReport(shield=shield.identity, files=[path])
     cols = read_columns(path)
     report.warnings += cols.warnings
@@ -278,7 +302,7 @@ def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "loca
     else:
         from ..live.executors import map_files
 
-        jobs = [(p, shield.path, tuple(ltl), ltl_assertions) for p in paths]
+        jobs = [(p, shield, tuple(ltl), ltl_assertions) for p in paths]
         for part in map_files(_replay_one, jobs, executor, ray_address):
             report.per_episode += part.per_episode
             report.warnings += part.warnings
@@ -341,10 +365,8 @@ class DiffReport:
         return asdict(self)
 
 
-def _diff_one(path: str, shield_spec: str, against_spec: str) -> DiffReport:
-    from .shield import load_shield
-
-    a, b = load_shield(shield_spec), load_shield(against_spec)
+def _diff_one(path: str, a: Shield, b: Shield) -> DiffReport:
+    """One file's diff, in whichever process runs it (both shields sent there themselves)."""
     report = DiffReport(shield=a.identity, against=b.identity, files=[path])
     cols = read_columns(path)
     report.warnings += cols.warnings
@@ -373,7 +395,7 @@ def diff(paths: Iterable[str | Path], shield: Shield, against: Shield, *,
     else:
         from ..live.executors import map_files
 
-        for part in map_files(_diff_one, [(p, shield.path, against.path) for p in paths],
+        for part in map_files(_diff_one, [(p, shield, against) for p in paths],
                               executor, ray_address):
             for key in _DIFF_COUNTS:
                 setattr(report, key, getattr(report, key) + getattr(part, key))

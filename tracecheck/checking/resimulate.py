@@ -16,14 +16,13 @@ from ..live.agents import file_sha256
 from ..episodes.columns import RunColumns, read_columns
 from ..episodes.reader import read_header
 from ..errors import InputError, printable
-from .replay import ReplayReport
+from .replay import (MISMATCH, NEW_CRASH, NO_CRASH, NO_SEED, NOT_PREVENTED, OUTCOMES,  # noqa: F401
+                     PREVENTED, ReplayReport)
 from .shield import SHIELD_DIR, Shield
 
-__all__ = ["resimulate", "Resimulation", "OUTCOMES"]
+__all__ = ["resimulate", "Resimulation", "OUTCOMES", "summary"]
 
 AGENT_DIR = SHIELD_DIR.parent / "agents"
-OUTCOMES = ("crash prevented", "still crashed", "new crash", "no crash", "mismatch",
-            "no seed")
 TOLERANCE = 1e-6
 
 
@@ -147,30 +146,33 @@ def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:
                             new_crash, steps, detail)
 
     if seed is None:
-        return result("no seed", None, 0, "the episode has no seed: it cannot be re-run")
+        return result(NO_SEED, None, 0, "the episode has no seed: it cannot be re-run")
     script = [cols.action_names[cols.action[lo + k]] for k in range(1, first)]
     try:
         episode = run_episode(session, item.episode, seed=int(seed), script=script,
                               check=lambda k, state: _same(cols.states.row(lo + k), state))
     except Mismatch as exc:
-        return result("mismatch", None, exc.step, str(exc))
+        return result(MISMATCH, None, exc.step, str(exc))
     crash_step = next((s.step for s in episode.steps if s.crashed), None)
     if item.crashed:
-        outcome = "still crashed" if crash_step is not None else "crash prevented"
+        outcome = NOT_PREVENTED if crash_step is not None else PREVENTED
     else:
-        outcome = "new crash" if crash_step is not None else "no crash"
+        outcome = NEW_CRASH if crash_step is not None else NO_CRASH
     return result(outcome, crash_step, episode.end.steps)
 
 
 def summary(results: list[Resimulation]) -> dict:
+    """The counts of each outcome (``mismatches``: episodes that did not reproduce the
+    recording) and every result, as the JSON report's ``resimulation``."""
     counts = {o: sum(r.outcome == o for r in results) for o in OUTCOMES}
     return {
         "resimulated": len(results),
-        "crashes_prevented": counts["crash prevented"],
-        "crashes_not_prevented": counts["still crashed"],
-        "new_crashes": counts["new crash"],
-        "no_crash_either_way": counts["no crash"],
-        "mismatches": counts["mismatch"],
-        "without_seed": counts["no seed"],
+        "crashes_prevented": counts[PREVENTED],
+        "crashes_not_prevented": counts[NOT_PREVENTED],
+        "new_crashes": counts[NEW_CRASH],
+        "no_crash_either_way": counts[NO_CRASH],
+        "mismatches": counts[MISMATCH],
+        "without_seed": counts[NO_SEED],
         "per_episode": [asdict(r) for r in results],
     }
+

@@ -44,6 +44,13 @@ class Shield:
     def identity(self) -> dict:
         return {"name": self.name, "sha256": self.sha256, "path": self.path}
 
+    def __reduce__(self):
+        """Pickled as its machine's text, rebuilt where it is unpickled: a Ray task gets the
+        shield itself — ``none`` made from a run's actions too — never a name or path to
+        load again (which on a worker may mean another shield, or none at all)."""
+        return (_rebuilt, (self.name, self.sha256, self.path, self.machine.source,
+                           self.machine.file))
+
 
 def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None) -> Shield:
     """The shield ``spec`` names: a built-in name or a path to a ``.mch`` file.
@@ -71,6 +78,17 @@ def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None) 
         raise InputError(f"{path}: a shield needs one operation per action "
                          f"({', '.join(actions)}); {machine.name} lacks {', '.join(missing)}")
     return Shield(name=name, sha256=machine.sha256, path=str(path), machine=machine)
+
+
+def _rebuilt(name: str, sha256: str, path: str, text: str, file: Optional[str]) -> Shield:
+    """A pickled :class:`Shield` again, from its text (the sha256 checked: the same shield)."""
+    from ..b.machine import load_machine_text
+
+    machine = load_machine_text(text, file=file)
+    if machine.sha256 != sha256:
+        raise InputError(f"the shield {name} sent to a worker arrived changed (sha256 "
+                         f"{machine.sha256[:12]}, not {sha256[:12]})")
+    return Shield(name=name, sha256=sha256, path=path, machine=machine)
 
 
 def _none_for(actions: tuple[str, ...]) -> Shield:

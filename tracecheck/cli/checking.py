@@ -28,7 +28,9 @@ def replay_cmd(
     ltl_assertions: bool = typer.Option(False, "--ltl-assertions", help="Check the shield "
                                         "machine's ASSERT_LTL definitions on every episode."),
     fail_on: list[FailOn] = typer.Option([], "--fail-on",
-                                         help="Exit 1 when this occurs (repeatable)."),
+                                         help="Exit 1 when this occurs (repeatable); "
+                                              "mismatch (with --resimulate): an episode did "
+                                              "not reproduce the recording."),
     resimulate: bool = typer.Option(False, "--resimulate",
                                     help="Re-run each infeasible episode from its seed with the "
                                          "agent under the shield: was the crash prevented?"),
@@ -45,6 +47,9 @@ def replay_cmd(
     from ..render.text import replay_markdown, replay_table, replay_text
 
     fmt = output_format(fmt, as_json)
+    if FailOn.mismatch in fail_on and not resimulate:
+        raise InputError("--fail-on mismatch needs --resimulate: only re-simulation finds "
+                         "episodes that do not reproduce the recording")
     loaded = run_shield(shield, runs)
     report = replay(runs, loaded, executor=executor.value, ray_address=ray_address, ltl=ltl,
                     ltl_assertions=ltl_assertions)
@@ -60,10 +65,16 @@ def replay_cmd(
         print_table(fmt, replay_table(report))
     else:
         replay_text(out, report, rows)
+    mismatches = report.resimulation["mismatches"] if report.resimulation else 0
+    if mismatches:
+        err.print(f"warning: {mismatches} of {report.resimulation['resimulated']} re-simulated "
+                  "episode(s) did not reproduce the recording: their outcome is unknown",
+                  highlight=False)
     counts = {FailOn.infeasible: report.infeasible_steps,
               FailOn.deadlock: report.deadlock_states,
               FailOn.postcondition: report.postcondition_violations,
-              FailOn.invariant: report.invariant_violations}
+              FailOn.invariant: report.invariant_violations,
+              FailOn.mismatch: mismatches}
     failed = [f.value for f in fail_on if counts[f]]
     if failed:
         err.print(f"failing: {', '.join(failed)} found (--fail-on)")
@@ -129,7 +140,8 @@ def diff_cmd(
                              "files")
         _check_counterexamples(counterexamples, [shield, against], force)
         a, b = run_shield(shield, []).machine, run_shield(against, []).machine
-        _print_results(symbolic_diff(a, b, timeout_s=timeout, labels=(shield, against)), a,
+        _print_results(symbolic_diff(a, b, timeout_s=timeout,
+                                     labels=_labels(shield, against, a, b)), a,
                        fmt, counterexamples)
         return
     if not runs:
@@ -146,6 +158,17 @@ def diff_cmd(
     if fail_on_change and report.anything_changed:
         err.print("failing: the shields differ on these episodes (--fail-on-change)")
         raise typer.Exit(1)
+
+
+def _labels(shield: str, against: str, a, b) -> tuple[str, str]:
+    """How ``diff --symbolic`` names the two shields: as given (a file or a built-in name),
+    with the MACHINE name when the two differ in it; two of the same name by their option."""
+    la, lb = shield, against
+    if a.name != b.name:
+        la, lb = f"{la} (MACHINE {a.name})", f"{lb} (MACHINE {b.name})"
+    if la == lb:
+        la, lb = f"{la} (--shield)", f"{lb} (--against)"
+    return la, lb
 
 
 @app.command("prove")

@@ -175,6 +175,7 @@ class FailOn(str, Enum):
     deadlock = "deadlock"
     postcondition = "postcondition"
     invariant = "invariant"
+    mismatch = "mismatch"  # replay --resimulate: an episode did not reproduce the recording
 
 
 SHIELD_HELP = ("A built-in shield (none, paper, strict, frozenlake, cliffwalking) or the path of "

@@ -9,7 +9,7 @@ import typer
 
 from ..errors import EvaluationError, InputError, TracecheckError
 from .common import (app, escape, out, load_model, plain, FORMAT, JSON, OutputFormat,
-                     output_format, print_json, print_table, say)
+                     output_format, print_json, print_table, say, warn)
 
 
 @app.command("check-model")
@@ -26,37 +26,49 @@ def check_model(
     fmt = output_format(fmt, as_json)
     machine = load_model(model)
     types = machine.types
+    described = machine.descriptions
     summary = {
         "machine": machine.name,
         "file": str(model),
         "sha256": machine.sha256,
         "sets": {n: [str(e) for e in elems] for n, elems in machine.sets.items()},
         "constants": {n: format_value(v) for n, v in machine.constants.items()},
-        "variables": {v: {"type": types.get(v), "description": machine.descriptions.get(v)}
+        "variables": {v: {"type": types.get(v), "description": described.get(v)}
                       for v in machine.variables},
         "operations": {
-            name: {"guard": op.guard_source, "parameters": list(op.params)}
+            name: {"guard": op.guard_source, "parameters": list(op.params),
+                   "description": op.description}
             for name, op in machine.operations.items()
         },
+        # every /*@desc …*/ of the machine: sets, constants, variables and operations
+        "descriptions": {**described, **{n: op.description for n, op in
+                                         machine.operations.items() if op.description}},
     }
     if fmt == OutputFormat.json:
         print_json(summary)
         return
     if fmt != OutputFormat.text:  # one row per set, constant, variable and operation
-        print_table(fmt, TableData.of(["kind", "name", "value or type", "description or guard"], [
-            *(["set", n, "{" + ", ".join(e) + "}", ""] for n, e in summary["sets"].items()),
-            *(["constant", n, v, ""] for n, v in summary["constants"].items()),
-            *(["variable", n, i["type"] or "?", i["description"] or ""]
+        print_table(fmt, TableData.of(["kind", "name", "value or type", "guard", "description"], [
+            *(["set", n, "{" + ", ".join(e) + "}", "", described.get(n, "")]
+              for n, e in summary["sets"].items()),
+            *(["constant", n, v, "", described.get(n, "")]
+              for n, v in summary["constants"].items()),
+            *(["variable", n, i["type"] or "?", "", i["description"] or ""]
               for n, i in summary["variables"].items()),
             *(["operation", n + (f"({', '.join(i['parameters'])})" if i["parameters"] else ""),
-               "", i["guard"] or "TRUE"] for n, i in summary["operations"].items())]))
+               "", i["guard"] or "TRUE", i["description"] or ""]
+              for n, i in summary["operations"].items())]))
         return
     out.print(f"[bold]MACHINE {escape(machine.name)}[/bold]  ({escape(str(model))}, sha256 "
               f"{machine.sha256[:12]}…)", markup=True)
+
+    def desc(name: str) -> str:
+        return f" — {described[name]}" if name in described else ""
+
     for name, elems in summary["sets"].items():
-        out.print(f"  set {name} = {{{', '.join(elems)}}}", markup=False)
+        out.print(f"  set {name} = {{{', '.join(elems)}}}{desc(name)}", markup=False)
     for name, value in summary["constants"].items():
-        out.print(f"  constant {name} = {value}", markup=False)
+        out.print(f"  constant {name} = {value}{desc(name)}", markup=False)
     from rich.table import Table
 
     from ..render.text import literal_row
@@ -69,9 +81,33 @@ def check_model(
     for name, info in summary["operations"].items():
         guard = info["guard"] or "TRUE"
         params = f"({', '.join(info['parameters'])})" if info["parameters"] else ""
-        plain(_clip(f"  operation {name}{params}: guard {guard}", terminal_width()))
+        about = f" ({info['description']})" if info["description"] else ""
+        plain(_clip(f"  operation {name}{params}{about}: guard {guard}", terminal_width()))
     out.print(f"[green]ok[/green]: {len(machine.operations)} operation(s), "
               f"{len(machine.variables)} variable(s)", markup=True)
+
+
+def _state_warnings(machine, where: str, missing: list[str], broken: list[str],
+                    unchecked: list[tuple[str, str]]) -> list[str]:
+    """What ``guards`` warns of: a state the machine's invariant excludes (the guards then
+    answer for a state the shield assumes never happens), variables without a value."""
+    out = []
+    unread = {f"{v} has no value here" for v in missing}
+    if missing:
+        skipped = [c for c, why in unchecked if why in unread]
+        out.append(f"{where} gives no value for {', '.join(missing)} "
+                   f"({'a variable' if len(missing) == 1 else 'variables'} of {machine.name}):"
+                   " no guard reads " + ("it" if len(missing) == 1 else "them")
+                   + (f"; the INVARIANT is not checked where it does ({'; '.join(skipped)})"
+                      if skipped else ""))
+    if broken:
+        out.append(f"{where} breaks the INVARIANT of {machine.name}: {'; '.join(broken)} "
+                   "does not hold (the guards are for states the invariant allows)")
+    others = [f"{c} ({why})" for c, why in unchecked if why not in unread]
+    if others:
+        out.append(f"{where}: the INVARIANT of {machine.name} cannot be checked: "
+                   f"{'; '.join(others)}")
+    return out
 
 
 def _clip(text: str, width: int = 100) -> str:
@@ -171,9 +207,15 @@ def guards(
                          hint=f'add "{name}": … to the state file') from None
     ordered = [op for op in machine.operations if op in enabled]
     blocked = [op for op in machine.operations if op not in enabled]
+    broken, unchecked = machine.invariant_check(values)
+    warn(_state_warnings(machine, str(state), missing, broken, unchecked))
     if fmt == OutputFormat.json:
         print_json({"machine": machine.name, "enabled": ordered, "disabled": blocked,
-                    "missing_variables": missing})
+                    "missing_variables": missing,
+                    "invariant_holds": False if broken else None if unchecked else True,
+                    "invariant_violations": broken,
+                    "invariant_unchecked": [{"conjunct": c, "reason": why}
+                                            for c, why in unchecked]})
         return
     if fmt != OutputFormat.text:
         print_table(fmt, TableData.of(["operation", "enabled"],

@@ -1,12 +1,19 @@
 """Pre-shielding (the paper's Fig. 3): the shield allows, the agent chooses among what it allows.
 
 :class:`ShieldWrapper` is a ``gymnasium.Wrapper`` around any environment with an adapter
-(:mod:`tracecheck.live.adapter`; the highway when none is given): after each reset and step
-it turns the observation into the B state, asks the shield which actions are enabled, exposes
+(:mod:`tracecheck.live.adapter`; when none is given, the installed adapter whose ``env_id``
+is the environment's Gymnasium id): after each reset and step it turns the observation into
+the B state (numpy values converted exactly, see :func:`tracecheck.b.state.native_state`),
+asks the shield which actions are enabled, exposes
 them as ``action_masks()`` (the sb3-contrib MaskablePPO convention) and reports the decision,
 the B state and whether the step crashed in ``info``. Any agent can so be shielded, in
 training too. When the shield allows nothing it fails closed: the step is a deadlock and the
 fallback action (the adapter's: SLOWER on the highway) is taken, and said so.
+
+Under Gymnasium's vector environments, wrap each sub-environment — ``gym.make_vec(id, n,
+wrappers=[lambda e: ShieldWrapper(e, shield)])`` or ``SyncVectorEnv([lambda:
+ShieldWrapper(gym.make(id), shield)] * n)`` — and read the masks with
+``envs.call("action_masks")`` (docs/environments.md, "Using the shield from Python").
 """
 
 from __future__ import annotations
@@ -22,7 +29,36 @@ from ..b.evaluate import MEMO_KEY
 from ..errors import InputError
 from ..checking.shield import Shield
 
-__all__ = ["ShieldWrapper", "choose"]
+__all__ = ["ShieldWrapper", "choose", "adapter_for"]
+
+
+def adapter_for(env: gym.Env):
+    """The installed adapter for ``env``: the one whose ``env_id`` is the environment's
+    Gymnasium id (``env.spec.id``, set by ``gymnasium.make``); an :class:`InputError` saying
+    what to give when there is none, or several."""
+    from .adapter import adapters
+
+    spec = getattr(env, "spec", None)
+    env_id = getattr(spec, "id", None)
+    found = [a for a in adapters() if a.adapter is not None]
+    known = ", ".join(f"{a.name} ({a.adapter.env_id or 'no id'})" for a in found) or "none"
+    if not env_id:
+        raise InputError(f"ShieldWrapper cannot tell which adapter turns the observations of "
+                         f"{type(env.unwrapped).__name__} into B states: the environment has "
+                         "no Gymnasium id (it was not made with gymnasium.make)",
+                         hint="give it: ShieldWrapper(env, shield, adapter=MyAdapter()); the "
+                              f"installed adapters are {known}")
+    matches = [a for a in found if a.adapter.env_id == env_id]
+    if len(matches) == 1:
+        return matches[0].adapter
+    if not matches:
+        raise InputError(f"no installed adapter is for the environment {env_id!r}",
+                         hint="give it: ShieldWrapper(env, shield, adapter=MyAdapter()), or "
+                              "install your adapter as an entry point (docs/environments.md); "
+                              f"the installed adapters are {known}")
+    raise InputError(f"the adapters {', '.join(a.name for a in matches)} are all for "
+                     f"{env_id!r}; give the one you mean: ShieldWrapper(env, shield, "
+                     "adapter=…)")
 
 
 def choose(values: Sequence[float], allowed: Sequence[bool],
@@ -45,10 +81,8 @@ class ShieldWrapper(gym.Wrapper):
 
     def __init__(self, env: gym.Env, shield: Shield, fallback: Optional[str] = None,
                  adapter=None) -> None:
-        from .adapter import get_adapter
-
         super().__init__(env)
-        self.env_adapter = adapter if adapter is not None else get_adapter("highway")
+        self.env_adapter = adapter if adapter is not None else adapter_for(env)
         self.actions = tuple(self.env_adapter.actions)
         fallback = fallback or self.env_adapter.fallback or self.actions[0]
         if fallback not in self.actions:
@@ -93,6 +127,13 @@ class ShieldWrapper(gym.Wrapper):
                                   taken=self.actions[taken], replaced=requested != taken)
         return info
 
+    def _state(self, obs, info: dict, reward: float, initial: bool) -> dict[str, Any]:
+        """The adapter's B state of this observation, numpy values made B's own (a float32
+        becomes the float it is: the same value the shield decides on and the file keeps)."""
+        state = self.observer.state(obs, info, reward, initial)
+        return self.shield.machine.native(
+            state, where=f"the state from the adapter {self.env_adapter.name}")
+
     def action_masks(self) -> np.ndarray:
         """Which actions the shield allows in the current state; in a deadlock (nothing
         allowed) the fallback alone — the action :meth:`step` takes then — so that a masked
@@ -106,7 +147,7 @@ class ShieldWrapper(gym.Wrapper):
     def reset(self, **kwargs):
         obs, info = self.env.reset(**kwargs)
         self.observer = self.env_adapter.observer(self.env)
-        self.state = self.observer.state(obs, info, 0.0, True)
+        self.state = self._state(obs, info, 0.0, True)
         self._decide()
         info = dict(info, crashed=False)
         return obs, self._info(info)
@@ -121,6 +162,6 @@ class ShieldWrapper(gym.Wrapper):
                 taken = int(np.flatnonzero(self.allowed)[0])
         obs, reward, terminated, truncated, info = self.env.step(taken)
         info = dict(info, crashed=self.env_adapter.crashed(obs, float(reward), terminated, info))
-        self.state = self.observer.state(obs, info, float(reward), False)
+        self.state = self._state(obs, info, float(reward), False)
         self._decide()
         return obs, reward, terminated, truncated, self._info(info, requested, taken)

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 from rich.console import Console
-from rich.markup import escape
 from rich.table import Table
 from rich.text import Text
 
-from ..checking.replay import DiffReport, EpisodeReplay, ReplayReport
+from ..checking.replay import (MISMATCH, NEW_CRASH, NOT_PREVENTED, PREVENTED, DiffReport,
+                               EpisodeReplay, ReplayReport)
 from .tables import TableData, markdown, md_text
 
 __all__ = ["replay_text", "replay_markdown", "replay_table", "diff_text", "diff_table",
@@ -41,10 +41,7 @@ def abbreviations(actions) -> dict[str, str]:
     return {a: a for a in names}  # last words alike: the names themselves
 
 
-def _row(e: EpisodeReplay, short=lambda a: a) -> list[str]:
-    prevented = ""
-    if e.crashed:
-        prevented = "yes" if e.crash_after_infeasible else "no"
+def _row(e: EpisodeReplay, crash_cell, short=lambda a: a) -> list[str]:
     first = "" if e.first_infeasible is None else f"{e.first_infeasible} {short(e.action or '')}"
     other = []
     for label, steps in (("deadlock", e.deadlock_states),
@@ -55,16 +52,40 @@ def _row(e: EpisodeReplay, short=lambda a: a) -> list[str]:
     return [
         e.file.rsplit("/", 1)[-1], str(e.episode), str(e.steps), first,
         " ".join(short(a) for a in e.enabled or []), short(e.alternative or ""),
-        str(e.infeasible_steps), "" if e.crash_step is None else str(e.crash_step), prevented,
-        "; ".join(other),
+        str(e.infeasible_steps), "" if e.crash_step is None else str(e.crash_step),
+        crash_cell(e), "; ".join(other),
     ]
 
 
+#: the crash column without re-simulation: a fact of the recording, not a verdict
+AFTER_BLOCK = "crash after a blocked step"
+RESIMULATED = "re-simulated"
+AFTER_BLOCK_LEGEND = ("after block: the crash came at or after the first blocked step (whether "
+                      "blocking it prevents the crash, --resimulate finds out)")
+RESIMULATED_LEGEND = ("re-simulated: the episode run again from its seed, the agent under the "
+                      "shield from the first blocked step on: prevented, not prevented, new "
+                      "crash, no crash, did not reproduce (the recording, up to that step: "
+                      "outcome unknown), never blocked (a crash the shield would not have "
+                      "changed)")
+
+
+def _crash_column(r: ReplayReport):
+    """(header, short header, cell(e)) of the episode table's crash column: with a
+    re-simulation what it found (the same words as the lines above the table), else whether
+    the recorded crash came at or after the first blocked step — which is not "prevented":
+    only re-simulation says whether blocking that step saves the episode."""
+    outcomes = r.resimulated()
+    if outcomes is not None:
+        return RESIMULATED, RESIMULATED, lambda e: outcomes[(e.file, e.episode)]
+    return AFTER_BLOCK, "after block", lambda e: (
+        ("yes" if e.crash_after_infeasible else "no") if e.crashed else "")
+
+
 HEADERS = ["file", "episode", "steps", "first infeasible", "allowed there", "shielded",
-           "infeasible", "crash", "after it", "other"]
+           "infeasible", "crash", AFTER_BLOCK, "other"]
 #: the same columns in a terminal: short enough for 80 columns, explained under the table
 SHORT_HEADERS = ["file", "ep.", "steps", "first", "allowed", "instead", "blocked", "crash",
-                 "prevented", "other"]
+                 "after block", "other"]
 
 
 def _summary_lines(r: ReplayReport) -> list[str]:
@@ -88,12 +109,14 @@ def _resim_lines(r: ReplayReport) -> list[str]:
     lines = [f"re-simulated {s['resimulated']} infeasible episode(s) under {r.shield['name']}: "
              f"{s['crashes_prevented']} crash(es) prevented, {s['crashes_not_prevented']} not "
              f"prevented, {s['new_crashes']} new crash(es), {s['no_crash_either_way']} without "
-             f"a crash either way"]
-    if s["mismatches"] or s["without_seed"]:
-        lines.append(f"not comparable: {s['mismatches']} episode(s) did not reproduce the "
-                     f"recording, {s['without_seed']} have no seed (imported)")
+             f"a crash either way, {s['mismatches']} did not reproduce the recording"
+             + (f", {s['without_seed']} without a seed (imported)" if s["without_seed"] else "")]
+    if s["mismatches"]:
+        lines.append(f"{s['mismatches']} of {s['resimulated']} re-simulated episode(s) did not "
+                     "reproduce the recording up to the first blocked step: their outcome is "
+                     "unknown (--fail-on mismatch exits 1)")
     for e in s["per_episode"]:
-        if e["outcome"] in ("crash prevented", "still crashed", "new crash", "mismatch"):
+        if e["outcome"] in (PREVENTED, NOT_PREVENTED, NEW_CRASH, MISMATCH):
             crash = (f", crash at step {e['new_crash_step']}"
                      if e["new_crash_step"] is not None else "")
             detail = f" ({e['detail']})" if e["detail"] else ""
@@ -126,8 +149,8 @@ def _ltl_lines(r: ReplayReport, rows: int) -> list[str]:
 
 def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
     for i, line in enumerate(_summary_lines(r) + _resim_lines(r) + _ltl_lines(r, rows)):
-        console.print(f"[bold]{escape(line)}[/bold]" if i == 0 else line, markup=i == 0,
-                      highlight=False, soft_wrap=False)  # wrapped between words
+        console.print(Text(line, style="bold" if i == 0 else ""), highlight=False,
+                      soft_wrap=False)  # wrapped between words; names printed as they are
     matters = [e for e in r.per_episode if e.matters]
     if not matters:
         console.print("every step of every episode is feasible; nothing else found")
@@ -136,23 +159,24 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
     names = {a for e in matters for a in [e.action, e.alternative, *(e.enabled or [])] if a}
     codes = abbreviations(names)
     table = Table(title="episodes that matter", box=None, show_lines=False, padding=(0, 1))
-    headers = SHORT_HEADERS[1:] if one_file else SHORT_HEADERS
-    for header in headers:
+    _, short_header, crash_cell = _crash_column(r)
+    headers = SHORT_HEADERS[:8] + [short_header] + SHORT_HEADERS[9:]
+    for header in headers[1:] if one_file else headers:
         if header == "file":
             table.add_column(header, no_wrap=True, overflow="ellipsis", max_width=14)
         else:
             table.add_column(header, no_wrap=header != "other", overflow="fold")
     for e in matters[:rows]:
-        row = _row(e, lambda a: codes.get(a, a))
+        row = _row(e, crash_cell, lambda a: codes.get(a, a))
         literal_row(table, row[1:] if one_file else row)
     console.print(table)
     legend = ", ".join(f"{c} = {a}" for a, c in sorted(codes.items(), key=lambda x: x[1])
                        if c != a)
     console.print("first: the first step the shield would have blocked, and its action; "
                   "allowed: what the shield allowed there; instead: what a shielded agent "
-                  "would have done; blocked: steps it would have blocked; prevented: the crash "
-                  "came at or after the first blocked step" + (f"; actions: {legend}" if legend
-                                                               else ""), highlight=False,
+                  "would have done; blocked: steps it would have blocked; "
+                  + (RESIMULATED_LEGEND if short_header == RESIMULATED else AFTER_BLOCK_LEGEND)
+                  + (f"; actions: {legend}" if legend else ""), highlight=False,
                   soft_wrap=False)
     if len(matters) > rows:
         console.print(f"… {len(matters) - rows} more episode(s): --all lists them, --json "
@@ -173,8 +197,11 @@ def replay_table(r: ReplayReport, episodes=None) -> TableData:
         step = violations[(e.file, e.episode)]
         return "violated" if step is None else f"violated at step {step}"
 
-    return TableData.of(HEADERS + [f"LTL {e['name']}" for e in r.ltl],
-                        (_row(e) + [ltl_cell(e, v) for v in failed] for e in chosen))
+    header, _, crash_cell = _crash_column(r)
+    return TableData.of(HEADERS[:8] + [header] + HEADERS[9:]
+                        + [f"LTL {e['name']}" for e in r.ltl],
+                        (_row(e, crash_cell) + [ltl_cell(e, v) for v in failed]
+                         for e in chosen))
 
 
 def replay_markdown(r: ReplayReport, rows: int) -> str:
@@ -191,11 +218,10 @@ def replay_markdown(r: ReplayReport, rows: int) -> str:
 
 
 def diff_text(console: Console, d: DiffReport, rows: int) -> None:
-    console.print("[bold]" + escape(f"Shield {d.shield['name']} ({_short(d.shield['sha256'])}) "
-                                    f"against {d.against['name']} "
-                                    f"({_short(d.against['sha256'])}): {d.episodes} "
-                                    f"episode(s), {d.steps} step(s), {d.states} state(s)")
-                  + "[/bold]",
+    # a Text, not markup: shield and file names are printed as they are, brackets and all
+    console.print(Text(f"Shield {d.shield['name']} ({_short(d.shield['sha256'])}) against "
+                       f"{d.against['name']} ({_short(d.against['sha256'])}): {d.episodes} "
+                       f"episode(s), {d.steps} step(s), {d.states} state(s)", style="bold"),
                   highlight=False, soft_wrap=False)
     console.print(f"changed steps: {d.changed_steps} (newly blocked {d.newly_blocked}, newly "
                   f"allowed {d.newly_allowed}); states whose enabled set differs: "
