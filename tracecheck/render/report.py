@@ -18,6 +18,8 @@ from typing import Optional, Sequence
 
 from ..errors import InputError
 from ..stats.properties import PropertySet
+from ..checking.replay import (MISMATCH, NEW_CRASH, NO_CRASH, NO_SEED, NOT_PREVENTED,
+                               PREVENTED)
 from ..checking.shield import Shield
 from ..outputs import write_file
 from .viewer import numeric_series, render_episode
@@ -263,8 +265,7 @@ def _run_section(c: dict, shield: Optional[Shield]) -> str:
     return text + "</section>"
 
 
-_ORDER = {"crash prevented": 0, "new crash": 1, "still crashed": 2, "mismatch": 3,
-          "no seed": 4, "no crash": 6}
+_ORDER = {PREVENTED: 0, NEW_CRASH: 1, NOT_PREVENTED: 2, MISMATCH: 3, NO_SEED: 4, NO_CRASH: 6}
 
 
 def _ranked(c: dict) -> list[tuple]:
@@ -303,8 +304,8 @@ def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter
         if o is not None:
             verdict = o["outcome"] + (f" (at step {o['new_crash_step']})"
                                       if o.get("new_crash_step") is not None else "")
-            cls = "good" if o["outcome"] == "crash prevented" else \
-                "bad" if o["outcome"] in ("new crash", "still crashed", "mismatch") else ""
+            cls = "good" if o["outcome"] == PREVENTED else \
+                "bad" if o["outcome"] in (NEW_CRASH, NOT_PREVENTED, MISMATCH) else ""
         else:
             verdict, cls = ("yes" if e.crash_after_infeasible else ""), ""
         first = "" if e.first_infeasible is None else f"{e.first_infeasible} {e.action or ''}"
