@@ -388,3 +388,22 @@ def test_a_failed_export_leaves_no_half_written_dataset(capsys, tmp_path, datase
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(datasets))
     assert run(capsys, "export", "minari", str(PAPER), "--dataset-id", "t/h/new-v0")[0] == 0
     assert {"t/h/mine-v0", "t/h/new-v0"} <= set(minari.list_local_datasets())
+
+
+@pytest.mark.parametrize("name", ["data/metadata.json", "data/main_data.hdf5", "data/new.mcap",
+                                  "."])
+def test_an_import_never_writes_into_its_dataset(capsys, tmp_path, datasets, name):
+    """The dataset's folder is the input of ``import minari``: ``-o`` inside it is refused,
+    with or without --force, and the dataset stays as it was."""
+    dataset_id = _toy_dataset()
+    folder = datasets / dataset_id
+    before = {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+    target = folder / name
+    for force in ([], ["--force"]):
+        code, _, err = run(capsys, "import", "minari", dataset_id, "--env", TOY, "-o",
+                           str(target), *force)
+        err = " ".join(err.split())
+        assert code == 2 and "Traceback" not in err, err
+        assert f"is inside the input folder {folder}" in err or \
+            f"is the input {folder}" in err, err
+    assert {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()} == before

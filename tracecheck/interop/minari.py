@@ -50,7 +50,8 @@ import numpy as np
 
 from ..errors import InputError, TracecheckError, read_text
 
-__all__ = ["export_minari", "import_minari", "check_dataset_id", "datasets_root"]
+__all__ = ["export_minari", "import_minari", "check_dataset_id", "datasets_root",
+           "dataset_folder"]
 
 #: Minari's ``(namespace/)name-vN`` (its DATASET_ID_RE), with the version it needs and no
 #: empty folder: no ``.``, ``..``, leading ``/`` — nothing that leaves the datasets folder
@@ -89,6 +90,12 @@ def datasets_root() -> Path:
     except OSError as exc:
         raise InputError(f"cannot use {what}: {exc.strerror or exc}") from None
     return root
+
+
+def dataset_folder(dataset_id: str) -> Path:
+    """The folder of the local dataset ``dataset_id`` (its id checked first): the input of
+    ``import minari``, which no output may be or be inside."""
+    return datasets_root() / check_dataset_id(dataset_id)
 
 
 @contextmanager
@@ -360,8 +367,7 @@ def import_minari(dataset_id: str, adapter_name: str, *,
     from ..episodes.writer import new_header
 
     minari = _minari()
-    check_dataset_id(dataset_id)
-    seeds = _check_dataset(datasets_root() / dataset_id / "data", dataset_id)
+    seeds = _check_dataset(dataset_folder(dataset_id) / "data", dataset_id)
     try:
         dataset = minari.load_dataset(dataset_id)
     except Exception as exc:  # noqa: BLE001 - what Minari still refuses after our checks
