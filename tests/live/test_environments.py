@@ -432,6 +432,23 @@ def test_a_working_user_adapter_is_not_changed_by_the_guard(broken, toy, tmp_pat
     (["train", "--steps", 10, "--env-config", "nonsense=1"],
      "unknown setting 'nonsense' for the environment highway; it takes action, "),
     (["train", "--steps", 10, "--seed", -1], "Invalid value for '--seed'"),
+    (["record", "--env", "frozenlake", "--agent", AGENTS / "frozenlake.npy", "-n", 1,
+      "--env-config", "is_slippery=maybe"], "the setting is_slippery='maybe' does not fit the "
+                                            "environment frozenlake: is_slippery takes true or "
+                                            "false"),
+    (["train", "--env", "frozenlake", "--algorithm", "q-learning", "--steps", 10,
+      "--env-config", "is_slippery=0"], "the setting is_slippery=0 does not fit"),
+    (["record", "--env", "frozenlake", "--agent", AGENTS / "frozenlake.npy", "-n", 1,
+      "--env-config", "map_name=8"], "the setting map_name=8 does not fit the environment "
+                                     "frozenlake: map_name takes a string"),
+    (["train", "--steps", 10, "--env-config", "duration=x"],
+     "the setting duration='x' does not fit the environment highway: duration takes a number"),
+    (["train", "--env", "frozenlake", "--algorithm", "q-learning", "--steps", 200,
+      "--env-config", "map_name=99x99"],
+     "cannot make the environment frozenlake with map_name='99x99': KeyError: '99x99'"),
+    (["record", "--env", "frozenlake", "--agent", AGENTS / "frozenlake.npy", "-n", 1,
+      "--env-config", "max_episode_steps=-5"],
+     "cannot make the environment frozenlake with max_episode_steps=-5: ValueError: Expect"),
 ])
 def test_bad_training_and_recording_options(tmp_path, capsys, args, message):
     """Refused before anything runs (highway-env would have ignored the setting silently;
@@ -442,3 +459,55 @@ def test_bad_training_and_recording_options(tmp_path, capsys, args, message):
     code, _, err = run(capsys, *args, "-o", out)
     assert code == 2 and message in " ".join(err.split()) and "Traceback" not in err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("spelling", ["False", "false"])
+@pytest.mark.parametrize("command", ["record", "train"])
+def test_env_config_values_are_typed_as_the_environment_takes_them(tmp_path, capsys, spelling,
+                                                                   command):
+    """``is_slippery=False`` was the string 'False' (true in Python): the lake was slippery
+    and the header said 'False'. Now a boolean: every seed walks the same path."""
+    if command == "train":
+        out = tmp_path / "q.npy"
+        code, _, err = run(capsys, "train", "--env", "frozenlake", "--algorithm", "q-learning",
+                           "--steps", 50, "--env-config", f"is_slippery={spelling}", "-o", out)
+        assert code == 0, err
+        card = json.loads((tmp_path / "q.json").read_text())
+        assert card["environment_config"]["is_slippery"] is False, card
+        return
+    out = tmp_path / "lake.mcap"
+    code, _, err = run(capsys, "record", "--env", "frozenlake", "--agent",
+                       AGENTS / "frozenlake.npy", "--shield", "frozenlake", "-n", 4, "--seed", 0,
+                       "--env-config", f"is_slippery={spelling}", "-o", out)
+    assert code == 0, err
+    assert read_header(out).environment_config["is_slippery"] is False
+    paths = {tuple(s.state["x"] * 10 + s.state["y"] for s in e.steps)
+             for e in read_episodes(out)}
+    assert len(paths) == 1  # deterministic: slippery, the seeds 0…3 walk apart
+
+
+def test_a_setting_is_checked_against_its_annotation_and_default():
+    from tracecheck.live.adapter import parse_config, setting_kinds, typed_setting
+
+    assert parse_config(["a=True", "b=false", "c=3", "d=0.5", "e=8x8", 'f="4"']) == \
+        {"a": True, "b": False, "c": 3, "d": 0.5, "e": "8x8", "f": "4"}
+    assert typed_setting("e", "rate", 1, setting_kinds(0.5, "float")) == 1.0
+    assert isinstance(typed_setting("e", "rate", 1, setting_kinds(0.5, "float")), float)
+    assert typed_setting("e", "r", [1, 0, 0], setting_kinds((1, 0, 0), "tuple[int, int, int]")) == (1, 0, 0)
+    assert typed_setting("e", "any", "x", setting_kinds(None)) == "x"  # nothing known
+    assert typed_setting("e", "n", None, setting_kinds(None, "int | None")) is None
+    for value, kinds, takes in ((1.5, setting_kinds(3, "int"), "an integer"),
+                                (True, setting_kinds(3), "a number"),
+                                (5, setting_kinds(None, "str | None"), "null or a string")):
+        with pytest.raises(InputError, match=f"does not fit the environment e: k takes {takes}"):
+            typed_setting("e", "k", value, kinds)
+
+
+def test_an_environment_refusing_its_settings_shows_its_traceback_with_debug(tmp_path, capsys):
+    args = ["train", "--env", "frozenlake", "--algorithm", "q-learning", "--steps", 10,
+            "--env-config", "map_name=99x99", "-o", tmp_path / "q.npy"]
+    code, _, err = run(capsys, *args)
+    assert code == 2 and "Traceback" not in err and "tracecheck --debug" in err
+    code, _, err = run(capsys, "--debug", *args)
+    assert code == 2 and "Traceback (most recent call last)" in err
+    assert "KeyError: '99x99'" in err and not (tmp_path / "q.npy").exists()

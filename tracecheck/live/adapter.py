@@ -46,7 +46,8 @@ if TYPE_CHECKING:
     from ..render.scene import Scene
 
 __all__ = ["EnvAdapter", "Observer", "adapters", "get_adapter", "load_adapter", "AdapterInfo",
-           "ENTRY_POINT_GROUP", "parse_config"]
+           "ENTRY_POINT_GROUP", "parse_config", "setting_kinds", "typed_setting",
+           "gymnasium_keys", "gymnasium_kinds", "MakeError"]
 
 ENTRY_POINT_GROUP = "tracecheck.environments"
 
@@ -107,7 +108,7 @@ class EnvAdapter:
                profile: Optional[str] = None, horizon: Optional[int] = None) -> dict[str, Any]:
         """The default configuration, a profile on top, then the user's settings (an
         environment whose configuration holds its episode length also takes ``horizon``)."""
-        self.check_config(overrides)
+        overrides = self.check_config(overrides) or overrides
         config = dict(self.default_config())
         if profile is not None:
             if profile not in self.profiles:
@@ -122,16 +123,27 @@ class EnvAdapter:
         checked (the environment itself may then refuse one)."""
         return None
 
-    def check_config(self, overrides: Optional[dict[str, Any]]) -> None:
-        """Refuse a setting the environment does not take (some would ignore it silently)."""
+    def config_kinds(self) -> dict[str, Optional[frozenset[str]]]:
+        """What each setting takes (:func:`setting_kinds`: ``bool``, ``int``, ``float``,
+        ``str``, ``None``, ``list``, ``tuple``, ``dict``; None: anything), by default from the
+        type of its value in :meth:`default_config`."""
+        return {k: setting_kinds(v) for k, v in self.default_config().items()}
+
+    def check_config(self, overrides: Optional[dict[str, Any]]) -> Optional[dict[str, Any]]:
+        """``overrides`` typed as the environment takes them (an integer for a float setting
+        becomes a float); a setting the environment does not take (some would ignore it
+        silently), or a value that does not fit its setting (``is_slippery='False'``, a
+        non-empty string, is true), is refused."""
         if not overrides:
-            return
+            return overrides
         keys = self.config_keys()
         unknown = sorted(set(overrides or ()) - set(keys)) if keys is not None else []
         if unknown:
             raise InputError(f"unknown setting {unknown[0]!r} for the environment {self.name}; "
                              f"it takes {', '.join(sorted(keys)) or 'none'}",
                              hint="--env-config key=value, one of those keys")
+        kinds = self.config_kinds()
+        return {k: typed_setting(self.name, k, v, kinds.get(k)) for k, v in overrides.items()}
 
     def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
         raise NotImplementedError
@@ -261,6 +273,44 @@ def _guarded(method, where: str, hook: str):
     return call
 
 
+class MakeError(InputError):
+    """The environment refused the settings it was made with (``reason``: its exception)."""
+
+    reason = ""
+
+
+def _making(adapter: EnvAdapter):
+    """``adapter.make_env``, an exception the environment raises on its settings (a map
+    name gymnasium does not have: KeyError) reported as exit 2 naming the environment and
+    the settings that differ from its defaults; ``--debug`` shows its traceback."""
+    make = adapter.make_env
+
+    @functools.wraps(make)
+    def make_env(config, *args, **kwargs):
+        try:
+            return make(config, *args, **kwargs)
+        except TracecheckError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - the environment's own check of its settings
+            reason = f"{type(exc).__name__}: {exc}"
+            error = MakeError(f"cannot make the environment {adapter.name} with "
+                              f"{_settings(adapter, config)}: {reason}",
+                              hint="tracecheck --debug … shows its traceback")
+            error.reason = reason
+            raise error from exc
+    return make_env
+
+
+def _settings(adapter: EnvAdapter, config) -> str:
+    """The settings of ``config`` that differ from the adapter's defaults, as key=value."""
+    try:
+        default = adapter.default_config()
+    except Exception:  # noqa: BLE001 - said where it is used
+        default = {}
+    changed = {k: v for k, v in dict(config or {}).items() if default.get(k, _NO) != v}
+    return ", ".join(f"{k}={v!r}" for k, v in changed.items()) or "its default settings"
+
+
 def _instance(cls, where: str) -> EnvAdapter:
     try:
         adapter = cls() if isinstance(cls, type) else cls
@@ -292,12 +342,13 @@ def _instance(cls, where: str) -> EnvAdapter:
 
         adapter.observer = guarded_observer
         adapter._tracecheck_guarded = True
+    if not getattr(adapter, "_tracecheck_making", False):
+        adapter.make_env = _making(adapter)
+        adapter._tracecheck_making = True
     return adapter
 
 
-def gymnasium_keys(env_id: str) -> Optional[frozenset[str]]:
-    """The keyword arguments ``gymnasium.make(env_id, **config)`` takes: those of the
-    registered environment class and of ``make`` itself (None where they cannot be known)."""
+def _gymnasium_parameters(env_id: str):
     import inspect
 
     import gymnasium as gym
@@ -311,13 +362,102 @@ def gymnasium_keys(env_id: str) -> Optional[frozenset[str]]:
         return None
     if any(p.kind == p.VAR_KEYWORD for p in params.values()):
         return None
-    own = {"max_episode_steps", "disable_env_checker"}
-    return frozenset(params) - {"render_mode"} | own
+    return {k: p for k, p in params.items() if k != "render_mode"}
+
+
+#: what ``gymnasium.make`` itself takes
+_MAKE_KINDS = {"max_episode_steps": frozenset({"int", "None"}),
+               "disable_env_checker": frozenset({"bool", "None"})}
+
+
+def gymnasium_keys(env_id: str) -> Optional[frozenset[str]]:
+    """The keyword arguments ``gymnasium.make(env_id, **config)`` takes: those of the
+    registered environment class and of ``make`` itself (None where they cannot be known)."""
+    params = _gymnasium_parameters(env_id)
+    return None if params is None else frozenset(params) | frozenset(_MAKE_KINDS)
+
+
+def gymnasium_kinds(env_id: str) -> dict[str, Optional[frozenset[str]]]:
+    """What each keyword argument of ``gymnasium.make(env_id, **config)`` takes, from the
+    environment class's annotations and defaults (:func:`setting_kinds`)."""
+    params = _gymnasium_parameters(env_id) or {}
+    return {**{k: setting_kinds(p.default, p.annotation) for k, p in params.items()},
+            **_MAKE_KINDS}
+
+
+_NO = object()
+#: how messages say what a kind of setting takes
+_KIND_TEXT = {"bool": "true or false", "int": "an integer", "float": "a number",
+              "str": "a string", "None": "null", "list": "a list", "tuple": "a list",
+              "dict": "an object ({…})"}
+
+
+def setting_kinds(default: Any = _NO, annotation: Any = _NO) -> Optional[frozenset[str]]:
+    """The kinds of value a setting takes: from its annotation where that is made of
+    ``bool``, ``int``, ``float``, ``str``, ``None``, ``list[…]``, ``tuple[…]``, ``dict[…]``
+    joined by ``|``; else from its default's type (a number: an integer or a real); None
+    (anything) where neither says.
+
+    >>> sorted(setting_kinds(True)), sorted(setting_kinds(1, "str | None"))
+    (['bool'], ['None', 'str'])
+    """
+    import inspect
+
+    if annotation not in (_NO, inspect.Parameter.empty, None):
+        text = annotation if isinstance(annotation, str) else \
+            getattr(annotation, "__name__", None) if isinstance(annotation, type) else \
+            str(annotation)
+        names = {re.split(r"[\[\s]", part.strip())[0] for part in str(text).split("|")}
+        if names <= set(_KIND_TEXT):
+            return frozenset(names)
+    if isinstance(default, bool):
+        return frozenset({"bool"})
+    if isinstance(default, (int, float)):
+        return frozenset({"int", "float"})
+    if isinstance(default, str):
+        return frozenset({"str"})
+    if isinstance(default, (list, tuple)):
+        return frozenset({"list", "tuple"})
+    if isinstance(default, dict):
+        return frozenset({"dict"})
+    return None
+
+
+def typed_setting(env: str, key: str, value: Any, kinds: Optional[frozenset[str]]) -> Any:
+    """``value`` as the setting ``key`` of ``env`` takes it (``kinds``, see
+    :func:`setting_kinds`); an :class:`InputError` naming the key, the value and what it
+    takes where it does not fit."""
+    if kinds is None:
+        return value
+    if isinstance(value, bool):
+        ok = "bool" in kinds
+    elif isinstance(value, int):
+        ok = bool(kinds & {"int", "float"})
+        value = value if "int" in kinds or not ok else float(value)
+    elif isinstance(value, float):
+        ok = "float" in kinds
+    elif isinstance(value, str):
+        ok = "str" in kinds
+    elif value is None:
+        ok = "None" in kinds
+    elif isinstance(value, (list, tuple)):
+        ok = bool(kinds & {"list", "tuple"})
+        value = tuple(value) if "list" not in kinds else list(value)
+    else:
+        ok = isinstance(value, dict) and "dict" in kinds
+    if not ok:
+        shown = kinds - {"int"} if "float" in kinds else kinds  # a number: either
+        takes = " or ".join(dict.fromkeys(_KIND_TEXT[k] for k in sorted(shown)))
+        raise InputError(f"the setting {key}={value!r} does not fit the environment {env}: "
+                         f"{key} takes {takes}",
+                         hint=f"e.g. {key}=true" if kinds == {"bool"} else None)
+    return value
 
 
 def parse_config(items: list[str]) -> dict[str, Any]:
     """``key=value`` settings: values read as JSON where they parse (true, 3, 0.5, "s"),
-    else as strings."""
+    Python's ``True`` and ``False`` as booleans, else as strings (the adapter's
+    :meth:`~EnvAdapter.check_config` then checks each against what its setting takes)."""
     import orjson
 
     out: dict[str, Any] = {}
@@ -325,6 +465,9 @@ def parse_config(items: list[str]) -> dict[str, Any]:
         key, sep, value = item.partition("=")
         if not sep or not key:
             raise InputError(f"--env-config takes key=value, not {item!r}")
+        if value in ("True", "False"):
+            out[key] = value == "True"
+            continue
         try:
             out[key] = orjson.loads(value)  # no NaN, nesting bounded
         except orjson.JSONDecodeError:
