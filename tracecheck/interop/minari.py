@@ -30,8 +30,10 @@ outside ``MINARI_DATASETS_PATH``. Export writes into a hidden folder in that pat
 the finished dataset into place, so a failure leaves nothing behind. Import checks the
 dataset field by field before Minari reads it — metadata types and sizes, spaces, every
 episode's seed and the sizes of its arrays (before any is allocated), the types of rewards
-and flags, finite observations — and refuses what it cannot take exactly, naming the
-dataset, the episode and the step or the metadata field.
+and flags, finite observations in the dataset's observation space, tracecheck's infos
+well-formed, the declared counts of episodes and steps (:mod:`.minari_checks`) — and refuses
+what it cannot take exactly, naming the dataset, the episode and the step or the metadata
+field.
 """
 
 from __future__ import annotations
@@ -49,6 +51,7 @@ from typing import Any, Iterator, Optional
 import numpy as np
 
 from ..errors import InputError, TracecheckError, read_text
+from .minari_checks import check_counts, check_episode_steps, check_infos, check_observations
 
 __all__ = ["export_minari", "import_minari", "check_dataset_id", "datasets_root",
            "dataset_folder"]
@@ -95,7 +98,8 @@ def datasets_root() -> Path:
 def dataset_folder(dataset_id: str) -> Path:
     """The folder of the local dataset ``dataset_id`` (its id checked first): the input of
     ``import minari``, which no output may be or be inside."""
-    return datasets_root() / check_dataset_id(dataset_id)
+    check_dataset_id(dataset_id)  # first: a bad id makes no folder
+    return datasets_root() / dataset_id
 
 
 @contextmanager
@@ -395,6 +399,8 @@ def import_minari(dataset_id: str, adapter_name: str, *,
             _check_lengths(data, n, where)
             _check_flags(data, where)
             _check_finite(data.observations, n, where)
+            check_observations(data.observations, dataset.observation_space, n, where)
+            check_infos(data.infos, n, len(adapter.actions), where)
             for k in range(n + 1):
                 crashed = bool(k == n and n and data.terminations[-1])
                 reward = 0.0 if k == 0 else float(data.rewards[k - 1])
@@ -592,7 +598,7 @@ def _check_dataset(data: Path, dataset_id: str) -> list[Optional[int]]:
         file = h5py.File(data / "main_data.hdf5", "r")
     except OSError as exc:
         raise InputError(f"{dataset_id}: cannot read its main_data.hdf5: {exc}") from None
-    seeds = []
+    seeds, steps = [], 0
     with file:
         total = meta["total_episodes"]
         if total > len(file):
@@ -606,6 +612,8 @@ def _check_dataset(data: Path, dataset_id: str) -> list[Optional[int]]:
             attrs = dict(group.attrs)
             seeds.append(_seed(attrs["seed"], where) if "seed" in attrs else None)
             _check_episode(group, where)
+            steps += check_episode_steps(group, where)
+        check_counts(file, meta, steps, dataset_id)
     return seeds
 
 
