@@ -363,6 +363,21 @@ class InState(Corridor):
 
 class Twice(Corridor):
     actions = ("Left", "Left")
+
+
+class Exits(Corridor):
+    def state(self, obs, info, reward, env, initial):
+        raise SystemExit(0)
+
+
+class ExitsInInit(Corridor):
+    def __init__(self):
+        raise SystemExit(3)
+
+
+class Interrupted(Corridor):
+    def state(self, obs, info, reward, env, initial):
+        raise KeyboardInterrupt
 '''
 
 
@@ -386,6 +401,10 @@ def broken(tmp_path, monkeypatch):
                                 "state(): speed sensor missing"),
     ("broken_adapters:Twice", "the adapter broken_adapters:Twice names the action 'Left' "
                               "twice in its actions ('Left', 'Left')"),
+    ("broken_adapters:Exits", "the adapter broken_adapters:Exits raised SystemExit in "
+                              "state(): 0"),
+    ("broken_adapters:ExitsInInit", "the adapter broken_adapters:ExitsInInit raised "
+                                    "SystemExit in its constructor: 3"),
     (":Corridor", "--env ':Corridor' is not an adapter: give an installed one's name"),
     ("tests.live.toy:", "--env 'tests.live.toy:' is not an adapter"),
 ])
@@ -396,13 +415,26 @@ def test_errors_in_a_users_adapter_name_the_adapter_and_the_hook(broken, toy, ca
     args = ["record", "--env", spec, "--agent", agent, "-n", 1, "-o", broken / "x.mcap"]
     code, _, err = run(capsys, *args)
     assert code == 2 and message in " ".join(err.split()) and "Traceback" not in err
-    assert not (broken / "x.mcap").exists() or not list(read_episodes(broken / "x.mcap"))
+    assert not (broken / "x.mcap").exists()  # no run file without an episode
     if "raised" in message:
         assert "--debug" in err
         code, _, err = run(capsys, "--debug", *args, "--force")
         assert code == 2 and message in " ".join(err.split())
         assert "Traceback (most recent call last)" in err
         assert ("broken_adapters.py" in err) != ("raising_adapters.py" in err)
+
+
+def test_an_interrupt_in_an_adapter_stays_an_interrupt(broken, toy, capsys):
+    """Ctrl-C (or KeyboardInterrupt from a hook) is exit 130, not reported as the
+    adapter's error; a new file without a finished episode is not left behind."""
+    _, agent = toy
+    out = broken / "x.mcap"
+    code, _, err = run(capsys, "record", "--env", "broken_adapters:Interrupted", "--agent",
+                       agent, "-n", 1, "-o", out)
+    assert code == 130 and "raised" not in err
+    assert f"interrupted before an episode was finished: {out} was not written" in \
+        " ".join(err.split())
+    assert not out.exists() and not (broken / "x.mcap.lock").exists()
 
 
 def test_a_working_user_adapter_is_not_changed_by_the_guard(broken, toy, tmp_path, capsys):

@@ -51,6 +51,11 @@ __all__ = ["EnvAdapter", "Observer", "adapters", "get_adapter", "load_adapter", 
 
 ENTRY_POINT_GROUP = "tracecheck.environments"
 
+#: what the user's code may raise that is reported as its error: any exception, and
+#: SystemExit (``sys.exit()`` in a hook must not end tracecheck silently with its code) —
+#: not KeyboardInterrupt, which stays an interrupt
+_USERS = (Exception, SystemExit)
+
 
 class Observer:
     """Turns one episode's observations into B states (it may remember earlier steps)."""
@@ -203,7 +208,7 @@ def adapters() -> list[AdapterInfo]:
     for name, ep in sorted(_entry_points().items()):
         try:
             adapter, problem = _instance(ep.load(), ep.value), None
-        except Exception as exc:  # noqa: BLE001 - a broken plug-in must not stop the list
+        except _USERS as exc:  # noqa: BLE001 - a broken plug-in must not stop the list
             adapter, problem = None, f"{type(exc).__name__}: {exc}"
         out.append(AdapterInfo(name, ep.value, adapter, problem))
     return out
@@ -220,7 +225,7 @@ def get_adapter(name: Optional[str]) -> EnvAdapter:
                          hint="give your own adapter as --env package.module:Class")
     try:
         loaded = ep.load()
-    except Exception as exc:  # noqa: BLE001 - the plug-in's own code
+    except _USERS as exc:  # noqa: BLE001 - the plug-in's own code
         raise _raised(name, exc, "when it was imported") from exc
     return _instance(loaded, name)
 
@@ -241,7 +246,7 @@ def load_adapter(spec: Optional[str]) -> EnvAdapter:
         module = importlib.import_module(module_name)
     except ImportError as exc:
         raise InputError(f"cannot import the adapter module {module_name!r}: {exc}") from None
-    except Exception as exc:  # noqa: BLE001 - the module's own code
+    except _USERS as exc:  # noqa: BLE001 - the module's own code
         raise _raised(spec, exc, "when its module was imported") from exc
     cls = module
     for part in attr.split("."):
@@ -268,7 +273,7 @@ def _guarded(method, where: str, hook: str):
             return method(*args, **kwargs)
         except TracecheckError:
             raise
-        except Exception as exc:  # noqa: BLE001 - the user's code: say whose it is
+        except _USERS as exc:  # noqa: BLE001 - the user's code: say whose it is
             raise _raised(where, exc, f"in {hook}()") from exc
     return call
 
@@ -291,7 +296,7 @@ def _making(adapter: EnvAdapter):
             return make(config, *args, **kwargs)
         except TracecheckError:
             raise
-        except Exception as exc:  # noqa: BLE001 - the environment's own check of its settings
+        except _USERS as exc:  # noqa: BLE001 - the environment's own check of its settings
             reason = f"{type(exc).__name__}: {exc}"
             error = MakeError(f"cannot make the environment {adapter.name} with "
                               f"{_settings(adapter, config)}: {reason}",
@@ -314,7 +319,7 @@ def _settings(adapter: EnvAdapter, config) -> str:
 def _instance(cls, where: str) -> EnvAdapter:
     try:
         adapter = cls() if isinstance(cls, type) else cls
-    except Exception as exc:  # noqa: BLE001 - the user's constructor
+    except _USERS as exc:  # noqa: BLE001 - the user's constructor
         raise _raised(where, exc, "in its constructor") from exc
     if not isinstance(adapter, EnvAdapter):
         raise InputError(f"{where} is not a tracecheck EnvAdapter")
