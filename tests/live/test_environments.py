@@ -424,6 +424,76 @@ def test_errors_in_a_users_adapter_name_the_adapter_and_the_hook(broken, toy, ca
         assert ("broken_adapters.py" in err) != ("raising_adapters.py" in err)
 
 
+ATTRIBUTES = '''
+from tests.live.toy import Corridor
+
+
+class Raises(Corridor):
+    @property
+    def assumptions(self):
+        raise ValueError("asm boom")
+'''
+
+
+@pytest.mark.parametrize("attribute, value, message", [
+    ("horizon", "-1", "has horizon = -1; it must be a whole number of agent steps, at least 1"),
+    ("horizon", "'abc'", "has horizon = 'abc'; it must be a whole number of agent steps"),
+    ("horizon", "True", "has horizon = True; it must be a whole number"),
+    ("assumptions", "'pos > 1'", "has assumptions = 'pos > 1'; it must be a tuple of B "
+                                 "predicates (strings), e.g. (\"x : 0..7\",) — one string "
+                                 "alone needs the comma"),
+    ("properties", "5", "has properties = 5; it must be None or a property set's name or the "
+                        "path of a property file"),
+    ("default_shield", "3.5", "has default_shield = 3.5; it must be None or a shield's name"),
+    ("variables", "('pos', 'pos')", "has variables = ('pos', 'pos'); it must be a tuple of B "
+                                    "variable names (strings), each once"),
+    ("fallback", "'Nope'", "has fallback = 'Nope'; it must be None or one of its actions "
+                           "(Left, Right)"),
+    ("seconds_per_step", "float('nan')", "has seconds_per_step = nan; it must be a finite "
+                                         "number of seconds above 0"),
+    ("name", "5", "has name = 5; it must be a string"),
+    ("profiles", "{'a': 1}", "has profiles = {'a': 1}; it must be a dict of named "
+                             "configurations"),
+])
+@pytest.mark.parametrize("command", ["record", "simulate", "prove"])
+def test_an_adapter_s_attributes_are_checked_when_it_is_loaded(tmp_path, toy, capsys,
+                                                              monkeypatch, attribute, value,
+                                                              message, command):
+    """Each was a TypeError where it was first used (``horizon = "abc"`` in record,
+    ``properties = 5`` in simulate), or wrong (``assumptions = "pos > 1"`` read letter by
+    letter; ``horizon = -1`` blamed a --duration nobody gave)."""
+    shield, agent = toy
+    module = f"attrs_{tmp_path.name.replace('-', '_').replace('[', '_').replace(']', '_')}"
+    (tmp_path / f"{module}.py").write_text(f"from tests.live.toy import Corridor\n\n\n"
+                                           f"class A(Corridor):\n    {attribute} = {value}\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    spec = f"{module}:A"
+    args = {"record": ["record", "--env", spec, "--agent", agent, "-n", 1, "-o",
+                       tmp_path / "x.mcap"],
+            "simulate": ["simulate", "--env", spec, "--agent", agent, "--shield", shield, "-n",
+                         1, "-o", tmp_path / "x.mcap"],
+            "prove": ["prove", shield, "--env", spec, "--deadlock-free"]}[command]
+    code, out, err = run(capsys, *args)
+    assert code == 2 and "Traceback" not in err and "--duration" not in err
+    assert f"error: the adapter {spec} {message}" in " ".join(err.split()), err
+    assert not (tmp_path / "x.mcap").exists()
+
+
+def test_an_adapter_attribute_that_raises_is_reported_like_a_hook(tmp_path, toy, capsys,
+                                                                 monkeypatch):
+    shield, _ = toy
+    (tmp_path / "raising_attrs.py").write_text(ATTRIBUTES)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    code, _, err = run(capsys, "prove", shield, "--env", "raising_attrs:Raises",
+                       "--deadlock-free")
+    assert code == 2 and "Traceback" not in err
+    assert "the adapter raising_attrs:Raises raised ValueError when its attribute assumptions " \
+           "was read: asm boom" in " ".join(err.split())
+    code, _, err = run(capsys, "--debug", "prove", shield, "--env", "raising_attrs:Raises",
+                       "--deadlock-free")
+    assert code == 2 and "Traceback (most recent call last)" in err and "asm boom" in err
+
+
 def test_an_interrupt_in_an_adapter_stays_an_interrupt(broken, toy, capsys):
     """Ctrl-C (or KeyboardInterrupt from a hook) is exit 130, not reported as the
     adapter's error; a new file without a finished episode is not left behind."""

@@ -35,12 +35,13 @@ from __future__ import annotations
 
 import functools
 import importlib
+import os
 import re
 from dataclasses import dataclass
 from importlib import metadata
 from typing import TYPE_CHECKING, Any, Collection, Optional
 
-from ..errors import InputError, TracecheckError
+from ..errors import InputError, TracecheckError, printable
 
 if TYPE_CHECKING:
     from ..render.scene import Scene
@@ -316,6 +317,74 @@ def _settings(adapter: EnvAdapter, config) -> str:
     return ", ".join(f"{k}={v!r}" for k, v in changed.items()) or "its default settings"
 
 
+def _strings(value) -> bool:
+    return isinstance(value, (tuple, list)) and all(isinstance(v, str) for v in value)
+
+
+def _name_or_path(value) -> bool:
+    return value is None or (isinstance(value, (str, os.PathLike)) and str(value) != "")
+
+
+#: (attribute, what it must be, the check) for every attribute an adapter declares
+_ATTRIBUTES = (
+    ("env_id", "a string (the Gymnasium id)", lambda v: isinstance(v, str)),
+    ("variables", "a tuple of B variable names (strings), each once",
+     lambda v: _strings(v) and len(set(v)) == len(v) and all(v)),
+    ("model_name", "a string (the B machine's name)", lambda v: isinstance(v, str)),
+    ("horizon", "a whole number of agent steps, at least 1",
+     lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 1),
+    ("seconds_per_step", "a finite number of seconds above 0",
+     lambda v: isinstance(v, (int, float)) and not isinstance(v, bool) and 0 < v < float("inf")),
+    ("assumptions", 'a tuple of B predicates (strings), e.g. ("x : 0..7",) — one string alone '
+                    "needs the comma", _strings),
+    ("properties", "None or a property set's name or the path of a property file",
+     _name_or_path),
+    ("default_shield", "None or a shield's name or the path of a machine", _name_or_path),
+    ("requires", "a tuple of package names (strings)", _strings),
+    ("profiles", "a dict of named configurations (name -> dict of settings)",
+     lambda v: isinstance(v, dict) and all(isinstance(k, str) and isinstance(c, dict)
+                                           for k, c in v.items())),
+)
+
+
+def _check_attributes(adapter: EnvAdapter, where: str) -> None:
+    """Every attribute the adapter declares has the type tracecheck reads it as (checked
+    when it is loaded, not where it is first used: ``horizon = "abc"`` was a TypeError in
+    the middle of a recording, ``assumptions = "pos > 1"`` read letter by letter); reading
+    one that raises is reported like a hook's error."""
+    def read(attr: str):
+        try:
+            return getattr(adapter, attr)
+        except _USERS as exc:  # noqa: BLE001 - a property of the user's
+            raise _raised(where, exc, f"when its attribute {attr} was read") from exc
+
+    def refuse(attr: str, value, expected: str) -> InputError:
+        return InputError(f"the adapter {where} has {attr} = {printable(repr(value))[:80]}; "
+                          f"it must be {expected}")
+
+    name, actions = read("name"), read("actions")
+    if not name or not actions:
+        raise InputError(f"the adapter {where} needs a name and actions")
+    if not isinstance(name, str):
+        raise refuse("name", name, "a string (what --env and run files call it)")
+    if not _strings(actions) or not all(actions):
+        raise InputError(f"the adapter {where} has actions {printable(repr(actions))[:80]}; "
+                         "give a tuple of operation names, one per action index")
+    actions = tuple(actions)
+    twice = next((a for i, a in enumerate(actions) if a in actions[:i]), None)
+    if twice is not None:
+        raise InputError(f"the adapter {where} names the action {twice!r} twice in its "
+                         f"actions {actions!r}: each action index needs its own name (the B "
+                         "operation it stands for)")
+    for attr, expected, ok in _ATTRIBUTES:
+        value = read(attr)
+        if not ok(value):
+            raise refuse(attr, value, expected)
+    fallback = read("fallback")
+    if fallback is not None and fallback not in actions:
+        raise refuse("fallback", fallback, f"None or one of its actions ({', '.join(actions)})")
+
+
 def _instance(cls, where: str) -> EnvAdapter:
     try:
         adapter = cls() if isinstance(cls, type) else cls
@@ -323,17 +392,7 @@ def _instance(cls, where: str) -> EnvAdapter:
         raise _raised(where, exc, "in its constructor") from exc
     if not isinstance(adapter, EnvAdapter):
         raise InputError(f"{where} is not a tracecheck EnvAdapter")
-    if not adapter.name or not adapter.actions:
-        raise InputError(f"the adapter {where} needs a name and actions")
-    actions = tuple(adapter.actions) if isinstance(adapter.actions, (tuple, list)) else None
-    if actions is None or not all(isinstance(a, str) and a for a in actions):
-        raise InputError(f"the adapter {where} has actions {adapter.actions!r}; give a tuple "
-                         "of operation names, one per action index")
-    twice = next((a for i, a in enumerate(actions) if a in actions[:i]), None)
-    if twice is not None:
-        raise InputError(f"the adapter {where} names the action {twice!r} twice in its "
-                         f"actions {actions!r}: each action index needs its own name (the B "
-                         "operation it stands for)")
+    _check_attributes(adapter, where)
     own = type(adapter).__module__.split(".")[0] == "tracecheck"  # built-in: not guarded
     if not own and not getattr(adapter, "_tracecheck_guarded", False):
         for hook in _HOOKS:
