@@ -148,9 +148,9 @@ def test_a_users_own_adapter_is_named_on_the_command_line(capsys, tmp_path):
     assert run(capsys, "export", "minari", str(recorded), "--dataset-id", "t/toy/x-v0",
                "--env", toy)[0] == 0
     code, _, err = run(capsys, "export", "minari", str(recorded), "--dataset-id", "t/toy/y-v0",
-                       "--env", "highway")  # the wrong adapter: its spaces do not fit
-    assert code == 2 and f"{recorded}: unknown setting 'slip' for the environment highway" \
-        in " ".join(err.split())
+                       "--env", "highway")  # the wrong adapter
+    assert code == 2 and f"{recorded} was recorded in corridor, not highway" \
+        in " ".join(err.split()) and "--env-config" not in err
     back = tmp_path / "back.mcap"
     assert run(capsys, "import", "minari", "t/toy/x-v0", "--env", toy, "-o", str(back))[0] == 0
     assert _replay(capsys, back, str(shield)) == _replay(capsys, recorded, str(shield))
@@ -496,3 +496,34 @@ def test_declared_counts_must_match_the_data(capsys, tmp_path, datasets, meta, h
     code, err, out = _import(capsys, tmp_path, dataset_id)
     assert code == 2 and message in err and "Traceback" not in err, err
     assert not out.exists()
+
+
+def test_exporting_with_another_environment_s_adapter_says_so(capsys, tmp_path, datasets):
+    """It said "unknown setting 'duration' for the environment frozenlake … hint:
+    --env-config key=value", an option export minari does not have."""
+    code, _, err = run(capsys, "export", "minari", str(NONE), "--dataset-id", "tc/ff-v0",
+                       "--env", "frozenlake")
+    err = " ".join(err.split())
+    assert code == 2 and f"{NONE} was recorded in highway, not frozenlake" in err, err
+    assert "hint: give --env highway" in err and "--env-config" not in err
+    assert not (datasets / "tc").exists()
+
+
+def test_a_run_header_config_the_adapter_refuses_names_no_option_export_lacks(
+        capsys, tmp_path, datasets):
+    from tracecheck.episodes import EpisodeWriter
+
+    recorded = tmp_path / "lake.mcap"
+    assert run(capsys, "record", "--env", "frozenlake", "--agent",
+               str(ROOT / "models" / "agents" / "frozenlake.npy"), "--shield", "none", "-n", "1",
+               "-o", str(recorded))[0] == 0
+    result = read_run(recorded)
+    bad = tmp_path / "bad.mcap"
+    with EpisodeWriter(bad, result.header.model_copy(
+            update={"environment_config": {"nonsense": 1}})) as w:
+        for e in result.episodes:
+            w.write(e)
+    code, _, err = run(capsys, "export", "minari", str(bad), "--dataset-id", "t/lake/b-v0")
+    err = " ".join(err.split())
+    assert code == 2 and f"{bad}: its environment_config does not fit frozenlake: unknown " \
+        "setting 'nonsense'" in err and "--env-config" not in err, err

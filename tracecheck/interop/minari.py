@@ -125,6 +125,17 @@ def _minari():
     return minari
 
 
+def _recorded_name(header) -> str:
+    """The environment a run was recorded in, as ``--env`` names it where it can be told."""
+    from ..live.adapter import adapters
+
+    if header.environment:
+        return header.environment
+    return next((a.name for a in adapters()
+                 if a.adapter is not None and a.adapter.env_id == header.environment_id),
+                header.environment_id)
+
+
 def _recorded_adapter(header, run: Path):
     """The installed adapter a run file names (by name, or for files from before adapters
     were named, by environment id) — never a module named inside the file."""
@@ -142,8 +153,19 @@ def _recorded_adapter(header, run: Path):
 
 
 def _make_env(adapter, config: Optional[dict], what: str):
+    """The adapter's environment, with ``config`` (a run header's) on its defaults."""
+    from ..live.adapter import MakeError
+
     try:
-        return adapter.make_env(adapter.config(config or {}))
+        settings = adapter.config(config or {})
+    except TracecheckError as exc:  # the run header's settings, not an option of the user's
+        said = f"its environment_config does not fit {adapter.name}: " if config else ""
+        raise InputError(f"{what}: {said}{exc.message}", hint=None if config else exc.hint) \
+            from exc
+    try:
+        return adapter.make_env(settings)
+    except MakeError as exc:
+        raise InputError(f"{what}: {exc.message}", hint=exc.hint) from exc.__cause__
     except TracecheckError as exc:
         raise InputError(f"{what}: {exc.message}", hint=exc.hint) from exc
     except Exception as exc:  # a package missing, a configuration the environment rejects
@@ -187,6 +209,14 @@ def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
     if not result.episodes:
         raise InputError(f"{run} holds no complete episode")
     adapter = load_adapter(env) if env else _recorded_adapter(header, run)
+    recorded = header.environment or header.environment_id
+    if env and recorded and adapter.name != header.environment and \
+            adapter.env_id != header.environment_id:
+        name = _recorded_name(header)
+        raise InputError(f"{run} was recorded in {name}, not {adapter.name}: its observations "
+                         "are not that environment's",
+                         hint=f"give --env {name} (or the package.module:Class of its "
+                              "adapter), or leave --env out")
     made = _make_env(adapter, header.environment_config, str(run))
     actions = list(adapter.actions)
     buffers = []
