@@ -170,3 +170,35 @@ def test_long_formulas_on_the_batch_path(text):
     batch = BatchFormula(node, CONSTANTS, source=text)(cols)
     scalar = compile_formula(node, source=text)
     assert list(batch) == [scalar({**CONSTANTS, **row}) for row in rows]
+
+
+def test_float_column_names_the_row_of_an_integer_too_large_for_a_float():
+    """B integers stay exact on both paths (an object array of Python ints where 64 bits do
+    not hold them); turned into floats, one too large is an error at its row, never inf."""
+    from tracecheck.b.vector import float_column
+    from tracecheck.errors import EvaluationError
+
+    cols = Columns(3, (), numbers={"n": np.array([1.0, 2.0, 3.0])})
+    cols.label = lambda i: f"episode 7, step {i}"
+    batch = BatchFormula(parse_formula("2 ** (400 * floor(n))"), {})
+    values = batch(cols)
+    assert values.tolist() == [batch._row(cols, i) for i in range(3)] == \
+        [2 ** 400, 2 ** 800, 2 ** 1200]
+    with pytest.raises(EvaluationError, match=r"^episode 7, step 2: the value of `E`, an "
+                                              r"integer of about 362 digits, does not fit"):
+        float_column(values, cols, "`E`")
+    assert float_column(values[:2], cols, "`E`").tolist() == [2.0 ** 400, 2.0 ** 800]
+    assert float_column(np.array([1, 2]), cols, "`E`").dtype == float
+
+
+@pytest.mark.parametrize("text", ["k * k", "3 ** (40 * floor(n))", "floor(n * 1.0e300)",
+                                  "ceiling(n / 2.0) * k", "floor(n) = 1"])
+def test_integers_beyond_64_bits_are_exact_on_the_batch_path_too(text):
+    """Rows the batch path hands to the scalar path keep their exact integer (an object
+    array; `k * k` was an OverflowError traceback), and floor/ceiling are INTEGERs there as
+    in the scalar path (3 ** 40 was a rounded float)."""
+    cols = Columns(3, (), numbers={"k": np.array([2 ** 40, 1, -3], dtype=np.int64),
+                                   "n": np.array([1.0, 3.0, 2.5])})
+    batch = BatchFormula(parse_formula(text), {})
+    assert batch._plan(cols) is not None
+    assert batch(cols).tolist() == [batch._row(cols, i) for i in range(3)]

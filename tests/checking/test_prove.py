@@ -346,3 +346,42 @@ def test_a_huge_exponent_is_unknown_at_once_with_its_place(capsys, tmp_path):
                        "--timeout", "1")
     assert code == 3
     assert "--implies:1:10: cannot translate a power with exponent 65" in out
+
+
+NESTED = "((((x ** 64) ** 64) ** 64) ** 64) ** 64 > 1"  # x to the 64^5: z3 ran 96 s, 14 GB
+
+
+@pytest.mark.parametrize("claim, degree, column", [
+    (NESTED, "4,096", 4), ("(x * x) ** 33 > 1", "66", 1), ("x ** 64 * x > 0", "65", 1),
+    ("(x ** 8) ** 8 / x > 0", "65", 1),
+], ids=["nested-powers", "square-power", "product", "quotient"])
+def test_nested_powers_are_unknown_at_once_naming_the_term(capsys, counter, claim, degree,
+                                                           column):
+    """Each power is within its limit, but nested they multiply: the degree of the whole
+    term is bounded, and the construct and its place named, before z3 sees it."""
+    import time
+
+    start = time.monotonic()
+    code, out, err = run(capsys, "prove", counter, "--implies", f"Inc => {claim}",
+                         "--timeout", "1")
+    assert code == 3 and "Traceback" not in err
+    assert f"unknown (--implies:1:{column}: cannot translate a term of degree {degree} " \
+           "(its powers and products multiply; at most 64" in out, out
+    assert time.monotonic() - start < 1.0  # the solver was never asked
+
+
+def test_the_timeout_bounds_z3_s_work_while_asserting_too(monkeypatch):
+    """z3's own timeout counts only in check(); asserting a huge term took 2 s more at
+    x ** 64^4 (and minutes at 64^5). With the degree bound lifted, the question still ends
+    near the timeout: a timer interrupts z3 at the deadline."""
+    import time
+
+    from tracecheck.checking import smt
+
+    monkeypatch.setattr(smt, "MAX_DEGREE", 10**12)
+    machine = load_machine_text(COUNTER, file="M.mch")
+    start = time.monotonic()
+    [result] = P.prove(machine, implies=(("Inc", "(((x ** 64) ** 64) ** 64) ** 64 > 1"),),
+                       timeout_s=0.3)
+    assert (result.status, result.reason) == ("unknown", "timeout")
+    assert time.monotonic() - start < 1.8  # without the timer: 2.8 s here

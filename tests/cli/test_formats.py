@@ -183,11 +183,12 @@ def test_replay_csv_and_markdown_carry_the_ltl_results(capsys):
             "F [FASTER]"]
     code, out, _ = run(capsys, *args, "--format", "csv")
     rows = list(csv.DictReader(io.StringIO(out)))
-    assert code == 0 and list(rows[0])[-2:] == ["LTL --ltl 1", "LTL --ltl 2"]
-    assert rows[3]["LTL --ltl 1"] == "violated at step 39" and rows[0]["LTL --ltl 1"] == "holds"
-    assert {r["LTL --ltl 2"] for r in rows} == {"holds", "violated"}  # F: no step to name
+    first, second = "LTL --ltl 1: G({Crash = FALSE})", "LTL --ltl 2: F [FASTER]"
+    assert code == 0 and list(rows[0])[-2:] == [first, second]  # the formula text too
+    assert rows[3][first] == "violated at step 39" and rows[0][first] == "holds"
+    assert {r[second] for r in rows} == {"holds", "violated"}  # F: no step to name
     code, as_json, _ = run(capsys, *args, "--json")
     violated = {v["episode"] for v in json.loads(as_json)["ltl"][0]["violations"]}
-    assert violated == {int(r["episode"]) for r in rows if r["LTL --ltl 1"] != "holds"}
+    assert violated == {int(r["episode"]) for r in rows if r[first] != "holds"}
     code, md, _ = run(capsys, *args, "--format", "md")
-    assert "| LTL --ltl 1 | LTL --ltl 2 |" in md and "| violated at step 39 | holds |" in md
+    assert f"| {first} | {second} |" in md and "| violated at step 39 | holds |" in md

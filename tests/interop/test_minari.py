@@ -148,9 +148,9 @@ def test_a_users_own_adapter_is_named_on_the_command_line(capsys, tmp_path):
     assert run(capsys, "export", "minari", str(recorded), "--dataset-id", "t/toy/x-v0",
                "--env", toy)[0] == 0
     code, _, err = run(capsys, "export", "minari", str(recorded), "--dataset-id", "t/toy/y-v0",
-                       "--env", "highway")  # the wrong adapter: its spaces do not fit
-    assert code == 2 and f"{recorded}: unknown setting 'slip' for the environment highway" \
-        in " ".join(err.split())
+                       "--env", "highway")  # the wrong adapter
+    assert code == 2 and f"{recorded} was recorded in corridor, not highway" \
+        in " ".join(err.split()) and "--env-config" not in err
     back = tmp_path / "back.mcap"
     assert run(capsys, "import", "minari", "t/toy/x-v0", "--env", toy, "-o", str(back))[0] == 0
     assert _replay(capsys, back, str(shield)) == _replay(capsys, recorded, str(shield))
@@ -388,3 +388,142 @@ def test_a_failed_export_leaves_no_half_written_dataset(capsys, tmp_path, datase
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(datasets))
     assert run(capsys, "export", "minari", str(PAPER), "--dataset-id", "t/h/new-v0")[0] == 0
     assert {"t/h/mine-v0", "t/h/new-v0"} <= set(minari.list_local_datasets())
+
+
+@pytest.mark.parametrize("name", ["data/metadata.json", "data/main_data.hdf5", "data/new.mcap",
+                                  "."])
+def test_an_import_never_writes_into_its_dataset(capsys, tmp_path, datasets, name):
+    """The dataset's folder is the input of ``import minari``: ``-o`` inside it is refused,
+    with or without --force, and the dataset stays as it was."""
+    dataset_id = _toy_dataset()
+    folder = datasets / dataset_id
+    before = {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+    target = folder / name
+    for force in ([], ["--force"]):
+        code, _, err = run(capsys, "import", "minari", dataset_id, "--env", TOY, "-o",
+                           str(target), *force)
+        err = " ".join(err.split())
+        assert code == 2 and "Traceback" not in err, err
+        assert f"is inside the input folder {folder}" in err or \
+            f"is the input {folder}" in err, err
+    assert {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()} == before
+
+
+@pytest.mark.parametrize("dataset, h5, message", [
+    ("toy", lambda f: _replace(f, "episode_1/observations", np.array([100, 3, 3])),
+     "t/toy/base-v0, episode 1, step 0: the observation 100 is not one of the dataset's "
+     "Discrete(6) (0 … 5)"),
+    ("toy", lambda f: _replace(f, "episode_2/observations", np.array([2, -1, 3])),
+     "t/toy/base-v0, episode 2, step 1: the observation -1 is not one of"),
+    ("toy", lambda f: _replace(f, "episode_0/observations", np.array([2.0, 3.0, 0.5])),
+     "t/toy/base-v0, episode 0, step 2: the observation 0.5 is not an integer, as the "
+     "dataset's Discrete(6) needs"),
+    ("toy", lambda f: _replace(f, "episode_0/observations", np.array([[2], [3], [4]])),
+     "t/toy/base-v0, episode 0: the observations have shape (3, 1), not (3,)"),
+    ("box", lambda f: _replace(f, "episode_0/observations", np.array([[2.0], [7.5], [4.0]])),
+     "t/toy/box-v0, episode 0, step 1: the observation 7.5 is out of the bounds of the "
+     "dataset's Box(0.0, 5.0, (1,), float64)"),
+], ids=["above", "negative", "fraction", "shape", "box-bounds"])
+def test_an_observation_outside_the_observation_space_is_refused(capsys, tmp_path, datasets,
+                                                                 dataset, h5, message):
+    """0.5 of a Discrete(64) was cell 0, 100 an error of the adapter or a cell beyond the
+    map: each is checked against the dataset's space before the adapter sees it."""
+    dataset_id = _toy_dataset() if dataset == "toy" else _box_dataset()
+    _mutate(datasets, dataset_id, h5=h5)
+    code, err, out = _import(capsys, tmp_path, dataset_id)
+    assert code == 2 and message in err and "Traceback" not in err, err
+    assert not out.exists()
+
+
+@pytest.fixture
+def shielded(tmp_path, datasets, capsys):
+    """The corridor recorded under its shield and exported: tracecheck's infos, 2 actions."""
+    from tests.live.toy import SHIELD, left_leaning_table
+
+    shield, agent = tmp_path / "corridor.mch", tmp_path / "left.npy"
+    shield.write_text(SHIELD)
+    np.save(agent, left_leaning_table())
+    recorded = tmp_path / "toy.mcap"
+    assert run(capsys, "record", "--env", TOY, "--agent", str(agent), "--shield", str(shield),
+               "-n", "3", "--seed", "4", "-o", str(recorded))[0] == 0
+    assert run(capsys, "export", "minari", str(recorded), "--dataset-id", "t/toy/sh-v0",
+               "--env", TOY)[0] == 0
+    return "t/toy/sh-v0"
+
+
+def _info(f, key, fn):
+    path = f"episode_1/infos/{key}"
+    _replace(f, path, fn(f[path][()]))
+
+
+@pytest.mark.parametrize("h5, message", [
+    (lambda f: _info(f, "allowed", lambda a: a[:2]), "t/toy/sh-v0, episode 1: its "
+     "infos/allowed has shape (2, 2); tracecheck's infos have one row per observation"),
+    (lambda f: _info(f, "allowed", lambda a: np.full(a.shape, 7)),
+     "t/toy/sh-v0, episode 1: its infos/allowed holds int64 values, not true/false"),
+    (lambda f: _info(f, "action_values", lambda a: a[:, :1]),
+     "episode 1: its infos/action_values has shape"),
+    (lambda f: _info(f, "preferred", lambda a: np.where(np.arange(len(a)) == 1, 9, a)),
+     "t/toy/sh-v0, episode 1: its infos/preferred, step 1: 9 is not an action index (0 … 1) "
+     "or -1"),
+    (lambda f: _info(f, "intervened", lambda a: a[:1]), "episode 1: its infos/intervened has "
+                                                        "shape (1,)"),
+], ids=["allowed-short", "allowed-ints", "values-width", "preferred-range", "intervened-short"])
+def test_malformed_shield_infos_are_refused_not_dropped(capsys, tmp_path, datasets, shielded,
+                                                        h5, message):
+    """They feed replay exactly: malformed, they were dropped without a word (the steps
+    imported with no allowed actions, values or preferred action)."""
+    assert _import(capsys, tmp_path, shielded)[0] == 0
+    _mutate(datasets, shielded, h5=h5)
+    code, err, out = _import(capsys, tmp_path / "again", shielded)
+    assert code == 2 and message in err and "Traceback" not in err, err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("meta, h5, message", [
+    (lambda m: m.update(total_steps=5), None,
+     "t/toy/base-v0: the metadata field total_steps says 5, the episodes hold 6 step(s)"),
+    (None, lambda f: f["episode_1"].attrs.__setitem__("total_steps", 7),
+     "t/toy/base-v0, episode 1: its total_steps attribute says 7, it holds 2 step(s)"),
+    (lambda m: m.update(total_episodes=2), None,
+     "t/toy/base-v0: the metadata field total_episodes says 2, the data file holds 3 episode "
+     "group(s) (episode_0 … episode_2)"),
+], ids=["total-steps", "episode-steps", "fewer-episodes"])
+def test_declared_counts_must_match_the_data(capsys, tmp_path, datasets, meta, h5, message):
+    """total_episodes = 2 of 3 groups imported 2 without a word."""
+    dataset_id = _toy_dataset()
+    _mutate(datasets, dataset_id, meta=meta, h5=h5)
+    code, err, out = _import(capsys, tmp_path, dataset_id)
+    assert code == 2 and message in err and "Traceback" not in err, err
+    assert not out.exists()
+
+
+def test_exporting_with_another_environment_s_adapter_says_so(capsys, tmp_path, datasets):
+    """It said "unknown setting 'duration' for the environment frozenlake … hint:
+    --env-config key=value", an option export minari does not have."""
+    code, _, err = run(capsys, "export", "minari", str(NONE), "--dataset-id", "tc/ff-v0",
+                       "--env", "frozenlake")
+    err = " ".join(err.split())
+    assert code == 2 and f"{NONE} was recorded in highway, not frozenlake" in err, err
+    assert "hint: give --env highway" in err and "--env-config" not in err
+    assert not (datasets / "tc").exists()
+
+
+def test_a_run_header_config_the_adapter_refuses_names_no_option_export_lacks(
+        capsys, tmp_path, datasets):
+    from tracecheck.episodes import EpisodeWriter
+
+    recorded = tmp_path / "lake.mcap"
+    assert run(capsys, "record", "--env", "frozenlake", "--agent",
+               str(ROOT / "models" / "agents" / "frozenlake.npy"), "--shield", "none", "-n", "1",
+               "-o", str(recorded))[0] == 0
+    result = read_run(recorded)
+    bad = tmp_path / "bad.mcap"
+    with EpisodeWriter(bad, result.header.model_copy(
+            update={"environment_config": {"nonsense": 1}})) as w:
+        for e in result.episodes:
+            w.write(e)
+    code, _, err = run(capsys, "export", "minari", str(bad), "--dataset-id", "t/lake/b-v0")
+    err = " ".join(err.split())
+    assert code == 2 and f"{bad}: its environment_config does not fit frozenlake: unknown " \
+        "setting 'nonsense'" in err and "--env-config" not in err, err

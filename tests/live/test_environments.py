@@ -363,6 +363,21 @@ class InState(Corridor):
 
 class Twice(Corridor):
     actions = ("Left", "Left")
+
+
+class Exits(Corridor):
+    def state(self, obs, info, reward, env, initial):
+        raise SystemExit(0)
+
+
+class ExitsInInit(Corridor):
+    def __init__(self):
+        raise SystemExit(3)
+
+
+class Interrupted(Corridor):
+    def state(self, obs, info, reward, env, initial):
+        raise KeyboardInterrupt
 '''
 
 
@@ -386,6 +401,10 @@ def broken(tmp_path, monkeypatch):
                                 "state(): speed sensor missing"),
     ("broken_adapters:Twice", "the adapter broken_adapters:Twice names the action 'Left' "
                               "twice in its actions ('Left', 'Left')"),
+    ("broken_adapters:Exits", "the adapter broken_adapters:Exits raised SystemExit in "
+                              "state(): 0"),
+    ("broken_adapters:ExitsInInit", "the adapter broken_adapters:ExitsInInit raised "
+                                    "SystemExit in its constructor: 3"),
     (":Corridor", "--env ':Corridor' is not an adapter: give an installed one's name"),
     ("tests.live.toy:", "--env 'tests.live.toy:' is not an adapter"),
 ])
@@ -396,13 +415,96 @@ def test_errors_in_a_users_adapter_name_the_adapter_and_the_hook(broken, toy, ca
     args = ["record", "--env", spec, "--agent", agent, "-n", 1, "-o", broken / "x.mcap"]
     code, _, err = run(capsys, *args)
     assert code == 2 and message in " ".join(err.split()) and "Traceback" not in err
-    assert not (broken / "x.mcap").exists() or not list(read_episodes(broken / "x.mcap"))
+    assert not (broken / "x.mcap").exists()  # no run file without an episode
     if "raised" in message:
         assert "--debug" in err
         code, _, err = run(capsys, "--debug", *args, "--force")
         assert code == 2 and message in " ".join(err.split())
         assert "Traceback (most recent call last)" in err
         assert ("broken_adapters.py" in err) != ("raising_adapters.py" in err)
+
+
+ATTRIBUTES = '''
+from tests.live.toy import Corridor
+
+
+class Raises(Corridor):
+    @property
+    def assumptions(self):
+        raise ValueError("asm boom")
+'''
+
+
+@pytest.mark.parametrize("attribute, value, message", [
+    ("horizon", "-1", "has horizon = -1; it must be a whole number of agent steps, at least 1"),
+    ("horizon", "'abc'", "has horizon = 'abc'; it must be a whole number of agent steps"),
+    ("horizon", "True", "has horizon = True; it must be a whole number"),
+    ("assumptions", "'pos > 1'", "has assumptions = 'pos > 1'; it must be a tuple of B "
+                                 "predicates (strings), e.g. (\"x : 0..7\",) — one string "
+                                 "alone needs the comma"),
+    ("properties", "5", "has properties = 5; it must be None or a property set's name or the "
+                        "path of a property file"),
+    ("default_shield", "3.5", "has default_shield = 3.5; it must be None or a shield's name"),
+    ("variables", "('pos', 'pos')", "has variables = ('pos', 'pos'); it must be a tuple of B "
+                                    "variable names (strings), each once"),
+    ("fallback", "'Nope'", "has fallback = 'Nope'; it must be None or one of its actions "
+                           "(Left, Right)"),
+    ("seconds_per_step", "float('nan')", "has seconds_per_step = nan; it must be a finite "
+                                         "number of seconds above 0"),
+    ("name", "5", "has name = 5; it must be a string"),
+    ("profiles", "{'a': 1}", "has profiles = {'a': 1}; it must be a dict of named "
+                             "configurations"),
+])
+@pytest.mark.parametrize("command", ["record", "simulate", "prove"])
+def test_an_adapter_s_attributes_are_checked_when_it_is_loaded(tmp_path, toy, capsys,
+                                                              monkeypatch, attribute, value,
+                                                              message, command):
+    """Each was a TypeError where it was first used (``horizon = "abc"`` in record,
+    ``properties = 5`` in simulate), or wrong (``assumptions = "pos > 1"`` read letter by
+    letter; ``horizon = -1`` blamed a --duration nobody gave)."""
+    shield, agent = toy
+    module = f"attrs_{tmp_path.name.replace('-', '_').replace('[', '_').replace(']', '_')}"
+    (tmp_path / f"{module}.py").write_text(f"from tests.live.toy import Corridor\n\n\n"
+                                           f"class A(Corridor):\n    {attribute} = {value}\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    spec = f"{module}:A"
+    args = {"record": ["record", "--env", spec, "--agent", agent, "-n", 1, "-o",
+                       tmp_path / "x.mcap"],
+            "simulate": ["simulate", "--env", spec, "--agent", agent, "--shield", shield, "-n",
+                         1, "-o", tmp_path / "x.mcap"],
+            "prove": ["prove", shield, "--env", spec, "--deadlock-free"]}[command]
+    code, out, err = run(capsys, *args)
+    assert code == 2 and "Traceback" not in err and "--duration" not in err
+    assert f"error: the adapter {spec} {message}" in " ".join(err.split()), err
+    assert not (tmp_path / "x.mcap").exists()
+
+
+def test_an_adapter_attribute_that_raises_is_reported_like_a_hook(tmp_path, toy, capsys,
+                                                                 monkeypatch):
+    shield, _ = toy
+    (tmp_path / "raising_attrs.py").write_text(ATTRIBUTES)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    code, _, err = run(capsys, "prove", shield, "--env", "raising_attrs:Raises",
+                       "--deadlock-free")
+    assert code == 2 and "Traceback" not in err
+    assert "the adapter raising_attrs:Raises raised ValueError when its attribute assumptions " \
+           "was read: asm boom" in " ".join(err.split())
+    code, _, err = run(capsys, "--debug", "prove", shield, "--env", "raising_attrs:Raises",
+                       "--deadlock-free")
+    assert code == 2 and "Traceback (most recent call last)" in err and "asm boom" in err
+
+
+def test_an_interrupt_in_an_adapter_stays_an_interrupt(broken, toy, capsys):
+    """Ctrl-C (or KeyboardInterrupt from a hook) is exit 130, not reported as the
+    adapter's error; a new file without a finished episode is not left behind."""
+    _, agent = toy
+    out = broken / "x.mcap"
+    code, _, err = run(capsys, "record", "--env", "broken_adapters:Interrupted", "--agent",
+                       agent, "-n", 1, "-o", out)
+    assert code == 130 and "raised" not in err
+    assert f"interrupted before an episode was finished: {out} was not written" in \
+        " ".join(err.split())
+    assert not out.exists() and not (broken / "x.mcap.lock").exists()
 
 
 def test_a_working_user_adapter_is_not_changed_by_the_guard(broken, toy, tmp_path, capsys):
@@ -432,6 +534,23 @@ def test_a_working_user_adapter_is_not_changed_by_the_guard(broken, toy, tmp_pat
     (["train", "--steps", 10, "--env-config", "nonsense=1"],
      "unknown setting 'nonsense' for the environment highway; it takes action, "),
     (["train", "--steps", 10, "--seed", -1], "Invalid value for '--seed'"),
+    (["record", "--env", "frozenlake", "--agent", AGENTS / "frozenlake.npy", "-n", 1,
+      "--env-config", "is_slippery=maybe"], "the setting is_slippery='maybe' does not fit the "
+                                            "environment frozenlake: is_slippery takes true or "
+                                            "false"),
+    (["train", "--env", "frozenlake", "--algorithm", "q-learning", "--steps", 10,
+      "--env-config", "is_slippery=0"], "the setting is_slippery=0 does not fit"),
+    (["record", "--env", "frozenlake", "--agent", AGENTS / "frozenlake.npy", "-n", 1,
+      "--env-config", "map_name=8"], "the setting map_name=8 does not fit the environment "
+                                     "frozenlake: map_name takes a string"),
+    (["train", "--steps", 10, "--env-config", "duration=x"],
+     "the setting duration='x' does not fit the environment highway: duration takes a number"),
+    (["train", "--env", "frozenlake", "--algorithm", "q-learning", "--steps", 200,
+      "--env-config", "map_name=99x99"],
+     "cannot make the environment frozenlake with map_name='99x99': KeyError: '99x99'"),
+    (["record", "--env", "frozenlake", "--agent", AGENTS / "frozenlake.npy", "-n", 1,
+      "--env-config", "max_episode_steps=-5"],
+     "cannot make the environment frozenlake with max_episode_steps=-5: ValueError: Expect"),
 ])
 def test_bad_training_and_recording_options(tmp_path, capsys, args, message):
     """Refused before anything runs (highway-env would have ignored the setting silently;
@@ -442,3 +561,55 @@ def test_bad_training_and_recording_options(tmp_path, capsys, args, message):
     code, _, err = run(capsys, *args, "-o", out)
     assert code == 2 and message in " ".join(err.split()) and "Traceback" not in err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("spelling", ["False", "false"])
+@pytest.mark.parametrize("command", ["record", "train"])
+def test_env_config_values_are_typed_as_the_environment_takes_them(tmp_path, capsys, spelling,
+                                                                   command):
+    """``is_slippery=False`` was the string 'False' (true in Python): the lake was slippery
+    and the header said 'False'. Now a boolean: every seed walks the same path."""
+    if command == "train":
+        out = tmp_path / "q.npy"
+        code, _, err = run(capsys, "train", "--env", "frozenlake", "--algorithm", "q-learning",
+                           "--steps", 50, "--env-config", f"is_slippery={spelling}", "-o", out)
+        assert code == 0, err
+        card = json.loads((tmp_path / "q.json").read_text())
+        assert card["environment_config"]["is_slippery"] is False, card
+        return
+    out = tmp_path / "lake.mcap"
+    code, _, err = run(capsys, "record", "--env", "frozenlake", "--agent",
+                       AGENTS / "frozenlake.npy", "--shield", "frozenlake", "-n", 4, "--seed", 0,
+                       "--env-config", f"is_slippery={spelling}", "-o", out)
+    assert code == 0, err
+    assert read_header(out).environment_config["is_slippery"] is False
+    paths = {tuple(s.state["x"] * 10 + s.state["y"] for s in e.steps)
+             for e in read_episodes(out)}
+    assert len(paths) == 1  # deterministic: slippery, the seeds 0…3 walk apart
+
+
+def test_a_setting_is_checked_against_its_annotation_and_default():
+    from tracecheck.live.adapter import parse_config, setting_kinds, typed_setting
+
+    assert parse_config(["a=True", "b=false", "c=3", "d=0.5", "e=8x8", 'f="4"']) == \
+        {"a": True, "b": False, "c": 3, "d": 0.5, "e": "8x8", "f": "4"}
+    assert typed_setting("e", "rate", 1, setting_kinds(0.5, "float")) == 1.0
+    assert isinstance(typed_setting("e", "rate", 1, setting_kinds(0.5, "float")), float)
+    assert typed_setting("e", "r", [1, 0, 0], setting_kinds((1, 0, 0), "tuple[int, int, int]")) == (1, 0, 0)
+    assert typed_setting("e", "any", "x", setting_kinds(None)) == "x"  # nothing known
+    assert typed_setting("e", "n", None, setting_kinds(None, "int | None")) is None
+    for value, kinds, takes in ((1.5, setting_kinds(3, "int"), "an integer"),
+                                (True, setting_kinds(3), "a number"),
+                                (5, setting_kinds(None, "str | None"), "null or a string")):
+        with pytest.raises(InputError, match=f"does not fit the environment e: k takes {takes}"):
+            typed_setting("e", "k", value, kinds)
+
+
+def test_an_environment_refusing_its_settings_shows_its_traceback_with_debug(tmp_path, capsys):
+    args = ["train", "--env", "frozenlake", "--algorithm", "q-learning", "--steps", 10,
+            "--env-config", "map_name=99x99", "-o", tmp_path / "q.npy"]
+    code, _, err = run(capsys, *args)
+    assert code == 2 and "Traceback" not in err and "tracecheck --debug" in err
+    code, _, err = run(capsys, "--debug", *args)
+    assert code == 2 and "Traceback (most recent call last)" in err
+    assert "KeyError: '99x99'" in err and not (tmp_path / "q.npy").exists()

@@ -393,3 +393,46 @@ def test_wrongly_typed_property_files_name_the_file_and_entry(capsys, tmp_path, 
     code, _, err = run(capsys, "stats", str(hand_run), "-p", str(path))
     assert code == 2 and err.startswith("error: ") and fragment in err
     assert "Traceback" not in err
+
+
+NONE = "sample_traces/base_none.mcap"
+
+
+@pytest.mark.parametrize("expression, aggregate, fragment", [
+    ("2 ** 100000", "sum", "metric m: sample_traces/base_none.mcap, episode 0, step 0: the value "
+     "of `2 ** 100000`, an integer of about 30,103 digits, does not fit a float"),
+    ("10 ** 400", "max", "episode 0, step 0: the value of `10 ** 400`, an integer of about 401 "
+     "digits, does not fit a float"),
+    ("IF card(PresentVehicles) > 4 THEN 10 ** 400 ELSE 1 END", "average",
+     "does not fit a float"),
+    ("{2 ** 100000 >= 1}", "stl", "metric m: sample_traces/base_none.mcap, episode 0, step 0: "
+     "the value of a side of the atom {2 ** 100000 >= 1}, an integer of about 30,103 digits, "
+     "does not fit a float"),
+], ids=["sum", "max", "some-rows", "stl"])
+def test_an_integer_too_large_for_a_float_is_an_error_naming_the_row(capsys, tmp_path,
+                                                                    expression, aggregate,
+                                                                    fragment):
+    """B integers are exact; statistics are floats: an OverflowError traceback before,
+    never infinity now. Batch and scalar rows (IF …) give the same answer."""
+    from tests.conftest import ROOT
+
+    path = tmp_path / "p.toml"
+    path.write_text(f'[metrics.m]\nexpression = "{expression}"\naggregate = "{aggregate}"\n')
+    with pytest.MonkeyPatch.context() as mp:
+        mp.chdir(ROOT)
+        code, out, err = run(capsys, "stats", NONE, "--properties", str(path))
+    assert code == 2 and out == "" and "Traceback" not in err
+    assert fragment in " ".join(err.split()), err
+    assert f"{path}: metric m: " in " ".join(err.split())
+
+
+def test_an_integer_that_fits_a_float_is_its_value(capsys, tmp_path):
+    from tests.conftest import ROOT
+
+    path = tmp_path / "p.toml"
+    path.write_text('[metrics.m]\nexpression = "2 ** 1000"\naggregate = "max"\n')
+    with pytest.MonkeyPatch.context() as mp:
+        mp.chdir(ROOT)
+        code, out, err = run(capsys, "stats", NONE, "--properties", str(path), "--json")
+    assert code == 0, err
+    assert json.loads(out)["runs"][0]["metrics"]["m"]["mean"] == float(2 ** 1000)

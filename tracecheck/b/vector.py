@@ -15,19 +15,20 @@ located error where the formula really has no value.
 
 from __future__ import annotations
 
+import math
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterator, Mapping, Optional, Sequence
 
 import numpy as np
 
-from ..errors import TracecheckError
+from ..errors import EvaluationError, TracecheckError
 from . import ast as A
 from .bindings import conjuncts
 from .evaluate import Compiler
 from .values import Elem, FuncValue
 
-__all__ = ["Columns", "evaluate_batch", "BatchFormula"]
+__all__ = ["Columns", "evaluate_batch", "BatchFormula", "float_column"]
 
 
 @dataclass
@@ -597,8 +598,10 @@ class _VecCompiler:
                 with np.errstate(invalid="ignore"):
                     return ("num", np.sqrt(x))
             return sqrt
-        simple = {"RABS": np.abs, "abs": np.abs, "real": lambda x: np.asarray(x, float),
-                  "floor": np.floor, "ceiling": np.ceil}
+        if name in ("floor", "ceiling"):
+            fn = np.floor if name == "floor" else np.ceil
+            return lambda ctx: ("num", _integral(ctx, fn, _num(arg(ctx))))
+        simple = {"RABS": np.abs, "abs": np.abs, "real": lambda x: np.asarray(x, float)}
         if name in simple:
             f = simple[name]
             return lambda ctx: ("num", f(_num(arg(ctx))))
@@ -738,6 +741,20 @@ def _arith(ctx: _Ctx, fn, op: str, a: Any, b: Any) -> Any:
     return value
 
 
+def _integral(ctx: _Ctx, fn, x: Any) -> Any:
+    """B's floor and ceiling are INTEGERs, exact: int64 where the result is within 2^62, the
+    other rows (and infinities) marked for the scalar path, which gives the exact integer."""
+    if _is_int(x):
+        return x
+    with np.errstate(invalid="ignore"):
+        y = fn(np.asarray(x, dtype=float))
+        big = ~(np.abs(y) < 2.0 ** 62)
+    if np.any(big):
+        ctx.mark(big if np.ndim(big) else np.ones(ctx.cols.n, dtype=bool))
+        y = np.where(big, 0.0, y)
+    return y.astype(np.int64)
+
+
 def _mark_nonfinite(ctx: _Ctx, value: Any) -> None:
     bad = ~np.isfinite(value)
     if np.any(bad):
@@ -763,6 +780,15 @@ def _bool(v: Vec) -> Any:
 
 def _is_int(x: Any) -> bool:
     return np.issubdtype(np.asarray(x).dtype, np.integer)
+
+
+def _fits(out: np.ndarray, value: Any) -> bool:
+    """Whether ``out`` holds ``value`` exactly (a Python integer beyond its dtype does not)."""
+    if not isinstance(value, int) or isinstance(value, bool):
+        return True
+    if out.dtype.kind in "iu":
+        return bool(np.iinfo(out.dtype).min <= value <= np.iinfo(out.dtype).max)
+    return out.dtype.kind not in "f" or abs(value) <= 2 ** 53
 
 
 class BatchFormula:
@@ -807,8 +833,11 @@ class BatchFormula:
                         value = value.reshape(value.shape + (1,) * (3 - value.ndim))
                     out = np.array(np.broadcast_to(value, (cols.n, 1, 1))[:, 0, 0])
                     bad = np.flatnonzero(ctx.bad) if ctx.bad is not None else ()
-                    for i in bad:
-                        out[i] = self._row(cols, i)
+                    fixed = {int(i): self._row(cols, int(i)) for i in bad}
+                    if not all(_fits(out, v) for v in fixed.values()):
+                        out = out.astype(object)  # exact integers, as the scalar path has them
+                    for i, v in fixed.items():
+                        out[i] = v
                     return out
                 plan = None
         return np.array(self._rows(cols))
@@ -837,3 +866,29 @@ def evaluate_batch(node: A.Node, cols: Columns, constants: Mapping[str, Any] = {
                    *, source: Optional[str] = None) -> np.ndarray:
     """Evaluate ``node`` in every row of ``cols`` (see the module docstring)."""
     return BatchFormula(node, constants, source=source)(cols)
+
+
+def float_column(values, cols: Columns, source: str) -> np.ndarray:
+    """``values`` (a number per row of ``cols``, as :class:`BatchFormula` gives them: B
+    integers exact, in an object array where they do not fit 64 bits) as floats, for
+    statistics and robustness; an :class:`EvaluationError` naming the row (episode, step)
+    and ``source`` where an integer is too large for a float — never infinity.
+
+    >>> float_column(np.array([2 ** 70], dtype=object), Columns(1, ()), "`2 ** 70`")
+    array([1.18059162e+21])
+    """
+    v = np.asarray(values)
+    if v.dtype != object:
+        return v.astype(float)
+    out = np.empty(len(v))
+    for i, x in enumerate(v.tolist()):
+        try:
+            out[i] = float(x)
+        except OverflowError:
+            where = cols.label(i) if cols.label is not None else f"state {i}"
+            digits = int(math.log10(abs(x))) + 1
+            raise EvaluationError(f"{where}: the value of {source}, an integer of about "
+                                  f"{digits:,} digits, does not fit a float (at most about "
+                                  "1.8e308): statistics and robustness are computed in floats",
+                                  hint="scale the expression down") from None
+    return out

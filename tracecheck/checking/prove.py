@@ -21,6 +21,7 @@ before it is reported; where the two disagree, that is said (:class:`Disagreemen
 from __future__ import annotations
 
 import math
+import threading
 import time
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -120,6 +121,42 @@ class _Finding:
     confirm: Callable[[dict], bool]
 
 
+def _ask(z3, solver, seconds: float, add: Callable[[], None]) -> tuple[object, str]:
+    """``add()`` the question to ``solver`` and check it, the two together within
+    ``seconds`` of wall time: (verdict, why unknown).
+
+    z3's own ``timeout`` counts only in ``check()``, but z3 already rewrites a term while it
+    is asserted — for a huge term that alone took minutes and gigabytes — so a timer
+    interrupts z3's context at the deadline, whatever it is doing then, and a question whose
+    time went into asserting it is ``unknown (timeout)`` without a check.
+    """
+    deadline = time.monotonic() + seconds
+    lock, live = threading.Lock(), [True]
+
+    def interrupt():
+        with lock:
+            if live[0]:  # never an interrupt of the next question
+                z3.main_ctx().interrupt()
+
+    timer = threading.Timer(seconds, interrupt)
+    timer.daemon = True
+    timer.start()
+    try:
+        add()
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return z3.unknown, "timeout"
+        solver.set("timeout", _ms(left))
+        verdict = solver.check()
+        return verdict, "" if verdict in (z3.sat, z3.unsat) else _why(solver)
+    except z3.Z3Exception as exc:  # z3 canceled while asserting
+        return z3.unknown, "timeout" if time.monotonic() >= deadline else str(exc)
+    finally:
+        with lock:
+            live[0] = False
+        timer.cancel()
+
+
 def _solve(tr: Translator, constraints: list, timeout_s: float):
     """Check ``constraints`` (with the translator's definitions) within ``timeout_s``. A
     model is then made smaller in what is left of that time (at most 1 s): as few set
@@ -128,21 +165,20 @@ def _solve(tr: Translator, constraints: list, timeout_s: float):
     deadline = time.monotonic() + timeout_s
     constraints = list({c.get_id(): c for c in constraints}.values())  # z3 shares equal terms
     solver = z3.Solver()
-    solver.set("timeout", _ms(timeout_s))
-    solver.add(*constraints, *tr.side)
-    verdict = solver.check()
+    verdict, why = _ask(z3, solver, timeout_s, lambda: solver.add(*constraints, *tr.side))
     if verdict != z3.sat:
-        return verdict, None, _why(solver)
+        return verdict, None, why
     model = solver.model()
     counts = [z3.Sum([z3.If(c, 1, 0) for c in v.member.values()])
               for v in tr.vars.values() if isinstance(v, _Set) and v.member]
     left = min(deadline - time.monotonic(), 1.0)
     if counts and left > 0.05:
         opt = z3.Optimize()
-        opt.set("timeout", _ms(left))
-        opt.add(*constraints, *tr.side)
-        opt.minimize(z3.Sum(counts))
-        if opt.check() == z3.sat:
+
+        def add():
+            opt.add(*constraints, *tr.side)
+            opt.minimize(z3.Sum(counts))
+        if _ask(z3, opt, left, add)[0] == z3.sat:
             model = opt.model()
     return verdict, model, ""
 
@@ -160,15 +196,16 @@ def _satisfiable(tr: Translator, parts: list[tuple[str, object]], timeout_s: flo
     ``("unknown", the solver's reason)``."""
     z3 = tr.z3
     solver = z3.Solver()
-    solver.set("timeout", _ms(timeout_s))
-    solver.add(*tr.side)
-    for i, (_, constraint) in enumerate(parts):
-        solver.assert_and_track(constraint, z3.Bool(f"part#{i}"))
-    verdict = solver.check()
+
+    def add():
+        solver.add(*tr.side)
+        for i, (_, constraint) in enumerate(parts):
+            solver.assert_and_track(constraint, z3.Bool(f"part#{i}"))
+    verdict, reason = _ask(z3, solver, timeout_s, add)
     if verdict == z3.sat:
         return "sat", ""
     if verdict != z3.unsat:
-        return "unknown", _why(solver)
+        return "unknown", reason
     core = {str(m) for m in solver.unsat_core()}
     labels = [label for i, (label, _) in enumerate(parts) if f"part#{i}" in core]
     why = f"no state satisfies {what}"
@@ -234,9 +271,7 @@ def _holds_at(tr: Translator, model, constraints: list, timeout_s: float) -> boo
                     got = z3.RealVal(Fraction(float(exact)))
                 fixed.append(var == got)
     solver = z3.Solver()
-    solver.set("timeout", _ms(timeout_s))
-    solver.add(*constraints, *fixed)
-    return solver.check() != z3.unsat
+    return _ask(z3, solver, timeout_s, lambda: solver.add(*constraints, *fixed))[0] != z3.unsat
 
 
 def _reading(state: dict, machine, limit: int = 6) -> str:

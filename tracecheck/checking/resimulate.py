@@ -91,7 +91,7 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
     The environment is the adapter the file names, looked up among the installed ones only
     (a file never makes tracecheck import a module); ``env`` (from ``--env``) overrides it.
     """
-    from ..live.adapter import get_adapter, load_adapter
+    from ..live.adapter import MakeError, get_adapter, load_adapter
     from ..live.rollout import RecordSettings, Session
 
     path = str(path)
@@ -117,7 +117,12 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
     index = {int(e): i for i, e in enumerate(cols.episode_ids)}
     results = []
     try:
-        session = Session(settings, config=config)
+        try:
+            session = Session(settings, config=config)
+        except MakeError as exc:
+            raise InputError(f"{path}: the {adapter.name} environment rejects the run header's "
+                             f"environment_config {printable(repr(config))[:200]}: "
+                             f"{exc.reason}") from exc.__cause__
         for item in todo:
             i = index[item.episode]
             result = _one(session, cols, i, item, horizon)

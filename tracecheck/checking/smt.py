@@ -22,7 +22,7 @@ from ..b.typecheck import BOOL, INTEGER, REAL, Base, Pow, Prod, resolve_all
 from ..b.values import Elem, FuncValue
 from ..errors import InputError, UnsupportedError
 
-__all__ = ["Translator", "state_of_model", "MAX_EXPONENT"]
+__all__ = ["Translator", "state_of_model", "MAX_EXPONENT", "MAX_DEGREE"]
 
 
 def _z3():
@@ -60,6 +60,10 @@ _EMPTY = object()  # the set {} (its carrier comes from the other side)
 
 #: The largest literal exponent ``x ** n`` is translated with (larger: ``unknown``).
 MAX_EXPONENT = 64
+#: The largest degree of a translated product (``(x ** 64) ** 64`` is x to the 4096:
+#: nested powers multiply, and z3 spends unbounded time and memory on such a term while it
+#: is asserted, before its own timeout starts; larger: ``unknown``).
+MAX_DEGREE = 64
 
 
 class Translator:
@@ -79,6 +83,7 @@ class Translator:
         self._memo: dict = {}  # translated sub-formulas, see tr
         self._raw: list = []  # every condition met, with the path it was met under
         self._free: dict = {}  # free names by node
+        self._degrees: dict = {}  # z3 term id -> (term, its degree as a polynomial)
         self.file, self.source = machine.file, machine.source  # what positions refer to
         for name in machine.variables:
             self.vars[name] = self._variable(name, resolve_all(machine.type_objects.get(name)))
@@ -233,8 +238,10 @@ class Translator:
             if node.op == "-":
                 return a - b
             if node.op == "*":
+                self._bound(node, self.degree(a) + self.degree(b))
                 return a * b
             if node.op == "/":
+                self._bound(node, self.degree(a) + self.degree(b))
                 self._need(b != 0, node)
                 if z3.is_int(a) and z3.is_int(b):  # B: towards zero
                     q = _abs(z3, a) / _abs(z3, b)
@@ -242,6 +249,7 @@ class Translator:
                 return a / b
             if node.op == "**":
                 return self._power(node, a)
+            self._bound(node, self.degree(a) + self.degree(b))
             self._need(z3.And(a >= 0, b > 0), node)
             return a % b
         if node.op in ("\\", "\\/", "/\\"):
@@ -257,6 +265,7 @@ class Translator:
         if n > MAX_EXPONENT:
             raise self.fail(node, f"a power with exponent {n} (at most {MAX_EXPONENT}: "
                                   "the solver cannot decide such products in useful time)")
+        self._bound(node, self.degree(a) * n)
         out = self.z3.RealVal(1) if self.z3.is_real(a) else self.z3.IntVal(1)
         while n:
             if n & 1:
@@ -265,6 +274,41 @@ class Translator:
             if n:
                 a = a * a
         return out
+
+    def degree(self, term) -> int:
+        """The degree of the arithmetic ``term`` as a polynomial in the variables (a
+        quotient or remainder counts as a product); a number is 0, a variable 1."""
+        z3 = self.z3
+        kinds = (z3.Z3_OP_MUL, z3.Z3_OP_DIV, z3.Z3_OP_IDIV, z3.Z3_OP_MOD)
+        todo = [term]
+        while todo:  # a term can be deeper than Python's recursion allows
+            t = todo[-1]
+            if t.get_id() in self._degrees:
+                todo.pop()
+                continue
+            args = [c for c in t.children() if z3.is_arith(c)] if z3.is_app(t) else []
+            missing = [c for c in args if c.get_id() not in self._degrees]
+            if missing:
+                todo.extend(missing)
+                continue
+            todo.pop()
+            parts = [self._degrees[c.get_id()][1] for c in args]
+            if z3.is_int_value(t) or z3.is_rational_value(t) or z3.is_algebraic_value(t):
+                got = 0
+            elif not z3.is_app(t) or t.num_args() == 0:
+                got = 1
+            elif t.decl().kind() in kinds:
+                got = sum(parts)
+            else:
+                got = max(parts, default=0)
+            self._degrees[t.get_id()] = (t, got)  # the term kept: z3 reuses freed ids
+        return self._degrees[term.get_id()][1]
+
+    def _bound(self, node: A.Node, degree: int) -> None:
+        if degree > MAX_DEGREE:
+            raise self.fail(node, f"a term of degree {degree:,} (its powers and products "
+                                  f"multiply; at most {MAX_DEGREE}: the solver cannot decide "
+                                  "such a polynomial in useful time)")
 
     def _setop(self, node, a, b) -> Any:
         z3 = self.z3

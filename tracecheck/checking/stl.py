@@ -19,6 +19,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..b import ast as A
+from ..b.vector import float_column
 from ..errors import TracecheckError
 from .ltl import Formula, parse_syntax
 
@@ -65,8 +66,9 @@ def robustness(f: Formula, cols, machine) -> np.ndarray:
     def ev(g: Formula) -> np.ndarray:
         op = g.op
         if op == "atom":
-            left = np.asarray(machine.batch(g.node.left)(cols.states), dtype=float)
-            right = np.asarray(machine.batch(g.node.right)(cols.states), dtype=float)
+            where = f"a side of the atom {{{g.text.strip()}}}"
+            left = float_column(machine.batch(g.node.left)(cols.states), cols.states, where)
+            right = float_column(machine.batch(g.node.right)(cols.states), cols.states, where)
             return _SIGN[g.node.op] * (left - right)
         a = ev(g.args[0])
         if op == "not":

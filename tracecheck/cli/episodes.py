@@ -115,12 +115,13 @@ def import_minari_cmd(
 ) -> None:
     """Import a Minari dataset, so that replay, diff and stats can check it against a shield."""
     from ..episodes.files import check_run_output, write_run
-    from ..interop.minari import import_minari
+    from ..interop.minari import dataset_folder, import_minari
 
-    check_run_output(output, force=force)
+    inputs = [dataset_folder(dataset)]  # its metadata.json, main_data.hdf5: never an output
+    check_run_output(output, inputs, force=force)
     with _writing(output, f"importing {dataset}") as advance:
         header, episodes = import_minari(dataset, env, progress=advance)
-        n, steps, crashes = write_run(output, header, episodes, force=force)
+        n, steps, crashes = write_run(output, header, episodes, force=force, inputs=inputs)
     say(f"imported {n} episode(s), {steps} step(s), {crashes} crash(es) -> {output}")
 
 

@@ -127,12 +127,14 @@ def record_cmd(
     settings = record_settings(env, env_config, agent=str(agent), shield=shield, episodes=episodes,
                          seed=seed, duration=duration, profile=profile, fallback=fallback,
                          workers=workers, executor=executor.value, ray_address=ray_address)
-    stats = {"crashes": 0, "steps": 0}
+    stats = {"crashes": 0, "steps": 0, "episodes": 0}
+    existed = output.exists()
     start = _time.perf_counter()
     with progress("recording", episodes, detail=", {task.fields[crashes]} crash(es), "
                   "{task.fields[rate]} steps/s", crashes=0, rate="-") as advance:
 
         def report(ep) -> None:
+            stats["episodes"] += 1
             stats["crashes"] += ep.end.crashed
             stats["steps"] += ep.end.steps
             rate = stats["steps"] / max(_time.perf_counter() - start, 1e-9)
@@ -141,7 +143,9 @@ def record_cmd(
         try:
             n, steps, crashes = record(settings, output, report, force=force)
         except KeyboardInterrupt:
-            err.print(f"interrupted: {output} keeps every finished episode")
+            err.print(f"interrupted: {output} keeps every finished episode" if stats["episodes"]
+                      else f"interrupted before an episode was finished: {output} was not "
+                      + ("changed" if existed else "written"), markup=False)
             raise typer.Exit(130) from None
     took = _time.perf_counter() - start
     say(f"recorded {n} episode(s), {steps} step(s), {crashes} crash(es) with shield "

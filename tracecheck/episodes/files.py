@@ -76,7 +76,8 @@ def recording_into(path: str | Path, header: RunHeader, *, force: bool = False,
     is written in place, created exclusively (each finished episode can be read while the
     recording goes on); one that replaces a file goes to a temporary file beside it, which
     replaces ``path`` once at least one episode is complete — also when the recording is
-    interrupted — and is removed otherwise, so the old file stays.
+    interrupted — and is removed otherwise, so the old file stays. A new file that an error
+    or an interrupt leaves without a complete episode is removed.
     """
     path = Path(path)
     lock = _lock(path)
@@ -88,14 +89,18 @@ def recording_into(path: str | Path, header: RunHeader, *, force: bool = False,
         lock.unlink(missing_ok=True)
         raise
     writer = EpisodeWriter(part, header, foxglove=foxglove, stream=stream, name=path)
+    finished = False
     try:
         with stream, writer:
             yield writer
+        finished = True
     finally:
         try:
             if replacing and writer.episodes > 0:
                 os.replace(part, path)
             elif replacing:
                 part.unlink(missing_ok=True)
+            elif not finished and writer.episodes == 0:  # an error before any episode: a
+                path.unlink(missing_ok=True)  # new file with none would look like a run
         finally:
             lock.unlink(missing_ok=True)

@@ -30,8 +30,10 @@ outside ``MINARI_DATASETS_PATH``. Export writes into a hidden folder in that pat
 the finished dataset into place, so a failure leaves nothing behind. Import checks the
 dataset field by field before Minari reads it — metadata types and sizes, spaces, every
 episode's seed and the sizes of its arrays (before any is allocated), the types of rewards
-and flags, finite observations — and refuses what it cannot take exactly, naming the
-dataset, the episode and the step or the metadata field.
+and flags, finite observations in the dataset's observation space, tracecheck's infos
+well-formed, the declared counts of episodes and steps (:mod:`.minari_checks`) — and refuses
+what it cannot take exactly, naming the dataset, the episode and the step or the metadata
+field.
 """
 
 from __future__ import annotations
@@ -49,8 +51,10 @@ from typing import Any, Iterator, Optional
 import numpy as np
 
 from ..errors import InputError, TracecheckError, read_text
+from .minari_checks import check_counts, check_episode_steps, check_infos, check_observations
 
-__all__ = ["export_minari", "import_minari", "check_dataset_id", "datasets_root"]
+__all__ = ["export_minari", "import_minari", "check_dataset_id", "datasets_root",
+           "dataset_folder"]
 
 #: Minari's ``(namespace/)name-vN`` (its DATASET_ID_RE), with the version it needs and no
 #: empty folder: no ``.``, ``..``, leading ``/`` — nothing that leaves the datasets folder
@@ -91,6 +95,13 @@ def datasets_root() -> Path:
     return root
 
 
+def dataset_folder(dataset_id: str) -> Path:
+    """The folder of the local dataset ``dataset_id`` (its id checked first): the input of
+    ``import minari``, which no output may be or be inside."""
+    check_dataset_id(dataset_id)  # first: a bad id makes no folder
+    return datasets_root() / dataset_id
+
+
 @contextmanager
 def _datasets_path(path: Path):
     """Minari's datasets folder is ``path`` for the time being."""
@@ -114,6 +125,17 @@ def _minari():
     return minari
 
 
+def _recorded_name(header) -> str:
+    """The environment a run was recorded in, as ``--env`` names it where it can be told."""
+    from ..live.adapter import adapters
+
+    if header.environment:
+        return header.environment
+    return next((a.name for a in adapters()
+                 if a.adapter is not None and a.adapter.env_id == header.environment_id),
+                header.environment_id)
+
+
 def _recorded_adapter(header, run: Path):
     """The installed adapter a run file names (by name, or for files from before adapters
     were named, by environment id) — never a module named inside the file."""
@@ -131,8 +153,19 @@ def _recorded_adapter(header, run: Path):
 
 
 def _make_env(adapter, config: Optional[dict], what: str):
+    """The adapter's environment, with ``config`` (a run header's) on its defaults."""
+    from ..live.adapter import MakeError
+
     try:
-        return adapter.make_env(adapter.config(config or {}))
+        settings = adapter.config(config or {})
+    except TracecheckError as exc:  # the run header's settings, not an option of the user's
+        said = f"its environment_config does not fit {adapter.name}: " if config else ""
+        raise InputError(f"{what}: {said}{exc.message}", hint=None if config else exc.hint) \
+            from exc
+    try:
+        return adapter.make_env(settings)
+    except MakeError as exc:
+        raise InputError(f"{what}: {exc.message}", hint=exc.hint) from exc.__cause__
     except TracecheckError as exc:
         raise InputError(f"{what}: {exc.message}", hint=exc.hint) from exc
     except Exception as exc:  # a package missing, a configuration the environment rejects
@@ -176,6 +209,14 @@ def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
     if not result.episodes:
         raise InputError(f"{run} holds no complete episode")
     adapter = load_adapter(env) if env else _recorded_adapter(header, run)
+    recorded = header.environment or header.environment_id
+    if env and recorded and adapter.name != header.environment and \
+            adapter.env_id != header.environment_id:
+        name = _recorded_name(header)
+        raise InputError(f"{run} was recorded in {name}, not {adapter.name}: its observations "
+                         "are not that environment's",
+                         hint=f"give --env {name} (or the package.module:Class of its "
+                              "adapter), or leave --env out")
     made = _make_env(adapter, header.environment_config, str(run))
     actions = list(adapter.actions)
     buffers = []
@@ -360,8 +401,7 @@ def import_minari(dataset_id: str, adapter_name: str, *,
     from ..episodes.writer import new_header
 
     minari = _minari()
-    check_dataset_id(dataset_id)
-    seeds = _check_dataset(datasets_root() / dataset_id / "data", dataset_id)
+    seeds = _check_dataset(dataset_folder(dataset_id) / "data", dataset_id)
     try:
         dataset = minari.load_dataset(dataset_id)
     except Exception as exc:  # noqa: BLE001 - what Minari still refuses after our checks
@@ -389,6 +429,8 @@ def import_minari(dataset_id: str, adapter_name: str, *,
             _check_lengths(data, n, where)
             _check_flags(data, where)
             _check_finite(data.observations, n, where)
+            check_observations(data.observations, dataset.observation_space, n, where)
+            check_infos(data.infos, n, len(adapter.actions), where)
             for k in range(n + 1):
                 crashed = bool(k == n and n and data.terminations[-1])
                 reward = 0.0 if k == 0 else float(data.rewards[k - 1])
@@ -586,7 +628,7 @@ def _check_dataset(data: Path, dataset_id: str) -> list[Optional[int]]:
         file = h5py.File(data / "main_data.hdf5", "r")
     except OSError as exc:
         raise InputError(f"{dataset_id}: cannot read its main_data.hdf5: {exc}") from None
-    seeds = []
+    seeds, steps = [], 0
     with file:
         total = meta["total_episodes"]
         if total > len(file):
@@ -600,6 +642,8 @@ def _check_dataset(data: Path, dataset_id: str) -> list[Optional[int]]:
             attrs = dict(group.attrs)
             seeds.append(_seed(attrs["seed"], where) if "seed" in attrs else None)
             _check_episode(group, where)
+            steps += check_episode_steps(group, where)
+        check_counts(file, meta, steps, dataset_id)
     return seeds
 
 

@@ -35,20 +35,27 @@ from __future__ import annotations
 
 import functools
 import importlib
+import os
 import re
 from dataclasses import dataclass
 from importlib import metadata
 from typing import TYPE_CHECKING, Any, Collection, Optional
 
-from ..errors import InputError, TracecheckError
+from ..errors import InputError, TracecheckError, printable
 
 if TYPE_CHECKING:
     from ..render.scene import Scene
 
 __all__ = ["EnvAdapter", "Observer", "adapters", "get_adapter", "load_adapter", "AdapterInfo",
-           "ENTRY_POINT_GROUP", "parse_config"]
+           "ENTRY_POINT_GROUP", "parse_config", "setting_kinds", "typed_setting",
+           "gymnasium_keys", "gymnasium_kinds", "MakeError"]
 
 ENTRY_POINT_GROUP = "tracecheck.environments"
+
+#: what the user's code may raise that is reported as its error: any exception, and
+#: SystemExit (``sys.exit()`` in a hook must not end tracecheck silently with its code) —
+#: not KeyboardInterrupt, which stays an interrupt
+_USERS = (Exception, SystemExit)
 
 
 class Observer:
@@ -107,7 +114,7 @@ class EnvAdapter:
                profile: Optional[str] = None, horizon: Optional[int] = None) -> dict[str, Any]:
         """The default configuration, a profile on top, then the user's settings (an
         environment whose configuration holds its episode length also takes ``horizon``)."""
-        self.check_config(overrides)
+        overrides = self.check_config(overrides) or overrides
         config = dict(self.default_config())
         if profile is not None:
             if profile not in self.profiles:
@@ -122,16 +129,27 @@ class EnvAdapter:
         checked (the environment itself may then refuse one)."""
         return None
 
-    def check_config(self, overrides: Optional[dict[str, Any]]) -> None:
-        """Refuse a setting the environment does not take (some would ignore it silently)."""
+    def config_kinds(self) -> dict[str, Optional[frozenset[str]]]:
+        """What each setting takes (:func:`setting_kinds`: ``bool``, ``int``, ``float``,
+        ``str``, ``None``, ``list``, ``tuple``, ``dict``; None: anything), by default from the
+        type of its value in :meth:`default_config`."""
+        return {k: setting_kinds(v) for k, v in self.default_config().items()}
+
+    def check_config(self, overrides: Optional[dict[str, Any]]) -> Optional[dict[str, Any]]:
+        """``overrides`` typed as the environment takes them (an integer for a float setting
+        becomes a float); a setting the environment does not take (some would ignore it
+        silently), or a value that does not fit its setting (``is_slippery='False'``, a
+        non-empty string, is true), is refused."""
         if not overrides:
-            return
+            return overrides
         keys = self.config_keys()
         unknown = sorted(set(overrides or ()) - set(keys)) if keys is not None else []
         if unknown:
             raise InputError(f"unknown setting {unknown[0]!r} for the environment {self.name}; "
                              f"it takes {', '.join(sorted(keys)) or 'none'}",
                              hint="--env-config key=value, one of those keys")
+        kinds = self.config_kinds()
+        return {k: typed_setting(self.name, k, v, kinds.get(k)) for k, v in overrides.items()}
 
     def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
         raise NotImplementedError
@@ -191,7 +209,7 @@ def adapters() -> list[AdapterInfo]:
     for name, ep in sorted(_entry_points().items()):
         try:
             adapter, problem = _instance(ep.load(), ep.value), None
-        except Exception as exc:  # noqa: BLE001 - a broken plug-in must not stop the list
+        except _USERS as exc:  # noqa: BLE001 - a broken plug-in must not stop the list
             adapter, problem = None, f"{type(exc).__name__}: {exc}"
         out.append(AdapterInfo(name, ep.value, adapter, problem))
     return out
@@ -208,7 +226,7 @@ def get_adapter(name: Optional[str]) -> EnvAdapter:
                          hint="give your own adapter as --env package.module:Class")
     try:
         loaded = ep.load()
-    except Exception as exc:  # noqa: BLE001 - the plug-in's own code
+    except _USERS as exc:  # noqa: BLE001 - the plug-in's own code
         raise _raised(name, exc, "when it was imported") from exc
     return _instance(loaded, name)
 
@@ -229,7 +247,7 @@ def load_adapter(spec: Optional[str]) -> EnvAdapter:
         module = importlib.import_module(module_name)
     except ImportError as exc:
         raise InputError(f"cannot import the adapter module {module_name!r}: {exc}") from None
-    except Exception as exc:  # noqa: BLE001 - the module's own code
+    except _USERS as exc:  # noqa: BLE001 - the module's own code
         raise _raised(spec, exc, "when its module was imported") from exc
     cls = module
     for part in attr.split("."):
@@ -256,29 +274,125 @@ def _guarded(method, where: str, hook: str):
             return method(*args, **kwargs)
         except TracecheckError:
             raise
-        except Exception as exc:  # noqa: BLE001 - the user's code: say whose it is
+        except _USERS as exc:  # noqa: BLE001 - the user's code: say whose it is
             raise _raised(where, exc, f"in {hook}()") from exc
     return call
 
 
-def _instance(cls, where: str) -> EnvAdapter:
+class MakeError(InputError):
+    """The environment refused the settings it was made with (``reason``: its exception)."""
+
+    reason = ""
+
+
+def _making(adapter: EnvAdapter):
+    """``adapter.make_env``, an exception the environment raises on its settings (a map
+    name gymnasium does not have: KeyError) reported as exit 2 naming the environment and
+    the settings that differ from its defaults; ``--debug`` shows its traceback."""
+    make = adapter.make_env
+
+    @functools.wraps(make)
+    def make_env(config, *args, **kwargs):
+        try:
+            return make(config, *args, **kwargs)
+        except TracecheckError:
+            raise
+        except _USERS as exc:  # noqa: BLE001 - the environment's own check of its settings
+            reason = f"{type(exc).__name__}: {exc}"
+            error = MakeError(f"cannot make the environment {adapter.name} with "
+                              f"{_settings(adapter, config)}: {reason}",
+                              hint="tracecheck --debug … shows its traceback")
+            error.reason = reason
+            raise error from exc
+    return make_env
+
+
+def _settings(adapter: EnvAdapter, config) -> str:
+    """The settings of ``config`` that differ from the adapter's defaults, as key=value."""
     try:
-        adapter = cls() if isinstance(cls, type) else cls
-    except Exception as exc:  # noqa: BLE001 - the user's constructor
-        raise _raised(where, exc, "in its constructor") from exc
-    if not isinstance(adapter, EnvAdapter):
-        raise InputError(f"{where} is not a tracecheck EnvAdapter")
-    if not adapter.name or not adapter.actions:
+        default = adapter.default_config()
+    except Exception:  # noqa: BLE001 - said where it is used
+        default = {}
+    changed = {k: v for k, v in dict(config or {}).items() if default.get(k, _NO) != v}
+    return ", ".join(f"{k}={v!r}" for k, v in changed.items()) or "its default settings"
+
+
+def _strings(value) -> bool:
+    return isinstance(value, (tuple, list)) and all(isinstance(v, str) for v in value)
+
+
+def _name_or_path(value) -> bool:
+    return value is None or (isinstance(value, (str, os.PathLike)) and str(value) != "")
+
+
+#: (attribute, what it must be, the check) for every attribute an adapter declares
+_ATTRIBUTES = (
+    ("env_id", "a string (the Gymnasium id)", lambda v: isinstance(v, str)),
+    ("variables", "a tuple of B variable names (strings), each once",
+     lambda v: _strings(v) and len(set(v)) == len(v) and all(v)),
+    ("model_name", "a string (the B machine's name)", lambda v: isinstance(v, str)),
+    ("horizon", "a whole number of agent steps, at least 1",
+     lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 1),
+    ("seconds_per_step", "a finite number of seconds above 0",
+     lambda v: isinstance(v, (int, float)) and not isinstance(v, bool) and 0 < v < float("inf")),
+    ("assumptions", 'a tuple of B predicates (strings), e.g. ("x : 0..7",) — one string alone '
+                    "needs the comma", _strings),
+    ("properties", "None or a property set's name or the path of a property file",
+     _name_or_path),
+    ("default_shield", "None or a shield's name or the path of a machine", _name_or_path),
+    ("requires", "a tuple of package names (strings)", _strings),
+    ("profiles", "a dict of named configurations (name -> dict of settings)",
+     lambda v: isinstance(v, dict) and all(isinstance(k, str) and isinstance(c, dict)
+                                           for k, c in v.items())),
+)
+
+
+def _check_attributes(adapter: EnvAdapter, where: str) -> None:
+    """Every attribute the adapter declares has the type tracecheck reads it as (checked
+    when it is loaded, not where it is first used: ``horizon = "abc"`` was a TypeError in
+    the middle of a recording, ``assumptions = "pos > 1"`` read letter by letter); reading
+    one that raises is reported like a hook's error."""
+    def read(attr: str):
+        try:
+            return getattr(adapter, attr)
+        except _USERS as exc:  # noqa: BLE001 - a property of the user's
+            raise _raised(where, exc, f"when its attribute {attr} was read") from exc
+
+    def refuse(attr: str, value, expected: str) -> InputError:
+        return InputError(f"the adapter {where} has {attr} = {printable(repr(value))[:80]}; "
+                          f"it must be {expected}")
+
+    name, actions = read("name"), read("actions")
+    if not name or not actions:
         raise InputError(f"the adapter {where} needs a name and actions")
-    actions = tuple(adapter.actions) if isinstance(adapter.actions, (tuple, list)) else None
-    if actions is None or not all(isinstance(a, str) and a for a in actions):
-        raise InputError(f"the adapter {where} has actions {adapter.actions!r}; give a tuple "
-                         "of operation names, one per action index")
+    if not isinstance(name, str):
+        raise refuse("name", name, "a string (what --env and run files call it)")
+    if not _strings(actions) or not all(actions):
+        raise InputError(f"the adapter {where} has actions {printable(repr(actions))[:80]}; "
+                         "give a tuple of operation names, one per action index")
+    actions = tuple(actions)
     twice = next((a for i, a in enumerate(actions) if a in actions[:i]), None)
     if twice is not None:
         raise InputError(f"the adapter {where} names the action {twice!r} twice in its "
                          f"actions {actions!r}: each action index needs its own name (the B "
                          "operation it stands for)")
+    for attr, expected, ok in _ATTRIBUTES:
+        value = read(attr)
+        if not ok(value):
+            raise refuse(attr, value, expected)
+    fallback = read("fallback")
+    if fallback is not None and fallback not in actions:
+        raise refuse("fallback", fallback, f"None or one of its actions ({', '.join(actions)})")
+
+
+def _instance(cls, where: str) -> EnvAdapter:
+    try:
+        adapter = cls() if isinstance(cls, type) else cls
+    except _USERS as exc:  # noqa: BLE001 - the user's constructor
+        raise _raised(where, exc, "in its constructor") from exc
+    if not isinstance(adapter, EnvAdapter):
+        raise InputError(f"{where} is not a tracecheck EnvAdapter")
+    _check_attributes(adapter, where)
     own = type(adapter).__module__.split(".")[0] == "tracecheck"  # built-in: not guarded
     if not own and not getattr(adapter, "_tracecheck_guarded", False):
         for hook in _HOOKS:
@@ -292,12 +406,13 @@ def _instance(cls, where: str) -> EnvAdapter:
 
         adapter.observer = guarded_observer
         adapter._tracecheck_guarded = True
+    if not getattr(adapter, "_tracecheck_making", False):
+        adapter.make_env = _making(adapter)
+        adapter._tracecheck_making = True
     return adapter
 
 
-def gymnasium_keys(env_id: str) -> Optional[frozenset[str]]:
-    """The keyword arguments ``gymnasium.make(env_id, **config)`` takes: those of the
-    registered environment class and of ``make`` itself (None where they cannot be known)."""
+def _gymnasium_parameters(env_id: str):
     import inspect
 
     import gymnasium as gym
@@ -311,13 +426,102 @@ def gymnasium_keys(env_id: str) -> Optional[frozenset[str]]:
         return None
     if any(p.kind == p.VAR_KEYWORD for p in params.values()):
         return None
-    own = {"max_episode_steps", "disable_env_checker"}
-    return frozenset(params) - {"render_mode"} | own
+    return {k: p for k, p in params.items() if k != "render_mode"}
+
+
+#: what ``gymnasium.make`` itself takes
+_MAKE_KINDS = {"max_episode_steps": frozenset({"int", "None"}),
+               "disable_env_checker": frozenset({"bool", "None"})}
+
+
+def gymnasium_keys(env_id: str) -> Optional[frozenset[str]]:
+    """The keyword arguments ``gymnasium.make(env_id, **config)`` takes: those of the
+    registered environment class and of ``make`` itself (None where they cannot be known)."""
+    params = _gymnasium_parameters(env_id)
+    return None if params is None else frozenset(params) | frozenset(_MAKE_KINDS)
+
+
+def gymnasium_kinds(env_id: str) -> dict[str, Optional[frozenset[str]]]:
+    """What each keyword argument of ``gymnasium.make(env_id, **config)`` takes, from the
+    environment class's annotations and defaults (:func:`setting_kinds`)."""
+    params = _gymnasium_parameters(env_id) or {}
+    return {**{k: setting_kinds(p.default, p.annotation) for k, p in params.items()},
+            **_MAKE_KINDS}
+
+
+_NO = object()
+#: how messages say what a kind of setting takes
+_KIND_TEXT = {"bool": "true or false", "int": "an integer", "float": "a number",
+              "str": "a string", "None": "null", "list": "a list", "tuple": "a list",
+              "dict": "an object ({…})"}
+
+
+def setting_kinds(default: Any = _NO, annotation: Any = _NO) -> Optional[frozenset[str]]:
+    """The kinds of value a setting takes: from its annotation where that is made of
+    ``bool``, ``int``, ``float``, ``str``, ``None``, ``list[…]``, ``tuple[…]``, ``dict[…]``
+    joined by ``|``; else from its default's type (a number: an integer or a real); None
+    (anything) where neither says.
+
+    >>> sorted(setting_kinds(True)), sorted(setting_kinds(1, "str | None"))
+    (['bool'], ['None', 'str'])
+    """
+    import inspect
+
+    if annotation not in (_NO, inspect.Parameter.empty, None):
+        text = annotation if isinstance(annotation, str) else \
+            getattr(annotation, "__name__", None) if isinstance(annotation, type) else \
+            str(annotation)
+        names = {re.split(r"[\[\s]", part.strip())[0] for part in str(text).split("|")}
+        if names <= set(_KIND_TEXT):
+            return frozenset(names)
+    if isinstance(default, bool):
+        return frozenset({"bool"})
+    if isinstance(default, (int, float)):
+        return frozenset({"int", "float"})
+    if isinstance(default, str):
+        return frozenset({"str"})
+    if isinstance(default, (list, tuple)):
+        return frozenset({"list", "tuple"})
+    if isinstance(default, dict):
+        return frozenset({"dict"})
+    return None
+
+
+def typed_setting(env: str, key: str, value: Any, kinds: Optional[frozenset[str]]) -> Any:
+    """``value`` as the setting ``key`` of ``env`` takes it (``kinds``, see
+    :func:`setting_kinds`); an :class:`InputError` naming the key, the value and what it
+    takes where it does not fit."""
+    if kinds is None:
+        return value
+    if isinstance(value, bool):
+        ok = "bool" in kinds
+    elif isinstance(value, int):
+        ok = bool(kinds & {"int", "float"})
+        value = value if "int" in kinds or not ok else float(value)
+    elif isinstance(value, float):
+        ok = "float" in kinds
+    elif isinstance(value, str):
+        ok = "str" in kinds
+    elif value is None:
+        ok = "None" in kinds
+    elif isinstance(value, (list, tuple)):
+        ok = bool(kinds & {"list", "tuple"})
+        value = tuple(value) if "list" not in kinds else list(value)
+    else:
+        ok = isinstance(value, dict) and "dict" in kinds
+    if not ok:
+        shown = kinds - {"int"} if "float" in kinds else kinds  # a number: either
+        takes = " or ".join(dict.fromkeys(_KIND_TEXT[k] for k in sorted(shown)))
+        raise InputError(f"the setting {key}={value!r} does not fit the environment {env}: "
+                         f"{key} takes {takes}",
+                         hint=f"e.g. {key}=true" if kinds == {"bool"} else None)
+    return value
 
 
 def parse_config(items: list[str]) -> dict[str, Any]:
     """``key=value`` settings: values read as JSON where they parse (true, 3, 0.5, "s"),
-    else as strings."""
+    Python's ``True`` and ``False`` as booleans, else as strings (the adapter's
+    :meth:`~EnvAdapter.check_config` then checks each against what its setting takes)."""
     import orjson
 
     out: dict[str, Any] = {}
@@ -325,6 +529,9 @@ def parse_config(items: list[str]) -> dict[str, Any]:
         key, sep, value = item.partition("=")
         if not sep or not key:
             raise InputError(f"--env-config takes key=value, not {item!r}")
+        if value in ("True", "False"):
+            out[key] = value == "True"
+            continue
         try:
             out[key] = orjson.loads(value)  # no NaN, nesting bounded
         except orjson.JSONDecodeError:

@@ -185,8 +185,9 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
 
 def replay_table(r: ReplayReport, episodes=None) -> TableData:
     """The episode table with full names: ``episodes`` (default: every episode replayed);
-    then a column ``LTL NAME`` per LTL formula checked: holds, violated, or violated at step
-    k (the first step where ``G f`` fails)."""
+    then a column ``LTL NAME: FORMULA`` per LTL formula checked (its text too: CSV has no
+    other place for it): holds, violated, or violated at step k (the first step where ``G
+    f`` fails)."""
     chosen = r.per_episode if episodes is None else episodes
     failed = [{(v["file"], v["episode"]): v["first_step"] for v in e["violations"]}
               for e in r.ltl]
@@ -199,7 +200,7 @@ def replay_table(r: ReplayReport, episodes=None) -> TableData:
 
     header, _, crash_cell = _crash_column(r)
     return TableData.of(HEADERS[:8] + [header] + HEADERS[9:]
-                        + [f"LTL {e['name']}" for e in r.ltl],
+                        + [f"LTL {e['name']}: {e['formula']}" for e in r.ltl],
                         (_row(e, crash_cell) + [ltl_cell(e, v) for v in failed]
                          for e in chosen))
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional
@@ -19,9 +20,9 @@ from typing import Optional
 import numpy as np
 
 from ..b.typecheck import typecheck_formula
-from ..b.vector import BatchFormula
+from ..b.vector import BatchFormula, float_column
 from ..episodes.columns import RunColumns, read_columns
-from ..errors import InputError, TracecheckError
+from ..errors import EvaluationError, InputError, TracecheckError
 from .properties import CRASH_FLAG, Metric, Property, PropertySet, load_properties, with_generic
 
 __all__ = ["RunValues", "StatsResult", "evaluate_run", "statistics", "INTERVALS",
@@ -221,6 +222,18 @@ def with_crash_flag(cols: RunColumns) -> RunColumns:
     return replace(cols, states=states)
 
 
+@contextmanager
+def _naming(where: str):
+    """An :class:`EvaluationError` raised inside says ``where`` first (the metric)."""
+    try:
+        yield
+    except EvaluationError as exc:
+        if not exc.message.startswith(where):
+            exc.message = f"{where}: {exc.message}"
+            exc.args = (exc.render(),)
+        raise
+
+
 class _Temporal:
     """An LTL or STL formula over whole episodes: per episode, whether it holds (LTL; STL:
     a positive robustness) or its robustness (STL)."""
@@ -229,13 +242,14 @@ class _Temporal:
         from ..checking.ltl import parse_ltl
         from ..checking.stl import parse_stl
 
-        self.logic, self.machine = logic, machine
+        self.logic, self.machine, self.where = logic, machine, where
         self.formula = (parse_ltl if logic == "ltl" else parse_stl)(text, machine, where=where)
 
     def values(self, cols: RunColumns) -> np.ndarray:
         from ..checking.stl import episode_robustness
 
-        return episode_robustness(self.formula, cols, self.machine)
+        with _naming(self.where):
+            return episode_robustness(self.formula, cols, self.machine)
 
     def holds(self, cols: RunColumns) -> np.ndarray:
         from ..checking.ltl import evaluate_ltl
@@ -313,7 +327,11 @@ def evaluate_run(path: str | Path, pset: PropertySet, formulas: dict,
         if m.aggregate == "stl":
             run.metrics[m.name] = formulas[("m", m.name)].values(cols)
             continue
-        values = formulas[("m", m.name)](cols.states) if m.node is not None else None
+        values = None
+        if m.node is not None:
+            with _naming(f"{pset.where}: metric {m.name}"):
+                values = float_column(formulas[("m", m.name)](cols.states), cols.states,
+                                      f"`{m.expression}`")
         run.metrics[m.name] = _aggregate(m, values, cols)
     for p in pset.properties:
         if p.kind == "end":

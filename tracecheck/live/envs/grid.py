@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import Any, Optional
 
 from ...b.values import Elem, FuncValue
-from ..adapter import EnvAdapter, gymnasium_keys
+from ..adapter import EnvAdapter, gymnasium_keys, gymnasium_kinds
 
 __all__ = ["GridAdapter"]
 
@@ -26,6 +26,9 @@ class GridAdapter(EnvAdapter):
 
     def config_keys(self):
         return gymnasium_keys(self.env_id)
+
+    def config_kinds(self):
+        return gymnasium_kinds(self.env_id)
 
     def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
         import gymnasium as gym

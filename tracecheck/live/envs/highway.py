@@ -23,7 +23,7 @@ import numpy as np
 from ...b.values import Elem, FuncValue
 from ...episodes.model import HIGHWAY, HIGHWAY_ACTIONS
 from ...errors import InputError
-from ..adapter import EnvAdapter, Observer
+from ..adapter import EnvAdapter, Observer, setting_kinds
 
 __all__ = ["ENV_ID", "REWARD_PROFILES", "env_config", "make_env", "StateAdapter", "ACTIONS",
            "ELEMENTS", "HighwayAdapter"]
@@ -100,6 +100,19 @@ class StateAdapter:
         }
 
 
+def _highway_defaults() -> Optional[dict[str, Any]]:
+    """highway-env's default configuration (None: highway-env is not installed)."""
+    import gymnasium as gym
+    from gymnasium.envs.registration import load_env_creator
+
+    try:
+        import highway_env  # noqa: F401 - registers the environments
+
+        return load_env_creator(gym.spec(ENV_ID).entry_point).default_config()
+    except Exception:  # noqa: BLE001 - not installed: make_env says so
+        return None
+
+
 class _HighwayObserver(Observer):
     def __init__(self, adapter, env) -> None:
         super().__init__(adapter, env)
@@ -130,22 +143,19 @@ class HighwayAdapter(EnvAdapter):
                profile: Optional[str] = None, horizon: Optional[int] = None) -> dict[str, Any]:
         """highway-env's configuration: the reward profile, and ``duration`` one past the
         horizon so that highway-env's own time limit never cuts an episode short."""
-        self.check_config(overrides)
+        overrides = self.check_config(overrides) or overrides
         config = env_config(profile or "base", horizon or self.horizon)
         config.update(overrides or {})
         return config
 
     def config_keys(self):
         """highway-env's own configuration keys (it ignores others without a word)."""
-        import gymnasium as gym
-        from gymnasium.envs.registration import load_env_creator
+        defaults = _highway_defaults()
+        return None if defaults is None else frozenset(defaults)
 
-        try:
-            import highway_env  # noqa: F401 - registers the environments
-
-            return frozenset(load_env_creator(gym.spec(ENV_ID).entry_point).default_config())
-        except Exception:  # noqa: BLE001 - not installed: make_env says so
-            return None
+    def config_kinds(self):
+        """What each of highway-env's keys takes, from the type of its default."""
+        return {k: setting_kinds(v) for k, v in (_highway_defaults() or {}).items()}
 
     def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
         import gymnasium as gym

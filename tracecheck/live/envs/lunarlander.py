@@ -15,7 +15,7 @@ from __future__ import annotations
 from typing import Any, Optional
 
 from ...b.values import FuncValue
-from ..adapter import EnvAdapter, Observer, gymnasium_keys
+from ..adapter import EnvAdapter, Observer, gymnasium_keys, gymnasium_kinds
 
 __all__ = ["LunarLanderAdapter"]
 
@@ -57,6 +57,9 @@ class LunarLanderAdapter(EnvAdapter):
 
     def config_keys(self):
         return gymnasium_keys(self.env_id)
+
+    def config_kinds(self):
+        return gymnasium_kinds(self.env_id)
 
     def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
         import gymnasium as gym
