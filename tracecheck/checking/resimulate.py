@@ -117,7 +117,7 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
     index = {int(e): i for i, e in enumerate(cols.episode_ids)}
     results = []
     try:
-        session = Session(settings, config=config)
+        session = Session(settings, config=config, shield=shield)
         for item in todo:
             i = index[item.episode]
             result = _one(session, cols, i, item, horizon)
