@@ -393,3 +393,22 @@ def test_wrongly_typed_property_files_name_the_file_and_entry(capsys, tmp_path, 
     code, _, err = run(capsys, "stats", str(hand_run), "-p", str(path))
     assert code == 2 and err.startswith("error: ") and fragment in err
     assert "Traceback" not in err
+
+
+def test_an_imported_run_of_another_machine_is_not_taken_for_the_highways(tmp_path):
+    """Issue 23: a file naming no environment (imported with --model) was read as the
+    highway's: without --properties, the highway's set ("unknown identifier VehiclesVx")."""
+    from tracecheck.stats.estimates import default_set, environment_of
+
+    path = tmp_path / "lake.mcap"
+    steps = tuple(StepRecord(k, float(k), None if k == 0 else "Move_Right", {"x": k, "y": 0},
+                             0.0, False) for k in range(3))
+    with EpisodeWriter(path, new_header("imported-prob2trace", model_name="FrozenLake",
+                                        variables=["x", "y"],
+                                        actions=["Move_Right"])) as w:
+        w.write(Episode(0, steps, make_end(steps, "end-of-trace")))
+    assert environment_of(path) == "FrozenLake"
+    pset, notes = default_set([path])
+    assert "the environment FrozenLake of these runs is not installed here" in notes[0]
+    result = statistics([path], pset)
+    assert result["runs"][0]["metrics"]["episode_length"]["mean"] == 2
