@@ -236,12 +236,14 @@ def test_the_workflow_on_an_environment_installed_as_an_entry_point(acc_env, acc
     assert {s["name"] for s in data["series"]} >= {"Gap", "EgoSpeed", "LeadSpeed"}
     assert data["blocked"] and data["crash_step"] is not None and data["environment"] == "acc"
     assert "5 m × 2 m" not in page and "vehicles are drawn" not in page
+    assert data["scene"] is None  # no --env: render imports no environment, draws no scene
 
     # report: the runs side by side, the headline, the table that agrees with it
     page = (tmp_path / "report.html").read_text()
     assert "Re-simulation: shield acc_v2 would have prevented 6 of 6 crashes; 0 new." in page
     assert report_cells(page, "none.mcap") == ["prevented"] * 6
     assert "No episode crashed or had a blocked step." in page  # v2.mcap
+    assert "Re-simulation: nothing to re-run, acc_v2 would have blocked no step." in page
     assert "The share of episodes that satisfy CRASH" in page and "McNemar" in page
 
 
@@ -308,6 +310,9 @@ def test_the_workflow_with_the_adapter_given_as_a_module_path(acc_agent, tmp_pat
     sequential_stop(*second["simulate"], tmp_path / "sim.mcap", limit=30)
     data = viewer_data((tmp_path / "ep.html").read_text())
     assert {s["name"] for s in data["series"]} >= {"Gap", "EgoSpeed"} and data["blocked"]
+    # the adapter given: its own scene() hook draws the two cars
+    assert data["scene"]["caption"] == ("The ego car (blue, red once crashed) behind the lead "
+                                        "car.")
     page = (tmp_path / "report.html").read_text()
     assert "would have prevented 4 of 4 crashes; 0 new" in page
     assert report_cells(page, "none.mcap") == ["prevented"] * 4

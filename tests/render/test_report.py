@@ -56,6 +56,15 @@ def test_comparisons_are_sentences_that_name_their_test(highway_report):
     assert "paired t-test, p = 0.029" in page
 
 
+def test_a_plot_too_wide_for_a_column_gets_the_pages_width(highway_report):
+    """The property shares of 6 properties × 2 runs (1037 pt wide) were shrunk to 560 px,
+    their labels 5 px high; the box plots (360 pt) stay in columns."""
+    page = highway_report.read_text()
+    assert page.count("<figure class='wide'><svg") == 1 and "figure.wide svg{max-width:100%}" \
+        in page
+    assert page.count("<figure><svg") == 5  # one per metric of the highway set
+
+
 def test_episodes_that_matter_come_first_and_the_tail_is_collapsed(highway_report):
     page = highway_report.read_text()
     none = page[page.index("<h3>base_none.mcap</h3>", page.index("Episodes that matter")):]

@@ -30,7 +30,8 @@ _STYLE = """body{font-family:system-ui,sans-serif;margin:1.5em;color:#222;max-wi
 table{border-collapse:collapse;font-size:.85em;margin:.5em 0}td,th{border:1px solid #ccc;
 padding:.2em .5em;text-align:left;vertical-align:top}h2{margin-top:1.5em}
 .note{color:#666;font-size:.85em}figure{display:inline-block;margin:.5em}
-figure svg{max-width:560px;height:auto}
+figure svg{max-width:560px;height:auto}figure.wide{display:block}
+figure.wide svg{max-width:100%}
 .runs{display:grid;grid-template-columns:repeat(auto-fit,minmax(320px,1fr));gap:1em}
 .run{border:1px solid #ddd;border-radius:6px;padding:.2em 1em .6em 1em}
 .run h3{margin:.4em 0;font-size:1.05em;word-break:break-all}
@@ -82,6 +83,15 @@ def _svg_plots(result: dict) -> list[str]:
     finally:
         plt.Figure.savefig = original
     return figures
+
+
+def _wide(svg: str, limit_pt: float = 600.0) -> bool:
+    """Whether a plot is wider than a column (the property shares of many properties and
+    runs): shrunk to one, its labels could not be read, so it gets the page's width."""
+    import re
+
+    found = re.match(r'<svg[^>]*\swidth="([\d.]+)pt"', svg)
+    return found is not None and float(found.group(1)) > limit_pt
 
 
 # ------------------------------------------------------------------ words
@@ -205,7 +215,8 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
                  f"mean ± sd [95 % t interval]; properties: % of episodes [95 % "
                  f"{_e(result['interval'])} interval]</p>")
     parts.append(_table(header, rows))
-    parts += [f"<figure>{svg}</figure>" for svg in _svg_plots(result)]
+    parts += [("<figure class='wide'>" if _wide(svg) else "<figure>") + f"{svg}</figure>"
+              for svg in _svg_plots(result)]
     pages: list = []
     if shield is not None:
         order = ("what re-simulation found: prevented, new crash, not prevented, did not "
@@ -259,7 +270,10 @@ def _run_section(c: dict, shield: Optional[Shield]) -> str:
                          f"{r.invariant_violations}"))
     body = "".join(f"<tr><th>{_e(k)}</th><td>{_e(v)}</td></tr>" for k, v in rows)
     text = f"<section class='run'><h3>{_e(Path(c['file']).name)}</h3><table>{body}</table>"
-    if c["resim"] is not None:
+    if c["resim"] is not None and not c["resim"]["resimulated"]:
+        text += (f"<p class='headline'>Re-simulation: nothing to re-run, {_e(shield.name)} "
+                 "would have blocked no step.</p>")
+    elif c["resim"] is not None:
         text += (f"<p class='headline'>Re-simulation: "
                  f"{_e(resimulation_headline(shield.name, r.crashes, c['resim']))}.</p>")
     elif r is not None and r.crashes:
