@@ -191,7 +191,7 @@ def test_a_counterexample_reads_like_a_road(capsys):
     reading = out.splitlines()[1]
     # which state the solver finds depends on its time budget: one where the guards differ,
     # or one where strict's guard is ill-defined (named in parentheses); both read as a road
-    assert re.search(r"decide IDLE differently( \(IDLE's guard in \w+ is not well-defined "
+    assert re.search(r"decide IDLE differently( \(IDLE's guard in .+? is not well-defined "
                      r"there\))?: EgoVehicle at x = ", reading), reading
     assert ", vx = " in reading
 

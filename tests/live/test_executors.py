@@ -120,3 +120,28 @@ def test_ray_tasks_get_the_shield_itself_not_a_name(local_ray, frozen_runs):
     da, db = diff(frozen_runs, lake, none), diff(frozen_runs, lake, none, executor="ray")
     assert (da.changed_steps, da.changes) == (db.changed_steps, db.changes)
     assert db.shield == lake.identity and db.against == none.identity
+
+
+def test_record_on_ray_sends_the_shield_itself(local_ray, tmp_path):
+    """Issue 23: ``record --executor ray`` had each worker load the shield again by its name
+    or path (on a worker: another file, or none). The workers now get the shield that was
+    checked, itself: its file is gone before they start, and the episodes are the local ones."""
+    import dataclasses
+    import shutil
+
+    from tracecheck.checking.shield import SHIELD_DIR
+    from tracecheck.live.record import check_settings, episodes
+
+    copy = tmp_path / "lake.mch"
+    shutil.copy(SHIELD_DIR / "frozenlake.mch", copy)
+    lake = RecordSettings(agent=str(ROOT / "models" / "agents" / "frozenlake.npy"),
+                          shield=str(copy), episodes=4, seed=7, env="frozenlake",
+                          env_config={"is_slippery": True}, executor="ray", workers=2)
+    _, shield = check_settings(lake, tmp_path / "out.mcap")
+    copy.unlink()  # what a worker would have looked up again
+    on_ray = list(episodes(lake, shield))
+    local = list(episodes(dataclasses.replace(lake, executor="local", workers=1), shield))
+    assert [e.id for e in on_ray] == list(range(4))
+    assert [[s.state for s in e.steps] for e in on_ray] == \
+        [[s.state for s in e.steps] for e in local]
+    assert all(s.allowed_actions is not None for e in on_ray for s in e.steps[1:])

@@ -221,6 +221,12 @@ def test_training_says_what_it_cannot_do(capsys, tmp_path):
         code, _, err = run(capsys, "train", "--env", "frozenlake", "--algorithm", algorithm,
                            "-o", str(tmp_path / name))
         assert code == 2 and message in err
+    # a reward profile is the highway's: elsewhere it was silently ignored
+    code, _, err = run(capsys, "train", "--env", "frozenlake", "--profile", "higher-penalty",
+                       "-o", str(tmp_path / "a.zip"))
+    assert code == 2 and ("--profile higher-penalty: the environment frozenlake has no named "
+                          "configurations") in " ".join(err.split())
+    assert "--env-config key=value" in err
     assert list(tmp_path.iterdir()) == []
 
 

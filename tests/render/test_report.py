@@ -35,8 +35,15 @@ def test_each_run_has_its_own_section_side_by_side(highway_report):
     assert "<th>recorded under shield</th><td>none</td>" in sections[0]
     assert "<th>recorded under shield</th><td>paper</td>" in sections[1]
     assert "<th>crashes</th><td>6 (25%)</td>" in sections[0]
-    # without re-simulation nothing claims a crash was prevented
-    assert "prevented" not in " ".join(sections).replace("would have prevented a crash", "")
+    # without re-simulation nothing claims a crash was prevented: the table's column is
+    # replay's "crash after a blocked step", a fact of the recording
+    assert "prevented" not in page.replace("would have prevented a crash", "")
+    head = re.findall(r"<tr><th>episode</th>(.*?)</tr>", page)[0]
+    assert "<th>crash after a blocked step</th>" in head and "re-simulated" not in head
+    episodes = page[page.index("Episodes that matter"):]
+    cells = re.findall(r"<td class='\w*'>([^<]*)</td><td class='pic'>",
+                       episodes[:episodes.index("<h3>base_paper.mcap</h3>")])
+    assert cells.count("yes") == 6 and cells.count("no") == 0 and len(cells) == 24
 
 
 def test_comparisons_are_sentences_that_name_their_test(highway_report):
@@ -47,6 +54,15 @@ def test_comparisons_are_sentences_that_name_their_test(highway_report):
             "on 24 pair(s) of episodes with the same seed, p = 0.012).") in page
     assert "No significant difference in the share of episodes that satisfy SAF1" in page
     assert "paired t-test, p = 0.029" in page
+
+
+def test_a_plot_too_wide_for_a_column_gets_the_pages_width(highway_report):
+    """The property shares of 6 properties × 2 runs (1037 pt wide) were shrunk to 560 px,
+    their labels 5 px high; the box plots (360 pt) stay in columns."""
+    page = highway_report.read_text()
+    assert page.count("<figure class='wide'><svg") == 1 and "figure.wide svg{max-width:100%}" \
+        in page
+    assert page.count("<figure><svg") == 5  # one per metric of the highway set
 
 
 def test_episodes_that_matter_come_first_and_the_tail_is_collapsed(highway_report):
@@ -116,7 +132,11 @@ def test_a_users_environment_gets_the_headline_and_time_series(corridor, tmp_pat
     assert crashes >= 1
     assert (f"Re-simulation: shield corridor would have prevented {crashes} of {crashes} "
             f"crash{'es' if crashes > 1 else ''}; 0 new.") in page
-    assert "<td class='good'>prevented</td>" in page  # the outcome word of checking/replay.py
+    # the table says what the headline counts, in replay's words, episode by episode
+    head = re.findall(r"<tr><th>episode</th>(.*?)</tr>", page)[0]
+    assert "<th>re-simulated</th>" in head and "crash after" not in head
+    cells = re.findall(r"<td class='(\w*)'>([^<]*)</td><td class='pic'>", page)
+    assert cells.count(("good", "prevented")) == crashes == len(cells)
     # the corridor draws no scene: its episodes show their variables over time instead
     assert "<td class='pic'><svg" in page and ">pos<title>pos</title></text><polyline" in page
 

@@ -48,3 +48,12 @@ def test_every_shape_becomes_a_valid_foxglove_primitive():
 def test_the_report_s_svg_escapes_text():
     svg = scene_svg(SCENE)
     assert "gap &lt;3&gt; &amp; m" in svg and "<title>ego</title>" in svg
+
+
+def test_a_thumbnail_keeps_its_text_readable():
+    """A 90 m wide road drawn 300 px wide: a 1.5 m text would be 5 px high (the acc report's
+    "gap 25.3 m"); it is drawn 10 px high (3 m in the view's units), larger text as it is."""
+    road = Scene((Text(40, -2, "gap 25.3 m", 1.5), Text(40, 2, "big", 6.0)), (-10, -5, 90, 8))
+    svg = scene_svg(road, 300)
+    assert 'width="300" height="27"' in svg
+    assert 'font-size="3"' in svg and 'font-size="6"' in svg

@@ -436,3 +436,22 @@ def test_an_integer_that_fits_a_float_is_its_value(capsys, tmp_path):
         code, out, err = run(capsys, "stats", NONE, "--properties", str(path), "--json")
     assert code == 0, err
     assert json.loads(out)["runs"][0]["metrics"]["m"]["mean"] == float(2 ** 1000)
+
+
+def test_an_imported_run_of_another_machine_is_not_taken_for_the_highways(tmp_path):
+    """Issue 23: a file naming no environment (imported with --model) was read as the
+    highway's: without --properties, the highway's set ("unknown identifier VehiclesVx")."""
+    from tracecheck.stats.estimates import default_set, environment_of
+
+    path = tmp_path / "lake.mcap"
+    steps = tuple(StepRecord(k, float(k), None if k == 0 else "Move_Right", {"x": k, "y": 0},
+                             0.0, False) for k in range(3))
+    with EpisodeWriter(path, new_header("imported-prob2trace", model_name="FrozenLake",
+                                        variables=["x", "y"],
+                                        actions=["Move_Right"])) as w:
+        w.write(Episode(0, steps, make_end(steps, "end-of-trace")))
+    assert environment_of(path) == "FrozenLake"
+    pset, notes = default_set([path])
+    assert "the environment FrozenLake of these runs is not installed here" in notes[0]
+    result = statistics([path], pset)
+    assert result["runs"][0]["metrics"]["episode_length"]["mean"] == 2

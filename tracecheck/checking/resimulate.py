@@ -118,7 +118,7 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
     results = []
     try:
         try:
-            session = Session(settings, config=config)
+            session = Session(settings, config=config, shield=shield)
         except MakeError as exc:
             raise InputError(f"{path}: the {adapter.name} environment rejects the run header's "
                              f"environment_config {printable(repr(config))[:200]}: "

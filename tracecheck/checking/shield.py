@@ -15,8 +15,8 @@ from ..b.machine import Machine, load_machine
 from ..episodes.model import HIGHWAY_ACTIONS
 from ..errors import InputError
 
-__all__ = ["Shield", "load_shield", "BUILTIN_SHIELDS", "SHIELD_DIR", "check_vocabulary",
-           "data_dir"]
+__all__ = ["Shield", "load_shield", "for_actions", "BUILTIN_SHIELDS", "SHIELD_DIR",
+           "check_vocabulary", "data_dir"]
 
 def data_dir() -> Path:
     """Where the built-in shields and bundled agents are: ``models/`` of a source checkout, or
@@ -73,11 +73,19 @@ def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None) 
                              f"{', '.join(BUILTIN_SHIELDS)} or the path of a .mch file")
         name = path.stem
     machine = load_machine(path)
-    missing = [a for a in actions or () if a not in machine.operations]
+    shield = Shield(name=name, sha256=machine.sha256, path=str(path), machine=machine)
+    return for_actions(shield, actions) if actions is not None else shield
+
+
+def for_actions(shield: Shield, actions: tuple[str, ...]) -> Shield:
+    """``shield`` itself, once it has one operation for each of the live agent's
+    ``actions`` (a shield loaded here or sent to a worker)."""
+    missing = [a for a in actions if a not in shield.machine.operations]
     if missing:
-        raise InputError(f"{path}: a shield needs one operation per action "
-                         f"({', '.join(actions)}); {machine.name} lacks {', '.join(missing)}")
-    return Shield(name=name, sha256=machine.sha256, path=str(path), machine=machine)
+        raise InputError(f"{shield.path}: a shield needs one operation per action "
+                         f"({', '.join(actions)}); {shield.machine.name} lacks "
+                         f"{', '.join(missing)}")
+    return shield
 
 
 def _rebuilt(name: str, sha256: str, path: str, text: str, file: Optional[str]) -> Shield:

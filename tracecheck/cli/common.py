@@ -204,11 +204,6 @@ class Interval(str, Enum):
     clopper_pearson = "clopper-pearson"
 
 
-class Profile(str, Enum):
-    base = "base"
-    higher_penalty = "higher-penalty"
-
-
 ENV = typer.Option(None, "--env", help="The environment: an installed adapter (highway, "
                     "frozenlake, cliffwalking; see `tracecheck envs`) or package.module:Class "
                     "(importing it runs its code). Default: highway.")

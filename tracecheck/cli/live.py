@@ -9,7 +9,7 @@ import typer
 
 from ..errors import InputError
 from ..outputs import input_paths
-from .common import (app, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, Profile, ENV,
+from .common import (app, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, ENV,
                      ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, Algorithm, FORCE,
                      RUN_SHIELD, SEED, WORKERS, FORMAT, JSON, OutputFormat, output_format,
                      print_json, print_table, progress, say, SHIELD_HELP)
@@ -28,8 +28,10 @@ def train_cmd(
                                          "in the loop: dqn and maskable-ppo explore and exploit "
                                          "only the actions it allows; for ppo and a2c an action "
                                          "it blocks is replaced by the fallback. " + SHIELD_HELP),
-    profile: Profile = typer.Option(Profile.base, "--profile", help="Reward profile (the "
-                                    "highway's)."),
+    profile: Optional[str] = typer.Option(None, "--profile", help="A named configuration of "
+                                          "the environment (highway: its reward profiles "
+                                          "base (the default), higher-penalty); refused for "
+                                          "an environment without any."),
     steps: Optional[int] = typer.Option(None, "--steps", min=1, help="Environment steps "
                                         "(default: 20000, 200000 for q-learning)."),
     seed: int = typer.Option(0, "--seed", min=0, max=2**32 - 1, help="Random seed, 0 … "
@@ -46,9 +48,8 @@ def train_cmd(
     from ..live.adapter import load_adapter, parse_config
 
     adapter = load_adapter(env)
-    highway = adapter.name == "highway"
-    config = adapter.config(parse_config(env_config), profile.value if highway else None,
-                            duration)
+    profile = _profile(adapter, profile)
+    config = adapter.config(parse_config(env_config), profile, duration)
     horizon = duration or adapter.horizon
     if algorithm == Algorithm.q_learning and shield is not None:
         raise InputError("--algorithm q-learning trains without a shield; with --shield, "
@@ -68,10 +69,24 @@ def train_cmd(
                     mean="-" if mean is None else f"{mean:.2f}")
 
         card = _train(adapter, config, algorithm, loaded, steps=steps, seed=seed,
-                      horizon=horizon, profile=profile.value if highway else None,
+                      horizon=horizon, profile=profile,
                       progress=report, output=output, force=force,
                       inputs=input_paths(shield))
     _say_trained(card, output)
+
+
+def _profile(adapter, profile: Optional[str]) -> Optional[str]:
+    """The named configuration to train in: the one given (the environment must have it),
+    else the highway's ``base`` (the model card names it), else none."""
+    if profile is None:
+        return "base" if "base" in adapter.profiles else None
+    if not adapter.profiles:
+        raise InputError(f"--profile {profile}: the environment {adapter.name} has no named "
+                         "configurations (profiles are the highway's reward profiles: base, "
+                         "higher-penalty)",
+                         hint="leave --profile out; set the environment's own settings with "
+                              "--env-config key=value")
+    return profile
 
 
 def _train(adapter, config: dict, algorithm: Algorithm, shield, *, output: Path, **options):

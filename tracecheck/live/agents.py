@@ -85,19 +85,16 @@ class Agent:
 
 def load_agent(path: str | Path, adapter=None, env=None) -> Agent:
     """Load an agent for an environment (its adapter, and the environment to compare spaces
-    with; the highway when not given): a Q-table (``.npy``) or a stable-baselines3 DQN,
-    PPO or A2C with one discrete action per adapter action.
+    with): a Q-table (``.npy``) or a stable-baselines3 DQN, PPO, A2C or MaskablePPO with one
+    discrete action per adapter action. Without ``adapter`` the agent is loaded as it is,
+    checked against no environment (no environment is assumed).
 
     A stable-baselines3 file unpickles code: load only files you trust.
     """
     path = Path(path)
     if not path.is_file():
         raise InputError(f"no such agent file: {path}")
-    if adapter is None:
-        from .adapter import get_adapter
-
-        adapter = get_adapter("highway")
-    actions = adapter.actions
+    actions = tuple(adapter.actions) if adapter is not None else None
     if path.suffix == ".npy":
         return _load_table(path, actions, env)
     if not zipfile.is_zipfile(path):
@@ -122,6 +119,11 @@ def load_agent(path: str | Path, adapter=None, env=None) -> Agent:
         if (name == "MaskablePPO") != type(model.policy).__name__.startswith("Maskable"):
             continue  # a plain PPO file loads as MaskablePPO too (and the other way round)
         space = model.action_space
+        if adapter is None:
+            if getattr(space, "n", None) is None:
+                raise InputError(f"{path}: the agent has action space {space}; tracecheck's "
+                                 "agents choose among discrete actions")
+            return Agent(str(path), file_sha256(path), name, model)
         if getattr(space, "n", None) != len(actions):
             raise InputError(f"{path}: the agent has action space {space}; {adapter.name} "
                              f"has {len(actions)} discrete actions ({', '.join(actions)})")
@@ -173,7 +175,7 @@ def _check_observations(path: Path, space, adapter, env) -> None:
                          f"{theirs}")
 
 
-def _load_table(path: Path, actions: tuple[str, ...], env) -> Agent:
+def _load_table(path: Path, actions: Optional[tuple[str, ...]], env) -> Agent:
     try:
         table = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
@@ -181,7 +183,7 @@ def _load_table(path: Path, actions: tuple[str, ...], env) -> Agent:
     if table.ndim != 2 or table.dtype.kind not in "fiu":
         raise InputError(f"{path}: a Q-table is a 2-D array of numbers (observations × "
                          f"actions), not {table.dtype} of shape {table.shape}")
-    if table.shape[1] != len(actions):
+    if actions is not None and table.shape[1] != len(actions):
         raise InputError(f"{path}: the Q-table has {table.shape[1]} actions; the environment "
                          f"has {len(actions)} ({', '.join(actions)})")
     if not np.all(np.isfinite(table)):

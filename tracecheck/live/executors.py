@@ -20,13 +20,18 @@ EXECUTORS = ("local", "ray")
 _SESSION = None
 
 
-def _ray_episode(settings, index: int) -> Episode:
-    """Runs on a Ray worker: one episode, with the worker's cached agent, shield and env."""
+def _ray_episode(settings, index: int, shield_ref: list, sha256: str) -> Episode:
+    """Runs on a Ray worker: one episode, with the worker's cached agent, shield and env.
+    The shield comes as itself (``[ref]`` of the object :func:`ray_episodes` put: pickled as
+    its machine's text, its sha256 checked), fetched only when this worker has no session
+    for these settings and this shield yet."""
     global _SESSION
+    import ray
+
     from .rollout import Session
 
-    if _SESSION is None or _SESSION.settings != settings:
-        _SESSION = Session(settings)
+    if _SESSION is None or _SESSION.settings != settings or _SESSION.shield.sha256 != sha256:
+        _SESSION = Session(settings, shield=ray.get(shield_ref[0]))
     return _SESSION.episode(index)
 
 
@@ -50,12 +55,15 @@ def _start_ray(address: Optional[str], cpus: int):
     return ray, True
 
 
-def ray_episodes(settings, address: Optional[str] = None) -> Iterator[Episode]:
-    """The episodes of ``settings`` from Ray tasks, in order, as they finish."""
+def ray_episodes(settings, address: Optional[str] = None, *, shield) -> Iterator[Episode]:
+    """The episodes of ``settings`` under ``shield`` (sent to the workers itself, never
+    ``settings.shield`` to load again) from Ray tasks, in order, as they finish."""
     ray, started = _start_ray(address, settings.workers)
     try:
         remote = ray.remote(max_retries=3)(_ray_episode)
-        pending = {remote.remote(settings, i): i for i in range(settings.episodes)}
+        ref = [ray.put(shield)]  # in a list: a worker fetches it only when it needs it
+        pending = {remote.remote(settings, i, ref, shield.sha256): i
+                   for i in range(settings.episodes)}
         ready: dict[int, Episode] = {}
         following = 0
         while pending:

@@ -27,12 +27,12 @@ __all__ = ["RecordSettings", "record", "episodes", "check_settings", "recording_
 _SESSION: Optional[Session] = None
 
 
-def _init_worker(settings: RecordSettings) -> None:
+def _init_worker(settings: RecordSettings, shield) -> None:
     global _SESSION
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole process group:
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # the parent handles it and stops us
     _die_with_parent()
-    _SESSION = Session(settings)
+    _SESSION = Session(settings, shield=shield)
 
 
 def _die_with_parent() -> None:
@@ -52,21 +52,29 @@ def _work(index: int) -> Episode:
     return _SESSION.episode(index)
 
 
-def episodes(settings: RecordSettings) -> Iterator[Episode]:
+def episodes(settings: RecordSettings, shield=None) -> Iterator[Episode]:
     """The episodes of a recording, in order, from ``settings.workers`` processes (or from
-    Ray tasks with ``executor="ray"``)."""
+    Ray tasks with ``executor="ray"``), under ``shield`` (the shield itself, as
+    :func:`check_settings` loaded it: workers get it, not a name to load again; without it,
+    ``settings.shield`` loaded once here)."""
+    if shield is None:
+        from .adapter import load_adapter
+        from ..checking.shield import load_shield
+
+        shield = load_shield(settings.shield, actions=tuple(load_adapter(settings.env).actions))
     if settings.executor == "ray":
         from .executors import ray_episodes
 
-        yield from ray_episodes(settings, settings.ray_address)
+        yield from ray_episodes(settings, settings.ray_address, shield=shield)
         return
     if settings.workers <= 1:
-        session = Session(settings)
+        session = Session(settings, shield=shield)
         for i in range(settings.episodes):
             yield session.episode(i)
         return
     ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
-    with ctx.Pool(settings.workers, initializer=_init_worker, initargs=(settings,)) as pool:
+    with ctx.Pool(settings.workers, initializer=_init_worker,
+                  initargs=(settings, shield)) as pool:
         try:
             yield from pool.imap(_work, range(settings.episodes))
         finally:
@@ -136,7 +144,7 @@ def record(settings: RecordSettings, out: str | Path,
     header = recording_header(settings, agent, shield)
     counts = [0, 0, 0]
     with recording_into(out, header, force=force, inputs=run_inputs(settings)) as writer:
-        for episode in episodes(settings):
+        for episode in episodes(settings, shield):
             writer.write(episode)
             counts[0] += 1
             counts[1] += episode.end.steps

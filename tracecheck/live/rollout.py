@@ -62,18 +62,24 @@ class Session:
     """What one process needs to run episodes: environment, agent, shield (built once).
 
     ``config`` overrides the environment configuration (re-simulation uses the recorded one).
+    ``shield`` is the shield itself, loaded by the caller (a worker process or a Ray task gets
+    it pickled as its text: the shield that was checked, never ``settings.shield`` looked up
+    again); without it ``settings.shield`` is loaded here.
     """
 
-    def __init__(self, settings: RecordSettings, config: Optional[dict] = None) -> None:
+    def __init__(self, settings: RecordSettings, config: Optional[dict] = None,
+                 shield=None) -> None:
         from .agents import load_agent
-        from ..checking.shield import load_shield
+        from ..checking.shield import for_actions, load_shield
         from .wrapper import ShieldWrapper
 
         self.settings = settings
         self.adapter, default, self.horizon = resolve(settings)
         env = self.adapter.make_env(config or default)
         self.agent = load_agent(settings.agent, adapter=self.adapter, env=env)
-        self.shield = load_shield(settings.shield, actions=self.adapter.actions)
+        actions = tuple(self.adapter.actions)
+        self.shield = (load_shield(settings.shield, actions=actions) if shield is None
+                       else for_actions(shield, actions))
         self.env = ShieldWrapper(env, self.shield, settings.fallback, self.adapter)
 
     def episode(self, index: int) -> Episode:

@@ -18,8 +18,8 @@ from typing import Optional, Sequence
 
 from ..errors import InputError
 from ..stats.properties import PropertySet
-from ..checking.replay import (MISMATCH, NEW_CRASH, NO_CRASH, NO_SEED, NOT_PREVENTED,
-                               PREVENTED)
+from ..checking.replay import (MISMATCH, NEVER_BLOCKED, NEW_CRASH, NO_CRASH, NO_SEED,
+                                NOT_PREVENTED, PREVENTED)
 from ..checking.shield import Shield
 from ..outputs import write_file
 from .viewer import numeric_series, render_episode
@@ -30,7 +30,8 @@ _STYLE = """body{font-family:system-ui,sans-serif;margin:1.5em;color:#222;max-wi
 table{border-collapse:collapse;font-size:.85em;margin:.5em 0}td,th{border:1px solid #ccc;
 padding:.2em .5em;text-align:left;vertical-align:top}h2{margin-top:1.5em}
 .note{color:#666;font-size:.85em}figure{display:inline-block;margin:.5em}
-figure svg{max-width:560px;height:auto}
+figure svg{max-width:560px;height:auto}figure.wide{display:block}
+figure.wide svg{max-width:100%}
 .runs{display:grid;grid-template-columns:repeat(auto-fit,minmax(320px,1fr));gap:1em}
 .run{border:1px solid #ddd;border-radius:6px;padding:.2em 1em .6em 1em}
 .run h3{margin:.4em 0;font-size:1.05em;word-break:break-all}
@@ -82,6 +83,15 @@ def _svg_plots(result: dict) -> list[str]:
     finally:
         plt.Figure.savefig = original
     return figures
+
+
+def _wide(svg: str, limit_pt: float = 600.0) -> bool:
+    """Whether a plot is wider than a column (the property shares of many properties and
+    runs): shrunk to one, its labels could not be read, so it gets the page's width."""
+    import re
+
+    found = re.match(r'<svg[^>]*\swidth="([\d.]+)pt"', svg)
+    return found is not None and float(found.group(1)) > limit_pt
 
 
 # ------------------------------------------------------------------ words
@@ -205,13 +215,16 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
                  f"mean ± sd [95 % t interval]; properties: % of episodes [95 % "
                  f"{_e(result['interval'])} interval]</p>")
     parts.append(_table(header, rows))
-    parts += [f"<figure>{svg}</figure>" for svg in _svg_plots(result)]
+    parts += [("<figure class='wide'>" if _wide(svg) else "<figure>") + f"{svg}</figure>"
+              for svg in _svg_plots(result)]
     pages: list = []
     if shield is not None:
+        order = ("what re-simulation found: prevented, new crash, not prevented, did not "
+                 "reproduce, no seed, never blocked, no crash" if resimulate else
+                 "crashes after a blocked step, other crashes, blocked steps")
         parts.append("<h2>Episodes that matter</h2><p class='note'>Per run, those that matter "
-                     "most first: crashes the shield prevented in re-simulation, new crashes, "
-                     "crashes after a blocked step, other crashes, blocked steps. The picture "
-                     "shows the first blocked step (else the crash).</p>")
+                     f"most first: {order}. The picture shows the first blocked step (else "
+                     "the crash).</p>")
         budget = max(1, max_pages // len(checked))  # every run gets its viewer pages
         for c in checked:
             parts.append(_episodes_section(c, shield, pages, page_stem, pages_dir,
@@ -236,6 +249,7 @@ def _check_run(run, shield, resimulate: bool, agent, env) -> dict:
             from ..checking.resimulate import resimulate as again, summary
 
             entry["resim"] = summary(again(run, shield, entry["replay"], agent=agent, env=env))
+            entry["replay"].resimulation = entry["resim"]  # the table shows what it found
     return entry
 
 
@@ -256,7 +270,10 @@ def _run_section(c: dict, shield: Optional[Shield]) -> str:
                          f"{r.invariant_violations}"))
     body = "".join(f"<tr><th>{_e(k)}</th><td>{_e(v)}</td></tr>" for k, v in rows)
     text = f"<section class='run'><h3>{_e(Path(c['file']).name)}</h3><table>{body}</table>"
-    if c["resim"] is not None:
+    if c["resim"] is not None and not c["resim"]["resimulated"]:
+        text += (f"<p class='headline'>Re-simulation: nothing to re-run, {_e(shield.name)} "
+                 "would have blocked no step.</p>")
+    elif c["resim"] is not None:
         text += (f"<p class='headline'>Re-simulation: "
                  f"{_e(resimulation_headline(shield.name, r.crashes, c['resim']))}.</p>")
     elif r is not None and r.crashes:
@@ -265,49 +282,54 @@ def _run_section(c: dict, shield: Optional[Shield]) -> str:
     return text + "</section>"
 
 
-_ORDER = {PREVENTED: 0, NEW_CRASH: 1, NOT_PREVENTED: 2, MISMATCH: 3, NO_SEED: 4, NO_CRASH: 6}
+#: the episodes that matter, most first: by what re-simulation found (the words of
+#: :data:`tracecheck.checking.replay.OUTCOMES`), else by what the recording shows
+_ORDER = {PREVENTED: 0, NEW_CRASH: 1, NOT_PREVENTED: 2, MISMATCH: 3, NO_SEED: 4,
+          NEVER_BLOCKED: 5, NO_CRASH: 6, "": 7}
+_GOOD, _BAD = {PREVENTED}, {NOT_PREVENTED, NEW_CRASH, MISMATCH}
 
 
-def _ranked(c: dict) -> list[tuple]:
-    """(episode replay, re-simulation outcome or None) of the episodes that matter, those
-    that matter most first."""
-    outcomes = {r["episode"]: r for r in (c["resim"] or {}).get("per_episode", [])}
-    matters = [e for e in c["replay"].per_episode if e.matters]
+def _ranked(c: dict) -> list:
+    """The episodes that matter of a run, those that matter most first."""
+    r = c["replay"]
+    outcomes = r.resimulated()
 
     def rank(e):
-        o = outcomes.get(e.episode)
-        if o is not None:
-            return (_ORDER.get(o["outcome"], 5), e.episode)
+        if outcomes is not None:
+            return (_ORDER.get(outcomes[(e.file, e.episode)], 7), e.episode)
         return (1 if e.crash_after_infeasible else 2 if e.crashed else 3, e.episode)
-    return [(e, outcomes.get(e.episode)) for e in sorted(matters, key=rank)]
+    return sorted((e for e in r.per_episode if e.matters), key=rank)
 
 
 def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter) -> str:
+    """A run's episodes that matter: the crash column is replay's own (``replay`` and
+    ``replay --resimulate`` print the same words), so the headline above and this table
+    count the same episodes."""
     from ..outputs import safe_name
+    from .text import crash_column
 
     ranked = _ranked(c)
     name = Path(c["file"]).name
     if not ranked:
         return f"<h3>{_e(name)}</h3><p>No episode crashed or had a blocked step.</p>"
-    pictures = _pictures(c, [e for e, _ in ranked[:SHOWN]], adapter, shield)
-    head = ["episode", "steps", "first blocked step", "crash step",
-            "re-simulated" if c["resim"] is not None else "crash after a blocked step",
+    pictures = _pictures(c, ranked[:SHOWN], adapter, shield)
+    crash_header, _, crash_cell = crash_column(c["replay"])
+    new_steps = {r["episode"]: r["new_crash_step"]
+                 for r in (c["resim"] or {}).get("per_episode", [])}
+    head = ["episode", "steps", "first blocked step", "crash step", crash_header,
             "picture", "viewer"]
     rows = []
-    for i, (e, o) in enumerate(ranked):
+    for e in ranked:
         link = ""
         if len(pages) < max_pages:
             stem = page_stem.get(str(e.file)) or safe_name(Path(e.file).stem)
             page = f"{stem}_episode_{e.episode}.html"
             pages.append((e.file, e.episode, page))
             link = f"<a href='{_e(pages_dir.name + '/' + page)}'>open</a>"
-        if o is not None:
-            verdict = o["outcome"] + (f" (at step {o['new_crash_step']})"
-                                      if o.get("new_crash_step") is not None else "")
-            cls = "good" if o["outcome"] == PREVENTED else \
-                "bad" if o["outcome"] in (NEW_CRASH, NOT_PREVENTED, MISMATCH) else ""
-        else:
-            verdict, cls = ("yes" if e.crash_after_infeasible else ""), ""
+        verdict = crash_cell(e)
+        if verdict in (NEW_CRASH, NOT_PREVENTED) and new_steps.get(e.episode) is not None:
+            verdict += f" (at step {new_steps[e.episode]})"
+        cls = "good" if crash_cell(e) in _GOOD else "bad" if crash_cell(e) in _BAD else ""
         first = "" if e.first_infeasible is None else f"{e.first_infeasible} {e.action or ''}"
         rows.append(f"<tr><td>{e.episode}</td><td>{e.steps}</td><td>{_e(first)}</td>"
                     f"<td>{'' if e.crash_step is None else e.crash_step}</td>"

@@ -369,15 +369,21 @@ def _hook(adapter):
     return adapter.scene
 
 
+#: the smallest text a static picture shows, in pixels: a scene's text is sized in the
+#: environment's units, and a thumbnail of a wide view would make it a few pixels high
+MIN_TEXT_PX = 10.0
+
+
 def scene_svg(scene: Scene, width: int = 360, max_height: int = 180,
               view: Optional[tuple[float, float, float, float]] = None) -> str:
     """A scene as a static inline SVG (the report's pictures; ``view`` instead of the
-    scene's own); every text escaped."""
+    scene's own), its texts at least :data:`MIN_TEXT_PX` high; every text escaped."""
     from html import escape
 
     x0, y0, w, h = view or scene.view
     width = min(width, round(max_height * w / h))
     height = max(10, round(width * h / w))
+    least = MIN_TEXT_PX * w / width  # in the view's units
     parts = [f'<svg xmlns="http://www.w3.org/2000/svg" viewBox="{x0:g} {y0:g} {w:g} {h:g}" '
              f'width="{width}" height="{height}" role="img">']
     if scene.background is not None:
@@ -401,7 +407,7 @@ def scene_svg(scene: Scene, width: int = 360, max_height: int = 180,
             parts.append(f'<polyline points="{points}" fill="none" stroke="{css(s.color)}" '
                          f'stroke-width="{s.width:g}"{dash}>{title}</polyline>')
         else:
-            parts.append(f'<text x="{s.x:g}" y="{s.y:g}" font-size="{s.size:g}" '
+            parts.append(f'<text x="{s.x:g}" y="{s.y:g}" font-size="{max(s.size, least):g}" '
                          f'fill="{css(s.color)}" text-anchor="middle" '
                          f'dominant-baseline="middle">{escape(s.text)}</text>')
     parts.append("</svg>")

@@ -175,7 +175,9 @@ def _plots(result: dict, folder: Path) -> list[Path]:
         ax.set_xticks(np.arange(len(props)) + width * (len(runs) - 1) / 2, props)
         ax.set_ylabel(f"% of episodes (95 % {result['interval']} interval)")
         ax.set_ylim(0, 105)
-        ax.legend()
+        # above the plot, in a row: inside, a share of 100 % has no free corner to take
+        ax.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=len(runs),
+                  frameon=False)
         written += _save(fig, folder, "properties")
     taken = {"properties"}
     for name in runs[0]["metrics"]:

@@ -11,7 +11,7 @@ from ..checking.replay import (MISMATCH, NEW_CRASH, NOT_PREVENTED, PREVENTED, Di
 from .tables import TableData, markdown, md_text
 
 __all__ = ["replay_text", "replay_markdown", "replay_table", "diff_text", "diff_table",
-           "literal_row"]
+           "crash_column", "literal_row"]
 
 
 def literal_row(table: Table, cells) -> None:
@@ -69,7 +69,7 @@ RESIMULATED_LEGEND = ("re-simulated: the episode run again from its seed, the ag
                       "changed)")
 
 
-def _crash_column(r: ReplayReport):
+def crash_column(r: ReplayReport):
     """(header, short header, cell(e)) of the episode table's crash column: with a
     re-simulation what it found (the same words as the lines above the table), else whether
     the recorded crash came at or after the first blocked step — which is not "prevented":
@@ -159,7 +159,7 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
     names = {a for e in matters for a in [e.action, e.alternative, *(e.enabled or [])] if a}
     codes = abbreviations(names)
     table = Table(title="episodes that matter", box=None, show_lines=False, padding=(0, 1))
-    _, short_header, crash_cell = _crash_column(r)
+    _, short_header, crash_cell = crash_column(r)
     headers = SHORT_HEADERS[:8] + [short_header] + SHORT_HEADERS[9:]
     for header in headers[1:] if one_file else headers:
         if header == "file":
@@ -198,7 +198,7 @@ def replay_table(r: ReplayReport, episodes=None) -> TableData:
         step = violations[(e.file, e.episode)]
         return "violated" if step is None else f"violated at step {step}"
 
-    header, _, crash_cell = _crash_column(r)
+    header, _, crash_cell = crash_column(r)
     return TableData.of(HEADERS[:8] + [header] + HEADERS[9:]
                         + [f"LTL {e['name']}: {e['formula']}" for e in r.ltl],
                         (_row(e, crash_cell) + [ltl_cell(e, v) for v in failed]

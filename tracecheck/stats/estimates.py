@@ -45,10 +45,20 @@ class RunValues:
 
 
 def environment_of(path: str | Path) -> str:
-    """The environment a run file's states come from (files without one: the highway)."""
+    """The environment a run file's states come from. A file that names none (imported
+    traces, files from before adapters) is the highway's when its states are in the highway's
+    vocabulary (or it declares none); else it is named by its machine (looked up among the
+    installed adapters only, so usually none: generic statistics), never taken for the
+    highway's."""
+    from ..episodes.model import HIGHWAY_VARIABLES
     from ..episodes.reader import read_header
 
-    return read_header(path).environment or "highway"
+    header = read_header(path)
+    if header.environment:
+        return header.environment
+    if not header.variables or set(HIGHWAY_VARIABLES) <= set(header.variables):
+        return "highway"
+    return header.model_name or "unnamed"
 
 
 def run_adapter(environment, *, required: bool = True):

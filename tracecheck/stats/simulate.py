@@ -76,7 +76,7 @@ def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
                       "batch": batch, "looks": 0, "stopped_early": False, "widths": {}}
     with recording_into(out, header, force=force,
                         inputs=[*run_inputs(settings), *inputs]) as writer:
-        for episode in episodes(settings):
+        for episode in episodes(settings, shield):
             writer.write(episode)
             if progress is not None:
                 progress(episode)
