@@ -15,8 +15,10 @@ TABLE1 = str(ROOT / "models" / "shields" / "paper.mch")
 
 
 def run(capsys, *args):
+    """(exit code, stdout, stderr) of ``tracecheck ARGS`` run in this process (paths and
+    numbers as their text)."""
     with pytest.raises(SystemExit) as info:
-        main(list(args))
+        main([str(a) for a in args])
     captured = capsys.readouterr()
     return info.value.code or 0, captured.out, captured.err
 

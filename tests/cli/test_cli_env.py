@@ -10,15 +10,8 @@ import sys
 import pytest
 
 from tests.conftest import ACC_SPEC, ACC_V1, ACC_V2
-from tracecheck.cli import main
+from tests.cli.test_cli import run
 from tracecheck.episodes.reader import read_episodes
-
-
-def run(capsys, *args):
-    with pytest.raises(SystemExit) as info:
-        main([str(a) for a in args])
-    captured = capsys.readouterr()
-    return info.value.code or 0, captured.out, captured.err
 
 
 def test_the_fixture_is_an_installed_environment(acc_env, capsys):

@@ -9,20 +9,13 @@ import numpy as np
 import pytest
 
 from tests.conftest import ACC_SPEC, ROOT
-from tracecheck.cli import main
+from tests.cli.test_cli import run
 from tracecheck.episodes.columns import episode_columns
 from tracecheck.episodes.model import Episode, StepRecord, make_end
 from tracecheck.errors import InputError
 from tracecheck.stats.estimates import evaluate_run, interventions, prepare
 from tracecheck.stats.properties import GENERIC_SET, parse_properties, with_generic, \
     load_properties
-
-
-def run(capsys, *args):
-    with pytest.raises(SystemExit) as info:
-        main([str(a) for a in args])
-    captured = capsys.readouterr()
-    return info.value.code or 0, captured.out, captured.err
 
 
 def test_stats_of_a_run_whose_adapter_is_not_installed(acc_runs, capsys):
