@@ -355,3 +355,70 @@ def test_diff_symbolic_names_two_versions_of_one_machine_by_file(capsys, tmp_pat
     code, out, _ = run(capsys, "diff", "--symbolic", "--shield", str(v1), "--against", str(v1),
                        "--json")
     assert code == 0 and {r["status"] for r in json.loads(out)} == {"equivalent"}
+
+
+def test_replay_ltl_reads_the_recorded_crash_flag(capsys, tmp_path):
+    """The README: the crash flag `crashed` is usable in every LTL formula — `replay --ltl`
+    and the viewer's marks too, not only property files (it was "unknown identifier")."""
+    from tests.conftest import ROOT
+
+    sample = ROOT / "sample_traces" / "base_none.mcap"
+    code, out, err = run(capsys, "replay", sample, "--shield", "paper", "--ltl",
+                         "G({crashed = FALSE})", "--json")
+    assert code == 0, err
+    report = json.loads(out)
+    ltl = report["ltl"][0]
+    crashes = {e["episode"]: e["crash_step"] for e in report["per_episode"] if e["crashed"]}
+    assert crashes and ltl["episodes"] == report["episodes"]
+    assert ltl["satisfied"] == report["episodes"] - len(crashes)
+    assert {v["episode"]: v["first_step"] for v in ltl["violations"]} == crashes
+    page = tmp_path / "ep.html"
+    episode = min(crashes)
+    code, _, err = run(capsys, "render", sample, "-e", episode, "--shield", "paper", "--ltl",
+                       "G({crashed = FALSE})", "-o", page)
+    assert code == 0, err
+    assert '"holds":false' in page.read_text()
+
+
+def test_an_unknown_name_in_an_ltl_atom_names_what_atoms_read(capsys):
+    from tests.conftest import ROOT
+
+    code, _, err = run(capsys, "replay", ROOT / "sample_traces" / "base_none.mcap",
+                       "--shield", "paper", "--ltl", "G({crashd = FALSE})")
+    text = " ".join(err.split())
+    assert code == 2 and "unknown identifier crashd" in text
+    assert "an atom reads the names of PaperShield:" in text and "crashed" in text
+    assert "--state" not in text and "--model" not in text
+
+
+def test_the_episode_table_never_breaks_a_word_and_csv_lists_every_step(capsys, run_file,  # noqa: F811
+                                                                        tmp_path):
+    """A shield whose operations change nothing (`skip`) makes every step that moves a
+    postcondition violation: the terminal's "other" column printed `postconditio` / `n 1, 2`
+    at 80 columns, and CSV cut the steps to three."""
+    import re
+
+    skip = re.sub(r"THEN FREE \|\|.*?END", "THEN skip END", TOY, flags=re.S)
+    shield = tmp_path / "skip.mch"
+    shield.write_text(skip.replace("MACHINE Toy", "MACHINE Skip"))
+    code, out, _ = run(capsys, "replay", run_file, "--shield", shield)
+    assert code == 0 and "postcondition violations: " in out
+    table = out[out.index("episodes that matter"):out.index("first: the first step")]
+    words = {w for line in table.splitlines() for w in line.split()}
+    assert "post" in words and not any(w.startswith("postcond") for w in words)
+    assert max(len(line) for line in out.splitlines()) <= 80
+    code, out, _ = run(capsys, "replay", run_file, "--shield", shield, "--format", "csv")
+    rows = list(csv.DictReader(io.StringIO(out)))
+    assert {r["episode"]: r["other"] for r in rows}["0"] == "postcondition 2, 4"
+    # ten violations: the terminal cuts them to three, the full table lists them all
+    from dataclasses import replace
+
+    from tracecheck.checking.replay import replay
+    from tracecheck.checking.shield import load_shield
+    from tracecheck.render.text import replay_table
+
+    report = replay([run_file], load_shield(shield))
+    many = replace(report.per_episode[0], postcondition_violations=list(range(1, 11)))
+    table = replay_table(report, episodes=[many])
+    other = table.rows[0][table.headers.index("other")]
+    assert other == "postcondition " + ", ".join(str(k) for k in range(1, 11))

@@ -231,6 +231,12 @@ def parse_ltl(text: str, machine, *, where: str = "<ltl>") -> Formula:
     return _check(f, machine, text, where)
 
 
+def _unknown_hint(machine) -> str:
+    names = [n for n in machine.type_objects if "$" not in n]
+    shown = ", ".join(names[:12]) + (", …" if len(names) > 12 else "")
+    return f"an atom reads the names of {machine.name}: {shown or 'none'}"
+
+
 def _check(f: Formula, machine, text: str, where: str) -> Formula:
     from dataclasses import replace
 
@@ -243,7 +249,8 @@ def _check(f: Formula, machine, text: str, where: str) -> Formula:
                           if v in machine.type_objects})
         try:
             node = machine.parse(f.text)
-            typecheck_formula(node, names, kind="predicate", source=f.text)
+            typecheck_formula(node, names, kind="predicate", source=f.text,
+                              unknown_hint=_unknown_hint(machine))
         except TracecheckError as exc:
             line = text.count("\n", 0, f.column) + 1
             column = f.column - (text.rfind("\n", 0, f.column) + 1) + 1 + (exc.column or 1) - 1

@@ -201,10 +201,12 @@ def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport,
 def _check_ltl(shield: Shield, cols: RunColumns, report: ReplayReport, ltl: Sequence[tuple],
                enabled: dict) -> None:
     """Each (name, text, formula) on every episode of ``cols``, added to ``report.ltl``."""
+    from .crashflag import flagged, with_crash_flag
     from .ltl import check_ltl
 
+    cols, machine = with_crash_flag(cols), flagged(shield.machine)
     for name, text, formula in ltl:
-        result = check_ltl(name, text, formula, cols, shield.machine, enabled)
+        result = check_ltl(name, text, formula, cols, machine, enabled)
         _add_ltl(report, {"name": name, "formula": text, "episodes": result.episodes,
                           "satisfied": result.satisfied,
                           "violations": [{"file": cols.path, "episode": ep, "first_step": step}
@@ -225,9 +227,11 @@ def ltl_formulas(shield: Shield, formulas: Sequence[str] = (), assertions: bool 
                  ) -> list[tuple]:
     """(name, text, parsed formula) for ``--ltl`` formulas and, with ``assertions``, the
     shield machine's ``ASSERT_LTL`` definitions (parse errors located in the formula)."""
+    from .crashflag import flagged
     from .ltl import assertions as machine_assertions
     from .ltl import parse_ltl
 
+    machine = flagged(shield.machine)  # the recorded crash flag is in scope too
     out = []
     if assertions:
         found = machine_assertions(shield.machine)
@@ -235,10 +239,10 @@ def ltl_formulas(shield: Shield, formulas: Sequence[str] = (), assertions: bool 
             raise InputError(f"the shield {shield.name} has no ASSERT_LTL definitions",
                              hint="give formulas with --ltl FORMULA")
         for name, text in found.items():
-            out.append((name, text, parse_ltl(text, shield.machine, where=name)))
+            out.append((name, text, parse_ltl(text, machine, where=name)))
     for i, text in enumerate(formulas):
         name = f"--ltl {i + 1}" if len(formulas) > 1 else "--ltl"
-        out.append((name, text, parse_ltl(text, shield.machine, where=name)))
+        out.append((name, text, parse_ltl(text, machine, where=name)))
     return out
 
 

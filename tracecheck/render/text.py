@@ -41,14 +41,22 @@ def abbreviations(actions) -> dict[str, str]:
     return {a: a for a in names}  # last words alike: the names themselves
 
 
-def _row(e: EpisodeReplay, crash_cell, short=lambda a: a) -> list[str]:
+#: the "other" column's labels: in full (CSV, Markdown), and short for a terminal
+OTHER_LABELS = ("deadlock", "postcondition", "invariant")
+SHORT_OTHER = ("deadlock", "post", "inv")
+
+
+def _row(e: EpisodeReplay, crash_cell, short=None) -> list[str]:
+    """One episode's cells; with ``short`` (an action's abbreviation) the terminal's: the
+    "other" column's labels short and its steps cut to three, else every step in full."""
+    labels, limit = (SHORT_OTHER, 3) if short is not None else (OTHER_LABELS, None)
+    short = short or (lambda a: a)
     first = "" if e.first_infeasible is None else f"{e.first_infeasible} {short(e.action or '')}"
     other = []
-    for label, steps in (("deadlock", e.deadlock_states),
-                         ("postcondition", e.postcondition_violations),
-                         ("invariant", e.invariant_violations)):
+    for label, steps in zip(labels, (e.deadlock_states, e.postcondition_violations,
+                                     e.invariant_violations)):
         if steps:
-            other.append(f"{label} {_steps(steps, 3)}")
+            other.append(f"{label} {_steps(steps, limit or len(steps))}")
     return [
         e.file.rsplit("/", 1)[-1], str(e.episode), str(e.steps), first,
         " ".join(short(a) for a in e.enabled or []), short(e.alternative or ""),
@@ -158,23 +166,29 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
     one_file = len(r.files) == 1
     names = {a for e in matters for a in [e.action, e.alternative, *(e.enabled or [])] if a}
     codes = abbreviations(names)
-    table = Table(title="episodes that matter", box=None, show_lines=False, padding=(0, 1))
+    table = Table(title="episodes that matter", box=None, show_lines=False, padding=(0, 1),
+                  pad_edge=False)
     _, short_header, crash_cell = crash_column(r)
     headers = SHORT_HEADERS[:8] + [short_header] + SHORT_HEADERS[9:]
+    shown = [_row(e, crash_cell, lambda a: codes.get(a, a)) for e in matters[:rows]]
+    # "other" wraps between words only: never narrower than its longest word
+    longest = max((len(w) for row in shown for w in row[-1].split()), default=5)
     for header in headers[1:] if one_file else headers:
         if header == "file":
             table.add_column(header, no_wrap=True, overflow="ellipsis", max_width=14)
+        elif header == "other":
+            table.add_column(header, overflow="fold", min_width=max(5, longest))
         else:
-            table.add_column(header, no_wrap=header != "other", overflow="fold")
-    for e in matters[:rows]:
-        row = _row(e, crash_cell, lambda a: codes.get(a, a))
+            table.add_column(header, no_wrap=True, overflow="fold")
+    for row in shown:
         literal_row(table, row[1:] if one_file else row)
     console.print(table)
     legend = ", ".join(f"{c} = {a}" for a, c in sorted(codes.items(), key=lambda x: x[1])
                        if c != a)
     console.print("first: the first step the shield would have blocked, and its action; "
                   "allowed: what the shield allowed there; instead: what a shielded agent "
-                  "would have done; blocked: steps it would have blocked; "
+                  "would have done; blocked: steps it would have blocked; other: the steps "
+                  "with a deadlock, a postcondition (post) or an invariant (inv) violation; "
                   + (RESIMULATED_LEGEND if short_header == RESIMULATED else AFTER_BLOCK_LEGEND)
                   + (f"; actions: {legend}" if legend else ""), highlight=False,
                   soft_wrap=False)

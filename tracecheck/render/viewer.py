@@ -196,12 +196,13 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
 def _ltl_marks(run, episode: int, shield: Optional[Shield], ltl: Sequence[tuple]) -> list:
     if not ltl:
         return []
+    from ..checking.crashflag import flagged, with_crash_flag
     from ..checking.ltl import check_ltl
 
-    cols = read_columns(run)
+    cols, machine = with_crash_flag(read_columns(run)), flagged(shield.machine)
     marks = []
     for name, text, formula in ltl:
-        result = check_ltl(name, text, formula, cols, shield.machine)
+        result = check_ltl(name, text, formula, cols, machine)
         failed = dict(result.violations)
         marks.append({"name": name, "formula": text, "holds": episode not in failed,
                       "step": failed.get(episode)})

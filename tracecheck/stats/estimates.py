@@ -23,7 +23,8 @@ from ..b.typecheck import typecheck_formula
 from ..b.vector import BatchFormula, float_column
 from ..episodes.columns import RunColumns, read_columns
 from ..errors import EvaluationError, InputError, TracecheckError
-from .properties import CRASH_FLAG, Metric, Property, PropertySet, load_properties, with_generic
+from ..checking.crashflag import CRASH_FLAG, flagged, with_crash_flag
+from .properties import Metric, Property, PropertySet, load_properties, with_generic
 
 __all__ = ["RunValues", "StatsResult", "evaluate_run", "statistics", "INTERVALS",
            "default_set", "adapter_set", "run_adapter"]
@@ -202,34 +203,7 @@ def _machine(environment):
                          hint=f"set default_shield = \"NAME_OR_PATH.mch\" (a built-in shield's "
                               f"name or the path of a .mch file) on {_class(adapter)}")
     machine = load_shield(adapter.default_shield).machine
-    return machine if CRASH_FLAG in machine.type_objects else _Flagged(machine)
-
-
-class _Flagged:
-    """A machine, with the recorded crash flag ``crashed`` as one more BOOL variable (LTL
-    atoms are type-checked and evaluated through it; everything else is the machine's)."""
-
-    def __init__(self, machine) -> None:
-        from ..b.typecheck import BOOL
-
-        self._machine = machine
-        self.type_objects = {**machine.type_objects, CRASH_FLAG: BOOL}
-        self.variables = (*machine.variables, CRASH_FLAG)
-
-    def __getattr__(self, name: str):
-        return getattr(self._machine, name)
-
-
-def with_crash_flag(cols: RunColumns) -> RunColumns:
-    """``cols`` whose states also hold the recorded crash flag as ``crashed`` (unless they
-    have a ``crashed`` of their own)."""
-    from dataclasses import replace
-
-    if CRASH_FLAG in cols.states.names():
-        return cols
-    states = replace(cols.states, booleans={**cols.states.booleans,
-                                            CRASH_FLAG: np.asarray(cols.crashed, dtype=bool)})
-    return replace(cols, states=states)
+    return flagged(machine)
 
 
 @contextmanager

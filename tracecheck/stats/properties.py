@@ -48,6 +48,7 @@ from typing import Optional
 from ..b import ast as A
 from ..b.parser import parse_formula
 from ..b.scope import EXPR, PRED, check_kind
+from ..checking.crashflag import CRASH_FLAG
 from ..errors import InputError, TracecheckError, read_text
 
 __all__ = ["Metric", "Property", "HypothesisTest", "PropertySet", "load_properties",
@@ -58,7 +59,6 @@ AGGREGATES = ("steps", "average", "sum", "sum_between_steps", "min", "max", "ret
               "interventions")
 KINDS = ("invariant", "eventually", "final", "ltl", "stl", "end")
 #: the recorded crash flag, a BOOL that every formula can read (see the module docstring)
-CRASH_FLAG = "crashed"
 TAILS = ("left", "right", "two")
 
 
