@@ -166,8 +166,7 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
     one_file = len(r.files) == 1
     names = {a for e in matters for a in [e.action, e.alternative, *(e.enabled or [])] if a}
     codes = abbreviations(names)
-    table = Table(title="episodes that matter", box=None, show_lines=False, padding=(0, 1),
-                  pad_edge=False)
+    table = Table(title="episodes that matter", box=None, show_lines=False, padding=(0, 1))
     _, short_header, crash_cell = crash_column(r)
     headers = SHORT_HEADERS[:8] + [short_header] + SHORT_HEADERS[9:]
     shown = [_row(e, crash_cell, lambda a: codes.get(a, a)) for e in matters[:rows]]
