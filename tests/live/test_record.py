@@ -22,7 +22,8 @@ from tracecheck.errors import InputError
 from tracecheck.live.envs.highway import ENV_ID, env_config
 from tracecheck.live.record import RecordSettings, record
 from tracecheck.checking.replay import replay
-from tracecheck.checking.resimulate import OUTCOMES, resimulate, summary
+from tracecheck.checking.replay import OUTCOMES
+from tracecheck.checking.resimulate import resimulate, summary
 from tracecheck.checking.shield import load_shield
 
 BASE = ROOT / "models" / "agents" / "base.zip"

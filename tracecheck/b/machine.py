@@ -312,18 +312,19 @@ class Machine:
 
     def violated_invariant(self, state: Mapping[str, Any]) -> list[str]:
         """The INVARIANT conjuncts that do not hold in ``state`` (as source text)."""
-        if self.invariant_node is None:
-            return []
-        env = self.env(state)
-        comp = self.compiler()
-        return [render(c, self.source) for c in conjuncts(self.invariant_node)
-                if not comp.compile(c)(env)]
+        return self._conjunct_results(state, tolerate=False)[0]
 
     def invariant_check(self, state: Mapping[str, Any]
                         ) -> tuple[list[str], list[tuple[str, str]]]:
         """(the INVARIANT conjuncts that do not hold in ``state``, (conjunct, reason) for
         those that cannot be evaluated there, e.g. ``x has no value here``), as source text:
         for a partial state too (``tracecheck guards``)."""
+        return self._conjunct_results(state, tolerate=True)
+
+    def _conjunct_results(self, state: Mapping[str, Any], tolerate: bool
+                          ) -> tuple[list[str], list[tuple[str, str]]]:
+        """(broken conjuncts, (conjunct, reason) of those that cannot be evaluated — an
+        :class:`EvaluationError` propagates unless ``tolerate``)."""
         if self.invariant_node is None:
             return [], []
         env = self.env(state)
@@ -334,6 +335,8 @@ class Machine:
                 if not comp.compile(c)(env):
                     broken.append(render(c, self.source))
             except EvaluationError as exc:
+                if not tolerate:
+                    raise
                 unchecked.append((render(c, self.source), exc.message))
         return broken, unchecked
 

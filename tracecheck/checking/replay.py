@@ -83,7 +83,7 @@ class ReplayReport:
 
     def resimulated(self) -> Optional[dict[tuple[str, int], str]]:
         """With a re-simulation (``resimulation`` set): per (file, episode) what it found, one
-        of :data:`tracecheck.checking.resimulate.OUTCOMES`, or ``NEVER_BLOCKED`` for a crash
+        of :data:`OUTCOMES`, or ``NEVER_BLOCKED`` for a crash
         the shield would not have intervened in, or "" (neither); None without one. Every
         output's episode table shows this, so the table and the re-simulation lines agree."""
         if self.resimulation is None:

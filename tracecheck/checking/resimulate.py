@@ -16,11 +16,11 @@ from ..live.agents import file_sha256
 from ..episodes.columns import RunColumns, read_columns
 from ..episodes.reader import read_header
 from ..errors import InputError, printable
-from .replay import (MISMATCH, NEW_CRASH, NO_CRASH, NO_SEED, NOT_PREVENTED, OUTCOMES,  # noqa: F401
-                     PREVENTED, ReplayReport)
+from .replay import (MISMATCH, NEW_CRASH, NO_CRASH, NO_SEED, NOT_PREVENTED, OUTCOMES, PREVENTED,
+                     ReplayReport)
 from .shield import SHIELD_DIR, Shield
 
-__all__ = ["resimulate", "Resimulation", "OUTCOMES", "summary"]
+__all__ = ["resimulate", "Resimulation", "summary"]
 
 AGENT_DIR = SHIELD_DIR.parent / "agents"
 TOLERANCE = 1e-6

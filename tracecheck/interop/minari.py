@@ -431,11 +431,13 @@ def import_minari(dataset_id: str, adapter_name: str, *,
             _check_finite(data.observations, n, where)
             check_observations(data.observations, dataset.observation_space, n, where)
             check_infos(data.infos, n, len(adapter.actions), where)
+            rewards = np.asarray(data.rewards[:n], dtype=float)
+            bad = np.flatnonzero(~np.isfinite(rewards))  # checked at once, not step by step
+            if bad.size:
+                raise InputError(f"{where}, step {bad[0] + 1}: the reward is {rewards[bad[0]]}")
             for k in range(n + 1):
                 crashed = bool(k == n and n and data.terminations[-1])
-                reward = 0.0 if k == 0 else float(data.rewards[k - 1])
-                if not np.isfinite(reward):
-                    raise InputError(f"{where}, step {k}: the reward is {reward}")
+                reward = 0.0 if k == 0 else float(rewards[k - 1])
                 try:
                     state = observer.state(data.observations[k], {"crashed": crashed}, reward,
                                            initial=k == 0)

@@ -188,16 +188,18 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
                  what="folder of viewer pages", contents=("*.html",))
     if resimulate and shield is None:
         raise InputError("--resimulate needs --shield: the shield to re-simulate under")
+    columns = []
     for run in runs:
         if not Path(run).exists():
             raise InputError(f"no such file: {run}")
-        if not len(read_columns(run).episode_ids):
+        columns.append(read_columns(run))  # read once: statistics below takes them
+        if not len(columns[-1].episode_ids):
             raise InputError(f"{run} holds no complete episode: nothing to report")
     stems, taken = [Path(r).stem for r in runs], set()
     page_stem = {str(r): safe_name(stem if stems.count(stem) == 1 else f"{stem}_{i + 1}", taken)
                  for i, (r, stem) in enumerate(zip(runs, stems))}
     checked = [_check_run(run, shield, resimulate, agent, env) for run in runs]
-    result = statistics(runs, pset, adapter=adapter)
+    result = statistics(runs, pset, columns=columns, adapter=adapter)
     parts = [f"<h1>tracecheck validation report</h1><p class='note'>"
              f"{len(runs)} run(s)" + (f"; shield {_e(shield.name)} (sha256 {_e(shield.sha256)})"
                                       if shield is not None else "; no shield to replay")

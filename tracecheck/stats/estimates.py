@@ -27,7 +27,7 @@ from ..checking.crashflag import CRASH_FLAG, flagged, with_crash_flag
 from .properties import Metric, Property, PropertySet, load_properties, with_generic
 
 __all__ = ["RunValues", "StatsResult", "evaluate_run", "statistics", "INTERVALS",
-           "default_set", "adapter_set", "run_adapter"]
+           "default_set", "adapter_set"]
 
 INTERVALS = {"wilson": "wilson", "clopper-pearson": "exact"}
 
@@ -62,7 +62,7 @@ def environment_of(path: str | Path) -> str:
     return header.model_name or "unnamed"
 
 
-def run_adapter(environment, *, required: bool = True):
+def _installed_adapter(environment, *, required: bool = True):
     """The adapter of an environment name (installed adapters only: a name in a file is
     never imported), or the adapter itself; None when ``required`` is False and it is not
     installed."""
@@ -96,7 +96,7 @@ def _typing_scope(environment="highway", sample: Optional[dict] = None) -> _Scop
     from ..b.typecheck import BOOL, type_of_value
     from ..checking.shield import load_shield
 
-    adapter = run_adapter(environment, required=False)
+    adapter = _installed_adapter(environment, required=False)
     if adapter is not None and adapter.default_shield is not None:
         machine = load_shield(adapter.default_shield).machine
         names, constants, variables = (dict(machine.type_objects), dict(machine.base_env),
@@ -138,7 +138,7 @@ def default_set(paths: list[str | Path], adapter=None) -> tuple[PropertySet, lis
     """The generic set with the runs' environment's own set added where it has one (its
     adapter given, or installed), and notes for people (an adapter not installed here)."""
     environment = environment_of(paths[0]) if paths else "highway"
-    adapter = adapter if adapter is not None else run_adapter(environment, required=False)
+    adapter = adapter if adapter is not None else _installed_adapter(environment, required=False)
     if adapter is None:
         return with_generic(None), [
             f"the environment {environment} of these runs is not installed here: generic "
@@ -196,7 +196,7 @@ def _machine(environment):
     with the recorded crash flag as one more variable (unless it has a ``crashed``)."""
     from ..checking.shield import load_shield
 
-    adapter = run_adapter(environment)
+    adapter = _installed_adapter(environment)
     if adapter.default_shield is None:
         raise InputError(f"the environment {adapter.name} names no machine to read LTL and "
                          "STL properties in: its adapter has no default_shield",
