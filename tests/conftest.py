@@ -1,19 +1,19 @@
-"""Shared fixtures: tiny machines, and the paper's traces from ../shared (skipped if absent)."""
+"""Shared fixtures: tiny machines, the paper's traces from ../shared (skipped if absent), the
+user's own environment acc with an agent and runs, and replay's toy shield and run."""
 
 from __future__ import annotations
 
-import json
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
 
+from tests.helpers import (ACC_ENV, ACC_V2, PAPER_SHIELD, PAPER_TRACES, TOY, VS, acc_installed,
+                           forget_acc, state)
 from tracecheck.b.machine import load_machine, load_machine_text
-from tracecheck.b.values import parse_literal
-
-ROOT = Path(__file__).resolve().parents[1]
-PAPER_SHIELD = ROOT / "models" / "shields" / "paper.mch"
-PAPER_TRACES = ROOT.parent / "shared" / "data" / "paper-traces"
+from tracecheck.b.values import FuncValue
+from tracecheck.checking.shield import load_shield
+from tracecheck.episodes import EpisodeWriter, new_header
+from tracecheck.episodes.model import Episode, StepRecord, make_end
 
 COIN_TOSS = """
 MACHINE CoinToss
@@ -45,56 +45,6 @@ def paper_traces() -> Path:
     return PAPER_TRACES
 
 
-def simb_states(path: Path) -> list[tuple[str, dict]]:
-    """(operation, state after it) for each activation of a SimB trace that has a state."""
-    data = json.loads(path.read_text())
-    out = []
-    for act in data["activations"]:
-        if act.get("fixedVariables"):
-            state = {k: parse_literal(v) for k, v in act["fixedVariables"].items()}
-            out.append((act["execute"], state))
-    return out
-
-
-# ------------------------------------------------------------------ a user's own environment
-
-#: A user's environment package outside tracecheck (1-D adaptive cruise control): an adapter
-#: ``acc_cruise:ACC`` registered as the entry point ``acc``, two shields (v1 may deadlock).
-ACC_ENV = ROOT / "tests" / "fixtures" / "acc_env"
-ACC_SPEC = "acc_cruise:ACC"
-ACC_V1 = ACC_ENV / "acc_cruise" / "acc_v1.mch"
-ACC_V2 = ACC_ENV / "acc_cruise" / "acc_v2.mch"
-
-
-def _forget_acc() -> None:
-    """Forget what was found of the acc package (its module, the entry points scanned)."""
-    import importlib
-    import sys
-
-    from tracecheck.live import adapter
-
-    for name in [m for m in sys.modules if m == "acc_cruise" or m.startswith("acc_cruise.")]:
-        del sys.modules[name]
-    importlib.invalidate_caches()
-    adapter._entry_points.cache_clear()
-
-
-@contextmanager
-def acc_installed(monkeypatch: pytest.MonkeyPatch):
-    """The acc environment installed while inside: on ``sys.path`` (its dist-info makes the
-    entry point ``acc``) and on ``PYTHONPATH`` for subprocesses."""
-    import os
-
-    monkeypatch.syspath_prepend(str(ACC_ENV))
-    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(
-        [str(ACC_ENV), str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]))
-    _forget_acc()
-    try:
-        yield
-    finally:
-        _forget_acc()
-
-
 @pytest.fixture
 def acc_env(monkeypatch):
     """The acc environment installed for one test (in process and for subprocesses); after
@@ -102,7 +52,7 @@ def acc_env(monkeypatch):
     with acc_installed(monkeypatch):
         yield ACC_ENV
     monkeypatch.undo()
-    _forget_acc()
+    forget_acc()
 
 
 @pytest.fixture(scope="session")
@@ -114,7 +64,7 @@ def acc_agent(tmp_path_factory) -> Path:
         import acc_cruise
 
         acc_cruise.make_agent(path)
-    _forget_acc()
+    forget_acc()
     return path
 
 
@@ -134,5 +84,49 @@ def acc_runs(acc_agent, tmp_path_factory) -> dict[str, Path]:
                       str(acc_agent), "--shield", shield, "-n", "6", "--seed", "0",
                       "-o", str(out)])
             assert stop.value.code in (0, None)
-    _forget_acc()
+    forget_acc()
     return runs
+
+
+# ------------------------------------------------------------------ replay's toy shield and run
+
+
+@pytest.fixture(scope="module")
+def toy(tmp_path_factory):
+    path = tmp_path_factory.mktemp("shield") / "toy.mch"
+    path.write_text(TOY)
+    return load_shield(path)
+
+
+def step(k, action, x, reward=0.5, crash=False, vx=25.0, values=None):
+    s = state(x, crash, reward)
+    s["VehiclesVx"] = FuncValue({**s["VehiclesVx"].map, VS[0]: vx})
+    return StepRecord(step=k, time=float(k), action=action, state=s, reward=reward,
+                      crashed=crash, action_values=values)
+
+
+def ep(eid, steps):
+    steps = tuple(steps)
+    return Episode(id=eid, steps=steps, end=make_end(steps))
+
+
+@pytest.fixture(scope="module")
+def run_file(tmp_path_factory):
+    q = {"IDLE": 0.1, "LANE_LEFT": 0.2, "LANE_RIGHT": 0.05, "FASTER": 0.9, "SLOWER": 0.3}
+    episodes = [
+        # FASTER at x = 160 (state before step 3) is infeasible; the crash comes after it
+        ep(0, [step(0, None, 100.0), step(1, "FASTER", 120.0), step(2, "IDLE", 160.0),
+               step(3, "FASTER", 180.0, values=None), step(4, "IDLE", 190.0, crash=True)]),
+        # a deadlock state (negative reward) and an invariant violation (reward 20)
+        ep(1, [step(0, None, 100.0), step(1, "IDLE", 110.0, reward=-1.0),
+               step(2, "IDLE", 120.0, reward=20.0)]),
+        # SLOWER that speeds up: a postcondition violation; the values that chose step 2's
+        # action are recorded with step 2
+        ep(2, [step(0, None, 100.0), step(1, "IDLE", 200.0),
+               step(2, "FASTER", 210.0, values=q), step(3, "SLOWER", 215.0, vx=27.0)]),
+    ]
+    path = tmp_path_factory.mktemp("run") / "hand.mcap"
+    with EpisodeWriter(path, new_header("recorded")) as w:
+        for e in episodes:
+            w.write(e)
+    return path

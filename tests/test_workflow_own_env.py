@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.conftest import ACC_ENV, ACC_SPEC, ACC_V1, ACC_V2, ROOT
+from tests.helpers import ACC_ENV, ACC_SPEC, ACC_V1, ACC_V2, ROOT
 
 pytest.importorskip("stable_baselines3", reason="the agents extra is not installed")
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.conftest import simb_states
+from tests.helpers import simb_states
 from tracecheck.b.machine import load_machine, load_machine_text
 from tracecheck.b.values import Elem, FuncValue
 from tracecheck.errors import (BScopeError, BSyntaxError, BTypeError, InputError, ModelError,

@@ -11,8 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tests.cli.test_cli import run
-from tests.conftest import ROOT
+from tests.helpers import ROOT, run
 from tracecheck.b.machine import load_machine_text
 from tracecheck.b.vector import Columns
 from tracecheck.checking.ltl import check_ltl, evaluate_ltl, parse_ltl, reference_ltl
@@ -132,7 +131,7 @@ def test_a_bound_past_every_end_is_the_unbounded_operator(capsys, tmp_path):
     with pytest.raises(BSyntaxError, match=r"the bounds \[999999999999…\(5000 digits\),5\] "
                                            "are empty"):
         parse_ltl(f"F[{'9' * 5000},5] true", TOY)
-    from tests.episodes.conftest import episode
+    from tests.helpers import episode
     from tracecheck.episodes import EpisodeWriter, new_header
 
     path = tmp_path / "run.mcap"
@@ -164,7 +163,7 @@ def test_formulas_with_mistakes_are_located(text, error, message):
 
 
 def test_replay_checks_formulas_on_every_episode(capsys, tmp_path):
-    from tests.episodes.conftest import episode
+    from tests.helpers import episode
     from tracecheck.episodes import EpisodeWriter, new_header
 
     path = tmp_path / "run.mcap"

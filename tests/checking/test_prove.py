@@ -8,7 +8,7 @@ import json
 
 import pytest
 
-from tests.cli.test_cli import run
+from tests.helpers import run
 from tracecheck.b.machine import load_machine_text
 from tracecheck.errors import InputError
 

@@ -9,8 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tests.conftest import ROOT
-from tests.episodes.conftest import VS, state
+from tests.helpers import ROOT, TOY, VS, state
 from tracecheck.b.values import FuncValue
 from tracecheck.episodes import EpisodeWriter, new_header, read_columns
 from tracecheck.episodes.files import write_run
@@ -19,76 +18,6 @@ from tracecheck.errors import InputError, TracecheckError
 from tracecheck.interop import import_simb
 from tracecheck.checking.replay import diff, enabled_matrix, replay
 from tracecheck.checking.shield import load_shield
-
-TOY = """
-MACHINE Toy
-SETS Vehicles = {EgoVehicle, Vehicles2, Vehicles3}
-VARIABLES Crash, PresentVehicles, VehiclesX, VehiclesY, VehiclesVx, VehiclesVy, VehiclesAx,
-          VehiclesAy, Reward
-INVARIANT Crash : BOOL & PresentVehicles <: Vehicles & VehiclesX : Vehicles --> REAL &
-    VehiclesY : Vehicles --> REAL & VehiclesVx : Vehicles --> REAL &
-    VehiclesVy : Vehicles --> REAL & VehiclesAx : Vehicles --> REAL &
-    VehiclesAy : Vehicles --> REAL & Reward : REAL & Reward <= 10.0
-DEFINITIONS
-    OK == Reward >= 0.0;
-    FREE == Crash :: BOOL || PresentVehicles :: POW(Vehicles) ||
-        VehiclesX :: Vehicles --> REAL || VehiclesY :: Vehicles --> REAL ||
-        VehiclesVy :: Vehicles --> REAL || VehiclesAx :: Vehicles --> REAL ||
-        VehiclesAy :: Vehicles --> REAL || Reward :: REAL
-INITIALISATION FREE || VehiclesVx :: Vehicles --> REAL
-OPERATIONS
-    IDLE = SELECT OK THEN FREE || VehiclesVx :: Vehicles --> REAL END;
-    LANE_LEFT = SELECT OK THEN FREE || VehiclesVx :: Vehicles --> REAL END;
-    LANE_RIGHT = SELECT OK THEN FREE || VehiclesVx :: Vehicles --> REAL END;
-    FASTER = SELECT OK & VehiclesX(EgoVehicle) < 150.0 THEN
-        FREE || VehiclesVx :: Vehicles --> REAL END;
-    SLOWER = SELECT OK THEN FREE ||
-        VehiclesVx : (VehiclesVx : Vehicles --> REAL &
-                      VehiclesVx(EgoVehicle) <= VehiclesVx$0(EgoVehicle)) END
-END
-"""
-
-
-@pytest.fixture(scope="module")
-def toy(tmp_path_factory):
-    path = tmp_path_factory.mktemp("shield") / "toy.mch"
-    path.write_text(TOY)
-    return load_shield(path)
-
-
-def step(k, action, x, reward=0.5, crash=False, vx=25.0, values=None):
-    s = state(x, crash, reward)
-    s["VehiclesVx"] = FuncValue({**s["VehiclesVx"].map, VS[0]: vx})
-    return StepRecord(step=k, time=float(k), action=action, state=s, reward=reward,
-                      crashed=crash, action_values=values)
-
-
-def ep(eid, steps):
-    steps = tuple(steps)
-    return Episode(id=eid, steps=steps, end=make_end(steps))
-
-
-@pytest.fixture(scope="module")
-def run_file(tmp_path_factory):
-    q = {"IDLE": 0.1, "LANE_LEFT": 0.2, "LANE_RIGHT": 0.05, "FASTER": 0.9, "SLOWER": 0.3}
-    episodes = [
-        # FASTER at x = 160 (state before step 3) is infeasible; the crash comes after it
-        ep(0, [step(0, None, 100.0), step(1, "FASTER", 120.0), step(2, "IDLE", 160.0),
-               step(3, "FASTER", 180.0, values=None), step(4, "IDLE", 190.0, crash=True)]),
-        # a deadlock state (negative reward) and an invariant violation (reward 20)
-        ep(1, [step(0, None, 100.0), step(1, "IDLE", 110.0, reward=-1.0),
-               step(2, "IDLE", 120.0, reward=20.0)]),
-        # SLOWER that speeds up: a postcondition violation; the values that chose step 2's
-        # action are recorded with step 2
-        ep(2, [step(0, None, 100.0), step(1, "IDLE", 200.0),
-               step(2, "FASTER", 210.0, values=q), step(3, "SLOWER", 215.0, vx=27.0)]),
-    ]
-    path = tmp_path_factory.mktemp("run") / "hand.mcap"
-    with EpisodeWriter(path, new_header("recorded")) as w:
-        for e in episodes:
-            w.write(e)
-    return path
-
 
 def test_hand_built_episodes(toy, run_file):
     report = replay([run_file], toy)

@@ -8,8 +8,7 @@ import re
 
 import pytest
 
-from tests.cli.test_cli import run
-from tests.conftest import ROOT
+from tests.helpers import ROOT, run
 from tracecheck.b.machine import load_machine_text
 from tracecheck.checking.shield import load_shield
 

@@ -8,19 +8,9 @@ import sys
 
 import pytest
 
-from tests.conftest import ROOT
-from tracecheck.cli import main
+from tests.helpers import ROOT, run
 
 TABLE1 = str(ROOT / "models" / "shields" / "paper.mch")
-
-
-def run(capsys, *args):
-    """(exit code, stdout, stderr) of ``tracecheck ARGS`` run in this process (paths and
-    numbers as their text)."""
-    with pytest.raises(SystemExit) as info:
-        main([str(a) for a in args])
-    captured = capsys.readouterr()
-    return info.value.code or 0, captured.out, captured.err
 
 
 def test_version(capsys):

@@ -9,8 +9,7 @@ import sys
 
 import pytest
 
-from tests.conftest import ACC_SPEC, ACC_V1, ACC_V2
-from tests.cli.test_cli import run
+from tests.helpers import ACC_SPEC, ACC_V1, ACC_V2, run
 from tracecheck.episodes.reader import read_episodes
 
 

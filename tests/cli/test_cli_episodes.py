@@ -6,8 +6,7 @@ import json
 
 import pytest
 
-from tests.episodes.conftest import episode
-from tests.cli.test_cli import run
+from tests.helpers import episode, run
 from tracecheck.episodes import EpisodeWriter, new_header
 
 

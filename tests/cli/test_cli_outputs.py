@@ -11,8 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.cli.test_cli import run
-from tests.conftest import ROOT
+from tests.helpers import ROOT, run
 
 SAMPLE = ROOT / "sample_traces" / "base_none.mcap"
 

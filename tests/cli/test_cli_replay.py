@@ -8,9 +8,8 @@ import json
 
 import pytest
 
-from tests.cli.test_cli import run
+from tests.helpers import TOY, run
 from tracecheck.cli import main
-from tests.checking.test_replay import TOY, run_file, toy  # noqa: F401 - fixtures
 from tracecheck.episodes import new_header
 from tracecheck.episodes.files import write_run
 from tracecheck.interop import import_simb
@@ -52,7 +51,7 @@ def test_replay_markdown(capsys, base):
     assert "| file | episode | steps | first infeasible |" in out
 
 
-def test_replay_hand_built(capsys, run_file, tmp_path):  # noqa: F811
+def test_replay_hand_built(capsys, run_file, tmp_path):
     shield = tmp_path / "toy.mch"
     shield.write_text(TOY)
     code, out, err = run(capsys, "replay", str(run_file), "--shield", str(shield), "--json",
@@ -80,7 +79,7 @@ def test_diff_cli(capsys, base):
 
 
 def test_diff_two_versions_of_a_file(capsys, base, tmp_path):
-    from tests.conftest import PAPER_SHIELD
+    from tests.helpers import PAPER_SHIELD
 
     old = tmp_path / "old.mch"
     old.write_text(PAPER_SHIELD.read_text().replace("FrontWithin(40.0)", "FrontWithin(30.0)"))
@@ -142,7 +141,7 @@ def test_a_file_that_is_no_tracecheck_run_is_an_error_for_every_command(kind, tm
 
 
 def test_replay_lists_the_first_episodes_that_matter_or_all(capsys, tmp_path):
-    from tests.episodes.conftest import episode
+    from tests.helpers import episode
     from tracecheck.episodes import EpisodeWriter, new_header
 
     path = tmp_path / "many.mcap"
@@ -159,7 +158,7 @@ def test_replay_lists_the_first_episodes_that_matter_or_all(capsys, tmp_path):
 def test_the_replay_report_fits_80_columns_without_breaking_words(capsys):
     """The main job's output: every line within 80 columns, headers whole, actions
     abbreviated and explained once."""
-    from tests.conftest import ROOT
+    from tests.helpers import ROOT
 
     none = ROOT / "sample_traces" / "base_none.mcap"
     code, out, _ = run(capsys, "replay", str(none), "--shield", "paper")
@@ -187,7 +186,7 @@ def test_action_codes_are_unique_initials():
 
 
 def test_the_diff_report_fits_80_columns(capsys):
-    from tests.conftest import ROOT
+    from tests.helpers import ROOT
 
     none = ROOT / "sample_traces" / "base_none.mcap"
     code, out, _ = run(capsys, "diff", str(none), "--shield", "strict", "--against", "paper")
@@ -319,7 +318,7 @@ def test_fail_on_mismatch(capsys, corridor, tmp_path):
 def test_diff_prints_no_markup_and_names_as_they_are(capsys, tmp_path):
     """Bug 3: the headline was printed as ``[bold]Shield …[/bold]``; a shield file with
     brackets in its name is printed as it is, too."""
-    from tests.conftest import PAPER_SHIELD, ROOT
+    from tests.helpers import PAPER_SHIELD, ROOT
 
     odd = tmp_path / "paper[bold]v2.mch"
     odd.write_text(PAPER_SHIELD.read_text())
@@ -360,7 +359,7 @@ def test_diff_symbolic_names_two_versions_of_one_machine_by_file(capsys, tmp_pat
 def test_replay_ltl_reads_the_recorded_crash_flag(capsys, tmp_path):
     """The README: the crash flag `crashed` is usable in every LTL formula — `replay --ltl`
     and the viewer's marks too, not only property files (it was "unknown identifier")."""
-    from tests.conftest import ROOT
+    from tests.helpers import ROOT
 
     sample = ROOT / "sample_traces" / "base_none.mcap"
     code, out, err = run(capsys, "replay", sample, "--shield", "paper", "--ltl",
@@ -381,7 +380,7 @@ def test_replay_ltl_reads_the_recorded_crash_flag(capsys, tmp_path):
 
 
 def test_an_unknown_name_in_an_ltl_atom_names_what_atoms_read(capsys):
-    from tests.conftest import ROOT
+    from tests.helpers import ROOT
 
     code, _, err = run(capsys, "replay", ROOT / "sample_traces" / "base_none.mcap",
                        "--shield", "paper", "--ltl", "G({crashd = FALSE})")
@@ -391,7 +390,7 @@ def test_an_unknown_name_in_an_ltl_atom_names_what_atoms_read(capsys):
     assert "--state" not in text and "--model" not in text
 
 
-def test_the_episode_table_never_breaks_a_word_and_csv_lists_every_step(capsys, run_file,  # noqa: F811
+def test_the_episode_table_never_breaks_a_word_and_csv_lists_every_step(capsys, run_file,
                                                                         tmp_path):
     """A shield whose operations change nothing (`skip`) makes every step that moves a
     postcondition violation: the terminal's "other" column printed `postconditio` / `n 1, 2`

@@ -9,8 +9,7 @@ import json
 
 import pytest
 
-from tests.cli.test_cli import run
-from tests.conftest import ROOT
+from tests.helpers import ROOT, run, untimed
 from tracecheck.render.tables import TableData, csv_text, fitted, markdown
 
 NONE = str(ROOT / "sample_traces" / "base_none.mcap")
@@ -57,17 +56,7 @@ def test_csv_md_and_json_of_every_table(capsys, name):
     code2, fmt_json, _ = run(capsys, *args, "--format", "json")
     assert code == code2 == 0
     first, second = json.loads(as_json), json.loads(fmt_json)
-    assert _untimed(first) == _untimed(second)
-
-
-def _untimed(data):
-    """A report without its timings (they differ between runs)."""
-    if isinstance(data, dict):
-        return {k: _untimed(v) for k, v in data.items()
-                if not (k.endswith("_s") or k.endswith("_per_s"))}
-    if isinstance(data, list):
-        return [_untimed(v) for v in data]
-    return data
+    assert untimed(first) == untimed(second)
 
 
 def test_two_formats_at_once_are_refused(capsys):

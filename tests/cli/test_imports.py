@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from tests.conftest import ROOT
+from tests.helpers import ROOT
 
 HEAVY = {"scipy", "matplotlib", "torch", "gymnasium", "highway_env", "stable_baselines3",
          "ray", "pandas", "mcap", "numpy", "orjson"}

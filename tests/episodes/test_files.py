@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.episodes.conftest import episode
+from tests.helpers import episode
 from tracecheck.episodes.columns import read_columns
 from tracecheck.episodes.files import recording_into, write_run
 from tracecheck.episodes.writer import new_header

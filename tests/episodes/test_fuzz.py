@@ -9,7 +9,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from benchmarks.fuzz_files import SIMB, Fuzzer
+from tests.damaged_files import SIMB, Fuzzer
 
 pytestmark = pytest.mark.skipif(not SIMB.is_dir(), reason=f"the paper's traces are not at {SIMB}")
 

@@ -13,8 +13,7 @@ import warnings
 import lz4.frame
 import pytest
 
-from tests.cli.test_cli import run
-from tests.episodes.conftest import episode
+from tests.helpers import episode, run
 from tracecheck.episodes import (EpisodeWriter, new_header, read_columns, read_episodes,
                                  read_run)
 from tracecheck.episodes import writer as W

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from tests.conftest import ROOT
+from tests.helpers import ROOT
 from tracecheck.episodes.records import Attachment, walk
 from tracecheck.episodes import (DamagedFileWarning, EpisodeWriter, new_header, read_columns,
                                  read_episodes, read_run)

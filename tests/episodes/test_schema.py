@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from tests.conftest import ROOT
+from tests.helpers import ROOT
 from tracecheck.episodes import schema as S
 
 

@@ -9,71 +9,12 @@ import jsonschema
 import pytest
 from mcap.reader import make_reader
 
-from tests.cli.test_cli import run
-from tests.cli.test_formats import _untimed
-from tests.conftest import ROOT
+from tests.helpers import ROOT, run, untimed
+from tests.interop.foxglove_schemas import PUBLISHED
 from tracecheck.episodes.model import StepRecord
 from tracecheck.interop.foxglove import SCHEMAS, TOPICS, step_messages
 
 PAPER = ROOT / "sample_traces" / "base_paper.mcap"
-
-# Written from Foxglove's published JSON schemas (foxglove-sdk, schemas/jsonschema): every
-# field tracecheck writes with its type, and no other field (a misspelt key fails).
-_TIME = {"type": "object", "additionalProperties": False, "required": ["sec", "nsec"],
-         "properties": {"sec": {"type": "integer", "minimum": 0},
-                        "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999}}}
-
-
-def _closed(*keys):
-    return {"type": "object", "additionalProperties": False, "required": list(keys),
-            "properties": {k: {"type": "number"} for k in keys}}
-
-
-PUBLISHED = {
-    "foxglove.SceneUpdate": {
-        "type": "object", "additionalProperties": False, "required": ["deletions", "entities"],
-        "properties": {
-            "deletions": {"type": "array", "items": {
-                "type": "object", "additionalProperties": False,
-                "required": ["timestamp", "type", "id"],
-                "properties": {"timestamp": _TIME, "type": {"enum": [0, 1]},
-                               "id": {"type": "string"}}}},
-            "entities": {"type": "array", "items": {
-                "type": "object", "additionalProperties": False,
-                "required": ["timestamp", "frame_id", "id", "lifetime", "frame_locked",
-                             "metadata", "arrows", "cubes", "spheres", "cylinders", "lines",
-                             "triangles", "texts", "models"],
-                "properties": {
-                    "timestamp": _TIME, "frame_id": {"type": "string"},
-                    "id": {"type": "string"}, "lifetime": _TIME,
-                    "frame_locked": {"type": "boolean"},
-                    "metadata": {"type": "array", "items": {
-                        "type": "object", "additionalProperties": False,
-                        "required": ["key", "value"],
-                        "properties": {"key": {"type": "string"}, "value": {"type": "string"}}}},
-                    "cubes": {"type": "array", "items": {
-                        "type": "object", "additionalProperties": False,
-                        "required": ["pose", "size", "color"],
-                        "properties": {
-                            "pose": {"type": "object", "additionalProperties": False,
-                                     "required": ["position", "orientation"],
-                                     "properties": {"position": _closed("x", "y", "z"),
-                                                    "orientation": _closed("x", "y", "z", "w")}},
-                            "size": _closed("x", "y", "z"),
-                            "color": _closed("r", "g", "b", "a")}}},
-                    **{k: {"type": "array"} for k in ("arrows", "spheres", "cylinders",
-                                                      "lines", "triangles", "texts",
-                                                      "models")}}}}}},
-    "foxglove.Log": {
-        "type": "object", "additionalProperties": False,
-        "required": ["timestamp", "level", "message", "name", "file", "line"],
-        "properties": {"timestamp": _TIME, "level": {"enum": [0, 1, 2, 3, 4, 5]},
-                       "message": {"type": "string"}, "name": {"type": "string"},
-                       "file": {"type": "string"}, "line": {"type": "integer", "minimum": 0}}},
-    "tracecheck.Scalar": {"type": "object", "additionalProperties": False,
-                          "required": ["value"], "properties": {"value": {"type": "number"}}},
-}
-
 
 def channels_and_messages(path):
     """topic -> (schema name, schema encoding, [decoded messages])."""
@@ -131,7 +72,7 @@ def test_export_keeps_what_tracecheck_reads(capsys, exported):
     for path in (PAPER, exported):
         code, out, _ = run(capsys, "replay", str(path), "--shield", "paper", "--json")
         assert code == 0
-        data = _untimed(json.loads(out))
+        data = untimed(json.loads(out))
         data.pop("files")
         for e in data["per_episode"]:
             e.pop("file")

@@ -8,9 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from tests.cli.test_cli import run
-from tests.cli.test_formats import _untimed
-from tests.conftest import ROOT
+from tests.helpers import ROOT, run, untimed
 from tracecheck.episodes.codec import encode_state
 from tracecheck.episodes.reader import read_run
 
@@ -31,7 +29,7 @@ def datasets(tmp_path, monkeypatch):
 def _replay(capsys, path, shield="paper"):
     code, out, _ = run(capsys, "replay", str(path), "--shield", shield, "--json")
     assert code == 0
-    data = _untimed(json.loads(out))
+    data = untimed(json.loads(out))
     data.pop("files")
     for e in data["per_episode"]:
         e.pop("file")

@@ -16,7 +16,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from tests.cli.test_cli import run
+from tests.helpers import run
 from tests.live.toy import left_leaning_table
 from tracecheck.episodes.reader import read_run
 

@@ -6,8 +6,7 @@ import json
 
 import pytest
 
-from tests.conftest import ROOT
-from tests.episodes.conftest import episode as make_episode
+from tests.helpers import ROOT, episode as make_episode
 from tracecheck.b.machine import load_machine
 from tracecheck.episodes.model import HIGHWAY
 from tracecheck.errors import InputError

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from tests.conftest import ROOT
+from tests.helpers import ROOT
 from tracecheck.cli import main
 from tracecheck.episodes.reader import read_episodes, read_header
 from tracecheck.live.adapter import get_adapter, load_adapter

@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from tests.conftest import ROOT
+from tests.helpers import ROOT
 from tracecheck.episodes import read_run
 from tracecheck.live.record import RecordSettings, record
 

@@ -13,8 +13,7 @@ import zipfile
 
 import pytest
 
-from tests.conftest import ROOT
-from tests.cli.test_cli import run
+from tests.helpers import ROOT, run
 from tracecheck.live.agents import load_agent
 from tracecheck.episodes import EpisodeWriter, read_columns, read_run
 from tracecheck.episodes.model import Episode, StepRecord, make_end

@@ -11,7 +11,7 @@ from contextlib import contextmanager
 import numpy as np
 import pytest
 
-from tests.cli.test_cli import run
+from tests.helpers import run
 from tests.live.toy import SHIELD, Corridor
 from tracecheck.checking.shield import load_shield
 from tracecheck.errors import InputError

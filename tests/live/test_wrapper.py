@@ -180,7 +180,7 @@ def test_the_python_section_of_docs_environments_runs():
     import doctest
     import re
 
-    from tests.conftest import ROOT
+    from tests.helpers import ROOT
 
     text = (ROOT / "docs" / "environments.md").read_text()
     section = text.split("## Using the shield from Python", 1)[1].split("\n## ", 1)[0]

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import ROOT
+from tests.helpers import ROOT
 
 
 def cruise_run(path: Path, *, shielded: bool, episodes: int = 6) -> Path:

@@ -5,10 +5,8 @@ from __future__ import annotations
 import re
 import shutil
 
-import pytest
 
-from tests.conftest import ROOT
-from tests.cli.test_cli import run
+from tests.helpers import ROOT, browser_errors, open_browser, run
 from tracecheck.episodes import EpisodeWriter, new_header
 from tracecheck.render.viewer import episode_data, render_episode
 from tracecheck.checking.shield import load_shield
@@ -94,31 +92,6 @@ def test_report_cli(capsys, tmp_path):
 # ------------------------------------------------------------------ in a real browser
 
 
-def _browser():
-    try:
-        from selenium import webdriver
-        from selenium.webdriver.chrome.service import Service
-    except ImportError:
-        pytest.skip("selenium is not installed (pip install -e '.[test]')")
-    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
-    driver = shutil.which("chromedriver")
-    if not chromium or not driver:
-        pytest.skip("no Chromium/ChromeDriver here (Debian: apt-get install chromium "
-                    "chromium-driver; .ci/run installs them)")
-    opts = webdriver.ChromeOptions()
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                "--no-first-run", "--disable-background-networking",
-                "--disable-component-update", "--disable-sync", "--window-size=1300,900"):
-        opts.add_argument(arg)
-    opts.binary_location = chromium
-    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    return webdriver.Chrome(service=Service(driver), options=opts)
-
-
-def _errors(browser) -> list:
-    return [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
-
-
 def test_viewer_in_a_browser(tmp_path):
     from selenium.webdriver.common.by import By
     from selenium.webdriver.common.keys import Keys
@@ -130,7 +103,7 @@ def test_viewer_in_a_browser(tmp_path):
     page.write_text(render_episode(NONE, 3, shield,
                                    ltl_formulas(shield, ["G({VehiclesVx(EgoVehicle) > 0.0})",
                                                          "G({Crash = FALSE})"])))
-    browser = _browser()
+    browser = open_browser()
     try:
         browser.get(page.as_uri())
         panel = browser.find_element(By.ID, "step")
@@ -146,7 +119,7 @@ def test_viewer_in_a_browser(tmp_path):
         assert "LTL --ltl 2 first violated at step 39" in \
             browser.find_element(By.ID, "summary").text
         assert "LTL --ltl 1 holds" in browser.find_element(By.ID, "summary").text
-        assert _errors(browser) == []
+        assert browser_errors(browser) == []
         assert browser.save_screenshot(str(tmp_path / "episode.png"))
     finally:
         browser.quit()
@@ -160,14 +133,14 @@ def test_report_in_a_browser(tmp_path):
     from tracecheck.render.report import render_report
 
     render_report([NONE], out, shield=load_shield("paper"), pset=HIGHWAY_SET, max_pages=2)
-    browser = _browser()
+    browser = open_browser()
     try:
         browser.get(out.as_uri())
         assert "Episodes that matter" in browser.page_source
         browser.find_element(By.LINK_TEXT, "open").click()
         browser.find_element(By.ID, "forward").click()
         assert browser.find_element(By.ID, "step").text.startswith("step 1")
-        assert _errors(browser) == []
+        assert browser_errors(browser) == []
         assert browser.save_screenshot(str(tmp_path / "report.png"))
     finally:
         browser.quit()
@@ -197,7 +170,7 @@ HOSTILE = "<!--<script>\u2028</script><b>&amp;\u2029"
 
 
 def _hostile_run(path):
-    from tests.episodes.conftest import state
+    from tests.helpers import state
     from tracecheck.episodes.model import Episode, StepRecord, make_end
 
     steps = []

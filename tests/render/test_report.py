@@ -8,7 +8,7 @@ import re
 import numpy as np
 import pytest
 
-from tests.conftest import ROOT
+from tests.helpers import ROOT
 from tracecheck.checking.shield import load_shield
 from tracecheck.render.report import (comparison_sentences, render_report,
                                       resimulation_headline)
@@ -154,7 +154,7 @@ def test_report_text_is_inert(tmp_path):
 
 
 def test_report_resimulate_needs_a_shield(capsys, tmp_path):
-    from tests.cli.test_cli import run
+    from tests.helpers import run
 
     code, _, err = run(capsys, "report", str(NONE), "--resimulate", "-o",
                        str(tmp_path / "r.html"))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import jsonschema
 import pytest
 
-from tests.interop.test_foxglove import PUBLISHED
+from tests.interop.foxglove_schemas import PUBLISHED
 from tracecheck.errors import InputError
 from tracecheck.interop.foxglove import SCHEMAS, scene_entities, step_messages
 from tracecheck.render.scene import Box, Circle, Line, Scene, Text, scene_svg

@@ -8,9 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import ROOT
+from tests.helpers import ROOT, browser_errors, open_browser
 from tests.live.toy import CRUISE_SHIELD, Cruise
-from tests.render.test_render import _browser, _errors
 from tracecheck.checking.shield import load_shield
 from tracecheck.render.scene import GRID_CAPTION, ROAD_CAPTION
 from tracecheck.render.viewer import NO_SCENE, episode_data, render_episode, short_value
@@ -93,7 +92,7 @@ def _read_page(browser, page: Path, shot: str) -> dict:
         "crash": [len(c.find_elements(By.CSS_SELECTOR, "line.crash")) for c in charts],
         "caption": browser.find_element(By.ID, "caption").text,
         "picture": browser.find_element(By.ID, "picture").is_displayed(),
-        "errors": _errors(browser),
+        "errors": browser_errors(browser),
     }
     SCREENS.mkdir(exist_ok=True)
     browser.set_window_size(1400, 1300)
@@ -113,7 +112,7 @@ def test_the_time_series_panel_in_a_browser(cruise_runs, cruise_shield, lake_run
         pages[name] = (tmp_path / f"{name}.html", episode_data(run_, episode, shield,
                                                               adapter=adapter))
         pages[name][0].write_text(render_episode(run_, episode, shield, adapter=adapter))
-    browser = _browser()
+    browser = open_browser()
     try:
         for name, (page, data) in pages.items():
             found = _read_page(browser, page, f"viewer-{name}.png")

@@ -8,8 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from tests.conftest import ACC_SPEC, ROOT
-from tests.cli.test_cli import run
+from tests.helpers import ACC_SPEC, ROOT, run
 from tracecheck.episodes.columns import episode_columns
 from tracecheck.episodes.model import Episode, StepRecord, make_end
 from tracecheck.errors import InputError

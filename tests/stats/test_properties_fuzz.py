@@ -13,9 +13,7 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from tests.cli.test_cli import run
-from tests.stats.test_stats import _strict_json as strict
-from tests.stats.test_stats import hand_run  # noqa: F401 - the fixture
+from tests.helpers import run, strict_json
 
 #: a valid file using every kind of entry: aggregates, an estimate, tests, LTL and STL
 INTACT = {
@@ -127,7 +125,7 @@ def _entries(data: dict) -> dict:
 
 @settings(max_examples=150, deadline=None, suppress_health_check=list(HealthCheck))
 @given(case=mutations())
-def test_mutated_property_files_give_the_intact_answer_or_exit_2(capsys, hand_run, tmp_path,  # noqa: F811
+def test_mutated_property_files_give_the_intact_answer_or_exit_2(capsys, hand_run, tmp_path,
                                                                  reference, case):
     source, touched = case
     path = tmp_path / "props.toml"
@@ -139,7 +137,7 @@ def test_mutated_property_files_give_the_intact_answer_or_exit_2(capsys, hand_ru
         assert str(path) in err or "nested too deeply" in err, err
         return
     assert code == 0, (code, err)
-    got = _entries(strict(out))
+    got = _entries(strict_json(out))
     for key, value in reference.items():
         if touched is not None and key not in touched and key in got:
             assert got[key] == value, (key, source)
@@ -151,7 +149,7 @@ def test_mutated_property_files_give_the_intact_answer_or_exit_2(capsys, hand_ru
 
 
 @pytest.fixture(scope="module")
-def reference(hand_run, tmp_path_factory):  # noqa: F811
+def reference(hand_run, tmp_path_factory):
     """The intact file's statistics, entry by entry, as `stats --json` prints them."""
     from tracecheck.render.jsontext import json_text
     from tracecheck.stats.estimates import statistics
@@ -159,7 +157,7 @@ def reference(hand_run, tmp_path_factory):  # noqa: F811
 
     path = tmp_path_factory.mktemp("fuzz") / "props.toml"
     path.write_text(document(INTACT), encoding="utf-8")
-    return _entries(strict(json_text(statistics([hand_run], load_properties(path)))))
+    return _entries(strict_json(json_text(statistics([hand_run], load_properties(path)))))
 
 
 def test_the_intact_file_is_accepted_and_complete(reference):

@@ -6,8 +6,7 @@ import json
 
 import pytest
 
-from tests.episodes.conftest import state
-from tests.cli.test_cli import run
+from tests.helpers import run, strict_json
 from tracecheck.episodes import EpisodeWriter, new_header
 from tracecheck.episodes.files import write_run
 from tracecheck.episodes.model import Episode, StepRecord, make_end
@@ -46,26 +45,6 @@ def test_paper_tables_on_paper_traces(paper_runs):
             assert round(run_["metrics"][name]["mean"], 2) == mean, name
             assert round(run_["metrics"][name]["sd"], 2) == sd, name
         assert [round(100 * run_["properties"][f"SAF{i}"]["ratio"]) for i in range(1, 7)] == saf
-
-
-def _states(values):
-    steps = []
-    for k, (x, reward, crash) in enumerate(values):
-        s = state(x, crash, reward)
-        steps.append(StepRecord(k, float(k), None if k == 0 else "IDLE", s, reward, crash))
-    steps = tuple(steps)
-    return steps
-
-
-@pytest.fixture(scope="module")
-def hand_run(tmp_path_factory):
-    path = tmp_path_factory.mktemp("hand") / "hand.mcap"
-    ep0 = _states([(100.0, 0.0, False), (110.0, 1.0, False), (130.0, 2.0, False)])
-    ep1 = _states([(100.0, 0.0, False), (150.0, 4.0, True)])
-    with EpisodeWriter(path, new_header("recorded")) as w:
-        w.write(Episode(0, ep0, make_end(ep0), seed=1))
-        w.write(Episode(1, ep1, make_end(ep1), seed=2))
-    return path
 
 
 AGG = """
@@ -142,7 +121,7 @@ def test_intervals_and_tests_against_reference_values(hand_run):
 
 
 def test_paired_comparison_on_sample_traces():
-    from tests.conftest import ROOT
+    from tests.helpers import ROOT
 
     result = statistics([ROOT / "sample_traces" / "base_none.mcap",
                          ROOT / "sample_traces" / "base_paper.mcap"],
@@ -213,7 +192,7 @@ def test_stats_cli(capsys, paper_runs, tmp_path):
 
 
 def test_simulate_stops_when_intervals_are_narrow(capsys, tmp_path):
-    from tests.conftest import ROOT
+    from tests.helpers import ROOT
 
     out = tmp_path / "sim.mcap"
     code, text, err = run(capsys, "simulate", "--agent",
@@ -278,13 +257,6 @@ def test_stl_metrics_and_properties_by_hand(hand_run, tmp_path):
 # ------------------------------------------------------------------ inert outputs, bounds
 
 
-def _strict_json(text: str):
-    def refuse(name):
-        raise AssertionError(f"{name} is not JSON")
-
-    return json.loads(text, parse_constant=refuse)
-
-
 def test_stats_json_is_strict_with_an_infinite_stl_robustness(capsys, hand_run, tmp_path):
     """G[a,b] past every episode's end has robustness +inf: the JSON said Infinity / NaN,
     which is not JSON; now null, with a note saying why."""
@@ -293,7 +265,7 @@ def test_stats_json_is_strict_with_an_infinite_stl_robustness(capsys, hand_run, 
                     'aggregate = "stl"\n[metrics.fine]\nexpression = "Reward"\n')
     code, out, err = run(capsys, "stats", str(hand_run), str(hand_run), "-p", str(path), "--json")
     assert code == 0 and "Warning" not in err, err
-    data = _strict_json(out)
+    data = strict_json(out)
     late = data["runs"][0]["metrics"]["late"]
     assert late["mean"] is None and late["sd"] is None and late["ci95"] == [None, None]
     assert late["mean_note"].startswith("not finite: of 2 episodes, 2 +inf (the formula has no "
@@ -414,7 +386,7 @@ def test_an_integer_too_large_for_a_float_is_an_error_naming_the_row(capsys, tmp
                                                                     fragment):
     """B integers are exact; statistics are floats: an OverflowError traceback before,
     never infinity now. Batch and scalar rows (IF …) give the same answer."""
-    from tests.conftest import ROOT
+    from tests.helpers import ROOT
 
     path = tmp_path / "p.toml"
     path.write_text(f'[metrics.m]\nexpression = "{expression}"\naggregate = "{aggregate}"\n')
@@ -427,7 +399,7 @@ def test_an_integer_too_large_for_a_float_is_an_error_naming_the_row(capsys, tmp
 
 
 def test_an_integer_that_fits_a_float_is_its_value(capsys, tmp_path):
-    from tests.conftest import ROOT
+    from tests.helpers import ROOT
 
     path = tmp_path / "p.toml"
     path.write_text('[metrics.m]\nexpression = "2 ** 1000"\naggregate = "max"\n')
