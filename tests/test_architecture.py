@@ -292,7 +292,8 @@ def test_the_checks_find_what_they_look_for(tmp_path):
         "    low -> high: fake.low.tools -> fake.high.view (fake/low/tools.py:4)"]
     assert "and 1 more" in package_cycles(_package(tmp_path / "twice", {
         "__init__.py": "", "a/__init__.py": "", "b/__init__.py": "",
-        "a/x.py": "from ..b import y\nfrom ..b.y import f, g\n", "b/y.py": "from ..a import x\n"}))[0]
+        "a/x.py": "from ..b import y\nfrom ..b.y import f, g\n",
+        "b/y.py": "from ..a import x\n"}))[0]
     assert upward_imports(pkg, order) == [
         "low imports high, which comes after it: fake.low.tools -> fake.high.view "
         "(fake/low/tools.py:4)"]
