@@ -311,6 +311,9 @@ def safe_name(text: str, taken: Optional[set] = None, *, max_len: int = 80) -> s
 
     >>> safe_name("x/../../escaped")
     'x_._._escaped'
+    >>> taken = set()
+    >>> safe_name("Speed", taken), safe_name("speed", taken), safe_name("CON.txt")
+    ('Speed', 'speed-2', '_CON.txt')
     """
     name = re.sub(r"[^A-Za-z0-9_.-]+", "_", text)
     name = re.sub(r"\.{2,}", ".", name).strip("._-")[:max_len].rstrip("._-") or "unnamed"
@@ -326,7 +329,14 @@ def safe_name(text: str, taken: Optional[set] = None, *, max_len: int = 80) -> s
 
 def inside(folder: Path, name: str) -> Path:
     """``folder / name``, refused (exit 2) unless ``name`` is one plain component that stays
-    inside ``folder``: no separator, NUL, ``.`` or ``..``."""
+    inside ``folder``: no separator, NUL, ``.`` or ``..``.
+
+    >>> inside(Path("plots"), "speed.svg").as_posix()
+    'plots/speed.svg'
+    >>> inside(Path("plots"), "../escaped.svg")
+    Traceback (most recent call last):
+    tracecheck.errors.InputError: the file name '../escaped.svg' would leave the folder plots
+    """
     bad = (not name or name in (".", "..") or "/" in name or "\\" in name or "\0" in name
            or os.sep in name)
     path = Path(folder) / name

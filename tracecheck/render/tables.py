@@ -70,9 +70,15 @@ _MD_LINE = str.maketrans({**_MD, "\r": " ", "\n": " "})
 
 
 def md_text(text: str, *, cell: bool = True) -> str:
-    """``text`` as Markdown that renders as exactly that text: ``|``, backticks and
+    r"""``text`` as Markdown that renders as exactly that text: ``|``, backticks and
     backslashes escaped with a backslash, ``& < >`` as entities (no HTML gets through); a
-    line break is ``<br>`` in a table cell, a space elsewhere (``cell=False``)."""
+    line break is ``<br>`` in a table cell, a space elsewhere (``cell=False``).
+
+    >>> print(md_text("a|b <c>\nd"))
+    a\|b &lt;c&gt;<br>d
+    >>> md_text("two\nlines", cell=False)
+    'two lines'
+    """
     return str(text).replace("\r\n", "\n").translate(_MD_TABLE if cell else _MD_LINE)
 
 
@@ -91,7 +97,13 @@ _FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
 def csv_cell(value):
     """One CSV cell: a number from typed data as it is (``-3.5`` stays a number); text, and
     a float that is not finite (``-inf`` is no number to a spreadsheet), with a ``'`` in
-    front when it starts with ``= + - @``, a tab or a carriage return."""
+    front when it starts with ``= + - @``, a tab or a carriage return.
+
+    >>> csv_cell(-3.5), csv_cell(Number("-3.5")), csv_cell("-3.5"), csv_cell("=SUM(A1:A9)")
+    (-3.5, '-3.5', "'-3.5", "'=SUM(A1:A9)")
+    >>> csv_cell(float("-inf")), csv_cell(None)
+    ("'-inf", '')
+    """
     if isinstance(value, Number) or _is_number(value):
         return value
     text = "" if value is None else str(value)
