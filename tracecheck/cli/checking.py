@@ -128,7 +128,7 @@ def diff_cmd(
     ray_address: Optional[str] = RAY_ADDRESS,
 ) -> None:
     """Compare two shields on every recorded state: which steps does the change block or allow?"""
-    from ..checking.replay import diff
+    from ..checking.diff import diff
     from ..render.text import diff_table, diff_text
 
     fmt = output_format(fmt, as_json)
