@@ -18,6 +18,7 @@ from typing import Iterable, Optional
 import numpy as np
 
 from ..episodes.columns import RunColumns, read_columns
+from .executors import map_files
 from .replay import add_up, enabled_matrix
 from .shield import Shield
 
@@ -78,8 +79,6 @@ def diff(paths: Iterable[str | Path], shield: Shield, against: Shield, *,
     """Evaluate both shields on every recorded state and report what changes from
     ``against`` (the old version, or the baseline) to ``shield``; with
     ``executor="ray"`` each file in a Ray task."""
-    from ..live.executors import map_files
-
     paths = [str(p) for p in paths]
     report = DiffReport(shield=shield.identity, against=against.identity, files=paths)
     start = time.perf_counter()

@@ -20,6 +20,7 @@ from ..b import ast as A
 from ..b.vector import Columns
 from ..episodes.columns import RunColumns, read_columns
 from ..errors import InputError
+from .executors import map_files
 from .shield import Shield
 
 __all__ = ["replay", "ReplayReport", "EpisodeReplay", "enabled_matrix", "add_up", "OUTCOMES",
@@ -308,8 +309,6 @@ def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "loca
 
     With ``executor="ray"`` each file is replayed in a Ray task.
     """
-    from ..live.executors import map_files
-
     paths = [str(p) for p in paths]
     report = ReplayReport(shield=shield.identity, files=paths)
     ltl_formulas(shield, ltl, ltl_assertions)  # errors before any file is read

@@ -84,7 +84,7 @@ def replay_cmd(
 
 def _resimulate(runs: list[Path], shield, report, agent: Optional[Path],
                 env: Optional[str] = None) -> dict:
-    from ..checking.resimulate import resimulate, summary
+    from ..live.resimulate import resimulate, summary
 
     results = []
     todo = sum(e.first_infeasible is not None for e in report.per_episode)
