@@ -30,7 +30,8 @@ from typing import Callable, Optional, Union
 
 from ..errors import InputError, TracecheckError, UnsupportedError, WellDefinednessError
 from .obligations import Given
-from .smt import ElementFunction, ElementSet, Translator, load_z3, state_of_model
+from .encoding import ElementFunction, ElementSet, load_z3, state_of_model
+from .smt import Translator
 
 __all__ = ["prove", "symbolic_diff", "Result", "Describe", "check_timeout",
            "PROVED", "EQUIVALENT", "COUNTEREXAMPLE", "NOT_DEFINED", "UNKNOWN", "VACUOUS"]
@@ -224,7 +225,7 @@ def _obligation(name: str, build: Callable[[], list], ctx: _Context,
         return Result(name, PROVED)
     if verdict != tr.z3.sat:
         return Result(name, UNKNOWN, reason=why)
-    state = state_of_model(tr, model)
+    state = state_of_model(tr.z3, tr.variables, model)
     finding = explain(model)
     result = Result(name, finding.status, state=state,
                     reading=f"{finding.meaning}: {_reading(state, ctx.describe)}")

@@ -1,13 +1,10 @@
 """Shields over every state, not only recorded ones: the B subset translated to SMT (z3).
 
-A machine's state becomes solver variables: a BOOL, INTEGER or REAL variable one each; a
-subset of an enumerated or deferred set of n elements one boolean per element; a function
-from such a set to numbers or booleans (made a function by the invariant: ``S --> T`` or
-``S +-> T``) one value per element, with one "defined" boolean for partial ones. Constants
-take the machine's values. Quantifiers and comprehensions over elements are unrolled,
-applications record their well-definedness condition under the path that reaches them.
-What cannot be translated is an error naming the construct and its position — never
-skipped. The obligations asked of the solver are in :mod:`.prove`.
+A machine's state becomes solver variables (:mod:`.encoding`); constants take the machine's
+values. Quantifiers and comprehensions over elements are unrolled, applications record
+their well-definedness condition under the path that reaches them. What cannot be
+translated is an error naming the construct and its position — never skipped. The
+obligations asked of the solver are in :mod:`.prove`.
 """
 
 from __future__ import annotations
@@ -18,37 +15,11 @@ from fractions import Fraction
 from typing import Any, Callable, Optional
 
 from ..b import ast
-from ..b.typecheck import BOOL, INTEGER, REAL, Base, Pow, Prod, resolve_all
-from ..b.values import Elem, FuncValue
-from ..errors import InputError, UnsupportedError
+from ..b.values import Elem
+from ..errors import UnsupportedError
+from .encoding import ElementFunction, ElementSet, encode_variable, load_z3
 
-__all__ = ["Translator", "ElementSet", "ElementFunction", "load_z3", "state_of_model",
-           "MAX_EXPONENT", "MAX_DEGREE"]
-
-
-def load_z3():
-    """The z3 module (an error saying how to install it where it is missing)."""
-    try:
-        import z3
-    except ImportError:  # pragma: no cover - a dependency, but say so if it is missing
-        raise InputError("proving needs the z3 solver: pip install z3-solver") from None
-    return z3
-
-
-@dataclass
-class ElementSet:
-    """A set of elements: for each element of its carrier, the condition that it is in."""
-
-    carrier: str
-    member: dict  # Elem -> z3 Bool
-
-
-@dataclass
-class ElementFunction:
-    """A function from the elements of a set: per element (defined, value)."""
-
-    carrier: str
-    cells: dict  # Elem -> (z3 Bool, z3 value)
+__all__ = ["Translator", "MAX_EXPONENT", "MAX_DEGREE"]
 
 
 @dataclass
@@ -90,48 +61,12 @@ class Translator:
         self._degrees: dict = {}  # z3 term id -> (term, its degree as a polynomial)
         self.file, self.source = machine.file, machine.source  # what positions refer to
         for name in machine.variables:
-            self.variables[name] = self._variable(name,
-                                                  resolve_all(machine.type_objects.get(name)))
+            self.variables[name] = encode_variable(self.z3, machine, name, prefix)
 
     def share_state(self, other: "Translator") -> None:
         """Translate over the state of ``other`` (its variables, and the side conditions
         both add to): two machines' formulas about the same states."""
         self.variables, self.side_conditions = other.variables, other.side_conditions
-
-    # -- state
-    def _variable(self, name: str, t) -> Any:
-        z3 = self.z3
-        full = self.prefix + name
-        if t == BOOL:
-            return z3.Bool(full)
-        if t == REAL:
-            return z3.Real(full)
-        if t == INTEGER:
-            return z3.Int(full)
-        if isinstance(t, Pow) and isinstance(t.elem, Base) and t.elem.name in self.machine.sets:
-            elems = self.machine.sets[t.elem.name]
-            return ElementSet(t.elem.name, {e: z3.Bool(f"{full}[{e}]") for e in elems})
-        if (isinstance(t, Pow) and isinstance(t.elem, Prod) and isinstance(t.elem.left, Base)
-                and t.elem.left.name in self.machine.sets
-                and t.elem.right in (REAL, INTEGER, BOOL)):
-            if not self._function_by_invariant(name):
-                raise UnsupportedError(f"cannot translate {name} to SMT: it is a relation the "
-                                       "invariant does not make a function (S --> T or S +-> T)")
-            make = {REAL: z3.Real, INTEGER: z3.Int, BOOL: z3.Bool}[t.elem.right]
-            elems = self.machine.sets[t.elem.left.name]
-            return ElementFunction(t.elem.left.name, {
-                e: (z3.Bool(f"{full}[{e}]?"), make(f"{full}[{e}]")) for e in elems})
-        raise UnsupportedError(f"cannot translate the variable {name} of type "
-                               f"{self.machine.types.get(name)} to SMT")
-
-    def _function_by_invariant(self, name: str) -> bool:
-        from ..b.bindings import conjuncts
-
-        inv = self.machine.invariant_node
-        return inv is not None and any(
-            isinstance(c, ast.Rel) and c.op == ":" and isinstance(c.left, ast.Name)
-            and c.left.id == name and isinstance(c.right, ast.BinOp)
-            and c.right.op in ("-->", "+->") for c in conjuncts(inv))
 
     # -- errors
     def fail(self, node: ast.Node, what: str) -> UnsupportedError:
@@ -639,35 +574,3 @@ _SHARED = (ast.Comprehension, ast.Image, ast.Call, ast.Quant, ast.IfExpr)
 
 def _abs(z3, x):
     return z3.If(x >= 0, x, -x)
-
-
-# ------------------------------------------------------------------ models
-
-
-def state_of_model(tr: Translator, model) -> dict:
-    """The counterexample's state as B values (reals as the nearest floats)."""
-    z3 = tr.z3
-    out: dict = {}
-
-    def num(v):
-        v = model.eval(v, model_completion=True)
-        if z3.is_int_value(v):
-            return v.as_long()
-        if z3.is_rational_value(v):
-            return float(Fraction(v.numerator_as_long(), v.denominator_as_long()))
-        if z3.is_algebraic_value(v):
-            return float(v.approx(20).as_decimal(20).rstrip("?"))
-        return bool(z3.is_true(v))
-
-    for name, enc in tr.variables.items():
-        if isinstance(enc, ElementSet):
-            out[name] = frozenset(e for e, c in enc.member.items()
-                                  if z3.is_true(model.eval(c, model_completion=True)))
-        elif isinstance(enc, ElementFunction):
-            out[name] = FuncValue({e: num(v) for e, (d, v) in enc.cells.items()
-                                   if z3.is_true(model.eval(d, model_completion=True))})
-        elif z3.is_bool(enc):
-            out[name] = bool(z3.is_true(model.eval(enc, model_completion=True)))
-        else:
-            out[name] = num(enc)
-    return out
