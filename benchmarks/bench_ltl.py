@@ -58,7 +58,7 @@ def main() -> None:
         lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
         trace = [{"atoms": {"Crash = FALSE": bool(crash_free[r])},
                   "action": cols.action_names[cols.action[r]] if cols.action[r] >= 0 else None,
-                  "enabled": {o for o in enabled if enabled[o][r]}, "ba": {}}
+                  "enabled": {o for o in enabled if enabled[o][r]}, "before_after": {}}
                  for r in range(lo, hi)]
         satisfied += reference_ltl(f, trace)[0]
     reference_s = time.perf_counter() - start

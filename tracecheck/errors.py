@@ -17,6 +17,7 @@ __all__ = [
     "UnsupportedError",
     "ModelError",
     "InputError",
+    "Disagreement",
     "read_text",
 ]
 
@@ -129,6 +130,12 @@ class ModelError(TracecheckError):
 
 class InputError(TracecheckError):
     """A bad command-line argument or input file that is not B text."""
+
+
+class Disagreement(TracecheckError):
+    """The solver and tracecheck's evaluator disagree on a counterexample (a bug)."""
+
+    exit_code = 4
 
 
 #: The largest text file tracecheck reads (a machine, a state, a trace, a property file).

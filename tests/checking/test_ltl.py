@@ -71,7 +71,7 @@ def trace(ep) -> list[dict]:
         nxt = ep[k + 1] if k + 1 < len(ep) else None
         out.append({
             "atoms": {"p = TRUE": p, "q = TRUE": q},
-            "ba": {"p$0 = TRUE => q = TRUE": nxt is None or (not p or nxt[1])},
+            "before_after": {"p$0 = TRUE => q = TRUE": nxt is None or (not p or nxt[1])},
             "action": None if k == 0 else a,
             "enabled": {n for n, on in (("A", p), ("B", q)) if on},
         })

@@ -16,7 +16,8 @@ from tracecheck.episodes.files import write_run
 from tracecheck.episodes.model import HIGHWAY_ACTIONS, Episode, StepRecord, make_end
 from tracecheck.errors import InputError, TracecheckError
 from tracecheck.interop import import_simb
-from tracecheck.checking.replay import diff, enabled_matrix, replay
+from tracecheck.checking.diff import diff
+from tracecheck.checking.replay import enabled_matrix, replay
 from tracecheck.checking.shield import load_shield
 
 def test_hand_built_episodes(toy, run_file):

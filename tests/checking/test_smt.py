@@ -241,9 +241,9 @@ def test_a_power_is_translated_by_repeated_squaring(n, value):
     machine = load_machine_text("MACHINE P\nVARIABLES x\nINVARIANT x : INTEGER\n"
                                 "INITIALISATION x := 0\nEND\n", file="P.mch")
     tr = Translator(machine)
-    term = tr.tr(machine.parse(f"x ** {n}", kind="expression"), {})
+    term = tr.translate(machine.parse(f"x ** {n}", kind="expression"), {})
     assert _distinct_terms(term) <= 2 * max(n, 1).bit_length() + 2
-    assert z3.simplify(z3.substitute(term, (tr.vars["x"], z3.IntVal(3)))).as_long() == value
+    assert z3.simplify(z3.substitute(term, (tr.variables["x"], z3.IntVal(3)))).as_long() == value
 
 
 def test_a_power_above_the_limit_is_not_translated():
@@ -254,5 +254,5 @@ def test_a_power_above_the_limit_is_not_translated():
                                 "INITIALISATION x := 0\nEND\n", file="P.mch")
     with pytest.raises(UnsupportedError, match=f"a power with exponent {MAX_EXPONENT + 1} "
                                                f"\\(at most {MAX_EXPONENT}"):
-        Translator(machine).tr(machine.parse(f"x ** {MAX_EXPONENT + 1}", kind="expression"),
+        Translator(machine).translate(machine.parse(f"x ** {MAX_EXPONENT + 1}", kind="expression"),
                                {})

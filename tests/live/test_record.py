@@ -22,7 +22,7 @@ from tracecheck.live.envs.highway import ENV_ID, env_config
 from tracecheck.live.record import RecordSettings, record
 from tracecheck.checking.replay import replay
 from tracecheck.checking.replay import OUTCOMES
-from tracecheck.checking.resimulate import resimulate, summary
+from tracecheck.live.resimulate import resimulate, summary
 from tracecheck.checking.shield import load_shield
 
 BASE = ROOT / "models" / "agents" / "base.zip"
@@ -263,7 +263,7 @@ def test_a_run_file_cannot_point_resimulation_at_an_agent_of_its_choosing(tmp_pa
     sha256 required: `../` paths, absolute paths and a missing hash are never followed."""
     from types import SimpleNamespace
 
-    from tracecheck.checking.resimulate import AGENT_DIR, _agent_path
+    from tracecheck.live.resimulate import AGENT_DIR, _agent_path
     from tracecheck.live.agents import file_sha256
 
     evil = tmp_path / "evil.zip"

@@ -35,7 +35,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..b import ast as A
+from ..b import ast
 from ..errors import BSyntaxError, InputError, TracecheckError
 
 __all__ = ["parse_ltl", "Formula", "evaluate_ltl", "reference_ltl", "assertions",
@@ -49,11 +49,11 @@ __all__ = ["parse_ltl", "Formula", "evaluate_ltl", "reference_ltl", "assertions"
 class Formula:
     """A node of an LTL formula (``op`` says which; see the module docstring)."""
 
-    op: str  # atom, ba, next_op, enabled, deadlock, true, false, not, G F X Y H O, & or =>,
-    #          U W R S T
+    op: str  # atom, before_after, next_op, enabled, deadlock, true, false, not,
+    #          G F X Y H O, & or =>, U W R S T
     args: tuple = ()
     text: str = ""  # the B text of an atom, or the operation name
-    node: Optional[A.Node] = None  # the parsed B predicate of an atom
+    node: Optional[ast.Node] = None  # the parsed B predicate of an atom
     lo: Optional[int] = None  # bounds of G[a,b] / F[a,b]
     hi: Optional[int] = None
     column: int = 0
@@ -207,7 +207,7 @@ class _Parser:
             self.take("(")
             text, at = self.braces()
             self.take(")")
-            return Formula("ba", text=text, column=at)
+            return Formula("before_after", text=text, column=at)
         found = tok or "the end of the formula"
         raise self.fail(f"unexpected {found!r}; expected an atom ({{P}}, BA({{P}}), [Op], "
                         "e(Op), deadlock, true, false), '(' or an operator")
@@ -242,9 +242,9 @@ def _check(f: Formula, machine, text: str, where: str) -> Formula:
 
     from ..b.typecheck import typecheck_formula
 
-    if f.op in ("atom", "ba"):
+    if f.op in ("atom", "before_after"):
         names = dict(machine.type_objects)
-        if f.op == "ba":
+        if f.op == "before_after":
             names.update({f"{v}$0": machine.type_objects[v] for v in machine.variables
                           if v in machine.type_objects})
         try:
@@ -337,7 +337,7 @@ def _eval(f: Formula, ev, rows: _Rows, cols, machine, ops) -> np.ndarray:
         return np.zeros(n, dtype=bool)
     if op == "atom":
         return np.asarray(machine.batch(f.node)(cols.states), dtype=bool)
-    if op == "ba":
+    if op == "before_after":
         has_next = idx + 1 < end
         out = np.ones(n, dtype=bool)  # no step leaves the last state
         steps = idx[has_next] + 1
@@ -438,7 +438,7 @@ def check_ltl(name: str, text: str, f: Formula, cols, machine,
 
 def reference_ltl(f: Formula, trace: list[dict]) -> list[bool]:
     """The same semantics, position by position, on one episode given as a list of
-    ``{"atoms": {text: bool}, "ba": {text: bool}, "action": name or None (the action that
+    ``{"atoms": {text: bool}, "before_after": {text: bool}, "action": name or None (the action that
     led here), "enabled": set}`` — the slow, obvious definition the scans are tested
     against."""
     n = len(trace)
@@ -451,8 +451,8 @@ def reference_ltl(f: Formula, trace: list[dict]) -> list[bool]:
             return False
         if op == "atom":
             return trace[i]["atoms"][g.text]
-        if op == "ba":
-            return True if i == n - 1 else trace[i]["ba"][g.text]
+        if op == "before_after":
+            return True if i == n - 1 else trace[i]["before_after"][g.text]
         if op == "next_op":
             return i + 1 < n and trace[i + 1]["action"] == g.text
         if op == "enabled":

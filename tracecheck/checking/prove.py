@@ -15,7 +15,8 @@ Nothing here may pass wrongly:
 * the symbolic diff covers every operation of either shield.
 
 A counterexample is turned into a state and evaluated again by tracecheck's own evaluator
-before it is reported; where the two disagree, that is said (:class:`Disagreement`).
+before it is reported; where the two disagree, that is said (the CLI raises
+:class:`~tracecheck.errors.Disagreement`). What a user asks for is in :mod:`.obligations`.
 """
 
 from __future__ import annotations
@@ -28,14 +29,20 @@ from fractions import Fraction
 from typing import Callable, Optional, Union
 
 from ..errors import InputError, TracecheckError, UnsupportedError, WellDefinednessError
-from .smt import Translator, _Func, _Set, _z3, state_of_model
+from .obligations import Given
+from .encoding import ElementFunction, ElementSet, load_z3, state_of_model
+from .smt import Translator
 
-__all__ = ["prove", "symbolic_diff", "Result", "Given", "Disagreement", "check_timeout",
+__all__ = ["prove", "symbolic_diff", "Result", "Describe", "check_timeout",
            "PROVED", "EQUIVALENT", "COUNTEREXAMPLE", "NOT_DEFINED", "UNKNOWN", "VACUOUS"]
 
 PROVED, EQUIVALENT, COUNTEREXAMPLE = "proved", "equivalent", "counterexample"
 NOT_DEFINED, UNKNOWN, VACUOUS = "not well-defined", "unknown", "vacuous"
 ONLY_IN = "only in "  # + the shield: an operation the other shield does not have
+
+#: How a counterexample state reads for people, in one line (None: as its variables'
+#: values): an environment's :meth:`~tracecheck.live.adapter.EnvAdapter.describe`.
+Describe = Callable[[dict], Optional[str]]
 
 #: z3 counts its timeout in milliseconds in an unsigned 32-bit number (about 49 days).
 MAX_TIMEOUT_S = 4_294_967
@@ -59,21 +66,6 @@ class Result:
         """A counterexample, a claim that is not well-defined, an operation one shield
         lacks: what makes ``prove`` and ``diff --symbolic`` exit 1."""
         return self.status in (COUNTEREXAMPLE, NOT_DEFINED) or self.status.startswith(ONLY_IN)
-
-
-class Disagreement(TracecheckError):
-    """The solver and tracecheck's evaluator disagree on a counterexample (a bug)."""
-
-    exit_code = 4
-
-
-@dataclass(frozen=True)
-class Given:
-    """A formula a user gave, and where it came from, for messages: an option
-    (``--assume``) or a file and entry (``obs.toml: implies[2].predicate``)."""
-
-    text: str
-    where: str
 
 
 def check_timeout(seconds, what: str = "the timeout") -> float:
@@ -102,12 +94,14 @@ def _ms(seconds: float) -> int:
 @dataclass
 class _Context:
     """What every obligation of one run shares: the translation, the machines whose
-    invariants a counterexample must satisfy, the constraints every state satisfies."""
+    invariants a counterexample must satisfy, the constraints every state satisfies, how
+    a counterexample reads."""
 
     tr: Translator
     machines: tuple
     base: list
     timeout_s: float
+    describe: Optional[Describe] = None
 
 
 @dataclass
@@ -165,18 +159,19 @@ def _solve(tr: Translator, constraints: list, timeout_s: float):
     deadline = time.monotonic() + timeout_s
     constraints = list({c.get_id(): c for c in constraints}.values())  # z3 shares equal terms
     solver = z3.Solver()
-    verdict, why = _ask(z3, solver, timeout_s, lambda: solver.add(*constraints, *tr.side))
+    verdict, why = _ask(z3, solver, timeout_s,
+                        lambda: solver.add(*constraints, *tr.side_conditions))
     if verdict != z3.sat:
         return verdict, None, why
     model = solver.model()
     counts = [z3.Sum([z3.If(c, 1, 0) for c in v.member.values()])
-              for v in tr.vars.values() if isinstance(v, _Set) and v.member]
+              for v in tr.variables.values() if isinstance(v, ElementSet) and v.member]
     left = min(deadline - time.monotonic(), 1.0)
     if counts and left > 0.05:
         opt = z3.Optimize()
 
         def add():
-            opt.add(*constraints, *tr.side)
+            opt.add(*constraints, *tr.side_conditions)
             opt.minimize(z3.Sum(counts))
         if _ask(z3, opt, left, add)[0] == z3.sat:
             model = opt.model()
@@ -198,7 +193,7 @@ def _satisfiable(tr: Translator, parts: list[tuple[str, object]], timeout_s: flo
     solver = z3.Solver()
 
     def add():
-        solver.add(*tr.side)
+        solver.add(*tr.side_conditions)
         for i, (_, constraint) in enumerate(parts):
             solver.assert_and_track(constraint, z3.Bool(f"part#{i}"))
     verdict, reason = _ask(z3, solver, timeout_s, add)
@@ -230,10 +225,10 @@ def _obligation(name: str, build: Callable[[], list], ctx: _Context,
         return Result(name, PROVED)
     if verdict != tr.z3.sat:
         return Result(name, UNKNOWN, reason=why)
-    state = state_of_model(tr, model)
+    state = state_of_model(tr.z3, tr.variables, model)
     finding = explain(model)
     result = Result(name, finding.status, state=state,
-                    reading=f"{finding.meaning}: {_reading(state, ctx.machines[0])}")
+                    reading=f"{finding.meaning}: {_reading(state, ctx.describe)}")
     try:
         ok_invariant = all(m.invariant(state) for m in ctx.machines)
         confirmed = ok_invariant and finding.confirm(state)
@@ -241,7 +236,7 @@ def _obligation(name: str, build: Callable[[], list], ctx: _Context,
         result.disagreement = f"tracecheck's evaluator cannot evaluate the state: {exc.message}"
         return result
     if not confirmed:
-        if not _holds_at(tr, model, constraints + tr.side, ctx.timeout_s):
+        if not _holds_at(tr, model, constraints + tr.side_conditions, ctx.timeout_s):
             # the solver's exact reals, rounded to floats, moved the state across a boundary:
             # a counterexample over the reals that floats cannot show — no disagreement
             result.reason = ("over the exact reals, at a boundary: the nearest float state "
@@ -258,9 +253,10 @@ def _holds_at(tr: Translator, model, constraints: list, timeout_s: float) -> boo
     nearest float (the state tracecheck's evaluator sees), fresh variables re-solved."""
     z3 = tr.z3
     fixed = []
-    for enc in tr.vars.values():
-        cells = enc.cells.values() if isinstance(enc, _Func) else \
-            [(None, v) for v in enc.member.values()] if isinstance(enc, _Set) else [(None, enc)]
+    for enc in tr.variables.values():
+        cells = enc.cells.values() if isinstance(enc, ElementFunction) else \
+            [(None, v) for v in enc.member.values()] if isinstance(enc, ElementSet) else \
+            [(None, enc)]
         for defined, value in cells:
             for var in ([defined] if defined is not None else []) + [value]:
                 got = model.eval(var, model_completion=True)
@@ -274,31 +270,16 @@ def _holds_at(tr: Translator, model, constraints: list, timeout_s: float) -> boo
     return _ask(z3, solver, timeout_s, lambda: solver.add(*constraints, *fixed))[0] != z3.unsat
 
 
-def _reading(state: dict, machine, limit: int = 6) -> str:
-    """One line: on a road (vehicles with positions), each present vehicle's position and
-    speed; otherwise the first variables."""
-    from ..b.values import FuncValue, format_value
+def _reading(state: dict, describe: Optional[Describe], limit: int = 6) -> str:
+    """One line: what ``describe`` (an environment's, e.g. the highway's vehicles on the
+    road) says of the state; otherwise its first variables."""
+    text = describe(state) if describe is not None else None
+    if text is not None:
+        return text
+    from ..b.values import format_value
 
-    x, y = state.get("VehiclesX"), state.get("VehiclesY")
-    present = state.get("PresentVehicles")
-    if isinstance(x, FuncValue) and isinstance(y, FuncValue) and isinstance(present, frozenset):
-        vx = state.get("VehiclesVx")
-        parts = []
-        for e in sorted(present, key=str):
-            speed = f", vx = {_short(vx.map[e])}" if isinstance(vx, FuncValue) and \
-                e in vx.map else ""
-            if e in x.map and e in y.map:
-                parts.append(f"{e} at x = {_short(x.map[e])}, y = {_short(y.map[e])}{speed}")
-        others = [f"{k} = {format_value(v)}" for k, v in state.items()
-                  if not isinstance(v, (FuncValue, frozenset))]
-        return "; ".join(parts or ["no vehicle present"]) + \
-            (f" ({', '.join(others)})" if others else "")
     parts = [f"{k} = {format_value(v)}" for k, v in state.items()][:limit]
     return ", ".join(parts) + (", …" if len(state) > limit else "")
-
-
-def _short(v) -> str:
-    return f"{v:g}" if isinstance(v, float) else str(v)
 
 
 # ------------------------------------------------------------------ the evaluator's view
@@ -333,12 +314,14 @@ def _given(item: Union[str, Given], where: str) -> Given:
 
 def prove(machine, *, deadlock_free: bool = False,
           implies: tuple[tuple[str, Union[str, Given]], ...] = (), well_defined: bool = False,
-          assume: tuple[Union[str, Given], ...] = (), timeout_s: float = 10.0) -> list[Result]:
+          assume: tuple[Union[str, Given], ...] = (), timeout_s: float = 10.0,
+          describe: Optional[Describe] = None) -> list[Result]:
     """Check the obligations over every state that satisfies the invariant and ``assume``
     (read where they are defined). Every formula is type-checked first (a mistake is an
     error naming its option, ``--assume`` or ``--implies``, or the place a :class:`Given`
     says); an obligation whose formulas cannot be translated is ``unknown``, with the
     reason; if no state satisfies the invariant and assumptions, each is ``vacuous``.
+    ``describe`` says how a counterexample reads (see :data:`Describe`).
 
     >>> from tracecheck.b.machine import load_machine_text
     >>> m = load_machine_text("MACHINE C VARIABLES n INVARIANT n : 0..5 INITIALISATION "
@@ -347,7 +330,7 @@ def prove(machine, *, deadlock_free: bool = False,
     ['counterexample']
     """
     timeout_s = check_timeout(timeout_s)
-    z3 = _z3()
+    z3 = load_z3()
     assumed = [_given(a, "--assume") for a in assume]
     claims = [(op, _given(p, "--implies")) for op, p in implies]
     for op, claim in claims:
@@ -372,7 +355,7 @@ def prove(machine, *, deadlock_free: bool = False,
     satisfiable, why = _satisfiable(tr, parts, timeout_s, "the invariant and assumptions")
     if satisfiable == "unsat":
         return [Result(name, VACUOUS, reason=why) for name in names]
-    ctx = _Context(tr, (machine,), [c for _, c in parts], timeout_s)
+    ctx = _Context(tr, (machine,), [c for _, c in parts], timeout_s, describe)
     results = []
     if deadlock_free:
         results.append(_deadlock_free(machine, ctx))
@@ -477,15 +460,16 @@ def _well_defined(machine, ctx: _Context) -> Result:
 # ------------------------------------------------------------------ symbolic diff
 
 
-def symbolic_diff(a, b, *, timeout_s: float = 10.0,
-                  labels: Optional[tuple[str, str]] = None) -> list[Result]:
+def symbolic_diff(a, b, *, timeout_s: float = 10.0, labels: Optional[tuple[str, str]] = None,
+                  describe: Optional[Describe] = None) -> list[Result]:
     """Per operation of either machine: equivalent over every state satisfying both
     invariants, a state where they decide differently (a guard not well-defined there does
     not enable its operation), unknown where a guard cannot be translated or the solver
     gives up, or ``only in`` one of them. ``labels`` name the two shields in messages
-    (default: their machine names). Vacuous where no state satisfies both invariants."""
+    (default: their machine names), ``describe`` how a state where they differ reads.
+    Vacuous where no state satisfies both invariants."""
     timeout_s = check_timeout(timeout_s)
-    z3 = _z3()
+    z3 = load_z3()
     la, lb = labels or (a.name, b.name)
     if set(a.variables) != set(b.variables) or any(a.types.get(v) != b.types.get(v)
                                                    for v in a.variables):
@@ -495,7 +479,7 @@ def symbolic_diff(a, b, *, timeout_s: float = 10.0,
     ops = list(a.operations) + [op for op in b.operations if op not in a.operations]
     try:
         ta, tb = Translator(a), Translator(b)
-        tb.vars, tb.side = ta.vars, ta.side  # the same state for both
+        tb.share_state(ta)  # the same state for both
         parts = [(f"the invariant of {la}", z3.And(*ta.defined(ta.invariant))),
                  (f"the invariant of {lb}", z3.And(*tb.defined(tb.invariant)))]
     except UnsupportedError as exc:
@@ -504,7 +488,7 @@ def symbolic_diff(a, b, *, timeout_s: float = 10.0,
     satisfiable, why = _satisfiable(ta, parts, timeout_s, what)
     if satisfiable == "unsat":
         return [Result(op, VACUOUS, reason=why) for op in ops]
-    ctx = _Context(ta, (a, b), [c for _, c in parts], timeout_s)
+    ctx = _Context(ta, (a, b), [c for _, c in parts], timeout_s, describe)
     results = []
     for op in ops:
         if op not in b.operations or op not in a.operations:

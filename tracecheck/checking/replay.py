@@ -1,4 +1,4 @@
-"""Replay recorded episodes against a shield, and diff two shields on the same episodes.
+"""Replay recorded episodes against a shield: where would it have blocked the recorded action?
 
 For each step k >= 1 of each episode: the recorded action must be enabled in the state before
 it (else the step is *infeasible*: the shield would have blocked it), the pair of states must
@@ -12,7 +12,7 @@ from __future__ import annotations
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Iterable, Optional, Sequence
+from typing import Callable, Iterable, Optional, Sequence
 
 import numpy as np
 
@@ -20,10 +20,11 @@ from ..b import ast as A
 from ..b.vector import Columns
 from ..episodes.columns import RunColumns, read_columns
 from ..errors import InputError
+from .executors import map_files
 from .shield import Shield
 
-__all__ = ["replay", "diff", "ReplayReport", "EpisodeReplay", "DiffReport", "ChangedStep",
-           "enabled_matrix", "OUTCOMES", "NEVER_BLOCKED"]
+__all__ = ["replay", "ReplayReport", "EpisodeReplay", "enabled_matrix", "add_up", "OUTCOMES",
+           "NEVER_BLOCKED"]
 
 #: what re-simulating one episode can find, in the words every output uses (the lines under
 #: the summary, the episode table in every format, the JSON): the recorded crash prevented or
@@ -192,10 +193,10 @@ def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport,
     invariant_ok = machine.invariant_batch(cols.states)
     post_bad = np.zeros(cols.n, dtype=bool)
     post_bad[rows] = _postconditions(shield, cols, rows, actions)
+    checks = _FileChecks(ops, matrix, feasible, deadlock, invariant_ok, post_bad)
     for i, ep in enumerate(cols.episode_ids):
         lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
-        report.per_episode.append(_episode(cols, shield, ops, matrix, feasible, deadlock,
-                                           invariant_ok, post_bad, int(ep), lo, hi))
+        report.per_episode.append(_episode(cols, checks, int(ep), lo, hi))
 
 
 def _check_ltl(shield: Shield, cols: RunColumns, report: ReplayReport, ltl: Sequence[tuple],
@@ -246,15 +247,28 @@ def ltl_formulas(shield: Shield, formulas: Sequence[str] = (), assertions: bool 
     return out
 
 
-def _episode(cols, shield, ops, matrix, feasible, deadlock, invariant_ok, post_bad, ep, lo,
-             hi) -> EpisodeReplay:
-    bad_steps = np.flatnonzero(~feasible[lo + 1:hi]) + 1
+@dataclass(frozen=True)
+class _FileChecks:
+    """What replay found in each row of one file, for its episodes to pick from."""
+
+    ops: tuple[str, ...]
+    enabled: np.ndarray  # (rows, operations): which operations the shield enables
+    feasible: np.ndarray  # whether the row's recorded action was enabled in the row before
+    deadlock: np.ndarray
+    invariant_ok: np.ndarray
+    postcondition_bad: np.ndarray
+
+
+def _episode(cols: RunColumns, checks: _FileChecks, ep: int, lo: int, hi: int
+             ) -> EpisodeReplay:
+    """Episode ``ep`` of ``cols``, rows ``lo`` (its initial state) to ``hi`` (excluded)."""
+    bad_steps = np.flatnonzero(~checks.feasible[lo + 1:hi]) + 1
     first = int(bad_steps[0]) if len(bad_steps) else None
     action = enabled = alternative = None
     if first is not None:
         action = cols.action_names[cols.action[lo + first]]
-        allowed = matrix[lo + first - 1]
-        enabled = [o for o, ok in zip(ops, allowed) if ok]
+        allowed = checks.enabled[lo + first - 1]
+        enabled = [o for o, ok in zip(checks.ops, allowed) if ok]
         if cols.values is not None:
             q = cols.values[lo + first]  # the values that chose this step's action
             scored = [(q[cols.action_names.index(o)], o) for o in enabled
@@ -268,9 +282,10 @@ def _episode(cols, shield, ops, matrix, feasible, deadlock, invariant_ok, post_b
         crashed=crash_step is not None, crash_step=crash_step,
         crash_after_infeasible=crash_step is not None and first is not None
         and crash_step >= first,
-        deadlock_states=[int(k) for k in np.flatnonzero(deadlock[lo:hi])],
-        postcondition_violations=[int(k) for k in np.flatnonzero(post_bad[lo:hi])],
-        invariant_violations=[int(k) for k in np.flatnonzero(~invariant_ok[lo:hi])],
+        deadlock_states=[int(k) for k in np.flatnonzero(checks.deadlock[lo:hi])],
+        postcondition_violations=[int(k) for k in
+                                  np.flatnonzero(checks.postcondition_bad[lo:hi])],
+        invariant_violations=[int(k) for k in np.flatnonzero(~checks.invariant_ok[lo:hi])],
     )
 
 
@@ -296,178 +311,36 @@ def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "loca
     """
     paths = [str(p) for p in paths]
     report = ReplayReport(shield=shield.identity, files=paths)
-    formulas = ltl_formulas(shield, ltl, ltl_assertions)  # errors before any file is read
+    ltl_formulas(shield, ltl, ltl_assertions)  # errors before any file is read
     start = time.perf_counter()
-    if executor == "local":
-        for path in paths:
-            cols = read_columns(path)
-            report.warnings += cols.warnings
-            _replay_file(shield, cols, report, formulas)
-    else:
-        from ..live.executors import map_files
-
-        jobs = [(p, shield, tuple(ltl), ltl_assertions) for p in paths]
-        for part in map_files(_replay_one, jobs, executor, ray_address):
-            report.per_episode += part.per_episode
-            report.warnings += part.warnings
-            for entry in part.ltl:
-                _add_ltl(report, entry)
+    jobs = [(p, shield, tuple(ltl), ltl_assertions) for p in paths]
+    for part in map_files(_replay_one, jobs, executor, ray_address):
+        report.per_episode += part.per_episode
+        report.warnings += part.warnings
+        for entry in part.ltl:
+            _add_ltl(report, entry)
     report.elapsed_s = round(time.perf_counter() - start, 6)
-    eps = report.per_episode
-    report.episodes = len(eps)
-    report.steps = sum(e.steps for e in eps)
-    report.infeasible_episodes = sum(e.first_infeasible is not None for e in eps)
-    report.feasible_episodes = report.episodes - report.infeasible_episodes
-    report.infeasible_steps = sum(e.infeasible_steps for e in eps)
-    report.crashes = sum(e.crashed for e in eps)
-    report.crashes_after_infeasible = sum(e.crash_after_infeasible for e in eps)
-    report.deadlock_states = sum(len(e.deadlock_states) for e in eps)
-    report.postcondition_violations = sum(len(e.postcondition_violations) for e in eps)
-    report.invariant_violations = sum(len(e.invariant_violations) for e in eps)
+    add_up(report, report.per_episode, _EPISODE_COUNTS)
     return report
 
 
-# ------------------------------------------------------------------ diff
+#: each count of a replay report: what one episode adds to it
+_EPISODE_COUNTS: dict[str, Callable[[EpisodeReplay], int]] = {
+    "episodes": lambda e: 1,
+    "steps": lambda e: e.steps,
+    "feasible_episodes": lambda e: e.first_infeasible is None,
+    "infeasible_episodes": lambda e: e.first_infeasible is not None,
+    "infeasible_steps": lambda e: e.infeasible_steps,
+    "crashes": lambda e: e.crashed,
+    "crashes_after_infeasible": lambda e: e.crash_after_infeasible,
+    "deadlock_states": lambda e: len(e.deadlock_states),
+    "postcondition_violations": lambda e: len(e.postcondition_violations),
+    "invariant_violations": lambda e: len(e.invariant_violations),
+}
 
 
-@dataclass(frozen=True)
-class ChangedStep:
-    file: str
-    episode: int
-    step: int
-    action: str
-    feasible_under_shield: bool
-    feasible_under_against: bool
-    enabled_shield: list[str]
-    enabled_against: list[str]
-
-
-@dataclass
-class DiffReport:
-    shield: dict
-    against: dict
-    files: list[str]
-    episodes: int = 0
-    steps: int = 0
-    states: int = 0
-    changed_steps: int = 0
-    newly_blocked: int = 0
-    newly_allowed: int = 0
-    enabled_set_changes: int = 0
-    episodes_changed: int = 0
-    crashes_in_changed_episodes: int = 0
-    elapsed_s: float = 0.0
-    changes: list[ChangedStep] = field(default_factory=list)
-    changed_episodes: list[dict] = field(default_factory=list)
-    warnings: list[str] = field(default_factory=list)
-
-    @property
-    def anything_changed(self) -> bool:
-        return bool(self.changed_steps or self.enabled_set_changes)
-
-    def to_json(self) -> dict:
-        return asdict(self)
-
-
-def _diff_one(path: str, a: Shield, b: Shield) -> DiffReport:
-    """One file's diff, in whichever process runs it (both shields sent there themselves)."""
-    report = DiffReport(shield=a.identity, against=b.identity, files=[path])
-    cols = read_columns(path)
-    report.warnings += cols.warnings
-    _diff_file(cols, a, b, report)
-    return report
-
-
-_DIFF_COUNTS = ("episodes", "steps", "states", "changed_steps", "newly_blocked",
-                "newly_allowed", "enabled_set_changes", "episodes_changed",
-                "crashes_in_changed_episodes")
-
-
-def diff(paths: Iterable[str | Path], shield: Shield, against: Shield, *,
-         executor: str = "local", ray_address: Optional[str] = None) -> DiffReport:
-    """Evaluate both shields on every recorded state and report what changes from
-    ``against`` (the old version, or the baseline) to ``shield``; with
-    ``executor="ray"`` each file in a Ray task."""
-    paths = [str(p) for p in paths]
-    report = DiffReport(shield=shield.identity, against=against.identity, files=paths)
-    start = time.perf_counter()
-    if executor == "local":
-        for path in paths:
-            cols = read_columns(path)
-            report.warnings += cols.warnings
-            _diff_file(cols, shield, against, report)
-    else:
-        from ..live.executors import map_files
-
-        for part in map_files(_diff_one, [(p, shield, against) for p in paths],
-                              executor, ray_address):
-            for key in _DIFF_COUNTS:
-                setattr(report, key, getattr(report, key) + getattr(part, key))
-            report.changes += part.changes
-            report.changed_episodes += part.changed_episodes
-            report.warnings += part.warnings
-    report.elapsed_s = round(time.perf_counter() - start, 6)
-    return report
-
-
-def _aligned(shield: Shield, cols: RunColumns, names: tuple[str, ...]) -> np.ndarray:
-    matrix, ops = enabled_matrix(shield, cols)
-    index = {o: i for i, o in enumerate(ops)}
-    out = np.zeros((cols.n, len(names)), dtype=bool)
-    for j, name in enumerate(names):
-        if name in index:
-            out[:, j] = matrix[:, index[name]]
-    return out
-
-
-def _diff_file(cols: RunColumns, a: Shield, b: Shield, report: DiffReport) -> None:
-    names = tuple(dict.fromkeys(list(a.machine.operations) + list(b.machine.operations)))
-    ma, mb = _aligned(a, cols, names), _aligned(b, cols, names)
-    rows = np.flatnonzero(cols.step > 0)
-    col = {n: j for j, n in enumerate(names)}
-    to_col = np.array([col.get(x, -1) for x in cols.action_names] + [-1], dtype=np.int64)
-    acts = to_col[cols.action[rows]]
-    known = acts >= 0
-    fa = np.ones(len(rows), dtype=bool)
-    fb = np.ones(len(rows), dtype=bool)
-    fa[known] = ma[rows[known] - 1, acts[known]]
-    fb[known] = mb[rows[known] - 1, acts[known]]
-    changed = fa != fb
-    report.episodes += len(cols.episode_ids)
-    report.steps += len(rows)
-    report.states += cols.n
-    report.changed_steps += int(changed.sum())
-    report.newly_blocked += int((fb & ~fa).sum())
-    report.newly_allowed += int((fa & ~fb).sum())
-    report.enabled_set_changes += int(np.any(ma != mb, axis=1).sum())
-    for i in np.flatnonzero(changed):
-        r = rows[i]
-        report.changes.append(ChangedStep(
-            file=cols.path, episode=int(cols.episode[r]), step=int(cols.step[r]),
-            action=cols.action_names[cols.action[r]], feasible_under_shield=bool(fa[i]),
-            feasible_under_against=bool(fb[i]),
-            enabled_shield=[n for n, ok in zip(names, ma[r - 1]) if ok],
-            enabled_against=[n for n, ok in zip(names, mb[r - 1]) if ok]))
-    first_a = _first_false(cols, rows, fa)
-    first_b = _first_false(cols, rows, fb)
-    for i, ep in enumerate(cols.episode_ids):
-        if first_a[i] != first_b[i]:
-            lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
-            crashed = bool(cols.crashed[lo:hi].any())
-            report.episodes_changed += 1
-            report.crashes_in_changed_episodes += crashed
-            report.changed_episodes.append({
-                "file": cols.path, "episode": int(ep), "crashed": crashed,
-                "first_infeasible_shield": first_a[i], "first_infeasible_against": first_b[i]})
-
-
-def _first_false(cols: RunColumns, rows: np.ndarray, ok: np.ndarray) -> list[Optional[int]]:
-    out: list[Optional[int]] = []
-    episode_of_row = np.searchsorted(cols.starts, rows, side="right") - 1
-    firsts: dict[int, int] = {}
-    for i in np.flatnonzero(~ok):
-        e = int(episode_of_row[i])
-        firsts.setdefault(e, int(cols.step[rows[i]]))
-    for e in range(len(cols.episode_ids)):
-        out.append(firsts.get(e))
-    return out
+def add_up(report, parts: Sequence, counts: dict[str, Callable]) -> None:
+    """Each count of ``report`` (replay's, diff's) as the sum over its ``parts`` (episodes,
+    files) of what ``counts[name]`` says one part adds: a total is never kept by hand."""
+    for name, count in counts.items():
+        setattr(report, name, sum(int(count(part)) for part in parts))

@@ -1,13 +1,10 @@
 """Shields over every state, not only recorded ones: the B subset translated to SMT (z3).
 
-A machine's state becomes solver variables: a BOOL, INTEGER or REAL variable one each; a
-subset of an enumerated or deferred set of n elements one boolean per element; a function
-from such a set to numbers or booleans (made a function by the invariant: ``S --> T`` or
-``S +-> T``) one value per element, with one "defined" boolean for partial ones. Constants
-take the machine's values. Quantifiers and comprehensions over elements are unrolled,
-applications record their well-definedness condition under the path that reaches them.
-What cannot be translated is an error naming the construct and its position — never
-skipped. The obligations asked of the solver are in :mod:`.prove`.
+A machine's state becomes solver variables (:mod:`.encoding`); constants take the machine's
+values. Quantifiers and comprehensions over elements are unrolled, applications record
+their well-definedness condition under the path that reaches them. What cannot be
+translated is an error naming the construct and its position — never skipped. The
+obligations asked of the solver are in :mod:`.prove`.
 """
 
 from __future__ import annotations
@@ -17,36 +14,12 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, Callable, Optional
 
-from ..b import ast as A
-from ..b.typecheck import BOOL, INTEGER, REAL, Base, Pow, Prod, resolve_all
-from ..b.values import Elem, FuncValue
-from ..errors import InputError, UnsupportedError
+from ..b import ast
+from ..b.values import Elem
+from ..errors import UnsupportedError
+from .encoding import ElementFunction, ElementSet, encode_variable, load_z3
 
-__all__ = ["Translator", "state_of_model", "MAX_EXPONENT", "MAX_DEGREE"]
-
-
-def _z3():
-    try:
-        import z3
-    except ImportError:  # pragma: no cover - a dependency, but say so if it is missing
-        raise InputError("proving needs the z3 solver: pip install z3-solver") from None
-    return z3
-
-
-@dataclass
-class _Set:
-    """A set of elements: for each element of its carrier, the condition that it is in."""
-
-    carrier: str
-    member: dict  # Elem -> z3 Bool
-
-
-@dataclass
-class _Func:
-    """A function from the elements of a set: per element (defined, value)."""
-
-    carrier: str
-    cells: dict  # Elem -> (z3 Bool, z3 value)
+__all__ = ["Translator", "MAX_EXPONENT", "MAX_DEGREE"]
 
 
 @dataclass
@@ -67,63 +40,36 @@ MAX_DEGREE = 64
 
 
 class Translator:
-    """Translates formulas of one machine; ``wd`` collects the well-definedness conditions
-    met on the way, each under the condition of the path to it."""
+    """Translates formulas of one machine over one state: ``variables`` holds each state
+    variable's solver encoding, ``definedness`` the well-definedness conditions met on the
+    way (each under the condition of the path to it), ``side_conditions`` the definitions
+    of the fresh variables translations introduce (min and max of a set of numbers), which
+    every question to the solver must include."""
 
     def __init__(self, machine, prefix: str = "") -> None:
-        self.z3 = _z3()
-        self.m = machine
+        self.z3 = load_z3()
+        self.machine = machine
         self.prefix = prefix
-        self.vars: dict[str, Any] = {}
-        self.domain: list = []  # typing constraints of the variables
-        self.wd: list[tuple[Any, A.Node]] = []
+        self.variables: dict[str, Any] = {}
+        self.definedness: list[tuple[Any, ast.Node]] = []
         self.path: list = []
         self._conj: list = []  # (path condition, conjunction of the path up to it)
-        self.side: list = []  # definitions of fresh variables (min/max of a set of numbers)
-        self._memo: dict = {}  # translated sub-formulas, see tr
+        self.side_conditions: list = []
+        self._memo: dict = {}  # translated sub-formulas, see translate
         self._raw: list = []  # every condition met, with the path it was met under
         self._free: dict = {}  # free names by node
         self._degrees: dict = {}  # z3 term id -> (term, its degree as a polynomial)
         self.file, self.source = machine.file, machine.source  # what positions refer to
         for name in machine.variables:
-            self.vars[name] = self._variable(name, resolve_all(machine.type_objects.get(name)))
+            self.variables[name] = encode_variable(self.z3, machine, name, prefix)
 
-    # -- state
-    def _variable(self, name: str, t) -> Any:
-        z3 = self.z3
-        full = self.prefix + name
-        if t == BOOL:
-            return z3.Bool(full)
-        if t == REAL:
-            return z3.Real(full)
-        if t == INTEGER:
-            return z3.Int(full)
-        if isinstance(t, Pow) and isinstance(t.elem, Base) and t.elem.name in self.m.sets:
-            elems = self.m.sets[t.elem.name]
-            return _Set(t.elem.name, {e: z3.Bool(f"{full}[{e}]") for e in elems})
-        if (isinstance(t, Pow) and isinstance(t.elem, Prod) and isinstance(t.elem.left, Base)
-                and t.elem.left.name in self.m.sets and t.elem.right in (REAL, INTEGER, BOOL)):
-            if not self._function_by_invariant(name):
-                raise UnsupportedError(f"cannot translate {name} to SMT: it is a relation the "
-                                       "invariant does not make a function (S --> T or S +-> T)")
-            make = {REAL: z3.Real, INTEGER: z3.Int, BOOL: z3.Bool}[t.elem.right]
-            elems = self.m.sets[t.elem.left.name]
-            return _Func(t.elem.left.name, {e: (z3.Bool(f"{full}[{e}]?"), make(f"{full}[{e}]"))
-                                            for e in elems})
-        raise UnsupportedError(f"cannot translate the variable {name} of type "
-                               f"{self.m.types.get(name)} to SMT")
-
-    def _function_by_invariant(self, name: str) -> bool:
-        from ..b.bindings import conjuncts
-
-        inv = self.m.invariant_node
-        return inv is not None and any(
-            isinstance(c, A.Rel) and c.op == ":" and isinstance(c.left, A.Name)
-            and c.left.id == name and isinstance(c.right, A.BinOp)
-            and c.right.op in ("-->", "+->") for c in conjuncts(inv))
+    def share_state(self, other: "Translator") -> None:
+        """Translate over the state of ``other`` (its variables, and the side conditions
+        both add to): two machines' formulas about the same states."""
+        self.variables, self.side_conditions = other.variables, other.side_conditions
 
     # -- errors
-    def fail(self, node: A.Node, what: str) -> UnsupportedError:
+    def fail(self, node: ast.Node, what: str) -> UnsupportedError:
         pos = node.pos
         return UnsupportedError(f"cannot translate {what} to SMT",
                                 file=self.file, source=self.source,
@@ -144,19 +90,19 @@ class Translator:
     def defined(self, build: Callable[[], Any]) -> tuple[Any, Any]:
         """``build()`` (a translation) and the condition that it is well-defined: the
         conditions met while translating it, each under its path."""
-        start = len(self.wd)
+        start = len(self.definedness)
         value = build()
-        conds = [c for c, _ in self.wd[start:]]
+        conds = [c for c, _ in self.definedness[start:]]
         return value, self.z3.And(conds) if conds else self.z3.BoolVal(True)
 
     # -- formulas
-    def pred(self, node: A.Node, env: Optional[dict] = None) -> Any:
-        value = self.tr(node, env or {})
+    def pred(self, node: ast.Node, env: Optional[dict] = None) -> Any:
+        value = self.translate(node, env or {})
         if not self.z3.is_bool(value):
             raise self.fail(node, "a predicate that is not one")
         return value
 
-    def tr(self, node: A.Node, env: dict) -> Any:
+    def translate(self, node: ast.Node, env: dict) -> Any:
         method = getattr(self, "t_" + type(node).__name__, None)
         if method is None:
             raise self.fail(node, type(node).__name__)
@@ -166,7 +112,7 @@ class Translator:
         # per binding of its element variables, and replay its well-definedness conditions
         # under the path where it is used again
         key = (node, tuple(sorted((k, v) for k, v in env.items()
-                                  if k in A.free_names(node, self._free))))
+                                  if k in ast.free_names(node, self._free))))
         hit = self._memo.get(key)
         if hit is None:
             depth, start = len(self.path), len(self._raw)
@@ -181,18 +127,18 @@ class Translator:
             self._need(cond, n)
         return value
 
-    def t_Name(self, node: A.Name, env: dict) -> Any:
+    def t_Name(self, node: ast.Name, env: dict) -> Any:
         if node.id in env:
             return env[node.id]
-        if node.id in self.vars:
-            return self.vars[node.id]
-        if node.id in self.m.base_env:
-            return self._constant(self.m.base_env[node.id], node)
+        if node.id in self.variables:
+            return self.variables[node.id]
+        if node.id in self.machine.base_env:
+            return self._constant(self.machine.base_env[node.id], node)
         if node.id in ("REAL", "INTEGER", "BOOL", "NATURAL", "NATURAL1", "FLOAT"):
             return ("type", node.id)
         raise self.fail(node, f"the name {node.id}")
 
-    def _constant(self, value: Any, node: A.Node) -> Any:
+    def _constant(self, value: Any, node: ast.Node) -> Any:
         z3 = self.z3
         if isinstance(value, bool):
             return z3.BoolVal(value)
@@ -203,9 +149,10 @@ class Translator:
         if isinstance(value, Elem):
             return value
         if isinstance(value, frozenset) and all(isinstance(v, Elem) for v in value):
-            carrier = next((s for s, elems in self.m.sets.items() if value <= set(elems)), None)
+            sets = self.machine.sets
+            carrier = next((s for s, elems in sets.items() if value <= set(elems)), None)
             if carrier is not None:
-                return _Set(carrier, {e: z3.BoolVal(e in value) for e in self.m.sets[carrier]})
+                return ElementSet(carrier, {e: z3.BoolVal(e in value) for e in sets[carrier]})
         raise self.fail(node, f"the constant value {value!r}")
 
     def t_IntLit(self, node, env):
@@ -221,17 +168,17 @@ class Translator:
         return -self._num(node.operand, env)
 
     def _num(self, node, env):
-        value = self.tr(node, env)
+        value = self.translate(node, env)
         if not self.z3.is_arith(value):
             raise self.fail(node, "a number that is not one")
         return value
 
-    def t_BinOp(self, node: A.BinOp, env: dict) -> Any:
+    def t_BinOp(self, node: ast.BinOp, env: dict) -> Any:
         z3 = self.z3
         if node.op in ("+", "-", "*", "/", "**", "mod"):
-            left = self.tr(node.left, env)
-            if isinstance(left, _Set) and node.op == "-":
-                return self._setop(node, left, self.tr(node.right, env))
+            left = self.translate(node.left, env)
+            if isinstance(left, ElementSet) and node.op == "-":
+                return self._setop(node, left, self.translate(node.right, env))
             a, b = left, self._num(node.right, env)
             if node.op == "+":
                 return a + b
@@ -253,13 +200,14 @@ class Translator:
             self._need(z3.And(a >= 0, b > 0), node)
             return a % b
         if node.op in ("\\", "\\/", "/\\"):
-            return self._setop(node, self.tr(node.left, env), self.tr(node.right, env))
+            return self._setop(node, self.translate(node.left, env),
+                               self.translate(node.right, env))
         raise self.fail(node, f"the operator {node.op}")
 
-    def _power(self, node: A.BinOp, a) -> Any:
+    def _power(self, node: ast.BinOp, a) -> Any:
         """``a ** n`` for a literal natural n up to :data:`MAX_EXPONENT`, by repeated
         squaring (a term of about log n products, not n)."""
-        n = node.right.value if isinstance(node.right, A.IntLit) else None
+        n = node.right.value if isinstance(node.right, ast.IntLit) else None
         if n is None or n < 0:
             raise self.fail(node, "a power whose exponent is not a literal natural")
         if n > MAX_EXPONENT:
@@ -304,7 +252,7 @@ class Translator:
             self._degrees[t.get_id()] = (t, got)  # the term kept: z3 reuses freed ids
         return self._degrees[term.get_id()][1]
 
-    def _bound(self, node: A.Node, degree: int) -> None:
+    def _bound(self, node: ast.Node, degree: int) -> None:
         if degree > MAX_DEGREE:
             raise self.fail(node, f"a term of degree {degree:,} (its powers and products "
                                   f"multiply; at most {MAX_DEGREE}: the solver cannot decide "
@@ -314,38 +262,38 @@ class Translator:
         z3 = self.z3
         if node.op == "\\/" and isinstance(a, _Nums) and isinstance(b, _Nums):
             return _Nums(a.items + b.items)
-        if a is _EMPTY and isinstance(b, _Set):
-            a = _Set(b.carrier, {e: z3.BoolVal(False) for e in b.member})
-        if b is _EMPTY and isinstance(a, _Set):
-            b = _Set(a.carrier, {e: z3.BoolVal(False) for e in a.member})
+        if a is _EMPTY and isinstance(b, ElementSet):
+            a = ElementSet(b.carrier, {e: z3.BoolVal(False) for e in b.member})
+        if b is _EMPTY and isinstance(a, ElementSet):
+            b = ElementSet(a.carrier, {e: z3.BoolVal(False) for e in a.member})
         a, b = self._as_set(a, node), self._as_set(b, node)
         if a.carrier != b.carrier:
             raise self.fail(node, "an operation on sets of different carriers")
         op = node.op
         fn = {"-": lambda x, y: z3.And(x, z3.Not(y)), "\\": lambda x, y: z3.And(x, z3.Not(y)),
               "\\/": z3.Or, "/\\": z3.And}[op]
-        return _Set(a.carrier, {e: fn(a.member[e], b.member[e]) for e in a.member})
+        return ElementSet(a.carrier, {e: fn(a.member[e], b.member[e]) for e in a.member})
 
-    def _as_set(self, value, node) -> _Set:
-        if isinstance(value, _Set):
+    def _as_set(self, value, node) -> ElementSet:
+        if isinstance(value, ElementSet):
             return value
         raise self.fail(node, "a set of elements that is not one")
 
-    def t_SetExt(self, node: A.SetExt, env: dict) -> Any:
+    def t_SetExt(self, node: ast.SetExt, env: dict) -> Any:
         z3 = self.z3
-        items = [self.tr(i, env) for i in node.items]
+        items = [self.translate(i, env) for i in node.items]
         if not items:
             return _EMPTY
         if all(isinstance(i, Elem) for i in items):
-            carrier = next((s for s, elems in self.m.sets.items() if set(items) <= set(elems)),
-                           None)
+            sets = self.machine.sets
+            carrier = next((s for s, elems in sets.items() if set(items) <= set(elems)), None)
             if carrier is not None:
-                return _Set(carrier, {e: z3.BoolVal(e in items) for e in self.m.sets[carrier]})
+                return ElementSet(carrier, {e: z3.BoolVal(e in items) for e in sets[carrier]})
         if all(z3.is_arith(i) for i in items):
             return _Nums([(z3.BoolVal(True), i) for i in items])
         raise self.fail(node, "this set")
 
-    def t_Comprehension(self, node: A.Comprehension, env: dict) -> Any:
+    def t_Comprehension(self, node: ast.Comprehension, env: dict) -> Any:
         """``{v | v : S & P}`` as a set of elements, ``{v . v : S & P | E}`` as numbers."""
         z3 = self.z3
         if len(node.ids) != 1:
@@ -353,7 +301,7 @@ class Translator:
         (var,) = node.ids
         carrier, member = self._generator(node, var, node.pred, env)
         cells = {}
-        for e in self.m.sets[carrier]:
+        for e in self.machine.sets[carrier]:
             self.path.append(member(e))
             try:
                 held = z3.And(member(e), self.pred(node.pred, {**env, var: e}))
@@ -362,59 +310,60 @@ class Translator:
             finally:
                 self.path.pop()
         if node.expr is None:
-            return _Set(carrier, {e: c for e, (c, _) in cells.items()})
+            return ElementSet(carrier, {e: c for e, (c, _) in cells.items()})
         return _Nums(list(cells.values()))
 
-    def _generator(self, node, var: str, pred: A.Node, env: dict):
+    def _generator(self, node, var: str, pred: ast.Node, env: dict):
         """The carrier of ``var : S`` in ``pred`` and the condition that an element is in S."""
         from ..b.bindings import conjuncts
 
-        gen = next((c for c in conjuncts(pred) if isinstance(c, A.Rel) and c.op == ":"
-                    and isinstance(c.left, A.Name) and c.left.id == var), None)
+        gen = next((c for c in conjuncts(pred) if isinstance(c, ast.Rel) and c.op == ":"
+                    and isinstance(c.left, ast.Name) and c.left.id == var), None)
         if gen is None:
             raise self.fail(node, f"a binding of {var} without `{var} : S` over a set of "
                                   "elements")
-        if isinstance(gen.right, A.Name) and gen.right.id in self.m.sets:
+        if isinstance(gen.right, ast.Name) and gen.right.id in self.machine.sets:
             return gen.right.id, lambda e: self.z3.BoolVal(True)
         try:
-            s = self.tr(gen.right, env)
+            s = self.translate(gen.right, env)
         except UnsupportedError:
             s = None
-        if not isinstance(s, _Set):
+        if not isinstance(s, ElementSet):
             raise self.fail(node, f"a binding of {var} over something that is not a set of "
                                   "elements")
         return s.carrier, lambda e: s.member[e]
 
-    def t_Image(self, node: A.Image, env: dict) -> Any:
+    def t_Image(self, node: ast.Image, env: dict) -> Any:
         """``F[S]`` of a function over elements: its values at the members of S."""
-        f, s = self.tr(node.rel, env), self.tr(node.arg, env)
+        f, s = self.translate(node.rel, env), self.translate(node.arg, env)
         if s is _EMPTY:
             return _Nums([])
-        if not isinstance(f, _Func) or not isinstance(s, _Set) or f.carrier != s.carrier:
+        if not (isinstance(f, ElementFunction) and isinstance(s, ElementSet)
+                and f.carrier == s.carrier):
             raise self.fail(node, "this image")
         return _Nums([(self.z3.And(s.member[e], d), v) for e, (d, v) in f.cells.items()])
 
-    def t_Apply(self, node: A.Apply, env: dict) -> Any:
-        f = self.tr(node.fn, env)
-        if not isinstance(f, _Func) or len(node.args) != 1:
+    def t_Apply(self, node: ast.Apply, env: dict) -> Any:
+        f = self.translate(node.fn, env)
+        if not isinstance(f, ElementFunction) or len(node.args) != 1:
             raise self.fail(node, "this application")
-        x = self.tr(node.args[0], env)
+        x = self.translate(node.args[0], env)
         if not isinstance(x, Elem) or x not in f.cells:
             raise self.fail(node, "an application to something that is not an element")
         defined, value = f.cells[x]
         self._need(defined, node)
         return value
 
-    def t_Call(self, node: A.Call, env: dict) -> Any:
+    def t_Call(self, node: ast.Call, env: dict) -> Any:
         z3 = self.z3
         name = node.name
         if name == "dom":
-            f = self.tr(node.args[0], env)
-            if isinstance(f, _Func):
-                return _Set(f.carrier, {e: d for e, (d, _) in f.cells.items()})
+            f = self.translate(node.args[0], env)
+            if isinstance(f, ElementFunction):
+                return ElementSet(f.carrier, {e: d for e, (d, _) in f.cells.items()})
         if name == "card":
-            s = self.tr(node.args[0], env)
-            if isinstance(s, _Set):
+            s = self.translate(node.args[0], env)
+            if isinstance(s, ElementSet):
                 return z3.Sum([z3.If(c, 1, 0) for c in s.member.values()]) if s.member \
                     else z3.IntVal(0)
         if name == "bool":
@@ -428,7 +377,7 @@ class Translator:
         if name == "real":
             return z3.ToReal(self._num(node.args[0], env))
         if name in ("min", "max"):
-            s = self.tr(node.args[0], env)
+            s = self.translate(node.args[0], env)
             if isinstance(s, _Nums):
                 return self._extreme(node, name, s)
         raise self.fail(node, f"{name}(…) here")
@@ -446,30 +395,30 @@ class Translator:
                 out = z3.If(x < out, x, out) if name == "min" else z3.If(x > out, x, out)
             return out
         make = z3.Int if z3.is_int(s.items[0][1]) else z3.Real
-        m = make(f"{name}#{len(self.side)}")
+        m = make(f"{name}#{len(self.side_conditions)}")
         conds = [c for c, _ in s.items]
         bound = (lambda v: m <= v) if name == "min" else (lambda v: m >= v)
-        self.side.append(z3.Implies(z3.Or(conds), z3.Or([z3.And(c, m == v)
+        self.side_conditions.append(z3.Implies(z3.Or(conds), z3.Or([z3.And(c, m == v)
                                                           for c, v in s.items])))
-        self.side.append(z3.And([z3.Implies(c, bound(v)) for c, v in s.items]))
+        self.side_conditions.append(z3.And([z3.Implies(c, bound(v)) for c, v in s.items]))
         self._need(z3.Or(conds), node)
         return m
 
-    def t_Rel(self, node: A.Rel, env: dict) -> Any:
+    def t_Rel(self, node: ast.Rel, env: dict) -> Any:
         z3 = self.z3
         op = node.op
         if op in ("<", "<=", ">", ">="):
             a, b = self._num(node.left, env), self._num(node.right, env)
             return {"<": a < b, "<=": a <= b, ">": a > b, ">=": a >= b}[op]
         if op in ("=", "/="):
-            a, b = self.tr(node.left, env), self.tr(node.right, env)
-            if a is _EMPTY and isinstance(b, _Set):
+            a, b = self.translate(node.left, env), self.translate(node.right, env)
+            if a is _EMPTY and isinstance(b, ElementSet):
                 a, b = b, a
-            if b is _EMPTY and isinstance(a, _Set):
-                b = _Set(a.carrier, {e: z3.BoolVal(False) for e in a.member})
+            if b is _EMPTY and isinstance(a, ElementSet):
+                b = ElementSet(a.carrier, {e: z3.BoolVal(False) for e in a.member})
             if isinstance(a, Elem) and isinstance(b, Elem):
                 eq = z3.BoolVal(a == b)
-            elif isinstance(a, _Set) and isinstance(b, _Set) and a.carrier == b.carrier:
+            elif isinstance(a, ElementSet) and isinstance(b, ElementSet) and a.carrier == b.carrier:
                 eq = z3.And([a.member[e] == b.member[e] for e in a.member])
             elif z3.is_expr(a) and z3.is_expr(b) and not isinstance(a, Elem):
                 eq = a == b
@@ -477,28 +426,29 @@ class Translator:
                 raise self.fail(node, "this equality")
             return eq if op == "=" else z3.Not(eq)
         if op in (":", "/:"):
-            held = self._member(node, self.tr(node.left, env), node.right, env)
+            held = self._member(node, self.translate(node.left, env), node.right, env)
             return held if op == ":" else z3.Not(held)
         if op in ("<:", "/<:"):
-            a, b = self.tr(node.left, env), self.tr(node.right, env)
+            a, b = self.translate(node.left, env), self.translate(node.right, env)
             if isinstance(b, tuple) and b[0] == "type":  # S <: Vehicles-like carrier
                 held = z3.BoolVal(True)
-            elif isinstance(b, _Set) and isinstance(a, _Set) and a.carrier == b.carrier:
+            elif isinstance(b, ElementSet) and isinstance(a, ElementSet) and a.carrier == b.carrier:
                 held = z3.And([z3.Implies(a.member[e], b.member[e]) for e in a.member])
             else:
                 raise self.fail(node, "this inclusion")
             return held if op == "<:" else z3.Not(held)
         raise self.fail(node, f"the relation {op}")
 
-    def _member(self, node, x, right: A.Node, env: dict) -> Any:
+    def _member(self, node, x, right: ast.Node, env: dict) -> Any:
         z3 = self.z3
-        if isinstance(right, A.Name) and right.id in self.m.sets and isinstance(x, Elem):
-            return z3.BoolVal(x in self.m.sets[right.id])
-        if isinstance(right, A.Name) and right.id in ("REAL", "INTEGER", "BOOL", "FLOAT"):
+        if isinstance(right, ast.Name) and right.id in self.machine.sets and isinstance(x, Elem):
+            return z3.BoolVal(x in self.machine.sets[right.id])
+        if isinstance(right, ast.Name) and right.id in ("REAL", "INTEGER", "BOOL", "FLOAT"):
             return z3.BoolVal(True)  # the type checker made sure
-        if isinstance(right, A.BinOp) and right.op in ("-->", "+->") and isinstance(x, _Func):
-            dom = self.tr(right.left, env) if not (isinstance(right.left, A.Name)
-                                                  and right.left.id in self.m.sets) else None
+        if (isinstance(right, ast.BinOp) and right.op in ("-->", "+->")
+                and isinstance(x, ElementFunction)):
+            dom = self.translate(right.left, env) if not (isinstance(right.left, ast.Name)
+                                                  and right.left.id in self.machine.sets) else None
             cells = x.cells
             if dom is None:
                 return z3.And([d for d, _ in cells.values()]) if right.op == "-->" \
@@ -507,15 +457,16 @@ class Translator:
             if right.op == "-->":
                 return z3.And([d == dom.member[e] for e, (d, _) in cells.items()])
             return z3.And([z3.Implies(d, dom.member[e]) for e, (d, _) in cells.items()])
-        if isinstance(right, A.BinOp) and right.op == ".." and self.z3.is_arith(x):
+        if isinstance(right, ast.BinOp) and right.op == ".." and self.z3.is_arith(x):
             lo, hi = self._num(right.left, env), self._num(right.right, env)
             return z3.And(lo <= x, x <= hi)
-        if isinstance(right, A.Call) and right.name == "POW":
+        if isinstance(right, ast.Call) and right.name == "POW":
             inner = right.args[0]
-            if isinstance(inner, A.Name) and inner.id in self.m.sets and isinstance(x, _Set):
+            if (isinstance(inner, ast.Name) and inner.id in self.machine.sets
+                    and isinstance(x, ElementSet)):
                 return z3.BoolVal(True)
-        s = self.tr(right, env)
-        if isinstance(s, _Set) and isinstance(x, Elem) and x in s.member:
+        s = self.translate(right, env)
+        if isinstance(s, ElementSet) and isinstance(x, Elem) and x in s.member:
             return s.member[x]
         raise self.fail(node, "this membership")
 
@@ -544,53 +495,53 @@ class Translator:
     def t_Not(self, node, env):
         return self.z3.Not(self.pred(node.operand, env))
 
-    def t_IfExpr(self, node: A.IfExpr, env: dict) -> Any:
+    def t_IfExpr(self, node: ast.IfExpr, env: dict) -> Any:
         z3 = self.z3
         conds, values = [], []
         for cond, value in node.branches:
             c = self.pred(cond, env)
             self.path.append(c)
             try:
-                values.append(self.tr(value, env))
+                values.append(self.translate(value, env))
             finally:
                 self.path.pop()
             conds.append(c)
             self.path.append(z3.Not(c))
         try:
-            out = self.tr(node.else_, env)
+            out = self.translate(node.else_, env)
         finally:
             del self.path[len(self.path) - len(conds):]
         for c, v in zip(reversed(conds), reversed(values)):
             out = z3.If(c, v, out)
         return out
 
-    def t_Let(self, node: A.Let, env: dict) -> Any:
+    def t_Let(self, node: ast.Let, env: dict) -> Any:
         from ..b.bindings import conjuncts
 
         inner = dict(env)
         for c in conjuncts(node.pred):
-            if (isinstance(c, A.Rel) and c.op == "=" and isinstance(c.left, A.Name)
+            if (isinstance(c, ast.Rel) and c.op == "=" and isinstance(c.left, ast.Name)
                     and c.left.id in node.ids):
-                inner[c.left.id] = self.tr(c.right, inner)
+                inner[c.left.id] = self.translate(c.right, inner)
             else:
                 raise self.fail(c, "a LET condition that is not an equation")
-        return self.tr(node.body, inner)
+        return self.translate(node.body, inner)
 
-    def t_Quant(self, node: A.Quant, env: dict) -> Any:
+    def t_Quant(self, node: ast.Quant, env: dict) -> Any:
         z3 = self.z3
         if len(node.ids) != 1:
             raise self.fail(node, "a quantifier over several variables")
         (var,) = node.ids
         body = node.body
-        carrier, _ = self._generator(node, var, body.left if isinstance(body, A.Implies)
+        carrier, _ = self._generator(node, var, body.left if isinstance(body, ast.Implies)
                                      else body, env)
-        parts = [self.pred(body, {**env, var: e}) for e in self.m.sets[carrier]]
+        parts = [self.pred(body, {**env, var: e}) for e in self.machine.sets[carrier]]
         if node.op == "#":
             return z3.Or(parts) if parts else z3.BoolVal(False)
         return z3.And(parts) if parts else z3.BoolVal(True)
 
-    def _need(self, cond, node: A.Node) -> None:
-        self.wd.append((self.z3.Implies(self._path_condition(), cond), node))
+    def _need(self, cond, node: ast.Node) -> None:
+        self.definedness.append((self.z3.Implies(self._path_condition(), cond), node))
         self._raw.append((cond, tuple(self.path), node))
 
     def _path_condition(self) -> Any:
@@ -606,52 +557,20 @@ class Translator:
         return stack[-1][1] if stack else self.z3.BoolVal(True)
 
     def invariant(self) -> Any:
-        inv = self.m.invariant_node
+        inv = self.machine.invariant_node
         return self.pred(inv) if inv is not None else self.z3.BoolVal(True)
 
     def guard(self, op: str) -> Any:
-        operation = self.m.operations[op]
+        operation = self.machine.operations[op]
         if operation.params:
             raise self.fail(operation.guard, f"the guard of {op}, which has parameters")
         return self.pred(operation.guard) if operation.guard is not None else \
             self.z3.BoolVal(True)
 
 
-# sub-formulas translated once per binding (see Translator.tr)
-_SHARED = (A.Comprehension, A.Image, A.Call, A.Quant, A.IfExpr)
+# sub-formulas translated once per binding (see Translator.translate)
+_SHARED = (ast.Comprehension, ast.Image, ast.Call, ast.Quant, ast.IfExpr)
 
 
 def _abs(z3, x):
     return z3.If(x >= 0, x, -x)
-
-
-# ------------------------------------------------------------------ models
-
-
-def state_of_model(tr: Translator, model) -> dict:
-    """The counterexample's state as B values (reals as the nearest floats)."""
-    z3 = tr.z3
-    out: dict = {}
-
-    def num(v):
-        v = model.eval(v, model_completion=True)
-        if z3.is_int_value(v):
-            return v.as_long()
-        if z3.is_rational_value(v):
-            return float(Fraction(v.numerator_as_long(), v.denominator_as_long()))
-        if z3.is_algebraic_value(v):
-            return float(v.approx(20).as_decimal(20).rstrip("?"))
-        return bool(z3.is_true(v))
-
-    for name, enc in tr.vars.items():
-        if isinstance(enc, _Set):
-            out[name] = frozenset(e for e, c in enc.member.items()
-                                  if z3.is_true(model.eval(c, model_completion=True)))
-        elif isinstance(enc, _Func):
-            out[name] = FuncValue({e: num(v) for e, (d, v) in enc.cells.items()
-                                   if z3.is_true(model.eval(d, model_completion=True))})
-        elif z3.is_bool(enc):
-            out[name] = bool(z3.is_true(model.eval(enc, model_completion=True)))
-        else:
-            out[name] = num(enc)
-    return out

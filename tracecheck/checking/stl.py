@@ -18,7 +18,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..b import ast as A
+from ..b import ast
 from ..b.vector import float_column
 from ..errors import TracecheckError
 from .ltl import Formula, parse_syntax
@@ -27,6 +27,9 @@ __all__ = ["parse_stl", "robustness", "episode_robustness"]
 
 _ALLOWED = {"atom", "not", "&", "or", "=>", "X", "G", "F"}
 _SIGN = {">": 1.0, ">=": 1.0, "<": -1.0, "<=": -1.0}
+#: how the error below names an operator where that is not its op (the name it has always
+#: printed for ``BA({P})``)
+_NAMED = {"before_after": "ba"}
 
 
 def parse_stl(text: str, machine, *, where: str = "<stl>") -> Formula:
@@ -37,8 +40,9 @@ def parse_stl(text: str, machine, *, where: str = "<stl>") -> Formula:
 
     def check(g: Formula) -> Formula:
         if g.op not in _ALLOWED:
-            raise p.fail(f"{g.op!r} has no robustness: STL formulas use comparisons {{E < F}}, "
-                         "not, &, or, =>, X, G, F, G[a,b], F[a,b]", at=g.column)
+            raise p.fail(f"{_NAMED.get(g.op, g.op)!r} has no robustness: STL formulas use "
+                         "comparisons {E < F}, not, &, or, =>, X, G, F, G[a,b], F[a,b]",
+                         at=g.column)
         if g.op != "atom":
             return replace(g, args=tuple(check(a) for a in g.args))
         try:
@@ -48,7 +52,7 @@ def parse_stl(text: str, machine, *, where: str = "<stl>") -> Formula:
         except TracecheckError as exc:
             raise p.fail(f"in the atom {{{g.text.strip()}}}: {exc.message}",
                          at=g.column) from None
-        if not (isinstance(node, A.Rel) and node.op in _SIGN):
+        if not (isinstance(node, ast.Rel) and node.op in _SIGN):
             raise p.fail(f"the atom {{{g.text.strip()}}} is not a comparison E < F, E <= F, "
                          "E > F or E >= F of numbers", at=g.column)
         return replace(g, node=node)

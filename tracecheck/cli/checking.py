@@ -84,7 +84,7 @@ def replay_cmd(
 
 def _resimulate(runs: list[Path], shield, report, agent: Optional[Path],
                 env: Optional[str] = None) -> dict:
-    from ..checking.resimulate import resimulate, summary
+    from ..live.resimulate import resimulate, summary
 
     results = []
     todo = sum(e.first_infeasible is not None for e in report.per_episode)
@@ -128,7 +128,7 @@ def diff_cmd(
     ray_address: Optional[str] = RAY_ADDRESS,
 ) -> None:
     """Compare two shields on every recorded state: which steps does the change block or allow?"""
-    from ..checking.replay import diff
+    from ..checking.diff import diff
     from ..render.text import diff_table, diff_text
 
     fmt = output_format(fmt, as_json)
@@ -141,8 +141,8 @@ def diff_cmd(
         _check_counterexamples(counterexamples, [shield, against], force)
         a, b = run_shield(shield, []).machine, run_shield(against, []).machine
         _print_results(symbolic_diff(a, b, timeout_s=timeout,
-                                     labels=_labels(shield, against, a, b)), a,
-                       fmt, counterexamples)
+                                     labels=_labels(shield, against, a, b),
+                                     describe=_describe(a)), a, fmt, counterexamples)
         return
     if not runs:
         raise InputError("give run files to compare the shields on, or --symbolic")
@@ -204,82 +204,49 @@ def prove_cmd(
     freedom, implications, well-definedness. Exit 0: all proved; 1: a counterexample; 3:
     unknown; 4: the solver and tracecheck's evaluator disagree; 5: vacuous, no state
     satisfies the invariant and assumptions (see docs/prove.md)."""
-    from ..checking.prove import Given, prove
+    from ..checking.obligations import Given, Obligations, implication, read_obligations
+    from ..checking.prove import prove
     from ..checking.shield import load_shield
 
     fmt = output_format(fmt, as_json)
     _check_counterexamples(counterexamples, [shield, obligations], force)
     machine = load_shield(shield).machine
-    pairs = []
+    asked = Obligations(deadlock_free=deadlock_free, well_defined=well_defined,
+                        assume=tuple(Given(a, "--assume") for a in assume))
     if obligations is not None:
-        more = _obligations_file(obligations, machine)
-        deadlock_free = deadlock_free or more["deadlock_free"]
-        well_defined = well_defined or more["well_defined"]
-        assume = list(assume) + more["assume"]
-        pairs += more["implies"]
+        asked = asked.also(read_obligations(obligations, machine))
+    adapter = None
     if env is not None:
         from ..live.adapter import load_adapter
 
-        assume = list(assume) + [Given(a, f"--env {env}")
-                                 for a in load_adapter(env).assumptions]
-    for item in implies:
-        op, sep, pred = item.partition("=>")
-        if not sep or not op.strip() or not pred.strip():
-            raise InputError(f"--implies takes 'OP => PREDICATE', not {item!r}")
-        pairs.append((op.strip(), Given(pred.strip(), "--implies")))
-    if not (deadlock_free or pairs or well_defined):
+        adapter = load_adapter(env)
+        asked = asked.also(Obligations(assume=tuple(Given(a, f"--env {env}")
+                                                    for a in adapter.assumptions)))
+    asked = asked.also(Obligations(implies=tuple(implication(item) for item in implies)))
+    if asked.empty:
         raise InputError("nothing to prove: give --deadlock-free, --implies or --well-defined")
-    results = prove(machine, deadlock_free=deadlock_free, implies=tuple(pairs),
-                    well_defined=well_defined, assume=tuple(assume), timeout_s=timeout)
+    results = prove(machine, deadlock_free=asked.deadlock_free, implies=asked.implies,
+                    well_defined=asked.well_defined, assume=asked.assume, timeout_s=timeout,
+                    describe=_describe(machine, adapter))
     _print_results(results, machine, fmt, counterexamples)
 
 
-def _obligations_file(path: Path, machine) -> dict:
-    """The obligations of a TOML file, checked (each mistake names the file and key; the
-    predicates are type-checked by ``prove``, with the same names)."""
-    import tomllib
+def _describe(machine, adapter=None):
+    """How a counterexample reads: as ``adapter`` (``--env``) describes a state, else as
+    the first installed adapter whose variables ``machine`` declares does (the highway's
+    for its shields: vehicles on the road); None: the state's values as they are."""
+    from ..live.adapter import adapters
 
-    from ..checking.prove import Given
-    from ..errors import read_text
+    found = ([adapter] if adapter is not None else []) + [
+        info.adapter for info in adapters() if info.adapter is not None
+        and info.adapter.variables and set(info.adapter.variables) <= set(machine.variables)]
+    if not found:
+        return None
 
-    text = read_text(path, "obligations file")
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"not valid TOML: {exc}", file=str(path)) from None
-    unknown = set(data) - {"deadlock_free", "well_defined", "assume", "implies"}
-    if unknown:
-        raise InputError(f"{path}: unknown key {sorted(unknown)[0]!r}; the keys are "
-                         "deadlock_free, well_defined, assume, implies")
-    out = {"deadlock_free": data.get("deadlock_free", False),
-           "well_defined": data.get("well_defined", False),
-           "assume": data.get("assume", []), "implies": []}
-    for key in ("deadlock_free", "well_defined"):
-        if not isinstance(out[key], bool):
-            raise InputError(f"{path}: {key} must be true or false")
-    if not isinstance(out["assume"], list) or not all(isinstance(a, str) for a in out["assume"]):
-        raise InputError(f"{path}: assume must be a list of predicates (strings)")
-    out["assume"] = [Given(a, f"{path}: assume[{i + 1}]") for i, a in enumerate(out["assume"])]
-    items = data.get("implies", [])
-    if not isinstance(items, list):
-        raise InputError(f"{path}: implies must be [[implies]] tables")
-    for i, item in enumerate(items):
-        if not (isinstance(item, dict) and isinstance(item.get("operation"), str)
-                and isinstance(item.get("predicate"), str)):
-            raise InputError(f"{path}: implies[{i + 1}] needs operation = \"OP\" and "
-                             "predicate = \"…\"")
-        if item["operation"] not in machine.operations:
-            raise InputError(f"{path}: implies[{i + 1}].operation: unknown operation "
-                             f"{item['operation']!r}; the operations of {machine.name} are "
-                             f"{', '.join(machine.operations)}")
-        out["implies"].append((item["operation"], Given(item["predicate"],
-                                                        f"{path}: implies[{i + 1}].predicate")))
-    return out
-
-
-def _decisions(extra) -> str:
-    """Which shield enables the operation in a distinguishing state (``diff --symbolic``)."""
-    return ", ".join(f"{k} {'enables' if v else 'blocks'} it" for k, v in (extra or {}).items())
+    def describe(state: dict):
+        return next((text for text in (a.describe(state) for a in found) if text is not None),
+                    None)
+    return describe
 
 
 def _print_results(results, machine, fmt: OutputFormat, folder: Optional[Path]) -> None:
@@ -288,39 +255,17 @@ def _print_results(results, machine, fmt: OutputFormat, folder: Optional[Path]) 
     operation only one shield has); 3: unknown (a construct that cannot be translated, a
     timeout); 4: the solver and tracecheck's evaluator disagree; 5: vacuous (no state
     satisfies the invariants and assumptions: nothing was proved)."""
-    from ..b.values import to_json
-    from ..checking.prove import VACUOUS, Disagreement
+    from ..checking.prove import UNKNOWN, VACUOUS
+    from ..errors import Disagreement
+    from ..render.prove_text import prove_json, prove_table, prove_text
 
     written = {} if folder is None else _write_counterexamples(results, machine, folder)
     if fmt == OutputFormat.json:
-        print_json([{
-            "obligation": r.obligation, "status": r.status, "reason": r.reason or None,
-            "reading": r.reading or None, "disagreement": r.disagreement or None,
-            "decisions": r.extra or None, "counterexample_file": written.get(i),
-            "state": {k: to_json(v) for k, v in r.state.items()} if r.state else None,
-        } for i, r in enumerate(results)])
+        print_json(prove_json(results, written))
     elif fmt != OutputFormat.text:
-        from ..render.tables import TableData
-
-        print_table(fmt, TableData.of(
-            ["obligation", "status", "reason", "reading", "decisions", "counterexample file"],
-            ([r.obligation, r.status, r.reason, r.reading, _decisions(r.extra), written.get(i)]
-             for i, r in enumerate(results))))
+        print_table(fmt, prove_table(results, written))
     else:
-        vacuous = next((r.reason for r in results if r.status == VACUOUS), None)
-        if vacuous:
-            out.print(f"{VACUOUS}: {vacuous}", markup=False)
-        for i, r in enumerate(results):
-            line = f"{r.obligation}: {r.status}"
-            if r.reason and r.status != VACUOUS:
-                line += f" ({r.reason})"
-            out.print(line, markup=False)
-            if r.reading:
-                out.print(f"  {r.reading}", markup=False)
-            if r.extra:
-                out.print("  " + _decisions(r.extra), markup=False)
-            if i in written:
-                out.print(f"  state: {written[i]}", markup=False)
+        prove_text(out, results, written)
     bad = [r for r in results if r.disagreement]
     if bad:
         raise Disagreement(f"{bad[0].obligation}: {bad[0].disagreement}",
@@ -328,7 +273,7 @@ def _print_results(results, machine, fmt: OutputFormat, folder: Optional[Path]) 
                                 "evaluator should agree")
     if any(r.failed for r in results):
         raise typer.Exit(1)
-    if any(r.status == "unknown" for r in results):
+    if any(r.status == UNKNOWN for r in results):
         raise typer.Exit(3)
     if any(r.status == VACUOUS for r in results):
         raise typer.Exit(5)

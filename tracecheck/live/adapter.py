@@ -177,6 +177,12 @@ class EnvAdapter:
         environment"."""
         return None
 
+    def describe(self, state: dict[str, Any]) -> Optional[str]:
+        """A B state in one line for people (optional): how ``prove`` and ``diff
+        --symbolic`` show a counterexample in this environment's states. None: as its
+        variables' values."""
+        return None
+
 
 @dataclass(frozen=True)
 class AdapterInfo:
@@ -259,7 +265,7 @@ def load_adapter(spec: Optional[str]) -> EnvAdapter:
 
 #: the hooks whose exceptions are reported as the adapter's (with its name and the hook)
 _HOOKS = ("make_env", "state", "crashed", "default_config", "config", "config_keys",
-          "fallback_index", "scene")
+          "fallback_index", "scene", "describe")
 
 
 def _raised(where: str, exc: BaseException, hook: str) -> InputError:

@@ -248,7 +248,7 @@ def _check_run(run, shield, resimulate: bool, agent, env) -> dict:
     if shield is not None:
         entry["replay"] = replay([run], shield)
         if resimulate:
-            from ..checking.resimulate import resimulate as again, summary
+            from ..live.resimulate import resimulate as again, summary
 
             entry["resim"] = summary(again(run, shield, entry["replay"], agent=agent, env=env))
             entry["replay"].resimulation = entry["resim"]  # the table shows what it found

@@ -6,8 +6,9 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-from ..checking.replay import (MISMATCH, NEW_CRASH, NOT_PREVENTED, PREVENTED, DiffReport,
-                               EpisodeReplay, ReplayReport)
+from ..checking.diff import DiffReport
+from ..checking.replay import (MISMATCH, NEW_CRASH, NOT_PREVENTED, PREVENTED, EpisodeReplay,
+                               ReplayReport)
 from .tables import TableData, markdown, md_text
 
 __all__ = ["replay_text", "replay_markdown", "replay_table", "diff_text", "diff_table",

@@ -491,7 +491,7 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
         check_environment(adapter, environment)
         environment = adapter
     if executor != "local":
-        from ..live.executors import map_files
+        from ..checking.executors import map_files
 
         start = time.perf_counter()
         runs = map_files(_evaluate_one, [(str(p), pset, names[i] if names else None,

@@ -20,13 +20,13 @@ from typing import Any, Optional
 
 import numpy as np
 
-from ...b.values import Elem, FuncValue
+from ...b.values import Elem, FuncValue, format_value
 from ...episodes.model import HIGHWAY, HIGHWAY_ACTIONS
 from ...errors import InputError
 from ..adapter import EnvAdapter, Observer, setting_kinds
 
 __all__ = ["ENV_ID", "REWARD_PROFILES", "env_config", "make_env", "StateAdapter", "ACTIONS",
-           "ELEMENTS", "HighwayAdapter"]
+           "ELEMENTS", "HighwayAdapter", "road_reading"]
 
 ENV_ID = "highway-fast-v0"
 ACTIONS = HIGHWAY_ACTIONS  # highway-env's DiscreteMetaAction order: 0 = LANE_LEFT, …
@@ -165,3 +165,38 @@ class HighwayAdapter(EnvAdapter):
 
     def observer(self, env) -> Observer:
         return _HighwayObserver(self, env)
+
+    def describe(self, state: dict[str, Any]) -> Optional[str]:
+        return road_reading(state)
+
+
+def road_reading(state: dict[str, Any]) -> Optional[str]:
+    """A state on the road in one line: each present vehicle's position and speed (by
+    name), then the values of the variables that are neither functions nor sets; None for a
+    state without positions.
+
+    >>> road_reading({"Crash": False, "PresentVehicles": frozenset({ELEMENTS[0]}),
+    ...               "VehiclesX": FuncValue({ELEMENTS[0]: 0.0}),
+    ...               "VehiclesY": FuncValue({ELEMENTS[0]: 4.0})})
+    'EgoVehicle at x = 0, y = 4 (Crash = FALSE)'
+    """
+    x, y = state.get("VehiclesX"), state.get("VehiclesY")
+    present = state.get("PresentVehicles")
+    if not (isinstance(x, FuncValue) and isinstance(y, FuncValue)
+            and isinstance(present, frozenset)):
+        return None
+    vx = state.get("VehiclesVx")
+    parts = []
+    for e in sorted(present, key=str):
+        speed = f", vx = {_number(vx.map[e])}" if isinstance(vx, FuncValue) and \
+            e in vx.map else ""
+        if e in x.map and e in y.map:
+            parts.append(f"{e} at x = {_number(x.map[e])}, y = {_number(y.map[e])}{speed}")
+    others = [f"{k} = {format_value(v)}" for k, v in state.items()
+              if not isinstance(v, (FuncValue, frozenset))]
+    return "; ".join(parts or ["no vehicle present"]) + \
+        (f" ({', '.join(others)})" if others else "")
+
+
+def _number(v) -> str:
+    return f"{v:g}" if isinstance(v, float) else str(v)

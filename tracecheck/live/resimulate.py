@@ -12,13 +12,13 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Callable, Optional
 
-from ..live.agents import file_sha256
+from ..checking.replay import (MISMATCH, NEW_CRASH, NO_CRASH, NO_SEED, NOT_PREVENTED, OUTCOMES,
+                               PREVENTED, ReplayReport)
+from ..checking.shield import SHIELD_DIR, Shield
 from ..episodes.columns import RunColumns, read_columns
 from ..episodes.reader import read_header
 from ..errors import InputError, printable
-from .replay import (MISMATCH, NEW_CRASH, NO_CRASH, NO_SEED, NOT_PREVENTED, OUTCOMES, PREVENTED,
-                     ReplayReport)
-from .shield import SHIELD_DIR, Shield
+from .agents import file_sha256
 
 __all__ = ["resimulate", "Resimulation", "summary"]
 
@@ -91,8 +91,8 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
     The environment is the adapter the file names, looked up among the installed ones only
     (a file never makes tracecheck import a module); ``env`` (from ``--env``) overrides it.
     """
-    from ..live.adapter import MakeError, get_adapter, load_adapter
-    from ..live.rollout import RecordSettings, Session
+    from .adapter import MakeError, get_adapter, load_adapter
+    from .rollout import RecordSettings, Session
 
     path = str(path)
     header = read_header(path)
@@ -140,7 +140,7 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
 def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:
     """The episode again from its seed: the recorded actions up to the first infeasible
     step (each state checked against the recording), then the agent under the shield."""
-    from ..live.rollout import Mismatch, run_episode
+    from .rollout import Mismatch, run_episode
 
     lo = int(cols.starts[i])
     seed = cols.seeds[i] if i < len(cols.seeds) else None

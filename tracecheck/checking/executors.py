@@ -1,0 +1,65 @@
+"""Where files are checked: in this process, or one Ray task per file.
+
+Replay, diff and statistics map a function over their run files with :func:`map_files`;
+recording starts Ray the same way (:func:`start_ray`) for its episode tasks.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Optional
+
+from ..errors import InputError
+
+__all__ = ["map_files", "start_ray", "EXECUTORS"]
+
+EXECUTORS = ("local", "ray")
+
+
+def start_ray(address: Optional[str], cpus: int):
+    """(the ray module, whether this call started it): Ray at ``address``, or a local
+    instance of ``cpus`` CPUs, unless one is running already."""
+    try:
+        import ray
+    except ImportError:
+        raise InputError("the ray executor needs Ray: pip install 'tracecheck[ray]'") from None
+    if ray.is_initialized():
+        return ray, False
+    os.environ.setdefault("RAY_DEDUP_LOGS", "0")
+    try:
+        if address:
+            ray.init(address=address, log_to_driver=False)
+        else:
+            ray.init(address="local", num_cpus=cpus, include_dashboard=False,
+                     log_to_driver=False, _node_ip_address="127.0.0.1")
+    except Exception as exc:  # noqa: BLE001 - Ray fails in many ways; say which address
+        where = address or "a local instance"
+        raise InputError(f"cannot start or reach Ray at {where}: {exc}") from None
+    return ray, True
+
+
+def _in_task(fn, salvage: bool, *job):
+    """``fn(*job)`` in a task, reading files the way the caller does (``--salvage``)."""
+    from ..episodes.salvage import salvaging
+
+    with salvaging(salvage):
+        return fn(*job)
+
+
+def map_files(fn, jobs: list[tuple], executor: str = "local",
+              address: Optional[str] = None, cpus: int = 2) -> list:
+    """``fn(*job)`` for each job (one per file), locally or as Ray tasks; results in order."""
+    if executor not in EXECUTORS:
+        raise InputError(f"unknown executor {executor!r}; the executors are "
+                         f"{', '.join(EXECUTORS)}")
+    if executor == "local" or len(jobs) <= 1 and address is None:
+        return [fn(*job) for job in jobs]
+    from ..episodes.salvage import salvage_on
+
+    ray, started = start_ray(address, cpus)
+    try:
+        remote = ray.remote(max_retries=3)(_in_task)
+        return ray.get([remote.remote(fn, salvage_on(), *job) for job in jobs])
+    finally:
+        if started:
+            ray.shutdown()

@@ -1,0 +1,57 @@
+"""Proof and symbolic-diff results (``prove``, ``diff --symbolic``) for people and machines:
+lines for the terminal, one table for Markdown and CSV, and the JSON report."""
+
+from __future__ import annotations
+
+from typing import Optional
+
+from rich.console import Console
+
+from ..b.values import to_json
+from ..checking.prove import VACUOUS, Result
+from .tables import TableData
+
+__all__ = ["prove_text", "prove_table", "prove_json"]
+
+
+def _decisions(extra: Optional[dict]) -> str:
+    """Which shield enables the operation in a distinguishing state (``diff --symbolic``)."""
+    return ", ".join(f"{k} {'enables' if v else 'blocks'} it" for k, v in (extra or {}).items())
+
+
+def prove_json(results: list[Result], written: dict[int, str]) -> list[dict]:
+    """Each result as JSON, with the file its counterexample was written to (``written``:
+    {result index: path})."""
+    return [{
+        "obligation": r.obligation, "status": r.status, "reason": r.reason or None,
+        "reading": r.reading or None, "disagreement": r.disagreement or None,
+        "decisions": r.extra or None, "counterexample_file": written.get(i),
+        "state": {k: to_json(v) for k, v in r.state.items()} if r.state else None,
+    } for i, r in enumerate(results)]
+
+
+def prove_table(results: list[Result], written: dict[int, str]) -> TableData:
+    """One row per result, for Markdown and CSV."""
+    return TableData.of(
+        ["obligation", "status", "reason", "reading", "decisions", "counterexample file"],
+        ([r.obligation, r.status, r.reason, r.reading, _decisions(r.extra), written.get(i)]
+         for i, r in enumerate(results)))
+
+
+def prove_text(console: Console, results: list[Result], written: dict[int, str]) -> None:
+    """A line per result (vacuity said once, first), its reading, the shields' decisions
+    and its counterexample file indented under it; names printed as they are."""
+    vacuous = next((r.reason for r in results if r.status == VACUOUS), None)
+    if vacuous:
+        console.print(f"{VACUOUS}: {vacuous}", markup=False)
+    for i, r in enumerate(results):
+        line = f"{r.obligation}: {r.status}"
+        if r.reason and r.status != VACUOUS:
+            line += f" ({r.reason})"
+        console.print(line, markup=False)
+        if r.reading:
+            console.print(f"  {r.reading}", markup=False)
+        if r.extra:
+            console.print("  " + _decisions(r.extra), markup=False)
+        if i in written:
+            console.print(f"  state: {written[i]}", markup=False)
