@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from tracecheck.b.machine import load_machine, load_machine_text
-from tracecheck.b.values import parse_literal
+from tracecheck.b.notation import parse_literal
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_SHIELD = ROOT / "models" / "shields" / "paper.mch"

@@ -19,7 +19,8 @@ from tracecheck.b.evaluate import Compiler
 from tracecheck.b.parser import parse_formula
 from tracecheck.b.scope import check_kind, kind_of
 from tracecheck.b.typecheck import type_of_value, typecheck_formula
-from tracecheck.b.values import Elem, FuncValue, is_set, parse_literal
+from tracecheck.b.notation import parse_literal
+from tracecheck.b.values import Elem, FuncValue, is_set
 from tracecheck.b.vector import BatchFormula, Columns
 
 CORPUS = Path(__file__).with_name("corpus") / "expressions.txt"

@@ -175,7 +175,7 @@ class Builder(Transformer):
         return A.Name(str(c[0]), pos=tok_pos(c[0]))
 
     def int_lit(self, meta, c):
-        from .values import read_int
+        from .limits import read_int
 
         try:
             return A.IntLit(read_int(str(c[0])), pos=tok_pos(c[0]))

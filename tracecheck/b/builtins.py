@@ -9,8 +9,9 @@ from typing import Any, Callable
 from ..errors import TracecheckError
 from . import ast as A
 from . import values as V
-from .finite import finite as _finite, make_set as _make_set, short as _short
-from .values import FuncValue, Interval, PowSet, SymbolicSet
+from .finite import finite as _finite
+from .spaces import SeqSet
+from .values import FuncValue, Interval, PowSet, SymbolicSet, brief, make_set
 
 __all__ = ["BUILTINS", "UNSUPPORTED_HINTS"]
 
@@ -61,7 +62,7 @@ def _to_real(c, node: A.Call, v: Any) -> float:
     try:
         return float(v)
     except OverflowError:
-        raise c.wd(node, f"{_short(v)} is too large for a real (at most about 1.8E308)") \
+        raise c.wd(node, f"{brief(v)} is too large for a real (at most about 1.8E308)") \
             from None
 
 
@@ -105,11 +106,11 @@ BUILTINS: dict[str, Callable[[Any, A.Call, Any], Any]] = {
     "rev": lambda c, n, v: V.sequence(c.seq_items(n.args[0], v)[::-1]),
     "conc": lambda c, n, v: V.sequence([x for s in c.seq_items(n.args[0], v)
                                         for x in c.seq_items(n.args[0], s)]),
-    "seq": lambda c, n, v: V.SeqSet("seq", v),
-    "seq1": lambda c, n, v: V.SeqSet("seq1", v),
-    "iseq": lambda c, n, v: V.SeqSet("iseq", v),
-    "iseq1": lambda c, n, v: V.SeqSet("iseq1", v),
-    "perm": lambda c, n, v: V.SeqSet("perm", v),
+    "seq": lambda c, n, v: SeqSet("seq", v),
+    "seq1": lambda c, n, v: SeqSet("seq1", v),
+    "iseq": lambda c, n, v: SeqSet("iseq", v),
+    "iseq1": lambda c, n, v: SeqSet("iseq1", v),
+    "perm": lambda c, n, v: SeqSet("perm", v),
 }
 
 UNSUPPORTED_HINTS = {
@@ -145,4 +146,4 @@ def _closure1(rel: frozenset) -> frozenset:
                 seen.add(y)
                 todo.extend(succ.get(y, ()))
         out.extend((start, y) for y in seen)
-    return _make_set(out)
+    return make_set(out)

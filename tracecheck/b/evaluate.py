@@ -20,10 +20,10 @@ from .scope import render
 from . import values as V
 from .bindings import conjuncts, domain as _domain, generators
 from .builtins import BUILTINS as _BUILTINS, UNSUPPORTED_HINTS as _UNSUPPORTED_HINTS
-from .finite import finite as _finite, hashable as _hashable, make_set as _make_set
-from .finite import members as _members, short as _short
-from .values import (BUILTIN_SET_VALUES, FuncValue, FunctionSpace, Interval, Product,
-                     SymbolicSet, format_value, is_set)
+from .finite import finite as _finite, members as _members
+from .spaces import FunctionSpace, Projection
+from .values import (BUILTIN_SET_VALUES, FuncValue, Interval, Product, SymbolicSet, brief,
+                     format_value, hashable, is_set, make_set)
 
 __all__ = ["Compiler", "compile_formula", "evaluate", "Env", "MEMO_KEY", "fresh"]
 
@@ -101,9 +101,9 @@ class Compiler:
     def c_SetExt(self, node: A.SetExt) -> Fn:
         items = [self.compile(i) for i in node.items]
         if all(isinstance(i, (A.IntLit, A.RealLit, A.StrLit, A.BoolLit)) for i in node.items):
-            value = _make_set([i.value for i in node.items])
+            value = make_set([i.value for i in node.items])
             return lambda env: value
-        return lambda env: _make_set([f(env) for f in items])
+        return lambda env: make_set([f(env) for f in items])
 
     def c_Template(self, node: A.Template) -> Fn:
         holes = [(fmt, h, self.compile(h)) for fmt, h in zip(node.formats, node.holes)]
@@ -162,7 +162,7 @@ class Compiler:
     def type_error(self, node: A.Node, value: Any, wanted: str) -> BTypeError:
         return self.error(BTypeError, node,
                           f"`{self.text(node)}` must be {wanted}, but its value is "
-                          f"{_short(value)}")
+                          f"{brief(value)}")
 
     def c_BinOp(self, node: A.BinOp) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
@@ -215,7 +215,7 @@ class Compiler:
             if is_set(a) and is_set(b):
                 if isinstance(a, SymbolicSet) or isinstance(b, SymbolicSet):
                     return Product(a, b)
-                return _make_set([(x, y) for x in a for y in b])
+                return make_set([(x, y) for x in a for y in b])
             self.nums(node, a, b)
             return self.real(node, a * b)
         return mul
@@ -265,7 +265,7 @@ class Compiler:
             by_first: dict = {}
             for y, z in b:
                 by_first.setdefault(y, []).append(z)
-            return _make_set([(x, z) for x, y in a for z in by_first.get(y, ())])
+            return make_set([(x, z) for x, y in a for z in by_first.get(y, ())])
         return self.set_op(node, l, r, compose)
 
     def op_direct(self, node, l, r) -> Fn:
@@ -273,7 +273,7 @@ class Compiler:
             by_first: dict = {}
             for x, z in b:
                 by_first.setdefault(x, []).append(z)
-            return _make_set([(x, (y, z)) for x, y in a for z in by_first.get(x, ())])
+            return make_set([(x, (y, z)) for x, y in a for z in by_first.get(x, ())])
         return self.set_op(node, l, r, direct)
 
     def op_concat(self, node, l, r) -> Fn:
@@ -285,7 +285,7 @@ class Compiler:
     def seq_items(self, node: A.Node, v: Any) -> list:
         items = V.as_sequence(_finite(self, node, v) if isinstance(v, SymbolicSet) else v)
         if items is None:
-            raise self.wd(node, f"{_short(v)} is not a sequence")
+            raise self.wd(node, f"{brief(v)} is not a sequence")
         return items
 
     def op_union(self, node, l, r) -> Fn:
@@ -314,7 +314,7 @@ class Compiler:
     def op_override(self, node, l, r) -> Fn:
         def override(a, b):
             dom_b = {p[0] for p in b}
-            return _make_set([p for p in a if p[0] not in dom_b] + list(b))
+            return make_set([p for p in a if p[0] not in dom_b] + list(b))
         return self.set_op(node, l, r, override)
 
     def set_op(self, node, l, r, fn) -> Fn:
@@ -326,10 +326,10 @@ class Compiler:
                 # one finite side is enough: NATURAL /\ (-2..2), (1..5) \ NATURAL1
                 keep = node.op == "/\\"
                 if V.finiteness(a) is True:
-                    return _make_set([x for x in _members(self, node.left, a)
+                    return make_set([x for x in _members(self, node.left, a)
                                       if V.contains(b, x) == keep])
                 if keep and V.finiteness(b) is True:
-                    return _make_set([x for x in _members(self, node.right, b)
+                    return make_set([x for x in _members(self, node.right, b)
                                       if V.contains(a, x)])
             return fn(_finite(self, node.left, a), _finite(self, node.right, b))
         return apply
@@ -407,7 +407,7 @@ class Compiler:
                     try:
                         return (a in s) == positive
                     except TypeError:
-                        return (_hashable(a) in s) == positive
+                        return (hashable(a) in s) == positive
                 if isinstance(s, SymbolicSet):
                     try:
                         return s.contains(a) == positive
@@ -502,7 +502,7 @@ class Compiler:
             else:
                 value = _tuple_of(node.ids)
         ids = node.ids
-        return _scoped(lambda env: _make_set(_each(bind, ids, env, value)), ids)
+        return _scoped(lambda env: make_set(_each(bind, ids, env, value)), ids)
 
     def c_Lambda(self, node: A.Lambda) -> Fn:
         with self.binding(node.ids):
@@ -613,11 +613,11 @@ class Compiler:
         return apply
 
     def apply_value(self, node: A.Apply, f: Any, x: Any) -> Any:
-        if isinstance(f, V.Projection):
+        if isinstance(f, Projection):
             try:
                 return f.apply(x)
             except KeyError:
-                raise self.wd(node, f"{_short(x)} is not in the domain of {f.name}") from None
+                raise self.wd(node, f"{brief(x)} is not in the domain of {f.name}") from None
         if isinstance(f, FuncValue):
             try:
                 return f.map[x]
@@ -625,10 +625,10 @@ class Compiler:
                 raise self.wd(node, f"{format_value(x)} is not in the domain of the function") \
                     from None
             except TypeError:
-                x = _hashable(x)
+                x = hashable(x)
                 if x in f.map:
                     return f.map[x]
-                raise self.wd(node, f"{_short(x)} is not in the domain of the function") \
+                raise self.wd(node, f"{brief(x)} is not in the domain of the function") \
                     from None
         if isinstance(f, SymbolicSet):
             f = _finite(self, node.fn, f)
@@ -647,12 +647,12 @@ class Compiler:
             r, s = rel(env), arg(env)
             if not is_set(s):
                 raise self.type_error(node.arg, s, "a set")
-            return _make_set([p[1] for p in _finite(self, node.rel, r) if V.contains(s, p[0])])
+            return make_set([p[1] for p in _finite(self, node.rel, r) if V.contains(s, p[0])])
         return image
 
     def c_Inverse(self, node: A.Inverse) -> Fn:
         rel = self.compile(node.rel)
-        return lambda env: _make_set([(p[1], p[0]) for p in _finite(self, node.rel, rel(env))])
+        return lambda env: make_set([(p[1], p[0]) for p in _finite(self, node.rel, rel(env))])
 
     def c_Call(self, node: A.Call) -> Fn:
         impl = _BUILTINS.get(node.name)
@@ -662,7 +662,7 @@ class Compiler:
         if node.name in ("prj1", "prj2") and len(node.args) == 2:
             s, t = self.compile(node.args[0]), self.compile(node.args[1])
             which = int(node.name[-1])
-            return lambda env: V.Projection(which, s(env), t(env))
+            return lambda env: Projection(which, s(env), t(env))
         if len(node.args) != 1:
             raise self.error(BTypeError, node,
                              f"{node.name} takes one argument, not {len(node.args)}")

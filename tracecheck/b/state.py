@@ -7,7 +7,8 @@ from pathlib import Path
 from typing import Any, Mapping, Optional
 
 from ..errors import BSyntaxError, InputError, TracecheckError, caret_excerpt, read_json
-from .values import Elem, FuncValue, from_json
+from .notation import from_json
+from .values import Elem, FuncValue
 
 __all__ = ["read_state_file", "state_from_json", "native_state", "MAX_STATE_BYTES"]
 

@@ -12,7 +12,8 @@ from typing import Callable, Optional
 
 from ..errors import UnsupportedError
 from . import ast as A
-from .evaluate import MEMO_KEY, Compiler, Env, _make_set, fresh
+from .evaluate import MEMO_KEY, Compiler, Env, fresh
+from .values import make_set
 
 __all__ = ["written", "guard_of", "SubstCompiler", "strip_guards", "before_after"]
 
@@ -116,7 +117,7 @@ class SubstCompiler:
                 def override(pre, post, name=name, key=key, val=val):
                     new = dict(pre[name].map if hasattr(pre[name], "map") else pre[name])
                     new[key(pre)] = val(pre)
-                    return post[name] == _make_set(list(new.items()))
+                    return post[name] == make_set(list(new.items()))
                 parts.append(override)
         return lambda pre, post: all(p(pre, post) for p in parts)
 

@@ -288,7 +288,7 @@ def _print_results(results, machine, fmt: OutputFormat, folder: Optional[Path]) 
     operation only one shield has); 3: unknown (a construct that cannot be translated, a
     timeout); 4: the solver and tracecheck's evaluator disagree; 5: vacuous (no state
     satisfies the invariants and assumptions: nothing was proved)."""
-    from ..b.values import to_json
+    from ..b.notation import to_json
     from ..checking.prove import VACUOUS, Disagreement
 
     written = {} if folder is None else _write_counterexamples(results, machine, folder)
@@ -347,7 +347,7 @@ def _check_counterexamples(folder: Optional[Path], inputs, force: bool) -> None:
 def _write_counterexamples(results, machine, folder: Path) -> dict[int, str]:
     """Each counterexample state as MACHINE-N-OBLIGATION.json (a safe name), written into a
     new folder that replaces ``folder`` once all are written; {result index: path}."""
-    from ..b.values import to_json
+    from ..b.notation import to_json
     from ..outputs import atomic_folder, inside, open_new, safe_name
     from ..render.jsontext import json_text
 

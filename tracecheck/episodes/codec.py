@@ -16,7 +16,8 @@ from typing import Any, Mapping, Optional, Sequence
 import numpy as np
 import orjson
 
-from ..b.values import Elem, FuncValue, format_value, from_json, parse_literal
+from ..b.notation import from_json, parse_literal
+from ..b.values import Elem, FuncValue, format_value
 from ..b.vector import Columns
 from ..errors import InputError, TracecheckError
 
