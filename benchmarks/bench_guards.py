@@ -22,7 +22,7 @@ import numpy as np
 from tracecheck.b.machine import load_machine
 from tracecheck.b.notation import parse_literal
 from tracecheck.b.values import FuncValue
-from tracecheck.b.vector import Columns
+from tracecheck.b.columns import Columns
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIELD = ROOT / "models" / "shields" / "paper.mch"

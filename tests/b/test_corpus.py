@@ -21,7 +21,8 @@ from tracecheck.b.scope import check_kind, kind_of
 from tracecheck.b.typecheck import type_of_value, typecheck_formula
 from tracecheck.b.notation import parse_literal
 from tracecheck.b.values import Elem, FuncValue, is_set
-from tracecheck.b.vector import BatchFormula, Columns
+from tracecheck.b.columns import Columns
+from tracecheck.b.vector import BatchFormula
 
 CORPUS = Path(__file__).with_name("corpus") / "expressions.txt"
 SOURCES = {"SUM", "REAL", "TC", "BRM", "LIT", "WD", "DRONE", "ISSUE"}

@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 from tracecheck.b.evaluate import compile_formula
 from tracecheck.b.parser import parse_formula
 from tracecheck.b.values import Elem, FuncValue
-from tracecheck.b.vector import BatchFormula, Columns
+from tracecheck.b.columns import Columns
+from tracecheck.b.vector import BatchFormula
 from tracecheck.errors import WellDefinednessError
 
 ELEMS = tuple(Elem(n) for n in ("EgoVehicle", "Vehicles2", "Vehicles3", "Vehicles4"))

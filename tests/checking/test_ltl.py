@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from tests.cli.test_cli import run
 from tests.conftest import ROOT
 from tracecheck.b.machine import load_machine_text
-from tracecheck.b.vector import Columns
+from tracecheck.b.columns import Columns
 from tracecheck.checking.ltl import check_ltl, evaluate_ltl, parse_ltl, reference_ltl
 from tracecheck.episodes.columns import RunColumns
 from tracecheck.errors import BSyntaxError, BTypeError, InputError

@@ -1,6 +1,6 @@
 """Batch evaluation: one formula over many states at once, on numpy columns.
 
-States are held as :class:`Columns`, one row per state: numbers and booleans as 1-D
+States are held as :class:`~tracecheck.b.columns.Columns`, one row per state: numbers and booleans as 1-D
 arrays, functions from the elements of a set (``VehiclesX : Vehicles --> REAL``) as
 ``(rows, elements)`` arrays, subsets of that set as boolean masks. A quantifier over those
 elements becomes a reduction along the element axis, so a guard over a whole recording is a
@@ -17,8 +17,7 @@ from __future__ import annotations
 
 import math
 from contextlib import contextmanager
-from dataclasses import dataclass, field
-from typing import Any, Callable, Iterator, Mapping, Optional, Sequence
+from typing import Any, Callable, Iterator, Mapping, Optional
 
 import numpy as np
 
@@ -26,126 +25,10 @@ from ..errors import EvaluationError, TracecheckError
 from . import ast as A
 from .bindings import conjuncts
 from .evaluate import Compiler
+from .columns import Columns
 from .values import Elem, FuncValue
 
-__all__ = ["Columns", "evaluate_batch", "BatchFormula", "float_column"]
-
-
-@dataclass
-class Columns:
-    """Many states, column by column (see the module docstring).
-
-    ``elements`` orders the elements of the one set that functions and masks range over.
-    """
-
-    n: int
-    elements: tuple[Elem, ...]
-    numbers: dict[str, np.ndarray] = field(default_factory=dict)
-    booleans: dict[str, np.ndarray] = field(default_factory=dict)
-    functions: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
-    masks: dict[str, np.ndarray] = field(default_factory=dict)
-    others: dict[str, list] = field(default_factory=dict)
-    label: Optional[Callable[[int], str]] = None  # names row i in messages ("state i")
-
-    @classmethod
-    def from_states(cls, states: Sequence[Mapping[str, Any]],
-                    elements: Optional[Sequence[Elem]] = None) -> "Columns":
-        """Columns from scalar states (dicts of B values), e.g. read from a trace."""
-        n = len(states)
-        if elements is None:
-            found: dict[Elem, None] = {}
-            for value in (states[0].values() if states else ()):
-                if isinstance(value, FuncValue):
-                    found.update({k: None for k in value.map if isinstance(k, Elem)})
-                elif isinstance(value, frozenset):
-                    found.update({k: None for k in value if isinstance(k, Elem)})
-            from .values import sort_key
-
-            elements = tuple(sorted(found, key=sort_key))
-        elements = tuple(elements)
-        index = {e: i for i, e in enumerate(elements)}
-        cols = cls(n=n, elements=elements)
-        names = list(states[0]) if states else []
-        for name in names:
-            values = [s[name] for s in states]
-            cols._add(name, values, index)
-        return cols
-
-    def _add(self, name: str, values: list, index: dict) -> None:
-        first = values[0]
-        k = len(index)
-        if all(type(v) is bool for v in values):
-            self.booleans[name] = np.array(values, dtype=bool)
-        elif all(type(v) in (int, float) for v in values):
-            self.numbers[name] = np.array(values, dtype=float if any(
-                type(v) is float for v in values) else np.int64)
-        elif isinstance(first, FuncValue) and all(
-                isinstance(v, FuncValue) and all(key in index and type(x) in (int, float)
-                                                 for key, x in v.map.items())
-                for v in values):
-            vals = np.zeros((self.n, k))
-            defined = np.zeros((self.n, k), dtype=bool)
-            for row, v in enumerate(values):
-                for key, x in v.map.items():
-                    vals[row, index[key]] = x
-                    defined[row, index[key]] = True
-            self.functions[name] = (vals, defined)
-        elif all(isinstance(v, frozenset) and not isinstance(v, FuncValue)
-                 and all(e in index for e in v) for v in values):
-            mask = np.zeros((self.n, k), dtype=bool)
-            for row, v in enumerate(values):
-                for e in v:
-                    mask[row, index[e]] = True
-            self.masks[name] = mask
-        else:
-            self.others[name] = values
-
-    def names(self) -> set[str]:
-        return (set(self.numbers) | set(self.booleans) | set(self.functions)
-                | set(self.masks) | set(self.others))
-
-    def distinct(self) -> tuple[np.ndarray, np.ndarray]:
-        """(the first row of each distinct state, ascending; for each row, the index of its
-        state among those). Rows are the same state when every column holds the same bytes
-        (numbers) or equal B values (other values)."""
-        n = self.n
-        parts = []
-        for arr in (*self.numbers.values(), *self.booleans.values()):
-            parts.append(np.ascontiguousarray(arr).reshape(n, -1).view(np.uint8))
-        for vals, defined in self.functions.values():
-            parts.append(np.ascontiguousarray(vals).reshape(n, -1).view(np.uint8))
-            parts.append(np.ascontiguousarray(defined).reshape(n, -1).view(np.uint8))
-        for mask in self.masks.values():
-            parts.append(np.ascontiguousarray(mask).reshape(n, -1).view(np.uint8))
-        for values in self.others.values():
-            ids: dict = {}
-            parts.append(np.array([ids.setdefault(v, len(ids)) for v in values],
-                                  dtype=np.int64).reshape(n, 1).view(np.uint8))
-        if not parts or n == 0:
-            return np.arange(min(n, 1)), np.zeros(n, dtype=np.int64)
-        table = np.ascontiguousarray(np.concatenate(parts, axis=1))
-        keys = table.view(np.dtype((np.void, table.shape[1]))).ravel()
-        _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
-        order = np.argsort(first, kind="stable")
-        rank = np.empty_like(order)
-        rank[order] = np.arange(len(order))
-        return first[order], rank[inverse.ravel()]
-
-    def row(self, i: int) -> dict[str, Any]:
-        """State ``i`` as a dict of scalar B values."""
-        state: dict[str, Any] = {}
-        for name, arr in self.numbers.items():
-            state[name] = arr[i].item()
-        for name, arr in self.booleans.items():
-            state[name] = bool(arr[i])
-        for name, (vals, defined) in self.functions.items():
-            state[name] = FuncValue({e: float(vals[i, j]) for j, e in enumerate(self.elements)
-                                     if defined[i, j]})
-        for name, mask in self.masks.items():
-            state[name] = frozenset(e for j, e in enumerate(self.elements) if mask[i, j])
-        for name, values in self.others.items():
-            state[name] = values[i]
-        return state
+__all__ = ["evaluate_batch", "BatchFormula", "float_column", "VectorValue"]
 
 
 class _NotVectorizable(Exception):
@@ -156,14 +39,14 @@ class _NotVectorizable(Exception):
 # "elem" (an int index, or an (1, k) index array for an element-axis variable),
 # "set" (bool mask (…, k)), "func" ((values, defined), each (n, k)), "nums" (a set of numbers:
 # (values, member), each (n or 1, m): the values of the row where member is true).
-Vec = tuple
+VectorValue = tuple[str, Any]
 
 
 class _Ctx:
     def __init__(self, cols: Columns) -> None:
         self.cols = cols
         self.bad: Optional[np.ndarray] = None  # the rows marked for the scalar path, if any
-        self.lets: dict[str, Vec] = {}  # LET variables in scope
+        self.lets: dict[str, VectorValue] = {}  # LET variables in scope
         self.memo: dict[int, tuple] = {}  # values of shared sub-formulas, see _shared
 
     def mark(self, rows: np.ndarray) -> None:
@@ -205,7 +88,7 @@ class _VecCompiler:
         self.lets: list[str] = []  # LET variables in scope
         self.free: dict = {}  # free names by node, see A.free_names
 
-    def compile(self, node: A.Node) -> Callable[[_Ctx], Vec]:
+    def compile(self, node: A.Node) -> Callable[[_Ctx], VectorValue]:
         method = getattr(self, "v_" + type(node).__name__, None)
         if method is None:
             raise _NotVectorizable(type(node).__name__)
@@ -214,7 +97,7 @@ class _VecCompiler:
             return _shared(fn, _intern((node, tuple(self.axes), tuple(sorted(self.hidden)))))
         return fn
 
-    def constant(self, value: Any) -> Vec:
+    def constant(self, value: Any) -> VectorValue:
         if type(value) is bool:
             return ("bool", value)
         if type(value) in (int, float):
@@ -263,7 +146,7 @@ class _VecCompiler:
     def v_SetExt(self, node: A.SetExt) -> Callable:
         items = [self.compile(i) for i in node.items]
 
-        def set_ext(ctx: _Ctx) -> Vec:
+        def set_ext(ctx: _Ctx) -> VectorValue:
             values = [f(ctx) for f in items]
             if values and all(tag == "num" for tag, _ in values):
                 columns = [self._row_values(ctx, v) for _, v in values]
@@ -309,7 +192,7 @@ class _VecCompiler:
         finally:
             self.axes, self.hidden, self.lets = saved
 
-        def comprehension(ctx: _Ctx) -> Vec:
+        def comprehension(ctx: _Ctx) -> VectorValue:
             tag, mask = dom(ctx)
             if tag != "set" or np.ndim(mask) != 2:
                 raise _NotVectorizable("domain")
@@ -327,7 +210,7 @@ class _VecCompiler:
         """``F[S]`` of a function over the elements: its values at the members of S."""
         rel, arg = self.compile(node.rel), self.compile(node.arg)
 
-        def image(ctx: _Ctx) -> Vec:
+        def image(ctx: _Ctx) -> VectorValue:
             f, s = rel(ctx), arg(ctx)
             if f[0] != "func" or s[0] != "set" or np.ndim(s[1]) != 2:
                 raise _NotVectorizable("image")
@@ -361,7 +244,7 @@ class _VecCompiler:
         finally:
             self.lets = saved
 
-        def let(ctx: _Ctx) -> Vec:
+        def let(ctx: _Ctx) -> VectorValue:
             outer = dict(ctx.lets)
             try:
                 for name, fn in steps:
@@ -384,7 +267,7 @@ class _VecCompiler:
             fn = {"+": np.add, "*": np.multiply, "**": np.power}[op]
             return lambda ctx: ("num", _arith(ctx, fn, op, _num(l(ctx)), _num(r(ctx))))
         if op == "/":
-            def div(ctx: _Ctx) -> Vec:
+            def div(ctx: _Ctx) -> VectorValue:
                 a, b = _num(l(ctx)), _num(r(ctx))
                 zero = np.asarray(b) == 0
                 if np.any(zero):
@@ -402,7 +285,7 @@ class _VecCompiler:
                 return ("num", q)
             return div
         if op in ("-", "\\", "\\/", "/\\"):
-            def setop(ctx: _Ctx) -> Vec:
+            def setop(ctx: _Ctx) -> VectorValue:
                 a, b = l(ctx), r(ctx)
                 if a[0] == "set" and b[0] == "set":
                     x, y = a[1], b[1]
@@ -425,7 +308,7 @@ class _VecCompiler:
                   ">=": np.greater_equal}[op]
             return lambda ctx: ("bool", fn(_num(l(ctx)), _num(r(ctx))))
         if op in ("=", "/="):
-            def eq(ctx: _Ctx) -> Vec:
+            def eq(ctx: _Ctx) -> VectorValue:
                 a, b = l(ctx), r(ctx)
                 if a[0] != b[0] or a[0] not in ("num", "bool", "elem", "set", "func"):
                     raise _NotVectorizable("=")
@@ -442,7 +325,7 @@ class _VecCompiler:
                 return ("bool", res if op == "=" else ~np.asarray(res))
             return eq
         if op in (":", "/:"):
-            def member(ctx: _Ctx) -> Vec:
+            def member(ctx: _Ctx) -> VectorValue:
                 a, s = l(ctx), r(ctx)
                 if a[0] == "elem" and s[0] == "set":
                     res = self.pick(s[1], a[1])
@@ -451,7 +334,7 @@ class _VecCompiler:
                 return ("bool", res if op == ":" else ~res)
             return member
         if op in ("<:", "/<:"):
-            def subset(ctx: _Ctx) -> Vec:
+            def subset(ctx: _Ctx) -> VectorValue:
                 a, b = l(ctx), r(ctx)
                 if a[0] != "set" or b[0] != "set":
                     raise _NotVectorizable("<:")
@@ -468,7 +351,7 @@ class _VecCompiler:
         if needs is None:
             return lambda ctx: ("bool", fn(_bool(l(ctx)), _bool(r(ctx))))
 
-        def logic(ctx: _Ctx) -> Vec:
+        def logic(ctx: _Ctx) -> VectorValue:
             a = np.asarray(_bool(l(ctx)))
             with ctx.only_where(a if needs else ~a):
                 b = _bool(r(ctx))
@@ -509,7 +392,7 @@ class _VecCompiler:
         forall = node.op == "!"
         axis = 1 + depth
 
-        def quant(ctx: _Ctx) -> Vec:
+        def quant(ctx: _Ctx) -> VectorValue:
             tag, mask = dom(ctx)
             if tag != "set" or np.ndim(mask) != 2:
                 raise _NotVectorizable("domain")
@@ -539,7 +422,7 @@ class _VecCompiler:
             raise _NotVectorizable("arity")
         fn, arg = self.compile(node.fn), self.compile(node.args[0])
 
-        def apply(ctx: _Ctx) -> Vec:
+        def apply(ctx: _Ctx) -> VectorValue:
             f, x = fn(ctx), arg(ctx)
             if f[0] != "func" or x[0] != "elem":
                 raise _NotVectorizable("apply")
@@ -554,21 +437,21 @@ class _VecCompiler:
         arg = self.compile(node.args[0])
         name = node.name
         if name == "dom":
-            def dom(ctx: _Ctx) -> Vec:
+            def dom(ctx: _Ctx) -> VectorValue:
                 f = arg(ctx)
                 if f[0] != "func":
                     raise _NotVectorizable("dom")
                 return ("set", f[1][1])
             return dom
         if name == "card":
-            def card(ctx: _Ctx) -> Vec:
+            def card(ctx: _Ctx) -> VectorValue:
                 s = arg(ctx)
                 if s[0] != "set":
                     raise _NotVectorizable("card")
                 return ("num", _per_row(np.broadcast_to(s[1], (ctx.cols.n, self.k)).sum(axis=1)))
             return card
         if name in ("min", "max"):
-            def extreme(ctx: _Ctx) -> Vec:
+            def extreme(ctx: _Ctx) -> VectorValue:
                 tag, payload = arg(ctx)
                 if tag != "nums":
                     raise _NotVectorizable(name)
@@ -590,7 +473,7 @@ class _VecCompiler:
         if name == "POW":
             return lambda ctx: ("pow", arg(ctx))
         if name == "RSQRT":
-            def sqrt(ctx: _Ctx) -> Vec:
+            def sqrt(ctx: _Ctx) -> VectorValue:
                 x = _num(arg(ctx))
                 neg = np.asarray(x) < 0
                 if np.any(neg):
@@ -611,7 +494,7 @@ class _VecCompiler:
         branches = [(self.compile(c), self.compile(v)) for c, v in node.branches]
         other = self.compile(node.else_)
 
-        def if_expr(ctx: _Ctx) -> Vec:
+        def if_expr(ctx: _Ctx) -> VectorValue:
             # every branch is computed for every row, but a branch's ill-defined values
             # only matter in the rows that take it (IF guards its branches)
             conds = []
@@ -653,10 +536,10 @@ def _intern(key: tuple) -> int:
     return _INTERNED.setdefault(key, len(_INTERNED))
 
 
-def _shared(fn: Callable[[_Ctx], Vec], key: int) -> Callable[[_Ctx], Vec]:
+def _shared(fn: Callable[[_Ctx], VectorValue], key: int) -> Callable[[_Ctx], VectorValue]:
     """``fn`` computed once per batch (per :attr:`_Ctx.memo`); what it marked ill-defined
     is marked again wherever its value is used."""
-    def shared(ctx: _Ctx) -> Vec:
+    def shared(ctx: _Ctx) -> VectorValue:
         hit = ctx.memo.get(key)
         if hit is None:
             outer, ctx.bad = ctx.bad, None
@@ -695,7 +578,7 @@ def _concat(ctx: _Ctx, a: tuple, b: tuple) -> tuple:
             np.concatenate([stretch(ma), stretch(mb)], axis=1))
 
 
-def _typed_member(a: Vec, s: Vec, n: int) -> np.ndarray:
+def _typed_member(a: VectorValue, s: VectorValue, n: int) -> np.ndarray:
     """Typing predicates over whole columns: ``f : S --> REAL``, ``P : POW(S)``, ``x : REAL``."""
     yes = np.ones((n, 1, 1), dtype=bool)
     if s[0] == "type":
@@ -766,13 +649,13 @@ def _per_row(values: np.ndarray) -> np.ndarray:
     return np.asarray(values).reshape(-1, 1, 1)
 
 
-def _num(v: Vec) -> Any:
+def _num(v: VectorValue) -> Any:
     if v[0] != "num":
         raise _NotVectorizable(f"number expected, got {v[0]}")
     return v[1]
 
 
-def _bool(v: Vec) -> Any:
+def _bool(v: VectorValue) -> Any:
     if v[0] != "bool":
         raise _NotVectorizable(f"boolean expected, got {v[0]}")
     return v[1]

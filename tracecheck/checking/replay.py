@@ -17,7 +17,7 @@ from typing import Iterable, Optional, Sequence
 import numpy as np
 
 from ..b import ast as A
-from ..b.vector import Columns
+from ..b.columns import step_pairs
 from ..episodes.columns import RunColumns, read_columns
 from ..errors import InputError
 from .shield import Shield
@@ -132,27 +132,6 @@ def _check_variables(shield: Shield, cols: RunColumns) -> None:
                          "step 0)")
 
 
-def _pairs(cols: Columns, rows: np.ndarray) -> Columns:
-    """Columns over step pairs: ``v`` the state at ``rows``, ``v$0`` the state before it."""
-    out = Columns(n=len(rows), elements=cols.elements)
-    before = rows - 1
-    for name, arr in cols.numbers.items():
-        out.numbers[name], out.numbers[name + "$0"] = arr[rows], arr[before]
-    for name, arr in cols.booleans.items():
-        out.booleans[name], out.booleans[name + "$0"] = arr[rows], arr[before]
-    for name, (vals, defined) in cols.functions.items():
-        out.functions[name] = (vals[rows], defined[rows])
-        out.functions[name + "$0"] = (vals[before], defined[before])
-    for name, mask in cols.masks.items():
-        out.masks[name], out.masks[name + "$0"] = mask[rows], mask[before]
-    for name, values in cols.others.items():
-        out.others[name] = [values[i] for i in rows]
-        out.others[name + "$0"] = [values[i] for i in before]
-    if cols.label is not None:
-        out.label = lambda i: f"{cols.label(int(rows[i]))} (and the state before)"
-    return out
-
-
 def _postconditions(shield: Shield, cols: RunColumns, rows: np.ndarray,
                     actions: np.ndarray) -> np.ndarray:
     """For each step row, whether the step breaks its operation's postcondition."""
@@ -167,7 +146,7 @@ def _postconditions(shield: Shield, cols: RunColumns, rows: np.ndarray,
                 r = rows[i]
                 bad[i] = not machine.effect_ok(name, cols.states.row(r - 1), cols.states.row(r))
             continue
-        bad[which] = ~machine.postcondition_batch(name, _pairs(cols.states, rows[which]))
+        bad[which] = ~machine.postcondition_batch(name, step_pairs(cols.states, rows[which]))
     return bad
 
 

@@ -18,7 +18,7 @@ import orjson
 
 from ..b.notation import from_json, parse_literal
 from ..b.values import Elem, FuncValue, format_value
-from ..b.vector import Columns
+from ..b.columns import Columns
 from ..errors import InputError, TracecheckError
 
 __all__ = ["encode_state", "decode_state", "encode_columns", "decode_columns",
