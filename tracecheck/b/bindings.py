@@ -1,21 +1,23 @@
-"""Enumerating bound variables: which conjunct of a quantifier's, comprehension's or
-lambda's predicate gives each variable its values, and walking them.
+"""Bound variables: which conjunct of a quantifier's, comprehension's or lambda's predicate
+gives each variable its values, walking them, and compiling the binding forms themselves
+(:class:`Binders`: quantifiers, comprehensions, lambdas, SIGMA/PI/UNION/INTER, LET).
 
 A walk yields None for each solution and, for values where the predicate is not
 well-defined, the error instead: the caller decides after seeing every value (see
-:class:`tracecheck.b.evaluate.Strict`), so that no answer depends on the order in which a
-set happens to be walked."""
+:class:`Strict`), so that no answer depends on the order in which a set happens to be
+walked."""
 
 from __future__ import annotations
 
+import math
 from typing import Any, Callable, Iterator, Optional
 
-from ..errors import EvaluationError, TracecheckError
+from ..errors import BTypeError, EvaluationError, TracecheckError, UnsupportedError
 from . import ast as A
 from .finite import finite as _finite, members as _members
-from .values import SymbolicSet
+from .values import FuncValue, SymbolicSet, make_set, sort_key
 
-__all__ = ["generators", "conjuncts", "domain"]
+__all__ = ["generators", "conjuncts", "domain", "Binders", "Strict"]
 
 Env = dict
 Fn = Callable[[Env], Any]
@@ -25,8 +27,6 @@ def conjuncts(node: A.Node) -> list[A.Node]:
     if isinstance(node, A.And):
         return conjuncts(node.left) + conjuncts(node.right)
     return [node]
-
-
 
 
 def generators(comp, node: A.Node, ids: tuple[str, ...], pred: A.Node):
@@ -85,7 +85,7 @@ def generators(comp, node: A.Node, ids: tuple[str, ...], pred: A.Node):
     if len(plan) == 1 and len(plan[0][0]) == 1 and plan[0][1] == "in":
         (name,), _, source = plan[0]
 
-        def run_single(env: Env) -> Iterator[Optional[TracecheckError]]:
+        def run_single(env: Env) -> Iterator[Optional[TracecheckError]]:  # the common case
             for value in domain(comp, node, "in", source(env)):
                 env[name] = value
                 try:
@@ -96,7 +96,6 @@ def generators(comp, node: A.Node, ids: tuple[str, ...], pred: A.Node):
                         yield None
                 except TracecheckError as exc:  # not well-defined for this value
                     yield exc
-        run_single.simple = (name, source, filters)  # type: ignore[attr-defined]
         return run_single
     return run
 
@@ -175,3 +174,210 @@ def _generator_for(comp, conj, name, ids, bound):
         return None
     mode = {":": "in", "=": "eq", "<:": "sub"}[conj.op]
     return names, mode, comp.compile(conj.right)
+
+
+class Binders:
+    """The binding forms of :class:`tracecheck.b.evaluate.Compiler` (a base class of it):
+    quantifiers, comprehensions, lambdas, SIGMA/PI/UNION/INTER and LET. They use the
+    compiler's ``compile``, ``binding``, ``error`` and ``wd``."""
+
+    def c_Quant(self, node: A.Quant) -> Fn:
+        if node.op == "!":
+            if not isinstance(node.body, A.Implies):
+                raise self.error(BTypeError, node,
+                                 "the body of a universal quantifier must be an implication",
+                                 hint="write !x.(x : S => P)")
+            domain_pred, rest = node.body.left, node.body.right
+            with self.binding(node.ids):
+                bindings = self.bindings(node, node.ids, domain_pred)
+                check = self.compile(rest)
+
+            return _scoped(self.quantifier(node, bindings, check), node.ids)
+        with self.binding(node.ids):
+            bindings = self.bindings(node, node.ids, node.body)
+        return _scoped(self.quantifier(node, bindings, None), node.ids)
+
+    def quantifier(self, node: A.Quant, bindings, check: Optional[Fn]) -> Fn:
+        """∀ (with ``check``, the implication's right side) or ∃ (``check`` None), decided
+        after every value was tried (see :class:`Strict`)."""
+        ids = node.ids
+        if check is None:
+            return lambda env: bool(_each(bindings, ids, env, lambda e: True))
+        return lambda env: all(_each(bindings, ids, env, check))
+
+    def bindings(self, node: A.Node, ids: tuple[str, ...], pred: A.Node) -> Callable[[Env], Iterator[None]]:
+        """A function that binds ``ids`` in ``env`` to each solution of ``pred`` in turn.
+
+        Each variable needs a conjunct that enumerates it (``x : S``, ``x = E``,
+        ``x |-> y : R`` or ``x <: S``); the other conjuncts filter.
+        """
+        return generators(self, node, ids, pred)
+
+    def c_Comprehension(self, node: A.Comprehension) -> Fn:
+        with self.binding(node.ids):
+            bind = self.bindings(node, node.ids, node.pred)
+            if node.expr is not None:
+                value = self.compile(node.expr)
+            else:
+                value = _tuple_of(node.ids)
+        ids = node.ids
+        return _scoped(lambda env: make_set(_each(bind, ids, env, value)), ids)
+
+    def c_Lambda(self, node: A.Lambda) -> Fn:
+        with self.binding(node.ids):
+            bind = self.bindings(node, node.ids, node.pred)
+            key, value = _tuple_of(node.ids), self.compile(node.expr)
+        ids = node.ids
+        return _scoped(lambda env: FuncValue(dict(_each(bind, ids, env,
+                                                        lambda e: (key(e), value(e))))), ids)
+
+    def c_QuantExpr(self, node: A.QuantExpr) -> Fn:
+        with self.binding(node.ids):
+            bind = self.bindings(node, node.ids, node.pred)
+            value = self.compile(node.expr)
+        op = node.op
+
+        def quant(env: Env) -> Any:
+            values = _each(bind, node.ids, env, value)
+            if op == "SIGMA":
+                return sum(values, 0)
+            if op == "PI":
+                return math.prod(values)
+            if op == "UNION":
+                return frozenset().union(*values)
+            if not values:
+                raise self.wd(node, "INTER over no sets")
+            return frozenset.intersection(*values)
+        return _scoped(quant, node.ids)
+
+    def c_Let(self, node: A.Let) -> Fn:
+        with self.binding(node.ids):
+            assign = self.let_values(node, node.ids, node.pred)
+            body = self.compile(node.body)
+
+        def let(env: Env) -> Any:
+            assign(env)
+            return body(env)
+        return _scoped(let, node.ids)
+
+    def let_values(self, node, ids, pred) -> Callable[[Env], None]:
+        """``LET x BE x = E & P IN …``: E gives x; the other conjuncts must hold."""
+        eqs: dict[str, A.Node] = {}
+        rest: list[A.Node] = []
+        for conj in conjuncts(pred):
+            if (isinstance(conj, A.Rel) and conj.op == "=" and isinstance(conj.left, A.Name)
+                    and conj.left.id in ids and conj.left.id not in eqs):
+                eqs[conj.left.id] = conj.right
+            else:
+                rest.append(conj)
+        missing = [i for i in ids if i not in eqs]
+        if missing:
+            raise self.error(UnsupportedError, node,
+                             f"LET needs an equation `{missing[0]} = …` for each variable")
+        # each equation after those of the LET variables it uses (in any written order)
+        ordered: list[str] = []
+        while len(ordered) < len(ids):
+            ready = [i for i in ids if i not in ordered
+                     and not (A.free_names(eqs[i]) & (set(ids) - set(ordered)))]
+            if not ready:
+                cyclic = next(i for i in ids if i not in ordered)
+                raise self.error(BTypeError, eqs[cyclic],
+                                 f"the LET equations define {cyclic} in terms of itself")
+            ordered.extend(ready)
+        checks = [(c, self.compile(c)) for c in rest]
+        order = [(i, self.compile(eqs[i])) for i in ordered]
+
+        def assign(env: Env) -> None:
+            for name, fn in order:
+                env[name] = fn(env)
+            for c, fn in checks:
+                if not fn(env):
+                    raise self.wd(c, "the LET condition does not hold")
+        return assign
+
+
+# ------------------------------------------------------------------ helpers
+
+
+_MISSING = object()
+
+
+class Strict:
+    """The errors of a quantified formula's values, kept until every value was seen: the
+    formula is not well-defined if it is not for one of them, whatever the others give (B's
+    well-definedness), and the error raised is that of the least values in print order, so
+    neither the answer nor the message depends on the order a set is walked in."""
+
+    __slots__ = ("error", "key")
+
+    def __init__(self, error: TracecheckError, key: tuple) -> None:
+        self.error, self.key = error, key
+
+    @staticmethod
+    def note(strict: Optional["Strict"], ids: tuple[str, ...], env: Env,
+             error: TracecheckError) -> "Strict":
+        key = tuple(sort_key(env.get(i)) for i in ids)
+        if strict is None or key < strict.key:
+            return Strict(error, key)
+        return strict
+
+    def fail(self) -> None:
+        raise self.error
+
+
+def _each(bind, ids: tuple[str, ...], env: Env, value: Fn) -> list:
+    """``value`` for every solution of a binder (comprehensions, lambdas, SIGMA …), after
+    all of them were tried (see :class:`Strict`)."""
+    out, strict = [], None
+    for problem in bind(env):
+        try:
+            if problem is not None:
+                raise problem
+            out.append(value(env))
+        except TracecheckError as exc:
+            strict = Strict.note(strict, ids, env, exc)
+    if strict is not None:
+        strict.fail()
+    return out
+
+
+def _tuple_of(ids: tuple[str, ...]) -> Fn:
+    if len(ids) == 1:
+        name = ids[0]
+        return lambda env: env[name]
+
+    def pair(env: Env) -> Any:
+        value = env[ids[0]]
+        for i in ids[1:]:
+            value = (value, env[i])
+        return value
+    return pair
+
+
+def _scoped(fn: Fn, ids: tuple[str, ...]) -> Fn:
+    """Run ``fn`` and restore whatever ``ids`` meant in ``env`` before."""
+    if len(ids) == 1:
+        (name,) = ids
+
+        def scoped_one(env: Env) -> Any:
+            old = env.get(name, _MISSING)
+            try:
+                return fn(env)
+            finally:
+                if old is _MISSING:
+                    env.pop(name, None)
+                else:
+                    env[name] = old
+        return scoped_one
+
+    def scoped(env: Env) -> Any:
+        saved = [env.get(i, _MISSING) for i in ids]
+        try:
+            return fn(env)
+        finally:
+            for i, old in zip(ids, saved):
+                if old is _MISSING:
+                    env.pop(i, None)
+                else:
+                    env[i] = old
+    return scoped

@@ -12,27 +12,27 @@ import math
 import operator
 import re
 from contextlib import contextmanager
-from typing import Any, Callable, Iterator, Optional
+from typing import Any, Callable, Optional
 
 from ..errors import BTypeError, EvaluationError, TracecheckError, UnsupportedError, WellDefinednessError
 from . import ast as A
 from .scope import render
 from . import values as V
-from .bindings import conjuncts, domain as _domain, generators
+from .bindings import Binders
+from .memo import folded, memoised
 from .builtins import BUILTINS as _BUILTINS, UNSUPPORTED_HINTS as _UNSUPPORTED_HINTS
 from .finite import finite as _finite, members as _members
 from .spaces import FunctionSpace, Projection
 from .values import (BUILTIN_SET_VALUES, FuncValue, Interval, Product, SymbolicSet, brief,
                      format_value, hashable, is_set, make_set)
 
-__all__ = ["Compiler", "compile_formula", "evaluate", "Env", "MEMO_KEY", "fresh"]
+__all__ = ["Compiler", "compile_formula", "evaluate", "Env"]
 
 Env = dict
 Fn = Callable[[Env], Any]
-_MISSING = object()
 
 
-class Compiler:
+class Compiler(Binders):
     """Turns AST nodes into closures; knows the source text for located messages."""
 
     def __init__(self, *, source: Optional[str] = None, file: Optional[str] = None) -> None:
@@ -70,10 +70,10 @@ class Compiler:
                              f"tracecheck cannot evaluate {type(node).__name__} here")
         fn = method(node)
         if isinstance(node, (A.BinOp, A.Neg)) and not A.free_names(node, self._free):
-            return _folded(fn, node)
+            return folded(fn)
         if (isinstance(node, _MEMO_TYPES) or (isinstance(node, A.BinOp) and node.op in _SET_OPS)) \
                 and not (A.free_names(node, self._free) & set(self.bound)):
-            return _memoised(fn, node)
+            return memoised(fn, node)
         return fn
 
     # -- atoms
@@ -434,103 +434,6 @@ class Compiler:
         return subset
 
     # -- quantifiers and binders
-    def c_Quant(self, node: A.Quant) -> Fn:
-        if node.op == "!":
-            if not isinstance(node.body, A.Implies):
-                raise self.error(BTypeError, node,
-                                 "the body of a universal quantifier must be an implication",
-                                 hint="write !x.(x : S => P)")
-            domain_pred, rest = node.body.left, node.body.right
-            with self.binding(node.ids):
-                bindings = self.bindings(node, node.ids, domain_pred)
-                check = self.compile(rest)
-
-            return _scoped(self.quantifier(node, bindings, check), node.ids)
-        with self.binding(node.ids):
-            bindings = self.bindings(node, node.ids, node.body)
-        return _scoped(self.quantifier(node, bindings, None), node.ids)
-
-    def quantifier(self, node: A.Quant, bindings, check: Optional[Fn]) -> Fn:
-        """∀ (with ``check``, the implication's right side) or ∃ (``check`` None), decided
-        after every value was tried (see :class:`Strict`)."""
-        ids = node.ids
-        simple = getattr(bindings, "simple", None)
-        if simple is None:
-            if check is None:
-                return lambda env: bool(_each(bindings, ids, env, lambda e: True))
-            return lambda env: all(_each(bindings, ids, env, check))
-        name, source, filters = simple
-        forall = check is not None
-
-        def quantify(env: Env) -> bool:  # one variable over a set: the live shield's case
-            result, strict = forall, None
-            for value in self.members(node, source(env)):
-                env[name] = value
-                try:
-                    for f in filters:
-                        if not f(env):
-                            break
-                    else:
-                        if not forall:
-                            result = True
-                        elif not check(env):
-                            result = False
-                except TracecheckError as exc:
-                    strict = Strict.note(strict, ids, env, exc)
-            if strict is not None:
-                strict.fail()
-            return result
-        return quantify
-
-    def members(self, node: A.Node, domain: Any):
-        """What a bound variable ranges over (a finite set is used as it is)."""
-        return domain if type(domain) is frozenset else _domain(self, node, "in", domain)
-
-    def bindings(self, node: A.Node, ids: tuple[str, ...], pred: A.Node) -> Callable[[Env], Iterator[None]]:
-        """A function that binds ``ids`` in ``env`` to each solution of ``pred`` in turn.
-
-        Each variable needs a conjunct that enumerates it (``x : S``, ``x = E``,
-        ``x |-> y : R`` or ``x <: S``); the other conjuncts filter.
-        """
-        return generators(self, node, ids, pred)
-
-    def c_Comprehension(self, node: A.Comprehension) -> Fn:
-        with self.binding(node.ids):
-            bind = self.bindings(node, node.ids, node.pred)
-            if node.expr is not None:
-                value = self.compile(node.expr)
-            else:
-                value = _tuple_of(node.ids)
-        ids = node.ids
-        return _scoped(lambda env: make_set(_each(bind, ids, env, value)), ids)
-
-    def c_Lambda(self, node: A.Lambda) -> Fn:
-        with self.binding(node.ids):
-            bind = self.bindings(node, node.ids, node.pred)
-            key, value = _tuple_of(node.ids), self.compile(node.expr)
-        ids = node.ids
-        return _scoped(lambda env: FuncValue(dict(_each(bind, ids, env,
-                                                        lambda e: (key(e), value(e))))), ids)
-
-    def c_QuantExpr(self, node: A.QuantExpr) -> Fn:
-        with self.binding(node.ids):
-            bind = self.bindings(node, node.ids, node.pred)
-            value = self.compile(node.expr)
-        op = node.op
-
-        def quant(env: Env) -> Any:
-            values = _each(bind, node.ids, env, value)
-            if op == "SIGMA":
-                return sum(values, 0)
-            if op == "PI":
-                return math.prod(values)
-            if op == "UNION":
-                return frozenset().union(*values)
-            if not values:
-                raise self.wd(node, "INTER over no sets")
-            return frozenset.intersection(*values)
-        return _scoped(quant, node.ids)
-
     def c_IfExpr(self, node: A.IfExpr) -> Fn:
         branches = [(self.compile(c), self.compile(v)) for c, v in node.branches]
         other = self.compile(node.else_)
@@ -541,51 +444,6 @@ class Compiler:
                     return value(env)
             return other(env)
         return choose
-
-    def c_Let(self, node: A.Let) -> Fn:
-        with self.binding(node.ids):
-            assign = self.let_values(node, node.ids, node.pred)
-            body = self.compile(node.body)
-
-        def let(env: Env) -> Any:
-            assign(env)
-            return body(env)
-        return _scoped(let, node.ids)
-
-    def let_values(self, node, ids, pred) -> Callable[[Env], None]:
-        """``LET x BE x = E & P IN …``: E gives x; the other conjuncts must hold."""
-        eqs: dict[str, A.Node] = {}
-        rest: list[A.Node] = []
-        for conj in conjuncts(pred):
-            if (isinstance(conj, A.Rel) and conj.op == "=" and isinstance(conj.left, A.Name)
-                    and conj.left.id in ids and conj.left.id not in eqs):
-                eqs[conj.left.id] = conj.right
-            else:
-                rest.append(conj)
-        missing = [i for i in ids if i not in eqs]
-        if missing:
-            raise self.error(UnsupportedError, node,
-                             f"LET needs an equation `{missing[0]} = …` for each variable")
-        # each equation after those of the LET variables it uses (in any written order)
-        ordered: list[str] = []
-        while len(ordered) < len(ids):
-            ready = [i for i in ids if i not in ordered
-                     and not (A.free_names(eqs[i]) & (set(ids) - set(ordered)))]
-            if not ready:
-                cyclic = next(i for i in ids if i not in ordered)
-                raise self.error(BTypeError, eqs[cyclic],
-                                 f"the LET equations define {cyclic} in terms of itself")
-            ordered.extend(ready)
-        checks = [(c, self.compile(c)) for c in rest]
-        order = [(i, self.compile(eqs[i])) for i in ordered]
-
-        def assign(env: Env) -> None:
-            for name, fn in order:
-                env[name] = fn(env)
-            for c, fn in checks:
-                if not fn(env):
-                    raise self.wd(c, "the LET condition does not hold")
-        return assign
 
     # -- application
     def c_Apply(self, node: A.Apply) -> Fn:
@@ -675,20 +533,6 @@ class Compiler:
 #: Nodes worth remembering per state: evaluated once even where definitions repeat them.
 _MEMO_TYPES = (A.Comprehension, A.QuantExpr, A.Image, A.Quant, A.Lambda)
 _SET_OPS = frozenset({"\\", "\\/", "/\\", "<|", "|>", "<<|", "|>>", "<+"})
-_SLOTS: dict[A.Node, int] = {}
-MEMO_KEY = "$memo"  # not a B identifier: cannot clash with a variable
-
-
-def _folded(fn: Fn, node: A.Node) -> Fn:
-    """Arithmetic on literals (common after definitions are expanded: ``-4.0 - 2.0``) is
-    computed once, when compiling; an ill-defined one is left to fail where it is used."""
-    try:
-        value = fn({})
-    except TracecheckError:
-        return fn
-    folded = lambda env: value  # noqa: E731
-    folded.constant = value  # type: ignore[attr-defined]
-    return folded
 
 
 def _name_applied_to_name(node: A.Node) -> Optional[tuple[str, str]]:
@@ -707,117 +551,11 @@ def _constant_number(node: A.Node, fn: Fn) -> Any:
     return value if type(value) in (int, float) else None
 
 
-def _memoised(fn: Fn, node: A.Node) -> Fn:
-    """Evaluate ``fn`` once per environment dict (one state), however often it is asked."""
-    slot = _SLOTS.setdefault(node, len(_SLOTS))
-
-    def memo(env: Env) -> Any:
-        cache = env.get(MEMO_KEY)
-        if cache is None:
-            cache = env[MEMO_KEY] = {}
-        value = cache.get(slot, _MISSING)
-        if value is _MISSING:  # the first use in a state is the common case: no exception
-            value = cache[slot] = fn(env)
-        return value
-    return memo
-
-
-def fresh(env: Env) -> Env:
-    """A copy of ``env`` to change: without the remembered values of the original."""
-    out = dict(env)
-    out.pop(MEMO_KEY, None)
-    return out
-
-
-
-class Strict:
-    """The errors of a quantified formula's values, kept until every value was seen: the
-    formula is not well-defined if it is not for one of them, whatever the others give (B's
-    well-definedness), and the error raised is that of the least values in print order, so
-    neither the answer nor the message depends on the order a set is walked in."""
-
-    __slots__ = ("error", "key")
-
-    def __init__(self, error: TracecheckError, key: tuple) -> None:
-        self.error, self.key = error, key
-
-    @staticmethod
-    def note(strict: Optional["Strict"], ids: tuple[str, ...], env: Env,
-             error: TracecheckError) -> "Strict":
-        key = tuple(V.sort_key(env.get(i)) for i in ids)
-        if strict is None or key < strict.key:
-            return Strict(error, key)
-        return strict
-
-    def fail(self) -> None:
-        raise self.error
-
-
-def _each(bind, ids: tuple[str, ...], env: Env, value: Fn) -> list:
-    """``value`` for every solution of a binder (comprehensions, lambdas, SIGMA …), after
-    all of them were tried (see :class:`Strict`)."""
-    out, strict = [], None
-    for problem in bind(env):
-        try:
-            if problem is not None:
-                raise problem
-            out.append(value(env))
-        except TracecheckError as exc:
-            strict = Strict.note(strict, ids, env, exc)
-    if strict is not None:
-        strict.fail()
-    return out
-
-
 def _pair_of(args: tuple[A.Node, ...]) -> A.Node:
     node = args[0]
     for a in args[1:]:
         node = A.Pair(node, a, pos=a.pos)
     return node
-
-
-def _tuple_of(ids: tuple[str, ...]) -> Fn:
-    if len(ids) == 1:
-        name = ids[0]
-        return lambda env: env[name]
-
-    def pair(env: Env) -> Any:
-        value = env[ids[0]]
-        for i in ids[1:]:
-            value = (value, env[i])
-        return value
-    return pair
-
-
-def _scoped(fn: Fn, ids: tuple[str, ...]) -> Fn:
-    """Run ``fn`` and restore whatever ``ids`` meant in ``env`` before."""
-    if len(ids) == 1:
-        (name,) = ids
-
-        def scoped_one(env: Env) -> Any:
-            old = env.get(name, _MISSING)
-            try:
-                return fn(env)
-            finally:
-                if old is _MISSING:
-                    env.pop(name, None)
-                else:
-                    env[name] = old
-        return scoped_one
-
-    def scoped(env: Env) -> Any:
-        saved = [env.get(i, _MISSING) for i in ids]
-        try:
-            return fn(env)
-        finally:
-            for i, old in zip(ids, saved):
-                if old is _MISSING:
-                    env.pop(i, None)
-                else:
-                    env[i] = old
-    return scoped
-
-
 
 
 _ARROWS = {"-->", "+->", "<->", ">->", ">+>", "-->>", "+->>", ">->>", ">+>>"}

@@ -12,7 +12,8 @@ from typing import Callable, Optional
 
 from ..errors import UnsupportedError
 from . import ast as A
-from .evaluate import MEMO_KEY, Compiler, Env, fresh
+from .evaluate import Compiler, Env
+from .memo import MEMO_KEY, fresh
 from .values import make_set
 
 __all__ = ["written", "guard_of", "SubstCompiler", "strip_guards", "before_after"]
