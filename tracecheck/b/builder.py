@@ -9,12 +9,13 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from typing import Optional
+from typing import Callable, Optional
 
 from lark import Token, Transformer, v_args
 
 from ..errors import BSyntaxError
 from . import ast as A
+from .limits import read_int
 
 __all__ = ["Builder", "OperationSource", "tok_pos", "unquote"]
 
@@ -60,9 +61,10 @@ _QUANT_EXPR = {"SIGMA": "SIGMA", "Σ": "SIGMA", "PI": "PI", "Π": "PI", "UNION":
 _HOLE = re.compile(r"\$(?:\[([^\]]*)\])?\{")
 
 
-def _template(tok: Token) -> A.Template:
+def _template(tok: Token, parse_hole: Callable[[str], A.Node]) -> A.Template:
     """Split a template string into its text and its ``${…}`` / ``$[fmt]{…}`` holes; each
-    hole is parsed as a formula at its own place in the source (errors point into it)."""
+    hole is parsed as a formula by ``parse_hole`` at its own place in the source (errors
+    point into it)."""
     raw = str(tok)[3:-3]
     texts, formats, holes = [], [], []
     i = 0
@@ -84,9 +86,7 @@ def _template(tok: Token) -> A.Template:
             else tok.column - 1 + 3 + m.end()
         padded = "\n" * before + " " * col + raw[m.end():j - 1]
         formats.append(m.group(1) or "")
-        from .parser import parse_formula  # the holes are formulas (a lazy import: no cycle)
-
-        holes.append(parse_formula(padded))
+        holes.append(parse_hole(padded))
         i = j
     return A.Template(tuple(texts), tuple(formats), tuple(holes), pos=tok_pos(tok))
 
@@ -113,7 +113,15 @@ def _error(message: str, meta) -> BSyntaxError:
 
 @v_args(meta=True)
 class Builder(Transformer):
-    """Builds AST nodes; checks only what the grammar cannot say (binder lists are names)."""
+    """Builds AST nodes; checks only what the grammar cannot say (binder lists are names).
+
+    ``parse_hole`` parses the formula in a template string's ``${…}`` (the parser passes
+    its own ``parse_formula``, so that this module does not import the parser).
+    """
+
+    def __init__(self, parse_hole: Callable[[str], A.Node]) -> None:
+        super().__init__()
+        self.parse_hole = parse_hole
 
     # -- predicates
     def implies(self, meta, c):
@@ -175,8 +183,6 @@ class Builder(Transformer):
         return A.Name(str(c[0]), pos=tok_pos(c[0]))
 
     def int_lit(self, meta, c):
-        from .limits import read_int
-
         try:
             return A.IntLit(read_int(str(c[0])), pos=tok_pos(c[0]))
         except ValueError as exc:
@@ -231,7 +237,7 @@ class Builder(Transformer):
         return node
 
     def template(self, meta, c):
-        return _template(c[0])
+        return _template(c[0], self.parse_hole)
 
     def set_ext(self, meta, c):
         return A.SetExt(c[0], pos=_pos(meta))

@@ -175,7 +175,7 @@ def _parse_tokens(toks: list[Token], start: str, text: str, file: Optional[str],
     try:
         tree = _parser().parse(toks, start=start)
         _check_depth(tree, text, file)
-        return Builder().transform(tree)
+        return Builder(parse_formula).transform(tree)
     except UnexpectedToken as exc:
         tok = exc.token
         if tok.type == "$END":
