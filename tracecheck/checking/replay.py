@@ -118,11 +118,8 @@ def enabled_matrix(shield: Shield, cols: RunColumns) -> tuple[np.ndarray, tuple[
 
 def _check_variables(shield: Shield, cols: RunColumns) -> None:
     have = cols.states.names() | set(shield.machine.base_env)
-    needed: set[str] = set()
     machine = shield.machine
-    for op in machine.operations.values():
-        if op.guard is not None:
-            needed |= A.free_names(op.guard)
+    needed = set().union(*machine.guard_variables().values())
     if machine.invariant_node is not None:
         needed |= A.free_names(machine.invariant_node)
     missing = sorted(n for n in needed if n not in have and n in machine.variables)
