@@ -20,7 +20,8 @@ from typing import Optional
 import numpy as np
 
 from ..b.typecheck import typecheck_formula
-from ..b.vector import BatchFormula, float_column
+from ..b.arrays import float_column
+from ..b.vector import BatchFormula
 from ..episodes.columns import RunColumns, read_columns
 from ..errors import EvaluationError, InputError, TracecheckError
 from ..checking.crashflag import CRASH_FLAG, flagged, with_crash_flag
