@@ -166,7 +166,7 @@ def state_rows() -> list[dict[str, Any]]:
 
 def names_for(rows: list[dict[str, Any]]) -> dict:
     owners = {e: "ELEMS" for e in ELEMS}
-    from tracecheck.b.typecheck import Base, Pow, Prod, REAL
+    from tracecheck.b.btypes import Base, Pow, Prod, REAL
 
     names = {k: type_of_value(v, owners) for k, v in rows[0].items()}
     names["f"] = Pow(Prod(Base("ELEMS"), REAL))

@@ -118,7 +118,7 @@ def _numpy(value: Any, name: str, btype: Any, where: str) -> Any:
 
 def _array(value: Any, name: str, btype: Any, where: str) -> frozenset:
     """A numpy array as a B set, where the variable's type says so unambiguously."""
-    from .typecheck import Pow, Prod, resolve_all, show
+    from .btypes import Pow, Prod, resolve_all, show
 
     t = resolve_all(btype) if btype is not None else None
     elem = t.elem if isinstance(t, Pow) else None

@@ -8,119 +8,16 @@ INVARIANT, constants by the PROPERTIES.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Optional, Union
+from typing import Optional
 
 from ..errors import BScopeError, BTypeError, TracecheckError, UnsupportedError
 from . import ast as A
+from .btypes import (BOOL, INTEGER, REAL, STRING, Base, Mismatch, Pow, Prod, Type, Var, resolve,
+                     show, unify)
 from .scope import check_kind, expand, kind_of, render
 
-__all__ = ["typecheck_machine", "typecheck_formula", "check_formula", "Typer", "show",
-           "type_of_value", "describe_value_type"]
-
-
-@dataclass(frozen=True)
-class Base:
-    name: str  # INTEGER, REAL, BOOL, STRING, or a set's name
-
-
-@dataclass(frozen=True)
-class Pow:
-    elem: "Type"
-
-
-@dataclass(frozen=True)
-class Prod:
-    left: "Type"
-    right: "Type"
-
-
-class Var:
-    """A type not known yet."""
-
-    __slots__ = ("ref", "numeric")
-
-    def __init__(self, numeric: bool = False) -> None:
-        self.ref: Optional[Type] = None
-        self.numeric = numeric
-
-
-Type = Union[Base, Pow, Prod, Var]
-INTEGER, REAL, BOOL, STRING = Base("INTEGER"), Base("REAL"), Base("BOOL"), Base("STRING")
-_NUMERIC = (INTEGER, REAL)
-
-
-def resolve(t: Type) -> Type:
-    while isinstance(t, Var) and t.ref is not None:
-        t = t.ref
-    return t
-
-
-def resolve_all(t: Type) -> Type:
-    """``t`` with every type variable in it resolved (inside POW and products too)."""
-    t = resolve(t)
-    if isinstance(t, Pow):
-        return Pow(resolve_all(t.elem))
-    if isinstance(t, Prod):
-        return Prod(resolve_all(t.left), resolve_all(t.right))
-    return t
-
-
-def show(t: Type) -> str:
-    """A type in B notation, e.g. ``POW(Vehicles*REAL)``."""
-    t = resolve(t)
-    if isinstance(t, Base):
-        return t.name
-    if isinstance(t, Pow):
-        return f"POW({show(t.elem)})"
-    if isinstance(t, Prod):
-        left = show(t.left)
-        right = show(t.right)
-        if isinstance(resolve(t.right), Prod):
-            right = f"({right})"
-        return f"{left}*{right}"
-    return "?"
-
-
-class _Mismatch(Exception):
-    pass
-
-
-def _occurs(v: Var, t: Type) -> bool:
-    t = resolve(t)
-    if t is v:
-        return True
-    if isinstance(t, Pow):
-        return _occurs(v, t.elem)
-    if isinstance(t, Prod):
-        return _occurs(v, t.left) or _occurs(v, t.right)
-    return False
-
-
-def unify(a: Type, b: Type) -> None:
-    a, b = resolve(a), resolve(b)
-    if a is b:
-        return
-    if isinstance(a, Var) or isinstance(b, Var):
-        v, t = (a, b) if isinstance(a, Var) else (b, a)
-        if isinstance(t, Var):
-            t.numeric = t.numeric or v.numeric
-        elif v.numeric and t not in _NUMERIC:
-            raise _Mismatch
-        if _occurs(v, t):
-            raise _Mismatch
-        v.ref = t
-        return
-    if isinstance(a, Base) and isinstance(b, Base) and a == b:
-        return
-    if isinstance(a, Pow) and isinstance(b, Pow):
-        unify(a.elem, b.elem)
-        return
-    if isinstance(a, Prod) and isinstance(b, Prod):
-        unify(a.left, b.left)
-        unify(a.right, b.right)
-        return
-    raise _Mismatch
+__all__ = ["typecheck_machine", "typecheck_formula", "check_formula", "Typer",
+           "type_of_value", "describe_value_type", "unify_quiet"]
 
 
 _BUILTIN_TYPES = {
@@ -175,7 +72,7 @@ class Typer:
     def same(self, node: A.Node, a: Type, b: Type, what: str = "") -> None:
         try:
             unify(a, b)
-        except _Mismatch:
+        except Mismatch:
             hint = None
             pair = {show(a), show(b)}
             if pair == {"INTEGER", "REAL"}:
@@ -570,7 +467,7 @@ def unify_quiet(a: Type, b: Type) -> bool:
     try:
         unify(a, b)
         return True
-    except _Mismatch:
+    except Mismatch:
         return False
 
 

@@ -18,7 +18,7 @@ from fractions import Fraction
 from typing import Any, Callable, Optional
 
 from ..b import ast as A
-from ..b.typecheck import BOOL, INTEGER, REAL, Base, Pow, Prod, resolve_all
+from ..b.btypes import BOOL, INTEGER, REAL, Base, Pow, Prod, resolve_all
 from ..b.values import Elem, FuncValue
 from ..errors import InputError, UnsupportedError
 

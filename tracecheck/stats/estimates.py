@@ -94,7 +94,8 @@ def _typing_scope(environment="highway", sample: Optional[dict] = None) -> _Scop
     """The names and constants properties are checked against: those of the environment's
     machine (the shield its adapter names), else the types of a sample state's values —
     and the recorded crash flag ``crashed``, unless they have a ``crashed`` of their own."""
-    from ..b.typecheck import BOOL, type_of_value
+    from ..b.btypes import BOOL
+    from ..b.typecheck import type_of_value
     from ..checking.shield import load_shield
 
     adapter = _installed_adapter(environment, required=False)
