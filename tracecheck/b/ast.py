@@ -15,7 +15,7 @@ __all__ = [
     "QuantExpr", "IfExpr", "Let", "And", "Or", "Implies", "Equiv", "Not", "Rel", "Quant",
     "Subst", "Skip", "Assign", "BecomesIn", "BecomesSuchThat", "Parallel", "Sequence",
     "Pre", "Assert", "Select", "Any", "IfSubst", "LetSubst", "Choice", "SubstRef", "BUILTIN_FUNCTIONS",
-    "BUILTIN_SETS", "children", "map_children", "binders", "free_names",
+    "BUILTIN_SETS", "children", "depth", "map_children", "binders", "free_names",
 ]
 
 #: Names that are functions of the language itself, applied as ``name(args)``.
@@ -329,6 +329,16 @@ class SubstRef(Subst):
 @dataclass(frozen=True, slots=True)
 class Choice(Subst):
     items: tuple[Subst, ...]
+
+
+def depth(node: Node) -> int:
+    """How many levels ``node`` nests (1 for a leaf), counted without recursing."""
+    deepest, stack = 0, [(node, 1)]
+    while stack:
+        node, level = stack.pop()
+        deepest = max(deepest, level)
+        stack.extend((child, level + 1) for child in children(node))
+    return deepest
 
 
 def children(node: Node) -> list[Node]:

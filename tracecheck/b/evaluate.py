@@ -19,6 +19,7 @@ from . import ast as A
 from .scope import render
 from . import values as V
 from .bindings import Binders
+from .limits import DEEP, deep_recursion, deeply
 from .memo import folded, memoised
 from .builtins import BUILTINS as _BUILTINS, UNSUPPORTED_HINTS as _UNSUPPORTED_HINTS
 from .finite import finite as _finite, members as _members
@@ -40,6 +41,7 @@ class Compiler(Binders):
         self.file = file
         self.bound: list[str] = []
         self._free: dict = {}  # free names by node, see A.free_names
+        self._compiling = False  # inside compile: the calls for sub-formulas
 
     @contextmanager
     def binding(self, ids: tuple[str, ...]):
@@ -64,6 +66,19 @@ class Compiler(Binders):
 
     # -- entry
     def compile(self, node: A.Node) -> Fn:
+        """``node`` as a function of an environment; one for a formula nesting deeper than
+        :data:`~tracecheck.b.limits.DEEP` runs with the recursion limit it needs."""
+        if self._compiling:
+            return self._compile(node)
+        self._compiling = True
+        try:
+            with deep_recursion():
+                fn = self._compile(node)
+        finally:
+            self._compiling = False
+        return deeply(fn) if A.depth(node) > DEEP else fn
+
+    def _compile(self, node: A.Node) -> Fn:
         method = getattr(self, "c_" + type(node).__name__, None)
         if method is None:
             raise self.error(UnsupportedError, node,

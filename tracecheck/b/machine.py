@@ -23,6 +23,7 @@ from . import ast as A
 from .bindings import conjuncts
 from .constants import setup_constants
 from .evaluate import Compiler
+from .limits import deep_recursion
 from .parser import MachineSource, parse_formula, parse_machine_source
 from .state import native_state
 from .scope import PRED, check_kind, check_subst, expand, render
@@ -142,8 +143,9 @@ class Machine:
     # -- formulas
     def parse(self, text: str, *, kind: str = PRED) -> A.Node:
         """Parse ``text`` in this machine's scope (its definitions expanded)."""
-        node = expand(parse_formula(text), self.definitions)
-        check_kind(node, kind, source=text, context="the formula")
+        with deep_recursion():
+            node = expand(parse_formula(text), self.definitions)
+            check_kind(node, kind, source=text, context="the formula")
         return node
 
     def check_formula(self, text: str, *, file: str, kind: str = PRED) -> A.Node:
@@ -167,7 +169,8 @@ class Machine:
     def evaluate(self, text_or_node, state: Mapping[str, Any]) -> Any:
         """Evaluate a formula (text or node) in ``state``."""
         if isinstance(text_or_node, str):
-            node = expand(parse_formula(text_or_node), self.definitions)
+            with deep_recursion():
+                node = expand(parse_formula(text_or_node), self.definitions)
             return self.compile(node, source=text_or_node)(self.env(state))
         return self.compile(text_or_node)(self.env(state))
 
@@ -367,7 +370,8 @@ def load_machine(path: str | Path) -> Machine:
 def load_machine_text(text: str, *, file: Optional[str] = None) -> Machine:
     """Set up a machine from its text (see :func:`load_machine`)."""
     try:
-        return _build(parse_machine_source(text, file=file))
+        with deep_recursion():  # expanding, checking and setting up recurse into formulas
+            return _build(parse_machine_source(text, file=file))
     except TracecheckError as exc:
         raise exc.located(file=file or "<model>", source=text) from None
 

@@ -12,7 +12,6 @@ import functools
 import hashlib
 import os
 import re
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator, Optional
@@ -24,15 +23,12 @@ from lark.lexer import Lexer
 from ..errors import BSyntaxError, TracecheckError
 from . import ast as A
 from .builder import Builder, OperationSource, tok_pos, unquote
+from .limits import deep_recursion
 
 __all__ = [
     "parse_formula", "parse_substitution", "parse_machine_source", "MachineSource",
     "Definition", "OperationSource", "tokens",
 ]
-
-# Formulas up to MAX_DEPTH levels take a few Python frames per level to build, check and
-# evaluate (all Python-level recursion, which does not grow the C stack in Python 3.11+).
-sys.setrecursionlimit(max(sys.getrecursionlimit(), 20_000))
 
 _GRAMMAR = (Path(__file__).with_name("grammar.lark")).read_text(encoding="utf-8")
 _GRAMMAR_SHA = hashlib.sha256(_GRAMMAR.encode()).hexdigest()
@@ -175,7 +171,8 @@ def _parse_tokens(toks: list[Token], start: str, text: str, file: Optional[str],
     try:
         tree = _parser().parse(toks, start=start)
         _check_depth(tree, text, file)
-        return Builder(parse_formula).transform(tree)
+        with deep_recursion():  # the builder recurses once per level of the tree
+            return Builder(parse_formula).transform(tree)
     except UnexpectedToken as exc:
         tok = exc.token
         if tok.type == "$END":

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from . import ast as A
+from .limits import int_text
 from .values import format_real
 
 __all__ = ["to_b"]
@@ -27,7 +28,7 @@ def to_b(node: A.Node) -> str:  # noqa: C901 - one branch per node type
     if t is A.Name:
         return node.id
     if t is A.IntLit:
-        return str(node.value)
+        return int_text(node.value)
     if t is A.RealLit:
         return format_real(node.value)
     if t is A.StrLit:

@@ -12,6 +12,7 @@ from typing import Optional
 
 from ..errors import BScopeError, BTypeError, TracecheckError, UnsupportedError
 from . import ast as A
+from .limits import deeply
 from .btypes import (BOOL, INTEGER, REAL, STRING, Base, Mismatch, Pow, Prod, Type, Var, resolve,
                      show, unify)
 from .scope import check_kind, expand, kind_of, render
@@ -475,6 +476,7 @@ def describe_value_type(value, element_sets: Optional[dict] = None) -> str:
     return show(type_of_value(value, element_sets)).replace("?", "any")
 
 
+@deeply
 def typecheck_formula(node: A.Node, names: dict[str, Type], *, kind: str = "predicate",
                       source: Optional[str] = None, file: Optional[str] = None,
                       unknown_hint: str = "give it a value in the state (--state FILE) or "
@@ -487,6 +489,7 @@ def typecheck_formula(node: A.Node, names: dict[str, Type], *, kind: str = "pred
     return typer.expr(node)
 
 
+@deeply
 def check_formula(text: str, names: dict[str, Type], *, file: str,
                   definitions: Optional[dict] = None, kind: Optional[str] = None,
                   unknown_hint: Optional[str] = None) -> tuple[A.Node, str]:

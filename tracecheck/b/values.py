@@ -16,7 +16,7 @@ import re
 from typing import Any, Callable, Iterable, Iterator, Optional
 
 from ..errors import EvaluationError, SetLimitError
-from . import limits  # noqa: F401  (raises the integer-digit limit; see limits.py)
+from .limits import int_text
 
 __all__ = [
     "Elem", "FuncValue", "SymbolicSet", "BuiltinSet", "Interval", "PowSet", "Product",
@@ -133,7 +133,7 @@ def check_size(n: int, what: str) -> None:
 
 
 def _count(n: int) -> str:
-    text = str(n)
+    text = int_text(n)
     return f"{n:,}" if len(text) <= 30 else f"about 10^{len(text) - 1}"
 
 
@@ -486,7 +486,7 @@ def format_value(value: Any, *, ascii: bool = False) -> str:
     if value is False:
         return "FALSE"
     if isinstance(value, int):
-        return str(value)
+        return int_text(value)
     if isinstance(value, float):
         return format_real(value)
     if isinstance(value, Elem):

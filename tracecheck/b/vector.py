@@ -28,6 +28,7 @@ from .arrays import (BatchContext, NotVectorizable, VectorValue, arith, bool_of,
                      fits, integral, is_int_array, mark_nonfinite, num_of, per_row,
                      typed_member, union_rows)
 from .columns import Columns
+from .limits import DEEP, deep_recursion
 from .values import Elem, FuncValue
 
 __all__ = ["evaluate_batch", "BatchFormula"]
@@ -528,6 +529,7 @@ class BatchFormula:
         self.constants = dict(constants)
         self.scalar = Compiler(source=source, file=file).compile(node)
         self._plans: dict[tuple, Optional[Callable]] = {}
+        self._deep = A.depth(node) > DEEP  # compiled and run with the raised recursion limit
 
     def _plan(self, cols: Columns) -> Optional[Callable]:
         kinds = {**{n: "num" for n in cols.numbers}, **{n: "bool" for n in cols.booleans},
@@ -545,6 +547,12 @@ class BatchFormula:
         """The value in each row: a bool array for a predicate, a float array for a number
         (``memo``: shared by formulas over the same columns and constants, so that what
         they have in common is computed once)."""
+        if self._deep:
+            with deep_recursion():
+                return self._evaluate(cols, memo)
+        return self._evaluate(cols, memo)
+
+    def _evaluate(self, cols: Columns, memo: Optional[dict]) -> np.ndarray:
         plan = self._plan(cols)
         if plan is not None:
             ctx = BatchContext(cols)
