@@ -182,8 +182,9 @@ def fits(out: np.ndarray, value: Any) -> bool:
 
 
 def float_column(values, cols: Columns, source: str) -> np.ndarray:
-    """``values`` (a number per row of ``cols``, as :class:`~tracecheck.b.vector.BatchFormula` gives them: B
-    integers exact, in an object array where they do not fit 64 bits) as floats, for
+    """``values`` (a number per row of ``cols``, as
+    :class:`~tracecheck.b.vector.BatchFormula` gives them: B integers exact, in an object
+    array where they do not fit 64 bits) as floats, for
     statistics and robustness; an :class:`EvaluationError` naming the row (episode, step)
     and ``source`` where an integer is too large for a float — never infinity.
 

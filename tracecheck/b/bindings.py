@@ -13,7 +13,7 @@ import math
 from typing import Any, Callable, Iterator, Optional
 
 from ..errors import BTypeError, EvaluationError, TracecheckError, UnsupportedError
-from . import ast as A
+from . import ast
 from .finite import finite as _finite, members as _members
 from .values import FuncValue, SymbolicSet, make_set, sort_key
 
@@ -23,13 +23,13 @@ Env = dict
 Fn = Callable[[Env], Any]
 
 
-def conjuncts(node: A.Node) -> list[A.Node]:
-    if isinstance(node, A.And):
+def conjuncts(node: ast.Node) -> list[ast.Node]:
+    if isinstance(node, ast.And):
         return conjuncts(node.left) + conjuncts(node.right)
     return [node]
 
 
-def generators(comp, node: A.Node, ids: tuple[str, ...], pred: A.Node):
+def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
     """Plan how to enumerate ``ids`` satisfying ``pred`` (see :meth:`Compiler.bindings`)."""
     conjs = conjuncts(pred)
     plan: list[tuple[tuple[str, ...], str, Fn]] = []
@@ -104,13 +104,13 @@ _HUGE_SETS = frozenset({"INTEGER", "NATURAL", "NATURAL1", "REAL", "FLOAT", "STRI
                         "NAT", "NAT1"})
 
 
-def _cost(mode: str, conj: A.Node) -> int:
+def _cost(mode: str, conj: ast.Node) -> int:
     """Which conjunct enumerates a variable best: ``x = E`` (one value), then a set, then a
     built-in set too large to walk (``x : INTEGER & x = 3`` takes x from ``x = 3``)."""
     if mode == "eq":
         return 0
-    right = conj.right if isinstance(conj, A.Rel) else None
-    return 2 if isinstance(right, A.Name) and right.id in _HUGE_SETS else 1
+    right = conj.right if isinstance(conj, ast.Rel) else None
+    return 2 if isinstance(right, ast.Name) and right.id in _HUGE_SETS else 1
 
 
 def _unpack(names: tuple[str, ...], value: Any, env: Env) -> bool:
@@ -124,7 +124,7 @@ def _unpack(names: tuple[str, ...], value: Any, env: Env) -> bool:
     return True
 
 
-def domain(comp, node: A.Node, mode: str, value: Any):
+def domain(comp, node: ast.Node, mode: str, value: Any):
     if mode == "eq":
         return (value,)
     if mode == "sub":
@@ -146,23 +146,24 @@ def domain(comp, node: A.Node, mode: str, value: Any):
     raise comp.type_error(node, value, "a set")
 
 
-def _names_in_pair(node: A.Node) -> Optional[tuple[str, ...]]:
-    if isinstance(node, A.Name):
+def _names_in_pair(node: ast.Node) -> Optional[tuple[str, ...]]:
+    if isinstance(node, ast.Name):
         return (node.id,)
-    if isinstance(node, A.Pair):
+    if isinstance(node, ast.Pair):
         left, right = _names_in_pair(node.left), _names_in_pair(node.right)
-        if left and right and isinstance(node.right, A.Name):
+        if left and right and isinstance(node.right, ast.Name):
             return left + right
     return None
 
 
 def _generator_for(comp, conj, name, ids, bound):
-    if (isinstance(conj, A.Or) and isinstance(conj.left, A.Rel) and isinstance(conj.right, A.Rel)
-            and conj.left.op == conj.right.op == ":" and conj.left.left == conj.right.left):
+    if (isinstance(conj, ast.Or) and isinstance(conj.left, ast.Rel)
+            and isinstance(conj.right, ast.Rel) and conj.left.op == conj.right.op == ":"
+            and conj.left.left == conj.right.left):
         # x : A or x : B enumerates x over A \/ B
-        union = A.BinOp("\\/", conj.left.right, conj.right.right, pos=conj.pos)
-        conj = A.Rel(":", conj.left.left, union, pos=conj.pos)
-    if not isinstance(conj, A.Rel) or conj.op not in (":", "=", "<:"):
+        union = ast.BinOp("\\/", conj.left.right, conj.right.right, pos=conj.pos)
+        conj = ast.Rel(":", conj.left.left, union, pos=conj.pos)
+    if not isinstance(conj, ast.Rel) or conj.op not in (":", "=", "<:"):
         return None
     names = _names_in_pair(conj.left)
     if not names or name not in names or any(n in bound or n not in ids for n in names):
@@ -170,7 +171,7 @@ def _generator_for(comp, conj, name, ids, bound):
     if conj.op != ":" and len(names) != 1:
         return None
     pending = set(ids) - bound
-    if A.free_names(conj.right) & pending:
+    if ast.free_names(conj.right) & pending:
         return None
     mode = {":": "in", "=": "eq", "<:": "sub"}[conj.op]
     return names, mode, comp.compile(conj.right)
@@ -181,9 +182,9 @@ class Binders:
     quantifiers, comprehensions, lambdas, SIGMA/PI/UNION/INTER and LET. They use the
     compiler's ``compile``, ``binding``, ``error`` and ``wd``."""
 
-    def c_Quant(self, node: A.Quant) -> Fn:
+    def c_Quant(self, node: ast.Quant) -> Fn:
         if node.op == "!":
-            if not isinstance(node.body, A.Implies):
+            if not isinstance(node.body, ast.Implies):
                 raise self.error(BTypeError, node,
                                  "the body of a universal quantifier must be an implication",
                                  hint="write !x.(x : S => P)")
@@ -197,7 +198,7 @@ class Binders:
             bindings = self.bindings(node, node.ids, node.body)
         return _scoped(self.quantifier(node, bindings, None), node.ids)
 
-    def quantifier(self, node: A.Quant, bindings, check: Optional[Fn]) -> Fn:
+    def quantifier(self, node: ast.Quant, bindings, check: Optional[Fn]) -> Fn:
         """∀ (with ``check``, the implication's right side) or ∃ (``check`` None), decided
         after every value was tried (see :class:`Strict`)."""
         ids = node.ids
@@ -205,7 +206,8 @@ class Binders:
             return lambda env: bool(_each(bindings, ids, env, lambda e: True))
         return lambda env: all(_each(bindings, ids, env, check))
 
-    def bindings(self, node: A.Node, ids: tuple[str, ...], pred: A.Node) -> Callable[[Env], Iterator[None]]:
+    def bindings(self, node: ast.Node, ids: tuple[str, ...], pred: ast.Node
+                 ) -> Callable[[Env], Iterator[Optional[TracecheckError]]]:
         """A function that binds ``ids`` in ``env`` to each solution of ``pred`` in turn.
 
         Each variable needs a conjunct that enumerates it (``x : S``, ``x = E``,
@@ -213,7 +215,7 @@ class Binders:
         """
         return generators(self, node, ids, pred)
 
-    def c_Comprehension(self, node: A.Comprehension) -> Fn:
+    def c_Comprehension(self, node: ast.Comprehension) -> Fn:
         with self.binding(node.ids):
             bind = self.bindings(node, node.ids, node.pred)
             if node.expr is not None:
@@ -223,7 +225,7 @@ class Binders:
         ids = node.ids
         return _scoped(lambda env: make_set(_each(bind, ids, env, value)), ids)
 
-    def c_Lambda(self, node: A.Lambda) -> Fn:
+    def c_Lambda(self, node: ast.Lambda) -> Fn:
         with self.binding(node.ids):
             bind = self.bindings(node, node.ids, node.pred)
             key, value = _tuple_of(node.ids), self.compile(node.expr)
@@ -231,7 +233,7 @@ class Binders:
         return _scoped(lambda env: FuncValue(dict(_each(bind, ids, env,
                                                         lambda e: (key(e), value(e))))), ids)
 
-    def c_QuantExpr(self, node: A.QuantExpr) -> Fn:
+    def c_QuantExpr(self, node: ast.QuantExpr) -> Fn:
         with self.binding(node.ids):
             bind = self.bindings(node, node.ids, node.pred)
             value = self.compile(node.expr)
@@ -250,7 +252,7 @@ class Binders:
             return frozenset.intersection(*values)
         return _scoped(quant, node.ids)
 
-    def c_Let(self, node: A.Let) -> Fn:
+    def c_Let(self, node: ast.Let) -> Fn:
         with self.binding(node.ids):
             assign = self.let_values(node, node.ids, node.pred)
             body = self.compile(node.body)
@@ -262,10 +264,10 @@ class Binders:
 
     def let_values(self, node, ids, pred) -> Callable[[Env], None]:
         """``LET x BE x = E & P IN …``: E gives x; the other conjuncts must hold."""
-        eqs: dict[str, A.Node] = {}
-        rest: list[A.Node] = []
+        eqs: dict[str, ast.Node] = {}
+        rest: list[ast.Node] = []
         for conj in conjuncts(pred):
-            if (isinstance(conj, A.Rel) and conj.op == "=" and isinstance(conj.left, A.Name)
+            if (isinstance(conj, ast.Rel) and conj.op == "=" and isinstance(conj.left, ast.Name)
                     and conj.left.id in ids and conj.left.id not in eqs):
                 eqs[conj.left.id] = conj.right
             else:
@@ -278,7 +280,7 @@ class Binders:
         ordered: list[str] = []
         while len(ordered) < len(ids):
             ready = [i for i in ids if i not in ordered
-                     and not (A.free_names(eqs[i]) & (set(ids) - set(ordered)))]
+                     and not (ast.free_names(eqs[i]) & (set(ids) - set(ordered)))]
             if not ready:
                 cyclic = next(i for i in ids if i not in ordered)
                 raise self.error(BTypeError, eqs[cyclic],

@@ -15,17 +15,17 @@ from contextlib import contextmanager
 from typing import Any, Callable, Optional
 
 from ..errors import BTypeError, EvaluationError, TracecheckError, UnsupportedError, WellDefinednessError
-from . import ast as A
+from . import ast
 from .scope import render
-from . import values as V
 from .bindings import Binders
 from .limits import DEEP, deep_recursion, deeply
 from .memo import folded, memoised
 from .builtins import BUILTINS as _BUILTINS, UNSUPPORTED_HINTS as _UNSUPPORTED_HINTS
 from .finite import finite as _finite, members as _members
 from .spaces import FunctionSpace, Projection
-from .values import (BUILTIN_SET_VALUES, FuncValue, Interval, Product, SymbolicSet, brief,
-                     format_value, hashable, is_set, make_set)
+from .values import (BUILTIN_SET_VALUES, FuncValue, Interval, Product, SymbolicSet, as_sequence,
+                     brief, contains, finiteness, format_value, hashable, is_set, is_subset,
+                     make_set, sequence, set_equal)
 
 __all__ = ["Compiler", "compile_formula", "evaluate", "Env"]
 
@@ -40,7 +40,7 @@ class Compiler(Binders):
         self.source = source
         self.file = file
         self.bound: list[str] = []
-        self._free: dict = {}  # free names by node, see A.free_names
+        self._free: dict = {}  # free names by node, see ast.free_names
         self._compiling = False  # inside compile: the calls for sub-formulas
 
     @contextmanager
@@ -53,19 +53,19 @@ class Compiler(Binders):
             del self.bound[len(self.bound) - len(ids):]
 
     # -- errors
-    def error(self, cls, node: A.Node, message: str, hint: Optional[str] = None):
+    def error(self, cls, node: ast.Node, message: str, hint: Optional[str] = None):
         pos = node.pos
         return cls(message, file=self.file, source=self.source, hint=hint,
                    line=pos.line if pos else None, column=pos.column if pos else None)
 
-    def text(self, node: A.Node) -> str:
+    def text(self, node: ast.Node) -> str:
         return render(node, self.source)
 
-    def wd(self, node: A.Node, message: str) -> WellDefinednessError:
+    def wd(self, node: ast.Node, message: str) -> WellDefinednessError:
         return self.error(WellDefinednessError, node, f"{message} in `{self.text(node)}`")
 
     # -- entry
-    def compile(self, node: A.Node) -> Fn:
+    def compile(self, node: ast.Node) -> Fn:
         """``node`` as a function of an environment; one for a formula nesting deeper than
         :data:`~tracecheck.b.limits.DEEP` runs with the recursion limit it needs."""
         if self._compiling:
@@ -76,23 +76,24 @@ class Compiler(Binders):
                 fn = self._compile(node)
         finally:
             self._compiling = False
-        return deeply(fn) if A.depth(node) > DEEP else fn
+        return deeply(fn) if ast.depth(node) > DEEP else fn
 
-    def _compile(self, node: A.Node) -> Fn:
+    def _compile(self, node: ast.Node) -> Fn:
         method = getattr(self, "c_" + type(node).__name__, None)
         if method is None:
             raise self.error(UnsupportedError, node,
                              f"tracecheck cannot evaluate {type(node).__name__} here")
         fn = method(node)
-        if isinstance(node, (A.BinOp, A.Neg)) and not A.free_names(node, self._free):
+        if isinstance(node, (ast.BinOp, ast.Neg)) and not ast.free_names(node, self._free):
             return folded(fn)
-        if (isinstance(node, _MEMO_TYPES) or (isinstance(node, A.BinOp) and node.op in _SET_OPS)) \
-                and not (A.free_names(node, self._free) & set(self.bound)):
+        if (isinstance(node, _MEMO_TYPES)
+                or (isinstance(node, ast.BinOp) and node.op in _SET_OPS)) \
+                and not (ast.free_names(node, self._free) & set(self.bound)):
             return memoised(fn, node)
         return fn
 
     # -- atoms
-    def c_Name(self, node: A.Name) -> Fn:
+    def c_Name(self, node: ast.Name) -> Fn:
         name = node.id
         if name in BUILTIN_SET_VALUES:
             value = BUILTIN_SET_VALUES[name]
@@ -107,20 +108,21 @@ class Compiler(Binders):
                     from None
         return get
 
-    def c_IntLit(self, node: A.IntLit) -> Fn:
+    def c_IntLit(self, node: ast.IntLit) -> Fn:
         value = node.value
         return lambda env: value
 
     c_RealLit = c_StrLit = c_BoolLit = c_IntLit
 
-    def c_SetExt(self, node: A.SetExt) -> Fn:
+    def c_SetExt(self, node: ast.SetExt) -> Fn:
         items = [self.compile(i) for i in node.items]
-        if all(isinstance(i, (A.IntLit, A.RealLit, A.StrLit, A.BoolLit)) for i in node.items):
+        if all(isinstance(i, (ast.IntLit, ast.RealLit, ast.StrLit, ast.BoolLit))
+               for i in node.items):
             value = make_set([i.value for i in node.items])
             return lambda env: value
         return lambda env: make_set([f(env) for f in items])
 
-    def c_Template(self, node: A.Template) -> Fn:
+    def c_Template(self, node: ast.Template) -> Fn:
         holes = [(fmt, h, self.compile(h)) for fmt, h in zip(node.formats, node.holes)]
         for fmt, h, _ in holes:
             if fmt and not _TEMPLATE_FORMAT.fullmatch(fmt):
@@ -143,12 +145,12 @@ class Compiler(Binders):
             return "".join(out)
         return template
 
-    def c_Pair(self, node: A.Pair) -> Fn:
+    def c_Pair(self, node: ast.Pair) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
         return lambda env: (l(env), r(env))
 
     # -- arithmetic and set operators
-    def c_Neg(self, node: A.Neg) -> Fn:
+    def c_Neg(self, node: ast.Neg) -> Fn:
         f = self.compile(node.operand)
 
         def neg(env: Env) -> Any:
@@ -158,7 +160,7 @@ class Compiler(Binders):
             return -v
         return neg
 
-    def at(self, node: A.Node, exc: TracecheckError) -> TracecheckError:
+    def at(self, node: ast.Node, exc: TracecheckError) -> TracecheckError:
         """``exc`` located at ``node`` where it has no location yet."""
         if exc.line is None and node.pos is not None:
             exc.line, exc.column = node.pos.line, node.pos.column
@@ -167,19 +169,19 @@ class Compiler(Binders):
             exc.args = (exc.render(),)
         return exc
 
-    def equal(self, node: A.Node, a: Any, b: Any) -> bool:
+    def equal(self, node: ast.Node, a: Any, b: Any) -> bool:
         """B equality: sets by their elements, however they are represented."""
         try:
             return a == b
         except TracecheckError as exc:
             raise self.at(node, exc) from None
 
-    def type_error(self, node: A.Node, value: Any, wanted: str) -> BTypeError:
+    def type_error(self, node: ast.Node, value: Any, wanted: str) -> BTypeError:
         return self.error(BTypeError, node,
                           f"`{self.text(node)}` must be {wanted}, but its value is "
                           f"{brief(value)}")
 
-    def c_BinOp(self, node: A.BinOp) -> Fn:
+    def c_BinOp(self, node: ast.BinOp) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
         op = node.op
         if op in _ARROWS:
@@ -190,17 +192,17 @@ class Compiler(Binders):
         impl = getattr(self, "op_" + _OP_NAMES[op])
         return impl(node, l, r)
 
-    def int_of(self, node: A.Node, v: Any) -> int:
+    def int_of(self, node: ast.Node, v: Any) -> int:
         if isinstance(v, bool) or not isinstance(v, int):
             raise self.type_error(node, v, "an integer")
         return v
 
-    def nums(self, node: A.BinOp, a: Any, b: Any) -> None:
+    def nums(self, node: ast.BinOp, a: Any, b: Any) -> None:
         for side, v in ((node.left, a), (node.right, b)):
             if isinstance(v, bool) or not isinstance(v, (int, float)):
                 raise self.type_error(side, v, "a number")
 
-    def real(self, node: A.Node, v: Any) -> Any:
+    def real(self, node: ast.Node, v: Any) -> Any:
         """``v`` unless it is a real that overflowed (inf) or is not a number (NaN)."""
         if type(v) is float and not math.isfinite(v):
             raise self.wd(node, "the real result is out of range (overflow)")
@@ -293,12 +295,12 @@ class Compiler(Binders):
 
     def op_concat(self, node, l, r) -> Fn:
         def concat(env: Env) -> Any:
-            return V.sequence(self.seq_items(node.left, l(env))
+            return sequence(self.seq_items(node.left, l(env))
                               + self.seq_items(node.right, r(env)))
         return concat
 
-    def seq_items(self, node: A.Node, v: Any) -> list:
-        items = V.as_sequence(_finite(self, node, v) if isinstance(v, SymbolicSet) else v)
+    def seq_items(self, node: ast.Node, v: Any) -> list:
+        items = as_sequence(_finite(self, node, v) if isinstance(v, SymbolicSet) else v)
         if items is None:
             raise self.wd(node, f"{brief(v)} is not a sequence")
         return items
@@ -340,37 +342,37 @@ class Compiler(Binders):
             if is_set(a) and is_set(b) and node.op in ("/\\", "\\"):
                 # one finite side is enough: NATURAL /\ (-2..2), (1..5) \ NATURAL1
                 keep = node.op == "/\\"
-                if V.finiteness(a) is True:
+                if finiteness(a) is True:
                     return make_set([x for x in _members(self, node.left, a)
-                                      if V.contains(b, x) == keep])
-                if keep and V.finiteness(b) is True:
+                                      if contains(b, x) == keep])
+                if keep and finiteness(b) is True:
                     return make_set([x for x in _members(self, node.right, b)
-                                      if V.contains(a, x)])
+                                      if contains(a, x)])
             return fn(_finite(self, node.left, a), _finite(self, node.right, b))
         return apply
 
     # -- predicates
-    def c_And(self, node: A.And) -> Fn:
+    def c_And(self, node: ast.And) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
         return lambda env: l(env) and r(env)
 
-    def c_Or(self, node: A.Or) -> Fn:
+    def c_Or(self, node: ast.Or) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
         return lambda env: l(env) or r(env)
 
-    def c_Implies(self, node: A.Implies) -> Fn:
+    def c_Implies(self, node: ast.Implies) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
         return lambda env: (not l(env)) or bool(r(env))
 
-    def c_Equiv(self, node: A.Equiv) -> Fn:
+    def c_Equiv(self, node: ast.Equiv) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
         return lambda env: bool(l(env)) == bool(r(env))
 
-    def c_Not(self, node: A.Not) -> Fn:
+    def c_Not(self, node: ast.Not) -> Fn:
         f = self.compile(node.operand)
         return lambda env: not f(env)
 
-    def c_Rel(self, node: A.Rel) -> Fn:
+    def c_Rel(self, node: ast.Rel) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
         op = node.op
         if op in ("<", "<=", ">", ">="):
@@ -440,16 +442,16 @@ class Compiler(Binders):
             if not is_set(b):
                 raise self.type_error(node.right, b, "a set")
             try:
-                result = V.is_subset(a, b)
+                result = is_subset(a, b)
                 if strict:
-                    result = result and not V.set_equal(a, b)
+                    result = result and not set_equal(a, b)
             except TracecheckError as exc:
                 raise self.at(node, exc) from None
             return result == positive
         return subset
 
     # -- quantifiers and binders
-    def c_IfExpr(self, node: A.IfExpr) -> Fn:
+    def c_IfExpr(self, node: ast.IfExpr) -> Fn:
         branches = [(self.compile(c), self.compile(v)) for c, v in node.branches]
         other = self.compile(node.else_)
 
@@ -461,12 +463,12 @@ class Compiler(Binders):
         return choose
 
     # -- application
-    def c_Apply(self, node: A.Apply) -> Fn:
+    def c_Apply(self, node: ast.Apply) -> Fn:
         if len(node.args) == 1:
             arg = self.compile(node.args[0])
         else:
             arg = self.compile(_pair_of(node.args))
-        if isinstance(node.fn, A.Name) and node.fn.id not in BUILTIN_SET_VALUES:
+        if isinstance(node.fn, ast.Name) and node.fn.id not in BUILTIN_SET_VALUES:
             name = node.fn.id
 
             def apply_name(env: Env) -> Any:
@@ -485,7 +487,7 @@ class Compiler(Binders):
             return self.apply_value(node, fn(env), arg(env))
         return apply
 
-    def apply_value(self, node: A.Apply, f: Any, x: Any) -> Any:
+    def apply_value(self, node: ast.Apply, f: Any, x: Any) -> Any:
         if isinstance(f, Projection):
             try:
                 return f.apply(x)
@@ -513,21 +515,21 @@ class Compiler(Binders):
             return images[0]
         raise self.type_error(node.fn, f, "a function")
 
-    def c_Image(self, node: A.Image) -> Fn:
+    def c_Image(self, node: ast.Image) -> Fn:
         rel, arg = self.compile(node.rel), self.compile(node.arg)
 
         def image(env: Env) -> frozenset:
             r, s = rel(env), arg(env)
             if not is_set(s):
                 raise self.type_error(node.arg, s, "a set")
-            return make_set([p[1] for p in _finite(self, node.rel, r) if V.contains(s, p[0])])
+            return make_set([p[1] for p in _finite(self, node.rel, r) if contains(s, p[0])])
         return image
 
-    def c_Inverse(self, node: A.Inverse) -> Fn:
+    def c_Inverse(self, node: ast.Inverse) -> Fn:
         rel = self.compile(node.rel)
         return lambda env: make_set([(p[1], p[0]) for p in _finite(self, node.rel, rel(env))])
 
-    def c_Call(self, node: A.Call) -> Fn:
+    def c_Call(self, node: ast.Call) -> Fn:
         impl = _BUILTINS.get(node.name)
         if impl is None:
             raise self.error(UnsupportedError, node, f"not supported: {node.name}",
@@ -546,30 +548,30 @@ class Compiler(Binders):
 # ------------------------------------------------------------------ helpers
 
 #: Nodes worth remembering per state: evaluated once even where definitions repeat them.
-_MEMO_TYPES = (A.Comprehension, A.QuantExpr, A.Image, A.Quant, A.Lambda)
+_MEMO_TYPES = (ast.Comprehension, ast.QuantExpr, ast.Image, ast.Quant, ast.Lambda)
 _SET_OPS = frozenset({"\\", "\\/", "/\\", "<|", "|>", "<<|", "|>>", "<+"})
 
 
-def _name_applied_to_name(node: A.Node) -> Optional[tuple[str, str]]:
+def _name_applied_to_name(node: ast.Node) -> Optional[tuple[str, str]]:
     """(f, v) when ``node`` is ``f(v)`` with f and v plain names."""
-    if (isinstance(node, A.Apply) and isinstance(node.fn, A.Name) and len(node.args) == 1
-            and isinstance(node.args[0], A.Name) and node.fn.id not in BUILTIN_SET_VALUES):
+    if (isinstance(node, ast.Apply) and isinstance(node.fn, ast.Name) and len(node.args) == 1
+            and isinstance(node.args[0], ast.Name) and node.fn.id not in BUILTIN_SET_VALUES):
         return node.fn.id, node.args[0].id
     return None
 
 
-def _constant_number(node: A.Node, fn: Fn) -> Any:
+def _constant_number(node: ast.Node, fn: Fn) -> Any:
     """The value of a numeric literal, or of folded arithmetic on literals, else None."""
-    if isinstance(node, (A.IntLit, A.RealLit)):
+    if isinstance(node, (ast.IntLit, ast.RealLit)):
         return node.value
     value = getattr(fn, "constant", None)
     return value if type(value) in (int, float) else None
 
 
-def _pair_of(args: tuple[A.Node, ...]) -> A.Node:
+def _pair_of(args: tuple[ast.Node, ...]) -> ast.Node:
     node = args[0]
     for a in args[1:]:
-        node = A.Pair(node, a, pos=a.pos)
+        node = ast.Pair(node, a, pos=a.pos)
     return node
 
 
@@ -586,13 +588,13 @@ _CMP = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge
 # ------------------------------------------------------------------ API
 
 
-def compile_formula(node: A.Node, *, source: Optional[str] = None,
+def compile_formula(node: ast.Node, *, source: Optional[str] = None,
                     file: Optional[str] = None) -> Fn:
     """Compile ``node`` into a function of an environment dict."""
     return Compiler(source=source, file=file).compile(node)
 
 
-def evaluate(node: A.Node, env: dict, *, source: Optional[str] = None) -> Any:
+def evaluate(node: ast.Node, env: dict, *, source: Optional[str] = None) -> Any:
     """Evaluate ``node`` once in ``env`` (a dict of names to values).
 
     >>> from tracecheck.b.parser import parse_formula

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any, Callable, Mapping, Optional
 
 from ..errors import BScopeError, EvaluationError, InputError, TracecheckError, read_text
-from . import ast as A
+from . import ast
 from .bindings import conjuncts
 from .constants import setup_constants
 from .evaluate import Compiler
@@ -39,17 +39,17 @@ class Operation:
     name: str
     params: tuple[str, ...]
     outputs: tuple[str, ...]
-    guard: Optional[A.Node]
-    body: A.Subst
+    guard: Optional[ast.Node]
+    body: ast.Subst
     description: Optional[str] = None
     guard_source: Optional[str] = None  # the guard as written, definitions not expanded
 
     @property
-    def enabling_guard(self) -> Optional[A.Node]:
+    def enabling_guard(self) -> Optional[ast.Node]:
         """When the operation is enabled, as a predicate of the state alone: the guard, for
         some values of the parameters (``#params.(guard)``); None when always enabled."""
         if self.params and self.guard is not None:
-            return A.Quant("#", self.params, self.guard, pos=self.guard.pos)
+            return ast.Quant("#", self.params, self.guard, pos=self.guard.pos)
         return self.guard
 
 
@@ -65,13 +65,13 @@ class Machine:
     enumerated: frozenset[str]
     constants: dict[str, Any]
     variables: tuple[str, ...]
-    invariant_node: Optional[A.Node]
-    assertion_nodes: tuple[A.Node, ...]
+    invariant_node: Optional[ast.Node]
+    assertion_nodes: tuple[ast.Node, ...]
     operations: dict[str, Operation]
     descriptions: dict[str, str]
     definitions: dict = field(default_factory=dict)
-    properties_node: Optional[A.Node] = None
-    initialisation: Optional[A.Subst] = None
+    properties_node: Optional[ast.Node] = None
+    initialisation: Optional[ast.Subst] = None
     constants_declared: tuple[str, ...] = ()
     types: dict[str, str] = field(default_factory=dict)
     type_objects: dict = field(default_factory=dict, repr=False)
@@ -141,14 +141,14 @@ class Machine:
         return Compiler(source=self.source, file=self.file)
 
     # -- formulas
-    def parse(self, text: str, *, kind: str = PRED) -> A.Node:
+    def parse(self, text: str, *, kind: str = PRED) -> ast.Node:
         """Parse ``text`` in this machine's scope (its definitions expanded)."""
         with deep_recursion():
             node = expand(parse_formula(text), self.definitions)
             check_kind(node, kind, source=text, context="the formula")
         return node
 
-    def check_formula(self, text: str, *, file: str, kind: str = PRED) -> A.Node:
+    def check_formula(self, text: str, *, file: str, kind: str = PRED) -> ast.Node:
         """``text`` parsed, its definitions expanded and type-checked in this machine's
         scope — the one path ``eval --model`` takes too (:func:`.typecheck.check_formula`).
         For formulas a user gives (``prove --assume``); ``file`` names where they came from
@@ -162,7 +162,7 @@ class Machine:
                                              f"{names}")
         return node
 
-    def compile(self, node: A.Node, *, source: Optional[str] = None) -> Callable[[dict], Any]:
+    def compile(self, node: ast.Node, *, source: Optional[str] = None) -> Callable[[dict], Any]:
         return Compiler(source=source or self.source, file=None if source else self.file
                         ).compile(node)
 
@@ -202,7 +202,7 @@ class Machine:
         """For each operation with a guard, the state variables the guard reads (its
         parameters aside), in the order of the operations."""
         variables = set(self.variables)
-        return {name: frozenset(A.free_names(op.enabling_guard) & variables)
+        return {name: frozenset(ast.free_names(op.enabling_guard) & variables)
                 for name, op in self.operations.items() if op.guard is not None}
 
     def operation(self, name: str) -> Operation:
@@ -219,11 +219,11 @@ class Machine:
         Variables the operation does not write must be unchanged. For an operation with
         parameters, some parameter values satisfying its guard must allow ``after``.
         """
-        def body(operation: Operation) -> A.Subst:
+        def body(operation: Operation) -> ast.Subst:
             if not operation.params:
                 return operation.body
             # parameters are not part of the state: some value of them must do
-            return A.Any(operation.params, operation.guard or A.BoolLit(True), operation.body,
+            return ast.Any(operation.params, operation.guard or ast.BoolLit(True), operation.body,
                          pos=operation.body.pos)
 
         outcome = self._outcome("checks", op, body)
@@ -233,7 +233,7 @@ class Machine:
                                   f"{', '.join(missing)}")
         return self._outcome_holds(op, outcome, before, after)
 
-    def postcondition(self, op: str) -> Optional[A.Node]:
+    def postcondition(self, op: str) -> Optional[ast.Node]:
         """The predicate replay checks for a step of ``op``: the effect of its body without
         the guards (checked on their own as feasibility), over ``v`` after and ``v$0``
         before, frame included. None when the body has a form without such a predicate."""
@@ -249,7 +249,7 @@ class Machine:
         outcome = self._outcome("effects", op, lambda operation: strip_guards(operation.body))
         return self._outcome_holds(op, outcome, before, after)
 
-    def _outcome(self, kind: str, op: str, body_of: Callable[[Operation], A.Subst]) -> tuple:
+    def _outcome(self, kind: str, op: str, body_of: Callable[[Operation], ast.Subst]) -> tuple:
         """(the compiled check of ``body_of(op)``, the variables it leaves unchanged), once
         per operation and ``kind``."""
         operation = self.operation(op)
@@ -272,13 +272,13 @@ class Machine:
         return bool(check(pre, dict(after)))
 
     # -- batch evaluation over columns (one call per formula for a whole recording)
-    def batch(self, node: A.Node):
+    def batch(self, node: ast.Node):
         """A :class:`~tracecheck.b.vector.BatchFormula` for ``node`` in this machine."""
         from .vector import BatchFormula
 
         return BatchFormula(node, self.base_env, source=self.source, file=self.file)
 
-    def _batch_cached(self, key: tuple, node: A.Node):
+    def _batch_cached(self, key: tuple, node: ast.Node):
         cache = self._compiled.setdefault("batch", {})
         if key not in cache:
             cache[key] = self.batch(node)
@@ -380,7 +380,7 @@ def _build(src: MachineSource) -> Machine:
     defs = src.definitions
     _check_names(src)
 
-    def pred(node: Optional[A.Node], what: str) -> Optional[A.Node]:
+    def pred(node: Optional[ast.Node], what: str) -> Optional[ast.Node]:
         if node is None:
             return None
         node = expand(node, defs)

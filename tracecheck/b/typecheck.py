@@ -11,7 +11,7 @@ from __future__ import annotations
 from typing import Optional
 
 from ..errors import BScopeError, BTypeError, TracecheckError, UnsupportedError
-from . import ast as A
+from . import ast
 from .limits import deeply
 from .btypes import (BOOL, INTEGER, REAL, STRING, Base, Mismatch, Pow, Prod, Type, Var, resolve,
                      show, unify)
@@ -52,7 +52,7 @@ class Typer:
         self.unknown_hint = unknown_hint
 
     # -- helpers
-    def lookup(self, node: A.Name) -> Type:
+    def lookup(self, node: ast.Name) -> Type:
         name = node.id
         base = name[:-1] if name.endswith("'") else name[:-2] if name.endswith("$0") else name
         for scope in reversed(self.scopes):
@@ -70,7 +70,7 @@ class Typer:
                           column=node.pos.column if node.pos else None,
                           hint=self.unknown_hint)
 
-    def same(self, node: A.Node, a: Type, b: Type, what: str = "") -> None:
+    def same(self, node: ast.Node, a: Type, b: Type, what: str = "") -> None:
         try:
             unify(a, b)
         except Mismatch:
@@ -84,7 +84,7 @@ class Typer:
                 line=node.pos.line if node.pos else None,
                 column=node.pos.column if node.pos else None) from None
 
-    def numeric(self, node: A.Node, t: Type) -> Type:
+    def numeric(self, node: ast.Node, t: Type) -> Type:
         self.same(node, t, Var(numeric=True), "expected a number: ")
         return t
 
@@ -94,16 +94,16 @@ class Typer:
         return scope
 
     # -- predicates and expressions
-    def pred(self, node: A.Node) -> None:
-        if isinstance(node, (A.And, A.Or, A.Implies, A.Equiv)):
+    def pred(self, node: ast.Node) -> None:
+        if isinstance(node, (ast.And, ast.Or, ast.Implies, ast.Equiv)):
             self.pred(node.left)
             self.pred(node.right)
-        elif isinstance(node, A.Not):
+        elif isinstance(node, ast.Not):
             self.pred(node.operand)
-        elif isinstance(node, A.Rel):
+        elif isinstance(node, ast.Rel):
             self.rel(node)
-        elif isinstance(node, A.Quant):
-            if node.op == "!" and not isinstance(node.body, A.Implies):
+        elif isinstance(node, ast.Quant):
+            if node.op == "!" and not isinstance(node.body, ast.Implies):
                 raise BTypeError(
                     f"the body of `!{','.join(node.ids)}.(…)` must be an implication",
                     file=self.file, source=self.source,
@@ -116,12 +116,12 @@ class Typer:
                 self.pred(node.body)
             finally:
                 self.scopes.pop()
-        elif isinstance(node, A.IfExpr):
+        elif isinstance(node, ast.IfExpr):
             for c, v in node.branches:
                 self.pred(c)
                 self.pred(v)
             self.pred(node.else_)
-        elif isinstance(node, A.Let):
+        elif isinstance(node, ast.Let):
             self.bound(node.ids)
             try:
                 self.pred(node.pred)
@@ -129,7 +129,7 @@ class Typer:
             finally:
                 self.scopes.pop()
 
-    def rel(self, node: A.Rel) -> None:
+    def rel(self, node: ast.Rel) -> None:
         left, right = self.expr(node.left), self.expr(node.right)
         op = node.op
         if op in ("=", "/="):
@@ -144,34 +144,34 @@ class Typer:
             self.same(node.left, left, Pow(elem))
             self.same(node, left, right)
 
-    def expr(self, node: A.Node) -> Type:  # noqa: C901 - one branch per node type
+    def expr(self, node: ast.Node) -> Type:  # noqa: C901 - one branch per node type
         t = type(node)
-        if t is A.Name:
+        if t is ast.Name:
             return self.lookup(node)
-        if t is A.IntLit:
+        if t is ast.IntLit:
             return INTEGER
-        if t is A.RealLit:
+        if t is ast.RealLit:
             return REAL
-        if t is A.BoolLit:
+        if t is ast.BoolLit:
             return BOOL
-        if t is A.StrLit:
+        if t is ast.StrLit:
             return STRING
-        if t is A.Pair:
+        if t is ast.Pair:
             return Prod(self.expr(node.left), self.expr(node.right))
-        if t is A.Neg:
+        if t is ast.Neg:
             return self.numeric(node, self.expr(node.operand))
-        if t is A.BinOp:
+        if t is ast.BinOp:
             return self.binop(node)
-        if t is A.Template:
+        if t is ast.Template:
             for hole in node.holes:
                 self.expr(hole)
             return STRING
-        if t is A.SetExt:
+        if t is ast.SetExt:
             elem: Type = Var()
             for item in node.items:
                 self.same(item, elem, self.expr(item), "set elements differ: ")
             return Pow(elem)
-        if t is A.Apply:
+        if t is ast.Apply:
             fn = self.expr(node.fn)
             arg = self.expr(node.args[0])
             for a in node.args[1:]:
@@ -179,34 +179,34 @@ class Typer:
             result = Var()
             self.same(node, fn, Pow(Prod(arg, result)), "function and argument: ")
             return result
-        if t is A.Call:
+        if t is ast.Call:
             return self.call(node)
-        if t is A.Image:
+        if t is ast.Image:
             a, b = Var(), Var()
             self.same(node.rel, self.expr(node.rel), Pow(Prod(a, b)))
             self.same(node.arg, self.expr(node.arg), Pow(a))
             return Pow(b)
-        if t is A.Inverse:
+        if t is ast.Inverse:
             a, b = Var(), Var()
             self.same(node.rel, self.expr(node.rel), Pow(Prod(a, b)))
             return Pow(Prod(b, a))
-        if t in (A.Comprehension, A.Lambda, A.QuantExpr):
+        if t in (ast.Comprehension, ast.Lambda, ast.QuantExpr):
             return self.binder_expr(node)
-        if t is A.IfExpr:
+        if t is ast.IfExpr:
             result = Var()
             for c, v in node.branches:
                 self.pred(c)
                 self.same(v, result, self.expr(v), "IF branches differ: ")
             self.same(node.else_, result, self.expr(node.else_), "IF branches differ: ")
             return result
-        if t is A.Let:
+        if t is ast.Let:
             self.bound(node.ids)
             try:
                 self.pred(node.pred)
                 return self.expr(node.body)
             finally:
                 self.scopes.pop()
-        if t in (A.And, A.Or, A.Implies, A.Equiv, A.Not, A.Rel, A.Quant):
+        if t in (ast.And, ast.Or, ast.Implies, ast.Equiv, ast.Not, ast.Rel, ast.Quant):
             self.pred(node)
             return BOOL
         raise BTypeError(f"cannot type {t.__name__}")  # pragma: no cover
@@ -218,10 +218,10 @@ class Typer:
             key: Type = scope[node.ids[0]]
             for i in node.ids[1:]:
                 key = Prod(key, scope[i])
-            if isinstance(node, A.Comprehension):
+            if isinstance(node, ast.Comprehension):
                 return Pow(key if node.expr is None else self.expr(node.expr))
             value = self.expr(node.expr)
-            if isinstance(node, A.Lambda):
+            if isinstance(node, ast.Lambda):
                 return Pow(Prod(key, value))
             if node.op in ("SIGMA", "PI"):
                 return self.numeric(node.expr, value)
@@ -230,7 +230,7 @@ class Typer:
         finally:
             self.scopes.pop()
 
-    def binop(self, node: A.BinOp) -> Type:
+    def binop(self, node: ast.BinOp) -> Type:
         op = node.op
         left, right = self.expr(node.left), self.expr(node.right)
         if op in ("-->", "+->", "<->", ">->", ">+>", "-->>", "+->>", ">->>", ">+>>"):
@@ -294,7 +294,7 @@ class Typer:
             return left
         raise BTypeError(f"cannot type the operator {op}")  # pragma: no cover
 
-    def call(self, node: A.Call) -> Type:
+    def call(self, node: ast.Call) -> Type:
         name = node.name
         if name == "bool":
             self.pred(node.args[0])
@@ -360,36 +360,36 @@ class Typer:
         raise BTypeError(f"cannot type {name}")  # pragma: no cover
 
     # -- substitutions
-    def subst(self, s: A.Subst) -> None:  # noqa: C901
-        if isinstance(s, A.Assign):
+    def subst(self, s: ast.Subst) -> None:  # noqa: C901
+        if isinstance(s, ast.Assign):
             for target, value in zip(s.targets, s.values):
                 self.same(s, self.expr(target), self.expr(value), "assignment: ")
-        elif isinstance(s, A.BecomesIn):
-            new: Type = self.lookup(A.Name(s.ids[0], pos=s.pos))
+        elif isinstance(s, ast.BecomesIn):
+            new: Type = self.lookup(ast.Name(s.ids[0], pos=s.pos))
             for i in s.ids[1:]:
-                new = Prod(new, self.lookup(A.Name(i, pos=s.pos)))
+                new = Prod(new, self.lookup(ast.Name(i, pos=s.pos)))
             self.same(s, Pow(new), self.expr(s.set), "'::' ")
-        elif isinstance(s, A.BecomesSuchThat):
+        elif isinstance(s, ast.BecomesSuchThat):
             for i in s.ids:
-                self.lookup(A.Name(i, pos=s.pos))
+                self.lookup(ast.Name(i, pos=s.pos))
             self.pred(s.pred)
-        elif isinstance(s, (A.Pre, A.Assert)):
-            self.pred(s.guard if isinstance(s, A.Pre) else s.cond)
+        elif isinstance(s, (ast.Pre, ast.Assert)):
+            self.pred(s.guard if isinstance(s, ast.Pre) else s.cond)
             self.subst(s.body)
-        elif isinstance(s, (A.Select, A.IfSubst)):
+        elif isinstance(s, (ast.Select, ast.IfSubst)):
             for c, b in s.branches:
                 self.pred(c)
                 self.subst(b)
             if s.else_ is not None:
                 self.subst(s.else_)
-        elif isinstance(s, (A.Any, A.LetSubst)):
+        elif isinstance(s, (ast.Any, ast.LetSubst)):
             self.bound(s.ids)
             try:
                 self.pred(s.pred)
                 self.subst(s.body)
             finally:
                 self.scopes.pop()
-        elif isinstance(s, (A.Parallel, A.Sequence, A.Choice)):
+        elif isinstance(s, (ast.Parallel, ast.Sequence, ast.Choice)):
             for item in s.items:
                 self.subst(item)
 
@@ -477,7 +477,7 @@ def describe_value_type(value, element_sets: Optional[dict] = None) -> str:
 
 
 @deeply
-def typecheck_formula(node: A.Node, names: dict[str, Type], *, kind: str = "predicate",
+def typecheck_formula(node: ast.Node, names: dict[str, Type], *, kind: str = "predicate",
                       source: Optional[str] = None, file: Optional[str] = None,
                       unknown_hint: str = "give it a value in the state (--state FILE) or "
                                           "evaluate in a machine (--model MODEL)") -> Type:
@@ -492,7 +492,7 @@ def typecheck_formula(node: A.Node, names: dict[str, Type], *, kind: str = "pred
 @deeply
 def check_formula(text: str, names: dict[str, Type], *, file: str,
                   definitions: Optional[dict] = None, kind: Optional[str] = None,
-                  unknown_hint: Optional[str] = None) -> tuple[A.Node, str]:
+                  unknown_hint: Optional[str] = None) -> tuple[ast.Node, str]:
     """Parse ``text``, expand ``definitions``, check that predicates and expressions stand
     where they belong (``kind``: what the whole must be; None: either) and type it with
     ``names`` in scope — what every formula a user gives goes through (``eval``, and

@@ -21,7 +21,7 @@ from typing import Any, Callable, Mapping, Optional
 import numpy as np
 
 from ..errors import TracecheckError
-from . import ast as A
+from . import ast
 from .bindings import conjuncts
 from .evaluate import Compiler
 from .arrays import (BatchContext, NotVectorizable, VectorValue, arith, bool_of, concat_numbers,
@@ -44,14 +44,14 @@ class _VecCompiler:
         self.axes: list[str] = []  # bound element variables: axis 1, then axis 2
         self.hidden: set[str] = set()  # bound outside the comprehension being compiled
         self.lets: list[str] = []  # LET variables in scope
-        self.free: dict = {}  # free names by node, see A.free_names
+        self.free: dict = {}  # free names by node, see ast.free_names
 
-    def compile(self, node: A.Node) -> Callable[[BatchContext], VectorValue]:
+    def compile(self, node: ast.Node) -> Callable[[BatchContext], VectorValue]:
         method = getattr(self, "v_" + type(node).__name__, None)
         if method is None:
             raise NotVectorizable(type(node).__name__)
         fn = method(node)
-        if isinstance(node, _SHARED) and not (A.free_names(node, self.free) & set(self.lets)):
+        if isinstance(node, _SHARED) and not (ast.free_names(node, self.free) & set(self.lets)):
             return _shared(fn, _intern((node, tuple(self.axes), tuple(sorted(self.hidden)))))
         return fn
 
@@ -70,7 +70,7 @@ class _VecCompiler:
             return ("set", mask)
         raise NotVectorizable(repr(value))
 
-    def v_Name(self, node: A.Name) -> Callable:
+    def v_Name(self, node: ast.Name) -> Callable:
         name = node.id
         if name in self.axes:
             depth = self.axes.index(name)
@@ -101,7 +101,7 @@ class _VecCompiler:
 
     v_RealLit = v_BoolLit = v_IntLit
 
-    def v_SetExt(self, node: A.SetExt) -> Callable:
+    def v_SetExt(self, node: ast.SetExt) -> Callable:
         items = [self.compile(i) for i in node.items]
 
         def set_ext(ctx: BatchContext) -> VectorValue:
@@ -129,7 +129,7 @@ class _VecCompiler:
             return value[:, 0, 0]
         raise NotVectorizable("a set of numbers that varies with a bound element")
 
-    def v_Comprehension(self, node: A.Comprehension) -> Callable:
+    def v_Comprehension(self, node: ast.Comprehension) -> Callable:
         """``{v | v : S & P}`` as a mask over the elements, ``{v . v : S & P | E}`` as the
         numbers E where P holds. Only comprehensions that use no variable bound around them
         (a set per row); the element variable gets its own axis."""
@@ -164,7 +164,7 @@ class _VecCompiler:
                              member))
         return comprehension
 
-    def v_Image(self, node: A.Image) -> Callable:
+    def v_Image(self, node: ast.Image) -> Callable:
         """``F[S]`` of a function over the elements: its values at the members of S."""
         rel, arg = self.compile(node.rel), self.compile(node.arg)
 
@@ -176,11 +176,11 @@ class _VecCompiler:
             return ("nums", (values, defined & s[1]))
         return image
 
-    def v_Let(self, node: A.Let) -> Callable:
+    def v_Let(self, node: ast.Let) -> Callable:
         """``LET x BE x = E IN B END``: the equations in the order they use each other."""
-        eqs: dict[str, A.Node] = {}
+        eqs: dict[str, ast.Node] = {}
         for conj in conjuncts(node.pred):
-            if (isinstance(conj, A.Rel) and conj.op == "=" and isinstance(conj.left, A.Name)
+            if (isinstance(conj, ast.Rel) and conj.op == "=" and isinstance(conj.left, ast.Name)
                     and conj.left.id in node.ids and conj.left.id not in eqs):
                 eqs[conj.left.id] = conj.right
             else:
@@ -188,7 +188,7 @@ class _VecCompiler:
         ordered: list[str] = []
         while len(ordered) < len(node.ids):
             ready = [i for i in node.ids if i not in ordered and i in eqs
-                     and not (A.free_names(eqs[i]) & (set(node.ids) - set(ordered)))]
+                     and not (ast.free_names(eqs[i]) & (set(node.ids) - set(ordered)))]
             if not ready:
                 raise NotVectorizable("LET order")
             ordered.extend(ready)
@@ -212,11 +212,11 @@ class _VecCompiler:
                 ctx.lets = outer
         return let
 
-    def v_Neg(self, node: A.Neg) -> Callable:
+    def v_Neg(self, node: ast.Neg) -> Callable:
         f = self.compile(node.operand)
         return lambda ctx: ("num", -num_of(f(ctx)))
 
-    def v_BinOp(self, node: A.BinOp) -> Callable:
+    def v_BinOp(self, node: ast.BinOp) -> Callable:
         l, r = self.compile(node.left), self.compile(node.right)
         op = node.op
         if op in ("-->", "+->"):
@@ -258,7 +258,7 @@ class _VecCompiler:
             return setop
         raise NotVectorizable(op)
 
-    def v_Rel(self, node: A.Rel) -> Callable:
+    def v_Rel(self, node: ast.Rel) -> Callable:
         l, r = self.compile(node.left), self.compile(node.right)
         op = node.op
         if op in ("<", "<=", ">", ">="):
@@ -328,16 +328,16 @@ class _VecCompiler:
     def v_Equiv(self, node) -> Callable:
         return self._logic(node, np.equal)
 
-    def v_Not(self, node: A.Not) -> Callable:
+    def v_Not(self, node: ast.Not) -> Callable:
         f = self.compile(node.operand)
         return lambda ctx: ("bool", np.logical_not(bool_of(f(ctx))))
 
-    def v_Quant(self, node: A.Quant) -> Callable:
+    def v_Quant(self, node: ast.Quant) -> Callable:
         if len(node.ids) != 1 or len(self.axes) >= 2:
             raise NotVectorizable("quantifier shape")
         (var,) = node.ids
         body = node.body
-        gen = _generator(body.left if isinstance(body, A.Implies) else body, var)
+        gen = _generator(body.left if isinstance(body, ast.Implies) else body, var)
         if gen is None:
             raise NotVectorizable("no domain")
         dom = self.compile(gen.right)
@@ -375,7 +375,7 @@ class _VecCompiler:
             return table[:, :, None] if elem[1] == 0 else table[:, None, :]
         return table[:, elem][:, None, None]
 
-    def v_Apply(self, node: A.Apply) -> Callable:
+    def v_Apply(self, node: ast.Apply) -> Callable:
         if len(node.args) != 1:
             raise NotVectorizable("arity")
         fn, arg = self.compile(node.fn), self.compile(node.args[0])
@@ -391,7 +391,7 @@ class _VecCompiler:
             return ("num", vals)
         return apply
 
-    def v_Call(self, node: A.Call) -> Callable:
+    def v_Call(self, node: ast.Call) -> Callable:
         arg = self.compile(node.args[0])
         name = node.name
         if name == "dom":
@@ -448,7 +448,7 @@ class _VecCompiler:
             return lambda ctx: ("num", f(num_of(arg(ctx))))
         raise NotVectorizable(name)
 
-    def v_IfExpr(self, node: A.IfExpr) -> Callable:
+    def v_IfExpr(self, node: ast.IfExpr) -> Callable:
         branches = [(self.compile(c), self.compile(v)) for c, v in node.branches]
         other = self.compile(node.else_)
 
@@ -485,7 +485,7 @@ _TYPE_SETS = {"REAL", "FLOAT", "BOOL", "INTEGER"}
 
 # Sub-formulas worth computing once per batch: a shield's definitions are expanded at every
 # use, so `min(VehiclesX[NextVehiclesInLane(LeftLane)])` occurs in several guards.
-_SHARED = (A.Comprehension, A.Image, A.Call, A.IfExpr, A.Quant, A.Let)
+_SHARED = (ast.Comprehension, ast.Image, ast.Call, ast.IfExpr, ast.Quant, ast.Let)
 _INTERNED: dict[tuple, int] = {}
 
 
@@ -513,23 +513,23 @@ def _shared(fn: Callable[[BatchContext], VectorValue], key: int) -> Callable[[Ba
     return shared
 
 
-def _generator(pred: A.Node, var: str) -> Optional[A.Rel]:
+def _generator(pred: ast.Node, var: str) -> Optional[ast.Rel]:
     """The conjunct ``var : S`` of ``pred`` that gives ``var`` its values."""
-    return next((c for c in conjuncts(pred) if isinstance(c, A.Rel) and c.op == ":"
-                 and isinstance(c.left, A.Name) and c.left.id == var
-                 and var not in A.free_names(c.right)), None)
+    return next((c for c in conjuncts(pred) if isinstance(c, ast.Rel) and c.op == ":"
+                 and isinstance(c.left, ast.Name) and c.left.id == var
+                 and var not in ast.free_names(c.right)), None)
 
 
 class BatchFormula:
     """A formula prepared for batch evaluation over :class:`Columns`."""
 
-    def __init__(self, node: A.Node, constants: Mapping[str, Any], *,
+    def __init__(self, node: ast.Node, constants: Mapping[str, Any], *,
                  source: Optional[str] = None, file: Optional[str] = None) -> None:
         self.node = node
         self.constants = dict(constants)
         self.scalar = Compiler(source=source, file=file).compile(node)
         self._plans: dict[tuple, Optional[Callable]] = {}
-        self._deep = A.depth(node) > DEEP  # compiled and run with the raised recursion limit
+        self._deep = ast.depth(node) > DEEP  # compiled and run with the raised recursion limit
 
     def _plan(self, cols: Columns) -> Optional[Callable]:
         kinds = {**{n: "num" for n in cols.numbers}, **{n: "bool" for n in cols.booleans},
@@ -598,7 +598,7 @@ class BatchFormula:
             raise
 
 
-def evaluate_batch(node: A.Node, cols: Columns, constants: Mapping[str, Any] = {},
+def evaluate_batch(node: ast.Node, cols: Columns, constants: Mapping[str, Any] = {},
                    *, source: Optional[str] = None) -> np.ndarray:
     """Evaluate ``node`` in every row of ``cols`` (see the module docstring)."""
     return BatchFormula(node, constants, source=source)(cols)
