@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from contextlib import contextmanager
-from typing import Any, Iterator, Optional
+from typing import Any, Callable, Iterator, Optional
 
 import numpy as np
 
@@ -17,7 +17,7 @@ from .columns import Columns
 
 __all__ = ["NotVectorizable", "VectorValue", "BatchContext", "union_rows", "concat_numbers",
            "typed_member", "arith", "integral", "mark_nonfinite", "per_row", "num_of",
-           "bool_of", "is_int_array", "fits", "float_column"]
+           "bool_of", "is_int_array", "fits", "float_column", "intern_key", "shared"]
 
 
 class NotVectorizable(Exception):
@@ -74,6 +74,35 @@ def union_rows(a: Optional[np.ndarray], b: Optional[np.ndarray]) -> Optional[np.
     if a is None:
         return b
     return a if b is None else a | b
+
+
+_INTERNED: dict[tuple, int] = {}
+
+
+def intern_key(key: tuple) -> int:
+    """A number for a sub-formula in its scope (equal formulas, equal numbers)."""
+    return _INTERNED.setdefault(key, len(_INTERNED))
+
+
+def shared(fn: Callable[[BatchContext], VectorValue], key: int
+           ) -> Callable[[BatchContext], VectorValue]:
+    """``fn`` computed once per batch (per :attr:`BatchContext.memo`, under ``key`` from
+    :func:`intern_key`); what it marked ill-defined is marked again wherever its value is
+    used."""
+    def shared_fn(ctx: BatchContext) -> VectorValue:
+        hit = ctx.memo.get(key)
+        if hit is None:
+            outer, ctx.bad = ctx.bad, None
+            try:
+                value = fn(ctx)
+            finally:
+                produced, ctx.bad = ctx.bad, union_rows(outer, ctx.bad)
+            ctx.memo[key] = (value, produced)
+            return value
+        value, produced = hit
+        ctx.bad = union_rows(ctx.bad, produced)
+        return value
+    return shared_fn
 
 
 def concat_numbers(ctx: BatchContext, a: tuple, b: tuple) -> tuple:

@@ -19,7 +19,7 @@ from . import ast
 from .scope import render
 from .bindings import Binders
 from .limits import DEEP, deep_recursion, deeply
-from .memo import folded, memoised
+from .memo import constant_number, folded, memoised
 from .builtins import BUILTINS as _BUILTINS, UNSUPPORTED_HINTS as _UNSUPPORTED_HINTS
 from .finite import finite as _finite, members as _members
 from .spaces import FunctionSpace, Projection
@@ -377,7 +377,7 @@ class Compiler(Binders):
         op = node.op
         if op in ("<", "<=", ">", ">="):
             cmp = _CMP[op]
-            constant = _constant_number(node.right, r)
+            constant = constant_number(node.right, r)
             if constant is not None:
                 kind = type(constant)
                 fn_arg = _name_applied_to_name(node.left)
@@ -467,7 +467,7 @@ class Compiler(Binders):
         if len(node.args) == 1:
             arg = self.compile(node.args[0])
         else:
-            arg = self.compile(_pair_of(node.args))
+            arg = self.compile(ast.pair_of(node.args))
         if isinstance(node.fn, ast.Name) and node.fn.id not in BUILTIN_SET_VALUES:
             name = node.fn.id
 
@@ -558,21 +558,6 @@ def _name_applied_to_name(node: ast.Node) -> Optional[tuple[str, str]]:
             and isinstance(node.args[0], ast.Name) and node.fn.id not in BUILTIN_SET_VALUES):
         return node.fn.id, node.args[0].id
     return None
-
-
-def _constant_number(node: ast.Node, fn: Fn) -> Any:
-    """The value of a numeric literal, or of folded arithmetic on literals, else None."""
-    if isinstance(node, (ast.IntLit, ast.RealLit)):
-        return node.value
-    value = getattr(fn, "constant", None)
-    return value if type(value) in (int, float) else None
-
-
-def _pair_of(args: tuple[ast.Node, ...]) -> ast.Node:
-    node = args[0]
-    for a in args[1:]:
-        node = ast.Pair(node, a, pos=a.pos)
-    return node
 
 
 _ARROWS = {"-->", "+->", "<->", ">->", ">+>", "-->>", "+->>", ">->>", ">+>>"}

@@ -8,7 +8,7 @@ from typing import Any, Callable
 from ..errors import TracecheckError
 from . import ast
 
-__all__ = ["MEMO_KEY", "folded", "memoised", "fresh"]
+__all__ = ["MEMO_KEY", "folded", "constant_number", "memoised", "fresh"]
 
 Env = dict
 Fn = Callable[[Env], Any]
@@ -28,6 +28,14 @@ def folded(fn: Fn) -> Fn:
     folded = lambda env: value  # noqa: E731
     folded.constant = value  # type: ignore[attr-defined]
     return folded
+
+
+def constant_number(node: ast.Node, fn: Fn) -> Any:
+    """The value of a numeric literal, or of folded arithmetic on literals, else None."""
+    if isinstance(node, (ast.IntLit, ast.RealLit)):
+        return node.value
+    value = getattr(fn, "constant", None)
+    return value if type(value) in (int, float) else None
 
 
 def memoised(fn: Fn, node: ast.Node) -> Fn:

@@ -25,8 +25,8 @@ from . import ast
 from .bindings import conjuncts
 from .evaluate import Compiler
 from .arrays import (BatchContext, NotVectorizable, VectorValue, arith, bool_of, concat_numbers,
-                     fits, integral, is_int_array, mark_nonfinite, num_of, per_row,
-                     typed_member, union_rows)
+                     fits, integral, intern_key, is_int_array, mark_nonfinite, num_of, per_row,
+                     shared, typed_member)
 from .columns import Columns
 from .limits import DEEP, deep_recursion
 from .values import Elem, FuncValue
@@ -52,7 +52,7 @@ class _VecCompiler:
             raise NotVectorizable(type(node).__name__)
         fn = method(node)
         if isinstance(node, _SHARED) and not (ast.free_names(node, self.free) & set(self.lets)):
-            return _shared(fn, _intern((node, tuple(self.axes), tuple(sorted(self.hidden)))))
+            return shared(fn, intern_key((node, tuple(self.axes), tuple(sorted(self.hidden)))))
         return fn
 
     def constant(self, value: Any) -> VectorValue:
@@ -486,31 +486,6 @@ _TYPE_SETS = {"REAL", "FLOAT", "BOOL", "INTEGER"}
 # Sub-formulas worth computing once per batch: a shield's definitions are expanded at every
 # use, so `min(VehiclesX[NextVehiclesInLane(LeftLane)])` occurs in several guards.
 _SHARED = (ast.Comprehension, ast.Image, ast.Call, ast.IfExpr, ast.Quant, ast.Let)
-_INTERNED: dict[tuple, int] = {}
-
-
-def _intern(key: tuple) -> int:
-    """A number for a sub-formula in its scope (equal formulas, equal numbers)."""
-    return _INTERNED.setdefault(key, len(_INTERNED))
-
-
-def _shared(fn: Callable[[BatchContext], VectorValue], key: int) -> Callable[[BatchContext], VectorValue]:
-    """``fn`` computed once per batch (per :attr:`BatchContext.memo`); what it marked ill-defined
-    is marked again wherever its value is used."""
-    def shared(ctx: BatchContext) -> VectorValue:
-        hit = ctx.memo.get(key)
-        if hit is None:
-            outer, ctx.bad = ctx.bad, None
-            try:
-                value = fn(ctx)
-            finally:
-                produced, ctx.bad = ctx.bad, union_rows(outer, ctx.bad)
-            ctx.memo[key] = (value, produced)
-            return value
-        value, produced = hit
-        ctx.bad = union_rows(ctx.bad, produced)
-        return value
-    return shared
 
 
 def _generator(pred: ast.Node, var: str) -> Optional[ast.Rel]:
