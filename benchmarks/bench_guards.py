@@ -20,8 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from tracecheck.b.machine import load_machine
-from tracecheck.b.values import FuncValue, parse_literal
-from tracecheck.b.vector import Columns
+from tracecheck.b.notation import parse_literal
+from tracecheck.b.values import FuncValue
+from tracecheck.b.columns import Columns
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIELD = ROOT / "models" / "shields" / "paper.mch"

@@ -15,6 +15,7 @@ from tracecheck.checking.shield import load_shield
 from tracecheck.episodes import EpisodeWriter, new_header
 from tracecheck.episodes.model import Episode, StepRecord, make_end
 
+
 def pytest_ignore_collect(collection_path: Path, config) -> bool | None:
     """Under tests/, only test modules and conftests are collected: helper modules (and the
     acc package of fixtures/) are imported by the tests as they are, never on their own for

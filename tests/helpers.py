@@ -11,7 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from tracecheck.b.values import Elem, FuncValue, parse_literal
+from tracecheck.b.notation import parse_literal
+from tracecheck.b.values import Elem, FuncValue
 from tracecheck.cli import main
 from tracecheck.episodes.model import Episode, StepRecord, make_end
 

@@ -14,6 +14,7 @@ __all__ = [
     "BScopeError",
     "WellDefinednessError",
     "EvaluationError",
+    "SetLimitError",
     "UnsupportedError",
     "ModelError",
     "InputError",
@@ -117,6 +118,10 @@ class WellDefinednessError(TracecheckError):
 class EvaluationError(TracecheckError):
     """Evaluation failed for a reason other than well-definedness (a variable without value,
     a set that cannot be enumerated)."""
+
+
+class SetLimitError(EvaluationError):
+    """A finite set too large to build or walk element by element."""
 
 
 class UnsupportedError(TracecheckError):

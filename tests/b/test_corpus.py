@@ -19,8 +19,10 @@ from tracecheck.b.evaluate import Compiler
 from tracecheck.b.parser import parse_formula
 from tracecheck.b.scope import check_kind, kind_of
 from tracecheck.b.typecheck import type_of_value, typecheck_formula
-from tracecheck.b.values import Elem, FuncValue, is_set, parse_literal
-from tracecheck.b.vector import BatchFormula, Columns
+from tracecheck.b.notation import parse_literal
+from tracecheck.b.values import Elem, FuncValue, is_set
+from tracecheck.b.columns import Columns
+from tracecheck.b.vector import BatchFormula
 
 CORPUS = Path(__file__).with_name("corpus") / "expressions.txt"
 SOURCES = {"SUM", "REAL", "TC", "BRM", "LIT", "WD", "DRONE", "ISSUE"}
@@ -164,7 +166,7 @@ def state_rows() -> list[dict[str, Any]]:
 
 def names_for(rows: list[dict[str, Any]]) -> dict:
     owners = {e: "ELEMS" for e in ELEMS}
-    from tracecheck.b.typecheck import Base, Pow, Prod, REAL
+    from tracecheck.b.btypes import Base, Pow, Prod, REAL
 
     names = {k: type_of_value(v, owners) for k, v in rows[0].items()}
     names["f"] = Pow(Prod(Base("ELEMS"), REAL))

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from tracecheck.b.machine import load_machine
-from tracecheck.b.values import parse_literal
+from tracecheck.b.notation import parse_literal
 from tracecheck.cli import main
 
 MODELS = Path(__file__).resolve().parents[3] / "shared" / "data" / "paper-models"

@@ -11,7 +11,8 @@ from tracecheck.b import ast as A
 from tracecheck.b.machine import load_machine_text
 from tracecheck.b.parser import parse_formula, parse_machine_source
 from tracecheck.b.printer import to_b
-from tracecheck.b.values import Elem, FuncValue, format_value, parse_literal
+from tracecheck.b.notation import parse_literal
+from tracecheck.b.values import Elem, FuncValue, format_value
 from tracecheck.errors import BSyntaxError, TracecheckError
 
 names = st.sampled_from(["x", "y", "S", "f", "VehiclesX", "EgoVehicle"]).map(A.Name)

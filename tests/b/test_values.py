@@ -7,7 +7,8 @@ import json
 import pytest
 
 from tracecheck.b.state import read_state_file
-from tracecheck.b.values import Elem, FuncValue, format_value, from_json, parse_literal
+from tracecheck.b.notation import from_json, parse_literal
+from tracecheck.b.values import Elem, FuncValue, format_value
 from tracecheck.errors import BSyntaxError, InputError
 
 E = Elem

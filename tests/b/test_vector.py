@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 from tracecheck.b.evaluate import compile_formula
 from tracecheck.b.parser import parse_formula
 from tracecheck.b.values import Elem, FuncValue
-from tracecheck.b.vector import BatchFormula, Columns
+from tracecheck.b.columns import Columns
+from tracecheck.b.vector import BatchFormula
 from tracecheck.errors import WellDefinednessError
 
 ELEMS = tuple(Elem(n) for n in ("EgoVehicle", "Vehicles2", "Vehicles3", "Vehicles4"))
@@ -145,12 +146,12 @@ def test_enabled_batch_matches_enabled(table1):
 def test_if_branches_only_count_where_taken():
     """A division guarded by IF does not send the rows where it is not taken to the scalar
     path (which would be correct but slow)."""
-    from tracecheck.b.vector import _Ctx
+    from tracecheck.b.arrays import BatchContext
 
     rows = [{"Reward": r, "X": FuncValue({ELEMS[0]: 1.0})} for r in (0.0, 2.0, 0.0)]
     cols = Columns.from_states(rows, ELEMS[:1])
     formula = BatchFormula(parse_formula("IF Reward = 0.0 THEN 1.0 ELSE 1.0 / Reward END"), {})
-    ctx = _Ctx(cols)
+    ctx = BatchContext(cols)
     tag, value = formula._plan(cols)(ctx)
     assert not ctx.bad.any()
     assert list(formula(cols)) == [1.0, 0.5, 1.0]
@@ -175,7 +176,7 @@ def test_long_formulas_on_the_batch_path(text):
 def test_float_column_names_the_row_of_an_integer_too_large_for_a_float():
     """B integers stay exact on both paths (an object array of Python ints where 64 bits do
     not hold them); turned into floats, one too large is an error at its row, never inf."""
-    from tracecheck.b.vector import float_column
+    from tracecheck.b.arrays import float_column
     from tracecheck.errors import EvaluationError
 
     cols = Columns(3, (), numbers={"n": np.array([1.0, 2.0, 3.0])})

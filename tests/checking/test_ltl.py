@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from tests.helpers import ROOT, run
 from tracecheck.b.machine import load_machine_text
-from tracecheck.b.vector import Columns
+from tracecheck.b.columns import Columns
 from tracecheck.checking.ltl import check_ltl, evaluate_ltl, parse_ltl, reference_ltl
 from tracecheck.episodes.columns import RunColumns
 from tracecheck.errors import BSyntaxError, BTypeError, InputError

@@ -17,8 +17,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tracecheck.b.machine import load_machine
-from tracecheck.b.values import Elem, FuncValue, parse_literal
-from tracecheck.b.vector import Columns
+from tracecheck.b.notation import parse_literal
+from tracecheck.b.values import Elem, FuncValue
+from tracecheck.b.columns import Columns
 from tracecheck.checking.shield import load_shield
 
 

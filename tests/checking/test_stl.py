@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from tracecheck.b.machine import load_machine_text
-from tracecheck.b.vector import Columns
+from tracecheck.b.columns import Columns
 from tracecheck.checking.stl import episode_robustness, parse_stl, robustness
 from tracecheck.episodes.columns import RunColumns
 from tracecheck.errors import BSyntaxError

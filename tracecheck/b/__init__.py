@@ -19,8 +19,8 @@ _WHERE = {
     "parse_formula": "parser", "parse_substitution": "parser",
     "to_b": "printer", "read_state_file": "state",
     "Elem": "values", "FuncValue": "values", "format_value": "values",
-    "parse_literal": "values",
-    "BatchFormula": "vector", "Columns": "vector", "evaluate_batch": "vector",
+    "parse_literal": "notation",
+    "BatchFormula": "vector", "Columns": "columns", "evaluate_batch": "vector",
 }
 
 __all__ = [

@@ -15,7 +15,7 @@ __all__ = [
     "QuantExpr", "IfExpr", "Let", "And", "Or", "Implies", "Equiv", "Not", "Rel", "Quant",
     "Subst", "Skip", "Assign", "BecomesIn", "BecomesSuchThat", "Parallel", "Sequence",
     "Pre", "Assert", "Select", "Any", "IfSubst", "LetSubst", "Choice", "SubstRef", "BUILTIN_FUNCTIONS",
-    "BUILTIN_SETS", "children", "map_children", "binders", "free_names",
+    "BUILTIN_SETS", "children", "depth", "pair_of", "map_children", "binders", "free_names",
 ]
 
 #: Names that are functions of the language itself, applied as ``name(args)``.
@@ -329,6 +329,24 @@ class SubstRef(Subst):
 @dataclass(frozen=True, slots=True)
 class Choice(Subst):
     items: tuple[Subst, ...]
+
+
+def pair_of(args: tuple[Node, ...]) -> Node:
+    """``a |-> b |-> …`` of the nodes ``args`` (left-nested pairs, as B writes f(a, b))."""
+    node = args[0]
+    for a in args[1:]:
+        node = Pair(node, a, pos=a.pos)
+    return node
+
+
+def depth(node: Node) -> int:
+    """How many levels ``node`` nests (1 for a leaf), counted without recursing."""
+    deepest, stack = 0, [(node, 1)]
+    while stack:
+        node, level = stack.pop()
+        deepest = max(deepest, level)
+        stack.extend((child, level + 1) for child in children(node))
+    return deepest
 
 
 def children(node: Node) -> list[Node]:

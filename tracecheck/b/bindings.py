@@ -1,35 +1,35 @@
-"""Enumerating bound variables: which conjunct of a quantifier's, comprehension's or
-lambda's predicate gives each variable its values, and walking them.
+"""Bound variables: which conjunct of a quantifier's, comprehension's or lambda's predicate
+gives each variable its values, walking them, and compiling the binding forms themselves
+(:class:`Binders`: quantifiers, comprehensions, lambdas, SIGMA/PI/UNION/INTER, LET).
 
 A walk yields None for each solution and, for values where the predicate is not
 well-defined, the error instead: the caller decides after seeing every value (see
-:class:`tracecheck.b.evaluate.Strict`), so that no answer depends on the order in which a
-set happens to be walked."""
+:class:`Strict`), so that no answer depends on the order in which a set happens to be
+walked."""
 
 from __future__ import annotations
 
+import math
 from typing import Any, Callable, Iterator, Optional
 
-from ..errors import EvaluationError, TracecheckError
-from . import ast as A
+from ..errors import BTypeError, EvaluationError, TracecheckError, UnsupportedError
+from . import ast
 from .finite import finite as _finite, members as _members
-from .values import SymbolicSet
+from .values import FuncValue, SymbolicSet, make_set, sort_key
 
-__all__ = ["generators", "conjuncts", "domain"]
+__all__ = ["generators", "conjuncts", "domain", "Binders", "Strict"]
 
 Env = dict
 Fn = Callable[[Env], Any]
 
 
-def conjuncts(node: A.Node) -> list[A.Node]:
-    if isinstance(node, A.And):
+def conjuncts(node: ast.Node) -> list[ast.Node]:
+    if isinstance(node, ast.And):
         return conjuncts(node.left) + conjuncts(node.right)
     return [node]
 
 
-
-
-def generators(comp, node: A.Node, ids: tuple[str, ...], pred: A.Node):
+def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
     """Plan how to enumerate ``ids`` satisfying ``pred`` (see :meth:`Compiler.bindings`)."""
     conjs = conjuncts(pred)
     plan: list[tuple[tuple[str, ...], str, Fn]] = []
@@ -85,7 +85,7 @@ def generators(comp, node: A.Node, ids: tuple[str, ...], pred: A.Node):
     if len(plan) == 1 and len(plan[0][0]) == 1 and plan[0][1] == "in":
         (name,), _, source = plan[0]
 
-        def run_single(env: Env) -> Iterator[Optional[TracecheckError]]:
+        def run_single(env: Env) -> Iterator[Optional[TracecheckError]]:  # the common case
             for value in domain(comp, node, "in", source(env)):
                 env[name] = value
                 try:
@@ -96,7 +96,6 @@ def generators(comp, node: A.Node, ids: tuple[str, ...], pred: A.Node):
                         yield None
                 except TracecheckError as exc:  # not well-defined for this value
                     yield exc
-        run_single.simple = (name, source, filters)  # type: ignore[attr-defined]
         return run_single
     return run
 
@@ -105,13 +104,13 @@ _HUGE_SETS = frozenset({"INTEGER", "NATURAL", "NATURAL1", "REAL", "FLOAT", "STRI
                         "NAT", "NAT1"})
 
 
-def _cost(mode: str, conj: A.Node) -> int:
+def _cost(mode: str, conj: ast.Node) -> int:
     """Which conjunct enumerates a variable best: ``x = E`` (one value), then a set, then a
     built-in set too large to walk (``x : INTEGER & x = 3`` takes x from ``x = 3``)."""
     if mode == "eq":
         return 0
-    right = conj.right if isinstance(conj, A.Rel) else None
-    return 2 if isinstance(right, A.Name) and right.id in _HUGE_SETS else 1
+    right = conj.right if isinstance(conj, ast.Rel) else None
+    return 2 if isinstance(right, ast.Name) and right.id in _HUGE_SETS else 1
 
 
 def _unpack(names: tuple[str, ...], value: Any, env: Env) -> bool:
@@ -125,7 +124,7 @@ def _unpack(names: tuple[str, ...], value: Any, env: Env) -> bool:
     return True
 
 
-def domain(comp, node: A.Node, mode: str, value: Any):
+def domain(comp, node: ast.Node, mode: str, value: Any):
     if mode == "eq":
         return (value,)
     if mode == "sub":
@@ -147,23 +146,24 @@ def domain(comp, node: A.Node, mode: str, value: Any):
     raise comp.type_error(node, value, "a set")
 
 
-def _names_in_pair(node: A.Node) -> Optional[tuple[str, ...]]:
-    if isinstance(node, A.Name):
+def _names_in_pair(node: ast.Node) -> Optional[tuple[str, ...]]:
+    if isinstance(node, ast.Name):
         return (node.id,)
-    if isinstance(node, A.Pair):
+    if isinstance(node, ast.Pair):
         left, right = _names_in_pair(node.left), _names_in_pair(node.right)
-        if left and right and isinstance(node.right, A.Name):
+        if left and right and isinstance(node.right, ast.Name):
             return left + right
     return None
 
 
 def _generator_for(comp, conj, name, ids, bound):
-    if (isinstance(conj, A.Or) and isinstance(conj.left, A.Rel) and isinstance(conj.right, A.Rel)
-            and conj.left.op == conj.right.op == ":" and conj.left.left == conj.right.left):
+    if (isinstance(conj, ast.Or) and isinstance(conj.left, ast.Rel)
+            and isinstance(conj.right, ast.Rel) and conj.left.op == conj.right.op == ":"
+            and conj.left.left == conj.right.left):
         # x : A or x : B enumerates x over A \/ B
-        union = A.BinOp("\\/", conj.left.right, conj.right.right, pos=conj.pos)
-        conj = A.Rel(":", conj.left.left, union, pos=conj.pos)
-    if not isinstance(conj, A.Rel) or conj.op not in (":", "=", "<:"):
+        union = ast.BinOp("\\/", conj.left.right, conj.right.right, pos=conj.pos)
+        conj = ast.Rel(":", conj.left.left, union, pos=conj.pos)
+    if not isinstance(conj, ast.Rel) or conj.op not in (":", "=", "<:"):
         return None
     names = _names_in_pair(conj.left)
     if not names or name not in names or any(n in bound or n not in ids for n in names):
@@ -171,7 +171,215 @@ def _generator_for(comp, conj, name, ids, bound):
     if conj.op != ":" and len(names) != 1:
         return None
     pending = set(ids) - bound
-    if A.free_names(conj.right) & pending:
+    if ast.free_names(conj.right) & pending:
         return None
     mode = {":": "in", "=": "eq", "<:": "sub"}[conj.op]
     return names, mode, comp.compile(conj.right)
+
+
+class Binders:
+    """The binding forms of :class:`tracecheck.b.evaluate.Compiler` (a base class of it):
+    quantifiers, comprehensions, lambdas, SIGMA/PI/UNION/INTER and LET. They use the
+    compiler's ``compile``, ``binding``, ``error`` and ``wd``."""
+
+    def c_Quant(self, node: ast.Quant) -> Fn:
+        if node.op == "!":
+            if not isinstance(node.body, ast.Implies):
+                raise self.error(BTypeError, node,
+                                 "the body of a universal quantifier must be an implication",
+                                 hint="write !x.(x : S => P)")
+            domain_pred, rest = node.body.left, node.body.right
+            with self.binding(node.ids):
+                bindings = self.bindings(node, node.ids, domain_pred)
+                check = self.compile(rest)
+
+            return _scoped(self.quantifier(node, bindings, check), node.ids)
+        with self.binding(node.ids):
+            bindings = self.bindings(node, node.ids, node.body)
+        return _scoped(self.quantifier(node, bindings, None), node.ids)
+
+    def quantifier(self, node: ast.Quant, bindings, check: Optional[Fn]) -> Fn:
+        """∀ (with ``check``, the implication's right side) or ∃ (``check`` None), decided
+        after every value was tried (see :class:`Strict`)."""
+        ids = node.ids
+        if check is None:
+            return lambda env: bool(_each(bindings, ids, env, lambda e: True))
+        return lambda env: all(_each(bindings, ids, env, check))
+
+    def bindings(self, node: ast.Node, ids: tuple[str, ...], pred: ast.Node
+                 ) -> Callable[[Env], Iterator[Optional[TracecheckError]]]:
+        """A function that binds ``ids`` in ``env`` to each solution of ``pred`` in turn.
+
+        Each variable needs a conjunct that enumerates it (``x : S``, ``x = E``,
+        ``x |-> y : R`` or ``x <: S``); the other conjuncts filter.
+        """
+        return generators(self, node, ids, pred)
+
+    def c_Comprehension(self, node: ast.Comprehension) -> Fn:
+        with self.binding(node.ids):
+            bind = self.bindings(node, node.ids, node.pred)
+            if node.expr is not None:
+                value = self.compile(node.expr)
+            else:
+                value = _tuple_of(node.ids)
+        ids = node.ids
+        return _scoped(lambda env: make_set(_each(bind, ids, env, value)), ids)
+
+    def c_Lambda(self, node: ast.Lambda) -> Fn:
+        with self.binding(node.ids):
+            bind = self.bindings(node, node.ids, node.pred)
+            key, value = _tuple_of(node.ids), self.compile(node.expr)
+        ids = node.ids
+        return _scoped(lambda env: FuncValue(dict(_each(bind, ids, env,
+                                                        lambda e: (key(e), value(e))))), ids)
+
+    def c_QuantExpr(self, node: ast.QuantExpr) -> Fn:
+        with self.binding(node.ids):
+            bind = self.bindings(node, node.ids, node.pred)
+            value = self.compile(node.expr)
+        op = node.op
+
+        def quant(env: Env) -> Any:
+            values = _each(bind, node.ids, env, value)
+            if op == "SIGMA":
+                return sum(values, 0)
+            if op == "PI":
+                return math.prod(values)
+            if op == "UNION":
+                return frozenset().union(*values)
+            if not values:
+                raise self.wd(node, "INTER over no sets")
+            return frozenset.intersection(*values)
+        return _scoped(quant, node.ids)
+
+    def c_Let(self, node: ast.Let) -> Fn:
+        with self.binding(node.ids):
+            assign = self.let_values(node, node.ids, node.pred)
+            body = self.compile(node.body)
+
+        def let(env: Env) -> Any:
+            assign(env)
+            return body(env)
+        return _scoped(let, node.ids)
+
+    def let_values(self, node, ids, pred) -> Callable[[Env], None]:
+        """``LET x BE x = E & P IN …``: E gives x; the other conjuncts must hold."""
+        eqs: dict[str, ast.Node] = {}
+        rest: list[ast.Node] = []
+        for conj in conjuncts(pred):
+            if (isinstance(conj, ast.Rel) and conj.op == "=" and isinstance(conj.left, ast.Name)
+                    and conj.left.id in ids and conj.left.id not in eqs):
+                eqs[conj.left.id] = conj.right
+            else:
+                rest.append(conj)
+        missing = [i for i in ids if i not in eqs]
+        if missing:
+            raise self.error(UnsupportedError, node,
+                             f"LET needs an equation `{missing[0]} = …` for each variable")
+        # each equation after those of the LET variables it uses (in any written order)
+        ordered: list[str] = []
+        while len(ordered) < len(ids):
+            ready = [i for i in ids if i not in ordered
+                     and not (ast.free_names(eqs[i]) & (set(ids) - set(ordered)))]
+            if not ready:
+                cyclic = next(i for i in ids if i not in ordered)
+                raise self.error(BTypeError, eqs[cyclic],
+                                 f"the LET equations define {cyclic} in terms of itself")
+            ordered.extend(ready)
+        checks = [(c, self.compile(c)) for c in rest]
+        order = [(i, self.compile(eqs[i])) for i in ordered]
+
+        def assign(env: Env) -> None:
+            for name, fn in order:
+                env[name] = fn(env)
+            for c, fn in checks:
+                if not fn(env):
+                    raise self.wd(c, "the LET condition does not hold")
+        return assign
+
+
+# ------------------------------------------------------------------ helpers
+
+
+_MISSING = object()
+
+
+class Strict:
+    """The errors of a quantified formula's values, kept until every value was seen: the
+    formula is not well-defined if it is not for one of them, whatever the others give (B's
+    well-definedness), and the error raised is that of the least values in print order, so
+    neither the answer nor the message depends on the order a set is walked in."""
+
+    __slots__ = ("error", "key")
+
+    def __init__(self, error: TracecheckError, key: tuple) -> None:
+        self.error, self.key = error, key
+
+    @staticmethod
+    def note(strict: Optional["Strict"], ids: tuple[str, ...], env: Env,
+             error: TracecheckError) -> "Strict":
+        key = tuple(sort_key(env.get(i)) for i in ids)
+        if strict is None or key < strict.key:
+            return Strict(error, key)
+        return strict
+
+    def fail(self) -> None:
+        raise self.error
+
+
+def _each(bind, ids: tuple[str, ...], env: Env, value: Fn) -> list:
+    """``value`` for every solution of a binder (comprehensions, lambdas, SIGMA …), after
+    all of them were tried (see :class:`Strict`)."""
+    out, strict = [], None
+    for problem in bind(env):
+        try:
+            if problem is not None:
+                raise problem
+            out.append(value(env))
+        except TracecheckError as exc:
+            strict = Strict.note(strict, ids, env, exc)
+    if strict is not None:
+        strict.fail()
+    return out
+
+
+def _tuple_of(ids: tuple[str, ...]) -> Fn:
+    if len(ids) == 1:
+        name = ids[0]
+        return lambda env: env[name]
+
+    def pair(env: Env) -> Any:
+        value = env[ids[0]]
+        for i in ids[1:]:
+            value = (value, env[i])
+        return value
+    return pair
+
+
+def _scoped(fn: Fn, ids: tuple[str, ...]) -> Fn:
+    """Run ``fn`` and restore whatever ``ids`` meant in ``env`` before."""
+    if len(ids) == 1:
+        (name,) = ids
+
+        def scoped_one(env: Env) -> Any:
+            old = env.get(name, _MISSING)
+            try:
+                return fn(env)
+            finally:
+                if old is _MISSING:
+                    env.pop(name, None)
+                else:
+                    env[name] = old
+        return scoped_one
+
+    def scoped(env: Env) -> Any:
+        saved = [env.get(i, _MISSING) for i in ids]
+        try:
+            return fn(env)
+        finally:
+            for i, old in zip(ids, saved):
+                if old is _MISSING:
+                    env.pop(i, None)
+                else:
+                    env[i] = old
+    return scoped

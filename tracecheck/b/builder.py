@@ -9,12 +9,13 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from typing import Optional
+from typing import Callable, Optional
 
 from lark import Token, Transformer, v_args
 
 from ..errors import BSyntaxError
-from . import ast as A
+from . import ast
+from .limits import read_int
 
 __all__ = ["Builder", "OperationSource", "tok_pos", "unquote"]
 
@@ -24,8 +25,8 @@ class OperationSource:
     name: str
     params: tuple[str, ...]
     outputs: tuple[str, ...]
-    body: A.Subst
-    pos: Optional[A.Pos] = None
+    body: ast.Subst
+    pos: Optional[ast.Pos] = None
 
 
 _ESCAPES = {'"': '"', "\\": "\\", "'": "'", "n": "\n", "t": "\t", "r": "\r"}
@@ -37,8 +38,8 @@ def unquote(s: str) -> str:
     return re.sub(r"\\(.)", lambda m: _ESCAPES.get(m.group(1), m.group(0)), s[1:-1])
 
 
-def tok_pos(tok: Token) -> A.Pos:
-    return A.Pos(tok.line, tok.column, tok.end_line, tok.end_column, tok.start_pos, tok.end_pos)
+def tok_pos(tok: Token) -> ast.Pos:
+    return ast.Pos(tok.line, tok.column, tok.end_line, tok.end_column, tok.start_pos, tok.end_pos)
 
 
 _OPS = {
@@ -60,9 +61,10 @@ _QUANT_EXPR = {"SIGMA": "SIGMA", "Σ": "SIGMA", "PI": "PI", "Π": "PI", "UNION":
 _HOLE = re.compile(r"\$(?:\[([^\]]*)\])?\{")
 
 
-def _template(tok: Token) -> A.Template:
+def _template(tok: Token, parse_hole: Callable[[str], ast.Node]) -> ast.Template:
     """Split a template string into its text and its ``${…}`` / ``$[fmt]{…}`` holes; each
-    hole is parsed as a formula at its own place in the source (errors point into it)."""
+    hole is parsed as a formula by ``parse_hole`` at its own place in the source (errors
+    point into it)."""
     raw = str(tok)[3:-3]
     texts, formats, holes = [], [], []
     i = 0
@@ -84,17 +86,15 @@ def _template(tok: Token) -> A.Template:
             else tok.column - 1 + 3 + m.end()
         padded = "\n" * before + " " * col + raw[m.end():j - 1]
         formats.append(m.group(1) or "")
-        from .parser import parse_formula  # the holes are formulas (a lazy import: no cycle)
-
-        holes.append(parse_formula(padded))
+        holes.append(parse_hole(padded))
         i = j
-    return A.Template(tuple(texts), tuple(formats), tuple(holes), pos=tok_pos(tok))
+    return ast.Template(tuple(texts), tuple(formats), tuple(holes), pos=tok_pos(tok))
 
 
-def _pos(meta) -> Optional[A.Pos]:
+def _pos(meta) -> Optional[ast.Pos]:
     if getattr(meta, "empty", True):
         return None
-    return A.Pos(meta.line, meta.column, meta.end_line, meta.end_column, meta.start_pos,
+    return ast.Pos(meta.line, meta.column, meta.end_line, meta.end_column, meta.start_pos,
                  meta.end_pos)
 
 
@@ -113,32 +113,40 @@ def _error(message: str, meta) -> BSyntaxError:
 
 @v_args(meta=True)
 class Builder(Transformer):
-    """Builds AST nodes; checks only what the grammar cannot say (binder lists are names)."""
+    """Builds AST nodes; checks only what the grammar cannot say (binder lists are names).
+
+    ``parse_hole`` parses the formula in a template string's ``${…}`` (the parser passes
+    its own ``parse_formula``, so that this module does not import the parser).
+    """
+
+    def __init__(self, parse_hole: Callable[[str], ast.Node]) -> None:
+        super().__init__()
+        self.parse_hole = parse_hole
 
     # -- predicates
     def implies(self, meta, c):
         l, r = _strip(c)
-        return A.Implies(l, r, pos=_pos(meta))
+        return ast.Implies(l, r, pos=_pos(meta))
 
     def and_(self, meta, c):
         l, r = _strip(c)
-        return A.And(l, r, pos=_pos(meta))
+        return ast.And(l, r, pos=_pos(meta))
 
     def or_(self, meta, c):
         l, r = _strip(c)
-        return A.Or(l, r, pos=_pos(meta))
+        return ast.Or(l, r, pos=_pos(meta))
 
     def equiv(self, meta, c):
         l, r = _strip(c)
-        return A.Equiv(l, r, pos=_pos(meta))
+        return ast.Equiv(l, r, pos=_pos(meta))
 
     def not_(self, meta, c):
         (x,) = _strip(c)
-        return A.Not(x, pos=_pos(meta))
+        return ast.Not(x, pos=_pos(meta))
 
     def relation(self, meta, c):
         l, op, r = c
-        return A.Rel(op, l, r, pos=_pos(meta))
+        return ast.Rel(op, l, r, pos=_pos(meta))
 
     def rel_op(self, meta, c):
         return _OPS[c[0].type]
@@ -152,33 +160,31 @@ class Builder(Transformer):
         if isinstance(op, Token):
             op = _OPS[op.type]
         if op == "|->":
-            return A.Pair(l, r, pos=_pos(meta))
-        return A.BinOp(op, l, r, pos=_pos(meta))
+            return ast.Pair(l, r, pos=_pos(meta))
+        return ast.BinOp(op, l, r, pos=_pos(meta))
 
     def neg(self, meta, c):
         (x,) = _strip(c)
-        return A.Neg(x, pos=_pos(meta))
+        return ast.Neg(x, pos=_pos(meta))
 
     def apply(self, meta, c):
         fn, args = c
-        if isinstance(fn, A.Name) and fn.id in A.BUILTIN_FUNCTIONS:
-            return A.Call(fn.id, args, pos=_pos(meta))
-        return A.Apply(fn, args, pos=_pos(meta))
+        if isinstance(fn, ast.Name) and fn.id in ast.BUILTIN_FUNCTIONS:
+            return ast.Call(fn.id, args, pos=_pos(meta))
+        return ast.Apply(fn, args, pos=_pos(meta))
 
     def image(self, meta, c):
-        return A.Image(c[0], c[1], pos=_pos(meta))
+        return ast.Image(c[0], c[1], pos=_pos(meta))
 
     def inverse(self, meta, c):
-        return A.Inverse(_strip(c)[0], pos=_pos(meta))
+        return ast.Inverse(_strip(c)[0], pos=_pos(meta))
 
     def name(self, meta, c):
-        return A.Name(str(c[0]), pos=tok_pos(c[0]))
+        return ast.Name(str(c[0]), pos=tok_pos(c[0]))
 
     def int_lit(self, meta, c):
-        from .values import read_int
-
         try:
-            return A.IntLit(read_int(str(c[0])), pos=tok_pos(c[0]))
+            return ast.IntLit(read_int(str(c[0])), pos=tok_pos(c[0]))
         except ValueError as exc:
             pos = tok_pos(c[0])
             raise BSyntaxError(str(exc), line=pos.line, column=pos.column) from None
@@ -187,93 +193,93 @@ class Builder(Transformer):
         value = float(c[0])
         if not math.isfinite(value):
             raise _error(f"the real {c[0]} is out of range (at most about 1.8E308)", c[0])
-        return A.RealLit(value, pos=tok_pos(c[0]))
+        return ast.RealLit(value, pos=tok_pos(c[0]))
 
     def string_lit(self, meta, c):
-        return A.StrLit(unquote(str(c[0])), pos=tok_pos(c[0]))
+        return ast.StrLit(unquote(str(c[0])), pos=tok_pos(c[0]))
 
     def true_(self, meta, c):
-        return A.BoolLit(True, pos=_pos(meta))
+        return ast.BoolLit(True, pos=_pos(meta))
 
     def false_(self, meta, c):
-        return A.BoolLit(False, pos=_pos(meta))
+        return ast.BoolLit(False, pos=_pos(meta))
 
     def uni_set(self, meta, c):
-        return A.Name(_UNI_SETS[str(c[0])], pos=_pos(meta))
+        return ast.Name(_UNI_SETS[str(c[0])], pos=_pos(meta))
 
     def uni_pow(self, meta, c):
         kind = "POW1" if str(c[0]) == "ℙ₁" else "POW"
-        return A.Call(kind, (c[1],), pos=_pos(meta))
+        return ast.Call(kind, (c[1],), pos=_pos(meta))
 
     def tuple_(self, meta, c):
         first, rest = c
         node = first
         for item in rest:
-            node = A.Pair(node, item, pos=_pos(meta))
+            node = ast.Pair(node, item, pos=_pos(meta))
         return node
 
     def empty_set(self, meta, c):
-        return A.SetExt((), pos=_pos(meta))
+        return ast.SetExt((), pos=_pos(meta))
 
     def empty_seq(self, meta, c):
-        return A.SetExt((), pos=_pos(meta))
+        return ast.SetExt((), pos=_pos(meta))
 
     def seq_ext(self, meta, c):
         """``[a, b]`` is the function ``{1|->a, 2|->b}``."""
-        return A.SetExt(tuple(A.Pair(A.IntLit(i, pos=item.pos), item, pos=item.pos)
+        return ast.SetExt(tuple(ast.Pair(ast.IntLit(i, pos=item.pos), item, pos=item.pos)
                               for i, item in enumerate(c[0], start=1)), pos=_pos(meta))
 
     def composition(self, meta, c):
         items = [x for x in c if not isinstance(x, Token)]
         node = items[0]
         for item in items[1:]:
-            node = A.BinOp(";", node, item, pos=_pos(meta))
+            node = ast.BinOp(";", node, item, pos=_pos(meta))
         return node
 
     def template(self, meta, c):
-        return _template(c[0])
+        return _template(c[0], self.parse_hole)
 
     def set_ext(self, meta, c):
-        return A.SetExt(c[0], pos=_pos(meta))
+        return ast.SetExt(c[0], pos=_pos(meta))
 
     def comprehension(self, meta, c):
         ids, pred = _strip(c)
-        return A.Comprehension(_binder_names(ids, meta), pred, None, pos=_pos(meta))
+        return ast.Comprehension(_binder_names(ids, meta), pred, None, pos=_pos(meta))
 
     def comprehension_expr(self, meta, c):
         ids, pred, expr = _strip(c)
-        return A.Comprehension(_binder_names(ids, meta), pred, expr, pos=_pos(meta))
+        return ast.Comprehension(_binder_names(ids, meta), pred, expr, pos=_pos(meta))
 
     def forall(self, meta, c):
         ids, body = _strip(c)
-        return A.Quant("!", ids, body, pos=_pos(meta))
+        return ast.Quant("!", ids, body, pos=_pos(meta))
 
     def exists(self, meta, c):
         ids, body = _strip(c)
-        return A.Quant("#", ids, body, pos=_pos(meta))
+        return ast.Quant("#", ids, body, pos=_pos(meta))
 
     def lambda_(self, meta, c):
         ids, pred, expr = _strip(c)
-        return A.Lambda(ids, pred, expr, pos=_pos(meta))
+        return ast.Lambda(ids, pred, expr, pos=_pos(meta))
 
     def quant_kw(self, meta, c):
         return _QUANT_EXPR[str(c[0])]
 
     def quant_expr(self, meta, c):
         op, ids, pred, expr = _strip(c)
-        return A.QuantExpr(op, ids, pred, expr, pos=_pos(meta))
+        return ast.QuantExpr(op, ids, pred, expr, pos=_pos(meta))
 
     def if_expr(self, meta, c):
         cond, then, *rest = c
         *elsifs, else_ = rest
-        return A.IfExpr(((cond, then), *elsifs), else_, pos=_pos(meta))
+        return ast.IfExpr(((cond, then), *elsifs), else_, pos=_pos(meta))
 
     def elsif_expr(self, meta, c):
         return (c[0], c[1])
 
     def let_formula(self, meta, c):
         ids, pred, body = c
-        return A.Let(ids, pred, body, pos=_pos(meta))
+        return ast.Let(ids, pred, body, pos=_pos(meta))
 
     def formula_list(self, meta, c):
         return tuple(c)
@@ -287,16 +293,16 @@ class Builder(Transformer):
     # -- substitutions
     def seq(self, meta, c):
         l, r = _strip(c)
-        items = (l.items if isinstance(l, A.Sequence) else (l,)) + (r,)
-        return A.Sequence(items, pos=_pos(meta))
+        items = (l.items if isinstance(l, ast.Sequence) else (l,)) + (r,)
+        return ast.Sequence(items, pos=_pos(meta))
 
     def par(self, meta, c):
         l, r = _strip(c)
-        items = (l.items if isinstance(l, A.Parallel) else (l,)) + (r,)
-        return A.Parallel(items, pos=_pos(meta))
+        items = (l.items if isinstance(l, ast.Parallel) else (l,)) + (r,)
+        return ast.Parallel(items, pos=_pos(meta))
 
     def skip(self, meta, c):
-        return A.Skip(pos=_pos(meta))
+        return ast.Skip(pos=_pos(meta))
 
     def block(self, meta, c):
         return c[0]
@@ -306,29 +312,29 @@ class Builder(Transformer):
         if len(targets) != len(values):
             raise _error(f"{len(targets)} variable(s) on the left of ':=' but "
                          f"{len(values)} value(s) on the right", meta)
-        return A.Assign(targets, values, pos=_pos(meta))
+        return ast.Assign(targets, values, pos=_pos(meta))
 
     def becomes_in(self, meta, c):
         targets, value = _strip(c)
-        return A.BecomesIn(_target_names(targets, meta, "::"), value, pos=_pos(meta))
+        return ast.BecomesIn(_target_names(targets, meta, "::"), value, pos=_pos(meta))
 
     def becomes_such(self, meta, c):
         targets, pred = _strip(c)
-        return A.BecomesSuchThat(_target_names(targets, meta, ": (P)"), pred, pos=_pos(meta))
+        return ast.BecomesSuchThat(_target_names(targets, meta, ": (P)"), pred, pos=_pos(meta))
 
     def pre(self, meta, c):
-        return A.Pre(c[0], c[1], pos=_pos(meta))
+        return ast.Pre(c[0], c[1], pos=_pos(meta))
 
     def assert_(self, meta, c):
-        return A.Assert(c[0], c[1], pos=_pos(meta))
+        return ast.Assert(c[0], c[1], pos=_pos(meta))
 
     def select(self, meta, c):
         branches, else_ = _branches(c)
-        return A.Select(branches, else_, pos=_pos(meta))
+        return ast.Select(branches, else_, pos=_pos(meta))
 
     def if_subst(self, meta, c):
         branches, else_ = _branches(c)
-        return A.IfSubst(branches, else_, pos=_pos(meta))
+        return ast.IfSubst(branches, else_, pos=_pos(meta))
 
     def when_branch(self, meta, c):
         return (c[0], c[1])
@@ -339,29 +345,29 @@ class Builder(Transformer):
         return ("else", c[0])
 
     def any_(self, meta, c):
-        return A.Any(c[0], c[1], c[2], pos=_pos(meta))
+        return ast.Any(c[0], c[1], c[2], pos=_pos(meta))
 
     def let_subst(self, meta, c):
-        return A.LetSubst(c[0], c[1], c[2], pos=_pos(meta))
+        return ast.LetSubst(c[0], c[1], c[2], pos=_pos(meta))
 
     def choice(self, meta, c):
-        return A.Choice(tuple(c), pos=_pos(meta))
+        return ast.Choice(tuple(c), pos=_pos(meta))
 
     def or_branch(self, meta, c):
         return _strip(c)[0]
 
     def subst_call(self, meta, c):
-        name = A.Name(str(c[0]), pos=tok_pos(c[0]))
-        return A.SubstRef(name, c[1] if len(c) > 1 else (), pos=_pos(meta))
+        name = ast.Name(str(c[0]), pos=tok_pos(c[0]))
+        return ast.SubstRef(name, c[1] if len(c) > 1 else (), pos=_pos(meta))
 
     def lhs_list(self, meta, c):
         return tuple(c)
 
     def lhs(self, meta, c):
-        return A.Name(str(c[0]), pos=tok_pos(c[0]))
+        return ast.Name(str(c[0]), pos=tok_pos(c[0]))
 
     def lhs_apply(self, meta, c):
-        return A.Apply(A.Name(str(c[0]), pos=tok_pos(c[0])), c[1], pos=_pos(meta))
+        return ast.Apply(ast.Name(str(c[0]), pos=tok_pos(c[0])), c[1], pos=_pos(meta))
 
     # -- clauses
     def machine_header(self, meta, c):
@@ -428,7 +434,7 @@ def _branches(c):
 def _binder_names(items, meta) -> tuple[str, ...]:
     names = []
     for item in items:
-        if not isinstance(item, A.Name) or item.id.endswith(("'", "$0")):
+        if not isinstance(item, ast.Name) or item.id.endswith(("'", "$0")):
             raise _error("the variables before '|' in a set comprehension must be names",
                          item.pos or meta)
         names.append(item.id)
@@ -437,6 +443,6 @@ def _binder_names(items, meta) -> tuple[str, ...]:
 
 def _target_names(targets, meta, what) -> tuple[str, ...]:
     for t in targets:
-        if not isinstance(t, A.Name):
+        if not isinstance(t, ast.Name):
             raise _error(f"only variables may stand left of '{what}'", t.pos or meta)
     return tuple(t.id for t in targets)

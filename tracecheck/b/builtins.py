@@ -7,38 +7,39 @@ import math
 from typing import Any, Callable
 
 from ..errors import TracecheckError
-from . import ast as A
-from . import values as V
-from .finite import finite as _finite, make_set as _make_set, short as _short
-from .values import FuncValue, Interval, PowSet, SymbolicSet
+from . import ast
+from .finite import finite as _finite
+from .spaces import SeqSet
+from .values import (FuncValue, Interval, PowSet, SymbolicSet, brief, cardinality, make_set,
+                     sequence)
 
 __all__ = ["BUILTINS", "UNSUPPORTED_HINTS"]
 
-def _card(c, node: A.Call, v: Any) -> int:
+def _card(c, node: ast.Call, v: Any) -> int:
     if isinstance(v, frozenset):
         return len(v)
     if not isinstance(v, SymbolicSet):
         raise c.type_error(node.args[0], v, "a finite set")
     try:
-        return V.cardinality(v)
+        return cardinality(v)
     except TracecheckError as exc:
         raise c.at(node, exc) from None
 
 
-def _dom(c, node: A.Call, v: Any) -> frozenset:
+def _dom(c, node: ast.Call, v: Any) -> frozenset:
     if isinstance(v, FuncValue):
         return frozenset(v.map)
     return frozenset(p[0] for p in _finite(c, node.args[0], v))
 
 
-def _ran(c, node: A.Call, v: Any) -> frozenset:
+def _ran(c, node: ast.Call, v: Any) -> frozenset:
     if isinstance(v, FuncValue):
         return frozenset(v.map.values())
     return frozenset(p[1] for p in _finite(c, node.args[0], v))
 
 
 def _extreme(pick):
-    def extreme(c, node: A.Call, v: Any) -> Any:
+    def extreme(c, node: ast.Call, v: Any) -> Any:
         if isinstance(v, Interval) and v.card() > 0:
             return v.lo if pick is min else v.hi
         items = _finite(c, node.args[0], v)
@@ -49,7 +50,7 @@ def _extreme(pick):
 
 
 def _number_fn(fn, wanted=(float,)):
-    def number(c, node: A.Call, v: Any) -> Any:
+    def number(c, node: ast.Call, v: Any) -> Any:
         if type(v) not in wanted:
             names = " or ".join("a real" if t is float else "an integer" for t in wanted)
             raise c.type_error(node.args[0], v, names)
@@ -57,21 +58,21 @@ def _number_fn(fn, wanted=(float,)):
     return number
 
 
-def _to_real(c, node: A.Call, v: Any) -> float:
+def _to_real(c, node: ast.Call, v: Any) -> float:
     try:
         return float(v)
     except OverflowError:
-        raise c.wd(node, f"{_short(v)} is too large for a real (at most about 1.8E308)") \
+        raise c.wd(node, f"{brief(v)} is too large for a real (at most about 1.8E308)") \
             from None
 
 
-def _sqrt(c, node: A.Call, v: float) -> float:
+def _sqrt(c, node: ast.Call, v: float) -> float:
     if v < 0:
         raise c.wd(node, f"square root of the negative number {v}")
     return math.sqrt(v)
 
 
-BUILTINS: dict[str, Callable[[Any, A.Call, Any], Any]] = {
+BUILTINS: dict[str, Callable[[Any, ast.Call, Any], Any]] = {
     "card": _card,
     "dom": _dom,
     "ran": _ran,
@@ -100,16 +101,16 @@ BUILTINS: dict[str, Callable[[Any, A.Call, Any], Any]] = {
     "size": lambda c, n, v: len(c.seq_items(n.args[0], v)),
     "first": lambda c, n, v: _nonempty_seq(c, n, v)[0],
     "last": lambda c, n, v: _nonempty_seq(c, n, v)[-1],
-    "front": lambda c, n, v: V.sequence(_nonempty_seq(c, n, v)[:-1]),
-    "tail": lambda c, n, v: V.sequence(_nonempty_seq(c, n, v)[1:]),
-    "rev": lambda c, n, v: V.sequence(c.seq_items(n.args[0], v)[::-1]),
-    "conc": lambda c, n, v: V.sequence([x for s in c.seq_items(n.args[0], v)
+    "front": lambda c, n, v: sequence(_nonempty_seq(c, n, v)[:-1]),
+    "tail": lambda c, n, v: sequence(_nonempty_seq(c, n, v)[1:]),
+    "rev": lambda c, n, v: sequence(c.seq_items(n.args[0], v)[::-1]),
+    "conc": lambda c, n, v: sequence([x for s in c.seq_items(n.args[0], v)
                                         for x in c.seq_items(n.args[0], s)]),
-    "seq": lambda c, n, v: V.SeqSet("seq", v),
-    "seq1": lambda c, n, v: V.SeqSet("seq1", v),
-    "iseq": lambda c, n, v: V.SeqSet("iseq", v),
-    "iseq1": lambda c, n, v: V.SeqSet("iseq1", v),
-    "perm": lambda c, n, v: V.SeqSet("perm", v),
+    "seq": lambda c, n, v: SeqSet("seq", v),
+    "seq1": lambda c, n, v: SeqSet("seq1", v),
+    "iseq": lambda c, n, v: SeqSet("iseq", v),
+    "iseq1": lambda c, n, v: SeqSet("iseq1", v),
+    "perm": lambda c, n, v: SeqSet("perm", v),
 }
 
 UNSUPPORTED_HINTS = {
@@ -118,13 +119,13 @@ UNSUPPORTED_HINTS = {
 }
 
 
-def _component(c, node: A.Call, v: Any, i: int) -> Any:
+def _component(c, node: ast.Call, v: Any, i: int) -> Any:
     if not isinstance(v, tuple):
         raise c.type_error(node.args[0], v, "a pair")
     return v[i]
 
 
-def _nonempty_seq(c, node: A.Call, v: Any) -> list:
+def _nonempty_seq(c, node: ast.Call, v: Any) -> list:
     items = c.seq_items(node.args[0], v)
     if not items:
         raise c.wd(node, f"{node.name} of the empty sequence")
@@ -145,4 +146,4 @@ def _closure1(rel: frozenset) -> frozenset:
                 seen.add(y)
                 todo.extend(succ.get(y, ()))
         out.extend((start, y) for y in seen)
-    return _make_set(out)
+    return make_set(out)

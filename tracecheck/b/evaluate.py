@@ -12,34 +12,36 @@ import math
 import operator
 import re
 from contextlib import contextmanager
-from typing import Any, Callable, Iterator, Optional
+from typing import Any, Callable, Optional
 
 from ..errors import BTypeError, EvaluationError, TracecheckError, UnsupportedError, WellDefinednessError
-from . import ast as A
+from . import ast
 from .scope import render
-from . import values as V
-from .bindings import conjuncts, domain as _domain, generators
+from .bindings import Binders
+from .limits import DEEP, deep_recursion, deeply
+from .memo import constant_number, folded, memoised
 from .builtins import BUILTINS as _BUILTINS, UNSUPPORTED_HINTS as _UNSUPPORTED_HINTS
-from .finite import finite as _finite, hashable as _hashable, make_set as _make_set
-from .finite import members as _members, short as _short
-from .values import (BUILTIN_SET_VALUES, FuncValue, FunctionSpace, Interval, Product,
-                     SymbolicSet, format_value, is_set)
+from .finite import finite as _finite, members as _members
+from .spaces import FunctionSpace, Projection
+from .values import (BUILTIN_SET_VALUES, FuncValue, Interval, Product, SymbolicSet, as_sequence,
+                     brief, contains, finiteness, format_value, hashable, is_set, is_subset,
+                     make_set, sequence, set_equal)
 
-__all__ = ["Compiler", "compile_formula", "evaluate", "Env", "MEMO_KEY", "fresh"]
+__all__ = ["Compiler", "compile_formula", "evaluate", "Env"]
 
 Env = dict
 Fn = Callable[[Env], Any]
-_MISSING = object()
 
 
-class Compiler:
+class Compiler(Binders):
     """Turns AST nodes into closures; knows the source text for located messages."""
 
     def __init__(self, *, source: Optional[str] = None, file: Optional[str] = None) -> None:
         self.source = source
         self.file = file
         self.bound: list[str] = []
-        self._free: dict = {}  # free names by node, see A.free_names
+        self._free: dict = {}  # free names by node, see ast.free_names
+        self._compiling = False  # inside compile: the calls for sub-formulas
 
     @contextmanager
     def binding(self, ids: tuple[str, ...]):
@@ -51,33 +53,47 @@ class Compiler:
             del self.bound[len(self.bound) - len(ids):]
 
     # -- errors
-    def error(self, cls, node: A.Node, message: str, hint: Optional[str] = None):
+    def error(self, cls, node: ast.Node, message: str, hint: Optional[str] = None):
         pos = node.pos
         return cls(message, file=self.file, source=self.source, hint=hint,
                    line=pos.line if pos else None, column=pos.column if pos else None)
 
-    def text(self, node: A.Node) -> str:
+    def text(self, node: ast.Node) -> str:
         return render(node, self.source)
 
-    def wd(self, node: A.Node, message: str) -> WellDefinednessError:
+    def wd(self, node: ast.Node, message: str) -> WellDefinednessError:
         return self.error(WellDefinednessError, node, f"{message} in `{self.text(node)}`")
 
     # -- entry
-    def compile(self, node: A.Node) -> Fn:
+    def compile(self, node: ast.Node) -> Fn:
+        """``node`` as a function of an environment; one for a formula nesting deeper than
+        :data:`~tracecheck.b.limits.DEEP` runs with the recursion limit it needs."""
+        if self._compiling:
+            return self._compile(node)
+        self._compiling = True
+        try:
+            with deep_recursion():
+                fn = self._compile(node)
+        finally:
+            self._compiling = False
+        return deeply(fn) if ast.depth(node) > DEEP else fn
+
+    def _compile(self, node: ast.Node) -> Fn:
         method = getattr(self, "c_" + type(node).__name__, None)
         if method is None:
             raise self.error(UnsupportedError, node,
                              f"tracecheck cannot evaluate {type(node).__name__} here")
         fn = method(node)
-        if isinstance(node, (A.BinOp, A.Neg)) and not A.free_names(node, self._free):
-            return _folded(fn, node)
-        if (isinstance(node, _MEMO_TYPES) or (isinstance(node, A.BinOp) and node.op in _SET_OPS)) \
-                and not (A.free_names(node, self._free) & set(self.bound)):
-            return _memoised(fn, node)
+        if isinstance(node, (ast.BinOp, ast.Neg)) and not ast.free_names(node, self._free):
+            return folded(fn)
+        if (isinstance(node, _MEMO_TYPES)
+                or (isinstance(node, ast.BinOp) and node.op in _SET_OPS)) \
+                and not (ast.free_names(node, self._free) & set(self.bound)):
+            return memoised(fn, node)
         return fn
 
     # -- atoms
-    def c_Name(self, node: A.Name) -> Fn:
+    def c_Name(self, node: ast.Name) -> Fn:
         name = node.id
         if name in BUILTIN_SET_VALUES:
             value = BUILTIN_SET_VALUES[name]
@@ -92,20 +108,21 @@ class Compiler:
                     from None
         return get
 
-    def c_IntLit(self, node: A.IntLit) -> Fn:
+    def c_IntLit(self, node: ast.IntLit) -> Fn:
         value = node.value
         return lambda env: value
 
     c_RealLit = c_StrLit = c_BoolLit = c_IntLit
 
-    def c_SetExt(self, node: A.SetExt) -> Fn:
+    def c_SetExt(self, node: ast.SetExt) -> Fn:
         items = [self.compile(i) for i in node.items]
-        if all(isinstance(i, (A.IntLit, A.RealLit, A.StrLit, A.BoolLit)) for i in node.items):
-            value = _make_set([i.value for i in node.items])
+        if all(isinstance(i, (ast.IntLit, ast.RealLit, ast.StrLit, ast.BoolLit))
+               for i in node.items):
+            value = make_set([i.value for i in node.items])
             return lambda env: value
-        return lambda env: _make_set([f(env) for f in items])
+        return lambda env: make_set([f(env) for f in items])
 
-    def c_Template(self, node: A.Template) -> Fn:
+    def c_Template(self, node: ast.Template) -> Fn:
         holes = [(fmt, h, self.compile(h)) for fmt, h in zip(node.formats, node.holes)]
         for fmt, h, _ in holes:
             if fmt and not _TEMPLATE_FORMAT.fullmatch(fmt):
@@ -128,12 +145,12 @@ class Compiler:
             return "".join(out)
         return template
 
-    def c_Pair(self, node: A.Pair) -> Fn:
+    def c_Pair(self, node: ast.Pair) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
         return lambda env: (l(env), r(env))
 
     # -- arithmetic and set operators
-    def c_Neg(self, node: A.Neg) -> Fn:
+    def c_Neg(self, node: ast.Neg) -> Fn:
         f = self.compile(node.operand)
 
         def neg(env: Env) -> Any:
@@ -143,7 +160,7 @@ class Compiler:
             return -v
         return neg
 
-    def at(self, node: A.Node, exc: TracecheckError) -> TracecheckError:
+    def at(self, node: ast.Node, exc: TracecheckError) -> TracecheckError:
         """``exc`` located at ``node`` where it has no location yet."""
         if exc.line is None and node.pos is not None:
             exc.line, exc.column = node.pos.line, node.pos.column
@@ -152,19 +169,19 @@ class Compiler:
             exc.args = (exc.render(),)
         return exc
 
-    def equal(self, node: A.Node, a: Any, b: Any) -> bool:
+    def equal(self, node: ast.Node, a: Any, b: Any) -> bool:
         """B equality: sets by their elements, however they are represented."""
         try:
             return a == b
         except TracecheckError as exc:
             raise self.at(node, exc) from None
 
-    def type_error(self, node: A.Node, value: Any, wanted: str) -> BTypeError:
+    def type_error(self, node: ast.Node, value: Any, wanted: str) -> BTypeError:
         return self.error(BTypeError, node,
                           f"`{self.text(node)}` must be {wanted}, but its value is "
-                          f"{_short(value)}")
+                          f"{brief(value)}")
 
-    def c_BinOp(self, node: A.BinOp) -> Fn:
+    def c_BinOp(self, node: ast.BinOp) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
         op = node.op
         if op in _ARROWS:
@@ -175,17 +192,17 @@ class Compiler:
         impl = getattr(self, "op_" + _OP_NAMES[op])
         return impl(node, l, r)
 
-    def int_of(self, node: A.Node, v: Any) -> int:
+    def int_of(self, node: ast.Node, v: Any) -> int:
         if isinstance(v, bool) or not isinstance(v, int):
             raise self.type_error(node, v, "an integer")
         return v
 
-    def nums(self, node: A.BinOp, a: Any, b: Any) -> None:
+    def nums(self, node: ast.BinOp, a: Any, b: Any) -> None:
         for side, v in ((node.left, a), (node.right, b)):
             if isinstance(v, bool) or not isinstance(v, (int, float)):
                 raise self.type_error(side, v, "a number")
 
-    def real(self, node: A.Node, v: Any) -> Any:
+    def real(self, node: ast.Node, v: Any) -> Any:
         """``v`` unless it is a real that overflowed (inf) or is not a number (NaN)."""
         if type(v) is float and not math.isfinite(v):
             raise self.wd(node, "the real result is out of range (overflow)")
@@ -215,7 +232,7 @@ class Compiler:
             if is_set(a) and is_set(b):
                 if isinstance(a, SymbolicSet) or isinstance(b, SymbolicSet):
                     return Product(a, b)
-                return _make_set([(x, y) for x in a for y in b])
+                return make_set([(x, y) for x in a for y in b])
             self.nums(node, a, b)
             return self.real(node, a * b)
         return mul
@@ -265,7 +282,7 @@ class Compiler:
             by_first: dict = {}
             for y, z in b:
                 by_first.setdefault(y, []).append(z)
-            return _make_set([(x, z) for x, y in a for z in by_first.get(y, ())])
+            return make_set([(x, z) for x, y in a for z in by_first.get(y, ())])
         return self.set_op(node, l, r, compose)
 
     def op_direct(self, node, l, r) -> Fn:
@@ -273,19 +290,19 @@ class Compiler:
             by_first: dict = {}
             for x, z in b:
                 by_first.setdefault(x, []).append(z)
-            return _make_set([(x, (y, z)) for x, y in a for z in by_first.get(x, ())])
+            return make_set([(x, (y, z)) for x, y in a for z in by_first.get(x, ())])
         return self.set_op(node, l, r, direct)
 
     def op_concat(self, node, l, r) -> Fn:
         def concat(env: Env) -> Any:
-            return V.sequence(self.seq_items(node.left, l(env))
+            return sequence(self.seq_items(node.left, l(env))
                               + self.seq_items(node.right, r(env)))
         return concat
 
-    def seq_items(self, node: A.Node, v: Any) -> list:
-        items = V.as_sequence(_finite(self, node, v) if isinstance(v, SymbolicSet) else v)
+    def seq_items(self, node: ast.Node, v: Any) -> list:
+        items = as_sequence(_finite(self, node, v) if isinstance(v, SymbolicSet) else v)
         if items is None:
-            raise self.wd(node, f"{_short(v)} is not a sequence")
+            raise self.wd(node, f"{brief(v)} is not a sequence")
         return items
 
     def op_union(self, node, l, r) -> Fn:
@@ -314,7 +331,7 @@ class Compiler:
     def op_override(self, node, l, r) -> Fn:
         def override(a, b):
             dom_b = {p[0] for p in b}
-            return _make_set([p for p in a if p[0] not in dom_b] + list(b))
+            return make_set([p for p in a if p[0] not in dom_b] + list(b))
         return self.set_op(node, l, r, override)
 
     def set_op(self, node, l, r, fn) -> Fn:
@@ -325,42 +342,42 @@ class Compiler:
             if is_set(a) and is_set(b) and node.op in ("/\\", "\\"):
                 # one finite side is enough: NATURAL /\ (-2..2), (1..5) \ NATURAL1
                 keep = node.op == "/\\"
-                if V.finiteness(a) is True:
-                    return _make_set([x for x in _members(self, node.left, a)
-                                      if V.contains(b, x) == keep])
-                if keep and V.finiteness(b) is True:
-                    return _make_set([x for x in _members(self, node.right, b)
-                                      if V.contains(a, x)])
+                if finiteness(a) is True:
+                    return make_set([x for x in _members(self, node.left, a)
+                                      if contains(b, x) == keep])
+                if keep and finiteness(b) is True:
+                    return make_set([x for x in _members(self, node.right, b)
+                                      if contains(a, x)])
             return fn(_finite(self, node.left, a), _finite(self, node.right, b))
         return apply
 
     # -- predicates
-    def c_And(self, node: A.And) -> Fn:
+    def c_And(self, node: ast.And) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
         return lambda env: l(env) and r(env)
 
-    def c_Or(self, node: A.Or) -> Fn:
+    def c_Or(self, node: ast.Or) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
         return lambda env: l(env) or r(env)
 
-    def c_Implies(self, node: A.Implies) -> Fn:
+    def c_Implies(self, node: ast.Implies) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
         return lambda env: (not l(env)) or bool(r(env))
 
-    def c_Equiv(self, node: A.Equiv) -> Fn:
+    def c_Equiv(self, node: ast.Equiv) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
         return lambda env: bool(l(env)) == bool(r(env))
 
-    def c_Not(self, node: A.Not) -> Fn:
+    def c_Not(self, node: ast.Not) -> Fn:
         f = self.compile(node.operand)
         return lambda env: not f(env)
 
-    def c_Rel(self, node: A.Rel) -> Fn:
+    def c_Rel(self, node: ast.Rel) -> Fn:
         l, r = self.compile(node.left), self.compile(node.right)
         op = node.op
         if op in ("<", "<=", ">", ">="):
             cmp = _CMP[op]
-            constant = _constant_number(node.right, r)
+            constant = constant_number(node.right, r)
             if constant is not None:
                 kind = type(constant)
                 fn_arg = _name_applied_to_name(node.left)
@@ -407,7 +424,7 @@ class Compiler:
                     try:
                         return (a in s) == positive
                     except TypeError:
-                        return (_hashable(a) in s) == positive
+                        return (hashable(a) in s) == positive
                 if isinstance(s, SymbolicSet):
                     try:
                         return s.contains(a) == positive
@@ -425,113 +442,16 @@ class Compiler:
             if not is_set(b):
                 raise self.type_error(node.right, b, "a set")
             try:
-                result = V.is_subset(a, b)
+                result = is_subset(a, b)
                 if strict:
-                    result = result and not V.set_equal(a, b)
+                    result = result and not set_equal(a, b)
             except TracecheckError as exc:
                 raise self.at(node, exc) from None
             return result == positive
         return subset
 
     # -- quantifiers and binders
-    def c_Quant(self, node: A.Quant) -> Fn:
-        if node.op == "!":
-            if not isinstance(node.body, A.Implies):
-                raise self.error(BTypeError, node,
-                                 "the body of a universal quantifier must be an implication",
-                                 hint="write !x.(x : S => P)")
-            domain_pred, rest = node.body.left, node.body.right
-            with self.binding(node.ids):
-                bindings = self.bindings(node, node.ids, domain_pred)
-                check = self.compile(rest)
-
-            return _scoped(self.quantifier(node, bindings, check), node.ids)
-        with self.binding(node.ids):
-            bindings = self.bindings(node, node.ids, node.body)
-        return _scoped(self.quantifier(node, bindings, None), node.ids)
-
-    def quantifier(self, node: A.Quant, bindings, check: Optional[Fn]) -> Fn:
-        """∀ (with ``check``, the implication's right side) or ∃ (``check`` None), decided
-        after every value was tried (see :class:`Strict`)."""
-        ids = node.ids
-        simple = getattr(bindings, "simple", None)
-        if simple is None:
-            if check is None:
-                return lambda env: bool(_each(bindings, ids, env, lambda e: True))
-            return lambda env: all(_each(bindings, ids, env, check))
-        name, source, filters = simple
-        forall = check is not None
-
-        def quantify(env: Env) -> bool:  # one variable over a set: the live shield's case
-            result, strict = forall, None
-            for value in self.members(node, source(env)):
-                env[name] = value
-                try:
-                    for f in filters:
-                        if not f(env):
-                            break
-                    else:
-                        if not forall:
-                            result = True
-                        elif not check(env):
-                            result = False
-                except TracecheckError as exc:
-                    strict = Strict.note(strict, ids, env, exc)
-            if strict is not None:
-                strict.fail()
-            return result
-        return quantify
-
-    def members(self, node: A.Node, domain: Any):
-        """What a bound variable ranges over (a finite set is used as it is)."""
-        return domain if type(domain) is frozenset else _domain(self, node, "in", domain)
-
-    def bindings(self, node: A.Node, ids: tuple[str, ...], pred: A.Node) -> Callable[[Env], Iterator[None]]:
-        """A function that binds ``ids`` in ``env`` to each solution of ``pred`` in turn.
-
-        Each variable needs a conjunct that enumerates it (``x : S``, ``x = E``,
-        ``x |-> y : R`` or ``x <: S``); the other conjuncts filter.
-        """
-        return generators(self, node, ids, pred)
-
-    def c_Comprehension(self, node: A.Comprehension) -> Fn:
-        with self.binding(node.ids):
-            bind = self.bindings(node, node.ids, node.pred)
-            if node.expr is not None:
-                value = self.compile(node.expr)
-            else:
-                value = _tuple_of(node.ids)
-        ids = node.ids
-        return _scoped(lambda env: _make_set(_each(bind, ids, env, value)), ids)
-
-    def c_Lambda(self, node: A.Lambda) -> Fn:
-        with self.binding(node.ids):
-            bind = self.bindings(node, node.ids, node.pred)
-            key, value = _tuple_of(node.ids), self.compile(node.expr)
-        ids = node.ids
-        return _scoped(lambda env: FuncValue(dict(_each(bind, ids, env,
-                                                        lambda e: (key(e), value(e))))), ids)
-
-    def c_QuantExpr(self, node: A.QuantExpr) -> Fn:
-        with self.binding(node.ids):
-            bind = self.bindings(node, node.ids, node.pred)
-            value = self.compile(node.expr)
-        op = node.op
-
-        def quant(env: Env) -> Any:
-            values = _each(bind, node.ids, env, value)
-            if op == "SIGMA":
-                return sum(values, 0)
-            if op == "PI":
-                return math.prod(values)
-            if op == "UNION":
-                return frozenset().union(*values)
-            if not values:
-                raise self.wd(node, "INTER over no sets")
-            return frozenset.intersection(*values)
-        return _scoped(quant, node.ids)
-
-    def c_IfExpr(self, node: A.IfExpr) -> Fn:
+    def c_IfExpr(self, node: ast.IfExpr) -> Fn:
         branches = [(self.compile(c), self.compile(v)) for c, v in node.branches]
         other = self.compile(node.else_)
 
@@ -542,58 +462,13 @@ class Compiler:
             return other(env)
         return choose
 
-    def c_Let(self, node: A.Let) -> Fn:
-        with self.binding(node.ids):
-            assign = self.let_values(node, node.ids, node.pred)
-            body = self.compile(node.body)
-
-        def let(env: Env) -> Any:
-            assign(env)
-            return body(env)
-        return _scoped(let, node.ids)
-
-    def let_values(self, node, ids, pred) -> Callable[[Env], None]:
-        """``LET x BE x = E & P IN …``: E gives x; the other conjuncts must hold."""
-        eqs: dict[str, A.Node] = {}
-        rest: list[A.Node] = []
-        for conj in conjuncts(pred):
-            if (isinstance(conj, A.Rel) and conj.op == "=" and isinstance(conj.left, A.Name)
-                    and conj.left.id in ids and conj.left.id not in eqs):
-                eqs[conj.left.id] = conj.right
-            else:
-                rest.append(conj)
-        missing = [i for i in ids if i not in eqs]
-        if missing:
-            raise self.error(UnsupportedError, node,
-                             f"LET needs an equation `{missing[0]} = …` for each variable")
-        # each equation after those of the LET variables it uses (in any written order)
-        ordered: list[str] = []
-        while len(ordered) < len(ids):
-            ready = [i for i in ids if i not in ordered
-                     and not (A.free_names(eqs[i]) & (set(ids) - set(ordered)))]
-            if not ready:
-                cyclic = next(i for i in ids if i not in ordered)
-                raise self.error(BTypeError, eqs[cyclic],
-                                 f"the LET equations define {cyclic} in terms of itself")
-            ordered.extend(ready)
-        checks = [(c, self.compile(c)) for c in rest]
-        order = [(i, self.compile(eqs[i])) for i in ordered]
-
-        def assign(env: Env) -> None:
-            for name, fn in order:
-                env[name] = fn(env)
-            for c, fn in checks:
-                if not fn(env):
-                    raise self.wd(c, "the LET condition does not hold")
-        return assign
-
     # -- application
-    def c_Apply(self, node: A.Apply) -> Fn:
+    def c_Apply(self, node: ast.Apply) -> Fn:
         if len(node.args) == 1:
             arg = self.compile(node.args[0])
         else:
-            arg = self.compile(_pair_of(node.args))
-        if isinstance(node.fn, A.Name) and node.fn.id not in BUILTIN_SET_VALUES:
+            arg = self.compile(ast.pair_of(node.args))
+        if isinstance(node.fn, ast.Name) and node.fn.id not in BUILTIN_SET_VALUES:
             name = node.fn.id
 
             def apply_name(env: Env) -> Any:
@@ -612,12 +487,12 @@ class Compiler:
             return self.apply_value(node, fn(env), arg(env))
         return apply
 
-    def apply_value(self, node: A.Apply, f: Any, x: Any) -> Any:
-        if isinstance(f, V.Projection):
+    def apply_value(self, node: ast.Apply, f: Any, x: Any) -> Any:
+        if isinstance(f, Projection):
             try:
                 return f.apply(x)
             except KeyError:
-                raise self.wd(node, f"{_short(x)} is not in the domain of {f.name}") from None
+                raise self.wd(node, f"{brief(x)} is not in the domain of {f.name}") from None
         if isinstance(f, FuncValue):
             try:
                 return f.map[x]
@@ -625,10 +500,10 @@ class Compiler:
                 raise self.wd(node, f"{format_value(x)} is not in the domain of the function") \
                     from None
             except TypeError:
-                x = _hashable(x)
+                x = hashable(x)
                 if x in f.map:
                     return f.map[x]
-                raise self.wd(node, f"{_short(x)} is not in the domain of the function") \
+                raise self.wd(node, f"{brief(x)} is not in the domain of the function") \
                     from None
         if isinstance(f, SymbolicSet):
             f = _finite(self, node.fn, f)
@@ -640,21 +515,21 @@ class Compiler:
             return images[0]
         raise self.type_error(node.fn, f, "a function")
 
-    def c_Image(self, node: A.Image) -> Fn:
+    def c_Image(self, node: ast.Image) -> Fn:
         rel, arg = self.compile(node.rel), self.compile(node.arg)
 
         def image(env: Env) -> frozenset:
             r, s = rel(env), arg(env)
             if not is_set(s):
                 raise self.type_error(node.arg, s, "a set")
-            return _make_set([p[1] for p in _finite(self, node.rel, r) if V.contains(s, p[0])])
+            return make_set([p[1] for p in _finite(self, node.rel, r) if contains(s, p[0])])
         return image
 
-    def c_Inverse(self, node: A.Inverse) -> Fn:
+    def c_Inverse(self, node: ast.Inverse) -> Fn:
         rel = self.compile(node.rel)
-        return lambda env: _make_set([(p[1], p[0]) for p in _finite(self, node.rel, rel(env))])
+        return lambda env: make_set([(p[1], p[0]) for p in _finite(self, node.rel, rel(env))])
 
-    def c_Call(self, node: A.Call) -> Fn:
+    def c_Call(self, node: ast.Call) -> Fn:
         impl = _BUILTINS.get(node.name)
         if impl is None:
             raise self.error(UnsupportedError, node, f"not supported: {node.name}",
@@ -662,7 +537,7 @@ class Compiler:
         if node.name in ("prj1", "prj2") and len(node.args) == 2:
             s, t = self.compile(node.args[0]), self.compile(node.args[1])
             which = int(node.name[-1])
-            return lambda env: V.Projection(which, s(env), t(env))
+            return lambda env: Projection(which, s(env), t(env))
         if len(node.args) != 1:
             raise self.error(BTypeError, node,
                              f"{node.name} takes one argument, not {len(node.args)}")
@@ -673,151 +548,16 @@ class Compiler:
 # ------------------------------------------------------------------ helpers
 
 #: Nodes worth remembering per state: evaluated once even where definitions repeat them.
-_MEMO_TYPES = (A.Comprehension, A.QuantExpr, A.Image, A.Quant, A.Lambda)
+_MEMO_TYPES = (ast.Comprehension, ast.QuantExpr, ast.Image, ast.Quant, ast.Lambda)
 _SET_OPS = frozenset({"\\", "\\/", "/\\", "<|", "|>", "<<|", "|>>", "<+"})
-_SLOTS: dict[A.Node, int] = {}
-MEMO_KEY = "$memo"  # not a B identifier: cannot clash with a variable
 
 
-def _folded(fn: Fn, node: A.Node) -> Fn:
-    """Arithmetic on literals (common after definitions are expanded: ``-4.0 - 2.0``) is
-    computed once, when compiling; an ill-defined one is left to fail where it is used."""
-    try:
-        value = fn({})
-    except TracecheckError:
-        return fn
-    folded = lambda env: value  # noqa: E731
-    folded.constant = value  # type: ignore[attr-defined]
-    return folded
-
-
-def _name_applied_to_name(node: A.Node) -> Optional[tuple[str, str]]:
+def _name_applied_to_name(node: ast.Node) -> Optional[tuple[str, str]]:
     """(f, v) when ``node`` is ``f(v)`` with f and v plain names."""
-    if (isinstance(node, A.Apply) and isinstance(node.fn, A.Name) and len(node.args) == 1
-            and isinstance(node.args[0], A.Name) and node.fn.id not in BUILTIN_SET_VALUES):
+    if (isinstance(node, ast.Apply) and isinstance(node.fn, ast.Name) and len(node.args) == 1
+            and isinstance(node.args[0], ast.Name) and node.fn.id not in BUILTIN_SET_VALUES):
         return node.fn.id, node.args[0].id
     return None
-
-
-def _constant_number(node: A.Node, fn: Fn) -> Any:
-    """The value of a numeric literal, or of folded arithmetic on literals, else None."""
-    if isinstance(node, (A.IntLit, A.RealLit)):
-        return node.value
-    value = getattr(fn, "constant", None)
-    return value if type(value) in (int, float) else None
-
-
-def _memoised(fn: Fn, node: A.Node) -> Fn:
-    """Evaluate ``fn`` once per environment dict (one state), however often it is asked."""
-    slot = _SLOTS.setdefault(node, len(_SLOTS))
-
-    def memo(env: Env) -> Any:
-        cache = env.get(MEMO_KEY)
-        if cache is None:
-            cache = env[MEMO_KEY] = {}
-        value = cache.get(slot, _MISSING)
-        if value is _MISSING:  # the first use in a state is the common case: no exception
-            value = cache[slot] = fn(env)
-        return value
-    return memo
-
-
-def fresh(env: Env) -> Env:
-    """A copy of ``env`` to change: without the remembered values of the original."""
-    out = dict(env)
-    out.pop(MEMO_KEY, None)
-    return out
-
-
-
-class Strict:
-    """The errors of a quantified formula's values, kept until every value was seen: the
-    formula is not well-defined if it is not for one of them, whatever the others give (B's
-    well-definedness), and the error raised is that of the least values in print order, so
-    neither the answer nor the message depends on the order a set is walked in."""
-
-    __slots__ = ("error", "key")
-
-    def __init__(self, error: TracecheckError, key: tuple) -> None:
-        self.error, self.key = error, key
-
-    @staticmethod
-    def note(strict: Optional["Strict"], ids: tuple[str, ...], env: Env,
-             error: TracecheckError) -> "Strict":
-        key = tuple(V.sort_key(env.get(i)) for i in ids)
-        if strict is None or key < strict.key:
-            return Strict(error, key)
-        return strict
-
-    def fail(self) -> None:
-        raise self.error
-
-
-def _each(bind, ids: tuple[str, ...], env: Env, value: Fn) -> list:
-    """``value`` for every solution of a binder (comprehensions, lambdas, SIGMA …), after
-    all of them were tried (see :class:`Strict`)."""
-    out, strict = [], None
-    for problem in bind(env):
-        try:
-            if problem is not None:
-                raise problem
-            out.append(value(env))
-        except TracecheckError as exc:
-            strict = Strict.note(strict, ids, env, exc)
-    if strict is not None:
-        strict.fail()
-    return out
-
-
-def _pair_of(args: tuple[A.Node, ...]) -> A.Node:
-    node = args[0]
-    for a in args[1:]:
-        node = A.Pair(node, a, pos=a.pos)
-    return node
-
-
-def _tuple_of(ids: tuple[str, ...]) -> Fn:
-    if len(ids) == 1:
-        name = ids[0]
-        return lambda env: env[name]
-
-    def pair(env: Env) -> Any:
-        value = env[ids[0]]
-        for i in ids[1:]:
-            value = (value, env[i])
-        return value
-    return pair
-
-
-def _scoped(fn: Fn, ids: tuple[str, ...]) -> Fn:
-    """Run ``fn`` and restore whatever ``ids`` meant in ``env`` before."""
-    if len(ids) == 1:
-        (name,) = ids
-
-        def scoped_one(env: Env) -> Any:
-            old = env.get(name, _MISSING)
-            try:
-                return fn(env)
-            finally:
-                if old is _MISSING:
-                    env.pop(name, None)
-                else:
-                    env[name] = old
-        return scoped_one
-
-    def scoped(env: Env) -> Any:
-        saved = [env.get(i, _MISSING) for i in ids]
-        try:
-            return fn(env)
-        finally:
-            for i, old in zip(ids, saved):
-                if old is _MISSING:
-                    env.pop(i, None)
-                else:
-                    env[i] = old
-    return scoped
-
-
 
 
 _ARROWS = {"-->", "+->", "<->", ">->", ">+>", "-->>", "+->>", ">->>", ">+>>"}
@@ -833,13 +573,13 @@ _CMP = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge
 # ------------------------------------------------------------------ API
 
 
-def compile_formula(node: A.Node, *, source: Optional[str] = None,
+def compile_formula(node: ast.Node, *, source: Optional[str] = None,
                     file: Optional[str] = None) -> Fn:
     """Compile ``node`` into a function of an environment dict."""
     return Compiler(source=source, file=file).compile(node)
 
 
-def evaluate(node: A.Node, env: dict, *, source: Optional[str] = None) -> Any:
+def evaluate(node: ast.Node, env: dict, *, source: Optional[str] = None) -> Any:
     """Evaluate ``node`` once in ``env`` (a dict of names to values).
 
     >>> from tracecheck.b.parser import parse_formula

@@ -18,23 +18,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional
 
-from ..errors import (BScopeError, EvaluationError, InputError, ModelError, TracecheckError,
-                      read_text)
-from . import ast as A
+from ..errors import BScopeError, EvaluationError, InputError, TracecheckError, read_text
+from . import ast
 from .bindings import conjuncts
+from .constants import setup_constants
 from .evaluate import Compiler
+from .limits import deep_recursion
 from .parser import MachineSource, parse_formula, parse_machine_source
 from .state import native_state
 from .scope import PRED, check_kind, check_subst, expand, render
 from .substitution import SubstCompiler, before_after, guard_of, strip_guards, written
-from . import values as V
 from .values import Elem
 
-__all__ = ["Machine", "Operation", "load_machine", "load_machine_text", "DEFAULT_SETSIZE"]
-
-#: Elements a deferred set gets when PROPERTIES does not fix ``card(S)`` (as ProB).
-DEFAULT_SETSIZE = 2
-
+__all__ = ["Machine", "Operation", "load_machine", "load_machine_text"]
 
 @dataclass(frozen=True)
 class Operation:
@@ -43,10 +39,18 @@ class Operation:
     name: str
     params: tuple[str, ...]
     outputs: tuple[str, ...]
-    guard: Optional[A.Node]
-    body: A.Subst
+    guard: Optional[ast.Node]
+    body: ast.Subst
     description: Optional[str] = None
     guard_source: Optional[str] = None  # the guard as written, definitions not expanded
+
+    @property
+    def enabling_guard(self) -> Optional[ast.Node]:
+        """When the operation is enabled, as a predicate of the state alone: the guard, for
+        some values of the parameters (``#params.(guard)``); None when always enabled."""
+        if self.params and self.guard is not None:
+            return ast.Quant("#", self.params, self.guard, pos=self.guard.pos)
+        return self.guard
 
 
 @dataclass
@@ -61,13 +65,13 @@ class Machine:
     enumerated: frozenset[str]
     constants: dict[str, Any]
     variables: tuple[str, ...]
-    invariant_node: Optional[A.Node]
-    assertion_nodes: tuple[A.Node, ...]
+    invariant_node: Optional[ast.Node]
+    assertion_nodes: tuple[ast.Node, ...]
     operations: dict[str, Operation]
     descriptions: dict[str, str]
     definitions: dict = field(default_factory=dict)
-    properties_node: Optional[A.Node] = None
-    initialisation: Optional[A.Subst] = None
+    properties_node: Optional[ast.Node] = None
+    initialisation: Optional[ast.Subst] = None
     constants_declared: tuple[str, ...] = ()
     types: dict[str, str] = field(default_factory=dict)
     type_objects: dict = field(default_factory=dict, repr=False)
@@ -137,13 +141,14 @@ class Machine:
         return Compiler(source=self.source, file=self.file)
 
     # -- formulas
-    def parse(self, text: str, *, kind: str = PRED) -> A.Node:
+    def parse(self, text: str, *, kind: str = PRED) -> ast.Node:
         """Parse ``text`` in this machine's scope (its definitions expanded)."""
-        node = expand(parse_formula(text), self.definitions)
-        check_kind(node, kind, source=text, context="the formula")
+        with deep_recursion():
+            node = expand(parse_formula(text), self.definitions)
+            check_kind(node, kind, source=text, context="the formula")
         return node
 
-    def check_formula(self, text: str, *, file: str, kind: str = PRED) -> A.Node:
+    def check_formula(self, text: str, *, file: str, kind: str = PRED) -> ast.Node:
         """``text`` parsed, its definitions expanded and type-checked in this machine's
         scope — the one path ``eval --model`` takes too (:func:`.typecheck.check_formula`).
         For formulas a user gives (``prove --assume``); ``file`` names where they came from
@@ -157,14 +162,15 @@ class Machine:
                                              f"{names}")
         return node
 
-    def compile(self, node: A.Node, *, source: Optional[str] = None) -> Callable[[dict], Any]:
+    def compile(self, node: ast.Node, *, source: Optional[str] = None) -> Callable[[dict], Any]:
         return Compiler(source=source or self.source, file=None if source else self.file
                         ).compile(node)
 
     def evaluate(self, text_or_node, state: Mapping[str, Any]) -> Any:
         """Evaluate a formula (text or node) in ``state``."""
         if isinstance(text_or_node, str):
-            node = expand(parse_formula(text_or_node), self.definitions)
+            with deep_recursion():
+                node = expand(parse_formula(text_or_node), self.definitions)
             return self.compile(node, source=text_or_node)(self.env(state))
         return self.compile(text_or_node)(self.env(state))
 
@@ -175,9 +181,7 @@ class Machine:
             comp = self.compiler()
             fns = {}
             for op in self.operations.values():
-                guard = op.guard
-                if op.params and guard is not None:
-                    guard = A.Quant("#", op.params, guard, pos=guard.pos)
+                guard = op.enabling_guard
                 fns[op.name] = comp.compile(guard) if guard is not None else (lambda env: True)
             self._compiled["guards"] = fns
         return fns
@@ -194,6 +198,13 @@ class Machine:
     def is_enabled(self, op: str, state: Mapping[str, Any]) -> bool:
         return bool(self._guard_fns()[self.operation(op).name](self.env(state)))
 
+    def guard_variables(self) -> dict[str, frozenset[str]]:
+        """For each operation with a guard, the state variables the guard reads (its
+        parameters aside), in the order of the operations."""
+        variables = set(self.variables)
+        return {name: frozenset(ast.free_names(op.enabling_guard) & variables)
+                for name, op in self.operations.items() if op.guard is not None}
+
     def operation(self, name: str) -> Operation:
         try:
             return self.operations[name]
@@ -208,28 +219,21 @@ class Machine:
         Variables the operation does not write must be unchanged. For an operation with
         parameters, some parameter values satisfying its guard must allow ``after``.
         """
-        operation = self.operation(op)
-        checks = self._compiled.setdefault("checks", {})
-        if op not in checks:
-            body = operation.body
-            if operation.params:
-                # parameters are not part of the state: some value of them must do
-                body = A.Any(operation.params, operation.guard or A.BoolLit(True), body,
-                             pos=body.pos)
-            frame = tuple(v for v in self.variables if v not in written(body))
-            checks[op] = (SubstCompiler(self.compiler()).compile(body), frame)
-        check, frame = checks[op]
+        def body(operation: Operation) -> ast.Subst:
+            if not operation.params:
+                return operation.body
+            # parameters are not part of the state: some value of them must do
+            return ast.Any(operation.params, operation.guard or ast.BoolLit(True), operation.body,
+                         pos=operation.body.pos)
+
+        outcome = self._outcome("checks", op, body)
         missing = [v for v in self.variables if v not in after]
         if missing:
             raise EvaluationError(f"the state after {op} has no value for "
                                   f"{', '.join(missing)}")
-        after = self.native(after, where=f"the state after {op}")
-        pre = self.env(before)
-        if any(after[v] != pre.get(v) for v in frame):
-            return False
-        return bool(check(pre, dict(after)))
+        return self._outcome_holds(op, outcome, before, after)
 
-    def postcondition(self, op: str) -> Optional[A.Node]:
+    def postcondition(self, op: str) -> Optional[ast.Node]:
         """The predicate replay checks for a step of ``op``: the effect of its body without
         the guards (checked on their own as feasibility), over ``v`` after and ``v$0``
         before, frame included. None when the body has a form without such a predicate."""
@@ -242,13 +246,25 @@ class Machine:
     def effect_ok(self, op: str, before: Mapping[str, Any], after: Mapping[str, Any]) -> bool:
         """Whether ``after`` is a possible effect of ``op``'s body from ``before``, its
         guards aside (see :meth:`postcondition`)."""
+        outcome = self._outcome("effects", op, lambda operation: strip_guards(operation.body))
+        return self._outcome_holds(op, outcome, before, after)
+
+    def _outcome(self, kind: str, op: str, body_of: Callable[[Operation], ast.Subst]) -> tuple:
+        """(the compiled check of ``body_of(op)``, the variables it leaves unchanged), once
+        per operation and ``kind``."""
         operation = self.operation(op)
-        cache = self._compiled.setdefault("effects", {})
+        cache = self._compiled.setdefault(kind, {})
         if op not in cache:
-            body = strip_guards(operation.body)
+            body = body_of(operation)
             frame = tuple(v for v in self.variables if v not in written(body))
             cache[op] = (SubstCompiler(self.compiler()).compile(body), frame)
-        check, frame = cache[op]
+        return cache[op]
+
+    def _outcome_holds(self, op: str, outcome: tuple, before: Mapping[str, Any],
+                       after: Mapping[str, Any]) -> bool:
+        """Whether ``after`` is an outcome of the compiled body from ``before`` (see
+        :meth:`_outcome`): the frame unchanged and the body's predicate true."""
+        check, frame = outcome
         after = self.native(after, where=f"the state after {op}")
         pre = self.env(before)
         if any(after[v] != pre.get(v) for v in frame):
@@ -256,13 +272,13 @@ class Machine:
         return bool(check(pre, dict(after)))
 
     # -- batch evaluation over columns (one call per formula for a whole recording)
-    def batch(self, node: A.Node):
+    def batch(self, node: ast.Node):
         """A :class:`~tracecheck.b.vector.BatchFormula` for ``node`` in this machine."""
         from .vector import BatchFormula
 
         return BatchFormula(node, self.base_env, source=self.source, file=self.file)
 
-    def _batch_cached(self, key: tuple, node: A.Node):
+    def _batch_cached(self, key: tuple, node: ast.Node):
         cache = self._compiled.setdefault("batch", {})
         if key not in cache:
             cache[key] = self.batch(node)
@@ -278,10 +294,8 @@ class Machine:
             if op.guard is None:
                 out[name] = np.ones(columns.n, dtype=bool)
                 continue
-            guard = op.guard
-            if op.params:
-                guard = A.Quant("#", op.params, guard, pos=guard.pos)
-            out[name] = self._batch_cached(("guard", name), guard)(columns, memo).astype(bool)
+            out[name] = self._batch_cached(("guard", name), op.enabling_guard)(columns, memo
+                                                                              ).astype(bool)
         return out
 
     def invariant_batch(self, columns):
@@ -356,7 +370,8 @@ def load_machine(path: str | Path) -> Machine:
 def load_machine_text(text: str, *, file: Optional[str] = None) -> Machine:
     """Set up a machine from its text (see :func:`load_machine`)."""
     try:
-        return _build(parse_machine_source(text, file=file))
+        with deep_recursion():  # expanding, checking and setting up recurse into formulas
+            return _build(parse_machine_source(text, file=file))
     except TracecheckError as exc:
         raise exc.located(file=file or "<model>", source=text) from None
 
@@ -365,7 +380,7 @@ def _build(src: MachineSource) -> Machine:
     defs = src.definitions
     _check_names(src)
 
-    def pred(node: Optional[A.Node], what: str) -> Optional[A.Node]:
+    def pred(node: Optional[ast.Node], what: str) -> Optional[ast.Node]:
         if node is None:
             return None
         node = expand(node, defs)
@@ -393,7 +408,7 @@ def _build(src: MachineSource) -> Machine:
         desc = src.description_after(pos)
         if desc:
             descriptions[name] = desc
-    sets, enumerated, constants = _setup_constants(src, properties)
+    sets, enumerated, constants = setup_constants(src, properties)
     init = None
     if src.initialisation is not None:
         init = expand(src.initialisation, defs)
@@ -451,162 +466,3 @@ def _check_names(src: MachineSource) -> None:
                               line=pos.line if pos else None,
                               column=pos.column if pos else None)
         seen[name] = what
-
-
-def _setup_constants(src: MachineSource, properties: Optional[A.Node]):
-    conjs = conjuncts(properties) if properties is not None else []
-    deferred = [n for n, elems, _ in src.sets if elems is None]
-    sets: dict[str, list[Elem]] = {n: [Elem(e) for e in elems] for n, elems, _ in src.sets
-                                   if elems is not None}
-    enumerated = frozenset(sets)
-    const_names = {n for n, _ in src.constants}
-    values: dict[str, Any] = {}
-    named = set()  # deferred sets whose elements PROPERTIES names: S = {a, b, c}
-    for name, elems in _deferred_sizes(src, conjs, deferred, const_names).items():
-        sets[name] = elems
-        if str(elems[0]) in const_names:
-            named.add(name)
-            values.update({str(e): e for e in elems})
-    claimed = {name: 0 for name in deferred}
-    for conj in conjs:
-        if (isinstance(conj, A.Rel) and conj.op == ":" and isinstance(conj.left, A.Name)
-                and conj.left.id in const_names and conj.left.id not in values
-                and isinstance(conj.right, A.Name) and conj.right.id in sets):
-            name, set_name = conj.left.id, conj.right.id
-            elems = sets[set_name]
-            if set_name in deferred and set_name not in named:
-                if claimed[set_name] >= len(elems):
-                    raise ModelError(f"{set_name} has only {len(elems)} element(s), too few "
-                                     f"for the constant {name}", line=conj.pos.line,
-                                     column=conj.pos.column)
-                elems[claimed[set_name]] = Elem(name)
-                values[name] = elems[claimed[set_name]]
-                claimed[set_name] += 1
-            else:
-                values[name] = elems[0]
-    frozen_sets = {n: tuple(e) for n, e in sets.items()}
-    env = {n: frozenset(e) for n, e in frozen_sets.items()}
-    for n in enumerated:
-        env.update({str(e): e for e in frozen_sets[n]})
-    comp = Compiler(source=src.text, file=src.file)
-    _solve_equalities(conjs, const_names, values, env, comp)
-    env.update(values)
-    for conj in conjs:
-        try:
-            ok = comp.compile(conj)(dict(env))
-        except EvaluationError:
-            continue  # mentions a constant that has no value; it stays unset
-        if not ok:
-            raise ModelError(f"PROPERTIES do not hold for the values tracecheck gave the "
-                             f"constants: `{render(conj, src.text)}` is false",
-                             line=conj.pos.line if conj.pos else None,
-                             column=conj.pos.column if conj.pos else None,
-                             hint="tracecheck sets constants from `c = value` and "
-                                  "`c : DeferredSet`, and deferred sets from `card(S) = n`")
-    return frozen_sets, enumerated, values
-
-
-def _deferred_sizes(src: MachineSource, conjs, deferred: list[str],
-                    const_names: set[str]) -> dict[str, list[Elem]]:
-    """The elements of each deferred set, from what fixes its size as in ProB: ``card(S) = n``
-    or ``S = {c1, …, cn}`` (distinct constants, which become its elements) in PROPERTIES, or
-    ``scope_S == n`` / ``a..b`` in DEFINITIONS; else :data:`DEFAULT_SETSIZE` elements
-    ``S1 … Sn``. Sources that disagree are an error (no values satisfy the PROPERTIES)."""
-    found: dict[str, dict[str, tuple[int, Optional[A.Node]]]] = {n: {} for n in deferred}
-    members: dict[str, list[str]] = {}
-    for conj in conjs:
-        size = _card_equation(conj, deferred)
-        if size is not None:
-            found[size[0]].setdefault(f"card({size[0]}) = {size[1]}", (size[1], conj))
-        listed = _enumeration(conj, deferred, const_names)
-        if listed is not None:
-            name, consts = listed
-            members.setdefault(name, consts)
-            found[name].setdefault(f"{name} = {{{', '.join(consts)}}}", (len(consts), conj))
-    for name in deferred:
-        scope = _scope(src, name)
-        if scope is not None:
-            found[name][f"scope_{name} in DEFINITIONS"] = (scope, None)
-    out = {}
-    for name in deferred:
-        sizes = set(n for n, _ in found[name].values())
-        if len(sizes) > 1:
-            (one, (n1, _)), (two, (n2, _)) = list(found[name].items())[:2]
-            pos = next((node.pos for _, node in found[name].values() if node is not None), None)
-            raise ModelError(f"the deferred set {name} has {n1} element(s) by {one} but {n2} "
-                             f"by {two}: no values satisfy the PROPERTIES (as in ProB)",
-                             line=pos.line if pos else None,
-                             column=pos.column if pos else None,
-                             hint="give the set one size")
-        size = sizes.pop() if sizes else DEFAULT_SETSIZE
-        V.check_size(size, name)
-        if size < 1:
-            raise ModelError(f"the deferred set {name} would have {size} elements; a deferred "
-                             "set is not empty")
-        out[name] = ([Elem(c) for c in members[name]] if name in members
-                     else [Elem(f"{name}{i}") for i in range(1, size + 1)])
-    return out
-
-
-def _scope(src: MachineSource, name: str) -> Optional[int]:
-    """The size ``DEFINITIONS scope_S == n`` or ``scope_S == a..b`` gives S (ProB's
-    convention: ``a..b`` has b - a + 1 elements), None without one."""
-    d = src.definitions.get(f"scope_{name}")
-    if d is None:
-        return None
-    line = d.line or None
-    body = d.body if d.kind == "formula" and not d.params else None
-    try:
-        value = Compiler(source=src.text, file=src.file).compile(
-            expand(body, src.definitions))({}) if body is not None else None
-    except TracecheckError:
-        value = None
-    if isinstance(value, bool) or not isinstance(value, (int, V.Interval)):
-        raise ModelError(f"scope_{name} sets the size of the deferred set {name}: write "
-                         f"scope_{name} == n or scope_{name} == a..b with integers",
-                         line=line)
-    return value if isinstance(value, int) else value.card()
-
-
-def _enumeration(conj: A.Node, deferred: list[str], const_names: set[str]):
-    """(S, [c1, …, cn]) for ``S = {c1, …, cn}`` with distinct constants, else None."""
-    if not (isinstance(conj, A.Rel) and conj.op == "="):
-        return None
-    for a, b in ((conj.left, conj.right), (conj.right, conj.left)):
-        if (isinstance(a, A.Name) and a.id in deferred and isinstance(b, A.SetExt)
-                and all(isinstance(e, A.Name) and e.id in const_names for e in b.items)):
-            names = [e.id for e in b.items]
-            if len(set(names)) == len(names):
-                return a.id, names
-    return None
-
-
-def _card_equation(conj: A.Node, deferred: list[str]):
-    if not (isinstance(conj, A.Rel) and conj.op == "="):
-        return None
-    for a, b in ((conj.left, conj.right), (conj.right, conj.left)):
-        if (isinstance(a, A.Call) and a.name == "card" and isinstance(a.args[0], A.Name)
-                and a.args[0].id in deferred and isinstance(b, A.IntLit)):
-            return a.args[0].id, b.value
-    return None
-
-
-def _solve_equalities(conjs, const_names, values, env, comp) -> None:
-    pending = True
-    while pending:
-        pending = False
-        for conj in conjs:
-            if not (isinstance(conj, A.Rel) and conj.op == "="):
-                continue
-            for a, b in ((conj.left, conj.right), (conj.right, conj.left)):
-                if (isinstance(a, A.Name) and a.id in const_names and a.id not in values
-                        and all(n in values or n in env or n in _GLOBAL_NAMES
-                                for n in A.free_names(b))):
-                    values[a.id] = comp.compile(b)({**env, **values})
-                    pending = True
-                    break
-
-
-_GLOBAL_NAMES = frozenset({"BOOL", "INTEGER", "NATURAL", "NATURAL1", "INT", "NAT", "NAT1",
-                           "REAL", "FLOAT", "STRING", "MAXINT", "MININT"})
-

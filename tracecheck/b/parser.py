@@ -12,7 +12,6 @@ import functools
 import hashlib
 import os
 import re
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator, Optional
@@ -22,17 +21,14 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedTok
 from lark.lexer import Lexer
 
 from ..errors import BSyntaxError, TracecheckError
-from . import ast as A
+from . import ast
 from .builder import Builder, OperationSource, tok_pos, unquote
+from .limits import deep_recursion
 
 __all__ = [
     "parse_formula", "parse_substitution", "parse_machine_source", "MachineSource",
     "Definition", "OperationSource", "tokens",
 ]
-
-# Formulas up to MAX_DEPTH levels take a few Python frames per level to build, check and
-# evaluate (all Python-level recursion, which does not grow the C stack in Python 3.11+).
-sys.setrecursionlimit(max(sys.getrecursionlimit(), 20_000))
 
 _GRAMMAR = (Path(__file__).with_name("grammar.lark")).read_text(encoding="utf-8")
 _GRAMMAR_SHA = hashlib.sha256(_GRAMMAR.encode()).hexdigest()
@@ -175,7 +171,8 @@ def _parse_tokens(toks: list[Token], start: str, text: str, file: Optional[str],
     try:
         tree = _parser().parse(toks, start=start)
         _check_depth(tree, text, file)
-        return Builder().transform(tree)
+        with deep_recursion():  # the builder recurses once per level of the tree
+            return Builder(parse_formula).transform(tree)
     except UnexpectedToken as exc:
         tok = exc.token
         if tok.type == "$END":
@@ -224,7 +221,7 @@ def _after(tok: Token) -> tuple[int, int]:
     return tok.end_line or tok.line, (tok.end_column or tok.column)
 
 
-def parse_formula(text: str, *, file: Optional[str] = None) -> A.Node:
+def parse_formula(text: str, *, file: Optional[str] = None) -> ast.Node:
     """Parse a predicate or expression.
 
     >>> parse_formula("x + 1 > 2")
@@ -234,7 +231,7 @@ def parse_formula(text: str, *, file: Optional[str] = None) -> A.Node:
     return _parse_tokens(toks, "formula", text, file, "the formula")
 
 
-def parse_substitution(text: str, *, file: Optional[str] = None) -> A.Subst:
+def parse_substitution(text: str, *, file: Optional[str] = None) -> ast.Subst:
     """Parse a substitution such as ``x := x + 1 || y :: BOOL``."""
     toks, _ = tokens(text, file=file)
     return _parse_tokens(toks, "substitution", text, file, "the substitution")
@@ -259,18 +256,19 @@ class MachineSource:
     name: str
     file: Optional[str]
     text: str
-    sets: list[tuple[str, Optional[tuple[str, ...]], Optional[A.Pos]]] = field(default_factory=list)
-    constants: list[tuple[str, A.Pos]] = field(default_factory=list)
-    variables: list[tuple[str, A.Pos]] = field(default_factory=list)
-    properties: Optional[A.Node] = None
-    invariant: Optional[A.Node] = None
-    assertions: tuple[A.Node, ...] = ()
+    sets: list[tuple[str, Optional[tuple[str, ...]], Optional[ast.Pos]]] = field(
+        default_factory=list)
+    constants: list[tuple[str, ast.Pos]] = field(default_factory=list)
+    variables: list[tuple[str, ast.Pos]] = field(default_factory=list)
+    properties: Optional[ast.Node] = None
+    invariant: Optional[ast.Node] = None
+    assertions: tuple[ast.Node, ...] = ()
     definitions: dict[str, Definition] = field(default_factory=dict)
-    initialisation: Optional[A.Subst] = None
+    initialisation: Optional[ast.Subst] = None
     operations: list[OperationSource] = field(default_factory=list)
     descriptions: dict[int, str] = field(default_factory=dict)  # end offset -> text
 
-    def description_after(self, pos: Optional[A.Pos]) -> Optional[str]:
+    def description_after(self, pos: Optional[ast.Pos]) -> Optional[str]:
         """The ``/*@desc …*/`` pragma written right after the element at ``pos``."""
         return self.descriptions.get(pos.end) if pos is not None else None
 
@@ -353,7 +351,7 @@ def _fill_clause(src: MachineSource, kw: Token, body: list[Token], text: str,
         src.operations = list(value)
 
 
-def _names_with_pos(body: list[Token]) -> list[tuple[str, A.Pos]]:
+def _names_with_pos(body: list[Token]) -> list[tuple[str, ast.Pos]]:
     return [(t.value, tok_pos(t)) for t in body if t.type == "NAME"]
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 from typing import Mapping, Optional
 
 from ..errors import BScopeError, BSyntaxError, BTypeError, TracecheckError
-from . import ast as A
+from . import ast
 from .parser import Definition
 
 __all__ = ["expand", "expand_subst", "check_kind", "check_subst", "kind_of", "render"]
@@ -19,7 +19,7 @@ __all__ = ["expand", "expand_subst", "check_kind", "check_subst", "kind_of", "re
 PRED, EXPR = "predicate", "expression"
 
 
-def render(node: A.Node, source: Optional[str]) -> str:
+def render(node: ast.Node, source: Optional[str]) -> str:
     """The source text of ``node`` (or its printed form when no source is known)."""
     if source is not None and node.pos is not None and node.pos.end > node.pos.start:
         text = source[node.pos.start:node.pos.end]
@@ -29,7 +29,7 @@ def render(node: A.Node, source: Optional[str]) -> str:
     return to_b(node)
 
 
-def _located(exc: TracecheckError, node: A.Node) -> TracecheckError:
+def _located(exc: TracecheckError, node: ast.Node) -> TracecheckError:
     if exc.line is None and node.pos is not None:
         exc.line, exc.column = node.pos.line, node.pos.column
     return exc
@@ -40,7 +40,7 @@ class _Expander:
         self.defs = defs
         self.stack: list[str] = []
 
-    def definition(self, name: str, node: A.Node) -> Definition:
+    def definition(self, name: str, node: ast.Node) -> Definition:
         d = self.defs[name]
         if d.kind == "unparsed":
             err = d.body
@@ -51,13 +51,13 @@ class _Expander:
             raise _located(BScopeError(f"the definitions are cyclic: {cycle}"), node)
         return d
 
-    def body_with(self, d: Definition, args: tuple[A.Node, ...], node: A.Node) -> A.Node:
+    def body_with(self, d: Definition, args: tuple[ast.Node, ...], node: ast.Node) -> ast.Node:
         if len(args) != len(d.params):
             raise _located(BScopeError(
                 f"the definition {d.name} takes {len(d.params)} argument(s) "
                 f"({', '.join(d.params) or 'none'}) but is given {len(args)}"), node)
         if d.kind == "string":
-            return A.StrLit(d.body, pos=node.pos)
+            return ast.StrLit(d.body, pos=node.pos)
         body = d.body
         if d.params:
             body = _substitute(body, dict(zip(d.params, args)))
@@ -67,22 +67,22 @@ class _Expander:
         finally:
             self.stack.pop()
 
-    def expr(self, node: A.Node, bound: frozenset[str]) -> A.Node:
-        if isinstance(node, A.Name) and node.id in self.defs and node.id not in bound:
+    def expr(self, node: ast.Node, bound: frozenset[str]) -> ast.Node:
+        if isinstance(node, ast.Name) and node.id in self.defs and node.id not in bound:
             d = self.definition(node.id, node)
             if d.params:
                 raise _located(BScopeError(
                     f"the definition {d.name} needs {len(d.params)} argument(s): "
                     f"{d.name}({', '.join(d.params)})"), node)
             return self.body_with(d, (), node)
-        if (isinstance(node, A.Apply) and isinstance(node.fn, A.Name)
+        if (isinstance(node, ast.Apply) and isinstance(node.fn, ast.Name)
                 and node.fn.id in self.defs and node.fn.id not in bound):
             d = self.definition(node.fn.id, node)
             args = tuple(self.expr(a, bound) for a in node.args)
             if not d.params:
-                return A.Apply(self.body_with(d, (), node.fn), args, pos=node.pos)
+                return ast.Apply(self.body_with(d, (), node.fn), args, pos=node.pos)
             return self.body_with(d, args, node)
-        if isinstance(node, A.SubstRef):
+        if isinstance(node, ast.SubstRef):
             name = node.name.id
             if name not in self.defs or name in bound:
                 raise _located(BScopeError(
@@ -94,22 +94,22 @@ class _Expander:
                     f"the definition {name} is a {d.kind}, not a substitution"), node)
             args = tuple(self.expr(a, bound) for a in node.args)
             return self.body_with(d, args, node)
-        inner = bound | frozenset(A.binders(node))
-        return A.map_children(node, lambda child: self.expr(child, inner))
+        inner = bound | frozenset(ast.binders(node))
+        return ast.map_children(node, lambda child: self.expr(child, inner))
 
 
-def _substitute(node: A.Node, mapping: dict[str, A.Node]) -> A.Node:
-    if isinstance(node, A.Name) and node.id in mapping:
+def _substitute(node: ast.Node, mapping: dict[str, ast.Node]) -> ast.Node:
+    if isinstance(node, ast.Name) and node.id in mapping:
         return mapping[node.id]
-    names = set(A.binders(node))
+    names = set(ast.binders(node))
     if names & mapping.keys():
         mapping = {k: v for k, v in mapping.items() if k not in names}
         if not mapping:
             return node
-    return A.map_children(node, lambda child: _substitute(child, mapping))
+    return ast.map_children(node, lambda child: _substitute(child, mapping))
 
 
-def expand(node: A.Node, defs: Mapping[str, Definition]) -> A.Node:
+def expand(node: ast.Node, defs: Mapping[str, Definition]) -> ast.Node:
     """``node`` with every use of a definition replaced by the definition's body."""
     if not defs:
         return node
@@ -121,21 +121,21 @@ expand_subst = expand
 
 # ------------------------------------------------------------------ kinds
 
-_PRED_NODES = (A.And, A.Or, A.Implies, A.Equiv, A.Not, A.Rel, A.Quant)
+_PRED_NODES = (ast.And, ast.Or, ast.Implies, ast.Equiv, ast.Not, ast.Rel, ast.Quant)
 
 
-def kind_of(node: A.Node) -> str:
+def kind_of(node: ast.Node) -> str:
     """``"predicate"`` or ``"expression"``."""
     if isinstance(node, _PRED_NODES):
         return PRED
-    if isinstance(node, A.IfExpr):
+    if isinstance(node, ast.IfExpr):
         return kind_of(node.branches[0][1])
-    if isinstance(node, A.Let):
+    if isinstance(node, ast.Let):
         return kind_of(node.body)
     return EXPR
 
 
-def _require(node: A.Node, kind: str, source: Optional[str], context: str) -> None:
+def _require(node: ast.Node, kind: str, source: Optional[str], context: str) -> None:
     found = kind_of(node)
     if found != kind:
         text = render(node, source)
@@ -151,91 +151,91 @@ def _require(node: A.Node, kind: str, source: Optional[str], context: str) -> No
 
 
 _CHILD_KINDS = {
-    A.And: (PRED, PRED), A.Or: (PRED, PRED), A.Implies: (PRED, PRED),
-    A.Equiv: (PRED, PRED), A.Not: (PRED,), A.Rel: (EXPR, EXPR), A.BinOp: (EXPR, EXPR),
-    A.Neg: (EXPR,), A.Image: (EXPR, EXPR), A.Inverse: (EXPR,), A.Pair: (EXPR, EXPR),
+    ast.And: (PRED, PRED), ast.Or: (PRED, PRED), ast.Implies: (PRED, PRED),
+    ast.Equiv: (PRED, PRED), ast.Not: (PRED,), ast.Rel: (EXPR, EXPR), ast.BinOp: (EXPR, EXPR),
+    ast.Neg: (EXPR,), ast.Image: (EXPR, EXPR), ast.Inverse: (EXPR,), ast.Pair: (EXPR, EXPR),
 }
 
 
-def check_kind(node: A.Node, kind: str = PRED, *, source: Optional[str] = None,
+def check_kind(node: ast.Node, kind: str = PRED, *, source: Optional[str] = None,
                context: str = "this formula") -> None:
     """Raise :class:`BTypeError` where a predicate and an expression are mixed up."""
     _require(node, kind, source, context)
     _check_children(node, source)
 
 
-def _check_children(node: A.Node, source: Optional[str]) -> None:
-    def req(child: A.Node, kind: str, context: str) -> None:
+def _check_children(node: ast.Node, source: Optional[str]) -> None:
+    def req(child: ast.Node, kind: str, context: str) -> None:
         check_kind(child, kind, source=source, context=context)
 
     t = type(node)
     if t in _CHILD_KINDS:
-        for child, kind in zip(A.children(node), _CHILD_KINDS[t]):
+        for child, kind in zip(ast.children(node), _CHILD_KINDS[t]):
             req(child, kind, f"each operand of {_op_name(node)}")
-    elif isinstance(node, A.Quant):
+    elif isinstance(node, ast.Quant):
         req(node.body, PRED, "the body of a quantifier")
-    elif isinstance(node, (A.Comprehension, A.Lambda, A.QuantExpr)):
+    elif isinstance(node, (ast.Comprehension, ast.Lambda, ast.QuantExpr)):
         req(node.pred, PRED, "the condition after the bound variables")
         if node.expr is not None:
             req(node.expr, EXPR, "the value of a comprehension")
-    elif isinstance(node, A.Apply):
+    elif isinstance(node, ast.Apply):
         req(node.fn, EXPR, "a function")
         for a in node.args:
             req(a, EXPR, "a function argument")
-    elif isinstance(node, A.Call):
+    elif isinstance(node, ast.Call):
         want = PRED if node.name == "bool" else EXPR
         for a in node.args:
             req(a, want, f"the argument of {node.name}")
-    elif isinstance(node, A.SetExt):
+    elif isinstance(node, ast.SetExt):
         for a in node.items:
             req(a, EXPR, "a set element")
-    elif isinstance(node, A.Template):
+    elif isinstance(node, ast.Template):
         for a in node.holes:
             req(a, EXPR, "a template hole")
-    elif isinstance(node, A.IfExpr):
+    elif isinstance(node, ast.IfExpr):
         kind = kind_of(node)
         for cond, value in node.branches:
             req(cond, PRED, "an IF condition")
             req(value, kind, "each branch of IF")
         req(node.else_, kind, "each branch of IF")
-    elif isinstance(node, A.Let):
+    elif isinstance(node, ast.Let):
         req(node.pred, PRED, "the LET condition")
         req(node.body, kind_of(node), "the LET body")
 
 
-def _op_name(node: A.Node) -> str:
+def _op_name(node: ast.Node) -> str:
     op = getattr(node, "op", None)
-    names = {A.And: "&", A.Or: "or", A.Implies: "=>", A.Equiv: "<=>", A.Not: "not",
-             A.Neg: "unary -", A.Image: "relational image", A.Inverse: "~", A.Pair: "|->"}
+    names = {ast.And: "&", ast.Or: "or", ast.Implies: "=>", ast.Equiv: "<=>", ast.Not: "not",
+             ast.Neg: "unary -", ast.Image: "relational image", ast.Inverse: "~", ast.Pair: "|->"}
     return f"'{op}'" if op else names.get(type(node), type(node).__name__)
 
 
-def check_subst(subst: A.Subst, *, source: Optional[str] = None) -> None:
+def check_subst(subst: ast.Subst, *, source: Optional[str] = None) -> None:
     """Check the kinds of every formula inside a substitution."""
-    if isinstance(subst, A.Assign):
+    if isinstance(subst, ast.Assign):
         for t in subst.targets:
-            if isinstance(t, A.Apply):
+            if isinstance(t, ast.Apply):
                 for a in t.args:
                     check_kind(a, EXPR, source=source, context="a function argument")
         for v in subst.values:
             check_kind(v, EXPR, source=source, context="an assigned value")
-    elif isinstance(subst, A.BecomesIn):
+    elif isinstance(subst, ast.BecomesIn):
         check_kind(subst.set, EXPR, source=source, context="the set after '::'")
-    elif isinstance(subst, A.BecomesSuchThat):
+    elif isinstance(subst, ast.BecomesSuchThat):
         check_kind(subst.pred, PRED, source=source, context="the condition of ': (P)'")
-    elif isinstance(subst, (A.Pre, A.Assert)):
-        check_kind(subst.guard if isinstance(subst, A.Pre) else subst.cond, PRED,
+    elif isinstance(subst, (ast.Pre, ast.Assert)):
+        check_kind(subst.guard if isinstance(subst, ast.Pre) else subst.cond, PRED,
                    source=source, context="a guard")
         check_subst(subst.body, source=source)
-    elif isinstance(subst, (A.Select, A.IfSubst)):
+    elif isinstance(subst, (ast.Select, ast.IfSubst)):
         for cond, body in subst.branches:
             check_kind(cond, PRED, source=source, context="a guard")
             check_subst(body, source=source)
         if subst.else_ is not None:
             check_subst(subst.else_, source=source)
-    elif isinstance(subst, (A.Any, A.LetSubst)):
+    elif isinstance(subst, (ast.Any, ast.LetSubst)):
         check_kind(subst.pred, PRED, source=source, context="the WHERE/BE condition")
         check_subst(subst.body, source=source)
-    elif isinstance(subst, (A.Parallel, A.Sequence, A.Choice)):
+    elif isinstance(subst, (ast.Parallel, ast.Sequence, ast.Choice)):
         for item in subst.items:
             check_subst(item, source=source)

@@ -7,7 +7,8 @@ from pathlib import Path
 from typing import Any, Mapping, Optional
 
 from ..errors import BSyntaxError, InputError, TracecheckError, caret_excerpt, read_json
-from .values import Elem, FuncValue, from_json
+from .notation import from_json
+from .values import Elem, FuncValue
 
 __all__ = ["read_state_file", "state_from_json", "native_state", "MAX_STATE_BYTES"]
 
@@ -117,7 +118,7 @@ def _numpy(value: Any, name: str, btype: Any, where: str) -> Any:
 
 def _array(value: Any, name: str, btype: Any, where: str) -> frozenset:
     """A numpy array as a B set, where the variable's type says so unambiguously."""
-    from .typecheck import Pow, Prod, resolve_all, show
+    from .btypes import Pow, Prod, resolve_all, show
 
     t = resolve_all(btype) if btype is not None else None
     elem = t.elem if isinstance(t, Pow) else None

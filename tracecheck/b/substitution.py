@@ -11,68 +11,70 @@ from __future__ import annotations
 from typing import Callable, Optional
 
 from ..errors import UnsupportedError
-from . import ast as A
-from .evaluate import MEMO_KEY, Compiler, Env, _make_set, fresh
+from . import ast
+from .evaluate import Compiler, Env
+from .memo import MEMO_KEY, fresh
+from .values import make_set
 
 __all__ = ["written", "guard_of", "SubstCompiler", "strip_guards", "before_after"]
 
 Check = Callable[[Env, dict], bool]
 
 
-def written(s: A.Subst) -> frozenset[str]:
+def written(s: ast.Subst) -> frozenset[str]:
     """The variables a substitution may change."""
-    if isinstance(s, A.Assign):
-        return frozenset(t.id if isinstance(t, A.Name) else t.fn.id for t in s.targets)
-    if isinstance(s, (A.BecomesIn, A.BecomesSuchThat)):
+    if isinstance(s, ast.Assign):
+        return frozenset(t.id if isinstance(t, ast.Name) else t.fn.id for t in s.targets)
+    if isinstance(s, (ast.BecomesIn, ast.BecomesSuchThat)):
         return frozenset(s.ids)
-    if isinstance(s, (A.Parallel, A.Sequence, A.Choice)):
+    if isinstance(s, (ast.Parallel, ast.Sequence, ast.Choice)):
         return frozenset().union(*(written(i) for i in s.items))
-    if isinstance(s, (A.Pre, A.Assert)):
+    if isinstance(s, (ast.Pre, ast.Assert)):
         return written(s.body)
-    if isinstance(s, (A.Select, A.IfSubst)):
+    if isinstance(s, (ast.Select, ast.IfSubst)):
         out = frozenset().union(*(written(b) for _, b in s.branches))
         return out | (written(s.else_) if s.else_ is not None else frozenset())
-    if isinstance(s, (A.Any, A.LetSubst)):
+    if isinstance(s, (ast.Any, ast.LetSubst)):
         return written(s.body) - frozenset(s.ids)
     return frozenset()
 
 
-def _and(parts: list[A.Node]) -> Optional[A.Node]:
+def _and(parts: list[ast.Node]) -> Optional[ast.Node]:
     parts = [p for p in parts if p is not None]
     if not parts:
         return None
     node = parts[0]
     for p in parts[1:]:
-        node = A.And(node, p, pos=p.pos)
+        node = ast.And(node, p, pos=p.pos)
     return node
 
 
-def guard_of(s: A.Subst) -> Optional[A.Node]:
+def guard_of(s: ast.Subst) -> Optional[ast.Node]:
     """The guard of a substitution as a predicate (None when it is always enabled).
 
     PRE and SELECT contribute their conditions (several WHEN branches: any of them),
     ANY its ``#x.(P)``, parallel parts all their guards, a sequence its first part's.
     """
-    if isinstance(s, (A.Pre, A.Assert)):
-        cond = s.guard if isinstance(s, A.Pre) else None
+    if isinstance(s, (ast.Pre, ast.Assert)):
+        cond = s.guard if isinstance(s, ast.Pre) else None
         return _and([cond, guard_of(s.body)])
-    if isinstance(s, A.Select):
+    if isinstance(s, ast.Select):
         if s.else_ is not None:
             return None
         options = [_and([c, guard_of(b)]) for c, b in s.branches]
         node = options[0]
         for o in options[1:]:
-            node = A.Or(node, o, pos=o.pos) if node is not None and o is not None else None
+            node = ast.Or(node, o, pos=o.pos) if node is not None and o is not None else None
         return node
-    if isinstance(s, A.Any):
-        return A.Quant("#", s.ids, _and([s.pred, guard_of(s.body)]), pos=s.pos)
-    if isinstance(s, A.Parallel):
+    if isinstance(s, ast.Any):
+        return ast.Quant("#", s.ids, _and([s.pred, guard_of(s.body)]), pos=s.pos)
+    if isinstance(s, ast.Parallel):
         return _and([guard_of(i) for i in s.items])
-    if isinstance(s, A.Sequence):
+    if isinstance(s, ast.Sequence):
         return guard_of(s.items[0])
-    if isinstance(s, A.LetSubst):
+    if isinstance(s, ast.LetSubst):
         inner = guard_of(s.body)
-        return A.Let(s.ids, s.pred, inner, pos=s.pos) if inner is not None else None
+        return ast.Let(s.ids, s.pred, inner, pos=s.pos) if inner is not None else None
     return None
 
 
@@ -91,21 +93,21 @@ class SubstCompiler:
         names = tuple(sorted(names))
         return lambda pre, post: all(post[n] == pre[n] for n in names if n in post)
 
-    def compile(self, s: A.Subst) -> Check:
+    def compile(self, s: ast.Subst) -> Check:
         method = getattr(self, "s_" + type(s).__name__, None)
         if method is None:
             raise self.comp.error(UnsupportedError, s,
                                   f"tracecheck cannot check {type(s).__name__} substitutions")
         return method(s)
 
-    def s_Skip(self, s: A.Skip) -> Check:
+    def s_Skip(self, s: ast.Skip) -> Check:
         return lambda pre, post: True
 
-    def s_Assign(self, s: A.Assign) -> Check:
+    def s_Assign(self, s: ast.Assign) -> Check:
         parts = []
         for target, value in zip(s.targets, s.values):
             val = self.comp.compile(value)
-            if isinstance(target, A.Name):
+            if isinstance(target, ast.Name):
                 name = target.id
                 parts.append(lambda pre, post, name=name, val=val: post[name] == val(pre))
             else:
@@ -116,11 +118,11 @@ class SubstCompiler:
                 def override(pre, post, name=name, key=key, val=val):
                     new = dict(pre[name].map if hasattr(pre[name], "map") else pre[name])
                     new[key(pre)] = val(pre)
-                    return post[name] == _make_set(list(new.items()))
+                    return post[name] == make_set(list(new.items()))
                 parts.append(override)
         return lambda pre, post: all(p(pre, post) for p in parts)
 
-    def s_BecomesIn(self, s: A.BecomesIn) -> Check:
+    def s_BecomesIn(self, s: ast.BecomesIn) -> Check:
         values = self.comp.compile(s.set)
         names = s.ids
 
@@ -132,7 +134,7 @@ class SubstCompiler:
             return new in allowed
         return becomes_in
 
-    def s_BecomesSuchThat(self, s: A.BecomesSuchThat) -> Check:
+    def s_BecomesSuchThat(self, s: ast.BecomesSuchThat) -> Check:
         pred = self.comp.compile(s.pred)
         names = s.ids
         primed = [(n, n + "'", n + "$0") for n in names]
@@ -145,12 +147,12 @@ class SubstCompiler:
             return bool(pred(env))
         return such_that
 
-    def s_Parallel(self, s: A.Parallel) -> Check:
+    def s_Parallel(self, s: ast.Parallel) -> Check:
         parts = [self.compile(i) for i in s.items]
         return lambda pre, post: all(p(pre, post) for p in parts)
 
-    def s_Sequence(self, s: A.Sequence) -> Check:
-        first = self.execute(A.Sequence(s.items[:-1], pos=s.pos) if len(s.items) > 2
+    def s_Sequence(self, s: ast.Sequence) -> Check:
+        first = self.execute(ast.Sequence(s.items[:-1], pos=s.pos) if len(s.items) > 2
                              else s.items[0])
         last = self.compile(s.items[-1])
         last_writes = written(s.items[-1])
@@ -166,11 +168,11 @@ class SubstCompiler:
                                            if n in post)
         return sequence
 
-    def s_Pre(self, s: A.Pre) -> Check:
+    def s_Pre(self, s: ast.Pre) -> Check:
         cond, body = self.comp.compile(s.guard), self.compile(s.body)
         return lambda pre, post: bool(cond(pre)) and body(pre, post)
 
-    def s_Assert(self, s: A.Assert) -> Check:
+    def s_Assert(self, s: ast.Assert) -> Check:
         cond, body = self.comp.compile(s.cond), self.compile(s.body)
         return lambda pre, post: bool(cond(pre)) and body(pre, post)
 
@@ -198,18 +200,18 @@ class SubstCompiler:
             return (body is None or body(pre, post)) and same(pre, post)
         return branching
 
-    def s_Select(self, s: A.Select) -> Check:
+    def s_Select(self, s: ast.Select) -> Check:
         return self._branching(s, first_only=False)
 
-    def s_IfSubst(self, s: A.IfSubst) -> Check:
+    def s_IfSubst(self, s: ast.IfSubst) -> Check:
         return self._branching(s, first_only=True)
 
-    def s_Choice(self, s: A.Choice) -> Check:
+    def s_Choice(self, s: ast.Choice) -> Check:
         allw = written(s)
         parts = [(self.compile(i), self.unchanged(allw - written(i))) for i in s.items]
         return lambda pre, post: any(p(pre, post) and u(pre, post) for p, u in parts)
 
-    def s_Any(self, s: A.Any) -> Check:
+    def s_Any(self, s: ast.Any) -> Check:
         with self.comp.binding(s.ids):
             bind = self.comp.bindings(s, s.ids, s.pred)
             body = self.compile(s.body)
@@ -224,7 +226,7 @@ class SubstCompiler:
             return False
         return any_
 
-    def s_LetSubst(self, s: A.LetSubst) -> Check:
+    def s_LetSubst(self, s: ast.LetSubst) -> Check:
         with self.comp.binding(s.ids):
             assign = self.comp.let_values(s, s.ids, s.pred)
             body = self.compile(s.body)
@@ -236,16 +238,16 @@ class SubstCompiler:
         return let
 
     # -- execution of deterministic substitutions
-    def execute(self, s: A.Subst) -> Callable[[Env], Optional[dict]]:
+    def execute(self, s: ast.Subst) -> Callable[[Env], Optional[dict]]:
         """``env -> updates`` for a deterministic substitution (None: guard false)."""
-        if isinstance(s, A.Skip):
+        if isinstance(s, ast.Skip):
             return lambda env: {}
-        if isinstance(s, A.Assign) and all(isinstance(t, A.Name) for t in s.targets):
+        if isinstance(s, ast.Assign) and all(isinstance(t, ast.Name) for t in s.targets):
             pairs = [(t.id, self.comp.compile(v)) for t, v in zip(s.targets, s.values)]
             return lambda env: {n: f(env) for n, f in pairs}
-        if isinstance(s, (A.Parallel, A.Sequence)):
+        if isinstance(s, (ast.Parallel, ast.Sequence)):
             parts = [self.execute(i) for i in s.items]
-            seq = isinstance(s, A.Sequence)
+            seq = isinstance(s, ast.Sequence)
 
             def run(env: Env) -> Optional[dict]:
                 out: dict = {}
@@ -260,11 +262,12 @@ class SubstCompiler:
                         local.pop(MEMO_KEY, None)
                 return out
             return run
-        if isinstance(s, (A.Pre, A.Select)) and (isinstance(s, A.Pre) or len(s.branches) == 1):
-            cond = self.comp.compile(s.guard if isinstance(s, A.Pre) else s.branches[0][0])
-            body = self.execute(s.body if isinstance(s, A.Pre) else s.branches[0][1])
+        if isinstance(s, (ast.Pre, ast.Select)) and (isinstance(s, ast.Pre)
+                                                      or len(s.branches) == 1):
+            cond = self.comp.compile(s.guard if isinstance(s, ast.Pre) else s.branches[0][0])
+            body = self.execute(s.body if isinstance(s, ast.Pre) else s.branches[0][1])
             return lambda env: body(env) if cond(env) else None
-        if isinstance(s, A.IfSubst):
+        if isinstance(s, ast.IfSubst):
             branches = [(self.comp.compile(c), self.execute(b)) for c, b in s.branches]
             other = self.execute(s.else_) if s.else_ is not None else (lambda env: {})
 
@@ -283,28 +286,28 @@ class SubstCompiler:
 def _pairs(args):
     node = args[0]
     for a in args[1:]:
-        node = A.Pair(node, a, pos=a.pos)
+        node = ast.Pair(node, a, pos=a.pos)
     return node
 
 
 # ------------------------------------------------------------------ as predicates
 
-TRUE = A.Rel("=", A.BoolLit(True), A.BoolLit(True))
+TRUE = ast.Rel("=", ast.BoolLit(True), ast.BoolLit(True))
 
 
-def strip_guards(s: A.Subst) -> A.Subst:
+def strip_guards(s: ast.Subst) -> ast.Subst:
     """The effect of a substitution without its top-level guards (PRE/SELECT conditions):
     what replay checks as the postcondition once feasibility was checked on its own."""
-    if isinstance(s, (A.Pre, A.Assert)):
+    if isinstance(s, (ast.Pre, ast.Assert)):
         return strip_guards(s.body)
-    if isinstance(s, A.Select) and len(s.branches) == 1 and s.else_ is None:
+    if isinstance(s, ast.Select) and len(s.branches) == 1 and s.else_ is None:
         return strip_guards(s.branches[0][1])
-    if isinstance(s, A.Parallel):
-        return A.Parallel(tuple(strip_guards(i) for i in s.items), pos=s.pos)
+    if isinstance(s, ast.Parallel):
+        return ast.Parallel(tuple(strip_guards(i) for i in s.items), pos=s.pos)
     return s
 
 
-def before_after(s: A.Subst, variables: tuple[str, ...]) -> Optional[A.Node]:
+def before_after(s: ast.Subst, variables: tuple[str, ...]) -> Optional[ast.Node]:
     """The before-after predicate of ``s`` over ``v`` (after) and ``v$0`` (before) for each
     variable, frame included; None for forms it does not cover (ANY, LET, sequences,
     function overrides), which are then checked state by state."""
@@ -320,73 +323,73 @@ class _NoPredicate(Exception):
     pass
 
 
-def _before(node: A.Node, state: frozenset[str], keep: frozenset[str] = frozenset()) -> A.Node:
+def _before(node: ast.Node, state: frozenset[str], keep: frozenset[str] = frozenset()) -> ast.Node:
     """``node`` with every state variable (except ``keep``) read before the step."""
-    if isinstance(node, A.Name):
+    if isinstance(node, ast.Name):
         name = node.id
         base = name[:-1] if name.endswith("'") else name[:-2] if name.endswith("$0") else name
         if base in state and (base not in keep or base != name):
-            return A.Name(base + "$0", pos=node.pos)
+            return ast.Name(base + "$0", pos=node.pos)
         return node
-    bound = frozenset(A.binders(node))
-    return A.map_children(node, lambda c: _before(c, state - bound, keep - bound))
+    bound = frozenset(ast.binders(node))
+    return ast.map_children(node, lambda c: _before(c, state - bound, keep - bound))
 
 
-def _frame(names: frozenset[str]) -> Optional[A.Node]:
-    return _and([A.Rel("=", A.Name(n), A.Name(n + "$0")) for n in sorted(names)])
+def _frame(names: frozenset[str]) -> Optional[ast.Node]:
+    return _and([ast.Rel("=", ast.Name(n), ast.Name(n + "$0")) for n in sorted(names)])
 
 
-def _ba(s: A.Subst, state: frozenset[str]) -> A.Node:  # noqa: C901
-    if isinstance(s, A.Skip):
+def _ba(s: ast.Subst, state: frozenset[str]) -> ast.Node:  # noqa: C901
+    if isinstance(s, ast.Skip):
         return TRUE
-    if isinstance(s, A.Assign):
-        if not all(isinstance(t, A.Name) for t in s.targets):
+    if isinstance(s, ast.Assign):
+        if not all(isinstance(t, ast.Name) for t in s.targets):
             raise _NoPredicate
-        return _and([A.Rel("=", t, _before(v, state), pos=s.pos)
+        return _and([ast.Rel("=", t, _before(v, state), pos=s.pos)
                      for t, v in zip(s.targets, s.values)])
-    if isinstance(s, A.BecomesIn):
-        new: A.Node = A.Name(s.ids[0])
+    if isinstance(s, ast.BecomesIn):
+        new: ast.Node = ast.Name(s.ids[0])
         for i in s.ids[1:]:
-            new = A.Pair(new, A.Name(i))
-        return A.Rel(":", new, _before(s.set, state), pos=s.pos)
-    if isinstance(s, A.BecomesSuchThat):
+            new = ast.Pair(new, ast.Name(i))
+        return ast.Rel(":", new, _before(s.set, state), pos=s.pos)
+    if isinstance(s, ast.BecomesSuchThat):
         return _before(s.pred, state, keep=frozenset(s.ids))
-    if isinstance(s, A.Parallel):
+    if isinstance(s, ast.Parallel):
         return _and([_ba(i, state) for i in s.items]) or TRUE
-    if isinstance(s, (A.Pre, A.Assert)):
-        cond = s.guard if isinstance(s, A.Pre) else s.cond
+    if isinstance(s, (ast.Pre, ast.Assert)):
+        cond = s.guard if isinstance(s, ast.Pre) else s.cond
         return _and([_before(cond, state), _ba(s.body, state)])
-    if isinstance(s, (A.Select, A.IfSubst, A.Choice)):
+    if isinstance(s, (ast.Select, ast.IfSubst, ast.Choice)):
         return _branches_ba(s, state)
     raise _NoPredicate
 
 
-def _branches_ba(s, state) -> A.Node:
+def _branches_ba(s, state) -> ast.Node:
     allw = written(s)
-    options: list[A.Node] = []
-    if isinstance(s, A.Choice):
+    options: list[ast.Node] = []
+    if isinstance(s, ast.Choice):
         for item in s.items:
             options.append(_and([_ba(item, state), _frame(allw - written(item))]) or TRUE)
         return _or(options)
-    taken: list[A.Node] = []
+    taken: list[ast.Node] = []
     for cond, body in s.branches:
         guard = _before(cond, state)
         parts = [guard, _ba(body, state), _frame(allw - written(body))]
-        if isinstance(s, A.IfSubst):
-            parts += [A.Not(t) for t in taken]
+        if isinstance(s, ast.IfSubst):
+            parts += [ast.Not(t) for t in taken]
         options.append(_and(parts))
         taken.append(guard)
-    if s.else_ is not None or isinstance(s, A.IfSubst):
+    if s.else_ is not None or isinstance(s, ast.IfSubst):
         other = s.else_
-        none = [A.Not(t) for t in taken]
+        none = [ast.Not(t) for t in taken]
         rest = [_ba(other, state), _frame(allw - written(other))] if other is not None \
             else [_frame(allw)]
         options.append(_and(none + rest) or TRUE)
     return _or(options)
 
 
-def _or(parts: list[A.Node]) -> A.Node:
+def _or(parts: list[ast.Node]) -> ast.Node:
     node = parts[0]
     for p in parts[1:]:
-        node = A.Or(node, p)
+        node = ast.Or(node, p)
     return node

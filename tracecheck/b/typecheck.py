@@ -8,119 +8,17 @@ INVARIANT, constants by the PROPERTIES.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Optional, Union
+from typing import Optional
 
 from ..errors import BScopeError, BTypeError, TracecheckError, UnsupportedError
-from . import ast as A
+from . import ast
+from .limits import deeply
+from .btypes import (BOOL, INTEGER, REAL, STRING, Base, Mismatch, Pow, Prod, Type, Var, resolve,
+                     show, unify)
 from .scope import check_kind, expand, kind_of, render
 
-__all__ = ["typecheck_machine", "typecheck_formula", "check_formula", "Typer", "show",
-           "type_of_value", "describe_value_type"]
-
-
-@dataclass(frozen=True)
-class Base:
-    name: str  # INTEGER, REAL, BOOL, STRING, or a set's name
-
-
-@dataclass(frozen=True)
-class Pow:
-    elem: "Type"
-
-
-@dataclass(frozen=True)
-class Prod:
-    left: "Type"
-    right: "Type"
-
-
-class Var:
-    """A type not known yet."""
-
-    __slots__ = ("ref", "numeric")
-
-    def __init__(self, numeric: bool = False) -> None:
-        self.ref: Optional[Type] = None
-        self.numeric = numeric
-
-
-Type = Union[Base, Pow, Prod, Var]
-INTEGER, REAL, BOOL, STRING = Base("INTEGER"), Base("REAL"), Base("BOOL"), Base("STRING")
-_NUMERIC = (INTEGER, REAL)
-
-
-def resolve(t: Type) -> Type:
-    while isinstance(t, Var) and t.ref is not None:
-        t = t.ref
-    return t
-
-
-def resolve_all(t: Type) -> Type:
-    """``t`` with every type variable in it resolved (inside POW and products too)."""
-    t = resolve(t)
-    if isinstance(t, Pow):
-        return Pow(resolve_all(t.elem))
-    if isinstance(t, Prod):
-        return Prod(resolve_all(t.left), resolve_all(t.right))
-    return t
-
-
-def show(t: Type) -> str:
-    """A type in B notation, e.g. ``POW(Vehicles*REAL)``."""
-    t = resolve(t)
-    if isinstance(t, Base):
-        return t.name
-    if isinstance(t, Pow):
-        return f"POW({show(t.elem)})"
-    if isinstance(t, Prod):
-        left = show(t.left)
-        right = show(t.right)
-        if isinstance(resolve(t.right), Prod):
-            right = f"({right})"
-        return f"{left}*{right}"
-    return "?"
-
-
-class _Mismatch(Exception):
-    pass
-
-
-def _occurs(v: Var, t: Type) -> bool:
-    t = resolve(t)
-    if t is v:
-        return True
-    if isinstance(t, Pow):
-        return _occurs(v, t.elem)
-    if isinstance(t, Prod):
-        return _occurs(v, t.left) or _occurs(v, t.right)
-    return False
-
-
-def unify(a: Type, b: Type) -> None:
-    a, b = resolve(a), resolve(b)
-    if a is b:
-        return
-    if isinstance(a, Var) or isinstance(b, Var):
-        v, t = (a, b) if isinstance(a, Var) else (b, a)
-        if isinstance(t, Var):
-            t.numeric = t.numeric or v.numeric
-        elif v.numeric and t not in _NUMERIC:
-            raise _Mismatch
-        if _occurs(v, t):
-            raise _Mismatch
-        v.ref = t
-        return
-    if isinstance(a, Base) and isinstance(b, Base) and a == b:
-        return
-    if isinstance(a, Pow) and isinstance(b, Pow):
-        unify(a.elem, b.elem)
-        return
-    if isinstance(a, Prod) and isinstance(b, Prod):
-        unify(a.left, b.left)
-        unify(a.right, b.right)
-        return
-    raise _Mismatch
+__all__ = ["typecheck_machine", "typecheck_formula", "check_formula", "Typer",
+           "type_of_value", "describe_value_type", "unify_quiet"]
 
 
 _BUILTIN_TYPES = {
@@ -154,7 +52,7 @@ class Typer:
         self.unknown_hint = unknown_hint
 
     # -- helpers
-    def lookup(self, node: A.Name) -> Type:
+    def lookup(self, node: ast.Name) -> Type:
         name = node.id
         base = name[:-1] if name.endswith("'") else name[:-2] if name.endswith("$0") else name
         for scope in reversed(self.scopes):
@@ -172,10 +70,10 @@ class Typer:
                           column=node.pos.column if node.pos else None,
                           hint=self.unknown_hint)
 
-    def same(self, node: A.Node, a: Type, b: Type, what: str = "") -> None:
+    def same(self, node: ast.Node, a: Type, b: Type, what: str = "") -> None:
         try:
             unify(a, b)
-        except _Mismatch:
+        except Mismatch:
             hint = None
             pair = {show(a), show(b)}
             if pair == {"INTEGER", "REAL"}:
@@ -186,7 +84,7 @@ class Typer:
                 line=node.pos.line if node.pos else None,
                 column=node.pos.column if node.pos else None) from None
 
-    def numeric(self, node: A.Node, t: Type) -> Type:
+    def numeric(self, node: ast.Node, t: Type) -> Type:
         self.same(node, t, Var(numeric=True), "expected a number: ")
         return t
 
@@ -196,16 +94,16 @@ class Typer:
         return scope
 
     # -- predicates and expressions
-    def pred(self, node: A.Node) -> None:
-        if isinstance(node, (A.And, A.Or, A.Implies, A.Equiv)):
+    def pred(self, node: ast.Node) -> None:
+        if isinstance(node, (ast.And, ast.Or, ast.Implies, ast.Equiv)):
             self.pred(node.left)
             self.pred(node.right)
-        elif isinstance(node, A.Not):
+        elif isinstance(node, ast.Not):
             self.pred(node.operand)
-        elif isinstance(node, A.Rel):
+        elif isinstance(node, ast.Rel):
             self.rel(node)
-        elif isinstance(node, A.Quant):
-            if node.op == "!" and not isinstance(node.body, A.Implies):
+        elif isinstance(node, ast.Quant):
+            if node.op == "!" and not isinstance(node.body, ast.Implies):
                 raise BTypeError(
                     f"the body of `!{','.join(node.ids)}.(…)` must be an implication",
                     file=self.file, source=self.source,
@@ -218,12 +116,12 @@ class Typer:
                 self.pred(node.body)
             finally:
                 self.scopes.pop()
-        elif isinstance(node, A.IfExpr):
+        elif isinstance(node, ast.IfExpr):
             for c, v in node.branches:
                 self.pred(c)
                 self.pred(v)
             self.pred(node.else_)
-        elif isinstance(node, A.Let):
+        elif isinstance(node, ast.Let):
             self.bound(node.ids)
             try:
                 self.pred(node.pred)
@@ -231,7 +129,7 @@ class Typer:
             finally:
                 self.scopes.pop()
 
-    def rel(self, node: A.Rel) -> None:
+    def rel(self, node: ast.Rel) -> None:
         left, right = self.expr(node.left), self.expr(node.right)
         op = node.op
         if op in ("=", "/="):
@@ -246,34 +144,34 @@ class Typer:
             self.same(node.left, left, Pow(elem))
             self.same(node, left, right)
 
-    def expr(self, node: A.Node) -> Type:  # noqa: C901 - one branch per node type
+    def expr(self, node: ast.Node) -> Type:  # noqa: C901 - one branch per node type
         t = type(node)
-        if t is A.Name:
+        if t is ast.Name:
             return self.lookup(node)
-        if t is A.IntLit:
+        if t is ast.IntLit:
             return INTEGER
-        if t is A.RealLit:
+        if t is ast.RealLit:
             return REAL
-        if t is A.BoolLit:
+        if t is ast.BoolLit:
             return BOOL
-        if t is A.StrLit:
+        if t is ast.StrLit:
             return STRING
-        if t is A.Pair:
+        if t is ast.Pair:
             return Prod(self.expr(node.left), self.expr(node.right))
-        if t is A.Neg:
+        if t is ast.Neg:
             return self.numeric(node, self.expr(node.operand))
-        if t is A.BinOp:
+        if t is ast.BinOp:
             return self.binop(node)
-        if t is A.Template:
+        if t is ast.Template:
             for hole in node.holes:
                 self.expr(hole)
             return STRING
-        if t is A.SetExt:
+        if t is ast.SetExt:
             elem: Type = Var()
             for item in node.items:
                 self.same(item, elem, self.expr(item), "set elements differ: ")
             return Pow(elem)
-        if t is A.Apply:
+        if t is ast.Apply:
             fn = self.expr(node.fn)
             arg = self.expr(node.args[0])
             for a in node.args[1:]:
@@ -281,34 +179,34 @@ class Typer:
             result = Var()
             self.same(node, fn, Pow(Prod(arg, result)), "function and argument: ")
             return result
-        if t is A.Call:
+        if t is ast.Call:
             return self.call(node)
-        if t is A.Image:
+        if t is ast.Image:
             a, b = Var(), Var()
             self.same(node.rel, self.expr(node.rel), Pow(Prod(a, b)))
             self.same(node.arg, self.expr(node.arg), Pow(a))
             return Pow(b)
-        if t is A.Inverse:
+        if t is ast.Inverse:
             a, b = Var(), Var()
             self.same(node.rel, self.expr(node.rel), Pow(Prod(a, b)))
             return Pow(Prod(b, a))
-        if t in (A.Comprehension, A.Lambda, A.QuantExpr):
+        if t in (ast.Comprehension, ast.Lambda, ast.QuantExpr):
             return self.binder_expr(node)
-        if t is A.IfExpr:
+        if t is ast.IfExpr:
             result = Var()
             for c, v in node.branches:
                 self.pred(c)
                 self.same(v, result, self.expr(v), "IF branches differ: ")
             self.same(node.else_, result, self.expr(node.else_), "IF branches differ: ")
             return result
-        if t is A.Let:
+        if t is ast.Let:
             self.bound(node.ids)
             try:
                 self.pred(node.pred)
                 return self.expr(node.body)
             finally:
                 self.scopes.pop()
-        if t in (A.And, A.Or, A.Implies, A.Equiv, A.Not, A.Rel, A.Quant):
+        if t in (ast.And, ast.Or, ast.Implies, ast.Equiv, ast.Not, ast.Rel, ast.Quant):
             self.pred(node)
             return BOOL
         raise BTypeError(f"cannot type {t.__name__}")  # pragma: no cover
@@ -320,10 +218,10 @@ class Typer:
             key: Type = scope[node.ids[0]]
             for i in node.ids[1:]:
                 key = Prod(key, scope[i])
-            if isinstance(node, A.Comprehension):
+            if isinstance(node, ast.Comprehension):
                 return Pow(key if node.expr is None else self.expr(node.expr))
             value = self.expr(node.expr)
-            if isinstance(node, A.Lambda):
+            if isinstance(node, ast.Lambda):
                 return Pow(Prod(key, value))
             if node.op in ("SIGMA", "PI"):
                 return self.numeric(node.expr, value)
@@ -332,7 +230,7 @@ class Typer:
         finally:
             self.scopes.pop()
 
-    def binop(self, node: A.BinOp) -> Type:
+    def binop(self, node: ast.BinOp) -> Type:
         op = node.op
         left, right = self.expr(node.left), self.expr(node.right)
         if op in ("-->", "+->", "<->", ">->", ">+>", "-->>", "+->>", ">->>", ">+>>"):
@@ -396,7 +294,7 @@ class Typer:
             return left
         raise BTypeError(f"cannot type the operator {op}")  # pragma: no cover
 
-    def call(self, node: A.Call) -> Type:
+    def call(self, node: ast.Call) -> Type:
         name = node.name
         if name == "bool":
             self.pred(node.args[0])
@@ -462,36 +360,36 @@ class Typer:
         raise BTypeError(f"cannot type {name}")  # pragma: no cover
 
     # -- substitutions
-    def subst(self, s: A.Subst) -> None:  # noqa: C901
-        if isinstance(s, A.Assign):
+    def subst(self, s: ast.Subst) -> None:  # noqa: C901
+        if isinstance(s, ast.Assign):
             for target, value in zip(s.targets, s.values):
                 self.same(s, self.expr(target), self.expr(value), "assignment: ")
-        elif isinstance(s, A.BecomesIn):
-            new: Type = self.lookup(A.Name(s.ids[0], pos=s.pos))
+        elif isinstance(s, ast.BecomesIn):
+            new: Type = self.lookup(ast.Name(s.ids[0], pos=s.pos))
             for i in s.ids[1:]:
-                new = Prod(new, self.lookup(A.Name(i, pos=s.pos)))
+                new = Prod(new, self.lookup(ast.Name(i, pos=s.pos)))
             self.same(s, Pow(new), self.expr(s.set), "'::' ")
-        elif isinstance(s, A.BecomesSuchThat):
+        elif isinstance(s, ast.BecomesSuchThat):
             for i in s.ids:
-                self.lookup(A.Name(i, pos=s.pos))
+                self.lookup(ast.Name(i, pos=s.pos))
             self.pred(s.pred)
-        elif isinstance(s, (A.Pre, A.Assert)):
-            self.pred(s.guard if isinstance(s, A.Pre) else s.cond)
+        elif isinstance(s, (ast.Pre, ast.Assert)):
+            self.pred(s.guard if isinstance(s, ast.Pre) else s.cond)
             self.subst(s.body)
-        elif isinstance(s, (A.Select, A.IfSubst)):
+        elif isinstance(s, (ast.Select, ast.IfSubst)):
             for c, b in s.branches:
                 self.pred(c)
                 self.subst(b)
             if s.else_ is not None:
                 self.subst(s.else_)
-        elif isinstance(s, (A.Any, A.LetSubst)):
+        elif isinstance(s, (ast.Any, ast.LetSubst)):
             self.bound(s.ids)
             try:
                 self.pred(s.pred)
                 self.subst(s.body)
             finally:
                 self.scopes.pop()
-        elif isinstance(s, (A.Parallel, A.Sequence, A.Choice)):
+        elif isinstance(s, (ast.Parallel, ast.Sequence, ast.Choice)):
             for item in s.items:
                 self.subst(item)
 
@@ -570,7 +468,7 @@ def unify_quiet(a: Type, b: Type) -> bool:
     try:
         unify(a, b)
         return True
-    except _Mismatch:
+    except Mismatch:
         return False
 
 
@@ -578,7 +476,8 @@ def describe_value_type(value, element_sets: Optional[dict] = None) -> str:
     return show(type_of_value(value, element_sets)).replace("?", "any")
 
 
-def typecheck_formula(node: A.Node, names: dict[str, Type], *, kind: str = "predicate",
+@deeply
+def typecheck_formula(node: ast.Node, names: dict[str, Type], *, kind: str = "predicate",
                       source: Optional[str] = None, file: Optional[str] = None,
                       unknown_hint: str = "give it a value in the state (--state FILE) or "
                                           "evaluate in a machine (--model MODEL)") -> Type:
@@ -590,9 +489,10 @@ def typecheck_formula(node: A.Node, names: dict[str, Type], *, kind: str = "pred
     return typer.expr(node)
 
 
+@deeply
 def check_formula(text: str, names: dict[str, Type], *, file: str,
                   definitions: Optional[dict] = None, kind: Optional[str] = None,
-                  unknown_hint: Optional[str] = None) -> tuple[A.Node, str]:
+                  unknown_hint: Optional[str] = None) -> tuple[ast.Node, str]:
     """Parse ``text``, expand ``definitions``, check that predicates and expressions stand
     where they belong (``kind``: what the whole must be; None: either) and type it with
     ``names`` in scope — what every formula a user gives goes through (``eval``, and

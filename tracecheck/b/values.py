@@ -1,43 +1,28 @@
-"""B values in Python, and B literals in ProB's output notation.
+"""B values in Python: their representation, the algebra of sets, and their canonical text.
 
 Representation: integers ``int``, reals ``float``, booleans ``bool``, strings ``str``,
 elements of deferred and enumerated sets :class:`Elem`, pairs ``tuple`` of two, sets
 ``frozenset`` (a function literal is a :class:`FuncValue`, a frozenset of pairs that also
 keeps a dict for fast application), and infinite or lazily enumerated sets
-:class:`SymbolicSet`.
+:class:`SymbolicSet`. The symbolic sets of functions and sequences are in
+:mod:`.spaces`; reading B literals and JSON in :mod:`.notation`. Printing stays here because
+a symbolic set is named by the text of its parts (``POW(1..3)``).
 """
 
 from __future__ import annotations
 
 import math
 import re
-import sys
-from typing import Any, Callable, Iterator, Optional
+from typing import Any, Callable, Iterable, Iterator, Optional
 
-from ..errors import BSyntaxError, EvaluationError
-
-#: Integers up to this many decimal digits are read and printed — every integer the engine
-#: computes has fewer (powers are capped at 10**6 bits, about 301 030 digits); a longer
-#: literal is refused with its place. Python's own default limit (4300) is raised to it.
-MAX_DIGITS = 310_000
-if 0 < sys.get_int_max_str_digits() < MAX_DIGITS:
-    sys.set_int_max_str_digits(MAX_DIGITS)
-
-
-def read_int(text: str) -> int:
-    """The integer written in ``text`` (a ``ValueError`` saying so above :data:`MAX_DIGITS`)."""
-    if len(text) > MAX_DIGITS + 1:
-        raise ValueError(f"an integer of {len(text.lstrip('-'))} digits is longer than the "
-                         f"{MAX_DIGITS} digits tracecheck reads")
-    return int(text)
+from ..errors import EvaluationError, SetLimitError
+from .limits import int_text
 
 __all__ = [
-    "Elem", "FuncValue", "SymbolicSet", "BuiltinSet", "Interval", "PowSet", "FunctionSpace",
-    "Product", "SET_LIMIT", "SetLimitError", "finiteness", "cardinality", "members", "explicit",
-    "contains", "is_subset", "set_equal", "brief", "Projection", "SeqSet", "as_sequence",
-    "sequence",
-    "parse_literal", "format_value", "from_json", "to_json", "is_set", "BUILTIN_SET_VALUES",
-    "sort_key",
+    "Elem", "FuncValue", "SymbolicSet", "BuiltinSet", "Interval", "PowSet", "Product",
+    "SET_LIMIT", "check_size", "make_set", "hashable", "finiteness", "cardinality", "members",
+    "explicit", "contains", "is_subset", "set_equal", "brief", "as_sequence", "sequence",
+    "format_value", "format_real", "is_set", "BUILTIN_SET_VALUES", "sort_key", "set_key",
 ]
 
 
@@ -70,10 +55,6 @@ class FuncValue(frozenset):
 
 #: The most elements tracecheck builds or walks for one set; above it a clear error.
 SET_LIMIT = 1_000_000
-
-
-class SetLimitError(EvaluationError):
-    """A finite set too large to build or walk element by element."""
 
 
 class SymbolicSet:
@@ -120,7 +101,7 @@ class SymbolicSet:
 
     def materialise(self) -> frozenset:
         """The explicit form (refused above :data:`SET_LIMIT` elements)."""
-        return _make_frozenset(iter(self))
+        return make_set(iter(self))
 
     def __contains__(self, value: Any) -> bool:
         return self.contains(value)
@@ -152,17 +133,28 @@ def check_size(n: int, what: str) -> None:
 
 
 def _count(n: int) -> str:
-    text = str(n)
+    text = int_text(n)
     return f"{n:,}" if len(text) <= 30 else f"about 10^{len(text) - 1}"
 
 
-def _make_frozenset(items: Iterator[Any]) -> frozenset:
+def hashable(v: Any) -> Any:
+    """``v``, with a finite symbolic set replaced by its explicit form (to hash it by value)."""
+    if isinstance(v, SymbolicSet) and v.finiteness() is True:
+        return v.materialise()
+    return v
+
+
+def make_set(items: Iterable[Any]) -> frozenset:
+    """The set of ``items``: a :class:`FuncValue` when they are pairs with distinct firsts."""
     items = list(items)
     if items and all(type(i) is tuple for i in items):
         mapping = dict(items)
         if len(mapping) == len(items):
             return FuncValue(mapping)
-    return frozenset(items)
+    try:
+        return frozenset(items)
+    except TypeError:
+        return frozenset(hashable(i) for i in items)
 
 
 class BuiltinSet(SymbolicSet):
@@ -264,7 +256,7 @@ class Product(SymbolicSet):
         return ((x, y) for x in members(self.a) for y in right)
 
     def key(self) -> tuple:
-        return ("product", _key(self.a), _key(self.b))
+        return ("product", set_key(self.a), set_key(self.b))
 
 
 class PowSet(SymbolicSet):
@@ -302,153 +294,13 @@ class PowSet(SymbolicSet):
         from itertools import combinations
         items = sorted(members(self.base), key=sort_key)
         start = 1 if self.nonempty else 0
-        return (_make_frozenset(c) for k in range(start, len(items) + 1)
+        return (make_set(c) for k in range(start, len(items) + 1)
                 for c in combinations(items, k))
 
     def key(self) -> tuple:
         if self.fin and self.finiteness() is True:
-            return ("pow", self.nonempty, False, _key(self.base))
-        return ("pow", self.nonempty, self.fin, _key(self.base))
-
-
-_TOTAL = ("-->", ">->", "-->>", ">->>")
-_INJECTIVE = (">->", ">+>", ">->>", ">+>>")
-_SURJECTIVE = ("-->>", "+->>", ">->>", ">+>>")
-
-
-class FunctionSpace(SymbolicSet):
-    """``S --> T``, ``S +-> T``, ``S <-> T`` and the injective/surjective variants."""
-
-    def __init__(self, op: str, dom: Any, ran: Any) -> None:
-        self.op, self.dom, self.ran = op, dom, ran
-        self.name = f"({format_value(dom)} {op} {format_value(ran)})"
-
-    def finiteness(self) -> Optional[bool]:
-        fd, fr = finiteness(self.dom), finiteness(self.ran)
-        return True if (fd and fr) else None
-
-    def contains(self, value: Any) -> bool:
-        if not is_set(value):
-            return False
-        if isinstance(value, SymbolicSet):
-            if value.finiteness() is not True:
-                raise EvaluationError(f"cannot decide whether {value.name} is in {self.name}")
-            value = value.materialise()
-        pairs = list(value)
-        if not all(isinstance(p, tuple) and len(p) == 2 for p in pairs):
-            return False
-        if not all(contains(self.dom, p[0]) and contains(self.ran, p[1]) for p in pairs):
-            return False
-        if self.op == "<->":
-            return True
-        firsts = {p[0] for p in pairs}
-        if len(firsts) != len(pairs):
-            return False
-        if self.op in _TOTAL and not _covers(firsts, self.dom):
-            return False
-        seconds = {p[1] for p in pairs}
-        if self.op in _INJECTIVE and len(seconds) != len(pairs):
-            return False
-        if self.op in _SURJECTIVE and not _covers(seconds, self.ran):
-            return False
-        return True
-
-    def card(self) -> int:
-        if self.finiteness() is not True:
-            return SymbolicSet.card(self)
-        d, r = cardinality(self.dom), cardinality(self.ran)
-        if self.op == "<->":
-            return 2 ** (d * r) if d * r <= 100_000 else SymbolicSet.card(self)
-        if self.op == "+->":
-            return (r + 1) ** d
-        if self.op == "-->":
-            return r ** d
-        return sum(1 for _ in self._walk())
-
-    def elements(self) -> Iterator[Any]:
-        return self._walk()
-
-    def _walk(self) -> Iterator[Any]:
-        from itertools import product
-        dom = sorted(members(self.dom), key=sort_key)
-        ran = sorted(members(self.ran), key=sort_key)
-        if self.op == "<->":
-            yield from PowSet(Product(frozenset(dom), frozenset(ran))).elements()
-            return
-        choices = [ran] if self.op in _TOTAL else [[_NONE] + ran]
-        check_size(len(choices[0]) ** len(dom), self.name)
-        for pick in product(choices[0], repeat=len(dom)):
-            f = FuncValue({x: y for x, y in zip(dom, pick) if y is not _NONE})
-            if self.op in ("-->", "+->") or self.contains(f):
-                yield f
-
-    def key(self) -> tuple:
-        return ("arrow", self.op, _key(self.dom), _key(self.ran))
-
-
-_NONE = object()
-
-
-class Projection(SymbolicSet):
-    """``prj1(S, T)`` / ``prj2(S, T)``: the function ``(x|->y) |-> x`` (or ``y``) on S*T."""
-
-    def __init__(self, which: int, s: Any, t: Any) -> None:
-        self.which, self.s, self.t = which, s, t
-        self.name = f"prj{which}({format_value(s)},{format_value(t)})"
-
-    def finiteness(self) -> Optional[bool]:
-        return Product(self.s, self.t).finiteness()
-
-    def apply(self, x: Any) -> Any:
-        if not Product(self.s, self.t).contains(x):
-            raise KeyError(x)
-        return x[self.which - 1]
-
-    def contains(self, v: Any) -> bool:
-        if not (isinstance(v, tuple) and len(v) == 2):
-            return False
-        try:
-            return self.apply(v[0]) == v[1]
-        except KeyError:
-            return False
-
-    def card(self) -> int:
-        return Product(self.s, self.t).card()
-
-    def elements(self) -> Iterator[Any]:
-        return ((p, p[self.which - 1]) for p in Product(self.s, self.t).elements())
-
-    def key(self) -> tuple:
-        return ("prj", self.which, _key(self.s), _key(self.t))
-
-
-class SeqSet(SymbolicSet):
-    """``seq(S)``, ``seq1(S)``, ``iseq(S)``, ``iseq1(S)``, ``perm(S)``: membership only."""
-
-    def __init__(self, kind: str, base: Any) -> None:
-        self.kind, self.base = kind, base
-        self.name = f"{kind}({format_value(base)})"
-
-    def finiteness(self) -> Optional[bool]:
-        if self.kind in ("seq", "seq1") and finiteness(self.base) is not None:
-            if finiteness(self.base) is False or cardinality(self.base) > 0:
-                return False
-        return None
-
-    def contains(self, value: Any) -> bool:
-        items = as_sequence(value)
-        if items is None or not all(contains(self.base, x) for x in items):
-            return False
-        if self.kind in ("seq1", "iseq1") and not items:
-            return False
-        if self.kind in ("iseq", "iseq1", "perm") and len(set(items)) != len(items):
-            return False
-        if self.kind == "perm":
-            return _covers(set(items), self.base)
-        return True
-
-    def key(self) -> tuple:
-        return ("seq", self.kind, _key(self.base))
+            return ("pow", self.nonempty, False, set_key(self.base))
+        return ("pow", self.nonempty, self.fin, set_key(self.base))
 
 
 def as_sequence(value: Any) -> Optional[list]:
@@ -475,15 +327,8 @@ def sequence(items: list) -> frozenset:
     return FuncValue({i: x for i, x in enumerate(items, start=1)})
 
 
-def _covers(values: set, space: Any) -> bool:
-    if finiteness(space) is not True:
-        return False
-    if cardinality(space) != len(values):
-        return False
-    return all(contains(space, v) for v in values)
-
-
-def _key(v: Any) -> Any:
+def set_key(v: Any) -> Any:
+    """What identifies ``v`` inside a symbolic set's :meth:`SymbolicSet.key`."""
     if isinstance(v, SymbolicSet):
         return v if v.finiteness() is True else v.key()
     return v
@@ -641,7 +486,7 @@ def format_value(value: Any, *, ascii: bool = False) -> str:
     if value is False:
         return "FALSE"
     if isinstance(value, int):
-        return str(value)
+        return int_text(value)
     if isinstance(value, float):
         return format_real(value)
     if isinstance(value, Elem):
@@ -666,202 +511,3 @@ def format_value(value: Any, *, ascii: bool = False) -> str:
         items = sorted(value, key=sort_key)
         return "{" + ",".join(format_value(v, ascii=ascii) for v in items) + "}"
     raise EvaluationError(f"no B notation for the value {value!r}")
-
-
-# ------------------------------------------------------------------ literals
-
-_NUM = r"-?\d+(?:\.\d+(?:[eE][+-]?\d+)?)?"
-_IDENT = r"[A-Za-z_][A-Za-z0-9_]*"
-_FUNC_LITERAL = re.compile(
-    r"\{\((" + _IDENT + r")(?:↦|\|->)(" + _NUM + r")\)((?:,\((?:" + _IDENT
-    + r")(?:↦|\|->)(?:" + _NUM + r")\))*)\}\Z"
-)
-_FUNC_ITEM = re.compile(r"\((" + _IDENT + r")(?:↦|\|->)(" + _NUM + r")\)")
-_NUMBER = re.compile(_NUM + r"\Z")
-
-
-def _number(text: str):
-    return float(text) if ("." in text or "e" in text or "E" in text) else read_int(text)
-
-
-def parse_literal(text: str, *, file: Optional[str] = None, where: str = "") -> Any:
-    """Read a B value written in ProB's output notation.
-
-    Numbers, ``TRUE``/``FALSE``, strings, set elements, pairs ``(a↦b)``, sets and
-    functions: ``{(EgoVehicle↦150.36),(Vehicles2↦21.9)}``. The common shapes are read by a
-    regular expression; the rest by a small recursive-descent reader.
-
-    >>> parse_literal("{(a↦1.5),(b↦2.0)}") == {("a", 1.5), ("b", 2.0)}
-    True
-    """
-    text = text.strip()
-    try:
-        if _NUMBER.match(text):
-            return _number(text)
-        m = _FUNC_LITERAL.match(text)
-        if m:
-            mapping = {Elem(k): _number(v) for k, v in _FUNC_ITEM.findall(text)}
-            if len(mapping) == text.count("("):
-                return FuncValue(mapping)
-    except ValueError as exc:  # an integer too long to read
-        raise _LiteralReader(text, file, where).fail(str(exc)) from None
-    return _LiteralReader(text, file, where).read()
-
-
-#: How deeply a B literal may nest (sets in sets, pairs in pairs).
-MAX_LITERAL_DEPTH = 1000
-
-
-class _LiteralReader:
-    def __init__(self, text: str, file: Optional[str], where: str) -> None:
-        self.text, self.i, self.file, self.where = text, 0, file, where
-        self.depth = 0
-
-    def fail(self, message: str) -> BSyntaxError:
-        where = f" ({self.where})" if self.where else ""
-        return BSyntaxError(f"{message} in the B literal{where}", file=self.file, line=1,
-                            column=self.i + 1, source=self.text)
-
-    def skip_ws(self) -> None:
-        while self.i < len(self.text) and self.text[self.i].isspace():
-            self.i += 1
-
-    def peek(self, s: str) -> bool:
-        self.skip_ws()
-        return self.text.startswith(s, self.i)
-
-    def expect(self, s: str) -> None:
-        if not self.peek(s):
-            found = self.text[self.i] if self.i < len(self.text) else "end of text"
-            raise self.fail(f"expected {s!r} but found {found!r}")
-        self.i += len(s)
-
-    def read(self) -> Any:
-        value = self.maplets()
-        self.skip_ws()
-        if self.i != len(self.text):
-            raise self.fail(f"unexpected {self.text[self.i]!r} after the value")
-        return value
-
-    def value(self) -> Any:
-        self.depth += 1
-        if self.depth > MAX_LITERAL_DEPTH:
-            raise self.fail(f"the value nests more than {MAX_LITERAL_DEPTH} levels deep")
-        try:
-            return self._value()
-        finally:
-            self.depth -= 1
-
-    def _value(self) -> Any:
-        self.skip_ws()
-        if self.i >= len(self.text):
-            raise self.fail("expected a value but the text ended")
-        c = self.text[self.i]
-        if c == "{":
-            return self.set_()
-        if c == "∅":
-            self.i += 1
-            return frozenset()
-        if c == "(":
-            return self.pair()
-        if c == "[":
-            return self.sequence()
-        if c == '"':
-            return self.string()
-        m = re.compile(_NUM).match(self.text, self.i)
-        if m and (c.isdigit() or c == "-"):
-            try:
-                value = _number(m.group())
-            except ValueError as exc:
-                raise self.fail(str(exc)) from None
-            self.i = m.end()
-            return value
-        m = re.compile(r"[A-Za-z_][A-Za-z0-9_]*").match(self.text, self.i)
-        if m:
-            self.i = m.end()
-            word = m.group()
-            if word == "TRUE":
-                return True
-            if word == "FALSE":
-                return False
-            return Elem(word)
-        raise self.fail(f"unexpected {c!r}")
-
-    def maplets(self) -> Any:
-        """``a↦b↦c`` is ``(a↦b)↦c``, as ProB prints nested pairs."""
-        value = self.value()
-        while True:
-            for sep in ("↦", "|->"):
-                if self.peek(sep):
-                    self.i += len(sep)
-                    value = (value, self.value())
-                    break
-            else:
-                return value
-
-    def items(self, open_: str, close: str) -> list:
-        """The comma-separated values between ``open_`` and ``close``."""
-        self.expect(open_)
-        items = []
-        if not self.peek(close):
-            items.append(self.maplets())
-            while self.peek(","):
-                self.i += 1
-                items.append(self.maplets())
-        self.expect(close)
-        return items
-
-    def set_(self) -> frozenset:
-        return _make_frozenset(self.items("{", "}"))
-
-    def sequence(self) -> frozenset:
-        """``[a, b]``: ProB's notation for the sequence ``{1↦a, 2↦b}``."""
-        return sequence(self.items("[", "]"))
-
-    def pair(self) -> Any:
-        self.expect("(")
-        value = self.maplets()
-        while self.peek(","):
-            self.i += 1
-            value = (value, self.maplets())
-        self.expect(")")
-        return value
-
-    def string(self) -> str:
-        m = re.compile(r'"((?:\\.|[^"\\])*)"').match(self.text, self.i)
-        if not m:
-            raise self.fail("unterminated string")
-        self.i = m.end()
-        return re.sub(r"\\(.)", r"\1", m.group(1))
-
-
-# ------------------------------------------------------------------ JSON
-
-
-def from_json(value: Any, *, file: Optional[str] = None, where: str = "") -> Any:
-    """A state value given in JSON: a B literal as a string, or a JSON number, boolean,
-    list (a set) or object (a function from element names)."""
-    if isinstance(value, bool):
-        return value
-    if isinstance(value, float) and not math.isfinite(value):
-        raise EvaluationError(f"{value} is not a B real{f' ({where})' if where else ''}",
-                              file=file, hint="B reals are finite numbers")
-    if isinstance(value, (int, float)):
-        return value
-    if isinstance(value, str):
-        return parse_literal(value, file=file, where=where)
-    if isinstance(value, list):
-        return frozenset(from_json(v, file=file, where=where) for v in value)
-    if isinstance(value, dict):
-        return FuncValue({Elem(k): from_json(v, file=file, where=where) for k, v in value.items()})
-    raise EvaluationError(f"cannot read {value!r} as a B value{f' ({where})' if where else ''}",
-                          file=file)
-
-
-def to_json(value: Any) -> Any:
-    """The JSON form of a value: numbers and booleans as such, everything else as a literal."""
-    if isinstance(value, (bool, int, float)) and not (
-        isinstance(value, float) and (math.isnan(value) or math.isinf(value))
-    ):
-        return value
-    return format_value(value)

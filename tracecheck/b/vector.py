@@ -1,7 +1,7 @@
-"""Batch evaluation: one formula over many states at once, on numpy columns.
+"""The batch compiler: one formula over many states at once, on numpy columns.
 
-States are held as :class:`Columns`, one row per state: numbers and booleans as 1-D
-arrays, functions from the elements of a set (``VehiclesX : Vehicles --> REAL``) as
+States are held as :class:`~tracecheck.b.columns.Columns`, one row per state: numbers and
+booleans as 1-D arrays, functions from the elements of a set (``VehiclesX : Vehicles --> REAL``) as
 ``(rows, elements)`` arrays, subsets of that set as boolean masks. A quantifier over those
 elements becomes a reduction along the element axis, so a guard over a whole recording is a
 handful of numpy operations.
@@ -10,187 +10,28 @@ Formulas outside that shape (nested element quantifiers, comprehensions, sets of
 evaluated row by row with the scalar path, with the same results. So are the rows where a
 sub-expression is not well-defined (a function applied outside its domain, division by
 zero): the scalar path respects the short-circuit that guards such terms and raises the
-located error where the formula really has no value.
+located error where the formula really has no value. The values the compiled formula
+computes with, and the numpy operations on them, are in :mod:`.arrays`.
 """
 
 from __future__ import annotations
 
-import math
-from contextlib import contextmanager
-from dataclasses import dataclass, field
-from typing import Any, Callable, Iterator, Mapping, Optional, Sequence
+from typing import Any, Callable, Mapping, Optional
 
 import numpy as np
 
-from ..errors import EvaluationError, TracecheckError
-from . import ast as A
+from ..errors import TracecheckError
+from . import ast
 from .bindings import conjuncts
 from .evaluate import Compiler
+from .arrays import (BatchContext, NotVectorizable, VectorValue, arith, bool_of, concat_numbers,
+                     fits, integral, intern_key, is_int_array, mark_nonfinite, num_of, per_row,
+                     shared, typed_member)
+from .columns import Columns
+from .limits import DEEP, deep_recursion
 from .values import Elem, FuncValue
 
-__all__ = ["Columns", "evaluate_batch", "BatchFormula", "float_column"]
-
-
-@dataclass
-class Columns:
-    """Many states, column by column (see the module docstring).
-
-    ``elements`` orders the elements of the one set that functions and masks range over.
-    """
-
-    n: int
-    elements: tuple[Elem, ...]
-    numbers: dict[str, np.ndarray] = field(default_factory=dict)
-    booleans: dict[str, np.ndarray] = field(default_factory=dict)
-    functions: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
-    masks: dict[str, np.ndarray] = field(default_factory=dict)
-    others: dict[str, list] = field(default_factory=dict)
-    label: Optional[Callable[[int], str]] = None  # names row i in messages ("state i")
-
-    @classmethod
-    def from_states(cls, states: Sequence[Mapping[str, Any]],
-                    elements: Optional[Sequence[Elem]] = None) -> "Columns":
-        """Columns from scalar states (dicts of B values), e.g. read from a trace."""
-        n = len(states)
-        if elements is None:
-            found: dict[Elem, None] = {}
-            for value in (states[0].values() if states else ()):
-                if isinstance(value, FuncValue):
-                    found.update({k: None for k in value.map if isinstance(k, Elem)})
-                elif isinstance(value, frozenset):
-                    found.update({k: None for k in value if isinstance(k, Elem)})
-            from .values import sort_key
-
-            elements = tuple(sorted(found, key=sort_key))
-        elements = tuple(elements)
-        index = {e: i for i, e in enumerate(elements)}
-        cols = cls(n=n, elements=elements)
-        names = list(states[0]) if states else []
-        for name in names:
-            values = [s[name] for s in states]
-            cols._add(name, values, index)
-        return cols
-
-    def _add(self, name: str, values: list, index: dict) -> None:
-        first = values[0]
-        k = len(index)
-        if all(type(v) is bool for v in values):
-            self.booleans[name] = np.array(values, dtype=bool)
-        elif all(type(v) in (int, float) for v in values):
-            self.numbers[name] = np.array(values, dtype=float if any(
-                type(v) is float for v in values) else np.int64)
-        elif isinstance(first, FuncValue) and all(
-                isinstance(v, FuncValue) and all(key in index and type(x) in (int, float)
-                                                 for key, x in v.map.items())
-                for v in values):
-            vals = np.zeros((self.n, k))
-            defined = np.zeros((self.n, k), dtype=bool)
-            for row, v in enumerate(values):
-                for key, x in v.map.items():
-                    vals[row, index[key]] = x
-                    defined[row, index[key]] = True
-            self.functions[name] = (vals, defined)
-        elif all(isinstance(v, frozenset) and not isinstance(v, FuncValue)
-                 and all(e in index for e in v) for v in values):
-            mask = np.zeros((self.n, k), dtype=bool)
-            for row, v in enumerate(values):
-                for e in v:
-                    mask[row, index[e]] = True
-            self.masks[name] = mask
-        else:
-            self.others[name] = values
-
-    def names(self) -> set[str]:
-        return (set(self.numbers) | set(self.booleans) | set(self.functions)
-                | set(self.masks) | set(self.others))
-
-    def distinct(self) -> tuple[np.ndarray, np.ndarray]:
-        """(the first row of each distinct state, ascending; for each row, the index of its
-        state among those). Rows are the same state when every column holds the same bytes
-        (numbers) or equal B values (other values)."""
-        n = self.n
-        parts = []
-        for arr in (*self.numbers.values(), *self.booleans.values()):
-            parts.append(np.ascontiguousarray(arr).reshape(n, -1).view(np.uint8))
-        for vals, defined in self.functions.values():
-            parts.append(np.ascontiguousarray(vals).reshape(n, -1).view(np.uint8))
-            parts.append(np.ascontiguousarray(defined).reshape(n, -1).view(np.uint8))
-        for mask in self.masks.values():
-            parts.append(np.ascontiguousarray(mask).reshape(n, -1).view(np.uint8))
-        for values in self.others.values():
-            ids: dict = {}
-            parts.append(np.array([ids.setdefault(v, len(ids)) for v in values],
-                                  dtype=np.int64).reshape(n, 1).view(np.uint8))
-        if not parts or n == 0:
-            return np.arange(min(n, 1)), np.zeros(n, dtype=np.int64)
-        table = np.ascontiguousarray(np.concatenate(parts, axis=1))
-        keys = table.view(np.dtype((np.void, table.shape[1]))).ravel()
-        _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
-        order = np.argsort(first, kind="stable")
-        rank = np.empty_like(order)
-        rank[order] = np.arange(len(order))
-        return first[order], rank[inverse.ravel()]
-
-    def row(self, i: int) -> dict[str, Any]:
-        """State ``i`` as a dict of scalar B values."""
-        state: dict[str, Any] = {}
-        for name, arr in self.numbers.items():
-            state[name] = arr[i].item()
-        for name, arr in self.booleans.items():
-            state[name] = bool(arr[i])
-        for name, (vals, defined) in self.functions.items():
-            state[name] = FuncValue({e: float(vals[i, j]) for j, e in enumerate(self.elements)
-                                     if defined[i, j]})
-        for name, mask in self.masks.items():
-            state[name] = frozenset(e for j, e in enumerate(self.elements) if mask[i, j])
-        for name, values in self.others.items():
-            state[name] = values[i]
-        return state
-
-
-class _NotVectorizable(Exception):
-    pass
-
-
-# A vector value: (tag, payload). Tags: "num", "bool" (arrays broadcastable to (n, k)),
-# "elem" (an int index, or an (1, k) index array for an element-axis variable),
-# "set" (bool mask (…, k)), "func" ((values, defined), each (n, k)), "nums" (a set of numbers:
-# (values, member), each (n or 1, m): the values of the row where member is true).
-Vec = tuple
-
-
-class _Ctx:
-    def __init__(self, cols: Columns) -> None:
-        self.cols = cols
-        self.bad: Optional[np.ndarray] = None  # the rows marked for the scalar path, if any
-        self.lets: dict[str, Vec] = {}  # LET variables in scope
-        self.memo: dict[int, tuple] = {}  # values of shared sub-formulas, see _shared
-
-    def mark(self, rows: np.ndarray) -> None:
-        """Remember the rows where ``rows`` (any shape starting with rows or 1) is true."""
-        rows = self.any_per_row(rows)
-        if rows.any():
-            self.bad = rows if self.bad is None else self.bad | rows
-
-    def any_per_row(self, cells: Any) -> np.ndarray:
-        """Per row: whether ``cells`` (a bool, or an array of rows or 1 × axes) holds in any
-        of the row's cells."""
-        cells = np.asarray(cells)
-        if cells.ndim == 0:
-            return np.full(self.cols.n, bool(cells))
-        cells = np.broadcast_to(cells, (self.cols.n,) + cells.shape[1:])
-        return cells.reshape(self.cols.n, -1).any(axis=1)
-
-    @contextmanager
-    def only_where(self, cells: Any) -> Iterator[None]:
-        """Inside: what is marked counts only in the rows where ``cells`` holds somewhere (the
-        part of a formula evaluated there)."""
-        outer, self.bad = self.bad, None
-        try:
-            yield
-        finally:
-            self.bad = _union(outer, None if self.bad is None
-                              else self.bad & self.any_per_row(cells))
+__all__ = ["evaluate_batch", "BatchFormula"]
 
 
 class _VecCompiler:
@@ -203,18 +44,18 @@ class _VecCompiler:
         self.axes: list[str] = []  # bound element variables: axis 1, then axis 2
         self.hidden: set[str] = set()  # bound outside the comprehension being compiled
         self.lets: list[str] = []  # LET variables in scope
-        self.free: dict = {}  # free names by node, see A.free_names
+        self.free: dict = {}  # free names by node, see ast.free_names
 
-    def compile(self, node: A.Node) -> Callable[[_Ctx], Vec]:
+    def compile(self, node: ast.Node) -> Callable[[BatchContext], VectorValue]:
         method = getattr(self, "v_" + type(node).__name__, None)
         if method is None:
-            raise _NotVectorizable(type(node).__name__)
+            raise NotVectorizable(type(node).__name__)
         fn = method(node)
-        if isinstance(node, _SHARED) and not (A.free_names(node, self.free) & set(self.lets)):
-            return _shared(fn, _intern((node, tuple(self.axes), tuple(sorted(self.hidden)))))
+        if isinstance(node, _SHARED) and not (ast.free_names(node, self.free) & set(self.lets)):
+            return shared(fn, intern_key((node, tuple(self.axes), tuple(sorted(self.hidden)))))
         return fn
 
-    def constant(self, value: Any) -> Vec:
+    def constant(self, value: Any) -> VectorValue:
         if type(value) is bool:
             return ("bool", value)
         if type(value) in (int, float):
@@ -227,9 +68,9 @@ class _VecCompiler:
             for e in value:
                 mask[0, self.index[e]] = True
             return ("set", mask)
-        raise _NotVectorizable(repr(value))
+        raise NotVectorizable(repr(value))
 
-    def v_Name(self, node: A.Name) -> Callable:
+    def v_Name(self, node: ast.Name) -> Callable:
         name = node.id
         if name in self.axes:
             depth = self.axes.index(name)
@@ -237,7 +78,7 @@ class _VecCompiler:
         if name in self.lets:
             return lambda ctx: ctx.lets[name]
         if name in self.hidden:
-            raise _NotVectorizable(f"{name} from an enclosing scope")
+            raise NotVectorizable(f"{name} from an enclosing scope")
         kind = self.kinds.get(name)
         if kind == "num":
             return lambda ctx: ("num", ctx.cols.numbers[name][:, None, None])
@@ -252,7 +93,7 @@ class _VecCompiler:
             return lambda ctx: vec
         if name in _TYPE_SETS:
             return lambda ctx: ("type", name)
-        raise _NotVectorizable(name)
+        raise NotVectorizable(name)
 
     def v_IntLit(self, node) -> Callable:
         vec = self.constant(node.value)
@@ -260,10 +101,10 @@ class _VecCompiler:
 
     v_RealLit = v_BoolLit = v_IntLit
 
-    def v_SetExt(self, node: A.SetExt) -> Callable:
+    def v_SetExt(self, node: ast.SetExt) -> Callable:
         items = [self.compile(i) for i in node.items]
 
-        def set_ext(ctx: _Ctx) -> Vec:
+        def set_ext(ctx: BatchContext) -> VectorValue:
             values = [f(ctx) for f in items]
             if values and all(tag == "num" for tag, _ in values):
                 columns = [self._row_values(ctx, v) for _, v in values]
@@ -273,12 +114,12 @@ class _VecCompiler:
             mask = np.zeros((1, self.k), dtype=bool)
             for tag, idx in values:
                 if tag != "elem" or not isinstance(idx, int):
-                    raise _NotVectorizable("set of non-constant elements")
+                    raise NotVectorizable("set of non-constant elements")
                 mask[0, idx] = True
             return ("set", mask)
         return set_ext
 
-    def _row_values(self, ctx: _Ctx, value: Any) -> np.ndarray:
+    def _row_values(self, ctx: BatchContext, value: Any) -> np.ndarray:
         """A number per row (or one for all rows) as a 1-d array; one that varies along a
         quantifier's axis is not a row's number."""
         value = np.asarray(value)
@@ -286,18 +127,18 @@ class _VecCompiler:
             return value.reshape(1)
         if value.ndim == 3 and value.shape[1:] == (1, 1):
             return value[:, 0, 0]
-        raise _NotVectorizable("a set of numbers that varies with a bound element")
+        raise NotVectorizable("a set of numbers that varies with a bound element")
 
-    def v_Comprehension(self, node: A.Comprehension) -> Callable:
+    def v_Comprehension(self, node: ast.Comprehension) -> Callable:
         """``{v | v : S & P}`` as a mask over the elements, ``{v . v : S & P | E}`` as the
         numbers E where P holds. Only comprehensions that use no variable bound around them
         (a set per row); the element variable gets its own axis."""
         if len(node.ids) != 1:
-            raise _NotVectorizable("comprehension shape")
+            raise NotVectorizable("comprehension shape")
         (var,) = node.ids
         gen = _generator(node.pred, var)
         if gen is None:
-            raise _NotVectorizable("no domain")
+            raise NotVectorizable("no domain")
         saved = (self.axes, self.hidden, self.lets)
         self.hidden = set(self.axes) | set(self.lets) | self.hidden
         self.axes, self.lets = [], []
@@ -309,47 +150,47 @@ class _VecCompiler:
         finally:
             self.axes, self.hidden, self.lets = saved
 
-        def comprehension(ctx: _Ctx) -> Vec:
+        def comprehension(ctx: BatchContext) -> VectorValue:
             tag, mask = dom(ctx)
             if tag != "set" or np.ndim(mask) != 2:
-                raise _NotVectorizable("domain")
-            holds = np.broadcast_to(np.asarray(_bool(pred(ctx))), (ctx.cols.n, self.k, 1))
+                raise NotVectorizable("domain")
+            holds = np.broadcast_to(np.asarray(bool_of(pred(ctx))), (ctx.cols.n, self.k, 1))
             member = np.broadcast_to(mask, (ctx.cols.n, self.k)) & holds[:, :, 0]
             if expr is None:
                 return ("set", member)
             with ctx.only_where(member[:, :, None]):
-                values = np.asarray(_num(expr(ctx)))
+                values = np.asarray(num_of(expr(ctx)))
             return ("nums", (np.broadcast_to(values, (ctx.cols.n, self.k, 1))[:, :, 0],
                              member))
         return comprehension
 
-    def v_Image(self, node: A.Image) -> Callable:
+    def v_Image(self, node: ast.Image) -> Callable:
         """``F[S]`` of a function over the elements: its values at the members of S."""
         rel, arg = self.compile(node.rel), self.compile(node.arg)
 
-        def image(ctx: _Ctx) -> Vec:
+        def image(ctx: BatchContext) -> VectorValue:
             f, s = rel(ctx), arg(ctx)
             if f[0] != "func" or s[0] != "set" or np.ndim(s[1]) != 2:
-                raise _NotVectorizable("image")
+                raise NotVectorizable("image")
             values, defined = f[1]
             return ("nums", (values, defined & s[1]))
         return image
 
-    def v_Let(self, node: A.Let) -> Callable:
+    def v_Let(self, node: ast.Let) -> Callable:
         """``LET x BE x = E IN B END``: the equations in the order they use each other."""
-        eqs: dict[str, A.Node] = {}
+        eqs: dict[str, ast.Node] = {}
         for conj in conjuncts(node.pred):
-            if (isinstance(conj, A.Rel) and conj.op == "=" and isinstance(conj.left, A.Name)
+            if (isinstance(conj, ast.Rel) and conj.op == "=" and isinstance(conj.left, ast.Name)
                     and conj.left.id in node.ids and conj.left.id not in eqs):
                 eqs[conj.left.id] = conj.right
             else:
-                raise _NotVectorizable("LET condition")
+                raise NotVectorizable("LET condition")
         ordered: list[str] = []
         while len(ordered) < len(node.ids):
             ready = [i for i in node.ids if i not in ordered and i in eqs
-                     and not (A.free_names(eqs[i]) & (set(node.ids) - set(ordered)))]
+                     and not (ast.free_names(eqs[i]) & (set(node.ids) - set(ordered)))]
             if not ready:
-                raise _NotVectorizable("LET order")
+                raise NotVectorizable("LET order")
             ordered.extend(ready)
         steps = []
         saved = list(self.lets)
@@ -361,7 +202,7 @@ class _VecCompiler:
         finally:
             self.lets = saved
 
-        def let(ctx: _Ctx) -> Vec:
+        def let(ctx: BatchContext) -> VectorValue:
             outer = dict(ctx.lets)
             try:
                 for name, fn in steps:
@@ -371,26 +212,26 @@ class _VecCompiler:
                 ctx.lets = outer
         return let
 
-    def v_Neg(self, node: A.Neg) -> Callable:
+    def v_Neg(self, node: ast.Neg) -> Callable:
         f = self.compile(node.operand)
-        return lambda ctx: ("num", -_num(f(ctx)))
+        return lambda ctx: ("num", -num_of(f(ctx)))
 
-    def v_BinOp(self, node: A.BinOp) -> Callable:
+    def v_BinOp(self, node: ast.BinOp) -> Callable:
         l, r = self.compile(node.left), self.compile(node.right)
         op = node.op
         if op in ("-->", "+->"):
             return lambda ctx: ("space", (op, l(ctx), r(ctx)))
         if op in ("+", "*", "**"):
             fn = {"+": np.add, "*": np.multiply, "**": np.power}[op]
-            return lambda ctx: ("num", _arith(ctx, fn, op, _num(l(ctx)), _num(r(ctx))))
+            return lambda ctx: ("num", arith(ctx, fn, op, num_of(l(ctx)), num_of(r(ctx))))
         if op == "/":
-            def div(ctx: _Ctx) -> Vec:
-                a, b = _num(l(ctx)), _num(r(ctx))
+            def div(ctx: BatchContext) -> VectorValue:
+                a, b = num_of(l(ctx)), num_of(r(ctx))
                 zero = np.asarray(b) == 0
                 if np.any(zero):
                     ctx.mark(np.broadcast_to(zero, np.broadcast(a, b).shape)
                              if np.ndim(zero) else np.ones(ctx.cols.n, dtype=bool))
-                if _is_int(a) and _is_int(b):
+                if is_int_array(a) and is_int_array(b):
                     with np.errstate(divide="ignore", invalid="ignore"):
                         safe = np.where(zero, 1, b)
                         q = np.abs(a) // np.abs(safe)
@@ -398,11 +239,11 @@ class _VecCompiler:
                                                 q, -q))
                 with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
                     q = np.true_divide(a, b)
-                _mark_nonfinite(ctx, q)
+                mark_nonfinite(ctx, q)
                 return ("num", q)
             return div
         if op in ("-", "\\", "\\/", "/\\"):
-            def setop(ctx: _Ctx) -> Vec:
+            def setop(ctx: BatchContext) -> VectorValue:
                 a, b = l(ctx), r(ctx)
                 if a[0] == "set" and b[0] == "set":
                     x, y = a[1], b[1]
@@ -410,31 +251,31 @@ class _VecCompiler:
                         return ("set", x & ~y)
                     return ("set", (x | y) if op == "\\/" else (x & y))
                 if a[0] == "nums" and b[0] == "nums" and op == "\\/":
-                    return ("nums", _concat(ctx, a[1], b[1]))
+                    return ("nums", concat_numbers(ctx, a[1], b[1]))
                 if op == "-":
-                    return ("num", _arith(ctx, np.subtract, op, _num(a), _num(b)))
-                raise _NotVectorizable(op)
+                    return ("num", arith(ctx, np.subtract, op, num_of(a), num_of(b)))
+                raise NotVectorizable(op)
             return setop
-        raise _NotVectorizable(op)
+        raise NotVectorizable(op)
 
-    def v_Rel(self, node: A.Rel) -> Callable:
+    def v_Rel(self, node: ast.Rel) -> Callable:
         l, r = self.compile(node.left), self.compile(node.right)
         op = node.op
         if op in ("<", "<=", ">", ">="):
             fn = {"<": np.less, "<=": np.less_equal, ">": np.greater,
                   ">=": np.greater_equal}[op]
-            return lambda ctx: ("bool", fn(_num(l(ctx)), _num(r(ctx))))
+            return lambda ctx: ("bool", fn(num_of(l(ctx)), num_of(r(ctx))))
         if op in ("=", "/="):
-            def eq(ctx: _Ctx) -> Vec:
+            def eq(ctx: BatchContext) -> VectorValue:
                 a, b = l(ctx), r(ctx)
                 if a[0] != b[0] or a[0] not in ("num", "bool", "elem", "set", "func"):
-                    raise _NotVectorizable("=")
+                    raise NotVectorizable("=")
                 if a[0] == "set":
-                    res = _per_row(np.all(a[1] == b[1], axis=-1))
+                    res = per_row(np.all(a[1] == b[1], axis=-1))
                 elif a[0] == "func":
                     (va, da), (vb, db) = a[1], b[1]
                     same = (da == db) & ((va == vb) | ~da)
-                    res = _per_row(np.all(same, axis=-1))
+                    res = per_row(np.all(same, axis=-1))
                 elif a[0] == "elem":
                     res = np.equal(self.elem_index(a[1]), self.elem_index(b[1]))
                 else:
@@ -442,23 +283,23 @@ class _VecCompiler:
                 return ("bool", res if op == "=" else ~np.asarray(res))
             return eq
         if op in (":", "/:"):
-            def member(ctx: _Ctx) -> Vec:
+            def member(ctx: BatchContext) -> VectorValue:
                 a, s = l(ctx), r(ctx)
                 if a[0] == "elem" and s[0] == "set":
                     res = self.pick(s[1], a[1])
                 else:
-                    res = _typed_member(a, s, ctx.cols.n)
+                    res = typed_member(a, s, ctx.cols.n)
                 return ("bool", res if op == ":" else ~res)
             return member
         if op in ("<:", "/<:"):
-            def subset(ctx: _Ctx) -> Vec:
+            def subset(ctx: BatchContext) -> VectorValue:
                 a, b = l(ctx), r(ctx)
                 if a[0] != "set" or b[0] != "set":
-                    raise _NotVectorizable("<:")
-                res = _per_row(np.all(~a[1] | b[1], axis=-1))
+                    raise NotVectorizable("<:")
+                res = per_row(np.all(~a[1] | b[1], axis=-1))
                 return ("bool", res if op == "<:" else ~res)
             return subset
-        raise _NotVectorizable(op)
+        raise NotVectorizable(op)
 
     def _logic(self, node, fn, needs: Optional[bool] = None) -> Callable:
         """``fn(left, right)``; with ``needs``, the right side is evaluated (on the scalar
@@ -466,12 +307,12 @@ class _VecCompiler:
         in those rows, as ``&``, ``or`` and ``=>`` short-circuit."""
         l, r = self.compile(node.left), self.compile(node.right)
         if needs is None:
-            return lambda ctx: ("bool", fn(_bool(l(ctx)), _bool(r(ctx))))
+            return lambda ctx: ("bool", fn(bool_of(l(ctx)), bool_of(r(ctx))))
 
-        def logic(ctx: _Ctx) -> Vec:
-            a = np.asarray(_bool(l(ctx)))
+        def logic(ctx: BatchContext) -> VectorValue:
+            a = np.asarray(bool_of(l(ctx)))
             with ctx.only_where(a if needs else ~a):
-                b = _bool(r(ctx))
+                b = bool_of(r(ctx))
             return ("bool", fn(a, b))
         return logic
 
@@ -487,18 +328,18 @@ class _VecCompiler:
     def v_Equiv(self, node) -> Callable:
         return self._logic(node, np.equal)
 
-    def v_Not(self, node: A.Not) -> Callable:
+    def v_Not(self, node: ast.Not) -> Callable:
         f = self.compile(node.operand)
-        return lambda ctx: ("bool", np.logical_not(_bool(f(ctx))))
+        return lambda ctx: ("bool", np.logical_not(bool_of(f(ctx))))
 
-    def v_Quant(self, node: A.Quant) -> Callable:
+    def v_Quant(self, node: ast.Quant) -> Callable:
         if len(node.ids) != 1 or len(self.axes) >= 2:
-            raise _NotVectorizable("quantifier shape")
+            raise NotVectorizable("quantifier shape")
         (var,) = node.ids
         body = node.body
-        gen = _generator(body.left if isinstance(body, A.Implies) else body, var)
+        gen = _generator(body.left if isinstance(body, ast.Implies) else body, var)
         if gen is None:
-            raise _NotVectorizable("no domain")
+            raise NotVectorizable("no domain")
         dom = self.compile(gen.right)
         depth = len(self.axes)
         self.axes.append(var)
@@ -509,12 +350,12 @@ class _VecCompiler:
         forall = node.op == "!"
         axis = 1 + depth
 
-        def quant(ctx: _Ctx) -> Vec:
+        def quant(ctx: BatchContext) -> VectorValue:
             tag, mask = dom(ctx)
             if tag != "set" or np.ndim(mask) != 2:
-                raise _NotVectorizable("domain")
+                raise NotVectorizable("domain")
             mask = mask[:, :, None] if depth == 0 else mask[:, None, :]
-            value = _bool(f(ctx))
+            value = bool_of(f(ctx))
             if forall:
                 return ("bool", np.all(value | ~mask, axis=axis, keepdims=True))
             return ("bool", np.any(value & mask, axis=axis, keepdims=True))
@@ -534,15 +375,15 @@ class _VecCompiler:
             return table[:, :, None] if elem[1] == 0 else table[:, None, :]
         return table[:, elem][:, None, None]
 
-    def v_Apply(self, node: A.Apply) -> Callable:
+    def v_Apply(self, node: ast.Apply) -> Callable:
         if len(node.args) != 1:
-            raise _NotVectorizable("arity")
+            raise NotVectorizable("arity")
         fn, arg = self.compile(node.fn), self.compile(node.args[0])
 
-        def apply(ctx: _Ctx) -> Vec:
+        def apply(ctx: BatchContext) -> VectorValue:
             f, x = fn(ctx), arg(ctx)
             if f[0] != "func" or x[0] != "elem":
-                raise _NotVectorizable("apply")
+                raise NotVectorizable("apply")
             vals, defined = f[1]
             vals, defined = self.pick(vals, x[1]), self.pick(defined, x[1])
             if not defined.all():
@@ -550,28 +391,28 @@ class _VecCompiler:
             return ("num", vals)
         return apply
 
-    def v_Call(self, node: A.Call) -> Callable:
+    def v_Call(self, node: ast.Call) -> Callable:
         arg = self.compile(node.args[0])
         name = node.name
         if name == "dom":
-            def dom(ctx: _Ctx) -> Vec:
+            def dom(ctx: BatchContext) -> VectorValue:
                 f = arg(ctx)
                 if f[0] != "func":
-                    raise _NotVectorizable("dom")
+                    raise NotVectorizable("dom")
                 return ("set", f[1][1])
             return dom
         if name == "card":
-            def card(ctx: _Ctx) -> Vec:
+            def card(ctx: BatchContext) -> VectorValue:
                 s = arg(ctx)
                 if s[0] != "set":
-                    raise _NotVectorizable("card")
-                return ("num", _per_row(np.broadcast_to(s[1], (ctx.cols.n, self.k)).sum(axis=1)))
+                    raise NotVectorizable("card")
+                return ("num", per_row(np.broadcast_to(s[1], (ctx.cols.n, self.k)).sum(axis=1)))
             return card
         if name in ("min", "max"):
-            def extreme(ctx: _Ctx) -> Vec:
+            def extreme(ctx: BatchContext) -> VectorValue:
                 tag, payload = arg(ctx)
                 if tag != "nums":
-                    raise _NotVectorizable(name)
+                    raise NotVectorizable(name)
                 values, member = payload
                 values, member = np.broadcast_arrays(values, member)
                 empty = ~member.any(axis=1)
@@ -583,15 +424,15 @@ class _VecCompiler:
                 result = masked.min(axis=1) if name == "min" else masked.max(axis=1)
                 if values.dtype.kind in "iu":
                     result = np.where(empty, 0, result).astype(values.dtype)
-                return ("num", _per_row(result))
+                return ("num", per_row(result))
             return extreme
         if name == "bool":
-            return lambda ctx: ("bool", _bool(arg(ctx)))
+            return lambda ctx: ("bool", bool_of(arg(ctx)))
         if name == "POW":
             return lambda ctx: ("pow", arg(ctx))
         if name == "RSQRT":
-            def sqrt(ctx: _Ctx) -> Vec:
-                x = _num(arg(ctx))
+            def sqrt(ctx: BatchContext) -> VectorValue:
+                x = num_of(arg(ctx))
                 neg = np.asarray(x) < 0
                 if np.any(neg):
                     ctx.mark(neg if np.ndim(neg) else np.ones(ctx.cols.n, dtype=bool))
@@ -600,25 +441,25 @@ class _VecCompiler:
             return sqrt
         if name in ("floor", "ceiling"):
             fn = np.floor if name == "floor" else np.ceil
-            return lambda ctx: ("num", _integral(ctx, fn, _num(arg(ctx))))
+            return lambda ctx: ("num", integral(ctx, fn, num_of(arg(ctx))))
         simple = {"RABS": np.abs, "abs": np.abs, "real": lambda x: np.asarray(x, float)}
         if name in simple:
             f = simple[name]
-            return lambda ctx: ("num", f(_num(arg(ctx))))
-        raise _NotVectorizable(name)
+            return lambda ctx: ("num", f(num_of(arg(ctx))))
+        raise NotVectorizable(name)
 
-    def v_IfExpr(self, node: A.IfExpr) -> Callable:
+    def v_IfExpr(self, node: ast.IfExpr) -> Callable:
         branches = [(self.compile(c), self.compile(v)) for c, v in node.branches]
         other = self.compile(node.else_)
 
-        def if_expr(ctx: _Ctx) -> Vec:
+        def if_expr(ctx: BatchContext) -> VectorValue:
             # every branch is computed for every row, but a branch's ill-defined values
             # only matter in the rows that take it (IF guards its branches)
             conds = []
             rest = np.ones(1, dtype=bool)
             for cond, _ in branches:  # a condition is evaluated where no earlier one held
                 with ctx.only_where(rest):
-                    conds.append(np.asarray(_bool(cond(ctx))))
+                    conds.append(np.asarray(bool_of(cond(ctx))))
                 rest = rest & ~conds[-1]
             taken = []
             rest = np.ones(1, dtype=bool)
@@ -631,7 +472,7 @@ class _VecCompiler:
                     values.append(value(ctx))
             tag = values[-1][0]
             if tag not in ("num", "bool") or any(v[0] != tag for v in values):
-                raise _NotVectorizable("IF")
+                raise NotVectorizable("IF")
             result = values[-1][1]
             for c, (_, v) in zip(reversed(conds), reversed(values[:-1])):
                 result = np.where(c, v, result)
@@ -644,162 +485,26 @@ _TYPE_SETS = {"REAL", "FLOAT", "BOOL", "INTEGER"}
 
 # Sub-formulas worth computing once per batch: a shield's definitions are expanded at every
 # use, so `min(VehiclesX[NextVehiclesInLane(LeftLane)])` occurs in several guards.
-_SHARED = (A.Comprehension, A.Image, A.Call, A.IfExpr, A.Quant, A.Let)
-_INTERNED: dict[tuple, int] = {}
+_SHARED = (ast.Comprehension, ast.Image, ast.Call, ast.IfExpr, ast.Quant, ast.Let)
 
 
-def _intern(key: tuple) -> int:
-    """A number for a sub-formula in its scope (equal formulas, equal numbers)."""
-    return _INTERNED.setdefault(key, len(_INTERNED))
-
-
-def _shared(fn: Callable[[_Ctx], Vec], key: int) -> Callable[[_Ctx], Vec]:
-    """``fn`` computed once per batch (per :attr:`_Ctx.memo`); what it marked ill-defined
-    is marked again wherever its value is used."""
-    def shared(ctx: _Ctx) -> Vec:
-        hit = ctx.memo.get(key)
-        if hit is None:
-            outer, ctx.bad = ctx.bad, None
-            try:
-                value = fn(ctx)
-            finally:
-                produced, ctx.bad = ctx.bad, _union(outer, ctx.bad)
-            ctx.memo[key] = (value, produced)
-            return value
-        value, produced = hit
-        ctx.bad = _union(ctx.bad, produced)
-        return value
-    return shared
-
-
-def _union(a: Optional[np.ndarray], b: Optional[np.ndarray]) -> Optional[np.ndarray]:
-    """Rows marked in ``a`` or ``b`` (None: none)."""
-    if a is None:
-        return b
-    return a if b is None else a | b
-
-
-def _generator(pred: A.Node, var: str) -> Optional[A.Rel]:
+def _generator(pred: ast.Node, var: str) -> Optional[ast.Rel]:
     """The conjunct ``var : S`` of ``pred`` that gives ``var`` its values."""
-    return next((c for c in conjuncts(pred) if isinstance(c, A.Rel) and c.op == ":"
-                 and isinstance(c.left, A.Name) and c.left.id == var
-                 and var not in A.free_names(c.right)), None)
-
-
-def _concat(ctx: _Ctx, a: tuple, b: tuple) -> tuple:
-    """The union of two sets of numbers (as values and members side by side)."""
-    (va, ma), (vb, mb) = a, b
-    rows = max(len(va), len(vb), len(ma), len(mb))
-    stretch = lambda x: np.broadcast_to(x, (rows, x.shape[1]))  # noqa: E731
-    return (np.concatenate([stretch(va), stretch(vb)], axis=1),
-            np.concatenate([stretch(ma), stretch(mb)], axis=1))
-
-
-def _typed_member(a: Vec, s: Vec, n: int) -> np.ndarray:
-    """Typing predicates over whole columns: ``f : S --> REAL``, ``P : POW(S)``, ``x : REAL``."""
-    yes = np.ones((n, 1, 1), dtype=bool)
-    if s[0] == "type":
-        name = s[1]
-        if a[0] == "bool" and name == "BOOL":
-            return yes
-        if a[0] == "num" and name in ("REAL", "FLOAT") and np.asarray(a[1]).dtype.kind == "f":
-            return yes
-        if a[0] == "num" and name == "INTEGER" and np.asarray(a[1]).dtype.kind in "iu":
-            return yes
-        raise _NotVectorizable("typing")
-    if s[0] == "pow" and a[0] == "set" and s[1][0] == "set":
-        return _per_row(np.all(~a[1] | s[1][1], axis=-1))
-    if s[0] == "space" and a[0] == "func":
-        op, dom, ran = s[1]
-        vals, defined = a[1]
-        if dom[0] != "set" or ran != ("type", "REAL") or vals.dtype.kind != "f":
-            raise _NotVectorizable("function space")
-        if op == "-->":
-            return _per_row(np.all(defined == dom[1], axis=-1))
-        return _per_row(np.all(~defined | dom[1], axis=-1))
-    raise _NotVectorizable("membership")
-
-
-def _arith(ctx: _Ctx, fn, op: str, a: Any, b: Any) -> Any:
-    """``fn(a, b)`` where numpy gives the exact B result; the other rows are marked for the
-    scalar path (which computes them exactly or reports them): integer results beyond 2^62
-    (numpy would wrap around), integer powers, and reals that overflow to inf or NaN."""
-    if _is_int(a) and _is_int(b):
-        if op == "**":
-            raise _NotVectorizable("integer power")
-        with np.errstate(over="ignore", invalid="ignore"):
-            approx = fn(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
-        big = ~(np.abs(approx) < 2.0 ** 62)
-        if np.any(big):
-            ctx.mark(np.broadcast_to(big, np.broadcast(approx).shape) if np.ndim(big)
-                     else np.ones(ctx.cols.n, dtype=bool))
-            a = np.where(big, 0, a) if np.ndim(big) else 0
-        return fn(a, b)
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        value = fn(a, b)
-    _mark_nonfinite(ctx, value)
-    return value
-
-
-def _integral(ctx: _Ctx, fn, x: Any) -> Any:
-    """B's floor and ceiling are INTEGERs, exact: int64 where the result is within 2^62, the
-    other rows (and infinities) marked for the scalar path, which gives the exact integer."""
-    if _is_int(x):
-        return x
-    with np.errstate(invalid="ignore"):
-        y = fn(np.asarray(x, dtype=float))
-        big = ~(np.abs(y) < 2.0 ** 62)
-    if np.any(big):
-        ctx.mark(big if np.ndim(big) else np.ones(ctx.cols.n, dtype=bool))
-        y = np.where(big, 0.0, y)
-    return y.astype(np.int64)
-
-
-def _mark_nonfinite(ctx: _Ctx, value: Any) -> None:
-    bad = ~np.isfinite(value)
-    if np.any(bad):
-        ctx.mark(bad if np.ndim(bad) else np.ones(ctx.cols.n, dtype=bool))
-
-
-def _per_row(values: np.ndarray) -> np.ndarray:
-    """One value per row, shaped to broadcast against (rows, axis 1, axis 2)."""
-    return np.asarray(values).reshape(-1, 1, 1)
-
-
-def _num(v: Vec) -> Any:
-    if v[0] != "num":
-        raise _NotVectorizable(f"number expected, got {v[0]}")
-    return v[1]
-
-
-def _bool(v: Vec) -> Any:
-    if v[0] != "bool":
-        raise _NotVectorizable(f"boolean expected, got {v[0]}")
-    return v[1]
-
-
-def _is_int(x: Any) -> bool:
-    return np.issubdtype(np.asarray(x).dtype, np.integer)
-
-
-def _fits(out: np.ndarray, value: Any) -> bool:
-    """Whether ``out`` holds ``value`` exactly (a Python integer beyond its dtype does not)."""
-    if not isinstance(value, int) or isinstance(value, bool):
-        return True
-    if out.dtype.kind in "iu":
-        return bool(np.iinfo(out.dtype).min <= value <= np.iinfo(out.dtype).max)
-    return out.dtype.kind not in "f" or abs(value) <= 2 ** 53
+    return next((c for c in conjuncts(pred) if isinstance(c, ast.Rel) and c.op == ":"
+                 and isinstance(c.left, ast.Name) and c.left.id == var
+                 and var not in ast.free_names(c.right)), None)
 
 
 class BatchFormula:
     """A formula prepared for batch evaluation over :class:`Columns`."""
 
-    def __init__(self, node: A.Node, constants: Mapping[str, Any], *,
+    def __init__(self, node: ast.Node, constants: Mapping[str, Any], *,
                  source: Optional[str] = None, file: Optional[str] = None) -> None:
         self.node = node
         self.constants = dict(constants)
         self.scalar = Compiler(source=source, file=file).compile(node)
         self._plans: dict[tuple, Optional[Callable]] = {}
+        self._deep = ast.depth(node) > DEEP  # compiled and run with the raised recursion limit
 
     def _plan(self, cols: Columns) -> Optional[Callable]:
         kinds = {**{n: "num" for n in cols.numbers}, **{n: "bool" for n in cols.booleans},
@@ -809,7 +514,7 @@ class BatchFormula:
             try:
                 self._plans[key] = _VecCompiler(self.constants, cols.elements,
                                                 kinds).compile(self.node)
-            except _NotVectorizable:
+            except NotVectorizable:
                 self._plans[key] = None
         return self._plans[key]
 
@@ -817,14 +522,20 @@ class BatchFormula:
         """The value in each row: a bool array for a predicate, a float array for a number
         (``memo``: shared by formulas over the same columns and constants, so that what
         they have in common is computed once)."""
+        if self._deep:
+            with deep_recursion():
+                return self._evaluate(cols, memo)
+        return self._evaluate(cols, memo)
+
+    def _evaluate(self, cols: Columns, memo: Optional[dict]) -> np.ndarray:
         plan = self._plan(cols)
         if plan is not None:
-            ctx = _Ctx(cols)
+            ctx = BatchContext(cols)
             if memo is not None:
                 ctx.memo = memo
             try:
                 tag, value = plan(ctx)
-            except _NotVectorizable:
+            except NotVectorizable:
                 plan = None
             else:
                 if tag in ("num", "bool"):
@@ -834,7 +545,7 @@ class BatchFormula:
                     out = np.array(np.broadcast_to(value, (cols.n, 1, 1))[:, 0, 0])
                     bad = np.flatnonzero(ctx.bad) if ctx.bad is not None else ()
                     fixed = {int(i): self._row(cols, int(i)) for i in bad}
-                    if not all(_fits(out, v) for v in fixed.values()):
+                    if not all(fits(out, v) for v in fixed.values()):
                         out = out.astype(object)  # exact integers, as the scalar path has them
                     for i, v in fixed.items():
                         out[i] = v
@@ -862,33 +573,7 @@ class BatchFormula:
             raise
 
 
-def evaluate_batch(node: A.Node, cols: Columns, constants: Mapping[str, Any] = {},
+def evaluate_batch(node: ast.Node, cols: Columns, constants: Mapping[str, Any] = {},
                    *, source: Optional[str] = None) -> np.ndarray:
     """Evaluate ``node`` in every row of ``cols`` (see the module docstring)."""
     return BatchFormula(node, constants, source=source)(cols)
-
-
-def float_column(values, cols: Columns, source: str) -> np.ndarray:
-    """``values`` (a number per row of ``cols``, as :class:`BatchFormula` gives them: B
-    integers exact, in an object array where they do not fit 64 bits) as floats, for
-    statistics and robustness; an :class:`EvaluationError` naming the row (episode, step)
-    and ``source`` where an integer is too large for a float — never infinity.
-
-    >>> float_column(np.array([2 ** 70], dtype=object), Columns(1, ()), "`2 ** 70`")
-    array([1.18059162e+21])
-    """
-    v = np.asarray(values)
-    if v.dtype != object:
-        return v.astype(float)
-    out = np.empty(len(v))
-    for i, x in enumerate(v.tolist()):
-        try:
-            out[i] = float(x)
-        except OverflowError:
-            where = cols.label(i) if cols.label is not None else f"state {i}"
-            digits = int(math.log10(abs(x))) + 1
-            raise EvaluationError(f"{where}: the value of {source}, an integer of about "
-                                  f"{digits:,} digits, does not fit a float (at most about "
-                                  "1.8e308): statistics and robustness are computed in floats",
-                                  hint="scale the expression down") from None
-    return out

@@ -18,7 +18,7 @@ class _Flagged:
     type-checked and evaluated through it; everything else is the machine's)."""
 
     def __init__(self, machine) -> None:
-        from ..b.typecheck import BOOL
+        from ..b.btypes import BOOL
 
         self._machine = machine
         self.type_objects = {**machine.type_objects, CRASH_FLAG: BOOL}

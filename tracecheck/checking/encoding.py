@@ -15,7 +15,7 @@ from fractions import Fraction
 from typing import Any
 
 from ..b import ast
-from ..b.typecheck import BOOL, INTEGER, REAL, Base, Pow, Prod, resolve_all
+from ..b.btypes import BOOL, INTEGER, REAL, Base, Pow, Prod, resolve_all
 from ..b.values import FuncValue
 from ..errors import InputError, UnsupportedError
 

@@ -36,6 +36,7 @@ from typing import Optional
 import numpy as np
 
 from ..b import ast
+from ..b.columns import step_pairs
 from ..errors import BSyntaxError, InputError, TracecheckError
 
 __all__ = ["parse_ltl", "Formula", "evaluate_ltl", "reference_ltl", "assertions",
@@ -342,9 +343,7 @@ def _eval(f: Formula, ev, rows: _Rows, cols, machine, ops) -> np.ndarray:
         out = np.ones(n, dtype=bool)  # no step leaves the last state
         steps = idx[has_next] + 1
         if len(steps):
-            from .replay import _pairs
-
-            out[has_next] = np.asarray(machine.batch(f.node)(_pairs(cols.states, steps)),
+            out[has_next] = np.asarray(machine.batch(f.node)(step_pairs(cols.states, steps)),
                                        dtype=bool)
         return out
     if op == "next_op":

@@ -17,7 +17,7 @@ from typing import Callable, Iterable, Optional, Sequence
 import numpy as np
 
 from ..b import ast as A
-from ..b.vector import Columns
+from ..b.columns import step_pairs
 from ..episodes.columns import RunColumns, read_columns
 from ..errors import InputError
 from .executors import map_files
@@ -119,11 +119,8 @@ def enabled_matrix(shield: Shield, cols: RunColumns) -> tuple[np.ndarray, tuple[
 
 def _check_variables(shield: Shield, cols: RunColumns) -> None:
     have = cols.states.names() | set(shield.machine.base_env)
-    needed: set[str] = set()
     machine = shield.machine
-    for op in machine.operations.values():
-        if op.guard is not None:
-            needed |= A.free_names(op.guard)
+    needed = set().union(*machine.guard_variables().values())
     if machine.invariant_node is not None:
         needed |= A.free_names(machine.invariant_node)
     missing = sorted(n for n in needed if n not in have and n in machine.variables)
@@ -131,27 +128,6 @@ def _check_variables(shield: Shield, cols: RunColumns) -> None:
         raise InputError(f"{cols.path}: the states have no {', '.join(missing)}, which the "
                          f"shield {shield.name} reads (episode {int(cols.episode_ids[0])}, "
                          "step 0)")
-
-
-def _pairs(cols: Columns, rows: np.ndarray) -> Columns:
-    """Columns over step pairs: ``v`` the state at ``rows``, ``v$0`` the state before it."""
-    out = Columns(n=len(rows), elements=cols.elements)
-    before = rows - 1
-    for name, arr in cols.numbers.items():
-        out.numbers[name], out.numbers[name + "$0"] = arr[rows], arr[before]
-    for name, arr in cols.booleans.items():
-        out.booleans[name], out.booleans[name + "$0"] = arr[rows], arr[before]
-    for name, (vals, defined) in cols.functions.items():
-        out.functions[name] = (vals[rows], defined[rows])
-        out.functions[name + "$0"] = (vals[before], defined[before])
-    for name, mask in cols.masks.items():
-        out.masks[name], out.masks[name + "$0"] = mask[rows], mask[before]
-    for name, values in cols.others.items():
-        out.others[name] = [values[i] for i in rows]
-        out.others[name + "$0"] = [values[i] for i in before]
-    if cols.label is not None:
-        out.label = lambda i: f"{cols.label(int(rows[i]))} (and the state before)"
-    return out
 
 
 def _postconditions(shield: Shield, cols: RunColumns, rows: np.ndarray,
@@ -168,7 +144,7 @@ def _postconditions(shield: Shield, cols: RunColumns, rows: np.ndarray,
                 r = rows[i]
                 bad[i] = not machine.effect_ok(name, cols.states.row(r - 1), cols.states.row(r))
             continue
-        bad[which] = ~machine.postcondition_batch(name, _pairs(cols.states, rows[which]))
+        bad[which] = ~machine.postcondition_batch(name, step_pairs(cols.states, rows[which]))
     return bad
 
 

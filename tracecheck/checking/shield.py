@@ -125,12 +125,7 @@ def check_vocabulary(shield: Shield, adapter, env) -> None:
                          f"{', '.join(machine.variables)})",
                          hint=f"use a shield written for {adapter.name}, e.g. "
                               f"{adapter.default_shield or 'none'}")
-    from ..b import ast
-
-    for name, op in machine.operations.items():
-        if op.guard is None:
-            continue
-        read = (ast.free_names(op.guard) - set(op.params)) & set(machine.variables)
+    for name, read in machine.guard_variables().items():
         missing = sorted(read - given)
         if missing:
             raise InputError(f"the guard of {name} in {shield.name} reads {missing[0]}, which "

@@ -19,7 +19,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..b import ast
-from ..b.vector import float_column
+from ..b.arrays import float_column
 from ..errors import TracecheckError
 from .ltl import Formula, parse_syntax
 

@@ -292,7 +292,7 @@ def _check_counterexamples(folder: Optional[Path], inputs, force: bool) -> None:
 def _write_counterexamples(results, machine, folder: Path) -> dict[int, str]:
     """Each counterexample state as MACHINE-N-OBLIGATION.json (a safe name), written into a
     new folder that replaces ``folder`` once all are written; {result index: path}."""
-    from ..b.values import to_json
+    from ..b.notation import to_json
     from ..outputs import atomic_folder, inside, open_new, safe_name
     from ..render.jsontext import json_text
 

@@ -127,7 +127,8 @@ def eval_(
 ) -> None:
     """Evaluate predicates or expressions and print their values in B notation, one per line
     (the machine, the state and the grammar are loaded once for all of them)."""
-    from ..b.values import format_value, to_json
+    from ..b.notation import to_json
+    from ..b.values import format_value
     from ..errors import read_text
 
     formulas = [(e, "<expr>" if len(exprs or ()) == 1 and file is None else f"<expr {i + 1}>",

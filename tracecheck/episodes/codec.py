@@ -16,8 +16,9 @@ from typing import Any, Mapping, Optional, Sequence
 import numpy as np
 import orjson
 
-from ..b.values import Elem, FuncValue, format_value, from_json, parse_literal
-from ..b.vector import Columns
+from ..b.notation import from_json, parse_literal
+from ..b.values import Elem, FuncValue, format_value
+from ..b.columns import Columns
 from ..errors import InputError, TracecheckError
 
 __all__ = ["encode_state", "decode_state", "encode_columns", "decode_columns",

@@ -13,7 +13,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..b.vector import Columns
+from ..b.columns import Columns
 from ..b.values import Elem
 from ..errors import InputError
 from .codec import RUN_COLUMNS_MEDIA_TYPE, columns_from_arrays, decode_columns

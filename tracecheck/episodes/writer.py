@@ -18,7 +18,7 @@ from mcap.writer import CompressionType, Writer
 from pydantic import ValidationError
 
 from .. import __version__
-from ..b.vector import Columns
+from ..b.columns import Columns
 from ..errors import InputError, TracecheckError
 from . import schema as S
 from .codec import COLUMNS_MEDIA_TYPE, encode_columns, encode_state

@@ -6,7 +6,7 @@ import re
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Optional
 
-from ..b.values import parse_literal
+from ..b.notation import parse_literal
 from ..episodes.model import Episode, StepRecord, Vocabulary, make_end
 from ..errors import InputError, TracecheckError, read_json
 

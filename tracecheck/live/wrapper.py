@@ -25,7 +25,7 @@ from typing import Any, Optional, Sequence
 import gymnasium as gym
 import numpy as np
 
-from ..b.evaluate import MEMO_KEY
+from ..b.memo import MEMO_KEY
 from ..errors import InputError
 from ..checking.shield import Shield
 

@@ -7,7 +7,7 @@ from typing import Optional
 
 from rich.console import Console
 
-from ..b.values import to_json
+from ..b.notation import to_json
 from ..checking.prove import VACUOUS, Result
 from .tables import TableData
 

@@ -20,7 +20,8 @@ from typing import Optional
 import numpy as np
 
 from ..b.typecheck import typecheck_formula
-from ..b.vector import BatchFormula, float_column
+from ..b.arrays import float_column
+from ..b.vector import BatchFormula
 from ..episodes.columns import RunColumns, read_columns
 from ..errors import EvaluationError, InputError, TracecheckError
 from ..checking.crashflag import CRASH_FLAG, flagged, with_crash_flag
@@ -93,7 +94,8 @@ def _typing_scope(environment="highway", sample: Optional[dict] = None) -> _Scop
     """The names and constants properties are checked against: those of the environment's
     machine (the shield its adapter names), else the types of a sample state's values —
     and the recorded crash flag ``crashed``, unless they have a ``crashed`` of their own."""
-    from ..b.typecheck import BOOL, type_of_value
+    from ..b.btypes import BOOL
+    from ..b.typecheck import type_of_value
     from ..checking.shield import load_shield
 
     adapter = _installed_adapter(environment, required=False)

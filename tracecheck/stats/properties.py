@@ -45,7 +45,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional
 
-from ..b import ast as A
+from ..b import ast
 from ..b.parser import parse_formula
 from ..b.scope import EXPR, PRED, check_kind
 from ..checking.crashflag import CRASH_FLAG
@@ -74,7 +74,7 @@ class Metric:
     name: str
     aggregate: str
     expression: Optional[str] = None
-    node: Optional[A.Node] = None
+    node: Optional[ast.Node] = None
     description: str = ""
     estimate: Optional[tuple[float, float]] = None  # (value, epsilon)
 
@@ -83,7 +83,7 @@ class Metric:
 class Property:
     name: str
     predicate: str
-    node: Optional[A.Node]  # None for kinds "ltl", "stl" (see tracecheck.checking.ltl), "end"
+    node: Optional[ast.Node]  # None for kinds "ltl", "stl" (see tracecheck.checking.ltl), "end"
     kind: str = "invariant"
     description: str = ""
     test: Optional[HypothesisTest] = None
@@ -168,7 +168,7 @@ description = "Keep 2 m lateral and 10 m longitudinal safety distance to each ot
 """
 
 
-def _formula(text: object, kind: str, where: str, file: str) -> A.Node:
+def _formula(text: object, kind: str, where: str, file: str) -> ast.Node:
     if not isinstance(text, str):
         raise InputError(f"{file}: {where} must be a string with a B {kind}")
     try:

@@ -1,0 +1,173 @@
+"""Many B states held column by column: the :class:`Columns` container that episodes are
+read into and that batch evaluation (:mod:`.vector`) works on, and :func:`step_pairs`, the
+columns of consecutive states for formulas that read the state before a step (``x$0``).
+
+Numbers and booleans become 1-D arrays, functions from the elements of one set
+(``VehiclesX : Vehicles --> REAL``) ``(rows, elements)`` arrays with a mask of where they are
+defined, subsets of that set boolean masks; anything else stays a list of values. The
+elements are those the first state names (or given).
+
+>>> from tracecheck.b.values import Elem, FuncValue
+>>> a, b = Elem("a"), Elem("b")
+>>> cols = Columns.from_states([{"x": 1, "f": FuncValue({a: 1.5, b: 0.5})},
+...                             {"x": 2, "f": FuncValue({b: 3.0})}])
+>>> cols.n, cols.elements, cols.numbers["x"].tolist()
+(2, (Elem('a'), Elem('b')), [1, 2])
+>>> cols.functions["f"][1].tolist()  # where f is defined
+[[True, True], [False, True]]
+>>> cols.row(1) == {"x": 2, "f": FuncValue({b: 3.0})}
+True
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable, Mapping, Optional, Sequence
+
+import numpy as np
+
+from .values import Elem, FuncValue, sort_key
+
+__all__ = ["Columns", "step_pairs"]
+
+
+@dataclass
+class Columns:
+    """Many states, column by column (see the module docstring).
+
+    ``elements`` orders the elements of the one set that functions and masks range over.
+    """
+
+    n: int
+    elements: tuple[Elem, ...]
+    numbers: dict[str, np.ndarray] = field(default_factory=dict)
+    booleans: dict[str, np.ndarray] = field(default_factory=dict)
+    functions: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    masks: dict[str, np.ndarray] = field(default_factory=dict)
+    others: dict[str, list] = field(default_factory=dict)
+    label: Optional[Callable[[int], str]] = None  # names row i in messages ("state i")
+
+    @classmethod
+    def from_states(cls, states: Sequence[Mapping[str, Any]],
+                    elements: Optional[Sequence[Elem]] = None) -> "Columns":
+        """Columns from scalar states (dicts of B values), e.g. read from a trace."""
+        n = len(states)
+        if elements is None:
+            found: dict[Elem, None] = {}
+            for value in (states[0].values() if states else ()):
+                if isinstance(value, FuncValue):
+                    found.update({k: None for k in value.map if isinstance(k, Elem)})
+                elif isinstance(value, frozenset):
+                    found.update({k: None for k in value if isinstance(k, Elem)})
+            elements = tuple(sorted(found, key=sort_key))
+        elements = tuple(elements)
+        index = {e: i for i, e in enumerate(elements)}
+        cols = cls(n=n, elements=elements)
+        names = list(states[0]) if states else []
+        for name in names:
+            values = [s[name] for s in states]
+            cols._add(name, values, index)
+        return cols
+
+    def _add(self, name: str, values: list, index: dict) -> None:
+        first = values[0]
+        k = len(index)
+        if all(type(v) is bool for v in values):
+            self.booleans[name] = np.array(values, dtype=bool)
+        elif all(type(v) in (int, float) for v in values):
+            self.numbers[name] = np.array(values, dtype=float if any(
+                type(v) is float for v in values) else np.int64)
+        elif isinstance(first, FuncValue) and all(
+                isinstance(v, FuncValue) and all(key in index and type(x) in (int, float)
+                                                 for key, x in v.map.items())
+                for v in values):
+            vals = np.zeros((self.n, k))
+            defined = np.zeros((self.n, k), dtype=bool)
+            for row, v in enumerate(values):
+                for key, x in v.map.items():
+                    vals[row, index[key]] = x
+                    defined[row, index[key]] = True
+            self.functions[name] = (vals, defined)
+        elif all(isinstance(v, frozenset) and not isinstance(v, FuncValue)
+                 and all(e in index for e in v) for v in values):
+            mask = np.zeros((self.n, k), dtype=bool)
+            for row, v in enumerate(values):
+                for e in v:
+                    mask[row, index[e]] = True
+            self.masks[name] = mask
+        else:
+            self.others[name] = values
+
+    def names(self) -> set[str]:
+        return (set(self.numbers) | set(self.booleans) | set(self.functions)
+                | set(self.masks) | set(self.others))
+
+    def distinct(self) -> tuple[np.ndarray, np.ndarray]:
+        """(the first row of each distinct state, ascending; for each row, the index of its
+        state among those). Rows are the same state when every column holds the same bytes
+        (numbers) or equal B values (other values)."""
+        n = self.n
+        parts = []
+        for arr in (*self.numbers.values(), *self.booleans.values()):
+            parts.append(np.ascontiguousarray(arr).reshape(n, -1).view(np.uint8))
+        for vals, defined in self.functions.values():
+            parts.append(np.ascontiguousarray(vals).reshape(n, -1).view(np.uint8))
+            parts.append(np.ascontiguousarray(defined).reshape(n, -1).view(np.uint8))
+        for mask in self.masks.values():
+            parts.append(np.ascontiguousarray(mask).reshape(n, -1).view(np.uint8))
+        for values in self.others.values():
+            ids: dict = {}
+            parts.append(np.array([ids.setdefault(v, len(ids)) for v in values],
+                                  dtype=np.int64).reshape(n, 1).view(np.uint8))
+        if not parts or n == 0:
+            return np.arange(min(n, 1)), np.zeros(n, dtype=np.int64)
+        table = np.ascontiguousarray(np.concatenate(parts, axis=1))
+        keys = table.view(np.dtype((np.void, table.shape[1]))).ravel()
+        _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+        order = np.argsort(first, kind="stable")
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order))
+        return first[order], rank[inverse.ravel()]
+
+    def row(self, i: int) -> dict[str, Any]:
+        """State ``i`` as a dict of scalar B values."""
+        state: dict[str, Any] = {}
+        for name, arr in self.numbers.items():
+            state[name] = arr[i].item()
+        for name, arr in self.booleans.items():
+            state[name] = bool(arr[i])
+        for name, (vals, defined) in self.functions.items():
+            state[name] = FuncValue({e: float(vals[i, j]) for j, e in enumerate(self.elements)
+                                     if defined[i, j]})
+        for name, mask in self.masks.items():
+            state[name] = frozenset(e for j, e in enumerate(self.elements) if mask[i, j])
+        for name, values in self.others.items():
+            state[name] = values[i]
+        return state
+
+
+def step_pairs(cols: Columns, rows: np.ndarray) -> Columns:
+    """Columns over step pairs: ``v`` the state at ``rows``, ``v$0`` the state before it.
+
+    >>> cols = Columns.from_states([{"x": 1}, {"x": 5}, {"x": 7}])
+    >>> pairs = step_pairs(cols, np.array([1, 2]))
+    >>> pairs.numbers["x"].tolist(), pairs.numbers["x$0"].tolist()
+    ([5, 7], [1, 5])
+    """
+    out = Columns(n=len(rows), elements=cols.elements)
+    before = rows - 1
+    for name, arr in cols.numbers.items():
+        out.numbers[name], out.numbers[name + "$0"] = arr[rows], arr[before]
+    for name, arr in cols.booleans.items():
+        out.booleans[name], out.booleans[name + "$0"] = arr[rows], arr[before]
+    for name, (vals, defined) in cols.functions.items():
+        out.functions[name] = (vals[rows], defined[rows])
+        out.functions[name + "$0"] = (vals[before], defined[before])
+    for name, mask in cols.masks.items():
+        out.masks[name], out.masks[name + "$0"] = mask[rows], mask[before]
+    for name, values in cols.others.items():
+        out.others[name] = [values[i] for i in rows]
+        out.others[name + "$0"] = [values[i] for i in before]
+    if cols.label is not None:
+        out.label = lambda i: f"{cols.label(int(rows[i]))} (and the state before)"
+    return out

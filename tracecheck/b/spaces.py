@@ -1,0 +1,162 @@
+"""The symbolic sets of functions and sequences: ``S --> T`` and its variants,
+``prj1(S, T)``/``prj2(S, T)``, and ``seq(S)``/``iseq(S)``/``perm(S)``."""
+
+from __future__ import annotations
+
+from typing import Any, Iterator, Optional
+
+from ..errors import EvaluationError
+from .values import (FuncValue, PowSet, Product, SymbolicSet, as_sequence, cardinality,
+                     check_size, contains, finiteness, format_value, is_set, members, set_key,
+                     sort_key)
+
+__all__ = ["FunctionSpace", "Projection", "SeqSet", "covers"]
+
+
+_TOTAL = ("-->", ">->", "-->>", ">->>")
+_INJECTIVE = (">->", ">+>", ">->>", ">+>>")
+_SURJECTIVE = ("-->>", "+->>", ">->>", ">+>>")
+
+
+class FunctionSpace(SymbolicSet):
+    """``S --> T``, ``S +-> T``, ``S <-> T`` and the injective/surjective variants."""
+
+    def __init__(self, op: str, dom: Any, ran: Any) -> None:
+        self.op, self.dom, self.ran = op, dom, ran
+        self.name = f"({format_value(dom)} {op} {format_value(ran)})"
+
+    def finiteness(self) -> Optional[bool]:
+        fd, fr = finiteness(self.dom), finiteness(self.ran)
+        return True if (fd and fr) else None
+
+    def contains(self, value: Any) -> bool:
+        if not is_set(value):
+            return False
+        if isinstance(value, SymbolicSet):
+            if value.finiteness() is not True:
+                raise EvaluationError(f"cannot decide whether {value.name} is in {self.name}")
+            value = value.materialise()
+        pairs = list(value)
+        if not all(isinstance(p, tuple) and len(p) == 2 for p in pairs):
+            return False
+        if not all(contains(self.dom, p[0]) and contains(self.ran, p[1]) for p in pairs):
+            return False
+        if self.op == "<->":
+            return True
+        firsts = {p[0] for p in pairs}
+        if len(firsts) != len(pairs):
+            return False
+        if self.op in _TOTAL and not covers(firsts, self.dom):
+            return False
+        seconds = {p[1] for p in pairs}
+        if self.op in _INJECTIVE and len(seconds) != len(pairs):
+            return False
+        if self.op in _SURJECTIVE and not covers(seconds, self.ran):
+            return False
+        return True
+
+    def card(self) -> int:
+        if self.finiteness() is not True:
+            return SymbolicSet.card(self)
+        d, r = cardinality(self.dom), cardinality(self.ran)
+        if self.op == "<->":
+            return 2 ** (d * r) if d * r <= 100_000 else SymbolicSet.card(self)
+        if self.op == "+->":
+            return (r + 1) ** d
+        if self.op == "-->":
+            return r ** d
+        return sum(1 for _ in self._walk())
+
+    def elements(self) -> Iterator[Any]:
+        return self._walk()
+
+    def _walk(self) -> Iterator[Any]:
+        from itertools import product
+        dom = sorted(members(self.dom), key=sort_key)
+        ran = sorted(members(self.ran), key=sort_key)
+        if self.op == "<->":
+            yield from PowSet(Product(frozenset(dom), frozenset(ran))).elements()
+            return
+        choices = [ran] if self.op in _TOTAL else [[_NONE] + ran]
+        check_size(len(choices[0]) ** len(dom), self.name)
+        for pick in product(choices[0], repeat=len(dom)):
+            f = FuncValue({x: y for x, y in zip(dom, pick) if y is not _NONE})
+            if self.op in ("-->", "+->") or self.contains(f):
+                yield f
+
+    def key(self) -> tuple:
+        return ("arrow", self.op, set_key(self.dom), set_key(self.ran))
+
+
+_NONE = object()
+
+
+class Projection(SymbolicSet):
+    """``prj1(S, T)`` / ``prj2(S, T)``: the function ``(x|->y) |-> x`` (or ``y``) on S*T."""
+
+    def __init__(self, which: int, s: Any, t: Any) -> None:
+        self.which, self.s, self.t = which, s, t
+        self.name = f"prj{which}({format_value(s)},{format_value(t)})"
+
+    def finiteness(self) -> Optional[bool]:
+        return Product(self.s, self.t).finiteness()
+
+    def apply(self, x: Any) -> Any:
+        if not Product(self.s, self.t).contains(x):
+            raise KeyError(x)
+        return x[self.which - 1]
+
+    def contains(self, v: Any) -> bool:
+        if not (isinstance(v, tuple) and len(v) == 2):
+            return False
+        try:
+            return self.apply(v[0]) == v[1]
+        except KeyError:
+            return False
+
+    def card(self) -> int:
+        return Product(self.s, self.t).card()
+
+    def elements(self) -> Iterator[Any]:
+        return ((p, p[self.which - 1]) for p in Product(self.s, self.t).elements())
+
+    def key(self) -> tuple:
+        return ("prj", self.which, set_key(self.s), set_key(self.t))
+
+
+class SeqSet(SymbolicSet):
+    """``seq(S)``, ``seq1(S)``, ``iseq(S)``, ``iseq1(S)``, ``perm(S)``: membership only."""
+
+    def __init__(self, kind: str, base: Any) -> None:
+        self.kind, self.base = kind, base
+        self.name = f"{kind}({format_value(base)})"
+
+    def finiteness(self) -> Optional[bool]:
+        if self.kind in ("seq", "seq1") and finiteness(self.base) is not None:
+            if finiteness(self.base) is False or cardinality(self.base) > 0:
+                return False
+        return None
+
+    def contains(self, value: Any) -> bool:
+        items = as_sequence(value)
+        if items is None or not all(contains(self.base, x) for x in items):
+            return False
+        if self.kind in ("seq1", "iseq1") and not items:
+            return False
+        if self.kind in ("iseq", "iseq1", "perm") and len(set(items)) != len(items):
+            return False
+        if self.kind == "perm":
+            return covers(set(items), self.base)
+        return True
+
+    def key(self) -> tuple:
+        return ("seq", self.kind, set_key(self.base))
+
+
+def covers(values: set, space: Any) -> bool:
+    """Whether ``values`` are exactly the elements of the finite set ``space``."""
+    if finiteness(space) is not True:
+        return False
+    if cardinality(space) != len(values):
+        return False
+    return all(contains(space, v) for v in values)
