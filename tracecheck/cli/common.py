@@ -154,8 +154,8 @@ def output_format(fmt: OutputFormat, as_json: bool) -> OutputFormat:
 
 def print_json(data) -> None:
     """``data`` as indented, strict JSON on standard output: a number that is not finite is
-    null with a ``KEY_note`` beside it (:mod:`tracecheck.render.jsontext`)."""
-    from ..render.jsontext import json_text
+    null with a ``KEY_note`` beside it (:mod:`tracecheck.jsontext`)."""
+    from ..jsontext import json_text
 
     out.print_json(json_text(data))
 

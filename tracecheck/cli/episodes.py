@@ -229,6 +229,7 @@ def export_foxglove_cmd(
     (foxglove.Log) and scalars to plot (see docs/ecosystem.md)."""
     from ..episodes.files import check_run_output, write_run
     from ..episodes.reader import read_run
+    from ..interop.foxglove import FoxgloveChannels
 
     check_run_output(output, [run], force=force)
     result = read_run(run)
@@ -237,7 +238,7 @@ def export_foxglove_cmd(
         raise InputError(f"{run} holds no complete episode")
     with _writing(output, "adding Foxglove channels", len(result.episodes)) as advance:
         episodes, steps, _ = write_run(output, result.header, _counted(result.episodes, advance),
-                                       foxglove=True, force=force, inputs=[run])
+                                       channels=FoxgloveChannels, force=force, inputs=[run])
     say(f"wrote {episodes} episode(s), {steps} step(s) with Foxglove channels -> {output}")
 
 

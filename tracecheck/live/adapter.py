@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING, Any, Collection, Optional
 from ..errors import InputError, TracecheckError, printable
 
 if TYPE_CHECKING:
-    from ..render.scene import Scene
+    from .scene import Scene
 
 __all__ = ["EnvAdapter", "Observer", "adapters", "get_adapter", "load_adapter", "AdapterInfo",
            "ENTRY_POINT_GROUP", "parse_config", "setting_kinds", "typed_setting",
@@ -171,7 +171,7 @@ class EnvAdapter:
 
     def scene(self, step) -> Optional["Scene"]:
         """What a step looks like, for the viewer and Foxglove (optional): a
-        :class:`tracecheck.render.scene.Scene` of boxes, circles, lines and text, drawn from
+        :class:`tracecheck.live.scene.Scene` of boxes, circles, lines and text, drawn from
         ``step.state`` (its B state) and ``step.crashed``; None: no picture (the viewer then
         shows the time series and the state table). See docs/environments.md, "Drawing your
         environment"."""

@@ -27,7 +27,7 @@ from ..episodes.columns import read_columns
 from ..episodes.reader import read_run
 from ..errors import InputError
 from ..checking.shield import Shield
-from .jsontext import script_json
+from ..jsontext import script_json
 from .scene import scene_drawer, shape_json, css
 
 __all__ = ["render_episode", "episode_data", "short_value", "numeric_series"]

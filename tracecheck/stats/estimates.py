@@ -347,7 +347,7 @@ def _metric_stats(values: np.ndarray, m: Metric) -> dict:
         out["estimate"] = {"value": value, "epsilon": eps,
                            "within": abs(mean - value) <= eps}
     why = _nonfinite_why(values, m)
-    if why:  # JSON writes these as null; the note says why (tracecheck.render.jsontext)
+    if why:  # JSON writes these as null; the note says why (tracecheck.jsontext)
         for key in ("mean", "sd", "ci95"):
             numbers = np.atleast_1d(np.asarray(out[key] if out[key] is not None else [],
                                                dtype=float))
