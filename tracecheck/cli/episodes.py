@@ -115,7 +115,8 @@ def import_minari_cmd(
 ) -> None:
     """Import a Minari dataset, so that replay, diff and stats can check it against a shield."""
     from ..episodes.files import check_run_output, write_run
-    from ..interop.minari import dataset_folder, import_minari
+    from ..interop.minari import dataset_folder
+    from ..interop.minari_import import import_minari
 
     inputs = [dataset_folder(dataset)]  # its metadata.json, main_data.hdf5: never an output
     check_run_output(output, inputs, force=force)
