@@ -46,7 +46,8 @@ from ..errors import InputError, TracecheckError, printable
 if TYPE_CHECKING:
     from .scene import Scene
 
-__all__ = ["EnvAdapter", "Observer", "adapters", "get_adapter", "load_adapter", "AdapterInfo",
+__all__ = ["EnvAdapter", "Observer", "adapters", "get_adapter", "installed_adapter",
+           "load_adapter", "AdapterInfo",
            "ENTRY_POINT_GROUP", "parse_config", "setting_kinds", "typed_setting",
            "gymnasium_keys", "gymnasium_kinds", "MakeError"]
 
@@ -229,6 +230,20 @@ def get_adapter(name: Optional[str]) -> EnvAdapter:
     except _USERS as exc:  # noqa: BLE001 - the plug-in's own code
         raise _raised(name, exc, "when it was imported") from exc
     return _instance(loaded, name)
+
+
+def installed_adapter(environment, *, required: bool = True) -> Optional[EnvAdapter]:
+    """The adapter of an environment name (installed adapters only: a name in a file is
+    never imported), or the adapter itself; None when ``required`` is False and it is not
+    installed."""
+    if isinstance(environment, EnvAdapter):
+        return environment
+    try:
+        return get_adapter(environment)
+    except InputError:
+        if required:
+            raise
+        return None
 
 
 _SPEC = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z_]\w*)*")

@@ -12,7 +12,6 @@ escaped: the page is inert (docs/safety.md).
 from __future__ import annotations
 
 import html
-import io
 from pathlib import Path
 from typing import Optional, Sequence
 
@@ -54,35 +53,6 @@ def _table(header: list[str], rows: list[list[str]]) -> str:
     body = "".join("<tr>" + "".join(f"<td>{_e(c)}</td>" for c in row) + "</tr>"
                    for row in rows)
     return f"<table><tr>{head}</tr>{body}</table>"
-
-
-def _svg_plots(result: dict) -> list[str]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from .stats_text import stats_plots
-
-    figures = []
-    original = plt.Figure.savefig
-
-    def capture(fig, path, *args, **kwargs):
-        if kwargs.get("format") == "svg" or str(path).endswith(".svg"):
-            buf = io.StringIO()
-            original(fig, buf, format="svg")
-            text = buf.getvalue()
-            figures.append(text[text.index("<svg"):])
-
-    plt.Figure.savefig = capture
-    try:
-        import tempfile
-
-        with tempfile.TemporaryDirectory() as tmp:
-            stats_plots(result, Path(tmp))
-    finally:
-        plt.Figure.savefig = original
-    return figures
 
 
 def _wide(svg: str, limit_pt: float = 600.0) -> bool:
@@ -179,7 +149,7 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
     from ..episodes.columns import read_columns
     from ..outputs import check_output, safe_name
     from ..stats.estimates import statistics
-    from .stats_text import _rows
+    from .stats_text import stats_rows, stats_svgs
 
     out = Path(out)
     pages_dir = out.with_name(out.stem + "_files")
@@ -212,13 +182,13 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
                      f"through their seeds; significant at the {ALPHA:g} level.</p>"
                      "<ul class='sentences'>" + "".join(f"<li>{_e(s)}</li>" for s in sentences)
                      + "</ul>")
-    header, rows = _rows(result)
+    header, rows = stats_rows(result)
     parts.append(f"<h2>Statistics ({_e(pset.name)})</h2><p class='note'>metrics: "
                  f"mean ± sd [95 % t interval]; properties: % of episodes [95 % "
                  f"{_e(result['interval'])} interval]</p>")
     parts.append(_table(header, rows))
     parts += [("<figure class='wide'>" if _wide(svg) else "<figure>") + f"{svg}</figure>"
-              for svg in _svg_plots(result)]
+              for svg in stats_svgs(result)]
     pages: list = []
     if shield is not None:
         order = ("what re-simulation found: prevented, new crash, not prevented, did not "

@@ -207,12 +207,9 @@ def _installed(environment: Optional[str]):
     its adapter) or the built-in scenes draw it (no environment package is imported)."""
     if environment in _BUILTIN_ENVS:
         return None
-    from ..live.adapter import get_adapter
+    from ..live.adapter import installed_adapter
 
-    try:
-        return get_adapter(environment)
-    except InputError:
-        return None
+    return installed_adapter(environment, required=False)
 
 
 def _hook(adapter):

@@ -29,6 +29,7 @@ from ..errors import InputError
 from ..checking.shield import Shield
 from ..jsontext import script_json
 from .scene import scene_drawer, shape_json, css
+from .tables import is_number
 
 __all__ = ["render_episode", "episode_data", "short_value", "numeric_series"]
 
@@ -75,10 +76,6 @@ def short_value(value) -> str:
     return format_value(value)
 
 
-def _is_number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
-
-
 def numeric_series(states: Sequence[dict]) -> list[dict]:
     """One entry per numeric variable of ``states`` (each ``{"name", "lines": [{"label",
     "values"}]}``, a value per state, None where the state has none): a number is one line, a
@@ -88,13 +85,13 @@ def numeric_series(states: Sequence[dict]) -> list[dict]:
     for name in names:
         values = [s.get(name) for s in states]
         given = [v for v in values if v is not None]
-        if given and all(_is_number(v) for v in given):
+        if given and all(is_number(v) for v in given):
             out.append({"name": name, "lines": [{"label": name, "values": [
                 float(v) if v is not None else None for v in values]}]})
             continue
         maps = [getattr(v, "map", None) for v in given]
         if not given or any(m is None for m in maps) or not all(
-                _is_number(x) for m in maps for x in m.values()):
+                is_number(x) for m in maps for x in m.values()):
             continue
         keys = list(dict.fromkeys(k for m in maps for k in m))
         if not keys:

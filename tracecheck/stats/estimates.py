@@ -24,6 +24,7 @@ from ..b.vector import BatchFormula, float_column
 from ..episodes.columns import RunColumns, read_columns
 from ..errors import EvaluationError, InputError, TracecheckError
 from ..checking.crashflag import CRASH_FLAG, flagged, with_crash_flag
+from ..live.adapter import installed_adapter
 from .properties import Metric, Property, PropertySet, load_properties, with_generic
 
 __all__ = ["RunValues", "StatsResult", "evaluate_run", "statistics", "INTERVALS",
@@ -62,22 +63,6 @@ def environment_of(path: str | Path) -> str:
     return header.model_name or "unnamed"
 
 
-def _installed_adapter(environment, *, required: bool = True):
-    """The adapter of an environment name (installed adapters only: a name in a file is
-    never imported), or the adapter itself; None when ``required`` is False and it is not
-    installed."""
-    from ..live.adapter import EnvAdapter, get_adapter
-
-    if isinstance(environment, EnvAdapter):
-        return environment
-    try:
-        return get_adapter(environment)
-    except InputError:
-        if required:
-            raise
-        return None
-
-
 @dataclass
 class _Scope:
     """What formulas are checked against: names with their types, constants, the state
@@ -96,7 +81,7 @@ def _typing_scope(environment="highway", sample: Optional[dict] = None) -> _Scop
     from ..b.typecheck import BOOL, type_of_value
     from ..checking.shield import load_shield
 
-    adapter = _installed_adapter(environment, required=False)
+    adapter = installed_adapter(environment, required=False)
     if adapter is not None and adapter.default_shield is not None:
         machine = load_shield(adapter.default_shield).machine
         names, constants, variables = (dict(machine.type_objects), dict(machine.base_env),
@@ -138,7 +123,7 @@ def default_set(paths: list[str | Path], adapter=None) -> tuple[PropertySet, lis
     """The generic set with the runs' environment's own set added where it has one (its
     adapter given, or installed), and notes for people (an adapter not installed here)."""
     environment = environment_of(paths[0]) if paths else "highway"
-    adapter = adapter if adapter is not None else _installed_adapter(environment, required=False)
+    adapter = adapter if adapter is not None else installed_adapter(environment, required=False)
     if adapter is None:
         return with_generic(None), [
             f"the environment {environment} of these runs is not installed here: generic "
@@ -196,7 +181,7 @@ def _machine(environment):
     with the recorded crash flag as one more variable (unless it has a ``crashed``)."""
     from ..checking.shield import load_shield
 
-    adapter = _installed_adapter(environment)
+    adapter = installed_adapter(environment)
     if adapter.default_shield is None:
         raise InputError(f"the environment {adapter.name} names no machine to read LTL and "
                          "STL properties in: its adapter has no default_shield",
@@ -243,13 +228,18 @@ class _Temporal:
         return evaluate_ltl(self.formula, cols, self.machine)[cols.starts[:-1]]
 
 
+def _values_recorded(cols: RunColumns) -> np.ndarray:
+    """Per row: were the agent's action values recorded (all of them, finite)?"""
+    return np.all(np.isfinite(cols.values), axis=1)
+
+
 def interventions(cols: RunColumns) -> np.ndarray:
     """Per row: did the shield replace the agent's preferred action (the best of its
     recorded action values) by another? False at step 0 and where no values were recorded."""
     out = np.zeros(cols.n, dtype=bool)
     if cols.values is None or not cols.n:
         return out
-    known = np.all(np.isfinite(cols.values), axis=1) & (cols.action >= 0)
+    known = _values_recorded(cols) & (cols.action >= 0)
     preferred = np.argmax(np.where(np.isfinite(cols.values), cols.values, -np.inf), axis=1)
     out[known] = preferred[known] != cols.action[known]
     return out
@@ -259,7 +249,7 @@ def _recorded_choices(cols: RunColumns) -> np.ndarray:
     """Per episode: were the agent's action values recorded at its steps?"""
     if cols.values is None:
         return np.zeros(len(cols.episode_ids), dtype=bool)
-    known = np.all(np.isfinite(cols.values), axis=1)
+    known = _values_recorded(cols)
     known[cols.starts[:-1]] = True  # step 0 has no action to judge
     return np.logical_and.reduceat(known, cols.starts[:-1])
 
