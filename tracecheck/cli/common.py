@@ -94,7 +94,9 @@ def _root(
 
 
 def salvage(value: bool) -> bool:
-    """The ``--salvage`` option: damaged episodes are left out with a warning."""
+    """The ``--salvage`` option: damaged episodes are left out with a warning. Commands pass
+    their ``salvage`` to what reads; the context variable set here is for replay and diff
+    (checking/), whose functions do not take it yet."""
     if value:
         from ..episodes.salvage import SALVAGE
 

@@ -69,7 +69,7 @@ def stats_cmd(
     for line in notes:
         err.print(f"note: {line}")
     result = statistics(runs, pset, interval=interval.value, executor=executor.value,
-                        ray_address=ray_address, adapter=adapter)
+                        ray_address=ray_address, adapter=adapter, salvage=salvage)
     _print_stats(result, fmt, plot, force)
 
 

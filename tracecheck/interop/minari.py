@@ -175,9 +175,10 @@ def _observation(rows, space, where: str):
 
 
 def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
-                  progress=lambda: None):
+                  progress=lambda: None, salvage: Optional[bool] = None):
     """Write the episodes of ``run`` as the local Minari dataset ``dataset_id``; the dataset.
-    ``env``: the adapter as the user names it (default: the installed one the file names)."""
+    ``env``: the adapter as the user names it (default: the installed one the file names);
+    ``salvage``: as :func:`~tracecheck.episodes.reader.read_run`."""
     from ..live.adapter import load_adapter
 
     from ..episodes.codec import encode_state
@@ -189,7 +190,7 @@ def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
     check_dataset_id(dataset_id)
     root = datasets_root()
     _refuse_taken(root, dataset_id)
-    result = read_run(run)
+    result = read_run(run, salvage=salvage)
     header = result.header
     if not result.episodes:
         raise InputError(f"{run} holds no complete episode")

@@ -131,14 +131,15 @@ def _scenes(ep, draw) -> tuple[Optional[dict], list]:
 
 
 def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
-                 ltl: Sequence[tuple] = (), adapter=None) -> dict:
+                 ltl: Sequence[tuple] = (), adapter=None, salvage: Optional[bool] = None) -> dict:
     """Everything the viewer shows, as JSON-ready data (``ltl``: (name, text, formula) of
     LTL formulas over ``shield``'s machine, each marked where the episode first violates
     it; ``adapter``: the environment's adapter (``--env``), whose ``scene`` hook draws the
-    steps; without one, the built-in scenes — render imports no environment package)."""
-    result = read_run(run, {episode})
+    steps; without one, the built-in scenes — render imports no environment package;
+    ``salvage``: as :func:`~tracecheck.episodes.reader.read_run`)."""
+    result = read_run(run, {episode}, salvage=salvage)
     if not result.episodes:
-        ids = [int(i) for i in read_columns(run).episode_ids]
+        ids = [int(i) for i in read_columns(run, salvage=salvage).episode_ids]
         if not ids:
             raise InputError(f"{run} holds no complete episode")
         raise InputError(f"{run} has no episode {episode}; it has {_ids_text(ids)}",
@@ -183,20 +184,21 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
         "shield": shield.name if shield is not None else None,
         "first_infeasible": first_infeasible, "blocked": blocked,
         "interventions": interventions, "crash_step": crash,
-        "ltl": _ltl_marks(run, ep.id, shield, ltl), "series": series,
+        "ltl": _ltl_marks(run, ep.id, shield, ltl, salvage), "series": series,
         "end": {"steps": ep.end.steps, "reason": ep.end.reason,
                 "total_reward": ep.end.total_reward},
         "steps": steps,
     }
 
 
-def _ltl_marks(run, episode: int, shield: Optional[Shield], ltl: Sequence[tuple]) -> list:
+def _ltl_marks(run, episode: int, shield: Optional[Shield], ltl: Sequence[tuple],
+               salvage: Optional[bool]) -> list:
     if not ltl:
         return []
     from ..checking.crashflag import flagged, with_crash_flag
     from ..checking.ltl import check_ltl
 
-    cols, machine = with_crash_flag(read_columns(run)), flagged(shield.machine)
+    cols, machine = with_crash_flag(read_columns(run, salvage=salvage)), flagged(shield.machine)
     marks = []
     for name, text, formula in ltl:
         result = check_ltl(name, text, formula, cols, machine)
@@ -207,9 +209,10 @@ def _ltl_marks(run, episode: int, shield: Optional[Shield], ltl: Sequence[tuple]
 
 
 def render_episode(run: str | Path, episode: int, shield: Optional[Shield] = None,
-                   ltl: Sequence[tuple] = (), adapter=None) -> str:
-    """The viewer page of one episode (see the module docstring)."""
-    data = episode_data(run, episode, shield, ltl, adapter)
+                   ltl: Sequence[tuple] = (), adapter=None, salvage: Optional[bool] = None) -> str:
+    """The viewer page of one episode (see the module docstring; ``salvage`` as
+    :func:`episode_data`)."""
+    data = episode_data(run, episode, shield, ltl, adapter, salvage)
     title = f"{Path(str(run)).name}, episode {episode}"
     fields = {"TITLE": html.escape(title), "DATA": script_json(data)}
     # one pass: a file named {{DATA}}.mcap stays a title

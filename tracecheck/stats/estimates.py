@@ -288,10 +288,11 @@ def _holds(p: Property, values: np.ndarray, cols: RunColumns) -> np.ndarray:
 
 
 def evaluate_run(path: str | Path, pset: PropertySet, formulas: dict,
-                 name: Optional[str] = None, cols: Optional[RunColumns] = None) -> RunValues:
+                 name: Optional[str] = None, cols: Optional[RunColumns] = None, *,
+                 salvage: Optional[bool] = None) -> RunValues:
     """Every metric and property of ``pset`` on every episode of a file (``cols``: the
-    file's columns, when they were read already)."""
-    cols = cols if cols is not None else read_columns(path)
+    file's columns, when they were read already; else read with ``salvage``)."""
+    cols = cols if cols is not None else read_columns(path, salvage=salvage)
     run = RunValues(name or Path(path).stem, str(path), len(cols.episode_ids), list(cols.seeds),
                     warnings=list(cols.warnings))
     if not run.episodes:
@@ -432,9 +433,9 @@ def _paired(a: RunValues, b: RunValues, pset: PropertySet) -> Optional[dict]:
 
 
 def _evaluate_one(path: str, pset: PropertySet, name: Optional[str],
-                  environment=None) -> RunValues:
+                  environment=None, salvage: Optional[bool] = None) -> RunValues:
     """One file, in whichever process runs it."""
-    cols = read_columns(path)
+    cols = read_columns(path, salvage=salvage)
     sample = cols.states.row(0) if cols.states.n else None
     formulas = prepare(pset, environment or environment_of(path), sample)
     run = evaluate_run(path, pset, formulas, name, cols)
@@ -462,10 +463,12 @@ class StatsResult(dict):
 def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "wilson",
                names: Optional[list[str]] = None,
                columns: Optional[list[RunColumns]] = None, executor: str = "local",
-               ray_address: Optional[str] = None, adapter=None) -> StatsResult:
+               ray_address: Optional[str] = None, adapter=None,
+               salvage: Optional[bool] = None) -> StatsResult:
     """The statistics of the runs in ``paths`` (JSON-ready; see the module docstring).
 
-    ``columns``: the runs' columns when they were read already; ``adapter``: the runs'
+    ``columns``: the runs' columns when they were read already (else read with ``salvage``,
+    as :func:`~tracecheck.episodes.columns.read_columns`); ``adapter``: the runs'
     environment adapter, when given by the user (``--env``; else the installed one their
     files name, if any); ``statistics_s`` in the result is the time spent after reading."""
     if interval not in INTERVALS:
@@ -485,10 +488,11 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
 
         start = time.perf_counter()
         runs = map_files(_evaluate_one, [(str(p), pset, names[i] if names else None,
-                                          adapter) for i, p in enumerate(paths)], executor,
+                                          adapter, salvage) for i, p in enumerate(paths)],
+                         executor,
                          ray_address)
     else:
-        cols = columns or [read_columns(p) for p in paths]
+        cols = columns or [read_columns(p, salvage=salvage) for p in paths]
         sample = cols[0].states.row(0) if cols and cols[0].states.n else None
         formulas = prepare(pset, environment, sample)
         start = time.perf_counter()
