@@ -270,10 +270,10 @@ def _checksums(piece: Piece, run_crc: int) -> None:
     header = piece.columns[0]
     if header.get("messages_crc", piece.crc) != piece.crc:
         raise _BadEpisode("its messages do not match the checksum its columns carry (the file was "
-                   "damaged or edited)")
+                          "damaged or edited)")
     if header.get("run_crc", run_crc) != run_crc:
         raise _BadEpisode("the run header does not match the checksum the episode's columns carry "
-                   "(the file was damaged or edited)")
+                          "(the file was damaged or edited)")
 
 
 def _agree(piece: Piece, decoded: bool) -> None:
@@ -286,10 +286,10 @@ def _agree(piece: Piece, decoded: bool) -> None:
     rows = len(arrays["time"])
     if not rows == piece.count == end.steps + 1:
         raise _BadEpisode(f"the step messages ({piece.count}), end record ({end.steps} steps after "
-                   f"the initial state) and columns ({rows} rows) disagree on its length")
+                          f"the initial state) and columns ({rows} rows) disagree on its length")
     if header.get("seed") != head.seed:
         raise _BadEpisode(f"the columns say seed {header.get('seed')!r}, the episode header "
-                   f"{head.seed!r}")
+                          f"{head.seed!r}")
     names = header["actions"]
     crashed = bool(arrays["crashed"][-1])
     if decoded:
@@ -299,10 +299,10 @@ def _agree(piece: Piece, decoded: bool) -> None:
     last_action = names[arrays["action"][-1]] if arrays["action"][-1] >= 0 else None
     if not crashed == end.crashed == last.crashed:
         raise _BadEpisode(f"the columns, end record and last step disagree on whether it crashed "
-                   f"({crashed}, {end.crashed}, {last.crashed})")
+                          f"({crashed}, {end.crashed}, {last.crashed})")
     if last.action != last_action:
         raise _BadEpisode(f"the last step's action is {last.action!r} in its message and "
-                   f"{last_action!r} in the columns")
+                          f"{last_action!r} in the columns")
     if decoded:
         actions = [names[a] if a >= 0 else None for a in arrays["action"].tolist()]
         for k, s in enumerate(piece.steps):
@@ -310,7 +310,7 @@ def _agree(piece: Piece, decoded: bool) -> None:
                     or s.reward != float(arrays["reward"][k])
                     or s.time != float(arrays["time"][k])):
                 raise _BadEpisode(f"step {k}: the step message and the columns disagree "
-                           "(action, reward, time or crash flag)")
+                                  "(action, reward, time or crash flag)")
 
 
 @dataclass(frozen=True)
@@ -331,7 +331,7 @@ def _last_step(piece: Piece) -> _Last:
             and (msg.get("action") is None or type(msg.get("action")) is str)):
         full = _parse("tracecheck.Step", buf[a:b])  # says what is wrong …
         raise _BadEpisode(f"step message {piece.count - 1} is step {full.step} of episode "
-                   f"{full.episode}")  # … or this is
+                          f"{full.episode}")  # … or this is
     return _Last(msg.get("action"), msg["crashed"])
 
 

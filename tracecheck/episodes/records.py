@@ -208,15 +208,15 @@ def _chunk(f: _Fields) -> bytes:
     limit = min(MAX_CHUNK_BYTES, MAX_CHUNK_RATIO * len(data) + (1 << 20))
     if size > limit:
         raise _BadRecord(f"a chunk would decompress to {size} bytes from {len(data)} (more than "
-                   f"tracecheck's limit of {limit} bytes for it)")
+                         f"tracecheck's limit of {limit} bytes for it)")
     if compression == "":
         out = bytes(data)
     elif compression == "zstd":
         try:
             import zstandard
         except ImportError:
-            raise _BadRecord("a chunk is zstd-compressed and the zstandard package is not installed "
-                       "(pip install zstandard)") from None
+            raise _BadRecord("a chunk is zstd-compressed and the zstandard package is not "
+                             "installed (pip install zstandard)") from None
         try:
             out = zstandard.ZstdDecompressor().decompress(bytes(data), max_output_size=size)
         except zstandard.ZstdError as exc:
@@ -226,7 +226,7 @@ def _chunk(f: _Fields) -> bytes:
             import lz4.frame
         except ImportError:
             raise _BadRecord("a chunk is lz4-compressed and the lz4 package is not installed "
-                       "(pip install lz4)") from None
+                             "(pip install lz4)") from None
         try:
             out = _lz4(lz4.frame, bytes(data), size)
         except RuntimeError as exc:

@@ -2,8 +2,9 @@
 
 A Minari dataset's episodes, given an adapter that turns observations into B states, become a
 run file that replay, diff and stats read like a recording; the infos tracecheck's export
-writes (:mod:`tracecheck.interop.minari`), where a dataset has them, come back as the steps' allowed actions, preferred action, action values and
-deadlock flag, so a run exported and imported again replays exactly like the original.
+writes (:mod:`tracecheck.interop.minari`), where a dataset has them, come back as the steps'
+allowed actions, preferred action, action values and deadlock flag, so a run exported and
+imported again replays exactly like the original.
 
 The dataset is checked field by field before Minari reads it — metadata types and sizes,
 spaces, every episode's seed and the sizes of its arrays (before any is allocated), the types

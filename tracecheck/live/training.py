@@ -120,7 +120,8 @@ class Returns:
         ends = [self.steps[min(i + per, n) - 1] for i in range(0, n, per)]
         means = [round(float(np.mean(self.returns[i:i + per])), 6) for i in range(0, n, per)]
         last = self.mean()
-        return {"file": curve.name if curve is not None else None, "episodes": n, "window": self.window,
+        return {"file": curve.name if curve is not None else None, "episodes": n,
+                "window": self.window,
                 "mean_return_last": None if last is None else round(last, 6),
                 "episodes_per_point": per, "end_steps": ends, "returns": means}
 
