@@ -16,6 +16,7 @@ from pathlib import Path
 
 from tracecheck.episodes.reader import read_run
 from tracecheck.episodes.writer import EpisodeWriter
+from tracecheck.interop.foxglove import FoxgloveChannels
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -34,7 +35,8 @@ def main() -> None:
             for foxglove in (False, True):
                 path = Path(tmp) / f"fox-{foxglove}.mcap"
                 start = time.perf_counter()
-                with EpisodeWriter(path, result.header, foxglove=foxglove) as out:
+                with EpisodeWriter(path, result.header,
+                                   FoxgloveChannels if foxglove else None) as out:
                     for episode in result.episodes:
                         out.write(episode)
                 times[foxglove].append(time.perf_counter() - start)

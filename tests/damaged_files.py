@@ -83,6 +83,7 @@ class Fuzzer:
     def __init__(self, folder: Path, traces: int = 4, foxglove: bool = False) -> None:
         from tracecheck.episodes import EpisodeWriter, read_header, read_run
         from tracecheck.interop import import_simb
+        from tracecheck.interop.foxglove import FoxgloveChannels
 
         self.folder = folder
         self.run = folder / "run.mcap"
@@ -97,13 +98,13 @@ class Fuzzer:
         write_run(self.run, new_header("imported-simb", model_name=HIGHWAY.name,
                                        variables=list(HIGHWAY.variables),
                                        actions=list(HIGHWAY.actions)), import_simb(sources),
-                  foxglove=foxglove)
+                  channels=FoxgloveChannels if foxglove else None)
         self.intact = self.run.read_bytes()
         header, episodes = read_header(self.run), read_run(self.run).episodes
         # the answers for the first k episodes, k = 0 … n (a file cut after episode k)
         self.prefix: dict[int, dict[str, Outcome]] = {}
         for k in range(len(episodes) + 1):
-            with EpisodeWriter(self.run, header, foxglove=foxglove) as w:
+            with EpisodeWriter(self.run, header, FoxgloveChannels if foxglove else None) as w:
                 for e in episodes[:k]:
                     w.write(e)
             self.prefix[k] = {name: run_command(name, self.run, self.out) for name in COMMANDS}

@@ -10,7 +10,7 @@ import sys
 import pytest
 
 import tracecheck.checking as checking
-from tests.conftest import ROOT
+from tests.helpers import ROOT
 
 
 @pytest.mark.parametrize("name", checking.__all__)

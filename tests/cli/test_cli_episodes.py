@@ -102,7 +102,7 @@ def test_interrupted_import_says_what_it_kept(capsys, tmp_path, monkeypatch, exi
 
 def test_an_interrupt_typer_catches_is_reported(capsys, monkeypatch):
     """Typer turns Ctrl-C into a silent exit 130; tracecheck says it was interrupted."""
-    def interrupted(runs):
+    def interrupted(runs, **options):
         raise KeyboardInterrupt
 
     monkeypatch.setattr("tracecheck.episodes.summary.summarise", interrupted)

@@ -18,7 +18,7 @@ from tracecheck.episodes import (EpisodeWriter, new_header, read_columns, read_e
                                  read_run)
 from tracecheck.episodes import writer as W
 from tracecheck.episodes.reader import SalvagedEpisodeWarning, salvaging
-from tracecheck.episodes.records import MAX_CHUNK_RATIO, walk
+from tracecheck.episodes.records import MAX_CHUNK_RATIO, MessageRef, walk
 from tracecheck.errors import InputError
 
 ACTIONS = ["IDLE", "FASTER", "SLOWER"]
@@ -177,8 +177,8 @@ def _chunk_record(inner: bytes, declared: int, compression: str = "lz4",
 def _rechunk(path, out, make_chunk):
     """``path`` with its episode records (everything after the run header) in one chunk."""
     data = path.read_bytes()
-    msgs = [r for r in walk(path, data) if type(r) is tuple]
-    begin = msgs[1][2] - 9  # the first episode header's record
+    msgs = [r for r in walk(path, data) if type(r) is MessageRef]
+    begin = msgs[1].start - 9  # the first episode header's record
     end = data.rfind(b"\x0f", 0, len(data))  # the data end record
     summary_free = data[:begin] + make_chunk(data[begin:_data_end(path, data)])
     out.write_bytes(summary_free + data[_data_end(path, data):])

@@ -15,7 +15,7 @@ from mcap.reader import make_reader
 
 from tests.helpers import ROOT
 from tracecheck.episodes.records import Attachment, walk
-from tracecheck.episodes import (DamagedFileWarning, EpisodeWriter, new_header, read_columns,
+from tracecheck.episodes import (DamagedEpisode, EpisodeWriter, new_header, read_columns,
                                  read_episodes, read_run)
 from tracecheck.episodes.files import write_run
 from tracecheck.errors import InputError
@@ -91,7 +91,7 @@ def test_truncated_file_keeps_complete_episodes(tmp_path, episodes):
     cut = tmp_path / "cut.mcap"
     marker = data.find(b'"episode":2,"step":1')
     cut.write_bytes(data[:marker + 5])
-    with pytest.warns(DamagedFileWarning, match=r"read 2 complete episode\(s\); lost the "
+    with pytest.warns(DamagedEpisode, match=r"read 2 complete episode\(s\); lost the "
                                                 r"unfinished episode 2 \(1 step message"):
         got = list(read_episodes(cut))
     assert [e.id for e in got] == [0, 1]

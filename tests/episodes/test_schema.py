@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 from tests.helpers import ROOT
-from tracecheck.episodes import schema as S
+from tracecheck.episodes import schema
 
 
 def test_exported_schemas_are_current(tmp_path):
-    written = S.export_schemas(tmp_path)
-    assert {p.name for p in written} == {f"{n}.json" for n in S.MESSAGES}
+    written = schema.export_schemas(tmp_path)
+    assert {p.name for p in written} == {f"{n}.json" for n in schema.MESSAGES}
     for path in written:
         committed = ROOT / "schemas" / path.name
         assert committed.exists(), f"{committed} is missing: run python -m tracecheck.episodes.schema"
@@ -17,7 +17,7 @@ def test_exported_schemas_are_current(tmp_path):
 
 
 def test_step_schema_names_the_live_fields():
-    props = S.Step.model_json_schema()["properties"]
+    props = schema.StepMessage.model_json_schema()["properties"]
     for field in ("time", "action", "state", "reward", "crashed", "observation",
                   "action_values", "preferred_action", "allowed_actions", "shield_time_us"):
         assert field in props

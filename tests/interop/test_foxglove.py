@@ -12,7 +12,7 @@ from mcap.reader import make_reader
 from tests.helpers import ROOT, run, untimed
 from tests.interop.foxglove_schemas import PUBLISHED
 from tracecheck.episodes.model import StepRecord
-from tracecheck.interop.foxglove import SCHEMAS, TOPICS, step_messages
+from tracecheck.interop.foxglove import SCHEMAS, TOPICS, FoxgloveChannels, step_messages
 
 PAPER = ROOT / "sample_traces" / "base_paper.mcap"
 
@@ -89,7 +89,7 @@ def test_a_new_recording_carries_the_channels(tmp_path):
 
     path = tmp_path / "run.mcap"
     record(RecordSettings(agent=str(ROOT / "models" / "agents" / "base.zip"), shield="paper",
-                          episodes=1, seed=3, duration=6), path)
+                          episodes=1, seed=3, duration=6), path, channels=FoxgloveChannels)
     found = channels_and_messages(path)
     check_all(found)
     allowed = [m["value"] for m in found["/plot/allowed_actions"][2]]
@@ -102,7 +102,8 @@ def test_grid_worlds_are_tiles_with_the_agent(tmp_path):
     path = tmp_path / "lake.mcap"
     record(RecordSettings(env="frozenlake", agent=str(ROOT / "models" / "agents" /
                                                       "frozenlake.npy"),
-                          shield="frozenlake", episodes=1, seed=0, duration=10), path)
+                          shield="frozenlake", episodes=1, seed=0, duration=10), path,
+           channels=FoxgloveChannels)
     found = channels_and_messages(path)
     check_all(found, absent={"/plot/speed", "/plot/nearest_gap"})  # no vehicles to measure
     scene = found["/foxglove/scene"][2][0]

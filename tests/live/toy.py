@@ -133,7 +133,7 @@ class Cruise(EnvAdapter):
 
     def scene(self, step):
         """The two cars on a road, drawn through the adapter's scene hook."""
-        from tracecheck.render.scene import Box, Line, Scene, Text
+        from tracecheck.live.scene import Box, Line, Scene, Text
 
         gap = step.state["Gap"]
         ego = (0.85, 0.2, 0.2, 1.0) if step.crashed else (0.16, 0.4, 0.9, 1.0)

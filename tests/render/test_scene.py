@@ -8,7 +8,8 @@ import pytest
 from tests.interop.foxglove_schemas import PUBLISHED
 from tracecheck.errors import InputError
 from tracecheck.interop.foxglove import SCHEMAS, scene_entities, step_messages
-from tracecheck.render.scene import Box, Circle, Line, Scene, Text, scene_svg
+from tracecheck.live.scene import Box, Circle, Line, Scene, Text
+from tracecheck.render.scene import scene_svg
 
 
 @pytest.mark.parametrize("make,message", [

@@ -151,7 +151,7 @@ def test_mutated_property_files_give_the_intact_answer_or_exit_2(capsys, hand_ru
 @pytest.fixture(scope="module")
 def reference(hand_run, tmp_path_factory):
     """The intact file's statistics, entry by entry, as `stats --json` prints them."""
-    from tracecheck.render.jsontext import json_text
+    from tracecheck.jsontext import json_text
     from tracecheck.stats.estimates import statistics
     from tracecheck.stats.properties import load_properties
 

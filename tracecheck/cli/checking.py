@@ -294,7 +294,7 @@ def _write_counterexamples(results, machine, folder: Path) -> dict[int, str]:
     new folder that replaces ``folder`` once all are written; {result index: path}."""
     from ..b.notation import to_json
     from ..outputs import atomic_folder, inside, open_new, safe_name
-    from ..render.jsontext import json_text
+    from ..jsontext import json_text
 
     written, taken = {}, set()
     with atomic_folder(folder) as tmp:

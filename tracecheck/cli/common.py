@@ -94,7 +94,9 @@ def _root(
 
 
 def salvage(value: bool) -> bool:
-    """The ``--salvage`` option: damaged episodes are left out with a warning."""
+    """The ``--salvage`` option: damaged episodes are left out with a warning. Commands pass
+    their ``salvage`` to what reads; the context variable set here is for replay and diff
+    (checking/), whose functions do not take it yet."""
     if value:
         from ..episodes.salvage import SALVAGE
 
@@ -154,8 +156,8 @@ def output_format(fmt: OutputFormat, as_json: bool) -> OutputFormat:
 
 def print_json(data) -> None:
     """``data`` as indented, strict JSON on standard output: a number that is not finite is
-    null with a ``KEY_note`` beside it (:mod:`tracecheck.render.jsontext`)."""
-    from ..render.jsontext import json_text
+    null with a ``KEY_note`` beside it (:mod:`tracecheck.jsontext`)."""
+    from ..jsontext import json_text
 
     out.print_json(json_text(data))
 

@@ -115,7 +115,8 @@ def import_minari_cmd(
 ) -> None:
     """Import a Minari dataset, so that replay, diff and stats can check it against a shield."""
     from ..episodes.files import check_run_output, write_run
-    from ..interop.minari import dataset_folder, import_minari
+    from ..interop.minari import dataset_folder
+    from ..interop.minari_import import import_minari
 
     inputs = [dataset_folder(dataset)]  # its metadata.json, main_data.hdf5: never an output
     check_run_output(output, inputs, force=force)
@@ -144,15 +145,15 @@ def export_minari_cmd(
     from ..interop.minari import export_minari
 
     with progress("exporting to Minari") as advance:
-        dataset = export_minari(run, dataset_id, env=env, progress=advance)
+        dataset = export_minari(run, dataset_id, env=env, progress=advance, salvage=salvage)
     say(f"wrote {dataset.total_episodes} episode(s), {dataset.total_steps} step(s) -> Minari "
           f"dataset {dataset_id}")
 
 
-def _episodes(run: Path, only: Optional[set[int]] = None) -> list:
+def _episodes(run: Path, salvage: bool) -> list:
     from ..episodes.reader import read_run
 
-    result = read_run(run, only)
+    result = read_run(run, salvage=salvage)
     warn(result.warnings)
     if not result.episodes:
         raise InputError(f"{run} holds no complete episode")
@@ -177,10 +178,10 @@ def export_prob2trace_cmd(
 
     from ..episodes.reader import read_run
 
-    result = read_run(run, {episode})
+    result = read_run(run, {episode}, salvage=salvage)
     chosen = result.episodes
     if not chosen:
-        ids = [int(i) for i in read_columns(run).episode_ids]
+        ids = [int(i) for i in read_columns(run, salvage=salvage).episode_ids]
         if not ids:
             raise InputError(f"{run} holds no complete episode")
         raise InputError(f"{run} has no episode {episode}; it has {_ranges(ids)}")
@@ -208,7 +209,7 @@ def export_simb_cmd(
     from ..interop.simb import check_simb_folder
 
     check_simb_folder(output, [run], force=force)
-    episodes, header = _episodes(run)
+    episodes, header = _episodes(run, salvage)
     written = export_simb(episodes, output, (header.model_name if header and header.model_name
                                              else "HighwayEnvironment"), force=force,
                           inputs=[run])
@@ -228,16 +229,13 @@ def export_foxglove_cmd(
     A 3D scene (foxglove.SceneUpdate), a log of interventions, deadlocks and crashes
     (foxglove.Log) and scalars to plot (see docs/ecosystem.md)."""
     from ..episodes.files import check_run_output, write_run
-    from ..episodes.reader import read_run
+    from ..interop.foxglove import FoxgloveChannels
 
     check_run_output(output, [run], force=force)
-    result = read_run(run)
-    warn(result.warnings)
-    if not result.episodes:
-        raise InputError(f"{run} holds no complete episode")
-    with _writing(output, "adding Foxglove channels", len(result.episodes)) as advance:
-        episodes, steps, _ = write_run(output, result.header, _counted(result.episodes, advance),
-                                       foxglove=True, force=force, inputs=[run])
+    read, header = _episodes(run, salvage)
+    with _writing(output, "adding Foxglove channels", len(read)) as advance:
+        episodes, steps, _ = write_run(output, header, _counted(read, advance),
+                                       channels=FoxgloveChannels, force=force, inputs=[run])
     say(f"wrote {episodes} episode(s), {steps} step(s) with Foxglove channels -> {output}")
 
 
@@ -263,7 +261,7 @@ def info(
     from ..render.tables import TableData
 
     fmt = output_format(fmt, as_json)
-    summary = summarise(runs)
+    summary = summarise(runs, salvage=salvage)
     warn(summary["warnings"])
     if fmt == OutputFormat.json:
         print_json(summary)

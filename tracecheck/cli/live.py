@@ -89,15 +89,19 @@ def _profile(adapter, profile: Optional[str]) -> Optional[str]:
     return profile
 
 
-def _train(adapter, config: dict, algorithm: Algorithm, shield, *, output: Path, **options):
+def _train(adapter, config: dict, algorithm: Algorithm, shield, *, output: Path,
+           profile: Optional[str], **options):
+    """Train with the learner of ``algorithm``; the learning curve drawn by render/curves."""
+    from ..render.curves import learning_curve
+
     if algorithm == Algorithm.q_learning:
         from ..live.training import train_q_table
 
-        options.pop("profile")
-        return train_q_table(adapter, config, output, **options)
+        return train_q_table(adapter, config, output, draw_curve=learning_curve, **options)
     from ..live.training import train_agent
 
-    return train_agent(adapter, config, algorithm.value, output, shield=shield, **options)
+    return train_agent(adapter, config, algorithm.value, output, shield=shield,
+                       profile=profile, draw_curve=learning_curve, **options)
 
 
 def _say_trained(card: dict, output: Path) -> None:
@@ -137,6 +141,7 @@ def record_cmd(
     """Run an agent under a shield (pre-shielding) and record every episode to MCAP."""
     import time as _time
 
+    from ..interop.foxglove import FoxgloveChannels
     from ..live.record import record
 
     settings = record_settings(env, env_config, agent=str(agent), shield=shield, episodes=episodes,
@@ -156,7 +161,8 @@ def record_cmd(
             advance(crashes=stats["crashes"], rate=f"{rate:.0f}")
 
         try:
-            n, steps, crashes = record(settings, output, report, force=force)
+            n, steps, crashes = record(settings, output, report, force=force,
+                                       channels=FoxgloveChannels)
         except KeyboardInterrupt:
             err.print(f"interrupted: {output} keeps every finished episode" if stats["episodes"]
                       else f"interrupted before an episode was finished: {output} was not "

@@ -39,8 +39,8 @@ def render_cmd(
         raise InputError("--ltl and --ltl-assertions need --shield: the machine the formulas "
                          "are read in")
     formulas = ltl_formulas(loaded, ltl, ltl_assertions) if loaded is not None else []
-    page = write_page(render_episode(run, episode, loaded, formulas, adapter=adapter), output, force=force,
-                      inputs=inputs)
+    page = write_page(render_episode(run, episode, loaded, formulas, adapter=adapter,
+                                     salvage=salvage), output, force=force, inputs=inputs)
     out.print(f"wrote episode {episode} -> {page} ({page.stat().st_size / 1000:.0f} kB)",
               markup=False)
 
@@ -82,5 +82,5 @@ def report_cmd(
         err.print(f"note: {line}")
     page, pages = render_report(runs, output, shield=loaded, pset=pset, force=force,
                                 inputs=input_paths(shield, properties), resimulate=resimulate,
-                                agent=agent, env=env, adapter=adapter)
+                                agent=agent, env=env, adapter=adapter, salvage=salvage)
     out.print(f"wrote {page} and {pages} episode page(s)", markup=False)

@@ -69,7 +69,7 @@ def stats_cmd(
     for line in notes:
         err.print(f"note: {line}")
     result = statistics(runs, pset, interval=interval.value, executor=executor.value,
-                        ray_address=ray_address, adapter=adapter)
+                        ray_address=ray_address, adapter=adapter, salvage=salvage)
     _print_stats(result, fmt, plot, force)
 
 
@@ -103,6 +103,7 @@ def simulate_cmd(
     """Monte Carlo: record episodes and validate them in one go (SimB-style)."""
     from ..stats.properties import load_properties
     from ..live.record import resolve
+    from ..interop.foxglove import FoxgloveChannels
     from ..stats.simulate import simulate
 
     fmt = output_format(fmt, as_json)
@@ -115,7 +116,8 @@ def simulate_cmd(
     pset = load_properties(properties) if properties else adapter_set(resolve(settings)[0])
     with progress("simulating", episodes) as advance:
         result = simulate(settings, output, pset, until_width=until_ci_width, force=force,
-                          inputs=input_paths(properties), progress=lambda ep: advance())
+                          inputs=input_paths(properties), progress=lambda ep: advance(),
+                          channels=FoxgloveChannels)
     seq = result.get("sequential")
     if seq is not None:
         widths = ", ".join(f"{k} {v:.3f}" for k, v in seq["widths"].items())

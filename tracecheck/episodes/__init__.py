@@ -11,17 +11,17 @@ from .._lazy import lazy_names
 
 _WHERE = {
     "RunColumns": "columns", "read_columns": "columns",
-    "HIGHWAY": "model", "Episode": "model", "EpisodeEnd": "model", "StepRecord": "model",
+    "Episode": "model", "EpisodeEnd": "model", "StepRecord": "model",
     "Vocabulary": "model",
-    "DamagedFileWarning": "reader", "Run": "reader", "read_episodes": "reader",
+    "DamagedEpisode": "reader", "Run": "reader", "read_episodes": "reader",
     "read_header": "reader", "read_run": "reader",
     "EpisodeWriter": "writer", "new_header": "writer",
 }
 
 __all__ = [
     "EpisodeWriter", "read_run", "read_episodes", "read_columns", "read_header", "Run",
-    "RunColumns", "DamagedFileWarning", "new_header", "Episode", "EpisodeEnd", "StepRecord",
-    "Vocabulary", "HIGHWAY",
+    "RunColumns", "DamagedEpisode", "new_header", "Episode", "EpisodeEnd", "StepRecord",
+    "Vocabulary",
 ]
 
 

@@ -17,7 +17,7 @@ from ..b.columns import Columns
 from ..b.values import Elem
 from ..errors import InputError
 from .codec import RUN_COLUMNS_MEDIA_TYPE, columns_from_arrays, decode_columns
-from .reader import DamagedFileWarning, check_columns, complete
+from .reader import DamagedEpisode, check_columns, complete
 from .records import find_attachment, mapped
 
 __all__ = ["read_columns", "RunColumns", "episode_columns"]
@@ -67,12 +67,12 @@ def read_columns(path: str | Path, *, salvage: Optional[bool] = None) -> RunColu
     if whole is not None:
         return whole
     with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", DamagedFileWarning)
+        warnings.simplefilter("always", DamagedEpisode)
         decoded, reasons = [], []
         for piece in complete(path, decode=False, salvage=salvage):
             decoded.append((piece.head.episode, *piece.columns))
             reasons.append(piece.end.reason)
-    notes = [str(w.message) for w in caught if issubclass(w.category, DamagedFileWarning)]
+    notes = [str(w.message) for w in caught if issubclass(w.category, DamagedEpisode)]
     actions: list[str] = []
     elements: list[str] = []
     for _, header, _ in decoded:

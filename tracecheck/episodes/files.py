@@ -8,13 +8,13 @@ from __future__ import annotations
 import os
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterable, Iterator, Sequence
+from typing import Iterable, Iterator, Optional, Sequence
 
 from ..errors import InputError
 from ..outputs import atomic_temp, check_output, open_new, temp_file
-from .writer import EpisodeWriter
+from .writer import ChannelsFactory, EpisodeWriter
 from .model import Episode
-from .schema import RunHeader
+from .schema import RunHeaderMessage
 
 __all__ = ["write_run", "recording_into", "check_run_output"]
 
@@ -28,11 +28,11 @@ def check_run_output(path: str | Path, inputs: Sequence[Path] = (), *,
     return check_output(Path(path), inputs, force=force, example="run.mcap")
 
 
-def write_run(path: str | Path, header: RunHeader, episodes: Iterable[Episode], *,
-              foxglove: bool = False, force: bool = False,
+def write_run(path: str | Path, header: RunHeaderMessage, episodes: Iterable[Episode], *,
+              channels: Optional[ChannelsFactory] = None, force: bool = False,
               inputs: Sequence[Path] = ()) -> tuple[int, int, int]:
-    """Write ``episodes`` to ``path``; (episodes, steps, crashes) written; ``foxglove`` adds
-    Foxglove's channels (``interop/foxglove.py``).
+    """Write ``episodes`` to ``path``; (episodes, steps, crashes) written; ``channels`` adds
+    a plug-in's channels (Foxglove's: ``interop/foxglove.py``).
 
     ``path`` must not be one of ``inputs``, and an existing ``path`` is replaced only with
     ``force``. An error while producing the episodes (a bad input file, say) leaves any
@@ -41,7 +41,7 @@ def write_run(path: str | Path, header: RunHeader, episodes: Iterable[Episode], 
     path = check_run_output(path, inputs, force=force)
     counts = [0, 0, 0]
     with atomic_temp(path) as (stream, part):
-        with EpisodeWriter(part, header, foxglove=foxglove, stream=stream, name=path) as out:
+        with EpisodeWriter(part, header, channels, stream=stream, name=path) as out:
             for episode in episodes:
                 out.write(episode)
                 counts[0] += 1
@@ -65,11 +65,11 @@ def _lock(path: Path) -> Path:
 
 
 @contextmanager
-def recording_into(path: str | Path, header: RunHeader, *, force: bool = False,
-                   foxglove: bool = True,
+def recording_into(path: str | Path, header: RunHeaderMessage, *, force: bool = False,
+                   channels: Optional[ChannelsFactory] = None,
                    inputs: Sequence[Path] = ()) -> Iterator[EpisodeWriter]:
-    """An :class:`EpisodeWriter` for a recording into ``path`` (with Foxglove's channels
-    unless ``foxglove`` is false).
+    """An :class:`EpisodeWriter` for a recording into ``path`` (with a plug-in's channels:
+    the CLI gives Foxglove's).
 
     ``path`` follows the output rule (not an input; an existing one only with ``force``); a
     lock file (``NAME.lock``) makes a second writer of the same path fail at once. A new file
@@ -88,7 +88,7 @@ def recording_into(path: str | Path, header: RunHeader, *, force: bool = False,
     except BaseException:
         lock.unlink(missing_ok=True)
         raise
-    writer = EpisodeWriter(part, header, foxglove=foxglove, stream=stream, name=path)
+    writer = EpisodeWriter(part, header, channels, stream=stream, name=path)
     finished = False
     try:
         with stream, writer:

@@ -8,7 +8,7 @@ other (episode id, number of steps, crash flag, last action, seed; every step wh
 are decoded): so ``info``, ``replay``, ``render`` and ``export`` see the same episodes. An
 episode that does not agree is an error naming the file and episode — or, when salvaging
 (``--salvage``, :func:`salvaging`), a :class:`SalvagedEpisodeWarning` and the episode left
-out. A damaged tail yields the complete episodes and a :class:`DamagedFileWarning` that says
+out. A damaged tail yields the complete episodes and a :class:`DamagedEpisode` that says
 what was lost.
 """
 
@@ -26,21 +26,22 @@ import orjson
 from pydantic import ValidationError
 
 from ..errors import InputError, TracecheckError
-from . import schema as S
+from . import schema
 from .codec import COLUMNS_MEDIA_TYPE, decode_columns, decode_state
 from .model import Episode, EpisodeEnd, StepRecord
-from .records import Attachment, Channel, Damage, Schema, mapped, walk
+from .records import Attachment, Channel, Damage, MessageRef, Schema, mapped, walk
 from .salvage import salvage_on, salvaging
 
-__all__ = ["read_run", "read_episodes", "read_header", "Run", "DamagedFileWarning",
+__all__ = ["read_run", "read_episodes", "read_header", "Run", "DamagedEpisode",
            "SalvagedEpisodeWarning", "salvaging", "complete", "Piece"]
 
 
-class DamagedFileWarning(UserWarning):
-    """A file whose tail is damaged: the complete episodes were read, the rest was lost."""
+class DamagedEpisode(UserWarning):
+    """A warning: a file whose tail is damaged (its complete episodes were read, the damaged
+    one and the rest were lost)."""
 
 
-class SalvagedEpisodeWarning(DamagedFileWarning):
+class SalvagedEpisodeWarning(DamagedEpisode):
     """An episode left out because its parts do not agree (only when salvaging)."""
 
 
@@ -49,7 +50,7 @@ class Run:
     """A whole file: its header and complete episodes (and what could not be read)."""
 
     path: str
-    header: Optional[S.RunHeader]
+    header: Optional[schema.RunHeaderMessage]
     episodes: list[Episode] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
 
@@ -59,12 +60,12 @@ class Piece:
     """One complete, checked episode of a file: its messages and its decoded columns
     (``steps`` holds ``None`` for steps that were not decoded)."""
 
-    head: S.EpisodeHeader
+    head: schema.EpisodeHeaderMessage
     steps: list
     count: int = 0
     crc: int = 0  # CRC-32 of its messages so far
     last: Optional[tuple] = None  # (buffer, start, end) of the last step message's data
-    end: Optional[S.EpisodeEnd] = None
+    end: Optional[schema.EpisodeEndMessage] = None
     columns: Optional[tuple[dict, dict[str, np.ndarray]]] = None
 
     @property
@@ -75,7 +76,7 @@ class Piece:
                        end=EpisodeEnd(end.steps, end.crashed, end.total_reward, end.reason))
 
 
-class _Bad(Exception):
+class _BadEpisode(Exception):
     """One episode is damaged (the message says how)."""
 
 
@@ -90,11 +91,11 @@ def _where(path: Path, episode=None, step=None) -> str:
 
 def _parse(name: str, data: bytes):
     try:
-        return S.MESSAGES[name].model_validate_json(data)
+        return schema.MESSAGES[name].model_validate_json(data)
     except ValidationError as exc:
         first = exc.errors()[0]
         loc = ".".join(str(p) for p in first["loc"])
-        raise _Bad(f"bad {name} message: {loc}: {first['msg']}") from None
+        raise _BadEpisode(f"bad {name} message: {loc}: {first['msg']}") from None
 
 
 class _Assembler:
@@ -108,7 +109,7 @@ class _Assembler:
         self.salvage = salvage
         self.schemas: dict[int, str] = {}
         self.channels: dict[int, str] = {}
-        self.header: Optional[S.RunHeader] = None
+        self.header: Optional[schema.RunHeaderMessage] = None
         self.current: Optional[Piece] = None
         self.broken: Optional[str] = None  # the current episode is damaged (salvaging)
         self.count = 0
@@ -127,8 +128,8 @@ class _Assembler:
 
     # -- records
     def feed(self, record) -> Optional[Piece]:
-        if type(record) is tuple:
-            _, buf, start, stop = record
+        if type(record) is MessageRef:
+            buf, start, stop = record
             name = self.channels.get(buf[start] | buf[start + 1] << 8)
             if name is not None:
                 return self.message(name, buf, start + 22, stop)
@@ -137,7 +138,7 @@ class _Assembler:
                 return self.attachment(record.data)
         elif isinstance(record, Channel):
             name = self.schemas.get(record.schema_id, "")
-            if name in S.MESSAGES and S.TOPICS[name] == record.topic:
+            if name in schema.MESSAGES and schema.TOPICS[name] == record.topic:
                 self.channels[record.id] = name
         elif isinstance(record, Schema):
             self.schemas[record.id] = record.name
@@ -152,7 +153,7 @@ class _Assembler:
                 raise InputError(f"{self.path}: the file has a second run header")
             try:
                 self.header = _parse(name, data)
-            except _Bad as exc:
+            except _BadEpisode as exc:
                 raise InputError(f"{self.path}: {exc}") from None
             self.run_crc = zlib.crc32(data)
             return None
@@ -162,7 +163,7 @@ class _Assembler:
         if name == "tracecheck.EpisodeHeader":
             self.start(data)
         elif self.current is None:  # a stray message: one warning, the rest of it ignored
-            self.current = Piece(S.EpisodeHeader(episode=-1), [])
+            self.current = Piece(schema.EpisodeHeaderMessage(episode=-1), [])
             self.broken = "stray"
             self.bad(f"a {name} message comes outside any episode", episode="?")
         elif self.broken is None:
@@ -171,7 +172,7 @@ class _Assembler:
                     self.step(data)
                 elif name == "tracecheck.EpisodeEnd":
                     self.finish(data)
-            except _Bad as exc:
+            except _BadEpisode as exc:
                 self.broken = str(exc)
                 self.bad(str(exc))
         return None
@@ -183,9 +184,9 @@ class _Assembler:
         self.current, self.broken = None, None
         try:
             head = _parse("tracecheck.EpisodeHeader", data)
-        except _Bad as exc:
+        except _BadEpisode as exc:
             self.broken = str(exc)
-            self.current = Piece(S.EpisodeHeader(episode=-1), [])
+            self.current = Piece(schema.EpisodeHeaderMessage(episode=-1), [])
             self.bad(str(exc), episode="?")
             return
         self.current = Piece(head, [], crc=zlib.crc32(data))
@@ -202,7 +203,7 @@ class _Assembler:
     def step(self, data: bytes) -> None:
         piece = self.current
         if piece.end is not None:
-            raise _Bad("a step message comes after the episode's end record")
+            raise _BadEpisode("a step message comes after the episode's end record")
         piece.count += 1
         piece.steps.append(self.step_record(data))
 
@@ -210,11 +211,11 @@ class _Assembler:
         k = self.current.count - 1
         msg = _parse("tracecheck.Step", data)
         if msg.episode != self.current.head.episode or msg.step != k:
-            raise _Bad(f"step message {k} is step {msg.step} of episode {msg.episode}")
+            raise _BadEpisode(f"step message {k} is step {msg.step} of episode {msg.episode}")
         try:
             state = decode_state(msg.state)
         except TracecheckError as exc:
-            raise _Bad(f"step {k}: {exc.message}") from None
+            raise _BadEpisode(f"step {k}: {exc.message}") from None
         return StepRecord(
             step=msg.step, time=msg.time, action=msg.action, state=state, reward=msg.reward,
             crashed=msg.crashed,
@@ -226,12 +227,12 @@ class _Assembler:
     def finish(self, data: bytes) -> None:
         piece = self.current
         if piece.end is not None:
-            raise _Bad("the episode has two end records")
+            raise _BadEpisode("the episode has two end records")
         end = _parse("tracecheck.EpisodeEnd", data)
         if end.episode != piece.head.episode:
-            raise _Bad(f"the end record belongs to episode {end.episode}")
+            raise _BadEpisode(f"the end record belongs to episode {end.episode}")
         if not piece.count:
-            raise _Bad("the episode has no steps")
+            raise _BadEpisode("the episode has no steps")
         piece.end = end
 
     def attachment(self, blob: bytes) -> Optional[Piece]:
@@ -248,7 +249,7 @@ class _Assembler:
             piece.columns = decode_columns(blob)
             _checksums(piece, self.run_crc)
             _agree(piece, self.decode)
-        except (_Bad, InputError) as exc:
+        except (_BadEpisode, InputError) as exc:
             self.bad(exc.message if isinstance(exc, InputError) else str(exc),
                      episode=piece.head.episode)
             return None
@@ -268,27 +269,27 @@ def _checksums(piece: Piece, run_crc: int) -> None:
     from before these checksums have none)."""
     header = piece.columns[0]
     if header.get("messages_crc", piece.crc) != piece.crc:
-        raise _Bad("its messages do not match the checksum its columns carry (the file was "
-                   "damaged or edited)")
+        raise _BadEpisode("its messages do not match the checksum its columns carry (the file was "
+                          "damaged or edited)")
     if header.get("run_crc", run_crc) != run_crc:
-        raise _Bad("the run header does not match the checksum the episode's columns carry "
-                   "(the file was damaged or edited)")
+        raise _BadEpisode("the run header does not match the checksum the episode's columns carry "
+                          "(the file was damaged or edited)")
 
 
 def _agree(piece: Piece, decoded: bool) -> None:
-    """The columns of ``piece`` say what its messages say (raises :class:`_Bad`)."""
+    """The columns of ``piece`` say what its messages say (raises :class:`_BadEpisode`)."""
     header, arrays = piece.columns
     check_columns(header, arrays)
     head, end = piece.head, piece.end
     if header.get("episode") != head.episode:
-        raise _Bad(f"its columns belong to episode {header.get('episode')!r}")
+        raise _BadEpisode(f"its columns belong to episode {header.get('episode')!r}")
     rows = len(arrays["time"])
     if not rows == piece.count == end.steps + 1:
-        raise _Bad(f"the step messages ({piece.count}), end record ({end.steps} steps after "
-                   f"the initial state) and columns ({rows} rows) disagree on its length")
+        raise _BadEpisode(f"the step messages ({piece.count}), end record ({end.steps} steps after "
+                          f"the initial state) and columns ({rows} rows) disagree on its length")
     if header.get("seed") != head.seed:
-        raise _Bad(f"the columns say seed {header.get('seed')!r}, the episode header "
-                   f"{head.seed!r}")
+        raise _BadEpisode(f"the columns say seed {header.get('seed')!r}, the episode header "
+                          f"{head.seed!r}")
     names = header["actions"]
     crashed = bool(arrays["crashed"][-1])
     if decoded:
@@ -297,19 +298,19 @@ def _agree(piece: Piece, decoded: bool) -> None:
         last = _last_step(piece)
     last_action = names[arrays["action"][-1]] if arrays["action"][-1] >= 0 else None
     if not crashed == end.crashed == last.crashed:
-        raise _Bad(f"the columns, end record and last step disagree on whether it crashed "
-                   f"({crashed}, {end.crashed}, {last.crashed})")
+        raise _BadEpisode(f"the columns, end record and last step disagree on whether it crashed "
+                          f"({crashed}, {end.crashed}, {last.crashed})")
     if last.action != last_action:
-        raise _Bad(f"the last step's action is {last.action!r} in its message and "
-                   f"{last_action!r} in the columns")
+        raise _BadEpisode(f"the last step's action is {last.action!r} in its message and "
+                          f"{last_action!r} in the columns")
     if decoded:
         actions = [names[a] if a >= 0 else None for a in arrays["action"].tolist()]
         for k, s in enumerate(piece.steps):
             if (s.action != actions[k] or s.crashed != bool(arrays["crashed"][k])
                     or s.reward != float(arrays["reward"][k])
                     or s.time != float(arrays["time"][k])):
-                raise _Bad(f"step {k}: the step message and the columns disagree "
-                           "(action, reward, time or crash flag)")
+                raise _BadEpisode(f"step {k}: the step message and the columns disagree "
+                                  "(action, reward, time or crash flag)")
 
 
 @dataclass(frozen=True)
@@ -324,13 +325,13 @@ def _last_step(piece: Piece) -> _Last:
     try:
         msg = orjson.loads(buf[a:b])
     except orjson.JSONDecodeError as exc:
-        raise _Bad(f"step {piece.count - 1}: the step message is not JSON ({exc})") from None
+        raise _BadEpisode(f"step {piece.count - 1}: the step message is not JSON ({exc})") from None
     if not (isinstance(msg, dict) and msg.get("episode") == piece.head.episode
             and msg.get("step") == piece.count - 1 and type(msg.get("crashed")) is bool
             and (msg.get("action") is None or type(msg.get("action")) is str)):
         full = _parse("tracecheck.Step", buf[a:b])  # says what is wrong …
-        raise _Bad(f"step message {piece.count - 1} is step {full.step} of episode "
-                   f"{full.episode}")  # … or this is
+        raise _BadEpisode(f"step message {piece.count - 1} is step {full.step} of episode "
+                          f"{full.episode}")  # … or this is
     return _Last(msg.get("action"), msg["crashed"])
 
 
@@ -419,7 +420,7 @@ def complete(path: str | Path, only: Optional[set[int]] = None, *, decode: bool 
     """The complete, checked episodes of a file in order (those in ``only`` when given;
     ``decode=False``: step messages are counted, not decoded).
 
-    A damaged tail ends the iteration with a :class:`DamagedFileWarning`; a file that is not
+    A damaged tail ends the iteration with a :class:`DamagedEpisode`; a file that is not
     a tracecheck run raises :class:`~tracecheck.errors.InputError`, and so does an episode
     whose parts disagree unless salvaging.
     """
@@ -436,20 +437,21 @@ def complete(path: str | Path, only: Optional[set[int]] = None, *, decode: bool 
 def _pieces(path: Path, buf, view, asm: "_Assembler") -> Iterator[Piece]:
     steps = -1  # the channel of step messages, once known
     for record in walk(path, buf):
-        if type(record) is tuple:
+        if type(record) is MessageRef:
             piece = asm.current
-            if (record[1][record[2]] | record[1][record[2] + 1] << 8 == steps
+            data, start, end = record
+            if (data[start] | data[start + 1] << 8 == steps
                     and piece is not None and piece.end is None and asm.broken is None
                     and not (asm.decode and asm.wanted())):
                 # a step that is not decoded: counted, checksummed, the last one kept for
                 # the cross-check (the hot loop of reading a file's columns)
                 piece.count += 1
-                piece.last = (record[1], record[2] + 22, record[3])
-                rec = view if record[1] is buf else memoryview(record[1])
-                piece.crc = zlib.crc32(rec[record[2] + 22:record[3]], piece.crc)
+                piece.last = (data, start + 22, end)
+                rec = view if data is buf else memoryview(data)
+                piece.crc = zlib.crc32(rec[start + 22:end], piece.crc)
                 continue
         elif isinstance(record, Damage):
-            warnings.warn(asm.lost(record.why), DamagedFileWarning, stacklevel=4)
+            warnings.warn(asm.lost(record.why), DamagedEpisode, stacklevel=4)
             break
         piece = asm.feed(record)
         if steps < 0 and isinstance(record, Channel):
@@ -458,7 +460,7 @@ def _pieces(path: Path, buf, view, asm: "_Assembler") -> Iterator[Piece]:
             yield piece
     else:
         if asm.current is not None and asm.broken is None:
-            warnings.warn(asm.lost("the last episode is not complete"), DamagedFileWarning,
+            warnings.warn(asm.lost("the last episode is not complete"), DamagedEpisode,
                           stacklevel=4)
     if asm.header is None:
         raise InputError(f"{path} is an MCAP file but not a tracecheck run (no "
@@ -478,14 +480,14 @@ def read_run(path: str | Path, only: Optional[set[int]] = None, *,
     """The header and all complete episodes of a file (or those in ``only``); warnings are
     collected, not raised."""
     with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", DamagedFileWarning)
+        warnings.simplefilter("always", DamagedEpisode)
         episodes = list(read_episodes(path, only, salvage=salvage))
     header = read_header(path)
     return Run(str(path), header, episodes,
-               [str(w.message) for w in caught if issubclass(w.category, DamagedFileWarning)])
+               [str(w.message) for w in caught if issubclass(w.category, DamagedEpisode)])
 
 
-def read_header(path: str | Path) -> S.RunHeader:
+def read_header(path: str | Path) -> schema.RunHeaderMessage:
     """The run header of a file (its first message)."""
     path = Path(path)
     with mapped(path) as buf:

@@ -17,11 +17,11 @@ from contextlib import contextmanager
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator, Optional, Union
+from typing import Any, Iterator, NamedTuple, Optional, Union
 
 from ..errors import InputError
 
-__all__ = ["walk", "Damage", "Schema", "Channel", "Attachment", "MESSAGE", "MAGIC",
+__all__ = ["walk", "Damage", "Schema", "Channel", "Attachment", "MessageRef", "MESSAGE", "MAGIC",
            "MAX_CHUNK_RATIO", "MAX_CHUNK_BYTES", "mapped"]
 
 MAGIC = b"\x89MCAP0\r\n"
@@ -66,14 +66,21 @@ class Attachment:
     data: bytes
 
 
-#: A message: (MESSAGE, buffer, start, end) — its channel id is the first two bytes of
-#: ``buffer[start:end]`` and its data starts 22 bytes in.
-MessageRef = tuple
+class MessageRef(NamedTuple):
+    """A message record, not copied: its channel id is the first two bytes of
+    ``buffer[start:end]`` and its data starts 22 bytes in."""
+
+    buffer: Any
+    start: int
+    end: int
+
+
 Record = Union[Schema, Channel, Attachment, MessageRef, Damage]
+_new_ref = tuple.__new__  # a MessageRef without its Python-level __new__ (the hot loop)
 
 
-class _Bad(Exception):
-    pass
+class _BadRecord(Exception):
+    """A record whose fields do not fit it (the message says how)."""
 
 
 class _Fields:
@@ -87,7 +94,7 @@ class _Fields:
     def take(self, n: int) -> int:
         at = self.at
         if n < 0 or at + n > self.end:
-            raise _Bad("a field runs past the end of its record")
+            raise _BadRecord("a field runs past the end of its record")
         self.at = at + n
         return at
 
@@ -106,7 +113,7 @@ class _Fields:
         try:
             return bytes(self.buf[at:at + n]).decode("utf-8")
         except UnicodeDecodeError:
-            raise _Bad("a name is not UTF-8") from None
+            raise _BadRecord("a name is not UTF-8") from None
 
     def blob(self, n: int) -> bytes:
         at = self.take(n)
@@ -166,7 +173,7 @@ def _records(buf, at: int, end: int, top: bool) -> Iterator[Record]:
             if length < 22:
                 yield Damage(f"the message record at byte {start - 9} is too short")
                 return
-            yield (MESSAGE, buf, start, stop)
+            yield _new_ref(MessageRef, (buf, start, stop))  # MessageRef(…), faster
             continue
         try:
             if op == CHANNEL:
@@ -189,7 +196,7 @@ def _records(buf, at: int, end: int, top: bool) -> Iterator[Record]:
                         return
             elif op in (DATA_END, FOOTER) and top:
                 return
-        except _Bad as exc:
+        except _BadRecord as exc:
             yield Damage(f"the record at byte {start - 9}: {exc}")
             return
 
@@ -201,36 +208,36 @@ def _chunk(f: _Fields) -> bytes:
     data = f.blob(f.u64())
     limit = min(MAX_CHUNK_BYTES, MAX_CHUNK_RATIO * len(data) + (1 << 20))
     if size > limit:
-        raise _Bad(f"a chunk would decompress to {size} bytes from {len(data)} (more than "
-                   f"tracecheck's limit of {limit} bytes for it)")
+        raise _BadRecord(f"a chunk would decompress to {size} bytes from {len(data)} (more than "
+                         f"tracecheck's limit of {limit} bytes for it)")
     if compression == "":
         out = bytes(data)
     elif compression == "zstd":
         try:
             import zstandard
         except ImportError:
-            raise _Bad("a chunk is zstd-compressed and the zstandard package is not installed "
-                       "(pip install zstandard)") from None
+            raise _BadRecord("a chunk is zstd-compressed and the zstandard package is not "
+                             "installed (pip install zstandard)") from None
         try:
             out = zstandard.ZstdDecompressor().decompress(bytes(data), max_output_size=size)
         except zstandard.ZstdError as exc:
-            raise _Bad(f"a zstd chunk does not decompress: {exc}") from None
+            raise _BadRecord(f"a zstd chunk does not decompress: {exc}") from None
     elif compression == "lz4":
         try:
             import lz4.frame
         except ImportError:
-            raise _Bad("a chunk is lz4-compressed and the lz4 package is not installed "
-                       "(pip install lz4)") from None
+            raise _BadRecord("a chunk is lz4-compressed and the lz4 package is not installed "
+                             "(pip install lz4)") from None
         try:
             out = _lz4(lz4.frame, bytes(data), size)
         except RuntimeError as exc:
-            raise _Bad(f"an lz4 chunk does not decompress: {exc}") from None
+            raise _BadRecord(f"an lz4 chunk does not decompress: {exc}") from None
     else:
-        raise _Bad(f"a chunk uses the unknown compression {compression!r}")
+        raise _BadRecord(f"a chunk uses the unknown compression {compression!r}")
     if len(out) != size:
-        raise _Bad(f"a chunk decompresses to {len(out)} bytes, not the {size} it declares")
+        raise _BadRecord(f"a chunk decompresses to {len(out)} bytes, not the {size} it declares")
     if crc and zlib.crc32(out) != crc:
-        raise _Bad("a chunk's checksum does not match its contents")
+        raise _BadRecord("a chunk's checksum does not match its contents")
     return out
 
 
@@ -286,5 +293,5 @@ def find_attachment(buf, media_type: str) -> Optional[tuple[int, bytes]]:
         if f.string() != media_type:
             return None
         return offset, f.blob(f.u64())
-    except (_Bad, struct.error):
+    except (_BadRecord, struct.error):
         return None

@@ -1,9 +1,12 @@
 """The messages of a tracecheck MCAP file, as pydantic models (exported to ``schemas/``).
 
-A file holds one run: a :class:`RunHeader` on ``/tracecheck/run``, then for each episode an
-:class:`EpisodeHeader` on ``/tracecheck/episode``, one :class:`Step` per state on
-``/tracecheck/step`` (step 0 is the initial state) and an :class:`EpisodeEnd` on
-``/tracecheck/episode_end``. Every message is JSON with a JSON schema, so any MCAP tool can
+A file holds one run: a :class:`RunHeaderMessage` on ``/tracecheck/run``, then for each
+episode an :class:`EpisodeHeaderMessage` on ``/tracecheck/episode``, one :class:`StepMessage`
+per state on ``/tracecheck/step`` (step 0 is the initial state) and an
+:class:`EpisodeEndMessage` on ``/tracecheck/episode_end``. The classes are named ``…Message``
+(the in-memory episode of :mod:`tracecheck.episodes.model` has its own ``EpisodeEnd`` and
+``StepRecord``); their JSON schemas keep the names the files carry (``tracecheck.Step``,
+titled ``Step``). Every message is JSON with a JSON schema, so any MCAP tool can
 show and plot it. Beside the messages, each episode carries its states as numpy columns in an
 attachment (see :mod:`tracecheck.episodes.codec`) for fast whole-file analysis.
 
@@ -20,8 +23,8 @@ from typing import Any, Literal, Optional
 
 from pydantic import BaseModel, ConfigDict, Field
 
-__all__ = ["RunHeader", "EpisodeHeader", "Step", "EpisodeEnd", "MESSAGES", "TOPICS",
-           "export_schemas", "SCHEMA_DIR"]
+__all__ = ["RunHeaderMessage", "EpisodeHeaderMessage", "StepMessage", "EpisodeEndMessage",
+           "MESSAGES", "TOPICS", "export_schemas", "SCHEMA_DIR"]
 
 Source = Literal["recorded", "imported-simb", "imported-prob2trace", "imported-minari"]
 EndReason = Literal["crashed", "time-limit", "end-of-trace", "deadlock", "interrupted"]
@@ -33,8 +36,10 @@ class _Message(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, defer_build=True)
 
 
-class RunHeader(_Message):
+class RunHeaderMessage(_Message):
     """Once per file: where the episodes come from."""
+
+    model_config = ConfigDict(title="RunHeader")  # the schema's name in files
 
     tracecheck_version: str
     created: str = Field(description="ISO 8601 time the file was written")
@@ -58,16 +63,20 @@ class RunHeader(_Message):
     actions: list[str] = Field(default_factory=list, description="action (operation) names")
 
 
-class EpisodeHeader(_Message):
+class EpisodeHeaderMessage(_Message):
     """Start of an episode."""
+
+    model_config = ConfigDict(title="EpisodeHeader")  # the schema's name in files
 
     episode: int
     seed: Optional[int] = None
     origin: Optional[str] = Field(None, description="file the episode was imported from")
 
 
-class Step(_Message):
+class StepMessage(_Message):
     """One state of an episode and the action that led to it (none for step 0)."""
+
+    model_config = ConfigDict(title="Step")  # the schema's name in files
 
     episode: int
     step: int = Field(ge=0)
@@ -91,8 +100,10 @@ class Step(_Message):
         None, description="the live shield allowed nothing: the fallback was taken")
 
 
-class EpisodeEnd(_Message):
+class EpisodeEndMessage(_Message):
     """End of an episode: written only once all its steps are."""
+
+    model_config = ConfigDict(title="EpisodeEnd")  # the schema's name in files
 
     episode: int
     steps: int = Field(ge=0, description="agent actions, the initial state not counted")
@@ -102,10 +113,10 @@ class EpisodeEnd(_Message):
 
 
 MESSAGES: dict[str, type[_Message]] = {
-    "tracecheck.RunHeader": RunHeader,
-    "tracecheck.EpisodeHeader": EpisodeHeader,
-    "tracecheck.Step": Step,
-    "tracecheck.EpisodeEnd": EpisodeEnd,
+    "tracecheck.RunHeader": RunHeaderMessage,
+    "tracecheck.EpisodeHeader": EpisodeHeaderMessage,
+    "tracecheck.Step": StepMessage,
+    "tracecheck.EpisodeEnd": EpisodeEndMessage,
 }
 TOPICS = {
     "tracecheck.RunHeader": "/tracecheck/run",

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Iterable
+from typing import Iterable, Optional
 
 import numpy as np
 
@@ -14,12 +14,13 @@ from .reader import read_header
 __all__ = ["summarise"]
 
 
-def summarise(paths: Iterable[str | Path]) -> dict:
-    """Episodes, steps (agent actions), crashes, sources, agents and shields of the files."""
+def summarise(paths: Iterable[str | Path], *, salvage: Optional[bool] = None) -> dict:
+    """Episodes, steps (agent actions), crashes, sources, agents and shields of the files
+    (``salvage``: as :func:`~tracecheck.episodes.columns.read_columns`)."""
     files, warnings = [], []
     for path in paths:
         header = read_header(path)
-        cols = read_columns(path)
+        cols = read_columns(path, salvage=salvage)
         warnings += cols.warnings
         episodes = len(cols.episode_ids)
         last_rows = cols.starts[1:] - 1

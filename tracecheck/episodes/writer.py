@@ -4,6 +4,10 @@
 and flushes it to the operating system before the next one starts, so a run that is killed
 leaves a file whose finished episodes all read back. The file is MCAP without chunking:
 readable by any MCAP tool, and readable by tracecheck even when its tail is missing.
+
+More channels beside tracecheck's own come from a plug-in (:class:`StepChannels`), made for
+the run's header by whoever records: the CLI hands the writer Foxglove's
+(:class:`tracecheck.interop.foxglove.FoxgloveChannels`).
 """
 
 from __future__ import annotations
@@ -12,7 +16,7 @@ import datetime as _dt
 import time as _time
 import zlib
 from pathlib import Path
-from typing import IO, Any, Optional
+from typing import IO, Any, Callable, Iterable, Optional, Protocol
 
 from mcap.writer import CompressionType, Writer
 from pydantic import ValidationError
@@ -20,20 +24,41 @@ from pydantic import ValidationError
 from .. import __version__
 from ..b.columns import Columns
 from ..errors import InputError, TracecheckError
-from . import schema as S
+from . import schema
 from .codec import COLUMNS_MEDIA_TYPE, encode_columns, encode_state
 from .model import Episode
 
-__all__ = ["EpisodeWriter", "new_header"]
+__all__ = ["EpisodeWriter", "new_header", "StepChannels", "ChannelsFactory"]
 
 _NS = 1_000_000_000
 _GAP_S = 1.0  # seconds of file time between two episodes
 
 
-def new_header(source: str, **fields: Any) -> S.RunHeader:
+class StepChannels(Protocol):
+    """Channels a writer adds beside tracecheck's own, one batch of messages per step (not
+    in the episode's checksum: tracecheck never reads them; the run blob's checksum of the
+    file's bytes covers them)."""
+
+    #: JSON schemas by name, registered in this order
+    schemas: dict[str, bytes]
+    #: topic → the name of its schema, channels registered in this order
+    topics: dict[str, str]
+
+    def messages(self, step, *, episode: int, stamp_ns: int,
+                 previous_crashed: bool) -> Iterable[tuple[str, bytes]]:
+        """(topic, JSON message) for one step (a ``StepRecord``) at ``stamp_ns``."""
+        ...
+
+
+#: makes the plug-in for a run from its header (e.g. the ``FoxgloveChannels`` class)
+ChannelsFactory = Callable[["schema.RunHeaderMessage"], StepChannels]
+
+
+def new_header(source: str, **fields: Any) -> schema.RunHeaderMessage:
     """A run header stamped with this tracecheck version and the current time."""
     now = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
-    return S.RunHeader(tracecheck_version=__version__, created=now, source=source, **fields)
+    return schema.RunHeaderMessage(tracecheck_version=__version__, created=now, source=source,
+                                   **fields)
 
 
 class EpisodeWriter:
@@ -43,13 +68,15 @@ class EpisodeWriter:
     ...     out.write(episode)
     """
 
-    def __init__(self, path: str | Path, header: S.RunHeader, foxglove: bool = False, *,
+    def __init__(self, path: str | Path, header: schema.RunHeaderMessage,
+                 channels: Optional[ChannelsFactory] = None, *,
                  stream: Optional[IO[bytes]] = None, name: Optional[str | Path] = None) -> None:
         self.path = Path(path)  # the file on disk (read back for the run's columns)
         self.name = str(name or path)  # … and how messages call it (the output's own name)
         self._given = stream  # a stream opened by the caller, which also closes it
         self.header = header
-        self.foxglove = foxglove  # also Foxglove's own channels (interop/foxglove.py)
+        self._make_channels = channels  # more channels (Foxglove's: interop/foxglove.py)
+        self._extra: Optional[StepChannels] = None
         self.episodes = 0
         self._stream: Optional[IO[bytes]] = None
         self._writer: Optional[Writer] = None
@@ -76,47 +103,34 @@ class EpisodeWriter:
         self._writer = Writer(self._stream, use_chunking=False,
                               compression=CompressionType.NONE)
         self._writer.start(profile="tracecheck", library=f"tracecheck {__version__}")
-        for name in S.MESSAGES:
+        for name in schema.MESSAGES:
             sid = self._writer.register_schema(name=name, encoding="jsonschema",
-                                               data=S.schema_json(name).encode())
+                                               data=schema.schema_json(name).encode())
             self._channels[name] = self._writer.register_channel(
-                topic=S.TOPICS[name], message_encoding="json", schema_id=sid)
-        if self.foxglove:
-            self._register_foxglove()
+                topic=schema.TOPICS[name], message_encoding="json", schema_id=sid)
+        if self._make_channels is not None:
+            self._register_extra(self._make_channels(self.header))
         self._clock_ns = _time.time_ns()
         self._crc = 0
         self._emit("tracecheck.RunHeader", self.header.model_dump_json().encode(), 0.0)
         self._run_crc = self._crc
         self._flush()
 
-    def _register_foxglove(self) -> None:
-        import orjson
-
-        from ..interop.foxglove import SCHEMAS, TOPICS, step_messages
-
-        ids = {name: self._writer.register_schema(name=name, encoding="jsonschema",
-                                                  data=orjson.dumps(schema))
-               for name, schema in SCHEMAS.items()}
-        for topic, name in TOPICS.items():
+    def _register_extra(self, extra: StepChannels) -> None:
+        ids = {name: self._writer.register_schema(name=name, encoding="jsonschema", data=text)
+               for name, text in extra.schemas.items()}
+        for topic, name in extra.topics.items():
             self._channels[topic] = self._writer.register_channel(
                 topic=topic, message_encoding="json", schema_id=ids[name])
-        # looked up once, not per step
-        self._step_messages, self._dumps = step_messages, orjson.dumps
-        self._zones = self.header.shield_name == "paper"
-        from ..render.scene import scene_drawer
+        self._extra = extra
 
-        # the environment's own scene() hook where its adapter is installed, else built-ins
-        self._draw = scene_drawer(self.header.environment, zones=self._zones)
-
-    def _emit_foxglove(self, episode: int, step, previous_crashed: bool) -> None:
-        """Foxglove's channels for one step, right after its step message (not in the
-        episode's checksum: tracecheck never reads them; the run blob's checksum of the
-        file's bytes covers them)."""
+    def _emit_extra(self, episode: int, step, previous_crashed: bool) -> None:
+        """The plug-in's channels for one step, right after its step message."""
         t = self._clock_ns + int(round(step.time * _NS))
-        for m in self._step_messages(step, episode=episode, stamp_ns=t, zones=self._zones,
-                                     previous_crashed=previous_crashed, draw=self._draw):
-            self._writer.add_message(channel_id=self._channels[m.topic], log_time=t,
-                                     publish_time=t, data=self._dumps(m.data))
+        for topic, data in self._extra.messages(step, episode=episode, stamp_ns=t,
+                                                previous_crashed=previous_crashed):
+            self._writer.add_message(channel_id=self._channels[topic], log_time=t,
+                                     publish_time=t, data=data)
 
     def close(self) -> None:
         """Write the summary (index and statistics) and close the file."""
@@ -190,7 +204,7 @@ class EpisodeWriter:
         self.episodes += 1
 
     def _write(self, ep: Episode) -> None:
-        header = S.EpisodeHeader(episode=ep.id, seed=ep.seed, origin=ep.origin)
+        header = schema.EpisodeHeaderMessage(episode=ep.id, seed=ep.seed, origin=ep.origin)
         self._crc = 0
         start = self._stream.tell()
         self._emit("tracecheck.EpisodeHeader", header.model_dump_json(exclude_none=True).encode(),
@@ -209,17 +223,19 @@ class EpisodeWriter:
                 if value is not None:
                     msg[key] = value
             try:
-                data = S.Step.model_validate(msg).model_dump_json(exclude_none=True).encode()
+                data = schema.StepMessage.model_validate(msg).model_dump_json(
+                    exclude_none=True).encode()
             except ValidationError as exc:
                 first = exc.errors()[0]
                 raise InputError(f"{self.name}, episode {ep.id}, step {s.step}: "
                                  f"{'.'.join(map(str, first['loc']))}: {first['msg']}") from None
             self._emit("tracecheck.Step", data, s.time)
-            if self.foxglove:
-                self._emit_foxglove(ep.id, s, k > 0 and ep.steps[k - 1].crashed)
+            if self._extra is not None:
+                self._emit_extra(ep.id, s, k > 0 and ep.steps[k - 1].crashed)
         last = ep.steps[-1].time
-        end = S.EpisodeEnd(episode=ep.id, steps=ep.end.steps, crashed=ep.end.crashed,
-                           total_reward=ep.end.total_reward, reason=ep.end.reason)
+        end = schema.EpisodeEndMessage(episode=ep.id, steps=ep.end.steps,
+                                       crashed=ep.end.crashed,
+                                       total_reward=ep.end.total_reward, reason=ep.end.reason)
         self._emit("tracecheck.EpisodeEnd", end.model_dump_json().encode(), last)
         # the columns come last: an attachment in the file means its episode is complete
         cols = Columns.from_states([s.state for s in ep.steps])

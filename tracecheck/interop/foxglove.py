@@ -27,10 +27,11 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable, Iterator, Optional
 
-from ..render.scene import Box, Circle, Line, Scene, builtin_scene, scene_kind, vehicles
+from ..live.scene import Box, Circle, Line, Scene
+from ..render.scene import builtin_scene, scene_kind, vehicles
 
-__all__ = ["FoxgloveMessage", "step_messages", "scene_entities", "SCHEMAS", "TOPICS",
-           "SCALARS"]
+__all__ = ["FoxgloveChannels", "FoxgloveMessage", "step_messages", "scene_entities", "SCHEMAS",
+           "TOPICS", "SCALARS"]
 
 SCENE, LOG, SCALAR = "foxglove.SceneUpdate", "foxglove.Log", "tracecheck.Scalar"
 SCALARS = ("speed", "reward", "nearest_gap", "allowed_actions")
@@ -244,3 +245,27 @@ def step_messages(step, *, episode: int, stamp_ns: int, zones: bool = False,
         value = values[name]
         if value is not None and math.isfinite(value):
             yield FoxgloveMessage(f"/plot/{name}", {"value": float(value)})
+
+
+class FoxgloveChannels:
+    """Foxglove's channels as the writer's plug-in
+    (:class:`~tracecheck.episodes.writer.StepChannels`) for the run of ``header``: the
+    zones drawn under the ``paper`` shield, the scene from the environment's own ``scene()``
+    hook where its adapter is installed, else the built-in scenes."""
+
+    def __init__(self, header) -> None:
+        import orjson
+
+        from ..render.scene import scene_drawer
+
+        self._dumps = orjson.dumps
+        self.schemas = {name: orjson.dumps(schema) for name, schema in SCHEMAS.items()}
+        self.topics = dict(TOPICS)
+        self._zones = header.shield_name == "paper"
+        self._draw = scene_drawer(header.environment, zones=self._zones)  # looked up once
+
+    def messages(self, step, *, episode: int, stamp_ns: int,
+                 previous_crashed: bool) -> Iterator[tuple[str, bytes]]:
+        for m in step_messages(step, episode=episode, stamp_ns=stamp_ns, zones=self._zones,
+                               previous_crashed=previous_crashed, draw=self._draw):
+            yield m.topic, self._dumps(m.data)

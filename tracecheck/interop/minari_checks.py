@@ -1,6 +1,6 @@
 """What a Minari dataset's episodes must be before ``import minari`` reads them: observations
 in the dataset's observation space, tracecheck's own infos well-formed, declared counts equal
-to what is there (:mod:`tracecheck.interop.minari` calls these).
+to what is there (:mod:`tracecheck.interop.minari_import` calls these).
 
 Each refusal is an :class:`~tracecheck.errors.InputError` naming the dataset, the episode and
 the step, info key or metadata field — never a value cut to fit: an observation 0.5 of a

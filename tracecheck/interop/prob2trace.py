@@ -111,7 +111,7 @@ def export_prob2trace(episode: Episode, path: str | Path, vocab: Vocabulary = HI
     (:mod:`tracecheck.outputs`): not one of ``inputs``, an existing file only with
     ``force``, renamed into place once complete."""
     from ..outputs import check_output, write_file
-    from ..render.jsontext import json_text
+    from ..jsontext import json_text
 
     path = check_output(Path(path), inputs, force=force, example="episode.prob2trace")
     return write_file(path, json_text(prob2trace_document(episode, vocab), indent=2,

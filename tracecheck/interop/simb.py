@@ -155,7 +155,7 @@ def export_simb(episodes: Iterable[Episode], folder: str | Path,
     for which folders may be replaced).
     """
     from ..outputs import atomic_folder, inside, open_new
-    from ..render.jsontext import json_text
+    from ..jsontext import json_text
 
     folder = check_simb_folder(folder, inputs, force=force)
     names = []

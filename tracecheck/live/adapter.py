@@ -44,9 +44,10 @@ from typing import TYPE_CHECKING, Any, Collection, Optional
 from ..errors import InputError, TracecheckError, printable
 
 if TYPE_CHECKING:
-    from ..render.scene import Scene
+    from .scene import Scene
 
-__all__ = ["EnvAdapter", "Observer", "adapters", "get_adapter", "load_adapter", "AdapterInfo",
+__all__ = ["EnvAdapter", "Observer", "adapters", "get_adapter", "installed_adapter",
+           "load_adapter", "AdapterInfo",
            "ENTRY_POINT_GROUP", "parse_config", "setting_kinds", "typed_setting",
            "gymnasium_keys", "gymnasium_kinds", "MakeError"]
 
@@ -171,7 +172,7 @@ class EnvAdapter:
 
     def scene(self, step) -> Optional["Scene"]:
         """What a step looks like, for the viewer and Foxglove (optional): a
-        :class:`tracecheck.render.scene.Scene` of boxes, circles, lines and text, drawn from
+        :class:`tracecheck.live.scene.Scene` of boxes, circles, lines and text, drawn from
         ``step.state`` (its B state) and ``step.crashed``; None: no picture (the viewer then
         shows the time series and the state table). See docs/environments.md, "Drawing your
         environment"."""
@@ -235,6 +236,20 @@ def get_adapter(name: Optional[str]) -> EnvAdapter:
     except _USERS as exc:  # noqa: BLE001 - the plug-in's own code
         raise _raised(name, exc, "when it was imported") from exc
     return _instance(loaded, name)
+
+
+def installed_adapter(environment, *, required: bool = True) -> Optional[EnvAdapter]:
+    """The adapter of an environment name (installed adapters only: a name in a file is
+    never imported), or the adapter itself; None when ``required`` is False and it is not
+    installed."""
+    if isinstance(environment, EnvAdapter):
+        return environment
+    try:
+        return get_adapter(environment)
+    except InputError:
+        if required:
+            raise
+        return None
 
 
 _SPEC = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z_]\w*)*")

@@ -218,6 +218,6 @@ def save_model(model, path: Path) -> None:
 
 def write_card(card: dict, path: Path) -> None:
     from ..outputs import write_file
-    from ..render.jsontext import json_text
+    from ..jsontext import json_text
 
     write_file(path, json_text(card, indent=2) + "\n")

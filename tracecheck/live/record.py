@@ -16,7 +16,7 @@ from typing import Callable, Iterator, Optional, Sequence
 
 from ..episodes.files import check_run_output, recording_into
 from ..outputs import input_paths
-from ..episodes.writer import new_header
+from ..episodes.writer import ChannelsFactory, new_header
 from ..episodes.model import Episode
 from ..errors import InputError
 from .rollout import RecordSettings, Session, resolve
@@ -132,8 +132,10 @@ def recording_header(settings: RecordSettings, agent, shield):
 
 def record(settings: RecordSettings, out: str | Path,
            progress: Optional[Callable[[Episode], None]] = None, *,
-           force: bool = False) -> tuple[int, int, int]:
-    """Record ``settings.episodes`` episodes into ``out``; (episodes, steps, crashes).
+           force: bool = False, channels: Optional[ChannelsFactory] = None
+           ) -> tuple[int, int, int]:
+    """Record ``settings.episodes`` episodes into ``out``; (episodes, steps, crashes);
+    ``channels`` adds a plug-in's channels (the CLI gives Foxglove's).
 
     Bad settings raise before any episode runs; an existing ``out`` is refused unless
     ``force`` (see :func:`~tracecheck.episodes.files.recording_into`). Interrupted, the file
@@ -143,7 +145,8 @@ def record(settings: RecordSettings, out: str | Path,
     agent, shield = check_settings(settings, out, force=force)
     header = recording_header(settings, agent, shield)
     counts = [0, 0, 0]
-    with recording_into(out, header, force=force, inputs=run_inputs(settings)) as writer:
+    with recording_into(out, header, force=force, channels=channels,
+                        inputs=run_inputs(settings)) as writer:
         for episode in episodes(settings, shield):
             writer.write(episode)
             counts[0] += 1

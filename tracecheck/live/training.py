@@ -24,7 +24,9 @@ the same length as ``record``), and with ``--shield`` wrapped in
 In a deadlock (the shield allows nothing) the mask holds the fallback action only, which is
 what the wrapper takes: a masked learner never sees an empty mask. Beside the agent: its model
 card (``NAME.json``: algorithm, settings, shield and its sha256, the episode returns) and its
-learning curve (``NAME.curve.png``), all by the output rule.
+learning curve (``NAME.curve.png``, drawn by the ``draw_curve`` the caller gives: the CLI's
+is :func:`tracecheck.render.curves.learning_curve`; without one there is no curve), all by
+the output rule.
 """
 
 from __future__ import annotations
@@ -41,10 +43,14 @@ import numpy as np
 from ..errors import InputError
 from .agents import PAPER_DQN, Q_LEARNING, agent_outputs, file_sha256, save_model, write_card
 
-__all__ = ["train_agent", "train_q_table", "LEARNERS", "ALGORITHMS", "Learner", "Returns"]
+__all__ = ["train_agent", "train_q_table", "LEARNERS", "ALGORITHMS", "Learner", "Returns",
+           "Progress", "CurveDrawer"]
 
 #: ``progress(steps done, total, mean return of the last episodes or None)``
 Progress = Callable[[int, int, Optional[float]], None]
+#: ``draw_curve(end steps, returns, path, *, window, steps, title)``: writes the learning
+#: curve to ``path`` (:func:`tracecheck.render.curves.learning_curve`)
+CurveDrawer = Callable[..., Any]
 
 
 def _dqn_settings(highway: bool, steps: int) -> dict[str, Any]:
@@ -106,7 +112,7 @@ class Returns:
         """The mean return of the last ``window`` finished episodes (None before the first)."""
         return float(np.mean(self.returns[-self.window:])) if self.returns else None
 
-    def summary(self, curve: Path, points: int = 1000) -> dict[str, Any]:
+    def summary(self, curve: Optional[Path], points: int = 1000) -> dict[str, Any]:
         """For the model card: every episode's (end step, return), or — past ``points``
         episodes — the mean return of each block of consecutive episodes at its last step."""
         n = len(self.returns)
@@ -114,7 +120,8 @@ class Returns:
         ends = [self.steps[min(i + per, n) - 1] for i in range(0, n, per)]
         means = [round(float(np.mean(self.returns[i:i + per])), 6) for i in range(0, n, per)]
         last = self.mean()
-        return {"file": curve.name, "episodes": n, "window": self.window,
+        return {"file": curve.name if curve is not None else None, "episodes": n,
+                "window": self.window,
                 "mean_return_last": None if last is None else round(last, 6),
                 "episodes_per_point": per, "end_steps": ends, "returns": means}
 
@@ -124,23 +131,26 @@ def curve_path(out: Path) -> Path:
     return out.with_suffix(".curve.png")
 
 
-def _outputs(out: Path, suffix: str, example: str, force: bool,
-             inputs: Sequence[Path]) -> tuple[Path, Path, Path]:
-    """Agent, card and curve, checked by the output rule before anything trains."""
+def _outputs(out: Path, suffix: str, example: str, force: bool, inputs: Sequence[Path],
+             curve: bool) -> tuple[Path, Path, Optional[Path]]:
+    """Agent, card and (when one is drawn) curve, checked by the output rule before anything
+    trains."""
     from ..outputs import check_output
 
     what = "a Q-table" if suffix == ".npy" else "a trained agent"
     if out.suffix != suffix:
         raise InputError(f"{what} is saved as {suffix}, not {out.name}")
     out, card = agent_outputs(out, example, force=force, inputs=inputs)
-    curve = check_output(curve_path(out), inputs, force=force, what="learning curve")
-    return out, card, curve
+    if not curve:
+        return out, card, None
+    return out, card, check_output(curve_path(out), inputs, force=force, what="learning curve")
 
 
 def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
                 shield=None, steps: int, seed: int = 0, horizon: Optional[int] = None,
                 profile: Optional[str] = None, progress: Optional[Progress] = None,
-                force: bool = False, inputs: Sequence[Path] = ()) -> dict[str, Any]:
+                force: bool = False, inputs: Sequence[Path] = (),
+                draw_curve: Optional[CurveDrawer] = None) -> dict[str, Any]:
     """Train ``algorithm`` (a key of :data:`LEARNERS`) on the adapter's environment, under
     ``shield`` if given; save the agent (``.zip``), its learning curve and its model card
     (see the module docstring); returns the card.
@@ -153,7 +163,8 @@ def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
         raise InputError(f"unknown algorithm {algorithm!r}; the algorithms are "
                          f"{', '.join(ALGORITHMS)}")
     learner = LEARNERS[algorithm]
-    out, card_path, curve = _outputs(Path(out), ".zip", "agent.zip", force, inputs)
+    out, card_path, curve = _outputs(Path(out), ".zip", "agent.zip", force, inputs,
+                                     draw_curve is not None)
     if shield is None and learner.needs_mask:
         from ..checking.shield import load_shield
 
@@ -179,7 +190,7 @@ def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
                  shield=shield, shielding=_shielding(learner, shield), returns=returns,
                  curve=curve, packages=("torch", "stable_baselines3", learner.package),
                  done=int(model.num_timesteps))
-    _finish(card, returns, curve, card_path)
+    _finish(card, returns, curve, card_path, draw_curve)
     return card
 
 
@@ -305,22 +316,27 @@ def _versions(packages: Sequence[str]) -> dict[str, str]:
     return versions
 
 
-def _finish(card: dict, returns: Returns, curve: Path, card_path: Path) -> None:
+def _finish(card: dict, returns: Returns, curve: Optional[Path], card_path: Path,
+            draw_curve: Optional[CurveDrawer]) -> None:
     """The learning curve, then the model card (last: a card means the rest is there)."""
-    from ..render.curves import learning_curve
+    if curve is not None and draw_curve is not None:
+        _draw(card, returns, curve, draw_curve)
+    write_card(card, card_path)
 
+
+def _draw(card: dict, returns: Returns, curve: Path, draw_curve: CurveDrawer) -> None:
     shield = {"none": "", "masked": f" under shield {card['shield']} (masked)",
               "replaced": f" under shield {card['shield']}, blocked actions replaced"}
     title = (f"{card['algorithm']} on {card['environment']}{shield[card['shielding']]}, "
              f"seed {card['seed']}")
-    learning_curve(returns.steps, returns.returns, curve, window=returns.window,
-                   steps=card["environment_steps"], title=title)
-    write_card(card, card_path)
+    draw_curve(returns.steps, returns.returns, curve, window=returns.window,
+               steps=card["environment_steps"], title=title)
 
 
 def train_q_table(adapter, config: dict, out: str | Path, *, steps: int = 200_000,
                   seed: int = 0, horizon: int = 100, progress: Optional[Progress] = None,
-                  force: bool = False, inputs: Sequence[Path] = ()) -> dict[str, Any]:
+                  force: bool = False, inputs: Sequence[Path] = (),
+                  draw_curve: Optional[CurveDrawer] = None) -> dict[str, Any]:
     """Tabular Q-learning (see :data:`~tracecheck.live.agents.Q_LEARNING`) on an environment
     with discrete observations; saves the table as ``.npy``, its learning curve and its
     model card beside it.
@@ -328,7 +344,8 @@ def train_q_table(adapter, config: dict, out: str | Path, *, steps: int = 200_00
     The same seed gives the same table: exploration draws from a generator seeded with it,
     and the environment is reset with it once.
     """
-    out, card_path, curve = _outputs(Path(out), ".npy", "agent.npy", force, inputs)
+    out, card_path, curve = _outputs(Path(out), ".npy", "agent.npy", force, inputs,
+                                     draw_curve is not None)
     env = adapter.make_env(config)
     n_obs = getattr(env.observation_space, "n", None)
     if n_obs is None:
@@ -345,7 +362,7 @@ def train_q_table(adapter, config: dict, out: str | Path, *, steps: int = 200_00
     card = _card(adapter, config, "q-learning", out, seed=seed, steps=steps, wall=wall,
                  horizon=horizon, settings=dict(Q_LEARNING), profile=None, shield=None,
                  shielding="none", returns=returns, curve=curve, packages=())
-    _finish(card, returns, curve, card_path)
+    _finish(card, returns, curve, card_path, draw_curve)
     return card
 
 

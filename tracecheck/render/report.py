@@ -12,7 +12,6 @@ escaped: the page is inert (docs/safety.md).
 from __future__ import annotations
 
 import html
-import io
 from pathlib import Path
 from typing import Optional, Sequence
 
@@ -54,35 +53,6 @@ def _table(header: list[str], rows: list[list[str]]) -> str:
     body = "".join("<tr>" + "".join(f"<td>{_e(c)}</td>" for c in row) + "</tr>"
                    for row in rows)
     return f"<table><tr>{head}</tr>{body}</table>"
-
-
-def _svg_plots(result: dict) -> list[str]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from .stats_text import stats_plots
-
-    figures = []
-    original = plt.Figure.savefig
-
-    def capture(fig, path, *args, **kwargs):
-        if kwargs.get("format") == "svg" or str(path).endswith(".svg"):
-            buf = io.StringIO()
-            original(fig, buf, format="svg")
-            text = buf.getvalue()
-            figures.append(text[text.index("<svg"):])
-
-    plt.Figure.savefig = capture
-    try:
-        import tempfile
-
-        with tempfile.TemporaryDirectory() as tmp:
-            stats_plots(result, Path(tmp))
-    finally:
-        plt.Figure.savefig = original
-    return figures
 
 
 def _wide(svg: str, limit_pt: float = 600.0) -> bool:
@@ -145,14 +115,13 @@ def comparison_sentences(result: dict) -> list[str]:
         for name, entry in c.get("metrics", {}).items():
             what = descriptions.get(name) or name
             diff = entry.get("mean_difference")
-            for key, test in (("paired_t_p", "paired t-test"), ("wilcoxon_p",
-                                                                 "Wilcoxon signed-rank test")):
-                if entry.get(key) is not None:
-                    break
-            else:
+            tests = (("paired_t_p", "paired t-test"), ("wilcoxon_p", "Wilcoxon signed-rank test"))
+            found = next(((key, test) for key, test in tests if entry.get(key) is not None), None)
+            if found is None:
                 out.append(f"{what}: no test between {a} and {b} "
                            f"({entry.get('mean_difference_note') or 'the paired values do not differ'}).")
                 continue
+            key, test = found
             pv = entry[key]
             detail = (f"mean difference {a} − {b} {diff:.3g} over {pairs} pair(s); {test}, "
                       f"{_p(pv)}")
@@ -171,15 +140,16 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
                   pset: PropertySet, max_pages: int = 20, force: bool = False,
                   inputs: Sequence[Path] = (), resimulate: bool = False,
                   agent: Optional[Path] = None, env: Optional[str] = None,
-                  adapter=None) -> tuple[Path, int]:
+                  adapter=None, salvage: Optional[bool] = None) -> tuple[Path, int]:
     """Write the report to ``out`` and viewer pages beside it (``NAME_files/``); (report,
     pages written). With ``resimulate`` (needs ``shield``), the episodes the shield would
     have blocked are re-simulated under it (as ``replay --resimulate``; ``agent`` and
-    ``env`` as there). Both outputs follow the output rule (:mod:`tracecheck.outputs`)."""
+    ``env`` as there). Both outputs follow the output rule (:mod:`tracecheck.outputs`);
+    ``salvage``: as :func:`~tracecheck.episodes.reader.read_run`."""
     from ..episodes.columns import read_columns
     from ..outputs import check_output, safe_name
     from ..stats.estimates import statistics
-    from .stats_text import _rows
+    from .stats_text import stats_rows, stats_svgs
 
     out = Path(out)
     pages_dir = out.with_name(out.stem + "_files")
@@ -192,14 +162,14 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
     for run in runs:
         if not Path(run).exists():
             raise InputError(f"no such file: {run}")
-        columns.append(read_columns(run))  # read once: statistics below takes them
+        columns.append(read_columns(run, salvage=salvage))  # read once: statistics below takes them
         if not len(columns[-1].episode_ids):
             raise InputError(f"{run} holds no complete episode: nothing to report")
     stems, taken = [Path(r).stem for r in runs], set()
     page_stem = {str(r): safe_name(stem if stems.count(stem) == 1 else f"{stem}_{i + 1}", taken)
                  for i, (r, stem) in enumerate(zip(runs, stems))}
     checked = [_check_run(run, shield, resimulate, agent, env) for run in runs]
-    result = statistics(runs, pset, columns=columns, adapter=adapter)
+    result = statistics(runs, pset, columns=columns, adapter=adapter, salvage=salvage)
     parts = [f"<h1>tracecheck validation report</h1><p class='note'>"
              f"{len(runs)} run(s)" + (f"; shield {_e(shield.name)} (sha256 {_e(shield.sha256)})"
                                       if shield is not None else "; no shield to replay")
@@ -212,13 +182,13 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
                      f"through their seeds; significant at the {ALPHA:g} level.</p>"
                      "<ul class='sentences'>" + "".join(f"<li>{_e(s)}</li>" for s in sentences)
                      + "</ul>")
-    header, rows = _rows(result)
+    header, rows = stats_rows(result)
     parts.append(f"<h2>Statistics ({_e(pset.name)})</h2><p class='note'>metrics: "
                  f"mean ± sd [95 % t interval]; properties: % of episodes [95 % "
                  f"{_e(result['interval'])} interval]</p>")
     parts.append(_table(header, rows))
     parts += [("<figure class='wide'>" if _wide(svg) else "<figure>") + f"{svg}</figure>"
-              for svg in _svg_plots(result)]
+              for svg in stats_svgs(result)]
     pages: list = []
     if shield is not None:
         order = ("what re-simulation found: prevented, new crash, not prevented, did not "
@@ -230,11 +200,11 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
         budget = max(1, max_pages // len(checked))  # every run gets its viewer pages
         for c in checked:
             parts.append(_episodes_section(c, shield, pages, page_stem, pages_dir,
-                                           len(pages) + budget, adapter))
+                                           len(pages) + budget, adapter, salvage))
     page = (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>tracecheck "
             f"report</title><style>{_STYLE}</style></head><body>{''.join(parts)}</body></html>")
     if pages:
-        _write_pages(pages_dir, pages, shield, adapter)
+        _write_pages(pages_dir, pages, shield, adapter, salvage)
     write_file(out, page)
     return out, len(pages)
 
@@ -303,7 +273,8 @@ def _ranked(c: dict) -> list:
     return sorted((e for e in r.per_episode if e.matters), key=rank)
 
 
-def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter) -> str:
+def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter,
+                      salvage: Optional[bool]) -> str:
     """A run's episodes that matter: the crash column is replay's own (``replay`` and
     ``replay --resimulate`` print the same words), so the headline above and this table
     count the same episodes."""
@@ -314,7 +285,7 @@ def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter
     name = Path(c["file"]).name
     if not ranked:
         return f"<h3>{_e(name)}</h3><p>No episode crashed or had a blocked step.</p>"
-    pictures = _pictures(c, ranked[:SHOWN], adapter, shield)
+    pictures = _pictures(c, ranked[:SHOWN], adapter, shield, salvage)
     crash_header, _, crash_cell = crash_column(c["replay"])
     new_steps = {r["episode"]: r["new_crash_step"]
                  for r in (c["resim"] or {}).get("per_episode", [])}
@@ -346,7 +317,8 @@ def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter
     return text
 
 
-def _pictures(c: dict, shown: list, adapter, shield) -> dict[int, str]:
+def _pictures(c: dict, shown: list, adapter, shield, salvage: Optional[bool]
+              ) -> dict[int, str]:
     """Per episode shown: the scene at its first blocked step (else at its crash), or where
     the environment draws none, its numeric variables over time."""
     from ..episodes.reader import read_run
@@ -354,7 +326,7 @@ def _pictures(c: dict, shown: list, adapter, shield) -> dict[int, str]:
 
     if not shown:
         return {}
-    result = read_run(c["file"], {e.episode for e in shown})
+    result = read_run(c["file"], {e.episode for e in shown}, salvage=salvage)
     draw = scene_drawer(adapter=adapter, zones=shield.name == "paper")
     wanted = {e.episode: e.first_infeasible if e.first_infeasible is not None else
               (e.crash_step or 0) for e in shown}
@@ -399,12 +371,13 @@ def _sparklines(ep, mark: Optional[int], width: int = 260, row: int = 26) -> str
     return "".join(parts)
 
 
-def _write_pages(folder: Path, pages: list, shield: Optional[Shield], adapter=None) -> None:
+def _write_pages(folder: Path, pages: list, shield: Optional[Shield], adapter=None,
+                 salvage: Optional[bool] = None) -> None:
     """The viewer pages, into a new folder that replaces ``folder`` once all are written."""
     from ..outputs import atomic_folder, inside, open_new
 
     with atomic_folder(folder) as tmp:
         for file, episode, name in pages:
             with open_new(inside(tmp, name)) as stream:
-                stream.write(render_episode(file, episode, shield,
-                                            adapter=adapter).encode("utf-8"))
+                stream.write(render_episode(file, episode, shield, adapter=adapter,
+                                            salvage=salvage).encode("utf-8"))

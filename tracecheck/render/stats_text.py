@@ -4,13 +4,14 @@ from __future__ import annotations
 
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any, Iterator
 
 from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
 __all__ = ["stats_text", "stats_markdown", "stats_csv", "stats_plots", "check_plot_folder",
-           "plain_plot_text"]
+           "plain_plot_text", "stats_svgs", "stats_rows"]
 
 #: What ``stats --plot`` writes into its folder (``--force`` replaces only such a folder).
 PLOT_FILES = ("*.png", "*.svg")
@@ -41,7 +42,7 @@ def _property_cell(p: dict, lines: bool = False) -> str:
 _SEP = {False: " ", True: "\n"}  # between the parts of a cell: on one line, or one per line
 
 
-def _rows(result: dict, lines: bool = False) -> tuple[list[str], list[list[str]]]:
+def stats_rows(result: dict, lines: bool = False) -> tuple[list[str], list[list[str]]]:
     """Header and rows; ``lines``: cells split into lines for a terminal."""
     runs = result["runs"]
     header = ["", *[f"{r['name']}{_SEP[lines]}({r['episodes']} ep.)" for r in runs]]
@@ -63,7 +64,7 @@ def _rows(result: dict, lines: bool = False) -> tuple[list[str], list[list[str]]
 def stats_text(console: Console, result: dict) -> None:
     from .text import literal_row
 
-    header, rows = _rows(result, lines=True)
+    header, rows = stats_rows(result, lines=True)
     table = Table(title=Text(f"{result['properties_set']}: metrics mean ± sd [95 % t interval]; "
                              f"properties % of episodes [95 % {result['interval']} interval]"),
                   show_lines=True)
@@ -89,7 +90,7 @@ def stats_text(console: Console, result: dict) -> None:
 def stats_markdown(result: dict) -> str:
     from .tables import TableData, markdown
 
-    return markdown(TableData.of(*_rows(result)))
+    return markdown(TableData.of(*stats_rows(result)))
 
 
 def stats_csv(result: dict) -> str:
@@ -144,11 +145,30 @@ def stats_plots(result: dict, folder: Path, *, force: bool = False) -> list[Path
 
     folder = check_plot_folder(Path(folder), force=force)
     with atomic_folder(folder) as tmp:
-        written = _plots(result, tmp)
+        written = [path for stem, fig in _figures(result) for path in _save(fig, tmp, stem)]
     return [folder / p.name for p in written]
 
 
-def _plots(result: dict, folder: Path) -> list[Path]:
+@plain_plot_text()
+def stats_svgs(result: dict) -> list[str]:
+    """The plots of :func:`stats_plots` as inline SVG texts (the report's), in its order."""
+    import io
+
+    import matplotlib.pyplot as plt
+
+    svgs = []
+    for _, fig in _figures(result):
+        fig.tight_layout()
+        buf = io.StringIO()
+        fig.savefig(buf, format="svg")
+        plt.close(fig)
+        text = buf.getvalue()
+        svgs.append(text[text.index("<svg"):])
+    return svgs
+
+
+def _figures(result: dict) -> Iterator[tuple[str, Any]]:
+    """(file stem, figure) for each plot: property shares, then one per metric."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -159,9 +179,8 @@ def _plots(result: dict, folder: Path) -> list[Path]:
 
     runs = [r for r in result["runs"] if r["episodes"]]
     values = {v.name: v for v in result.values}
-    written: list[Path] = []
     if not runs:
-        return written
+        return
     props = list(runs[0]["properties"])
     if props:
         fig, ax = plt.subplots(figsize=(max(6, 1.2 * len(props) * len(runs)), 4))
@@ -178,15 +197,14 @@ def _plots(result: dict, folder: Path) -> list[Path]:
         # above the plot, in a row: inside, a share of 100 % has no free corner to take
         ax.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=len(runs),
                   frameon=False)
-        written += _save(fig, folder, "properties")
+        yield "properties", fig
     taken = {"properties"}
     for name in runs[0]["metrics"]:
         fig, ax = plt.subplots(figsize=(max(5, 1.5 * len(runs)), 4))
         ax.boxplot([values[r["name"]].metrics[name] for r in runs])
         ax.set_xticks(range(1, len(runs) + 1), [r["name"] for r in runs])
         ax.set_title(result["descriptions"].get(name) or name)
-        written += _save(fig, folder, safe_name(f"metric_{name}", taken))
-    return written
+        yield safe_name(f"metric_{name}", taken), fig
 
 
 def _save(fig, folder: Path, stem: str) -> list[Path]:

@@ -21,8 +21,8 @@ import shutil
 import textwrap
 from dataclasses import dataclass
 
-__all__ = ["TableData", "Number", "markdown", "md_text", "csv_text", "csv_cell", "csv_rows", "fitted",
-           "wrapped", "terminal_width"]
+__all__ = ["TableData", "Number", "is_number", "markdown", "md_text", "csv_text", "csv_cell",
+           "csv_rows", "fitted", "wrapped", "terminal_width"]
 
 
 class Number(str):
@@ -30,7 +30,8 @@ class Number(str):
     CSV writes it as it is, a spreadsheet reads it as that number."""
 
 
-def _is_number(value) -> bool:
+def is_number(value) -> bool:
+    """A finite real number, not a bool (numpy's numbers too): shown and plotted as one."""
     return (isinstance(value, numbers.Real) and not isinstance(value, bool)  # numpy's too
             and math.isfinite(value))
 
@@ -40,7 +41,7 @@ def _text_cell(value) -> str:
         return ""
     if isinstance(value, Number):
         return value
-    return Number(value) if _is_number(value) else str(value)
+    return Number(value) if is_number(value) else str(value)
 
 
 @dataclass(frozen=True)
@@ -104,7 +105,7 @@ def csv_cell(value):
     >>> csv_cell(float("-inf")), csv_cell(None)
     ("'-inf", '')
     """
-    if isinstance(value, Number) or _is_number(value):
+    if isinstance(value, Number) or is_number(value):
         return value
     text = "" if value is None else str(value)
     return "'" + text if text.startswith(_FORMULA_START) else text

@@ -27,8 +27,9 @@ from ..episodes.columns import read_columns
 from ..episodes.reader import read_run
 from ..errors import InputError
 from ..checking.shield import Shield
-from .jsontext import script_json
+from ..jsontext import script_json
 from .scene import scene_drawer, shape_json, css
+from .tables import is_number
 
 __all__ = ["render_episode", "episode_data", "short_value", "numeric_series"]
 
@@ -75,10 +76,6 @@ def short_value(value) -> str:
     return format_value(value)
 
 
-def _is_number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
-
-
 def numeric_series(states: Sequence[dict]) -> list[dict]:
     """One entry per numeric variable of ``states`` (each ``{"name", "lines": [{"label",
     "values"}]}``, a value per state, None where the state has none): a number is one line, a
@@ -88,13 +85,13 @@ def numeric_series(states: Sequence[dict]) -> list[dict]:
     for name in names:
         values = [s.get(name) for s in states]
         given = [v for v in values if v is not None]
-        if given and all(_is_number(v) for v in given):
+        if given and all(is_number(v) for v in given):
             out.append({"name": name, "lines": [{"label": name, "values": [
                 float(v) if v is not None else None for v in values]}]})
             continue
         maps = [getattr(v, "map", None) for v in given]
         if not given or any(m is None for m in maps) or not all(
-                _is_number(x) for m in maps for x in m.values()):
+                is_number(x) for m in maps for x in m.values()):
             continue
         keys = list(dict.fromkeys(k for m in maps for k in m))
         if not keys:
@@ -134,14 +131,15 @@ def _scenes(ep, draw) -> tuple[Optional[dict], list]:
 
 
 def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
-                 ltl: Sequence[tuple] = (), adapter=None) -> dict:
+                 ltl: Sequence[tuple] = (), adapter=None, salvage: Optional[bool] = None) -> dict:
     """Everything the viewer shows, as JSON-ready data (``ltl``: (name, text, formula) of
     LTL formulas over ``shield``'s machine, each marked where the episode first violates
     it; ``adapter``: the environment's adapter (``--env``), whose ``scene`` hook draws the
-    steps; without one, the built-in scenes — render imports no environment package)."""
-    result = read_run(run, {episode})
+    steps; without one, the built-in scenes — render imports no environment package;
+    ``salvage``: as :func:`~tracecheck.episodes.reader.read_run`)."""
+    result = read_run(run, {episode}, salvage=salvage)
     if not result.episodes:
-        ids = [int(i) for i in read_columns(run).episode_ids]
+        ids = [int(i) for i in read_columns(run, salvage=salvage).episode_ids]
         if not ids:
             raise InputError(f"{run} holds no complete episode")
         raise InputError(f"{run} has no episode {episode}; it has {_ids_text(ids)}",
@@ -186,20 +184,21 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
         "shield": shield.name if shield is not None else None,
         "first_infeasible": first_infeasible, "blocked": blocked,
         "interventions": interventions, "crash_step": crash,
-        "ltl": _ltl_marks(run, ep.id, shield, ltl), "series": series,
+        "ltl": _ltl_marks(run, ep.id, shield, ltl, salvage), "series": series,
         "end": {"steps": ep.end.steps, "reason": ep.end.reason,
                 "total_reward": ep.end.total_reward},
         "steps": steps,
     }
 
 
-def _ltl_marks(run, episode: int, shield: Optional[Shield], ltl: Sequence[tuple]) -> list:
+def _ltl_marks(run, episode: int, shield: Optional[Shield], ltl: Sequence[tuple],
+               salvage: Optional[bool]) -> list:
     if not ltl:
         return []
     from ..checking.crashflag import flagged, with_crash_flag
     from ..checking.ltl import check_ltl
 
-    cols, machine = with_crash_flag(read_columns(run)), flagged(shield.machine)
+    cols, machine = with_crash_flag(read_columns(run, salvage=salvage)), flagged(shield.machine)
     marks = []
     for name, text, formula in ltl:
         result = check_ltl(name, text, formula, cols, machine)
@@ -210,9 +209,10 @@ def _ltl_marks(run, episode: int, shield: Optional[Shield], ltl: Sequence[tuple]
 
 
 def render_episode(run: str | Path, episode: int, shield: Optional[Shield] = None,
-                   ltl: Sequence[tuple] = (), adapter=None) -> str:
-    """The viewer page of one episode (see the module docstring)."""
-    data = episode_data(run, episode, shield, ltl, adapter)
+                   ltl: Sequence[tuple] = (), adapter=None, salvage: Optional[bool] = None) -> str:
+    """The viewer page of one episode (see the module docstring; ``salvage`` as
+    :func:`episode_data`)."""
+    data = episode_data(run, episode, shield, ltl, adapter, salvage)
     title = f"{Path(str(run)).name}, episode {episode}"
     fields = {"TITLE": html.escape(title), "DATA": script_json(data)}
     # one pass: a file named {{DATA}}.mcap stays a title

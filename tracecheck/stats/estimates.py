@@ -25,6 +25,7 @@ from ..b.vector import BatchFormula
 from ..episodes.columns import RunColumns, read_columns
 from ..errors import EvaluationError, InputError, TracecheckError
 from ..checking.crashflag import CRASH_FLAG, flagged, with_crash_flag
+from ..live.adapter import installed_adapter
 from .properties import Metric, Property, PropertySet, load_properties, with_generic
 
 __all__ = ["RunValues", "StatsResult", "evaluate_run", "statistics", "INTERVALS",
@@ -63,22 +64,6 @@ def environment_of(path: str | Path) -> str:
     return header.model_name or "unnamed"
 
 
-def _installed_adapter(environment, *, required: bool = True):
-    """The adapter of an environment name (installed adapters only: a name in a file is
-    never imported), or the adapter itself; None when ``required`` is False and it is not
-    installed."""
-    from ..live.adapter import EnvAdapter, get_adapter
-
-    if isinstance(environment, EnvAdapter):
-        return environment
-    try:
-        return get_adapter(environment)
-    except InputError:
-        if required:
-            raise
-        return None
-
-
 @dataclass
 class _Scope:
     """What formulas are checked against: names with their types, constants, the state
@@ -98,7 +83,7 @@ def _typing_scope(environment="highway", sample: Optional[dict] = None) -> _Scop
     from ..b.typecheck import type_of_value
     from ..checking.shield import load_shield
 
-    adapter = _installed_adapter(environment, required=False)
+    adapter = installed_adapter(environment, required=False)
     if adapter is not None and adapter.default_shield is not None:
         machine = load_shield(adapter.default_shield).machine
         names, constants, variables = (dict(machine.type_objects), dict(machine.base_env),
@@ -140,7 +125,7 @@ def default_set(paths: list[str | Path], adapter=None) -> tuple[PropertySet, lis
     """The generic set with the runs' environment's own set added where it has one (its
     adapter given, or installed), and notes for people (an adapter not installed here)."""
     environment = environment_of(paths[0]) if paths else "highway"
-    adapter = adapter if adapter is not None else _installed_adapter(environment, required=False)
+    adapter = adapter if adapter is not None else installed_adapter(environment, required=False)
     if adapter is None:
         return with_generic(None), [
             f"the environment {environment} of these runs is not installed here: generic "
@@ -198,7 +183,7 @@ def _machine(environment):
     with the recorded crash flag as one more variable (unless it has a ``crashed``)."""
     from ..checking.shield import load_shield
 
-    adapter = _installed_adapter(environment)
+    adapter = installed_adapter(environment)
     if adapter.default_shield is None:
         raise InputError(f"the environment {adapter.name} names no machine to read LTL and "
                          "STL properties in: its adapter has no default_shield",
@@ -245,13 +230,18 @@ class _Temporal:
         return evaluate_ltl(self.formula, cols, self.machine)[cols.starts[:-1]]
 
 
+def _values_recorded(cols: RunColumns) -> np.ndarray:
+    """Per row: were the agent's action values recorded (all of them, finite)?"""
+    return np.all(np.isfinite(cols.values), axis=1)
+
+
 def interventions(cols: RunColumns) -> np.ndarray:
     """Per row: did the shield replace the agent's preferred action (the best of its
     recorded action values) by another? False at step 0 and where no values were recorded."""
     out = np.zeros(cols.n, dtype=bool)
     if cols.values is None or not cols.n:
         return out
-    known = np.all(np.isfinite(cols.values), axis=1) & (cols.action >= 0)
+    known = _values_recorded(cols) & (cols.action >= 0)
     preferred = np.argmax(np.where(np.isfinite(cols.values), cols.values, -np.inf), axis=1)
     out[known] = preferred[known] != cols.action[known]
     return out
@@ -261,7 +251,7 @@ def _recorded_choices(cols: RunColumns) -> np.ndarray:
     """Per episode: were the agent's action values recorded at its steps?"""
     if cols.values is None:
         return np.zeros(len(cols.episode_ids), dtype=bool)
-    known = np.all(np.isfinite(cols.values), axis=1)
+    known = _values_recorded(cols)
     known[cols.starts[:-1]] = True  # step 0 has no action to judge
     return np.logical_and.reduceat(known, cols.starts[:-1])
 
@@ -300,10 +290,11 @@ def _holds(p: Property, values: np.ndarray, cols: RunColumns) -> np.ndarray:
 
 
 def evaluate_run(path: str | Path, pset: PropertySet, formulas: dict,
-                 name: Optional[str] = None, cols: Optional[RunColumns] = None) -> RunValues:
+                 name: Optional[str] = None, cols: Optional[RunColumns] = None, *,
+                 salvage: Optional[bool] = None) -> RunValues:
     """Every metric and property of ``pset`` on every episode of a file (``cols``: the
-    file's columns, when they were read already)."""
-    cols = cols if cols is not None else read_columns(path)
+    file's columns, when they were read already; else read with ``salvage``)."""
+    cols = cols if cols is not None else read_columns(path, salvage=salvage)
     run = RunValues(name or Path(path).stem, str(path), len(cols.episode_ids), list(cols.seeds),
                     warnings=list(cols.warnings))
     if not run.episodes:
@@ -349,7 +340,7 @@ def _metric_stats(values: np.ndarray, m: Metric) -> dict:
         out["estimate"] = {"value": value, "epsilon": eps,
                            "within": abs(mean - value) <= eps}
     why = _nonfinite_why(values, m)
-    if why:  # JSON writes these as null; the note says why (tracecheck.render.jsontext)
+    if why:  # JSON writes these as null; the note says why (tracecheck.jsontext)
         for key in ("mean", "sd", "ci95"):
             numbers = np.atleast_1d(np.asarray(out[key] if out[key] is not None else [],
                                                dtype=float))
@@ -444,9 +435,9 @@ def _paired(a: RunValues, b: RunValues, pset: PropertySet) -> Optional[dict]:
 
 
 def _evaluate_one(path: str, pset: PropertySet, name: Optional[str],
-                  environment=None) -> RunValues:
+                  environment=None, salvage: Optional[bool] = None) -> RunValues:
     """One file, in whichever process runs it."""
-    cols = read_columns(path)
+    cols = read_columns(path, salvage=salvage)
     sample = cols.states.row(0) if cols.states.n else None
     formulas = prepare(pset, environment or environment_of(path), sample)
     run = evaluate_run(path, pset, formulas, name, cols)
@@ -474,10 +465,12 @@ class StatsResult(dict):
 def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "wilson",
                names: Optional[list[str]] = None,
                columns: Optional[list[RunColumns]] = None, executor: str = "local",
-               ray_address: Optional[str] = None, adapter=None) -> StatsResult:
+               ray_address: Optional[str] = None, adapter=None,
+               salvage: Optional[bool] = None) -> StatsResult:
     """The statistics of the runs in ``paths`` (JSON-ready; see the module docstring).
 
-    ``columns``: the runs' columns when they were read already; ``adapter``: the runs'
+    ``columns``: the runs' columns when they were read already (else read with ``salvage``,
+    as :func:`~tracecheck.episodes.columns.read_columns`); ``adapter``: the runs'
     environment adapter, when given by the user (``--env``; else the installed one their
     files name, if any); ``statistics_s`` in the result is the time spent after reading."""
     if interval not in INTERVALS:
@@ -497,10 +490,11 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
 
         start = time.perf_counter()
         runs = map_files(_evaluate_one, [(str(p), pset, names[i] if names else None,
-                                          adapter) for i, p in enumerate(paths)], executor,
+                                          adapter, salvage) for i, p in enumerate(paths)],
+                         executor,
                          ray_address)
     else:
-        cols = columns or [read_columns(p) for p in paths]
+        cols = columns or [read_columns(p, salvage=salvage) for p in paths]
         sample = cols[0].states.row(0) if cols and cols[0].states.n else None
         formulas = prepare(pset, environment, sample)
         start = time.perf_counter()

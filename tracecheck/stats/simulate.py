@@ -16,6 +16,7 @@ from typing import Callable, Optional, Sequence
 
 from ..episodes.columns import episode_columns
 from ..episodes.files import recording_into
+from ..episodes.writer import ChannelsFactory
 from ..episodes.model import Episode
 from .properties import PropertySet
 from ..live.record import (RecordSettings, check_settings, episodes, recording_header,
@@ -48,9 +49,11 @@ def _widths(holds: dict[str, list[bool]], level: float) -> dict[str, float]:
 def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
              until_width: Optional[float] = None, batch: Optional[int] = None,
              progress: Optional[Callable[[Episode], None]] = None,
-             force: bool = False, inputs: Sequence[Path] = ()) -> dict:
+             force: bool = False, inputs: Sequence[Path] = (),
+             channels: Optional[ChannelsFactory] = None) -> dict:
     """Record up to ``settings.episodes`` episodes into ``out`` and return their statistics
-    (see the module docstring for the early stop). ``out`` follows the output rule: none of
+    (see the module docstring for the early stop); ``channels`` adds a plug-in's channels
+    (the CLI gives Foxglove's). ``out`` follows the output rule: none of
     ``inputs`` (the property file, say) nor the agent or shield file, an existing file only
     with ``force``."""
     out = Path(out)
@@ -74,7 +77,7 @@ def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
         sequential = {"rule": f"Bonferroni over {looks} planned looks, Wilson intervals at "
                               f"level {level:.4f} per look", "width": until_width,
                       "batch": batch, "looks": 0, "stopped_early": False, "widths": {}}
-    with recording_into(out, header, force=force,
+    with recording_into(out, header, force=force, channels=channels,
                         inputs=[*run_inputs(settings), *inputs]) as writer:
         for episode in episodes(settings, shield):
             writer.write(episode)

@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import Any, Optional
 
 from ...b.values import Elem, FuncValue
-from ..adapter import EnvAdapter, gymnasium_keys, gymnasium_kinds
+from ..adapter import EnvAdapter, Observer, gymnasium_keys, gymnasium_kinds
 
 __all__ = ["GridAdapter"]
 
@@ -37,25 +37,45 @@ class GridAdapter(EnvAdapter):
         return gym.make(self.env_id, render_mode=render_mode, **config).unwrapped
 
     def state(self, obs, info: dict, reward: float, env, initial: bool) -> dict[str, Any]:
-        base = env.unwrapped
-        cached = getattr(base, "_tracecheck_grid", None)
-        if cached is None:  # the map is the same in every step: built once per environment
-            cached = base._tracecheck_grid = self._map(base)
-        cols, field, (gx, gy) = cached
+        return self.grid_state(obs, self.grid_map(env.unwrapped))
+
+    def observer(self, env) -> Observer:
+        return _GridObserver(self, env)
+
+    @staticmethod
+    def grid_state(obs, grid: tuple[int, FuncValue, tuple[int, int]]) -> dict[str, Any]:
+        """The B state of observation ``obs`` on ``grid`` (:meth:`grid_map`)."""
+        cols, field, (gx, gy) = grid
         s = int(obs)
         return {"x": s % cols, "y": s // cols, "goal_x": gx, "goal_y": gy, "field": field}
 
-    def _map(self, base):
+    def grid_map(self, base) -> tuple[int, FuncValue, tuple[int, int]]:
+        """The map of the unwrapped environment ``base``: its columns, ``field`` and goal."""
         desc = getattr(base, "desc", None)
         rows, cols = base.shape if desc is None else desc.shape
         safe, danger = Elem(self.kinds[0]), Elem(self.kinds[1])
-        tiles = {(x, y): self._tile(base, desc, x, y) for x in range(cols) for y in range(rows)}
+        tiles = {(x, y): _tile(desc, rows, cols, x, y) for x in range(cols) for y in range(rows)}
         field = FuncValue({k: danger if t in self.danger else safe for k, t in tiles.items()})
         goal = next((k for k, t in tiles.items() if t == b"G"), (cols - 1, rows - 1))
         return cols, field, goal
 
-    @staticmethod
-    def _tile(base, desc, x: int, y: int) -> bytes:
-        if desc is not None:
-            return bytes(desc[y][x])
-        return b"C" if base._cliff[y, x] else b"."
+
+class _GridObserver(Observer):
+    """One episode's states: the map, the same in every step, is built once."""
+
+    def __init__(self, adapter: GridAdapter, env) -> None:
+        super().__init__(adapter, env)
+        self._grid: Optional[tuple[int, FuncValue, tuple[int, int]]] = None
+
+    def state(self, obs, info: dict, reward: float, initial: bool) -> dict[str, Any]:
+        if self._grid is None:
+            self._grid = self.adapter.grid_map(self.env.unwrapped)
+        return self.adapter.grid_state(obs, self._grid)
+
+
+def _tile(desc, rows: int, cols: int, x: int, y: int) -> bytes:
+    """The map letter at (x, y): FrozenLake's ``desc``; without one (CliffWalking, whose map
+    is its ``shape``) the cliff, Gymnasium's bottom row between the start and the goal."""
+    if desc is not None:
+        return bytes(desc[y][x])
+    return b"C" if y == rows - 1 and 0 < x < cols - 1 else b"."

@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from tracecheck.render.jsontext import finite, json_text, script_json
+from tracecheck.jsontext import finite, json_text, script_json
 
 
 def _strict(text: str):
