@@ -24,7 +24,7 @@ import numpy as np
 
 from tracecheck.live.adapter import get_adapter
 from tracecheck.live.record import RecordSettings, record
-from tracecheck.checking.replay import replay
+from tracecheck.checking.replaying import replay
 from tracecheck.checking.shield import load_shield
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -29,8 +29,8 @@ from tracecheck.episodes.files import write_run
 from tracecheck.episodes.writer import new_header
 from tracecheck.episodes.model import HIGHWAY
 from tracecheck.interop import export_simb, import_simb
-from tracecheck.checking.diff import diff
-from tracecheck.checking.replay import replay
+from tracecheck.checking.diffing import diff
+from tracecheck.checking.replaying import replay
 from tracecheck.checking.shield import load_shield
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -17,7 +17,7 @@ import argparse
 import tempfile
 from pathlib import Path
 
-from tracecheck.checking.replay import replay
+from tracecheck.checking.replaying import replay
 from tracecheck.checking.shield import load_shield
 from tracecheck.live.record import RecordSettings, record
 from tracecheck.stats.estimates import statistics

@@ -1,7 +1,8 @@
 """The shape of the package, read from its source with ``ast`` (every import counts, those
 inside functions too): no import cycle between modules, the packages in one order (a lower
 one never imports a higher one), no private name imported from another module, no module
-over 650 lines; and no test module importing another."""
+over 650 lines, no package exporting a name one of its submodules has; and no test module
+importing another."""
 
 from __future__ import annotations
 
@@ -199,6 +200,30 @@ def private_imports(pkg: Package) -> list[str]:
                    and i.name.startswith("_") and not i.name.startswith("__")})
 
 
+def shadowed_names(pkg: Package) -> list[str]:
+    """Names a package exports (``from .m import name`` or its lazy ``_WHERE``) that are also
+    the name of one of its submodules, from another module: importing that submodule (as
+    any module that uses it does) replaces the package's attribute with the module, so
+    ``from package import name`` gives the function or the module by the order of imports."""
+    out = []
+    for package, path in pkg.files.items():
+        if path.name != "__init__.py":
+            continue
+        submodules = {m.rsplit(".", 1)[1] for m in pkg.files
+                      if m.startswith(package + ".") and "." not in m[len(package) + 1:]}
+        for node in ast.walk(pkg.trees[package]):
+            names = [a.name for a in node.names] if isinstance(node, ast.ImportFrom) \
+                and node.module else \
+                [k.value for k in node.keys if isinstance(k, ast.Constant)] \
+                if isinstance(node, ast.Dict) else []
+            for name in names:
+                if name in submodules and pkg._defined_in(package, name) != f"{package}.{name}":
+                    out.append(f"{package} exports {name} from "
+                               f"{pkg._defined_in(package, name)}, the name of its submodule "
+                               f"{package}.{name}")
+    return sorted(set(out))
+
+
 def long_modules(pkg: Package, limit: int = MAX_LINES) -> list[str]:
     return sorted(f"{path.relative_to(pkg.root)}: {n} lines" for path in pkg.files.values()
                   if (n := len(path.read_text(encoding="utf-8").splitlines())) > limit)
@@ -230,6 +255,11 @@ def test_no_package_imports_one_above_it(tracecheck):
 def test_no_private_name_is_imported_from_another_module(tracecheck):
     problems = private_imports(tracecheck)
     assert not problems, "make the name public or move it:\n" + "\n".join(problems)
+
+
+def test_no_package_exports_a_name_its_submodule_has(tracecheck):
+    problems = shadowed_names(tracecheck)
+    assert not problems, "rename the submodule:\n" + "\n".join(problems)
 
 
 def test_no_module_is_over_650_lines(tracecheck):
@@ -266,7 +296,7 @@ def test_the_checks_find_what_they_look_for(tmp_path):
     pkg = _package(tmp_path, {
         "__init__.py": "",
         "errors.py": "class Oops(Exception):\n    pass\n",
-        "low/__init__.py": '_WHERE = {"helper": "tools"}\n',
+        "low/__init__.py": '_WHERE = {"helper": "tools", "other": "tools"}\n',
         "low/tools.py": """\
             from ..errors import Oops
 
@@ -302,6 +332,8 @@ def test_the_checks_find_what_they_look_for(tmp_path):
         "package high (fake.high.view) has no place in the order ('top', 'low')"]
     assert private_imports(pkg) == [
         "fake.low.other imports _secret from fake.low.tools (fake/low/other.py:2)"]
+    assert shadowed_names(pkg) == [
+        "fake.low exports other from fake.low.tools, the name of its submodule fake.low.other"]
     assert long_modules(pkg, limit=20) == ["fake/high/view.py: 24 lines"]
     assert long_modules(pkg) == []
 
@@ -331,4 +363,4 @@ def test_the_checks_pass_a_clean_package(tmp_path):
         ("fake.low.tools", "fake.errors"), ("fake.high.view", "fake.low.tools")}
     order = ("top", "low", "high")  # … and none breaks a rule
     assert (module_cycles(pkg), package_cycles(pkg), upward_imports(pkg, order),
-            private_imports(pkg)) == ([], [], [], [])
+            private_imports(pkg), shadowed_names(pkg)) == ([], [], [], [], [])

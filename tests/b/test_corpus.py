@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from tracecheck import errors as E
-from tracecheck.b.evaluate import Compiler
+from tracecheck.b.evaluation import Compiler
 from tracecheck.b.parser import parse_formula
 from tracecheck.b.scope import check_kind, kind_of
 from tracecheck.b.typecheck import type_of_value, typecheck_formula
@@ -233,7 +233,7 @@ def test_answers_do_not_depend_on_the_order_a_set_is_walked():
     import subprocess
     import sys
 
-    code = ("from tracecheck.b.evaluate import evaluate\n"
+    code = ("from tracecheck.b.evaluation import evaluate\n"
             "from tracecheck.b.parser import parse_formula as p\n"
             "from tracecheck.b.values import Elem, FuncValue\n"
             "S = frozenset({Elem('a'), Elem('c'), Elem('b')})\n"

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tracecheck.b.evaluate import compile_formula
+from tracecheck.b.evaluation import compile_formula
 from tracecheck.b.parser import parse_formula
 from tracecheck.b.values import Elem, FuncValue
 from tracecheck.b.columns import Columns

@@ -32,7 +32,7 @@ def _fresh(code: str) -> dict:
 def test_a_submodule_imported_first_does_not_hide_its_function():
     """``diff`` imports ``replay``'s module, the CLI imports ``prove``'s: the package's
     names stay the functions."""
-    got = _fresh("import json, tracecheck.checking.diff, tracecheck.checking.prove\n"
+    got = _fresh("import json, tracecheck.checking.diffing, tracecheck.checking.proving\n"
                  "from tracecheck.checking import diff, prove, replay\n"
                  "print(json.dumps([type(f).__name__ for f in (diff, prove, replay)]))")
     assert got == ["function"] * 3
@@ -43,5 +43,5 @@ def test_replay_through_the_package_loads_no_solver():
                  "from tracecheck.checking import load_shield, replay\n"
                  "r = replay(['sample_traces/base_paper.mcap'], load_shield('paper'))\n"
                  "print(json.dumps([r.episodes, sorted({'z3', 'torch', 'gymnasium'}"
-                 " & set(sys.modules)), 'tracecheck.checking.prove' in sys.modules]))")
+                 " & set(sys.modules)), 'tracecheck.checking.proving' in sys.modules]))")
     assert got == [24, [], False]

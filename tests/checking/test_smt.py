@@ -14,7 +14,7 @@ from tracecheck.checking.shield import load_shield
 
 pytest.importorskip("z3")
 
-from tracecheck.checking.prove import prove, symbolic_diff  # noqa: E402
+from tracecheck.checking.proving import prove, symbolic_diff  # noqa: E402
 
 LIGHTS = """
 MACHINE Lights

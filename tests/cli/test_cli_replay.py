@@ -412,7 +412,7 @@ def test_the_episode_table_never_breaks_a_word_and_csv_lists_every_step(capsys, 
     # ten violations: the terminal cuts them to three, the full table lists them all
     from dataclasses import replace
 
-    from tracecheck.checking.replay import replay
+    from tracecheck.checking.replaying import replay
     from tracecheck.checking.shield import load_shield
     from tracecheck.render.text import replay_table
 

@@ -299,7 +299,7 @@ def test_lunarlander_records_and_the_authors_machine_replays_it(tmp_path, capsys
 @pytest.mark.parametrize("env", ["frozenlake", "cliffwalking"])
 def test_batch_replay_equals_state_by_state_replay(env, tmp_path, capsys):
     from tracecheck.episodes.columns import read_columns
-    from tracecheck.checking.replay import enabled_matrix
+    from tracecheck.checking.replaying import enabled_matrix
     from tracecheck.checking.shield import load_shield
 
     out = tmp_path / f"{env}.mcap"

@@ -75,8 +75,8 @@ def test_killed_worker_loses_and_duplicates_nothing(local_ray, tmp_path):
 
 def test_replay_diff_stats_per_file_on_ray(local_ray):
     from tracecheck.stats.properties import HIGHWAY_SET
-    from tracecheck.checking.diff import diff
-    from tracecheck.checking.replay import replay
+    from tracecheck.checking.diffing import diff
+    from tracecheck.checking.replaying import replay
     from tracecheck.checking.shield import load_shield
     from tracecheck.stats.estimates import statistics
 
@@ -109,8 +109,8 @@ def test_ray_tasks_get_the_shield_itself_not_a_name(local_ray, frozen_runs):
     """Issue 23: ``replay --executor ray --shield none`` on a frozenlake run loaded the
     highway's ``none`` by name in the workers; they now get the shield (pickled as its
     text), ``none`` made from the run's actions included."""
-    from tracecheck.checking.diff import diff
-    from tracecheck.checking.replay import replay
+    from tracecheck.checking.diffing import diff
+    from tracecheck.checking.replaying import replay
     from tracecheck.checking.shield import load_shield
     from tracecheck.cli.common import run_shield
 

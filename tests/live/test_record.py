@@ -20,8 +20,8 @@ from tracecheck.episodes.model import Episode, StepRecord, make_end
 from tracecheck.errors import InputError
 from tracecheck.live.envs.highway import ENV_ID, env_config
 from tracecheck.live.record import RecordSettings, record
-from tracecheck.checking.replay import replay
-from tracecheck.checking.replay import OUTCOMES
+from tracecheck.checking.replaying import replay
+from tracecheck.checking.replaying import OUTCOMES
 from tracecheck.live.resimulate import resimulate, summary
 from tracecheck.checking.shield import load_shield
 

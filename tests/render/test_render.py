@@ -28,7 +28,7 @@ def test_viewer_data_marks_first_infeasible_and_crash():
 
 
 def test_viewer_marks_where_an_ltl_formula_is_first_violated(capsys, tmp_path):
-    from tracecheck.checking.replay import ltl_formulas
+    from tracecheck.checking.replaying import ltl_formulas
 
     shield = load_shield("paper")
     formulas = ltl_formulas(shield, ["G({Crash = FALSE})", "F [FASTER]"])
@@ -97,7 +97,7 @@ def test_viewer_in_a_browser(tmp_path):
     from selenium.webdriver.common.keys import Keys
 
     page = tmp_path / "episode.html"
-    from tracecheck.checking.replay import ltl_formulas
+    from tracecheck.checking.replaying import ltl_formulas
 
     shield = load_shield("paper")
     page.write_text(render_episode(NONE, 3, shield,

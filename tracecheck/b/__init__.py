@@ -13,7 +13,7 @@ from __future__ import annotations
 from .._lazy import lazy_names
 
 _WHERE = {
-    "compile_formula": "evaluate", "evaluate": "evaluate",
+    "compile_formula": "evaluation", "evaluate": "evaluation",
     "Machine": "machine", "Operation": "machine", "load_machine": "machine",
     "load_machine_text": "machine",
     "parse_formula": "parser", "parse_substitution": "parser",

@@ -178,7 +178,7 @@ def _generator_for(comp, conj, name, ids, bound):
 
 
 class Binders:
-    """The binding forms of :class:`tracecheck.b.evaluate.Compiler` (a base class of it):
+    """The binding forms of :class:`tracecheck.b.evaluation.Compiler` (a base class of it):
     quantifiers, comprehensions, lambdas, SIGMA/PI/UNION/INTER and LET. They use the
     compiler's ``compile``, ``binding``, ``error`` and ``wd``."""
 

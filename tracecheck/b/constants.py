@@ -9,7 +9,7 @@ from typing import Any, Optional
 from ..errors import EvaluationError, ModelError, TracecheckError
 from . import ast
 from .bindings import conjuncts
-from .evaluate import Compiler
+from .evaluation import Compiler
 from .parser import MachineSource
 from .scope import expand, render
 from .values import Elem, Interval, check_size

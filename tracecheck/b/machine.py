@@ -22,7 +22,7 @@ from ..errors import BScopeError, EvaluationError, InputError, TracecheckError, 
 from . import ast
 from .bindings import conjuncts
 from .constants import setup_constants
-from .evaluate import Compiler
+from .evaluation import Compiler
 from .limits import deep_recursion
 from .parser import MachineSource, parse_formula, parse_machine_source
 from .state import native_state

@@ -12,7 +12,7 @@ from typing import Callable, Optional
 
 from ..errors import UnsupportedError
 from . import ast
-from .evaluate import Compiler, Env
+from .evaluation import Compiler, Env
 from .memo import MEMO_KEY, fresh
 from .values import make_set
 

@@ -23,7 +23,7 @@ import numpy as np
 from ..errors import TracecheckError
 from . import ast
 from .bindings import conjuncts
-from .evaluate import Compiler
+from .evaluation import Compiler
 from .arrays import (BatchContext, NotVectorizable, VectorValue, arith, bool_of, concat_numbers,
                      fits, integral, intern_key, is_int_array, mark_nonfinite, num_of, per_row,
                      shared, typed_member)

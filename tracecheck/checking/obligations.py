@@ -11,7 +11,7 @@ An obligations file is TOML (docs/prove.md)::
     predicate = "VehiclesVx(EgoVehicle) < 40.0"
 
 Each mistake in a file names the file and the key; its predicates are type-checked by
-:func:`~tracecheck.checking.prove.prove`, which names them by their entry, counted from 1
+:func:`~tracecheck.checking.proving.prove`, which names them by their entry, counted from 1
 (``obs.toml: implies[2].predicate``).
 """
 

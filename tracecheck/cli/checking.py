@@ -43,7 +43,7 @@ def replay_cmd(
     ray_address: Optional[str] = RAY_ADDRESS,
 ) -> None:
     """Replay episodes against a shield: where would it have blocked the recorded action?"""
-    from ..checking.replay import replay
+    from ..checking.replaying import replay
     from ..render.text import replay_markdown, replay_table, replay_text
 
     fmt = output_format(fmt, as_json)
@@ -97,7 +97,7 @@ def _resimulate(runs: list[Path], shield, report, agent: Optional[Path],
 
 def _seconds(value: float) -> float:
     """The ``--timeout`` option: a finite number of seconds above 0."""
-    from ..checking.prove import check_timeout
+    from ..checking.proving import check_timeout
 
     return check_timeout(value, "--timeout")
 
@@ -128,12 +128,12 @@ def diff_cmd(
     ray_address: Optional[str] = RAY_ADDRESS,
 ) -> None:
     """Compare two shields on every recorded state: which steps does the change block or allow?"""
-    from ..checking.diff import diff
+    from ..checking.diffing import diff
     from ..render.text import diff_table, diff_text
 
     fmt = output_format(fmt, as_json)
     if symbolic:
-        from ..checking.prove import symbolic_diff
+        from ..checking.proving import symbolic_diff
 
         if runs:
             raise InputError("--symbolic compares the shields over every state: give no run "
@@ -205,7 +205,7 @@ def prove_cmd(
     unknown; 4: the solver and tracecheck's evaluator disagree; 5: vacuous, no state
     satisfies the invariant and assumptions (see docs/prove.md)."""
     from ..checking.obligations import Given, Obligations, implication, read_obligations
-    from ..checking.prove import prove
+    from ..checking.proving import prove
     from ..checking.shield import load_shield
 
     fmt = output_format(fmt, as_json)
@@ -255,7 +255,7 @@ def _print_results(results, machine, fmt: OutputFormat, folder: Optional[Path]) 
     operation only one shield has); 3: unknown (a construct that cannot be translated, a
     timeout); 4: the solver and tracecheck's evaluator disagree; 5: vacuous (no state
     satisfies the invariants and assumptions: nothing was proved)."""
-    from ..checking.prove import UNKNOWN, VACUOUS
+    from ..checking.proving import UNKNOWN, VACUOUS
     from ..errors import Disagreement
     from ..render.prove_text import prove_json, prove_table, prove_text
 

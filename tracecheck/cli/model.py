@@ -159,7 +159,7 @@ def eval_(
 
 def _evaluator(model: Optional[Path], state: Optional[Path]):
     """``evaluate(text, where)`` in the scope of ``model`` and the values of ``state``."""
-    from ..b.evaluate import Compiler
+    from ..b.evaluation import Compiler
     from ..b.state import read_state_file
     from ..b.typecheck import check_formula, type_of_value
 

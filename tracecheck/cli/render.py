@@ -25,7 +25,7 @@ def render_cmd(
     force: bool = FORCE,
 ) -> None:
     """Write one episode as a self-contained HTML viewer (top view, shield zones, timeline)."""
-    from ..checking.replay import ltl_formulas
+    from ..checking.replaying import ltl_formulas
     from ..render.viewer import render_episode, write_page
     from ..checking.shield import load_shield
     from ..errors import InputError

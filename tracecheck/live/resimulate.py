@@ -12,7 +12,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Callable, Optional
 
-from ..checking.replay import (MISMATCH, NEW_CRASH, NO_CRASH, NO_SEED, NOT_PREVENTED, OUTCOMES,
+from ..checking.replaying import (MISMATCH, NEW_CRASH, NO_CRASH, NO_SEED, NOT_PREVENTED, OUTCOMES,
                                PREVENTED, ReplayReport)
 from ..checking.shield import SHIELD_DIR, Shield
 from ..episodes.columns import RunColumns, read_columns

@@ -8,7 +8,7 @@ from typing import Optional
 from rich.console import Console
 
 from ..b.notation import to_json
-from ..checking.prove import VACUOUS, Result
+from ..checking.proving import VACUOUS, Result
 from .tables import TableData
 
 __all__ = ["prove_text", "prove_table", "prove_json"]

@@ -17,7 +17,7 @@ from typing import Optional, Sequence
 
 from ..errors import InputError
 from ..stats.properties import PropertySet
-from ..checking.replay import (MISMATCH, NEVER_BLOCKED, NEW_CRASH, NO_CRASH, NO_SEED,
+from ..checking.replaying import (MISMATCH, NEVER_BLOCKED, NEW_CRASH, NO_CRASH, NO_SEED,
                                 NOT_PREVENTED, PREVENTED)
 from ..checking.shield import Shield
 from ..outputs import write_file
@@ -211,7 +211,7 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
 
 def _check_run(run, shield, resimulate: bool, agent, env) -> dict:
     """One run: its header, replay and (with ``resimulate``) re-simulation."""
-    from ..checking.replay import replay
+    from ..checking.replaying import replay
     from ..episodes.reader import read_header
 
     entry = {"file": str(run), "header": read_header(run), "replay": None, "resim": None}
@@ -255,7 +255,7 @@ def _run_section(c: dict, shield: Optional[Shield]) -> str:
 
 
 #: the episodes that matter, most first: by what re-simulation found (the words of
-#: :data:`tracecheck.checking.replay.OUTCOMES`), else by what the recording shows
+#: :data:`tracecheck.checking.replaying.OUTCOMES`), else by what the recording shows
 _ORDER = {PREVENTED: 0, NEW_CRASH: 1, NOT_PREVENTED: 2, MISMATCH: 3, NO_SEED: 4,
           NEVER_BLOCKED: 5, NO_CRASH: 6, "": 7}
 _GOOD, _BAD = {PREVENTED}, {NOT_PREVENTED, NEW_CRASH, MISMATCH}

@@ -6,8 +6,8 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-from ..checking.diff import DiffReport
-from ..checking.replay import (MISMATCH, NEW_CRASH, NOT_PREVENTED, PREVENTED, EpisodeReplay,
+from ..checking.diffing import DiffReport
+from ..checking.replaying import (MISMATCH, NEW_CRASH, NOT_PREVENTED, PREVENTED, EpisodeReplay,
                                ReplayReport)
 from .tables import TableData, markdown, md_text
 

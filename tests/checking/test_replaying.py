@@ -16,8 +16,8 @@ from tracecheck.episodes.files import write_run
 from tracecheck.episodes.model import HIGHWAY_ACTIONS, Episode, StepRecord, make_end
 from tracecheck.errors import InputError, TracecheckError
 from tracecheck.interop import import_simb
-from tracecheck.checking.diff import diff
-from tracecheck.checking.replay import enabled_matrix, replay
+from tracecheck.checking.diffing import diff
+from tracecheck.checking.replaying import enabled_matrix, replay
 from tracecheck.checking.shield import load_shield
 
 def test_hand_built_episodes(toy, run_file):
@@ -216,7 +216,7 @@ def test_a_shield_travels_to_a_worker_as_itself(spec, tmp_path):
     needs no file on the worker."""
     import pickle
 
-    from tracecheck.checking.replay import _replay_one
+    from tracecheck.checking.replaying import _replay_one
 
     if spec == "none-for-frozenlake":
         shield = load_shield("none", actions=("Move_Left", "Move_Down", "Move_Right",

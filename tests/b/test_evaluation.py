@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from tracecheck.b.evaluate import evaluate
+from tracecheck.b.evaluation import evaluate
 from tracecheck.b.parser import parse_formula
 from tracecheck.b.values import Elem, FuncValue
 from tracecheck.errors import BTypeError, EvaluationError, WellDefinednessError

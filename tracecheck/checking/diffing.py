@@ -19,7 +19,7 @@ import numpy as np
 
 from ..episodes.columns import RunColumns, read_columns
 from .executors import map_files
-from .replay import add_up, enabled_matrix
+from .replaying import add_up, enabled_matrix
 from .shield import Shield
 
 __all__ = ["diff", "DiffReport", "ChangedStep"]
