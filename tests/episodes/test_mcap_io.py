@@ -202,7 +202,7 @@ def test_columns_keep_every_kind_of_value(tmp_path):
     and the map is written once per episode."""
     from tracecheck.b.values import Elem, FuncValue
     from tracecheck.episodes.model import Episode, StepRecord, make_end
-    from tracecheck.episodes.reader import complete
+    from tracecheck.episodes.reader import read_pieces
 
     field = FuncValue({(x, y): Elem("HOLE" if (x, y) == (1, 1) else "ICE")
                        for x in range(3) for y in range(3)})
@@ -218,7 +218,7 @@ def test_columns_keep_every_kind_of_value(tmp_path):
     cols = read_columns(path)
     for k in range(3):
         assert cols.states.row(k) == steps[k].state
-    (piece,) = complete(path, decode=False)
+    (piece,) = read_pieces(path, decode=False)
     header, _ = piece.columns
     assert len(header["literals"]["field"]) == 1 and len(header["literals"]["note"]) == 3
 

@@ -75,14 +75,17 @@ _FILE_COUNTS = {name: attrgetter(name) for name in (
 
 
 def diff(paths: Iterable[str | Path], shield: Shield, against: Shield, *,
-         executor: str = "local", ray_address: Optional[str] = None) -> DiffReport:
+         executor: str = "local", ray_address: Optional[str] = None,
+         salvage: bool = False) -> DiffReport:
     """Evaluate both shields on every recorded state and report what changes from
     ``against`` (the old version, or the baseline) to ``shield``; with
-    ``executor="ray"`` each file in a Ray task."""
+    ``executor="ray"`` each file in a Ray task; ``salvage``: as
+    :func:`~tracecheck.episodes.reader.read_run`."""
     paths = [str(p) for p in paths]
     report = DiffReport(shield=shield.identity, against=against.identity, files=paths)
     start = time.perf_counter()
-    parts = map_files(_diff_one, [(p, shield, against) for p in paths], executor, ray_address)
+    parts = map_files(_diff_one, [(p, shield, against, salvage) for p in paths], executor,
+                      ray_address)
     for part in parts:
         report.changes += part.changes
         report.changed_episodes += part.changed_episodes
@@ -92,10 +95,10 @@ def diff(paths: Iterable[str | Path], shield: Shield, against: Shield, *,
     return report
 
 
-def _diff_one(path: str, a: Shield, b: Shield) -> DiffReport:
+def _diff_one(path: str, a: Shield, b: Shield, salvage: bool = False) -> DiffReport:
     """One file's diff, in whichever process runs it (both shields sent there themselves)."""
     report = DiffReport(shield=a.identity, against=b.identity, files=[path])
-    cols = read_columns(path)
+    cols = read_columns(path, salvage=salvage)
     report.warnings += cols.warnings
     _diff_file(cols, a, b, report)
     return report

@@ -38,14 +38,6 @@ def start_ray(address: Optional[str], cpus: int):
     return ray, True
 
 
-def _in_task(fn, salvage: bool, *job):
-    """``fn(*job)`` in a task, reading files the way the caller does (``--salvage``)."""
-    from ..episodes.salvage import salvaging
-
-    with salvaging(salvage):
-        return fn(*job)
-
-
 def map_files(fn, jobs: list[tuple], executor: str = "local",
               address: Optional[str] = None, cpus: int = 2) -> list:
     """``fn(*job)`` for each job (one per file), locally or as Ray tasks; results in order."""
@@ -54,12 +46,10 @@ def map_files(fn, jobs: list[tuple], executor: str = "local",
                          f"{', '.join(EXECUTORS)}")
     if executor == "local" or len(jobs) <= 1 and address is None:
         return [fn(*job) for job in jobs]
-    from ..episodes.salvage import salvage_on
-
     ray, started = start_ray(address, cpus)
     try:
-        remote = ray.remote(max_retries=3)(_in_task)
-        return ray.get([remote.remote(fn, salvage_on(), *job) for job in jobs])
+        remote = ray.remote(max_retries=3)(fn)
+        return ray.get([remote.remote(*job) for job in jobs])
     finally:
         if started:
             ray.shutdown()

@@ -266,11 +266,11 @@ def _episode(cols: RunColumns, checks: _FileChecks, ep: int, lo: int, hi: int
 
 
 def _replay_one(path: str, shield: Shield, formulas: Sequence[str] = (),
-                assertions: bool = False) -> ReplayReport:
+                assertions: bool = False, salvage: bool = False) -> ReplayReport:
     """One file, in whichever process runs it (the shield itself is sent there: pickled as
     its text, see :class:`Shield`)."""
     report = ReplayReport(shield=shield.identity, files=[path])
-    cols = read_columns(path)
+    cols = read_columns(path, salvage=salvage)
     report.warnings += cols.warnings
     _replay_file(shield, cols, report, ltl_formulas(shield, formulas, assertions))
     return report
@@ -278,18 +278,19 @@ def _replay_one(path: str, shield: Shield, formulas: Sequence[str] = (),
 
 def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "local",
            ray_address: Optional[str] = None, ltl: Sequence[str] = (),
-           ltl_assertions: bool = False) -> ReplayReport:
+           ltl_assertions: bool = False, salvage: bool = False) -> ReplayReport:
     """Replay every episode of the files against ``shield`` (see the module docstring);
     check the LTL formulas ``ltl`` (and, with ``ltl_assertions``, the machine's
     ``ASSERT_LTL`` definitions) on every episode (see :mod:`tracecheck.checking.ltl`).
 
-    With ``executor="ray"`` each file is replayed in a Ray task.
+    With ``executor="ray"`` each file is replayed in a Ray task; ``salvage``: as
+    :func:`~tracecheck.episodes.reader.read_run`.
     """
     paths = [str(p) for p in paths]
     report = ReplayReport(shield=shield.identity, files=paths)
     ltl_formulas(shield, ltl, ltl_assertions)  # errors before any file is read
     start = time.perf_counter()
-    jobs = [(p, shield, tuple(ltl), ltl_assertions) for p in paths]
+    jobs = [(p, shield, tuple(ltl), ltl_assertions, salvage) for p in paths]
     for part in map_files(_replay_one, jobs, executor, ray_address):
         report.per_episode += part.per_episode
         report.warnings += part.warnings

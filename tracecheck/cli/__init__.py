@@ -27,14 +27,13 @@ __all__ = ["app", "main"]
 def main(argv: Optional[list[str]] = None) -> Any:
     """Entry point: run the app and turn tracecheck errors into exit code 2."""
     from ..b.limits import deep_recursion, long_integers
-    from ..episodes.salvage import salvaging
 
     _stop_on_sigterm()
     DEBUG["on"] = False
     try:
         # a command reads, prints and evaluates B: integers of up to 310 000 digits (in JSON
         # too) and formulas nested up to 2000 levels, for as long as it runs
-        with warnings.catch_warnings(), salvaging(False), long_integers(), deep_recursion():
+        with warnings.catch_warnings(), long_integers(), deep_recursion():
             warnings.simplefilter("ignore", DeprecationWarning)
             return app(args=argv, standalone_mode=True)
     except TracecheckError as exc:

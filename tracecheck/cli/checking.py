@@ -52,10 +52,10 @@ def replay_cmd(
                          "episodes that do not reproduce the recording")
     loaded = run_shield(shield, runs)
     report = replay(runs, loaded, executor=executor.value, ray_address=ray_address, ltl=ltl,
-                    ltl_assertions=ltl_assertions)
+                    ltl_assertions=ltl_assertions, salvage=salvage)
     warn(report.warnings)
     if resimulate:
-        report.resimulation = _resimulate(runs, loaded, report, agent, env)
+        report.resimulation = _resimulate(runs, loaded, report, agent, env, salvage)
     rows = len(report.per_episode) if all_rows else ROWS
     if fmt == OutputFormat.json:
         print_json(report.to_json())
@@ -83,7 +83,7 @@ def replay_cmd(
 
 
 def _resimulate(runs: list[Path], shield, report, agent: Optional[Path],
-                env: Optional[str] = None) -> dict:
+                env: Optional[str] = None, salvage: bool = False) -> dict:
     from ..live.resimulate import resimulate, summary
 
     results = []
@@ -91,7 +91,7 @@ def _resimulate(runs: list[Path], shield, report, agent: Optional[Path],
     with progress("re-simulating under " + shield.name, todo) as advance:
         for run in runs:
             results += resimulate(run, shield, report, agent=agent, env=env,
-                                  progress=lambda r: advance())
+                                  progress=lambda r: advance(), salvage=salvage)
     return summary(results)
 
 
@@ -147,7 +147,7 @@ def diff_cmd(
     if not runs:
         raise InputError("give run files to compare the shields on, or --symbolic")
     report = diff(runs, run_shield(shield, runs), run_shield(against, runs),
-                  executor=executor.value, ray_address=ray_address)
+                  executor=executor.value, ray_address=ray_address, salvage=salvage)
     warn(report.warnings)
     if fmt == OutputFormat.json:
         print_json(report.to_json())

@@ -93,18 +93,8 @@ def _root(
     DEBUG["on"] = debug
 
 
-def salvage(value: bool) -> bool:
-    """The ``--salvage`` option: damaged episodes are left out with a warning. Commands pass
-    their ``salvage`` to what reads; the context variable set here is for replay and diff
-    (checking/), whose functions do not take it yet."""
-    if value:
-        from ..episodes.salvage import SALVAGE
-
-        SALVAGE.set(True)
-    return value
-
-
-SALVAGE = typer.Option(False, "--salvage", callback=salvage,
+#: the ``--salvage`` option: each command passes its ``salvage`` to what reads the files
+SALVAGE = typer.Option(False, "--salvage",
                        help="Leave out episodes whose parts disagree (damaged or edited "
                             "files), with a warning, instead of stopping with exit 2.")
 

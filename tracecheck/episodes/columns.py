@@ -17,7 +17,7 @@ from ..b.columns import Columns
 from ..b.values import Elem
 from ..errors import InputError
 from .codec import RUN_COLUMNS_MEDIA_TYPE, columns_from_arrays, decode_columns
-from .reader import DamagedEpisode, check_columns, complete
+from .reader import DamagedEpisode, check_columns, read_pieces
 from .records import find_attachment, mapped
 
 __all__ = ["read_columns", "RunColumns", "episode_columns"]
@@ -55,7 +55,7 @@ class RunColumns:
         return int(self.starts[-1])
 
 
-def read_columns(path: str | Path, *, salvage: Optional[bool] = None) -> RunColumns:
+def read_columns(path: str | Path, *, salvage: bool = False) -> RunColumns:
     """All states of a file as numpy columns (see :class:`RunColumns`).
 
     Decodes only the per-episode column attachments (each checked against its episode's
@@ -69,7 +69,7 @@ def read_columns(path: str | Path, *, salvage: Optional[bool] = None) -> RunColu
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", DamagedEpisode)
         decoded, reasons = [], []
-        for piece in complete(path, decode=False, salvage=salvage):
+        for piece in read_pieces(path, decode=False, salvage=salvage):
             decoded.append((piece.head.episode, *piece.columns))
             reasons.append(piece.end.reason)
     notes = [str(w.message) for w in caught if issubclass(w.category, DamagedEpisode)]

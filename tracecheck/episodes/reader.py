@@ -1,5 +1,5 @@
 """Reading tracecheck MCAP files: :func:`read_run` reads a whole file, :func:`read_episodes`
-iterates its episodes, :func:`read_header` gives its run header, and :func:`complete` the
+iterates its episodes, :func:`read_header` gives its run header, and :func:`read_pieces` the
 checked pieces both of them and :func:`tracecheck.episodes.read_columns` are built from.
 
 Nothing in a file is trusted before it is checked. An episode counts only once its header,
@@ -7,7 +7,7 @@ step messages, end record and columns attachment are all in the file and agree w
 other (episode id, number of steps, crash flag, last action, seed; every step when the steps
 are decoded): so ``info``, ``replay``, ``render`` and ``export`` see the same episodes. An
 episode that does not agree is an error naming the file and episode — or, when salvaging
-(``--salvage``, :func:`salvaging`), a :class:`SalvagedEpisodeWarning` and the episode left
+(``salvage=True``, the ``--salvage`` option), a :class:`SalvagedEpisodeWarning` and the episode left
 out. A damaged tail yields the complete episodes and a :class:`DamagedEpisode` that says
 what was lost.
 """
@@ -30,10 +30,9 @@ from . import schema
 from .codec import COLUMNS_MEDIA_TYPE, decode_columns, decode_state
 from .model import Episode, EpisodeEnd, StepRecord
 from .records import Attachment, Channel, Damage, MessageRef, Schema, mapped, walk
-from .salvage import salvage_on, salvaging
 
 __all__ = ["read_run", "read_episodes", "read_header", "Run", "DamagedEpisode",
-           "SalvagedEpisodeWarning", "salvaging", "complete", "Piece"]
+           "SalvagedEpisodeWarning", "read_pieces", "Piece"]
 
 
 class DamagedEpisode(UserWarning):
@@ -415,8 +414,8 @@ def check_columns(header: dict, arrays: dict, *, first_action: bool = True) -> N
         raise InputError(f"damaged columns attachment: {exc}") from None
 
 
-def complete(path: str | Path, only: Optional[set[int]] = None, *, decode: bool = True,
-             salvage: Optional[bool] = None) -> Iterator[Piece]:
+def read_pieces(path: str | Path, only: Optional[set[int]] = None, *, decode: bool = True,
+             salvage: bool = False) -> Iterator[Piece]:
     """The complete, checked episodes of a file in order (those in ``only`` when given;
     ``decode=False``: step messages are counted, not decoded).
 
@@ -425,7 +424,6 @@ def complete(path: str | Path, only: Optional[set[int]] = None, *, decode: bool 
     whose parts disagree unless salvaging.
     """
     path = Path(path)
-    salvage = salvage_on() if salvage is None else salvage
     with mapped(path) as buf:
         view = memoryview(buf)  # checksums over parts of the file without copying them
         try:
@@ -468,15 +466,15 @@ def _pieces(path: Path, buf, view, asm: "_Assembler") -> Iterator[Piece]:
 
 
 def read_episodes(path: str | Path, only: Optional[set[int]] = None, *,
-                  salvage: Optional[bool] = None) -> Iterator[Episode]:
+                  salvage: bool = False) -> Iterator[Episode]:
     """The complete episodes of a file, in order (only those in ``only`` when given: the
-    step messages of the others are not decoded). See :func:`complete`."""
-    for piece in complete(path, only, salvage=salvage):
+    step messages of the others are not decoded). See :func:`read_pieces`."""
+    for piece in read_pieces(path, only, salvage=salvage):
         yield piece.episode
 
 
 def read_run(path: str | Path, only: Optional[set[int]] = None, *,
-             salvage: Optional[bool] = None) -> Run:
+             salvage: bool = False) -> Run:
     """The header and all complete episodes of a file (or those in ``only``); warnings are
     collected, not raised."""
     with warnings.catch_warnings(record=True) as caught:

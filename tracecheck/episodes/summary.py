@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Iterable, Optional
+from typing import Iterable
 
 import numpy as np
 
@@ -14,7 +14,7 @@ from .reader import read_header
 __all__ = ["summarise"]
 
 
-def summarise(paths: Iterable[str | Path], *, salvage: Optional[bool] = None) -> dict:
+def summarise(paths: Iterable[str | Path], *, salvage: bool = False) -> dict:
     """Episodes, steps (agent actions), crashes, sources, agents and shields of the files
     (``salvage``: as :func:`~tracecheck.episodes.columns.read_columns`)."""
     files, warnings = [], []

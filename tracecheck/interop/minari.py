@@ -175,7 +175,7 @@ def _observation(rows, space, where: str):
 
 
 def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
-                  progress=lambda: None, salvage: Optional[bool] = None):
+                  progress=lambda: None, salvage: bool = False):
     """Write the episodes of ``run`` as the local Minari dataset ``dataset_id``; the dataset.
     ``env``: the adapter as the user names it (default: the installed one the file names);
     ``salvage``: as :func:`~tracecheck.episodes.reader.read_run`."""

@@ -140,7 +140,7 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
                   pset: PropertySet, max_pages: int = 20, force: bool = False,
                   inputs: Sequence[Path] = (), resimulate: bool = False,
                   agent: Optional[Path] = None, env: Optional[str] = None,
-                  adapter=None, salvage: Optional[bool] = None) -> tuple[Path, int]:
+                  adapter=None, salvage: bool = False) -> tuple[Path, int]:
     """Write the report to ``out`` and viewer pages beside it (``NAME_files/``); (report,
     pages written). With ``resimulate`` (needs ``shield``), the episodes the shield would
     have blocked are re-simulated under it (as ``replay --resimulate``; ``agent`` and
@@ -168,7 +168,7 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
     stems, taken = [Path(r).stem for r in runs], set()
     page_stem = {str(r): safe_name(stem if stems.count(stem) == 1 else f"{stem}_{i + 1}", taken)
                  for i, (r, stem) in enumerate(zip(runs, stems))}
-    checked = [_check_run(run, shield, resimulate, agent, env) for run in runs]
+    checked = [_check_run(run, shield, resimulate, agent, env, salvage) for run in runs]
     result = statistics(runs, pset, columns=columns, adapter=adapter, salvage=salvage)
     parts = [f"<h1>tracecheck validation report</h1><p class='note'>"
              f"{len(runs)} run(s)" + (f"; shield {_e(shield.name)} (sha256 {_e(shield.sha256)})"
@@ -209,18 +209,19 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
     return out, len(pages)
 
 
-def _check_run(run, shield, resimulate: bool, agent, env) -> dict:
+def _check_run(run, shield, resimulate: bool, agent, env, salvage: bool) -> dict:
     """One run: its header, replay and (with ``resimulate``) re-simulation."""
     from ..checking.replaying import replay
     from ..episodes.reader import read_header
 
     entry = {"file": str(run), "header": read_header(run), "replay": None, "resim": None}
     if shield is not None:
-        entry["replay"] = replay([run], shield)
+        entry["replay"] = replay([run], shield, salvage=salvage)
         if resimulate:
             from ..live.resimulate import resimulate as again, summary
 
-            entry["resim"] = summary(again(run, shield, entry["replay"], agent=agent, env=env))
+            entry["resim"] = summary(again(run, shield, entry["replay"], agent=agent, env=env,
+                                           salvage=salvage))
             entry["replay"].resimulation = entry["resim"]  # the table shows what it found
     return entry
 
@@ -274,7 +275,7 @@ def _ranked(c: dict) -> list:
 
 
 def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter,
-                      salvage: Optional[bool]) -> str:
+                      salvage: bool) -> str:
     """A run's episodes that matter: the crash column is replay's own (``replay`` and
     ``replay --resimulate`` print the same words), so the headline above and this table
     count the same episodes."""
@@ -317,7 +318,7 @@ def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter
     return text
 
 
-def _pictures(c: dict, shown: list, adapter, shield, salvage: Optional[bool]
+def _pictures(c: dict, shown: list, adapter, shield, salvage: bool
               ) -> dict[int, str]:
     """Per episode shown: the scene at its first blocked step (else at its crash), or where
     the environment draws none, its numeric variables over time."""
@@ -372,7 +373,7 @@ def _sparklines(ep, mark: Optional[int], width: int = 260, row: int = 26) -> str
 
 
 def _write_pages(folder: Path, pages: list, shield: Optional[Shield], adapter=None,
-                 salvage: Optional[bool] = None) -> None:
+                 salvage: bool = False) -> None:
     """The viewer pages, into a new folder that replaces ``folder`` once all are written."""
     from ..outputs import atomic_folder, inside, open_new
 

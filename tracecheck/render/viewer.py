@@ -131,7 +131,7 @@ def _scenes(ep, draw) -> tuple[Optional[dict], list]:
 
 
 def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
-                 ltl: Sequence[tuple] = (), adapter=None, salvage: Optional[bool] = None) -> dict:
+                 ltl: Sequence[tuple] = (), adapter=None, salvage: bool = False) -> dict:
     """Everything the viewer shows, as JSON-ready data (``ltl``: (name, text, formula) of
     LTL formulas over ``shield``'s machine, each marked where the episode first violates
     it; ``adapter``: the environment's adapter (``--env``), whose ``scene`` hook draws the
@@ -192,7 +192,7 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
 
 
 def _ltl_marks(run, episode: int, shield: Optional[Shield], ltl: Sequence[tuple],
-               salvage: Optional[bool]) -> list:
+               salvage: bool) -> list:
     if not ltl:
         return []
     from ..checking.crashflag import flagged, with_crash_flag
@@ -209,7 +209,7 @@ def _ltl_marks(run, episode: int, shield: Optional[Shield], ltl: Sequence[tuple]
 
 
 def render_episode(run: str | Path, episode: int, shield: Optional[Shield] = None,
-                   ltl: Sequence[tuple] = (), adapter=None, salvage: Optional[bool] = None) -> str:
+                   ltl: Sequence[tuple] = (), adapter=None, salvage: bool = False) -> str:
     """The viewer page of one episode (see the module docstring; ``salvage`` as
     :func:`episode_data`)."""
     data = episode_data(run, episode, shield, ltl, adapter, salvage)

@@ -291,7 +291,7 @@ def _holds(p: Property, values: np.ndarray, cols: RunColumns) -> np.ndarray:
 
 def evaluate_run(path: str | Path, pset: PropertySet, formulas: dict,
                  name: Optional[str] = None, cols: Optional[RunColumns] = None, *,
-                 salvage: Optional[bool] = None) -> RunValues:
+                 salvage: bool = False) -> RunValues:
     """Every metric and property of ``pset`` on every episode of a file (``cols``: the
     file's columns, when they were read already; else read with ``salvage``)."""
     cols = cols if cols is not None else read_columns(path, salvage=salvage)
@@ -435,7 +435,7 @@ def _paired(a: RunValues, b: RunValues, pset: PropertySet) -> Optional[dict]:
 
 
 def _evaluate_one(path: str, pset: PropertySet, name: Optional[str],
-                  environment=None, salvage: Optional[bool] = None) -> RunValues:
+                  environment=None, salvage: bool = False) -> RunValues:
     """One file, in whichever process runs it."""
     cols = read_columns(path, salvage=salvage)
     sample = cols.states.row(0) if cols.states.n else None
@@ -466,7 +466,7 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
                names: Optional[list[str]] = None,
                columns: Optional[list[RunColumns]] = None, executor: str = "local",
                ray_address: Optional[str] = None, adapter=None,
-               salvage: Optional[bool] = None) -> StatsResult:
+               salvage: bool = False) -> StatsResult:
     """The statistics of the runs in ``paths`` (JSON-ready; see the module docstring).
 
     ``columns``: the runs' columns when they were read already (else read with ``salvage``,
