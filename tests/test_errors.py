@@ -37,14 +37,3 @@ def test_located_fills_in_only_what_is_missing():
 def test_caret_ignores_lines_out_of_range():
     assert E.caret_excerpt("one line", 5, 1) == ""
     assert E.caret_excerpt(None, 1, 1) == ""
-
-
-def test_read_text_errors(tmp_path):
-    with pytest.raises(E.InputError, match="no such model file: "):
-        E.read_text(tmp_path / "none.mch", "model file")
-    with pytest.raises(E.InputError, match="is a folder, not a file"):
-        E.read_text(tmp_path, "model file")
-    binary = tmp_path / "b.mch"
-    binary.write_bytes(b"\xff\xfe\x00")
-    with pytest.raises(E.InputError, match="cannot read the model file"):
-        E.read_text(binary, "model file")

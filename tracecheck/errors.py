@@ -1,4 +1,4 @@
-"""One error hierarchy for tracecheck.
+"""One error hierarchy for tracecheck (and the two warnings a damaged run file gives).
 
 The library raises these; only the CLI turns them into exit codes and text. Every message
 says where (file, line, column or episode/step), what was wrong and, where it helps, what to
@@ -19,7 +19,8 @@ __all__ = [
     "ModelError",
     "InputError",
     "Disagreement",
-    "read_text",
+    "DamagedEpisode",
+    "SalvagedEpisodeWarning",
 ]
 
 
@@ -143,42 +144,13 @@ class Disagreement(TracecheckError):
     exit_code = 4
 
 
-#: The largest text file tracecheck reads (a machine, a state, a trace, a property file).
-MAX_TEXT_BYTES = 64 << 20
+# ------------------------------------------------------------------ what is only warned
 
 
-def read_text(path, what: str, max_bytes: int = MAX_TEXT_BYTES) -> str:
-    """The UTF-8 text of ``path``; an :class:`InputError` naming ``what`` if it cannot be read
-    or is larger than ``max_bytes``."""
-    from pathlib import Path
-
-    path = Path(path)
-    try:
-        size = path.stat().st_size
-        if size > max_bytes:
-            raise InputError(f"the {what} {path} has {size:,} bytes; tracecheck reads at most "
-                             f"{max_bytes:,} for a {what}",
-                             hint="split it up: one state or one episode per file")
-        return path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(f"no such {what}: {path}") from None
-    except IsADirectoryError:
-        raise InputError(f"the {what} {path} is a folder, not a file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read the {what} {path}: {exc}") from None
+class DamagedEpisode(UserWarning):
+    """A warning, not an error: a file whose tail is damaged (its complete episodes were
+    read, the damaged one and the rest were lost)."""
 
 
-def read_json(path, what: str, max_bytes: int = MAX_TEXT_BYTES):
-    """The JSON value in ``path``: at most ``max_bytes``, nested at most 1024 levels, no NaN
-    or Infinity (each an :class:`InputError` with the line and column)."""
-    import orjson
-
-    text = read_text(path, what, max_bytes)
-    try:
-        return orjson.loads(text)
-    except orjson.JSONDecodeError as exc:
-        msg = exc.msg
-        if text.startswith(("NaN", "Infinity", "-Infinity"), exc.pos):
-            msg = "NaN and Infinity are not JSON numbers, and B reals are finite"
-        raise InputError(f"not valid JSON: {msg}", file=str(path), line=exc.lineno,
-                         column=exc.colno, source=text) from None
+class SalvagedEpisodeWarning(DamagedEpisode):
+    """An episode left out because its parts do not agree (only when salvaging)."""

@@ -17,7 +17,7 @@ from tests.helpers import episode, run
 from tracecheck.episodes import (EpisodeWriter, new_header, read_columns, read_episodes,
                                  read_run)
 from tracecheck.episodes import writer as W
-from tracecheck.episodes.reader import SalvagedEpisodeWarning
+from tracecheck.errors import SalvagedEpisodeWarning
 from tracecheck.episodes.records import MAX_CHUNK_RATIO, MessageRef, walk
 from tracecheck.errors import InputError
 

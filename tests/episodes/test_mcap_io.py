@@ -15,10 +15,9 @@ from mcap.reader import make_reader
 
 from tests.helpers import ROOT
 from tracecheck.episodes.records import Attachment, walk
-from tracecheck.episodes import (DamagedEpisode, EpisodeWriter, new_header, read_columns,
-                                 read_episodes, read_run)
+from tracecheck.episodes import EpisodeWriter, new_header, read_columns, read_episodes, read_run
 from tracecheck.episodes.files import write_run
-from tracecheck.errors import InputError
+from tracecheck.errors import DamagedEpisode, InputError
 
 
 def write(path, episodes, **header):

@@ -131,10 +131,10 @@ def test_json_nested_too_deeply_or_too_large(tmp_path, monkeypatch):
         list(import_simb([path]))
     assert info.value.message == "not valid JSON: depth limit exceeded"
     assert (info.value.file, info.value.line, info.value.column) == (str(path), 1, 1041)
-    import tracecheck.errors as E
+    import tracecheck.inputs as inputs
 
-    monkeypatch.setattr(E, "MAX_TEXT_BYTES", 1000)
-    monkeypatch.setattr(E.read_json, "__defaults__", (1000,))
+    monkeypatch.setattr(inputs, "MAX_TEXT_BYTES", 1000)
+    monkeypatch.setattr(inputs.read_json, "__defaults__", (1000,))
     big = tmp_path / "big.json"
     big.write_text(" " * 2000)
     with pytest.raises(InputError, match=r"the trace file .*big.json has 2,000 bytes; "

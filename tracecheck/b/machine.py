@@ -18,7 +18,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional
 
-from ..errors import BScopeError, EvaluationError, InputError, TracecheckError, read_text
+from ..errors import BScopeError, EvaluationError, InputError, TracecheckError
+from ..inputs import read_text
 from . import ast
 from .bindings import conjuncts
 from .constants import setup_constants

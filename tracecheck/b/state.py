@@ -6,7 +6,8 @@ import math
 from pathlib import Path
 from typing import Any, Mapping, Optional
 
-from ..errors import BSyntaxError, InputError, TracecheckError, caret_excerpt, read_json
+from ..errors import BSyntaxError, InputError, TracecheckError, caret_excerpt
+from ..inputs import read_json
 from .notation import from_json
 from .values import Elem, FuncValue
 

@@ -20,7 +20,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import InputError, read_text
+from ..errors import InputError
+from ..inputs import read_text
 
 __all__ = ["Given", "Obligations", "read_obligations", "implication", "KEYS"]
 

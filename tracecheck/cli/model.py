@@ -129,7 +129,7 @@ def eval_(
     (the machine, the state and the grammar are loaded once for all of them)."""
     from ..b.notation import to_json
     from ..b.values import format_value
-    from ..errors import read_text
+    from ..inputs import read_text
 
     formulas = [(e, "<expr>" if len(exprs or ()) == 1 and file is None else f"<expr {i + 1}>",
                  None) for i, e in enumerate(exprs or ())]

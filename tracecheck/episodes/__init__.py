@@ -13,14 +13,14 @@ _WHERE = {
     "RunColumns": "columns", "read_columns": "columns",
     "Episode": "model", "EpisodeEnd": "model", "StepRecord": "model",
     "Vocabulary": "model",
-    "DamagedEpisode": "reader", "Run": "reader", "read_episodes": "reader",
+    "Run": "reader", "read_episodes": "reader",
     "read_header": "reader", "read_run": "reader",
     "EpisodeWriter": "writer", "new_header": "writer",
 }
 
 __all__ = [
     "EpisodeWriter", "read_run", "read_episodes", "read_columns", "read_header", "Run",
-    "RunColumns", "DamagedEpisode", "new_header", "Episode", "EpisodeEnd", "StepRecord",
+    "RunColumns", "new_header", "Episode", "EpisodeEnd", "StepRecord",
     "Vocabulary",
 ]
 

@@ -17,7 +17,8 @@ from ..b.columns import Columns
 from ..b.values import Elem
 from ..errors import InputError
 from .codec import RUN_COLUMNS_MEDIA_TYPE, columns_from_arrays, decode_columns
-from .reader import DamagedEpisode, check_columns, read_pieces
+from ..errors import DamagedEpisode
+from .reader import check_columns, read_pieces
 from .records import find_attachment, mapped
 
 __all__ = ["read_columns", "RunColumns", "episode_columns"]

@@ -25,23 +25,13 @@ import numpy as np
 import orjson
 from pydantic import ValidationError
 
-from ..errors import InputError, TracecheckError
+from ..errors import DamagedEpisode, InputError, SalvagedEpisodeWarning, TracecheckError
 from . import schema
 from .codec import COLUMNS_MEDIA_TYPE, decode_columns, decode_state
 from .model import Episode, EpisodeEnd, StepRecord
 from .records import Attachment, Channel, Damage, MessageRef, Schema, mapped, walk
 
-__all__ = ["read_run", "read_episodes", "read_header", "Run", "DamagedEpisode",
-           "SalvagedEpisodeWarning", "read_pieces", "Piece"]
-
-
-class DamagedEpisode(UserWarning):
-    """A warning: a file whose tail is damaged (its complete episodes were read, the damaged
-    one and the rest were lost)."""
-
-
-class SalvagedEpisodeWarning(DamagedEpisode):
-    """An episode left out because its parts do not agree (only when salvaging)."""
+__all__ = ["read_run", "read_episodes", "read_header", "Run", "read_pieces", "Piece"]
 
 
 @dataclass

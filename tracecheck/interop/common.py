@@ -8,7 +8,8 @@ from typing import Any, Iterable, Mapping, Optional
 
 from ..b.notation import parse_literal
 from ..episodes.model import Episode, StepRecord, Vocabulary, make_end
-from ..errors import InputError, TracecheckError, read_json
+from ..errors import InputError, TracecheckError
+from ..inputs import read_json
 
 __all__ = ["load_json", "read_literal", "build_episode", "natural_key", "expand_paths"]
 

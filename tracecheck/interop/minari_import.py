@@ -22,7 +22,8 @@ from typing import Any, Iterator, Optional
 
 import numpy as np
 
-from ..errors import InputError, TracecheckError, read_text
+from ..errors import InputError, TracecheckError
+from ..inputs import read_text
 from .minari import dataset_folder, make_env, minari_package
 from .minari_checks import check_counts, check_episode_steps, check_infos, check_observations
 

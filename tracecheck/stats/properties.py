@@ -49,7 +49,8 @@ from ..b import ast
 from ..b.parser import parse_formula
 from ..b.scope import EXPR, PRED, check_kind
 from ..checking.crashflag import CRASH_FLAG
-from ..errors import InputError, TracecheckError, read_text
+from ..errors import InputError, TracecheckError
+from ..inputs import read_text
 
 __all__ = ["Metric", "Property", "HypothesisTest", "PropertySet", "load_properties",
            "HIGHWAY_SET", "GENERIC_SET", "AGGREGATES", "KINDS", "TAILS", "CRASH_FLAG",
