@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from typing import Optional, Union
 
 __all__ = ["Base", "Pow", "Prod", "Var", "Type", "INTEGER", "REAL", "BOOL", "STRING",
-           "resolve", "resolve_all", "show", "unify", "Mismatch"]
+           "resolve", "resolve_all", "show", "unify", "TypeClash"]
 
 
 @dataclass(frozen=True)
@@ -73,8 +73,9 @@ def show(t: Type) -> str:
     return "?"
 
 
-class Mismatch(Exception):
-    """Two types that cannot be the same (raised by :func:`unify`)."""
+class TypeClash(Exception):
+    """Two types that cannot be the same (raised by :func:`unify`, caught by the type checker,
+    which reports a located BTypeError: never seen outside the engine)."""
 
 
 def _occurs(v: Var, t: Type) -> bool:
@@ -89,7 +90,7 @@ def _occurs(v: Var, t: Type) -> bool:
 
 
 def unify(a: Type, b: Type) -> None:
-    """Make ``a`` and ``b`` the same type, binding type variables (else :class:`Mismatch`)."""
+    """Make ``a`` and ``b`` the same type, binding type variables (else :class:`TypeClash`)."""
     a, b = resolve(a), resolve(b)
     if a is b:
         return
@@ -98,9 +99,9 @@ def unify(a: Type, b: Type) -> None:
         if isinstance(t, Var):
             t.numeric = t.numeric or v.numeric
         elif v.numeric and t not in _NUMERIC:
-            raise Mismatch
+            raise TypeClash
         if _occurs(v, t):
-            raise Mismatch
+            raise TypeClash
         v.ref = t
         return
     if isinstance(a, Base) and isinstance(b, Base) and a == b:
@@ -112,4 +113,4 @@ def unify(a: Type, b: Type) -> None:
         unify(a.left, b.left)
         unify(a.right, b.right)
         return
-    raise Mismatch
+    raise TypeClash

@@ -13,7 +13,7 @@ from typing import Optional
 from ..errors import BScopeError, BTypeError, TracecheckError, UnsupportedError
 from . import ast
 from .limits import deeply
-from .btypes import (BOOL, INTEGER, REAL, STRING, Base, Mismatch, Pow, Prod, Type, Var, resolve,
+from .btypes import (BOOL, INTEGER, REAL, STRING, Base, TypeClash, Pow, Prod, Type, Var, resolve,
                      show, unify)
 from .scope import check_kind, expand, kind_of, render
 
@@ -73,7 +73,7 @@ class Typer:
     def same(self, node: ast.Node, a: Type, b: Type, what: str = "") -> None:
         try:
             unify(a, b)
-        except Mismatch:
+        except TypeClash:
             hint = None
             pair = {show(a), show(b)}
             if pair == {"INTEGER", "REAL"}:
@@ -468,7 +468,7 @@ def unify_quiet(a: Type, b: Type) -> bool:
     try:
         unify(a, b)
         return True
-    except Mismatch:
+    except TypeClash:
         return False
 
 

@@ -142,7 +142,7 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
 def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:
     """The episode again from its seed: the recorded actions up to the first infeasible
     step (each state checked against the recording), then the agent under the shield."""
-    from .rollout import Mismatch, run_episode
+    from .rollout import Diverged, run_episode
 
     lo = int(cols.starts[i])
     seed = cols.seeds[i] if i < len(cols.seeds) else None
@@ -158,7 +158,7 @@ def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:
     try:
         episode = run_episode(session, item.episode, seed=int(seed), script=script,
                               check=lambda k, state: _same(cols.states.row(lo + k), state))
-    except Mismatch as exc:
+    except Diverged as exc:
         return result(MISMATCH, None, exc.step, str(exc))
     crash_step = next((s.step for s in episode.steps if s.crashed), None)
     if item.crashed:

@@ -15,11 +15,12 @@ import numpy as np
 from ..episodes.model import Episode, StepRecord, make_end
 from ..errors import InputError
 
-__all__ = ["RecordSettings", "resolve", "Session", "run_episode", "Mismatch", "end_reason"]
+__all__ = ["RecordSettings", "resolve", "Session", "run_episode", "Diverged", "end_reason"]
 
 
-class Mismatch(Exception):
-    """A re-run state differs from the recorded one (raised by :func:`run_episode`'s check)."""
+class Diverged(Exception):
+    """A re-run state differs from the recorded one (raised by :func:`run_episode`'s check,
+    caught by re-simulation, which reports the episode as not reproduced)."""
 
     def __init__(self, step: int, detail: str) -> None:
         super().__init__(f"step {step}: {detail}")
@@ -95,7 +96,7 @@ def run_episode(session: Session, index: int, *, seed: Optional[int] = None,
     The agent chooses its best action among those the shield allows; the first actions are
     ``script``'s instead, when given (re-simulation). ``check(step, state)`` sees each state
     of the scripted part, the initial one included, and returns what differs from the
-    recording, if anything: that ends the rollout with :class:`Mismatch`.
+    recording, if anything: that ends the rollout with :class:`Diverged`.
     """
     from .wrapper import choose
 
@@ -159,4 +160,4 @@ def _check(check, step: int, state: dict) -> None:
     if check is not None:
         problem = check(step, state)
         if problem:
-            raise Mismatch(step, problem)
+            raise Diverged(step, problem)
