@@ -16,7 +16,7 @@ from typing import Callable, Iterable, Optional, Sequence
 
 import numpy as np
 
-from ..b import ast as A
+from ..b import ast
 from ..b.columns import step_pairs
 from ..episodes.columns import RunColumns, read_columns
 from ..errors import InputError
@@ -122,7 +122,7 @@ def _check_variables(shield: Shield, cols: RunColumns) -> None:
     machine = shield.machine
     needed = set().union(*machine.guard_variables().values())
     if machine.invariant_node is not None:
-        needed |= A.free_names(machine.invariant_node)
+        needed |= ast.free_names(machine.invariant_node)
     missing = sorted(n for n in needed if n not in have and n in machine.variables)
     if missing and cols.n:
         raise InputError(f"{cols.path}: the states have no {', '.join(missing)}, which the "
