@@ -262,6 +262,36 @@ def test_no_package_exports_a_name_its_submodule_has(tracecheck):
     assert not problems, "rename the submodule:\n" + "\n".join(problems)
 
 
+def lazy_faces(pkg: Package) -> list[str]:
+    """Packages with lazy names (``_WHERE``): each name is in ``__all__`` and imported under
+    ``if TYPE_CHECKING:`` from the module ``_WHERE`` names, so that editors and type checkers
+    see what the package has; and nothing else is."""
+    out = []
+    for package, path in pkg.files.items():
+        tree = pkg.trees[package]
+        where = next((ast.literal_eval(n.value) for n in tree.body if isinstance(n, ast.Assign)
+                      and getattr(n.targets[0], "id", None) == "_WHERE"), None)
+        if path.name != "__init__.py" or where is None:
+            continue
+        names = next((set(ast.literal_eval(n.value)) for n in tree.body
+                      if isinstance(n, ast.Assign)
+                      and getattr(n.targets[0], "id", None) == "__all__"), set())
+        typed = {a.name: f"{n.module}" for block in tree.body if isinstance(block, ast.If)
+                 and getattr(block.test, "id", None) == "TYPE_CHECKING"
+                 for n in block.body if isinstance(n, ast.ImportFrom) for a in n.names}
+        if names != set(where):
+            out.append(f"{package}: __all__ and _WHERE differ: {sorted(names ^ set(where))}")
+        if typed != where:
+            out.append(f"{package}: the TYPE_CHECKING imports and _WHERE differ: "
+                       f"{sorted(set(typed.items()) ^ set(where.items()))}")
+    return out
+
+
+def test_lazy_names_are_visible_to_editors(tracecheck):
+    problems = lazy_faces(tracecheck)
+    assert not problems, "\n".join(problems)
+
+
 def test_no_module_is_over_650_lines(tracecheck):
     problems = long_modules(tracecheck)
     assert not problems, "split these on the seams they mark:\n" + "\n".join(problems)
@@ -332,6 +362,10 @@ def test_the_checks_find_what_they_look_for(tmp_path):
         "package high (fake.high.view) has no place in the order ('top', 'low')"]
     assert private_imports(pkg) == [
         "fake.low.other imports _secret from fake.low.tools (fake/low/other.py:2)"]
+    assert lazy_faces(pkg) == [
+        "fake.low: __all__ and _WHERE differ: ['helper', 'other']",
+        "fake.low: the TYPE_CHECKING imports and _WHERE differ: [('helper', 'tools'), "
+        "('other', 'tools')]"]
     assert shadowed_names(pkg) == [
         "fake.low exports other from fake.low.tools, the name of its submodule fake.low.other"]
     assert long_modules(pkg, limit=20) == ["fake/high/view.py: 24 lines"]
@@ -353,7 +387,9 @@ def test_the_checks_pass_a_clean_package(tmp_path):
     pkg = _package(tmp_path, {
         "__init__.py": "",
         "errors.py": "",
-        "low/__init__.py": "from .tools import helper\n",
+        "low/__init__.py": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n"
+                           "    from .tools import helper\n"
+                           "_WHERE = {'helper': 'tools'}\n__all__ = ['helper']\n",
         "low/tools.py": "from .. import errors\n\ndef helper():\n    from ..errors import Oops\n",
         "high/__init__.py": "",
         "high/view.py": "import fake.low.tools\nfrom fake.low import helper\n",
@@ -363,4 +399,4 @@ def test_the_checks_pass_a_clean_package(tmp_path):
         ("fake.low.tools", "fake.errors"), ("fake.high.view", "fake.low.tools")}
     order = ("top", "low", "high")  # … and none breaks a rule
     assert (module_cycles(pkg), package_cycles(pkg), upward_imports(pkg, order),
-            private_imports(pkg), shadowed_names(pkg)) == ([], [], [], [], [])
+            private_imports(pkg), shadowed_names(pkg), lazy_faces(pkg)) == ([],) * 6

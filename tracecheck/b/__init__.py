@@ -10,7 +10,20 @@ batch path) or anything else it does not need.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from .._lazy import lazy_names
+
+if TYPE_CHECKING:  # what editors and type checkers see; at run time, _WHERE
+    from .columns import Columns
+    from .evaluation import compile_formula, evaluate
+    from .machine import Machine, Operation, load_machine, load_machine_text
+    from .notation import parse_literal
+    from .parser import parse_formula, parse_substitution
+    from .printer import to_b
+    from .state import read_state_file
+    from .values import Elem, FuncValue, format_value
+    from .vector import BatchFormula, evaluate_batch
 
 _WHERE = {
     "compile_formula": "evaluation", "evaluate": "evaluation",

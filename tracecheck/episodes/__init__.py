@@ -7,7 +7,15 @@ episode model, the salvage switch) does not load numpy, pydantic and the MCAP li
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from .._lazy import lazy_names
+
+if TYPE_CHECKING:  # what editors and type checkers see; at run time, _WHERE
+    from .columns import RunColumns, read_columns
+    from .model import Episode, EpisodeEnd, StepRecord, Vocabulary
+    from .reader import Run, read_episodes, read_header, read_run
+    from .writer import EpisodeWriter, new_header
 
 _WHERE = {
     "RunColumns": "columns", "read_columns": "columns",
