@@ -49,7 +49,7 @@ if TYPE_CHECKING:
 __all__ = ["EnvAdapter", "Observer", "adapters", "get_adapter", "installed_adapter",
            "load_adapter", "AdapterInfo",
            "ENTRY_POINT_GROUP", "parse_config", "setting_kinds", "typed_setting",
-           "gymnasium_keys", "gymnasium_kinds", "MakeError"]
+           "gymnasium_keys", "gymnasium_kinds", "MakeError", "GymnasiumAdapter"]
 
 ENTRY_POINT_GROUP = "tracecheck.environments"
 
@@ -475,6 +475,23 @@ _NO = object()
 _KIND_TEXT = {"bool": "true or false", "int": "an integer", "float": "a number",
               "str": "a string", "None": "null", "list": "a list", "tuple": "a list",
               "dict": "an object ({…})"}
+
+
+class GymnasiumAdapter(EnvAdapter):
+    """An adapter for an environment registered with Gymnasium under ``env_id``: made with
+    ``gymnasium.make(env_id, **config).unwrapped`` (no time limit of Gymnasium's own: the
+    adapter's ``horizon`` bounds episodes), its settings those the registered class takes."""
+
+    def config_keys(self):
+        return gymnasium_keys(self.env_id)
+
+    def config_kinds(self):
+        return gymnasium_kinds(self.env_id)
+
+    def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
+        import gymnasium as gym
+
+        return gym.make(self.env_id, render_mode=render_mode, **config).unwrapped
 
 
 def setting_kinds(default: Any = _NO, annotation: Any = _NO) -> Optional[frozenset[str]]:

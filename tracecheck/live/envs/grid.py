@@ -10,12 +10,12 @@ from __future__ import annotations
 from typing import Any, Optional
 
 from ...b.values import Elem, FuncValue
-from ..adapter import EnvAdapter, Observer, gymnasium_keys, gymnasium_kinds
+from ..adapter import GymnasiumAdapter, Observer
 
 __all__ = ["GridAdapter"]
 
 
-class GridAdapter(EnvAdapter):
+class GridAdapter(GymnasiumAdapter):
     """A toy-text grid world: subclasses name the tiles to avoid and the two kinds."""
 
     variables = ("x", "y", "goal_x", "goal_y", "field")
@@ -23,18 +23,6 @@ class GridAdapter(EnvAdapter):
     danger: bytes = b""
     #: (the kind of a safe tile, the kind of a tile to avoid)
     kinds: tuple[str, str] = ("SAFE", "DANGER")
-
-    def config_keys(self):
-        return gymnasium_keys(self.env_id)
-
-    def config_kinds(self):
-        return gymnasium_kinds(self.env_id)
-
-    def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
-        import gymnasium as gym
-
-        # unwrapped: no time limit of Gymnasium's own (the horizon bounds episodes)
-        return gym.make(self.env_id, render_mode=render_mode, **config).unwrapped
 
     def state(self, obs, info: dict, reward: float, env, initial: bool) -> dict[str, Any]:
         return self.grid_state(obs, self.grid_map(env.unwrapped))

@@ -15,7 +15,7 @@ from __future__ import annotations
 from typing import Any, Optional
 
 from ...b.values import FuncValue
-from ..adapter import EnvAdapter, Observer, gymnasium_keys, gymnasium_kinds
+from ..adapter import GymnasiumAdapter, Observer
 
 __all__ = ["LunarLanderAdapter"]
 
@@ -43,7 +43,7 @@ class _LanderObserver(Observer):
                 "surface": self.surface}
 
 
-class LunarLanderAdapter(EnvAdapter):
+class LunarLanderAdapter(GymnasiumAdapter):
     name = "lunarlander"
     env_id = "LunarLander-v3"
     actions = ("Do_Nothing", "Fire_Left", "Fire_Down", "Fire_Right")
@@ -54,17 +54,6 @@ class LunarLanderAdapter(EnvAdapter):
     horizon = 1000
     requires = ("gymnasium", "Box2D")
     properties = "lunarlander"
-
-    def config_keys(self):
-        return gymnasium_keys(self.env_id)
-
-    def config_kinds(self):
-        return gymnasium_kinds(self.env_id)
-
-    def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
-        import gymnasium as gym
-
-        return gym.make(self.env_id, render_mode=render_mode, **config).unwrapped
 
     def observer(self, env) -> Observer:
         return _LanderObserver(self, env)
