@@ -4,6 +4,8 @@ comparisons in words, the episodes that matter first — for any environment."""
 from __future__ import annotations
 
 import re
+from collections import Counter
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -139,6 +141,59 @@ def test_a_users_environment_gets_the_headline_and_time_series(corridor, tmp_pat
     assert cells.count(("good", "prevented")) == crashes == len(cells)
     # the corridor draws no scene: its episodes show their variables over time instead
     assert "<td class='pic'><svg" in page and ">pos<title>pos</title></text><polyline" in page
+
+
+def _count_reads(monkeypatch) -> list:
+    """Every read of a run file from here on, as (what, file name): its columns
+    (``read_columns``), its decoded episodes (``read_run``) and each walk over its episodes
+    that decodes their steps (``read_pieces``), wherever tracecheck imported the name."""
+    import sys
+
+    import tracecheck.checking.replaying  # noqa: F401 (their imported names are counted too)
+    import tracecheck.live.resimulate  # noqa: F401
+    import tracecheck.stats.estimates  # noqa: F401
+    from tracecheck.episodes import columns, reader
+
+    reads = []
+
+    def counting(what, original):
+        def read(path, *args, **kwargs):
+            if what != "read_pieces" or kwargs.get("decode", True):
+                reads.append((what, Path(path).name))
+            return original(path, *args, **kwargs)
+        return read
+
+    for name, original in (("read_columns", columns.read_columns),
+                           ("read_run", reader.read_run), ("read_pieces", reader.read_pieces)):
+        wrapper = counting(name, original)
+        for module in [m for n, m in sys.modules.items() if n.split(".")[0] == "tracecheck"]:
+            if getattr(module, name, None) is original:
+                monkeypatch.setattr(module, name, wrapper)
+    return reads
+
+
+def test_the_report_reads_each_run_once_for_its_columns_and_once_for_its_episodes(
+        monkeypatch, tmp_path):
+    """The columns go to the statistics, replay and re-simulation; the episodes its
+    pictures and viewer pages show are decoded in one walk of the file."""
+    reads = _count_reads(monkeypatch)
+    _, pages = render_report([NONE, PAPER], tmp_path / "report.html",
+                             shield=load_shield("paper"), pset=load_properties("highway"),
+                             max_pages=6)
+    assert pages == 5
+    once = {(what, run.name): 1 for run in (NONE, PAPER)
+            for what in ("read_columns", "read_run", "read_pieces")}
+    assert Counter(reads) == once
+
+
+def test_the_report_with_resimulation_reads_each_run_once(corridor, monkeypatch, tmp_path):
+    recorded, shield, agent, props = corridor
+    reads = _count_reads(monkeypatch)
+    render_report([recorded], tmp_path / "report.html", shield=load_shield(str(shield)),
+                  pset=load_properties(str(props)), resimulate=True, agent=agent,
+                  env=CORRIDOR)
+    assert Counter(reads) == {("read_columns", "toy.mcap"): 1, ("read_run", "toy.mcap"): 1,
+                              ("read_pieces", "toy.mcap"): 1}
 
 
 def test_report_text_is_inert(tmp_path):

@@ -23,8 +23,8 @@ from ..errors import InputError
 from .executors import map_files
 from .shield import Shield
 
-__all__ = ["replay", "ReplayReport", "EpisodeReplay", "enabled_matrix", "add_up", "OUTCOMES",
-           "NEVER_BLOCKED"]
+__all__ = ["replay", "replay_columns", "ReplayReport", "EpisodeReplay", "enabled_matrix",
+           "add_up", "OUTCOMES", "NEVER_BLOCKED"]
 
 #: what re-simulating one episode can find, in the words every output uses (the lines under
 #: the summary, the episode table in every format, the JSON): the recorded crash prevented or
@@ -265,15 +265,23 @@ def _episode(cols: RunColumns, checks: _FileChecks, ep: int, lo: int, hi: int
     )
 
 
+def replay_columns(cols: RunColumns, shield: Shield, ltl: Sequence[str] = (),
+                   ltl_assertions: bool = False) -> ReplayReport:
+    """Replay the already-read columns of one file (``cols.path``) against ``shield``, with
+    the LTL formulas as :func:`replay`: for a caller that has the columns for more than
+    replay (the report's statistics), so the file is read once."""
+    report = ReplayReport(shield=shield.identity, files=[cols.path])
+    report.warnings += cols.warnings
+    _replay_file(shield, cols, report, ltl_formulas(shield, ltl, ltl_assertions))
+    add_up(report, report.per_episode, _EPISODE_COUNTS)
+    return report
+
+
 def _replay_one(path: str, shield: Shield, formulas: Sequence[str] = (),
                 assertions: bool = False, salvage: bool = False) -> ReplayReport:
     """One file, in whichever process runs it (the shield itself is sent there: pickled as
     its text, see :class:`Shield`)."""
-    report = ReplayReport(shield=shield.identity, files=[path])
-    cols = read_columns(path, salvage=salvage)
-    report.warnings += cols.warnings
-    _replay_file(shield, cols, report, ltl_formulas(shield, formulas, assertions))
-    return report
+    return replay_columns(read_columns(path, salvage=salvage), shield, formulas, assertions)
 
 
 def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "local",

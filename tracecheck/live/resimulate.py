@@ -86,12 +86,14 @@ def _same(recorded: dict, state: dict) -> Optional[str]:
 def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
                agent: Optional[str | Path] = None, env: Optional[str] = None,
                progress: Optional[Callable[[Resimulation], None]] = None,
-               salvage: bool = False) -> list[Resimulation]:
+               salvage: bool = False, cols: Optional[RunColumns] = None
+               ) -> list[Resimulation]:
     """Re-simulate the episodes of ``path`` that ``report`` found infeasible under ``shield``.
 
     The environment is the adapter the file names, looked up among the installed ones only
     (a file never makes tracecheck import a module); ``env`` (from ``--env``) overrides it;
-    ``salvage``: as :func:`~tracecheck.episodes.reader.read_run`.
+    ``salvage``: as :func:`~tracecheck.episodes.reader.read_run`; ``cols``: the file's
+    columns when they were read already (else read here, with ``salvage``).
     """
     from .adapter import MakeError, get_adapter, load_adapter
     from .rollout import RecordSettings, Session
@@ -107,7 +109,7 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
     adapter = load_adapter(env) if env is not None else get_adapter(header.environment)
     if header.environment and adapter.name != header.environment:
         raise InputError(f"{path} was recorded in {header.environment}, not {adapter.name}")
-    cols = read_columns(path, salvage=salvage)
+    cols = cols if cols is not None else read_columns(path, salvage=salvage)
     config = dict(header.environment_config)
     duration = config.get("duration", 61)
     if type(duration) is not int or not 1 < duration <= 1_000_000:

@@ -21,7 +21,7 @@ from ..checking.replaying import (MISMATCH, NEVER_BLOCKED, NEW_CRASH, NO_CRASH, 
                                 NOT_PREVENTED, PREVENTED)
 from ..checking.shield import Shield
 from ..outputs import write_file
-from .viewer import numeric_series, render_episode
+from .viewer import episode_view, find_episode, numeric_series, viewer_page
 
 __all__ = ["render_report", "comparison_sentences", "resimulation_headline"]
 
@@ -168,7 +168,8 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
     stems, taken = [Path(r).stem for r in runs], set()
     page_stem = {str(r): safe_name(stem if stems.count(stem) == 1 else f"{stem}_{i + 1}", taken)
                  for i, (r, stem) in enumerate(zip(runs, stems))}
-    checked = [_check_run(run, shield, resimulate, agent, env, salvage) for run in runs]
+    checked = [_check_run(run, cols, shield, resimulate, agent, env)
+               for run, cols in zip(runs, columns)]
     result = statistics(runs, pset, columns=columns, adapter=adapter, salvage=salvage)
     parts = [f"<h1>tracecheck validation report</h1><p class='note'>"
              f"{len(runs)} run(s)" + (f"; shield {_e(shield.name)} (sha256 {_e(shield.sha256)})"
@@ -204,24 +205,25 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
     page = (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>tracecheck "
             f"report</title><style>{_STYLE}</style></head><body>{''.join(parts)}</body></html>")
     if pages:
-        _write_pages(pages_dir, pages, shield, adapter, salvage)
+        _write_pages(pages_dir, pages, shield, adapter)
     write_file(out, page)
     return out, len(pages)
 
 
-def _check_run(run, shield, resimulate: bool, agent, env, salvage: bool) -> dict:
-    """One run: its header, replay and (with ``resimulate``) re-simulation."""
-    from ..checking.replaying import replay
+def _check_run(run, cols, shield, resimulate: bool, agent, env) -> dict:
+    """One run: its header, replay and (with ``resimulate``) re-simulation, on its columns
+    ``cols`` (read once, for the statistics too)."""
+    from ..checking.replaying import replay_columns
     from ..episodes.reader import read_header
 
     entry = {"file": str(run), "header": read_header(run), "replay": None, "resim": None}
     if shield is not None:
-        entry["replay"] = replay([run], shield, salvage=salvage)
+        entry["replay"] = replay_columns(cols, shield)
         if resimulate:
             from ..live.resimulate import resimulate as again, summary
 
             entry["resim"] = summary(again(run, shield, entry["replay"], agent=agent, env=env,
-                                           salvage=salvage))
+                                           cols=cols))
             entry["replay"].resimulation = entry["resim"]  # the table shows what it found
     return entry
 
@@ -282,23 +284,29 @@ def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter
     from ..outputs import safe_name
     from .text import crash_column
 
+    from ..episodes.reader import read_run
+
     ranked = _ranked(c)
     name = Path(c["file"]).name
     if not ranked:
         return f"<h3>{_e(name)}</h3><p>No episode crashed or had a blocked step.</p>"
-    pictures = _pictures(c, ranked[:SHOWN], adapter, shield, salvage)
+    shown, paged = ranked[:SHOWN], ranked[:max(0, max_pages - len(pages))]
+    # the episodes its pictures and its viewer pages show, decoded in one walk of the file
+    result = read_run(c["file"], {e.episode for e in shown + paged}, salvage=salvage)
+    pictures = _pictures(result, shown, adapter, shield)
     crash_header, _, crash_cell = crash_column(c["replay"])
     new_steps = {r["episode"]: r["new_crash_step"]
                  for r in (c["resim"] or {}).get("per_episode", [])}
     head = ["episode", "steps", "first blocked step", "crash step", crash_header,
             "picture", "viewer"]
     rows = []
-    for e in ranked:
+    for i, e in enumerate(ranked):
         link = ""
-        if len(pages) < max_pages:
+        if i < len(paged):
             stem = page_stem.get(str(e.file)) or safe_name(Path(e.file).stem)
             page = f"{stem}_episode_{e.episode}.html"
-            pages.append((e.file, e.episode, page))
+            pages.append((e.file, find_episode(e.file, result, e.episode, salvage),
+                          result.header, page))
             link = f"<a href='{_e(pages_dir.name + '/' + page)}'>open</a>"
         verdict = crash_cell(e)
         if verdict in (NEW_CRASH, NOT_PREVENTED) and new_steps.get(e.episode) is not None:
@@ -318,21 +326,21 @@ def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter
     return text
 
 
-def _pictures(c: dict, shown: list, adapter, shield, salvage: bool
-              ) -> dict[int, str]:
-    """Per episode shown: the scene at its first blocked step (else at its crash), or where
-    the environment draws none, its numeric variables over time."""
-    from ..episodes.reader import read_run
+def _pictures(result, shown: list, adapter, shield) -> dict[int, str]:
+    """Per episode shown (among those ``result`` decoded): the scene at its first blocked
+    step (else at its crash), or where the environment draws none, its numeric variables
+    over time."""
     from .scene import scene_drawer, scene_kind, scene_svg
 
     if not shown:
         return {}
-    result = read_run(c["file"], {e.episode for e in shown}, salvage=salvage)
     draw = scene_drawer(adapter=adapter, zones=shield.name == "paper")
     wanted = {e.episode: e.first_infeasible if e.first_infeasible is not None else
               (e.crash_step or 0) for e in shown}
     out = {}
     for ep in result.episodes:
+        if ep.id not in wanted:
+            continue  # decoded for its viewer page only
         k = min(wanted.get(ep.id, 0), len(ep.steps) - 1)
         scene = draw(ep.steps[k])
         # the road near the ego vehicle: a thumbnail of the whole view would be a thin strip
@@ -372,13 +380,13 @@ def _sparklines(ep, mark: Optional[int], width: int = 260, row: int = 26) -> str
     return "".join(parts)
 
 
-def _write_pages(folder: Path, pages: list, shield: Optional[Shield], adapter=None,
-                 salvage: bool = False) -> None:
-    """The viewer pages, into a new folder that replaces ``folder`` once all are written."""
+def _write_pages(folder: Path, pages: list, shield: Optional[Shield], adapter=None) -> None:
+    """The viewer pages (each: file, its decoded episode, run header, page name), into a new
+    folder that replaces ``folder`` once all are written."""
     from ..outputs import atomic_folder, inside, open_new
 
     with atomic_folder(folder) as tmp:
-        for file, episode, name in pages:
+        for file, episode, header, name in pages:
+            data = episode_view(file, episode, header, shield, adapter=adapter)
             with open_new(inside(tmp, name)) as stream:
-                stream.write(render_episode(file, episode, shield, adapter=adapter,
-                                            salvage=salvage).encode("utf-8"))
+                stream.write(viewer_page(data).encode("utf-8"))

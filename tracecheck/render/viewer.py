@@ -23,15 +23,17 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 from ..b.values import Elem, SymbolicSet, format_value, sort_key
-from ..episodes.columns import read_columns
-from ..episodes.reader import read_run
+from ..episodes.columns import RunColumns, read_columns
+from ..episodes.model import Episode
+from ..episodes.reader import Run, read_run
 from ..errors import InputError
 from ..checking.shield import Shield
 from ..jsontext import script_json
 from .scene import scene_drawer, shape_json, css
 from .tables import is_number
 
-__all__ = ["render_episode", "episode_data", "short_value", "numeric_series"]
+__all__ = ["render_episode", "viewer_page", "episode_data", "episode_view", "find_episode",
+           "short_value", "numeric_series"]
 
 _TEMPLATE = (Path(__file__).with_name("viewer.html")).read_text(encoding="utf-8")
 NO_SCENE = ("This environment draws no picture (its adapter has no scene() hook: see "
@@ -130,22 +132,42 @@ def _scenes(ep, draw) -> tuple[Optional[dict], list]:
             "scale": first.scale}, per_step
 
 
+def find_episode(run: str | Path, result: Run, episode: int, salvage: bool = False
+                 ) -> Episode:
+    """Episode ``episode`` among those ``result`` decoded from ``run``, else the located
+    error naming the episodes the file has (``salvage``: as
+    :func:`~tracecheck.episodes.reader.read_run`, for reading their numbers)."""
+    found = next((ep for ep in result.episodes if ep.id == episode), None)
+    if found is not None:
+        return found
+    ids = [int(i) for i in read_columns(run, salvage=salvage).episode_ids]
+    if not ids:
+        raise InputError(f"{run} holds no complete episode")
+    raise InputError(f"{run} has no episode {episode}; it has {_ids_text(ids)}",
+                     hint=result.warnings[0] if result.warnings else None)
+
+
 def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
                  ltl: Sequence[tuple] = (), adapter=None, salvage: bool = False) -> dict:
-    """Everything the viewer shows, as JSON-ready data (``ltl``: (name, text, formula) of
-    LTL formulas over ``shield``'s machine, each marked where the episode first violates
-    it; ``adapter``: the environment's adapter (``--env``), whose ``scene`` hook draws the
-    steps; without one, the built-in scenes — render imports no environment package;
-    ``salvage``: as :func:`~tracecheck.episodes.reader.read_run`)."""
+    """Everything the viewer shows of episode ``episode`` of ``run``, read from the file
+    (see :func:`episode_view`; ``salvage``: as :func:`~tracecheck.episodes.reader.read_run`)."""
     result = read_run(run, {episode}, salvage=salvage)
-    if not result.episodes:
-        ids = [int(i) for i in read_columns(run, salvage=salvage).episode_ids]
-        if not ids:
-            raise InputError(f"{run} holds no complete episode")
-        raise InputError(f"{run} has no episode {episode}; it has {_ids_text(ids)}",
-                         hint=result.warnings[0] if result.warnings else None)
-    ep = result.episodes[0]
-    header = result.header
+    ep = find_episode(run, result, episode, salvage)
+    cols = read_columns(run, salvage=salvage) if ltl else None
+    return episode_view(run, ep, result.header, shield, ltl, cols, adapter)
+
+
+def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] = None,
+                 ltl: Sequence[tuple] = (), cols: Optional[RunColumns] = None,
+                 adapter=None) -> dict:
+    """Everything the viewer shows of the decoded episode ``ep`` of ``run`` (``header``: its
+    run header), as JSON-ready data (``ltl``: (name, text, formula) of LTL formulas over
+    ``shield``'s machine, each marked where the episode first violates it, checked on
+    ``cols``, the run's columns, which ``ltl`` needs; ``adapter``: the environment's adapter
+    (``--env``), whose ``scene`` hook draws the steps; without one, the built-in scenes —
+    render imports no environment package)."""
+    if ltl and cols is None:
+        raise ValueError("LTL marks are checked on the run's columns: give cols")
     machine = shield.machine if shield is not None else None
     zones = shield is not None and shield.name == "paper"
     draw = scene_drawer(adapter=adapter, zones=zones)  # render imports no environment
@@ -184,21 +206,21 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
         "shield": shield.name if shield is not None else None,
         "first_infeasible": first_infeasible, "blocked": blocked,
         "interventions": interventions, "crash_step": crash,
-        "ltl": _ltl_marks(run, ep.id, shield, ltl, salvage), "series": series,
+        "ltl": _ltl_marks(cols, ep.id, shield, ltl), "series": series,
         "end": {"steps": ep.end.steps, "reason": ep.end.reason,
                 "total_reward": ep.end.total_reward},
         "steps": steps,
     }
 
 
-def _ltl_marks(run, episode: int, shield: Optional[Shield], ltl: Sequence[tuple],
-               salvage: bool) -> list:
+def _ltl_marks(cols: Optional[RunColumns], episode: int, shield: Optional[Shield],
+               ltl: Sequence[tuple]) -> list:
     if not ltl:
         return []
     from ..checking.crashflag import flagged, with_crash_flag
     from ..checking.ltl import check_ltl
 
-    cols, machine = with_crash_flag(read_columns(run, salvage=salvage)), flagged(shield.machine)
+    cols, machine = with_crash_flag(cols), flagged(shield.machine)
     marks = []
     for name, text, formula in ltl:
         result = check_ltl(name, text, formula, cols, machine)
@@ -212,8 +234,12 @@ def render_episode(run: str | Path, episode: int, shield: Optional[Shield] = Non
                    ltl: Sequence[tuple] = (), adapter=None, salvage: bool = False) -> str:
     """The viewer page of one episode (see the module docstring; ``salvage`` as
     :func:`episode_data`)."""
-    data = episode_data(run, episode, shield, ltl, adapter, salvage)
-    title = f"{Path(str(run)).name}, episode {episode}"
+    return viewer_page(episode_data(run, episode, shield, ltl, adapter, salvage))
+
+
+def viewer_page(data: dict) -> str:
+    """The viewer page showing ``data`` (of :func:`episode_view`)."""
+    title = f"{Path(data['file']).name}, episode {data['episode']}"
     fields = {"TITLE": html.escape(title), "DATA": script_json(data)}
     # one pass: a file named {{DATA}}.mcap stays a title
     return re.sub(r"\{\{(TITLE|DATA)\}\}", lambda m: fields[m.group(1)], _TEMPLATE)
