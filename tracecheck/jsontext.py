@@ -17,6 +17,8 @@ import json
 import math
 from typing import Any, Optional
 
+from .limits import long_integers
+
 __all__ = ["finite", "json_text", "script_json", "nonfinite_name"]
 
 
@@ -56,8 +58,10 @@ def finite(data: Any) -> Any:
 
 
 def json_text(data: Any, **options) -> str:
-    """``data`` as strict JSON text (``options`` as for ``json.dumps``, e.g. ``indent``)."""
-    return json.dumps(finite(data), allow_nan=False, **options)
+    """``data`` as strict JSON text (``options`` as for ``json.dumps``, e.g. ``indent``);
+    integers of up to :data:`tracecheck.limits.MAX_DIGITS` digits too."""
+    with long_integers():
+        return json.dumps(finite(data), allow_nan=False, **options)
 
 
 #: what could end, or comment out, an HTML ``<script>`` element holding JSON (``</script>``,

@@ -15,7 +15,7 @@ from lark import Token, Transformer, v_args
 
 from ..errors import BSyntaxError
 from . import ast
-from .limits import read_int
+from ..limits import read_int
 
 __all__ = ["Builder", "OperationSource", "tok_pos", "unquote"]
 

@@ -18,7 +18,7 @@ from ..errors import BTypeError, EvaluationError, TracecheckError, UnsupportedEr
 from . import ast
 from .scope import render
 from .bindings import Binders
-from .limits import DEEP, deep_recursion, deeply
+from ..limits import DEEP, deep_recursion, deeply
 from .memo import constant_number, folded, memoised
 from .builtins import BUILTINS as _BUILTINS, UNSUPPORTED_HINTS as _UNSUPPORTED_HINTS
 from .finite import finite as _finite, members as _members
@@ -67,7 +67,7 @@ class Compiler(Binders):
     # -- entry
     def compile(self, node: ast.Node) -> Fn:
         """``node`` as a function of an environment; one for a formula nesting deeper than
-        :data:`~tracecheck.b.limits.DEEP` runs with the recursion limit it needs."""
+        :data:`~tracecheck.limits.DEEP` runs with the recursion limit it needs."""
         if self._compiling:
             return self._compile(node)
         self._compiling = True

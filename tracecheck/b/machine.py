@@ -24,7 +24,7 @@ from . import ast
 from .bindings import conjuncts
 from .constants import setup_constants
 from .evaluation import Compiler
-from .limits import deep_recursion
+from ..limits import deep_recursion
 from .parser import MachineSource, parse_formula, parse_machine_source
 from .state import native_state
 from .scope import PRED, check_kind, check_subst, expand, render

@@ -22,7 +22,7 @@ import re
 from typing import Any, Optional
 
 from ..errors import BSyntaxError, EvaluationError
-from .limits import read_int
+from ..limits import read_int
 from .values import Elem, FuncValue, format_value, make_set, sequence
 
 __all__ = ["parse_literal", "from_json", "to_json", "MAX_LITERAL_DEPTH"]

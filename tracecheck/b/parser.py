@@ -23,7 +23,7 @@ from lark.lexer import Lexer
 from ..errors import BSyntaxError, TracecheckError
 from . import ast
 from .builder import Builder, OperationSource, tok_pos, unquote
-from .limits import deep_recursion
+from ..limits import deep_recursion
 
 __all__ = [
     "parse_formula", "parse_substitution", "parse_machine_source", "MachineSource",

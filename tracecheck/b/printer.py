@@ -1,9 +1,9 @@
-"""Print AST nodes back as ASCII B text; ``parse_formula(to_b(t)) == t`` for any formula."""
+"""Print AST nodes back as ASCII B text; ``parse_formula(_text(t)) == t`` for any formula."""
 
 from __future__ import annotations
 
 from . import ast
-from .limits import int_text
+from ..limits import deep_recursion, int_text
 from .values import format_real
 
 __all__ = ["to_b"]
@@ -14,7 +14,7 @@ _ATOMS = (ast.Name, ast.IntLit, ast.RealLit, ast.StrLit, ast.BoolLit, ast.SetExt
 
 
 def _sub(node: ast.Node) -> str:
-    text = to_b(node)
+    text = _text(node)
     return text if isinstance(node, _ATOMS) else f"({text})"
 
 
@@ -22,8 +22,14 @@ def _ids(ids: tuple[str, ...]) -> str:
     return ids[0] if len(ids) == 1 else "(" + ",".join(ids) + ")"
 
 
-def to_b(node: ast.Node) -> str:  # noqa: C901 - one branch per node type
-    """ASCII B text for ``node``, parenthesised so that it parses back to the same tree."""
+def to_b(node: ast.Node) -> str:
+    """ASCII B text for ``node``, parenthesised so that it parses back to the same tree (as
+    deeply nested as the parser reads: the recursion limit is raised while it prints)."""
+    with deep_recursion():
+        return _text(node)
+
+
+def _text(node: ast.Node) -> str:  # noqa: C901 - one branch per node type
     t = type(node)
     if t is ast.Name:
         return node.id
@@ -40,7 +46,7 @@ def to_b(node: ast.Node) -> str:  # noqa: C901 - one branch per node type
     if t is ast.Template:
         parts = [node.texts[0]]
         for fmt, hole, text in zip(node.formats, node.holes, node.texts[1:]):
-            parts.append(("$[" + fmt + "]{" if fmt else "${") + to_b(hole) + "}" + text)
+            parts.append(("$[" + fmt + "]{" if fmt else "${") + _text(hole) + "}" + text)
         return "```" + "".join(parts) + "```"
     if t is ast.BinOp:
         op = f" {node.op} " if node.op.isalpha() else node.op
@@ -48,42 +54,42 @@ def to_b(node: ast.Node) -> str:  # noqa: C901 - one branch per node type
     if t is ast.Neg:
         return f"-{_sub(node.operand)}"
     if t is ast.Apply:
-        return f"{_sub(node.fn)}({','.join(to_b(a) for a in node.args)})"
+        return f"{_sub(node.fn)}({','.join(_text(a) for a in node.args)})"
     if t is ast.Call:
-        return f"{node.name}({','.join(to_b(a) for a in node.args)})"
+        return f"{node.name}({','.join(_text(a) for a in node.args)})"
     if t is ast.Image:
-        return f"{_sub(node.rel)}[{to_b(node.arg)}]"
+        return f"{_sub(node.rel)}[{_text(node.arg)}]"
     if t is ast.Inverse:
         return f"{_sub(node.rel)}~"
     if t is ast.SetExt:
-        return "{" + ",".join(to_b(i) for i in node.items) + "}"
+        return "{" + ",".join(_text(i) for i in node.items) + "}"
     if t is ast.Pair:
         return f"{_sub(node.left)}|->{_sub(node.right)}"
     if t is ast.Comprehension:
         if node.expr is None:
-            return "{" + ",".join(node.ids) + "|" + to_b(node.pred) + "}"
-        return "{" + ",".join(node.ids) + "." + to_b(node.pred) + "|" + to_b(node.expr) + "}"
+            return "{" + ",".join(node.ids) + "|" + _text(node.pred) + "}"
+        return "{" + ",".join(node.ids) + "." + _text(node.pred) + "|" + _text(node.expr) + "}"
     if t is ast.Lambda:
-        return f"%{_ids(node.ids)}.({to_b(node.pred)}|{to_b(node.expr)})"
+        return f"%{_ids(node.ids)}.({_text(node.pred)}|{_text(node.expr)})"
     if t is ast.QuantExpr:
-        return f"{node.op}({','.join(node.ids)}).({to_b(node.pred)}|{to_b(node.expr)})"
+        return f"{node.op}({','.join(node.ids)}).({_text(node.pred)}|{_text(node.expr)})"
     if t is ast.IfExpr:
         (c, v), *rest = node.branches
-        text = f"IF {to_b(c)} THEN {to_b(v)}"
+        text = f"IF {_text(c)} THEN {_text(v)}"
         for c, v in rest:
-            text += f" ELSIF {to_b(c)} THEN {to_b(v)}"
-        return text + f" ELSE {to_b(node.else_)} END"
+            text += f" ELSIF {_text(c)} THEN {_text(v)}"
+        return text + f" ELSE {_text(node.else_)} END"
     if t is ast.Let:
-        return f"LET {','.join(node.ids)} BE {to_b(node.pred)} IN {to_b(node.body)} END"
+        return f"LET {','.join(node.ids)} BE {_text(node.pred)} IN {_text(node.body)} END"
     if t in (ast.And, ast.Or, ast.Implies, ast.Equiv):
         op = {ast.And: "&", ast.Or: "or", ast.Implies: "=>", ast.Equiv: "<=>"}[t]
         return f"{_sub(node.left)} {op} {_sub(node.right)}"
     if t is ast.Not:
-        return f"not({to_b(node.operand)})"
+        return f"not({_text(node.operand)})"
     if t is ast.Rel:
         return f"{_sub(node.left)} {node.op} {_sub(node.right)}"
     if t is ast.Quant:
-        return f"{node.op}{_ids(node.ids)}.({to_b(node.body)})"
+        return f"{node.op}{_ids(node.ids)}.({_text(node.body)})"
     return _subst(node)
 
 
@@ -92,41 +98,41 @@ def _subst(node: ast.Node) -> str:  # noqa: C901
     if t is ast.Skip:
         return "skip"
     if t is ast.Assign:
-        return f"{','.join(to_b(x) for x in node.targets)} := " \
-               f"{','.join(to_b(v) for v in node.values)}"
+        return f"{','.join(_text(x) for x in node.targets)} := " \
+               f"{','.join(_text(v) for v in node.values)}"
     if t is ast.BecomesIn:
-        return f"{','.join(node.ids)} :: {to_b(node.set)}"
+        return f"{','.join(node.ids)} :: {_text(node.set)}"
     if t is ast.BecomesSuchThat:
-        return f"{','.join(node.ids)} : ({to_b(node.pred)})"
+        return f"{','.join(node.ids)} : ({_text(node.pred)})"
     if t is ast.Parallel:
         return " || ".join(_block(i) for i in node.items)
     if t is ast.Sequence:
         return " ; ".join(_block(i) for i in node.items)
     if t is ast.Pre:
-        return f"PRE {to_b(node.guard)} THEN {to_b(node.body)} END"
+        return f"PRE {_text(node.guard)} THEN {_text(node.body)} END"
     if t is ast.Assert:
-        return f"ASSERT {to_b(node.cond)} THEN {to_b(node.body)} END"
+        return f"ASSERT {_text(node.cond)} THEN {_text(node.body)} END"
     if t in (ast.Select, ast.IfSubst):
         kw, sep = ("SELECT", "WHEN") if t is ast.Select else ("IF", "ELSIF")
         (c, b), *rest = node.branches
-        text = f"{kw} {to_b(c)} THEN {to_b(b)}"
+        text = f"{kw} {_text(c)} THEN {_text(b)}"
         for c, b in rest:
-            text += f" {sep} {to_b(c)} THEN {to_b(b)}"
+            text += f" {sep} {_text(c)} THEN {_text(b)}"
         if node.else_ is not None:
-            text += f" ELSE {to_b(node.else_)}"
+            text += f" ELSE {_text(node.else_)}"
         return text + " END"
     if t is ast.Any:
-        return f"ANY {','.join(node.ids)} WHERE {to_b(node.pred)} THEN {to_b(node.body)} END"
+        return f"ANY {','.join(node.ids)} WHERE {_text(node.pred)} THEN {_text(node.body)} END"
     if t is ast.LetSubst:
-        return f"LET {','.join(node.ids)} BE {to_b(node.pred)} IN {to_b(node.body)} END"
+        return f"LET {','.join(node.ids)} BE {_text(node.pred)} IN {_text(node.body)} END"
     if t is ast.Choice:
-        return "CHOICE " + " OR ".join(to_b(i) for i in node.items) + " END"
+        return "CHOICE " + " OR ".join(_text(i) for i in node.items) + " END"
     if t is ast.SubstRef:
-        args = f"({','.join(to_b(a) for a in node.args)})" if node.args else ""
+        args = f"({','.join(_text(a) for a in node.args)})" if node.args else ""
         return node.name.id + args
     raise TypeError(f"cannot print {t.__name__}")
 
 
 def _block(node: ast.Node) -> str:
-    text = to_b(node)
+    text = _text(node)
     return f"BEGIN {text} END" if isinstance(node, (ast.Parallel, ast.Sequence)) else text

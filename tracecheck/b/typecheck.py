@@ -12,7 +12,7 @@ from typing import Optional
 
 from ..errors import BScopeError, BTypeError, TracecheckError, UnsupportedError
 from . import ast
-from .limits import deeply
+from ..limits import deeply
 from .btypes import (BOOL, INTEGER, REAL, STRING, Base, TypeClash, Pow, Prod, Type, Var, resolve,
                      show, unify)
 from .scope import check_kind, expand, kind_of, render

@@ -16,7 +16,7 @@ import re
 from typing import Any, Callable, Iterable, Iterator, Optional
 
 from ..errors import EvaluationError, SetLimitError
-from .limits import int_text
+from ..limits import int_text
 
 __all__ = [
     "Elem", "FuncValue", "SymbolicSet", "BuiltinSet", "Interval", "PowSet", "Product",

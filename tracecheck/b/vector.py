@@ -28,7 +28,7 @@ from .arrays import (BatchContext, NotVectorizable, VectorValue, arith, bool_of,
                      fits, integral, intern_key, is_int_array, mark_nonfinite, num_of, per_row,
                      shared, typed_member)
 from .columns import Columns
-from .limits import DEEP, deep_recursion
+from ..limits import DEEP, deep_recursion
 from .values import Elem, FuncValue
 
 __all__ = ["evaluate_batch", "BatchFormula"]

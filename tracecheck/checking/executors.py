@@ -7,9 +7,11 @@ recording starts Ray the same way (:func:`start_ray`) for its episode tasks.
 from __future__ import annotations
 
 import os
+import pickle
 from typing import Optional
 
 from ..errors import InputError
+from ..limits import deep_recursion
 
 __all__ = ["map_files", "start_ray", "EXECUTORS"]
 
@@ -38,6 +40,13 @@ def start_ray(address: Optional[str], cpus: int):
     return ray, True
 
 
+def _in_task(fn, job: bytes):
+    """``fn(*job)`` in a Ray task: the job (its shields, formulas and property sets) is
+    unpickled here, with the recursion limit a deeply nested formula needs."""
+    with deep_recursion():
+        return fn(*pickle.loads(job))
+
+
 def map_files(fn, jobs: list[tuple], executor: str = "local",
               address: Optional[str] = None, cpus: int = 2) -> list:
     """``fn(*job)`` for each job (one per file), locally or as Ray tasks; results in order."""
@@ -48,8 +57,9 @@ def map_files(fn, jobs: list[tuple], executor: str = "local",
         return [fn(*job) for job in jobs]
     ray, started = start_ray(address, cpus)
     try:
-        remote = ray.remote(max_retries=3)(fn)
-        return ray.get([remote.remote(*job) for job in jobs])
+        remote = ray.remote(max_retries=3)(_in_task)
+        with deep_recursion():  # a job's formulas may nest as deeply as the parser reads
+            return ray.get([remote.remote(fn, pickle.dumps(job)) for job in jobs])
     finally:
         if started:
             ray.shutdown()

@@ -29,6 +29,7 @@ from fractions import Fraction
 from typing import Callable, Optional, Union
 
 from ..errors import InputError, TracecheckError, UnsupportedError, WellDefinednessError
+from ..limits import deeply
 from .obligations import Given
 from .encoding import ElementFunction, ElementSet, load_z3, state_of_model
 from .smt import Translator
@@ -97,7 +98,7 @@ class _Context:
     invariants a counterexample must satisfy, the constraints every state satisfies, how
     a counterexample reads."""
 
-    tr: Translator
+    translator: Translator
     machines: tuple
     base: list
     timeout_s: float
@@ -151,27 +152,27 @@ def _ask(z3, solver, seconds: float, add: Callable[[], None]) -> tuple[object, s
         timer.cancel()
 
 
-def _solve(tr: Translator, constraints: list, timeout_s: float):
+def _solve(translator: Translator, constraints: list, timeout_s: float):
     """Check ``constraints`` (with the translator's definitions) within ``timeout_s``. A
     model is then made smaller in what is left of that time (at most 1 s): as few set
     members (vehicles present) as possible, for an easier reading."""
-    z3 = tr.z3
+    z3 = translator.z3
     deadline = time.monotonic() + timeout_s
     constraints = list({c.get_id(): c for c in constraints}.values())  # z3 shares equal terms
     solver = z3.Solver()
     verdict, why = _ask(z3, solver, timeout_s,
-                        lambda: solver.add(*constraints, *tr.side_conditions))
+                        lambda: solver.add(*constraints, *translator.side_conditions))
     if verdict != z3.sat:
         return verdict, None, why
     model = solver.model()
     counts = [z3.Sum([z3.If(c, 1, 0) for c in v.member.values()])
-              for v in tr.variables.values() if isinstance(v, ElementSet) and v.member]
+              for v in translator.variables.values() if isinstance(v, ElementSet) and v.member]
     left = min(deadline - time.monotonic(), 1.0)
     if counts and left > 0.05:
         opt = z3.Optimize()
 
         def add():
-            opt.add(*constraints, *tr.side_conditions)
+            opt.add(*constraints, *translator.side_conditions)
             opt.minimize(z3.Sum(counts))
         if _ask(z3, opt, left, add)[0] == z3.sat:
             model = opt.model()
@@ -184,16 +185,16 @@ def _why(solver) -> str:
     return "timeout" if reason == "canceled" else reason or "the solver gave up"
 
 
-def _satisfiable(tr: Translator, parts: list[tuple[str, object]], timeout_s: float,
+def _satisfiable(translator: Translator, parts: list[tuple[str, object]], timeout_s: float,
                  what: str) -> tuple[str, str]:
     """Whether some state satisfies every ``(label, constraint)`` of ``parts``: ``("sat",
     "")``, ``("unsat", why)`` naming the parts that contradict each other, or
     ``("unknown", the solver's reason)``."""
-    z3 = tr.z3
+    z3 = translator.z3
     solver = z3.Solver()
 
     def add():
-        solver.add(*tr.side_conditions)
+        solver.add(*translator.side_conditions)
         for i, (_, constraint) in enumerate(parts):
             solver.assert_and_track(constraint, z3.Bool(f"part#{i}"))
     verdict, reason = _ask(z3, solver, timeout_s, add)
@@ -215,17 +216,17 @@ def _obligation(name: str, build: Callable[[], list], ctx: _Context,
                 explain: Callable[[object], _Finding]) -> Result:
     """Solve ``build()``'s constraints under ``ctx.base``: unsat is proved; a model is read
     by ``explain`` and confirmed by tracecheck's evaluator."""
-    tr = ctx.tr
+    translator = ctx.translator
     try:
         constraints = ctx.base + build()
     except UnsupportedError as exc:
         return Result(name, UNKNOWN, reason=exc.render())
-    verdict, model, why = _solve(tr, constraints, ctx.timeout_s)
-    if verdict == tr.z3.unsat:
+    verdict, model, why = _solve(translator, constraints, ctx.timeout_s)
+    if verdict == translator.z3.unsat:
         return Result(name, PROVED)
-    if verdict != tr.z3.sat:
+    if verdict != translator.z3.sat:
         return Result(name, UNKNOWN, reason=why)
-    state = state_of_model(tr.z3, tr.variables, model)
+    state = state_of_model(translator.z3, translator.variables, model)
     finding = explain(model)
     result = Result(name, finding.status, state=state,
                     reading=f"{finding.meaning}: {_reading(state, ctx.describe)}")
@@ -236,7 +237,7 @@ def _obligation(name: str, build: Callable[[], list], ctx: _Context,
         result.disagreement = f"tracecheck's evaluator cannot evaluate the state: {exc.message}"
         return result
     if not confirmed:
-        if not _holds_at(tr, model, constraints + tr.side_conditions, ctx.timeout_s):
+        if not _holds_at(translator, model, constraints + translator.side_conditions, ctx.timeout_s):
             # the solver's exact reals, rounded to floats, moved the state across a boundary:
             # a counterexample over the reals that floats cannot show — no disagreement
             result.reason = ("over the exact reals, at a boundary: the nearest float state "
@@ -248,12 +249,12 @@ def _obligation(name: str, build: Callable[[], list], ctx: _Context,
     return result
 
 
-def _holds_at(tr: Translator, model, constraints: list, timeout_s: float) -> bool:
+def _holds_at(translator: Translator, model, constraints: list, timeout_s: float) -> bool:
     """Whether ``constraints`` still hold when every real of ``model`` is rounded to the
     nearest float (the state tracecheck's evaluator sees), fresh variables re-solved."""
-    z3 = tr.z3
+    z3 = translator.z3
     fixed = []
-    for enc in tr.variables.values():
+    for enc in translator.variables.values():
         cells = enc.cells.values() if isinstance(enc, ElementFunction) else \
             [(None, v) for v in enc.member.values()] if isinstance(enc, ElementSet) else \
             [(None, enc)]
@@ -294,9 +295,9 @@ def _decides(machine, op: str, state: dict) -> Optional[bool]:
         return None
 
 
-def _undefined(tr: Translator, model, conditions: dict) -> list[str]:
+def _undefined(translator: Translator, model, conditions: dict) -> list[str]:
     """The names whose well-definedness condition is false in ``model``."""
-    z3 = tr.z3
+    z3 = translator.z3
     return [name for name, wd in conditions.items()
             if not z3.is_true(model.eval(wd, model_completion=True))]
 
@@ -312,6 +313,7 @@ def _given(item: Union[str, Given], where: str) -> Given:
     return item if isinstance(item, Given) else Given(item, where)
 
 
+@deeply
 def prove(machine, *, deadlock_free: bool = False,
           implies: tuple[tuple[str, Union[str, Given]], ...] = (), well_defined: bool = False,
           assume: tuple[Union[str, Given], ...] = (), timeout_s: float = 10.0,
@@ -344,18 +346,18 @@ def prove(machine, *, deadlock_free: bool = False,
         [f"{op} => {g.text}" for op, g, _ in claims] + \
         (["well-defined guards"] if well_defined else [])
     try:
-        tr = Translator(machine)
-        parts = [("the invariant", z3.And(*tr.defined(tr.invariant)))]
+        translator = Translator(machine)
+        parts = [("the invariant", z3.And(*translator.defined(translator.invariant)))]
         for g, node in assumed:  # the invariant and assumptions are read where defined
-            with tr.reading(g.where, g.text):
+            with translator.reading(g.where, g.text):
                 parts.append((f"{g.where} {g.text!r}",
-                              z3.And(*tr.defined(lambda node=node: tr.pred(node)))))
+                              z3.And(*translator.defined(lambda node=node: translator.pred(node)))))
     except UnsupportedError as exc:
         return [Result(name, UNKNOWN, reason=exc.render()) for name in names]
-    satisfiable, why = _satisfiable(tr, parts, timeout_s, "the invariant and assumptions")
+    satisfiable, why = _satisfiable(translator, parts, timeout_s, "the invariant and assumptions")
     if satisfiable == "unsat":
         return [Result(name, VACUOUS, reason=why) for name in names]
-    ctx = _Context(tr, (machine,), [c for _, c in parts], timeout_s, describe)
+    ctx = _Context(translator, (machine,), [c for _, c in parts], timeout_s, describe)
     results = []
     if deadlock_free:
         results.append(_deadlock_free(machine, ctx))
@@ -382,18 +384,18 @@ def _if_satisfiable(results: list[Result], satisfiable: str, why: str,
 def _deadlock_free(machine, ctx: _Context) -> Result:
     """Some operation is enabled in every state: a guard that is not well-defined in a
     state does not enable its operation there."""
-    tr, z3 = ctx.tr, ctx.tr.z3
+    translator, z3 = ctx.translator, ctx.translator.z3
     wds: dict = {}
 
     def build():
         enabled = []
         for op in machine.operations:
-            guard, wds[op] = tr.defined(lambda op=op: tr.guard(op))
+            guard, wds[op] = translator.defined(lambda op=op: translator.guard(op))
             enabled.append(z3.And(wds[op], guard))
         return [z3.Not(z3.Or(enabled))]
 
     def explain(model) -> _Finding:
-        bad = _undefined(tr, model, wds)
+        bad = _undefined(translator, model, wds)
         note = f" ({_guards(bad)} {'is' if len(bad) == 1 else 'are'} not well-defined " \
                "there)" if bad else ""
 
@@ -409,20 +411,20 @@ def _deadlock_free(machine, ctx: _Context) -> Result:
 def _implication(machine, ctx: _Context, op: str, given: Given, node) -> Result:
     """Whenever ``op`` is enabled (its guard defined and true), ``node`` is defined and
     true: a state where it is not defined is a failure of the claim, not an assumption."""
-    tr, z3 = ctx.tr, ctx.tr.z3
+    translator, z3 = ctx.translator, ctx.translator.z3
     wd: dict = {}
 
     def build():
-        guard, defined = tr.defined(lambda: tr.guard(op))
-        with tr.reading(given.where, given.text):
-            claim, wd["claim"] = tr.defined(lambda: tr.pred(node))
+        guard, defined = translator.defined(lambda: translator.guard(op))
+        with translator.reading(given.where, given.text):
+            claim, wd["claim"] = translator.defined(lambda: translator.pred(node))
         return [defined, guard, z3.Not(z3.And(wd["claim"], claim))]
 
     def holds(state):
         return bool(machine.compile(node, source=given.text)(machine.env(state)))
 
     def explain(model) -> _Finding:
-        if _undefined(tr, model, wd):
+        if _undefined(translator, model, wd):
             def confirm(state):
                 try:
                     holds(state)
@@ -439,16 +441,16 @@ def _implication(machine, ctx: _Context, op: str, given: Given, node) -> Result:
 
 def _well_defined(machine, ctx: _Context) -> Result:
     """No guard is ill-defined in any state."""
-    tr, z3 = ctx.tr, ctx.tr.z3
+    translator, z3 = ctx.translator, ctx.translator.z3
     wds: dict = {}
 
     def build():
         for op in machine.operations:
-            wds[op] = tr.defined(lambda op=op: tr.guard(op))[1]
+            wds[op] = translator.defined(lambda op=op: translator.guard(op))[1]
         return [z3.Not(z3.And(list(wds.values())))]
 
     def explain(model) -> _Finding:
-        bad = _undefined(tr, model, wds)
+        bad = _undefined(translator, model, wds)
         return _Finding(COUNTEREXAMPLE, f"{_guards(bad)} {'is' if len(bad) == 1 else 'are'} "
                                         "not well-defined",
                         lambda state: [op for op in machine.operations
@@ -460,6 +462,7 @@ def _well_defined(machine, ctx: _Context) -> Result:
 # ------------------------------------------------------------------ symbolic diff
 
 
+@deeply
 def symbolic_diff(a, b, *, timeout_s: float = 10.0, labels: Optional[tuple[str, str]] = None,
                   describe: Optional[Describe] = None) -> list[Result]:
     """Per operation of either machine: equivalent over every state satisfying both
@@ -514,7 +517,7 @@ def _same_sets(a, b, la: str, lb: str) -> None:
 
 
 def _differ(a, b, tb: Translator, ctx: _Context, op: str, labels: tuple[str, str]) -> Result:
-    ta, z3 = ctx.tr, ctx.tr.z3
+    ta, z3 = ctx.translator, ctx.translator.z3
     la, lb = labels
     wds: dict = {}
 

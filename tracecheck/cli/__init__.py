@@ -26,7 +26,7 @@ __all__ = ["app", "main"]
 
 def main(argv: Optional[list[str]] = None) -> Any:
     """Entry point: run the app and turn tracecheck errors into exit code 2."""
-    from ..b.limits import deep_recursion, long_integers
+    from ..limits import deep_recursion, long_integers
 
     _stop_on_sigterm()
     DEBUG["on"] = False

@@ -33,12 +33,12 @@ def read_prob2trace(path: Path, episode_id: int, vocab: Vocabulary = HIGHWAY,
         raise InputError(f"{where}: not a ProB trace (no 'transitionList')")
     items: list[tuple[Optional[str], dict, float]] = []
     state: dict = {}
-    for i, tr in enumerate(data["transitionList"]):
+    for i, transition in enumerate(data["transitionList"]):
         here = f"{where}, transition {i}"
-        if not isinstance(tr, dict) or "name" not in tr:
+        if not isinstance(transition, dict) or "name" not in transition:
             raise InputError(f"{here}: a transition is a JSON object with a 'name'")
-        op = tr["name"]
-        dest = tr.get("destState") or {}
+        op = transition["name"]
+        dest = transition.get("destState") or {}
         if not isinstance(dest, dict):
             raise InputError(f"{here} ({op}): 'destState' must be a JSON object")
         if op == SETUP:

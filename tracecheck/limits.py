@@ -2,6 +2,15 @@
 afterwards: how many decimal digits an integer may have when it is read or printed, and how
 deep Python may recurse for a deeply nested formula. Importing tracecheck changes neither.
 
+The library raises them where it needs them: reading, printing and writing as JSON
+(:func:`tracecheck.jsontext.json_text`) long integers, and parsing, checking, evaluating,
+printing (:func:`tracecheck.b.printer.to_b`) and proving (:func:`tracecheck.checking.prove`)
+deeply nested formulas. Your own code that turns an integer the engine computed into text
+with ``str()`` or ``json.dumps`` (over 4300 digits: ``2 ** 40000``), or that compares,
+hashes or pickles a formula nested hundreds of levels deep, does so inside
+:func:`long_integers` / :func:`deep_recursion` (or uses :func:`int_text`). Both are safe
+to enter from several threads at once.
+
 >>> import sys
 >>> before = sys.get_int_max_str_digits()
 >>> len(int_text(10 ** 5000)), sys.get_int_max_str_digits() == before
@@ -10,10 +19,11 @@ deep Python may recurse for a deeply nested formula. Importing tracecheck change
 
 from __future__ import annotations
 
-import sys
 import functools
+import sys
+import threading
 from contextlib import contextmanager
-from typing import Callable, Iterator, TypeVar
+from typing import Callable, Iterator, Optional, TypeVar
 
 __all__ = ["MAX_DIGITS", "RECURSION_LIMIT", "DEEP", "long_integers", "deep_recursion",
            "read_int", "int_text", "deeply"]
@@ -35,32 +45,53 @@ DEEP = 100
 F = TypeVar("F", bound=Callable)
 
 
-@contextmanager
-def long_integers() -> Iterator[None]:
+class _Raised:
+    """One interpreter setting raised while any caller needs it: the first to enter raises
+    it, the last to leave restores what it was — so that threads (a vector environment's
+    workers, a Ray worker's tasks) that need it at the same time do not restore it under
+    each other. (A program that itself changes the setting meanwhile gets its value back
+    when the last caller leaves.)"""
+
+    def __init__(self, get: Callable[[], int], set_: Callable[[int], None], needed: int,
+                 raise_when: Callable[[int], bool]) -> None:
+        self.get, self.set, self.needed, self.raise_when = get, set_, needed, raise_when
+        self.lock = threading.Lock()
+        self.holders = 0
+        self.old: Optional[int] = None
+
+    @contextmanager
+    def held(self) -> Iterator[None]:
+        with self.lock:
+            if self.holders == 0:
+                old = self.get()
+                self.old = old if self.raise_when(old) else None
+                if self.old is not None:
+                    self.set(self.needed)
+            self.holders += 1
+        try:
+            yield
+        finally:
+            with self.lock:
+                self.holders -= 1
+                if self.holders == 0 and self.old is not None:
+                    self.set(self.old)
+                    self.old = None
+
+
+_DIGITS = _Raised(sys.get_int_max_str_digits, sys.set_int_max_str_digits, MAX_DIGITS,
+                  lambda old: 0 < old < MAX_DIGITS)
+_RECURSION = _Raised(sys.getrecursionlimit, sys.setrecursionlimit, RECURSION_LIMIT,
+                     lambda old: old < RECURSION_LIMIT)
+
+
+def long_integers():
     """Inside: integers of up to :data:`MAX_DIGITS` digits convert to and from text."""
-    old = sys.get_int_max_str_digits()
-    raise_ = 0 < old < MAX_DIGITS
-    if raise_:
-        sys.set_int_max_str_digits(MAX_DIGITS)
-    try:
-        yield
-    finally:
-        if raise_:
-            sys.set_int_max_str_digits(old)
+    return _DIGITS.held()
 
 
-@contextmanager
-def deep_recursion() -> Iterator[None]:
+def deep_recursion():
     """Inside: Python may recurse :data:`RECURSION_LIMIT` frames deep."""
-    old = sys.getrecursionlimit()
-    raise_ = old < RECURSION_LIMIT
-    if raise_:
-        sys.setrecursionlimit(RECURSION_LIMIT)
-    try:
-        yield
-    finally:
-        if raise_:
-            sys.setrecursionlimit(old)
+    return _RECURSION.held()
 
 
 def read_int(text: str) -> int:
