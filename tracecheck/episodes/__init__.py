@@ -2,7 +2,7 @@
 episode types.
 
 The names below are imported on first use, so that importing one light submodule (the
-episode model, the salvage switch) does not load numpy, pydantic and the MCAP library.
+episode model, say) does not load numpy, pydantic and the MCAP library.
 """
 
 from __future__ import annotations
