@@ -24,7 +24,7 @@ app.add_typer(export_app, name="export")
 
 
 def _vocabulary(model: Optional[Path]):
-    from ..episodes.model import HIGHWAY
+    from ..episodes.vocabulary import HIGHWAY
     from ..interop.common import vocabulary_of
 
     if model is None:
@@ -169,7 +169,7 @@ def export_prob2trace_cmd(
     force: bool = FORCE,
 ) -> None:
     """Export one episode as a ProB2 trace (opens in ProB2-UI)."""
-    from ..episodes.model import HIGHWAY, Vocabulary
+    from ..episodes.vocabulary import HIGHWAY, Vocabulary
     from ..episodes.reader import read_run
     from ..interop import export_prob2trace
     from ..outputs import check_output
