@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from tracecheck.live.adapter import get_adapter
+from tracecheck.interop.foxglove import FoxgloveChannels
 from tracecheck.live.record import RecordSettings, record
 from tracecheck.checking.replaying import replay
 from tracecheck.checking.shield import load_shield
@@ -52,7 +53,7 @@ def record_seconds(folder: Path, shield: str, n: int, name: str) -> tuple[float,
     settings = RecordSettings(agent=str(AGENT), shield=shield, episodes=n, env="frozenlake",
                               env_config=CONFIG)
     start = time.perf_counter()
-    record(settings, out)
+    record(settings, out, channels=FoxgloveChannels)
     return time.perf_counter() - start, out
 
 

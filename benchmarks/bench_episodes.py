@@ -21,7 +21,7 @@ from pathlib import Path
 from tracecheck.episodes import read_columns, read_run
 from tracecheck.episodes.files import write_run
 from tracecheck.episodes.writer import new_header
-from tracecheck.episodes.model import HIGHWAY
+from tracecheck.episodes.vocabulary import HIGHWAY
 from tracecheck.interop import import_simb
 
 ROOT = Path(__file__).resolve().parents[1]

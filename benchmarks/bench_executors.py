@@ -17,6 +17,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from tracecheck.interop.foxglove import FoxgloveChannels
 from tracecheck.live.record import RecordSettings, record
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -41,7 +42,8 @@ def main() -> None:
                                       shield="paper", episodes=args.episodes, seed=0,
                                       workers=args.workers, executor=executor)
             start = time.perf_counter()
-            n, steps, _ = record(settings, Path(tmp) / f"{executor}.mcap")
+            n, steps, _ = record(settings, Path(tmp) / f"{executor}.mcap",
+                                 channels=FoxgloveChannels)
             took = time.perf_counter() - start
             rates[executor] = n / took
             print(f"{executor}: {n} episodes, {steps} steps in {took:.1f} s "

@@ -22,6 +22,7 @@ import numpy as np
 
 from tracecheck.episodes import read_run
 from tracecheck.live.envs.highway import make_env
+from tracecheck.interop.foxglove import FoxgloveChannels
 from tracecheck.live.record import RecordSettings, record
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -74,7 +75,7 @@ def main() -> None:
             settings = RecordSettings(agent=str(AGENT), shield="paper", episodes=args.episodes,
                                       seed=0, duration=args.duration, workers=workers)
             start = time.perf_counter()
-            n, steps, _ = record(settings, path)
+            n, steps, _ = record(settings, path, channels=FoxgloveChannels)
             took = time.perf_counter() - start
             rates[workers] = (n / took, steps / took, took)
         decisions = [s.shield_time_us for e in read_run(Path(tmp) / "w1.mcap").episodes

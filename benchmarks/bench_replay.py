@@ -27,7 +27,7 @@ import handwritten_check as handwritten
 from tracecheck.episodes import read_columns, read_run
 from tracecheck.episodes.files import write_run
 from tracecheck.episodes.writer import new_header
-from tracecheck.episodes.model import HIGHWAY
+from tracecheck.episodes.vocabulary import HIGHWAY
 from tracecheck.interop import export_simb, import_simb
 from tracecheck.checking.diffing import diff
 from tracecheck.checking.replaying import replay

@@ -19,6 +19,7 @@ from pathlib import Path
 
 from tracecheck.checking.replaying import replay
 from tracecheck.checking.shield import load_shield
+from tracecheck.interop.foxglove import FoxgloveChannels
 from tracecheck.live.record import RecordSettings, record
 from tracecheck.stats.estimates import statistics
 from tracecheck.stats.properties import load_properties
@@ -47,7 +48,8 @@ def main() -> None:
             for shield in ("none", "paper"):
                 path = Path(tmp) / f"{agent.stem}_{shield}.mcap"
                 record(RecordSettings(agent=str(agent), shield=shield, episodes=args.episodes,
-                                      seed=args.seed, workers=args.workers), path)
+                                      seed=args.seed, workers=args.workers), path,
+                       channels=FoxgloveChannels)
                 runs.append(path)
             result = statistics(runs, saf1)
             infeasible = [replay([run], paper).infeasible_steps for run in runs]

@@ -12,6 +12,7 @@ import tempfile
 from pathlib import Path
 
 from tracecheck.episodes import read_run
+from tracecheck.interop.foxglove import FoxgloveChannels
 from tracecheck.live.record import RecordSettings, record
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -31,7 +32,8 @@ def main() -> None:
                 path = Path(tmp) / f"{agent}_{shield}.mcap"
                 record(RecordSettings(agent=str(ROOT / "models" / "agents" / f"{agent}.zip"),
                                       shield=shield, episodes=args.episodes, seed=args.seed,
-                                      profile=profile, workers=2), path)
+                                      profile=profile, workers=2), path,
+                       channels=FoxgloveChannels)
                 eps = read_run(path).episodes
                 crashes = sum(e.end.crashed for e in eps)
                 length = statistics.mean(e.end.steps for e in eps)

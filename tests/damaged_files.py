@@ -92,7 +92,7 @@ class Fuzzer:
         if not sources:
             raise SystemExit(f"the paper's traces are not at {SIMB}")
         from tracecheck.episodes.files import write_run
-        from tracecheck.episodes.model import HIGHWAY
+        from tracecheck.episodes.vocabulary import HIGHWAY
         from tracecheck.episodes.writer import new_header
 
         write_run(self.run, new_header("imported-simb", model_name=HIGHWAY.name,

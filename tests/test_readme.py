@@ -1,14 +1,18 @@
-"""The README is true: each of its Python blocks runs (a fresh interpreter, the repository as
-the working directory), and each ``tracecheck`` command in its shell blocks names a real
-command with real options (checked against the command line's own parser, not run)."""
+"""The README is true: its ``pycon`` blocks give the outputs they show (one ``doctest``
+session, the repository as the working directory), each of its Python blocks runs (a fresh
+interpreter), and each ``tracecheck`` command in its shell blocks names a real command with
+real options (checked against the command line's own parser, not run)."""
 
 from __future__ import annotations
 
+import contextlib
+import doctest
 import os
 import re
 import shlex
 import subprocess
 import sys
+import traceback
 from pathlib import Path
 
 import pytest
@@ -37,6 +41,63 @@ def blocks(text: str, language: str) -> list[tuple[int, str]]:
     return found
 
 
+# ------------------------------------------------------------------ the sessions print what they show
+
+
+class _Collecting(doctest.DocTestRunner):
+    """A doctest runner that keeps each failure as ``README.md:LINE: …`` (the README's line)."""
+
+    def __init__(self, name: str):
+        super().__init__(verbose=False)
+        self.name, self.found = name, []
+
+    def _where(self, test, example) -> str:
+        return f"{self.name}:{test.lineno + example.lineno + 1}: >>> {example.source.strip()}"
+
+    def report_failure(self, out, test, example, got):
+        self.found.append(f"{self._where(test, example)}\nexpected:\n{example.want}"
+                          f"got:\n{got}")
+
+    def report_unexpected_exception(self, out, test, example, exc_info):
+        self.found.append(f"{self._where(test, example)}\nraised:\n"
+                          + "".join(traceback.format_exception_only(*exc_info[:2])))
+
+
+def pycon_failures(readme: Path, cwd: Path) -> list[str]:
+    """The ``pycon`` blocks of ``readme`` run by ``doctest`` in ``cwd``, in order and sharing
+    one namespace (as a reader types them into one session): each example whose output is not
+    the one shown, or that raises, with its line in ``readme``."""
+    parser = doctest.DocTestParser()
+    runner = _Collecting(readme.name)
+    globs: dict = {"__name__": "__readme__"}
+    with contextlib.chdir(cwd):
+        for line, code in blocks(readme.read_text(encoding="utf-8"), "pycon"):
+            test = parser.get_doctest(code, globs, readme.name, str(readme), line - 1)
+            runner.run(test, clear_globs=False)
+            globs = test.globs  # (a DocTest works on a copy of the names it is given)
+    return runner.found
+
+
+def test_the_readme_has_pycon_blocks():
+    assert blocks(README.read_text(encoding="utf-8"), "pycon")
+
+
+def test_every_pycon_block_of_the_readme_prints_what_it_shows():
+    failures = pycon_failures(README, ROOT)
+    assert not failures, "\n".join(failures)
+
+
+def test_a_wrong_output_or_an_exception_in_a_session_is_reported_with_its_line(tmp_path):
+    readme = tmp_path / "README.md"
+    readme.write_text("# A project\n\n```pycon\n>>> x = 2\n>>> x + 1\n3\n```\n\nText.\n\n"
+                      "```pycon\n>>> x * 2\n5\n>>> {'a': x}['b']\nNone\n```\n",
+                      encoding="utf-8")
+    assert [line for line, _ in blocks(readme.read_text(), "pycon")] == [4, 12]
+    assert pycon_failures(readme, tmp_path) == [
+        "README.md:12: >>> x * 2\nexpected:\n5\ngot:\n4\n",
+        "README.md:14: >>> {'a': x}['b']\nraised:\nKeyError: 'b'\n"]
+
+
 # ------------------------------------------------------------------ the Python blocks run
 
 
@@ -53,10 +114,6 @@ def python_failures(readme: Path, cwd: Path) -> list[str]:
             failures.append(f"{readme.name}:{line}: the Python block exits with "
                             f"{proc.returncode}:\n{proc.stderr}")
     return failures
-
-
-def test_the_readme_has_python_blocks():
-    assert blocks(README.read_text(encoding="utf-8"), "python")
 
 
 def test_every_python_block_of_the_readme_runs():

@@ -13,7 +13,8 @@ from tests.helpers import ROOT, TOY, VS, state
 from tracecheck.b.values import FuncValue
 from tracecheck.episodes import EpisodeWriter, new_header, read_columns
 from tracecheck.episodes.files import write_run
-from tracecheck.episodes.model import HIGHWAY_ACTIONS, Episode, StepRecord, make_end
+from tracecheck.episodes.model import Episode, StepRecord, make_end
+from tracecheck.episodes.vocabulary import HIGHWAY_ACTIONS
 from tracecheck.errors import InputError, TracecheckError
 from tracecheck.interop import import_simb
 from tracecheck.checking.diffing import diff

@@ -49,7 +49,7 @@ def test_export_unknown_episode(capsys, tmp_path):
             w.write(episode(i))
     code, _, err = run(capsys, "export", "prob2trace", str(path), "--episode", "4", "-o",
                        str(tmp_path / "x.prob2trace"))
-    assert code == 2 and f"{path} has no episode 4; it has 0-2, 5" in err
+    assert code == 2 and f"{path} has no episode 4; it has 0, 1, 2, 5" in err
 
 
 def test_bad_inputs(capsys, tmp_path):

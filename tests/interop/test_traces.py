@@ -8,7 +8,7 @@ import pytest
 
 from tests.helpers import ROOT, episode as make_episode
 from tracecheck.b.machine import load_machine
-from tracecheck.episodes.model import HIGHWAY
+from tracecheck.episodes.vocabulary import HIGHWAY
 from tracecheck.errors import InputError
 from tracecheck.interop import export_prob2trace, export_simb, import_prob2trace, import_simb
 from tracecheck.interop.common import vocabulary_of

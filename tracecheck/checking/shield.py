@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Optional
 
 from ..b.machine import Machine, load_machine
-from ..episodes.model import HIGHWAY_ACTIONS
+from ..episodes.vocabulary import HIGHWAY_ACTIONS
 from ..errors import InputError
 
 __all__ = ["Shield", "load_shield", "for_actions", "BUILTIN_SHIELDS", "SHIELD_DIR",

@@ -24,7 +24,7 @@ app.add_typer(export_app, name="export")
 
 
 def _vocabulary(model: Optional[Path]):
-    from ..episodes.model import HIGHWAY
+    from ..episodes.vocabulary import HIGHWAY
     from ..interop.common import vocabulary_of
 
     if model is None:
@@ -169,28 +169,21 @@ def export_prob2trace_cmd(
     force: bool = FORCE,
 ) -> None:
     """Export one episode as a ProB2 trace (opens in ProB2-UI)."""
-    from ..episodes.model import HIGHWAY, Vocabulary
+    from ..episodes.vocabulary import HIGHWAY, Vocabulary
+    from ..episodes.reader import read_run
     from ..interop import export_prob2trace
     from ..outputs import check_output
+    from ..render.viewer import find_episode
 
     check_output(output, [run], force=force, example="episode.prob2trace")
-    from ..episodes.columns import read_columns
-
-    from ..episodes.reader import read_run
-
     result = read_run(run, {episode}, salvage=salvage)
-    chosen = result.episodes
-    if not chosen:
-        ids = [int(i) for i in read_columns(run, salvage=salvage).episode_ids]
-        if not ids:
-            raise InputError(f"{run} holds no complete episode")
-        raise InputError(f"{run} has no episode {episode}; it has {_ranges(ids)}")
+    chosen = find_episode(run, result, episode, salvage)
     warn(result.warnings)
     header = result.header
     vocab = HIGHWAY if header is None or not header.model_name else Vocabulary(
         HIGHWAY.variables, HIGHWAY.actions, header.model_name)
-    export_prob2trace(chosen[0], output, vocab, force=force, inputs=[run])
-    out.print(f"wrote episode {episode} ({chosen[0].end.steps} steps) -> {output}",
+    export_prob2trace(chosen, output, vocab, force=force, inputs=[run])
+    out.print(f"wrote episode {episode} ({chosen.end.steps} steps) -> {output}",
               markup=False)
 
 
@@ -237,16 +230,6 @@ def export_foxglove_cmd(
         episodes, steps, _ = write_run(output, header, _counted(read, advance),
                                        channels=FoxgloveChannels, force=force, inputs=[run])
     say(f"wrote {episodes} episode(s), {steps} step(s) with Foxglove channels -> {output}")
-
-
-def _ranges(ids: list[int]) -> str:
-    ids = sorted(ids)
-    parts, start = [], ids[0]
-    for a, b in zip(ids, ids[1:] + [None]):
-        if b != a + 1:
-            parts.append(str(start) if start == a else f"{start}-{a}")
-            start = b
-    return ", ".join(parts)
 
 
 @app.command("info")

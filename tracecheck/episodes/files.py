@@ -68,8 +68,9 @@ def _lock(path: Path) -> Path:
 def recording_into(path: str | Path, header: RunHeaderMessage, *, force: bool = False,
                    channels: Optional[ChannelsFactory] = None,
                    inputs: Sequence[Path] = ()) -> Iterator[EpisodeWriter]:
-    """An :class:`EpisodeWriter` for a recording into ``path`` (with a plug-in's channels:
-    the CLI gives Foxglove's).
+    """An :class:`EpisodeWriter` for a recording into ``path``; ``channels`` adds a plug-in's
+    channels (none by default: tracecheck's own channels only; the CLI's ``record`` and
+    ``simulate`` give Foxglove's, ``tracecheck.interop.foxglove.FoxgloveChannels``).
 
     ``path`` follows the output rule (not an input; an existing one only with ``force``); a
     lock file (``NAME.lock``) makes a second writer of the same path fail at once. A new file

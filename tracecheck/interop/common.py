@@ -7,7 +7,8 @@ from pathlib import Path
 from typing import Any, Iterable, Mapping, Optional
 
 from ..b.notation import parse_literal
-from ..episodes.model import Episode, StepRecord, Vocabulary, make_end
+from ..episodes.model import Episode, StepRecord, make_end
+from ..episodes.vocabulary import Vocabulary
 from ..errors import InputError, TracecheckError
 from ..inputs import read_json
 

@@ -14,7 +14,8 @@ from typing import Iterable, Optional, Sequence
 
 from .. import __version__
 from ..b.values import format_value
-from ..episodes.model import HIGHWAY, Episode, Vocabulary
+from ..episodes.model import Episode
+from ..episodes.vocabulary import HIGHWAY, Vocabulary
 from ..errors import InputError
 from .common import (INIT, SETUP, build_episode, check_types, expand_paths, load_json,
                      read_literal, state_changes)

@@ -135,7 +135,9 @@ def record(settings: RecordSettings, out: str | Path,
            force: bool = False, channels: Optional[ChannelsFactory] = None
            ) -> tuple[int, int, int]:
     """Record ``settings.episodes`` episodes into ``out``; (episodes, steps, crashes);
-    ``channels`` adds a plug-in's channels (the CLI gives Foxglove's).
+    ``channels`` adds a plug-in's channels: without it the file has tracecheck's own channels
+    only; the CLI gives Foxglove's (``channels=FoxgloveChannels`` from
+    ``tracecheck.interop.foxglove``, which a caller in Python passes for the same file).
 
     Bad settings raise before any episode runs; an existing ``out`` is refused unless
     ``force`` (see :func:`~tracecheck.episodes.files.recording_into`). Interrupted, the file

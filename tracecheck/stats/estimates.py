@@ -53,7 +53,7 @@ def environment_of(path: str | Path) -> str:
     vocabulary (or it declares none); else it is named by its machine (looked up among the
     installed adapters only, so usually none: generic statistics), never taken for the
     highway's."""
-    from ..episodes.model import HIGHWAY_VARIABLES
+    from ..episodes.vocabulary import HIGHWAY_VARIABLES
     from ..episodes.reader import read_header
 
     header = read_header(path)

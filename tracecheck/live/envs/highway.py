@@ -21,7 +21,7 @@ from typing import Any, Optional
 import numpy as np
 
 from ...b.values import Elem, FuncValue, format_value
-from ...episodes.model import HIGHWAY, HIGHWAY_ACTIONS
+from ...episodes.vocabulary import HIGHWAY, HIGHWAY_ACTIONS
 from ...errors import InputError
 from ..adapter import EnvAdapter, Observer, setting_kinds
 
