@@ -46,11 +46,17 @@ def test_type_errors(body, exc, fragment):
     assert info.value.file == "T.mch"
 
 
-def test_integer_real_hint():
+@pytest.mark.parametrize("body,where", [
+    ("VARIABLES x INVARIANT x : REAL & x > 0", (2, 34)),  # an integer where a real is
+    ("VARIABLES x INVARIANT x : INTEGER & x > 1.0", (2, 37)),  # and the other way round
+])
+def test_integer_real_hint(body, where):
+    """The hint fits either mistake: it does not tell a user who wrote 1.0 to write 1.0."""
     with pytest.raises(BTypeError) as info:
-        machine("VARIABLES x INVARIANT x : REAL & x > 0")
-    assert "write 1.0 for a real" in info.value.hint
-    assert (info.value.line, info.value.column) == (2, 34)
+        machine(body)
+    assert info.value.hint == ("INTEGER and REAL do not mix in B: write 1 for an integer and "
+                               "1.0 for a real, or convert with real(n) or floor(x)")
+    assert (info.value.line, info.value.column) == where
 
 
 def test_real_power_with_integer_exponent_is_fine():

@@ -45,3 +45,16 @@ def test_replay_through_the_package_loads_no_solver():
                  "print(json.dumps([r.episodes, sorted({'z3', 'torch', 'gymnasium'}"
                  " & set(sys.modules)), 'tracecheck.checking.proving' in sys.modules]))")
     assert got == [24, [], False]
+
+
+def test_prove_and_symbolic_diff_take_a_shield_as_replay_and_diff_do():
+    pytest.importorskip("z3")
+    from tracecheck.checking import load_shield, prove, symbolic_diff
+
+    paper, strict = load_shield("paper"), load_shield("strict")
+    by_shield = [(r.obligation, r.status) for r in prove(paper, deadlock_free=True, timeout_s=30)]
+    assert by_shield == [(r.obligation, r.status)
+                         for r in prove(paper.machine, deadlock_free=True, timeout_s=30)]
+    assert by_shield == [("deadlock-free", "proved")]
+    assert [r.status for r in symbolic_diff(strict, paper, timeout_s=30)] == \
+        [r.status for r in symbolic_diff(strict.machine, paper.machine, timeout_s=30)]

@@ -549,8 +549,15 @@ def test_a_working_user_adapter_is_not_changed_by_the_guard(broken, toy, tmp_pat
       "--env-config", "map_name=99x99"],
      "cannot make the environment frozenlake with map_name='99x99': KeyError: '99x99'"),
     (["record", "--env", "frozenlake", "--agent", AGENTS / "frozenlake.npy", "-n", 1,
-      "--env-config", "max_episode_steps=-5"],
-     "cannot make the environment frozenlake with max_episode_steps=-5: ValueError: Expect"),
+      "--env-config", "disable_env_checker=3"],
+     "the setting disable_env_checker=3 does not fit the environment frozenlake"),
+    # the unwrapped environment ignored it: episodes ran 100 steps with max_episode_steps=3
+    (["record", "--env", "frozenlake", "--agent", AGENTS / "frozenlake.npy", "-n", 1,
+      "--env-config", "max_episode_steps=3"],
+     "unknown setting 'max_episode_steps' for the environment frozenlake; it takes desc, "
+     "disable_env_checker, is_slippery, map_name, reward_schedule, success_rate hint: "
+     "tracecheck bounds "
+     "episodes itself: --duration N"),
 ])
 def test_bad_training_and_recording_options(tmp_path, capsys, args, message):
     """Refused before anything runs (highway-env would have ignored the setting silently;

@@ -77,7 +77,8 @@ class Typer:
             hint = None
             pair = {show(a), show(b)}
             if pair == {"INTEGER", "REAL"}:
-                hint = "INTEGER and REAL do not mix in B: write 1.0 for a real, or use real(n)"
+                hint = ("INTEGER and REAL do not mix in B: write 1 for an integer and 1.0 for a "
+                        "real, or convert with real(n) or floor(x)")
             raise BTypeError(
                 f"type mismatch in `{render(node, self.source)}`: {what}{show(a)} vs {show(b)}",
                 file=self.file, source=self.source, hint=hint,

@@ -32,6 +32,7 @@ from ..errors import InputError, TracecheckError, UnsupportedError, WellDefinedn
 from ..limits import deeply
 from .obligations import Given
 from .encoding import ElementFunction, ElementSet, load_z3, state_of_model
+from .shield import Shield
 from .smt import Translator
 
 __all__ = ["prove", "symbolic_diff", "Result", "Describe", "check_timeout",
@@ -309,6 +310,12 @@ def _guards(ops) -> str:
 # ------------------------------------------------------------------ prove
 
 
+def machine_of(shield_or_machine):
+    """The machine of a shield, or the machine itself."""
+    return shield_or_machine.machine if isinstance(shield_or_machine, Shield) else \
+        shield_or_machine
+
+
 def _given(item: Union[str, Given], where: str) -> Given:
     return item if isinstance(item, Given) else Given(item, where)
 
@@ -323,7 +330,8 @@ def prove(machine, *, deadlock_free: bool = False,
     error naming its option, ``--assume`` or ``--implies``, or the place a :class:`Given`
     says); an obligation whose formulas cannot be translated is ``unknown``, with the
     reason; if no state satisfies the invariant and assumptions, each is ``vacuous``.
-    ``describe`` says how a counterexample reads (see :data:`Describe`).
+    ``describe`` says how a counterexample reads (see :data:`Describe`). ``machine``: a
+    :class:`~tracecheck.b.machine.Machine` or a shield (:func:`~tracecheck.checking.load_shield`).
 
     >>> from tracecheck.b.machine import load_machine_text
     >>> m = load_machine_text("MACHINE C VARIABLES n INVARIANT n : 0..5 INITIALISATION "
@@ -331,6 +339,7 @@ def prove(machine, *, deadlock_free: bool = False,
     >>> [r.status for r in prove(m, deadlock_free=True, assume=("n > 4",))]
     ['counterexample']
     """
+    machine = machine_of(machine)
     timeout_s = check_timeout(timeout_s)
     z3 = load_z3()
     assumed = [_given(a, "--assume") for a in assume]
@@ -470,7 +479,9 @@ def symbolic_diff(a, b, *, timeout_s: float = 10.0, labels: Optional[tuple[str, 
     not enable its operation), unknown where a guard cannot be translated or the solver
     gives up, or ``only in`` one of them. ``labels`` name the two shields in messages
     (default: their machine names), ``describe`` how a state where they differ reads.
-    Vacuous where no state satisfies both invariants."""
+    Vacuous where no state satisfies both invariants. ``a`` and ``b``: machines or shields.
+    """
+    a, b = machine_of(a), machine_of(b)
     timeout_s = check_timeout(timeout_s)
     z3 = load_z3()
     la, lb = labels or (a.name, b.name)

@@ -148,7 +148,9 @@ class EnvAdapter:
         if unknown:
             raise InputError(f"unknown setting {unknown[0]!r} for the environment {self.name}; "
                              f"it takes {', '.join(sorted(keys)) or 'none'}",
-                             hint="--env-config key=value, one of those keys")
+                             hint="tracecheck bounds episodes itself: --duration N"
+                             if unknown[0] == "max_episode_steps"
+                             else "--env-config key=value, one of those keys")
         kinds = self.config_kinds()
         return {k: typed_setting(self.name, k, v, kinds.get(k)) for k, v in overrides.items()}
 
@@ -480,13 +482,18 @@ _KIND_TEXT = {"bool": "true or false", "int": "an integer", "float": "a number",
 class GymnasiumAdapter(EnvAdapter):
     """An adapter for an environment registered with Gymnasium under ``env_id``: made with
     ``gymnasium.make(env_id, **config).unwrapped`` (no time limit of Gymnasium's own: the
-    adapter's ``horizon`` bounds episodes), its settings those the registered class takes."""
+    adapter's ``horizon`` bounds episodes), its settings those the registered class takes —
+    not ``max_episode_steps``, which the unwrapped environment would ignore (``--duration``
+    sets how long an episode may last)."""
 
     def config_keys(self):
-        return gymnasium_keys(self.env_id)
+        keys = gymnasium_keys(self.env_id)
+        return None if keys is None else keys - {"max_episode_steps"}
 
     def config_kinds(self):
-        return gymnasium_kinds(self.env_id)
+        kinds = gymnasium_kinds(self.env_id)
+        kinds.pop("max_episode_steps", None)
+        return kinds
 
     def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
         import gymnasium as gym
