@@ -2,7 +2,7 @@
 that should not change speed (a refactoring), the old tree is the baseline of the same run.
 
     python benchmarks/bench_trees.py --before /path/to/old/checkout [--after .]
-        [--episodes 10000] [--repeat 5]
+        [--episodes 10000] [--repeat 5] [--only TASK …]
 
 Each measurement is a fresh process with ``PYTHONPATH`` set to one tree (the trees take
 turns, so machine noise falls on both): ``tracecheck replay RUN --shield paper --json`` and
@@ -72,6 +72,8 @@ def main() -> None:
     parser.add_argument("--after", type=Path, default=ROOT, help="the new checkout")
     parser.add_argument("--episodes", type=int, default=10_000)
     parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--only", choices=list(TASKS), action="append",
+                        help="only these tasks (default: all)")
     args = parser.parse_args()
     trees = {"before": args.before.resolve(), "after": args.after.resolve()}
     with tempfile.TemporaryDirectory() as tmp:
@@ -82,6 +84,8 @@ def main() -> None:
         print(f"{'task':26} {'before':>9} {'after':>9} {'ratio':>6}   peak memory before / "
               "after (ratio)")
         for name, code in TASKS.items():
+            if args.only and name not in args.only:
+                continue
             got: dict[str, list[dict]] = {"before": [], "after": []}
             for _ in range(args.repeat):
                 for which, tree in trees.items():
