@@ -104,7 +104,11 @@ class Package:
                         yield Import(module, target, node.lineno, alias.name)
 
     def layer(self, module: str) -> str:
+        """The package a module belongs to; modules directly in the package are "top", but
+        for ``__main__`` (``python -m``), which is the command line and belongs with it."""
         parts = module.split(".")
+        if parts[1:] == ["__main__"]:
+            return ORDER[-1]
         return parts[1] if len(parts) > 1 and f"{parts[0]}.{parts[1]}" in self.files and \
             self.files[f"{parts[0]}.{parts[1]}"].name == "__init__.py" else "top"
 

@@ -1,0 +1,5 @@
+"""``python -m tracecheck``: the same as the ``tracecheck`` command."""
+
+from .cli import main
+
+main()
