@@ -45,3 +45,10 @@ def test_eval_imports_neither_pydantic_nor_rich():
     below 0.29), and rich is made only when something is printed through it."""
     modules = imported("eval", "1 = 1")
     assert not modules & {"pydantic", "pydantic_core", "rich"}, sorted(modules)
+
+
+def test_python_dash_m_tracecheck_is_the_command_line():
+    """``python -m tracecheck`` was 'No module named tracecheck.__main__'."""
+    proc = subprocess.run([sys.executable, "-m", "tracecheck", "eval", "1 + 1 = 2"],
+                          capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert (proc.returncode, proc.stdout, proc.stderr) == (0, "TRUE\n", "")
