@@ -270,18 +270,24 @@ def replay_columns(cols: RunColumns, shield: Shield, ltl: Sequence[str] = (),
     """Replay the already-read columns of one file (``cols.path``) against ``shield``, with
     the LTL formulas as :func:`replay`: for a caller that has the columns for more than
     replay (the report's statistics), so the file is read once."""
+    return _replay_columns(cols, shield, ltl_formulas(shield, ltl, ltl_assertions))
+
+
+def _replay_columns(cols: RunColumns, shield: Shield, parsed: Sequence[tuple] = ()
+                    ) -> ReplayReport:
+    """:func:`replay_columns` with the formulas already parsed (:func:`ltl_formulas`)."""
     report = ReplayReport(shield=shield.identity, files=[cols.path])
     report.warnings += cols.warnings
-    _replay_file(shield, cols, report, ltl_formulas(shield, ltl, ltl_assertions))
+    _replay_file(shield, cols, report, parsed)
     add_up(report, report.per_episode, _EPISODE_COUNTS)
     return report
 
 
-def _replay_one(path: str, shield: Shield, formulas: Sequence[str] = (),
-                assertions: bool = False, salvage: bool = False) -> ReplayReport:
+def _replay_one(path: str, shield: Shield, parsed: Sequence[tuple] = (),
+                salvage: bool = False) -> ReplayReport:
     """One file, in whichever process runs it (the shield itself is sent there: pickled as
-    its text, see :class:`Shield`)."""
-    return replay_columns(read_columns(path, salvage=salvage), shield, formulas, assertions)
+    its text, see :class:`Shield`; the parsed formulas as their dataclasses)."""
+    return _replay_columns(read_columns(path, salvage=salvage), shield, parsed)
 
 
 def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "local",
@@ -296,9 +302,9 @@ def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "loca
     """
     paths = [str(p) for p in paths]
     report = ReplayReport(shield=shield.identity, files=paths)
-    ltl_formulas(shield, ltl, ltl_assertions)  # errors before any file is read
+    parsed = tuple(ltl_formulas(shield, ltl, ltl_assertions))  # errors before any file is read
     start = time.perf_counter()
-    jobs = [(p, shield, tuple(ltl), ltl_assertions, salvage) for p in paths]
+    jobs = [(p, shield, parsed, salvage) for p in paths]
     for part in map_files(_replay_one, jobs, executor, ray_address):
         report.per_episode += part.per_episode
         report.warnings += part.warnings
