@@ -65,9 +65,10 @@ class Compiler(Binders):
         return self.error(WellDefinednessError, node, f"{message} in `{self.text(node)}`")
 
     # -- entry
-    def compile(self, node: ast.Node) -> Fn:
+    def compile(self, node: ast.Node, wrap: bool = True) -> Fn:
         """``node`` as a function of an environment; one for a formula nesting deeper than
-        :data:`~tracecheck.limits.DEEP` runs with the recursion limit it needs."""
+        :data:`~tracecheck.limits.DEEP` runs with the recursion limit it needs (``wrap``
+        false: the caller calls it with that limit raised)."""
         if self._compiling:
             return self._compile(node)
         self._compiling = True
@@ -76,7 +77,7 @@ class Compiler(Binders):
                 fn = self._compile(node)
         finally:
             self._compiling = False
-        return deeply(fn) if ast.depth(node) > DEEP else fn
+        return deeply(fn) if wrap and ast.depth(node) > DEEP else fn
 
     def _compile(self, node: ast.Node) -> Fn:
         method = getattr(self, "c_" + type(node).__name__, None)

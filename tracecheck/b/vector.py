@@ -502,7 +502,8 @@ class BatchFormula:
                  source: Optional[str] = None, file: Optional[str] = None) -> None:
         self.node = node
         self.constants = dict(constants)
-        self.scalar = Compiler(source=source, file=file).compile(node)
+        # called only inside __call__, which raises the recursion limit for a deep formula
+        self.scalar = Compiler(source=source, file=file).compile(node, wrap=False)
         self._plans: dict[tuple, Optional[Callable]] = {}
         self._deep = ast.depth(node) > DEEP  # compiled and run with the raised recursion limit
 
