@@ -38,6 +38,10 @@ _FUNC_LITERAL = re.compile(
 )
 _FUNC_ITEM = re.compile(r"\((" + _IDENT + r")(?:↦|\|->)(" + _NUM + r")\)")
 _NUMBER = re.compile(_NUM + r"\Z")
+_NUMBER_AT = re.compile(_NUM)  # a number where the reader is
+_IDENT_AT = re.compile(_IDENT)
+_STRING_AT = re.compile(r'"((?:\\.|[^"\\])*)"')
+_ESCAPE = re.compile(r"\\(.)")
 
 
 def _number(text: str):
@@ -128,15 +132,15 @@ class _LiteralReader:
             return self.sequence()
         if c == '"':
             return self.string()
-        m = re.compile(_NUM).match(self.text, self.i)
-        if m and (c.isdigit() or c == "-"):
+        m = (c.isdigit() or c == "-") and _NUMBER_AT.match(self.text, self.i)
+        if m:
             try:
                 value = _number(m.group())
             except ValueError as exc:
                 raise self.fail(str(exc)) from None
             self.i = m.end()
             return value
-        m = re.compile(r"[A-Za-z_][A-Za-z0-9_]*").match(self.text, self.i)
+        m = _IDENT_AT.match(self.text, self.i)
         if m:
             self.i = m.end()
             word = m.group()
@@ -188,11 +192,11 @@ class _LiteralReader:
         return value
 
     def string(self) -> str:
-        m = re.compile(r'"((?:\\.|[^"\\])*)"').match(self.text, self.i)
+        m = _STRING_AT.match(self.text, self.i)
         if not m:
             raise self.fail("unterminated string")
         self.i = m.end()
-        return re.sub(r"\\(.)", r"\1", m.group(1))
+        return _ESCAPE.sub(r"\1", m.group(1))
 
 
 # ------------------------------------------------------------------ JSON
