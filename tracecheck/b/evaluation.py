@@ -465,10 +465,7 @@ class Compiler(Binders):
 
     # -- application
     def c_Apply(self, node: ast.Apply) -> Fn:
-        if len(node.args) == 1:
-            arg = self.compile(node.args[0])
-        else:
-            arg = self.compile(ast.pair_of(node.args))
+        arg = self.compile(ast.pair_of(node.args))
         if isinstance(node.fn, ast.Name) and node.fn.id not in BUILTIN_SET_VALUES:
             name = node.fn.id
 

@@ -112,8 +112,7 @@ class SubstCompiler:
                 parts.append(lambda pre, post, name=name, val=val: post[name] == val(pre))
             else:
                 name = target.fn.id
-                key = self.comp.compile(target.args[0] if len(target.args) == 1 else
-                                        _pairs(target.args))
+                key = self.comp.compile(ast.pair_of(target.args))
 
                 def override(pre, post, name=name, key=key, val=val):
                     new = dict(pre[name].map if hasattr(pre[name], "map") else pre[name])
@@ -281,13 +280,6 @@ class SubstCompiler:
             UnsupportedError, s,
             "tracecheck cannot check a sequence whose first part is not deterministic",
             hint="write the non-deterministic part last, or use || instead of ;")
-
-
-def _pairs(args):
-    node = args[0]
-    for a in args[1:]:
-        node = ast.Pair(node, a, pos=a.pos)
-    return node
 
 
 # ------------------------------------------------------------------ as predicates
