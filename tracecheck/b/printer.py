@@ -1,4 +1,4 @@
-"""Print AST nodes back as ASCII B text; ``parse_formula(_text(t)) == t`` for any formula."""
+"""Print AST nodes back as ASCII B text; ``parse_formula(to_b(t)) == t`` for any formula."""
 
 from __future__ import annotations
 
@@ -79,7 +79,7 @@ def _text(node: ast.Node) -> str:  # noqa: C901 - one branch per node type
         for c, v in rest:
             text += f" ELSIF {_text(c)} THEN {_text(v)}"
         return text + f" ELSE {_text(node.else_)} END"
-    if t is ast.Let:
+    if t in (ast.Let, ast.LetSubst):
         return f"LET {','.join(node.ids)} BE {_text(node.pred)} IN {_text(node.body)} END"
     if t in (ast.And, ast.Or, ast.Implies, ast.Equiv):
         op = {ast.And: "&", ast.Or: "or", ast.Implies: "=>", ast.Equiv: "<=>"}[t]
@@ -123,8 +123,6 @@ def _subst(node: ast.Node) -> str:  # noqa: C901
         return text + " END"
     if t is ast.Any:
         return f"ANY {','.join(node.ids)} WHERE {_text(node.pred)} THEN {_text(node.body)} END"
-    if t is ast.LetSubst:
-        return f"LET {','.join(node.ids)} BE {_text(node.pred)} IN {_text(node.body)} END"
     if t is ast.Choice:
         return "CHOICE " + " OR ".join(_text(i) for i in node.items) + " END"
     if t is ast.SubstRef:
