@@ -391,25 +391,22 @@ class Compiler(Binders):
                             a = env[fname].map[env[aname]]
                         except (KeyError, AttributeError, TypeError):
                             a = l(env)  # the general path says what is wrong
-                        if type(a) is kind:
-                            return cmp(a, constant)
-                        self.nums(node, a, constant)
+                        if type(a) is not kind:
+                            self.nums(node, a, constant)
                         return cmp(a, constant)
                     return compare_applied
 
                 def compare_constant(env: Env) -> bool:
                     a = l(env)
-                    if type(a) is kind:
-                        return cmp(a, constant)
-                    self.nums(node, a, constant)
+                    if type(a) is not kind:
+                        self.nums(node, a, constant)
                     return cmp(a, constant)
                 return compare_constant
 
             def compare(env: Env) -> bool:
                 a, b = l(env), r(env)
-                if type(a) in (int, float) and type(b) in (int, float):
-                    return cmp(a, b)
-                self.nums(node, a, b)
+                if type(a) not in (int, float) or type(b) not in (int, float):
+                    self.nums(node, a, b)
                 return cmp(a, b)
             return compare
         if op == "=":
