@@ -165,9 +165,7 @@ class Compiler(Binders):
         """``exc`` located at ``node`` where it has no location yet."""
         if exc.line is None and node.pos is not None:
             exc.line, exc.column = node.pos.line, node.pos.column
-            exc.file = exc.file or self.file
-            exc.source = exc.source or self.source
-            exc.args = (exc.render(),)
+            exc.located(file=self.file, source=self.source)
         return exc
 
     def equal(self, node: ast.Node, a: Any, b: Any) -> bool:
