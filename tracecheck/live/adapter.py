@@ -436,20 +436,33 @@ def _instance(cls, where: str) -> EnvAdapter:
 
 
 def _gymnasium_parameters(env_id: str):
-    import inspect
-
     import gymnasium as gym
-    from gymnasium.envs.registration import load_env_creator
 
     try:
         entry = gym.spec(env_id).entry_point
-        params = inspect.signature(load_env_creator(entry) if isinstance(entry, str)
-                                   else entry).parameters
+        try:
+            hash(entry)
+        except TypeError:  # an entry point that cannot key the cache: looked at each time
+            return _entry_parameters.__wrapped__(entry)
+        return _entry_parameters(entry)
     except Exception:  # noqa: BLE001 - a package missing: make_env will say so
         return None
+
+
+@functools.cache
+def _entry_parameters(entry):
+    """The keyword parameters of a registered entry point, read-only (None: it takes any);
+    remembered per entry point (one that fails to load raises, and is tried again)."""
+    import inspect
+    from types import MappingProxyType
+
+    from gymnasium.envs.registration import load_env_creator
+
+    params = inspect.signature(load_env_creator(entry) if isinstance(entry, str)
+                               else entry).parameters
     if any(p.kind == p.VAR_KEYWORD for p in params.values()):
         return None
-    return {k: p for k, p in params.items() if k != "render_mode"}
+    return MappingProxyType({k: p for k, p in params.items() if k != "render_mode"})
 
 
 #: what ``gymnasium.make`` itself takes
