@@ -49,7 +49,8 @@ if TYPE_CHECKING:
 __all__ = ["EnvAdapter", "Observer", "adapters", "get_adapter", "installed_adapter",
            "load_adapter", "AdapterInfo",
            "ENTRY_POINT_GROUP", "parse_config", "setting_kinds", "typed_setting",
-           "gymnasium_keys", "gymnasium_kinds", "MakeError", "GymnasiumAdapter"]
+           "gymnasium_keys", "gymnasium_kinds", "MakeError", "GymnasiumAdapter",
+           "adapters_for_env_id"]
 
 ENTRY_POINT_GROUP = "tracecheck.environments"
 
@@ -222,6 +223,14 @@ def adapters() -> list[AdapterInfo]:
             adapter, problem = None, f"{type(exc).__name__}: {exc}"
         out.append(AdapterInfo(name, ep.value, adapter, problem))
     return out
+
+
+def adapters_for_env_id(env_id: Optional[str],
+                        found: Optional[list[AdapterInfo]] = None) -> list[AdapterInfo]:
+    """The installed adapters (those that load) whose ``env_id`` is ``env_id``, among
+    ``found`` (:func:`adapters`, when listed already)."""
+    return [a for a in (adapters() if found is None else found)
+            if a.adapter is not None and a.adapter.env_id == env_id]
 
 
 def get_adapter(name: Optional[str]) -> EnvAdapter:
