@@ -116,7 +116,7 @@ class EnvAdapter:
                profile: Optional[str] = None, horizon: Optional[int] = None) -> dict[str, Any]:
         """The default configuration, a profile on top, then the user's settings (an
         environment whose configuration holds its episode length also takes ``horizon``)."""
-        overrides = self.check_config(overrides) or overrides
+        overrides = self.check_config(overrides)
         config = dict(self.default_config())
         if profile is not None:
             if profile not in self.profiles:

@@ -152,7 +152,7 @@ class HighwayAdapter(EnvAdapter):
                profile: Optional[str] = None, horizon: Optional[int] = None) -> dict[str, Any]:
         """highway-env's configuration: the reward profile, and ``duration`` one past the
         horizon so that highway-env's own time limit never cuts an episode short."""
-        overrides = self.check_config(overrides) or overrides
+        overrides = self.check_config(overrides)
         config = env_config(profile or "base", horizon or self.horizon)
         config.update(overrides or {})
         return config
