@@ -20,6 +20,7 @@ from ..b.notation import from_json, parse_literal
 from ..b.values import Elem, FuncValue, format_value
 from ..b.columns import Columns
 from ..errors import InputError, TracecheckError
+from .model import END_REASONS
 
 __all__ = ["encode_state", "decode_state", "encode_columns", "decode_columns",
            "encode_run_columns", "COLUMNS_MEDIA_TYPE", "RUN_COLUMNS_MEDIA_TYPE"]
@@ -184,8 +185,6 @@ def encode_run_columns(run, spans: np.ndarray, span_crcs: np.ndarray, head_crc: 
     arrays["run:seeds"] = np.asarray([-1 if s is None else s for s in run.seeds],
                                      dtype=np.int64)
     arrays["run:seeded"] = np.asarray([s is not None for s in run.seeds], dtype=bool)
-    from .schema import END_REASONS
-
     arrays["run:reasons"] = np.asarray([END_REASONS.index(r) for r in run.reasons],
                                        dtype=np.int16)
     arrays["run:spans"] = np.asarray(spans, dtype=np.int64).reshape(-1, 2)

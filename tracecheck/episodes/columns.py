@@ -16,6 +16,7 @@ import numpy as np
 from ..b.columns import Columns
 from ..b.values import Elem
 from ..errors import InputError
+from .model import END_REASONS
 from .codec import RUN_COLUMNS_MEDIA_TYPE, columns_from_arrays, decode_columns
 from ..errors import DamagedEpisode
 from .reader import check_columns, read_pieces
@@ -177,8 +178,6 @@ def _verified_blob(buf, view) -> Optional[tuple[dict, dict]]:
 
 def _reasons_fit(header: dict, arrays: dict, episodes: int) -> bool:
     """The blob names each episode's end reason (files written before it did: walked)."""
-    from .schema import END_REASONS
-
     names, codes = header.get("reasons"), arrays.get("run:reasons")
     return (isinstance(names, list) and all(n in END_REASONS for n in names)
             and codes is not None and codes.shape == (episodes,) and codes.dtype.kind == "i"

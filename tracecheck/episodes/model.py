@@ -5,7 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Mapping, Optional
 
-__all__ = ["StepRecord", "EpisodeEnd", "Episode"]
+__all__ = ["StepRecord", "EpisodeEnd", "Episode", "END_REASONS"]
+
+#: the end reasons, in a fixed order (the run columns blob stores their index)
+END_REASONS: tuple[str, ...] = ("crashed", "time-limit", "end-of-trace", "deadlock", "interrupted")
 
 
 @dataclass(frozen=True)

@@ -23,13 +23,13 @@ from typing import Any, Literal, Optional
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from .model import END_REASONS
+
 __all__ = ["RunHeaderMessage", "EpisodeHeaderMessage", "StepMessage", "EpisodeEndMessage",
            "MESSAGES", "TOPICS", "export_schemas", "SCHEMA_DIR"]
 
 Source = Literal["recorded", "imported-simb", "imported-prob2trace", "imported-minari"]
-EndReason = Literal["crashed", "time-limit", "end-of-trace", "deadlock", "interrupted"]
-#: the end reasons, in a fixed order (the run columns blob stores their index)
-END_REASONS: tuple[str, ...] = EndReason.__args__
+EndReason = Literal[END_REASONS]
 
 
 class _Message(BaseModel):

@@ -112,25 +112,22 @@ def minari_package():
 
 def _recorded_name(header) -> str:
     """The environment a run was recorded in, as ``--env`` names it where it can be told."""
-    from ..live.adapter import adapters
+    from ..live.adapter import adapters_for_env_id
 
     if header.environment:
         return header.environment
-    return next((a.name for a in adapters()
-                 if a.adapter is not None and a.adapter.env_id == header.environment_id),
+    return next((a.name for a in adapters_for_env_id(header.environment_id)),
                 header.environment_id)
 
 
 def _recorded_adapter(header, run: Path):
     """The installed adapter a run file names (by name, or for files from before adapters
     were named, by environment id) — never a module named inside the file."""
-    from ..live.adapter import adapters, get_adapter
+    from ..live.adapter import adapters_for_env_id, get_adapter
 
     name = header.environment
     if not name and header.environment_id:
-        name = next((a.name for a in adapters()
-                     if a.adapter is not None and a.adapter.env_id == header.environment_id),
-                    None)
+        name = next((a.name for a in adapters_for_env_id(header.environment_id)), None)
     if not name:
         raise InputError(f"{run} names no environment adapter; Minari needs the environment's "
                          "spaces", hint="give the adapter with --env")

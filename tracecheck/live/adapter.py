@@ -49,7 +49,8 @@ if TYPE_CHECKING:
 __all__ = ["EnvAdapter", "Observer", "adapters", "get_adapter", "installed_adapter",
            "load_adapter", "AdapterInfo",
            "ENTRY_POINT_GROUP", "parse_config", "setting_kinds", "typed_setting",
-           "gymnasium_keys", "gymnasium_kinds", "MakeError", "GymnasiumAdapter"]
+           "gymnasium_keys", "gymnasium_kinds", "MakeError", "GymnasiumAdapter",
+           "adapters_for_env_id"]
 
 ENTRY_POINT_GROUP = "tracecheck.environments"
 
@@ -115,7 +116,7 @@ class EnvAdapter:
                profile: Optional[str] = None, horizon: Optional[int] = None) -> dict[str, Any]:
         """The default configuration, a profile on top, then the user's settings (an
         environment whose configuration holds its episode length also takes ``horizon``)."""
-        overrides = self.check_config(overrides) or overrides
+        overrides = self.check_config(overrides)
         config = dict(self.default_config())
         if profile is not None:
             if profile not in self.profiles:
@@ -222,6 +223,14 @@ def adapters() -> list[AdapterInfo]:
             adapter, problem = None, f"{type(exc).__name__}: {exc}"
         out.append(AdapterInfo(name, ep.value, adapter, problem))
     return out
+
+
+def adapters_for_env_id(env_id: Optional[str],
+                        found: Optional[list[AdapterInfo]] = None) -> list[AdapterInfo]:
+    """The installed adapters (those that load) whose ``env_id`` is ``env_id``, among
+    ``found`` (:func:`adapters`, when listed already)."""
+    return [a for a in (adapters() if found is None else found)
+            if a.adapter is not None and a.adapter.env_id == env_id]
 
 
 def get_adapter(name: Optional[str]) -> EnvAdapter:
@@ -436,20 +445,33 @@ def _instance(cls, where: str) -> EnvAdapter:
 
 
 def _gymnasium_parameters(env_id: str):
-    import inspect
-
     import gymnasium as gym
-    from gymnasium.envs.registration import load_env_creator
 
     try:
         entry = gym.spec(env_id).entry_point
-        params = inspect.signature(load_env_creator(entry) if isinstance(entry, str)
-                                   else entry).parameters
+        try:
+            hash(entry)
+        except TypeError:  # an entry point that cannot key the cache: looked at each time
+            return _entry_parameters.__wrapped__(entry)
+        return _entry_parameters(entry)
     except Exception:  # noqa: BLE001 - a package missing: make_env will say so
         return None
+
+
+@functools.cache
+def _entry_parameters(entry):
+    """The keyword parameters of a registered entry point, read-only (None: it takes any);
+    remembered per entry point (one that fails to load raises, and is tried again)."""
+    import inspect
+    from types import MappingProxyType
+
+    from gymnasium.envs.registration import load_env_creator
+
+    params = inspect.signature(load_env_creator(entry) if isinstance(entry, str)
+                               else entry).parameters
     if any(p.kind == p.VAR_KEYWORD for p in params.values()):
         return None
-    return {k: p for k, p in params.items() if k != "render_mode"}
+    return MappingProxyType({k: p for k, p in params.items() if k != "render_mode"})
 
 
 #: what ``gymnasium.make`` itself takes

@@ -52,16 +52,10 @@ def _work(index: int) -> Episode:
     return _SESSION.episode(index)
 
 
-def episodes(settings: RecordSettings, shield=None) -> Iterator[Episode]:
+def episodes(settings: RecordSettings, shield) -> Iterator[Episode]:
     """The episodes of a recording, in order, from ``settings.workers`` processes (or from
     Ray tasks with ``executor="ray"``), under ``shield`` (the shield itself, as
-    :func:`check_settings` loaded it: workers get it, not a name to load again; without it,
-    ``settings.shield`` loaded once here)."""
-    if shield is None:
-        from .adapter import load_adapter
-        from ..checking.shield import load_shield
-
-        shield = load_shield(settings.shield, actions=tuple(load_adapter(settings.env).actions))
+    :func:`check_settings` loaded it: workers get it, not a name to load again)."""
     if settings.executor == "ray":
         from .executors import ray_episodes
 

@@ -65,13 +65,13 @@ class Session:
     ``config`` overrides the environment configuration (re-simulation uses the recorded one).
     ``shield`` is the shield itself, loaded by the caller (a worker process or a Ray task gets
     it pickled as its text: the shield that was checked, never ``settings.shield`` looked up
-    again); without it ``settings.shield`` is loaded here.
+    again).
     """
 
-    def __init__(self, settings: RecordSettings, config: Optional[dict] = None,
-                 shield=None) -> None:
+    def __init__(self, settings: RecordSettings, config: Optional[dict] = None, *,
+                 shield) -> None:
         from .agents import load_agent
-        from ..checking.shield import for_actions, load_shield
+        from ..checking.shield import for_actions
         from .wrapper import ShieldWrapper
 
         self.settings = settings
@@ -79,8 +79,7 @@ class Session:
         env = self.adapter.make_env(config or default)
         self.agent = load_agent(settings.agent, adapter=self.adapter, env=env)
         actions = tuple(self.adapter.actions)
-        self.shield = (load_shield(settings.shield, actions=actions) if shield is None
-                       else for_actions(shield, actions))
+        self.shield = for_actions(shield, actions)
         self.env = ShieldWrapper(env, self.shield, settings.fallback, self.adapter)
 
     def episode(self, index: int) -> Episode:

@@ -318,8 +318,9 @@ def _versions(packages: Sequence[str]) -> dict[str, str]:
 
 def _finish(card: dict, returns: Returns, curve: Optional[Path], card_path: Path,
             draw_curve: Optional[CurveDrawer]) -> None:
-    """The learning curve, then the model card (last: a card means the rest is there)."""
-    if curve is not None and draw_curve is not None:
+    """The learning curve (``curve``: its path, None exactly when no ``draw_curve`` draws
+    one), then the model card (last: a card means the rest is there)."""
+    if curve is not None:
         _draw(card, returns, curve, draw_curve)
     write_card(card, card_path)
 

@@ -36,7 +36,7 @@ def adapter_for(env: gym.Env):
     """The installed adapter for ``env``: the one whose ``env_id`` is the environment's
     Gymnasium id (``env.spec.id``, set by ``gymnasium.make``); an :class:`InputError` saying
     what to give when there is none, or several."""
-    from .adapter import adapters
+    from .adapter import adapters, adapters_for_env_id
 
     spec = getattr(env, "spec", None)
     env_id = getattr(spec, "id", None)
@@ -48,7 +48,7 @@ def adapter_for(env: gym.Env):
                          "no Gymnasium id (it was not made with gymnasium.make)",
                          hint="give it: ShieldWrapper(env, shield, adapter=MyAdapter()); the "
                               f"installed adapters are {known}")
-    matches = [a for a in found if a.adapter.env_id == env_id]
+    matches = adapters_for_env_id(env_id, found)
     if len(matches) == 1:
         return matches[0].adapter
     if not matches:

@@ -235,23 +235,25 @@ def _values_recorded(cols: RunColumns) -> np.ndarray:
     return np.all(np.isfinite(cols.values), axis=1)
 
 
-def interventions(cols: RunColumns) -> np.ndarray:
+def interventions(cols: RunColumns, recorded: Optional[np.ndarray] = None) -> np.ndarray:
     """Per row: did the shield replace the agent's preferred action (the best of its
-    recorded action values) by another? False at step 0 and where no values were recorded."""
+    recorded action values) by another? False at step 0 and where no values were recorded
+    (``recorded``: the rows' :func:`_values_recorded`, when computed already)."""
     out = np.zeros(cols.n, dtype=bool)
     if cols.values is None or not cols.n:
         return out
-    known = _values_recorded(cols) & (cols.action >= 0)
+    known = (_values_recorded(cols) if recorded is None else recorded) & (cols.action >= 0)
     preferred = np.argmax(np.where(np.isfinite(cols.values), cols.values, -np.inf), axis=1)
     out[known] = preferred[known] != cols.action[known]
     return out
 
 
-def _recorded_choices(cols: RunColumns) -> np.ndarray:
-    """Per episode: were the agent's action values recorded at its steps?"""
-    if cols.values is None:
+def _recorded_choices(cols: RunColumns, recorded: Optional[np.ndarray]) -> np.ndarray:
+    """Per episode: were the agent's action values recorded at its steps (``recorded``: the
+    rows' :func:`_values_recorded`, None where the file has no values)?"""
+    if recorded is None:
         return np.zeros(len(cols.episode_ids), dtype=bool)
-    known = _values_recorded(cols)
+    known = recorded.copy()
     known[cols.starts[:-1]] = True  # step 0 has no action to judge
     return np.logical_and.reduceat(known, cols.starts[:-1])
 
@@ -264,8 +266,9 @@ def _aggregate(m: Metric, values: Optional[np.ndarray], cols: RunColumns) -> np.
     if m.aggregate == "return":
         return np.add.reduceat(cols.reward, starts) - cols.reward[starts]
     if m.aggregate == "interventions":
-        share = np.add.reduceat(interventions(cols), starts) / np.maximum(lengths - 1, 1)
-        return np.where(_recorded_choices(cols), share, np.nan)
+        recorded = None if cols.values is None else _values_recorded(cols)
+        share = np.add.reduceat(interventions(cols, recorded), starts) / np.maximum(lengths - 1, 1)
+        return np.where(_recorded_choices(cols, recorded), share, np.nan)
     v = np.asarray(values, dtype=float)
     if m.aggregate == "average":
         return np.add.reduceat(v, starts) / lengths

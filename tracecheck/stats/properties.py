@@ -48,18 +48,16 @@ from typing import Optional
 from ..b import ast
 from ..b.parser import parse_formula
 from ..b.scope import EXPR, PRED, check_kind
-from ..checking.crashflag import CRASH_FLAG
+from ..episodes.model import END_REASONS
 from ..errors import InputError, TracecheckError
 from ..inputs import read_text
 
 __all__ = ["Metric", "Property", "HypothesisTest", "PropertySet", "load_properties",
-           "HIGHWAY_SET", "GENERIC_SET", "AGGREGATES", "KINDS", "TAILS", "CRASH_FLAG",
-           "with_generic"]
+           "HIGHWAY_SET", "GENERIC_SET", "AGGREGATES", "KINDS", "TAILS", "with_generic"]
 
 AGGREGATES = ("steps", "average", "sum", "sum_between_steps", "min", "max", "return", "stl",
               "interventions")
 KINDS = ("invariant", "eventually", "final", "ltl", "stl", "end")
-#: the recorded crash flag, a BOOL that every formula can read (see the module docstring)
 TAILS = ("left", "right", "two")
 
 
@@ -319,7 +317,6 @@ def _property(name: str, spec: dict, file: str) -> Property:
                  "a property")
     kind = _choice(spec, "kind", "invariant", KINDS, where, file)
     if kind == "end":
-        from ..episodes.schema import END_REASONS
 
         if spec.get("predicate") not in END_REASONS:
             raise InputError(f"{file}: {where}: a property of kind end names an end reason "

@@ -16,7 +16,9 @@ over the last second (0 in the initial state), ``Crash`` the environment's crash
 
 from __future__ import annotations
 
-from typing import Any, Optional
+import functools
+from types import MappingProxyType
+from typing import Any, Mapping, Optional
 
 import numpy as np
 
@@ -100,17 +102,24 @@ class StateAdapter:
         }
 
 
-def _highway_defaults() -> Optional[dict[str, Any]]:
-    """highway-env's default configuration (None: highway-env is not installed)."""
+def _highway_defaults() -> Optional[Mapping[str, Any]]:
+    """highway-env's default configuration, read-only (None: highway-env is not installed)."""
+    try:
+        return _highway_default_config()
+    except Exception:  # noqa: BLE001 - not installed: make_env says so
+        return None
+
+
+@functools.cache
+def _highway_default_config() -> Mapping[str, Any]:
+    """highway-env's default configuration, remembered once read (a failure is not: it
+    raises, and the next call tries again)."""
     import gymnasium as gym
     from gymnasium.envs.registration import load_env_creator
 
-    try:
-        import highway_env  # noqa: F401 - registers the environments
+    import highway_env  # noqa: F401 - registers the environments
 
-        return load_env_creator(gym.spec(ENV_ID).entry_point).default_config()
-    except Exception:  # noqa: BLE001 - not installed: make_env says so
-        return None
+    return MappingProxyType(load_env_creator(gym.spec(ENV_ID).entry_point).default_config())
 
 
 class _HighwayObserver(Observer):
@@ -143,7 +152,7 @@ class HighwayAdapter(EnvAdapter):
                profile: Optional[str] = None, horizon: Optional[int] = None) -> dict[str, Any]:
         """highway-env's configuration: the reward profile, and ``duration`` one past the
         horizon so that highway-env's own time limit never cuts an episode short."""
-        overrides = self.check_config(overrides) or overrides
+        overrides = self.check_config(overrides)
         config = env_config(profile or "base", horizon or self.horizon)
         config.update(overrides or {})
         return config
