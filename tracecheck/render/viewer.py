@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 from ..b.values import Elem, SymbolicSet, format_value, sort_key
-from ..episodes.columns import RunColumns, read_columns
+from ..episodes.columns import RunColumns, episode_columns, read_columns
 from ..episodes.model import Episode
 from ..episodes.reader import Run, read_run
 from ..errors import InputError
@@ -153,8 +153,14 @@ def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
     (see :func:`episode_view`; ``salvage``: as :func:`~tracecheck.episodes.reader.read_run`)."""
     result = read_run(run, {episode}, salvage=salvage)
     ep = find_episode(run, result, episode, salvage)
-    cols = read_columns(run, salvage=salvage) if ltl else None
+    cols = episode_columns([ep], _action_names(ep, result.header)) if ltl else None
     return episode_view(run, ep, result.header, shield, ltl, cols, adapter)
+
+
+def _action_names(ep: Episode, header) -> list[str]:
+    """The run's action names: its header's, else those the episode takes."""
+    return list(header.actions) if header is not None and header.actions \
+        else sorted({s.action for s in ep.steps if s.action})
 
 
 def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] = None,
@@ -200,8 +206,7 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
     return {
         "file": str(run), "episode": ep.id, "seed": ep.seed, "origin": ep.origin,
         "environment": header.environment if header is not None else None,
-        "actions": list(header.actions) if header is not None
-        and header.actions else sorted({s.action for s in ep.steps if s.action}),
+        "actions": _action_names(ep, header),
         "scene": scene, "no_scene_caption": NO_SCENE,
         "shield": shield.name if shield is not None else None,
         "first_infeasible": first_infeasible, "blocked": blocked,
