@@ -249,12 +249,3 @@ def viewer_page(data: dict) -> str:
     # one pass: a file named {{DATA}}.mcap stays a title
     return re.sub(r"\{\{(TITLE|DATA)\}\}", lambda m: fields[m.group(1)], _TEMPLATE)
 
-
-def write_page(text: str, out: str | Path, *, force: bool = False,
-               inputs: Sequence[Path] = ()) -> Path:
-    """Write a page to ``out`` by the output rule (:mod:`tracecheck.outputs`): none of
-    ``inputs``, an existing file only with ``force``, renamed into place once complete."""
-    from ..outputs import check_output, write_file
-
-    out = check_output(Path(out), inputs, force=force, example="episode.html")
-    return write_file(out, text)
