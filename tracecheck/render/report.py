@@ -21,7 +21,7 @@ from ..checking.replaying import (MISMATCH, NEVER_BLOCKED, NEW_CRASH, NO_CRASH, 
                                 NOT_PREVENTED, PREVENTED)
 from ..checking.shield import Shield
 from ..outputs import write_file
-from .viewer import episode_view, find_episode, numeric_series, viewer_page
+from .viewer import episode_view, numeric_series, viewer_page
 
 __all__ = ["render_report", "comparison_sentences", "resimulation_headline"]
 
@@ -284,7 +284,7 @@ def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter
     from ..outputs import safe_name
     from .text import crash_column
 
-    from ..episodes.reader import read_run
+    from ..episodes.reader import find_episode, read_run
 
     ranked = _ranked(c)
     name = Path(c["file"]).name

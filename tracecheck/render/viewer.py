@@ -23,29 +23,21 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 from ..b.values import Elem, SymbolicSet, format_value, sort_key
-from ..episodes.columns import RunColumns, episode_columns, read_columns
+from ..episodes.columns import RunColumns, episode_columns
 from ..episodes.model import Episode
-from ..episodes.reader import Run, read_run
-from ..errors import InputError
+from ..episodes.reader import find_episode, read_run
 from ..checking.shield import Shield
 from ..jsontext import script_json
 from .scene import scene_drawer, shape_json, css
 from .tables import is_number
 
-__all__ = ["render_episode", "viewer_page", "episode_data", "episode_view", "find_episode",
-           "short_value", "numeric_series"]
+__all__ = ["render_episode", "viewer_page", "episode_data", "episode_view", "short_value",
+           "numeric_series"]
 
 _TEMPLATE = (Path(__file__).with_name("viewer.html")).read_text(encoding="utf-8")
 NO_SCENE = ("This environment draws no picture (its adapter has no scene() hook: see "
             "docs/environments.md, \"Drawing your environment\"); the charts show every "
             "numeric variable over the episode.")
-
-
-def _ids_text(ids: list[int]) -> str:
-    ids = sorted(ids)
-    if len(ids) > 12:
-        return f"{', '.join(map(str, ids[:12]))}, … ({len(ids)} episodes)"
-    return ", ".join(map(str, ids))
 
 
 def _round(x: float) -> str:
@@ -130,21 +122,6 @@ def _scenes(ep, draw) -> tuple[Optional[dict], list]:
         return None, per_step
     return {"shapes": shapes, "background": css(first.background), "caption": first.caption,
             "scale": first.scale}, per_step
-
-
-def find_episode(run: str | Path, result: Run, episode: int, salvage: bool = False
-                 ) -> Episode:
-    """Episode ``episode`` among those ``result`` decoded from ``run``, else the located
-    error naming the episodes the file has (``salvage``: as
-    :func:`~tracecheck.episodes.reader.read_run`, for reading their numbers)."""
-    found = next((ep for ep in result.episodes if ep.id == episode), None)
-    if found is not None:
-        return found
-    ids = [int(i) for i in read_columns(run, salvage=salvage).episode_ids]
-    if not ids:
-        raise InputError(f"{run} holds no complete episode")
-    raise InputError(f"{run} has no episode {episode}; it has {_ids_text(ids)}",
-                     hint=result.warnings[0] if result.warnings else None)
 
 
 def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
