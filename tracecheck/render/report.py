@@ -334,7 +334,7 @@ def _pictures(result, shown: list, adapter, shield) -> dict[int, str]:
 
     if not shown:
         return {}
-    draw = scene_drawer(adapter=adapter, zones=shield.name == "paper")
+    draw = scene_drawer(adapter=adapter, shield=shield.name)
     wanted = {e.episode: e.first_infeasible if e.first_infeasible is not None else
               (e.crash_step or 0) for e in shown}
     out = {}

@@ -152,8 +152,8 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
     if ltl and cols is None:
         raise ValueError("LTL marks are checked on the run's columns: give cols")
     machine = shield.machine if shield is not None else None
-    zones = shield is not None and shield.name == "paper"
-    draw = scene_drawer(adapter=adapter, zones=zones)  # render imports no environment
+    # render imports no environment: the adapter given, else the built-in scenes
+    draw = scene_drawer(adapter=adapter, shield=shield.name if shield is not None else None)
     scene, per_step = _scenes(ep, draw)
     steps, blocked, interventions = [], [], []
     first_infeasible = None
