@@ -308,10 +308,10 @@ def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter
             pages.append((e.file, find_episode(e.file, result, e.episode, salvage),
                           result.header, page))
             link = f"<a href='{_e(pages_dir.name + '/' + page)}'>open</a>"
-        verdict = crash_cell(e)
-        if verdict in (NEW_CRASH, NOT_PREVENTED) and new_steps.get(e.episode) is not None:
+        cell = verdict = crash_cell(e)
+        if cell in (NEW_CRASH, NOT_PREVENTED) and new_steps.get(e.episode) is not None:
             verdict += f" (at step {new_steps[e.episode]})"
-        cls = "good" if crash_cell(e) in _GOOD else "bad" if crash_cell(e) in _BAD else ""
+        cls = "good" if cell in _GOOD else "bad" if cell in _BAD else ""
         first = "" if e.first_infeasible is None else f"{e.first_infeasible} {e.action or ''}"
         rows.append(f"<tr><td>{e.episode}</td><td>{e.steps}</td><td>{_e(first)}</td>"
                     f"<td>{'' if e.crash_step is None else e.crash_step}</td>"
@@ -332,8 +332,6 @@ def _pictures(result, shown: list, adapter, shield) -> dict[int, str]:
     over time."""
     from .scene import scene_drawer, scene_kind, scene_svg
 
-    if not shown:
-        return {}
     draw = scene_drawer(adapter=adapter, shield=shield.name)
     wanted = {e.episode: e.first_infeasible if e.first_infeasible is not None else
               (e.crash_step or 0) for e in shown}
@@ -341,12 +339,12 @@ def _pictures(result, shown: list, adapter, shield) -> dict[int, str]:
     for ep in result.episodes:
         if ep.id not in wanted:
             continue  # decoded for its viewer page only
-        k = min(wanted.get(ep.id, 0), len(ep.steps) - 1)
+        k = min(wanted[ep.id], len(ep.steps) - 1)
         scene = draw(ep.steps[k])
         # the road near the ego vehicle: a thumbnail of the whole view would be a thin strip
         near = (-30.0, -4.0, 100.0, 16.0) if scene_kind(ep.steps[k].state) == "road" else None
         out[ep.id] = (scene_svg(scene, 300, view=near) if scene is not None
-                      else _sparklines(ep, wanted.get(ep.id)))
+                      else _sparklines(ep, wanted[ep.id]))
     return out
 
 
