@@ -156,13 +156,10 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
     draw = scene_drawer(adapter=adapter, shield=shield.name if shield is not None else None)
     scene, per_step = _scenes(ep, draw)
     steps, blocked, interventions = [], [], []
-    first_infeasible = None
     for k, s in enumerate(ep.steps):
         enabled = sorted(machine.enabled(s.state)) if machine is not None else None
         if k and machine is not None and s.action not in steps[-1]["shield_allows"]:
             blocked.append(s.step)
-            if first_infeasible is None:
-                first_infeasible = s.step
         if s.preferred_action is not None and s.action is not None \
                 and s.preferred_action != s.action:
             interventions.append(s.step)
@@ -186,7 +183,7 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
         "actions": _action_names(ep, header),
         "scene": scene, "no_scene_caption": NO_SCENE,
         "shield": shield.name if shield is not None else None,
-        "first_infeasible": first_infeasible, "blocked": blocked,
+        "first_infeasible": blocked[0] if blocked else None, "blocked": blocked,
         "interventions": interventions, "crash_step": crash,
         "ltl": _ltl_marks(cols, ep.id, shield, ltl), "series": series,
         "end": {"steps": ep.end.steps, "reason": ep.end.reason,
