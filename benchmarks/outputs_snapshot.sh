@@ -17,7 +17,6 @@ S=${SNAPSHOT_DATA:-/tmp/tracecheck-snapshot-data}
 [ -d "$S" ] || { mkdir -p "$S" && cp "$TREE"/sample_traces/*.mcap "$S"/; }
 P=$TREE/../shared/data/paper-traces; M=$TREE/../shared/data/paper-models
 cd "$TREE"
-n=0
 run() { # name, args...
   local name=$1; shift
   ( $TC "$@" > "$OUT/$name.out" 2> "$OUT/$name.err"; echo "rc=$?" > "$OUT/$name.rc" )

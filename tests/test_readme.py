@@ -32,7 +32,7 @@ def blocks(text: str, language: str) -> list[tuple[int, str]]:
         fence = FENCE.match(line)
         if fence and inside is None:
             inside, start, lines = fence.group(1), number + 1, []
-        elif fence or (inside is not None and line.startswith("```")):
+        elif inside is not None and line.startswith("```"):
             if inside == language:
                 found.append((start, "\n".join(lines) + "\n"))
             inside = None

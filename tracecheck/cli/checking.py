@@ -10,7 +10,7 @@ import typer
 from ..errors import InputError
 from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, RAY_ADDRESS, OutputFormat,
                      FailOn, SHIELD_HELP, ROWS, run_shield, SALVAGE, FORMAT, JSON, output_format,
-                     print_json, print_table, plain, progress, FORCE)
+                     print_json, print_table, plain, progress, FORCE, run_adapter)
 
 
 @app.command("replay")
@@ -215,11 +215,8 @@ def prove_cmd(
                         assume=tuple(Given(a, "--assume") for a in assume))
     if obligations is not None:
         asked = asked.also(read_obligations(obligations, machine))
-    adapter = None
-    if env is not None:
-        from ..live.adapter import load_adapter
-
-        adapter = load_adapter(env)
+    adapter = run_adapter(env)
+    if adapter is not None:
         asked = asked.also(Obligations(assume=tuple(Given(a, f"--env {env}")
                                                     for a in adapter.assumptions)))
     asked = asked.also(Obligations(implies=tuple(implication(item) for item in implies)))

@@ -170,10 +170,9 @@ def export_prob2trace_cmd(
 ) -> None:
     """Export one episode as a ProB2 trace (opens in ProB2-UI)."""
     from ..episodes.vocabulary import HIGHWAY, Vocabulary
-    from ..episodes.reader import read_run
+    from ..episodes.reader import find_episode, read_run
     from ..interop import export_prob2trace
     from ..outputs import check_output
-    from ..render.viewer import find_episode
 
     check_output(output, [run], force=force, example="episode.prob2trace")
     result = read_run(run, {episode}, salvage=salvage)

@@ -26,21 +26,21 @@ def render_cmd(
 ) -> None:
     """Write one episode as a self-contained HTML viewer (top view, shield zones, timeline)."""
     from ..checking.replaying import ltl_formulas
-    from ..render.viewer import render_episode, write_page
+    from ..render.viewer import render_episode
     from ..checking.shield import load_shield
     from ..errors import InputError
-    from ..outputs import check_output, input_paths
+    from ..outputs import check_output, input_paths, write_file
 
     inputs = [run, *input_paths(shield)]
-    check_output(output, inputs, force=force, example="episode.html")
+    path = check_output(output, inputs, force=force, example="episode.html")
     adapter = run_adapter(env)  # its scene() hook draws the picture; without it, the built-ins
     loaded = load_shield(shield) if shield else None
     if (ltl or ltl_assertions) and loaded is None:
         raise InputError("--ltl and --ltl-assertions need --shield: the machine the formulas "
                          "are read in")
     formulas = ltl_formulas(loaded, ltl, ltl_assertions) if loaded is not None else []
-    page = write_page(render_episode(run, episode, loaded, formulas, adapter=adapter,
-                                     salvage=salvage), output, force=force, inputs=inputs)
+    page = write_file(path, render_episode(run, episode, loaded, formulas, adapter=adapter,
+                                           salvage=salvage))
     out.print(f"wrote episode {episode} -> {page} ({page.stat().st_size / 1000:.0f} kB)",
               markup=False)
 

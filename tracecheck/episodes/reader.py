@@ -31,7 +31,7 @@ from .codec import COLUMNS_MEDIA_TYPE, decode_columns, decode_state
 from .model import Episode, EpisodeEnd, StepRecord
 from .records import Attachment, Channel, Damage, MessageRef, Schema, mapped, walk
 
-__all__ = ["read_run", "read_episodes", "read_header", "Run", "read_pieces", "Piece"]
+__all__ = ["read_run", "find_episode", "read_episodes", "read_header", "Run", "read_pieces", "Piece"]
 
 
 @dataclass
@@ -473,6 +473,30 @@ def read_run(path: str | Path, only: Optional[set[int]] = None, *,
     header = read_header(path)
     return Run(str(path), header, episodes,
                [str(w.message) for w in caught if issubclass(w.category, DamagedEpisode)])
+
+
+def find_episode(run: str | Path, result: Run, episode: int, salvage: bool = False
+                 ) -> Episode:
+    """Episode ``episode`` among those ``result`` decoded from ``run``, else the located
+    error naming the episodes the file has (``salvage``: as :func:`read_run`, for reading
+    their numbers)."""
+    found = next((ep for ep in result.episodes if ep.id == episode), None)
+    if found is not None:
+        return found
+    with warnings.catch_warnings(record=True):  # read_run gave them
+        warnings.simplefilter("always", DamagedEpisode)
+        ids = [int(p.head.episode) for p in read_pieces(run, decode=False, salvage=salvage)]
+    if not ids:
+        raise InputError(f"{run} holds no complete episode")
+    raise InputError(f"{run} has no episode {episode}; it has {_ids_text(ids)}",
+                     hint=result.warnings[0] if result.warnings else None)
+
+
+def _ids_text(ids: list[int]) -> str:
+    ids = sorted(ids)
+    if len(ids) > 12:
+        return f"{', '.join(map(str, ids[:12]))}, … ({len(ids)} episodes)"
+    return ", ".join(map(str, ids))
 
 
 def read_header(path: str | Path) -> schema.RunHeaderMessage:

@@ -261,11 +261,11 @@ class FoxgloveChannels:
         self._dumps = orjson.dumps
         self.schemas = {name: orjson.dumps(schema) for name, schema in SCHEMAS.items()}
         self.topics = dict(TOPICS)
-        self._zones = header.shield_name == "paper"
-        self._draw = scene_drawer(header.environment, zones=self._zones)  # looked up once
+        # the adapter looked up once
+        self._draw = scene_drawer(header.environment, shield=header.shield_name)
 
     def messages(self, step, *, episode: int, stamp_ns: int,
                  previous_crashed: bool) -> Iterator[tuple[str, bytes]]:
-        for m in step_messages(step, episode=episode, stamp_ns=stamp_ns, zones=self._zones,
+        for m in step_messages(step, episode=episode, stamp_ns=stamp_ns,
                                previous_crashed=previous_crashed, draw=self._draw):
             yield m.topic, self._dumps(m.data)

@@ -21,7 +21,7 @@ from ..checking.replaying import (MISMATCH, NEVER_BLOCKED, NEW_CRASH, NO_CRASH, 
                                 NOT_PREVENTED, PREVENTED)
 from ..checking.shield import Shield
 from ..outputs import write_file
-from .viewer import episode_view, find_episode, numeric_series, viewer_page
+from .viewer import episode_view, numeric_series, viewer_page
 
 __all__ = ["render_report", "comparison_sentences", "resimulation_headline"]
 
@@ -284,7 +284,7 @@ def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter
     from ..outputs import safe_name
     from .text import crash_column
 
-    from ..episodes.reader import read_run
+    from ..episodes.reader import find_episode, read_run
 
     ranked = _ranked(c)
     name = Path(c["file"]).name
@@ -308,10 +308,10 @@ def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter
             pages.append((e.file, find_episode(e.file, result, e.episode, salvage),
                           result.header, page))
             link = f"<a href='{_e(pages_dir.name + '/' + page)}'>open</a>"
-        verdict = crash_cell(e)
-        if verdict in (NEW_CRASH, NOT_PREVENTED) and new_steps.get(e.episode) is not None:
+        cell = verdict = crash_cell(e)
+        if cell in (NEW_CRASH, NOT_PREVENTED) and new_steps.get(e.episode) is not None:
             verdict += f" (at step {new_steps[e.episode]})"
-        cls = "good" if crash_cell(e) in _GOOD else "bad" if crash_cell(e) in _BAD else ""
+        cls = "good" if cell in _GOOD else "bad" if cell in _BAD else ""
         first = "" if e.first_infeasible is None else f"{e.first_infeasible} {e.action or ''}"
         rows.append(f"<tr><td>{e.episode}</td><td>{e.steps}</td><td>{_e(first)}</td>"
                     f"<td>{'' if e.crash_step is None else e.crash_step}</td>"
@@ -332,21 +332,19 @@ def _pictures(result, shown: list, adapter, shield) -> dict[int, str]:
     over time."""
     from .scene import scene_drawer, scene_kind, scene_svg
 
-    if not shown:
-        return {}
-    draw = scene_drawer(adapter=adapter, zones=shield.name == "paper")
+    draw = scene_drawer(adapter=adapter, shield=shield.name)
     wanted = {e.episode: e.first_infeasible if e.first_infeasible is not None else
               (e.crash_step or 0) for e in shown}
     out = {}
     for ep in result.episodes:
         if ep.id not in wanted:
             continue  # decoded for its viewer page only
-        k = min(wanted.get(ep.id, 0), len(ep.steps) - 1)
+        k = min(wanted[ep.id], len(ep.steps) - 1)
         scene = draw(ep.steps[k])
         # the road near the ego vehicle: a thumbnail of the whole view would be a thin strip
         near = (-30.0, -4.0, 100.0, 16.0) if scene_kind(ep.steps[k].state) == "road" else None
         out[ep.id] = (scene_svg(scene, 300, view=near) if scene is not None
-                      else _sparklines(ep, wanted.get(ep.id)))
+                      else _sparklines(ep, wanted[ep.id]))
     return out
 
 

@@ -179,13 +179,15 @@ def builtin_scene(state: dict, crashed: bool = False, zones: bool = False) -> Op
     return None
 
 
-def scene_drawer(environment: Optional[str] = None, adapter=None, *, zones: bool = False
-                 ) -> Callable[..., Optional[Scene]]:
+def scene_drawer(environment: Optional[str] = None, adapter=None, *,
+                 shield: Optional[str] = None) -> Callable[..., Optional[Scene]]:
     """A function from a step (a ``StepRecord``) to its scene: the adapter's own ``scene``
     hook where it has one (``adapter``, or the installed adapter named ``environment`` — only
     ever looked up among the installed entry points: the recorder, which has it loaded
-    anyway), else the built-in scenes."""
+    anyway), else the built-in scenes, with the zones of the ``paper`` shield when
+    ``shield`` (a shield's name) is that one."""
     hook = _hook(adapter if adapter is not None else _installed(environment))
+    zones = shield == "paper"
 
     def draw(step) -> Optional[Scene]:
         if hook is not None:

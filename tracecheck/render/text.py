@@ -97,6 +97,13 @@ SHORT_HEADERS = ["file", "ep.", "steps", "first", "allowed", "instead", "blocked
                  "after block", "other"]
 
 
+def _with_crash_header(headers: list[str], header: str) -> list[str]:
+    """``headers`` (:data:`HEADERS` or :data:`SHORT_HEADERS`) with ``header`` as the crash
+    column's (see :func:`crash_column`)."""
+    at = HEADERS.index(AFTER_BLOCK)
+    return headers[:at] + [header] + headers[at + 1:]
+
+
 def _summary_lines(r: ReplayReport) -> list[str]:
     rate = f"{r.steps / r.elapsed_s:,.0f} steps/s" if r.elapsed_s else ""
     return [
@@ -169,7 +176,7 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
     codes = abbreviations(names)
     table = Table(title="episodes that matter", box=None, show_lines=False, padding=(0, 1))
     _, short_header, crash_cell = crash_column(r)
-    headers = SHORT_HEADERS[:8] + [short_header] + SHORT_HEADERS[9:]
+    headers = _with_crash_header(SHORT_HEADERS, short_header)
     shown = [_row(e, crash_cell, lambda a: codes.get(a, a)) for e in matters[:rows]]
     # "other" wraps between words only: never narrower than its longest word
     longest = max((len(w) for row in shown for w in row[-1].split()), default=5)
@@ -213,7 +220,7 @@ def replay_table(r: ReplayReport, episodes=None) -> TableData:
         return "violated" if step is None else f"violated at step {step}"
 
     header, _, crash_cell = crash_column(r)
-    return TableData.of(HEADERS[:8] + [header] + HEADERS[9:]
+    return TableData.of(_with_crash_header(HEADERS, header)
                         + [f"LTL {e['name']}: {e['formula']}" for e in r.ltl],
                         (_row(e, crash_cell) + [ltl_cell(e, v) for v in failed]
                          for e in chosen))

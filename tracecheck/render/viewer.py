@@ -23,29 +23,21 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 from ..b.values import Elem, SymbolicSet, format_value, sort_key
-from ..episodes.columns import RunColumns, read_columns
+from ..episodes.columns import RunColumns, episode_columns
 from ..episodes.model import Episode
-from ..episodes.reader import Run, read_run
-from ..errors import InputError
+from ..episodes.reader import find_episode, read_run
 from ..checking.shield import Shield
 from ..jsontext import script_json
 from .scene import scene_drawer, shape_json, css
 from .tables import is_number
 
-__all__ = ["render_episode", "viewer_page", "episode_data", "episode_view", "find_episode",
-           "short_value", "numeric_series"]
+__all__ = ["render_episode", "viewer_page", "episode_data", "episode_view", "short_value",
+           "numeric_series"]
 
 _TEMPLATE = (Path(__file__).with_name("viewer.html")).read_text(encoding="utf-8")
 NO_SCENE = ("This environment draws no picture (its adapter has no scene() hook: see "
             "docs/environments.md, \"Drawing your environment\"); the charts show every "
             "numeric variable over the episode.")
-
-
-def _ids_text(ids: list[int]) -> str:
-    ids = sorted(ids)
-    if len(ids) > 12:
-        return f"{', '.join(map(str, ids[:12]))}, … ({len(ids)} episodes)"
-    return ", ".join(map(str, ids))
 
 
 def _round(x: float) -> str:
@@ -132,29 +124,20 @@ def _scenes(ep, draw) -> tuple[Optional[dict], list]:
             "scale": first.scale}, per_step
 
 
-def find_episode(run: str | Path, result: Run, episode: int, salvage: bool = False
-                 ) -> Episode:
-    """Episode ``episode`` among those ``result`` decoded from ``run``, else the located
-    error naming the episodes the file has (``salvage``: as
-    :func:`~tracecheck.episodes.reader.read_run`, for reading their numbers)."""
-    found = next((ep for ep in result.episodes if ep.id == episode), None)
-    if found is not None:
-        return found
-    ids = [int(i) for i in read_columns(run, salvage=salvage).episode_ids]
-    if not ids:
-        raise InputError(f"{run} holds no complete episode")
-    raise InputError(f"{run} has no episode {episode}; it has {_ids_text(ids)}",
-                     hint=result.warnings[0] if result.warnings else None)
-
-
 def episode_data(run: str | Path, episode: int, shield: Optional[Shield] = None,
                  ltl: Sequence[tuple] = (), adapter=None, salvage: bool = False) -> dict:
     """Everything the viewer shows of episode ``episode`` of ``run``, read from the file
     (see :func:`episode_view`; ``salvage``: as :func:`~tracecheck.episodes.reader.read_run`)."""
     result = read_run(run, {episode}, salvage=salvage)
     ep = find_episode(run, result, episode, salvage)
-    cols = read_columns(run, salvage=salvage) if ltl else None
+    cols = episode_columns([ep], _action_names(ep, result.header)) if ltl else None
     return episode_view(run, ep, result.header, shield, ltl, cols, adapter)
+
+
+def _action_names(ep: Episode, header) -> list[str]:
+    """The run's action names: its header's, else those the episode takes."""
+    return list(header.actions) if header is not None and header.actions \
+        else sorted({s.action for s in ep.steps if s.action})
 
 
 def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] = None,
@@ -169,17 +152,14 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
     if ltl and cols is None:
         raise ValueError("LTL marks are checked on the run's columns: give cols")
     machine = shield.machine if shield is not None else None
-    zones = shield is not None and shield.name == "paper"
-    draw = scene_drawer(adapter=adapter, zones=zones)  # render imports no environment
+    # render imports no environment: the adapter given, else the built-in scenes
+    draw = scene_drawer(adapter=adapter, shield=shield.name if shield is not None else None)
     scene, per_step = _scenes(ep, draw)
     steps, blocked, interventions = [], [], []
-    first_infeasible = None
     for k, s in enumerate(ep.steps):
         enabled = sorted(machine.enabled(s.state)) if machine is not None else None
         if k and machine is not None and s.action not in steps[-1]["shield_allows"]:
             blocked.append(s.step)
-            if first_infeasible is None:
-                first_infeasible = s.step
         if s.preferred_action is not None and s.action is not None \
                 and s.preferred_action != s.action:
             interventions.append(s.step)
@@ -200,11 +180,10 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
     return {
         "file": str(run), "episode": ep.id, "seed": ep.seed, "origin": ep.origin,
         "environment": header.environment if header is not None else None,
-        "actions": list(header.actions) if header is not None
-        and header.actions else sorted({s.action for s in ep.steps if s.action}),
+        "actions": _action_names(ep, header),
         "scene": scene, "no_scene_caption": NO_SCENE,
         "shield": shield.name if shield is not None else None,
-        "first_infeasible": first_infeasible, "blocked": blocked,
+        "first_infeasible": blocked[0] if blocked else None, "blocked": blocked,
         "interventions": interventions, "crash_step": crash,
         "ltl": _ltl_marks(cols, ep.id, shield, ltl), "series": series,
         "end": {"steps": ep.end.steps, "reason": ep.end.reason,
@@ -244,12 +223,3 @@ def viewer_page(data: dict) -> str:
     # one pass: a file named {{DATA}}.mcap stays a title
     return re.sub(r"\{\{(TITLE|DATA)\}\}", lambda m: fields[m.group(1)], _TEMPLATE)
 
-
-def write_page(text: str, out: str | Path, *, force: bool = False,
-               inputs: Sequence[Path] = ()) -> Path:
-    """Write a page to ``out`` by the output rule (:mod:`tracecheck.outputs`): none of
-    ``inputs``, an existing file only with ``force``, renamed into place once complete."""
-    from ..outputs import check_output, write_file
-
-    out = check_output(Path(out), inputs, force=force, example="episode.html")
-    return write_file(out, text)
