@@ -15,7 +15,8 @@ export PYTHONPATH=$TREE COLUMNS=100
 TC=${TRACECHECK:-$(dirname "$0")/../.venv/bin/tracecheck}
 S=${SNAPSHOT_DATA:-/tmp/tracecheck-snapshot-data}
 [ -d "$S" ] || { mkdir -p "$S" && cp "$TREE"/sample_traces/*.mcap "$S"/; }
-P=$TREE/../shared/data/paper-traces; M=$TREE/../shared/data/paper-models
+SHARED=$(cd "$TREE/../shared" && pwd -P)  # one spelling in both snapshots
+P=$SHARED/data/paper-traces; M=$SHARED/data/paper-models
 cd "$TREE"
 run() { # name, args...
   local name=$1; shift
