@@ -250,6 +250,32 @@ class Machine:
         outcome = self._outcome("effects", op, lambda operation: strip_guards(operation.body))
         return self._outcome_holds(op, outcome, before, after)
 
+    def initialisation_ok(self, state: Mapping[str, Any]) -> bool:
+        """Whether ``state`` is a possible outcome of the INITIALISATION (every variable
+        given)."""
+        check = self.cached("initialisation", None, lambda: SubstCompiler(
+            self.compiler()).compile(self.initialisation or ast.Skip()))
+        missing = [v for v in self.variables if v not in state]
+        if missing:
+            raise EvaluationError(f"the initial state has no value for {', '.join(missing)}")
+        after = self.native(state, where="the initial state")
+        return bool(check(dict(self.base_env), dict(after)))
+
+    def cached(self, kind: str, key: Any, make: Callable[[], Any]) -> Any:
+        """What ``make()`` builds for (``kind``, ``key``), built once per machine: compiled
+        checks that other modules keep with the machine they belong to."""
+        cache = self._compiled.setdefault(kind, {})
+        if key not in cache:
+            cache[key] = make()
+        return cache[key]
+
+    def successor(self, op: Optional[str], before: Mapping[str, Any], predicate: ast.Node):
+        """The state after ``op`` (None: the INITIALISATION) that satisfies ``predicate``,
+        as ProB finds it for SimB's external simulation (:func:`.transitions.successor`)."""
+        from .transitions import successor
+
+        return successor(self, op, before, predicate)
+
     def _outcome(self, kind: str, op: str, body_of: Callable[[Operation], ast.Subst]) -> tuple:
         """(the compiled check of ``body_of(op)``, the variables it leaves unchanged), once
         per operation and ``kind``."""

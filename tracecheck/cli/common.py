@@ -176,7 +176,7 @@ ROWS = 40
 
 # the options of the commands that run episodes (record, simulate)
 RUN_SHIELD = typer.Option("none", "--shield", "-s", help=SHIELD_HELP)
-SEED = typer.Option(0, "--seed", help="Episode i uses seed SEED + i.")
+SEED = typer.Option(None, "--seed", min=0, help="Episode i uses seed SEED + i (default 0).")
 WORKERS = typer.Option(1, "--workers", "-w", min=1, help="Worker processes.")
 
 
@@ -205,16 +205,64 @@ PROFILE = typer.Option(None, "--profile", help="A named configuration of the env
                         "(highway: base, higher-penalty).")
 DURATION = typer.Option(None, "--duration", min=1, help="Agent steps per episode (default: "
                          "the environment's: highway 60, frozenlake and cliffwalking 100).")
-AGENT = typer.Option(..., "--agent", help="A stable-baselines3 agent (.zip; loading it runs "
-                      "code from the file: only use files you trust) or a Q-table (.npy).")
+AGENT = typer.Option(None, "--agent", help="A stable-baselines3 agent (.zip; loading it runs "
+                      "code from the file: only use files you trust) or a Q-table (.npy). "
+                      "Required unless --external.")
 
 
 def record_settings(env: Optional[str], env_config: list[str], **fields):
     from ..live.adapter import parse_config
     from ..live.record import RecordSettings
 
+    if fields.get("agent") is None:
+        raise InputError("--agent is required (or --external 'CMD' to run an agent script "
+                         "that speaks SimB's external-simulation protocol)")
+    if fields.get("seed") is None:
+        fields["seed"] = 0
     return RecordSettings(env=env or "highway", env_config=parse_config(env_config) or None,
                           **fields)
+
+
+# the options of an external simulation (record and simulate with --external)
+EXTERNAL = typer.Option(None, "--external", help="Run this agent script instead of --agent: "
+                        "a command line (split as a shell would, run without one, the port "
+                        "appended) that speaks SimB's external-simulation protocol, e.g. "
+                        "'python3 FrozenLake.py'; --shield names the machine that answers it "
+                        "(docs/simb-external.md). It runs code: only scripts you trust.")
+CWD = typer.Option(None, "--cwd", help="The folder --external's script runs in (default: the "
+                   "current one).")
+STEP_TIMEOUT = typer.Option(30.0, "--step-timeout", min=0.001, help="Seconds --external's "
+                            "script may take to answer one step (and twice that to connect).")
+CRASH = typer.Option(None, "--crash", help="With --external: a predicate over the machine's "
+                     "state that marks a crash (default: its Crash variable, if it has one).")
+ENDING_TIME = typer.Option(None, "--ending-time", min=1, help="With --external: SimB's "
+                           "ENDING_TIME — end an episode once the script's clock (the sum of "
+                           "its deltas) reaches this many milliseconds.")
+
+
+def external_settings(command: str, *, shield: str, episodes: int, cwd: Optional[Path],
+                      step_timeout: float, crash: Optional[str], ending_time: Optional[int],
+                      duration: Optional[int], **unused):
+    """The settings and the machine of ``--external``; the options that only make sense for
+    an agent tracecheck runs (``unused``: their values; None, 1 or local when not given)
+    are refused by name."""
+    from ..checking.shield import load_shield
+    from ..live.external import ExternalSettings, split_command
+
+    given = [f"--{k.replace('_', '-')}" for k, v in unused.items()
+             if v not in (None, [], 1, "local")]
+    if given:
+        raise InputError(f"--external runs the agent script's own environment: "
+                         f"{', '.join(given)} cannot be used with it",
+                         hint="the script decides the agent, the environment and its seeds")
+    if shield == "none":
+        raise InputError("--external needs --shield naming the machine that answers the "
+                         "script (a .mch file, or a built-in shield other than none)")
+    settings = ExternalSettings(command=split_command(command), episodes=episodes, cwd=cwd,
+                                ending_time_ms=ending_time, max_steps=duration,
+                                step_timeout=step_timeout, connect_timeout=2 * step_timeout,
+                                crash=crash)
+    return settings, load_shield(shield)
 
 
 class Algorithm(str, Enum):

@@ -9,7 +9,8 @@ import typer
 
 from ..errors import InputError
 from ..outputs import input_paths
-from .common import (app, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, ENV,
+from .common import (CRASH, CWD, ENDING_TIME, EXTERNAL, STEP_TIMEOUT, external_settings,
+                     app, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, ENV,
                      ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, Algorithm, FORCE,
                      RUN_SHIELD, SEED, WORKERS, FORMAT, JSON, OutputFormat, output_format,
                      print_json, print_table, progress, say, SHIELD_HELP)
@@ -121,10 +122,15 @@ def _say_trained(card: dict, output: Path) -> None:
 
 @app.command("record")
 def record_cmd(
-    agent: Path = AGENT,
+    agent: Optional[Path] = AGENT,
+    external: Optional[str] = EXTERNAL,
+    cwd: Optional[Path] = CWD,
+    step_timeout: float = STEP_TIMEOUT,
+    crash: Optional[str] = CRASH,
+    ending_time: Optional[int] = ENDING_TIME,
     shield: str = RUN_SHIELD,
     episodes: int = typer.Option(..., "--episodes", "-n", min=1, help="How many episodes."),
-    seed: int = SEED,
+    seed: Optional[int] = SEED,
     env: Optional[str] = ENV,
     env_config: list[str] = ENV_CONFIG,
     duration: Optional[int] = DURATION,
@@ -138,7 +144,19 @@ def record_cmd(
     output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
     force: bool = FORCE,
 ) -> None:
-    """Run an agent under a shield (pre-shielding) and record every episode to MCAP."""
+    """Run an agent under a shield (pre-shielding) and record every episode to MCAP — or,
+    with --external, an agent script that speaks SimB's external-simulation protocol, the
+    shield's machine answering it as ProB would."""
+    if external is not None:
+        settings, machine = external_settings(
+            external, shield=shield, episodes=episodes, cwd=cwd, step_timeout=step_timeout,
+            crash=crash, ending_time=ending_time, duration=duration, agent=agent, seed=seed,
+            env=env, env_config=env_config, workers=workers, executor=executor.value,
+            ray_address=ray_address, profile=profile, fallback=fallback)
+        _record_external(settings, machine, output, force)
+        return
+    _no_external_options(cwd=cwd, crash=crash, ending_time=ending_time,
+                         step_timeout=step_timeout)
     import time as _time
 
     from ..interop.foxglove import FoxgloveChannels
@@ -171,6 +189,67 @@ def record_cmd(
     took = _time.perf_counter() - start
     say(f"recorded {n} episode(s), {steps} step(s), {crashes} crash(es) with shield "
         f"{shield} in {took:.1f} s ({steps / took:.0f} steps/s) -> {output}")
+
+
+def _no_external_options(**given) -> None:
+    """The options of --external, refused without it (``step_timeout`` has a default)."""
+    from .common import STEP_TIMEOUT as default
+
+    used = [f"--{k.replace('_', '-')}" for k, v in given.items()
+            if v is not None and not (k == "step_timeout" and v == default.default)]
+    if used:
+        raise InputError(f"{', '.join(used)} only apply to --external 'CMD' (an agent script "
+                         "that speaks SimB's external-simulation protocol)")
+
+
+def _record_external(settings, machine, output: Path, force: bool) -> None:
+    """``record --external``: the script's episodes, what the machine found in them, and
+    what was kept when the script failed."""
+    import shlex
+    import time as _time
+
+    from ..errors import TracecheckError
+    from ..interop.foxglove import FoxgloveChannels
+    from ..live.external import record_external
+
+    seen = {"episodes": 0, "blocked": 0, "crashes": 0}
+    existed = output.exists()
+    start = _time.perf_counter()
+    with progress("recording", settings.episodes, detail=", {task.fields[blocked]} blocked "
+                  "action(s)", blocked=0) as advance:
+
+        def report(ep) -> None:
+            seen["episodes"] += 1
+            seen["blocked"] += sum(1 for s in ep.steps[1:]
+                                   if s.allowed_actions is not None
+                                   and s.action not in s.allowed_actions)
+            advance(blocked=seen["blocked"])
+
+        try:
+            n, steps, crashes = record_external(settings, machine, output, report,
+                                                force=force, channels=FoxgloveChannels)
+        except KeyboardInterrupt:
+            err.print(_kept("interrupted", output, seen["episodes"], existed), markup=False)
+            raise typer.Exit(130) from None
+        except TracecheckError:
+            if seen["episodes"]:
+                err.print(_kept("the script failed", output, seen["episodes"], existed),
+                          markup=False)
+            raise
+    took = _time.perf_counter() - start
+    say(f"recorded {n} episode(s), {steps} step(s), {crashes} crash(es) from "
+        f"{shlex.join(settings.command)} answered by {machine.name} in {took:.1f} s; "
+        f"{seen['blocked']} step(s) took an action {machine.name} did not enable -> {output}")
+    if seen["blocked"]:
+        say(f"replay them: tracecheck replay {shlex.quote(str(output))} --shield "
+            f"{shlex.quote(str(machine.path))}")
+
+
+def _kept(what: str, output: Path, episodes: int, existed: bool) -> str:
+    if episodes:
+        return f"{what}: {output} keeps the {episodes} episode(s) finished before"
+    return (f"{what} before an episode was finished: {output} was not "
+            + ("changed" if existed else "written"))
 
 
 

@@ -28,7 +28,8 @@ from .model import END_REASONS
 __all__ = ["RunHeaderMessage", "EpisodeHeaderMessage", "StepMessage", "EpisodeEndMessage",
            "MESSAGES", "TOPICS", "export_schemas", "SCHEMA_DIR"]
 
-Source = Literal["recorded", "imported-simb", "imported-prob2trace", "imported-minari"]
+Source = Literal["recorded", "imported-simb", "imported-prob2trace", "imported-minari",
+                 "external"]
 EndReason = Literal[END_REASONS]
 
 
@@ -61,6 +62,12 @@ class RunHeaderMessage(_Message):
     model_name: Optional[str] = Field(None, description="B machine the states belong to")
     variables: list[str] = Field(default_factory=list, description="state variable names")
     actions: list[str] = Field(default_factory=list, description="action (operation) names")
+    external_command: Optional[list[str]] = Field(
+        None, description="source external: the agent script's command line (SimB's external "
+                          "simulation; the port was appended)")
+    external_cwd: Optional[str] = Field(None, description="the folder the script ran in")
+    external_script: Optional[str] = Field(None, description="the script file it ran")
+    external_script_sha256: Optional[str] = None
 
 
 class EpisodeHeaderMessage(_Message):

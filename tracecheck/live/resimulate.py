@@ -103,6 +103,14 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
     todo = [e for e in report.per_episode if e.file == path and e.first_infeasible is not None]
     if not todo:
         return []
+    if header.source == "external":
+        import shlex
+
+        raise InputError(f"{path} was recorded from the agent script "
+                         f"{shlex.join(header.external_command or [])} (--external): it has no "
+                         "seeds and no environment tracecheck runs, so it cannot be "
+                         "re-simulated",
+                         hint="record it again with the script, or replay without --resimulate")
     if header.environment_config is None:
         raise InputError(f"{path} was not recorded by tracecheck (source {header.source}): "
                          "it has no environment to re-simulate")

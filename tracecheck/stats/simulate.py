@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Callable, Optional, Sequence
+from dataclasses import dataclass
+from typing import Callable, Iterator, Optional, Sequence
 
 from ..episodes.columns import episode_columns
 from ..episodes.files import recording_into
@@ -23,7 +24,7 @@ from ..live.record import (RecordSettings, check_settings, episodes, recording_h
                            run_inputs)
 from .estimates import evaluate_run, prepare, statistics
 
-__all__ = ["simulate"]
+__all__ = ["simulate", "simulate_external"]
 
 
 def _holds(episode: Episode, pset: PropertySet, formulas: dict,
@@ -59,45 +60,96 @@ def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
     ``inputs`` (the property file, say) nor the agent or shield file, an existing file only
     with ``force``."""
     out = Path(out)
+    _check_width(until_width)
+    agent, shield = check_settings(settings, out, force=force, inputs=inputs)
+    from ..live.record import resolve
+
+    adapter = resolve(settings)[0]
+    source = _Source(recording_header(settings, agent, shield), episodes(settings, shield),
+                     settings.episodes, tuple(adapter.actions), prepare(pset, adapter),
+                     [*run_inputs(settings), *inputs], adapter)
+    return _simulate(source, out, pset, until_width=until_width,
+                     batch=batch or max(10, 10 * settings.workers), progress=progress,
+                     force=force, channels=channels)
+
+
+def simulate_external(settings, shield, out: str | Path, pset: PropertySet, *,
+                      until_width: Optional[float] = None, batch: Optional[int] = None,
+                      progress: Optional[Callable[[Episode], None]] = None,
+                      force: bool = False, inputs: Sequence[Path] = (),
+                      channels: Optional[ChannelsFactory] = None) -> dict:
+    """:func:`simulate` with the episodes of an agent script that speaks SimB's
+    external-simulation protocol (``settings``: an
+    :class:`~tracecheck.live.external.ExternalSettings`; ``shield``: the loaded machine
+    that answers it); the properties are checked against that machine."""
+    from ..live.external import check_external, external_episodes, external_header
+
+    out = Path(out)
+    _check_width(until_width)
+    given = check_external(settings, shield, out, force=force, inputs=inputs)
+    source = _Source(external_header(settings, shield), external_episodes(settings, shield),
+                     settings.episodes, tuple(shield.machine.operations),
+                     prepare(pset, machine=shield.machine), given, None)
+    return _simulate(source, out, pset, until_width=until_width, batch=batch or 10,
+                     progress=progress, force=force, channels=channels)
+
+
+def _check_width(until_width: Optional[float]) -> None:
     if until_width is not None and not 0.0 < until_width < 1.0:
         from ..errors import InputError
 
         raise InputError(f"--until-ci-width must lie strictly between 0 and 1 (a width of a "
                          f"share), not {until_width}")
-    agent, shield = check_settings(settings, out, force=force, inputs=inputs)
-    from ..live.record import resolve
 
-    adapter = resolve(settings)[0]
-    formulas = prepare(pset, adapter)
-    batch = batch or max(10, 10 * settings.workers)
-    looks = math.ceil(settings.episodes / batch)
+
+@dataclass
+class _Source:
+    """Where a simulation's episodes come from, and what checking them needs."""
+
+    header: object
+    episodes: Iterator[Episode]
+    planned: int
+    actions: tuple[str, ...]
+    formulas: dict
+    inputs: list
+    adapter: object
+
+
+def _simulate(source: _Source, out: Path, pset: PropertySet, *, until_width, batch,
+              progress, force, channels) -> dict:
+    looks = math.ceil(source.planned / batch)
     level = 1.0 - 0.05 / looks
-    header = recording_header(settings, agent, shield)
     holds: dict[str, list[bool]] = {p.name: [] for p in pset.properties}
     sequential = None
     if until_width is not None:
         sequential = {"rule": f"Bonferroni over {looks} planned looks, Wilson intervals at "
                               f"level {level:.4f} per look", "width": until_width,
                       "batch": batch, "looks": 0, "stopped_early": False, "widths": {}}
-    with recording_into(out, header, force=force, channels=channels,
-                        inputs=[*run_inputs(settings), *inputs]) as writer:
-        for episode in episodes(settings, shield):
-            writer.write(episode)
-            if progress is not None:
-                progress(episode)
-            if sequential is None:
-                continue
-            for name, value in _holds(episode, pset, formulas, adapter.actions).items():
-                holds[name].append(value)
-            done = writer.episodes
-            if done % batch == 0 or done == settings.episodes:
-                sequential["looks"] += 1
-                widths = _widths(holds, level)
-                sequential["widths"] = widths
-                if widths and max(widths.values()) < until_width and done < settings.episodes:
-                    sequential["stopped_early"] = True
-                    break
-    result = statistics([out], pset, adapter=adapter)
+    with recording_into(out, source.header, force=force, channels=channels,
+                        inputs=source.inputs) as writer:
+        try:
+            for episode in source.episodes:
+                writer.write(episode)
+                if progress is not None:
+                    progress(episode)
+                if sequential is None:
+                    continue
+                for name, value in _holds(episode, pset, source.formulas,
+                                          source.actions).items():
+                    holds[name].append(value)
+                done = writer.episodes
+                if done % batch == 0 or done == source.planned:
+                    sequential["looks"] += 1
+                    widths = _widths(holds, level)
+                    sequential["widths"] = widths
+                    if widths and max(widths.values()) < until_width and done < source.planned:
+                        sequential["stopped_early"] = True
+                        break
+        finally:
+            close = getattr(source.episodes, "close", None)
+            if close is not None:  # stops the workers or the script at once
+                close()
+    result = statistics([out], pset, adapter=source.adapter)
     if sequential is not None:
         result["sequential"] = sequential
     return result

@@ -1,0 +1,351 @@
+"""Successor states the way ProB finds them for SimB's external simulation.
+
+An agent script that speaks SimB's external-simulation protocol answers each step with an
+operation and a predicate over the state after it (``x = 3 & y = 0``, usually one equation
+per variable). As in ProB, the successor is a state that the operation can reach from the
+current one *and* that satisfies the predicate: variables the predicate fixes take its
+values, the others the values the operation's substitution gives them (the drone swarm's
+script sends only ``drone_positions``; its machine computes ``visited`` and
+``current_drone``). A variable fixed by neither is an error, never a guess.
+
+>>> from tracecheck.b import load_machine_text
+>>> m = load_machine_text('''MACHINE Walk
+... VARIABLES pos, steps
+... INVARIANT pos : 0..3 & steps : NATURAL
+... INITIALISATION pos :: 0..3 ; steps := 0
+... OPERATIONS Right = PRE pos < 3 THEN pos := pos + 1 ; steps := steps + 1 END END''')
+>>> first = successor(m, None, {}, m.parse("pos = 1"))
+>>> dict(first.state), first.possible
+({'pos': 1, 'steps': 0}, True)
+>>> nxt = successor(m, "Right", first.state, m.parse("pos = 2"))
+>>> dict(nxt.state), nxt.possible
+({'pos': 2, 'steps': 1}, True)
+>>> successor(m, "Right", nxt.state, m.parse("pos = 0")).possible  # not what Right does
+False
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import islice
+from typing import Any, Callable, Mapping, Optional
+
+from ..errors import EvaluationError, InputError, TracecheckError, UnsupportedError
+from . import ast
+from .bindings import conjuncts
+from .memo import fresh
+from .substitution import SubstCompiler, written
+from .values import make_set
+
+__all__ = ["Successor", "successor", "fixed_values", "UndeterminedError"]
+
+#: the most candidate outcomes tried for one step (SELECT/CHOICE branches, ANY values)
+MAX_CANDIDATES = 4096
+
+Env = dict
+Updates = dict
+Plan = Callable[[Env, Mapping[str, Any]], list]
+
+
+class UndeterminedError(InputError):
+    """The predicate and the operation together leave a variable without a value, or with
+    several."""
+
+
+@dataclass(frozen=True)
+class Successor:
+    """The state after a step, and whether the operation (its guards aside) can reach it
+    while satisfying the predicate — False is a postcondition violation."""
+
+    state: Mapping[str, Any]
+    possible: bool
+
+
+def fixed_values(machine, predicate: ast.Node) -> dict[str, Any]:
+    """The values the conjuncts ``v = E`` (or ``E = v``) of ``predicate`` give state
+    variables, ``E`` not reading the state (a literal, constants)."""
+    variables = set(machine.variables)
+    comp = machine.compiler()
+    out: dict[str, Any] = {}
+    for conj in conjuncts(predicate):
+        if not (isinstance(conj, ast.Rel) and conj.op == "="):
+            continue
+        for name, expr in ((conj.left, conj.right), (conj.right, conj.left)):
+            if (isinstance(name, ast.Name) and name.id in variables and name.id not in out
+                    and not (ast.free_names(expr) & variables)):
+                out[name.id] = comp.compile(expr)(dict(machine.base_env))
+                break
+    return out
+
+
+def successor(machine, op: Optional[str], before: Mapping[str, Any],
+              predicate: ast.Node) -> Successor:
+    """The state after ``op`` (None: the INITIALISATION) from ``before`` that satisfies
+    ``predicate`` (parsed and checked in ``machine``'s scope).
+
+    Raises :class:`UndeterminedError` when a variable is fixed neither by the predicate nor
+    by the substitution, or when several different states qualify.
+    """
+    fixed = fixed_values(machine, predicate)
+    body = machine.initialisation if op is None else machine.operation(op).body
+    if body is None:
+        body = ast.Skip()
+    writes = written(body)
+    free = [v for v in machine.variables if v not in fixed and (op is None or v in writes)]
+    pre = machine.env({} if op is None else before)
+    if not free:
+        candidates = [{}]
+    else:
+        if op is not None and machine.operation(op).params:
+            raise UndeterminedError(
+                f"{op} has parameters, so tracecheck does not run it to find "
+                f"{', '.join(free)}; the predicate must fix every variable it writes")
+        candidates = _plan(machine, op, body)(pre, fixed)
+    outcome = _choose(machine, op, before, predicate, fixed, candidates)
+    if outcome is None:
+        missing = [v for v in free if v not in (candidates[0] if candidates else {})]
+        what = "the INITIALISATION" if op is None else op
+        raise UndeterminedError(
+            f"{', '.join(missing or free)} fixed neither by the predicate nor by {what}",
+            hint="the predicate must give every variable the operation does not compute "
+                 "(`v = value`)")
+    return outcome
+
+
+def _choose(machine, op, before, predicate, fixed, candidates) -> Optional[Successor]:
+    """The one state among ``candidates`` (updates, fixed values override) that the
+    operation reaches and the predicate accepts; else the first (a violation); None when
+    a candidate leaves a variable without a value."""
+    check = machine.compile(predicate)
+    states, good = [], []
+    for updates in candidates:
+        state = {v: before[v] for v in machine.variables if v in before and op is not None}
+        state.update(updates)
+        state.update(fixed)
+        if any(v not in state for v in machine.variables):
+            return None
+        state = {v: state[v] for v in machine.variables}
+        ok = _possible(machine, op, before, state) and bool(check(machine.env(state)))
+        states.append(state)
+        if ok and state not in good:
+            good.append(state)
+    if len(good) > 1:
+        differ = sorted(v for v in machine.variables if good[0][v] != good[1][v])
+        raise UndeterminedError(
+            f"{', '.join(differ)}: several values fit the predicate and "
+            f"{'the INITIALISATION' if op is None else op}",
+            hint="fix them in the predicate (`v = value`)")
+    if good:
+        return Successor(good[0], True)
+    if not states:  # no branch of the substitution applies (its guards are false)
+        return None
+    return Successor(states[0], False)
+
+
+def _possible(machine, op, before, state) -> bool:
+    """Whether the substitution (guards aside) reaches ``state``: the before-after check of
+    replay where it applies; for a sequence that starts non-deterministically (``x :: S ;
+    y := f(x)``, common in INITIALISATIONs) by running it with the chosen values checked."""
+    try:
+        try:
+            if op is None:
+                return machine.initialisation_ok(state)
+            return machine.effect_ok(op, before, state)
+        except UnsupportedError:
+            body = machine.initialisation if op is None else machine.operation(op).body
+            writes = written(body or ast.Skip())
+            runs = _plan(machine, op, body, strict=True)(
+                machine.env({} if op is None else before), state)
+            return any(all(run.get(v) == state[v] for v in writes) for run in runs)
+    except EvaluationError:
+        return False
+
+
+def _plan(machine, op, body, strict: bool = False) -> Plan:
+    return machine.cached("successor plans", (op, strict), lambda: _Planner(
+        SubstCompiler(machine.compiler()), strict).plan(body or ast.Skip()))
+
+
+class _Planner:
+    """Compiles a substitution into ``plan(env, fixed) -> [updates, …]``: its possible
+    outcomes, a variable the predicate fixes taking that value where the substitution
+    cannot decide it (``x :: S``, ``ANY``). ``strict``: such a value must be one the part
+    can choose (else that run has no outcome) — to check a state rather than find one."""
+
+    def __init__(self, subst: SubstCompiler, strict: bool = False) -> None:
+        self.subst = subst
+        self.comp = subst.comp
+        self.strict = strict
+
+    def plan(self, s: ast.Subst) -> Plan:
+        method = getattr(self, "p_" + type(s).__name__, None)
+        writes = written(s)
+        if method is None:
+            return self._from_fixed(s, writes)
+        inner = method(s)
+        if self.strict:
+            return inner
+
+        def plan(env: Env, fixed: Mapping[str, Any]) -> list:
+            if writes and writes <= fixed.keys():
+                return [{v: fixed[v] for v in writes}]
+            return inner(env, fixed)
+        return plan
+
+    def _from_fixed(self, s: ast.Subst, writes: frozenset[str]) -> Plan:
+        name = {"BecomesIn": "`x :: S`", "BecomesSuchThat": "`x : (P)`", "Any": "ANY"
+                }.get(type(s).__name__, type(s).__name__)
+        check = self.subst.compile(s) if self.strict else None
+
+        def plan(env: Env, fixed: Mapping[str, Any]) -> list:
+            missing = sorted(writes - fixed.keys())
+            if missing:
+                raise UndeterminedError(
+                    f"{', '.join(missing)} fixed neither by the predicate nor by the "
+                    f"operation (its {name} chooses it)",
+                    hint="the predicate must give every such variable (`v = value`)")
+            chosen = {v: fixed[v] for v in writes}
+            if check is not None and not check(fresh(env), dict(chosen)):
+                return []
+            return [chosen]
+        return plan
+
+    def p_Skip(self, s: ast.Skip) -> Plan:
+        return lambda env, fixed: [{}]
+
+    def p_Assign(self, s: ast.Assign) -> Plan:
+        parts = []
+        for target, value in zip(s.targets, s.values):
+            val = self.comp.compile(value)
+            if isinstance(target, ast.Name):
+                parts.append((target.id, None, val))
+            else:
+                parts.append((target.fn.id, self.comp.compile(ast.pair_of(target.args)), val))
+
+        targets = frozenset(name for name, _, _ in parts)
+        strict = self.strict
+
+        def assign(env: Env, fixed: Mapping[str, Any]) -> list:
+            try:
+                return [_assigned(env)]
+            except EvaluationError as exc:  # ill-defined here (a blocked action's effect)
+                if strict:
+                    return []
+                if targets <= fixed.keys():
+                    return [{v: fixed[v] for v in targets}]
+                raise UndeterminedError(f"cannot compute {', '.join(sorted(targets))}: "
+                                        f"{exc.message}") from None
+
+        def _assigned(env: Env) -> Updates:
+            out: Updates = {}
+            for name, key, val in parts:
+                if key is None:
+                    out[name] = val(env)
+                    continue
+                old = out.get(name, env[name])
+                new = dict(old.map if hasattr(old, "map") else old)
+                new[key(env)] = val(env)
+                out[name] = make_set(list(new.items()))
+            return out
+        return assign
+
+    def p_Parallel(self, s: ast.Parallel) -> Plan:
+        parts = [self.plan(i) for i in s.items]
+
+        def parallel(env: Env, fixed: Mapping[str, Any]) -> list:
+            out = [{}]
+            for p in parts:
+                out = _capped(dict(a, **b) for a in out for b in p(env, fixed))
+            return out
+        return parallel
+
+    def p_Sequence(self, s: ast.Sequence) -> Plan:
+        # a fixed value is the one *after* the whole sequence: an earlier part may take it
+        # only when no later part writes that variable again
+        later = [frozenset().union(*(written(i) for i in s.items[k + 1:]))
+                 for k in range(len(s.items))]
+        parts = [(self.plan(i), after) for i, after in zip(s.items, later)]
+
+        def sequence(env: Env, fixed: Mapping[str, Any]) -> list:
+            runs = [({}, env)]
+            for p, after in parts:
+                allowed = {k: v for k, v in fixed.items() if k not in after}
+                step = []
+                for done, here in runs:
+                    for upd in p(here, allowed):
+                        local = fresh(here)
+                        local.update(upd)
+                        step.append((dict(done, **upd), local))
+                runs = _capped(step)
+            return [done for done, _ in runs]
+        return sequence
+
+    def p_Pre(self, s: ast.Pre) -> Plan:
+        return self.plan(s.body)  # the guard is checked on its own (enabledness)
+
+    def p_Assert(self, s: ast.Assert) -> Plan:
+        return self.plan(s.body)
+
+    def _branches(self, s, first_only: bool) -> Plan:
+        branches = [(self.comp.compile(c), self.plan(b)) for c, b in s.branches]
+        other = self.plan(s.else_) if s.else_ is not None else (
+            (lambda env, fixed: [{}]) if first_only else None)
+
+        def branching(env: Env, fixed: Mapping[str, Any]) -> list:
+            out = []
+            for cond, body in branches:
+                if cond(env):
+                    out += body(env, fixed)
+                    if first_only:
+                        return out
+            if not out and other is not None:
+                out = other(env, fixed)
+            return out
+        return branching
+
+    def p_Select(self, s: ast.Select) -> Plan:
+        return self._branches(s, first_only=False)
+
+    def p_IfSubst(self, s: ast.IfSubst) -> Plan:
+        return self._branches(s, first_only=True)
+
+    def p_Choice(self, s: ast.Choice) -> Plan:
+        parts = [self.plan(i) for i in s.items]
+        return lambda env, fixed: _capped(u for p in parts for u in p(env, fixed))
+
+    def p_LetSubst(self, s: ast.LetSubst) -> Plan:
+        with self.comp.binding(s.ids):
+            assign = self.comp.let_values(s, s.ids, s.pred)
+            body = self.plan(s.body)
+
+        def let(env: Env, fixed: Mapping[str, Any]) -> list:
+            local = fresh(env)
+            assign(local)
+            return body(local, fixed)
+        return let
+
+    def p_Any(self, s: ast.Any) -> Plan:
+        try:
+            with self.comp.binding(s.ids):
+                bind = self.comp.bindings(s, s.ids, s.pred)
+                body = self.plan(s.body)
+        except TracecheckError:  # values it cannot enumerate: only the predicate can say
+            return self._from_fixed(s, written(s))
+
+        def any_(env: Env, fixed: Mapping[str, Any]) -> list:
+            out = []
+            local = fresh(env)
+            for problem in islice(bind(local), MAX_CANDIDATES + 1):
+                if problem is not None:
+                    raise problem
+                out += body(fresh(local), fixed)
+            return _capped(out)
+        return any_
+
+
+def _capped(items) -> list:
+    out = list(islice(items, MAX_CANDIDATES + 1))
+    if len(out) > MAX_CANDIDATES:
+        raise UndeterminedError(f"more than {MAX_CANDIDATES} possible outcomes of the "
+                                "operation; the predicate must fix the variables it chooses")
+    return out
