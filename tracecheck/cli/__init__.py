@@ -20,6 +20,7 @@ from . import checking  # noqa: E402,F401  replay, diff
 from . import stats  # noqa: E402,F401  stats, simulate
 from . import live  # noqa: E402,F401  envs, train, record
 from . import render  # noqa: E402,F401  render, report
+from . import project  # noqa: E402,F401  project
 
 __all__ = ["app", "main"]
 

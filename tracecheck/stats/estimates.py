@@ -28,8 +28,8 @@ from ..checking.crashflag import CRASH_FLAG, flagged, with_crash_flag
 from ..live.adapter import installed_adapter
 from .properties import Metric, Property, PropertySet, load_properties, with_generic
 
-__all__ = ["RunValues", "StatsResult", "evaluate_run", "statistics", "INTERVALS",
-           "default_set", "adapter_set"]
+__all__ = ["RunValues", "StatsResult", "evaluate_run", "statistics", "run_statistics",
+           "INTERVALS", "default_set", "adapter_set"]
 
 INTERVALS = {"wilson": "wilson", "clopper-pearson": "exact"}
 
@@ -75,17 +75,20 @@ class _Scope:
     own_crashed: bool
 
 
-def _typing_scope(environment="highway", sample: Optional[dict] = None) -> _Scope:
-    """The names and constants properties are checked against: those of the environment's
-    machine (the shield its adapter names), else the types of a sample state's values —
-    and the recorded crash flag ``crashed``, unless they have a ``crashed`` of their own."""
+def _typing_scope(environment="highway", sample: Optional[dict] = None,
+                  machine=None) -> _Scope:
+    """The names and constants properties are checked against: those of ``machine`` when
+    given, else of the environment's machine (the shield its adapter names), else the types
+    of a sample state's values — and the recorded crash flag ``crashed``, unless they have a
+    ``crashed`` of their own."""
     from ..b.btypes import BOOL
     from ..b.typecheck import type_of_value
     from ..checking.shield import load_shield
 
-    adapter = installed_adapter(environment, required=False)
-    if adapter is not None and adapter.default_shield is not None:
+    adapter = None if machine is not None else installed_adapter(environment, required=False)
+    if machine is None and adapter is not None and adapter.default_shield is not None:
         machine = load_shield(adapter.default_shield).machine
+    if machine is not None:
         names, constants, variables = (dict(machine.type_objects), dict(machine.base_env),
                                        machine.variables)
     else:  # no machine: the recorded states' own types (none before the first episode)
@@ -139,14 +142,16 @@ def adapter_set(adapter) -> PropertySet:
     return with_generic(load_properties(adapter.properties) if adapter.properties else None)
 
 
-def prepare(pset: PropertySet, environment="highway", sample: Optional[dict] = None) -> dict:
+def prepare(pset: PropertySet, environment="highway", sample: Optional[dict] = None,
+            machine=None) -> dict:
     """Type-check every formula of ``pset`` against the environment's machine (a name or an
-    adapter; ``sample``: a state to take types from where there is no machine) and prepare
-    it for batch evaluation. ``formulas["warnings"]`` says where ``crashed`` is the
-    environment's own name, not the recorded crash flag."""
+    adapter; ``sample``: a state to take types from where there is no machine; ``machine``:
+    a machine to use instead, a ProB project's) and prepare it for batch evaluation.
+    ``formulas["warnings"]`` says where ``crashed`` is the environment's own name, not the
+    recorded crash flag."""
     needs_scope = any(m.node is not None for m in pset.metrics) or any(
         p.node is not None for p in pset.properties)
-    scope = _typing_scope(environment, sample) if needs_scope else None
+    scope = _typing_scope(environment, sample, machine) if needs_scope else None
     formulas: dict = {"warnings": []}
 
     def note(node, text, where) -> None:
@@ -274,12 +279,28 @@ def _aggregate(m: Metric, values: Optional[np.ndarray], cols: RunColumns) -> np.
         return np.add.reduceat(v, starts) / lengths
     if m.aggregate == "sum":
         return np.add.reduceat(v, starts)
-    if m.aggregate == "sum_between_steps":
+    if m.aggregate in ("sum_between_steps", "average_between_steps"):
         last = cols.starts[1:] - 1
-        return np.add.reduceat(v, starts) - (v[starts] + v[last]) / 2.0
+        total = np.add.reduceat(v, starts) - (v[starts] + v[last]) / 2.0
+        if m.aggregate == "sum_between_steps":
+            return total
+        return np.where(lengths > 1, total / np.maximum(lengths - 1, 1), 0.0)
+    if m.aggregate in ("min_between_steps", "max_between_steps"):
+        return _between_extreme(v, cols, m.aggregate == "min_between_steps")
     if m.aggregate == "min":
         return np.minimum.reduceat(v, starts)
     return np.maximum.reduceat(v, starts)
+
+
+def _between_extreme(v: np.ndarray, cols: RunColumns, least: bool) -> np.ndarray:
+    """Per episode, the least (or greatest) mean of two successive states' values; not a
+    number for an episode without steps."""
+    fill = np.inf if least else -np.inf
+    mids = np.full(len(v), fill)
+    mids[1:] = (v[:-1] + v[1:]) / 2.0
+    mids[cols.starts[:-1]] = fill  # a first state has no state before it in its episode
+    out = (np.minimum if least else np.maximum).reduceat(mids, cols.starts[:-1])
+    return np.where(np.diff(cols.starts) > 1, out, np.nan)
 
 
 def _holds(p: Property, values: np.ndarray, cols: RunColumns) -> np.ndarray:
@@ -340,8 +361,10 @@ def _metric_stats(values: np.ndarray, m: Metric) -> dict:
         out.update(sd=sd, ci95=[mean - half, mean + half])
     if m.estimate is not None:
         value, eps = m.estimate
-        out["estimate"] = {"value": value, "epsilon": eps,
-                           "within": abs(mean - value) <= eps}
+        within = {"mean": abs(mean - value) <= eps, "minimum": mean >= value - eps,
+                  "maximum": mean <= value + eps}[m.estimate_type]
+        out["estimate"] = {"value": value, "epsilon": eps, "type": m.estimate_type,
+                           "within": bool(within)}
     why = _nonfinite_why(values, m)
     if why:  # JSON writes these as null; the note says why (tracecheck.jsontext)
         for key in ("mean", "sd", "ci95"):
@@ -363,6 +386,8 @@ def _nonfinite_why(values: np.ndarray, m: Metric) -> Optional[str]:
            "or G[a,b] past its end, -inf for F[a,b] past its end" if m.aggregate == "stl"
            else "the agent's action values were not recorded (imported traces), so the "
            "shield's interventions cannot be told" if m.aggregate == "interventions"
+           else "an episode without steps has no mean between two steps"
+           if m.aggregate in ("min_between_steps", "max_between_steps")
            else "the per-episode values overflow")
     return f"not finite: of {len(values)} episodes, {what} ({why})"
 
@@ -398,6 +423,15 @@ def _hypothesis(k: int, n: int, p: Property) -> dict:
             "normal_p_value": normal_p, "normal_rejected": normal_p < t.alpha,
             "exact_p_value": exact_p, "exact_rejected": exact_p < t.alpha,
             "method": "normal approximation (SimB) and exact binomial"}
+
+
+def run_statistics(run: RunValues, pset: PropertySet, interval: str = "wilson") -> dict:
+    """The statistics of one run's per-episode values (what :func:`statistics` gives for
+    each run): per metric its mean with a t interval and estimate check, per property its
+    share with an interval and hypothesis test."""
+    return {"metrics": {m.name: _metric_stats(run.metrics[m.name], m) for m in pset.metrics},
+            "properties": {p.name: _property_stats(run.properties[p.name], p, interval)
+                           for p in pset.properties}}
 
 
 def _paired(a: RunValues, b: RunValues, pset: PropertySet) -> Optional[dict]:

@@ -4,7 +4,7 @@ A property file is TOML::
 
     [metrics.velocity]
     expression = "RSQRT(VehiclesVx(EgoVehicle)**2 + VehiclesVy(EgoVehicle)**2)"
-    aggregate = "average"           # steps | average | sum | sum_between_steps | min | max
+    aggregate = "average"           # steps | average | sum | sum_between_steps | min | max | …
     estimate = { value = 22.0, epsilon = 1.0 }   # optional: SimB's "desired value ± ε"
 
     [properties.SAF1]
@@ -14,7 +14,13 @@ A property file is TOML::
 
 Aggregates over the states s0 … sn of an episode (n = steps), as SimB defines them:
 ``steps`` is n; ``return`` the sum of the recorded step rewards (no expression); ``average`` the mean over s0…sn; ``sum`` the sum over s0…sn;
-``sum_between_steps`` Σ_{k=1..n} (value in s(k−1) + value in s(k)) / 2; ``min``, ``max``.
+``sum_between_steps`` Σ_{k=1..n} (value in s(k−1) + value in s(k)) / 2; ``min``, ``max``;
+``average_between_steps`` that sum divided by n (0 when n = 0), ``min_between_steps`` and
+``max_between_steps`` the least and greatest of its n terms (SimB's ``…_MEAN_BETWEEN_STEPS``
+checking types; not a number when n = 0).
+An estimate checks the mean over the episodes (SimB's estimation): with ``type = "mean"`` (the
+default) it must lie within value ± ε, with ``"minimum"`` be at least value − ε, with
+``"maximum"`` at most value + ε.
 ``interventions`` the share of the episode's steps where the shield replaced the agent's
 preferred action (from the recorded action values; no expression).
 A property of kind ``invariant`` holds in every state (the initial state included),
@@ -53,10 +59,14 @@ from ..errors import InputError, TracecheckError
 from ..inputs import read_text
 
 __all__ = ["Metric", "Property", "HypothesisTest", "PropertySet", "load_properties",
-           "HIGHWAY_SET", "GENERIC_SET", "AGGREGATES", "KINDS", "TAILS", "with_generic"]
+           "HIGHWAY_SET", "GENERIC_SET", "AGGREGATES", "KINDS", "TAILS", "ESTIMATE_TYPES",
+           "with_generic"]
 
 AGGREGATES = ("steps", "average", "sum", "sum_between_steps", "min", "max", "return", "stl",
-              "interventions")
+              "interventions", "average_between_steps", "min_between_steps",
+              "max_between_steps")
+#: how an estimate judges the mean over the episodes (SimB's ESTIMATION_TYPE)
+ESTIMATE_TYPES = ("mean", "minimum", "maximum")
 KINDS = ("invariant", "eventually", "final", "ltl", "stl", "end")
 TAILS = ("left", "right", "two")
 
@@ -76,6 +86,7 @@ class Metric:
     node: Optional[ast.Node] = None
     description: str = ""
     estimate: Optional[tuple[float, float]] = None  # (value, epsilon)
+    estimate_type: str = "mean"  # one of ESTIMATE_TYPES
 
 
 @dataclass(frozen=True)
@@ -287,14 +298,15 @@ def _metric(name: str, spec: dict, file: str) -> Metric:
         _temporal_text(spec.get("expression"), "expression", "STL", where, file)
     elif aggregate not in ("steps", "return", "interventions"):
         node = _formula(spec.get("expression"), "expression", f"{where} expression", file)
-    estimate = None
+    estimate, estimate_type = None, "mean"
     if "estimate" in spec:
-        est = _keys(spec["estimate"], ("value", "epsilon"), f"{where}: estimate", file,
-                    "an estimate {value = …, epsilon = …}")
+        est = _keys(spec["estimate"], ("value", "epsilon", "type"), f"{where}: estimate", file,
+                    "an estimate {value = …, epsilon = …, type = …}")
         estimate = (_number(est.get("value"), "estimate value", where, file),
                     _number(est.get("epsilon"), "estimate epsilon", where, file, at_least=0))
+        estimate_type = _choice(est, "type", "mean", ESTIMATE_TYPES, f"{where}: estimate", file)
     return Metric(name, aggregate, spec.get("expression"), node,
-                  _string(spec, "description", where, file), estimate)
+                  _string(spec, "description", where, file), estimate, estimate_type)
 
 
 def _choice(spec: dict, key: str, default: str, allowed: tuple, where: str, file: str) -> str:

@@ -1,0 +1,90 @@
+"""``tracecheck project``: a ProB2-UI project's validation tasks, run as its validation
+table would, each with its verdict."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from ..errors import InputError
+from .common import (FORMAT, JSON, OutputFormat, app, err, out, output_format, plain,
+                     print_json, print_table)
+
+
+def _traces(values: list[str]) -> dict[str, Path]:
+    """``--traces [SIMULATION=]DIR`` values as {simulation path or "": folder}."""
+    found: dict[str, Path] = {}
+    for value in values:
+        name, sep, folder = value.rpartition("=")
+        key = name if sep else ""
+        if not folder:
+            raise InputError(f"--traces {value!r}: give a folder of SimB timed traces, "
+                             "DIR or SIMULATION=DIR")
+        if key in found:
+            which = f"for {key}" if key else "without SIMULATION="
+            raise InputError(f"--traces is given twice {which}; give one folder each")
+        found[key] = Path(folder)
+    return found
+
+
+@app.command("project")
+def project_cmd(
+    project: Path = typer.Argument(..., help="A ProB2-UI project file (.prob2project)."),
+    machine: list[str] = typer.Option([], "--machine", "-m", help="Only this machine's tasks "
+                                      "(its name in the project; repeatable)."),
+    executions: Optional[int] = typer.Option(None, "--executions", "-n", min=1,
+                                             help="Executions per simulation task, instead "
+                                                  "of each task's EXECUTIONS."),
+    traces: list[str] = typer.Option([], "--traces", help="A folder of SimB timed traces "
+                                     "(Timed_Simulation_*.json) to take a simulation's "
+                                     "executions from instead of running its script: "
+                                     "SIMULATION=DIR for one simulation (its path as the "
+                                     "project writes it, or its file name), DIR for every "
+                                     "other one (repeatable)."),
+    no_scripts: bool = typer.Option(False, "--no-scripts", help="Never run a simulation's "
+                                    "script: simulations without --traces are not run."),
+    python: str = typer.Option("python3", "--python", help="The Python that runs the "
+                               "simulations' scripts (the authors' need their own pinned "
+                               "packages)."),
+    seed: int = typer.Option(0, "--seed", help="Seeds SimB's random steps before a property "
+                             "(MAX_STEPS_BEFORE_PROPERTY)."),
+    step_timeout: float = typer.Option(30.0, "--step-timeout", min=0.1, help="Seconds a "
+                                       "script may take to answer one step."),
+    fmt: OutputFormat = FORMAT,
+    as_json: bool = JSON,
+) -> None:
+    """Run a ProB2-UI project's validation tasks: trace replays, SimB hypothesis tests,
+    estimations and Monte Carlo runs. Running a project runs its simulations' scripts (as
+    ProB2-UI does) unless --traces or --no-scripts says otherwise. Exit 0 when every task
+    ran and succeeded, 1 when one failed, 3 when none failed but some were not run."""
+    from ..interop.prob2project import read_project
+    from ..interop.prob2project_run import RunOptions, exit_code, run_project
+    from ..render.project_text import project_summary, project_table, project_text
+
+    fmt = output_format(fmt, as_json)
+    options = RunOptions(machines=tuple(machine), executions=executions,
+                         traces=_traces(traces), scripts=not no_scripts, python=python,
+                         seed=seed, step_timeout=step_timeout)
+    report = run_project(read_project(project), options)
+    if fmt == OutputFormat.json:
+        print_json(report.to_json())
+    elif fmt == OutputFormat.md:
+        plain(_markdown(report, project_table))
+    elif fmt == OutputFormat.csv:
+        print_table(fmt, project_table(report))
+    else:
+        project_text(out, report)
+    code = exit_code(report)
+    if code == 3 and fmt != OutputFormat.text:
+        err.print(f"note: {project_summary(report)}", highlight=False)
+    if code:
+        raise typer.Exit(code)
+
+
+def _markdown(report, table) -> str:
+    from ..render.project_text import project_summary
+    from ..render.tables import markdown, md_text
+
+    return markdown(table(report)) + "\n\n" + md_text(project_summary(report), cell=False)

@@ -1,0 +1,316 @@
+"""Running a ProB2-UI project's validation tasks (``tracecheck project``), as ProB2-UI's
+validation table would, each with its verdict: success, failed or not run (with the reason).
+
+* ``REPLAY_TRACE``: the ``.prob2trace`` file replayed against the machine
+  (:func:`tracecheck.checking.replay_columns`): success when every step's operation is
+  enabled in the state before it and its effect gives the recorded state; else failed at the
+  first bad step.
+* ``SIMULATION``: SimB's hypothesis tests, estimations and Monte Carlo runs
+  (:mod:`tracecheck.stats.simb_tasks`) on executions from a folder of SimB timed traces
+  (``Timed_Simulation_*.json``: the simulation's path when it is a folder, or a folder given
+  with ``traces``) or from the external script the simulation names, run with ``python``
+  (:mod:`tracecheck.live.external`; running a project runs its scripts, as ProB2-UI does —
+  ``scripts=False`` never does). The tasks of one simulation share its executions: the
+  script runs once, for the most executions any of them asks for.
+* every other task (LTL, model checking, symbolic checking, proof obligations …): not run,
+  with the reason.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Callable, Mapping, Optional
+
+from ..errors import InputError, TracecheckError
+from ..stats.simb_tasks import FAILED, NOT_RUN, SUCCESS, TaskOutcome, evaluate_task
+from .prob2project import REPLAY_TRACE, SIMULATION, Project, ProjectMachine, Task
+
+__all__ = ["RunOptions", "TaskReport", "ProjectReport", "run_project", "script_episodes",
+           "exit_code", "STATUSES"]
+
+STATUSES = (SUCCESS, FAILED, NOT_RUN)
+#: the exit code of ``tracecheck project`` when no task failed but some were not run
+NOT_ALL_RUN = 3
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How to run a project. ``traces``: a folder of SimB timed traces per simulation path
+    (as the project writes it, or its file name; the key ``""``: every simulation without
+    its own); ``scripts``: whether a simulation's script may be run; ``python``: the
+    interpreter that runs the scripts; ``seed``: SimB's random steps before a property
+    (``MAX_STEPS_BEFORE_PROPERTY``)."""
+
+    machines: tuple[str, ...] = ()
+    executions: Optional[int] = None
+    traces: Mapping[str, Path] = field(default_factory=dict)
+    scripts: bool = True
+    python: str = "python3"
+    seed: int = 0
+    step_timeout: float = 30.0
+
+
+@dataclass
+class TaskReport:
+    """One row of the validation table."""
+
+    machine: str
+    task: str  # the task's id, else #number
+    kind: str  # REPLAY_TRACE, HYPOTHESIS_TEST, ESTIMATION, MONTE_CARLO_SIMULATION, LTL, …
+    checks: str
+    status: str
+    executions: int = 0
+    result: str = ""
+    reason: str = ""
+    source: str = ""  # where the executions came from
+    where: str = ""  # the task's JSON path in the project file
+    selected: bool = True  # False: deselected in the project (not counted in the exit code)
+    details: dict = field(default_factory=dict)
+
+
+@dataclass
+class ProjectReport:
+    project: str
+    file: str
+    tasks: list[TaskReport] = field(default_factory=list)
+
+    def count(self, status: str, *, selected_only: bool = True) -> int:
+        return sum(1 for t in self.tasks if t.status == status
+                   and (t.selected or not selected_only))
+
+    def to_json(self) -> dict:
+        return {"project": self.project, "file": self.file,
+                "summary": {s: self.count(s) for s in STATUSES},
+                "exit_code": exit_code(self), "tasks": [asdict(t) for t in self.tasks]}
+
+
+def exit_code(report: ProjectReport) -> int:
+    """1 when a task failed; else 3 when a (selected) task was not run, so that a project of
+    which nothing ran never passes for validated; else 0."""
+    if report.count(FAILED):
+        return 1
+    return NOT_ALL_RUN if report.count(NOT_RUN) else 0
+
+
+def script_episodes(command: tuple[str, ...], episodes: int, cwd: Path, shield, *,
+                    ending_time_ms: Optional[float], max_steps: Optional[int],
+                    step_timeout: float) -> list:
+    """Episodes of an external script speaking SimB's protocol (the seam tests replace)."""
+    from ..live.external import ExternalSettings, external_episodes
+
+    settings = ExternalSettings(command=command, episodes=episodes, cwd=cwd,
+                                ending_time_ms=ending_time_ms, max_steps=max_steps,
+                                step_timeout=step_timeout)
+    return list(external_episodes(settings, shield))
+
+
+def run_project(project: Project, options: RunOptions = RunOptions(),
+                on_task: Optional[Callable[[TaskReport], None]] = None) -> ProjectReport:
+    """Every task of the project's machines (those named in ``options.machines``, all when
+    empty), in the project's order; ``on_task`` hears of each as it is done."""
+    report = ProjectReport(project.name, str(project.file))
+    for machine in _selected(project, options.machines):
+        runner = _MachineRun(project, machine, options)
+        for task in machine.tasks:
+            row = runner.run(task)
+            report.tasks.append(row)
+            if on_task is not None:
+                on_task(row)
+    return report
+
+
+def _selected(project: Project, names: tuple[str, ...]) -> list[ProjectMachine]:
+    known = [m.name for m in project.machines]
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise InputError(f"the project {project.name} has no machine {unknown[0]!r}; it has "
+                         f"{', '.join(known) or 'none'}", hint="give --machine NAME of one of "
+                         "them (repeatable), or leave it out for all")
+    return [m for m in project.machines if not names or m.name in names]
+
+
+class _MachineRun:
+    """The tasks of one machine: its shield loaded once, each simulation's executions read
+    or run once."""
+
+    def __init__(self, project: Project, machine: ProjectMachine, options: RunOptions) -> None:
+        self.project, self.machine, self.options = project, machine, options
+        self._shield = None
+        self._shield_error: Optional[str] = None
+        self._executions: dict[Path, tuple[list, str, str]] = {}
+
+    @property
+    def shield(self):
+        if self._shield is None and self._shield_error is None:
+            from ..checking.shield import load_shield
+
+            if not self.machine.location.is_file():
+                self._shield_error = f"no machine file at {self.machine.location}"
+            else:
+                try:
+                    self._shield = load_shield(self.machine.location)
+                except TracecheckError as exc:
+                    self._shield_error = f"tracecheck cannot load the machine: {exc.render()}"
+        return self._shield
+
+    def run(self, task: Task) -> TaskReport:
+        row = TaskReport(self.machine.name, task.label, task.kind, task.description,
+                         NOT_RUN, where=task.where, selected=task.selected)
+        if not task.selected:
+            row.reason = "deselected in the project (ProB2-UI does not run it either)"
+        elif task.kind not in (REPLAY_TRACE, SIMULATION):
+            row.reason = f"tracecheck does not run {task.kind} tasks (it replays traces and " \
+                         "runs SimB simulations)"
+        elif self.shield is None:
+            row.reason = self._shield_error or ""
+        elif task.kind == REPLAY_TRACE:
+            self._replay(task, row)
+        else:
+            self._simulate(task, row)
+        return row
+
+    # ---------------------------------------------------------- trace replay
+
+    def _replay(self, task: Task, row: TaskReport) -> None:
+        from ..checking.replaying import replay_columns
+        from ..episodes.columns import episode_columns
+        from .common import vocabulary_of
+        from .prob2trace import read_prob2trace
+
+        row.source = str(task.trace)
+        if not task.trace.is_file():
+            row.reason = f"no trace file at {task.trace}"
+            return
+        machine = self.shield.machine
+        try:
+            episode = read_prob2trace(task.trace, 0, vocabulary_of(machine), machine)
+            actions = sorted({s.action for s in episode.steps if s.action})
+            replayed = replay_columns(episode_columns([episode], actions), self.shield)
+        except TracecheckError as exc:
+            row.reason = f"tracecheck cannot replay it: {exc.render()}"
+            return
+        ep = replayed.per_episode[0]
+        row.executions = 1
+        row.status, row.result, row.reason = _replay_verdict(ep, episode)
+        row.details = {"steps": ep.steps, "first_infeasible": ep.first_infeasible,
+                       "enabled_there": ep.enabled,
+                       "postcondition_violations": ep.postcondition_violations,
+                       "invariant_violations": ep.invariant_violations}
+
+    # ---------------------------------------------------------- simulations
+
+    def _simulate(self, task: Task, row: TaskReport) -> None:
+        simb = task.simb
+        row.kind, row.checks = simb.kind, simb.checks
+        if self.options.executions is not None:
+            simb = replace(simb, executions=self.options.executions)
+        episodes, source, error = self._executions_of(task)
+        row.source = source
+        if error:
+            row.reason = error
+            return
+        where = f"{self.project.file}: {task.where}"
+        outcome: TaskOutcome = evaluate_task(simb, episodes, self.shield.machine,
+                                             seed=self.options.seed, where=where)
+        row.status, row.executions = outcome.status, outcome.executions
+        row.result, row.reason, row.details = outcome.result, outcome.reason, outcome.details
+        if simb.executions is not None and len(episodes) < simb.executions \
+                and outcome.status != NOT_RUN:
+            row.details["note"] = f"only {len(episodes)} of {simb.executions} executions"
+            row.result += f" (only {len(episodes)} of {simb.executions} executions)"
+
+    def _executions_of(self, task: Task) -> tuple[list, str, str]:
+        """(episodes, where they came from, why there are none) for a simulation."""
+        key = task.simulation
+        if key not in self._executions:
+            self._executions[key] = self._load(task)
+        return self._executions[key]
+
+    def _traces_for(self, task: Task) -> Optional[Path]:
+        given = self.options.traces
+        for name in (task.simulation_text, Path(task.simulation_text or "").name, ""):
+            if name in given:
+                return Path(given[name])
+        return task.simulation if task.simulation.is_dir() else None
+
+    def _wanted(self, task: Task) -> tuple[Optional[int], list[Task]]:
+        """The most executions any task of this simulation asks for (None: all there are),
+        and those tasks."""
+        group = [t for t in self.machine.tasks if t.kind == SIMULATION and t.selected
+                 and t.simulation == task.simulation]
+        if self.options.executions is not None:
+            return self.options.executions, group
+        counts = [t.simb.executions for t in group]
+        return (None if any(c is None for c in counts) else max(counts)), group
+
+    def _load(self, task: Task) -> tuple[list, str, str]:
+        folder = self._traces_for(task)
+        wanted, group = self._wanted(task)
+        if folder is not None:
+            return self._read_traces(folder, wanted)
+        path = task.simulation
+        if path.suffix != ".py":
+            kind = "SimB simulation file" if path.suffix == ".json" else "file"
+            return [], str(path), (
+                f"the {kind} {path} is neither an external script (.py) nor a folder of "
+                "timed traces; tracecheck does not run SimB's own simulations: give a "
+                "folder of its traces with --traces")
+        if not self.options.scripts:
+            return [], str(path), ("running scripts is off (--no-scripts): give a folder "
+                                   "of timed traces with --traces")
+        if not path.is_file():
+            return [], str(path), f"no script at {path}"
+        return self._run_script(path, wanted or 1, group)
+
+    def _read_traces(self, folder: Path, wanted: Optional[int]) -> tuple[list, str, str]:
+        from .common import expand_paths, vocabulary_of
+        from .simb import read_simb
+
+        source = f"traces {folder}"
+        if not folder.is_dir():
+            return [], source, f"no folder of timed traces at {folder}"
+        machine = self.shield.machine
+        try:
+            files = expand_paths([folder], "*.json")
+            if wanted is not None:
+                files = files[:wanted]
+            vocab = vocabulary_of(machine)
+            return [read_simb(f, k, vocab, machine) for k, f in enumerate(files)], source, ""
+        except TracecheckError as exc:
+            return [], source, f"tracecheck cannot read the traces: {exc.render()}"
+
+    def _run_script(self, path: Path, wanted: int, group: list[Task]) -> tuple[list, str, str]:
+        windows = [t.simb.window for t in group]
+        ending = [w.ending_time for w in windows]
+        steps = [w.steps_per_execution for w in windows]
+        source = f"script {path} ({self.options.python})"
+        try:
+            episodes = script_episodes(
+                (self.options.python, path.name), wanted, path.parent, self.shield,
+                ending_time_ms=None if None in ending else max(ending),
+                max_steps=None if None in steps else max(steps),
+                step_timeout=self.options.step_timeout)
+        except ModuleNotFoundError as exc:
+            return [], source, f"this tracecheck cannot run external scripts ({exc})"
+        except TracecheckError as exc:
+            return [], source, f"the script failed: {exc.render()}"
+        return episodes, source, ""
+
+
+def _replay_verdict(ep, episode) -> tuple[str, str, str]:
+    """(status, result, reason) of a replayed trace."""
+    post = ep.postcondition_violations
+    bad = [k for k in (ep.first_infeasible, post[0] if post else None) if k is not None]
+    note = f"; the invariant fails in state {ep.invariant_violations[0]}" \
+        if ep.invariant_violations else ""
+    if not bad:
+        return SUCCESS, f"{ep.steps} steps, all feasible{note}", ""
+    k = min(bad)
+    op = episode.steps[k].action
+    if k == ep.first_infeasible:
+        enabled = ", ".join(ep.enabled or []) or "none"
+        why = f"step {k}: {op} is not enabled (enabled: {enabled})"
+    else:
+        why = f"step {k}: {op} cannot reach the recorded state"
+    return FAILED, f"{ep.steps} steps; {why}{note}", why
