@@ -115,9 +115,7 @@ class SubstCompiler:
                 key = self.comp.compile(ast.pair_of(target.args))
 
                 def override(pre, post, name=name, key=key, val=val):
-                    new = dict(pre[name].map if hasattr(pre[name], "map") else pre[name])
-                    new[key(pre)] = val(pre)
-                    return post[name] == make_set(list(new.items()))
+                    return post[name] == _override(pre[name], key(pre), val(pre))
                 parts.append(override)
         return lambda pre, post: all(p(pre, post) for p in parts)
 
@@ -236,14 +234,30 @@ class SubstCompiler:
             return body(env, post)
         return let
 
+    def _assignment(self, s: ast.Assign) -> Callable[[Env], Optional[dict]]:
+        """``x, f(a) := E, F`` run: every right side (and argument) in the state before."""
+        parts = []
+        for target, value in zip(s.targets, s.values):
+            key = None if isinstance(target, ast.Name) else self.comp.compile(
+                ast.pair_of(target.args))
+            name = target.id if isinstance(target, ast.Name) else target.fn.id
+            parts.append((name, key, self.comp.compile(value)))
+
+        def assign(env: Env) -> Optional[dict]:
+            out: dict = {}
+            for name, key, val in parts:
+                out[name] = val(env) if key is None else _override(
+                    out.get(name, env[name]), key(env), val(env))
+            return out
+        return assign
+
     # -- execution of deterministic substitutions
     def execute(self, s: ast.Subst) -> Callable[[Env], Optional[dict]]:
         """``env -> updates`` for a deterministic substitution (None: guard false)."""
         if isinstance(s, ast.Skip):
             return lambda env: {}
-        if isinstance(s, ast.Assign) and all(isinstance(t, ast.Name) for t in s.targets):
-            pairs = [(t.id, self.comp.compile(v)) for t, v in zip(s.targets, s.values)]
-            return lambda env: {n: f(env) for n, f in pairs}
+        if isinstance(s, ast.Assign):
+            return self._assignment(s)
         if isinstance(s, (ast.Parallel, ast.Sequence)):
             parts = [self.execute(i) for i in s.items]
             seq = isinstance(s, ast.Sequence)
@@ -280,6 +294,14 @@ class SubstCompiler:
             UnsupportedError, s,
             "tracecheck cannot check a sequence whose first part is not deterministic",
             hint="write the non-deterministic part last, or use || instead of ;")
+
+
+def _override(old, key, value):
+    """``old`` (a function, as a set of pairs or a FuncValue) with ``key`` mapped to
+    ``value``: what ``f(key) := value`` leaves in ``f``."""
+    new = dict(old.map if hasattr(old, "map") else old)
+    new[key] = value
+    return make_set(list(new.items()))
 
 
 # ------------------------------------------------------------------ as predicates

@@ -35,7 +35,6 @@ from . import ast
 from .bindings import conjuncts
 from .memo import fresh
 from .substitution import SubstCompiler, written
-from .values import make_set
 
 __all__ = ["Successor", "successor", "fixed_values", "UndeterminedError"]
 
@@ -43,7 +42,6 @@ __all__ = ["Successor", "successor", "fixed_values", "UndeterminedError"]
 MAX_CANDIDATES = 4096
 
 Env = dict
-Updates = dict
 Plan = Callable[[Env, Mapping[str, Any]], list]
 
 
@@ -214,20 +212,13 @@ class _Planner:
         return lambda env, fixed: [{}]
 
     def p_Assign(self, s: ast.Assign) -> Plan:
-        parts = []
-        for target, value in zip(s.targets, s.values):
-            val = self.comp.compile(value)
-            if isinstance(target, ast.Name):
-                parts.append((target.id, None, val))
-            else:
-                parts.append((target.fn.id, self.comp.compile(ast.pair_of(target.args)), val))
-
-        targets = frozenset(name for name, _, _ in parts)
+        run = self.subst.execute(s)
+        targets = written(s)
         strict = self.strict
 
         def assign(env: Env, fixed: Mapping[str, Any]) -> list:
             try:
-                return [_assigned(env)]
+                return [run(env)]
             except EvaluationError as exc:  # ill-defined here (a blocked action's effect)
                 if strict:
                     return []
@@ -235,18 +226,6 @@ class _Planner:
                     return [{v: fixed[v] for v in targets}]
                 raise UndeterminedError(f"cannot compute {', '.join(sorted(targets))}: "
                                         f"{exc.message}") from None
-
-        def _assigned(env: Env) -> Updates:
-            out: Updates = {}
-            for name, key, val in parts:
-                if key is None:
-                    out[name] = val(env)
-                    continue
-                old = out.get(name, env[name])
-                new = dict(old.map if hasattr(old, "map") else old)
-                new[key(env)] = val(env)
-                out[name] = make_set(list(new.items()))
-            return out
         return assign
 
     def p_Parallel(self, s: ast.Parallel) -> Plan:

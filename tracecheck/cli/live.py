@@ -162,7 +162,8 @@ def record_cmd(
     from ..interop.foxglove import FoxgloveChannels
     from ..live.record import record
 
-    settings = record_settings(env, env_config, agent=str(agent), shield=shield, episodes=episodes,
+    settings = record_settings(env, env_config, agent=str(agent) if agent is not None else None,
+                         shield=shield, episodes=episodes,
                          seed=seed, duration=duration, profile=profile, fallback=fallback,
                          workers=workers, executor=executor.value, ray_address=ray_address)
     stats = {"crashes": 0, "steps": 0, "episodes": 0}

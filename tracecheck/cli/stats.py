@@ -9,7 +9,8 @@ from typing import Optional
 import typer
 
 from ..outputs import input_paths
-from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, EPISODE_EXECUTOR, RAY_ADDRESS,
+from .common import (CRASH, CWD, ENDING_TIME, EXTERNAL, STEP_TIMEOUT, external_settings,
+                     app, out, err, warn, Executor, FILE_EXECUTOR, EPISODE_EXECUTOR, RAY_ADDRESS,
                      OutputFormat, FORMAT, JSON, output_format, print_json, plain, progress,
                      Interval, ENV, ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, FORCE,
                      RUN_SHIELD, SEED, WORKERS, SALVAGE, RUN_ENV, run_adapter)
@@ -76,11 +77,16 @@ def stats_cmd(
 
 @app.command("simulate")
 def simulate_cmd(
-    agent: Path = AGENT,
+    agent: Optional[Path] = AGENT,
+    external: Optional[str] = EXTERNAL,
+    cwd: Optional[Path] = CWD,
+    step_timeout: float = STEP_TIMEOUT,
+    crash: Optional[str] = CRASH,
+    ending_time: Optional[int] = ENDING_TIME,
     shield: str = RUN_SHIELD,
     episodes: int = typer.Option(..., "--episodes", "-n", min=1,
                                  help="Episodes (at most, with --until-ci-width)."),
-    seed: int = SEED,
+    seed: Optional[int] = SEED,
     env: Optional[str] = ENV,
     env_config: list[str] = ENV_CONFIG,
     duration: Optional[int] = DURATION,
@@ -101,14 +107,31 @@ def simulate_cmd(
     force: bool = FORCE,
 ) -> None:
     """Monte Carlo: record episodes and validate them in one go (SimB-style)."""
-    from ..stats.properties import load_properties
+    from ..stats.properties import load_properties, with_generic
     from ..live.record import resolve
     from ..interop.foxglove import FoxgloveChannels
     from ..stats.simulate import simulate
 
     fmt = output_format(fmt, as_json)
+    if external is not None:
+        from ..stats.simulate import simulate_external
 
-    settings = record_settings(env, env_config, agent=str(agent), shield=shield, episodes=episodes,
+        settings, machine = external_settings(
+            external, shield=shield, episodes=episodes, cwd=cwd, step_timeout=step_timeout,
+            crash=crash, ending_time=ending_time, duration=duration, agent=agent, seed=seed,
+            env=env, env_config=env_config, workers=workers, executor=executor.value,
+            ray_address=ray_address, profile=profile)
+        pset = load_properties(properties) if properties else with_generic(None)
+        with progress("simulating", episodes) as advance:
+            result = simulate_external(settings, machine, output, pset,
+                                       until_width=until_ci_width, force=force,
+                                       inputs=input_paths(properties),
+                                       progress=lambda ep: advance(),
+                                       channels=FoxgloveChannels)
+        _print_simulation(result, fmt)
+        return
+    settings = record_settings(env, env_config, agent=str(agent) if agent is not None else None,
+                         shield=shield, episodes=episodes,
                          seed=seed, duration=duration, profile=profile, workers=workers,
                          executor=executor.value, ray_address=ray_address)
     from ..stats.estimates import adapter_set
@@ -118,6 +141,10 @@ def simulate_cmd(
         result = simulate(settings, output, pset, until_width=until_ci_width, force=force,
                           inputs=input_paths(properties), progress=lambda ep: advance(),
                           channels=FoxgloveChannels)
+    _print_simulation(result, fmt)
+
+
+def _print_simulation(result, fmt) -> None:
     seq = result.get("sequential")
     if seq is not None:
         widths = ", ".join(f"{k} {v:.3f}" for k, v in seq["widths"].items())

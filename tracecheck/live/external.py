@@ -231,7 +231,7 @@ class _Link:
         while self.conn is None:
             try:
                 self.conn, _ = self.server.accept()
-            except socket.timeout:
+            except TimeoutError:
                 if self.proc.poll() is not None:
                     raise self.error("the script ended before it connected") from None
                 if time.monotonic() > deadline:
@@ -265,7 +265,7 @@ class _Link:
             self.conn.settimeout(min(left, 0.5))
             try:
                 data = self.conn.recv(1 << 16)
-            except socket.timeout:
+            except TimeoutError:
                 continue
             except OSError:
                 data = b""
