@@ -294,3 +294,17 @@ def test_the_library_stops_the_script_when_the_caller_stops_early():
     gen.close()
     assert not scripts_running("corridor_agent.py polite")
 
+
+
+def test_the_minimal_script_of_the_docs_runs(tmp_path, capsys):
+    import re
+
+    text = (ROOT / "docs" / "simb-external.md").read_text()
+    script = tmp_path / "minimal.py"
+    script.write_text(re.search(r"```python\n(.*?)```", text, re.S).group(1))
+    out = tmp_path / "min.mcap"
+    code, stdout, _ = record(capsys, "--external", f"{PY} {script}", "-o", out)
+    assert code == 0 and "0 step(s) took an action Corridor did not enable" in \
+        " ".join(stdout.split())
+    report = replay([out], load_shield(CORRIDOR))
+    assert (report.episodes, report.steps, report.infeasible_steps) == (3, 12, 0)
