@@ -194,8 +194,11 @@ def read_project(path: str | Path) -> Project:
     except ValidationError as exc:
         raise _invalid(path, exc) from None
     folder = path.parent
-    machines = tuple(_machine(m, i, folder, data["machines"][i])
-                     for i, m in enumerate(model.machines))
+    try:
+        machines = tuple(_machine(m, i, folder, data["machines"][i])
+                         for i, m in enumerate(model.machines))
+    except InputError as exc:
+        raise exc.located(file=str(path)) from None
     return Project(model.name or path.stem, path, machines)
 
 

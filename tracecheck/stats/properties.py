@@ -301,7 +301,7 @@ def _metric(name: str, spec: dict, file: str) -> Metric:
     estimate, estimate_type = None, "mean"
     if "estimate" in spec:
         est = _keys(spec["estimate"], ("value", "epsilon", "type"), f"{where}: estimate", file,
-                    "an estimate {value = …, epsilon = …, type = …}")
+                    "an estimate {value = …, epsilon = …}")
         estimate = (_number(est.get("value"), "estimate value", where, file),
                     _number(est.get("epsilon"), "estimate epsilon", where, file, at_least=0))
         estimate_type = _choice(est, "type", "mean", ESTIMATE_TYPES, f"{where}: estimate", file)
