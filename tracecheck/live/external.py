@@ -399,8 +399,8 @@ class _Run:
                 break
             n = len(steps)
             where = f"episode {k}, step {n}"
-            enabled = tuple(op for op in self.order
-                            if op in self.machine.enabled(state))
+            allowed = self.machine.enabled(state)
+            enabled = tuple(op for op in self.order if op in allowed)
             answer = self._ask(",".join(enabled), where)
             if answer.op not in self.machine.operations:
                 raise self.link.error(

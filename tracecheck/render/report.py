@@ -228,10 +228,28 @@ def _check_run(run, cols, shield, resimulate: bool, agent, env) -> dict:
     return entry
 
 
+def _environment(path, header) -> str:
+    """The run's environment as the statistics take it (never the highway for a file whose
+    states are another machine's); an external script's is its own."""
+    from ..stats.estimates import environment_of
+
+    if header.source == "external":
+        return f"the script's own (states of {header.model_name})"
+    return environment_of(path)
+
+
+def _agent(header) -> str:
+    if header.source == "external":
+        import shlex
+
+        return "the script " + shlex.join(header.external_command or [])
+    return header.agent_id or "—"
+
+
 def _run_section(c: dict, shield: Optional[Shield]) -> str:
     h, r = c["header"], c["replay"]
-    rows = [("environment", h.environment or "highway"), ("source", h.source),
-            ("recorded under shield", h.shield_name or "—"), ("agent", h.agent_id or "—")]
+    rows = [("environment", _environment(c["file"], h)), ("source", h.source),
+            ("recorded under shield", h.shield_name or "—"), ("agent", _agent(h))]
     if r is not None:
         rows += [("episodes", r.episodes), ("steps", r.steps),
                  ("crashes", f"{r.crashes} ({_share(r.crashes / r.episodes)})"
@@ -251,6 +269,10 @@ def _run_section(c: dict, shield: Optional[Shield]) -> str:
     elif c["resim"] is not None:
         text += (f"<p class='headline'>Re-simulation: "
                  f"{_e(resimulation_headline(shield.name, r.crashes, c['resim']))}.</p>")
+    elif r is not None and r.crashes and c["header"].source == "external":
+        text += ("<p class='note'>Whether blocking would have prevented a crash cannot be "
+                 "told here: the run comes from an agent script (--external), which "
+                 "tracecheck cannot re-simulate; record it again under the shield.</p>")
     elif r is not None and r.crashes:
         text += ("<p class='note'>Whether blocking would have prevented a crash needs "
                  "re-simulation: <code>tracecheck report --resimulate</code>.</p>")

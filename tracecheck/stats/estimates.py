@@ -384,7 +384,8 @@ def _nonfinite_why(values: np.ndarray, m: Metric) -> Optional[str]:
     what = ", ".join(f"{n} {name}" for name, n in counts.items() if n)
     why = ("the formula has no sample to judge there: +inf for X at an episode's last state "
            "or G[a,b] past its end, -inf for F[a,b] past its end" if m.aggregate == "stl"
-           else "the agent's action values were not recorded (imported traces), so the "
+           else "the agent's action values were not recorded (imported traces, external "
+           "scripts), so the "
            "shield's interventions cannot be told" if m.aggregate == "interventions"
            else "an episode without steps has no mean between two steps"
            if m.aggregate in ("min_between_steps", "max_between_steps")
