@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from tracecheck.b import load_machine, load_machine_text
-from tracecheck.b.transitions import UndeterminedError, fixed_values, successor
+from tracecheck.b.transitions import UndeterminedError, equations, fixed_values, successor
 
 MODELS = Path(__file__).resolve().parents[3] / "shared" / "data" / "paper-models"
 DRONES = MODELS / "AutonomousDroneSwarm" / "AutonomousDroneSwarm_small_abstract.mch"
@@ -86,7 +86,7 @@ def test_any_enumerates_and_the_predicate_picks():
 
 def test_a_variable_fixed_by_neither_is_an_error():
     with pytest.raises(UndeterminedError, match=r"n fixed neither by the predicate nor by the "
-                                                r"operation \(its `x :: S` chooses it\)"):
+                                                r"operation \(its `n :: …` chooses it\)"):
         after(None, {}, "mode = 0")
 
 
@@ -116,3 +116,48 @@ def test_the_drone_swarm_computes_visited_and_whose_turn():
     assert not s2.possible and s2.state["current_drone"] == 1
     assert s2.state["visited"] == s1.state["visited"] and m.invariant(s2.state)
     assert m.check_after("Move_Right", s0.state, s1.state)
+
+
+LITERALS = load_machine_text('''MACHINE Literals
+SETS GROUND = {ICE, HOLE}
+CONSTANTS k
+PROPERTIES k = 2
+VARIABLES n, r, b, field, pos, s, name
+INVARIANT n : INTEGER & r : REAL & b : BOOL & field : (0..1) * (0..1) --> GROUND &
+  pos : 1..2 --> INTEGER * INTEGER & s : seq(INTEGER) & name : STRING
+INITIALISATION n, r, b, field, pos, s, name :: INTEGER * REAL * BOOL *
+  ((0..1) * (0..1) --> GROUND) * (1..2 --> INTEGER * INTEGER) * seq(INTEGER) * STRING
+OPERATIONS Skip = skip END''')
+
+
+@pytest.mark.parametrize("text", [
+    "n = -3 & r = 2.5 & b = TRUE",
+    "field = {(0 |-> 0) |-> ICE, (0 |-> 1) |-> HOLE, (1 |-> 0) |-> ICE, (1 |-> 1) |-> ICE}",
+    "pos = {1 |-> (0 |-> 1), 2 |-> (3 |-> 2)} & s = [3, 1, 2]",
+    'name = "a & b" & n = 1',
+    "s = [] & b = FALSE",
+])
+def test_the_fast_reading_of_equations_agrees_with_the_grammar(text):
+    fast = equations(LITERALS, text)
+    assert fast is not None
+    assert fast == fixed_values(LITERALS, LITERALS.check_formula(text, file="test"))
+
+
+@pytest.mark.parametrize("text", [
+    "n = k", "n = 1 + 1", "n = 1 or b = TRUE", "n >= 1", "n = 1 & n = 2", "b = bool(n > 1)",
+    "field = {(0 |-> 0) |-> WATER}", "n = (1", 'name = "open',
+])
+def test_anything_else_goes_to_the_grammar(text):
+    assert equations(LITERALS, text) is None
+
+
+def test_a_literal_of_the_wrong_type_is_refused_and_memo_reads_a_value_once():
+    from tracecheck.errors import InputError
+
+    with pytest.raises(InputError, match="r must be of type REAL"):
+        equations(LITERALS, "r = 1")
+    memo: dict = {}
+    first = equations(LITERALS, "n = 1 & s = [1, 2]", memo)
+    assert set(memo) == {"n", "s"}
+    again = equations(LITERALS, "n = 2 & s = [1, 2]", memo)
+    assert again["s"] is first["s"] and again["n"] == 2

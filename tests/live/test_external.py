@@ -158,10 +158,16 @@ def test_two_agents_take_turns_one_operation_per_move(tmp_path, capsys):
                 "Corridor does not have; it has Left, Right"),
     ("badpred", "episode 1, step 1: sent a predicate tracecheck cannot use"),
     ("partial", "episode 1, initialisation ($initialise_machine): pos fixed neither by the "
-                "predicate nor by the operation (its `x :: S` chooses it); the script sent "
+                "predicate nor by the operation (its `pos :: …` chooses it); the script sent "
                 "'moves = 0'"),
     ("hang", "episode 1, step 1: no answer within 1 s (--step-timeout)"),
-], ids=["dies", "garbage", "unknown-operation", "bad-predicate", "undetermined", "hangs"])
+    ("badinit", "episode 1, initialisation: the INITIALISATION of Corridor cannot give the "
+                "initial state the script sent: 'pos = 4'"),
+    ("liar", "episode 1, step 1 (Right): no state satisfies the predicate with the values "
+             "Right gives the variables it does not fix; the script sent 'pos = 2 & moves > "
+             "100'"),
+], ids=["dies", "garbage", "unknown-operation", "bad-predicate", "undetermined", "hangs",
+        "impossible-start", "no-state-fits"])
 def test_a_faulty_script_ends_cleanly_keeping_complete_episodes(tmp_path, capsys, mode,
                                                                 message):
     out = tmp_path / f"{mode}.mcap"
@@ -178,7 +184,8 @@ def test_a_faulty_script_ends_cleanly_keeping_complete_episodes(tmp_path, capsys
 def test_a_script_that_dies_is_quoted(tmp_path, capsys):
     code, _, stderr = record(capsys, "--external", f"{PY} corridor_agent.py die", "--cwd",
                              HERE, "-o", tmp_path / "x.mcap")
-    assert code == 2 and "exited with status 3" in stderr
+    assert code == 2 and "(the script " in stderr and "exited with status 3)" in stderr
+    assert "stopped it" not in stderr
     assert "its last output:" in stderr and "agent: giving up" in stderr
 
 
@@ -224,8 +231,9 @@ def test_ctrl_c_keeps_episodes_and_stops_the_script(tmp_path):
     (["--agent", ROOT / "models" / "agents" / "base.zip"], "--agent cannot be used with it"),
     (["--env", "frozenlake"], "--env cannot be used with it"),
     (["--seed", 3], "--seed cannot be used with it"),
+    (["--seed", 1], "--seed cannot be used with it"),
     (["--workers", 2], "--workers cannot be used with it"),
-], ids=["agent", "env", "seed", "workers"])
+], ids=["agent", "env", "seed", "seed-1", "workers"])
 def test_options_of_a_tracecheck_agent_are_refused_with_external(tmp_path, capsys, args,
                                                                  message):
     code, _, stderr = record(capsys, "--external", f"{PY} corridor_agent.py", *args,

@@ -269,12 +269,14 @@ class Machine:
             cache[key] = make()
         return cache[key]
 
-    def successor(self, op: Optional[str], before: Mapping[str, Any], predicate: ast.Node):
-        """The state after ``op`` (None: the INITIALISATION) that satisfies ``predicate``,
-        as ProB finds it for SimB's external simulation (:func:`.transitions.successor`)."""
+    def successor(self, op: Optional[str], before: Mapping[str, Any],
+                  predicate: Optional[ast.Node], *, fixed: Optional[Mapping[str, Any]] = None):
+        """The state after ``op`` (None: the INITIALISATION) that satisfies ``predicate``
+        (or gives the variables the values ``fixed``), as ProB finds it for SimB's external
+        simulation (:func:`.transitions.successor`)."""
         from .transitions import successor
 
-        return successor(self, op, before, predicate)
+        return successor(self, op, before, predicate, fixed=fixed)
 
     def _outcome(self, kind: str, op: str, body_of: Callable[[Operation], ast.Subst]) -> tuple:
         """(the compiled check of ``body_of(op)``, the variables it leaves unchanged), once

@@ -26,6 +26,7 @@ False
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from itertools import islice
 from typing import Any, Callable, Mapping, Optional
@@ -34,9 +35,12 @@ from ..errors import EvaluationError, InputError, TracecheckError, UnsupportedEr
 from . import ast
 from .bindings import conjuncts
 from .memo import fresh
+from .notation import parse_literal
 from .substitution import SubstCompiler, written
+from .values import Elem
 
-__all__ = ["Successor", "successor", "fixed_values", "UndeterminedError"]
+__all__ = ["Successor", "successor", "fixed_values", "equations", "initial_state_ok",
+           "UndeterminedError"]
 
 #: the most candidate outcomes tried for one step (SELECT/CHOICE branches, ANY values)
 MAX_CANDIDATES = 4096
@@ -57,6 +61,9 @@ class Successor:
 
     state: Mapping[str, Any]
     possible: bool
+    #: whether the predicate holds in ``state`` (False only when it says more than which
+    #: values the variables have: ``x > 3`` where the operation gives ``x`` its value)
+    satisfies: bool = True
 
 
 def fixed_values(machine, predicate: ast.Node) -> dict[str, Any]:
@@ -76,15 +83,113 @@ def fixed_values(machine, predicate: ast.Node) -> dict[str, Any]:
     return out
 
 
+def equations(machine, text: str, memo: Optional[dict] = None) -> Optional[dict[str, Any]]:
+    """The values of a predicate that is only ``v = literal`` conjuncts (what agent scripts
+    send: ``x = 3 & field = {(0 |-> 0) |-> ICE, …}``), each variable once and every name in
+    a literal an element of the machine's sets — read by the literal reader, which is
+    ~50 times faster than the grammar on such text; None for anything else (parse it).
+    Each value is type-checked against its variable (:class:`InputError` if it does not
+    fit); ``memo`` keeps the literals read and checked before, by variable, so a value sent
+    again unchanged (a map in every step) is read once.
+
+    >>> from tracecheck.b import load_machine_text
+    >>> m = load_machine_text("MACHINE M SETS C = {red, blue} VARIABLES x, c "
+    ...                       "INVARIANT x : INTEGER & c : C INITIALISATION x, c := 0, red END")
+    >>> equations(m, "x = -2 & c = blue") == {"x": -2, "c": Elem("blue")}
+    True
+    >>> equations(m, "x = 1 + 1"), equations(m, "x = 2 or c = red"), equations(m, "c = x")
+    (None, None, None)
+    """
+    parts = _top_level_and(text)
+    if parts is None:
+        return None
+    owners = machine.element_sets()
+    out: dict[str, Any] = {}
+    for part in parts:
+        m = _EQUATION.fullmatch(part)
+        if m is None or m.group(1) not in machine.variables or m.group(1) in out:
+            return None
+        name, literal = m.group(1), m.group(2)
+        known = memo.get(name) if memo is not None else None
+        if known is not None and known[0] == literal:
+            out[name] = known[1]
+            continue
+        try:
+            value = parse_literal(literal)
+        except TracecheckError:
+            return None
+        if any(e not in owners for e in _elements(value)):
+            return None  # a constant's or a variable's name: only the grammar knows
+        machine.check_state({name: value}, where="the predicate")
+        if memo is not None:
+            memo[name] = (literal, value)
+        out[name] = value
+    return out
+
+
+_EQUATION = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(?![=>])\s*(\S.*?)\s*", re.S)
+
+
+_SPECIAL = re.compile(r'[()\[\]{}"&\\]')
+
+
+def _top_level_and(text: str) -> Optional[list[str]]:
+    """``text`` split at the ``&`` outside brackets and strings; None when they do not
+    balance."""
+    parts, depth, start, quoted, escaped = [], 0, 0, False, -1
+    for m in _SPECIAL.finditer(text):
+        c, i = m.group(), m.start()
+        if i == escaped:
+            continue
+        if quoted:
+            if c == "\\":
+                escaped = i + 1
+            elif c == '"':
+                quoted = False
+        elif c == '"':
+            quoted = True
+        elif c in "([{":
+            depth += 1
+        elif c in ")]}":
+            depth -= 1
+            if depth < 0:
+                return None
+        elif c == "&" and depth == 0:
+            parts.append(text[start:i])
+            start = i + 1
+    if depth or quoted:
+        return None
+    parts.append(text[start:])
+    return parts
+
+
+def _elements(value: Any):
+    if isinstance(value, Elem):
+        yield value
+    elif isinstance(value, (tuple, frozenset, list)):
+        for item in value:
+            yield from _elements(item)
+    elif hasattr(value, "map"):
+        for pair in value.map.items():
+            yield from _elements(pair)
+
+
 def successor(machine, op: Optional[str], before: Mapping[str, Any],
-              predicate: ast.Node) -> Successor:
+              predicate: Optional[ast.Node], *,
+              fixed: Optional[Mapping[str, Any]] = None) -> Successor:
     """The state after ``op`` (None: the INITIALISATION) from ``before`` that satisfies
-    ``predicate`` (parsed and checked in ``machine``'s scope).
+    ``predicate`` (parsed and checked in ``machine``'s scope) — or, with ``predicate``
+    None, that gives the variables the values ``fixed`` (the :func:`equations` of a
+    predicate, type-checked by the caller).
 
     Raises :class:`UndeterminedError` when a variable is fixed neither by the predicate nor
     by the substitution, or when several different states qualify.
     """
-    fixed = fixed_values(machine, predicate)
+    if predicate is None:
+        if fixed is None:
+            raise ValueError("successor() needs a predicate or the fixed values")
+    else:
+        fixed = fixed_values(machine, predicate)
     body = machine.initialisation if op is None else machine.operation(op).body
     if body is None:
         body = ast.Skip()
@@ -112,9 +217,9 @@ def successor(machine, op: Optional[str], before: Mapping[str, Any],
 
 def _choose(machine, op, before, predicate, fixed, candidates) -> Optional[Successor]:
     """The one state among ``candidates`` (updates, fixed values override) that the
-    operation reaches and the predicate accepts; else the first (a violation); None when
-    a candidate leaves a variable without a value."""
-    check = machine.compile(predicate)
+    operation reaches and the predicate accepts; else the first the predicate accepts, else
+    the first (flagged); None when a candidate leaves a variable without a value."""
+    check = machine.compile(predicate) if predicate is not None else None
     states, good = [], []
     for updates in candidates:
         state = {v: before[v] for v in machine.variables if v in before and op is not None}
@@ -123,9 +228,10 @@ def _choose(machine, op, before, predicate, fixed, candidates) -> Optional[Succe
         if any(v not in state for v in machine.variables):
             return None
         state = {v: state[v] for v in machine.variables}
-        ok = _possible(machine, op, before, state) and bool(check(machine.env(state)))
-        states.append(state)
-        if ok and state not in good:
+        holds = check is None or bool(check(machine.env(state)))
+        possible = _possible(machine, op, before, state)
+        states.append(Successor(state, possible, holds))
+        if possible and holds and state not in good:
             good.append(state)
     if len(good) > 1:
         differ = sorted(v for v in machine.variables if good[0][v] != good[1][v])
@@ -137,26 +243,50 @@ def _choose(machine, op, before, predicate, fixed, candidates) -> Optional[Succe
         return Successor(good[0], True)
     if not states:  # no branch of the substitution applies (its guards are false)
         return None
-    return Successor(states[0], False)
+    return next((s for s in states if s.satisfies), states[0])
 
 
 def _possible(machine, op, before, state) -> bool:
     """Whether the substitution (guards aside) reaches ``state``: the before-after check of
     replay where it applies; for a sequence that starts non-deterministically (``x :: S ;
-    y := f(x)``, common in INITIALISATIONs) by running it with the chosen values checked."""
+    y := f(x)``, common in INITIALISATIONs) by running it with the chosen values checked.
+    An operation with parameters: for some values of them (its guard included, since the
+    parameters' types are part of it). Raises :class:`UnsupportedError` when it cannot
+    tell."""
     try:
         try:
             if op is None:
                 return machine.initialisation_ok(state)
+            if machine.operation(op).params:
+                return machine.check_after(op, before, state)
             return machine.effect_ok(op, before, state)
         except UnsupportedError:
-            body = machine.initialisation if op is None else machine.operation(op).body
-            writes = written(body or ast.Skip())
-            runs = _plan(machine, op, body, strict=True)(
-                machine.env({} if op is None else before), state)
-            return any(all(run.get(v) == state[v] for v in writes) for run in runs)
+            return _possible_by_running(machine, op, before, state)
     except EvaluationError:
         return False
+
+
+def _possible_by_running(machine, op, before, state) -> bool:
+    body = machine.initialisation if op is None else machine.operation(op).body
+    start = {} if op is None else {v: before[v] for v in machine.variables if v in before}
+    try:
+        runs = _plan(machine, op, body, strict=True)(machine.env(start), state)
+    except UndeterminedError as exc:
+        what = "the INITIALISATION" if op is None else op
+        raise UnsupportedError(f"tracecheck cannot check whether {what} can give this state: "
+                               f"{exc.message}") from None
+    target = {v: state[v] for v in machine.variables}
+    return any(dict(start, **run) == target for run in runs)
+
+
+def initial_state_ok(machine, state: Mapping[str, Any]) -> bool:
+    """Whether the INITIALISATION can give ``state`` (every variable given) — also when it
+    starts non-deterministically (``x :: S ; y := f(x)``). Raises :class:`UnsupportedError`
+    when tracecheck cannot tell, :class:`EvaluationError` when a variable is missing."""
+    missing = [v for v in machine.variables if v not in state]
+    if missing:
+        raise EvaluationError(f"the initial state has no value for {', '.join(missing)}")
+    return _possible(machine, None, {}, state)
 
 
 def _plan(machine, op, body, strict: bool = False) -> Plan:
@@ -191,8 +321,9 @@ class _Planner:
         return plan
 
     def _from_fixed(self, s: ast.Subst, writes: frozenset[str]) -> Plan:
-        name = {"BecomesIn": "`x :: S`", "BecomesSuchThat": "`x : (P)`", "Any": "ANY"
-                }.get(type(s).__name__, type(s).__name__)
+        ids = ", ".join(getattr(s, "ids", ()))
+        name = {"BecomesIn": f"`{ids} :: …`", "BecomesSuchThat": f"`{ids} : (…)`",
+                "Any": f"`ANY {ids}`"}.get(type(s).__name__, type(s).__name__)
         check = self.subst.compile(s) if self.strict else None
 
         def plan(env: Env, fixed: Mapping[str, Any]) -> list:
@@ -314,9 +445,13 @@ class _Planner:
         def any_(env: Env, fixed: Mapping[str, Any]) -> list:
             out = []
             local = fresh(env)
-            for problem in islice(bind(local), MAX_CANDIDATES + 1):
+            for n, problem in enumerate(bind(local)):
                 if problem is not None:
                     raise problem
+                if n >= MAX_CANDIDATES:
+                    raise UndeterminedError(
+                        f"ANY has more than {MAX_CANDIDATES} values to try here; the "
+                        f"predicate must fix what it writes ({', '.join(sorted(written(s)))})")
                 out += body(fresh(local), fixed)
             return _capped(out)
         return any_

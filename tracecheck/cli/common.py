@@ -176,7 +176,7 @@ ROWS = 40
 
 # the options of the commands that run episodes (record, simulate)
 RUN_SHIELD = typer.Option("none", "--shield", "-s", help=SHIELD_HELP)
-SEED = typer.Option(None, "--seed", min=0, help="Episode i uses seed SEED + i (default 0).")
+SEED = typer.Option(None, "--seed", help="Episode i uses seed SEED + i (default 0).")
 WORKERS = typer.Option(1, "--workers", "-w", min=1, help="Worker processes.")
 
 
@@ -249,8 +249,9 @@ def external_settings(command: str, *, shield: str, episodes: int, cwd: Optional
     from ..checking.shield import load_shield
     from ..live.external import ExternalSettings, split_command
 
+    defaults = {"workers": 1, "executor": "local"}
     given = [f"--{k.replace('_', '-')}" for k, v in unused.items()
-             if v not in (None, [], 1, "local")]
+             if v not in (None, []) and v != defaults.get(k)]
     if given:
         raise InputError(f"--external runs the agent script's own environment: "
                          f"{', '.join(given)} cannot be used with it",

@@ -293,14 +293,13 @@ class _Link:
     def error(self, what: str) -> ExternalError:
         """An error about the script, with its exit status and the end of its output."""
         name = shlex.join(self.settings.command)
-        status = "is still running"
+        status = "was still running: tracecheck stopped it"
         if self.proc is not None:
             try:
                 status = f"exited with status {self.proc.wait(timeout=0.2)}"
             except subprocess.TimeoutExpired:
                 pass
-        return ExternalError(f"{what} (the script {name} {status}; it was stopped)",
-                             hint=self.output_tail())
+        return ExternalError(f"{what} (the script {name} {status})", hint=self.output_tail())
 
     def output_tail(self, lines: int = 8) -> Optional[str]:
         try:
@@ -376,6 +375,7 @@ class _Run:
         kinds = machine.types
         self.crash_var = "Crash" if kinds.get("Crash") == "BOOL" else None
         self.reward_var = "Reward" if kinds.get("Reward") in ("REAL", "INTEGER") else None
+        self.literals: dict = {}  # variable -> (its last literal, the value read from it)
 
     def episode(self, k: int) -> Episode:
         where = f"episode {k}, initialisation"
@@ -399,7 +399,12 @@ class _Run:
                 break
             n = len(steps)
             where = f"episode {k}, step {n}"
-            allowed = self.machine.enabled(state)
+            try:
+                allowed = self.machine.enabled(state)
+            except TracecheckError as exc:
+                raise self.link.error(f"{where}: the guards of {self.machine.name} cannot be "
+                                      f"evaluated in the state before it: {exc.message}") \
+                    from None
             enabled = tuple(op for op in self.order if op in allowed)
             answer = self._ask(",".join(enabled), where)
             if answer.op not in self.machine.operations:
@@ -480,12 +485,29 @@ class _Run:
             return False
 
     def _after(self, op: Optional[str], state: dict, answer: _Answer, where: str) -> dict:
-        node = self._parse(answer, where)
+        from ..b.transitions import equations
+
+        try:  # the common shape (`v = literal & …`) read fast, typed as the grammar would
+            fixed = equations(self.machine, answer.predicate, self.literals)
+        except TracecheckError as exc:
+            raise self.link.error(f"{where}: sent a predicate tracecheck cannot use "
+                                  f"({exc.message}): {_quote(answer.predicate)}") from None
+        node = self._parse(answer, where) if fixed is None else None
         try:
-            return dict(self.machine.successor(op, state, node).state)
+            after = self.machine.successor(op, state, node, fixed=fixed)
         except TracecheckError as exc:
             raise self.link.error(f"{where} ({op or INIT}): {exc.message}; the script sent "
                                   f"{_quote(answer.predicate)}") from None
+        if not after.satisfies:  # no state to record truthfully
+            raise self.link.error(
+                f"{where} ({op or INIT}): no state satisfies the predicate with the values "
+                f"{op or INIT} gives the variables it does not fix; the script sent "
+                f"{_quote(answer.predicate)}")
+        if op is None and not after.possible:  # ProB could not even start
+            raise self.link.error(
+                f"{where}: the INITIALISATION of {self.machine.name} cannot give the "
+                f"initial state the script sent: {_quote(answer.predicate)}")
+        return dict(after.state)
 
     def _record(self, n: int, t: float, op: Optional[str], state: dict,
                 enabled: Optional[tuple[str, ...]]) -> StepRecord:
