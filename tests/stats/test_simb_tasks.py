@@ -5,6 +5,7 @@ computed by hand (the command that computed each is in a comment)."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -113,20 +114,61 @@ def test_estimate_type_in_property_files():
         parse_properties(text.replace('"minimum"', '"median"'), name="t", file="t.toml")
 
 
+# SimB (ProB2-UI's SimulationCheckingSimulator / SimulationPropertyChecker) counts
+# transitions: after T of them it tests the starting condition and sets startAtStep = T;
+# properties are judged on the transitions with index >= startAtStep. The corridor has no
+# constants, so transition 0 is $initialise_machine and state j is transition j's
+# destination: a condition met in the state after T transitions (state T - 1) is judged from
+# state T on, and STEPS_PER_EXECUTION s ends the execution after startAtStep + s transitions.
 @pytest.mark.parametrize("w, spans", [
     (Window(), [(0, 3), (0, 2), (0, 4), (0, 0), (0, 2)]),
+    # T >= 1 after $initialise_machine: judged from transition 1 = state 1
     (Window(start_after_steps=1), [(1, 3), (1, 2), (1, 4), (1, 0), (1, 2)]),
-    (Window(starting_time=1500), [(2, 3), (2, 2), (2, 4), (1, 0), (3, 2)]),
-    (Window(starting_predicate="pos = 2"), [(2, 3), (3, 2), (2, 4), (1, 0), (2, 2)]),
-    (Window(starting_predicate_activated="pos > 0"), [(1, 3), (1, 2), (1, 4), (1, 0), (1, 2)]),
-    (Window(steps_per_execution=2), [(0, 2), (0, 2), (0, 2), (0, 0), (0, 2)]),
+    (Window(start_after_steps=3), [(3, 3), (3, 2), (3, 4), (1, 0), (3, 2)]),
+    # the clock reaches 1500 ms in state 2 (T = 3): judged from state 3
+    (Window(starting_time=1500), [(3, 3), (3, 2), (3, 4), (1, 0), (3, 2)]),
+    (Window(starting_predicate="pos = 2"), [(3, 3), (3, 2), (3, 4), (1, 0), (3, 2)]),
+    (Window(starting_predicate_activated="pos > 0"), [(2, 3), (2, 2), (2, 4), (1, 0), (2, 2)]),
+    # two transitions: $initialise_machine and one operation
+    (Window(steps_per_execution=2), [(0, 1), (0, 1), (0, 1), (0, 0), (0, 1)]),
     (Window(ending_predicate="pos = 1"), [(0, 1), (0, 1), (0, 1), (0, 0), (0, 1)]),
     (Window(ending_time=1000), [(0, 1), (0, 1), (0, 1), (0, 0), (0, 2)]),
-    (Window(start_after_steps=1, ending_time=1000), [(1, 2), (1, 2), (1, 2), (1, 0), (1, 2)]),
-], ids=["none", "after-steps", "time", "predicate", "activated", "steps", "end-predicate",
-        "end-time", "start-and-end"])
+    # startAtTime is the clock when the start is detected (state 0, 0 ms)
+    (Window(start_after_steps=1, ending_time=1000), [(1, 1), (1, 1), (1, 1), (1, 0), (1, 2)]),
+    (Window(start_after_steps=1, steps_per_execution=2), [(1, 2), (1, 2), (1, 2), (1, 0),
+                                                         (1, 2)]),
+], ids=["none", "after-steps", "after-3", "time", "predicate", "activated", "steps",
+        "end-predicate", "end-time", "start-and-end", "start-and-steps"])
 def test_window(corridor, w, spans):
     assert window(w, FIVE, corridor) == spans
+
+
+CONSTANT_CORRIDOR = """MACHINE Corridor CONSTANTS far PROPERTIES far = 4
+VARIABLES pos, Crash INVARIANT pos : 0..far & Crash : BOOL
+INITIALISATION pos := 0 || Crash := FALSE
+OPERATIONS
+    LEFT = SELECT pos > 0 THEN pos := pos - 1 END;
+    RIGHT = SELECT pos < far THEN pos := pos + 1 || Crash := bool(pos + 1 = far) END
+END"""
+
+
+@pytest.mark.parametrize("w, spans", [
+    # $setup_constants is transition 0, $initialise_machine 1 (state 0): START_AFTER_STEPS k
+    # is judged from transition k = state k - 1
+    (Window(start_after_steps=1), [(0, 3), (0, 2), (0, 4), (0, 0), (0, 2)]),
+    (Window(start_after_steps=3), [(2, 3), (2, 2), (2, 4), (1, 0), (2, 2)]),
+    # a predicate met in state j (T = j + 2) is still judged from state j + 1
+    (Window(starting_predicate="pos = 2"), [(3, 3), (3, 2), (3, 4), (1, 0), (3, 2)]),
+    # three transitions: $setup_constants, $initialise_machine, one operation
+    (Window(steps_per_execution=3), [(0, 1), (0, 1), (0, 1), (0, 0), (0, 1)]),
+], ids=["after-1", "after-3", "predicate", "steps"])
+def test_window_with_constants(w, spans):
+    from tracecheck.b.machine import load_machine_text
+
+    machine = load_machine_text(CONSTANT_CORRIDOR)
+    assert window(w, FIVE, machine) == spans
+    # the same count without constants starts one state later
+    assert window(Window(start_after_steps=3), FIVE, load_machine(CORRIDOR))[0] == (3, 3)
 
 
 def test_random_steps_before_the_property_are_seeded_and_bounded(corridor):
@@ -210,10 +252,53 @@ def test_executions_and_monte_carlo(corridor):
     assert three.executions == 3 and three.details["properties"]["PREDICATE"]["holds"] == 2
     assert evaluate_task(SimbTask("MONTE_CARLO_SIMULATION", executions=5), FIVE,
                          corridor).status == SUCCESS
-    short = evaluate_task(SimbTask("MONTE_CARLO_SIMULATION", executions=9), FIVE, corridor)
-    assert (short.status, short.reason) == (FAILED, "only 5 of 9 executions")
     none = evaluate_task(hypothesis("PREDICATE_INVARIANT", "pos >= 0"), [], corridor)
     assert none.status == NOT_RUN and "no executions" in none.reason
+
+
+@pytest.mark.parametrize("task", [
+    SimbTask("MONTE_CARLO_SIMULATION", executions=9),
+    hypothesis("PREDICATE_INVARIANT", "Crash = FALSE", executions=9),
+    estimation("AVERAGE", "pos", 1.0, 5.0, executions=9),
+    estimation("PREDICATE_FINAL", "pos >= 0", 1.0, 0.1, executions=9),
+], ids=["monte-carlo", "hypothesis", "estimation", "estimated-predicate"])
+def test_fewer_executions_than_asked_is_never_a_verdict(corridor, task):
+    # on the five, each of these would succeed
+    assert evaluate_task(replace(task, executions=5), FIVE, corridor).status == SUCCESS
+    short = evaluate_task(task, FIVE, corridor)
+    assert (short.status, short.executions, short.reason) == (
+        NOT_RUN, 5, "only 5 of the 9 executions the task asks for")
+
+
+@pytest.mark.parametrize("checking, what, sentinel", [
+    ("MINIMUM", "no state", "least value; SimB counts Double.MAX_VALUE"),
+    ("MAXIMUM", "no state", "greatest value; SimB counts Double.MIN_VALUE"),
+    ("MINIMUM_MEAN_BETWEEN_STEPS", "no step", "Double.MAX_VALUE"),
+])
+def test_least_and_greatest_without_a_state_are_not_estimated(corridor, checking, what,
+                                                                sentinel):
+    # pos = 3 is never met in executions 1, 3 and 4: SimB would average its sentinel in
+    task = estimation(checking, "pos", 3.0, 1.0, window=Window(starting_predicate="pos = 2"))
+    outcome = evaluate_task(task, FIVE, corridor)
+    assert outcome.status == NOT_RUN
+    assert outcome.reason.startswith(f"3 of 5 executions judge {what} (the starting "
+                                     "condition is never met, or their window is empty)")
+    assert sentinel in outcome.reason
+    # where every execution judges a state (a step), the estimate is made
+    stepping = [ep for ep in FIVE if len(ep.steps) > 1]
+    assert evaluate_task(replace(task, window=Window()), stepping, corridor).status != NOT_RUN
+
+
+def test_an_execution_the_run_cut_before_the_task_ended_is_not_judged(corridor):
+    cut = [replace(ep, end=replace(ep.end, reason="time-limit")) for ep in FIVE]
+    task = hypothesis("PREDICATE_INVARIANT", "pos < 4", window=Window(steps_per_execution=4))
+    # executions 1, 3, 4 end before their 4th transition (state 3): cut by the run, where
+    # SimB would go on
+    outcome = evaluate_task(task, cut, corridor, run_cut=True)
+    assert (outcome.status, outcome.reason.split(" (")[0]) == (
+        NOT_RUN, "3 of 5 executions were cut")
+    # the same episodes read from timed traces are judged as they are
+    assert evaluate_task(task, cut, corridor).status == SUCCESS
 
 
 def test_paper_numbers_from_the_authors_tasks(paper_traces):

@@ -28,9 +28,11 @@ tracecheck's own test are given beside it. An ``ESTIMATION`` estimates the mean 
 per-execution values (the share of executions satisfying a predicate type) and checks it
 against ``DESIRED_VALUE`` ± ``EPSILON`` by ``ESTIMATION_TYPE``: ``MEAN`` within, ``MINIMUM``
 at least value − ε, ``MAXIMUM`` at most value + ε. A ``MONTE_CARLO_SIMULATION`` succeeds
-when every execution asked for was there.
+when it has its executions.
 
-Each execution is cut as SimB's ending and starting conditions say (:func:`window`).
+Every task with fewer executions than its ``EXECUTIONS`` is *not run*: a verdict on other
+executions than SimB's is never given. Each execution is cut as SimB's starting and ending
+conditions say, counting transitions as SimB does (:func:`spans`).
 """
 
 from __future__ import annotations
@@ -49,14 +51,16 @@ from ..errors import TracecheckError
 from .estimates import evaluate_run, prepare, run_statistics
 from .properties import HypothesisTest, Metric, Property, PropertySet
 
-__all__ = ["SimbTask", "Window", "TaskOutcome", "evaluate_task", "simb_hypothesis", "window",
-           "unsupported", "CHECKING_TYPES", "PREDICATE_TYPES", "VALUE_TYPES",
+__all__ = ["SimbTask", "Window", "Span", "TaskOutcome", "evaluate_task", "simb_hypothesis",
+           "window", "spans", "has_setup", "unsupported", "CUT", "CHECKING_TYPES", "PREDICATE_TYPES", "VALUE_TYPES",
            "SIMULATION_TYPES", "HYPOTHESIS", "ESTIMATION", "MONTE_CARLO", "SUCCESS", "FAILED",
            "NOT_RUN"]
 
 SUCCESS, FAILED, NOT_RUN = "success", "failed", "not run"
 HYPOTHESIS, ESTIMATION, MONTE_CARLO = "HYPOTHESIS_TEST", "ESTIMATION", "MONTE_CARLO_SIMULATION"
 SIMULATION_TYPES = (HYPOTHESIS, ESTIMATION, MONTE_CARLO)
+#: the end reason of an episode a script run cut at an ending condition
+CUT = "time-limit"
 
 #: predicate checking types → property kinds
 PREDICATE_TYPES = {"ALL_INVARIANTS": "invariant", "PREDICATE_INVARIANT": "invariant",
@@ -182,62 +186,123 @@ def _predicates(window: Window, machine, cols) -> dict:
     return {key: np.asarray(formulas[("p", key)](states), dtype=bool) for key in named}
 
 
+def has_setup(machine) -> bool:
+    """Whether SimB's executions of ``machine`` start with a ``$setup_constants`` transition
+    (ProB adds one when the machine has CONSTANTS or PROPERTIES)."""
+    return bool(getattr(machine, "constants_declared", ())) or \
+        getattr(machine, "properties_node", None) is not None
+
+
+@dataclass(frozen=True)
+class Span:
+    """One execution as SimB cuts it, in the episode's state indices: ``first`` … ``last``
+    the states its properties are judged on (first > last: none); ``end`` the execution's
+    last state (what a final predicate is judged on); ``start_time`` SimB's ``startAtTime``
+    in ms (None: the starting condition was never met); ``short``: the episode ended before
+    the task's ending condition did."""
+
+    first: int
+    last: int
+    end: int
+    start_time: Optional[float]
+    short: bool
+
+
 def window(w: Window, episodes: Sequence[Episode], machine, seed: int = 0
            ) -> list[tuple[int, int]]:
     """Per episode, the states (first, last) its properties are judged on, as SimB cuts an
-    execution; first > last where the starting condition is never reached.
+    execution; first > last where none are (see :func:`spans`)."""
+    return [(s.first, s.last) for s in spans(w, episodes, machine, seed)]
 
-    Start: from a random step in 0 … ``max_steps_before`` − 1 (SimB's
-    ``MAX_STEPS_BEFORE_PROPERTY``; numpy's generator with ``seed``) on, the first state with
-    at least ``start_after_steps`` steps, at ``starting_time``, where ``starting_predicate``
-    holds, or where ``starting_predicate_activated`` becomes true; the first one without a
-    starting condition. End (counted from the start, SimB's order): ``steps_per_execution``
-    steps, the first state where ``ending_predicate`` holds, the last state at most
-    ``ending_time`` ms after the start; else the episode's last state.
+
+def spans(w: Window, episodes: Sequence[Episode], machine, seed: int = 0) -> list[Span]:
+    """Per episode, its :class:`Span` as ProB2-UI's ``SimulationCheckingSimulator`` and
+    ``SimulationPropertyChecker`` cut it.
+
+    SimB counts transitions: T is the number done so far (0 before the first;
+    ``$setup_constants`` is transition 0 when the machine has constants, c = 1, else c = 0),
+    so episode state j is the destination of transition j + c. After each transition (and
+    once before the first) from T = m on — m drawn from 0 … ``max_steps_before`` − 1
+    (``MAX_STEPS_BEFORE_PROPERTY``; numpy's generator with ``seed``) — it tests the starting
+    condition and, the first time it holds, sets ``startAtStep`` = T and ``startAtTime`` =
+    the clock: T ≥ ``start_after_steps``; ``starting_predicate`` holds in the state reached
+    (state T − 1 − c); ``starting_predicate_activated`` became true there; the clock is at
+    least ``starting_time``; without a condition at once. Properties are judged on the
+    transitions from index ``startAtStep`` on: states from T − c on — the state where a
+    starting predicate first holds is not itself judged. The execution ends (once started,
+    SimB's order) when T reaches ``startAtStep`` + ``steps_per_execution``, in the first
+    state from the one the start was detected in on where ``ending_predicate`` holds, or
+    with the last state at most ``ending_time`` ms after ``startAtTime``; else with the
+    episode.
     """
     rng = np.random.default_rng(seed)
+    c = 1 if has_setup(machine) else 0
     cols = episode_columns(episodes, _actions(episodes)) if episodes else None
     values = _predicates(w, machine, cols) if cols is not None else {}
     out = []
     for i in range(len(episodes)):
         lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
+        n = hi - lo
         times = cols.time[lo:hi] * 1000.0
         least = int(rng.random() * w.max_steps_before) if w.max_steps_before > 0 else 0
-        start = _start(w, values, lo, hi, times, least)
-        last = hi - lo - 1
-        if start > last:
-            out.append((start, last))
+        found = _start_step(w, {k: v[lo:hi] for k, v in values.items()}, times, n, c, least)
+        if found is None:
+            out.append(Span(n, n - 1, n - 1, None, False))
             continue
-        end = last
-        if w.steps_per_execution is not None:
-            end = min(last, start + w.steps_per_execution)
-        elif w.ending_predicate is not None:
-            hits = np.flatnonzero(values["ending_predicate"][lo + start:hi])
-            end = start + int(hits[0]) if len(hits) else last
-        elif w.ending_time is not None:
-            inside = np.flatnonzero(times <= times[start] + w.ending_time + 1e-6)
-            end = int(inside[-1])
-        out.append((start, end))
+        first = max(found - c, 0)
+        clock = _clock(times, found, c)
+        end, short = _end(w, values.get("ending_predicate"), lo, hi, times, found, c, clock)
+        out.append(Span(first, end, max(end, 0), clock, short))
     return out
 
 
-def _start(w: Window, values: dict, lo: int, hi: int, times: np.ndarray, least: int) -> int:
-    """The first state (index in its episode) from ``least`` on where the starting condition
-    holds; the episode's length when it never does."""
-    n = hi - lo
-    ok = np.ones(n, dtype=bool)
+def _clock(times: np.ndarray, t: int, c: int) -> float:
+    """SimB's clock after ``t`` transitions: the time of the state the last one reached
+    (0 before the first)."""
+    return 0.0 if t == 0 else float(times[max(t - 1 - c, 0)])
+
+
+def _start_step(w: Window, values: dict, times: np.ndarray, n: int, c: int, least: int
+                ) -> Optional[int]:
+    """The number of transitions after which SimB's starting condition first holds (from
+    ``least`` on); None when it never does within the episode's n + c transitions."""
+    total = n + c
+    steps = np.arange(total + 1)  # T = 0 … n + c
+    state = steps - 1 - c  # the state reached after T transitions (< 0: not initialised)
+    ok = steps >= least
     if w.start_after_steps is not None:
-        ok &= np.arange(n) >= w.start_after_steps
+        ok &= steps >= w.start_after_steps
     elif w.starting_predicate is not None:
-        ok &= values["starting_predicate"][lo:hi]
+        now = values["starting_predicate"]
+        ok &= (state >= 0) & now[np.clip(state, 0, None)]
     elif w.starting_predicate_activated is not None:
-        now = values["starting_predicate_activated"][lo:hi]
-        ok &= now & np.concatenate([[False], ~now[:-1]])
+        now = values["starting_predicate_activated"]
+        before = np.concatenate([[True], now[:-1]])  # state 0 has no initialised predecessor
+        ok &= (state >= 0) & now[np.clip(state, 0, None)] & ~before[np.clip(state, 0, None)]
     elif w.starting_time is not None:
-        ok &= times >= w.starting_time
-    ok[:least] = False
+        clocks = np.array([_clock(times, t, c) for t in steps])
+        ok &= clocks >= w.starting_time
     hits = np.flatnonzero(ok)
-    return int(hits[0]) if len(hits) else n
+    return int(hits[0]) if len(hits) else None
+
+
+def _end(w: Window, ending: Optional[np.ndarray], lo: int, hi: int, times: np.ndarray,
+         found: int, c: int, clock: float) -> tuple[int, bool]:
+    """(the execution's last state, whether the episode ended before SimB's ending
+    condition did) once started after ``found`` transitions."""
+    last = hi - lo - 1
+    if w.steps_per_execution is not None:
+        end = found + w.steps_per_execution - 1 - c
+        return min(end, last), end > last
+    if w.ending_predicate is not None:
+        since = max(found - 1 - c, 0)
+        hits = np.flatnonzero(ending[lo + since:hi])
+        return (since + int(hits[0]), False) if len(hits) else (last, True)
+    if w.ending_time is not None:
+        inside = np.flatnonzero(times <= clock + w.ending_time + 1e-6)
+        end = int(inside[-1]) if len(inside) else last
+        return end, end == last and times[last] < clock + w.ending_time - 1e-6
+    return last, False
 
 
 def _actions(episodes: Sequence[Episode]) -> list[str]:
@@ -305,11 +370,15 @@ def unsupported(task: SimbTask) -> Optional[str]:
 
 
 def evaluate_task(task: SimbTask, episodes: Sequence[Episode], machine, *,
-                  seed: int = 0, where: str = "the task") -> TaskOutcome:
+                  seed: int = 0, where: str = "the task", run_cut: bool = False
+                  ) -> TaskOutcome:
     """``task`` on ``episodes`` (its first ``task.executions`` when set), judged on the
-    states :func:`window` gives, against ``machine``'s names. A formula tracecheck cannot
-    read or evaluate gives the outcome *not run* with the reason (naming ``where``), never
-    an exception."""
+    states :func:`spans` gives, against ``machine``'s names. ``run_cut``: the episodes come
+    from a run that cut them at an ending condition (end reason :data:`CUT`); one cut
+    before the task's own ending condition makes the task *not run*. A formula tracecheck cannot
+    read or evaluate, fewer executions than the task asks for, or a value SimB would only
+    give as a sentinel give the outcome *not run* with the reason (naming ``where``), never
+    an exception and never a verdict on other executions than SimB's."""
     why = unsupported(task)
     if why:
         return TaskOutcome(NOT_RUN, reason=why)
@@ -318,12 +387,15 @@ def evaluate_task(task: SimbTask, episodes: Sequence[Episode], machine, *,
     if wanted is not None:
         episodes = episodes[:wanted]
     n = len(episodes)
-    if task.kind == MONTE_CARLO:
-        return _monte_carlo(episodes, wanted)
+    if wanted is not None and n < wanted:
+        return TaskOutcome(NOT_RUN, n, reason=f"only {n} of the {wanted} executions the task "
+                                              "asks for")
     if not n:
         return TaskOutcome(NOT_RUN, reason="no executions to judge")
+    if task.kind == MONTE_CARLO:
+        return _monte_carlo(episodes, wanted)
     try:
-        return _judge(task, episodes, machine, seed, where)
+        return _judge(task, episodes, machine, seed, where, run_cut)
     except TracecheckError as exc:
         return TaskOutcome(NOT_RUN, n, reason=f"tracecheck cannot evaluate it: {exc.render()}")
 
@@ -331,30 +403,38 @@ def evaluate_task(task: SimbTask, episodes: Sequence[Episode], machine, *,
 def _monte_carlo(episodes: list[Episode], wanted: Optional[int]) -> TaskOutcome:
     n = len(episodes)
     steps = [len(ep.steps) - 1 for ep in episodes]
-    mean = float(np.mean(steps)) if steps else 0.0
+    mean = float(np.mean(steps))
     details = {"executions": n, "wanted": wanted, "mean_steps": mean}
-    result = f"{n} executions, {mean:.4g} steps on average"
-    if wanted is not None and n < wanted:
-        return TaskOutcome(FAILED, n, result, details, f"only {n} of {wanted} executions")
-    if not n:
-        return TaskOutcome(NOT_RUN, 0, result, details, "no executions")
-    return TaskOutcome(SUCCESS, n, result, details)
+    return TaskOutcome(SUCCESS, n, f"{n} executions, {mean:.4g} steps on average", details)
 
 
-def _judge(task: SimbTask, episodes: list[Episode], machine, seed: int, where: str
-           ) -> TaskOutcome:
+def _judge(task: SimbTask, episodes: list[Episode], machine, seed: int, where: str,
+           run_cut: bool) -> TaskOutcome:
     evaluated, reported = _property_set(task, machine, where)
-    spans = window(task.window, episodes, machine, seed)
-    started = np.array([a <= b for a, b in spans], dtype=bool)
-    cut = [replace(ep, steps=ep.steps[a:b + 1] if a <= b else ep.steps[-1:])
-           for ep, (a, b) in zip(episodes, spans)]
+    cuts = spans(task.window, episodes, machine, seed)
+    cut_short = sum(1 for ep, s in zip(episodes, cuts)
+                    if run_cut and s.short and ep.end.reason == CUT)
+    if cut_short:
+        return TaskOutcome(NOT_RUN, len(episodes), reason=(
+            f"{cut_short} of {len(episodes)} executions were cut (the run's ending "
+            "condition) before this task's ending condition was reached, so SimB would judge "
+            "more states: give its traces with --traces, or run its simulation alone"))
+    started = np.array([s.first <= s.last for s in cuts], dtype=bool)
+    between = VALUE_TYPES.get(task.checking_type, "").endswith("between_steps")
+    cut = [replace(ep, steps=ep.steps[max(s.first - between, 0):s.last + 1] if s.first <= s.last
+                   else ep.steps[s.end:s.end + 1]) for ep, s in zip(episodes, cuts)]
     cols = episode_columns(cut, _actions(cut))
     name = _field(task)
     run = evaluate_run(where, evaluated, prepare(evaluated, machine=machine), name, cols)
     if task.checking_type == "TIMING":
-        duration = np.array([(ep.steps[-1].time - ep.steps[0].time) * 1000.0 for ep in cut])
-        run.properties[name] = (duration <= task.time + 1e-6) | ~started
+        duration = np.array([(ep.steps[s.end].time * 1000.0 - s.start_time)
+                             if s.start_time is not None else -math.inf
+                             for ep, s in zip(episodes, cuts)])
+        run.properties[name] = duration <= task.time + 1e-6
     _unstarted(run, task, started, name)
+    sentinel = _sentinel(task, run, name)
+    if sentinel:
+        return TaskOutcome(NOT_RUN, len(episodes), reason=sentinel)
     stats = run_statistics(run, reported)
     details = {"executions": len(episodes), "not_started": int(np.sum(~started)), **stats}
     if reported.properties:
@@ -363,9 +443,10 @@ def _judge(task: SimbTask, episodes: list[Episode], machine, seed: int, where: s
 
 
 def _unstarted(run, task: SimbTask, started: np.ndarray, name: str) -> None:
-    """SimB's values for executions that never reached the starting condition: an
-    invariant holds, an eventually does not, a final predicate is judged on the last state;
-    averages and sums are 0, least and greatest values none."""
+    """SimB's values for executions that judge no state (the starting condition never met,
+    or an empty window): an invariant holds, an eventually does not, a final predicate is
+    judged on the execution's last state; averages and sums are 0, least and greatest values
+    none (NaN: see :func:`_sentinel`)."""
     if started.all():
         return
     if name in run.properties:
@@ -380,6 +461,26 @@ def _unstarted(run, task: SimbTask, started: np.ndarray, name: str) -> None:
             else np.nan
         values[~started] = empty
         run.metrics[name] = values
+
+
+def _sentinel(task: SimbTask, run, name: str) -> str:
+    """Why a least or greatest value cannot be estimated ("" when it can): SimB gives an
+    execution with no state (no step, for the between-steps types) to take it over
+    Double.MAX_VALUE as its least value and Double.MIN_VALUE (the least positive double)
+    as its greatest — sentinels, not values, which tracecheck does not average."""
+    if name not in run.metrics or not VALUE_TYPES[task.checking_type].startswith(("min",
+                                                                                  "max")):
+        return ""
+    none = int(np.sum(np.isnan(run.metrics[name].astype(float))))
+    if not none:
+        return ""
+    what = "no step" if task.checking_type.endswith("BETWEEN_STEPS") else "no state"
+    least = task.checking_type.startswith("MINIMUM")
+    return (f"{none} of {len(run.metrics[name])} executions judge {what} (the starting "
+            "condition is never met, or their window is empty), so they have no "
+            f"{'least' if least else 'greatest'} value; SimB counts "
+            f"{'Double.MAX_VALUE' if least else 'Double.MIN_VALUE'} for them, a sentinel "
+            "tracecheck does not average: narrow the task's starting or ending condition")
 
 
 def _predicate_verdict(task: SimbTask, stats: dict, details: dict) -> TaskOutcome:
