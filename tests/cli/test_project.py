@@ -60,6 +60,19 @@ def test_exit_3_when_nothing_failed_but_something_did_not_run(capsys, tmp_path):
     assert "note: 0 succeeded, 0 failed, 1 not run, of 1 tasks" in err
 
 
+def test_fewer_traces_than_executions_is_exit_3_never_0(capsys, tmp_path):
+    asks = dict(SAFE, information=dict(SAFE["information"], EXECUTIONS=1000))
+    code, out, _ = run(capsys, "project", _project(tmp_path, [asks]), "--json")
+    assert code == 3
+    assert strict_json(out)["tasks"][0]["reason"] == (
+        "the folder has 5 timed traces; the task asks for 1000 executions — give "
+        "--executions 5 to run it on them")
+    code, out, _ = run(capsys, "project", _project(tmp_path, [SAFE]), "--executions", "1000")
+    assert code == 3 and "asks for 1000 executions" in out
+    code, _, _ = run(capsys, "project", _project(tmp_path, [asks]), "--executions", "5")
+    assert code == 0
+
+
 def test_json_csv_and_markdown(capsys):
     code, out, _ = run(capsys, "project", NEW, "--json")
     data = strict_json(out)

@@ -149,12 +149,87 @@ def test_executions_and_trace_folders_for_scripts():
     assert {t.task: t.status for t in everything.tasks}["Script_Steps"] == "failed"
 
 
-def test_a_folder_with_fewer_traces_than_asked_says_so(tmp_path):
+def test_a_folder_with_fewer_traces_than_asked_is_not_run():
     report = run_project(read_project(OLD), RunOptions(executions=8, scripts=False))
     rows = {t.task: t for t in report.tasks}
-    assert rows["Sim_Safe"].executions == 5
-    assert rows["Sim_Safe"].result.endswith("(only 5 of 8 executions)")
-    assert rows["#15"].status == "failed" and rows["#15"].reason == "only 5 of 8 executions"
+    why = ("the folder has 5 timed traces; the task asks for 8 executions — give "
+           "--executions 5 to run it on them")
+    # a hypothesis test that succeeds on the 5, an estimation, a Monte Carlo run: none of
+    # them is validated on fewer executions than asked for
+    for task in ("Sim_Safe", "Sim_Pos", "#15"):
+        assert (rows[task].status, rows[task].executions, rows[task].reason) == (
+            "not run", 5, why)
+    assert run_project(read_project(OLD), RunOptions(executions=5, scripts=False)
+                       ).tasks[5].status == "success"
+
+
+def test_a_script_that_gives_fewer_executions_leaves_its_tasks_not_run(monkeypatch):
+    monkeypatch.setattr(prob2project_run, "script_episodes",
+                        lambda *a, **k: [walk(0, [0, 1, 2, 3])])
+    rows = {t.task: t for t in run_project(read_project(OLD)).tasks}
+    assert (rows["Script_Safe"].status, rows["Script_Safe"].reason) == (
+        "not run", "the script gave 1 complete executions; the task asks for 3 — it must "
+                   "not end before tracecheck sends finished")
+
+
+def _trace_project(tmp_path: Path, trace: Path, machine: Path = FIXTURES / "Corridor.mch"
+                   ) -> Path:
+    data = {"name": "T", "machines": [{"name": machine.stem, "location": str(machine),
+                                       "traces": [{"location": str(trace)}]}]}
+    path = tmp_path / "T.prob2project"
+    path.write_text(json.dumps(data))
+    return path
+
+
+def _trace(tmp_path: Path, change) -> Path:
+    data = json.loads((FIXTURES / "traces" / "good.prob2trace").read_text())
+    change(data["transitionList"])
+    path = tmp_path / "t.prob2trace"
+    path.write_text(json.dumps(data))
+    return path
+
+
+def test_a_trace_the_initialisation_cannot_start_fails_at_step_0(tmp_path):
+    def start_at_1(ts):  # pos := 0 in the machine; the trace starts at 1 and walks 2, 3, 2
+        for t, pos in zip(ts[1:], ("1", "2", "3", "2")):
+            t["destState"]["pos"] = pos
+    (row,) = run_project(read_project(_trace_project(tmp_path, _trace(tmp_path, start_at_1)))
+                         ).tasks
+    assert (row.status, row.reason) == (
+        "failed", "step 0: the INITIALISATION cannot give the recorded state (pos = 1, not 0)")
+
+
+def test_a_trace_whose_initial_state_tracecheck_cannot_check_is_not_run(tmp_path, monkeypatch):
+    from tracecheck.b import transitions
+    from tracecheck.errors import UnsupportedError
+
+    def cannot(machine, state):
+        raise UnsupportedError("the INITIALISATION's ANY is beyond tracecheck")
+
+    monkeypatch.setattr(transitions, "initial_state_ok", cannot)
+    (row,) = run_project(read_project(_trace_project(
+        tmp_path, FIXTURES / "traces" / "good.prob2trace"))).tasks
+    assert (row.status, row.reason) == (
+        "not run", "tracecheck cannot check its initial state: the INITIALISATION's ANY is "
+                   "beyond tracecheck")
+
+
+def test_a_traces_setup_constants_must_give_the_machines_constants(tmp_path):
+    machine = tmp_path / "Far.mch"
+    machine.write_text((FIXTURES / "Corridor.mch").read_text().replace(
+        "MACHINE Corridor", "MACHINE Far CONSTANTS far PROPERTIES far = 4"))
+
+    def far(value):
+        return lambda ts: ts[0].update(destState={"far": value})
+
+    good = run_project(read_project(_trace_project(tmp_path, _trace(tmp_path, far("4")),
+                                                   machine))).tasks[0]
+    assert good.status == "success", good.reason
+    (row,) = run_project(read_project(_trace_project(tmp_path, _trace(tmp_path, far("5")),
+                                                     machine))).tasks
+    assert (row.status, row.reason) == (
+        "failed", "step 0: $setup_constants gives constants the machine does not have "
+                  "(far = 5)")
 
 
 def walk(eid: int, cells: list[int]) -> Episode:
@@ -200,6 +275,61 @@ def test_the_real_script_over_the_external_protocol():
     rows = {t.task: t for t in report.tasks}
     assert rows["Script_Safe"].status == "success", rows["Script_Safe"].reason
     assert rows["Script_Steps"].details["metrics"]["EXPRESSION"]["mean"] == 3.0
+
+
+def _script_project(tmp_path: Path, tasks: list) -> Path:
+    data = {"name": "S", "machines": [{
+        "name": "Corridor", "location": str(FIXTURES / "Corridor.mch"), "traces": [],
+        "simulations": [{"path": str(FIXTURES / "Corridor.py"), "simulationItems": tasks}]}]}
+    path = tmp_path / "S.prob2project"
+    path.write_text(json.dumps(data))
+    return path
+
+
+def _far(task_id: str, **window) -> dict:
+    """An estimation of the corridor's greatest cell over 4 executions."""
+    return {"id": task_id, "type": "ESTIMATION", "information": {
+        "MAX_STEPS_BEFORE_PROPERTY": 0, "EXECUTIONS": 4, "ESTIMATION_TYPE": "MEAN",
+        "EXPRESSION": "pos", "CHECKING_TYPE": "MAXIMUM", "DESIRED_VALUE": 2.0,
+        "EPSILON": 0.0, **window}}
+
+
+@pytest.mark.parametrize("window, greatest", [
+    # 3 transitions ($initialise_machine, RIGHT, RIGHT): cells 0, 1, 2; the script walks to 3
+    ({"STEPS_PER_EXECUTION": 3}, 2.0),
+    ({"ENDING_TIME": 2000}, 2.0),  # one second a step
+    # judged from transition 1 (cell 1), three transitions on: cells 1, 2, 3 — the run is
+    # cut late enough for the window (after 3 operations), not after 3 from the start
+    ({"START_AFTER_STEPS": 1, "STEPS_PER_EXECUTION": 3}, 3.0),
+], ids=["steps", "time", "start-and-steps"])
+def test_a_script_run_cut_by_an_ending_condition_runs_every_execution(tmp_path, window,
+                                                                        greatest):
+    pytest.importorskip("tracecheck.live.external")
+    report = run_project(read_project(_script_project(tmp_path, [_far("Far", **window)])))
+    (row,) = report.tasks
+    assert row.status == ("success" if greatest == 2.0 else "failed"), row.reason
+    assert row.executions == 4
+    assert row.details["metrics"]["EXPRESSION"]["mean"] == greatest
+
+
+def test_run_bounds():
+    from tracecheck.interop.prob2project_run import run_bounds
+    from tracecheck.stats.simb_tasks import Window
+
+    assert run_bounds([Window(steps_per_execution=3)], False) == (None, 2)
+    assert run_bounds([Window(steps_per_execution=3)], True) == (None, 1)
+    assert run_bounds([Window(steps_per_execution=3), Window(steps_per_execution=2,
+                                                             start_after_steps=4)],
+                      False) == (None, 5)
+    assert run_bounds([Window(steps_per_execution=3, max_steps_before=5)], False) == (None, 6)
+    assert run_bounds([Window(ending_time=60000), Window(ending_time=1000)], False) == \
+        (60000.0, None)
+    # a start tracecheck cannot place in advance: to the script's done
+    assert run_bounds([Window(steps_per_execution=3, starting_predicate="pos = 2")],
+                      False) == (None, None)
+    assert run_bounds([Window(ending_time=1000, start_after_steps=2)], False) == (None, None)
+    assert run_bounds([Window(ending_time=1000), Window(steps_per_execution=2)], False) == \
+        (None, None)
 
 
 def test_unknown_machine_and_missing_machine_file(tmp_path):

@@ -2,16 +2,19 @@
 validation table would, each with its verdict: success, failed or not run (with the reason).
 
 * ``REPLAY_TRACE``: the ``.prob2trace`` file replayed against the machine
-  (:func:`tracecheck.checking.replay_columns`): success when every step's operation is
-  enabled in the state before it and its effect gives the recorded state; else failed at the
-  first bad step.
+  (:func:`tracecheck.checking.replay_columns`): success when its ``$setup_constants`` gives
+  the machine's constants, the INITIALISATION can give its first state, every step's
+  operation is enabled in the state before it and its effect gives the recorded state; else
+  failed at the first bad step.
 * ``SIMULATION``: SimB's hypothesis tests, estimations and Monte Carlo runs
   (:mod:`tracecheck.stats.simb_tasks`) on executions from a folder of SimB timed traces
   (``Timed_Simulation_*.json``: the simulation's path when it is a folder, or a folder given
   with ``traces``) or from the external script the simulation names, run with ``python``
   (:mod:`tracecheck.live.external`; running a project runs its scripts, as ProB2-UI does —
   ``scripts=False`` never does). The tasks of one simulation share its executions: the
-  script runs once, for the most executions any of them asks for.
+  script runs once, for the most executions any of them asks for, cut where the longest of
+  their windows surely ends (else at the script's ``done``). A task with fewer executions
+  than it asks for is not run.
 * every other task (LTL, model checking, symbolic checking, proof obligations …): not run,
   with the reason.
 """
@@ -23,11 +26,12 @@ from pathlib import Path
 from typing import Callable, Mapping, Optional
 
 from ..errors import InputError, TracecheckError
-from ..stats.simb_tasks import FAILED, NOT_RUN, SUCCESS, TaskOutcome, evaluate_task
+from ..stats.simb_tasks import (FAILED, NOT_RUN, SUCCESS, TaskOutcome, Window, evaluate_task,
+                                has_setup)
 from .prob2project import REPLAY_TRACE, SIMULATION, Project, ProjectMachine, Task
 
 __all__ = ["RunOptions", "TaskReport", "ProjectReport", "run_project", "script_episodes",
-           "exit_code", "STATUSES"]
+           "run_bounds", "exit_code", "STATUSES"]
 
 STATUSES = (SUCCESS, FAILED, NOT_RUN)
 #: the exit code of ``tracecheck project`` when no task failed but some were not run
@@ -139,6 +143,7 @@ class _MachineRun:
         self._shield = None
         self._shield_error: Optional[str] = None
         self._executions: dict[Path, tuple[list, str, str]] = {}
+        self._cut: set[Path] = set()  # simulations whose script run was cut
 
     @property
     def shield(self):
@@ -190,6 +195,13 @@ class _MachineRun:
         except TracecheckError as exc:
             row.reason = f"tracecheck cannot replay it: {exc.render()}"
             return
+        first = _first_state(task.trace, episode, machine)
+        if first is not None:
+            row.status, why = first
+            row.executions = 1
+            row.result = why if row.status == FAILED else ""
+            row.reason = why
+            return
         ep = replayed.per_episode[0]
         row.executions = 1
         row.status, row.result, row.reason = _replay_verdict(ep, episode)
@@ -210,15 +222,16 @@ class _MachineRun:
         if error:
             row.reason = error
             return
+        if simb.executions is not None and len(episodes) < simb.executions:
+            row.executions = len(episodes)
+            row.reason = _too_few(len(episodes), simb.executions, source)
+            return
         where = f"{self.project.file}: {task.where}"
         outcome: TaskOutcome = evaluate_task(simb, episodes, self.shield.machine,
-                                             seed=self.options.seed, where=where)
+                                             seed=self.options.seed, where=where,
+                                             run_cut=task.simulation in self._cut)
         row.status, row.executions = outcome.status, outcome.executions
         row.result, row.reason, row.details = outcome.result, outcome.reason, outcome.details
-        if simb.executions is not None and len(episodes) < simb.executions \
-                and outcome.status != NOT_RUN:
-            row.details["note"] = f"only {len(episodes)} of {simb.executions} executions"
-            row.result += f" (only {len(episodes)} of {simb.executions} executions)"
 
     def _executions_of(self, task: Task) -> tuple[list, str, str]:
         """(episodes, where they came from, why there are none) for a simulation."""
@@ -261,7 +274,8 @@ class _MachineRun:
                                    "of timed traces with --traces")
         if not path.is_file():
             return [], str(path), f"no script at {path}"
-        return self._run_script(path, wanted or 1, group)
+        episodes, source, error = self._run_script(path, wanted or 1, group)
+        return episodes, source, error
 
     def _read_traces(self, folder: Path, wanted: Optional[int]) -> tuple[list, str, str]:
         from .common import expand_paths, vocabulary_of
@@ -281,15 +295,15 @@ class _MachineRun:
             return [], source, f"tracecheck cannot read the traces: {exc.render()}"
 
     def _run_script(self, path: Path, wanted: int, group: list[Task]) -> tuple[list, str, str]:
-        windows = [t.simb.window for t in group]
-        ending = [w.ending_time for w in windows]
-        steps = [w.steps_per_execution for w in windows]
+        ending_time, max_steps = run_bounds([t.simb.window for t in group],
+                                            has_setup(self.shield.machine))
         source = f"script {path} ({self.options.python})"
+        if ending_time is not None or max_steps is not None:
+            self._cut.add(path)
         try:
             episodes = script_episodes(
                 (self.options.python, path.name), wanted, path.parent, self.shield,
-                ending_time_ms=None if None in ending else max(ending),
-                max_steps=None if None in steps else max(steps),
+                ending_time_ms=ending_time, max_steps=max_steps,
                 step_timeout=self.options.step_timeout)
         except ModuleNotFoundError as exc:
             return [], source, f"this tracecheck cannot run external scripts ({exc})"
@@ -314,3 +328,92 @@ def _replay_verdict(ep, episode) -> tuple[str, str, str]:
     else:
         why = f"step {k}: {op} cannot reach the recorded state"
     return FAILED, f"{ep.steps} steps; {why}{note}", why
+
+
+def _too_few(have: int, wanted: int, source: str) -> str:
+    """Why a task with ``have`` of the ``wanted`` executions is not run."""
+    if source.startswith("traces "):
+        return (f"the folder has {have} timed traces; the task asks for {wanted} executions "
+                f"— give --executions {have} to run it on them")
+    return (f"the script gave {have} complete executions; the task asks for {wanted} — "
+            "it must not end before tracecheck sends finished")
+
+
+def run_bounds(windows: list[Window], setup: bool) -> tuple[Optional[float], Optional[int]]:
+    """(ENDING_TIME in ms, operations after the INITIALISATION) at which a script run can
+    be cut with every window in ``windows`` inside it (None, None: run to the script's
+    ``done``). ``setup``: the machine's executions start with ``$setup_constants`` (see
+    :func:`tracecheck.stats.simb_tasks.spans`). A window is bounded in steps when it starts
+    after a known number of transitions (no condition or ``START_AFTER_STEPS``, after up to
+    ``MAX_STEPS_BEFORE_PROPERTY`` − 1 random ones) and ends after ``STEPS_PER_EXECUTION``;
+    in time when it starts at once (clock 0) and ends at ``ENDING_TIME``; a starting
+    predicate or time, or an ending predicate, leave it unbounded."""
+    times: list[Optional[float]] = []
+    steps: list[Optional[int]] = []
+    for w in windows:
+        known = w.starting_predicate is None and w.starting_predicate_activated is None \
+            and w.starting_time is None
+        start = max(w.start_after_steps or 0, w.max_steps_before - 1, 0)
+        steps.append(max(start + w.steps_per_execution - 1 - int(setup), 0)
+                     if known and w.steps_per_execution is not None else None)
+        times.append(float(w.ending_time) if known and start == 0
+                     and w.steps_per_execution is None and w.ending_predicate is None
+                     and w.ending_time is not None else None)
+    if windows and None not in steps:
+        return None, max(steps)
+    if windows and None not in times:
+        return max(times), None
+    return None, None
+
+
+def _first_state(path: Path, episode, machine) -> Optional[tuple[str, str]]:
+    """(status, why) when the trace's ``$setup_constants`` does not give the machine's
+    constants or its INITIALISATION cannot give the trace's first state — as ProB2-UI's
+    replay executes both; None when both are fine."""
+    from ..b.transitions import initial_state_ok
+    from ..errors import UnsupportedError
+    from .common import load_json
+
+    transitions = load_json(path).get("transitionList") or []
+    setup = next((t for t in transitions if isinstance(t, dict)
+                  and t.get("name") == "$setup_constants"), None)
+    values = setup.get("destState") if setup else None
+    if values and isinstance(values, dict):
+        text = " & ".join(f"{k} = {v}" for k, v in values.items())
+        try:
+            node = machine.check_formula(text, file=f"{path}: $setup_constants")
+            same = bool(machine.compile(node)(dict(machine.base_env)))
+        except TracecheckError as exc:
+            return NOT_RUN, f"tracecheck cannot check its $setup_constants: {exc.render()}"
+        if not same:
+            return FAILED, ("step 0: $setup_constants gives constants the machine does not "
+                            f"have ({_short(text)})")
+    state = episode.steps[0].state
+    try:
+        ok = initial_state_ok(machine, state)
+    except UnsupportedError as exc:
+        return NOT_RUN, f"tracecheck cannot check its initial state: {exc.render()}"
+    except TracecheckError as exc:
+        return FAILED, f"step 0: {exc.render()}"
+    if ok:
+        return None
+    return FAILED, "step 0: the INITIALISATION cannot give the recorded state" + \
+        _differing(machine, state)
+
+
+def _differing(machine, state) -> str:
+    """`` (pos = 1, not 0)`` naming the variables a deterministic INITIALISATION gives
+    other values ("" when it is not deterministic)."""
+    from ..b.values import format_value
+
+    try:
+        init = machine.successor(None, {}, None, fixed={}).state
+    except TracecheckError:
+        return ""
+    diff = [f"{v} = {format_value(state[v])}, not {format_value(init[v])}"
+            for v in machine.variables if v in init and init[v] != state.get(v)]
+    return f" ({'; '.join(diff)})" if diff else ""
+
+
+def _short(text: str, limit: int = 120) -> str:
+    return text if len(text) <= limit else text[:limit] + " …"
