@@ -8,7 +8,7 @@ from __future__ import annotations
 import os
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterable, Iterator, Optional, Sequence
+from typing import Callable, Iterable, Iterator, Optional, Sequence
 
 from ..errors import InputError
 from ..outputs import atomic_temp, check_output, open_new, temp_file
@@ -16,7 +16,7 @@ from .writer import ChannelsFactory, EpisodeWriter
 from .model import Episode
 from .schema import RunHeaderMessage
 
-__all__ = ["write_run", "recording_into", "check_run_output"]
+__all__ = ["write_run", "recording_into", "record_episodes", "check_run_output"]
 
 _NO_FOLLOW = getattr(os, "O_NOFOLLOW", 0)
 
@@ -105,3 +105,22 @@ def recording_into(path: str | Path, header: RunHeaderMessage, *, force: bool = 
                 path.unlink(missing_ok=True)  # new file with none would look like a run
         finally:
             lock.unlink(missing_ok=True)
+
+
+def record_episodes(path: str | Path, header: RunHeaderMessage, episodes: Iterable[Episode],
+                    progress: Optional[Callable[[Episode], None]] = None, *,
+                    force: bool = False, channels: Optional[ChannelsFactory] = None,
+                    inputs: Sequence[Path] = ()) -> tuple[int, int, int]:
+    """Write ``episodes`` into ``path`` as they come (:func:`recording_into`: an interrupted
+    or failed recording keeps every finished episode); (episodes, steps, crashes)."""
+    counts = [0, 0, 0]
+    with recording_into(path, header, force=force, channels=channels,
+                        inputs=inputs) as writer:
+        for episode in episodes:
+            writer.write(episode)
+            counts[0] += 1
+            counts[1] += episode.end.steps
+            counts[2] += episode.end.crashed
+            if progress is not None:
+                progress(episode)
+    return counts[0], counts[1], counts[2]

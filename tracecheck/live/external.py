@@ -15,7 +15,11 @@ argument, and for each step
 3. finds the state after, as ProB does (:func:`tracecheck.b.transitions.successor`):
    variables the predicate fixes take its values, the others the operation's.
 
-Each step is recorded with the operations that were enabled, so replay shows an action the
+An episode ends when the script answers ``"done": true``; one that reaches an ending
+condition first (``max_steps`` operations after the initialisation, or ``ending_time_ms`` on
+the script's clock) is cut with ``{"finished": 1, …}``, which the authors' scripts take as
+"leave this episode and wait for the next request" — ``finished`` where an episode would
+start ends the simulation. Each step is recorded with the operations that were enabled, so replay shows an action the
 machine blocked as an infeasible step and a predicate no transition satisfies as a
 postcondition violation — the script is never trusted. After the last episode tracecheck
 sends ``{"finished": 1, …}`` and stops the script (terminate, then kill after a grace
@@ -172,21 +176,13 @@ def record_external(settings: ExternalSettings, shield, out: str | Path,
     """Record the script's episodes into ``out`` (as :func:`tracecheck.live.record.record`
     does an agent's): (episodes, steps, crashes). Every episode the script finished before
     an error or an interrupt is kept; the error is raised after the file is closed."""
-    from ..episodes.files import recording_into
+    from ..episodes.files import record_episodes
 
     out = Path(out)
     given = check_external(settings, shield, out, force=force)
-    counts = [0, 0, 0]
-    with recording_into(out, external_header(settings, shield), force=force,
-                        channels=channels, inputs=given) as writer:
-        for episode in external_episodes(settings, shield):
-            writer.write(episode)
-            counts[0] += 1
-            counts[1] += episode.end.steps
-            counts[2] += episode.end.crashed
-            if progress is not None:
-                progress(episode)
-    return counts[0], counts[1], counts[2]
+    return record_episodes(out, external_header(settings, shield),
+                           external_episodes(settings, shield), progress, force=force,
+                           channels=channels, inputs=given)
 
 
 class _Link:

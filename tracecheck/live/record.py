@@ -14,7 +14,7 @@ import signal
 from pathlib import Path
 from typing import Callable, Iterator, Optional, Sequence
 
-from ..episodes.files import check_run_output, recording_into
+from ..episodes.files import check_run_output, record_episodes
 from ..outputs import input_paths
 from ..episodes.writer import ChannelsFactory, new_header
 from ..episodes.model import Episode
@@ -139,15 +139,6 @@ def record(settings: RecordSettings, out: str | Path,
     """
     out = Path(out)
     agent, shield = check_settings(settings, out, force=force)
-    header = recording_header(settings, agent, shield)
-    counts = [0, 0, 0]
-    with recording_into(out, header, force=force, channels=channels,
-                        inputs=run_inputs(settings)) as writer:
-        for episode in episodes(settings, shield):
-            writer.write(episode)
-            counts[0] += 1
-            counts[1] += episode.end.steps
-            counts[2] += episode.end.crashed
-            if progress is not None:
-                progress(episode)
-    return counts[0], counts[1], counts[2]
+    return record_episodes(out, recording_header(settings, agent, shield),
+                           episodes(settings, shield), progress, force=force,
+                           channels=channels, inputs=run_inputs(settings))
