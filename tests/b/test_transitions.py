@@ -161,3 +161,15 @@ def test_a_literal_of_the_wrong_type_is_refused_and_memo_reads_a_value_once():
     assert set(memo) == {"n", "s"}
     again = equations(LITERALS, "n = 2 & s = [1, 2]", memo)
     assert again["s"] is first["s"] and again["n"] == 2
+
+
+def test_an_initialisation_that_becomes_such_that():
+    # the authors' highway machines: `PresentVehicles : (PresentVehicles : POW(Vehicles) & …)`
+    m = load_machine_text('''MACHINE Present
+SETS V = {Ego, Other}
+VARIABLES present
+INVARIANT present <: V
+INITIALISATION present : (present : POW(V) & Ego : present)
+OPERATIONS Leave = present := present - {Other} END''')
+    assert m.successor(None, {}, m.parse("present = {Ego, Other}")).possible
+    assert not m.successor(None, {}, m.parse("present = {Other}")).possible

@@ -21,7 +21,7 @@ from tests.helpers import ROOT, run
 from tracecheck.checking import load_shield, replay
 from tracecheck.episodes import read_run
 from tracecheck.episodes.reader import read_header
-from tracecheck.live.external import ExternalSettings, external_episodes
+from tracecheck.live.external import ExternalError, ExternalSettings, external_episodes
 
 HERE = ROOT / "tests" / "fixtures" / "external"
 CORRIDOR = HERE / "Corridor.mch"
@@ -189,15 +189,32 @@ def test_a_script_that_dies_is_quoted(tmp_path, capsys):
     assert "its last output:" in stderr and "agent: giving up" in stderr
 
 
-def test_a_script_that_never_connects(tmp_path, capsys):
+def test_a_script_that_never_connects():
     started = time.monotonic()
-    code, _, stderr = record(capsys, "--external", f"{PY} corridor_agent.py silent", "--cwd",
-                             HERE, "--step-timeout", 0.5, "-o", tmp_path / "x.mcap")
-    assert code == 2 and "did not connect to 127.0.0.1:" in stderr
-    assert "(the port is its last argument)" in " ".join(stderr.split())
+    settings = corridor("silent", connect_timeout=1.0)
+    with pytest.raises(ExternalError) as info:
+        list(external_episodes(settings, load_shield(CORRIDOR)))
+    message = " ".join(str(info.value).split())
+    assert "the script did not connect to 127.0.0.1:" in message
+    assert "within 1 s (the port is its last argument)" in message
     assert time.monotonic() - started < 20
-    assert not (tmp_path / "x.mcap").exists()  # no episode: no file
     assert not scripts_running("corridor_agent.py silent")
+
+
+def test_the_cli_waits_at_least_a_minute_for_the_connection_and_notes_unbounded_episodes(
+        tmp_path, capsys):
+    from tracecheck.cli.common import external_settings
+
+    settings, _ = external_settings("python3 agent.py", shield=str(CORRIDOR), episodes=1,
+                                    cwd=None, step_timeout=0.5, crash=None, ending_time=None,
+                                    duration=None)
+    assert (settings.step_timeout, settings.connect_timeout) == (0.5, 60.0)
+    assert "neither --duration nor --ending-time" in capsys.readouterr().err
+    settings, _ = external_settings("python3 agent.py", shield=str(CORRIDOR), episodes=1,
+                                    cwd=None, step_timeout=45, crash=None, ending_time=None,
+                                    duration=10)
+    assert settings.connect_timeout == 90 and settings.max_steps == 10
+    assert capsys.readouterr().err == ""
 
 
 def test_a_command_that_cannot_start(tmp_path, capsys):

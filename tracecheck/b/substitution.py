@@ -139,7 +139,8 @@ class SubstCompiler:
         def such_that(pre: Env, post: dict) -> bool:
             env = fresh(pre)
             for n, p1, p2 in primed:
-                env[p1] = env[p2] = pre[n]
+                if n in pre:  # an INITIALISATION has no value before
+                    env[p1] = env[p2] = pre[n]
                 env[n] = post[n]
             return bool(pred(env))
         return such_that

@@ -232,7 +232,8 @@ EXTERNAL = typer.Option(None, "--external", help="Run this agent script instead 
 CWD = typer.Option(None, "--cwd", help="The folder --external's script runs in (default: the "
                    "current one).")
 STEP_TIMEOUT = typer.Option(30.0, "--step-timeout", min=0.001, help="Seconds --external's "
-                            "script may take to answer one step (and twice that to connect).")
+                            "script may take to answer one step (and twice that, at least 60 "
+                            "s, to connect: scripts load their agent first).")
 CRASH = typer.Option(None, "--crash", help="With --external: a predicate over the machine's "
                      "state that marks a crash (default: its Crash variable, if it has one).")
 ENDING_TIME = typer.Option(None, "--ending-time", min=1, help="With --external: SimB's "
@@ -259,9 +260,13 @@ def external_settings(command: str, *, shield: str, episodes: int, cwd: Optional
     if shield == "none":
         raise InputError("--external needs --shield naming the machine that answers the "
                          "script (a .mch file, or a built-in shield other than none)")
+    if duration is None and ending_time is None:
+        err.print("note: neither --duration nor --ending-time: each episode lasts until the "
+                  "script says done", markup=False, highlight=False)
     settings = ExternalSettings(command=split_command(command), episodes=episodes, cwd=cwd,
                                 ending_time_ms=ending_time, max_steps=duration,
-                                step_timeout=step_timeout, connect_timeout=2 * step_timeout,
+                                step_timeout=step_timeout,
+                                connect_timeout=max(60.0, 2 * step_timeout),
                                 crash=crash)
     return settings, load_shield(shield)
 
