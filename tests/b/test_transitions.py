@@ -173,3 +173,16 @@ INITIALISATION present : (present : POW(V) & Ego : present)
 OPERATIONS Leave = present := present - {Other} END''')
     assert m.successor(None, {}, m.parse("present = {Ego, Other}")).possible
     assert not m.successor(None, {}, m.parse("present = {Other}")).possible
+
+
+def test_a_blocked_select_has_its_effect_as_a_blocked_pre_does():
+    # an action the guard forbids is recorded and flagged, whichever way the guard is written
+    for guard in ("SELECT floor > 0 THEN", "PRE floor > 0 THEN"):
+        m = load_machine_text(f'''MACHINE Lift
+VARIABLES floor, moves
+INVARIANT floor : INTEGER & moves : NATURAL
+INITIALISATION floor, moves := 0, 0
+OPERATIONS Down = {guard} floor := floor - 1 || moves := moves + 1 END END''')
+        after = m.successor("Down", {"floor": 0, "moves": 0}, m.parse("floor = -1"))
+        assert dict(after.state) == {"floor": -1, "moves": 1}, guard
+        assert "Down" not in m.enabled({"floor": 0, "moves": 0})

@@ -160,7 +160,8 @@ def test_two_agents_take_turns_one_operation_per_move(tmp_path, capsys):
     ("partial", "episode 1, initialisation ($initialise_machine): pos fixed neither by the "
                 "predicate nor by the operation (its `pos :: …` chooses it); the script sent "
                 "'moves = 0'"),
-    ("hang", "episode 1, step 1: no answer within 1 s (--step-timeout)"),
+    ("hang", "episode 1, step 1: no answer within 1 s (--step-timeout; a script that "
+             "writes through a buffer must flush after each answer)"),
     ("badinit", "episode 1, initialisation: the INITIALISATION of Corridor cannot give the "
                 "initial state the script sent: 'pos = 4'"),
     ("liar", "episode 1, step 1 (Right): no state satisfies the predicate with the values "
@@ -333,3 +334,24 @@ def test_the_minimal_script_of_the_docs_runs(tmp_path, capsys):
         " ".join(stdout.split())
     report = replay([out], load_shield(CORRIDOR))
     assert (report.episodes, report.steps, report.infeasible_steps) == (3, 12, 0)
+
+
+def test_a_script_that_does_not_leave_a_cut_episode_is_told_why(tmp_path, capsys):
+    code, _, stderr = record(capsys, "--external", f"{PY} corridor_agent.py deaf", "--cwd",
+                             HERE, "--duration", 2, "-o", tmp_path / "x.mcap")
+    text = " ".join(stderr.split())
+    assert code == 2 and "episode 1, initialisation: answered 'Left' where the episode " \
+        "starts; the first answer must be $initialise_machine — the previous episode was " \
+        "cut with finished: 1, which a script must take as 'leave this episode'" in text
+    assert [e.end.reason for e in read_run(tmp_path / "x.mcap").episodes] == ["time-limit"]
+
+
+def test_stats_on_a_script_run_says_where_its_properties_come_from(tmp_path, capsys):
+    out = tmp_path / "run.mcap"
+    assert record(capsys, "--external", f"{PY} corridor_agent.py", "--cwd", HERE,
+                  "-o", out)[0] == 0
+    code, _, stderr = run(capsys, "stats", out)
+    text = " ".join(stderr.split())
+    assert code == 0 and "the runs come from an agent script (states of Corridor): generic " \
+        "statistics (give --properties FILE for the machine's own properties)" in text
+    assert "not installed" not in text

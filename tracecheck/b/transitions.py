@@ -402,14 +402,20 @@ class _Planner:
             (lambda env, fixed: [{}]) if first_only else None)
 
         def branching(env: Env, fixed: Mapping[str, Any]) -> list:
-            out = []
+            out, taken = [], False
             for cond, body in branches:
                 if cond(env):
+                    taken = True
                     out += body(env, fixed)
                     if first_only:
                         return out
-            if not out and other is not None:
-                out = other(env, fixed)
+            if not taken and other is not None:
+                return other(env, fixed)
+            if not taken and not self.strict:
+                # a SELECT whose guards are all false (an action the machine blocks): its
+                # effect as if they held, as for PRE — the step is recorded and flagged
+                for _, body in branches:
+                    out += body(env, fixed)
             return out
         return branching
 

@@ -8,7 +8,7 @@ from typing import Any, Iterable, Mapping, Optional
 
 from ..b.notation import parse_literal
 from ..episodes.model import Episode, StepRecord, make_end
-from ..episodes.vocabulary import Vocabulary
+from ..episodes.vocabulary import HIGHWAY, Vocabulary
 from ..errors import InputError, TracecheckError
 from ..inputs import read_json
 
@@ -67,7 +67,10 @@ def build_episode(episode_id: int, origin: str, items: list[tuple[Optional[str],
         unknown = sorted(set(state) - set(vocab.variables))
         if unknown:
             raise InputError(f"{here}: unknown variable {unknown[0]!r}; the variables are "
-                             f"{', '.join(vocab.variables)}")
+                             f"{', '.join(vocab.variables)}",
+                             hint="the states are read in the paper's highway vocabulary "
+                                  "unless --model MACHINE.mch names their machine"
+                             if vocab is HIGHWAY else None)
         missing = [v for v in vocab.variables if v not in state]
         if missing:
             raise InputError(f"{here}: no value for {', '.join(missing)}")

@@ -257,7 +257,8 @@ class _Link:
             left = deadline - time.monotonic()
             if left <= 0:
                 raise self.error(f"{where}: no answer within {self.settings.step_timeout:g} s "
-                                 "(--step-timeout)")
+                                 "(--step-timeout; a script that writes through a buffer "
+                                 "must flush after each answer)")
             self.conn.settimeout(min(left, 0.5))
             try:
                 data = self.conn.recv(1 << 16)
@@ -372,6 +373,7 @@ class _Run:
         self.crash_var = "Crash" if kinds.get("Crash") == "BOOL" else None
         self.reward_var = "Reward" if kinds.get("Reward") in ("REAL", "INTEGER") else None
         self.literals: dict = {}  # variable -> (its last literal, the value read from it)
+        self.cut = False  # the last episode was cut with finished: 1
 
     def episode(self, k: int) -> Episode:
         where = f"episode {k}, initialisation"
@@ -382,8 +384,11 @@ class _Run:
                                       f"for the machine's constants: {_quote(answer.predicate)}")
             answer = self._ask(INIT, where)
         if answer.op != INIT:
+            after_cut = (" — the previous episode was cut with finished: 1, which a script "
+                         "must take as 'leave this episode'" if self.cut else "")
             raise self.link.error(f"{where}: answered {_quote(answer.op)} where the episode "
-                                  f"starts; the first answer must be {INIT}")
+                                  f"starts; the first answer must be {INIT}{after_cut}")
+        self.cut = False
         state = self._after(None, {}, answer, where)
         steps = [self._record(0, 0.0, None, state, None)]
         clock_ms = 0.0
@@ -391,6 +396,7 @@ class _Run:
         while not done:
             if self._ending(len(steps) - 1, clock_ms):
                 self.link.send("", finished=True)
+                self.cut = True
                 reason = "time-limit"
                 break
             n = len(steps)

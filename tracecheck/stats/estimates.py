@@ -130,6 +130,12 @@ def default_set(paths: list[str | Path], adapter=None) -> tuple[PropertySet, lis
     environment = environment_of(paths[0]) if paths else "highway"
     adapter = adapter if adapter is not None else installed_adapter(environment, required=False)
     if adapter is None:
+        from ..episodes.reader import read_header
+
+        if paths and read_header(paths[0]).source == "external":
+            return with_generic(None), [
+                f"the runs come from an agent script (states of {environment}): generic "
+                "statistics (give --properties FILE for the machine's own properties)"]
         return with_generic(None), [
             f"the environment {environment} of these runs is not installed here: generic "
             "statistics only (give --env package.module:Class for its own property set)"]
