@@ -350,7 +350,10 @@ def test_stats_on_a_script_run_says_where_its_properties_come_from(tmp_path, cap
     out = tmp_path / "run.mcap"
     assert record(capsys, "--external", f"{PY} corridor_agent.py", "--cwd", HERE,
                   "-o", out)[0] == 0
-    code, _, stderr = run(capsys, "stats", out)
+    code, stdout, stderr = run(capsys, "stats", out)
+    assert "— (not finite)" in stdout
+    assert "Interventions (share of steps), run: not finite: of 3 episodes, 3 nan (the " \
+        "agent's action values were not recorded" in " ".join(stdout.split())
     text = " ".join(stderr.split())
     assert code == 0 and "the runs come from an agent script (states of Corridor): generic " \
         "statistics (give --properties FILE for the machine's own properties)" in text

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Iterator
@@ -20,6 +22,8 @@ PLOT_FILES = ("*.png", "*.svg")
 def _metric_cell(m: dict, lines: bool = False) -> str:
     """Mean ± sd and its interval; ``lines``: the interval on a line of its own (a terminal
     table then wraps between the parts, never inside one)."""
+    if "mean_note" in m and not math.isfinite(m["mean"]):  # the text says why below
+        return "— (not finite)"
     if m["sd"] is None:
         return f"{m['mean']:.2f}"
     lo, hi = m["ci95"]
@@ -73,6 +77,11 @@ def stats_text(console: Console, result: dict) -> None:
     for row in rows:
         literal_row(table, row)
     console.print(table, soft_wrap=False)
+    for r in result["runs"]:  # why a cell has no number
+        for name, m in r["metrics"].items():
+            if "mean_note" in m and not math.isfinite(m["mean"]):
+                label = result["descriptions"].get(name) or name
+                console.print(Text(f"{label}, {r['name']}: {m['mean_note']}"))
     for c in result["comparisons"]:
         console.print(f"paired {c['runs'][0]} vs {c['runs'][1]} ({c['pairs']} shared seeds):",
                       highlight=False)
