@@ -127,6 +127,22 @@ def test_frozenlake_on_current_gymnasium_is_feasible_under_its_shield(tmp_path, 
     assert (report.postcondition_violations, report.invariant_violations) == (0, 0)
 
 
+AUTHORS_LAKE = ROOT.parent / "shared" / "data" / "paper-models" / "FrozenLake" / "FrozenLake.mch"
+
+
+@pytest.mark.skipif(not AUTHORS_LAKE.exists(), reason="the authors' machines are not in ../shared")
+def test_the_authors_frozenlake_machine_answers_a_script_in_their_scripts_shape(tmp_path,
+                                                                                capsys):
+    pytest.importorskip("gymnasium")
+    out = tmp_path / "lake.mcap"
+    code, _, _ = run(capsys, "record", "--external", f"{PY} frozenlake_agent.py 3", "--cwd",
+                     HERE, "--shield", AUTHORS_LAKE, "--episodes", 2, "-o", out)
+    assert code == 0
+    report = replay([out], load_shield(AUTHORS_LAKE))
+    assert report.steps > 0 and report.infeasible_steps == 0
+    assert (report.postcondition_violations, report.invariant_violations) == (0, 0)
+
+
 def test_two_agents_take_turns_one_operation_per_move(tmp_path, capsys):
     out = tmp_path / "grid.mcap"
     shield = HERE / "TwoAgents.mch"
