@@ -1,0 +1,170 @@
+"""Allowed sets of REAL parameters: exact membership, nearest allowed points, refusals.
+
+Random linear guards in one and two parameters, random states and points: membership agrees
+with the ordinary guard evaluation on every point, every nearest point satisfies the guard
+(checked by the evaluator), and no allowed point of a fine grid is nearer.
+"""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from tracecheck.b import load_machine_text
+from tracecheck.b.linear import allowed_set, real_parameters
+from tracecheck.errors import UnsupportedError
+
+
+def machine(guard: str, params: str = "a", extra: str = ""):
+    typed = " & ".join(f"{p} : REAL" for p in params.split(", "))
+    return load_machine_text(f'''MACHINE G
+VARIABLES u, v
+INVARIANT u : REAL & v : REAL
+INITIALISATION u, v := 0.0, 0.0
+OPERATIONS Act({params}) = PRE {typed} & ({guard}) THEN skip END{extra}
+END''')
+
+
+def evaluator_holds(m, state, point) -> bool:
+    """The ordinary guard evaluation with the parameters bound (compiled once per machine)."""
+    guard = m.cached("test guard", "Act", lambda: m.compile(m.operation("Act").guard))
+    env = m.env(state)
+    env.update(point)
+    return bool(guard(env))
+
+
+DYADIC = st.integers(-6, 6).map(float) | st.sampled_from([0.5, -1.25, 2.75])
+NUM = DYADIC | st.sampled_from([0.1, 1e-3, 1 / 3])
+REL = st.sampled_from(["<", "<=", ">", ">=", "/=", "="])
+
+
+@st.composite
+def linear_atom(draw, params=("a",), num=NUM):
+    terms = " + ".join(f"({draw(num)}) * {p}" for p in params if draw(st.booleans())) or "0.0"
+    return f"{terms} + u * ({draw(num)}) {draw(REL)} v + ({draw(num)})"
+
+
+@st.composite
+def guard(draw, params=("a",), depth=2, num=NUM):
+    if depth == 0 or draw(st.integers(0, 2)) == 0:
+        return draw(linear_atom(params, num))
+    op = draw(st.sampled_from(["&", "or", "=>", "<=>"]))
+    left, right = draw(guard(params, depth - 1, num)), draw(guard(params, depth - 1, num))
+    text = f"({left}) {op} ({right})"
+    return f"not({text})" if draw(st.booleans()) else text
+
+
+STATE = st.fixed_dictionaries({"u": NUM, "v": NUM})
+POINT = st.integers(-40, 40).map(lambda k: k / 4) | st.floats(-12, 12, allow_nan=False)
+
+
+@settings(max_examples=200, deadline=None)
+@given(guard(num=DYADIC), st.fixed_dictionaries({"u": DYADIC, "v": DYADIC}),
+       st.lists(st.integers(-40, 40).map(lambda k: k / 4), min_size=1, max_size=8))
+def test_membership_over_the_reals_is_the_evaluators_where_floats_are_exact(text, state,
+                                                                             points):
+    # small dyadic numbers: the evaluator's float arithmetic is exact, so the two agree
+    m = machine(text)
+    allowed = allowed_set(m, "Act", state)
+    for a in points:
+        assert allowed.contains_exact({"a": a}) == evaluator_holds(m, state, {"a": a}), \
+            (text, a)
+        assert allowed.contains({"a": a}) == evaluator_holds(m, state, {"a": a})
+
+
+@settings(max_examples=200, deadline=None)
+@given(guard(), STATE, POINT)
+def test_the_nearest_allowed_point_satisfies_the_guard_and_no_grid_point_is_nearer(
+        text, state, a):
+    m = machine(text)
+    allowed = allowed_set(m, "Act", state)
+    nearest = allowed.nearest({"a": a})
+    grid = [k / 8 for k in range(-120, 121)]
+    inside = [x for x in grid if evaluator_holds(m, state, {"a": x})]
+    if nearest is None:  # nothing allowed, or no float the evaluator takes near the bound
+        assert not inside
+        return
+    assert evaluator_holds(m, state, nearest), (text, a, nearest)
+    if inside:
+        assert abs(nearest["a"] - a) <= min(abs(x - a) for x in inside) + 1e-9
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(linear_atom(("a",)), min_size=1, max_size=3),
+       st.lists(linear_atom(("b",)), min_size=1, max_size=3), STATE,
+       st.tuples(POINT, POINT))
+def test_two_parameters_separable_boxes(on_a, on_b, state, point):
+    text = " & ".join(f"({t})" for t in on_a + on_b)
+    m = machine(text, "a, b")
+    allowed = allowed_set(m, "Act", state)
+    assert allowed.separable
+    p = {"a": point[0], "b": point[1]}
+    assert allowed.contains(p) == evaluator_holds(m, state, p)
+    nearest = allowed.nearest(p)
+    grid = [(x / 2, y / 2) for x in range(-24, 25) for y in range(-24, 25)]
+    if nearest is not None:
+        assert evaluator_holds(m, state, nearest)
+        d = math.hypot(nearest["a"] - p["a"], nearest["b"] - p["b"])
+        grid = [(x, y) for x, y in grid if math.hypot(x - p["a"], y - p["b"]) < d - 1e-9]
+    # no point of the grid nearer than the answer is allowed (none at all if it found none)
+    assert not any(evaluator_holds(m, state, {"a": x, "b": y}) for x, y in grid)
+
+
+def test_intervals_are_exact_and_printed_as_b_would_read_them():
+    m = machine("a >= -4.0 & a <= 2.0 & (a < -1.0 or a > 0.5) & a /= 1.0")
+    allowed = allowed_set(m, "Act", {"u": 0.0, "v": 0.0})
+    assert str(allowed) == "a ∈ [-4.0, -1.0) ∪ (0.5, 1.0) ∪ (1.0, 2.0]"
+    third = machine("3.0 * a <= 1.0")
+    bound = allowed_set(third, "Act", {"u": 0.0, "v": 0.0}).intervals[0].high
+    assert bound == Fraction(1, 3)  # exact, not 0.333…
+    assert str(allowed_set(third, "Act", {"u": 0.0, "v": 0.0})) == "a ∈ (-∞, 0.3333333333333333…]"
+    assert allowed_set(machine("a = u + 1.0"), "Act", {"u": 2.0, "v": 0.0}).intervals[0].low == 3
+    none = allowed_set(machine("a > v & a < u"), "Act", {"u": 0.0, "v": 1.0})
+    assert none.intervals == () and str(none) == "a ∈ ∅" and none.nearest({"a": 0.0}) is None
+
+
+def test_a_float_state_value_is_taken_exactly():
+    m = machine("a <= u")
+    allowed = allowed_set(m, "Act", {"u": 0.1, "v": 0.0})
+    assert allowed.intervals[0].high == Fraction(0.1)  # the double 0.1, not 1/10
+    assert allowed.contains({"a": 0.1}) and not allowed.contains({"a": math.nextafter(0.1, 1)})
+
+
+def test_where_float_arithmetic_refuses_the_exact_bound_the_nearest_point_steps_inside():
+    m = machine("3.0 * a > v")
+    state = {"u": 0.0, "v": 1.0}
+    allowed = allowed_set(m, "Act", state)
+    just_above = math.nextafter(1 / 3, 1)  # allowed over the reals; 3.0 * it rounds to 1.0
+    assert allowed.contains_exact({"a": just_above})
+    assert not allowed.contains({"a": just_above}) and not evaluator_holds(
+        m, state, {"a": just_above})
+    near = allowed.nearest({"a": 0.0})
+    assert near["a"] > just_above and evaluator_holds(m, state, near)
+
+
+def test_the_nearest_point_next_to_an_open_bound_is_inside():
+    m = machine("a < 2.0")
+    near = allowed_set(m, "Act", {"u": 0.0, "v": 0.0}).nearest({"a": 5.0})
+    assert near == {"a": math.nextafter(2.0, -math.inf)} and evaluator_holds(
+        m, {"u": 0.0, "v": 0.0}, near)
+
+
+@pytest.mark.parametrize("text, why", [
+    ("a * a < 4.0", "a product of two parameter terms"),
+    ("u / a < 1.0", "a division by a parameter term"),
+    ("a : {1.0, 2.0}", "the relation :"),
+])
+def test_a_guard_not_linear_in_its_parameters_is_refused(text, why):
+    m = machine(text)
+    with pytest.raises(UnsupportedError, match=f"the guard is not linear in its parameters: {why}"):
+        allowed_set(m, "Act", {"u": 1.0, "v": 0.0})
+
+
+def test_only_operations_with_real_parameters():
+    m = machine("a > 0.0", extra=";\n  Go(n) = PRE n : NATURAL & n < 3 THEN skip END")
+    assert real_parameters(m.operation("Act")) and not real_parameters(m.operation("Go"))
+    with pytest.raises(UnsupportedError, match="no parameters typed `p : REAL`"):
+        allowed_set(m, "Go", {"u": 0.0, "v": 0.0})
