@@ -168,3 +168,34 @@ def test_only_operations_with_real_parameters():
     assert real_parameters(m.operation("Act")) and not real_parameters(m.operation("Go"))
     with pytest.raises(UnsupportedError, match="no parameters typed `p : REAL`"):
         allowed_set(m, "Go", {"u": 0.0, "v": 0.0})
+
+
+ACC = '''MACHINE Acc
+VARIABLES Gap, Speed
+INVARIANT Gap : REAL & Speed : REAL
+INITIALISATION Gap, Speed := 50.0, 20.0
+OPERATIONS
+  Accelerate(a) = PRE a : REAL & a >= -4.0 & a <= 2.0 & Gap - (Speed + a) * 1.5 > 10.0
+                  THEN Speed := Speed + a END;
+  Steer(a, s) = PRE a : REAL & s : REAL & a >= -1.0 & a <= 1.0 & s * 2.0 <= Gap - 30.0 &
+                    s >= -0.5 THEN skip END;
+  Brake = PRE Speed > 0.0 THEN Speed := 0.0 END
+END'''
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 80).map(float), st.integers(0, 40).map(float)),
+                min_size=1, max_size=12))
+def test_enabled_decides_real_parameters_alike_state_by_state_and_in_batch(rows):
+    from tracecheck.b import Columns
+
+    m = load_machine_text(ACC)
+    states = [{"Gap": g, "Speed": v} for g, v in rows]
+    batch = m.enabled_batch(Columns.from_states(states))
+    for i, state in enumerate(states):
+        enabled = m.enabled(state)
+        assert {op for op, ok in batch.items() if ok[i]} == enabled
+        allowed = m.allowed("Accelerate", state)
+        assert ("Accelerate" in enabled) == (allowed.witness() is not None)
+        # over the reals: some a in [-4, 2] with Gap - (Speed + a) * 1.5 > 10
+        assert ("Accelerate" in enabled) == (state["Gap"] - (state["Speed"] - 4.0) * 1.5 > 10.0)

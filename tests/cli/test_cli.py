@@ -388,3 +388,25 @@ def test_guards_warns_of_a_state_the_invariant_excludes(capsys, tmp_path):
     state.write_text('{"Gap": 30.0, "EgoSpeed": 2.0, "Lead": 1.0}')
     code, out, err = run(capsys, "guards", str(model), "--state", str(state), "--json")
     assert code == 0 and err == "" and json.loads(out)["invariant_holds"] is True
+
+
+def test_guards_prints_the_values_real_parameters_may_take(tmp_path, capsys):
+    model = tmp_path / "acc.mch"
+    model.write_text('''MACHINE Acc
+VARIABLES Gap, Speed
+INVARIANT Gap : REAL & Speed : REAL
+INITIALISATION Gap, Speed := 50.0, 20.0
+OPERATIONS
+  ACCELERATE(a) = PRE a : REAL & a >= -4.0 & a <= 2.0 & Gap - (Speed + a) * 1.5 > 10.0
+                  THEN Speed := Speed + a END
+END''')
+    state = tmp_path / "s.json"
+    state.write_text('{"Gap": 40.0, "Speed": 20.0}')
+    code, out, _ = run(capsys, "guards", model, "--state", state)
+    assert code == 0 and "enabled: ACCELERATE" in out and "ACCELERATE: a ∈ [-4.0, 0.0)" in out
+    code, out, _ = run(capsys, "guards", model, "--state", state, "--json")
+    assert json.loads(out)["allowed"]["ACCELERATE"]["intervals"] == [
+        {"low": -4.0, "high": 0.0, "low_open": False, "high_open": True}]
+    state.write_text('{"Gap": 10.0, "Speed": 20.0}')
+    code, out, _ = run(capsys, "guards", model, "--state", state)
+    assert code == 0 and "(none: deadlock)" in out and "ACCELERATE: a ∈ ∅" in out

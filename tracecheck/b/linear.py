@@ -114,13 +114,12 @@ class AllowedSet:
         pieces = [i for i in (_interval(part) for part in self.parts) if not i.empty]
         return _merge(pieces)
 
-    @property
-    def empty(self) -> bool:
-        if len(self.params) == 1:
-            return not self.intervals
-        return all(_box(part, self.params) is not None and any(
-            i.empty for i in _box(part, self.params).values()) for part in self.parts) \
-            if self.separable else self._empty_by_solver()
+    def witness(self) -> Optional[dict[str, float]]:
+        """An allowed point the evaluator confirms (the one nearest 0), or None when there
+        is none. Raises :class:`UnsupportedError` when the polytopes are not boxes."""
+        if not self.separable:
+            self._empty_by_solver()
+        return self.nearest({p: 0.0 for p in self.params})
 
     @property
     def separable(self) -> bool:
@@ -163,32 +162,44 @@ class AllowedSet:
         return best
 
     def _confirmed(self, candidate: dict, box: dict) -> Optional[dict]:
-        """``candidate``, or the nearest float point a few steps inside the box from it,
-        that the evaluator allows; None if none is (fail closed)."""
+        """``candidate`` if the evaluator allows it, else the allowed float point nearest it
+        on the way into the box (bisection: the evaluator's float arithmetic may refuse the
+        exact boundary point); None if none is found (fail closed)."""
         if self.contains(candidate):
             return candidate
-        for direction in (1, -1):  # a point interval: the floats on either side
-            point = dict(candidate)
-            for _ in range(NUDGES):
-                moved = False
+        inner = {p: _inside(box[p], candidate[p]) for p in self.params}
+        if inner == candidate or not self.contains(inner):
+            return self._neighbour(candidate)
+        lo, hi = 0.0, 1.0  # along candidate + t·(inner − candidate): refused at lo, allowed at hi
+
+        def at(t: float) -> dict:
+            return {p: candidate[p] + t * (inner[p] - candidate[p]) for p in self.params}
+        for _ in range(BISECTIONS):
+            mid = (lo + hi) / 2
+            if mid in (lo, hi) or at(mid) in (at(lo), at(hi)):
+                break
+            if self.contains(at(mid)):
+                hi = mid
+            else:
+                lo = mid
+        return at(hi)
+
+    def _neighbour(self, candidate: dict) -> Optional[dict]:
+        """For a point set (``3.0 * a = 1.0``): the floats next to it that the evaluator
+        allows, nearest first."""
+        for steps in range(1, NUDGES + 1):
+            for direction in (-math.inf, math.inf):
+                point = dict(candidate)
                 for p in self.params:
-                    middle = _middle(box[p], point[p])
-                    if middle is None or middle == point[p]:
-                        middle = point[p] + direction
-                    if not box[p].contains(Fraction(point[p])) or box[p].low == box[p].high \
-                            or not self.contains(point):
-                        point[p] = math.nextafter(point[p], middle)
-                        moved = True
-                if not moved:
-                    break
+                    for _ in range(steps):
+                        point[p] = math.nextafter(point[p], direction)
                 if self.contains(point):
                     return point
         return None
 
-
-    def _empty_by_solver(self) -> bool:
-        raise UnsupportedError("tracecheck decides whether a guard leaves some parameter "
-                               "values exactly only when each constraint names one "
+    def _empty_by_solver(self) -> None:
+        raise UnsupportedError("tracecheck decides whether a guard leaves some values of "
+                               "several parameters only when each constraint names one "
                                "parameter")
 
     def __str__(self) -> str:
@@ -216,15 +227,17 @@ def real_parameters(op) -> bool:
     return set(op.params) <= typed
 
 
-def allowed_set(machine, op_name: str, state: Mapping[str, Any]) -> AllowedSet:
-    """The values of ``op_name``'s REAL parameters its guard allows in ``state``.
+def allowed_set(machine, op_name: str, state: Optional[Mapping[str, Any]] = None, *,
+                env: Optional[dict] = None) -> AllowedSet:
+    """The values of ``op_name``'s REAL parameters its guard allows in ``state`` (or in an
+    environment made by ``machine.env``).
 
     Raises :class:`UnsupportedError` naming the sub-formula when the guard is not linear in
     the parameters once the state is substituted."""
     op = machine.operation(op_name)
     if not real_parameters(op):
         raise UnsupportedError(f"{op_name} has no parameters typed `p : REAL` in its guard")
-    env = machine.env(state)
+    env = machine.env(state or {}) if env is None else env
     comp = machine.compiler()
     parts = _Linearizer(set(op.params), env, comp, machine.source).pred(op.guard, True)
     guard = machine.cached("guards with parameters bound", op_name,
@@ -437,21 +450,22 @@ def _clamp(x: float, interval: Interval) -> float:
     return float(interval.high)
 
 
-#: how many floats inward :meth:`AllowedSet.nearest` tries when the evaluator's float
-#: arithmetic refuses the exact boundary point
-NUDGES = 64
+#: how many floats on either side of a point set :meth:`AllowedSet.nearest` tries, and
+#: how many halvings it takes to find the float boundary of an interval
+NUDGES = 4
+BISECTIONS = 200
 
 
-def _middle(i: Interval, x: float) -> Optional[float]:
-    """A point inside ``i`` to step towards from ``x`` (its middle, or x ± 1 when
-    unbounded)."""
+def _inside(i: Interval, x: float) -> float:
+    """A point well inside ``i`` (its middle; a step past a lone bound), to bisect
+    towards from ``x`` on its boundary."""
     if i.low is not None and i.high is not None:
         return float((i.low + i.high) / 2)
     if i.low is not None:
-        return max(float(i.low) + 1.0, x + 1.0)
+        return float(i.low) + max(1.0, abs(float(i.low)))
     if i.high is not None:
-        return min(float(i.high) - 1.0, x - 1.0)
-    return None
+        return float(i.high) - max(1.0, abs(float(i.high)))
+    return x
 
 
 def _number(value: Fraction) -> str:

@@ -24,6 +24,7 @@ from . import ast
 from .bindings import conjuncts
 from .constants import setup_constants
 from .evaluation import Compiler
+from .linear import real_parameters
 from ..limits import deep_recursion
 from .parser import MachineSource, parse_formula, parse_machine_source
 from .state import native_state
@@ -183,9 +184,25 @@ class Machine:
             fns = {}
             for op in self.operations.values():
                 guard = op.enabling_guard
+                if real_parameters(op):  # some REAL values allowed: decided by linear.py
+                    fns[op.name] = self._real_guard(op.name)
+                    continue
                 fns[op.name] = comp.compile(guard) if guard is not None else (lambda env: True)
             self._compiled["guards"] = fns
         return fns
+
+    def _real_guard(self, name: str) -> Callable[[dict], bool]:
+        from .linear import allowed_set
+
+        return lambda env: allowed_set(self, name, env=env).witness() is not None
+
+    def allowed(self, op: str, state: Mapping[str, Any]):
+        """The values of ``op``'s REAL parameters its guard allows in ``state``: an
+        :class:`~tracecheck.b.linear.AllowedSet` (exact over the reals, confirmed by the
+        evaluator)."""
+        from .linear import allowed_set
+
+        return allowed_set(self, op, state)
 
     def enabled(self, state: Mapping[str, Any]) -> set[str]:
         """The operations whose guard holds in ``state`` (parameters: for some value)."""
@@ -322,6 +339,12 @@ class Machine:
         for name, op in self.operations.items():
             if op.guard is None:
                 out[name] = np.ones(columns.n, dtype=bool)
+                continue
+            if real_parameters(op):  # the scalar decision per distinct state
+                decide = self._guard_fns()[name]
+                first, index = columns.distinct()
+                out[name] = np.array([bool(decide(self.env(columns.row(int(i)))))
+                                      for i in first], dtype=bool)[index]
                 continue
             out[name] = self._batch_cached(("guard", name), op.enabling_guard)(columns, memo
                                                                               ).astype(bool)

@@ -208,10 +208,12 @@ def guards(
                          hint=f'add "{name}": … to the state file') from None
     ordered = [op for op in machine.operations if op in enabled]
     blocked = [op for op in machine.operations if op not in enabled]
+    allowed = _allowed_sets(machine, values)
     broken, unchecked = machine.invariant_check(values)
     warn(_state_warnings(machine, str(state), missing, broken, unchecked))
     if fmt == OutputFormat.json:
         print_json({"machine": machine.name, "enabled": ordered, "disabled": blocked,
+                    "allowed": {op: _allowed_json(a) for op, a in allowed.items()},
                     "missing_variables": missing,
                     "invariant_holds": False if broken else None if unchecked else True,
                     "invariant_violations": broken,
@@ -219,9 +221,34 @@ def guards(
                                             for c, why in unchecked]})
         return
     if fmt != OutputFormat.text:
-        print_table(fmt, TableData.of(["operation", "enabled"],
-                                      ([op, "yes" if op in enabled else "no"]
+        extra = ["allowed"] if allowed else []  # a column only for REAL parameters
+        print_table(fmt, TableData.of(["operation", "enabled", *extra],
+                                      ([op, "yes" if op in enabled else "no",
+                                        *([str(allowed.get(op, ""))] if allowed else [])]
                                        for op in machine.operations)))
         return
     say(f"enabled: {', '.join(ordered) or '(none: deadlock)'}")
     say(f"disabled: {', '.join(blocked) or '(none)'}")
+    for op, a in allowed.items():
+        say(f"{op}: {a}")
+
+
+def _allowed_sets(machine, values) -> dict:
+    """For each operation with REAL parameters, the values its guard allows in the state."""
+    from ..b.linear import real_parameters
+
+    return {name: machine.allowed(name, values) for name, op in machine.operations.items()
+            if real_parameters(op)}
+
+
+def _allowed_json(allowed) -> dict:
+    """An allowed set in JSON: its parameters, its text, and in one dimension its intervals
+    (bounds as numbers, exact where a float is)."""
+    out: dict = {"parameters": list(allowed.params), "text": str(allowed)}
+    if allowed.intervals is not None:
+        out["intervals"] = [{"low": None if i.low is None else float(i.low),
+                             "high": None if i.high is None else float(i.high),
+                             "low_open": i.low_open or i.low is None,
+                             "high_open": i.high_open or i.high is None}
+                            for i in allowed.intervals]
+    return out
