@@ -385,3 +385,50 @@ def test_the_timeout_bounds_z3_s_work_while_asserting_too(monkeypatch):
                        timeout_s=0.3)
     assert (result.status, result.reason) == ("unknown", "timeout")
     assert time.monotonic() - start < 1.8  # without the timer: 2.8 s here
+
+
+ACC = '''MACHINE Acc
+VARIABLES Gap, Speed
+INVARIANT Gap : REAL & Speed : REAL & Gap >= 0.0 & Gap <= 200.0 & Speed >= 0.0 &
+          Speed <= 40.0
+INITIALISATION Gap, Speed := 50.0, 20.0
+OPERATIONS
+  ACCELERATE(a) = PRE a : REAL & a >= -4.0 & a <= 2.0 & Gap - (Speed + a) * 1.5 {rel} 10.0
+                  THEN Speed := Speed + a END;
+  BRAKE = PRE Speed > 0.0 THEN Speed := 0.0 END
+END'''
+
+
+def test_real_parameters_some_value_enables_the_operation(capsys, tmp_path):
+    model = machine_file(tmp_path, ACC.format(rel=">"), "Acc")
+    code, out, _ = run(capsys, "prove", model, "--deadlock-free")
+    # no a in [-4, 2] when Gap < 10 + (Speed - 4) * 1.5, and BRAKE needs Speed > 0
+    assert code == 1 and "no operation is enabled" in out and "Speed = 0.0" in out
+    code, out, _ = run(capsys, "prove", model, "--implies", "ACCELERATE => Gap > 4.0")
+    assert code == 0 and "ACCELERATE => Gap > 4.0: proved" in out
+    code, out, _ = run(capsys, "prove", model, "--implies", "ACCELERATE => Speed < 40.0")
+    assert code == 1 and "ACCELERATE is enabled and Speed < 40.0 does not hold" in out
+
+
+def test_symbolic_diff_compares_the_actions_allowed_not_only_whether_some_are(capsys,
+                                                                              tmp_path):
+    strict = machine_file(tmp_path, ACC.format(rel=">"), "Strict")
+    loose = machine_file(tmp_path, ACC.format(rel=">="), "Loose")
+    code, out, _ = run(capsys, "diff", "--symbolic", "--shield", strict, "--against", strict)
+    assert code == 0 and "ACCELERATE: equivalent" in out
+    code, out, _ = run(capsys, "diff", "--symbolic", "--shield", strict, "--against", loose)
+    text = " ".join(out.split())
+    assert code == 1 and "ACCELERATE: counterexample" in text
+    assert "allow different actions of ACCELERATE" in text and "BRAKE: equivalent" in text
+    # the action and the state it names are confirmed by tracecheck's evaluator
+    [result] = [r for r in P.symbolic_diff(load_machine_text(ACC.format(rel=">")),
+                                           load_machine_text(ACC.format(rel=">=")))
+                if r.obligation == "ACCELERATE"]
+    action, s = result.extra["action"], result.state
+    assert load_machine_text(ACC.format(rel=">=")).allowed("ACCELERATE", s).contains(action)
+    assert not load_machine_text(ACC.format(rel=">")).allowed("ACCELERATE", s).contains(action)
+    code, out, _ = run(capsys, "diff", "--symbolic", "--shield", strict, "--against", loose,
+                       "--json")
+    assert "action" in out and code == 1
+    code, out, _ = run(capsys, "diff", "--symbolic", "--shield", strict, "--against", loose)
+    assert "Strict.mch refuses it, " in " ".join(out.split()) and "Loose.mch allows it" in out

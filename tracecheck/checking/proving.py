@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Callable, Optional, Union
 
+from ..b.linear import real_parameters
 from ..errors import InputError, TracecheckError, UnsupportedError, WellDefinednessError
 from ..limits import deeply
 from .obligations import Given
@@ -528,6 +529,9 @@ def _same_sets(a, b, la: str, lb: str) -> None:
 
 
 def _differ(a, b, tb: Translator, ctx: _Context, op: str, labels: tuple[str, str]) -> Result:
+    if real_parameters(a.operations[op]) and real_parameters(b.operations[op]) and \
+            a.operations[op].params == b.operations[op].params:
+        return _differ_actions(a, b, tb, ctx, op, labels)
     ta, z3 = ctx.translator, ctx.translator.z3
     la, lb = labels
     wds: dict = {}
@@ -550,3 +554,46 @@ def _differ(a, b, tb: Translator, ctx: _Context, op: str, labels: tuple[str, str
     elif r.state is not None and not r.disagreement and not r.reason:
         r.extra = {la: bool(_decides(a, op, r.state)), lb: bool(_decides(b, op, r.state))}
     return r
+
+
+def _differ_actions(a, b, tb: Translator, ctx: _Context, op: str,
+                    labels: tuple[str, str]) -> Result:
+    """For an operation with REAL parameters: do the two shields allow the same actions
+    in every state (∀ state, parameters: guard A ⇔ guard B)? Else a state and an action
+    one allows and the other does not, confirmed by tracecheck's evaluator."""
+    ta, z3 = ctx.translator, ctx.translator.z3
+    la, lb = labels
+    wds: dict = {}
+    params = a.operations[op].params
+
+    def build():
+        ga, wds[la] = ta.defined(lambda: ta.guard_at(op))
+        gb, wds[lb] = tb.defined(lambda: tb.guard_at(op))
+        return [z3.And(wds[la], ga) != z3.And(wds[lb], gb)]
+
+    found: dict = {}
+
+    def explain(model) -> _Finding:
+        point = found["action"] = {p: _nearest_float(model.eval(v, model_completion=True))
+                                   for p, v in ta.parameters(op).items()}
+        shown = ", ".join(f"{p} = {point[p]!r}" for p in params)
+        return _Finding(COUNTEREXAMPLE, f"{la} and {lb} allow different actions of {op} "
+                                        f"({shown} is allowed by one only)",
+                        lambda s: a.allowed(op, s).contains(point)
+                        != b.allowed(op, s).contains(point))
+
+    r = _obligation(op, build, ctx, explain)
+    if r.status == PROVED:
+        r.status = EQUIVALENT
+    elif r.state is not None and "action" in found and not r.disagreement and not r.reason:
+        point = found["action"]  # what each shield decides for that action, there
+        r.extra = {"action": point, la: a.allowed(op, r.state).contains(point),
+                   lb: b.allowed(op, r.state).contains(point)}
+    return r
+
+
+def _nearest_float(value) -> float:
+    """A solver real as the nearest float."""
+    if hasattr(value, "numerator_as_long"):
+        return float(Fraction(value.numerator_as_long(), value.denominator_as_long()))
+    return float(value.as_decimal(20).rstrip("?"))

@@ -15,6 +15,7 @@ from fractions import Fraction
 from typing import Any, Callable, Optional
 
 from ..b import ast
+from ..b.linear import real_parameters
 from ..b.values import Elem
 from ..errors import UnsupportedError
 from .encoding import ElementFunction, ElementSet, encode_variable, load_z3
@@ -561,11 +562,27 @@ class Translator:
         return self.pred(inv) if inv is not None else self.z3.BoolVal(True)
 
     def guard(self, op: str) -> Any:
+        """When ``op`` is enabled: its guard; with REAL parameters, for some values of them
+        (∃ over the reals, which z3 decides for linear arithmetic)."""
         operation = self.machine.operations[op]
+        if operation.params and real_parameters(operation):
+            bound = self.parameters(op)
+            return self.z3.Exists(list(bound.values()), self.pred(operation.guard, bound))
         if operation.params:
             raise self.fail(operation.guard, f"the guard of {op}, which has parameters")
         return self.pred(operation.guard) if operation.guard is not None else \
             self.z3.BoolVal(True)
+
+
+    def parameters(self, op: str) -> dict:
+        """``op``'s REAL parameters as solver reals, named ``OP.p`` (the same in every
+        translator: two shields' guards then speak of the same action)."""
+        return {p: self.z3.Real(f"{op}.{p}") for p in self.machine.operations[op].params}
+
+    def guard_at(self, op: str) -> Any:
+        """``op``'s guard with its REAL parameters free (:meth:`parameters`): which actions
+        it allows, not only whether some."""
+        return self.pred(self.machine.operations[op].guard, self.parameters(op))
 
 
 # sub-formulas translated once per binding (see Translator.translate)

@@ -16,7 +16,14 @@ __all__ = ["prove_text", "prove_table", "prove_json"]
 
 def _decisions(extra: Optional[dict]) -> str:
     """Which shield enables the operation in a distinguishing state (``diff --symbolic``)."""
-    return ", ".join(f"{k} {'enables' if v else 'blocks'} it" for k, v in (extra or {}).items())
+    extra = dict(extra or {})
+    action = extra.pop("action", None)  # an operation with REAL parameters: which action
+    text = ", ".join(f"{k} {'allows' if action else 'enables'} it" if v else
+                     f"{k} {'refuses' if action else 'blocks'} it" for k, v in extra.items())
+    if action:
+        shown = ", ".join(f"{p} = {v!r}" for p, v in action.items())
+        return f"the action {shown}: {text}"
+    return text
 
 
 def prove_json(results: list[Result], written: dict[int, str]) -> list[dict]:
