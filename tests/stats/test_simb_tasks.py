@@ -39,7 +39,7 @@ def walk(eid: int, cells: list[int], dt: float = 1.0) -> Episode:
     return Episode(eid, steps, make_end(steps))
 
 
-#: the five executions of tests/fixtures/prob2project/simb (Timed_Simulation_1 … 5)
+#: the five executions of tests/fixtures/prob2project/simb (corridor_run_1 … 5)
 FIVE = [walk(0, [0, 1, 2, 3]), walk(1, [0, 1, 0]), walk(2, [0, 1, 2, 3, 4]), walk(3, [0]),
         walk(4, [0, 1, 2], dt=0.5)]
 
