@@ -33,13 +33,14 @@ def write(path, eps, columns=None):
     real = W.encode_columns
 
     def encode(ep, times, actions, rewards, crashed, cols, names, values=None, seed=None,
-               checksums=None):
+               checksums=None, **continuous):
         args = dict(times=list(times), actions=list(actions), rewards=list(rewards),
-                    crashed=list(crashed), seed=seed)
+                    crashed=list(crashed), seed=seed, **continuous)
         if ep == 1 and columns is not None:
             columns(args)
         return real(ep, args["times"], args["actions"], args["rewards"], args["crashed"], cols,
-                    names, values, seed=args["seed"], checksums=checksums)
+                    names, values, seed=args["seed"], checksums=checksums,
+                    **{k: args[k] for k in continuous})
 
     W.encode_columns = encode
     try:

@@ -23,7 +23,8 @@ from ..errors import InputError, TracecheckError
 from .model import END_REASONS
 
 __all__ = ["encode_state", "decode_state", "encode_columns", "decode_columns",
-           "encode_run_columns", "COLUMNS_MEDIA_TYPE", "RUN_COLUMNS_MEDIA_TYPE"]
+           "encode_run_columns", "parameter_arrays", "COLUMNS_MEDIA_TYPE",
+           "RUN_COLUMNS_MEDIA_TYPE"]
 
 COLUMNS_MEDIA_TYPE = "application/x-tracecheck-columns"
 #: every episode of a file in one blob, written when the file is closed
@@ -98,10 +99,15 @@ def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optio
                    rewards: Sequence[float], crashed: Sequence[bool], cols: Columns,
                    action_names: Sequence[str],
                    values: Optional[Sequence[Optional[Mapping[str, float]]]] = None,
-                   seed: Optional[int] = None, checksums: Optional[dict] = None) -> bytes:
+                   seed: Optional[int] = None, checksums: Optional[dict] = None, *,
+                   parameters: Optional[Sequence[Optional[Mapping[str, float]]]] = None,
+                   proposals: Optional[Sequence[Optional[Mapping[str, float]]]] = None,
+                   distances: Optional[Sequence[Optional[float]]] = None) -> bytes:
     """One episode's steps as a binary columns blob (``values``: the agent's action values
     per step, when recorded; ``checksums``: CRC-32s of the episode's messages and the run
-    header, so that readers find a changed byte anywhere in the episode)."""
+    header, so that readers find a changed byte anywhere in the episode; ``parameters``,
+    ``proposals``, ``distances``: a continuous action's values, the agent's proposal and
+    how far the shield moved it, per step — see :func:`parameter_arrays`)."""
     index = {a: i for i, a in enumerate(action_names)}
     arrays: dict[str, np.ndarray] = {
         "time": np.asarray(times, dtype=np.float64),
@@ -117,12 +123,32 @@ def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optio
                 if name in index:
                     table[row, index[name]] = q
         arrays["values"] = table
+    arrays.update(parameter_arrays(len(times), parameters, proposals, distances))
     kinds, literals = _state_arrays(cols, arrays)
     header: dict[str, Any] = {"episode": episode, "seed": seed, **(checksums or {}),
                               "elements": [str(e) for e in cols.elements],
                               "actions": list(action_names), "kinds": kinds,
                               "literals": literals}
     return _pack(header, arrays)
+
+
+def parameter_arrays(n: int, parameters=None, proposals=None, distances=None
+                     ) -> dict[str, np.ndarray]:
+    """The columns of continuous actions over ``n`` rows: ``par:P`` (the executed value of
+    parameter P per row), ``prop:P`` (the agent's proposal) and ``dist`` (how far the shield
+    moved it), float64 with NaN where a row has none (step 0, an action without parameters).
+    Only those some row has: a run of discrete actions has none of them."""
+    arrays: dict[str, np.ndarray] = {}
+    for prefix, rows in (("par", parameters), ("prop", proposals)):
+        rows = rows or [None] * n
+        for name in sorted({p for row in rows for p in (row or {})}):
+            arrays[f"{prefix}:{name}"] = np.array(
+                [float(row[name]) if row and name in row else np.nan for row in rows],
+                dtype=np.float64)
+    if distances is not None and any(d is not None for d in distances):
+        arrays["dist"] = np.array([np.nan if d is None else float(d) for d in distances],
+                                  dtype=np.float64)
+    return arrays
 
 
 def _state_arrays(cols: Columns, arrays: dict[str, np.ndarray]
@@ -179,6 +205,12 @@ def encode_run_columns(run, spans: np.ndarray, span_crcs: np.ndarray, head_crc: 
     }
     if run.values is not None:
         arrays["values"] = np.asarray(run.values, dtype=np.float64)
+    for name, arr in run.parameters.items():
+        arrays[f"par:{name}"] = np.asarray(arr, dtype=np.float64)
+    for name, arr in run.proposals.items():
+        arrays[f"prop:{name}"] = np.asarray(arr, dtype=np.float64)
+    if run.distance is not None:
+        arrays["dist"] = np.asarray(run.distance, dtype=np.float64)
     kinds, literals = _state_arrays(run.states, arrays)
     arrays["run:episodes"] = np.asarray(run.episode_ids, dtype=np.int64)
     arrays["run:starts"] = np.asarray(run.starts, dtype=np.int64)

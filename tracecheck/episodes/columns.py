@@ -17,7 +17,8 @@ from ..b.columns import Columns
 from ..b.values import Elem
 from ..errors import InputError
 from .model import END_REASONS
-from .codec import RUN_COLUMNS_MEDIA_TYPE, columns_from_arrays, decode_columns
+from .codec import (RUN_COLUMNS_MEDIA_TYPE, columns_from_arrays, decode_columns,
+                    parameter_arrays)
 from ..errors import DamagedEpisode
 from .reader import check_columns, read_pieces
 from .records import find_attachment, mapped
@@ -32,7 +33,8 @@ class RunColumns:
     ``episode[r]`` and ``step[r]`` say which state row ``r`` is; ``starts[i]`` is the first
     row of the i-th episode (``starts[-1]`` the number of rows). ``action[r]`` indexes
     ``action_names`` (-1 at step 0); ``states`` holds the B variables for
-    :meth:`tracecheck.b.Machine.enabled_batch`.
+    :meth:`tracecheck.b.Machine.enabled_batch`; ``parameters[p][r]`` the value of parameter
+    ``p`` of a continuous action ``action[r]`` (NaN where it has none).
     """
 
     path: str
@@ -51,6 +53,13 @@ class RunColumns:
     seeds: list[Optional[int]] = field(default_factory=list)  # per episode
     #: per episode, why it ended (its end record: crashed, time-limit, end-of-trace, …)
     reasons: list[str] = field(default_factory=list)
+    #: continuous actions, per parameter name: the executed value in each row (NaN where the
+    #: row has none: step 0, an action without that parameter); empty for discrete runs
+    parameters: dict[str, np.ndarray] = field(default_factory=dict)
+    #: … and what the agent proposed before the shield (NaN where none was recorded)
+    proposals: dict[str, np.ndarray] = field(default_factory=dict)
+    #: how far the shield moved each row's proposal (NaN where none); None if no row has one
+    distance: Optional[np.ndarray] = None
 
     @property
     def n(self) -> int:
@@ -97,9 +106,25 @@ def read_columns(path: str | Path, *, salvage: bool = False) -> RunColumns:
                           notes)
     if any("values" in arrays for _, _, arrays in decoded):
         result.values = np.concatenate(values)
+    pieces = [arrays for _, _, arrays in decoded]
+    result.parameters = _joined(pieces, "par:")
+    result.proposals = _joined(pieces, "prop:")
+    result.distance = _joined(pieces, "dist").get("")
     result.seeds = [header.get("seed") for _, header, _ in decoded]
     result.reasons = reasons
     return result
+
+
+def _joined(pieces: list[dict], prefix: str) -> dict[str, np.ndarray]:
+    """The columns named ``prefix + NAME`` of the episodes' arrays, one after the other, by
+    NAME; NaN in the rows of an episode without one (episodes of a file may differ in which
+    parameters their actions have)."""
+    def column(arrays: dict, name: str) -> np.ndarray:
+        found = arrays.get(prefix + name)
+        return np.full(len(arrays["time"]), np.nan) if found is None else found
+
+    names = sorted({k[len(prefix):] for arrays in pieces for k in arrays if k.startswith(prefix)})
+    return {name: np.concatenate([column(arrays, name) for arrays in pieces]) for name in names}
 
 
 def _from_run_columns(path: Path) -> Optional[RunColumns]:
@@ -132,7 +157,8 @@ def _from_run_columns(path: Path) -> Optional[RunColumns]:
         path=str(path), episode_ids=ids, starts=starts, episode=episode, step=step,
         time=body["time"], action=body["action"], action_names=tuple(header["actions"]),
         reward=body["reward"], crashed=body["crashed"].astype(bool), states=states,
-        values=body.get("values"),
+        values=body.get("values"), parameters=_joined([body], "par:"),
+        proposals=_joined([body], "prop:"), distance=body.get("dist"),
         seeds=[int(x) if ok else None for x, ok in zip(arrays["run:seeds"].tolist(),
                                                        arrays["run:seeded"].tolist())],
         reasons=[header["reasons"][int(k)] for k in arrays["run:reasons"]])
@@ -210,7 +236,17 @@ def episode_columns(episodes, action_names) -> RunColumns:
         crashed=np.array([s.crashed for s in steps], dtype=bool),
         states=Columns.from_states([s.state for s in steps]),
         values=values if np.any(~np.isnan(values)) else None,
-        seeds=[ep.seed for ep in episodes], reasons=[ep.end.reason for ep in episodes])
+        seeds=[ep.seed for ep in episodes], reasons=[ep.end.reason for ep in episodes],
+        **_continuous(steps))
+
+
+def _continuous(steps) -> dict:
+    """The continuous-action fields of :class:`RunColumns` for steps in memory."""
+    arrays = parameter_arrays(len(steps), [s.parameters for s in steps],
+                              [s.proposal for s in steps],
+                              [s.projection_distance for s in steps])
+    return {"parameters": _joined([arrays], "par:"), "proposals": _joined([arrays], "prop:"),
+            "distance": arrays.get("dist")}
 
 
 def _widen(cols: Columns, elements: list[str]) -> Columns:

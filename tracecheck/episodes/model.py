@@ -27,6 +27,17 @@ class StepRecord:
     allowed_actions: Optional[tuple[str, ...]] = None
     shield_time_us: Optional[float] = None
     deadlock: Optional[bool] = None
+    #: continuous actions (an operation with REAL parameters): the values of the executed
+    #: action's parameters, by parameter name
+    parameters: Optional[Mapping[str, float]] = None
+    #: what the agent proposed for them, before the shield
+    proposal: Optional[Mapping[str, float]] = None
+    #: how far the shield moved the proposal (Euclidean, in the scale the shield used)
+    projection_distance: Optional[float] = None
+    #: the allowed values of each parameter in the state before, as intervals (low, high),
+    #: None for an unbounded end; only where each parameter's set is a union of intervals
+    allowed_intervals: Optional[Mapping[str, tuple[tuple[Optional[float], Optional[float]],
+                                                   ...]]] = None
 
 
 @dataclass(frozen=True)

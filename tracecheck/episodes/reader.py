@@ -211,7 +211,12 @@ class _Assembler:
             observation=tuple(tuple(r) for r in msg.observation) if msg.observation else None,
             action_values=msg.action_values, preferred_action=msg.preferred_action,
             allowed_actions=tuple(msg.allowed_actions) if msg.allowed_actions is not None
-            else None, shield_time_us=msg.shield_time_us, deadlock=msg.deadlock)
+            else None, shield_time_us=msg.shield_time_us, deadlock=msg.deadlock,
+            parameters=msg.parameters, proposal=msg.proposal,
+            projection_distance=msg.projection_distance,
+            allowed_intervals=None if msg.allowed_intervals is None else {
+                name: tuple(tuple(i) for i in intervals)
+                for name, intervals in msg.allowed_intervals.items()})
 
     def finish(self, data: bytes) -> None:
         piece = self.current
@@ -292,6 +297,9 @@ def _agree(piece: Piece, decoded: bool) -> None:
     if last.action != last_action:
         raise _BadEpisode(f"the last step's action is {last.action!r} in its message and "
                           f"{last_action!r} in the columns")
+    continuous = any(name.startswith(_CONTINUOUS) for name in arrays)
+    if not decoded and (continuous or last.continuous is not None):
+        _same_parameters(arrays, rows - 1, last.continuous)
     if decoded:
         actions = [names[a] if a >= 0 else None for a in arrays["action"].tolist()]
         for k, s in enumerate(piece.steps):
@@ -300,12 +308,36 @@ def _agree(piece: Piece, decoded: bool) -> None:
                     or s.time != float(arrays["time"][k])):
                 raise _BadEpisode(f"step {k}: the step message and the columns disagree "
                                   "(action, reward, time or crash flag)")
+            if continuous or s.parameters or s.proposal or s.projection_distance is not None:
+                _same_parameters(arrays, k, s)
+
+
+#: the column prefixes of continuous actions (see :func:`.codec.parameter_arrays`)
+_CONTINUOUS = ("par:", "prop:", "dist")
+
+
+def _same_parameters(arrays: dict, row: int, step) -> None:
+    """Row ``row`` of the columns holds the parameter values, proposal and projection
+    distance of ``step`` (a step message; None: one with none of them)."""
+    def from_columns(prefix: str) -> dict:
+        return {name[len(prefix):]: float(arr[row]) for name, arr in arrays.items()
+                if name.startswith(prefix) and not math.isnan(arr[row])}
+
+    dist = arrays.get("dist")
+    dist = None if dist is None or math.isnan(dist[row]) else float(dist[row])
+    got = (from_columns("par:"), from_columns("prop:"), dist)
+    want = ({}, {}, None) if step is None else (
+        dict(step.parameters or {}), dict(step.proposal or {}), step.projection_distance)
+    if got != want:
+        raise _BadEpisode(f"step {row}: the step message and the columns disagree on its "
+                          "action's parameters, proposal or projection distance")
 
 
 @dataclass(frozen=True)
 class _Last:
     action: Optional[str]
     crashed: bool
+    continuous: Optional[schema.StepMessage] = None  # the message, where it has parameters
 
 
 def _last_step(piece: Piece) -> _Last:
@@ -321,12 +353,16 @@ def _last_step(piece: Piece) -> _Last:
         full = _parse("tracecheck.Step", buf[a:b])  # says what is wrong …
         raise _BadEpisode(f"step message {piece.count - 1} is step {full.step} of episode "
                           f"{full.episode}")  # … or this is
+    if "parameters" in msg or "proposal" in msg or "projection_distance" in msg:
+        return _Last(msg.get("action"), msg["crashed"], _parse("tracecheck.Step", buf[a:b]))
     return _Last(msg.get("action"), msg["crashed"])
 
 
 _DTYPES = {"time": "<f8", "reward": "<f8", "action": "<i2", "crashed": "|b1", "values": "<f8",
            "num": ("<f8", "<i8"), "bool": "|b1", "fun": ("<f8", "<i8"), "def": "|b1",
-           "set": "|b1", "lit": "<u4"}
+           "set": "|b1", "lit": "<u4", "par": "<f8", "prop": "<f8", "dist": "<f8"}
+#: float columns where NaN means "none in this row" (continuous actions: no infinities)
+_NAN_ALLOWED = {"values", "par", "prop", "dist"}
 _KINDS = {"num": ("num",), "bool": ("bool",), "func": ("fun", "def"), "set": ("set",),
           "lit": ("lit",)}
 
@@ -342,6 +378,18 @@ def _check_names(actions, elements) -> None:
             not all(isinstance(e, str) and e.isidentifier() for e in elements):
         raise ValueError("the names of its actions or set elements are not names")
     _NAMES_SEEN[:] = [actions, elements]
+
+
+def _check_continuous(name: str, prefix: str, arr: np.ndarray) -> None:
+    """A column of continuous actions: named after a parameter, no infinities, distances
+    not negative (NaN: none in that row)."""
+    if (name == "dist") != (prefix == "dist") or (
+            prefix != "dist" and not name[len(prefix) + 1:].isidentifier()):
+        raise ValueError(f"the array {name} is not one tracecheck writes")
+    if np.isinf(arr).any():
+        raise ValueError(f"the array {name} holds an infinity")
+    if prefix == "dist" and (arr < 0).any():
+        raise ValueError(f"the array {name} holds a negative distance")
 
 
 def check_columns(header: dict, arrays: dict, *, first_action: bool = True) -> None:
@@ -369,10 +417,12 @@ def check_columns(header: dict, arrays: dict, *, first_action: bool = True) -> N
             shape = (n, wide[prefix]) if prefix in wide else (n,)
             if arr.shape != shape:
                 raise ValueError(f"the array {name} has shape {arr.shape}, not {shape}")
-            if arr.dtype.kind == "f" and prefix != "values" and not (
+            if arr.dtype.kind == "f" and prefix not in _NAN_ALLOWED and not (
                     math.isfinite(arr.sum()) or np.isfinite(arr).all()):  # the sum: quicker
                 raise ValueError(f"the array {name} holds NaN or an infinity (B reals are "
                                  "finite)")
+            if prefix in _NAN_ALLOWED and prefix != "values":
+                _check_continuous(name, prefix, arr)
         for name in ("action", "reward", "crashed"):
             arrays[name]  # noqa: B018 - present
         for var, kind in header["kinds"].items():

@@ -19,9 +19,9 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any, Literal, Optional
+from typing import Annotated, Any, Literal, Optional
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, StringConstraints, model_validator
 
 from .model import END_REASONS
 
@@ -31,6 +31,10 @@ __all__ = ["RunHeaderMessage", "EpisodeHeaderMessage", "StepMessage", "EpisodeEn
 Source = Literal["recorded", "imported-simb", "imported-prob2trace", "imported-minari",
                  "external"]
 EndReason = Literal[END_REASONS]
+#: a parameter of a B operation (a column of the files is named after it)
+ParameterName = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$")]
+#: the values of an action's REAL parameters, by name
+ParameterValues = dict[ParameterName, float]
 
 
 class _Message(BaseModel):
@@ -68,6 +72,33 @@ class RunHeaderMessage(_Message):
     external_cwd: Optional[str] = Field(None, description="the folder the script ran in")
     external_script: Optional[str] = Field(None, description="the script file it ran")
     external_script_sha256: Optional[str] = None
+    action_parameters: Optional[dict[str, list[ParameterName]]] = Field(
+        None, description="continuous actions: for each operation, the REAL parameter each "
+                          "component of the action vector binds, in order")
+    action_low: Optional[list[float]] = Field(
+        None, description="continuous actions: the action space's lower bounds")
+    action_high: Optional[list[float]] = Field(
+        None, description="continuous actions: the action space's upper bounds")
+    shield_mode: Optional[Literal["project", "replace"]] = Field(
+        None, description="continuous actions: how the live shield made an action allowed "
+                          "(project: the nearest allowed; replace: the fallback action)")
+    projection_scale: Optional[list[float]] = Field(
+        None, description="continuous actions: the unit of each component in projection "
+                          "distances")
+
+    @model_validator(mode="after")
+    def _action_space_fits(self) -> "RunHeaderMessage":
+        """The action space's bounds and scale, where given, describe the same components."""
+        low, high, scale = self.action_low, self.action_high, self.projection_scale
+        sizes = {len(v) for v in (low, high, scale) if v is not None}
+        if len(sizes) > 1:
+            raise ValueError("action_low, action_high and projection_scale have different "
+                             "lengths")
+        if low is not None and high is not None and any(a > b for a, b in zip(low, high)):
+            raise ValueError("an action_low bound lies above its action_high bound")
+        if scale is not None and any(not s > 0 for s in scale):
+            raise ValueError("a projection_scale is not positive")
+        return self
 
 
 class EpisodeHeaderMessage(_Message):
@@ -105,6 +136,24 @@ class StepMessage(_Message):
         None, description="the live shield's decision time for this step (µs)")
     deadlock: Optional[bool] = Field(
         None, description="the live shield allowed nothing: the fallback was taken")
+    parameters: Optional[ParameterValues] = Field(
+        None, description="continuous actions: the executed action's parameter values")
+    proposal: Optional[ParameterValues] = Field(
+        None, description="continuous actions: the agent's proposed parameter values")
+    projection_distance: Optional[float] = Field(
+        None, ge=0, description="continuous actions: how far the shield moved the proposal")
+    allowed_intervals: Optional[dict[ParameterName,
+                                     list[tuple[Optional[float], Optional[float]]]]] = \
+        Field(None, description="continuous actions: the allowed values of each parameter "
+                                "in the state before, as [low, high] (null: unbounded)")
+
+    @model_validator(mode="after")
+    def _intervals_in_order(self) -> "StepMessage":
+        for name, intervals in (self.allowed_intervals or {}).items():
+            if any(a is not None and b is not None and a > b for a, b in intervals):
+                raise ValueError(f"an allowed interval of {name} has its low end above its "
+                                 "high end")
+        return self
 
 
 class EpisodeEndMessage(_Message):

@@ -31,6 +31,10 @@ from .model import Episode
 __all__ = ["EpisodeWriter", "new_header", "StepChannels", "ChannelsFactory"]
 
 _NS = 1_000_000_000
+#: what a step message carries when its StepRecord has it (the same names in both)
+_OPTIONAL_KEYS = ("observation", "action_values", "preferred_action", "allowed_actions",
+                  "shield_time_us", "deadlock", "parameters", "proposal", "projection_distance",
+                  "allowed_intervals")
 _GAP_S = 1.0  # seconds of file time between two episodes
 
 
@@ -217,8 +221,7 @@ class EpisodeWriter:
                                  hint=exc.hint) from None
             msg = {"episode": ep.id, "step": s.step, "time": s.time, "action": s.action,
                    "state": state, "reward": s.reward, "crashed": s.crashed}
-            for key in ("observation", "action_values", "preferred_action", "allowed_actions",
-                        "shield_time_us", "deadlock"):
+            for key in _OPTIONAL_KEYS:
                 value = getattr(s, key)
                 if value is not None:
                     msg[key] = value
@@ -227,8 +230,9 @@ class EpisodeWriter:
                     exclude_none=True).encode()
             except ValidationError as exc:
                 first = exc.errors()[0]
+                where = ".".join(map(str, first["loc"]))
                 raise InputError(f"{self.name}, episode {ep.id}, step {s.step}: "
-                                 f"{'.'.join(map(str, first['loc']))}: {first['msg']}") from None
+                                 f"{where + ': ' if where else ''}{first['msg']}") from None
             self._emit("tracecheck.Step", data, s.time)
             if self._extra is not None:
                 self._emit_extra(ep.id, s, k > 0 and ep.steps[k - 1].crashed)
@@ -247,7 +251,10 @@ class EpisodeWriter:
                               [s.reward for s in ep.steps], [s.crashed for s in ep.steps],
                               cols, self._actions, [s.action_values for s in ep.steps],
                               seed=ep.seed, checksums={"messages_crc": self._crc,
-                                                       "run_crc": self._run_crc})
+                                                       "run_crc": self._run_crc},
+                              parameters=[s.parameters for s in ep.steps],
+                              proposals=[s.proposal for s in ep.steps],
+                              distances=[s.projection_distance for s in ep.steps])
         t = self._clock_ns + int(round(last * _NS))
         self._writer.add_attachment(create_time=t, log_time=t,
                                     name=f"episode-{ep.id}.columns",
