@@ -30,7 +30,8 @@ def data_dir() -> Path:
 
 
 SHIELD_DIR = data_dir() / "shields"
-BUILTIN_SHIELDS = ("none", "paper", "strict", "frozenlake", "cliffwalking")
+BUILTIN_SHIELDS = ("none", "paper", "strict", "frozenlake", "cliffwalking", "highway_continuous",
+                   "lunarlander_continuous")
 
 
 @dataclass(frozen=True)

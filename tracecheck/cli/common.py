@@ -170,8 +170,8 @@ class FailOn(str, Enum):
     mismatch = "mismatch"  # replay --resimulate: an episode did not reproduce the recording
 
 
-SHIELD_HELP = ("A built-in shield (none, paper, strict, frozenlake, cliffwalking) or the path of "
-               "a .mch file.")
+SHIELD_HELP = ("A built-in shield (none, paper, strict, frozenlake, cliffwalking, "
+               "highway_continuous, lunarlander_continuous) or the path of a .mch file.")
 ROWS = 40
 
 # the options of the commands that run episodes (record, simulate)

@@ -210,6 +210,8 @@ _BUILTIN = {
     "frozenlake": "tracecheck.live.envs.frozenlake:FrozenLakeAdapter",
     "cliffwalking": "tracecheck.live.envs.cliffwalking:CliffWalkingAdapter",
     "lunarlander": "tracecheck.live.envs.lunarlander:LunarLanderAdapter",
+    "highway-continuous": "tracecheck.live.envs.highway_continuous:HighwayContinuousAdapter",
+    "lunarlander-continuous": "tracecheck.live.envs.lunarlander_continuous:LunarLanderContinuousAdapter",
 }
 
 
