@@ -30,9 +30,10 @@ True
 from __future__ import annotations
 
 import math
+import struct
 from dataclasses import dataclass, field
 from fractions import Fraction
-from typing import Any, Mapping, Optional
+from typing import Any, Callable, Mapping, Optional
 
 from ..errors import UnsupportedError
 from . import ast
@@ -114,11 +115,51 @@ class AllowedSet:
         pieces = [i for i in (_interval(part) for part in self.parts) if not i.empty]
         return _merge(pieces)
 
+    def within(self, low: Mapping[str, float], high: Mapping[str, float]) -> "AllowedSet":
+        """The allowed values that also lie in the box ``low[p] <= p <= high[p]`` (an
+        action space's bounds; a parameter missing from either is unbounded that way)."""
+        extra = []
+        for p in self.params:
+            if p in low and math.isfinite(low[p]):
+                extra.append(Constraint(((p, Fraction(-1)),), _exact(low[p], p), "<="))
+            if p in high and math.isfinite(high[p]):
+                extra.append(Constraint(((p, Fraction(1)),), -_exact(high[p], p), "<="))
+        check = self.check
+
+        def inside(point: Mapping[str, Any]) -> bool:
+            return all(low.get(p, -math.inf) <= float(point[p]) <= high.get(p, math.inf)
+                       for p in self.params) and (check is None or bool(check(point)))
+        return AllowedSet(self.params, tuple(part + tuple(extra) for part in self.parts),
+                          inside)
+
+    def bands(self) -> Optional[dict[str, tuple[Interval, ...]]]:
+        """Per parameter the intervals it may take, where the allowed set is the product of
+        them (one parameter, or a single box): what a plot can draw as a band; None
+        otherwise."""
+        if len(self.params) == 1:
+            return {self.params[0]: self.intervals or ()}
+        if not self.separable:
+            return None
+        boxes = [b for b in (_box(part, self.params) for part in self.parts)
+                 if b is not None and not any(i.empty for i in b.values())]
+        if not boxes:
+            return {p: () for p in self.params}
+        if len(boxes) > 1:
+            return None
+        return {p: (boxes[0][p],) for p in self.params}
+
     def witness(self) -> Optional[dict[str, float]]:
-        """An allowed point the evaluator confirms (the one nearest 0), or None when there
-        is none. Raises :class:`UnsupportedError` when the polytopes are not boxes."""
+        """An allowed point the evaluator confirms (one well inside, else the one nearest
+        0), or None when there is none. Raises :class:`UnsupportedError` when the polytopes are not boxes."""
         if not self.separable:
             self._empty_by_solver()
+        for part in self.parts:  # a point well inside a box first: one evaluation
+            box = _box(part, self.params)
+            if box is not None and not any(i.empty for i in box.values()):
+                inner = {p: _inside(box[p], 0.0) for p in self.params}
+                if all(box[p].contains(Fraction(inner[p])) for p in self.params) and \
+                        self.contains(inner):
+                    return inner
         return self.nearest({p: 0.0 for p in self.params})
 
     @property
@@ -164,25 +205,50 @@ class AllowedSet:
     def _confirmed(self, candidate: dict, box: dict) -> Optional[dict]:
         """``candidate`` if the evaluator allows it, else the allowed float point nearest it
         on the way into the box (bisection: the evaluator's float arithmetic may refuse the
-        exact boundary point); None if none is found (fail closed)."""
+        exact boundary point) — moving first only the parameters whose float lies outside
+        their interval over the reals (a bound rounded, an open end), then all of them;
+        None if none is found (fail closed)."""
         if self.contains(candidate):
             return candidate
-        inner = {p: _inside(box[p], candidate[p]) for p in self.params}
-        if inner == candidate or not self.contains(inner):
-            return self._neighbour(candidate)
-        lo, hi = 0.0, 1.0  # along candidate + t·(inner − candidate): refused at lo, allowed at hi
+        outside = [p for p in self.params if not box[p].contains(Fraction(candidate[p]))]
+        for moving in (outside, list(self.params)):
+            inner = dict(candidate)
+            inner.update({p: _inside(box[p], candidate[p]) for p in moving})
+            if inner == candidate or not self.contains(inner):
+                continue
+            return self._bisect(candidate, inner)
+        return self._neighbour(candidate)
+
+    def _bisect(self, refused: dict, allowed: dict) -> dict:
+        """The allowed point nearest ``refused`` on the segment to ``allowed``, to the
+        float: steps doubling from one float away (the evaluator's rounding usually refuses
+        only a few floats past a bound), then halving the rest in the floats' own order (at
+        most 64 halvings, whatever the magnitudes)."""
+        direction = {p: allowed[p] - refused[p] for p in self.params}
 
         def at(t: float) -> dict:
-            return {p: candidate[p] + t * (inner[p] - candidate[p]) for p in self.params}
-        for _ in range(BISECTIONS):
-            mid = (lo + hi) / 2
-            if mid in (lo, hi) or at(mid) in (at(lo), at(hi)):
+            return {p: refused[p] + t * direction[p] for p in self.params}
+        moving = [p for p in self.params if direction[p] != 0.0]
+        t = min(1.0, max([math.ulp(refused[p]) / abs(direction[p]) for p in moving]
+                         + [math.ulp(0.0)]))
+        lo = 0.0  # refused at lo, allowed at hi
+        for _ in range(DOUBLINGS):
+            if t >= 1.0 or self.contains(at(t)):
                 break
+            lo, t = t, min(1.0, 2.0 * t)
+        else:
+            t = 1.0
+        hi = t
+        while True:
+            mid = _float_between(lo, hi)
+            low, high = at(lo), at(hi)
+            if mid is None or all(math.nextafter(low[p], high[p]) == high[p]
+                                  or low[p] == high[p] for p in moving):
+                return high
             if self.contains(at(mid)):
                 hi = mid
             else:
                 lo = mid
-        return at(hi)
 
     def _neighbour(self, candidate: dict) -> Optional[dict]:
         """For a point set (``3.0 * a = 1.0``): the floats next to it that the evaluator
@@ -239,7 +305,9 @@ def allowed_set(machine, op_name: str, state: Optional[Mapping[str, Any]] = None
         raise UnsupportedError(f"{op_name} has no parameters typed `p : REAL` in its guard")
     env = machine.env(state or {}) if env is None else env
     comp = machine.compiler()
-    parts = _Linearizer(set(op.params), env, comp, machine.source).pred(op.guard, True)
+    linear = machine.cached("linear guards", op_name, lambda: _Linearizer(
+        set(op.params), comp, machine.source).pred(op.guard, True))
+    parts = linear(env)
     guard = machine.cached("guards with parameters bound", op_name,
                            lambda: comp.compile(op.guard))
 
@@ -251,10 +319,14 @@ def allowed_set(machine, op_name: str, state: Optional[Mapping[str, Any]] = None
 
 
 class _Linearizer:
-    """Turns a guard into disjunctive normal form over linear constraints."""
+    """Compiles a guard, once per operation, into a function from the state to its
+    disjunctive normal form over linear constraints in the parameters: what does not depend
+    on a parameter is compiled by the engine's compiler and evaluated in the state; a form
+    that cannot be linear (a product of two parameter terms) is refused here, one that turns
+    out not to be in a state (a division by zero) when it is evaluated there."""
 
-    def __init__(self, params: set[str], env: dict, comp, source: str) -> None:
-        self.params, self.env, self.comp, self.source = params, env, comp, source
+    def __init__(self, params: set[str], comp, source: str) -> None:
+        self.params, self.comp, self.source = params, comp, source
 
     def refuse(self, node: ast.Node, why: str) -> UnsupportedError:
         from .scope import render
@@ -265,79 +337,90 @@ class _Linearizer:
     def free(self, node: ast.Node) -> bool:
         return not (ast.free_names(node) & self.params)
 
-    def pred(self, node: ast.Node, positive: bool) -> list[list[Constraint]]:
+    def pred(self, node: ast.Node, positive: bool) -> Callable[[dict], list]:
         if self.free(node):  # no parameter: true or false here
-            value = bool(self.comp.compile(node)(dict(self.env)))
-            return [[]] if value == positive else []
+            fn = self.comp.compile(node)
+            return lambda env: [[]] if bool(fn(dict(env))) == positive else []
         if isinstance(node, (ast.And, ast.Or)):  # ¬(A ∧ B) = ¬A ∨ ¬B, ¬(A ∨ B) = ¬A ∧ ¬B
             if isinstance(node, ast.And) == positive:
                 return self.both(node.left, node.right, positive)
-            return self.either(node.left, node.right, positive)
+            return self.either(node.left, node.right, positive, node)
         if isinstance(node, ast.Not):
             return self.pred(node.operand, not positive)
         if isinstance(node, ast.Equiv):  # (A ∧ B) ∨ (¬A ∧ ¬B), negated (A ∧ ¬B) ∨ (¬A ∧ B)
-            return _cap(self.both(node.left, node.right, True, second_positive=positive)
-                        + self.both(node.left, node.right, False,
-                                    second_positive=not positive), node, self)
+            same = self.both(node.left, node.right, True, second_positive=positive)
+            other = self.both(node.left, node.right, False, second_positive=not positive)
+            return lambda env: _cap(same(env) + other(env), node, self)
         if isinstance(node, ast.Implies):
             if positive:  # ¬A ∨ B
-                return _cap(self.pred(node.left, False) + self.pred(node.right, True), node,
-                            self)
+                return self.either(node.left, node.right, False, node, second_positive=True)
             return self.both(node.left, node.right, True, second_positive=False)
         if isinstance(node, ast.Rel):
             return self.relation(node, positive)
         raise self.refuse(node, f"a {type(node).__name__} over a parameter")
 
-    def both(self, a, b, positive, second_positive=None) -> list[list[Constraint]]:
+    def both(self, a, b, positive, second_positive=None) -> Callable[[dict], list]:
         left = self.pred(a, positive)
         right = self.pred(b, positive if second_positive is None else second_positive)
-        return _cap([x + y for x in left for y in right], a, self)
+        return lambda env: _cap([x + y for x in left(env) for y in right(env)], a, self)
 
-    def either(self, a, b, positive) -> list[list[Constraint]]:
-        return _cap(self.pred(a, positive) + self.pred(b, positive), a, self)
+    def either(self, a, b, positive, node, second_positive=None) -> Callable[[dict], list]:
+        left = self.pred(a, positive)
+        right = self.pred(b, positive if second_positive is None else second_positive)
+        return lambda env: _cap(left(env) + right(env), node, self)
 
-    def relation(self, node: ast.Rel, positive: bool) -> list[list[Constraint]]:
+    def relation(self, node: ast.Rel, positive: bool) -> Callable[[dict], list]:
         op = node.op
         if op == ":" and isinstance(node.left, ast.Name) and isinstance(node.right, ast.Name) \
                 and node.right.id in ("REAL", "FLOAT"):
-            return [[]] if positive else []
+            return lambda env: [[]] if positive else []
         if op not in ("<", "<=", ">", ">=", "=", "/="):
             raise self.refuse(node, f"the relation {op}")
-        diff = _sub(self.expr(node.left), self.expr(node.right))  # left - right
+        left, right = self.expr(node.left), self.expr(node.right)
         if not positive:
             op = {"<": ">=", "<=": ">", ">": "<=", ">=": "<", "=": "/=", "/=": "="}[op]
         if op == "/=":
-            return [[_constraint(diff, "<")], [_constraint(_neg(diff), "<")]]
-        if op in (">", ">="):
-            diff, op = _neg(diff), {">": "<", ">=": "<="}[op]
-        return [[_constraint(diff, op)]]
+            return lambda env: (lambda d: [[_constraint(d, "<")], [_constraint(_neg(d), "<")]])(
+                _sub(left(env), right(env)))
+        if op in (">", ">="):  # left > right: right - left < 0
+            strict = {">": "<", ">=": "<="}[op]
+            return lambda env: [[_constraint(_sub(right(env), left(env)), strict)]]
+        return lambda env: [[_constraint(_sub(left(env), right(env)), op)]]
 
-    def expr(self, node: ast.Node) -> Linear:
+    def expr(self, node: ast.Node) -> Callable[[dict], Linear]:
         if self.free(node):
-            value = self.comp.compile(node)(dict(self.env))
-            return {"": _exact(value, "a value")}
+            fn = self.comp.compile(node)
+            return lambda env: {"": _exact(fn(dict(env)), "a value")}
         if isinstance(node, ast.Name):
-            return {node.id: Fraction(1), "": Fraction(0)}
+            name = node.id
+            return lambda env: {name: Fraction(1), "": Fraction(0)}
         if isinstance(node, ast.Neg):
-            return _neg(self.expr(node.operand))
+            operand = self.expr(node.operand)
+            return lambda env: _neg(operand(env))
         if isinstance(node, ast.BinOp) and node.op in ("+", "-"):
             left, right = self.expr(node.left), self.expr(node.right)
-            return _add(left, right) if node.op == "+" else _sub(left, right)
-        if isinstance(node, ast.BinOp) and node.op == "*":
+            if node.op == "+":
+                return lambda env: _add(left(env), right(env))
+            return lambda env: _sub(left(env), right(env))
+        if isinstance(node, ast.BinOp) and node.op in ("*", "/"):
             left, right = self.expr(node.left), self.expr(node.right)
-            if _constant(left) is not None:
-                return _scale(right, _constant(left))
-            if _constant(right) is not None:
-                return _scale(left, _constant(right))
-            raise self.refuse(node, "a product of two parameter terms")
-        if isinstance(node, ast.BinOp) and node.op == "/":
-            left, right = self.expr(node.left), self.expr(node.right)
-            divisor = _constant(right)
-            if divisor is None:
+            if not (self.free(node.left) or self.free(node.right)) and node.op == "*":
+                raise self.refuse(node, "a product of two parameter terms")
+            if not self.free(node.right) and node.op == "/":
                 raise self.refuse(node, "a division by a parameter term")
-            if divisor == 0:
-                raise self.refuse(node, "a division by zero")
-            return _scale(left, 1 / divisor)
+            product = node.op == "*"
+
+            def combine(env: dict) -> Linear:
+                a, b = left(env), right(env)
+                if product and _constant(a) is not None:
+                    return _scale(b, _constant(a))
+                divisor = _constant(b)
+                if divisor is None:  # not reached: one side is free of parameters
+                    raise self.refuse(node, "a product of two parameter terms")
+                if not product and divisor == 0:
+                    raise self.refuse(node, "a division by zero")
+                return _scale(a, divisor if product else 1 / divisor)
+            return combine
         raise self.refuse(node, f"a {type(node).__name__} of a parameter")
 
 
@@ -453,7 +536,16 @@ def _clamp(x: float, interval: Interval) -> float:
 #: how many floats on either side of a point set :meth:`AllowedSet.nearest` tries, and
 #: how many halvings it takes to find the float boundary of an interval
 NUDGES = 4
-BISECTIONS = 200
+DOUBLINGS = 12
+
+
+def _float_between(lo: float, hi: float) -> Optional[float]:
+    """The float halfway between ``0 <= lo < hi`` in the order of floats (their bit
+    patterns); None when they are next to each other."""
+    a, b = (struct.unpack("<q", struct.pack("<d", x))[0] for x in (lo, hi))
+    if b - a <= 1:
+        return None
+    return struct.unpack("<d", struct.pack("<q", (a + b) // 2))[0]
 
 
 def _inside(i: Interval, x: float) -> float:

@@ -53,15 +53,19 @@ class Shield:
                            self.machine.file))
 
 
-def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None) -> Shield:
+def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None,
+                parameters: Optional[dict[str, tuple[str, ...]]] = None) -> Shield:
     """The shield ``spec`` names: a built-in name or a path to a ``.mch`` file.
 
     With ``actions`` (the live agent's actions) it must have one operation for each; replay
-    and diff check instead that each action a recording uses has an operation.
+    and diff check instead that each action a recording uses has an operation. ``none``
+    is built for the actions (and, for continuous actions, the REAL ``parameters`` of
+    each, see :attr:`~tracecheck.live.adapter.EnvAdapter.parameters`).
     """
     text = str(spec)
-    if text == "none" and actions is not None and tuple(actions) != HIGHWAY_ACTIONS:
-        return _none_for(actions)
+    if text == "none" and actions is not None and (tuple(actions) != HIGHWAY_ACTIONS
+                                                   or parameters):
+        return _none_for(actions, parameters or {})
     if text in BUILTIN_SHIELDS:
         path, name = SHIELD_DIR / f"{text}.mch", text
         if not path.exists():
@@ -100,11 +104,18 @@ def _rebuilt(name: str, sha256: str, path: str, text: str, file: Optional[str]) 
     return Shield(name=name, sha256=sha256, path=path, machine=machine)
 
 
-def _none_for(actions: tuple[str, ...]) -> Shield:
-    """``none`` for any environment: one operation per action, each always enabled."""
+def _none_for(actions: tuple[str, ...], parameters: dict[str, tuple[str, ...]]) -> Shield:
+    """``none`` for any environment: one operation per action, each always enabled (with
+    its REAL parameters, any value allowed)."""
     from ..b.machine import load_machine_text
 
-    ops = ";\n  ".join(f"{a} = skip" for a in actions)
+    def op(a: str) -> str:
+        params = parameters.get(a)
+        if not params:
+            return f"{a} = skip"
+        typed = " & ".join(f"{p} : REAL" for p in params)
+        return f"{a}({', '.join(params)}) = PRE {typed} THEN skip END"
+    ops = ";\n  ".join(op(a) for a in actions)
     text = (f"/* everything allowed: built from the actions */\nMACHINE none\nOPERATIONS\n"
             f"  {ops}\nEND\n")
     machine = load_machine_text(text, file="none")

@@ -188,7 +188,8 @@ def run_shield(spec: str, runs: list[Path]):
     if spec != "none" or not runs:
         return load_shield(spec)
     header = read_header(runs[0])
-    return load_shield(spec, actions=tuple(header.actions) or None)
+    parameters = {op: tuple(p) for op, p in (header.action_parameters or {}).items()}
+    return load_shield(spec, actions=tuple(header.actions) or None, parameters=parameters)
 
 
 class Interval(str, Enum):
@@ -221,6 +222,32 @@ def record_settings(env: Optional[str], env_config: list[str], **fields):
         fields["seed"] = 0
     return RecordSettings(env=env or "highway", env_config=parse_config(env_config) or None,
                           **fields)
+
+
+# the options of continuous actions (record, simulate)
+SHIELD_MODE = typer.Option(None, "--shield-mode", help="Continuous actions: how the shield "
+                           "makes the agent's action allowed — project (the default: the "
+                           "nearest allowed action) or replace (the environment's fallback "
+                           "action). See docs/continuous.md.")
+SCALE = typer.Option(None, "--scale", help="Continuous actions: the unit of each component in "
+                     "projection distances, comma-separated (e.g. 4,0.5; default 1 each).")
+
+
+def continuous_options(shield_mode: Optional[str], scale: Optional[str]) -> dict:
+    """``RecordSettings`` fields of --shield-mode and --scale (checked against the
+    environment when the recording is checked)."""
+    from ..live.continuous import MODES
+
+    if shield_mode is not None and shield_mode not in MODES:
+        raise InputError(f"--shield-mode {shield_mode!r}: give one of {', '.join(MODES)}")
+    out: dict = {"shield_mode": shield_mode or "project"}
+    if scale is not None:
+        try:
+            out["scale"] = tuple(float(x) for x in scale.split(","))
+        except ValueError:
+            raise InputError(f"--scale {scale!r}: give numbers separated by commas, one per "
+                             "component of the action, e.g. 4,0.5") from None
+    return out
 
 
 # the options of an external simulation (record and simulate with --external)

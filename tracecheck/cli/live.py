@@ -9,7 +9,7 @@ import typer
 
 from ..errors import InputError
 from ..outputs import input_paths
-from .common import (CRASH, CWD, ENDING_TIME, EXTERNAL, STEP_TIMEOUT, external_settings,
+from .common import (SCALE, SHIELD_MODE, continuous_options, CRASH, CWD, ENDING_TIME, EXTERNAL, STEP_TIMEOUT, external_settings,
                      app, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, ENV,
                      ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, Algorithm, FORCE,
                      RUN_SHIELD, SEED, WORKERS, FORMAT, JSON, OutputFormat, output_format,
@@ -141,6 +141,8 @@ def record_cmd(
     fallback: Optional[str] = typer.Option(None, "--fallback",
                                            help="Action taken when the shield allows nothing "
                                                 "(default: the environment's; highway SLOWER)."),
+    shield_mode: Optional[str] = SHIELD_MODE,
+    scale: Optional[str] = SCALE,
     output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
     force: bool = FORCE,
 ) -> None:
@@ -148,6 +150,9 @@ def record_cmd(
     with --external, an agent script that speaks SimB's external-simulation protocol, the
     shield's machine answering it as ProB would."""
     if external is not None:
+        if shield_mode is not None or scale is not None:
+            raise InputError("--shield-mode and --scale are for continuous actions; an "
+                             "--external script chooses among the machine's operations")
         settings, machine = external_settings(
             external, shield=shield, episodes=episodes, cwd=cwd, step_timeout=step_timeout,
             crash=crash, ending_time=ending_time, duration=duration, agent=agent, seed=seed,
@@ -165,7 +170,8 @@ def record_cmd(
     settings = record_settings(env, env_config, agent=str(agent) if agent is not None else None,
                          shield=shield, episodes=episodes,
                          seed=seed, duration=duration, profile=profile, fallback=fallback,
-                         workers=workers, executor=executor.value, ray_address=ray_address)
+                         workers=workers, executor=executor.value, ray_address=ray_address,
+                         **continuous_options(shield_mode, scale))
     stats = {"crashes": 0, "steps": 0, "episodes": 0}
     existed = output.exists()
     start = _time.perf_counter()

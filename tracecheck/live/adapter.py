@@ -92,6 +92,14 @@ class EnvAdapter:
     default_shield: Optional[str] = None
     #: taken when the shield allows nothing (None: the first action)
     fallback: Optional[str] = None
+    #: continuous actions (a Gymnasium ``Box`` action space): the operation the action is
+    #: and the REAL parameter of it that each component of the action vector binds, in
+    #: order — ``{"ACCELERATE": ("a",)}`` for ``Box(-1, 1, (1,))``, ``{"DRIVE": ("a",
+    #: "steering")}`` for two components (docs/continuous.md). Empty: discrete actions.
+    parameters: dict[str, tuple[str, ...]] = {}
+    #: continuous actions: the action vector taken when the shield allows nothing (None: the
+    #: zero vector, moved into the space's bounds)
+    fallback_action: Optional[tuple[float, ...]] = None
     #: seconds of environment time per agent step (step times in the files)
     seconds_per_step: float = 1.0
     #: the longest episode, in agent steps, unless the user sets one
@@ -375,6 +383,15 @@ _ATTRIBUTES = (
      _name_or_path),
     ("default_shield", "None or a shield's name or the path of a machine", _name_or_path),
     ("requires", "a tuple of package names (strings)", _strings),
+    ("parameters", 'a dict from an operation name to the tuple of its REAL parameters, one per '
+                   'component of the action vector, e.g. {"ACCELERATE": ("a",)}',
+     lambda v: isinstance(v, dict) and all(
+         isinstance(k, str) and k and isinstance(p, tuple) and p and _strings(p) and all(p)
+         and len(set(p)) == len(p) for k, p in v.items())),
+    ("fallback_action", "None or a tuple of numbers (the action vector taken when the shield "
+                        "allows nothing)",
+     lambda v: v is None or (isinstance(v, tuple) and all(
+         isinstance(x, (int, float)) and not isinstance(x, bool) for x in v))),
     ("profiles", "a dict of named configurations (name -> dict of settings)",
      lambda v: isinstance(v, dict) and all(isinstance(k, str) and isinstance(c, dict)
                                            for k, c in v.items())),
@@ -417,6 +434,12 @@ def _check_attributes(adapter: EnvAdapter, where: str) -> None:
     fallback = read("fallback")
     if fallback is not None and fallback not in actions:
         raise refuse("fallback", fallback, f"None or one of its actions ({', '.join(actions)})")
+    parameters = read("parameters")
+    if parameters and tuple(parameters) != actions:
+        raise refuse("parameters", parameters,
+                     f"keyed by its one action ({', '.join(actions)}): a Box action space is "
+                     "one operation whose parameters take the components (hybrid spaces, a "
+                     "discrete choice with parameters, are not supported yet)")
 
 
 def _instance(cls, where: str) -> EnvAdapter:

@@ -2,7 +2,8 @@
 (:mod:`tracecheck.live.training` trains them).
 
 Two kinds of agent file: a stable-baselines3 model (``.zip``: DQN, PPO or A2C, or
-sb3-contrib's MaskablePPO, for any environment whose spaces match it) and a tabular
+sb3-contrib's MaskablePPO, for any environment whose spaces match it; SAC, TD3, PPO or A2C
+for continuous actions, a ``Box`` action space) and a tabular
 Q-learning agent (``.npy``: a table of one row per discrete observation and one column per
 action, read with ``allow_pickle=False``).
 Loading a stable-baselines3 agent unpickles Python code from the file: tracecheck only
@@ -68,6 +69,16 @@ class Agent:
     def id(self) -> str:
         return Path(self.path).stem
 
+    @property
+    def continuous(self) -> bool:
+        """Whether the agent acts with vectors of numbers (a ``Box`` action space)."""
+        return self.algorithm in _CONTINUOUS
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        """A continuous agent's action for ``obs``: its deterministic choice, as floats."""
+        action, _ = self.model.predict(obs, deterministic=True)
+        return np.asarray(action, dtype=np.float64).reshape(-1)
+
     def values(self, obs: np.ndarray) -> np.ndarray:
         """One value per action (Q-values for DQN and Q-tables, probabilities for policy
         methods)."""
@@ -107,6 +118,9 @@ def load_agent(path: str | Path, adapter=None, env=None) -> Agent:
 
     last: Optional[Exception] = None
     saved = _saved_settings(path)
+    if _policy_module(path).startswith(("stable_baselines3.sac.", "stable_baselines3.td3.")) \
+            or (adapter is not None and adapter.parameters):
+        return _load_continuous(path, adapter, env, saved)
     for name, cls in _algorithms(sb3):
         if name in _CLIPPED and "clip_range" not in saved or \
                 name == "A2C" and "clip_range" in saved:
@@ -121,8 +135,7 @@ def load_agent(path: str | Path, adapter=None, env=None) -> Agent:
         space = model.action_space
         if adapter is None:
             if getattr(space, "n", None) is None:
-                raise InputError(f"{path}: the agent has action space {space}; tracecheck's "
-                                 "agents choose among discrete actions")
+                return _load_continuous(path, adapter, env, saved)
             return Agent(str(path), file_sha256(path), name, model)
         if getattr(space, "n", None) != len(actions):
             raise InputError(f"{path}: the agent has action space {space}; {adapter.name} "
@@ -135,6 +148,66 @@ def load_agent(path: str | Path, adapter=None, env=None) -> Agent:
 
 #: the algorithms whose files hold ``clip_range`` (A2C's do not)
 _CLIPPED = ("PPO", "MaskablePPO")
+#: the algorithms of continuous agents (``Agent.algorithm``)
+_CONTINUOUS = ("SAC", "TD3", "PPO-continuous", "A2C-continuous")
+
+
+def _policy_module(path: Path) -> str:
+    """The module of the policy class a stable-baselines3 file names (read as JSON text, no
+    code run): ``stable_baselines3.sac.policies`` for SAC; "" when it names none."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data"))
+        module = data["policy_class"]["__module__"]
+    except (KeyError, TypeError, ValueError, OSError, zipfile.BadZipFile):
+        return ""
+    return module if isinstance(module, str) else ""
+
+
+def _load_continuous(path: Path, adapter, env, saved: set[str]) -> Agent:
+    """A SAC, TD3, PPO or A2C agent with a ``Box`` action space (of the adapter's
+    components, when one is given)."""
+    import stable_baselines3 as sb3
+
+    module = _policy_module(path)
+    if module.startswith(("stable_baselines3.dqn.", "sb3_contrib.common.maskable.")):
+        kind = "DQN" if "dqn" in module else "MaskablePPO"
+        raise InputError(f"{path}: the agent is a {kind}, which chooses among discrete "
+                         f"actions; {adapter.name} takes continuous actions (a Box of "
+                         f"{len(next(iter(adapter.parameters.values())))})",
+                         hint="train one: tracecheck train --env … --algorithm sac")
+    if module.startswith("stable_baselines3.sac."):
+        name, cls = "SAC", sb3.SAC
+    elif module.startswith("stable_baselines3.td3."):
+        name, cls = "TD3", sb3.TD3
+    elif "clip_range" in saved:
+        name, cls = "PPO-continuous", sb3.PPO
+    else:
+        name, cls = "A2C-continuous", sb3.A2C
+    try:
+        model = cls.load(path, device="cpu")
+    except Exception as exc:  # noqa: BLE001 - the file's own problem, said
+        raise InputError(f"{path} is not a stable-baselines3 {name.split('-')[0]} agent "
+                         f"({type(exc).__name__}: {exc})") from None
+    space = model.action_space
+    shape = getattr(space, "shape", None)
+    if getattr(space, "n", None) is not None or shape is None or len(shape) != 1:
+        if adapter is not None and adapter.parameters:
+            raise InputError(f"{path}: the agent has action space {space}; {adapter.name} "
+                             "takes continuous actions (a one-dimensional Box)")
+        raise InputError(f"{path}: the agent has action space {space}, neither discrete "
+                         "actions nor a one-dimensional Box")
+    if adapter is not None:
+        params = next(iter(adapter.parameters.values()), ())
+        if not params:
+            raise InputError(f"{path}: the agent ({name.split('-')[0]}) takes continuous "
+                             f"actions ({space}); {adapter.name} has {len(adapter.actions)} "
+                             f"discrete actions ({', '.join(adapter.actions)})")
+        if shape != (len(params),):
+            raise InputError(f"{path}: the agent acts with {shape[0]} component(s) ({space}); "
+                             f"{adapter.name} takes {len(params)} ({', '.join(params)})")
+        _check_observations(path, model.observation_space, adapter, env)
+    return Agent(str(path), file_sha256(path), name, model)
 
 
 def _saved_settings(path: Path) -> set[str]:

@@ -104,11 +104,44 @@ def check_settings(settings: RecordSettings, out: Path, *, force: bool = False,
     env = adapter.make_env(config)
     try:
         agent = load_agent(settings.agent, adapter=adapter, env=env)
-        shield = load_shield(settings.shield, actions=actions)
+        shield = load_shield(settings.shield, actions=actions, parameters=adapter.parameters)
         check_vocabulary(shield, adapter, env)
+        check_continuous(settings, adapter, shield, env)
     finally:
         env.close()
     return agent, shield
+
+
+def check_continuous(settings: RecordSettings, adapter, shield, env) -> None:
+    """Before any episode: continuous actions fit the shield and the action space (see
+    :class:`~tracecheck.live.continuous.ContinuousShield`); a continuous setting is refused
+    for discrete actions."""
+    if not adapter.parameters:
+        if settings.shield_mode != "project" or settings.scale is not None:
+            raise InputError(f"--shield-mode and --scale are for continuous actions; "
+                             f"{adapter.name} has discrete ones ({', '.join(adapter.actions)})")
+        return
+    from .continuous import ContinuousShield
+
+    ContinuousShield(shield.machine, adapter, env.action_space, mode=settings.shield_mode,
+                     scale=settings.scale)
+
+
+def continuous_fields(settings: RecordSettings, adapter) -> dict:
+    """The run header's fields of continuous actions (none for discrete ones)."""
+    if not adapter.parameters:
+        return {}
+    env = adapter.make_env(resolve(settings)[1])
+    try:
+        space = env.action_space
+    finally:
+        env.close()
+    params = next(iter(adapter.parameters.values()))
+    return {"action_parameters": {op: list(p) for op, p in adapter.parameters.items()},
+            "action_low": [float(x) for x in space.low],
+            "action_high": [float(x) for x in space.high],
+            "shield_mode": settings.shield_mode,
+            "projection_scale": [float(x) for x in (settings.scale or (1.0,) * len(params))]}
 
 
 def recording_header(settings: RecordSettings, agent, shield):
@@ -116,7 +149,7 @@ def recording_header(settings: RecordSettings, agent, shield):
     and shield with their hashes."""
     adapter, config, horizon = resolve(settings)
     return new_header(
-        "recorded", environment=adapter.name, environment_id=adapter.env_id,
+        "recorded", **continuous_fields(settings, adapter), environment=adapter.name, environment_id=adapter.env_id,
         environment_config=config, horizon=horizon,
         agent_id=agent.id, agent_sha256=agent.sha256,
         agent_file=str(Path(agent.path).resolve()), shield_name=shield.name,

@@ -45,6 +45,10 @@ class RecordSettings:
     ray_address: Optional[str] = None
     env: str = "highway"
     env_config: Optional[dict] = None
+    #: continuous actions: how the shield makes an action allowed (project, replace) and
+    #: the unit of each component in projection distances (None: 1 each)
+    shield_mode: str = "project"
+    scale: Optional[tuple[float, ...]] = None
 
 
 def resolve(settings: RecordSettings):
@@ -80,7 +84,8 @@ class Session:
         self.agent = load_agent(settings.agent, adapter=self.adapter, env=env)
         actions = tuple(self.adapter.actions)
         self.shield = for_actions(shield, actions)
-        self.env = ShieldWrapper(env, self.shield, settings.fallback, self.adapter)
+        self.env = ShieldWrapper(env, self.shield, settings.fallback, self.adapter,
+                                 mode=settings.shield_mode, scale=settings.scale)
 
     def episode(self, index: int) -> Episode:
         return run_episode(self, index)
@@ -100,12 +105,11 @@ def run_episode(session: Session, index: int, *, seed: Optional[int] = None,
     from .wrapper import choose
 
     seed = session.settings.seed + index if seed is None else seed
+    if session.env.continuous is not None:
+        return _continuous_episode(session, index, seed=seed, script=script, check=check)
     env, agent = session.env, session.agent
     actions, dt = env.actions, session.adapter.seconds_per_step
-    obs, info = env.reset(seed=seed)
-    _check(check, 0, info["b_state"])
-    steps = [StepRecord(0, 0.0, None, info["b_state"], 0.0, False,
-                        observation=_rows(obs))]
+    obs, info, steps = _start(env, seed, check)
     reason = "time-limit"
     for k in range(1, session.horizon + 1):
         values = agent.values(obs)
@@ -126,6 +130,47 @@ def run_episode(session: Session, index: int, *, seed: Optional[int] = None,
             preferred_action=actions[int(np.argmax(values))],
             allowed_actions=tuple(a for a, ok in zip(actions, allowed) if ok),
             shield_time_us=round(decision_us, 3), deadlock=deadlock or None))
+        if crashed or terminated or truncated:
+            reason = end_reason(crashed, terminated, truncated)
+            break
+    steps_t = tuple(steps)
+    return Episode(id=index, steps=steps_t, end=make_end(steps_t, reason), seed=seed)
+
+
+def _start(env, seed: int, check) -> tuple[Any, dict, list[StepRecord]]:
+    """The environment reset with ``seed``: (observation, info, [the initial state's
+    record]), the initial state checked by ``check``."""
+    obs, info = env.reset(seed=seed)
+    _check(check, 0, info["b_state"])
+    return obs, info, [StepRecord(0, 0.0, None, info["b_state"], 0.0, False,
+                                  observation=_rows(obs))]
+
+
+def _continuous_episode(session: Session, index: int, *, seed: int,
+                        script: Sequence[Any], check) -> Episode:
+    """:func:`run_episode` for continuous actions: the agent (or ``script``: action vectors)
+    proposes, the shield's mode decides (:mod:`tracecheck.live.continuous`); each step keeps
+    the proposal, the executed parameters, the distance and the allowed intervals."""
+    env, agent = session.env, session.agent
+    (op,), dt = env.actions, session.adapter.seconds_per_step
+    obs, info, steps = _start(env, seed, check)
+    reason = "time-limit"
+    for k in range(1, session.horizon + 1):
+        proposal = script[k - 1] if k <= len(script) else agent.act(obs)
+        anything = bool(env.allowed.any())  # in the state the shield decides in
+        obs, reward, terminated, truncated, info = env.step(proposal)
+        if k <= len(script):
+            _check(check, k, info["b_state"])
+        crashed, decided = bool(info["crashed"]), info["shield"]
+        steps.append(StepRecord(
+            step=k, time=float(k * dt), action=op, state=info["b_state"],
+            reward=float(reward), crashed=crashed, observation=_rows(obs),
+            allowed_actions=(op,) if anything else (),
+            shield_time_us=round(decided["step_decision_us"], 3),
+            deadlock=decided["fallback_taken"] or None,
+            parameters=decided["executed"], proposal=decided["proposal"],
+            projection_distance=decided["distance"],
+            allowed_intervals=decided["intervals"]))
         if crashed or terminated or truncated:
             reason = end_reason(crashed, terminated, truncated)
             break

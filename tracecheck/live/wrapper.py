@@ -10,6 +10,12 @@ the B state and whether the step crashed in ``info``. Any agent can so be shield
 training too. When the shield allows nothing it fails closed: the step is a deadlock and the
 fallback action (the adapter's: SLOWER on the highway) is taken, and said so.
 
+For continuous actions (an adapter that declares ``parameters`` for a ``Box`` action space)
+``step`` takes the agent's action vector and executes the proposal if the shield allows it,
+else by the mode (``project``: the nearest allowed action; ``replace``: the fallback action);
+``info["shield"]`` holds the ``proposal``, the ``executed`` parameters, the ``distance``,
+the allowed ``intervals`` and ``fallback_taken`` (see :mod:`tracecheck.live.continuous`).
+
 Under Gymnasium's vector environments, wrap each sub-environment — ``gym.make_vec(id, n,
 wrappers=[lambda e: ShieldWrapper(e, shield)])`` or ``SyncVectorEnv([lambda:
 ShieldWrapper(gym.make(id), shield)] * n)`` — and read the masks with
@@ -49,6 +55,9 @@ def adapter_for(env: gym.Env):
                          hint="give it: ShieldWrapper(env, shield, adapter=MyAdapter()); the "
                               f"installed adapters are {known}")
     matches = adapters_for_env_id(env_id, found)
+    if len(matches) > 1:  # one id, two action spaces (highway, highway-continuous)
+        continuous = getattr(env.action_space, "n", None) is None
+        matches = [a for a in matches if bool(a.adapter.parameters) == continuous] or matches
     if len(matches) == 1:
         return matches[0].adapter
     if not matches:
@@ -80,9 +89,17 @@ class ShieldWrapper(gym.Wrapper):
     """
 
     def __init__(self, env: gym.Env, shield: Shield, fallback: Optional[str] = None,
-                 adapter=None) -> None:
+                 adapter=None, *, mode: str = "project",
+                 scale: Optional[Sequence[float]] = None) -> None:
         super().__init__(env)
         self.env_adapter = adapter if adapter is not None else adapter_for(env)
+        #: continuous actions (the adapter declares parameters): the projection shield
+        self.continuous = None
+        if self.env_adapter.parameters:
+            from .continuous import ContinuousShield
+
+            self.continuous = ContinuousShield(shield.machine, self.env_adapter,
+                                               env.action_space, mode=mode, scale=scale)
         self.actions = tuple(self.env_adapter.actions)
         fallback = fallback or self.env_adapter.fallback or self.actions[0]
         if fallback not in self.actions:
@@ -105,7 +122,11 @@ class ShieldWrapper(gym.Wrapper):
             env = self._env
             env.pop(MEMO_KEY, None)
             env.update(self.state)
-            enabled = self.shield.machine.enabled_in(env)
+            if self.continuous is not None:
+                self.continuous.decide(env)
+                enabled = {self.actions[0]} if self.continuous.any_allowed() else set()
+            else:
+                enabled = self.shield.machine.enabled_in(env)
             self.decision_us = (time.perf_counter() - start) * 1e6
         finally:
             if collecting:
@@ -153,6 +174,8 @@ class ShieldWrapper(gym.Wrapper):
         return obs, self._info(info)
 
     def step(self, action):
+        if self.continuous is not None:
+            return self._step_continuous(action)
         requested = int(action)
         taken = requested
         if not self.allowed[requested]:
@@ -165,3 +188,26 @@ class ShieldWrapper(gym.Wrapper):
         self.state = self._state(obs, info, float(reward), False)
         self._decide()
         return obs, reward, terminated, truncated, self._info(info, requested, taken)
+
+    def _step_continuous(self, action):
+        """A continuous action: the proposal, or what the shield's mode makes of it (see
+        :mod:`tracecheck.live.continuous`); ``info["shield"]`` says which, how far it moved
+        and what was allowed."""
+        start = time.perf_counter()
+        decision = self.continuous.filter(action)
+        bands = self.continuous.bands()
+        decision_us = self.decision_us + (time.perf_counter() - start) * 1e6
+        problem = self.continuous.problem
+        space = self.env.action_space
+        obs, reward, terminated, truncated, info = self.env.step(
+            decision.executed.astype(getattr(space, "dtype", np.float64)))
+        info = dict(info, crashed=self.env_adapter.crashed(obs, float(reward), terminated, info))
+        self.state = self._state(obs, info, float(reward), False)
+        self._decide()
+        info = self._info(info, 0, 0)
+        info["shield"].update(
+            replaced=decision.intervened, proposal=decision.proposal,
+            executed=decision.parameters, distance=decision.distance,
+            fallback_taken=decision.deadlock, step_decision_us=decision_us,
+            intervals=bands, problem=problem)
+        return obs, reward, terminated, truncated, info

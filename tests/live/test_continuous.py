@@ -1,0 +1,271 @@
+"""Continuous actions live: the projection shield, the wrapper, recording and agents
+(tracecheck.live.continuous, wrapper, rollout, agents), on the throttle environment of
+tests/fixtures/acc_env (a user's own, ``acc_cruise.throttle:Throttle``)."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tests.helpers import ACC_ENV, acc_installed, forget_acc, run
+from tracecheck.b.machine import load_machine, load_machine_text
+from tracecheck.errors import InputError
+from tracecheck.live.adapter import EnvAdapter
+from tracecheck.live.continuous import ContinuousShield
+
+THROTTLE = "acc_cruise.throttle:Throttle"
+V1 = ACC_ENV / "acc_cruise" / "throttle_v1.mch"
+V2 = ACC_ENV / "acc_cruise" / "throttle_v2.mch"
+SPACE = gym.spaces.Box(low=-4.0, high=2.0, shape=(1,), dtype=np.float32)
+
+
+class _Adapter(EnvAdapter):
+    name = "t"
+    actions = ("ACCELERATE",)
+    parameters = {"ACCELERATE": ("a",)}
+    fallback_action = (-4.0,)
+    variables = ("Gap", "EgoSpeed", "LeadSpeed")
+
+
+def _shield(mode="project", adapter=None, space=SPACE, scale=None, machine=None):
+    return ContinuousShield(machine or load_machine(V1), adapter or _Adapter(), space,
+                            mode=mode, scale=scale)
+
+
+def _state(gap, ego, lead):
+    return {"Gap": gap, "EgoSpeed": ego, "LeadSpeed": lead}
+
+
+def _decide(shield, state):
+    shield.decide(shield.machine.env(state))
+    return shield
+
+
+def _guard_allows(machine, state, a) -> bool:
+    return bool(machine.evaluate("Gap + LeadSpeed - 1.0 - (EgoSpeed + a) > EgoSpeed + a",
+                                 {**state, "a": a}))
+
+
+# ------------------------------------------------------------------ the shield itself
+
+
+def test_allowed_proposal_is_kept():
+    shield = _decide(_shield(), _state(40.0, 20.0, 20.0))  # a < 9.5: all of [-4, 2]
+    d = shield.filter([1.5])
+    assert d.executed.tolist() == [1.5] and d.distance == 0.0
+    assert not d.intervened and not d.deadlock
+    assert shield.bands() == {"a": ((-4.0, 2.0),)}
+
+
+def test_project_takes_the_nearest_allowed_action_confirmed_by_the_evaluator():
+    state = _state(28.0, 20.0, 15.0)  # a < (28 + 15 - 1 - 40) / 2 = 1.0, open
+    shield = _decide(_shield(), state)
+    d = shield.filter([2.0])
+    a = d.executed[0]
+    assert a < 1.0 and 1.0 - a < 1e-12  # the float boundary the evaluator accepts
+    assert _guard_allows(shield.machine, state, a)
+    assert not _guard_allows(shield.machine, state, float(np.nextafter(a, 2.0)))
+    assert d.intervened and not d.deadlock and d.distance == pytest.approx(1.0)
+    assert d.parameters == {"a": a} and d.proposal == {"a": 2.0}
+    assert shield.bands() == {"a": ((-4.0, 1.0),)}
+
+
+def test_a_proposal_outside_the_space_is_first_moved_into_it():
+    shield = _decide(_shield(), _state(40.0, 20.0, 20.0))
+    d = shield.filter(np.array([7.0]))
+    assert d.proposal == {"a": 2.0} and d.executed.tolist() == [2.0] and d.distance == 0.0
+
+
+def test_replace_takes_the_fallback_action():
+    shield = _decide(_shield("replace"), _state(28.0, 20.0, 15.0))
+    d = shield.filter([2.0])
+    assert d.executed.tolist() == [-4.0] and d.intervened and not d.deadlock
+    assert d.distance == pytest.approx(6.0)
+
+
+def test_nothing_allowed_fails_closed_with_the_fallback():
+    shield = _decide(_shield(), _state(10.0, 20.0, 10.0))  # a < -10.5: outside [-4, 2]
+    assert not shield.any_allowed()
+    d = shield.filter([1.0])
+    assert d.deadlock and d.executed.tolist() == [-4.0]
+    assert shield.bands() == {"a": ()}
+
+
+def test_the_scale_weighs_the_components():
+    machine = load_machine_text("""MACHINE Two
+VARIABLES x
+INVARIANT x : REAL
+INITIALISATION x := 0.0
+OPERATIONS
+  MOVE(u, v) = PRE u : REAL & v : REAL & u + 0.0 * x <= 0.0 THEN skip END
+END""")
+
+    class Two(EnvAdapter):
+        name = "two"
+        actions = ("MOVE",)
+        parameters = {"MOVE": ("u", "v")}
+        variables = ("x",)
+    space = gym.spaces.Box(low=-1.0, high=1.0, shape=(2,), dtype=np.float32)
+    shield = _shield(adapter=Two(), space=space, machine=machine, scale=(0.5, 1.0))
+    shield.decide(machine.env({"x": 0.0}))
+    d = shield.filter([0.5, 0.25])
+    assert d.executed.tolist() == [0.0, 0.25] and d.distance == pytest.approx(1.0)  # 0.5 / 0.5
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"parameters": {"ACCELERATE": ("b",)}}, "binds the components of its action to "
+                                              "ACCELERATE(b), but the shield ThrottleShield "
+                                              "has ACCELERATE(a)"),
+    ({"fallback_action": (9.0,)}, "fallback_action = (9.0,); it must be 1 finite number(s) "
+                                  "within the action space's bounds [-4.0] … [2.0]"),
+])
+def test_declarations_that_do_not_fit_are_refused(change, message):
+    adapter = type("Bad", (_Adapter,), change)()
+    with pytest.raises(InputError, match=message.replace("(", r"\(").replace(")", r"\)")
+                       .replace("[", r"\[").replace("]", r"\]").replace(".", r"\.")):
+        _shield(adapter=adapter)
+
+
+def test_a_space_with_other_components_is_refused():
+    space = gym.spaces.Box(low=-1.0, high=1.0, shape=(2,), dtype=np.float32)
+    with pytest.raises(InputError, match=r"names 1 parameter\(s\) \(a\) for ACCELERATE, but "
+                                         r"the action space .* has 2 component\(s\)"):
+        _shield(space=space)
+    with pytest.raises(InputError, match="not a one-dimensional Box"):
+        _shield(space=gym.spaces.Discrete(3))
+
+
+def test_untyped_parameters_and_clashing_names_are_refused():
+    untyped = load_machine_text("""MACHINE U
+VARIABLES Gap, EgoSpeed, LeadSpeed
+INVARIANT Gap : REAL & EgoSpeed : REAL & LeadSpeed : REAL
+INITIALISATION Gap, EgoSpeed, LeadSpeed := 1.0, 1.0, 1.0
+OPERATIONS ACCELERATE(a) = PRE a >= -4.0 THEN skip END
+END""")
+    with pytest.raises(InputError, match=r"must type each parameter REAL in its guard"):
+        _shield(machine=untyped)
+    with pytest.raises(InputError, match=r"--scale takes 1 positive number\(s\)"):
+        _shield(scale=(0.0,))
+
+
+@settings(max_examples=60, deadline=None)
+@given(gap=st.floats(0.0, 80.0), ego=st.floats(0.0, 40.0), lead=st.floats(0.0, 40.0),
+       proposal=st.floats(-10.0, 10.0), mode=st.sampled_from(["project", "replace"]))
+def test_every_executed_action_is_allowed_or_the_recorded_fallback(gap, ego, lead, proposal,
+                                                                    mode):
+    shield = _decide(_shield(mode), _state(gap, ego, lead))
+    d = shield.filter([proposal])
+    a = float(d.executed[0])
+    assert -4.0 <= a <= 2.0
+    if d.deadlock:
+        assert a == -4.0
+        bound = (gap + lead - 1.0 - 2 * ego) / 2  # over the reals; the evaluator's floats agree
+        assert mode == "replace" or bound <= -4.0 + 1e-9
+    else:
+        assert _guard_allows(shield.machine, _state(gap, ego, lead), a)
+        clipped = min(max(proposal, -4.0), 2.0)
+        if mode == "project":  # nothing allowed lies nearer than the executed action
+            grid = np.linspace(-4.0, 2.0, 601)
+            ok = [g for g in grid if _guard_allows(shield.machine, _state(gap, ego, lead), g)]
+            assert all(abs(g - clipped) >= abs(a - clipped) - 1e-9 for g in ok)
+
+
+# ------------------------------------------------------------------ recording
+
+
+@pytest.fixture(scope="module")
+def throttle(tmp_path_factory):
+    """A PPO file that always proposes full throttle (+2), and runs of it: unshielded, under
+    v1 projected, under v1 replaced; the throttle environment installed meanwhile."""
+    folder = tmp_path_factory.mktemp("throttle")
+    with pytest.MonkeyPatch.context() as mp, acc_installed(mp):
+        from acc_cruise.throttle import make_agent
+
+        agent = make_agent(folder / "full.zip", 2.0)
+        runs = {}
+        from tracecheck.cli import main
+        for name, shield, extra in (("none", "none", []), ("v1", str(V1), []),
+                                    ("replace", str(V1), ["--shield-mode", "replace"])):
+            runs[name] = folder / f"{name}.mcap"
+            with pytest.raises(SystemExit) as stop:
+                main(["record", "--env", THROTTLE, "--env-config", "max_steps=40", "--agent",
+                      str(agent), "--shield", shield, "-n", "4", "-o", str(runs[name]),
+                      *extra])
+            assert stop.value.code in (0, None)
+    forget_acc()
+    return agent, runs
+
+
+def test_recorded_steps_keep_proposal_execution_distance_and_band(throttle):
+    from tracecheck.episodes.reader import read_header, read_run
+
+    _, runs = throttle
+    header = read_header(runs["v1"])
+    assert header.action_parameters == {"ACCELERATE": ["a"]}
+    assert header.action_low == [-4.0] and header.action_high == [2.0]
+    assert header.shield_mode == "project" and header.projection_scale == [1.0]
+    machine = load_machine(V1)
+    episodes = list(read_run(runs["v1"]).episodes)
+    assert not any(e.end.crashed for e in episodes)
+    moved = 0
+    for e in episodes:
+        for before, s in zip(e.steps, e.steps[1:]):
+            assert s.action == "ACCELERATE" and s.proposal == {"a": 2.0}
+            a = s.parameters["a"]
+            assert s.projection_distance == pytest.approx(2.0 - a)
+            if s.deadlock:
+                assert a == -4.0 and s.allowed_actions == ()
+                continue
+            assert _guard_allows(machine, before.state, a)
+            (low, high), = s.allowed_intervals["a"]
+            assert low == -4.0 and low <= a <= high
+            moved += a < 2.0
+    assert moved > 10
+
+
+def test_unshielded_full_throttle_crashes_and_the_shield_prevents_it(throttle):
+    from tracecheck.episodes.reader import read_run
+
+    _, runs = throttle
+    none = list(read_run(runs["none"]).episodes)
+    assert all(e.end.crashed for e in none)
+    assert all(s.parameters == {"a": 2.0} and s.projection_distance == 0.0
+               for e in none for s in e.steps[1:])
+    replaced = list(read_run(runs["replace"]).episodes)
+    assert not any(e.end.crashed for e in replaced)
+    assert {s.parameters["a"] for e in replaced for s in e.steps[1:]} == {2.0, -4.0}
+
+
+def test_continuous_options_are_refused_for_discrete_actions(capsys, acc_env, acc_agent,
+                                                             tmp_path):
+    code, _, err = run(capsys, "record", "--env", "acc", "--agent", acc_agent, "--shield",
+                       "none", "-n", "1", "--shield-mode", "replace", "-o", tmp_path / "x.mcap")
+    assert code == 2 and "--shield-mode and --scale are for continuous actions" in err
+    code, _, err = run(capsys, "record", "--env", "acc", "--agent", acc_agent, "--shield",
+                       "none", "-n", "1", "--shield-mode", "sideways", "-o",
+                       tmp_path / "x.mcap")
+    assert code == 2 and "--shield-mode 'sideways': give one of project, replace" in err
+
+
+def test_agents_of_the_other_kind_are_refused(capsys, acc_env, acc_agent, throttle, tmp_path):
+    agent, _ = throttle
+    code, _, err = run(capsys, "record", "--env", "acc", "--agent", agent, "--shield", "none",
+                       "-n", "1", "-o", tmp_path / "x.mcap")
+    assert code == 2 and "acc has 3 discrete actions (KEEP, ACCEL, BRAKE)" in err
+    code, _, err = run(capsys, "record", "--env", THROTTLE, "--agent", acc_agent, "--shield",
+                       "none", "-n", "1", "-o", tmp_path / "x.mcap")
+    assert code == 2 and "throttle takes continuous actions" in err
+    assert not (tmp_path / "x.mcap").exists()
+
+
+def test_a_shield_without_the_parameters_is_refused_before_any_episode(capsys, acc_env,
+                                                                       throttle, tmp_path):
+    agent, _ = throttle
+    code, _, err = run(capsys, "record", "--env", THROTTLE, "--agent", agent, "--shield",
+                       ACC_ENV / "acc_cruise" / "acc_v2.mch", "-n", "1",
+                       "-o", tmp_path / "x.mcap")
+    assert code == 2 and "lacks ACCELERATE" in err
+    assert not (tmp_path / "x.mcap").exists()
