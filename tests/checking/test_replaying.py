@@ -161,8 +161,9 @@ def test_missing_variable_is_an_input_error(tmp_path):
 
 def test_shield_loading_errors(tmp_path):
     with pytest.raises(InputError, match="unknown shield 'sturdy': give one of none, paper, "
-                                         "strict, frozenlake, cliffwalking or the path of a "
-                                         ".mch file"):
+                                         "strict, frozenlake, cliffwalking, "
+                                         "highway_continuous, lunarlander_continuous or the "
+                                         "path of a .mch file"):
         load_shield("sturdy")
     partial = tmp_path / "partial.mch"
     partial.write_text("MACHINE Partial OPERATIONS IDLE = skip; FASTER = skip END")
