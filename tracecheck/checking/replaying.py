@@ -5,10 +5,16 @@ it (else the step is *infeasible*: the shield would have blocked it), the pair o
 satisfy the operation's effect (else a *postcondition violation*: model and environment
 disagree, paper §3.3), the invariant must hold, and a state where the shield enables nothing
 is a *deadlock*. Everything is evaluated over the numpy columns of the whole file at once.
+
+A continuous action (an operation whose parameters are typed REAL) is feasible when its guard
+holds in the state before with the parameters bound to the recorded values — one batch
+evaluation over all its steps; where it does not, the *margin* says how far the recorded
+values lay from the nearest the shield allowed (Euclidean, in the parameters' units).
 """
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -17,9 +23,10 @@ from typing import Callable, Iterable, Optional, Sequence
 import numpy as np
 
 from ..b import ast
-from ..b.columns import step_pairs
+from ..b.columns import Columns, step_pairs
+from ..b.linear import real_parameters
 from ..episodes.columns import RunColumns, read_columns
-from ..errors import InputError
+from ..errors import InputError, UnsupportedError
 from .executors import map_files
 from .shield import Shield
 
@@ -55,6 +62,17 @@ class EpisodeReplay:
     deadlock_states: list[int]
     postcondition_violations: list[int]
     invariant_violations: list[int]
+    #: a continuous action at the first infeasible step: its recorded parameter values, the
+    #: values the shield allowed there (``a ∈ [-4.0, 0.3)``), how far outside they lay
+    #: (Euclidean, in the parameters' units; None: see ``margin_note``) …
+    parameters: Optional[dict[str, float]] = None
+    allowed: Optional[str] = None
+    margin: Optional[float] = None
+    #: … why there is no margin (nothing allowed, the allowed set not boxes, a guard not
+    #: linear in the parameters)
+    margin_note: Optional[str] = None
+    #: the largest margin over the episode's infeasible continuous actions
+    max_margin: Optional[float] = None
 
     @property
     def matters(self) -> bool:
@@ -139,12 +157,20 @@ def _postconditions(shield: Shield, cols: RunColumns, rows: np.ndarray,
         which = np.flatnonzero(actions == code)
         if not len(which) or name not in machine.operations:
             continue
+        # a continuous action's effect with its parameters as recorded (checked present)
+        params = machine.operations[name].params if real_parameters(
+            machine.operations[name]) else ()
         if machine.postcondition(name) is None:  # no predicate: the steps one by one
             for i in which:
                 r = rows[i]
-                bad[i] = not machine.effect_ok(name, cols.states.row(r - 1), cols.states.row(r))
+                before = {**cols.states.row(r - 1),
+                          **{p: float(cols.parameters[p][r]) for p in params}}
+                bad[i] = not machine.effect_ok(name, before, cols.states.row(r))
             continue
-        bad[which] = ~machine.postcondition_batch(name, step_pairs(cols.states, rows[which]))
+        pairs = step_pairs(cols.states, rows[which])
+        for p in params:
+            pairs.numbers[p] = cols.parameters[p][rows[which]]
+        bad[which] = ~machine.postcondition_batch(name, pairs)
     return bad
 
 
@@ -164,15 +190,113 @@ def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport,
     to_op = np.array([op_index.get(a, 0) for a in cols.action_names] + [0], dtype=np.int64)
     feasible = np.ones(cols.n, dtype=bool)
     feasible[rows] = matrix[rows - 1, to_op[actions]]
+    margins = _continuous(shield, cols, rows, actions, feasible)
     deadlock = ~matrix.any(axis=1) if ops else np.ones(cols.n, dtype=bool)
     machine = shield.machine
     invariant_ok = machine.invariant_batch(cols.states)
     post_bad = np.zeros(cols.n, dtype=bool)
     post_bad[rows] = _postconditions(shield, cols, rows, actions)
-    checks = _FileChecks(ops, matrix, feasible, deadlock, invariant_ok, post_bad)
+    checks = _FileChecks(ops, matrix, feasible, deadlock, invariant_ok, post_bad, margins)
     for i, ep in enumerate(cols.episode_ids):
         lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
         report.per_episode.append(_episode(cols, checks, int(ep), lo, hi))
+
+
+@dataclass(frozen=True)
+class _Margin:
+    """An infeasible continuous action: its recorded values, what the shield allowed in the
+    state before, and how far outside (None: ``note`` says why)."""
+
+    point: dict[str, float]
+    allowed: Optional[str]
+    margin: Optional[float]
+    note: Optional[str] = None
+
+
+def _continuous(shield: Shield, cols: RunColumns, rows: np.ndarray, actions: np.ndarray,
+                feasible: np.ndarray) -> dict[int, _Margin]:
+    """Decide the steps of continuous actions in ``feasible`` (by the guard with the
+    recorded parameters, not by "some value allowed"); the margin of each infeasible one, by
+    its row."""
+    machine = shield.machine
+    margins: dict[int, _Margin] = {}
+    for code, name in enumerate(cols.action_names):
+        op = machine.operations.get(name)
+        if op is None or not real_parameters(op):
+            continue
+        which = rows[actions == code]
+        if not len(which):
+            continue
+        feasible[which] = ok = _guard_with_parameters(shield, cols, op, which)
+        for r in which[~ok].tolist():
+            margins[r] = _margin(machine, op, cols, r)
+    return margins
+
+
+def _guard_with_parameters(shield: Shield, cols: RunColumns, op, which: np.ndarray
+                           ) -> np.ndarray:
+    """For each step row in ``which`` (all of ``op``): does ``op``'s guard hold in the state
+    before, its parameters bound to the recorded values? One batch evaluation."""
+    machine = shield.machine
+    names = cols.states.names() | set(machine.variables)
+    for p in op.params:
+        if p in names:
+            raise InputError(f"{cols.path}: the parameter {p} of {op.name} in the shield "
+                             f"{shield.name} has the name of a state variable, so its recorded "
+                             "value cannot be told from the state's",
+                             hint=f"rename the parameter in {shield.name}")
+        values = cols.parameters.get(p)
+        missing = which if values is None else which[np.isnan(values[which])]
+        if len(missing):
+            r = int(missing[0])
+            raise InputError(f"{cols.path}, episode {int(cols.episode[r])}, step "
+                             f"{int(cols.step[r])}: the recorded action {op.name} has no value "
+                             f"for its parameter {p}",
+                             hint="a continuous action is replayed with the parameter values "
+                                  "recorded with it (a step's `parameters`)")
+    before = _take(cols.states, which - 1)
+    for p in op.params:
+        before.numbers[p] = cols.parameters[p][which]
+    if cols.states.label is not None:
+        label = cols.states.label
+        before.label = lambda i: (f"{label(int(which[i]))} ({op.name}'s guard in the state "
+                                  "before, its parameters as recorded)")
+    guard = machine.cached("batch guards with parameters", op.name,
+                           lambda: machine.batch(op.guard))
+    return np.asarray(guard(before), dtype=bool)
+
+
+def _take(cols: Columns, rows: np.ndarray) -> Columns:
+    """The states at ``rows`` as columns of their own."""
+    return Columns(
+        n=len(rows), elements=cols.elements,
+        numbers={k: v[rows] for k, v in cols.numbers.items()},
+        booleans={k: v[rows] for k, v in cols.booleans.items()},
+        functions={k: (v[rows], d[rows]) for k, (v, d) in cols.functions.items()},
+        masks={k: v[rows] for k, v in cols.masks.items()},
+        others={k: [v[i] for i in rows.tolist()] for k, v in cols.others.items()})
+
+
+def _margin(machine, op, cols: RunColumns, r: int) -> _Margin:
+    """How far the recorded values of step row ``r`` lay from the nearest the shield
+    allowed in the state before (:meth:`~tracecheck.b.linear.AllowedSet.nearest`)."""
+    point = {p: float(cols.parameters[p][r]) for p in op.params}
+    try:
+        allowed = machine.allowed(op.name, cols.states.row(r - 1))
+    except UnsupportedError as exc:
+        return _Margin(point, None, None, f"no margin: {exc.message}")
+    nearest = allowed.nearest(point)
+    if nearest is not None:
+        return _Margin(point, str(allowed), math.dist([nearest[p] for p in op.params],
+                                                      [point[p] for p in op.params]))
+    if not allowed.separable:
+        why = ("no margin: the allowed set is not a union of boxes (a constraint names "
+               "several parameters)")
+    elif str(allowed).endswith("∅"):
+        why = "nothing allowed"
+    else:
+        why = "no margin: no float near the allowed set passes the guard"
+    return _Margin(point, str(allowed), None, why)
 
 
 def _check_ltl(shield: Shield, cols: RunColumns, report: ReplayReport, ltl: Sequence[tuple],
@@ -233,6 +357,8 @@ class _FileChecks:
     deadlock: np.ndarray
     invariant_ok: np.ndarray
     postcondition_bad: np.ndarray
+    #: by row, the infeasible steps of continuous actions
+    margins: dict[int, _Margin] = field(default_factory=dict)
 
 
 def _episode(cols: RunColumns, checks: _FileChecks, ep: int, lo: int, hi: int
@@ -252,6 +378,8 @@ def _episode(cols: RunColumns, checks: _FileChecks, ep: int, lo: int, hi: int
             alternative = max(scored)[1] if scored else None
     crashes = np.flatnonzero(cols.crashed[lo:hi])
     crash_step = int(crashes[0]) if len(crashes) else None
+    at = checks.margins.get(lo + first) if first is not None else None
+    known = [m.margin for r, m in checks.margins.items() if lo < r < hi and m.margin is not None]
     return EpisodeReplay(
         file=cols.path, episode=ep, steps=hi - lo - 1, first_infeasible=first, action=action,
         enabled=enabled, alternative=alternative, infeasible_steps=len(bad_steps),
@@ -262,6 +390,9 @@ def _episode(cols: RunColumns, checks: _FileChecks, ep: int, lo: int, hi: int
         postcondition_violations=[int(k) for k in
                                   np.flatnonzero(checks.postcondition_bad[lo:hi])],
         invariant_violations=[int(k) for k in np.flatnonzero(~checks.invariant_ok[lo:hi])],
+        max_margin=max(known) if known else None,
+        **({} if at is None else dict(parameters=at.point, allowed=at.allowed,
+                                      margin=at.margin, margin_note=at.note)),
     )
 
 

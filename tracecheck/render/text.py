@@ -12,7 +12,7 @@ from ..checking.replaying import (MISMATCH, NEW_CRASH, NOT_PREVENTED, PREVENTED,
 from .tables import TableData, markdown, md_text
 
 __all__ = ["replay_text", "replay_markdown", "replay_table", "diff_text", "diff_table",
-           "crash_column", "literal_row"]
+           "crash_column", "literal_row", "continuous_cell"]
 
 
 def literal_row(table: Table, cells) -> None:
@@ -163,6 +163,41 @@ def _ltl_lines(r: ReplayReport, rows: int) -> list[str]:
     return lines
 
 
+def _number(x: float) -> str:
+    return f"{x:.6g}"
+
+
+def continuous_cell(e: EpisodeReplay) -> str:
+    """A continuous action at the first infeasible step, its values, what the shield allowed
+    and how far outside: ``ACCELERATE(a=1.5): a ∈ [-4.0, 0.3), 1.2 outside`` ("" for an
+    episode without one)."""
+    if e.parameters is None:
+        return ""
+    values = ", ".join(f"{p}={_number(v)}" for p, v in e.parameters.items())
+    text = f"{e.action}({values})" + (f": {e.allowed}" if e.allowed else "")
+    return text + (f", {_number(e.margin)} outside" if e.margin is not None
+                   else f", {e.margin_note}")
+
+
+def _continuous_lines(r: ReplayReport, episodes) -> list[str]:
+    """For each episode in ``episodes`` whose first infeasible step is a continuous action:
+    that action (:func:`continuous_cell`); nothing for a run of discrete actions."""
+    shown = [e for e in episodes if e.parameters is not None]
+    if not shown:
+        return []
+    lines = ["continuous actions at the first infeasible step — the recorded values, those the "
+             "shield allowed there and how far outside (Euclidean, in the parameters' units):"]
+    for e in shown:
+        where = f"episode {e.episode}"
+        if len(r.files) > 1:
+            where = f"{e.file.rsplit('/', 1)[-1]} {where}"
+        largest = ""
+        if e.max_margin is not None and e.max_margin != e.margin:
+            largest = f" (in the episode up to {_number(e.max_margin)})"
+        lines.append(f"  {where}, step {e.first_infeasible}: {continuous_cell(e)}{largest}")
+    return lines
+
+
 def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
     for i, line in enumerate(_summary_lines(r) + _resim_lines(r) + _ltl_lines(r, rows)):
         console.print(Text(line, style="bold" if i == 0 else ""), highlight=False,
@@ -190,6 +225,8 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
     for row in shown:
         literal_row(table, row[1:] if one_file else row)
     console.print(table)
+    for line in _continuous_lines(r, matters[:rows]):
+        console.print(Text(line), highlight=False, soft_wrap=False)
     legend = ", ".join(f"{c} = {a}" for a, c in sorted(codes.items(), key=lambda x: x[1])
                        if c != a)
     console.print("first: the first step the shield would have blocked, and its action; "
@@ -220,10 +257,26 @@ def replay_table(r: ReplayReport, episodes=None) -> TableData:
         return "violated" if step is None else f"violated at step {step}"
 
     header, _, crash_cell = crash_column(r)
+    continuous = any(e.parameters is not None for e in r.per_episode)
     return TableData.of(_with_crash_header(HEADERS, header)
+                        + (CONTINUOUS_HEADERS if continuous else [])
                         + [f"LTL {e['name']}: {e['formula']}" for e in r.ltl],
-                        (_row(e, crash_cell) + [ltl_cell(e, v) for v in failed]
-                         for e in chosen))
+                        (_row(e, crash_cell) + (_continuous_row(e) if continuous else [])
+                         + [ltl_cell(e, v) for v in failed] for e in chosen))
+
+
+#: the columns of continuous actions, in a table of a run that has some
+CONTINUOUS_HEADERS = ["parameters", "allowed values", "margin", "largest margin"]
+
+
+def _continuous_row(e: EpisodeReplay) -> list:
+    """The cells under :data:`CONTINUOUS_HEADERS`: the first infeasible step's values, what
+    the shield allowed, the margin (or why there is none), the episode's largest."""
+    if e.parameters is None:
+        return ["", "", "", e.max_margin]
+    values = " ".join(f"{p}={v!r}" for p, v in e.parameters.items())
+    return [values, e.allowed or "", e.margin if e.margin is not None else e.margin_note,
+            e.max_margin]
 
 
 def replay_markdown(r: ReplayReport, rows: int) -> str:
