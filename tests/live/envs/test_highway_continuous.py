@@ -89,6 +89,8 @@ def test_the_shields_units_are_the_environments(env, shield):
     assert shield.evaluate("DT", state) == 1.0 / config["policy_frequency"]
     assert shield.evaluate("SUBSTEPS", state) == \
         config["simulation_frequency"] / config["policy_frequency"]
+    assert shield.evaluate("STEER_RANGE", state) == pytest.approx(action.steering_range[1])
+    assert action.steering_range[0] == -action.steering_range[1]
 
 
 def test_real_states_fit_the_shield_and_leave_a_box_of_actions(adapter, env, shield):
@@ -164,19 +166,57 @@ def test_stopping_exactly_is_a_point_the_evaluator_allows(shield, speed):
     assert allowed.contains(point)
 
 
-@pytest.mark.parametrize("ego_y, ego_vy, low, high", [
-    (4.0, 5.0, -1, 0),     # drifting right fast: no steering further right
-    (4.0, -5.0, 0, 1),     # drifting left fast: no steering further left
-    (-0.5, -1.0, 0, 1),    # left of the leftmost lane's centre, moving left
-    (8.5, 1.0, -1, 0),     # right of the rightmost lane's centre, moving right
-    (8.5, -1.0, -1, 1),    # moving back towards the road: free
-], ids=["drift-right", "drift-left", "left-edge", "right-edge", "back-to-road"])
-def test_steering_is_bounded_by_the_turn_rate_and_the_road(shield, ego_y, ego_vy, low, high):
-    """``low`` and ``high`` in units of the turn limit 0.15 rad · 5 m / speed, the speed
-    bounded by |vx| + |vy|."""
+# the turn limit 0.15 rad · 5 m / speed, the speed bounded by |vx| + |vy|: at 20 m/s along
+# the road and 0, 1 or 5 m/s to the side
+L0, L1, L5 = 0.75 / 20.0, 0.75 / 21.0, 0.75 / 25.0
+STRAIGHTEN = 20.0 / (np.pi * 21.0 ** 2)  # the steering that turns a 1 m/s drift at 21 m/s back
+
+
+@pytest.mark.parametrize("ego_y, ego_vy, others, low, high", [
+    (4.0, 5.0, (), -L5, 0.0),      # drifting right fast: no steering further right
+    (4.0, -5.0, (), 0.0, L5),      # drifting left fast: no steering further left
+    (-0.5, -1.0, (), 0.0, L1),     # left of the leftmost lane's centre, moving left
+    (8.5, 1.0, (), -L1, 0.0),      # right of the rightmost lane's centre, moving right
+    (8.5, -1.0, (), -L1, L1),      # moving back towards the road: free
+    (4.0, 0.0, [(2.0, -4.0, 0.0)], 0.0, L0),     # a vehicle beside on the left
+    (4.0, 0.0, [(-6.0, 4.0, 0.0)], -L0, 0.0),    # and on the right
+    (4.0, 0.0, [(2.0, -4.0, 0.0), (-6.0, 4.0, 0.0)], 0.0, 0.0),  # on both sides: straight on
+    (4.0, -1.0, [(2.0, -4.0, 0.0)], STRAIGHTEN, L1),  # drifting towards it: turn back
+    (4.0, 1.0, [(2.0, -4.0, 0.0)], -STRAIGHTEN, L1),  # drifting away: straighten at most
+    (4.0, 0.0, [(18.0, -4.0, -10.0)], 0.0, L0),  # slower, ahead: beside within the step
+    (4.0, 0.0, [(18.0, -4.0, -5.0)], -L0, L0),   # not so much slower: not yet
+    (4.0, 0.0, [(-18.0, 4.0, 10.0)], -L0, 0.0),  # faster, behind: beside within the step
+], ids=["drift-right", "drift-left", "left-edge", "right-edge", "back-to-road", "left-neighbour",
+        "right-neighbour", "both-neighbours", "drifting-towards", "drifting-away",
+        "coming-beside", "not-yet-beside", "overtaken"])
+def test_steering_is_bounded_by_the_turn_rate_the_road_and_the_neighbours(
+        shield, ego_y, ego_vy, others, low, high):
+    state = road(ego_vx=20.0, ego_vy=ego_vy, ego_y=ego_y, others=others)
+    assert _steering_range(shield.allowed("DRIVE", state)) == \
+        (pytest.approx(low), pytest.approx(high))
+
+
+@pytest.mark.parametrize("ego_vy", [-7.3, -4.1, 0.3, 2.9, 6.6])
+def test_between_two_neighbours_straightening_is_a_point_the_evaluator_allows(shield, ego_vy):
+    """With vehicles beside on both sides only STRAIGHTEN is left, clamped to the turn limit
+    for a fast drift: a point where two bounds meet as the same number."""
+    state = road(ego_vx=20.0, ego_vy=ego_vy, others=[(2.0, -4.0, 0.0), (-6.0, 4.0, 0.0)])
+    allowed = shield.allowed("DRIVE", state)
+    point = allowed.witness()
+    assert point is not None and allowed.contains(point)
     limit = 0.75 / (20.0 + abs(ego_vy))
-    allowed = shield.allowed("DRIVE", road(ego_vx=20.0, ego_vy=ego_vy, ego_y=ego_y))
-    assert _steering_range(allowed) == (pytest.approx(low * limit), pytest.approx(high * limit))
+    assert abs(point["steering"]) <= limit
+    assert point["steering"] == pytest.approx(
+        max(-limit, min(limit, -ego_vy * 5.0 / (np.pi / 4 * (20.0 + abs(ego_vy)) ** 2))))
+
+
+def test_a_lane_change_meets_the_new_lanes_traffic(shield):
+    """Drifting right at 3 m/s, a vehicle 30 m ahead 5 m to the right counts as in front (the
+    lateral window widens by 3 m); not drifting, it does not."""
+    ahead = [(30.0, 5.0, -10.0)]
+    assert shield.evaluate("card(FrontVehicles)", road(ego_vy=3.0, others=ahead)) == 1
+    assert shield.evaluate("card(FrontVehicles)", road(ego_vy=0.0, others=ahead)) == 0
+    assert _acceleration_range(shield.allowed("DRIVE", road(ego_vy=3.0, others=ahead)))[1] < 1.0
 
 
 def test_the_shield_checks_and_guards_prints_a_real_states_allowed_set(adapter, env, tmp_path,
