@@ -266,3 +266,20 @@ def test_many_steps_in_one_batch(acc):
                ep.steps[k].parameters)]
     e = report.per_episode[0]
     assert e.infeasible_steps == len(bad) and e.first_infeasible == bad[0]
+
+
+def test_diff_decides_continuous_actions_as_replay_does(acc, run_file, tmp_path):
+    """Under a headway of 1.0 s, a = 1.5 at gap 40.45 and speed 20 is allowed; under acc's
+    1.5 s it is not: diff finds that one step, though both enable ACCELERATE there."""
+    from tracecheck.checking.diffing import diff
+
+    path = tmp_path / "loose.mch"
+    path.write_text(ACC.replace("* 1.5 > 10.0", "* 1.0 > 10.0"))
+    loose = load_shield(path)
+    report = diff([run_file], acc, loose)
+    assert (report.changed_steps, report.newly_blocked, report.newly_allowed) == (1, 1, 0)
+    change = report.changes[0]
+    assert (change.episode, change.step, change.action) == (0, 1, "ACCELERATE")
+    assert not change.feasible_under_shield and change.feasible_under_against
+    assert replay([run_file], loose).per_episode[0].first_infeasible is None
+    assert diff([run_file], acc, acc).changed_steps == 0

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..episodes.columns import RunColumns, read_columns
 from .executors import map_files
-from .replaying import add_up, enabled_matrix
+from .replaying import add_up, check_parameters, enabled_matrix
 from .shield import Shield
 
 __all__ = ["diff", "DiffReport", "ChangedStep"]
@@ -114,6 +114,16 @@ def _aligned(shield: Shield, cols: RunColumns, names: tuple[str, ...]) -> np.nda
     return out
 
 
+def _with_parameters(shield: Shield, cols: RunColumns, rows: np.ndarray, ok: np.ndarray
+                     ) -> np.ndarray:
+    """``ok`` (per step row) with the steps of continuous actions decided as replay decides
+    them: the guard with the recorded parameter values."""
+    full = np.ones(cols.n, dtype=bool)
+    full[rows] = ok
+    check_parameters(shield, cols, rows, cols.action[rows], full, margins=False)
+    return full[rows]
+
+
 def _diff_file(cols: RunColumns, a: Shield, b: Shield, report: DiffReport) -> None:
     names = tuple(dict.fromkeys(list(a.machine.operations) + list(b.machine.operations)))
     ma, mb = _aligned(a, cols, names), _aligned(b, cols, names)
@@ -126,6 +136,7 @@ def _diff_file(cols: RunColumns, a: Shield, b: Shield, report: DiffReport) -> No
     fb = np.ones(len(rows), dtype=bool)
     fa[known] = ma[rows[known] - 1, acts[known]]
     fb[known] = mb[rows[known] - 1, acts[known]]
+    fa, fb = _with_parameters(a, cols, rows, fa), _with_parameters(b, cols, rows, fb)
     changed = fa != fb
     report.episodes += len(cols.episode_ids)
     report.steps += len(rows)

@@ -31,7 +31,7 @@ from .executors import map_files
 from .shield import Shield
 
 __all__ = ["replay", "replay_columns", "ReplayReport", "EpisodeReplay", "enabled_matrix",
-           "add_up", "OUTCOMES", "NEVER_BLOCKED"]
+           "check_parameters", "add_up", "OUTCOMES", "NEVER_BLOCKED"]
 
 #: what re-simulating one episode can find, in the words every output uses (the lines under
 #: the summary, the episode table in every format, the JSON): the recorded crash prevented or
@@ -190,7 +190,7 @@ def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport,
     to_op = np.array([op_index.get(a, 0) for a in cols.action_names] + [0], dtype=np.int64)
     feasible = np.ones(cols.n, dtype=bool)
     feasible[rows] = matrix[rows - 1, to_op[actions]]
-    margins = _continuous(shield, cols, rows, actions, feasible)
+    margins = check_parameters(shield, cols, rows, actions, feasible)
     deadlock = ~matrix.any(axis=1) if ops else np.ones(cols.n, dtype=bool)
     machine = shield.machine
     invariant_ok = machine.invariant_batch(cols.states)
@@ -213,13 +213,15 @@ class _Margin:
     note: Optional[str] = None
 
 
-def _continuous(shield: Shield, cols: RunColumns, rows: np.ndarray, actions: np.ndarray,
-                feasible: np.ndarray) -> dict[int, _Margin]:
-    """Decide the steps of continuous actions in ``feasible`` (by the guard with the
-    recorded parameters, not by "some value allowed"); the margin of each infeasible one, by
-    its row."""
+def check_parameters(shield: Shield, cols: RunColumns, rows: np.ndarray, actions: np.ndarray,
+                     feasible: np.ndarray, *, margins: bool = True) -> dict[int, _Margin]:
+    """Decide the steps of continuous actions in ``feasible`` (over the rows of ``cols``):
+    by the guard with the recorded parameters, not by "some value allowed" as the enabled
+    matrix has it; ``rows`` are the step rows, ``actions`` their action codes. With
+    ``margins``: by its row, the margin of each infeasible one. Replay and diff both decide
+    steps this way."""
     machine = shield.machine
-    margins: dict[int, _Margin] = {}
+    found: dict[int, _Margin] = {}
     for code, name in enumerate(cols.action_names):
         op = machine.operations.get(name)
         if op is None or not real_parameters(op):
@@ -228,9 +230,9 @@ def _continuous(shield: Shield, cols: RunColumns, rows: np.ndarray, actions: np.
         if not len(which):
             continue
         feasible[which] = ok = _guard_with_parameters(shield, cols, op, which)
-        for r in which[~ok].tolist():
-            margins[r] = _margin(machine, op, cols, r)
-    return margins
+        for r in which[~ok].tolist() if margins else ():
+            found[r] = _margin(machine, op, cols, r)
+    return found
 
 
 def _guard_with_parameters(shield: Shield, cols: RunColumns, op, which: np.ndarray
