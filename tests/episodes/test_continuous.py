@@ -7,10 +7,13 @@ from __future__ import annotations
 import dataclasses
 import re
 import shutil
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from tests.helpers import episode
 from tracecheck.episodes import EpisodeWriter, new_header, read_columns, read_header, read_run
@@ -265,3 +268,34 @@ def test_run_headers_that_do_not_describe_an_action_space(fields, message):
 
     with pytest.raises(ValidationError, match=re.escape(message)):
         new_header("recorded", **{**HEADER, **fields})
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=list(HealthCheck))
+@given(flips=st.lists(st.tuples(st.floats(0, 1, exclude_max=True), st.integers(0, 7)),
+                      min_size=1, max_size=4))
+def test_a_damaged_continuous_file_never_reads_as_other_parameters(tmp_path_factory, flips):
+    """Flipped bits: an error naming the file, or the intact file's parameters for the
+    episodes read — never other values."""
+    folder = tmp_path_factory.mktemp("flips")
+    intact = write(folder / "intact.mcap", [acc_episode(0), acc_episode(1, ("a", "b"))])
+    want = read_columns(intact)
+    data = bytearray(intact.read_bytes())
+    for where, bit in flips:
+        data[int(where * len(data))] ^= 1 << bit
+    path = folder / "damaged.mcap"
+    path.write_bytes(bytes(data))
+    for read in (read_columns, read_run):
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                got = read(path)
+        except InputError:
+            continue
+        if read is read_run:
+            for e in got.episodes:
+                assert e.steps == acc_episode(e.id, ("a",) if e.id == 0 else ("a", "b")).steps
+            continue
+        rows = np.isin(want.episode, got.episode_ids)
+        for name, arr in got.parameters.items():
+            assert np.array_equal(arr, want.parameters[name][rows], equal_nan=True)
+        assert np.array_equal(got.distance, want.distance[rows], equal_nan=True)
