@@ -269,3 +269,55 @@ def test_a_shield_without_the_parameters_is_refused_before_any_episode(capsys, a
                        "-o", tmp_path / "x.mcap")
     assert code == 2 and "lacks ACCELERATE" in err
     assert not (tmp_path / "x.mcap").exists()
+
+
+def test_resimulation_reapplies_the_vectors_then_projects(capsys, acc_env, throttle):
+    agent, runs = throttle
+    code, out, err = run(capsys, "replay", runs["none"], "--shield", V1, "--resimulate",
+                         "--agent", agent, "--env", THROTTLE, "--json")
+    assert code == 0, err
+    import json
+
+    resim = json.loads(out)["resimulation"]
+    assert resim["resimulated"] == 4 and resim["mismatches"] == 0
+    assert resim["crashes_prevented"] == 4  # full throttle, projected, no longer crashes
+
+
+# ------------------------------------------------------------------ training
+
+
+def test_train_sac_under_the_shield_projects_and_says_so(capsys, acc_env, tmp_path):
+    import json
+
+    out = tmp_path / "sac.zip"
+    code, said, err = run(capsys, "train", "--env", THROTTLE, "--env-config", "max_steps=20",
+                          "--shield", V1, "--steps", "120", "--intervention-penalty", "0.5",
+                          "-o", out)
+    assert code == 0, err
+    assert "(SAC on throttle under shield throttle_v1, actions projected, 120 steps" in \
+        " ".join(said.split())
+    card = json.loads(out.with_suffix(".json").read_text())
+    assert card["algorithm"] == "SAC" and card["shielding"] == "projected"
+    assert card["intervention_penalty"] == 0.5
+    from tracecheck.live.agents import load_agent
+
+    assert load_agent(out).continuous and load_agent(out).algorithm == "SAC"
+
+
+@pytest.mark.parametrize("env, algorithm, message", [
+    (THROTTLE, "dqn", "--algorithm dqn does not fit throttle, which takes continuous actions"),
+    ("acc", "sac", "--algorithm sac does not fit acc, which takes discrete actions"),
+    (THROTTLE, "q-learning", "--algorithm q-learning chooses among discrete actions"),
+])
+def test_train_refuses_an_algorithm_for_the_other_kind(capsys, acc_env, tmp_path, env,
+                                                       algorithm, message):
+    code, _, err = run(capsys, "train", "--env", env, "--algorithm", algorithm, "--steps", "50",
+                       "-o", tmp_path / "a.zip")
+    assert code == 2 and message in " ".join(err.split())
+    assert not (tmp_path / "a.zip").exists()
+
+
+def test_the_penalty_needs_a_shield(capsys, acc_env, tmp_path):
+    code, _, err = run(capsys, "train", "--env", THROTTLE, "--steps", "50",
+                       "--intervention-penalty", "1", "-o", tmp_path / "a.zip")
+    assert code == 2 and "needs continuous actions and --shield" in err

@@ -175,7 +175,7 @@ def test_train_on_the_highway_then_record_with_no_infeasible_step(capsys, tmp_pa
     code, out, _ = run(capsys, "train", "--env", "highway", "--shield", "paper", "--algorithm",
                        "maskable-ppo", "--steps", "200", "--duration", "10", "-o", str(agent))
     said = " ".join(out.split())  # wrapped between words at 80 columns
-    assert code == 0 and "(MaskablePPO on highway under shield paper, 200 steps, seed 0)" in said
+    assert code == 0 and "(MaskablePPO on highway under shield paper, actions masked, 200 steps, seed 0)" in said
     card = json.loads(agent.with_suffix(".json").read_text())
     assert card["shield_sha256"] == load_shield("paper").sha256
     assert card["horizon"] == 10 and card["settings"]["gamma"] == 0.8

@@ -303,6 +303,8 @@ class Algorithm(str, Enum):
     ppo = "ppo"
     a2c = "a2c"
     maskable_ppo = "maskable-ppo"
+    sac = "sac"
+    td3 = "td3"
     q_learning = "q-learning"
 
 

@@ -20,15 +20,20 @@ from .common import (SCALE, SHIELD_MODE, continuous_options, CRASH, CWD, ENDING_
 def train_cmd(
     env: Optional[str] = ENV,
     env_config: list[str] = ENV_CONFIG,
-    algorithm: Algorithm = typer.Option(Algorithm.dqn, "--algorithm", help="dqn (the paper's "
-                                        "settings on the highway), ppo, a2c (stable-"
-                                        "baselines3), maskable-ppo (sb3-contrib) or q-learning "
-                                        "(a Q-table, for environments with discrete "
-                                        "observations)."),
+    algorithm: Optional[Algorithm] = typer.Option(
+        None, "--algorithm", help="dqn (the default for discrete actions; the paper's settings "
+        "on the highway), ppo, a2c (stable-baselines3), maskable-ppo (sb3-contrib) or "
+        "q-learning (a Q-table, for environments with discrete observations); for continuous "
+        "actions sac (the default), td3, ppo or a2c."),
     shield: Optional[str] = typer.Option(None, "--shield", "-s", help="Train with this shield "
                                          "in the loop: dqn and maskable-ppo explore and exploit "
                                          "only the actions it allows; for ppo and a2c an action "
-                                         "it blocks is replaced by the fallback. " + SHIELD_HELP),
+                                         "it blocks is replaced by the fallback; a continuous "
+                                         "action is projected onto the allowed set. "
+                                         + SHIELD_HELP),
+    intervention_penalty: float = typer.Option(
+        0.0, "--intervention-penalty", min=0.0, help="Continuous actions with --shield: lower "
+        "each step's reward by this many times the projection distance (default 0: off)."),
     profile: Optional[str] = typer.Option(None, "--profile", help="A named configuration of "
                                           "the environment (highway: its reward profiles "
                                           "base (the default), higher-penalty); refused for "
@@ -49,9 +54,15 @@ def train_cmd(
     from ..live.adapter import load_adapter, parse_config
 
     adapter = load_adapter(env)
+    if algorithm is None:
+        algorithm = Algorithm.sac if adapter.parameters else Algorithm.dqn
     profile = _profile(adapter, profile)
     config = adapter.config(parse_config(env_config), profile, duration)
     horizon = duration or adapter.horizon
+    if algorithm == Algorithm.q_learning and adapter.parameters:
+        raise InputError(f"--algorithm q-learning chooses among discrete actions; "
+                         f"{adapter.name} takes continuous ones",
+                         hint="give --algorithm sac, td3, ppo or a2c")
     if algorithm == Algorithm.q_learning and shield is not None:
         raise InputError("--algorithm q-learning trains without a shield; with --shield, "
                          "give --algorithm dqn, maskable-ppo, ppo or a2c")
@@ -59,7 +70,8 @@ def train_cmd(
     if shield is not None:
         from ..checking.shield import load_shield
 
-        loaded = load_shield(shield, actions=tuple(adapter.actions))
+        loaded = load_shield(shield, actions=tuple(adapter.actions),
+                             parameters=adapter.parameters)
     steps = steps or (200_000 if algorithm == Algorithm.q_learning else 20_000)
     under = f" under {loaded.name}" if loaded is not None else ""
     with progress(f"training {algorithm.value} on {adapter.name}{under}", steps, "steps",
@@ -72,7 +84,7 @@ def train_cmd(
         card = _train(adapter, config, algorithm, loaded, steps=steps, seed=seed,
                       horizon=horizon, profile=profile,
                       progress=report, output=output, force=force,
-                      inputs=input_paths(shield))
+                      inputs=input_paths(shield), intervention_penalty=intervention_penalty)
     _say_trained(card, output)
 
 
@@ -98,6 +110,7 @@ def _train(adapter, config: dict, algorithm: Algorithm, shield, *, output: Path,
     if algorithm == Algorithm.q_learning:
         from ..live.training import train_q_table
 
+        options.pop("intervention_penalty")
         return train_q_table(adapter, config, output, draw_curve=learning_curve, **options)
     from ..live.training import train_agent
 
@@ -107,15 +120,15 @@ def _train(adapter, config: dict, algorithm: Algorithm, shield, *, output: Path,
 
 def _say_trained(card: dict, output: Path) -> None:
     """What was trained, how the shield reached it, the last mean return, and the files."""
-    how = {"none": "", "masked": f" under shield {card['shield']}",
-           "replaced": f" under shield {card['shield']}, blocked actions replaced"}
+    from ..live.training import shielding_text
+
     curve = card["learning_curve"]
     mean = curve["mean_return_last"]
     result = (f"mean return of the last {min(curve['window'], curve['episodes'])} of "
               f"{curve['episodes']} episodes {mean:.2f}" if mean is not None else
               "no episode finished")
     say(f"trained {card['agent']} ({card['algorithm']} on {card['environment']}"
-        f"{how[card['shielding']]}, {card['steps']} steps, seed {card['seed']}) in "
+        f"{shielding_text(card)}, {card['steps']} steps, seed {card['seed']}) in "
         f"{card['wall_time_s']:.1f} s; {result} -> {output}; model card "
         f"{output.with_suffix('.json')}, learning curve {output.parent / curve['file']}")
 

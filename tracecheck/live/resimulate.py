@@ -3,7 +3,10 @@
 For each episode with an infeasible step, the environment is reset with the recorded seed and
 the recorded actions are re-applied up to the first infeasible step — each reproduced state is
 compared with the recording, and a mismatch is reported rather than trusted. From there the
-recorded agent continues under the shield up to the original horizon.
+recorded agent continues under the shield up to the original horizon. For continuous actions
+the recorded action vectors (the executed parameters) are re-applied, and from the first
+infeasible step on the shield projects the agent's actions onto the allowed set (or replaces
+them, in the run's ``--shield-mode``), in the recorded ``--scale``.
 """
 
 from __future__ import annotations
@@ -124,8 +127,14 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
         raise InputError(f"{path}: the run header's environment_config has duration "
                          f"{duration!r}, not a number of steps")
     horizon = header.horizon or duration - 1
+    continuous = {}
+    if adapter.parameters:
+        continuous = {"shield_mode": header.shield_mode or "project",
+                      "scale": tuple(header.projection_scale) if header.projection_scale
+                      else None}
     settings = RecordSettings(agent=_agent_path(header, agent), shield=shield.path,
-                              episodes=1, duration=horizon, env=env or adapter.name)
+                              episodes=1, duration=horizon, env=env or adapter.name,
+                              **continuous)
     index = {int(e): i for i, e in enumerate(cols.episode_ids)}
     results = []
     try:
@@ -164,7 +173,7 @@ def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:
 
     if seed is None:
         return result(NO_SEED, None, 0, "the episode has no seed: it cannot be re-run")
-    script = [cols.action_names[cols.action[lo + k]] for k in range(1, first)]
+    script = _script(session, cols, lo, first)
     try:
         episode = run_episode(session, item.episode, seed=int(seed), script=script,
                               check=lambda k, state: _same(cols.states.row(lo + k), state))
@@ -176,6 +185,20 @@ def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:
     else:
         outcome = NEW_CRASH if crash_step is not None else NO_CRASH
     return result(outcome, crash_step, episode.end.steps)
+
+
+def _script(session, cols: RunColumns, lo: int, first: int) -> list:
+    """The recorded actions of steps 1 … ``first`` - 1 of the episode starting at row ``lo``:
+    operation names, or for continuous actions the executed vectors."""
+    rows = range(lo + 1, lo + first)
+    if session.env.continuous is None:
+        return [cols.action_names[cols.action[r]] for r in rows]
+    params = session.env.continuous.params
+    missing = [p for p in params if p not in cols.parameters]
+    if missing and first > 1:
+        raise InputError(f"{cols.path}: the steps have no recorded value of {missing[0]}, "
+                         "which the environment's action takes: they cannot be re-applied")
+    return [[float(cols.parameters[p][r]) for p in params] for r in rows]
 
 
 def summary(results: list[Resimulation]) -> dict:

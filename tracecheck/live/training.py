@@ -19,6 +19,12 @@ the same length as ``record``), and with ``--shield`` wrapped in
   action it blocks is *replaced* (the wrapper's rule: the fallback if the shield allows it,
   else the first allowed action): the learner learns in the shielded environment, crediting
   what happened to the action it asked for. The card says ``"shielding": "replaced"``.
+* ``sac``, ``td3`` — stable-baselines3's SAC and TD3, for continuous actions (an adapter
+  that declares ``parameters``; ``ppo`` and ``a2c`` take them too). Under a shield the
+  wrapper *projects* each action onto the allowed set (:mod:`tracecheck.live.continuous`):
+  the learner credits what happened to the action it proposed; with
+  ``intervention_penalty`` k the reward of a step is lowered by k times the projection
+  distance (off by default). The card says ``"shielding": "projected"``.
 * ``q-learning`` — a table (:func:`train_q_table`), for discrete observations, no shield.
 
 In a deadlock (the shield allows nothing) the mask holds the fallback action only, which is
@@ -43,7 +49,7 @@ import numpy as np
 from ..errors import InputError
 from .agents import PAPER_DQN, Q_LEARNING, agent_outputs, file_sha256, save_model, write_card
 
-__all__ = ["train_agent", "train_q_table", "LEARNERS", "ALGORITHMS", "Learner", "Returns",
+__all__ = ["train_agent", "train_q_table", "shielding_text", "LEARNERS", "ALGORITHMS", "Learner", "Returns",
            "Progress", "CurveDrawer"]
 
 #: ``progress(steps done, total, mean return of the last episodes or None)``
@@ -72,6 +78,12 @@ def _a2c_settings(highway: bool, steps: int) -> dict[str, Any]:
     return {"n_steps": 5, "learning_rate": 7e-4, "gamma": 0.8 if highway else 0.99}
 
 
+def _off_policy_settings(highway: bool, steps: int) -> dict[str, Any]:
+    """SAC's and TD3's: learning after a tenth of the steps (at most 1000)."""
+    return {"learning_starts": min(1000, steps // 10), "learning_rate": 3e-4,
+            "buffer_size": 100_000, "batch_size": 256, "gamma": 0.8 if highway else 0.99}
+
+
 @dataclass(frozen=True)
 class Learner:
     """One ``--algorithm``: its class, its settings, and how a shield reaches it."""
@@ -81,13 +93,19 @@ class Learner:
     masks: bool                     #: chooses among ``action_masks()`` (else: replaced)
     settings: Callable[[bool, int], dict[str, Any]]  #: (on the highway?, steps) -> settings
     needs_mask: bool = False        #: cannot run without the wrapper (MaskablePPO)
+    discrete: bool = True           #: takes discrete actions
+    continuous: bool = False        #: takes continuous actions (a Box)
 
 
 LEARNERS: dict[str, Learner] = {
     "dqn": Learner("DQN", "stable_baselines3", True, _dqn_settings),
-    "ppo": Learner("PPO", "stable_baselines3", False, _ppo_settings),
-    "a2c": Learner("A2C", "stable_baselines3", False, _a2c_settings),
+    "ppo": Learner("PPO", "stable_baselines3", False, _ppo_settings, continuous=True),
+    "a2c": Learner("A2C", "stable_baselines3", False, _a2c_settings, continuous=True),
     "maskable-ppo": Learner("MaskablePPO", "sb3_contrib", True, _ppo_settings, True),
+    "sac": Learner("SAC", "stable_baselines3", False, _off_policy_settings, discrete=False,
+                   continuous=True),
+    "td3": Learner("TD3", "stable_baselines3", False, _off_policy_settings, discrete=False,
+                   continuous=True),
 }
 ALGORITHMS = (*LEARNERS, "q-learning")
 
@@ -150,7 +168,8 @@ def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
                 shield=None, steps: int, seed: int = 0, horizon: Optional[int] = None,
                 profile: Optional[str] = None, progress: Optional[Progress] = None,
                 force: bool = False, inputs: Sequence[Path] = (),
-                draw_curve: Optional[CurveDrawer] = None) -> dict[str, Any]:
+                draw_curve: Optional[CurveDrawer] = None,
+                intervention_penalty: float = 0.0) -> dict[str, Any]:
     """Train ``algorithm`` (a key of :data:`LEARNERS`) on the adapter's environment, under
     ``shield`` if given; save the agent (``.zip``), its learning curve and its model card
     (see the module docstring); returns the card.
@@ -163,6 +182,15 @@ def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
         raise InputError(f"unknown algorithm {algorithm!r}; the algorithms are "
                          f"{', '.join(ALGORITHMS)}")
     learner = LEARNERS[algorithm]
+    continuous = bool(adapter.parameters)
+    if not (learner.continuous if continuous else learner.discrete):
+        takes = "continuous actions (sac, td3, ppo, a2c)" if continuous else \
+            "discrete actions (dqn, ppo, a2c, maskable-ppo, q-learning)"
+        raise InputError(f"--algorithm {algorithm} does not fit {adapter.name}, which takes "
+                         f"{takes.split(' (')[0]}", hint=f"give one for {takes}")
+    if intervention_penalty and (shield is None or not continuous):
+        raise InputError("--intervention-penalty lowers the reward by the projection distance: "
+                         "it needs continuous actions and --shield")
     out, card_path, curve = _outputs(Path(out), ".zip", "agent.zip", force, inputs,
                                      draw_curve is not None)
     if shield is None and learner.needs_mask:
@@ -171,7 +199,7 @@ def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
         shield = load_shield("none", actions=tuple(adapter.actions))
     torch.set_num_threads(1)
     horizon = horizon or adapter.horizon
-    vec = _vec_env(adapter, config, shield, horizon)
+    vec = _vec_env(adapter, config, shield, horizon, intervention_penalty)
     settings = learner.settings(adapter.name == "highway", steps)
     policy = "MultiInputPolicy" if type(vec.observation_space).__name__ == "Dict" else \
         "MlpPolicy"
@@ -187,21 +215,40 @@ def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
     save_model(model, out)
     card = _card(adapter, config, learner.name, out, seed=seed, steps=steps, wall=wall,
                  horizon=horizon, settings={**settings, "policy": policy}, profile=profile,
-                 shield=shield, shielding=_shielding(learner, shield), returns=returns,
+                 shield=shield, shielding=_shielding(learner, shield, continuous),
+                 returns=returns,
                  curve=curve, packages=("torch", "stable_baselines3", learner.package),
                  done=int(model.num_timesteps))
+    if intervention_penalty:
+        card["intervention_penalty"] = intervention_penalty
     _finish(card, returns, curve, card_path, draw_curve)
     return card
 
 
-def _shielding(learner: Learner, shield) -> str:
-    """How the shield reached the learner: none, masked or replaced."""
+def _shielding(learner: Learner, shield, continuous: bool = False) -> str:
+    """How the shield reached the learner: none, masked, replaced or projected."""
     if shield is None:
         return "none"
+    if continuous:
+        return "projected"
     return "masked" if learner.masks else "replaced"
 
 
-def _vec_env(adapter, config: dict, shield, horizon: int):
+def _penalised(env, penalty: float):
+    """``env`` (a shielded continuous one) with each step's reward lowered by ``penalty``
+    times its projection distance."""
+    import gymnasium as gym
+
+    class Penalised(gym.Wrapper):
+        def step(self, action):
+            obs, reward, terminated, truncated, info = self.env.step(action)
+            return (obs, float(reward) - penalty * info["shield"]["distance"], terminated,
+                    truncated, info)
+
+    return Penalised(env)
+
+
+def _vec_env(adapter, config: dict, shield, horizon: int, penalty: float = 0.0):
     """One environment, cut at ``horizon``, its episodes' returns reported (Monitor), under
     the shield's wrapper when there is one; checked to have the adapter's actions."""
     from gymnasium import spaces
@@ -215,11 +262,19 @@ def _vec_env(adapter, config: dict, shield, horizon: int):
             return env
         from .wrapper import ShieldWrapper
 
-        return ShieldWrapper(env, shield, adapter=adapter)
+        shielded = ShieldWrapper(env, shield, adapter=adapter)
+        return _penalised(shielded, penalty) if penalty else shielded
 
     vec = DummyVecEnv([make])
     space = vec.action_space
-    if not isinstance(space, spaces.Discrete) or int(space.n) != len(adapter.actions):
+    if adapter.parameters:
+        params = next(iter(adapter.parameters.values()))
+        if not isinstance(space, spaces.Box) or space.shape != (len(params),):
+            vec.close()
+            raise InputError(f"{adapter.name} has the action space {space}; its adapter "
+                             f"declares {len(params)} continuous component(s) "
+                             f"({', '.join(params)})")
+    elif not isinstance(space, spaces.Discrete) or int(space.n) != len(adapter.actions):
         vec.close()
         raise InputError(f"{adapter.name} has the action space {space}; train needs "
                          f"{len(adapter.actions)} discrete actions, one per action of the "
@@ -325,11 +380,18 @@ def _finish(card: dict, returns: Returns, curve: Optional[Path], card_path: Path
     write_card(card, card_path)
 
 
+def shielding_text(card: dict) -> str:
+    """How a model card's agent met its shield, for a sentence: `` under shield S, actions
+    projected`` ("" without one)."""
+    return {"none": "", "masked": f" under shield {card['shield']}, actions masked",
+            "replaced": f" under shield {card['shield']}, blocked actions replaced",
+            "projected": f" under shield {card['shield']}, actions projected"
+            }[card["shielding"]]
+
+
 def _draw(card: dict, returns: Returns, curve: Path, draw_curve: CurveDrawer) -> None:
-    shield = {"none": "", "masked": f" under shield {card['shield']} (masked)",
-              "replaced": f" under shield {card['shield']}, blocked actions replaced"}
-    title = (f"{card['algorithm']} on {card['environment']}{shield[card['shielding']]}, "
-             f"seed {card['seed']}")
+    title = f"{card['algorithm']} on {card['environment']}{shielding_text(card)}, " \
+            f"seed {card['seed']}"
     draw_curve(returns.steps, returns.returns, curve, window=returns.window,
                steps=card["environment_steps"], title=title)
 
