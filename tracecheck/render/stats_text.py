@@ -62,7 +62,50 @@ def stats_rows(result: dict, lines: bool = False) -> tuple[list[str], list[list[
         label = f"{name}: {result['descriptions'].get(name) or ''}".rstrip(": ")
         rows.append([label, *[_property_cell(r["properties"][name], lines) if r["episodes"]
                               else "no episodes" for r in runs]])
-    return header, rows
+    return header, rows + _continuous_rows(runs, lines)
+
+
+#: the continuous actions' step statistics (:mod:`tracecheck.stats.continuous`): label, key
+_STEP_SHARES = (("Intervention rate (share of steps)", "interventions"),
+                ("On the allowed set's boundary (share of steps)", "boundary"),
+                ("Fallback taken (share of steps)", "fallback"))
+_CSV_NAMES = {"interventions": "intervention_rate", "boundary": "boundary_share",
+              "fallback": "fallback_share"}
+_DISTANCES = (("Projection distance (all steps)", None),
+              ("Projection distance (intervened steps)", "intervened"))
+
+
+def _continuous_rows(runs: list[dict], lines: bool) -> list[list[str]]:
+    """Rows for the runs with continuous actions (none when no run has them: a discrete
+    run's table is as it was); a run without them says so in its cell."""
+    if not any("continuous" in r for r in runs):
+        return []
+    rows = []
+    for label, key in _STEP_SHARES:
+        rows.append([label, *[_share_cell(r["continuous"][key], lines) if "continuous" in r
+                              else "—" for r in runs]])
+    for label, key in _DISTANCES:
+        rows.append([label, *[_distance_cell(r["continuous"]["projection_distance"], key,
+                                             lines) if "continuous" in r else "—"
+                              for r in runs]])
+    return rows
+
+
+def _share_cell(share: dict, lines: bool) -> str:
+    """A share of steps, its interval and count: ``12.5 % [8.1, 18.2] (20 of 160)``."""
+    if share["ratio"] is None:
+        return "no steps"
+    lo, hi = share["ci95"]
+    return (f"{100 * share['ratio']:.1f} %{_SEP[lines]}[{100 * lo:.1f}, {100 * hi:.1f}]"
+            f"{_SEP[lines]}({share['count']} of {share['steps']})")
+
+
+def _distance_cell(distance: dict, key, lines: bool) -> str:
+    """Mean and largest projection distance: ``mean 1.23, max 6.00``."""
+    d = distance[key] if key else distance
+    if d["mean"] is None:
+        return "no steps"
+    return f"mean {d['mean']:.3g},{_SEP[lines]}max {d['max']:.3g}"
 
 
 def stats_text(console: Console, result: dict) -> None:
@@ -77,6 +120,10 @@ def stats_text(console: Console, result: dict) -> None:
     for row in rows:
         literal_row(table, row)
     console.print(table, soft_wrap=False)
+    if any("continuous" in r for r in result["runs"]):
+        console.print(Text("Shares of steps treat the steps as independent trials; the "
+                           "boundary is the shield's, not the action space's own bounds "
+                           "(docs/statistics.md)."))
     for r in result["runs"]:  # why a cell has no number
         for name, m in r["metrics"].items():
             if "mean_note" in m and not math.isfinite(m["mean"]):
@@ -119,7 +166,30 @@ def stats_csv(result: dict) -> str:
         for name, p in r["properties"].items():
             rows.append([r["name"], r["file"], r["episodes"], name, "property", p["ratio"], "",
                          p["ci95"][0], p["ci95"][1], p["holds"], p["method"]])
+        rows += _continuous_csv(r)
     return csv_rows(rows)
+
+
+def _continuous_csv(r: dict) -> list[list]:
+    """The CSV rows of a run's continuous actions (none for a discrete run): the shares of
+    steps (``holds``: how many steps), the projection distances (``method``: mean, max)."""
+    c = r.get("continuous")
+    if c is None:
+        return []
+    rows = []
+    for _, key in _STEP_SHARES:
+        share = c[key]
+        lo, hi = share["ci95"] or ("", "")
+        rows.append([r["name"], r["file"], r["episodes"], _CSV_NAMES[key], "step share",
+                     "" if share["ratio"] is None else share["ratio"], "", lo, hi,
+                     share["count"], share["method"]])
+    for _, key in _DISTANCES:
+        d = c["projection_distance"][key] if key else c["projection_distance"]
+        name = "projection_distance" + (f"_{key}" if key else "")
+        for how in ("mean", "max"):
+            rows.append([r["name"], r["file"], r["episodes"], name, "step metric",
+                         "" if d[how] is None else d[how], "", "", "", d["steps"], how])
+    return rows
 
 
 @contextmanager

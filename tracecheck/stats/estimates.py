@@ -26,12 +26,13 @@ from ..episodes.columns import RunColumns, read_columns
 from ..errors import EvaluationError, InputError, TracecheckError
 from ..checking.crashflag import CRASH_FLAG, flagged, with_crash_flag
 from ..live.adapter import installed_adapter
+from .continuous import (INTERVALS, ContinuousSteps, continuous_summary,
+                         read_continuous_steps)
+from .continuous import interventions as continuous_interventions
 from .properties import Metric, Property, PropertySet, load_properties, with_generic
 
 __all__ = ["RunValues", "StatsResult", "evaluate_run", "statistics", "run_statistics",
            "INTERVALS", "default_set", "adapter_set"]
-
-INTERVALS = {"wilson": "wilson", "clopper-pearson": "exact"}
 
 
 @dataclass
@@ -45,6 +46,8 @@ class RunValues:
     metrics: dict[str, np.ndarray] = field(default_factory=dict)
     properties: dict[str, np.ndarray] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    #: continuous actions: what the shield did at each step (None for a discrete run)
+    continuous: Optional[ContinuousSteps] = None
 
 
 def environment_of(path: str | Path) -> str:
@@ -277,8 +280,12 @@ def _aggregate(m: Metric, values: Optional[np.ndarray], cols: RunColumns) -> np.
     if m.aggregate == "return":
         return np.add.reduceat(cols.reward, starts) - cols.reward[starts]
     if m.aggregate == "interventions":
-        recorded = None if cols.values is None else _values_recorded(cols)
-        share = np.add.reduceat(interventions(cols, recorded), starts) / np.maximum(lengths - 1, 1)
+        if cols.values is None and cols.parameters:  # continuous: the proposal was changed
+            recorded, changed = continuous_interventions(cols)
+        else:
+            recorded = None if cols.values is None else _values_recorded(cols)
+            changed = interventions(cols, recorded)
+        share = np.add.reduceat(changed, starts) / np.maximum(lengths - 1, 1)
         return np.where(_recorded_choices(cols, recorded), share, np.nan)
     v = np.asarray(values, dtype=float)
     if m.aggregate == "average":
@@ -486,6 +493,7 @@ def _evaluate_one(path: str, pset: PropertySet, name: Optional[str],
     formulas = prepare(pset, environment or environment_of(path), sample)
     run = evaluate_run(path, pset, formulas, name, cols)
     run.warnings += formulas["warnings"]
+    run.continuous = read_continuous_steps(path, cols, salvage=salvage)
     return run
 
 
@@ -541,9 +549,12 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
         cols = columns or [read_columns(p, salvage=salvage) for p in paths]
         sample = cols[0].states.row(0) if cols and cols[0].states.n else None
         formulas = prepare(pset, environment, sample)
+        steps = [read_continuous_steps(p, c, salvage=salvage) for p, c in zip(paths, cols)]
         start = time.perf_counter()
         runs = [evaluate_run(p, pset, formulas, names[i] if names else None, cols[i])
                 for i, p in enumerate(paths)]
+        for run, found in zip(runs, steps):
+            run.continuous = found
         if runs:
             runs[0].warnings += formulas["warnings"]
     out = {"properties_set": pset.name, "interval": interval, "runs": [], "comparisons": [],
@@ -558,6 +569,8 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
                                    for p in pset.properties}
         else:
             entry["note"] = "no episodes: nothing to estimate"
+        if run.continuous is not None and run.episodes:
+            entry["continuous"] = continuous_summary(run.continuous, interval)
         out["runs"].append(entry)
     for i, a in enumerate(runs):
         for b in runs[i + 1:]:

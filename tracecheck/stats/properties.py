@@ -22,7 +22,8 @@ An estimate checks the mean over the episodes (SimB's estimation): with ``type =
 default) it must lie within value ± ε, with ``"minimum"`` be at least value − ε, with
 ``"maximum"`` at most value + ε.
 ``interventions`` the share of the episode's steps where the shield replaced the agent's
-preferred action (from the recorded action values; no expression).
+preferred action (from the recorded action values; for continuous actions, the steps whose
+executed values differ from the agent's proposal; no expression).
 A property of kind ``invariant`` holds in every state (the initial state included),
 ``eventually`` in some state, ``final`` in the last one; of kind ``ltl``, its ``predicate``
 is an LTL formula in ProB's syntax (``G({Crash = FALSE} => …)``, see
