@@ -321,3 +321,43 @@ def test_the_penalty_needs_a_shield(capsys, acc_env, tmp_path):
     code, _, err = run(capsys, "train", "--env", THROTTLE, "--steps", "50",
                        "--intervention-penalty", "1", "-o", tmp_path / "a.zip")
     assert code == 2 and "needs continuous actions and --shield" in err
+
+
+class Unbounded(EnvAdapter):
+    """The throttle environment with an action space that has no bounds (the shield's
+    guard bounds the action instead)."""
+
+    name = "unbounded"
+    actions = ("ACCELERATE",)
+    parameters = {"ACCELERATE": ("a",)}
+    fallback_action = (-4.0,)
+    variables = ("Gap", "EgoSpeed", "LeadSpeed")
+    horizon = 30
+
+    def make_env(self, config, render_mode=None):
+        from acc_cruise.throttle import ThrottleEnv
+
+        env = ThrottleEnv(**config)
+        env.action_space = gym.spaces.Box(-np.inf, np.inf, shape=(1,), dtype=np.float64)
+        return env
+
+    def state(self, obs, info, reward, env, initial):
+        return dict(zip(self.variables, (float(x) for x in obs)))
+
+    def crashed(self, obs, reward, terminated, info):
+        return bool(info.get("crash", False))
+
+
+def test_an_action_space_without_bounds_records_them_as_none(capsys, acc_env, throttle,
+                                                             tmp_path):
+    from tracecheck.episodes.reader import read_header, read_run
+
+    agent, _ = throttle  # proposes +2: allowed at first, projected once the gap closes
+    out = tmp_path / "unbounded.mcap"
+    code, _, err = run(capsys, "record", "--env", f"{__name__}:Unbounded", "--agent", agent,
+                       "--shield", V1, "-n", "2", "-o", out)
+    assert code == 0, err
+    header = read_header(out)
+    assert header.action_low == [None] and header.action_high == [None]
+    steps = [s for e in read_run(out).episodes for s in e.steps[1:]]
+    assert any(s.parameters["a"] < 2.0 for s in steps) and not any(s.crashed for s in steps)

@@ -75,10 +75,10 @@ class RunHeaderMessage(_Message):
     action_parameters: Optional[dict[str, list[ParameterName]]] = Field(
         None, description="continuous actions: for each operation, the REAL parameter each "
                           "component of the action vector binds, in order")
-    action_low: Optional[list[float]] = Field(
-        None, description="continuous actions: the action space's lower bounds")
-    action_high: Optional[list[float]] = Field(
-        None, description="continuous actions: the action space's upper bounds")
+    action_low: Optional[list[Optional[float]]] = Field(
+        None, description="continuous actions: the action space's lower bounds (null: none)")
+    action_high: Optional[list[Optional[float]]] = Field(
+        None, description="continuous actions: the action space's upper bounds (null: none)")
     shield_mode: Optional[Literal["project", "replace"]] = Field(
         None, description="continuous actions: how the live shield made an action allowed "
                           "(project: the nearest allowed; replace: the fallback action)")
@@ -94,7 +94,8 @@ class RunHeaderMessage(_Message):
         if len(sizes) > 1:
             raise ValueError("action_low, action_high and projection_scale have different "
                              "lengths")
-        if low is not None and high is not None and any(a > b for a, b in zip(low, high)):
+        if low is not None and high is not None and any(
+                a is not None and b is not None and a > b for a, b in zip(low, high)):
             raise ValueError("an action_low bound lies above its action_high bound")
         if scale is not None and any(not s > 0 for s in scale):
             raise ValueError("a projection_scale is not positive")

@@ -9,6 +9,7 @@ so an interrupted run keeps every finished episode.
 
 from __future__ import annotations
 
+import math
 import multiprocessing as mp
 import signal
 from pathlib import Path
@@ -138,8 +139,8 @@ def continuous_fields(settings: RecordSettings, adapter) -> dict:
         env.close()
     params = next(iter(adapter.parameters.values()))
     return {"action_parameters": {op: list(p) for op, p in adapter.parameters.items()},
-            "action_low": [float(x) for x in space.low],
-            "action_high": [float(x) for x in space.high],
+            "action_low": [float(x) if math.isfinite(x) else None for x in space.low],
+            "action_high": [float(x) if math.isfinite(x) else None for x in space.high],
             "shield_mode": settings.shield_mode,
             "projection_scale": [float(x) for x in (settings.scale or (1.0,) * len(params))]}
 
