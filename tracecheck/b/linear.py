@@ -38,6 +38,7 @@ from typing import Any, Callable, Mapping, Optional
 from ..errors import UnsupportedError
 from . import ast
 from .bindings import conjuncts
+from .memo import fresh
 
 __all__ = ["Constraint", "AllowedSet", "Interval", "allowed_set", "real_parameters"]
 
@@ -303,19 +304,28 @@ def allowed_set(machine, op_name: str, state: Optional[Mapping[str, Any]] = None
     op = machine.operation(op_name)
     if not real_parameters(op):
         raise UnsupportedError(f"{op_name} has no parameters typed `p : REAL` in its guard")
-    env = machine.env(state or {}) if env is None else env
+    # one copy of the state for every evaluation here: what does not depend on a parameter
+    # (a quantifier over the vehicles) is computed once, remembered in it (see .memo)
+    local = fresh(machine.env(state or {}) if env is None else env)
     comp = machine.compiler()
     linear = machine.cached("linear guards", op_name, lambda: _Linearizer(
         set(op.params), comp, machine.source).pred(op.guard, True))
-    parts = linear(env)
+    parts = linear(local)
     guard = machine.cached("guards with parameters bound", op_name,
-                           lambda: comp.compile(op.guard))
+                           lambda: _compiled_with(comp, op))
 
     def check(point: Mapping[str, Any]) -> bool:
-        bound = dict(env)
+        bound = dict(local)  # the remembered values shared: none depends on a parameter
         bound.update({p: float(point[p]) for p in op.params})
         return bool(guard(bound))
     return AllowedSet(tuple(op.params), tuple(tuple(p) for p in parts), check)
+
+
+def _compiled_with(comp, op) -> Callable[[dict], Any]:
+    """``op``'s guard compiled with its parameters as bound names: no sub-formula that
+    reads one is remembered between evaluations for different values."""
+    with comp.binding(tuple(op.params)):
+        return comp.compile(op.guard)
 
 
 class _Linearizer:
@@ -340,7 +350,7 @@ class _Linearizer:
     def pred(self, node: ast.Node, positive: bool) -> Callable[[dict], list]:
         if self.free(node):  # no parameter: true or false here
             fn = self.comp.compile(node)
-            return lambda env: [[]] if bool(fn(dict(env))) == positive else []
+            return lambda env: [[]] if bool(fn(env)) == positive else []
         if isinstance(node, (ast.And, ast.Or)):  # ¬(A ∧ B) = ¬A ∨ ¬B, ¬(A ∨ B) = ¬A ∧ ¬B
             if isinstance(node, ast.And) == positive:
                 return self.both(node.left, node.right, positive)
@@ -390,7 +400,7 @@ class _Linearizer:
     def expr(self, node: ast.Node) -> Callable[[dict], Linear]:
         if self.free(node):
             fn = self.comp.compile(node)
-            return lambda env: {"": _exact(fn(dict(env)), "a value")}
+            return lambda env: {"": _exact(fn(env), "a value")}
         if isinstance(node, ast.Name):
             name = node.id
             return lambda env: {name: Fraction(1), "": Fraction(0)}
