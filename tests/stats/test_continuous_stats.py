@@ -7,10 +7,10 @@ import csv
 import io
 import math
 
-import numpy as np
 import pytest
 
 from tests.helpers import run, strict_json
+from tests.stats.continuous_run import continuous_episode, continuous_header, write_hand_run
 from tracecheck.episodes import EpisodeWriter, new_header
 from tracecheck.episodes.columns import read_columns
 from tracecheck.episodes.model import Episode, StepRecord, make_end
@@ -19,19 +19,7 @@ from tracecheck.stats.continuous import continuous_steps, continuous_summary
 from tracecheck.stats.estimates import statistics
 from tracecheck.stats.properties import GENERIC_SET
 
-BELOW_ZERO = float(np.nextafter(0.0, -1.0))  # the float boundary of an open end at 0
-#: (proposal, executed, distance, allowed intervals of a, deadlock); the space is [-4, 2]
-EPISODES = [
-    [(2.0, 2.0, 0.0, ((-4.0, 2.0),), None),  # at the space's bound: not the shield's end
-     (2.0, 1.0, 1.0, ((-4.0, 1.0),), None),  # projected onto the shield's end 1.0
-     (0.0, 0.5, 0.5, ((-4.0, -1.0), (0.5, 2.0)), None)],  # onto the second interval's end
-    [(2.0, -4.0, 6.0, (), True),  # nothing allowed: the fallback
-     (1.0, BELOW_ZERO, 1.0, ((None, 0.0),), None),  # 5e-324 from 0: on it (absolutely)
-     (-2.0, -2.0, 0.0, ((-3.0, -1.0),), None),  # inside
-     (1.5, 1.5, 0.0, ((-4.0, 1.5 + 1e-8),), None),  # 1e-8 below an end of 1.5: not on it
-     (-3.5, -3.0 + 2e-9, 0.5, ((-3.0, 2.0),), None)],  # 2e-9 from -3: on it (relatively)
-]
-# counted by hand: 8 steps; intervened 5 (E0 s2, s3; E1 s1, s2, s5); on the boundary 4
+# tests/stats/continuous_run.py's EPISODES, counted by hand: 8 steps; intervened 5 (E0 s2, s3; E1 s1, s2, s5); on the boundary 4
 # (E0 s2, s3; E1 s2, s5); fallback 1; distances sum 9.0 (mean 1.125, max 6), over the
 # intervened 9.0 / 5 = 1.8
 # Wilson 95 % by its formula, z = 1.959963984540054: (k + z²/2)/(n + z²) ∓ z/(n + z²)·
@@ -39,32 +27,11 @@ EPISODES = [
 # 1 of 8: [0.022417, 0.470888]
 
 
-def _episode(eid: int, rows) -> Episode:
-    state = {"x": 0.0}
-    steps = [StepRecord(0, 0.0, None, state, 0.0, False)]
-    for k, (proposal, executed, distance, intervals, deadlock) in enumerate(rows, 1):
-        steps.append(StepRecord(k, float(k), "ACCELERATE", {"x": float(k)}, 1.0, False,
-                                parameters={"a": executed}, proposal={"a": proposal},
-                                projection_distance=distance,
-                                allowed_intervals={"a": intervals}, deadlock=deadlock,
-                                allowed_actions=() if deadlock else ("ACCELERATE",)))
-    steps = tuple(steps)
-    return Episode(eid, steps, make_end(steps, "time-limit"), seed=eid + 1)
-
-
-def _header(**more):
-    return new_header("recorded", actions=["ACCELERATE"], variables=["x"],
-                      action_parameters={"ACCELERATE": ["a"]}, **more)
-
-
 @pytest.fixture(scope="module")
-def throttle_run(tmp_path_factory):
-    path = tmp_path_factory.mktemp("continuous") / "hand.mcap"
-    with EpisodeWriter(path, _header(action_low=[-4.0], action_high=[2.0],
-                                     shield_mode="project", projection_scale=[1.0])) as w:
-        for eid, rows in enumerate(EPISODES):
-            w.write(_episode(eid, rows))
-    return path
+def hand_run(tmp_path_factory):
+    return write_hand_run(tmp_path_factory.mktemp("continuous") / "hand.mcap",
+                          action_low=[-4.0], action_high=[2.0], shield_mode="project",
+                          projection_scale=[1.0])
 
 
 @pytest.fixture(scope="module")
@@ -81,8 +48,8 @@ def _close(pair, expected):
     assert pair == pytest.approx(list(expected), abs=1e-6)
 
 
-def test_the_step_statistics_are_the_hand_counted_ones(throttle_run):
-    c = statistics([throttle_run], GENERIC_SET)["runs"][0]["continuous"]
+def test_the_step_statistics_are_the_hand_counted_ones(hand_run):
+    c = statistics([hand_run], GENERIC_SET)["runs"][0]["continuous"]
     assert c["parameters"] == ["a"] and c["steps"] == 8
     assert {k: c["interventions"][k] for k in ("count", "steps", "ratio", "method")} == \
         {"count": 5, "steps": 8, "ratio": 5 / 8, "method": "wilson"}
@@ -98,10 +65,10 @@ def test_the_step_statistics_are_the_hand_counted_ones(throttle_run):
         (pytest.approx(1.8), 6.0, 5)
 
 
-def test_the_interval_method_is_the_one_asked_for(throttle_run):
+def test_the_interval_method_is_the_one_asked_for(hand_run):
     from scipy import stats
 
-    c = statistics([throttle_run], GENERIC_SET, interval="clopper-pearson")["runs"][0]
+    c = statistics([hand_run], GENERIC_SET, interval="clopper-pearson")["runs"][0]
     share = c["continuous"]["interventions"]
     ci = stats.binomtest(5, 8).proportion_ci(method="exact")  # Clopper–Pearson
     assert share["method"] == "clopper-pearson"
@@ -109,21 +76,21 @@ def test_the_interval_method_is_the_one_asked_for(throttle_run):
 
 
 def test_the_space_s_own_bounds_are_ends_only_where_the_header_does_not_name_them(
-        throttle_run):
-    cols = read_columns(throttle_run)
-    steps = continuous_steps(cols, read_episodes(throttle_run), header=None)
+        hand_run):
+    cols = read_columns(hand_run)
+    steps = continuous_steps(cols, read_episodes(hand_run), header=None)
     assert int(steps.boundary.sum()) == 5  # E0 step 1 at 2.0 now counts
     assert steps.boundary.tolist() == [False, True, True, True,  # episode 0, steps 0-3
                                        False, False, True, False, False, True]
     assert continuous_summary(steps)["boundary"]["count"] == 5
 
 
-def test_the_per_episode_interventions_metric_reads_the_proposals(throttle_run):
-    metric = statistics([throttle_run], GENERIC_SET)["runs"][0]["metrics"]["interventions"]
+def test_the_per_episode_interventions_metric_reads_the_proposals(hand_run):
+    metric = statistics([hand_run], GENERIC_SET)["runs"][0]["metrics"]["interventions"]
     assert metric["mean"] == pytest.approx((2 / 3 + 3 / 5) / 2)  # 2 of 3 steps, 3 of 5
 
 
-def test_a_discrete_run_has_no_continuous_statistics(discrete_run, throttle_run, capsys):
+def test_a_discrete_run_has_no_continuous_statistics(discrete_run, hand_run, capsys):
     result = statistics([discrete_run], GENERIC_SET)
     assert "continuous" not in result["runs"][0]
     code, out, _ = run(capsys, "stats", discrete_run, "--format", "md")
@@ -132,14 +99,14 @@ def test_a_discrete_run_has_no_continuous_statistics(discrete_run, throttle_run,
     code, out, _ = run(capsys, "stats", discrete_run, "--format", "csv")
     assert code == 0 and "step share" not in out and "projection_distance" not in out
     # beside a continuous run, its cells say it has none
-    code, out, _ = run(capsys, "stats", discrete_run, throttle_run, "--format", "md")
+    code, out, _ = run(capsys, "stats", discrete_run, hand_run, "--format", "md")
     row = next(line for line in out.splitlines() if line.startswith("| Intervention rate"))
     assert row.split("|")[2].strip() == "—"
     assert row.split("|")[3].strip() == "62.5 % [30.6, 86.3] (5 of 8)"
 
 
-def test_the_text_markdown_csv_and_json_outputs(throttle_run, capsys):
-    code, out, _ = run(capsys, "stats", throttle_run, "--format", "md")
+def test_the_text_markdown_csv_and_json_outputs(hand_run, capsys):
+    code, out, _ = run(capsys, "stats", hand_run, "--format", "md")
     assert code == 0
     rows = {line.split("|")[1].strip(): line.split("|")[2].strip()
             for line in out.splitlines() if line.startswith("| ")}
@@ -149,7 +116,7 @@ def test_the_text_markdown_csv_and_json_outputs(throttle_run, capsys):
     assert rows["Fallback taken (share of steps)"] == "12.5 % [2.2, 47.1] (1 of 8)"
     assert rows["Projection distance (all steps)"] == "mean 1.12, max 6"
     assert rows["Projection distance (intervened steps)"] == "mean 1.8, max 6"
-    code, out, _ = run(capsys, "stats", throttle_run, "--format", "csv")
+    code, out, _ = run(capsys, "stats", hand_run, "--format", "csv")
     found = {(r["name"], r["method"]): r for r in csv.DictReader(io.StringIO(out))}
     assert found[("intervention_rate", "wilson")]["holds"] == "5"
     assert float(found[("intervention_rate", "wilson")]["value"]) == 5 / 8
@@ -157,17 +124,17 @@ def test_the_text_markdown_csv_and_json_outputs(throttle_run, capsys):
     assert float(found[("projection_distance_intervened", "mean")]["value"]) == \
         pytest.approx(1.8)
     assert float(found[("projection_distance", "max")]["value"]) == 6.0
-    code, out, _ = run(capsys, "stats", throttle_run, "--json")
+    code, out, _ = run(capsys, "stats", hand_run, "--json")
     data = strict_json(out)["runs"][0]["continuous"]
     assert data["fallback"]["count"] == 1 and data["interventions"]["ratio"] == 5 / 8
-    code, out, _ = run(capsys, "stats", throttle_run)
+    code, out, _ = run(capsys, "stats", hand_run)
     assert code == 0 and "Intervention rate" in out and "62.5 %" in out
 
 
 def test_a_run_without_intervened_steps_says_so(tmp_path, capsys):
     path = tmp_path / "calm.mcap"
-    with EpisodeWriter(path, _header()) as w:
-        w.write(_episode(0, [(1.0, 1.0, 0.0, ((-4.0, 2.0),), None)]))
+    with EpisodeWriter(path, continuous_header()) as w:
+        w.write(continuous_episode(0, [(1.0, 1.0, 0.0, ((-4.0, 2.0),), None)]))
     c = statistics([path], GENERIC_SET)["runs"][0]["continuous"]
     assert c["projection_distance"]["intervened"] == {"mean": None, "max": None, "steps": 0}
     assert c["interventions"]["count"] == 0 and c["boundary"]["count"] == 0  # no space bounds

@@ -8,6 +8,12 @@ taken, what the live shield allowed, what the chosen shield allows, the agent's 
 the reward and the B state (numbers rounded for people, full precision on hover and in a copy
 button).
 
+For continuous actions (an operation with REAL parameters), each parameter has a chart of
+its own, first: the agent's proposal (dashed), the executed value, and the values the live
+shield allowed in the state before as a shaded band per step (one per interval; an unbounded
+end reaches the chart's edge; a step where nothing was allowed marked red); the step panel
+says what was proposed, executed and allowed, and how far the shield moved the proposal.
+
 Above them, the step's scene (:mod:`tracecheck.render.scene`) where the environment has one:
 the highway's road around the ego vehicle with the zones of the ``paper`` shield, a grid
 world's map, or what a user's adapter draws with its ``scene`` hook — with a caption saying
@@ -32,7 +38,7 @@ from .scene import scene_drawer, shape_json, css
 from .tables import is_number
 
 __all__ = ["render_episode", "viewer_page", "episode_data", "episode_view", "short_value",
-           "numeric_series"]
+           "numeric_series", "action_series"]
 
 _TEMPLATE = (Path(__file__).with_name("viewer.html")).read_text(encoding="utf-8")
 NO_SCENE = ("This environment draws no picture (its adapter has no scene() hook: see "
@@ -160,8 +166,8 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
         enabled = sorted(machine.enabled(s.state)) if machine is not None else None
         if k and machine is not None and s.action not in steps[-1]["shield_allows"]:
             blocked.append(s.step)
-        if s.preferred_action is not None and s.action is not None \
-                and s.preferred_action != s.action:
+        if (s.preferred_action is not None and s.action is not None
+                and s.preferred_action != s.action) or _moved(s):
             interventions.append(s.step)
         steps.append({
             "step": s.step, "time": s.time, "action": s.action, "reward": s.reward,
@@ -170,14 +176,17 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
             "shield_allows": enabled, "values": dict(s.action_values or {}) or None,
             "preferred": s.preferred_action, "scene": per_step[k],
             "state": [[name, short_value(v), format_value(v)] for name, v in s.state.items()],
+            **_continuous_step(s),
         })
     crash = next((s["step"] for s in steps if s["crashed"]), None)
-    series = numeric_series([s.state for s in ep.steps])
+    actions = action_series(ep)
+    series = actions + numeric_series([s.state for s in ep.steps])
     rewards = [float(s.reward) for s in ep.steps]
     if not any(line["values"] == rewards for entry in series for line in entry["lines"]):
         series.append({"name": "reward", "lines": [{"label": "reward (of the step)",
                                                     "values": rewards}]})
     return {
+        **({"parameters": [a["parameter"] for a in actions]} if actions else {}),
         "file": str(run), "episode": ep.id, "seed": ep.seed, "origin": ep.origin,
         "environment": header.environment if header is not None else None,
         "actions": _action_names(ep, header),
@@ -190,6 +199,57 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
                 "total_reward": ep.end.total_reward},
         "steps": steps,
     }
+
+
+def _moved(step) -> bool:
+    """Whether the live shield changed a continuous action's proposal at ``step``."""
+    executed, proposed = step.parameters, step.proposal
+    return bool(executed and proposed) and any(
+        name in proposed and proposed[name] != value for name, value in executed.items())
+
+
+def _bands(intervals) -> list:
+    """Intervals as JSON: ``[[low, high], …]``, None for an unbounded end."""
+    return [[None if lo is None else float(lo), None if hi is None else float(hi)]
+            for lo, hi in intervals]
+
+
+def _continuous_step(step) -> dict:
+    """The step panel's fields of a continuous action (none for a discrete step)."""
+    if step.parameters is None:
+        return {}
+    return {"parameters": dict(step.parameters), "proposal": dict(step.proposal or {}) or None,
+            "distance": step.projection_distance, "deadlock": bool(step.deadlock),
+            "allowed": None if step.allowed_intervals is None else {
+                name: _bands(found) for name, found in step.allowed_intervals.items()}}
+
+
+def _per_step(ep: Episode, field: str, name: str) -> list:
+    """Per step, the value of parameter ``name`` in the step's ``field`` (None if none)."""
+    found = [(getattr(s, field) or {}).get(name) for s in ep.steps]
+    return [None if v is None else float(v) for v in found]
+
+
+def action_series(ep: Episode) -> list[dict]:
+    """One chart per parameter of the episode's continuous actions (none for a discrete
+    episode), as :func:`numeric_series` gives them, with ``bands``: per step the allowed
+    intervals of the parameter (``[[low, high], …]``, None for an unbounded end; ``[]``:
+    nothing allowed; None where none were recorded). Its lines: the agent's proposal (dashed)
+    and the executed value."""
+    owner: dict[str, str] = {}
+    for s in ep.steps:
+        for name in s.parameters or ():
+            owner.setdefault(name, s.action)
+    out = []
+    for name, op in owner.items():
+        bands = [None if s.allowed_intervals is None or name not in s.allowed_intervals
+                 else _bands(s.allowed_intervals[name]) for s in ep.steps]
+        out.append({"name": f"{op}({name})", "parameter": name, "kind": "action",
+                    "lines": [{"label": f"{name} proposed", "values": _per_step(ep, "proposal", name),
+                               "dashed": True},
+                              {"label": f"{name} executed", "values": _per_step(ep, "parameters", name)}],
+                    "bands": bands})
+    return out
 
 
 def _ltl_marks(cols: Optional[RunColumns], episode: int, shield: Optional[Shield],

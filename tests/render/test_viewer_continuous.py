@@ -1,0 +1,156 @@
+"""The viewer of continuous actions: per parameter a chart of the agent's proposal, the executed
+value and the live shield's allowed band (each interval shaded), the step panel saying what
+was proposed, executed and allowed — in the page's data and in a real browser (screenshots
+under /tmp/tracecheck-screens); a discrete run's page has none of it."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from tests.helpers import ACC_ENV, acc_installed, browser_errors, forget_acc, open_browser
+from tests.stats.continuous_run import write_hand_run
+from tracecheck.render.viewer import episode_data, render_episode
+
+SCREENS = Path("/tmp/tracecheck-screens")
+V1 = ACC_ENV / "acc_cruise" / "throttle_v1.mch"
+
+
+@pytest.fixture(scope="module")
+def hand_run(tmp_path_factory):
+    """The hand-made run of tests/stats/continuous_run.py: several intervals, an unbounded
+    end, a step where nothing was allowed."""
+    return write_hand_run(tmp_path_factory.mktemp("continuous") / "hand.mcap",
+                          action_low=[-4.0], action_high=[2.0])
+
+
+@pytest.fixture(scope="module")
+def throttle_run(tmp_path_factory):
+    """One episode of 30 steps of full throttle under throttle_v1.mch, projected."""
+    from tracecheck.cli import main
+
+    folder = tmp_path_factory.mktemp("throttle")
+    out = folder / "v1.mcap"
+    with pytest.MonkeyPatch.context() as mp, acc_installed(mp):
+        from acc_cruise.throttle import make_agent
+
+        agent = make_agent(folder / "full.zip", 2.0)
+        with pytest.raises(SystemExit) as stop:
+            main(["record", "--env", "acc_cruise.throttle:Throttle", "--env-config",
+                  "max_steps=30", "--agent", str(agent), "--shield", str(V1), "-n", "1",
+                  "-o", str(out)])
+        assert stop.value.code in (0, None)
+    forget_acc()
+    return out
+
+
+def _page_data(html: str) -> dict:
+    return json.loads(re.search(r"const DATA = (.*?);\n", html).group(1))
+
+
+def test_each_parameter_is_a_chart_of_proposal_execution_and_allowed_band(hand_run):
+    data = episode_data(hand_run, 1)
+    action = data["series"][0]
+    assert data["parameters"] == ["a"]
+    assert (action["name"], action["kind"], action["parameter"]) == \
+        ("ACCELERATE(a)", "action", "a")
+    proposed, executed = action["lines"]
+    assert proposed == {"label": "a proposed", "dashed": True,
+                        "values": [None, 2.0, 1.0, -2.0, 1.5, -3.5]}
+    assert executed["label"] == "a executed" and executed["values"][:2] == [None, -4.0]
+    assert action["bands"] == [None, [], [[None, 0.0]], [[-3.0, -1.0]],
+                               [[-4.0, 1.5 + 1e-8]], [[-3.0, 2.0]]]
+    assert episode_data(hand_run, 0)["series"][0]["bands"][3] == [[-4.0, -1.0], [0.5, 2.0]]
+    assert data["interventions"] == [1, 2, 5]  # where the executed value is not the proposal
+    step = data["steps"][1]
+    assert (step["proposal"], step["parameters"], step["distance"], step["deadlock"],
+            step["allowed"]) == ({"a": 2.0}, {"a": -4.0}, 6.0, True, {"a": []})
+    assert [s["name"] for s in data["series"][1:]] == ["x", "reward"]  # the state's own
+
+
+def test_a_discrete_episode_has_no_action_chart(cruise_runs, hand_run):
+    page = render_episode(cruise_runs[1], 1)
+    data = _page_data(page)
+    assert "parameters" not in data and '"bands"' not in page
+    assert not any("bands" in s or s.get("kind") == "action" for s in data["series"])
+    assert not any("allowed" in s or "proposal" in s for s in data["steps"])
+    continuous = render_episode(hand_run, 0)
+    assert '"bands"' in continuous and _page_data(continuous)["series"][0]["bands"]
+
+
+def _chart(browser, name):
+    from selenium.webdriver.common.by import By
+
+    return next(c for c in browser.find_elements(By.CSS_SELECTOR, "#series .chart")
+                if c.get_attribute("data-variable") == name)
+
+
+def _count(chart, selector) -> int:
+    from selenium.webdriver.common.by import By
+
+    return len(chart.find_elements(By.CSS_SELECTOR, selector))
+
+
+def _panel(browser) -> dict:
+    from selenium.webdriver.common.by import By
+
+    rows = browser.find_elements(By.CSS_SELECTOR, "#step tr")
+    return {r.find_elements(By.TAG_NAME, "td")[0].text: r.find_elements(By.TAG_NAME, "td")[1]
+            for r in rows}
+
+
+def test_the_bands_in_a_browser(hand_run, throttle_run, tmp_path):
+    from selenium.webdriver.common.by import By
+
+    pages = {}
+    for name, (path, episode) in {"hand0": (hand_run, 0), "hand1": (hand_run, 1),
+                                  "throttle": (throttle_run, 0)}.items():
+        pages[name] = tmp_path / f"{name}.html"
+        pages[name].write_text(render_episode(path, episode))
+    browser = open_browser()
+    try:
+        browser.set_window_size(1400, 1300)
+        for name, page in pages.items():
+            browser.get(page.as_uri())
+            assert browser_errors(browser) == [], name
+            data = _page_data(page.read_text())
+            bands = data["series"][0]["bands"]
+            chart = _chart(browser, "ACCELERATE(a)")
+            assert _count(chart, "rect.allowed") == sum(len(b or []) for b in bands), name
+            assert _count(chart, "rect.none-allowed") == sum(b == [] for b in bands), name
+            assert _count(chart, "path.series") == 2, name
+            assert _count(chart, "path.series[stroke-dasharray]") == 1, name  # the proposal
+            assert "allowed by the live shield" in chart.text
+            for other in data["series"][1:]:  # the state's charts have no band
+                assert _count(_chart(browser, other["name"]), "rect.allowed") == 0
+            SCREENS.mkdir(exist_ok=True)
+            assert browser.save_screenshot(str(SCREENS / f"viewer-continuous-{name}.png"))
+        # hand1: two intervals at step 3 of episode 0; the fallback at step 1 of episode 1
+        browser.get(pages["hand1"].as_uri())
+        browser.find_element(By.ID, "forward").click()
+        panel = _panel(browser)
+        assert panel["agent proposed"].text == "a = 2"
+        assert panel["executed"].text == "a = -4" and "blocked" in \
+            panel["executed"].get_attribute("class")
+        assert panel["projection distance"].text == "6"
+        assert panel["live shield allowed a"].text == "nothing"
+        assert "fallback" in panel["fallback"].text
+        browser.find_element(By.ID, "forward").click()
+        assert _panel(browser)["live shield allowed a"].text == "−∞ … 0"
+        browser.get(pages["hand0"].as_uri())
+        for _ in range(3):
+            browser.find_element(By.ID, "forward").click()
+        assert _panel(browser)["live shield allowed a"].text == "-4 … -1, 0.5 … 2"
+        legend = browser.find_element(By.ID, "legend").text
+        assert "the live shield moved the agent's proposal" in legend
+        # the throttle run: projected steps lie on the band's top
+        browser.get(pages["throttle"].as_uri())
+        chart = _chart(browser, "ACCELERATE(a)")
+        titles = [t.get_attribute("textContent") for t in
+                  chart.find_elements(By.CSS_SELECTOR, "rect.allowed title")]
+        assert titles[0].startswith("step 1: a allowed in -4 … ")
+    finally:
+        browser.quit()
