@@ -11,12 +11,11 @@ from pathlib import Path
 
 import pytest
 
-from tests.helpers import ACC_ENV, acc_installed, browser_errors, forget_acc, open_browser
-from tests.stats.continuous_run import write_hand_run
+from tests.helpers import browser_errors, open_browser
+from tests.stats.continuous_run import record_throttle, write_hand_run
 from tracecheck.render.viewer import episode_data, render_episode
 
 SCREENS = Path("/tmp/tracecheck-screens")
-V1 = ACC_ENV / "acc_cruise" / "throttle_v1.mch"
 
 
 @pytest.fixture(scope="module")
@@ -30,21 +29,7 @@ def hand_run(tmp_path_factory):
 @pytest.fixture(scope="module")
 def throttle_run(tmp_path_factory):
     """One episode of 30 steps of full throttle under throttle_v1.mch, projected."""
-    from tracecheck.cli import main
-
-    folder = tmp_path_factory.mktemp("throttle")
-    out = folder / "v1.mcap"
-    with pytest.MonkeyPatch.context() as mp, acc_installed(mp):
-        from acc_cruise.throttle import make_agent
-
-        agent = make_agent(folder / "full.zip", 2.0)
-        with pytest.raises(SystemExit) as stop:
-            main(["record", "--env", "acc_cruise.throttle:Throttle", "--env-config",
-                  "max_steps=30", "--agent", str(agent), "--shield", str(V1), "-n", "1",
-                  "-o", str(out)])
-        assert stop.value.code in (0, None)
-    forget_acc()
-    return out
+    return record_throttle(tmp_path_factory.mktemp("throttle"), steps=30, episodes=1)
 
 
 def _page_data(html: str) -> dict:

@@ -50,3 +50,27 @@ def write_hand_run(path: Path, **header) -> Path:
         for eid, rows in enumerate(EPISODES):
             w.write(continuous_episode(eid, rows))
     return path
+
+
+def record_throttle(folder: Path, *, steps: int, episodes: int) -> Path:
+    """``folder/v1.mcap``: episodes of an agent that always proposes full throttle (+2) in
+    the throttle environment of tests/fixtures/acc_env, under throttle_v1.mch projected,
+    recorded by the CLI (with Foxglove's channels, as every CLI recording)."""
+    import pytest
+
+    from tests.helpers import ACC_ENV, acc_installed, forget_acc
+    from tracecheck.cli import main
+
+    out = folder / "v1.mcap"
+    with pytest.MonkeyPatch.context() as mp, acc_installed(mp):
+        from acc_cruise.throttle import make_agent
+
+        agent = make_agent(folder / "full.zip", 2.0)
+        with pytest.raises(SystemExit) as stop:
+            main(["record", "--env", "acc_cruise.throttle:Throttle", "--env-config",
+                  f"max_steps={steps}", "--agent", str(agent), "--shield",
+                  str(ACC_ENV / "acc_cruise" / "throttle_v1.mch"), "-n", str(episodes),
+                  "-o", str(out)])
+        assert stop.value.code in (0, None)
+    forget_acc()
+    return out

@@ -15,7 +15,13 @@ Every step of an episode becomes, next to tracecheck's own messages:
 * ``/plot/speed``, ``/plot/reward``, ``/plot/nearest_gap``, ``/plot/allowed_actions``
   (``tracecheck.Scalar``, ``{"value": x}``): lines in a Plot panel. ``nearest_gap`` is the
   distance in metres between the ego vehicle's centre and the nearest other present vehicle's
-  centre; ``allowed_actions`` the number of actions the live shield allowed.
+  centre; ``allowed_actions`` the number of actions the live shield allowed;
+* for continuous actions (a run whose header declares ``action_parameters``), also
+  ``tracecheck.Scalar`` channels per parameter P: ``/plot/P/proposal`` (the agent's value),
+  ``/plot/P/executed`` (the value taken), ``/plot/P/allowed_low`` and ``/plot/P/allowed_high``
+  (the ends of the first interval the live shield allowed; none for an unbounded end or where
+  nothing was allowed), and ``/plot/projection_distance``; the log then has an entry where
+  the shield moved a proposal.
 
 A value a state does not have (no speed in a grid world) gives no message on that channel.
 The messages are derived from the step: tracecheck itself never reads them back.
@@ -31,13 +37,27 @@ from ..live.scene import Box, Circle, Line, Scene
 from ..render.scene import builtin_scene, scene_kind, vehicles
 
 __all__ = ["FoxgloveChannels", "FoxgloveMessage", "step_messages", "scene_entities", "SCHEMAS",
-           "TOPICS", "SCALARS"]
+           "TOPICS", "SCALARS", "CONTINUOUS_SCALARS", "continuous_topics"]
 
 SCENE, LOG, SCALAR = "foxglove.SceneUpdate", "foxglove.Log", "tracecheck.Scalar"
 SCALARS = ("speed", "reward", "nearest_gap", "allowed_actions")
 #: topic -> schema name
 TOPICS = {"/foxglove/scene": SCENE, "/foxglove/log": LOG,
           **{f"/plot/{name}": SCALAR for name in SCALARS}}
+#: per parameter of a continuous action: ``/plot/P/NAME``
+CONTINUOUS_SCALARS = ("proposal", "executed", "allowed_low", "allowed_high")
+DISTANCE_TOPIC = "/plot/projection_distance"
+
+
+def continuous_topics(header) -> dict[str, str]:
+    """The channels of a run's continuous actions (topic -> schema name; none for a run
+    whose header declares no ``action_parameters``)."""
+    declared = getattr(header, "action_parameters", None) or {}
+    names = list(dict.fromkeys(p for params in declared.values() for p in params))
+    if not names:
+        return {}
+    return {**{f"/plot/{p}/{kind}": SCALAR for p in names for kind in CONTINUOUS_SCALARS},
+            DISTANCE_TOPIC: SCALAR}
 
 _TIME = {"type": "object", "properties": {"sec": {"type": "integer", "minimum": 0},
                                           "nsec": {"type": "integer", "minimum": 0,
@@ -229,6 +249,9 @@ def step_messages(step, *, episode: int, stamp_ns: int, zones: bool = False,
             and step.preferred_action != step.action:
         events.append((WARNING, f"{where}: the shield replaced {step.preferred_action} by "
                                 f"{step.action}"))
+    moved = _moved(step)
+    if moved:
+        events.append((WARNING, f"{where}: the shield moved the proposal {moved}"))
     if step.deadlock:
         events.append((ERROR, f"{where}: deadlock, the shield allowed no action; the "
                               "fallback was taken"))
@@ -245,6 +268,31 @@ def step_messages(step, *, episode: int, stamp_ns: int, zones: bool = False,
         value = values[name]
         if value is not None and math.isfinite(value):
             yield FoxgloveMessage(f"/plot/{name}", {"value": float(value)})
+    for topic, value in _continuous_scalars(step):
+        if value is not None and math.isfinite(value):
+            yield FoxgloveMessage(topic, {"value": float(value)})
+
+
+def _moved(step) -> str:
+    """How the shield moved a continuous proposal at ``step`` (``a = 2 to 1``), else ''."""
+    executed, proposed = step.parameters or {}, step.proposal or {}
+    changed = [f"{p} = {proposed[p]:g} to {v:g}" for p, v in executed.items()
+               if p in proposed and proposed[p] != v]
+    return ", ".join(changed)
+
+
+def _continuous_scalars(step) -> Iterator[tuple[str, Optional[float]]]:
+    """(topic, value) of a continuous step's scalars (none for a discrete step)."""
+    if step.parameters is None:
+        return
+    intervals = step.allowed_intervals or {}
+    for name, value in step.parameters.items():
+        first = intervals[name][0] if intervals.get(name) else (None, None)
+        yield f"/plot/{name}/proposal", (step.proposal or {}).get(name)
+        yield f"/plot/{name}/executed", value
+        yield f"/plot/{name}/allowed_low", first[0]
+        yield f"/plot/{name}/allowed_high", first[1]
+    yield DISTANCE_TOPIC, step.projection_distance
 
 
 class FoxgloveChannels:
@@ -260,7 +308,7 @@ class FoxgloveChannels:
 
         self._dumps = orjson.dumps
         self.schemas = {name: orjson.dumps(schema) for name, schema in SCHEMAS.items()}
-        self.topics = dict(TOPICS)
+        self.topics = {**TOPICS, **continuous_topics(header)}
         # the adapter looked up once
         self._draw = scene_drawer(header.environment, shield=header.shield_name)
 
@@ -268,4 +316,5 @@ class FoxgloveChannels:
                  previous_crashed: bool) -> Iterator[tuple[str, bytes]]:
         for m in step_messages(step, episode=episode, stamp_ns=stamp_ns,
                                previous_crashed=previous_crashed, draw=self._draw):
-            yield m.topic, self._dumps(m.data)
+            if m.topic in self.topics:  # a step's parameters its run header does not declare
+                yield m.topic, self._dumps(m.data)
