@@ -85,6 +85,13 @@ def test_the_space_s_own_bounds_are_ends_only_where_the_header_does_not_name_the
     assert continuous_summary(steps)["boundary"]["count"] == 5
 
 
+def test_a_space_without_a_bound_leaves_only_the_other_out(tmp_path):
+    """An unbounded side of the action space is recorded as null: no end is its bound."""
+    path = write_hand_run(tmp_path / "half.mcap", action_low=[-4.0], action_high=[None])
+    c = statistics([path], GENERIC_SET)["runs"][0]["continuous"]
+    assert c["boundary"]["count"] == 5  # E0 step 1 at 2.0 counts: 2.0 is not the space's
+
+
 def test_the_per_episode_interventions_metric_reads_the_proposals(hand_run):
     metric = statistics([hand_run], GENERIC_SET)["runs"][0]["metrics"]["interventions"]
     assert metric["mean"] == pytest.approx((2 / 3 + 3 / 5) / 2)  # 2 of 3 steps, 3 of 5

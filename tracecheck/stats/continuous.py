@@ -155,7 +155,8 @@ def _near(values: np.ndarray, ends: np.ndarray) -> np.ndarray:
 
 def _space_bound(ends: np.ndarray, params: np.ndarray, names: tuple[str, ...],
                  header) -> np.ndarray:
-    """Which ends are a bound of the action space (the header's, by parameter name)."""
+    """Which ends are a bound of the action space (the header's, by parameter name; a null
+    bound is none)."""
     out = np.zeros(len(ends), dtype=bool)
     declared = getattr(header, "action_parameters", None) or {}
     low, high = getattr(header, "action_low", None), getattr(header, "action_high", None)
@@ -164,8 +165,9 @@ def _space_bound(ends: np.ndarray, params: np.ndarray, names: tuple[str, ...],
             if name not in names:
                 continue
             mine = params == names.index(name)
-            for bounds in (low, high):
-                if bounds is not None and component < len(bounds):
+            for bounds in (low, high):  # a bound may be null: the space has none there
+                if bounds is not None and component < len(bounds) \
+                        and bounds[component] is not None:
                     out |= mine & _near(ends, np.full(len(ends), float(bounds[component])))
     return out
 
