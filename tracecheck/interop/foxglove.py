@@ -275,15 +275,17 @@ def step_messages(step, *, episode: int, stamp_ns: int, zones: bool = False,
 
 def _moved(step) -> str:
     """How the shield moved a continuous proposal at ``step`` (``a = 2 to 1``), else ''."""
-    executed, proposed = step.parameters or {}, step.proposal or {}
+    executed = getattr(step, "parameters", None) or {}
+    proposed = getattr(step, "proposal", None) or {}
     changed = [f"{p} = {proposed[p]:g} to {v:g}" for p, v in executed.items()
                if p in proposed and proposed[p] != v]
     return ", ".join(changed)
 
 
 def _continuous_scalars(step) -> Iterator[tuple[str, Optional[float]]]:
-    """(topic, value) of a continuous step's scalars (none for a discrete step)."""
-    if step.parameters is None:
+    """(topic, value) of a continuous step's scalars (none for a discrete step, or a step
+    that is not a ``StepRecord`` and has no such fields)."""
+    if getattr(step, "parameters", None) is None:
         return
     intervals = step.allowed_intervals or {}
     for name, value in step.parameters.items():
