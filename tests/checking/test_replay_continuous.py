@@ -245,10 +245,12 @@ def test_the_batch_answer_is_the_state_by_state_answer(case):
         nearest = allowed.nearest(values)
         if nearest is None:
             assert e.margin is None and e.margin_note
-        else:
-            want = math.dist([nearest[p] for p in params], [values[p] for p in params])
-            assert e.margin == pytest.approx(want, abs=1e-12) and e.max_margin == e.margin
-            assert e.margin > 0
+        else:  # over the reals, to the closure; on an open end, to the nearest float
+            exact = allowed.distance(values)
+            nearest_d = math.dist([nearest[p] for p in params], [values[p] for p in params])
+            want = exact if exact else nearest_d
+            assert e.margin == pytest.approx(want, rel=1e-12) and e.max_margin == e.margin
+            assert 0 < e.margin <= nearest_d + 1e-9  # the reals hold every allowed float
 
 
 def test_many_steps_in_one_batch(acc):
@@ -283,3 +285,25 @@ def test_diff_decides_continuous_actions_as_replay_does(acc, run_file, tmp_path)
     assert not change.feasible_under_shield and change.feasible_under_against
     assert replay([run_file], loose).per_episode[0].first_infeasible is None
     assert diff([run_file], acc, acc).changed_steps == 0
+
+
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.sampled_from([("a",), ("a", "b")]).flatmap(
+    lambda ps: st.tuples(st.just(ps), guard(ps),
+                         st.lists(st.tuples(NUM, NUM, st.tuples(VALUE, VALUE)),
+                                  min_size=1, max_size=12))))
+def test_deadlocks_found_with_the_recorded_values_are_the_state_by_state_ones(case):
+    """Replay tries the recorded values first ("some value allowed" confirmed in one batch
+    evaluation) and decides the other states one by one: the deadlock states are those of
+    the scalar decision, whichever values were recorded."""
+    params, text, rows = case
+    from tracecheck.checking.shield import Shield
+
+    machine = act_machine(text, params)
+    shield = Shield(name="G", sha256="0" * 64, path="G.mch", machine=machine)
+    states = [{"u": u, "v": v} for u, v, _ in rows]
+    ep = make(0, states[0], [("Act", dict(zip(params, point)), after)
+                             for (_, _, point), after in zip(rows, states[1:] + states[:1])])
+    report = replay_columns(episode_columns([ep], ["Act"]), shield)
+    scalar = [k for k, st_ in enumerate(ep.steps) if "Act" not in machine.enabled(st_.state)]
+    assert report.per_episode[0].deadlock_states == scalar, text

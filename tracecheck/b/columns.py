@@ -129,6 +129,19 @@ class Columns:
         rank[order] = np.arange(len(order))
         return first[order], rank[inverse.ravel()]
 
+    def take(self, rows: np.ndarray) -> "Columns":
+        """The states at ``rows`` as columns of their own (each labelled as its row here)."""
+        rows = np.asarray(rows, dtype=np.int64)
+        label = self.label
+        return Columns(
+            n=len(rows), elements=self.elements,
+            numbers={k: v[rows] for k, v in self.numbers.items()},
+            booleans={k: v[rows] for k, v in self.booleans.items()},
+            functions={k: (v[rows], d[rows]) for k, (v, d) in self.functions.items()},
+            masks={k: v[rows] for k, v in self.masks.items()},
+            others={k: [v[i] for i in rows.tolist()] for k, v in self.others.items()},
+            label=None if label is None else (lambda i: label(int(rows[i]))))
+
     def row(self, i: int) -> dict[str, Any]:
         """State ``i`` as a dict of scalar B values."""
         state: dict[str, Any] = {}

@@ -203,6 +203,33 @@ class AllowedSet:
                 best, best_d = candidate, d
         return best
 
+    def distance(self, point: Mapping[str, Any]) -> Optional[float]:
+        """How far ``point`` lies from the allowed set over the reals (Euclidean, to the
+        nearest point of its closure; 0 inside), computed exactly and then rounded: the
+        margin of a recorded action. None when nothing is allowed, or the polytopes are
+        not boxes."""
+        if not self.separable:
+            return None
+        exact = {p: _exact(point[p], p) for p in self.params}
+        best: Optional[Fraction] = None
+        for part in self.parts:
+            box = _box(part, self.params)
+            if box is None or any(i.empty for i in box.values()):
+                continue
+            square = sum((_gap(exact[p], box[p]) ** 2 for p in self.params), Fraction(0))
+            best = square if best is None or square < best else best
+        if best is None:
+            return None
+        if len(self.params) == 1:  # the gap itself, rounded once
+            return float(min(abs(_gap(exact[self.params[0]], box[self.params[0]]))
+                             for box in self._boxes()))
+        return math.sqrt(best)
+
+    def _boxes(self) -> list[dict]:
+        """The non-empty boxes of a separable set."""
+        return [b for b in (_box(part, self.params) for part in self.parts)
+                if b is not None and not any(i.empty for i in b.values())]
+
     def _confirmed(self, candidate: dict, box: dict) -> Optional[dict]:
         """``candidate`` if the evaluator allows it, else the allowed float point nearest it
         on the way into the box (bisection: the evaluator's float arithmetic may refuse the
@@ -531,6 +558,15 @@ def _touches(a: Interval, b: Interval) -> bool:
     if a.high is None or b.low is None:
         return True
     return b.low < a.high or (b.low == a.high and not (a.high_open and b.low_open))
+
+
+def _gap(x: Fraction, interval: Interval) -> Fraction:
+    """How far ``x`` lies outside the closure of ``interval`` (0 inside)."""
+    if interval.low is not None and x < interval.low:
+        return interval.low - x
+    if interval.high is not None and x > interval.high:
+        return x - interval.high
+    return Fraction(0)
 
 
 def _clamp(x: float, interval: Interval) -> float:

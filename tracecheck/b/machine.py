@@ -330,8 +330,14 @@ class Machine:
             cache[key] = self.batch(node)
         return cache[key]
 
-    def enabled_batch(self, columns) -> dict:
-        """For each operation, a bool array: is it enabled in each row of ``columns``?"""
+    def enabled_batch(self, columns, candidates: Optional[Mapping[str, Any]] = None) -> dict:
+        """For each operation, a bool array: is it enabled in each row of ``columns``?
+
+        An operation with REAL parameters is enabled where some values are allowed. Where
+        ``candidates[op]`` (a list of ``{parameter: array of a value per row}``, NaN: none)
+        holds values that its guard allows, by one batch evaluation of the guard with them
+        bound, that is the answer (the evaluator confirmed an allowed value); the other rows
+        are decided one distinct state at a time, as :meth:`enabled` decides them."""
         import numpy as np
 
         out = {}
@@ -340,15 +346,37 @@ class Machine:
             if op.guard is None:
                 out[name] = np.ones(columns.n, dtype=bool)
                 continue
-            if real_parameters(op):  # the scalar decision per distinct state
-                decide = self._guard_fns()[name]
-                first, index = columns.distinct()
-                out[name] = np.array([bool(decide(self.env(columns.row(int(i)))))
-                                      for i in first], dtype=bool)[index]
+            if real_parameters(op):
+                out[name] = self._enabled_real(name, columns, (candidates or {}).get(name, ()))
                 continue
             out[name] = self._batch_cached(("guard", name), op.enabling_guard)(columns, memo
                                                                               ).astype(bool)
         return out
+
+    def _enabled_real(self, name: str, columns, candidates) -> Any:
+        """:meth:`enabled_batch` for an operation with REAL parameters."""
+        import numpy as np
+
+        op = self.operation(name)
+        enabled = np.zeros(columns.n, dtype=bool)
+        guard = self._batch_cached(("guard with parameters", name), op.guard)
+        for values in candidates:
+            given = np.all([np.isfinite(values[p]) for p in op.params], axis=0)
+            rows = np.flatnonzero(given & ~enabled)
+            if not len(rows):
+                continue
+            bound = columns.take(rows)
+            bound.numbers.update({p: np.asarray(values[p], dtype=float)[rows]
+                                  for p in op.params})
+            enabled[rows] = np.asarray(guard(bound), dtype=bool)
+        rest = np.flatnonzero(~enabled)
+        if len(rest):  # the scalar decision, once per distinct state
+            decide = self._guard_fns()[name]
+            others = columns.take(rest)
+            first, index = others.distinct()
+            enabled[rest] = np.array([bool(decide(self.env(others.row(int(i)))))
+                                      for i in first], dtype=bool)[index]
+        return enabled
 
     def invariant_batch(self, columns):
         """A bool array: does the INVARIANT hold in each row of ``columns``?"""

@@ -14,7 +14,6 @@ values lay from the nearest the shield allowed (Euclidean, in the parameters' un
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -23,7 +22,7 @@ from typing import Callable, Iterable, Optional, Sequence
 import numpy as np
 
 from ..b import ast
-from ..b.columns import Columns, step_pairs
+from ..b.columns import step_pairs
 from ..b.linear import real_parameters
 from ..episodes.columns import RunColumns, read_columns
 from ..errors import InputError, UnsupportedError
@@ -129,10 +128,32 @@ class ReplayReport:
 def enabled_matrix(shield: Shield, cols: RunColumns) -> tuple[np.ndarray, tuple[str, ...]]:
     """(rows, operations) booleans: which operations the shield enables in each state."""
     _check_variables(shield, cols)
-    enabled = shield.machine.enabled_batch(cols.states)
+    enabled = shield.machine.enabled_batch(cols.states, _candidates(shield, cols))
     ops = tuple(shield.machine.operations)
     return np.stack([enabled[o] for o in ops], axis=1) if ops else \
         np.zeros((cols.n, 0), dtype=bool), ops
+
+
+def _candidates(shield: Shield, cols: RunColumns) -> dict[str, list[dict]]:
+    """For each operation with REAL parameters, values to try first in each state (see
+    :meth:`~tracecheck.b.Machine.enabled_batch`): those recorded for the step that left it
+    (the action taken there, when it is this operation), then zero. Only tried: the guard,
+    evaluated with them, decides."""
+    found: dict[str, list[dict]] = {}
+    nxt = np.minimum(np.arange(cols.n) + 1, max(cols.n - 1, 0))
+    same = (cols.episode[nxt] == cols.episode) & (np.arange(cols.n) + 1 < cols.n) \
+        if cols.n else np.zeros(0, dtype=bool)
+    for name, op in shield.machine.operations.items():
+        if not (op.params and real_parameters(op)) or any(p in cols.states.names()
+                                                          for p in op.params):
+            continue
+        tries = [{p: np.zeros(cols.n) for p in op.params}]
+        if name in cols.action_names and all(p in cols.parameters for p in op.params):
+            taken = same & (cols.action[nxt] == cols.action_names.index(name))
+            tries.insert(0, {p: np.where(taken, cols.parameters[p][nxt], np.nan)
+                             for p in op.params})
+        found[name] = tries
+    return found
 
 
 def _check_variables(shield: Shield, cols: RunColumns) -> None:
@@ -256,7 +277,7 @@ def _guard_with_parameters(shield: Shield, cols: RunColumns, op, which: np.ndarr
                              f"for its parameter {p}",
                              hint="a continuous action is replayed with the parameter values "
                                   "recorded with it (a step's `parameters`)")
-    before = _take(cols.states, which - 1)
+    before = cols.states.take(which - 1)
     for p in op.params:
         before.numbers[p] = cols.parameters[p][which]
     if cols.states.label is not None:
@@ -268,29 +289,21 @@ def _guard_with_parameters(shield: Shield, cols: RunColumns, op, which: np.ndarr
     return np.asarray(guard(before), dtype=bool)
 
 
-def _take(cols: Columns, rows: np.ndarray) -> Columns:
-    """The states at ``rows`` as columns of their own."""
-    return Columns(
-        n=len(rows), elements=cols.elements,
-        numbers={k: v[rows] for k, v in cols.numbers.items()},
-        booleans={k: v[rows] for k, v in cols.booleans.items()},
-        functions={k: (v[rows], d[rows]) for k, (v, d) in cols.functions.items()},
-        masks={k: v[rows] for k, v in cols.masks.items()},
-        others={k: [v[i] for i in rows.tolist()] for k, v in cols.others.items()})
-
-
 def _margin(machine, op, cols: RunColumns, r: int) -> _Margin:
-    """How far the recorded values of step row ``r`` lay from the nearest the shield
-    allowed in the state before (:meth:`~tracecheck.b.linear.AllowedSet.nearest`)."""
+    """How far the recorded values of step row ``r`` lay from what the shield allowed in
+    the state before, over the reals (:meth:`~tracecheck.b.linear.AllowedSet.distance`)."""
     point = {p: float(cols.parameters[p][r]) for p in op.params}
     try:
         allowed = machine.allowed(op.name, cols.states.row(r - 1))
     except UnsupportedError as exc:
         return _Margin(point, None, None, f"no margin: {exc.message}")
-    nearest = allowed.nearest(point)
-    if nearest is not None:
-        return _Margin(point, str(allowed), math.dist([nearest[p] for p in op.params],
-                                                      [point[p] for p in op.params]))
+    distance = allowed.distance(point)
+    if distance == 0.0:  # on an open end: as far as the nearest float the guard allows
+        nearest = allowed.nearest(point)
+        distance = None if nearest is None else float(np.hypot.reduce(
+            [nearest[p] - point[p] for p in op.params]))
+    if distance is not None and allowed.witness() is not None:
+        return _Margin(point, str(allowed), distance)
     if not allowed.separable:
         why = ("no margin: the allowed set is not a union of boxes (a constraint names "
                "several parameters)")

@@ -353,8 +353,9 @@ def evaluate_run(path: str | Path, pset: PropertySet, formulas: dict,
                                               dtype=bool)
             continue
         formula = formulas[("p", p.name)]
-        run.properties[p.name] = formula.holds(cols) if p.kind in ("ltl", "stl") else \
-            _holds(p, formula(cols.states), cols)
+        with _naming(f"{pset.where}: property {p.name}"):
+            run.properties[p.name] = formula.holds(cols) if p.kind in ("ltl", "stl") else \
+                _holds(p, formula(cols.states), cols)
     return run
 
 
