@@ -17,7 +17,7 @@ from __future__ import annotations
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Callable, Iterable, Optional, Sequence
+from typing import Any, Callable, Iterable, Optional, Sequence
 
 import numpy as np
 
@@ -229,9 +229,14 @@ class _Margin:
     state before, and how far outside (None: ``note`` says why)."""
 
     point: dict[str, float]
-    allowed: Optional[str]
+    allowed_set: Any  # the AllowedSet, or None
     margin: Optional[float]
     note: Optional[str] = None
+
+    @property
+    def allowed(self) -> Optional[str]:
+        """The allowed set in words (made only for the steps a report shows)."""
+        return None if self.allowed_set is None else str(self.allowed_set)
 
 
 def check_parameters(shield: Shield, cols: RunColumns, rows: np.ndarray, actions: np.ndarray,
@@ -251,9 +256,43 @@ def check_parameters(shield: Shield, cols: RunColumns, rows: np.ndarray, actions
         if not len(which):
             continue
         feasible[which] = ok = _guard_with_parameters(shield, cols, op, which)
-        for r in which[~ok].tolist() if margins else ():
-            found[r] = _margin(machine, op, cols, r)
+        if margins:
+            found.update(_margins(machine, op, cols, which[~ok]))
     return found
+
+
+def _margins(machine, op, cols: RunColumns, bad: np.ndarray) -> dict[int, _Margin]:
+    """The margin of each infeasible step row in ``bad`` (all of ``op``): for one parameter
+    in float arithmetic over all of them at once where that decides it
+    (:func:`~tracecheck.b.linear_batch.batch_margins`), else exactly, row by row."""
+    from ..b.linear_batch import batch_margins
+
+    found: dict[int, _Margin] = {}
+    decided = np.zeros(len(bad), dtype=bool)
+    if len(op.params) == 1 and len(bad):
+        (p,) = op.params
+        distance, nothing, decided = batch_margins(machine, op.name,
+                                                   cols.states.take(bad - 1),
+                                                   cols.parameters[p][bad])
+        for i in np.flatnonzero(decided).tolist():
+            r = int(bad[i])
+            allowed = _Later(machine, op.name, cols, r)
+            found[r] = _Margin({p: float(cols.parameters[p][r])}, allowed,
+                               None if nothing[i] else float(distance[i]),
+                               "nothing allowed" if nothing[i] else None)
+    for r in bad[~decided].tolist():
+        found[r] = _margin(machine, op, cols, r)
+    return found
+
+
+class _Later:
+    """The allowed set of a step, made only when a report shows it."""
+
+    def __init__(self, machine, op: str, cols: RunColumns, r: int) -> None:
+        self.machine, self.op, self.cols, self.r = machine, op, cols, r
+
+    def __str__(self) -> str:
+        return str(self.machine.allowed(self.op, self.cols.states.row(self.r - 1)))
 
 
 def _guard_with_parameters(shield: Shield, cols: RunColumns, op, which: np.ndarray
@@ -302,8 +341,8 @@ def _margin(machine, op, cols: RunColumns, r: int) -> _Margin:
         nearest = allowed.nearest(point)
         distance = None if nearest is None else float(np.hypot.reduce(
             [nearest[p] - point[p] for p in op.params]))
-    if distance is not None and allowed.witness() is not None:
-        return _Margin(point, str(allowed), distance)
+    if distance is not None:
+        return _Margin(point, allowed, distance)
     if not allowed.separable:
         why = ("no margin: the allowed set is not a union of boxes (a constraint names "
                "several parameters)")
@@ -311,7 +350,7 @@ def _margin(machine, op, cols: RunColumns, r: int) -> _Margin:
         why = "nothing allowed"
     else:
         why = "no margin: no float near the allowed set passes the guard"
-    return _Margin(point, str(allowed), None, why)
+    return _Margin(point, allowed, None, why)
 
 
 def _check_ltl(shield: Shield, cols: RunColumns, report: ReplayReport, ltl: Sequence[tuple],
