@@ -361,3 +361,17 @@ def test_an_action_space_without_bounds_records_them_as_none(capsys, acc_env, th
     assert header.action_low == [None] and header.action_high == [None]
     steps = [s for e in read_run(out).episodes for s in e.steps[1:]]
     assert any(s.parameters["a"] < 2.0 for s in steps) and not any(s.crashed for s in steps)
+
+
+def test_a_guard_that_allows_nothing_within_the_space_is_refused_before_any_episode():
+    outside = load_machine_text("""MACHINE Out
+VARIABLES Gap, EgoSpeed, LeadSpeed
+INVARIANT Gap : REAL & EgoSpeed : REAL & LeadSpeed : REAL
+INITIALISATION Gap, EgoSpeed, LeadSpeed := 1.0, 1.0, 1.0
+OPERATIONS ACCELERATE(a) = PRE a : REAL & a >= 5.0 & a <= 9.0 & Gap > 0.0 THEN skip END
+END""")
+    with pytest.raises(InputError, match=r"the guard of ACCELERATE in Out allows only a ∈ "
+                                         r"\[5\.0, 9\.0\], none of it within the action "
+                                         r"space's bounds \[-4\.0\] … \[2\.0\]"):
+        _shield(machine=outside)
+    _shield(machine=load_machine(V2))  # [-4, 2] itself: fine

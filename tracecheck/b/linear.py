@@ -40,7 +40,8 @@ from . import ast
 from .bindings import conjuncts
 from .memo import fresh
 
-__all__ = ["Constraint", "AllowedSet", "Interval", "allowed_set", "real_parameters"]
+__all__ = ["Constraint", "AllowedSet", "Interval", "allowed_set", "real_parameters",
+           "parameter_range"]
 
 #: the most polytopes a guard's disjunctions may make (each a conjunction of constraints)
 MAX_PARTS = 256
@@ -346,6 +347,22 @@ def allowed_set(machine, op_name: str, state: Optional[Mapping[str, Any]] = None
         bound.update({p: float(point[p]) for p in op.params})
         return bool(guard(bound))
     return AllowedSet(tuple(op.params), tuple(tuple(p) for p in parts), check)
+
+
+def parameter_range(machine, op_name: str) -> Optional[AllowedSet]:
+    """What the conjuncts of ``op_name``'s guard that read only its parameters allow
+    (``a >= -4.0 & a <= 2.0``), in every state alike: checked against an action space's
+    bounds before any episode. None when it has no such conjunct."""
+    op = machine.operation(op_name)
+    own = [c for c in conjuncts(op.guard) if ast.free_names(c) <= set(op.params)]
+    if not own:
+        return None
+    node = own[0]
+    for c in own[1:]:
+        node = ast.And(node, c, pos=c.pos)
+    parts = _Linearizer(set(op.params), machine.compiler(), machine.source).pred(node, True)(
+        fresh(machine.base_env))
+    return AllowedSet(tuple(op.params), tuple(tuple(p) for p in parts))
 
 
 def _compiled_with(comp, op) -> Callable[[dict], Any]:

@@ -26,7 +26,7 @@ from typing import Any, Optional, Sequence
 
 import numpy as np
 
-from ..b.linear import AllowedSet, real_parameters
+from ..b.linear import AllowedSet, parameter_range, real_parameters
 from ..errors import InputError, UnsupportedError
 
 __all__ = ["ContinuousShield", "Decision", "MODES", "interval_pairs"]
@@ -127,6 +127,18 @@ class ContinuousShield:
         if clash:
             raise InputError(f"the parameter {clash[0]} of {self.op} is also a variable of "
                              f"{machine.name}; give it another name")
+        try:
+            own = parameter_range(machine, self.op)
+        except UnsupportedError:
+            own = None  # not linear: every state's allowed set says so
+        if own is not None and own.separable and own.within(self._low, self._high).distance(
+                {p: 0.0 for p in self.params}) is None:
+            raise InputError(f"the guard of {self.op} in {machine.name} allows only {own}, "
+                             f"none of it within the action space's bounds "
+                             f"{self.low.tolist()} … {self.high.tolist()}: no action could "
+                             "ever be allowed",
+                             hint="check the parameters' order and units against the "
+                                  "environment's action space")
 
     # -- one state
     def decide(self, env: dict) -> None:
