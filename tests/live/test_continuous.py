@@ -375,3 +375,15 @@ END""")
                                          r"space's bounds \[-4\.0\] … \[2\.0\]"):
         _shield(machine=outside)
     _shield(machine=load_machine(V2))  # [-4, 2] itself: fine
+
+
+def test_envs_lists_each_continuous_action_with_its_parameters(capsys):
+    code, out, _ = run(capsys, "envs")
+    assert code == 0 and "actions: DRIVE(acceleration, steering)" in out
+    assert "actions: FIRE(main, lateral)" in out
+    code, out, _ = run(capsys, "envs", "--json")
+    import json
+
+    rows = {r["name"]: r for r in json.loads(out)}
+    assert rows["highway-continuous"]["parameters"] == {"DRIVE": ["acceleration", "steering"]}
+    assert "parameters" not in rows["highway"]

@@ -295,6 +295,8 @@ def envs_cmd(
             row.update(environment=a.env_id, actions=list(a.actions),
                        variables=list(a.variables), default_shield=a.default_shield,
                        horizon=a.horizon, installed=not missing, missing=missing)
+            if a.parameters:  # continuous: each action with the parameters it binds
+                row["parameters"] = {op: list(p) for op, p in a.parameters.items()}
         rows.append(row)
     if fmt == OutputFormat.json:
         print_json(rows)
@@ -302,7 +304,9 @@ def envs_cmd(
     table = TableData.of(
         ["name", "environment", "actions", "variables", "shield", "installed"],
         ([r["name"], r["adapter"], "", "", "", f"no: {r['problem']}"] if r["problem"] else
-         [r["name"], r["environment"], ", ".join(r["actions"]), ", ".join(r["variables"]),
+         [r["name"], r["environment"],
+          ", ".join(f"{op}({', '.join(r['parameters'][op])})" if op in r.get("parameters", {})
+                    else op for op in r["actions"]), ", ".join(r["variables"]),
           r["default_shield"] or "",
           "yes" if r["installed"] else "no: needs " + ", ".join(r["missing"])]
          for r in rows))
