@@ -39,6 +39,7 @@ from ..errors import UnsupportedError
 from . import ast
 from .bindings import conjuncts
 from .memo import fresh
+from .polytope import distance_to, nearest_point
 
 __all__ = ["Constraint", "AllowedSet", "Interval", "allowed_set", "real_parameters",
            "parameter_range"]
@@ -152,9 +153,9 @@ class AllowedSet:
 
     def witness(self) -> Optional[dict[str, float]]:
         """An allowed point the evaluator confirms (one well inside, else the one nearest
-        0), or None when there is none. Raises :class:`UnsupportedError` when the polytopes are not boxes."""
+        0), or None when there is none."""
         if not self.separable:
-            self._empty_by_solver()
+            return nearest_point(self, {p: 0.0 for p in self.params})
         for part in self.parts:  # a point well inside a box first: one evaluation
             box = _box(part, self.params)
             if box is not None and not any(i.empty for i in box.values()):
@@ -185,10 +186,10 @@ class AllowedSet:
                 scale: Optional[Mapping[str, float]] = None) -> Optional[dict[str, float]]:
         """The allowed point nearest ``point`` (Euclidean, each parameter's distance divided
         by ``scale[p]``), as floats; where the nearest lies on an open boundary, the float
-        next to it inside. None when nothing is allowed, or the polytopes are not boxes
-        (:attr:`separable`): the caller takes its fallback."""
+        next to it inside. None when nothing is allowed or none is confirmed: the caller
+        takes its fallback. Polytopes that are not boxes: :mod:`.polytope`."""
         if not self.separable:
-            return None
+            return nearest_point(self, point, scale)
         best, best_d = None, math.inf
         for part in self.parts:
             box = _box(part, self.params)
@@ -207,10 +208,9 @@ class AllowedSet:
     def distance(self, point: Mapping[str, Any]) -> Optional[float]:
         """How far ``point`` lies from the allowed set over the reals (Euclidean, to the
         nearest point of its closure; 0 inside), computed exactly and then rounded: the
-        margin of a recorded action. None when nothing is allowed, or the polytopes are
-        not boxes."""
+        margin of a recorded action. None when nothing is allowed."""
         if not self.separable:
-            return None
+            return distance_to(self, point)
         exact = {p: _exact(point[p], p) for p in self.params}
         best: Optional[Fraction] = None
         for part in self.parts:
@@ -245,10 +245,10 @@ class AllowedSet:
             inner.update({p: _inside(box[p], candidate[p]) for p in moving})
             if inner == candidate or not self.contains(inner):
                 continue
-            return self._bisect(candidate, inner)
+            return self.towards(candidate, inner)
         return self._neighbour(candidate)
 
-    def _bisect(self, refused: dict, allowed: dict) -> dict:
+    def towards(self, refused: dict, allowed: dict) -> dict:
         """The allowed point nearest ``refused`` on the segment to ``allowed``, to the
         float: steps doubling from one float away (the evaluator's rounding usually refuses
         only a few floats past a bound), then halving the rest in the floats' own order (at

@@ -177,12 +177,12 @@ class ContinuousShield:
         if allowed is not None and allowed.contains(point):
             executed = proposal
         elif allowed is not None and self.mode == "project":
-            nearest = allowed.nearest(point, dict(zip(self.params, self.scale.tolist())))
+            try:
+                nearest = allowed.nearest(point, dict(zip(self.params, self.scale.tolist())))
+            except UnsupportedError as exc:  # too many constraints to project onto
+                nearest, self.problem = None, str(exc)
             if nearest is not None:
                 executed = np.array([nearest[p] for p in self.params], dtype=np.float64)
-            elif not allowed.separable:
-                self.problem = ("the allowed set is not a union of boxes: tracecheck projects "
-                                "only onto guards whose constraints each name one parameter")
         elif allowed is not None:  # replace
             fallback = dict(zip(self.params, self.fallback.tolist()))
             if allowed.contains(fallback):

@@ -1,0 +1,68 @@
+"""The nearest point of a polytope (tracecheck.b.polytope), exactly, against a brute-force
+grid; and the allowed set of a guard whose constraints name two parameters at once."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+
+import numpy as np
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from tracecheck.b import load_machine_text
+from tracecheck.b.linear import allowed_set
+from tracecheck.b.polytope import nearest_in_polytope
+
+COEF = st.integers(-3, 3).map(Fraction)
+ROW = st.tuples(st.lists(COEF, min_size=2, max_size=2), st.integers(-6, 6).map(Fraction),
+                st.sampled_from(["<=", "<"]))
+POINT = st.tuples(st.integers(-8, 8), st.integers(-8, 8))
+
+
+def _ok(rows, x) -> bool:
+    return all(sum(a * v for a, v in zip(coef, x)) + c <= 0 for coef, c, _ in rows)
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(ROW, min_size=1, max_size=5), POINT)
+def test_the_nearest_point_is_feasible_and_no_grid_point_is_nearer(rows, point):
+    p = [Fraction(point[0]), Fraction(point[1])]
+    q = nearest_in_polytope(rows, p)
+    grid = [(Fraction(i, 2), Fraction(j, 2)) for i in range(-24, 25) for j in range(-24, 25)]
+    feasible = [g for g in grid if _ok(rows, g)]
+    if q is None:
+        assert not feasible
+        return
+    assert _ok(rows, q)
+    d = sum((a - b) ** 2 for a, b in zip(q, p))
+    assert all(sum((a - b) ** 2 for a, b in zip(g, p)) >= d for g in feasible)
+
+
+MACHINE = """MACHINE Two
+VARIABLES cap
+INVARIANT cap : REAL
+INITIALISATION cap := 1.0
+OPERATIONS
+  MOVE(u, v) = PRE u : REAL & v : REAL & u + v < cap & u - v <= 2.0 & v >= -3.0
+               THEN skip END
+END"""
+
+
+def test_a_guard_over_two_parameters_at_once_projects_and_is_confirmed():
+    m = load_machine_text(MACHINE)
+    allowed = allowed_set(m, "MOVE", {"cap": 1.0})
+    assert not allowed.separable
+    near = allowed.nearest({"u": 2.0, "v": 2.0})  # onto u + v = 1 (open): (0.5, 0.5) inside
+    assert near["u"] + near["v"] < 1.0 and abs(near["u"] - 0.5) < 1e-9
+    assert allowed.contains(near)
+    assert allowed.witness() is not None
+    assert abs(allowed.distance({"u": 2.0, "v": 2.0}) - np.sqrt(4.5)) < 1e-12
+    assert allowed.distance({"u": 0.0, "v": 0.0}) == 0.0
+    far = allowed_set(m, "MOVE", {"cap": -20.0})  # nearest 0 is the open corner (-17, -3)
+    near = far.nearest({"u": 0.0, "v": 0.0})
+    assert far.contains(near) and abs(near["u"] + 17.0) < 1e-9 and abs(near["v"] + 3.0) < 1e-9
+    assert abs(far.distance({"u": 0.0, "v": 0.0}) - np.sqrt(17 ** 2 + 3 ** 2)) < 1e-12
+    m2 = load_machine_text(MACHINE.replace("v >= -3.0", "v >= -3.0 & u >= -1.0"))
+    empty = allowed_set(m2, "MOVE", {"cap": -40.0})  # u + v >= -1 - 3: nothing below -40
+    assert empty.witness() is None and empty.nearest({"u": 0.0, "v": 0.0}) is None
+    assert empty.distance({"u": 0.0, "v": 0.0}) is None
