@@ -387,3 +387,59 @@ def test_envs_lists_each_continuous_action_with_its_parameters(capsys):
     rows = {r["name"]: r for r in json.loads(out)}
     assert rows["highway-continuous"]["parameters"] == {"DRIVE": ["acceleration", "steering"]}
     assert "parameters" not in rows["highway"]
+
+
+def test_the_viewer_blocks_the_steps_replay_finds_infeasible(throttle):
+    from tracecheck.checking.replaying import replay
+    from tracecheck.checking.shield import load_shield
+    from tracecheck.render.viewer import episode_data
+
+    _, runs = throttle
+    shield = load_shield(V1)
+    report = replay([runs["none"]], shield)
+    for e in report.per_episode:
+        data = episode_data(runs["none"], e.episode, shield)
+        assert data["first_infeasible"] == e.first_infeasible is not None
+        assert len(data["blocked"]) == e.infeasible_steps
+
+
+def test_a_guard_not_linear_in_its_parameters_is_refused_before_any_episode():
+    quadratic = load_machine_text("""MACHINE Quad
+VARIABLES Gap, EgoSpeed, LeadSpeed
+INVARIANT Gap : REAL & EgoSpeed : REAL & LeadSpeed : REAL
+INITIALISATION Gap, EgoSpeed, LeadSpeed := 1.0, 1.0, 1.0
+OPERATIONS ACCELERATE(a) = PRE a : REAL & a >= -4.0 & a <= 2.0 &
+    Gap > (EgoSpeed + a) * (EgoSpeed + a) THEN skip END
+END""")
+    with pytest.raises(InputError, match=r"the shield Quad cannot decide ACCELERATE's "
+                                         r"continuous actions: the guard is not linear in its "
+                                         r"parameters: a product of two parameter terms"):
+        _shield(machine=quadratic)
+
+
+def test_prob2trace_keeps_the_values_and_formats_without_a_place_refuse(capsys, throttle,
+                                                                        tmp_path):
+    """A ProB2 trace keeps each step's parameter values (its transitions' params), so the
+    imported episode replays as the recording; SimB and Minari exports refuse a continuous
+    run rather than drop them."""
+    import json
+
+    _, runs = throttle
+    trace = tmp_path / "ep0.prob2trace"
+    code, _, err = run(capsys, "export", "prob2trace", runs["none"], "--episode", "0", "-o",
+                       trace)
+    assert code == 0, err
+    doc = json.loads(trace.read_text())
+    assert doc["transitionList"][2]["params"] == {"a": "2.0"}
+    assert doc["machineOperationInfos"]["ACCELERATE"]["parameterNames"] == ["a"]
+    back = tmp_path / "back.mcap"
+    code, _, err = run(capsys, "import", "prob2trace", trace, "--model", V1, "-o", back)
+    assert code == 0, err
+    _, out, _ = run(capsys, "replay", back, "--shield", V1, "--json")
+    _, original, _ = run(capsys, "replay", runs["none"], "--shield", V1, "--json")
+    got, want = json.loads(out)["per_episode"][0], json.loads(original)["per_episode"][0]
+    for key in ("first_infeasible", "infeasible_steps", "parameters", "margin", "max_margin"):
+        assert got[key] == want[key], key
+    code, _, err = run(capsys, "export", "simb", runs["none"], "-o", tmp_path / "simb")
+    assert code == 2 and "which a SimB timed trace has no place for" in " ".join(err.split())
+    assert not (tmp_path / "simb").exists()

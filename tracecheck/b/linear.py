@@ -42,7 +42,7 @@ from .memo import fresh
 from .polytope import distance_to, nearest_point
 
 __all__ = ["Constraint", "AllowedSet", "Interval", "allowed_set", "real_parameters",
-           "parameter_range"]
+           "parameter_range", "guard_with_parameters", "linear_form"]
 
 #: the most polytopes a guard's disjunctions may make (each a conjunction of constraints)
 MAX_PARTS = 256
@@ -335,12 +335,8 @@ def allowed_set(machine, op_name: str, state: Optional[Mapping[str, Any]] = None
     # one copy of the state for every evaluation here: what does not depend on a parameter
     # (a quantifier over the vehicles) is computed once, remembered in it (see .memo)
     local = fresh(machine.env(state or {}) if env is None else env)
-    comp = machine.compiler()
-    linear = machine.cached("linear guards", op_name, lambda: _Linearizer(
-        set(op.params), comp, machine.source).pred(op.guard, True))
-    parts = linear(local)
-    guard = machine.cached("guards with parameters bound", op_name,
-                           lambda: _compiled_with(comp, op))
+    parts = linear_form(machine, op_name)(local)
+    guard = guard_with_parameters(machine, op_name)
 
     def check(point: Mapping[str, Any]) -> bool:
         bound = dict(local)  # the remembered values shared: none depends on a parameter
@@ -365,11 +361,24 @@ def parameter_range(machine, op_name: str) -> Optional[AllowedSet]:
     return AllowedSet(tuple(op.params), tuple(tuple(p) for p in parts))
 
 
-def _compiled_with(comp, op) -> Callable[[dict], Any]:
-    """``op``'s guard compiled with its parameters as bound names: no sub-formula that
-    reads one is remembered between evaluations for different values."""
-    with comp.binding(tuple(op.params)):
-        return comp.compile(op.guard)
+def linear_form(machine, op_name: str) -> Callable[[dict], list]:
+    """``op_name``'s guard compiled (once) into a function from a state to its polytopes;
+    raises :class:`UnsupportedError` with the reason where its form cannot be linear in
+    the parameters (a product of two parameter terms, a parameter inside a function)."""
+    op = machine.operation(op_name)
+    return machine.cached("linear guards", op_name, lambda: _Linearizer(
+        set(op.params), machine.compiler(), machine.source).pred(op.guard, True))
+
+
+def guard_with_parameters(machine, op_name: str) -> Callable[[dict], Any]:
+    """``op_name``'s guard compiled (once) with its parameters as bound names: no
+    sub-formula that reads one is remembered between evaluations for different values."""
+    def compiled() -> Callable[[dict], Any]:
+        comp = machine.compiler()
+        op = machine.operation(op_name)
+        with comp.binding(tuple(op.params)):
+            return comp.compile(op.guard)
+    return machine.cached("guards with parameters bound", op_name, compiled)
 
 
 class _Linearizer:

@@ -204,6 +204,15 @@ class Machine:
 
         return allowed_set(self, op, state)
 
+    def allows(self, op: str, state: Mapping[str, Any], parameters: Mapping[str, Any]) -> bool:
+        """Whether ``op``'s guard holds in ``state`` with its parameters bound to
+        ``parameters`` (a recorded continuous action): the evaluator's answer."""
+        from .linear import guard_with_parameters
+
+        env = self.env(state)
+        env.update({p: parameters[p] for p in self.operation(op).params})
+        return bool(guard_with_parameters(self, op)(env))
+
     def enabled(self, state: Mapping[str, Any]) -> set[str]:
         """The operations whose guard holds in ``state`` (parameters: for some value)."""
         return self.enabled_in(self.env(state))

@@ -53,13 +53,14 @@ def read_literal(text: Any, where: str) -> Any:
             from None
 
 
-def build_episode(episode_id: int, origin: str, items: list[tuple[Optional[str], dict, float]],
+def build_episode(episode_id: int, origin: str, items: list[tuple],
                   vocab: Vocabulary, where: str, reason: Optional[str] = None) -> Episode:
-    """An episode from (action, state, time) per step; checks names against ``vocab``."""
+    """An episode from (action, state, time) per step — or (action, state, time,
+    parameters) for a continuous action's values; checks names against ``vocab``."""
     if not items:
         raise InputError(f"{where}: the trace has no initial state ({INIT})")
     steps = []
-    for k, (action, state, t) in enumerate(items):
+    for k, (action, state, t, *more) in enumerate(items):
         here = f"{where}, step {k}"
         if k > 0 and action not in vocab.actions:
             raise InputError(f"{here}: unknown operation {action!r}; the actions are "
@@ -76,7 +77,8 @@ def build_episode(episode_id: int, origin: str, items: list[tuple[Optional[str],
             raise InputError(f"{here}: no value for {', '.join(missing)}")
         steps.append(StepRecord(step=k, time=t, action=action if k else None, state=state,
                                 reward=_number(state.get("Reward", 0.0), here),
-                                crashed=_flag(state.get("Crash", False), here)))
+                                crashed=_flag(state.get("Crash", False), here),
+                                parameters=(more[0] or None) if more and k else None))
     steps_t = tuple(steps)
     return Episode(id=episode_id, steps=steps_t, end=make_end(steps_t, reason), origin=origin)
 
@@ -106,6 +108,20 @@ def check_types(machine, episode: Episode, where: str) -> None:
         return
     for s in episode.steps:
         machine.check_state(s.state, where=f"{where}, step {s.step}")
+
+
+def refuse_continuous(episodes: Iterable[Episode], fmt: str) -> None:
+    """Formats without a place for a continuous action's values refuse a run that has
+    them (rather than write the action without them)."""
+    for episode in episodes:
+        step = next((s for s in episode.steps if s.parameters), None)
+        if step is not None:
+            raise InputError(f"episode {episode.id}, step {step.step}: the action "
+                             f"{step.action} has continuous values "
+                             f"({', '.join(step.parameters)}), which {fmt} has no place for: "
+                             "exporting would drop them",
+                             hint="export prob2trace keeps them; the run file itself is the "
+                                  "complete record")
 
 
 def state_changes(prev: Mapping[str, Any], state: Mapping[str, Any]) -> dict[str, Any]:

@@ -180,6 +180,7 @@ def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
 
     from ..episodes.codec import encode_state
     from ..episodes.reader import read_run
+    from .common import refuse_continuous
 
     minari = minari_package()
     from minari.data_collector.episode_buffer import EpisodeBuffer
@@ -188,6 +189,7 @@ def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
     root = datasets_root()
     _refuse_taken(root, dataset_id)
     result = read_run(run, salvage=salvage)
+    refuse_continuous(result.episodes, "tracecheck's Minari export (it writes action indexes)")
     header = result.header
     if not result.episodes:
         raise InputError(f"{run} holds no complete episode")

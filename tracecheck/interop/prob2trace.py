@@ -52,10 +52,27 @@ def read_prob2trace(path: Path, episode_id: int, vocab: Vocabulary = HIGHWAY,
         state = dict(state)
         for name, text in dest.items():
             state[name] = read_literal(text, f"{where}, step {step}, variable {name}")
-        items.append((None if op == INIT else op, state, step * step_seconds))
+        items.append((None if op == INIT else op, state, step * step_seconds,
+                      _parameters(transition.get("params"), f"{where}, step {step}")))
     episode = build_episode(episode_id, where, items, vocab, where)
     check_types(machine, episode, where)
     return episode
+
+
+def _parameters(params, where: str) -> Optional[dict]:
+    """A transition's parameters as a continuous action's values (real numbers)."""
+    if not params:
+        return None
+    if not isinstance(params, dict):
+        raise InputError(f"{where}: 'params' must be a JSON object")
+    out = {}
+    for name, text in params.items():
+        value = read_literal(text, f"{where}, parameter {name}")
+        if type(value) not in (int, float):
+            raise InputError(f"{where}: the parameter {name} is {text!r}, not a number "
+                             "(tracecheck keeps the values of continuous actions)")
+        out[str(name)] = float(value)
+    return out
 
 
 def import_prob2trace(paths: Iterable[str | Path], *, vocab: Vocabulary = HIGHWAY,
@@ -73,7 +90,9 @@ def prob2trace_document(episode: Episode, vocab: Vocabulary = HIGHWAY) -> dict:
         changed = state_changes(prev, s.state)
         same = [k for k in s.state if k not in changed]
         transitions.append(_transition(s.action or INIT, {k: format_value(v)
-                                                          for k, v in changed.items()}, same))
+                                                          for k, v in changed.items()}, same,
+                                       {p: format_value(v)
+                                        for p, v in (s.parameters or {}).items()}))
         prev = dict(s.state)
     variables = sorted(episode.steps[0].state)
     used = sorted({s.action for s in episode.steps[1:]})
@@ -83,7 +102,8 @@ def prob2trace_document(episode: Episode, vocab: Vocabulary = HIGHWAY) -> dict:
         "variableNames": variables,
         "constantNames": [],
         "setNames": [vocab.set_name],
-        "machineOperationInfos": {op: _operation_info(op, variables) for op in used},
+        "machineOperationInfos": {op: _operation_info(op, variables, _names(episode, op))
+                                  for op in used},
         "globalIdentifierTypes": {},
         "metadata": {
             "fileType": "Trace",
@@ -95,13 +115,19 @@ def prob2trace_document(episode: Episode, vocab: Vocabulary = HIGHWAY) -> dict:
     }
 
 
-def _transition(name, dest, same):
-    return {"name": name, "params": {}, "results": {}, "destState": dest,
+def _transition(name, dest, same, params=None):
+    return {"name": name, "params": params or {}, "results": {}, "destState": dest,
             "destStateNotChanged": same, "preds": [], "postconditions": [], "description": ""}
 
 
-def _operation_info(op, variables):
-    return {"operationName": op, "parameterNames": [], "outputParameterNames": [],
+def _names(episode: Episode, op: str) -> list[str]:
+    """The parameter names of ``op`` in ``episode`` (a continuous action's)."""
+    return list(next((s.parameters for s in episode.steps if s.action == op and s.parameters),
+                     {}))
+
+
+def _operation_info(op, variables, parameters):
+    return {"operationName": op, "parameterNames": parameters, "outputParameterNames": [],
             "topLevel": True, "type": "CLASSICAL_B", "readVariables": [],
             "writtenVariables": variables, "nonDetWrittenVariables": variables}
 

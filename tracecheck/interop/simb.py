@@ -19,7 +19,7 @@ from ..episodes.model import Episode
 from ..episodes.vocabulary import HIGHWAY, Vocabulary
 from ..errors import InputError, printable
 from .common import (INIT, SETUP, build_episode, check_types, expand_paths, load_json,
-                     read_literal)
+                     read_literal, refuse_continuous)
 
 __all__ = ["import_simb", "read_simb", "export_simb", "simb_document"]
 
@@ -159,6 +159,8 @@ def export_simb(episodes: Iterable[Episode], folder: str | Path,
     from ..jsontext import json_text
 
     folder = check_simb_folder(folder, inputs, force=force)
+    episodes = list(episodes)
+    refuse_continuous(episodes, "a SimB timed trace")
     names = []
     with atomic_folder(folder) as tmp:
         for n, episode in enumerate(episodes, start=1):

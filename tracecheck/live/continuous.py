@@ -26,7 +26,7 @@ from typing import Any, Optional, Sequence
 
 import numpy as np
 
-from ..b.linear import AllowedSet, parameter_range, real_parameters
+from ..b.linear import AllowedSet, linear_form, parameter_range, real_parameters
 from ..errors import InputError, UnsupportedError
 
 __all__ = ["ContinuousShield", "Decision", "MODES", "interval_pairs"]
@@ -123,6 +123,14 @@ class ContinuousShield:
             raise InputError(f"the operation {self.op} of {machine.name} must type each "
                              f"parameter REAL in its guard (PRE {self.params[0]} : REAL & …) to "
                              "take a continuous action")
+        try:
+            linear_form(machine, self.op)
+        except UnsupportedError as exc:
+            raise InputError(f"the shield {machine.name} cannot decide {self.op}'s continuous "
+                             f"actions: {exc.message}",
+                             hint="write the guard linear in the parameters once the state is "
+                                  "known (docs/continuous.md); tracecheck guards --state "
+                                  "shows the allowed set") from None
         clash = [p for p in self.params if p in machine.variables]
         if clash:
             raise InputError(f"the parameter {clash[0]} of {self.op} is also a variable of "

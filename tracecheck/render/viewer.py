@@ -164,7 +164,8 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
     steps, blocked, interventions = [], [], []
     for k, s in enumerate(ep.steps):
         enabled = sorted(machine.enabled(s.state)) if machine is not None else None
-        if k and machine is not None and s.action not in steps[-1]["shield_allows"]:
+        if k and machine is not None and not _allowed_step(machine, ep.steps[k - 1], s,
+                                                          steps[-1]["shield_allows"]):
             blocked.append(s.step)
         if (s.preferred_action is not None and s.action is not None
                 and s.preferred_action != s.action) or _moved(s):
@@ -199,6 +200,15 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
                 "total_reward": ep.end.total_reward},
         "steps": steps,
     }
+
+
+def _allowed_step(machine, before, step, enabled: list) -> bool:
+    """Whether the shield allowed the step's action in the state before: a continuous one
+    (recorded parameters) by its guard with the recorded values, as replay decides it."""
+    if step.parameters and step.action in machine.operations and \
+            machine.operation(step.action).params:
+        return machine.allows(step.action, before.state, step.parameters)
+    return step.action in enabled
 
 
 def _moved(step) -> bool:
