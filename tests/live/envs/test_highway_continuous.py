@@ -264,3 +264,11 @@ def _acceleration_range(allowed, steering=0.0):
 def _steering_range(allowed, acceleration=-1.0):
     return tuple(allowed.nearest({"acceleration": acceleration, "steering": s})["steering"]
                  for s in (-10.0, 10.0))
+
+
+def test_the_shield_is_proved_deadlock_free(capsys):
+    """Some action is allowed in every state (∃ over both parameters, z3): nearly stopped,
+    drifting towards a vehicle beside, the way back was once a steering beyond its range."""
+    code, out, err = run(capsys, "prove", "highway_continuous", "--deadlock-free")
+    assert code == 0 and "deadlock-free: proved" in out, out + err
+    assert "WARNING" not in err
