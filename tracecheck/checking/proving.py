@@ -241,6 +241,10 @@ def _obligation(name: str, build: Callable[[], list], ctx: _Context,
     try:
         ok_invariant = all(m.invariant(state) for m in ctx.machines)
         confirmed = ok_invariant and finding.confirm(state)
+    except UnsupportedError as exc:  # the evaluator cannot decide it: not known either way
+        return Result(name, UNKNOWN, state=state, reading=result.reading,
+                      reason=("the solver's counterexample cannot be confirmed: tracecheck's "
+                              f"evaluator does not decide it ({exc.message})"))
     except TracecheckError as exc:
         result.disagreement = f"tracecheck's evaluator cannot evaluate the state: {exc.message}"
         return result
