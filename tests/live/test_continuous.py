@@ -443,3 +443,26 @@ def test_prob2trace_keeps_the_values_and_formats_without_a_place_refuse(capsys, 
     code, _, err = run(capsys, "export", "simb", runs["none"], "-o", tmp_path / "simb")
     assert code == 2 and "which a SimB timed trace has no place for" in " ".join(err.split())
     assert not (tmp_path / "simb").exists()
+
+
+def test_record_says_how_often_the_shield_allowed_nothing(capsys, acc_env, throttle, tmp_path):
+    agent, runs = throttle
+    from tracecheck.episodes.reader import read_run
+
+    fallbacks = sum(bool(s.deadlock) for e in read_run(runs["v1"]).episodes for s in e.steps)
+    assert fallbacks  # full throttle from a short gap: nothing allowed at some steps
+    code, out, err = run(capsys, "record", "--env", THROTTLE, "--env-config", "max_steps=40",
+                         "--agent", agent, "--shield", V1, "-n", "4", "-o", tmp_path / "a.mcap")
+    assert code == 0, err
+    assert (f"{fallbacks} step(s) where the shield allowed nothing and the fallback was taken"
+            in " ".join(out.split()))
+
+
+def test_info_names_the_continuous_actions_and_the_mode(capsys, throttle):
+    _, runs = throttle
+    code, out, _ = run(capsys, "info", runs["replace"])
+    assert code == 0 and "continuous: ACCELERATE(a), shield mode replace, scale 1" in out
+    code, out, _ = run(capsys, "info", runs["none"], "--json")
+    import json
+
+    assert json.loads(out)["files"][0]["continuous"].startswith("ACCELERATE(a)")

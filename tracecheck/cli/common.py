@@ -233,10 +233,15 @@ SCALE = typer.Option(None, "--scale", help="Continuous actions: the unit of each
                      "projection distances, comma-separated (e.g. 4,0.5; default 1 each).")
 
 
-def continuous_options(shield_mode: Optional[str], scale: Optional[str]) -> dict:
+def continuous_options(shield_mode: Optional[str], scale: Optional[str],
+                       external: Optional[str] = None) -> dict:
     """``RecordSettings`` fields of --shield-mode and --scale (checked against the
-    environment when the recording is checked)."""
+    environment when the recording is checked); refused with ``--external``."""
     from ..live.continuous import MODES
+
+    if external is not None and (shield_mode is not None or scale is not None):
+        raise InputError("--shield-mode and --scale are for continuous actions; an "
+                         "--external script chooses among the machine's operations")
 
     if shield_mode is not None and shield_mode not in MODES:
         raise InputError(f"--shield-mode {shield_mode!r}: give one of {', '.join(MODES)}")

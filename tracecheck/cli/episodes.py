@@ -261,7 +261,7 @@ def info(
     rate = summary["crashes"] / summary["episodes"] if summary["episodes"] else 0.0
     lines = [f"total: {summary['episodes']} episode(s), {summary['steps']} step(s), "
              f"{summary['crashes']} crash(es) ({rate:.1%})"]
-    lines += [f"{key}: {', '.join(summary[key])}" for key in ("agents", "shields")
-              if summary[key]]
+    lines += [f"{key}: {('; ' if key == 'continuous' else ', ').join(summary[key])}"
+              for key in ("agents", "shields", "continuous") if summary[key]]
     for line in lines:
         say(line)

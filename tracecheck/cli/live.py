@@ -163,9 +163,7 @@ def record_cmd(
     with --external, an agent script that speaks SimB's external-simulation protocol, the
     shield's machine answering it as ProB would."""
     if external is not None:
-        if shield_mode is not None or scale is not None:
-            raise InputError("--shield-mode and --scale are for continuous actions; an "
-                             "--external script chooses among the machine's operations")
+        continuous_options(shield_mode, scale, external)
         settings, machine = external_settings(
             external, shield=shield, episodes=episodes, cwd=cwd, step_timeout=step_timeout,
             crash=crash, ending_time=ending_time, duration=duration, agent=agent, seed=seed,
@@ -195,6 +193,8 @@ def record_cmd(
             stats["episodes"] += 1
             stats["crashes"] += ep.end.crashed
             stats["steps"] += ep.end.steps
+            stats["fallbacks"] = stats.get("fallbacks", 0) + sum(bool(s.deadlock)
+                                                                 for s in ep.steps)
             rate = stats["steps"] / max(_time.perf_counter() - start, 1e-9)
             advance(crashes=stats["crashes"], rate=f"{rate:.0f}")
 
@@ -207,7 +207,10 @@ def record_cmd(
                       + ("changed" if existed else "written"), markup=False)
             raise typer.Exit(130) from None
     took = _time.perf_counter() - start
-    say(f"recorded {n} episode(s), {steps} step(s), {crashes} crash(es) with shield "
+    fallbacks = stats.get("fallbacks", 0)
+    nothing = (f", {fallbacks} step(s) where the shield allowed nothing and the fallback "
+               "was taken" if fallbacks else "")
+    say(f"recorded {n} episode(s), {steps} step(s), {crashes} crash(es){nothing} with shield "
         f"{shield} in {took:.1f} s ({steps / took:.0f} steps/s) -> {output}")
 
 

@@ -13,7 +13,8 @@ from .common import (CRASH, CWD, ENDING_TIME, EXTERNAL, STEP_TIMEOUT, external_s
                      app, out, err, warn, Executor, FILE_EXECUTOR, EPISODE_EXECUTOR, RAY_ADDRESS,
                      OutputFormat, FORMAT, JSON, output_format, print_json, plain, progress,
                      Interval, ENV, ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, FORCE,
-                     RUN_SHIELD, SEED, WORKERS, SALVAGE, RUN_ENV, run_adapter)
+                     RUN_SHIELD, SEED, WORKERS, SALVAGE, RUN_ENV, run_adapter, SCALE,
+                     SHIELD_MODE, continuous_options)
 
 
 def _print_stats(result: dict, fmt: OutputFormat, plot: Optional[Path],
@@ -101,6 +102,8 @@ def simulate_cmd(
     until_ci_width: Optional[float] = typer.Option(
         None, "--until-ci-width", help="Stop once every property's 95 % interval is narrower "
                                        "than this (a share, e.g. 0.1)."),
+    shield_mode: Optional[str] = SHIELD_MODE,
+    scale: Optional[str] = SCALE,
     as_json: bool = JSON,
     fmt: OutputFormat = FORMAT,
     output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
@@ -115,6 +118,8 @@ def simulate_cmd(
     fmt = output_format(fmt, as_json)
     if external is not None:
         from ..stats.simulate import simulate_external
+
+        continuous_options(shield_mode, scale, external)
 
         settings, machine = external_settings(
             external, shield=shield, episodes=episodes, cwd=cwd, step_timeout=step_timeout,
@@ -133,7 +138,8 @@ def simulate_cmd(
     settings = record_settings(env, env_config, agent=str(agent) if agent is not None else None,
                          shield=shield, episodes=episodes,
                          seed=seed, duration=duration, profile=profile, workers=workers,
-                         executor=executor.value, ray_address=ray_address)
+                         executor=executor.value, ray_address=ray_address,
+                         **continuous_options(shield_mode, scale))
     from ..stats.estimates import adapter_set
 
     pset = load_properties(properties) if properties else adapter_set(resolve(settings)[0])

@@ -31,6 +31,7 @@ def summarise(paths: Iterable[str | Path], *, salvage: bool = False) -> dict:
             "steps": cols.n - episodes, "crashes": crashes,
             "agent": header.agent_id, "shield": header.shield_name,
             "environment": header.environment_id,
+            "continuous": _continuous(header),
         })
     return {
         "episodes": sum(f["episodes"] for f in files),
@@ -39,6 +40,19 @@ def summarise(paths: Iterable[str | Path], *, salvage: bool = False) -> dict:
         "sources": sorted({f["source"] for f in files}),
         "agents": sorted({f["agent"] for f in files if f["agent"]}),
         "shields": sorted({f["shield"] for f in files if f["shield"]}),
+        "continuous": sorted({f["continuous"] for f in files if f["continuous"]}),
         "files": files,
         "warnings": warnings,
     }
+
+
+def _continuous(header) -> str:
+    """A run's continuous actions in words: the operations with their parameters, the
+    shield's mode and the scale of its distances ("" for discrete actions)."""
+    if not header.action_parameters:
+        return ""
+    ops = ", ".join(f"{op}({', '.join(p)})" for op, p in header.action_parameters.items())
+    mode = f", shield mode {header.shield_mode}" if header.shield_mode else ""
+    scale = (f", scale {', '.join(f'{x:g}' for x in header.projection_scale)}"
+             if header.projection_scale else "")
+    return ops + mode + scale
