@@ -50,7 +50,8 @@ def test_the_wheel_runs_outside_the_source_tree(installed, tmp_path):
     result = tracecheck(installed, tmp_path, "replay", run, "--shield", "paper")
     assert result.returncode == 0, result.stderr
     assert "Replay against shield paper" in result.stdout
-    for shield in ("strict", "none", "frozenlake", "cliffwalking"):
+    for shield in ("strict", "none", "frozenlake", "cliffwalking", "highway_continuous",
+                   "lunarlander_continuous"):
         checked = tracecheck(installed, tmp_path, "check-model", shield)
         assert checked.returncode == 0 and "ok:" in checked.stdout, checked.stderr
 
