@@ -272,3 +272,20 @@ def test_the_shield_is_proved_deadlock_free(capsys):
     code, out, err = run(capsys, "prove", "highway_continuous", "--deadlock-free")
     assert code == 0 and "deadlock-free: proved" in out, out + err
     assert "WARNING" not in err
+
+
+def test_the_bundled_sac_agent_acts_in_the_environment():
+    from tracecheck.checking.shield import data_dir
+    from tracecheck.live.adapter import get_adapter
+    from tracecheck.live.agents import load_agent
+
+    path = data_dir() / "agents" / "highway_continuous_sac.zip"
+    card = json.loads(path.with_suffix(".json").read_text())
+    assert card["algorithm"] == "SAC" and card["environment"] == "highway-continuous"
+    adapter = get_adapter("highway-continuous")
+    env = adapter.make_env(adapter.config(
+        {k: v for k, v in card["environment_config"].items() if k != "duration"}))
+    agent = load_agent(path, adapter=adapter, env=env)
+    obs, _ = env.reset(seed=0)
+    action = agent.act(obs)
+    assert agent.continuous and action.shape == (2,) and np.all(np.abs(action) <= 1.0)
