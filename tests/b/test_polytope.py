@@ -66,3 +66,27 @@ def test_a_guard_over_two_parameters_at_once_projects_and_is_confirmed():
     empty = allowed_set(m2, "MOVE", {"cap": -40.0})  # u + v >= -1 - 3: nothing below -40
     assert empty.witness() is None and empty.nearest({"u": 0.0, "v": 0.0}) is None
     assert empty.distance({"u": 0.0, "v": 0.0}) is None
+
+
+def _go(guard: str):
+    return load_machine_text(f"""MACHINE M
+VARIABLES G
+INVARIANT G : REAL
+INITIALISATION G := 1.0
+OPERATIONS Go(a, b) = PRE a : REAL & b : REAL & {guard} THEN skip END
+END""")
+
+
+def test_equalities_over_several_parameters_find_an_allowed_float_or_say_undecided():
+    import pytest
+
+    from tracecheck.errors import UnsupportedError
+
+    for guard in ("a + 3.0*b = G", "a + b = G & 2.0*a + 2.0*b = 2.0*G", "a + b = G & a < 0.5"):
+        m = _go(guard)
+        found = m.allowed("Go", {"G": 1.0}).witness()
+        assert found is not None and m.allows("Go", {"G": 1.0}, found), guard
+        assert m.is_enabled("Go", {"G": 1.0})
+    thin = _go("a + 3.0*b <= G & a + 3.0*b > G - 1.0E-15")  # allowed, but no float found
+    with pytest.raises(UnsupportedError, match="undecided"):
+        thin.allowed("Go", {"G": 1.0}).witness()

@@ -64,11 +64,12 @@ def test_project_takes_the_nearest_allowed_action_confirmed_by_the_evaluator():
     state = _state(28.0, 20.0, 15.0)  # a < (28 + 15 - 1 - 40) / 2 = 1.0, open
     shield = _decide(_shield(), state)
     d = shield.filter([2.0])
-    a = d.executed[0]
-    assert a < 1.0 and 1.0 - a < 1e-12  # the float boundary the evaluator accepts
+    a = d.executed[0]  # the largest float32 (the space's type) the evaluator accepts
+    assert a == float(np.nextafter(np.float32(1.0), np.float32(0.0)))
     assert _guard_allows(shield.machine, state, a)
-    assert not _guard_allows(shield.machine, state, float(np.nextafter(a, 2.0)))
-    assert d.intervened and not d.deadlock and d.distance == pytest.approx(1.0)
+    assert not _guard_allows(shield.machine, state, float(np.nextafter(np.float32(a),
+                                                                       np.float32(2.0))))
+    assert d.intervened and not d.deadlock and d.distance == pytest.approx(1.0, abs=1e-6)
     assert d.parameters == {"a": a} and d.proposal == {"a": 2.0}
     assert shield.bands() == {"a": ((-4.0, 1.0),)}
 
@@ -466,3 +467,40 @@ def test_info_names_the_continuous_actions_and_the_mode(capsys, throttle):
     import json
 
     assert json.loads(out)["files"][0]["continuous"].startswith("ACCELERATE(a)")
+
+
+def test_a_float32_space_gets_a_value_the_guard_allows_as_it_is_sent():
+    """3 a <= Gap: the nearest allowed a is 1/3 as a float64, which rounds up in float32 to
+    a value the guard refuses; what is executed (and recorded) is the float32 below it."""
+    third = load_machine_text("""MACHINE Third
+VARIABLES Gap, EgoSpeed, LeadSpeed
+INVARIANT Gap : REAL & EgoSpeed : REAL & LeadSpeed : REAL
+INITIALISATION Gap, EgoSpeed, LeadSpeed := 1.0, 1.0, 1.0
+OPERATIONS ACCELERATE(a) = PRE a : REAL & a >= -4.0 & a <= 2.0 & 3.0 * a <= Gap
+    THEN skip END
+END""")
+    shield = _decide(_shield(machine=third), _state(1.0, 1.0, 1.0))
+    d = shield.filter([0.9])
+    a = d.executed[0]
+    assert np.float32(a) == a and 3.0 * a <= 1.0  # a float32, allowed as it is
+    assert a == float(np.nextafter(np.float32(1 / 3), np.float32(0)))
+    assert d.parameters == {"a": a} and not d.deadlock
+
+
+def test_replace_with_a_refused_fallback_takes_the_allowed_action_nearest_it():
+    state = _state(28.0, 20.0, 15.0)  # a < 1.0: the fallback -4 is allowed
+    narrow = load_machine_text(load_machine(V1).source.replace("a >= -4.0", "a >= -1.0"))
+    shield = _decide(_shield("replace", machine=narrow), state)  # now -4 is refused
+    d = shield.filter([2.0])
+    assert not d.deadlock and d.executed[0] == -1.0  # the allowed action nearest -4
+
+
+def test_a_q_table_and_a_penalty_that_is_not_finite_are_refused(capsys, acc_env, tmp_path):
+    table = tmp_path / "q.npy"
+    np.save(table, np.zeros((4, 1)))
+    code, _, err = run(capsys, "record", "--env", THROTTLE, "--agent", table, "--shield",
+                       "none", "-n", "1", "-o", tmp_path / "a.mcap")
+    assert code == 2 and "a Q-table chooses among discrete actions" in err
+    code, _, err = run(capsys, "train", "--env", THROTTLE, "--shield", V1, "--steps", "50",
+                       "--intervention-penalty", "nan", "-o", tmp_path / "a.zip")
+    assert code == 2 and "give a finite number" in err

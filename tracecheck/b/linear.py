@@ -155,7 +155,14 @@ class AllowedSet:
         """An allowed point the evaluator confirms (one well inside, else the one nearest
         0), or None when there is none."""
         if not self.separable:
-            return nearest_point(self, {p: 0.0 for p in self.params})
+            zero = {p: 0.0 for p in self.params}
+            found = nearest_point(self, zero)
+            if found is None and distance_to(self, zero) is not None:
+                raise UnsupportedError(
+                    "undecided: the guard allows values over the reals (on a face of a "
+                    "polytope over several parameters), but tracecheck found no float point "
+                    "it accepts, nor can it say there is none")
+            return found
         for part in self.parts:  # a point well inside a box first: one evaluation
             box = _box(part, self.params)
             if box is not None and not any(i.empty for i in box.values()):
@@ -268,9 +275,12 @@ class AllowedSet:
         else:
             t = 1.0
         hi = t
+
+        def end(t: float) -> dict:  # at 1 the allowed point itself, not a rounding of it
+            return dict(allowed) if t >= 1.0 else at(t)
         while True:
             mid = _float_between(lo, hi)
-            low, high = at(lo), at(hi)
+            low, high = at(lo), end(hi)
             if mid is None or all(math.nextafter(low[p], high[p]) == high[p]
                                   or low[p] == high[p] for p in moving):
                 return high

@@ -57,6 +57,7 @@ def batch_margins(machine, op_name: str, cols, values: np.ndarray
 
 def _distances(parts: list, x: np.ndarray, n: int):
     best = np.full(n, np.inf)
+    some = np.zeros(n, dtype=bool)  # some polytope leaves values in the row
     unsure = ~np.isfinite(x)
     for mask, constraints in parts:
         low, high = np.full(n, -np.inf), np.full(n, np.inf)
@@ -78,10 +79,10 @@ def _distances(parts: list, x: np.ndarray, n: int):
         unsure |= applies & ~impossible & (np.abs(high - low) <= scale)  # (near) one point
         empty = impossible | (low > high) | ~applies
         gap = np.where(x < low, low - x, np.where(x > high, x - high, 0.0))
-        unsure |= applies & ~empty & (gap <= scale)  # on or next to a bound
+        unsure |= applies & ~empty & ((gap <= scale) | ~np.isfinite(gap))  # at a bound, huge
         best = np.where(empty, best, np.minimum(best, gap))
-    nothing = np.isinf(best)
-    return np.where(nothing, np.nan, best), nothing, ~unsure
+        some |= ~empty
+    return np.where(some, best, np.nan), ~some, ~unsure
 
 
 class _BatchLinearizer:

@@ -37,7 +37,7 @@ def nearest_in_polytope(rows: Sequence[Row], point: Sequence[Fraction]
     if any(not _holds(r, point) for r in rows if not any(r[0])):
         return None  # a constraint without a parameter that fails: empty
     rows = [r for r in rows if any(r[0])]
-    equal = [i for i, r in enumerate(rows) if r[2] == "="]
+    equal = _independent([i for i, r in enumerate(rows) if r[2] == "="], rows)
     count = sum(comb(len(rows), r) for r in range(min(k, len(rows)) + 1))
     if count > MAX_SYSTEMS:
         raise UnsupportedError(f"projecting onto a polytope of {len(rows)} constraints over "
@@ -47,7 +47,7 @@ def nearest_in_polytope(rows: Sequence[Row], point: Sequence[Fraction]
     best_d: Optional[Fraction] = None
     for r in range(min(k, len(rows)) + 1):
         for active in combinations(range(len(rows)), r):
-            if not set(equal) <= set(active) and len(equal) <= k:
+            if not set(equal) <= set(active):
                 continue
             x = _project([rows[i] for i in active], point)
             if x is None or not all(_holds(row, x) for row in rows):
@@ -68,14 +68,30 @@ def interior(rows: Sequence[Row], k: int) -> Optional[list[float]]:
     rows = [r for r in rows if any(r[0])]
     if not rows:
         return [0.0] * k
+    bounds = [r for r in rows if r[2] != "="]
+    equal = [r for r in rows if r[2] == "="]
     a = [[float(x) for x in coef] + [sum(float(x) ** 2 for x in coef) ** 0.5]
-         for coef, _, _ in rows]
-    b = [-float(c) for _, c, _ in rows]
+         for coef, _, _ in bounds] or None
+    b = [-float(c) for _, c, _ in bounds] or None
     result = linprog([0.0] * k + [-1.0], A_ub=a, b_ub=b,
+                     A_eq=[[float(x) for x in coef] + [0.0] for coef, _, _ in equal] or None,
+                     b_eq=[-float(c) for _, c, _ in equal] or None,
                      bounds=[(None, None)] * k + [(0.0, 1.0)], method="highs")
-    if not result.success or result.x[-1] <= 0:
+    if not result.success or (bounds and result.x[-1] <= 0):
         return None
     return [float(v) for v in result.x[:k]]
+
+
+def _independent(which: list[int], rows: Sequence[Row]) -> list[int]:
+    """The rows of ``which`` whose coefficients are linearly independent of those before
+    them (a dependent equality is implied by the others, or contradicts them: either way
+    the feasibility check of every candidate decides)."""
+    kept: list[int] = []
+    for i in which:
+        if _project([rows[j] for j in kept] + [rows[i]], [Fraction(0)] * len(rows[i][0])) \
+                is not None:
+            kept.append(i)
+    return kept
 
 
 def _holds(row: Row, x: Sequence[Fraction]) -> bool:

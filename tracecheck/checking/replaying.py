@@ -336,11 +336,15 @@ def _margin(machine, op, cols: RunColumns, r: int) -> _Margin:
         allowed = machine.allowed(op.name, cols.states.row(r - 1))
     except UnsupportedError as exc:
         return _Margin(point, None, None, f"no margin: {exc.message}")
-    distance = allowed.distance(point)
-    if distance == 0.0:  # on an open end: as far as the nearest float the guard allows
-        nearest = allowed.nearest(point)
-        distance = None if nearest is None else float(np.hypot.reduce(
-            [nearest[p] - point[p] for p in op.params]))
+    try:
+        distance = allowed.distance(point)
+        if distance == 0.0:  # on an open end: as far as the nearest float the guard allows
+            nearest = allowed.nearest(point)
+            distance = None if nearest is None else float(np.hypot.reduce(
+                [nearest[p] - point[p] for p in op.params]))
+    except (UnsupportedError, OverflowError) as exc:
+        why = exc.message if isinstance(exc, UnsupportedError) else "a value beyond floats"
+        return _Margin(point, None, None, f"no margin: {why}")
     if distance is not None:
         return _Margin(point, allowed, distance)
     if not allowed.separable:

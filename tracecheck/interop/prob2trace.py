@@ -60,7 +60,8 @@ def read_prob2trace(path: Path, episode_id: int, vocab: Vocabulary = HIGHWAY,
 
 
 def _parameters(params, where: str) -> Optional[dict]:
-    """A transition's parameters as a continuous action's values (real numbers)."""
+    """A transition's parameters as a continuous action's values, where they are all
+    real numbers (other parameters, of discrete operations, are not kept)."""
     if not params:
         return None
     if not isinstance(params, dict):
@@ -68,10 +69,9 @@ def _parameters(params, where: str) -> Optional[dict]:
     out = {}
     for name, text in params.items():
         value = read_literal(text, f"{where}, parameter {name}")
-        if type(value) not in (int, float):
-            raise InputError(f"{where}: the parameter {name} is {text!r}, not a number "
-                             "(tracecheck keeps the values of continuous actions)")
-        out[str(name)] = float(value)
+        if type(value) is not float:  # not a continuous action's: left out, as before
+            return None
+        out[str(name)] = value
     return out
 
 

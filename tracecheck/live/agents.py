@@ -107,6 +107,10 @@ def load_agent(path: str | Path, adapter=None, env=None) -> Agent:
         raise InputError(f"no such agent file: {path}")
     actions = tuple(adapter.actions) if adapter is not None else None
     if path.suffix == ".npy":
+        if adapter is not None and adapter.parameters:
+            raise InputError(f"{path}: a Q-table chooses among discrete actions; "
+                             f"{adapter.name} takes continuous ones",
+                             hint="train one: tracecheck train --env … --algorithm sac")
         return _load_table(path, actions, env)
     if not zipfile.is_zipfile(path):
         raise InputError(f"{path} is not a stable-baselines3 agent (not a zip archive) nor "

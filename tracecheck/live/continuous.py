@@ -74,6 +74,9 @@ class ContinuousShield:
                              f"{space} has {shape[0]} component(s)")
         self.low = np.asarray(low, dtype=np.float64)
         self.high = np.asarray(high, dtype=np.float64)
+        #: the float type the environment takes its actions in (float32 for most)
+        kind = np.dtype(getattr(space, "dtype", np.float64))
+        self.dtype = kind if kind.kind == "f" else np.dtype(np.float64)
         self._low = dict(zip(self.params, self.low.tolist()))
         self._high = dict(zip(self.params, self.high.tolist()))
         self.machine, self.mode = machine, mode
@@ -99,7 +102,8 @@ class ContinuousShield:
         if declared is None:
             return np.clip(np.zeros(len(self.params)), self.low, self.high)
         try:
-            fallback = np.asarray([float(v) for v in declared], dtype=np.float64)
+            fallback = np.asarray([float(v) for v in declared], dtype=self.dtype
+                                  ).astype(np.float64)  # as the environment will get it
         except (TypeError, ValueError):
             fallback = np.zeros(0)
         if fallback.shape != (len(self.params),) or not np.all(np.isfinite(fallback)) or \
@@ -182,19 +186,28 @@ class ContinuousShield:
         point = dict(zip(self.params, proposal.tolist()))
         allowed = self.allowed
         executed: Optional[np.ndarray] = None
-        if allowed is not None and allowed.contains(point):
-            executed = proposal
+        as_is = self._sendable(proposal) if allowed is not None else None
+        if as_is is not None:
+            executed = as_is
         elif allowed is not None and self.mode == "project":
             try:
                 nearest = allowed.nearest(point, dict(zip(self.params, self.scale.tolist())))
             except UnsupportedError as exc:  # too many constraints to project onto
                 nearest, self.problem = None, str(exc)
             if nearest is not None:
-                executed = np.array([nearest[p] for p in self.params], dtype=np.float64)
-        elif allowed is not None:  # replace
-            fallback = dict(zip(self.params, self.fallback.tolist()))
-            if allowed.contains(fallback):
-                executed = self.fallback.copy()
+                executed = self._sendable(
+                    np.array([nearest[p] for p in self.params], dtype=np.float64), proposal)
+        elif allowed is not None:  # replace: the fallback, or the nearest allowed to it
+            executed = self._sendable(self.fallback)
+            if executed is None:
+                try:
+                    near = allowed.nearest(dict(zip(self.params, self.fallback.tolist())))
+                except UnsupportedError as exc:
+                    near, self.problem = None, str(exc)
+                if near is not None:
+                    executed = self._sendable(
+                        np.array([near[p] for p in self.params], dtype=np.float64),
+                        self.fallback)
         deadlock = executed is None
         if deadlock:
             executed = self.fallback.copy()
@@ -203,6 +216,30 @@ class ContinuousShield:
                         parameters=dict(zip(self.params, executed.tolist())),
                         proposal=point, distance=distance,
                         intervened=bool(np.any(executed != proposal)), deadlock=deadlock)
+
+
+    def _sendable(self, action: np.ndarray,
+                  away: Optional[np.ndarray] = None) -> Optional[np.ndarray]:
+        """``action`` as the environment receives it (in its action space's float type: a
+        float32 space rounds it), if the guard allows that value; with ``away`` (a refused
+        proposal that ``action`` was projected from), else the nearest value of that type
+        a few steps further from it that the guard allows; None if none."""
+        sent = np.asarray(action, dtype=self.dtype)
+        direction = np.sign(action - away) if away is not None else None
+        for _ in range(NUDGES if direction is not None else 1):
+            value = sent.astype(np.float64)
+            if np.all(value >= self.low) and np.all(value <= self.high) and \
+                    self.allowed.contains(dict(zip(self.params, value.tolist()))):
+                return value
+            if direction is None or not np.any(direction):
+                return None
+            sent = np.where(direction != 0, np.nextafter(
+                sent, (direction * np.inf).astype(self.dtype)), sent).astype(self.dtype)
+        return None
+
+
+#: how many values of the action space's float type past a projected point are tried
+NUDGES = 64
 
 
 def _vector(action: Any, n: int) -> np.ndarray:

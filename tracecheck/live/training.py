@@ -188,6 +188,9 @@ def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
             "discrete actions (dqn, ppo, a2c, maskable-ppo, q-learning)"
         raise InputError(f"--algorithm {algorithm} does not fit {adapter.name}, which takes "
                          f"{takes.split(' (')[0]}", hint=f"give one for {takes}")
+    if not (intervention_penalty >= 0 and intervention_penalty < float("inf")):
+        raise InputError(f"--intervention-penalty {intervention_penalty}: give a finite "
+                         "number, 0 or more")
     if intervention_penalty and (shield is None or not continuous):
         raise InputError("--intervention-penalty lowers the reward by the projection distance: "
                          "it needs continuous actions and --shield")

@@ -28,11 +28,13 @@ import re
 from pathlib import Path
 from typing import Optional, Sequence
 
+from ..b.linear import real_parameters
 from ..b.values import Elem, SymbolicSet, format_value, sort_key
 from ..episodes.columns import RunColumns, episode_columns
 from ..episodes.model import Episode
 from ..episodes.reader import find_episode, read_run
 from ..checking.shield import Shield
+from ..errors import InputError
 from ..jsontext import script_json
 from .scene import scene_drawer, shape_json, css
 from .tables import is_number
@@ -164,8 +166,9 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
     steps, blocked, interventions = [], [], []
     for k, s in enumerate(ep.steps):
         enabled = sorted(machine.enabled(s.state)) if machine is not None else None
-        if k and machine is not None and not _allowed_step(machine, ep.steps[k - 1], s,
-                                                          steps[-1]["shield_allows"]):
+        if k and machine is not None and not _allowed_step(
+                machine, ep.steps[k - 1], s, steps[-1]["shield_allows"],
+                f"{run}, episode {ep.id}, step {s.step}"):
             blocked.append(s.step)
         if (s.preferred_action is not None and s.action is not None
                 and s.preferred_action != s.action) or _moved(s):
@@ -202,13 +205,19 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
     }
 
 
-def _allowed_step(machine, before, step, enabled: list) -> bool:
+def _allowed_step(machine, before, step, enabled: list, where: str) -> bool:
     """Whether the shield allowed the step's action in the state before: a continuous one
-    (recorded parameters) by its guard with the recorded values, as replay decides it."""
-    if step.parameters and step.action in machine.operations and \
-            machine.operation(step.action).params:
-        return machine.allows(step.action, before.state, step.parameters)
-    return step.action in enabled
+    (an operation with REAL parameters) by its guard with the recorded values, as replay
+    decides it."""
+    op = machine.operations.get(step.action) if step.action is not None else None
+    if op is None or not real_parameters(op):
+        return step.action in enabled
+    missing = [p for p in op.params if p not in (step.parameters or {})]
+    if missing:
+        raise InputError(f"{where}: the recorded action {step.action} has no value for its "
+                         f"parameter {missing[0]}, which the shield's {step.action} takes",
+                         hint="a continuous action is judged with the values recorded with it")
+    return machine.allows(step.action, before.state, step.parameters)
 
 
 def _moved(step) -> bool:
