@@ -143,8 +143,7 @@ class AllowedSet:
             return {self.params[0]: self.intervals or ()}
         if not self.separable:
             return None
-        boxes = [b for b in (_box(part, self.params) for part in self.parts)
-                 if b is not None and not any(i.empty for i in b.values())]
+        boxes = self._boxes()
         if not boxes:
             return {p: () for p in self.params}
         if len(boxes) > 1:
@@ -163,13 +162,11 @@ class AllowedSet:
                     "polytope over several parameters), but tracecheck found no float point "
                     "it accepts, nor can it say there is none")
             return found
-        for part in self.parts:  # a point well inside a box first: one evaluation
-            box = _box(part, self.params)
-            if box is not None and not any(i.empty for i in box.values()):
-                inner = {p: _inside(box[p], 0.0) for p in self.params}
-                if all(box[p].contains(Fraction(inner[p])) for p in self.params) and \
-                        self.contains(inner):
-                    return inner
+        for box in self._boxes():  # a point well inside a box first: one evaluation
+            inner = {p: _inside(box[p], 0.0) for p in self.params}
+            if all(box[p].contains(Fraction(inner[p])) for p in self.params) and \
+                    self.contains(inner):
+                return inner
         return self.nearest({p: 0.0 for p in self.params})
 
     @property
@@ -198,10 +195,7 @@ class AllowedSet:
         if not self.separable:
             return nearest_point(self, point, scale)
         best, best_d = None, math.inf
-        for part in self.parts:
-            box = _box(part, self.params)
-            if box is None or any(i.empty for i in box.values()):
-                continue
+        for box in self._boxes():
             candidate = self._confirmed(
                 {p: _clamp(float(point[p]), box[p]) for p in self.params}, box)
             if candidate is None:
@@ -219,22 +213,18 @@ class AllowedSet:
         if not self.separable:
             return distance_to(self, point)
         exact = {p: _exact(point[p], p) for p in self.params}
-        best: Optional[Fraction] = None
-        for part in self.parts:
-            box = _box(part, self.params)
-            if box is None or any(i.empty for i in box.values()):
-                continue
-            square = sum((_gap(exact[p], box[p]) ** 2 for p in self.params), Fraction(0))
-            best = square if best is None or square < best else best
-        if best is None:
+        boxes = self._boxes()
+        if not boxes:
             return None
         if len(self.params) == 1:  # the gap itself, rounded once
-            return float(min(abs(_gap(exact[self.params[0]], box[self.params[0]]))
-                             for box in self._boxes()))
-        return math.sqrt(best)
+            (p,) = self.params
+            return float(min(abs(_gap(exact[p], box[p])) for box in boxes))
+        return math.sqrt(min(sum((_gap(exact[p], box[p]) ** 2 for p in self.params),
+                                 Fraction(0)) for box in boxes))
 
     def _boxes(self) -> list[dict]:
-        """The non-empty boxes of a separable set."""
+        """The non-empty boxes of a separable set (each parameter's interval), in the order
+        of its polytopes."""
         return [b for b in (_box(part, self.params) for part in self.parts)
                 if b is not None and not any(i.empty for i in b.values())]
 
@@ -312,11 +302,7 @@ class AllowedSet:
             shown = " ∪ ".join(str(i) for i in self.intervals or ())
             return f"{self.params[0]} ∈ {shown or '∅'}"
         if self.separable:
-            boxes = []
-            for part in self.parts:
-                box = _box(part, self.params)
-                if box is not None and not any(i.empty for i in box.values()):
-                    boxes.append(" × ".join(str(box[p]) for p in self.params))
+            boxes = [" × ".join(str(box[p]) for p in self.params) for box in self._boxes()]
             return f"({', '.join(self.params)}) ∈ {' ∪ '.join(boxes) or '∅'}"
         return f"({', '.join(self.params)}): {len(self.parts)} polytope(s)"
 

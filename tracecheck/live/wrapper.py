@@ -183,11 +183,17 @@ class ShieldWrapper(gym.Wrapper):
                 taken = self.fallback
             else:
                 taken = int(np.flatnonzero(self.allowed)[0])
-        obs, reward, terminated, truncated, info = self.env.step(taken)
+        obs, reward, terminated, truncated, info = self._advance(taken)
+        return obs, reward, terminated, truncated, self._info(info, requested, taken)
+
+    def _advance(self, action):
+        """The environment's step with ``action``: the crash said in ``info``, the new B
+        state, and the shield's decision in it."""
+        obs, reward, terminated, truncated, info = self.env.step(action)
         info = dict(info, crashed=self.env_adapter.crashed(obs, float(reward), terminated, info))
         self.state = self._state(obs, info, float(reward), False)
         self._decide()
-        return obs, reward, terminated, truncated, self._info(info, requested, taken)
+        return obs, reward, terminated, truncated, info
 
     def _step_continuous(self, action):
         """A continuous action: the proposal, or what the shield's mode makes of it (see
@@ -198,12 +204,8 @@ class ShieldWrapper(gym.Wrapper):
         bands = self.continuous.bands()
         decision_us = self.decision_us + (time.perf_counter() - start) * 1e6
         problem = self.continuous.problem
-        space = self.env.action_space
-        obs, reward, terminated, truncated, info = self.env.step(
-            decision.executed.astype(getattr(space, "dtype", np.float64)))
-        info = dict(info, crashed=self.env_adapter.crashed(obs, float(reward), terminated, info))
-        self.state = self._state(obs, info, float(reward), False)
-        self._decide()
+        obs, reward, terminated, truncated, info = self._advance(
+            decision.executed.astype(self.continuous.dtype))
         info = self._info(info, 0, 0)
         info["shield"].update(
             replaced=decision.intervened, proposal=decision.proposal,
