@@ -5,24 +5,62 @@ Both shields are evaluated on every recorded state (over the numpy columns of ea
 once, as :mod:`.replay` does); a step is *changed* when its recorded action is enabled under
 one shield and not under the other, and an episode is *changed* when its first step that
 one of them would have blocked moves.
+
+A changed step of a continuous action (an operation with REAL parameters) also carries its
+recorded values and, for the first :data:`DETAILS` of them, the values each shield allowed
+in the state before (:func:`~tracecheck.b.linear.allowed_set`) and, for one parameter, how
+the allowed interval moved from ``against`` to ``shield``.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
+from fractions import Fraction
 from operator import attrgetter
 from pathlib import Path
 from typing import Iterable, Optional
 
 import numpy as np
 
+from ..b.linear import Interval, allowed_set, real_parameters
 from ..episodes.columns import RunColumns, read_columns
+from ..errors import UnsupportedError
 from .executors import map_files
 from .replaying import add_up, check_parameters, enabled_matrix
 from .shield import Shield
 
-__all__ = ["diff", "DiffReport", "ChangedStep"]
+__all__ = ["diff", "DiffReport", "ChangedStep", "AllowedValues", "AllowedChange", "DETAILS"]
+
+#: how many changed steps of continuous actions get the allowed sets of both shields (the
+#: first ones, in the order of the files and their steps); the rest only their values
+DETAILS = 100
+
+
+@dataclass(frozen=True)
+class AllowedValues:
+    """What one shield allowed of a continuous action in the state before a step."""
+
+    #: the allowed set in words (``a ∈ [-4.0, 0.5)``; an end followed by ``…`` is not
+    #: exactly a float, the nearest float is shown); None where it was not computed
+    text: Optional[str]
+    #: per parameter the ``[low, high]`` pairs allowed (None: an unbounded end; open and
+    #: closed ends alike, as the files record them), where the set is a product of
+    #: intervals (one parameter, or one box); None otherwise
+    intervals: Optional[dict[str, list[list[Optional[float]]]]] = None
+    #: why ``text`` is None (the guard not linear in the parameters, no such operation)
+    note: Optional[str] = None
+
+
+@dataclass(frozen=True)
+class AllowedChange:
+    """The allowed values of a changed continuous step under both shields."""
+
+    shield: AllowedValues
+    against: AllowedValues
+    #: one parameter, both computed: how its interval moved from ``against`` to ``shield``
+    #: (``upper end +0.75``)
+    moved: Optional[str] = None
 
 
 @dataclass(frozen=True)
@@ -37,6 +75,10 @@ class ChangedStep:
     feasible_under_against: bool
     enabled_shield: list[str]
     enabled_against: list[str]
+    #: a continuous action: the recorded parameter values, by name
+    parameters: Optional[dict[str, float]] = None
+    #: … and what each shield allowed there (None beyond the first :data:`DETAILS`)
+    allowed: Optional[AllowedChange] = None
 
 
 @dataclass
@@ -55,6 +97,10 @@ class DiffReport:
     enabled_set_changes: int = 0
     episodes_changed: int = 0
     crashes_in_changed_episodes: int = 0
+    #: how many changed continuous steps get the allowed sets of both shields (the first)…
+    details: int = DETAILS
+    #: … and how many more there were, whose allowed sets were not computed
+    details_left_out: int = 0
     elapsed_s: float = 0.0
     changes: list[ChangedStep] = field(default_factory=list)
     changed_episodes: list[dict] = field(default_factory=list)
@@ -71,37 +117,54 @@ class DiffReport:
 #: each count of a diff report: the sum of the counts of its files
 _FILE_COUNTS = {name: attrgetter(name) for name in (
     "episodes", "steps", "states", "changed_steps", "newly_blocked", "newly_allowed",
-    "enabled_set_changes", "episodes_changed", "crashes_in_changed_episodes")}
+    "enabled_set_changes", "episodes_changed", "crashes_in_changed_episodes",
+    "details_left_out")}
 
 
 def diff(paths: Iterable[str | Path], shield: Shield, against: Shield, *,
          executor: str = "local", ray_address: Optional[str] = None,
-         salvage: bool = False) -> DiffReport:
+         salvage: bool = False, details: int = DETAILS) -> DiffReport:
     """Evaluate both shields on every recorded state and report what changes from
     ``against`` (the old version, or the baseline) to ``shield``; with
     ``executor="ray"`` each file in a Ray task; ``salvage``: as
-    :func:`~tracecheck.episodes.reader.read_run`."""
+    :func:`~tracecheck.episodes.reader.read_run`; ``details``: how many changed steps of
+    continuous actions get the allowed sets of both shields."""
     paths = [str(p) for p in paths]
-    report = DiffReport(shield=shield.identity, against=against.identity, files=paths)
+    report = DiffReport(shield=shield.identity, against=against.identity, files=paths,
+                        details=details)
     start = time.perf_counter()
-    parts = map_files(_diff_one, [(p, shield, against, salvage) for p in paths], executor,
-                      ray_address)
+    parts = map_files(_diff_one, [(p, shield, against, salvage, details) for p in paths],
+                      executor, ray_address)
     for part in parts:
         report.changes += part.changes
         report.changed_episodes += part.changed_episodes
         report.warnings += part.warnings
     add_up(report, parts, _FILE_COUNTS)
+    _keep_details(report, details)
     report.elapsed_s = round(time.perf_counter() - start, 6)
     return report
 
 
-def _diff_one(path: str, a: Shield, b: Shield, salvage: bool = False) -> DiffReport:
+def _diff_one(path: str, a: Shield, b: Shield, salvage: bool = False,
+              details: int = DETAILS) -> DiffReport:
     """One file's diff, in whichever process runs it (both shields sent there themselves)."""
-    report = DiffReport(shield=a.identity, against=b.identity, files=[path])
+    report = DiffReport(shield=a.identity, against=b.identity, files=[path], details=details)
     cols = read_columns(path, salvage=salvage)
     report.warnings += cols.warnings
-    _diff_file(cols, a, b, report)
+    _diff_file(cols, a, b, report, details)
     return report
+
+
+def _keep_details(report: DiffReport, details: int) -> None:
+    """The allowed sets of the first ``details`` changed continuous steps over all files
+    (each file computed up to ``details`` of its own), the others left out and counted."""
+    kept = 0
+    for i, c in enumerate(report.changes):
+        if c.allowed is not None:
+            kept += 1
+            if kept > details:
+                report.changes[i] = replace(c, allowed=None)
+                report.details_left_out += 1
 
 
 def _aligned(shield: Shield, cols: RunColumns, names: tuple[str, ...]) -> np.ndarray:
@@ -124,7 +187,8 @@ def _with_parameters(shield: Shield, cols: RunColumns, rows: np.ndarray, ok: np.
     return full[rows]
 
 
-def _diff_file(cols: RunColumns, a: Shield, b: Shield, report: DiffReport) -> None:
+def _diff_file(cols: RunColumns, a: Shield, b: Shield, report: DiffReport,
+               details: int = DETAILS) -> None:
     names = tuple(dict.fromkeys(list(a.machine.operations) + list(b.machine.operations)))
     ma, mb = _aligned(a, cols, names), _aligned(b, cols, names)
     rows = np.flatnonzero(cols.step > 0)
@@ -147,12 +211,22 @@ def _diff_file(cols: RunColumns, a: Shield, b: Shield, report: DiffReport) -> No
     report.enabled_set_changes += int(np.any(ma != mb, axis=1).sum())
     for i in np.flatnonzero(changed):
         r = rows[i]
+        action = cols.action_names[cols.action[r]]
+        parameters = _parameters(cols, a, b, action, r)
+        allowed = None
+        if parameters is not None:
+            if details > 0:
+                details -= 1
+                allowed = _allowed_change(a, b, action, cols.states.row(r - 1))
+            else:
+                report.details_left_out += 1
         report.changes.append(ChangedStep(
             file=cols.path, episode=int(cols.episode[r]), step=int(cols.step[r]),
-            action=cols.action_names[cols.action[r]], feasible_under_shield=bool(fa[i]),
+            action=action, feasible_under_shield=bool(fa[i]),
             feasible_under_against=bool(fb[i]),
             enabled_shield=[n for n, ok in zip(names, ma[r - 1]) if ok],
-            enabled_against=[n for n, ok in zip(names, mb[r - 1]) if ok]))
+            enabled_against=[n for n, ok in zip(names, mb[r - 1]) if ok],
+            parameters=parameters, allowed=allowed))
     first_a = _first_false(cols, rows, fa)
     first_b = _first_false(cols, rows, fb)
     for i, ep in enumerate(cols.episode_ids):
@@ -176,3 +250,75 @@ def _first_false(cols: RunColumns, rows: np.ndarray, ok: np.ndarray) -> list[Opt
     for e in range(len(cols.episode_ids)):
         out.append(firsts.get(e))
     return out
+
+
+def _parameters(cols: RunColumns, a: Shield, b: Shield, action: str, r: int
+                ) -> Optional[dict[str, float]]:
+    """The recorded values of step row ``r``'s action, if either shield has it as an
+    operation with REAL parameters (a continuous action); else None."""
+    for shield in (a, b):
+        op = shield.machine.operations.get(action)
+        if op is not None and real_parameters(op) and \
+                all(p in cols.parameters for p in op.params):
+            return {p: float(cols.parameters[p][r]) for p in op.params}
+    return None
+
+
+def _allowed_change(a: Shield, b: Shield, action: str, state: dict) -> AllowedChange:
+    """What ``a`` and ``b`` allow of ``action`` in ``state``, and how it moved from ``b``'s
+    to ``a``'s (one parameter)."""
+    new, new_intervals = _allowed_values(a, action, state)
+    old, old_intervals = _allowed_values(b, action, state)
+    moved = None
+    if new_intervals is not None and old_intervals is not None:
+        moved = _moved(old_intervals, new_intervals)
+    return AllowedChange(new, old, moved)
+
+
+def _allowed_values(shield: Shield, action: str, state: dict
+                    ) -> tuple[AllowedValues, Optional[tuple[Interval, ...]]]:
+    """(what ``shield`` allows of ``action`` in ``state``, its exact intervals where it has
+    one parameter); where the set cannot be computed, the reason instead."""
+    if action not in shield.machine.operations:
+        return AllowedValues(None, note=f"not computed: {shield.name} has no operation "
+                                        f"{action}"), None
+    try:
+        allowed = allowed_set(shield.machine, action, state)
+        text, bands = str(allowed), allowed.bands()
+    except UnsupportedError as exc:
+        return AllowedValues(None, note=f"not computed: {exc.message}"), None
+    pairs = None if bands is None else {
+        p: [[_end(i.low), _end(i.high)] for i in found] for p, found in bands.items()}
+    return AllowedValues(text, pairs), allowed.intervals
+
+
+def _end(x: Optional[Fraction]) -> Optional[float]:
+    return None if x is None else float(x)
+
+
+def _moved(old: tuple[Interval, ...], new: tuple[Interval, ...]) -> str:
+    """How one parameter's allowed intervals moved from ``old`` to ``new``, in words: each
+    end of the whole (its lowest and highest) that moved, by how much (exactly, then
+    rounded); how many intervals, where that changed."""
+    if not old or not new:
+        return ("nothing allowed under either" if not old and not new else
+                "nothing was allowed" if not old else "nothing is allowed now")
+    said = []
+    for word, was, now, was_open, now_open in (
+            ("lower", old[0].low, new[0].low, old[0].low_open, new[0].low_open),
+            ("upper", old[-1].high, new[-1].high, old[-1].high_open, new[-1].high_open)):
+        if was == now:
+            if now is not None and was_open != now_open:
+                said.append(f"{word} end now {'open' if now_open else 'closed'}")
+        elif now is None:
+            said.append(f"{word} end now unbounded")
+        elif was is None:
+            said.append(f"{word} end now {float(now):.6g}")
+        else:
+            said.append(f"{word} end {float(now - was):+.6g}")
+    if len(old) != len(new):
+        said.append(f"{len(old)} interval(s) → {len(new)}")
+    if said:
+        return ", ".join(said)
+    return ("unchanged over the reals (the guard's float arithmetic decides the step)"
+            if old == new else "the same ends, the gaps between them moved")

@@ -6,13 +6,13 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-from ..checking.diffing import DiffReport
+from ..checking.diffing import ChangedStep, DiffReport
 from ..checking.replaying import (MISMATCH, NEW_CRASH, NOT_PREVENTED, PREVENTED, EpisodeReplay,
                                ReplayReport)
 from .tables import TableData, markdown, md_text
 
 __all__ = ["replay_text", "replay_markdown", "replay_table", "diff_text", "diff_table",
-           "crash_column", "literal_row", "continuous_cell"]
+           "crash_column", "literal_row", "continuous_cell", "action_call", "NOT_A_FLOAT"]
 
 
 def literal_row(table: Table, cells) -> None:
@@ -167,16 +167,38 @@ def _number(x: float) -> str:
     return f"{x:.6g}"
 
 
+def action_call(action: str, parameters: dict) -> str:
+    """A continuous action with its recorded values: ``ACCELERATE(a=1.5)``."""
+    values = ", ".join(f"{p}={_number(v)}" for p, v in parameters.items())
+    return f"{action}({values})"
+
+
 def continuous_cell(e: EpisodeReplay) -> str:
     """A continuous action at the first infeasible step, its values, what the shield allowed
     and how far outside: ``ACCELERATE(a=1.5): a ∈ [-4.0, 0.3), 1.2 outside`` ("" for an
     episode without one)."""
     if e.parameters is None:
         return ""
-    values = ", ".join(f"{p}={_number(v)}" for p, v in e.parameters.items())
-    text = f"{e.action}({values})" + (f": {e.allowed}" if e.allowed else "")
+    text = action_call(e.action, e.parameters) + (f": {e.allowed}" if e.allowed else "")
     return text + (f", {_number(e.margin)} outside" if e.margin is not None
                    else f", {e.margin_note}")
+
+
+#: what an interval's end followed by ``…`` means (said under the lines that show one)
+NOT_A_FLOAT = ("an end followed by … is not exactly a float: the float nearest it is shown "
+               "(the allowed set is computed exactly, over the reals)")
+
+
+def _where(files: list[str], file: str, episode: int) -> str:
+    """``episode 3``, or with the file's name where a report has several files."""
+    return f"{file.rsplit('/', 1)[-1]} episode {episode}" if len(files) > 1 else \
+        f"episode {episode}"
+
+
+def _with_legend(lines: list[str], allowed_texts) -> list[str]:
+    """``lines``, then :data:`NOT_A_FLOAT` where one of ``allowed_texts`` has such an end."""
+    return lines + ([f"  ({NOT_A_FLOAT})"] if any("…" in (t or "") for t in allowed_texts)
+                    else [])
 
 
 def _continuous_lines(r: ReplayReport, episodes) -> list[str]:
@@ -188,14 +210,12 @@ def _continuous_lines(r: ReplayReport, episodes) -> list[str]:
     lines = ["continuous actions at the first infeasible step — the recorded values, those the "
              "shield allowed there and how far outside (Euclidean, in the parameters' units):"]
     for e in shown:
-        where = f"episode {e.episode}"
-        if len(r.files) > 1:
-            where = f"{e.file.rsplit('/', 1)[-1]} {where}"
         largest = ""
         if e.max_margin is not None and e.max_margin != e.margin:
             largest = f" (in the episode up to {_number(e.max_margin)})"
-        lines.append(f"  {where}, step {e.first_infeasible}: {continuous_cell(e)}{largest}")
-    return lines
+        lines.append(f"  {_where(r.files, e.file, e.episode)}, step {e.first_infeasible}: "
+                     f"{continuous_cell(e)}{largest}")
+    return _with_legend(lines, (e.allowed for e in shown))
 
 
 def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
@@ -327,9 +347,14 @@ def diff_text(console: Console, d: DiffReport, rows: int) -> None:
                        if c != a)
     if legend:
         console.print(f"actions: {legend}", highlight=False, soft_wrap=False)
+    for line in _diff_continuous_lines(d, d.changes[:rows]):
+        console.print(Text(line), highlight=False, soft_wrap=False)
     if len(d.changes) > rows:
         console.print(f"… {len(d.changes) - rows} more changed step(s): --format csv or json "
-                      "lists them all")
+                      "lists them all" + (
+                          f" (with the allowed sets of the first {d.details} of continuous "
+                          f"actions; {d.details_left_out} more have their values only)"
+                          if d.details_left_out else ""), highlight=False, soft_wrap=False)
 
 
 def _diff_row(c, short=lambda a: a) -> list[str]:
@@ -340,8 +365,64 @@ def _diff_row(c, short=lambda a: a) -> list[str]:
             " ".join(short(a) for a in c.enabled_against)]
 
 
+def _allowed_moved(c: ChangedStep, d: DiffReport) -> str:
+    """What the old shield allowed → what the new one allows, and how it moved: ``a ∈
+    [-4.0, 0.5) → [-4.0, 1.25): upper end +0.75`` (a set not computed: the shield's name
+    and why)."""
+    if c.allowed is None:
+        return f"allowed sets left out (only the first {d.details} are computed)"
+    old, new = c.allowed.against, c.allowed.shield
+    if old.text is not None and new.text is not None and len(c.parameters) == 1:
+        text = f"{old.text} → {new.text.partition(' ∈ ')[2]}"
+    else:
+        text = " → ".join(v.text if v.text is not None else f"{name}: {v.note}"
+                          for v, name in ((old, d.against["name"]), (new, d.shield["name"])))
+    return text + (f": {c.allowed.moved}" if c.allowed.moved else "")
+
+
+def _diff_continuous_lines(d: DiffReport, changes) -> list[str]:
+    """For each changed step in ``changes`` of a continuous action: its recorded values, the
+    values each shield allowed and how they moved (nothing for discrete actions)."""
+    shown = [c for c in changes if c.parameters is not None]
+    if not shown:
+        return []
+    lines = [f"continuous actions at the changed steps — the recorded values, then what "
+             f"{d.against['name']} allowed in the state before → what {d.shield['name']} "
+             "allows, and how it moved:"]
+    for c in shown:
+        verdict = "newly allowed" if c.feasible_under_shield else "newly blocked"
+        lines.append(f"  {_where(d.files, c.file, c.episode)}, step {c.step}: "
+                     f"{action_call(c.action, c.parameters)} {verdict}: {_allowed_moved(c, d)}")
+    return _with_legend(lines, (v.text for c in shown if c.allowed is not None
+                                for v in (c.allowed.shield, c.allowed.against)))
+
+
+def _diff_continuous_headers(d: DiffReport) -> list[str]:
+    """The columns of continuous actions, in a diff table of a run that has some."""
+    return ["parameters", f"allowed by {d.against['name']}", f"allowed by {d.shield['name']}",
+            "moved"]
+
+
+def _diff_continuous_row(c: ChangedStep, d: DiffReport) -> list:
+    """The cells under :func:`_diff_continuous_headers`: the recorded values, what each
+    shield allowed (or why that is not known), how it moved."""
+    if c.parameters is None:
+        return ["", "", "", ""]
+    values = " ".join(f"{p}={v!r}" for p, v in c.parameters.items())
+    if c.allowed is None:
+        left_out = f"left out (only the first {d.details} are computed)"
+        return [values, left_out, left_out, ""]
+    old, new = c.allowed.against, c.allowed.shield
+    return [values, old.text if old.text is not None else old.note,
+            new.text if new.text is not None else new.note, c.allowed.moved or ""]
+
+
 def diff_table(d: DiffReport) -> TableData:
-    """Every changed step, with full action names."""
+    """Every changed step, with full action names; for continuous actions also their values,
+    the values each shield allowed and how they moved."""
     a, b = d.shield["name"], d.against["name"]
+    continuous = any(c.parameters is not None for c in d.changes)
     return TableData.of(["file", "episode", "step", "action", a, b, f"enabled by {a}",
-                         f"enabled by {b}"], (_diff_row(c) for c in d.changes))
+                         f"enabled by {b}"] + (_diff_continuous_headers(d) if continuous else []),
+                        (_diff_row(c) + (_diff_continuous_row(c, d) if continuous else [])
+                         for c in d.changes))
