@@ -33,6 +33,21 @@ def run(capsys, *args):
     return info.value.code or 0, captured.out, captured.err
 
 
+def record_runs(folder: Path, env: str, agent: Path, shields: dict, *,
+                 episodes: int = 4, max_steps: int = 40) -> dict[str, Path]:
+    """``folder/NAME.mcap`` recorded by ``tracecheck record`` in ``env`` for each ``NAME:
+    (shield, extra options)`` of ``shields`` (the environment installed by the caller)."""
+    runs = {}
+    for name, (shield, extra) in shields.items():
+        runs[name] = folder / f"{name}.mcap"
+        with pytest.raises(SystemExit) as stop:
+            main(["record", "--env", env, "--env-config", f"max_steps={max_steps}", "--agent",
+                  str(agent), "--shield", str(shield), "-n", str(episodes), "-o",
+                  str(runs[name]), *extra])
+        assert stop.value.code in (0, None)
+    return runs
+
+
 def untimed(data):
     """A report without its timings (they differ between runs)."""
     if isinstance(data, dict):

@@ -162,19 +162,32 @@ def test_replay_explains_such_an_end_too(capsys, tmp_path):
     assert "(an end followed by … is not exactly a float" in printed
 
 
-def test_a_set_that_cannot_be_computed_is_said_in_its_row(capsys, tmp_path):
-    """v3's guard squares a: diff decides the step with the recorded value (the enabled set
-    needs no allowed set here: the recorded value, or zero, passes in every state), and
-    its row says why v3's set is not known."""
+def test_a_guard_not_linear_is_the_solvers_set(capsys, tmp_path):
+    """v3's guard squares a: its allowed set is the solver's, said as such."""
     path = record(tmp_path / "run.mcap", [make(0, s(51.0, 20.0), [(1.0, s(60.0, 20.0))])])
     v1 = car(tmp_path, "v1", "10.0")
     v3 = car(tmp_path, "v3", "8.5", "& a * a <= 4.0")
     code, out, _ = run(capsys, "diff", path, "--shield", v3, "--against", v1)
     assert code == 0
-    why = "not computed: the guard is not linear in its parameters: a product of two " \
-          "parameter terms in `a * a`"
+    assert ("episode 0, step 1: ACCELERATE(a=1) newly allowed: a ∈ [-4.0, 0.5) → a: not "
+            "linear; decided by the solver") in flat(out)
+
+
+def test_a_set_that_cannot_be_computed_is_said_in_its_row(capsys, tmp_path):
+    """v3's guard has a set of reals: diff decides the step with the recorded value (the
+    enabled set needs no allowed set here: the recorded value, or zero, passes in every
+    state), and its row says why v3's set is not known."""
+    path = record(tmp_path / "run.mcap", [make(0, s(51.0, 20.0), [(1.0, s(60.0, 20.0))])])
+    v1 = car(tmp_path, "v1", "10.0")
+    v3 = car(tmp_path, "v3", "8.5", "& (a : {0.0, 1.0} or a < 0.0)")
+    code, out, _ = run(capsys, "diff", path, "--shield", v3, "--against", v1)
+    assert code == 0
+    flat_out = flat(out)
+    why = flat_out[flat_out.index("v3: not computed"):].split(" (an end")[0].strip()
+    assert why.startswith("v3: not computed: ") and "membership" in why
+    why = why[len("v3: "):]
     assert (f"episode 0, step 1: ACCELERATE(a=1) newly allowed: a ∈ [-4.0, 0.5) → v3: "
-            f"{why}") in flat(out)
+            f"{why}") in flat_out
     code, out, _ = run(capsys, "diff", path, "--shield", v3, "--against", v1, "--json")
     allowed = json.loads(out)["changes"][0]["allowed"]
     assert allowed == {"shield": {"text": None, "intervals": None, "note": why},

@@ -434,10 +434,11 @@ def test_symbolic_diff_compares_the_actions_allowed_not_only_whether_some_are(ca
     assert "Strict.mch refuses it, " in " ".join(out.split()) and "Loose.mch allows it" in out
 
 
-def test_a_counterexample_the_evaluator_cannot_decide_is_unknown(capsys, tmp_path):
-    """A guard not linear in its REAL parameter: z3 finds a deadlock, but tracecheck's
-    evaluator cannot decide that guard, so the answer is unknown (exit 3), not a
-    disagreement to report."""
+def test_a_counterexample_of_a_guard_not_linear_is_confirmed_by_the_solvers_set(capsys,
+                                                                               tmp_path):
+    """A guard not linear in its REAL parameter: z3 finds a deadlock, and the allowed set in
+    that state — the solver's, since the guard is not linear — proves nothing allowed: the
+    counterexample is confirmed (exit 1)."""
     path = tmp_path / "quad.mch"
     path.write_text("""MACHINE Quad
 VARIABLES Gap, Speed
@@ -447,6 +448,7 @@ OPERATIONS ACCELERATE(a) = PRE a : REAL & a >= -4.0 & a <= 2.0 &
     Gap > (Speed + a) * (Speed + a) THEN skip END
 END""")
     code, out, err = run(capsys, "prove", path, "--deadlock-free")
-    assert code == 3, out + err
-    assert "the solver's counterexample cannot be confirmed" in " ".join(out.split())
+    assert code == 1, out + err
+    assert "deadlock-free: counterexample no operation is enabled: Gap = 0.0, Speed = 0.0" in \
+        " ".join(out.split())
     assert "please report" not in out + err

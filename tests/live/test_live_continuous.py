@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tests.helpers import ACC_ENV, acc_installed, forget_acc, run
+from tests.helpers import ACC_ENV, acc_installed, forget_acc, record_runs, run
 from tracecheck.b.machine import load_machine, load_machine_text
 from tracecheck.errors import InputError
 from tracecheck.live.adapter import EnvAdapter
@@ -133,7 +133,7 @@ def test_declarations_that_do_not_fit_are_refused(change, message):
 def test_a_space_with_other_components_is_refused():
     space = gym.spaces.Box(low=-1.0, high=1.0, shape=(2,), dtype=np.float32)
     with pytest.raises(InputError, match=r"names 1 parameter\(s\) \(a\) for ACCELERATE, but "
-                                         r"the action space .* has 2 component\(s\)"):
+                                         r"its action space .* has 2 component\(s\)"):
         _shield(space=space)
     with pytest.raises(InputError, match="not a one-dimensional Box"):
         _shield(space=gym.spaces.Discrete(3))
@@ -186,16 +186,9 @@ def throttle(tmp_path_factory):
         from acc_cruise.throttle import make_agent
 
         agent = make_agent(folder / "full.zip", 2.0)
-        runs = {}
-        from tracecheck.cli import main
-        for name, shield, extra in (("none", "none", []), ("v1", str(V1), []),
-                                    ("replace", str(V1), ["--shield-mode", "replace"])):
-            runs[name] = folder / f"{name}.mcap"
-            with pytest.raises(SystemExit) as stop:
-                main(["record", "--env", THROTTLE, "--env-config", "max_steps=40", "--agent",
-                      str(agent), "--shield", shield, "-n", "4", "-o", str(runs[name]),
-                      *extra])
-            assert stop.value.code in (0, None)
+        runs = record_runs(folder, THROTTLE, agent, {
+            "none": ("none", []), "v1": (V1, []),
+            "replace": (V1, ["--shield-mode", "replace"])})
     forget_acc()
     return agent, runs
 
@@ -404,18 +397,39 @@ def test_the_viewer_blocks_the_steps_replay_finds_infeasible(throttle):
         assert len(data["blocked"]) == e.infeasible_steps
 
 
-def test_a_guard_not_linear_in_its_parameters_is_refused_before_any_episode():
-    quadratic = load_machine_text("""MACHINE Quad
+QUADRATIC = """MACHINE Quad
 VARIABLES Gap, EgoSpeed, LeadSpeed
 INVARIANT Gap : REAL & EgoSpeed : REAL & LeadSpeed : REAL
 INITIALISATION Gap, EgoSpeed, LeadSpeed := 1.0, 1.0, 1.0
 OPERATIONS ACCELERATE(a) = PRE a : REAL & a >= -4.0 & a <= 2.0 &
     Gap > (EgoSpeed + a) * (EgoSpeed + a) THEN skip END
-END""")
+END"""
+
+
+def test_a_guard_not_linear_in_its_parameters_is_decided_by_the_solver():
+    shield = _shield(machine=load_machine_text(QUADRATIC))
+    assert shield.ops["ACCELERATE"].solver
+    _decide(shield, _state(4.0, 1.0, 1.0))  # (1 + a)² < 4: -3 < a < 1
+    assert str(shield.allowed) == "a: not linear; decided by the solver within a ∈ [-4.0, 2.0]"
+    d = shield.filter([2.0])  # projected to just below 1, confirmed by the evaluator
+    assert d.intervened and not d.deadlock and 0.999 < d.parameters["a"] < 1.0
+    assert shield.machine.allows("ACCELERATE", _state(4.0, 1.0, 1.0), d.parameters)
+    d = shield.filter([-4.0])
+    assert -3.0 < d.parameters["a"] < -2.999 and not d.deadlock
+    assert shield.filter([0.5]).parameters == {"a": 0.5}
+    _decide(shield, _state(0.0, 1.0, 1.0))  # nothing is allowed: the solver proves it
+    assert not shield.any_allowed() and shield.problem is None
+    d = shield.filter([1.0])
+    assert d.deadlock and d.parameters == {"a": -4.0}
+
+
+def test_a_guard_neither_linear_nor_translatable_is_refused_before_any_episode():
+    member = load_machine_text(QUADRATIC.replace(
+        "Gap > (EgoSpeed + a) * (EgoSpeed + a)", "a : {1.0, 2.0}"))
     with pytest.raises(InputError, match=r"the shield Quad cannot decide ACCELERATE's "
-                                         r"continuous actions: the guard is not linear in its "
-                                         r"parameters: a product of two parameter terms"):
-        _shield(machine=quadratic)
+                                         r"continuous actions: .*; nor can the solver: .*cannot "
+                                         r"translate this membership to SMT"):
+        _shield(machine=member)
 
 
 def test_prob2trace_keeps_the_values_and_formats_without_a_place_refuse(capsys, throttle,

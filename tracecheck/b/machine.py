@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional
 
-from ..errors import BScopeError, EvaluationError, InputError, TracecheckError
+from ..errors import BScopeError, EvaluationError, InputError, TracecheckError, UnsupportedError
 from ..inputs import read_text
 from . import ast
 from .bindings import conjuncts
@@ -192,17 +192,33 @@ class Machine:
         return fns
 
     def _real_guard(self, name: str) -> Callable[[dict], bool]:
-        from .linear import allowed_set
-
-        return lambda env: allowed_set(self, name, env=env).witness() is not None
+        return lambda env: self.allowed_in(name, env).witness() is not None
 
     def allowed(self, op: str, state: Mapping[str, Any]):
         """The values of ``op``'s REAL parameters its guard allows in ``state``: an
         :class:`~tracecheck.b.linear.AllowedSet` (exact over the reals, confirmed by the
-        evaluator)."""
+        evaluator), or where the guard is not linear in them what
+        :meth:`decide_beyond_linear` gave (the solver's set), if anything."""
+        return self.allowed_in(op, self.env(state))
+
+    def allowed_in(self, op: str, env: dict[str, Any]):
+        """:meth:`allowed` for an environment made by :meth:`env`."""
         from .linear import allowed_set
 
-        return allowed_set(self, op, state)
+        try:
+            return allowed_set(self, op, env=env)
+        except UnsupportedError:
+            beyond = self._compiled.get("beyond linear")
+            if beyond is None or not real_parameters(self.operation(op)):
+                raise
+            return beyond(self, op, env)
+
+    def decide_beyond_linear(self, factory: Callable[[Any, str, dict], Any]) -> None:
+        """Where a guard is not linear in its REAL parameters, :meth:`allowed` asks
+        ``factory(machine, op, env)`` (the checking layer gives the solver's
+        :func:`~tracecheck.checking.solved_set.solved_set`, within a time budget) instead
+        of refusing."""
+        self._compiled["beyond linear"] = factory
 
     def allows(self, op: str, state: Mapping[str, Any], parameters: Mapping[str, Any]) -> bool:
         """Whether ``op``'s guard holds in ``state`` with its parameters bound to
@@ -223,7 +239,12 @@ class Machine:
         return {name for name, fn in self._guard_fns().items() if fn(env)}
 
     def is_enabled(self, op: str, state: Mapping[str, Any]) -> bool:
-        return bool(self._guard_fns()[self.operation(op).name](self.env(state)))
+        return self.is_enabled_in(op, self.env(state))
+
+    def is_enabled_in(self, op: str, env: dict[str, Any]) -> bool:
+        """:meth:`is_enabled` for an environment made by :meth:`env` (see
+        :meth:`enabled_in`)."""
+        return bool(self._guard_fns()[self.operation(op).name](env))
 
     def guard_variables(self) -> dict[str, frozenset[str]]:
         """For each operation with a guard, the state variables the guard reads (its

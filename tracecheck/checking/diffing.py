@@ -8,7 +8,7 @@ one of them would have blocked moves.
 
 A changed step of a continuous action (an operation with REAL parameters) also carries its
 recorded values and, for the first :data:`DETAILS` of them, the values each shield allowed
-in the state before (:func:`~tracecheck.b.linear.allowed_set`) and, for one parameter, how
+in the state before (:meth:`~tracecheck.b.machine.Machine.allowed`) and, for one parameter, how
 the allowed interval moved from ``against`` to ``shield``.
 """
 
@@ -23,7 +23,7 @@ from typing import Iterable, Optional
 
 import numpy as np
 
-from ..b.linear import Interval, allowed_set, real_parameters
+from ..b.linear import Interval, real_parameters
 from ..episodes.columns import RunColumns, read_columns
 from ..errors import UnsupportedError
 from .executors import map_files
@@ -283,7 +283,7 @@ def _allowed_values(shield: Shield, action: str, state: dict
         return AllowedValues(None, note=f"not computed: {shield.name} has no operation "
                                         f"{action}"), None
     try:
-        allowed = allowed_set(shield.machine, action, state)
+        allowed = shield.machine.allowed(action, state)  # the solver's, where not linear
         text, bands = str(allowed), allowed.bands()
     except UnsupportedError as exc:
         return AllowedValues(None, note=f"not computed: {exc.message}"), None

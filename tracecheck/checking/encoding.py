@@ -10,6 +10,7 @@ such a set to numbers or booleans (made a function by the invariant: ``S --> T``
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
@@ -19,7 +20,8 @@ from ..b.btypes import BOOL, INTEGER, REAL, Base, Pow, Prod, resolve_all
 from ..b.values import FuncValue
 from ..errors import InputError, UnsupportedError
 
-__all__ = ["load_z3", "ElementSet", "ElementFunction", "encode_variable", "state_of_model"]
+__all__ = ["load_z3", "ElementSet", "ElementFunction", "encode_variable", "state_of_model",
+           "check_timeout", "MAX_TIMEOUT_S"]
 
 
 def load_z3():
@@ -111,3 +113,23 @@ def state_of_model(z3, variables: dict[str, Any], model) -> dict:
         else:
             out[name] = num(enc)
     return out
+
+
+#: z3 counts its timeout in milliseconds in an unsigned 32-bit number (about 49 days).
+MAX_TIMEOUT_S = 4_294_967
+
+
+def check_timeout(seconds, what: str = "the timeout") -> float:
+    """``seconds`` if the solver can take it as a time limit: a finite number above 0, at
+    most z3's largest (:data:`MAX_TIMEOUT_S`); else an :class:`InputError` naming ``what``.
+
+    >>> check_timeout(2)
+    2.0
+    """
+    ok = isinstance(seconds, (int, float)) and not isinstance(seconds, bool) and \
+        math.isfinite(seconds) and 0 < seconds <= MAX_TIMEOUT_S
+    if not ok:
+        raise InputError(f"{what} must be a finite number of seconds above 0 (at most "
+                         f"{MAX_TIMEOUT_S:,}), not {seconds!r}",
+                         hint="give the seconds the solver may take per question, e.g. 10")
+    return float(seconds)

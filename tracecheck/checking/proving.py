@@ -21,7 +21,6 @@ before it is reported; where the two disagree, that is said (the CLI raises
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 from dataclasses import dataclass, field
@@ -32,7 +31,8 @@ from ..b.linear import real_parameters
 from ..errors import InputError, TracecheckError, UnsupportedError, WellDefinednessError
 from ..limits import deeply
 from .obligations import Given
-from .encoding import ElementFunction, ElementSet, load_z3, state_of_model
+from .encoding import (MAX_TIMEOUT_S, ElementFunction, ElementSet, check_timeout, load_z3,
+                       state_of_model)
 from .shield import Shield
 from .smt import Translator
 
@@ -47,8 +47,6 @@ ONLY_IN = "only in "  # + the shield: an operation the other shield does not hav
 #: values): an environment's :meth:`~tracecheck.live.adapter.EnvAdapter.describe`.
 Describe = Callable[[dict], Optional[str]]
 
-#: z3 counts its timeout in milliseconds in an unsigned 32-bit number (about 49 days).
-MAX_TIMEOUT_S = 4_294_967
 
 
 @dataclass
@@ -69,22 +67,6 @@ class Result:
         """A counterexample, a claim that is not well-defined, an operation one shield
         lacks: what makes ``prove`` and ``diff --symbolic`` exit 1."""
         return self.status in (COUNTEREXAMPLE, NOT_DEFINED) or self.status.startswith(ONLY_IN)
-
-
-def check_timeout(seconds, what: str = "the timeout") -> float:
-    """``seconds`` if the solver can take it as a time limit: a finite number above 0, at
-    most z3's largest (:data:`MAX_TIMEOUT_S`); else an :class:`InputError` naming ``what``.
-
-    >>> check_timeout(2)
-    2.0
-    """
-    ok = isinstance(seconds, (int, float)) and not isinstance(seconds, bool) and \
-        math.isfinite(seconds) and 0 < seconds <= MAX_TIMEOUT_S
-    if not ok:
-        raise InputError(f"{what} must be a finite number of seconds above 0 (at most "
-                         f"{MAX_TIMEOUT_S:,}), not {seconds!r}",
-                         hint="give the seconds the solver may take per question, e.g. 10")
-    return float(seconds)
 
 
 def _ms(seconds: float) -> int:

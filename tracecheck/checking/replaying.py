@@ -347,7 +347,11 @@ def _margin(machine, op, cols: RunColumns, r: int) -> _Margin:
         return _Margin(point, None, None, f"no margin: {why}")
     if distance is not None:
         return _Margin(point, allowed, distance)
-    if not allowed.separable:
+    from .solved_set import SolvedSet
+
+    if isinstance(allowed, SolvedSet):  # the solver proved nothing allowed
+        why = "nothing allowed"
+    elif not allowed.separable:
         why = ("no margin: the allowed set is not a union of boxes (a constraint names "
                "several parameters)")
     elif str(allowed).endswith("∅"):

@@ -78,8 +78,22 @@ def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None,
                              f"{', '.join(BUILTIN_SHIELDS)} or the path of a .mch file")
         name = path.stem
     machine = load_machine(path)
+    machine.decide_beyond_linear(beyond_linear)
     shield = Shield(name=name, sha256=machine.sha256, path=str(path), machine=machine)
     return for_actions(shield, actions) if actions is not None else shield
+
+
+#: the solver's time per state for an allowed set whose guard is not linear in its
+#: parameters, where recorded states are decided (replay, diff, guards --state)
+OFFLINE_SOLVER_S = 2.0
+
+
+def beyond_linear(machine, op: str, env: dict):
+    """The allowed set of ``op`` in ``env`` where its guard is not linear in its REAL
+    parameters: the solver's (:mod:`.solved_set`), within :data:`OFFLINE_SOLVER_S`."""
+    from .solved_set import solved_set
+
+    return solved_set(machine, op, env=env, timeout_s=OFFLINE_SOLVER_S)
 
 
 def for_actions(shield: Shield, actions: tuple[str, ...]) -> Shield:
@@ -101,6 +115,7 @@ def _rebuilt(name: str, sha256: str, path: str, text: str, file: Optional[str]) 
     if machine.sha256 != sha256:
         raise InputError(f"the shield {name} sent to a worker arrived changed (sha256 "
                          f"{machine.sha256[:12]}, not {sha256[:12]})")
+    machine.decide_beyond_linear(beyond_linear)
     return Shield(name=name, sha256=sha256, path=path, machine=machine)
 
 

@@ -56,8 +56,7 @@ from ..b.typecheck import typecheck_formula
 from ..b.values import Elem, FuncValue
 from ..errors import InputError, TracecheckError, UnsupportedError, WellDefinednessError
 from ..limits import deeply
-from .encoding import ElementFunction, ElementSet, load_z3
-from .proving import check_timeout
+from .encoding import ElementFunction, ElementSet, check_timeout, load_z3
 from .smt import Translator
 
 __all__ = ["SolvedSet", "Nearest", "solved_set", "check_solvable", "DEFAULT_BUDGET_S",

@@ -226,9 +226,11 @@ def record_settings(env: Optional[str], env_config: list[str], **fields):
 
 # the options of continuous actions (record, simulate)
 SHIELD_MODE = typer.Option(None, "--shield-mode", help="Continuous actions: how the shield "
-                           "makes the agent's action allowed — project (the default: the "
-                           "nearest allowed action) or replace (the environment's fallback "
-                           "action). See docs/continuous.md.")
+                           "makes the agent's action allowed — project (the default for a "
+                           "Box: the nearest allowed action), replace (the environment's "
+                           "fallback action) or mask (the default for a hybrid space: the "
+                           "best-scored enabled operation, its values projected). See "
+                           "docs/continuous.md.")
 SCALE = typer.Option(None, "--scale", help="Continuous actions: the unit of each component in "
                      "projection distances, comma-separated (e.g. 4,0.5; default 1 each).")
 
@@ -245,7 +247,7 @@ def continuous_options(shield_mode: Optional[str], scale: Optional[str],
 
     if shield_mode is not None and shield_mode not in MODES:
         raise InputError(f"--shield-mode {shield_mode!r}: give one of {', '.join(MODES)}")
-    out: dict = {"shield_mode": shield_mode or "project"}
+    out: dict = {"shield_mode": shield_mode}
     if scale is not None:
         try:
             out["scale"] = tuple(float(x) for x in scale.split(","))

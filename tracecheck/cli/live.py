@@ -34,6 +34,8 @@ def train_cmd(
     intervention_penalty: float = typer.Option(
         0.0, "--intervention-penalty", min=0.0, help="Continuous actions with --shield: lower "
         "each step's reward by this many times the projection distance (default 0: off)."),
+    shield_mode: Optional[str] = SHIELD_MODE,
+    scale: Optional[str] = SCALE,
     profile: Optional[str] = typer.Option(None, "--profile", help="A named configuration of "
                                           "the environment (highway: its reward profiles "
                                           "base (the default), higher-penalty); refused for "
@@ -66,6 +68,13 @@ def train_cmd(
     if algorithm == Algorithm.q_learning and shield is not None:
         raise InputError("--algorithm q-learning trains without a shield; with --shield, "
                          "give --algorithm dqn, maskable-ppo, ppo or a2c")
+    continuous = continuous_options(shield_mode, scale)
+    if (shield_mode is not None or scale is not None) and (shield is None or
+                                                            not adapter.parameters):
+        raise InputError("--shield-mode and --scale say how --shield moves continuous "
+                         f"actions; give them with --shield for an environment that takes "
+                         f"some ({adapter.name} "
+                         f"{'does' if adapter.parameters else 'does not'})")
     loaded = None
     if shield is not None:
         from ..checking.shield import load_shield
@@ -84,7 +93,8 @@ def train_cmd(
         card = _train(adapter, config, algorithm, loaded, steps=steps, seed=seed,
                       horizon=horizon, profile=profile,
                       progress=report, output=output, force=force,
-                      inputs=input_paths(shield), intervention_penalty=intervention_penalty)
+                      inputs=input_paths(shield), intervention_penalty=intervention_penalty,
+                      **continuous)
     _say_trained(card, output)
 
 
@@ -110,7 +120,8 @@ def _train(adapter, config: dict, algorithm: Algorithm, shield, *, output: Path,
     if algorithm == Algorithm.q_learning:
         from ..live.training import train_q_table
 
-        options.pop("intervention_penalty")
+        for key in ("intervention_penalty", "shield_mode", "scale"):
+            options.pop(key, None)
         return train_q_table(adapter, config, output, draw_curve=learning_curve, **options)
     from ..live.training import train_agent
 

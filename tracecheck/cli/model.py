@@ -192,8 +192,11 @@ def guards(
     from ..b.state import read_state_file
     from ..render.tables import TableData
 
+    from ..checking.shield import beyond_linear
+
     fmt = output_format(fmt, as_json)
     machine = load_model(model)
+    machine.decide_beyond_linear(beyond_linear)  # a guard not linear: the solver's set
     values = read_state_file(state)
     machine.check_state(values, where=str(state))
     missing = [v for v in machine.variables if v not in values]

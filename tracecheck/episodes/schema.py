@@ -73,18 +73,22 @@ class RunHeaderMessage(_Message):
     external_script: Optional[str] = Field(None, description="the script file it ran")
     external_script_sha256: Optional[str] = None
     action_parameters: Optional[dict[str, list[ParameterName]]] = Field(
-        None, description="continuous actions: for each operation, the REAL parameter each "
-                          "component of the action vector binds, in order")
+        None, description="continuous actions: for each operation with parameters, the REAL "
+                          "parameter each component of its action vector binds, in order")
     action_low: Optional[list[Optional[float]]] = Field(
-        None, description="continuous actions: the action space's lower bounds (null: none)")
+        None, description="continuous actions: the action space's lower bounds (null: none), "
+                          "the components of each operation in action_parameters in turn")
     action_high: Optional[list[Optional[float]]] = Field(
-        None, description="continuous actions: the action space's upper bounds (null: none)")
-    shield_mode: Optional[Literal["project", "replace"]] = Field(
+        None, description="continuous actions: the action space's upper bounds (null: none), "
+                          "in the same order")
+    shield_mode: Optional[Literal["project", "replace", "mask"]] = Field(
         None, description="continuous actions: how the live shield made an action allowed "
-                          "(project: the nearest allowed; replace: the fallback action)")
+                          "(project: the nearest allowed; replace: the fallback action; "
+                          "mask: a hybrid space's best-scored enabled operation, its values "
+                          "projected)")
     projection_scale: Optional[list[float]] = Field(
         None, description="continuous actions: the unit of each component in projection "
-                          "distances")
+                          "distances, in the same order")
 
     @model_validator(mode="after")
     def _action_space_fits(self) -> "RunHeaderMessage":

@@ -95,10 +95,12 @@ class EnvAdapter:
     #: continuous actions (a Gymnasium ``Box`` action space): the operation the action is
     #: and the REAL parameter of it that each component of the action vector binds, in
     #: order — ``{"ACCELERATE": ("a",)}`` for ``Box(-1, 1, (1,))``, ``{"DRIVE": ("a",
-    #: "steering")}`` for two components (docs/continuous.md). Empty: discrete actions.
+    #: "steering")}`` for two components (docs/continuous.md). A hybrid space (a discrete
+    #: choice of operation, each with its own parameters: ``Tuple((Discrete(n), Tuple((Box,
+    #: …))))``) names each action that has parameters. Empty: discrete actions.
     parameters: dict[str, tuple[str, ...]] = {}
-    #: continuous actions: the action vector taken when the shield allows nothing (None: the
-    #: zero vector, moved into the space's bounds)
+    #: continuous actions: the values of the fallback operation's parameters taken when the
+    #: shield allows nothing (None: the zero vector, moved into the space's bounds)
     fallback_action: Optional[tuple[float, ...]] = None
     #: seconds of environment time per agent step (step times in the files)
     seconds_per_step: float = 1.0
@@ -435,11 +437,12 @@ def _check_attributes(adapter: EnvAdapter, where: str) -> None:
     if fallback is not None and fallback not in actions:
         raise refuse("fallback", fallback, f"None or one of its actions ({', '.join(actions)})")
     parameters = read("parameters")
-    if parameters and tuple(parameters) != actions:
+    stray = [op for op in parameters or {} if op not in actions]
+    if stray:
         raise refuse("parameters", parameters,
-                     f"keyed by its one action ({', '.join(actions)}): a Box action space is "
-                     "one operation whose parameters take the components (hybrid spaces, a "
-                     "discrete choice with parameters, are not supported yet)")
+                     f"keyed by its actions ({', '.join(actions)}): {stray[0]} is not one "
+                     "(a Box action space is one operation whose parameters take the "
+                     "components; a hybrid space gives some or all of its actions parameters)")
 
 
 def _instance(cls, where: str) -> EnvAdapter:

@@ -202,16 +202,29 @@ def _load_continuous(path: Path, adapter, env, saved: set[str]) -> Agent:
         raise InputError(f"{path}: the agent has action space {space}, neither discrete "
                          "actions nor a one-dimensional Box")
     if adapter is not None:
-        params = next(iter(adapter.parameters.values()), ())
-        if not params:
+        if not adapter.parameters:
             raise InputError(f"{path}: the agent ({name.split('-')[0]}) takes continuous "
                              f"actions ({space}); {adapter.name} has {len(adapter.actions)} "
                              f"discrete actions ({', '.join(adapter.actions)})")
-        if shape != (len(params),):
+        takes = _components(adapter, env)
+        if shape != (len(takes),):
             raise InputError(f"{path}: the agent acts with {shape[0]} component(s) ({space}); "
-                             f"{adapter.name} takes {len(params)} ({', '.join(params)})")
+                             f"{adapter.name} takes {len(takes)} ({', '.join(takes)})")
         _check_observations(path, model.observation_space, adapter, env)
     return Agent(str(path), file_sha256(path), name, model)
+
+
+def _components(adapter, env) -> list[str]:
+    """What each component of a continuous agent's action is for ``adapter`` (in ``env``):
+    its parameters, or for a hybrid space a score per action and then the parameters
+    (:mod:`tracecheck.live.continuous`)."""
+    params = [p for op in adapter.actions for p in adapter.parameters.get(op, ())]
+    if env is None:
+        return params
+    from .continuous import space_parts
+
+    hybrid, _ = space_parts(adapter, env.action_space)
+    return [f"score of {op}" for op in adapter.actions] + params if hybrid else params
 
 
 def _saved_settings(path: Path) -> set[str]:

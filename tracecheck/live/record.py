@@ -118,7 +118,7 @@ def check_continuous(settings: RecordSettings, adapter, shield, env) -> None:
     :class:`~tracecheck.live.continuous.ContinuousShield`); a continuous setting is refused
     for discrete actions."""
     if not adapter.parameters:
-        if settings.shield_mode != "project" or settings.scale is not None:
+        if settings.shield_mode is not None or settings.scale is not None:
             raise InputError(f"--shield-mode and --scale are for continuous actions; "
                              f"{adapter.name} has discrete ones ({', '.join(adapter.actions)})")
         return
@@ -137,12 +137,15 @@ def continuous_fields(settings: RecordSettings, adapter) -> dict:
         space = env.action_space
     finally:
         env.close()
-    params = next(iter(adapter.parameters.values()))
-    return {"action_parameters": {op: list(p) for op, p in adapter.parameters.items()},
-            "action_low": [float(x) if math.isfinite(x) else None for x in space.low],
-            "action_high": [float(x) if math.isfinite(x) else None for x in space.high],
-            "shield_mode": settings.shield_mode,
-            "projection_scale": [float(x) for x in (settings.scale or (1.0,) * len(params))]}
+    from .continuous import space_parts
+
+    hybrid, parts = space_parts(adapter, space)
+    low = [float(x) if math.isfinite(x) else None for p in parts for x in p.low]
+    high = [float(x) if math.isfinite(x) else None for p in parts for x in p.high]
+    return {"action_parameters": {p.op: list(p.params) for p in parts},
+            "action_low": low, "action_high": high,
+            "shield_mode": settings.shield_mode or ("mask" if hybrid else "project"),
+            "projection_scale": [float(x) for x in (settings.scale or (1.0,) * len(low))]}
 
 
 def recording_header(settings: RecordSettings, agent, shield):

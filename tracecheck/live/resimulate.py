@@ -15,6 +15,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Callable, Optional
 
+import numpy as np
+
 from ..checking.replaying import (MISMATCH, NEW_CRASH, NO_CRASH, NO_SEED, NOT_PREVENTED, OUTCOMES,
                                PREVENTED, ReplayReport)
 from ..checking.shield import SHIELD_DIR, Shield
@@ -129,7 +131,7 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
     horizon = header.horizon or duration - 1
     continuous = {}
     if adapter.parameters:
-        continuous = {"shield_mode": header.shield_mode or "project",
+        continuous = {"shield_mode": header.shield_mode,
                       "scale": tuple(header.projection_scale) if header.projection_scale
                       else None}
     settings = RecordSettings(agent=_agent_path(header, agent), shield=shield.path,
@@ -189,16 +191,25 @@ def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:
 
 def _script(session, cols: RunColumns, lo: int, first: int) -> list:
     """The recorded actions of steps 1 … ``first`` - 1 of the episode starting at row ``lo``:
-    operation names, or for continuous actions the executed vectors."""
+    operation names, or for continuous actions the executed vectors (a hybrid space's:
+    (operation, its values) pairs)."""
     rows = range(lo + 1, lo + first)
-    if session.env.continuous is None:
+    shield = session.env.continuous
+    if shield is None:
         return [cols.action_names[cols.action[r]] for r in rows]
-    params = session.env.continuous.params
-    missing = [p for p in params if p not in cols.parameters]
-    if missing and first > 1:
-        raise InputError(f"{cols.path}: the steps have no recorded value of {missing[0]}, "
-                         "which the environment's action takes: they cannot be re-applied")
-    return [[float(cols.parameters[p][r]) for p in params] for r in rows]
+    script = []
+    for r in rows:
+        op = cols.action_names[cols.action[r]]
+        params = shield.ops[op].part.params if op in shield.ops else ()
+        missing = [p for p in params if p not in cols.parameters or
+                   not np.isfinite(cols.parameters[p][r])]
+        if missing:
+            raise InputError(f"{cols.path}: step {r - lo} has no recorded value of "
+                             f"{missing[0]}, which the environment's action {op} takes: it "
+                             "cannot be re-applied")
+        values = [float(cols.parameters[p][r]) for p in params]
+        script.append((op, values) if shield.hybrid else values)
+    return script
 
 
 def summary(results: list[Resimulation]) -> dict:

@@ -45,9 +45,10 @@ class RecordSettings:
     ray_address: Optional[str] = None
     env: str = "highway"
     env_config: Optional[dict] = None
-    #: continuous actions: how the shield makes an action allowed (project, replace) and
-    #: the unit of each component in projection distances (None: 1 each)
-    shield_mode: str = "project"
+    #: continuous actions: how the shield makes an action allowed (project, replace, mask;
+    #: None: project for a Box, mask for a hybrid space) and the unit of each component in
+    #: projection distances (None: 1 each)
+    shield_mode: Optional[str] = None
     scale: Optional[tuple[float, ...]] = None
 
 
@@ -152,25 +153,28 @@ def _continuous_episode(session: Session, index: int, *, seed: int,
     proposes, the shield's mode decides (:mod:`tracecheck.live.continuous`); each step keeps
     the proposal, the executed parameters, the distance and the allowed intervals."""
     env, agent = session.env, session.agent
-    (op,), dt = env.actions, session.adapter.seconds_per_step
+    dt = session.adapter.seconds_per_step
     obs, info, steps = _start(env, seed, check)
     reason = "time-limit"
     for k in range(1, session.horizon + 1):
         proposal = script[k - 1] if k <= len(script) else agent.act(obs)
-        anything = bool(env.allowed.any())  # in the state the shield decides in
+        allowed = tuple(a for a, ok in zip(env.actions, env.allowed) if ok)  # decided in
         obs, reward, terminated, truncated, info = env.step(proposal)
         if k <= len(script):
             _check(check, k, info["b_state"])
         crashed, decided = bool(info["crashed"]), info["shield"]
+        scores = decided["scores"]  # a hybrid space's: the agent's score of each operation
         steps.append(StepRecord(
-            step=k, time=float(k * dt), action=op, state=info["b_state"],
+            step=k, time=float(k * dt), action=decided["taken"], state=info["b_state"],
             reward=float(reward), crashed=crashed, observation=_rows(obs),
-            allowed_actions=(op,) if anything else (),
+            allowed_actions=allowed,
             shield_time_us=round(decided["step_decision_us"], 3),
             deadlock=decided["fallback_taken"] or None,
-            parameters=decided["executed"], proposal=decided["proposal"],
+            parameters=decided["executed"] or None, proposal=decided["proposal"] or None,
             projection_distance=decided["distance"],
-            allowed_intervals=decided["intervals"]))
+            allowed_intervals=decided["intervals"],
+            action_values=scores,
+            preferred_action=decided["requested"] if scores is not None else None))
         if crashed or terminated or truncated:
             reason = end_reason(crashed, terminated, truncated)
             break

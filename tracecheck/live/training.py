@@ -169,7 +169,8 @@ def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
                 profile: Optional[str] = None, progress: Optional[Progress] = None,
                 force: bool = False, inputs: Sequence[Path] = (),
                 draw_curve: Optional[CurveDrawer] = None,
-                intervention_penalty: float = 0.0) -> dict[str, Any]:
+                intervention_penalty: float = 0.0, shield_mode: Optional[str] = None,
+                scale: Optional[Sequence[float]] = None) -> dict[str, Any]:
     """Train ``algorithm`` (a key of :data:`LEARNERS`) on the adapter's environment, under
     ``shield`` if given; save the agent (``.zip``), its learning curve and its model card
     (see the module docstring); returns the card.
@@ -202,7 +203,12 @@ def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
         shield = load_shield("none", actions=tuple(adapter.actions))
     torch.set_num_threads(1)
     horizon = horizon or adapter.horizon
-    vec = _vec_env(adapter, config, shield, horizon, intervention_penalty)
+    if continuous and shield_mode is None:  # the default: project a Box, mask a hybrid
+        from .continuous import space_parts
+
+        shield_mode = "mask" if space_parts(adapter, _space(adapter, config))[0] else "project"
+    vec = _vec_env(adapter, config, shield, horizon, intervention_penalty,
+                   mode=shield_mode, scale=scale)
     settings = learner.settings(adapter.name == "highway", steps)
     policy = "MultiInputPolicy" if type(vec.observation_space).__name__ == "Dict" else \
         "MlpPolicy"
@@ -218,7 +224,7 @@ def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
     save_model(model, out)
     card = _card(adapter, config, learner.name, out, seed=seed, steps=steps, wall=wall,
                  horizon=horizon, settings={**settings, "policy": policy}, profile=profile,
-                 shield=shield, shielding=_shielding(learner, shield, continuous),
+                 shield=shield, shielding=_shielding(learner, shield, continuous, shield_mode),
                  returns=returns,
                  curve=curve, packages=("torch", "stable_baselines3", learner.package),
                  done=int(model.num_timesteps))
@@ -228,12 +234,14 @@ def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
     return card
 
 
-def _shielding(learner: Learner, shield, continuous: bool = False) -> str:
+def _shielding(learner: Learner, shield, continuous: bool = False,
+               mode: Optional[str] = None) -> str:
     """How the shield reached the learner: none, masked, replaced or projected."""
     if shield is None:
         return "none"
     if continuous:
-        return "projected"
+        return {"replace": "replaced", "mask": "masked, values projected"}.get(mode or "",
+                                                                             "projected")
     return "masked" if learner.masks else "replaced"
 
 
@@ -251,7 +259,8 @@ def _penalised(env, penalty: float):
     return Penalised(env)
 
 
-def _vec_env(adapter, config: dict, shield, horizon: int, penalty: float = 0.0):
+def _vec_env(adapter, config: dict, shield, horizon: int, penalty: float = 0.0, *,
+             mode: Optional[str] = None, scale: Optional[Sequence[float]] = None):
     """One environment, cut at ``horizon``, its episodes' returns reported (Monitor), under
     the shield's wrapper when there is one; checked to have the adapter's actions."""
     from gymnasium import spaces
@@ -259,30 +268,43 @@ def _vec_env(adapter, config: dict, shield, horizon: int, penalty: float = 0.0):
     from stable_baselines3.common.monitor import Monitor
     from stable_baselines3.common.vec_env import DummyVecEnv
 
+    if adapter.parameters:  # the action space fits the declaration (InputError if not)
+        from .continuous import space_parts
+
+        hybrid, _ = space_parts(adapter, _space(adapter, config))
+        if hybrid and shield is None:  # the agent's one vector: made by the wrapper
+            from ..checking.shield import load_shield
+
+            shield = load_shield("none", actions=tuple(adapter.actions),
+                                 parameters=adapter.parameters)
+
     def make():
         env = Monitor(TimeLimit(adapter.make_env(config), max_episode_steps=horizon))
         if shield is None:
             return env
         from .wrapper import ShieldWrapper
 
-        shielded = ShieldWrapper(env, shield, adapter=adapter)
+        shielded = ShieldWrapper(env, shield, adapter=adapter, mode=mode, scale=scale)
         return _penalised(shielded, penalty) if penalty else shielded
 
     vec = DummyVecEnv([make])
     space = vec.action_space
-    if adapter.parameters:
-        params = next(iter(adapter.parameters.values()))
-        if not isinstance(space, spaces.Box) or space.shape != (len(params),):
-            vec.close()
-            raise InputError(f"{adapter.name} has the action space {space}; its adapter "
-                             f"declares {len(params)} continuous component(s) "
-                             f"({', '.join(params)})")
-    elif not isinstance(space, spaces.Discrete) or int(space.n) != len(adapter.actions):
+    if not adapter.parameters and (not isinstance(space, spaces.Discrete)
+                                   or int(space.n) != len(adapter.actions)):
         vec.close()
         raise InputError(f"{adapter.name} has the action space {space}; train needs "
                          f"{len(adapter.actions)} discrete actions, one per action of the "
                          f"adapter ({', '.join(adapter.actions)})")
     return vec
+
+
+def _space(adapter, config: dict):
+    """The action space of ``adapter``'s environment in ``config``."""
+    env = adapter.make_env(config)
+    try:
+        return env.action_space
+    finally:
+        env.close()
 
 
 def _learner_class(learner: Learner, shielded: bool):
@@ -388,7 +410,9 @@ def shielding_text(card: dict) -> str:
     projected`` ("" without one)."""
     return {"none": "", "masked": f" under shield {card['shield']}, actions masked",
             "replaced": f" under shield {card['shield']}, blocked actions replaced",
-            "projected": f" under shield {card['shield']}, actions projected"
+            "projected": f" under shield {card['shield']}, actions projected",
+            "masked, values projected": f" under shield {card['shield']}, operations masked "
+                                        "and their values projected",
             }[card["shielding"]]
 
 

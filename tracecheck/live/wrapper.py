@@ -89,7 +89,7 @@ class ShieldWrapper(gym.Wrapper):
     """
 
     def __init__(self, env: gym.Env, shield: Shield, fallback: Optional[str] = None,
-                 adapter=None, *, mode: str = "project",
+                 adapter=None, *, mode: Optional[str] = None,
                  scale: Optional[Sequence[float]] = None) -> None:
         super().__init__(env)
         self.env_adapter = adapter if adapter is not None else adapter_for(env)
@@ -100,6 +100,8 @@ class ShieldWrapper(gym.Wrapper):
 
             self.continuous = ContinuousShield(shield.machine, self.env_adapter,
                                                env.action_space, mode=mode, scale=scale)
+            if self.continuous.hybrid:  # the agent acts with one vector (scores, values)
+                self.action_space = self.continuous.agent_space
         self.actions = tuple(self.env_adapter.actions)
         fallback = fallback or self.env_adapter.fallback or self.actions[0]
         if fallback not in self.actions:
@@ -124,7 +126,7 @@ class ShieldWrapper(gym.Wrapper):
             env.update(self.state)
             if self.continuous is not None:
                 self.continuous.decide(env)
-                enabled = {self.actions[0]} if self.continuous.any_allowed() else set()
+                enabled = self.continuous.enabled
             else:
                 enabled = self.shield.machine.enabled_in(env)
             self.decision_us = (time.perf_counter() - start) * 1e6
@@ -201,15 +203,15 @@ class ShieldWrapper(gym.Wrapper):
         and what was allowed."""
         start = time.perf_counter()
         decision = self.continuous.filter(action)
-        bands = self.continuous.bands()
+        bands = self.continuous.bands(decision.op)
         decision_us = self.decision_us + (time.perf_counter() - start) * 1e6
         problem = self.continuous.problem
-        obs, reward, terminated, truncated, info = self._advance(
-            decision.executed.astype(self.continuous.dtype))
-        info = self._info(info, 0, 0)
+        obs, reward, terminated, truncated, info = self._advance(decision.sent)
+        info = self._info(info, self.actions.index(decision.proposed_op),
+                          self.actions.index(decision.op))
         info["shield"].update(
             replaced=decision.intervened, proposal=decision.proposal,
             executed=decision.parameters, distance=decision.distance,
             fallback_taken=decision.deadlock, step_decision_us=decision_us,
-            intervals=bands, problem=problem)
+            intervals=bands, problem=problem, scores=decision.scores)
         return obs, reward, terminated, truncated, info

@@ -372,7 +372,8 @@ def _allowed_moved(c: ChangedStep, d: DiffReport) -> str:
     if c.allowed is None:
         return f"allowed sets left out (only the first {d.details} are computed)"
     old, new = c.allowed.against, c.allowed.shield
-    if old.text is not None and new.text is not None and len(c.parameters) == 1:
+    if old.text is not None and new.text is not None and len(c.parameters) == 1 and \
+            " ∈ " in old.text and " ∈ " in new.text:  # both intervals: the name said once
         text = f"{old.text} → {new.text.partition(' ∈ ')[2]}"
     else:
         text = " → ".join(v.text if v.text is not None else f"{name}: {v.note}"

@@ -73,8 +73,9 @@ def _executed(cols: RunColumns) -> np.ndarray:
 
 
 def interventions(cols: RunColumns) -> tuple[np.ndarray, np.ndarray]:
-    """(judged, intervened) per row: the row has an executed continuous action and the
-    agent's proposal for each of its parameters; some executed value differs from it.
+    """(judged, intervened) per row: the row has the agent's proposal (values of an
+    operation's parameters, which only a live recording keeps); some executed value differs
+    from it, or the executed operation is another (a hybrid space's: other parameters).
 
     >>> import numpy as np
     >>> from types import SimpleNamespace as S
@@ -82,14 +83,19 @@ def interventions(cols: RunColumns) -> tuple[np.ndarray, np.ndarray]:
     ...          proposals={"a": np.array([np.nan, 1.0, 2.0])})
     >>> [m.tolist() for m in interventions(cols)]
     [[False, True, True], [False, False, True]]
+    >>> hybrid = S(n=2, parameters={"a": np.array([np.nan, 1.0]), "b": np.array([2.0, np.nan])},
+    ...            proposals={"a": np.array([1.0, 1.0])})
+    >>> [m.tolist() for m in interventions(hybrid)]
+    [[True, True], [True, False]]
     """
-    executed = _executed(cols)
-    names = sorted(cols.parameters)
+    names = sorted(set(cols.parameters) | set(cols.proposals))
+    executed = np.column_stack([cols.parameters.get(p, np.full(cols.n, np.nan))
+                                for p in names]) if names else np.zeros((cols.n, 0))
     proposed = np.column_stack([cols.proposals.get(p, np.full(cols.n, np.nan))
                                 for p in names]) if names else np.zeros((cols.n, 0))
-    has = np.isfinite(executed)
-    judged = np.any(has, axis=1) & np.all(~has | np.isfinite(proposed), axis=1)
-    intervened = judged & np.any(has & (executed != proposed), axis=1)
+    has, asked = np.isfinite(executed), np.isfinite(proposed)
+    judged = np.any(asked, axis=1)
+    intervened = judged & np.any((has != asked) | (has & (executed != proposed)), axis=1)
     return judged, intervened
 
 
@@ -160,8 +166,9 @@ def _space_bound(ends: np.ndarray, params: np.ndarray, names: tuple[str, ...],
     out = np.zeros(len(ends), dtype=bool)
     declared = getattr(header, "action_parameters", None) or {}
     low, high = getattr(header, "action_low", None), getattr(header, "action_high", None)
+    offset = 0  # the bounds list each operation's components in turn
     for order in declared.values():
-        for component, name in enumerate(order):
+        for component, name in enumerate(order, start=offset):
             if name not in names:
                 continue
             mine = params == names.index(name)
@@ -169,6 +176,7 @@ def _space_bound(ends: np.ndarray, params: np.ndarray, names: tuple[str, ...],
                 if bounds is not None and component < len(bounds) \
                         and bounds[component] is not None:
                     out |= mine & _near(ends, np.full(len(ends), float(bounds[component])))
+        offset += len(order)
     return out
 
 

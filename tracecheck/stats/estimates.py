@@ -280,7 +280,8 @@ def _aggregate(m: Metric, values: Optional[np.ndarray], cols: RunColumns) -> np.
     if m.aggregate == "return":
         return np.add.reduceat(cols.reward, starts) - cols.reward[starts]
     if m.aggregate == "interventions":
-        if cols.values is None and cols.parameters:  # continuous: the proposal was changed
+        if cols.parameters and (cols.values is None or cols.proposals):
+            # continuous: the proposal was changed (a hybrid space's operation or values)
             recorded, changed = continuous_interventions(cols)
         else:
             recorded = None if cols.values is None else _values_recorded(cols)
