@@ -260,7 +260,7 @@ def test_a_step_that_cannot_be_written_names_the_step(tmp_path, change, message)
     (dict(action_low=[-1.0, 0.0]), "different lengths"),
     (dict(action_low=[3.0]), "an action_low bound lies above its action_high bound"),
     (dict(projection_scale=[0.0]), "a projection_scale is not positive"),
-    (dict(shield_mode="clip"), "Input should be 'project' or 'replace'"),
+    (dict(shield_mode="clip"), "Input should be 'project', 'replace' or 'mask'"),
     (dict(action_high=[float("inf")]), "Input should be a finite number"),
 ])
 def test_run_headers_that_do_not_describe_an_action_space(fields, message):
