@@ -309,3 +309,39 @@ def test_deadlocks_found_with_the_recorded_values_are_the_state_by_state_ones(ca
     report = replay_columns(episode_columns([ep], ["Act"]), shield)
     scalar = [k for k, st_ in enumerate(ep.steps) if "Act" not in machine.enabled(st_.state)]
     assert report.per_episode[0].deadlock_states == scalar, text
+
+
+FAR = """MACHINE Far
+VARIABLES Gap, Speed
+INVARIANT Gap : REAL & Speed : REAL
+INITIALISATION Gap, Speed := 50.0, 20.0
+OPERATIONS
+  ACCELERATE(a) = PRE a : REAL & a > Gap - 50.0 THEN skip END
+END
+"""
+
+
+@pytest.mark.parametrize("bounded", [True, False])
+def test_replay_keeps_the_actions_within_the_run_headers_action_space(tmp_path, bounded):
+    """The live shield allows only actions within the action space: where the guard allows
+    values outside it alone, the state is a deadlock and the margin is to the values within
+    it — as the run header declares the space; a run without one is judged by the guard."""
+    (tmp_path / "far.mch").write_text(FAR)
+    shield = load_shield(tmp_path / "far.mch")
+    space = dict(action_low=[-4.0], action_high=[2.0]) if bounded else {}
+    path = tmp_path / "far.mcap"
+    write_run(path, new_header("recorded", actions=["ACCELERATE"],
+                               action_parameters={"ACCELERATE": ["a"]}, **space), [
+        # a > 1.9: 1.0 is 0.9 short, inside the space either way (the batch path)
+        make(0, s(51.9, 20.0), [("ACCELERATE", {"a": 1.0}, s(51.9, 20.0))]),
+        # a > 3: nothing within [-4, 2]; over the reals 2.0 is 1.0 short
+        make(1, s(53.0, 20.0), [("ACCELERATE", {"a": 2.0}, s(53.0, 20.0))]),
+    ])
+    near, far = replay([path], shield).per_episode
+    assert near.margin == pytest.approx(0.9) and near.deadlock_states == []
+    if bounded:
+        assert far.margin is None and far.margin_note == "nothing allowed"
+        assert far.allowed == "a ∈ ∅" and far.deadlock_states == [0, 1]  # both states
+    else:
+        assert far.margin == pytest.approx(1.0) and far.deadlock_states == []
+        assert far.allowed == "a ∈ (3.0, ∞)"

@@ -518,3 +518,20 @@ def test_a_q_table_and_a_penalty_that_is_not_finite_are_refused(capsys, acc_env,
     code, _, err = run(capsys, "train", "--env", THROTTLE, "--shield", V1, "--steps", "50",
                        "--intervention-penalty", "nan", "-o", tmp_path / "a.zip")
     assert code == 2 and "give a finite number" in err
+
+
+def test_a_projected_float32_action_counts_as_on_the_boundary(capsys, throttle):
+    """The shield sends the float32 value the guard allows, a few float32 steps inside the
+    exact end it records: the statistics still see it on the boundary."""
+    import json
+
+    from tracecheck.episodes.reader import read_run
+
+    _, runs = throttle
+    projected = sum(1 for e in read_run(runs["v1"]).episodes for s in e.steps[1:]
+                    if s.parameters["a"] < 2.0 and not s.deadlock)
+    assert projected > 10
+    code, out, err = run(capsys, "stats", runs["v1"], "--json")
+    assert code == 0, err
+    boundary = json.loads(out)["runs"][0]["continuous"]["boundary"]
+    assert boundary["count"] == projected

@@ -47,7 +47,7 @@ def test_each_parameter_is_a_chart_of_proposal_execution_and_allowed_band(hand_r
                         "values": [None, 2.0, 1.0, -2.0, 1.5, -3.5]}
     assert executed["label"] == "a executed" and executed["values"][:2] == [None, -4.0]
     assert action["bands"] == [None, [], [[None, 0.0]], [[-3.0, -1.0]],
-                               [[-4.0, 1.5 + 1e-8]], [[-3.0, 2.0]]]
+                               [[-4.0, 1.5 + 1e-4]], [[-3.0, 2.0]]]
     assert episode_data(hand_run, 0)["series"][0]["bands"][3] == [[-4.0, -1.0], [0.5, 2.0]]
     assert data["interventions"] == [1, 2, 5]  # where the executed value is not the proposal
     step = data["steps"][1]

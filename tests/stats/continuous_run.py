@@ -19,8 +19,8 @@ EPISODES = [
     [(2.0, -4.0, 6.0, (), True),  # nothing allowed: the fallback
      (1.0, BELOW_ZERO, 1.0, ((None, 0.0),), None),  # 5e-324 from 0: on it (absolutely)
      (-2.0, -2.0, 0.0, ((-3.0, -1.0),), None),  # inside
-     (1.5, 1.5, 0.0, ((-4.0, 1.5 + 1e-8),), None),  # 1e-8 below an end of 1.5: not on it
-     (-3.5, -3.0 + 2e-9, 0.5, ((-3.0, 2.0),), None)],  # 2e-9 from -3: on it (relatively)
+     (1.5, 1.5, 0.0, ((-4.0, 1.5 + 1e-4),), None),  # 1e-4 below an end of 1.5: not on it
+     (-3.5, -3.0 + 2e-5, 0.5, ((-3.0, 2.0),), None)],  # 2e-5 from -3: on it (relatively)
 ]
 
 

@@ -360,14 +360,16 @@ class Machine:
             cache[key] = self.batch(node)
         return cache[key]
 
-    def enabled_batch(self, columns, candidates: Optional[Mapping[str, Any]] = None) -> dict:
+    def enabled_batch(self, columns, candidates: Optional[Mapping[str, Any]] = None, *,
+                      bounds: Optional[Mapping[str, tuple[dict, dict]]] = None) -> dict:
         """For each operation, a bool array: is it enabled in each row of ``columns``?
 
         An operation with REAL parameters is enabled where some values are allowed. Where
         ``candidates[op]`` (a list of ``{parameter: array of a value per row}``, NaN: none)
         holds values that its guard allows, by one batch evaluation of the guard with them
         bound, that is the answer (the evaluator confirmed an allowed value); the other rows
-        are decided one distinct state at a time, as :meth:`enabled` decides them."""
+        are decided one distinct state at a time, as :meth:`enabled` decides them — within
+        ``bounds[op]`` (an action space's (low, high) by parameter) where given."""
         import numpy as np
 
         out = {}
@@ -377,14 +379,17 @@ class Machine:
                 out[name] = np.ones(columns.n, dtype=bool)
                 continue
             if real_parameters(op):
-                out[name] = self._enabled_real(name, columns, (candidates or {}).get(name, ()))
+                out[name] = self._enabled_real(name, columns, (candidates or {}).get(name, ()),
+                                               (bounds or {}).get(name))
                 continue
             out[name] = self._batch_cached(("guard", name), op.enabling_guard)(columns, memo
                                                                               ).astype(bool)
         return out
 
-    def _enabled_real(self, name: str, columns, candidates) -> Any:
-        """:meth:`enabled_batch` for an operation with REAL parameters."""
+    def _enabled_real(self, name: str, columns, candidates,
+                      bounds: Optional[tuple[dict, dict]] = None) -> Any:
+        """:meth:`enabled_batch` for an operation with REAL parameters (some values allowed
+        within ``bounds``, where given: candidates are the caller's to keep within them)."""
         import numpy as np
 
         op = self.operation(name)
@@ -401,7 +406,8 @@ class Machine:
             enabled[rows] = np.asarray(guard(bound), dtype=bool)
         rest = np.flatnonzero(~enabled)
         if len(rest):  # the scalar decision, once per distinct state
-            decide = self._guard_fns()[name]
+            decide = self._guard_fns()[name] if bounds is None else \
+                (lambda env: self.allowed_in(name, env).within(*bounds).witness() is not None)
             others = columns.take(rest)
             first, index = others.distinct()
             enabled[rest] = np.array([bool(decide(self.env(others.row(int(i)))))

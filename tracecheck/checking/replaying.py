@@ -126,19 +126,50 @@ class ReplayReport:
 
 
 def enabled_matrix(shield: Shield, cols: RunColumns) -> tuple[np.ndarray, tuple[str, ...]]:
-    """(rows, operations) booleans: which operations the shield enables in each state."""
+    """(rows, operations) booleans: which operations the shield enables in each state (an
+    operation with REAL parameters: some values within the run's action space allowed)."""
     _check_variables(shield, cols)
-    enabled = shield.machine.enabled_batch(cols.states, _candidates(shield, cols))
+    bounds = space_bounds(cols)
+    enabled = shield.machine.enabled_batch(cols.states, _candidates(shield, cols, bounds),
+                                           bounds=bounds)
     ops = tuple(shield.machine.operations)
     return np.stack([enabled[o] for o in ops], axis=1) if ops else \
         np.zeros((cols.n, 0), dtype=bool), ops
 
 
-def _candidates(shield: Shield, cols: RunColumns) -> dict[str, list[dict]]:
+def space_bounds(cols: RunColumns) -> dict[str, tuple[dict, dict]]:
+    """For each operation with REAL parameters in the run header of ``cols``'s file, the
+    action space's bounds of its parameters: ({parameter: low}, {parameter: high}), a side
+    without a bound left out (the header lists each operation's components in turn). None
+    for a run that declares no bounds (an import): the guard alone decides."""
+    from ..episodes.reader import read_header
+
+    try:
+        header = read_header(cols.path)
+    except (InputError, OSError):
+        return {}
+    declared = header.action_parameters or {}
+    low, high = header.action_low or [], header.action_high or []
+    found, offset = {}, 0
+    for op, params in declared.items():
+        ends: tuple[dict, dict] = ({}, {})
+        for k, p in enumerate(params, start=offset):
+            for side, given in zip(ends, (low, high)):
+                if k < len(given) and given[k] is not None:
+                    side[p] = float(given[k])
+        offset += len(params)
+        if ends[0] or ends[1]:
+            found[op] = ends
+    return found
+
+
+def _candidates(shield: Shield, cols: RunColumns,
+                bounds: dict[str, tuple[dict, dict]]) -> dict[str, list[dict]]:
     """For each operation with REAL parameters, values to try first in each state (see
     :meth:`~tracecheck.b.Machine.enabled_batch`): those recorded for the step that left it
-    (the action taken there, when it is this operation), then zero. Only tried: the guard,
-    evaluated with them, decides."""
+    (the action taken there, when it is this operation), then zero — each only where it lies
+    within the action space's ``bounds``. Only tried: the guard, evaluated with them,
+    decides."""
     found: dict[str, list[dict]] = {}
     nxt = np.minimum(np.arange(cols.n) + 1, max(cols.n - 1, 0))
     same = (cols.episode[nxt] == cols.episode) & (np.arange(cols.n) + 1 < cols.n) \
@@ -152,6 +183,15 @@ def _candidates(shield: Shield, cols: RunColumns) -> dict[str, list[dict]]:
             taken = same & (cols.action[nxt] == cols.action_names.index(name))
             tries.insert(0, {p: np.where(taken, cols.parameters[p][nxt], np.nan)
                              for p in op.params})
+        low, high = bounds.get(name, ({}, {}))
+        for values in tries:  # a value outside the space is no action the agent could take
+            outside = np.zeros(cols.n, dtype=bool)
+            for p in op.params:
+                with np.errstate(invalid="ignore"):
+                    outside |= (values[p] < low.get(p, -np.inf)) | \
+                        (values[p] > high.get(p, np.inf))
+            for p in op.params:
+                values[p] = np.where(outside, np.nan, values[p])
         found[name] = tries
     return found
 
@@ -248,6 +288,7 @@ def check_parameters(shield: Shield, cols: RunColumns, rows: np.ndarray, actions
     steps this way."""
     machine = shield.machine
     found: dict[int, _Margin] = {}
+    bounds = space_bounds(cols) if margins else {}
     for code, name in enumerate(cols.action_names):
         op = machine.operations.get(name)
         if op is None or not real_parameters(op):
@@ -257,14 +298,17 @@ def check_parameters(shield: Shield, cols: RunColumns, rows: np.ndarray, actions
             continue
         feasible[which] = ok = _guard_with_parameters(shield, cols, op, which)
         if margins:
-            found.update(_margins(machine, op, cols, which[~ok]))
+            found.update(_margins(machine, op, cols, which[~ok], bounds.get(name)))
     return found
 
 
-def _margins(machine, op, cols: RunColumns, bad: np.ndarray) -> dict[int, _Margin]:
-    """The margin of each infeasible step row in ``bad`` (all of ``op``): for one parameter
-    in float arithmetic over all of them at once where that decides it
-    (:func:`~tracecheck.b.linear_batch.batch_margins`), else exactly, row by row."""
+def _margins(machine, op, cols: RunColumns, bad: np.ndarray,
+             bounds: Optional[tuple[dict, dict]] = None) -> dict[int, _Margin]:
+    """The margin of each infeasible step row in ``bad`` (all of ``op``), to the values
+    allowed within the action space's ``bounds``: for one parameter in float arithmetic
+    over all of them at once where that decides it
+    (:func:`~tracecheck.b.linear_batch.batch_margins`; a row whose nearest allowed value
+    could lie outside the bounds is left to the exact path), else exactly, row by row."""
     from ..b.linear_batch import batch_margins
 
     found: dict[int, _Margin] = {}
@@ -274,25 +318,38 @@ def _margins(machine, op, cols: RunColumns, bad: np.ndarray) -> dict[int, _Margi
         distance, nothing, decided = batch_margins(machine, op.name,
                                                    cols.states.take(bad - 1),
                                                    cols.parameters[p][bad])
+        if bounds is not None:
+            x = cols.parameters[p][bad]
+            with np.errstate(invalid="ignore"):
+                near_bound = (x - distance < bounds[0].get(p, -np.inf)) | \
+                    (x + distance > bounds[1].get(p, np.inf))
+            decided = decided & (nothing | ~near_bound)  # nothing over the reals: nor within
         for i in np.flatnonzero(decided).tolist():
             r = int(bad[i])
-            allowed = _Later(machine, op.name, cols, r)
+            allowed = _Later(machine, op.name, cols, r, bounds)
             found[r] = _Margin({p: float(cols.parameters[p][r])}, allowed,
                                None if nothing[i] else float(distance[i]),
                                "nothing allowed" if nothing[i] else None)
     for r in bad[~decided].tolist():
-        found[r] = _margin(machine, op, cols, r)
+        found[r] = _margin(machine, op, cols, r, bounds)
     return found
 
 
 class _Later:
     """The allowed set of a step, made only when a report shows it."""
 
-    def __init__(self, machine, op: str, cols: RunColumns, r: int) -> None:
-        self.machine, self.op, self.cols, self.r = machine, op, cols, r
+    def __init__(self, machine, op: str, cols: RunColumns, r: int,
+                 bounds: Optional[tuple[dict, dict]] = None) -> None:
+        self.machine, self.op, self.cols, self.r, self.bounds = machine, op, cols, r, bounds
 
     def __str__(self) -> str:
-        return str(self.machine.allowed(self.op, self.cols.states.row(self.r - 1)))
+        return str(_within(self.machine.allowed(self.op, self.cols.states.row(self.r - 1)),
+                           self.bounds))
+
+
+def _within(allowed, bounds: Optional[tuple[dict, dict]]):
+    """``allowed`` within the action space's ``bounds`` (as it is without them)."""
+    return allowed if bounds is None else allowed.within(*bounds)
 
 
 def _guard_with_parameters(shield: Shield, cols: RunColumns, op, which: np.ndarray
@@ -328,12 +385,14 @@ def _guard_with_parameters(shield: Shield, cols: RunColumns, op, which: np.ndarr
     return np.asarray(guard(before), dtype=bool)
 
 
-def _margin(machine, op, cols: RunColumns, r: int) -> _Margin:
+def _margin(machine, op, cols: RunColumns, r: int,
+            bounds: Optional[tuple[dict, dict]] = None) -> _Margin:
     """How far the recorded values of step row ``r`` lay from what the shield allowed in
-    the state before, over the reals (:meth:`~tracecheck.b.linear.AllowedSet.distance`)."""
+    the state before within the action space's ``bounds``, over the reals
+    (:meth:`~tracecheck.b.linear.AllowedSet.distance`)."""
     point = {p: float(cols.parameters[p][r]) for p in op.params}
     try:
-        allowed = machine.allowed(op.name, cols.states.row(r - 1))
+        allowed = _within(machine.allowed(op.name, cols.states.row(r - 1)), bounds)
     except UnsupportedError as exc:
         return _Margin(point, None, None, f"no margin: {exc.message}")
     try:
