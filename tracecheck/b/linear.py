@@ -30,68 +30,25 @@ True
 from __future__ import annotations
 
 import math
-import struct
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
+from functools import cached_property
 from typing import Any, Callable, Mapping, Optional
 
 from ..errors import UnsupportedError
 from . import ast
 from .bindings import conjuncts
-from .memo import fresh
-from .polytope import distance_to, nearest_point
+from .memo import MEMO_KEY, fresh
+from .polytope import (Constraint, Form, Interval, bound_constraint, box_constraints, box_of,
+                       constraint_of, distance_to, exact, form_add, form_constant, form_neg,
+                       form_times, gap, inner_point, interval_of, merge_intervals,
+                       nearest_in_boxes, nearest_point, ratio, towards)
 
 __all__ = ["Constraint", "AllowedSet", "Interval", "allowed_set", "real_parameters",
            "parameter_range", "guard_with_parameters", "linear_form"]
 
 #: the most polytopes a guard's disjunctions may make (each a conjunction of constraints)
 MAX_PARTS = 256
-
-Linear = dict  # parameter (or "" for the constant) -> Fraction
-
-
-@dataclass(frozen=True)
-class Constraint:
-    """``Σ coeffs[p]·p + const  op  0`` with ``op`` one of ``<=``, ``<``, ``=``."""
-
-    coeffs: tuple[tuple[str, Fraction], ...]
-    const: Fraction
-    op: str
-
-    def holds(self, point: Mapping[str, Fraction]) -> bool:
-        value = sum((c * point[p] for p, c in self.coeffs), self.const)
-        return value <= 0 if self.op == "<=" else value < 0 if self.op == "<" else value == 0
-
-
-@dataclass(frozen=True)
-class Interval:
-    """A set of reals from ``low`` to ``high`` (None: unbounded), each end open or closed."""
-
-    low: Optional[Fraction]
-    high: Optional[Fraction]
-    low_open: bool = False
-    high_open: bool = False
-
-    @property
-    def empty(self) -> bool:
-        if self.low is None or self.high is None:
-            return False
-        return self.low > self.high or (self.low == self.high
-                                        and (self.low_open or self.high_open))
-
-    def contains(self, x: Fraction) -> bool:
-        if self.low is not None and (x < self.low or (self.low_open and x == self.low)):
-            return False
-        return not (self.high is not None
-                    and (x > self.high or (self.high_open and x == self.high)))
-
-    def __str__(self) -> str:
-        low = "-∞" if self.low is None else _number(self.low)
-        high = "∞" if self.high is None else _number(self.high)
-        if self.low is not None and self.low == self.high:
-            return "{" + low + "}"
-        return (f"{'(' if self.low_open or self.low is None else '['}{low}, {high}"
-                f"{')' if self.high_open or self.high is None else ']'}")
 
 
 @dataclass(frozen=True)
@@ -110,30 +67,27 @@ class AllowedSet:
     parts: tuple[tuple[Constraint, ...], ...]
     check: Any = field(default=None, compare=False, repr=False)  # point -> the evaluator's
 
-    @property
+    @cached_property
     def intervals(self) -> Optional[tuple[Interval, ...]]:
         """For one parameter: the allowed set as disjoint intervals in increasing order."""
         if len(self.params) != 1:
             return None
-        pieces = [i for i in (_interval(part) for part in self.parts) if not i.empty]
-        return _merge(pieces)
+        pieces = [i for i in (interval_of(part) for part in self.parts) if not i.empty]
+        return merge_intervals(pieces)
 
     def within(self, low: Mapping[str, float], high: Mapping[str, float]) -> "AllowedSet":
         """The allowed values that also lie in the box ``low[p] <= p <= high[p]`` (an
         action space's bounds; a parameter missing from either is unbounded that way)."""
-        extra = []
-        for p in self.params:
-            if p in low and math.isfinite(low[p]):
-                extra.append(Constraint(((p, Fraction(-1)),), _exact(low[p], p), "<="))
-            if p in high and math.isfinite(high[p]):
-                extra.append(Constraint(((p, Fraction(1)),), -_exact(high[p], p), "<="))
+        extra = box_constraints(self.params, low, high)
         check = self.check
+        bounds = [(p, low.get(p, -math.inf), high.get(p, math.inf)) for p in self.params]
 
         def inside(point: Mapping[str, Any]) -> bool:
-            return all(low.get(p, -math.inf) <= float(point[p]) <= high.get(p, math.inf)
-                       for p in self.params) and (check is None or bool(check(point)))
-        return AllowedSet(self.params, tuple(part + tuple(extra) for part in self.parts),
-                          inside)
+            for p, lo, hi in bounds:
+                if not lo <= float(point[p]) <= hi:
+                    return False
+            return check is None or bool(check(point))
+        return AllowedSet(self.params, tuple(part + extra for part in self.parts), inside)
 
     def bands(self) -> Optional[dict[str, tuple[Interval, ...]]]:
         """Per parameter the intervals it may take, where the allowed set is the product of
@@ -163,13 +117,13 @@ class AllowedSet:
                     "it accepts, nor can it say there is none")
             return found
         for box in self._boxes():  # a point well inside a box first: one evaluation
-            inner = {p: _inside(box[p], 0.0) for p in self.params}
-            if all(box[p].contains(Fraction(inner[p])) for p in self.params) and \
+            inner = {p: inner_point(box[p], 0.0) for p in self.params}
+            if all(box[p].contains(inner[p]) for p in self.params) and \
                     self.contains(inner):
                 return inner
         return self.nearest({p: 0.0 for p in self.params})
 
-    @property
+    @cached_property
     def separable(self) -> bool:
         """Whether every constraint names one parameter (each polytope is a box)."""
         return all(len(c.coeffs) <= 1 for part in self.parts for c in part)
@@ -183,8 +137,8 @@ class AllowedSet:
 
     def contains_exact(self, point: Mapping[str, Any]) -> bool:
         """Whether ``point`` satisfies the constraints over the reals, exactly."""
-        exact = {p: _exact(point[p], p) for p in self.params}
-        return any(all(c.holds(exact) for c in part) for part in self.parts)
+        at = {p: exact(point[p], p) for p in self.params}
+        return any(all(c.holds(at) for c in part) for part in self.parts)
 
     def nearest(self, point: Mapping[str, Any],
                 scale: Optional[Mapping[str, float]] = None) -> Optional[dict[str, float]]:
@@ -194,17 +148,7 @@ class AllowedSet:
         takes its fallback. Polytopes that are not boxes: :mod:`.polytope`."""
         if not self.separable:
             return nearest_point(self, point, scale)
-        best, best_d = None, math.inf
-        for box in self._boxes():
-            candidate = self._confirmed(
-                {p: _clamp(float(point[p]), box[p]) for p in self.params}, box)
-            if candidate is None:
-                continue
-            d = sum(((candidate[p] - float(point[p])) / (scale or {}).get(p, 1.0)) ** 2
-                    for p in self.params)
-            if d < best_d:
-                best, best_d = candidate, d
-        return best
+        return nearest_in_boxes(self, self._boxes(), point, scale)
 
     def distance(self, point: Mapping[str, Any]) -> Optional[float]:
         """How far ``point`` lies from the allowed set over the reals (Euclidean, to the
@@ -212,90 +156,30 @@ class AllowedSet:
         margin of a recorded action. None when nothing is allowed."""
         if not self.separable:
             return distance_to(self, point)
-        exact = {p: _exact(point[p], p) for p in self.params}
+        at = {p: exact(point[p], p) for p in self.params}
         boxes = self._boxes()
         if not boxes:
             return None
         if len(self.params) == 1:  # the gap itself, rounded once
             (p,) = self.params
-            return float(min(abs(_gap(exact[p], box[p])) for box in boxes))
-        return math.sqrt(min(sum((_gap(exact[p], box[p]) ** 2 for p in self.params),
+            return float(min(abs(gap(at[p], box[p])) for box in boxes))
+        return math.sqrt(min(sum((gap(at[p], box[p]) ** 2 for p in self.params),
                                  Fraction(0)) for box in boxes))
 
     def _boxes(self) -> list[dict]:
         """The non-empty boxes of a separable set (each parameter's interval), in the order
-        of its polytopes."""
-        return [b for b in (_box(part, self.params) for part in self.parts)
-                if b is not None and not any(i.empty for i in b.values())]
+        of its polytopes (computed once: nearest, witness and bands all ask)."""
+        return self._box_list
 
-    def _confirmed(self, candidate: dict, box: dict) -> Optional[dict]:
-        """``candidate`` if the evaluator allows it, else the allowed float point nearest it
-        on the way into the box (bisection: the evaluator's float arithmetic may refuse the
-        exact boundary point) — moving first only the parameters whose float lies outside
-        their interval over the reals (a bound rounded, an open end), then all of them;
-        None if none is found (fail closed)."""
-        if self.contains(candidate):
-            return candidate
-        outside = [p for p in self.params if not box[p].contains(Fraction(candidate[p]))]
-        for moving in (outside, list(self.params)):
-            inner = dict(candidate)
-            inner.update({p: _inside(box[p], candidate[p]) for p in moving})
-            if inner == candidate or not self.contains(inner):
-                continue
-            return self.towards(candidate, inner)
-        return self._neighbour(candidate)
+    @cached_property
+    def _box_list(self) -> list[dict]:
+        return [b for b in (box_of(part, self.params) for part in self.parts)
+                if b is not None and not any(i.empty for i in b.values())]
 
     def towards(self, refused: dict, allowed: dict) -> dict:
         """The allowed point nearest ``refused`` on the segment to ``allowed``, to the
-        float: steps doubling from one float away (the evaluator's rounding usually refuses
-        only a few floats past a bound), then halving the rest in the floats' own order (at
-        most 64 halvings, whatever the magnitudes)."""
-        direction = {p: allowed[p] - refused[p] for p in self.params}
-
-        def at(t: float) -> dict:
-            return {p: refused[p] + t * direction[p] for p in self.params}
-        moving = [p for p in self.params if direction[p] != 0.0]
-        t = min(1.0, max([math.ulp(refused[p]) / abs(direction[p]) for p in moving]
-                         + [math.ulp(0.0)]))
-        lo = 0.0  # refused at lo, allowed at hi
-        for _ in range(DOUBLINGS):
-            if t >= 1.0 or self.contains(at(t)):
-                break
-            lo, t = t, min(1.0, 2.0 * t)
-        else:
-            t = 1.0
-        hi = t
-
-        def end(t: float) -> dict:  # at 1 the allowed point itself, not a rounding of it
-            return dict(allowed) if t >= 1.0 else at(t)
-        while True:
-            mid = _float_between(lo, hi)
-            low, high = at(lo), end(hi)
-            if mid is None or all(math.nextafter(low[p], high[p]) == high[p]
-                                  or low[p] == high[p] for p in moving):
-                return high
-            if self.contains(at(mid)):
-                hi = mid
-            else:
-                lo = mid
-
-    def _neighbour(self, candidate: dict) -> Optional[dict]:
-        """For a point set (``3.0 * a = 1.0``): the floats next to it that the evaluator
-        allows, nearest first."""
-        for steps in range(1, NUDGES + 1):
-            for direction in (-math.inf, math.inf):
-                point = dict(candidate)
-                for p in self.params:
-                    for _ in range(steps):
-                        point[p] = math.nextafter(point[p], direction)
-                if self.contains(point):
-                    return point
-        return None
-
-    def _empty_by_solver(self) -> None:
-        raise UnsupportedError("tracecheck decides whether a guard leaves some values of "
-                               "several parameters only when each constraint names one "
-                               "parameter")
+        float (see :func:`.polytope.towards`)."""
+        return towards(self.contains, self.params, refused, allowed)
 
     def __str__(self) -> str:
         if len(self.params) == 1:
@@ -326,19 +210,58 @@ def allowed_set(machine, op_name: str, state: Optional[Mapping[str, Any]] = None
     Raises :class:`UnsupportedError` naming the sub-formula when the guard is not linear in
     the parameters once the state is substituted."""
     op = machine.operation(op_name)
-    if not real_parameters(op):
+    if not machine.cached("real parameters", op_name, lambda: real_parameters(op)):
         raise UnsupportedError(f"{op_name} has no parameters typed `p : REAL` in its guard")
+    lin = _linearizer(machine, op_name)
     # one copy of the state for every evaluation here: what does not depend on a parameter
-    # (a quantifier over the vehicles) is computed once, remembered in it (see .memo)
-    local = fresh(machine.env(state or {}) if env is None else env)
-    parts = linear_form(machine, op_name)(local)
-    guard = guard_with_parameters(machine, op_name)
+    # (a quantifier over the vehicles) is computed once, remembered in it (see .memo), and
+    # so is each value the linear form reads from the state (see _Linearizer)
+    local = _State(machine.env(state or {}) if env is None else env, lin.fns)
+    local.pop(MEMO_KEY, None)
+    parts = lin.run(local)
+    guard = _residual_guard(machine, op_name)
+    params = tuple(op.params)
+    answers: dict = {}  # the evaluator's answer by point: asked again, not evaluated again
 
     def check(point: Mapping[str, Any]) -> bool:
-        bound = dict(local)  # the remembered values shared: none depends on a parameter
-        bound.update({p: float(point[p]) for p in op.params})
-        return bool(guard(bound))
-    return AllowedSet(tuple(op.params), tuple(tuple(p) for p in parts), check)
+        values = tuple(float(point[p]) for p in params)
+        key = values if all(values) else tuple((v, math.copysign(1.0, v)) for v in values)
+        known = answers.get(key)
+        if known is None:
+            bound = _State(local, local.free)  # what the state gave, shared
+            bound.update(zip(params, values))
+            try:
+                known = answers[key] = bool(guard(bound))
+            except _Missing as exc:
+                raise exc.args[0] from None
+        return known
+    return AllowedSet(params, tuple(tuple(p) for p in parts), check)
+
+
+class _State(dict):
+    """A state for the formulas of :class:`_Linearizer`: the value of a sub-formula kept
+    under its name is computed when first read (``free``: the compiled sub-formulas by
+    name) — a value the linear form did not need (a conjunct after one that failed)."""
+
+    __slots__ = ("free",)
+
+    def __init__(self, env: Mapping, free: dict) -> None:
+        super().__init__(env)
+        self.free = free
+
+    def __missing__(self, key: Any) -> Any:
+        fn = self.free.get(key)
+        if fn is None:
+            raise KeyError(key)
+        try:
+            value = self[key] = fn(self)
+        except KeyError as exc:  # not the name's own: raised as the whole formula would
+            raise _Missing(exc) from None
+        return value
+
+
+class _Missing(Exception):
+    pass
 
 
 def parameter_range(machine, op_name: str) -> Optional[AllowedSet]:
@@ -352,8 +275,8 @@ def parameter_range(machine, op_name: str) -> Optional[AllowedSet]:
     node = own[0]
     for c in own[1:]:
         node = ast.And(node, c, pos=c.pos)
-    parts = _Linearizer(set(op.params), machine.compiler(), machine.source).pred(node, True)(
-        fresh(machine.base_env))
+    lin = _Linearizer(set(op.params), machine.compiler(), machine.source).compile(node)
+    parts = lin.run(fresh(machine.base_env))
     return AllowedSet(tuple(op.params), tuple(tuple(p) for p in parts))
 
 
@@ -361,9 +284,25 @@ def linear_form(machine, op_name: str) -> Callable[[dict], list]:
     """``op_name``'s guard compiled (once) into a function from a state to its polytopes;
     raises :class:`UnsupportedError` with the reason where its form cannot be linear in
     the parameters (a product of two parameter terms, a parameter inside a function)."""
+    return _linearizer(machine, op_name).run
+
+
+def _linearizer(machine, op_name: str) -> "_Linearizer":
     op = machine.operation(op_name)
     return machine.cached("linear guards", op_name, lambda: _Linearizer(
-        set(op.params), machine.compiler(), machine.source).pred(op.guard, True))
+        set(op.params), machine.compiler(), machine.source).compile(op.guard))
+
+
+def _residual_guard(machine, op_name: str) -> Callable[[dict], Any]:
+    """``op_name``'s guard compiled (once) with each sub-formula the linear form reads from
+    the state replaced by the name it keeps that value under (in a :class:`_State`): the
+    same formula for the evaluator, the same float arithmetic on the same values, but what
+    reads only the state is not computed again for every point checked."""
+    def compiled() -> Callable[[dict], Any]:
+        comp = machine.compiler()
+        with comp.binding(tuple(machine.operation(op_name).params)):
+            return comp.compile(_linearizer(machine, op_name).residual_guard)
+    return machine.cached("linear residual guards", op_name, compiled)
 
 
 def guard_with_parameters(machine, op_name: str) -> Callable[[dict], Any]:
@@ -377,15 +316,60 @@ def guard_with_parameters(machine, op_name: str) -> Callable[[dict], Any]:
     return machine.cached("guards with parameters bound", op_name, compiled)
 
 
+#: the formulas evaluated in the environment of the formula around them (no binders):
+#: where a sub-formula the state determines may be read from a name instead
+_SAME_ENV = (ast.BinOp, ast.Neg, ast.Call, ast.SetExt, ast.Apply, ast.IfExpr, ast.Pair,
+             ast.Rel, ast.And, ast.Or, ast.Not, ast.Implies, ast.Equiv)
+
+
 class _Linearizer:
     """Compiles a guard, once per operation, into a function from the state to its
-    disjunctive normal form over linear constraints in the parameters: what does not depend
-    on a parameter is compiled by the engine's compiler and evaluated in the state; a form
-    that cannot be linear (a product of two parameter terms) is refused here, one that turns
-    out not to be in a state (a division by zero) when it is evaluated there."""
+    disjunctive normal form over linear constraints in the parameters: a form that cannot
+    be linear (a product of two parameter terms) is refused here, one that turns out not
+    to be in a state (a division by zero) when it is evaluated there.
+
+    What does not depend on a parameter is compiled by the engine's compiler and evaluated
+    in the state, its value kept in the state's dict (a :class:`_State`) under a name no B
+    identifier has, and so is each sub-formula found in several of them (the ego's speed
+    in every bound): evaluated once per state, where first read. The guard with those names
+    (:attr:`residual_guard`) is what :func:`allowed_set`'s check evaluates. The linear
+    forms are exact integers (see :data:`.polytope.Form`); a relation over the parameters and
+    literals alone is computed once."""
 
     def __init__(self, params: set[str], comp, source: str) -> None:
         self.params, self.comp, self.source = params, comp, source
+        self.order = tuple(sorted(params))
+        self.names: dict[ast.Node, str] = {}  # sub-formulas read from the state, by name
+        self.fns: dict[str, Callable] = {}  # … compiled (reading the names inside them)
+        self.form: Callable[[dict], list] = lambda env: []
+        self.residual_guard: Optional[ast.Node] = None
+
+    def compile(self, guard: ast.Node) -> "_Linearizer":
+        self.residual_guard = self.residual(guard)  # names each sub-formula of the state
+        seen: dict[ast.Node, int] = {}
+
+        def walk(n: ast.Node) -> None:  # each one's sub-formulas, once per distinct parent
+            seen[n] = seen.get(n, 0) + 1
+            if seen[n] == 1 and isinstance(n, _SAME_ENV):
+                for c in n.args if isinstance(n, ast.Apply) else ast.children(n):
+                    walk(c)
+        for n in list(self.names):
+            walk(n)
+        for n, count in seen.items():
+            if count > 1 and n not in self.names and ast.free_names(n) and _nodes(n, 4) >= 4:
+                self.names[n] = f"$linear{len(self.names)}"
+        self.fns.update({key: self.comp.compile(self.definition(n))
+                         for n, key in self.names.items()})
+        self.form = self.pred(guard, True)
+        return self
+
+    def run(self, env: dict) -> list:
+        """The polytopes in the state ``env`` (a :class:`_State` keeps what was read)."""
+        state = env if isinstance(env, _State) else _State(env, self.fns)
+        try:
+            return self.form(state)
+        except _Missing as exc:
+            raise exc.args[0] from None
 
     def refuse(self, node: ast.Node, why: str) -> UnsupportedError:
         from .scope import render
@@ -396,13 +380,63 @@ class _Linearizer:
     def free(self, node: ast.Node) -> bool:
         return not (ast.free_names(node) & self.params)
 
+    def slot(self, node: ast.Node) -> Optional[str]:
+        """The name a sub-formula free of parameters is kept under in the state's dict;
+        None for one without names (literals: the compiler folds it)."""
+        if not ast.free_names(node):
+            return None
+        return self.names.setdefault(node, f"$linear{len(self.names)}")
+
+    def definition(self, node: ast.Node, top: bool = True) -> ast.Node:
+        """``node`` reading each named sub-formula from its name (not a function applied:
+        that stays as written)."""
+        if not top and node in self.names:
+            return ast.Name(self.names[node], pos=node.pos)
+        if not isinstance(node, _SAME_ENV):
+            return node
+        if isinstance(node, ast.Apply):
+            return replace(node, args=tuple(self.definition(a, False) for a in node.args))
+        return ast.map_children(node, lambda c: self.definition(c, False))
+
+    def evaluated(self, node: ast.Node, then: Callable[[Any], Any]) -> Callable[[dict], Any]:
+        """``then`` of ``node``'s value in the state: computed once when ``node`` reads no
+        name (unless that fails: then in each state, failing there as before)."""
+        key = self.slot(node)
+        if key is None:
+            fn = self.comp.compile(node)
+            try:
+                value = then(fn({}))
+                return lambda env: value
+            except Exception:  # noqa: BLE001 - raised again, where the state is evaluated
+                return lambda env: then(fn(env))
+        fn = self.fns.get(key) or self.comp.compile(self.definition(node))
+
+        def read(env: dict) -> Any:
+            value = env[key] = fn(env)
+            return then(value)
+        return read
+
+    def residual(self, node: ast.Node) -> ast.Node:
+        """The guard with each sub-formula the linear form reads from the state replaced by
+        the name it keeps that value under (the same walk as :meth:`pred`, :meth:`expr`)."""
+        if self.free(node):
+            key = self.slot(node)
+            return node if key is None else ast.Name(key, pos=node.pos)
+        if isinstance(node, (ast.And, ast.Or, ast.Equiv, ast.Implies)) or (
+                isinstance(node, ast.BinOp) and node.op in ("+", "-", "*", "/")) or (
+                isinstance(node, ast.Rel) and not _typing(node)):
+            return replace(node, left=self.residual(node.left),
+                           right=self.residual(node.right))
+        if isinstance(node, (ast.Not, ast.Neg)):
+            return replace(node, operand=self.residual(node.operand))
+        return node
+
     def pred(self, node: ast.Node, positive: bool) -> Callable[[dict], list]:
         if self.free(node):  # no parameter: true or false here
-            fn = self.comp.compile(node)
-            return lambda env: [[]] if bool(fn(env)) == positive else []
+            return self.evaluated(node, lambda v: [[]] if bool(v) == positive else [])
         if isinstance(node, (ast.And, ast.Or)):  # ¬(A ∧ B) = ¬A ∨ ¬B, ¬(A ∨ B) = ¬A ∧ ¬B
             if isinstance(node, ast.And) == positive:
-                return self.both(node.left, node.right, positive)
+                return self.chain(node, positive)
             return self.either(node.left, node.right, positive, node)
         if isinstance(node, ast.Not):
             return self.pred(node.operand, not positive)
@@ -418,10 +452,37 @@ class _Linearizer:
             return self.relation(node, positive)
         raise self.refuse(node, f"a {type(node).__name__} over a parameter")
 
+    def chain(self, node: ast.Node, positive: bool) -> Callable[[dict], list]:
+        """A conjunction (``A & B``, or ``not(A or B)``) nested to its left as one product:
+        the same order, and the same checks, as :meth:`both` nested."""
+        levels, kind = [], type(node)
+        while type(node) is kind and not self.free(node):
+            levels.append(node)
+            node = node.left
+        first = self.pred(node, positive)
+        rest = [(self.pred(level.right, positive), level.left) for level in reversed(levels)]
+
+        def product(env: dict) -> list:
+            out = first(env)
+            for right, left in rest:
+                if not out:
+                    return out  # the others are not evaluated: nothing to combine them with
+                second = right(env)
+                out = _cap([x + y for x in out for y in second], left, self)
+            return out
+        return product
+
     def both(self, a, b, positive, second_positive=None) -> Callable[[dict], list]:
         left = self.pred(a, positive)
         right = self.pred(b, positive if second_positive is None else second_positive)
-        return lambda env: _cap([x + y for x in left(env) for y in right(env)], a, self)
+
+        def product(env: dict) -> list:
+            first = left(env)
+            if not first:
+                return first  # the second is not evaluated: nothing to combine it with
+            second = right(env)
+            return _cap([x + y for x in first for y in second], a, self)
+        return product
 
     def either(self, a, b, positive, node, second_positive=None) -> Callable[[dict], list]:
         left = self.pred(a, positive)
@@ -430,37 +491,91 @@ class _Linearizer:
 
     def relation(self, node: ast.Rel, positive: bool) -> Callable[[dict], list]:
         op = node.op
-        if op == ":" and isinstance(node.left, ast.Name) and isinstance(node.right, ast.Name) \
-                and node.right.id in ("REAL", "FLOAT"):
+        if _typing(node):
             return lambda env: [[]] if positive else []
         if op not in ("<", "<=", ">", ">=", "=", "/="):
             raise self.refuse(node, f"the relation {op}")
         left, right = self.expr(node.left), self.expr(node.right)
         if not positive:
             op = {"<": ">=", "<=": ">", ">": "<=", ">=": "<", "=": "/=", "/=": "="}[op]
+        simple = self.bound(node, op)
+        if simple is not None:
+            return simple
+        order = self.order
         if op == "/=":
-            return lambda env: (lambda d: [[_constraint(d, "<")], [_constraint(_neg(d), "<")]])(
-                _sub(left(env), right(env)))
-        if op in (">", ">="):  # left > right: right - left < 0
+            def parts(env: dict) -> list:
+                d = form_add(left(env), right(env), -1)
+                return [[constraint_of(d, "<", order)], [constraint_of(form_neg(d), "<", order)]]
+        elif op in (">", ">="):  # left > right: right - left < 0
             strict = {">": "<", ">=": "<="}[op]
-            return lambda env: [[_constraint(_sub(right(env), left(env)), strict)]]
-        return lambda env: [[_constraint(_sub(left(env), right(env)), op)]]
 
-    def expr(self, node: ast.Node) -> Callable[[dict], Linear]:
+            def parts(env: dict) -> list:
+                return [[constraint_of(form_add(right(env), left(env), -1), strict, order)]]
+        else:
+            def parts(env: dict) -> list:
+                return [[constraint_of(form_add(left(env), right(env), -1), op, order)]]
+        if ast.free_names(node) - self.params:
+            return parts
+        made: list = []  # over the parameters and literals alone: the same in every state
+
+        def once(env: dict) -> list:
+            if not made:
+                made.append(parts(env))
+            return [list(p) for p in made[0]]
+        return once
+
+    def bound(self, node: ast.Rel, op: str) -> Optional[Callable[[dict], list]]:
+        """``p op v`` or ``v op p`` (``op`` one of < <= > >=) for a parameter ``p`` and a
+        value ``v`` of the state: its constraint made directly, the same as
+        :meth:`relation` makes it (``p - v op 0`` or ``v - p op 0``, its limit ``v``)."""
+        sides = (node.left, node.right)
+        names = [isinstance(s, ast.Name) and s.id in self.params for s in sides]
+        if op not in ("<", "<=", ">", ">=") or names.count(True) != 1:
+            return None
+        p, other = sides[names.index(True)].id, sides[names.index(False)]
+        key = self.slot(other) if self.free(other) else None
+        if key is None:
+            return None
+        fn = self.fns.get(key) or self.comp.compile(self.definition(other))
+        upper = (op[0] == "<") == names[0]  # p below v: p - v op 0
+        kind = "<" if op in ("<", ">") else "<="
+
+        def parts(env: dict) -> list:
+            value = env[key] = fn(env)
+            return [[bound_constraint(p, ratio(value, "a value"), upper, kind)]]
+        return parts
+
+    def expr(self, node: ast.Node) -> Callable[[dict], Form]:
+        fn = self.linear(node)
+        if self.free(node) or ast.free_names(node) - self.params:
+            return fn
+        made: list = []  # over the parameters and literals alone: the same in every state
+
+        def once(env: dict) -> Form:
+            if not made:
+                made.append(fn(env))
+            return made[0]
+        return once
+
+    def linear(self, node: ast.Node) -> Callable[[dict], Form]:
         if self.free(node):
-            fn = self.comp.compile(node)
-            return lambda env: {"": _exact(fn(env), "a value")}
+            zero = (0,) * len(self.order)
+
+            def number(value: Any) -> Form:
+                n, d = ratio(value, "a value")
+                return zero + (n,), d
+            return self.evaluated(node, number)
         if isinstance(node, ast.Name):
-            name = node.id
-            return lambda env: {name: Fraction(1), "": Fraction(0)}
+            unit = (tuple(int(p == node.id) for p in self.order) + (0,), 1)
+            return lambda env: unit
         if isinstance(node, ast.Neg):
             operand = self.expr(node.operand)
-            return lambda env: _neg(operand(env))
+            return lambda env: form_neg(operand(env))
         if isinstance(node, ast.BinOp) and node.op in ("+", "-"):
             left, right = self.expr(node.left), self.expr(node.right)
             if node.op == "+":
-                return lambda env: _add(left(env), right(env))
-            return lambda env: _sub(left(env), right(env))
+                return lambda env: form_add(left(env), right(env))
+            return lambda env: form_add(left(env), right(env), -1)
         if isinstance(node, ast.BinOp) and node.op in ("*", "/"):
             left, right = self.expr(node.left), self.expr(node.right)
             if not (self.free(node.left) or self.free(node.right)) and node.op == "*":
@@ -468,166 +583,35 @@ class _Linearizer:
             if not self.free(node.right) and node.op == "/":
                 raise self.refuse(node, "a division by a parameter term")
             product = node.op == "*"
+            by_left = product and self.free(node.left)  # which side is a number (no parameter)
 
-            def combine(env: dict) -> Linear:
+            def combine(env: dict) -> Form:
                 a, b = left(env), right(env)
-                if product and _constant(a) is not None:
-                    return _scale(b, _constant(a))
-                divisor = _constant(b)
-                if divisor is None:  # not reached: one side is free of parameters
-                    raise self.refuse(node, "a product of two parameter terms")
-                if not product and divisor == 0:
+                if by_left:
+                    return form_times(b, form_constant(a))
+                divisor = form_constant(b)
+                if not product and divisor[0] == 0:
                     raise self.refuse(node, "a division by zero")
-                return _scale(a, divisor if product else 1 / divisor)
+                return form_times(a, divisor if product else (divisor[1], divisor[0]))
             return combine
         raise self.refuse(node, f"a {type(node).__name__} of a parameter")
+
+
+def _nodes(node: ast.Node, most: int) -> int:
+    """How many nodes ``node`` has, counted up to ``most``."""
+    count, todo = 0, [node]
+    while todo and count < most:
+        count += 1
+        todo.extend(ast.children(todo.pop()))
+    return count
+
+
+def _typing(node: ast.Rel) -> bool:
+    return node.op == ":" and isinstance(node.left, ast.Name) and \
+        isinstance(node.right, ast.Name) and node.right.id in ("REAL", "FLOAT")
 
 
 def _cap(parts, node, lin) -> list:
     if len(parts) > MAX_PARTS:
         raise lin.refuse(node, f"more than {MAX_PARTS} cases (disjunctions)")
     return parts
-
-
-def _exact(value: Any, what: str) -> Fraction:
-    if isinstance(value, bool) or not isinstance(value, (int, float, Fraction)):
-        raise UnsupportedError(f"{what} is not a number: {value!r}")
-    if isinstance(value, float) and not math.isfinite(value):
-        raise UnsupportedError(f"{what} is not finite: {value!r}")
-    return Fraction(value)
-
-
-def _constant(form: Linear) -> Optional[Fraction]:
-    return form[""] if all(c == 0 for p, c in form.items() if p) else None
-
-
-def _add(a: Linear, b: Linear) -> Linear:
-    out = dict(a)
-    for p, c in b.items():
-        out[p] = out.get(p, Fraction(0)) + c
-    return out
-
-
-def _scale(a: Linear, k: Fraction) -> Linear:
-    return {p: c * k for p, c in a.items()}
-
-
-def _neg(a: Linear) -> Linear:
-    return _scale(a, Fraction(-1))
-
-
-def _sub(a: Linear, b: Linear) -> Linear:
-    return _add(a, _neg(b))
-
-
-def _constraint(form: Linear, op: str) -> Constraint:
-    coeffs = tuple(sorted((p, c) for p, c in form.items() if p and c != 0))
-    return Constraint(coeffs, form.get("", Fraction(0)), op)
-
-
-def _interval(part: tuple[Constraint, ...]) -> Interval:
-    """The interval a conjunction of one-parameter constraints leaves (a constant constraint
-    that fails empties it)."""
-    low = high = None
-    low_open = high_open = False
-    for c in part:
-        if not c.coeffs:
-            if not c.holds({}):
-                return Interval(Fraction(1), Fraction(0))
-            continue
-        (_, k), = c.coeffs
-        bound = -c.const / k
-        if c.op == "=":
-            candidates = [(bound, False, True), (bound, False, False)]
-        else:  # k·x + const < / <= 0: an upper bound when k > 0, a lower one when k < 0
-            candidates = [(bound, c.op == "<", k > 0)]
-        for value, is_open, upper in candidates:
-            if upper and (high is None or value < high or (value == high and is_open)):
-                high, high_open = value, is_open
-            if not upper and (low is None or value > low or (value == low and is_open)):
-                low, low_open = value, is_open
-    return Interval(low, high, low_open, high_open)
-
-
-def _box(part: tuple[Constraint, ...], params: tuple[str, ...]) -> Optional[dict]:
-    """Per parameter its interval, for a conjunction of one-parameter constraints."""
-    if any(len(c.coeffs) > 1 for c in part):
-        return None
-    constant = tuple(c for c in part if not c.coeffs)
-    return {p: _interval(constant + tuple(c for c in part if c.coeffs and c.coeffs[0][0] == p))
-            for p in params}
-
-
-def _merge(pieces: list[Interval]) -> tuple[Interval, ...]:
-    def start(i: Interval):
-        return (-math.inf if i.low is None else i.low, i.low_open)
-
-    out: list[Interval] = []
-    for i in sorted(pieces, key=start):
-        if out and _touches(out[-1], i):
-            last = out[-1]
-            if last.high is None or (i.high is not None and (
-                    i.high < last.high or (i.high == last.high and not last.high_open))):
-                continue  # inside the last one
-            out[-1] = Interval(last.low, i.high, last.low_open, i.high_open)
-        else:
-            out.append(i)
-    return tuple(out)
-
-
-def _touches(a: Interval, b: Interval) -> bool:
-    """Whether ``b`` (starting at or after ``a``'s start) overlaps or adjoins ``a``."""
-    if a.high is None or b.low is None:
-        return True
-    return b.low < a.high or (b.low == a.high and not (a.high_open and b.low_open))
-
-
-def _gap(x: Fraction, interval: Interval) -> Fraction:
-    """How far ``x`` lies outside the closure of ``interval`` (0 inside)."""
-    if interval.low is not None and x < interval.low:
-        return interval.low - x
-    if interval.high is not None and x > interval.high:
-        return x - interval.high
-    return Fraction(0)
-
-
-def _clamp(x: float, interval: Interval) -> float:
-    """The float nearest ``x`` on ``interval`` over the reals (its bound rounded; the
-    evaluator then confirms it, or a float next to it)."""
-    if interval.contains(Fraction(x)):
-        return x
-    if interval.low is not None and Fraction(x) <= interval.low:
-        return float(interval.low)
-    return float(interval.high)
-
-
-#: how many floats on either side of a point set :meth:`AllowedSet.nearest` tries, and
-#: how many halvings it takes to find the float boundary of an interval
-NUDGES = 4
-DOUBLINGS = 12
-
-
-def _float_between(lo: float, hi: float) -> Optional[float]:
-    """The float halfway between ``0 <= lo < hi`` in the order of floats (their bit
-    patterns); None when they are next to each other."""
-    a, b = (struct.unpack("<q", struct.pack("<d", x))[0] for x in (lo, hi))
-    if b - a <= 1:
-        return None
-    return struct.unpack("<d", struct.pack("<q", (a + b) // 2))[0]
-
-
-def _inside(i: Interval, x: float) -> float:
-    """A point well inside ``i`` (its middle; a step past a lone bound), to bisect
-    towards from ``x`` on its boundary."""
-    if i.low is not None and i.high is not None:
-        return float((i.low + i.high) / 2)
-    if i.low is not None:
-        return float(i.low) + max(1.0, abs(float(i.low)))
-    if i.high is not None:
-        return float(i.high) - max(1.0, abs(float(i.high)))
-    return x
-
-
-def _number(value: Fraction) -> str:
-    as_float = float(value)
-    return repr(as_float) if Fraction(as_float) == value else f"{as_float!r}…"

@@ -1,5 +1,13 @@
-"""The nearest point of a polytope, exactly: for guards whose constraints name several
-parameters at once (``a + b <= Gap``), where the allowed set is not a union of boxes.
+"""The geometry of an allowed set (:mod:`.linear`): its constraints, exact; the interval
+each parameter may take where every constraint names one parameter (a union of boxes); the
+nearest point of a polytope where constraints name several at once (``a + b <= Gap``); and
+the float point near either that the evaluator confirms.
+
+Linear forms are kept as integers over a common denominator while they are built (a
+Fraction normalises itself at every operation: that is what makes Fractions slow), and
+made Fractions once, in the constraint. Intervals are exact (rational ends); comparing a
+float with an end compares floats first (rounding is monotone: a float below the end's
+rounding lies below the end) and exactly only a float equal to that rounding.
 
 The nearest point of a closed convex polytope to a point ``p`` is the projection of ``p``
 onto the affine hull of some set of its constraints taken as equalities (its *active* set,
@@ -13,15 +21,396 @@ or three parameters, refused beyond :data:`MAX_SYSTEMS`.
 
 from __future__ import annotations
 
+import math
+import struct
+from dataclasses import dataclass
 from fractions import Fraction
+from functools import cached_property, lru_cache
 from itertools import combinations
-from math import comb
-from typing import Optional, Sequence
+from math import comb, gcd
+from typing import Any, Callable, Mapping, Optional, Sequence
 
 from ..errors import UnsupportedError
 
-__all__ = ["nearest_in_polytope", "interior", "nearest_point", "distance_to",
-           "MAX_SYSTEMS"]
+__all__ = ["Constraint", "Form", "exact", "ratio", "form_constant", "form_add", "form_times",
+           "form_neg", "constraint_of", "bound_constraint", "box_constraints", "Interval",
+           "interval_of", "box_of", "merge_intervals", "gap", "clamp", "nearest_in_boxes",
+           "confirmed", "distance_floor", "inner_point", "towards", "neighbour",
+           "nearest_in_polytope", "interior", "nearest_point", "distance_to", "MAX_SYSTEMS",
+           "NUDGES", "DOUBLINGS"]
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """``Σ coeffs[p]·p + const  op  0`` with ``op`` one of ``<=``, ``<``, ``=``: one of the
+    constraints whose conjunction is a polytope, exact."""
+
+    coeffs: tuple[tuple[str, Fraction], ...]
+    const: Fraction
+    op: str
+
+    def holds(self, point: Mapping[str, Fraction]) -> bool:
+        value = sum((c * point[p] for p, c in self.coeffs), self.const)
+        return value <= 0 if self.op == "<=" else value < 0 if self.op == "<" else value == 0
+
+    @cached_property
+    def limit(self) -> tuple[Fraction, float, bool]:
+        """For one parameter, ``k·p + const op 0``: its bound ``-const / k``, that rounded
+        (infinite beyond the floats), and whether it bounds ``p`` from above (``k > 0``)."""
+        (_, k), = self.coeffs
+        c = self.const
+        return _limit(-c.numerator * k.denominator, c.denominator * k.numerator, k > 0)
+
+
+def _limit(num: int, den: int, upper: bool) -> tuple[Fraction, float, bool]:
+    """:attr:`Constraint.limit` for the bound ``num / den``."""
+    try:
+        rounded = num / den
+    except OverflowError:
+        rounded = math.inf if (num > 0) == (den > 0) else -math.inf
+    return Fraction(num, den), rounded, upper
+
+
+def exact(value: Any, what: str) -> Fraction:
+    """``value`` (a number the engine computed) as the rational it is."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, Fraction)):
+        raise UnsupportedError(f"{what} is not a number: {value!r}")
+    if isinstance(value, float) and not math.isfinite(value):
+        raise UnsupportedError(f"{what} is not finite: {value!r}")
+    return Fraction(value)
+
+
+def ratio(value: Any, what: str) -> tuple[int, int]:
+    """:func:`exact` as (numerator, denominator), without making a Fraction."""
+    if type(value) is float and math.isfinite(value):
+        return value.as_integer_ratio()
+    return exact(value, what).as_integer_ratio()
+
+
+#: a linear form over the parameters: (its numerators, one per parameter in a fixed order
+#: and then the constant; their common denominator > 0). Exact integers: arithmetic on
+#: them makes no Fraction (each one's normalisation is what makes Fractions slow)
+Form = tuple
+
+
+def form_constant(form: Form) -> Optional[tuple[int, int]]:
+    """The form's value as (numerator, denominator) where no parameter's coefficient is
+    other than 0, else None."""
+    nums, den = form
+    return None if any(nums[:-1]) else (nums[-1], den)
+
+
+def form_add(a: Form, b: Form, sign: int = 1) -> Form:
+    """``a + b`` (``a - b`` with ``sign`` -1)."""
+    (na, da), (nb, db) = a, b
+    if da == db:
+        return tuple(x + sign * y for x, y in zip(na, nb)), da
+    g = gcd(da, db)
+    ma, mb = db // g, sign * (da // g)
+    return tuple(x * ma + y * mb for x, y in zip(na, nb)), da * ma
+
+
+def form_times(a: Form, k: tuple[int, int]) -> Form:
+    """``a`` times the rational ``k[0] / k[1]`` (``k[1]`` not 0)."""
+    n, d = k
+    if d < 0:
+        n, d = -n, -d
+    return tuple(x * n for x in a[0]), a[1] * d
+
+
+def form_neg(a: Form) -> Form:
+    return tuple(-x for x in a[0]), a[1]
+
+
+_ONE, _MINUS_ONE = Fraction(1), Fraction(-1)
+
+
+def constraint_of(form: Form, op: str, order: Sequence[str]) -> Constraint:
+    """``form op 0`` (the parameters of ``order``, in that order)."""
+    nums, den = form
+    coeffs = []
+    for p, n in zip(order, nums):
+        if n:
+            coeffs.append((p, _ONE if n == den else _MINUS_ONE if n == -den else
+                           Fraction(n, den)))
+    c = Constraint(tuple(coeffs), Fraction(nums[-1], den), op)
+    if len(coeffs) == 1:  # its limit, from the integers (kept where Constraint.limit keeps it)
+        n = next(n for n in nums if n)
+        c.__dict__["limit"] = _limit(-nums[-1], n, n > 0)
+    return c
+
+
+def bound_constraint(p: str, value: tuple[int, int], upper: bool, op: str) -> Constraint:
+    """``p - v op 0`` (``upper``) or ``v - p op 0`` for the rational ``v`` (numerator,
+    denominator > 0): what :func:`constraint_of` makes of that form."""
+    n, d = value
+    c = Constraint(((p, _ONE if upper else _MINUS_ONE),), Fraction(-n if upper else n, d), op)
+    c.__dict__["limit"] = _limit(n, d, upper)
+    return c
+
+
+def box_constraints(params: Sequence[str], low: Mapping[str, Any], high: Mapping[str, Any]
+                    ) -> tuple[Constraint, ...]:
+    """``low[p] <= p <= high[p]`` for each parameter (none for a bound that is missing or
+    infinite); the same bounds in every state: made once."""
+    bounds = tuple((p, lo, hi, type(lo), type(hi)) for p in params
+                   for lo, hi in [(low.get(p, _NONE), high.get(p, _NONE))])
+    try:
+        return _box_constraints(bounds)
+    except TypeError:  # a bound that cannot be a key
+        return _box_constraints.__wrapped__(bounds)
+
+
+_NONE = object()
+
+
+@lru_cache(maxsize=64)
+def _box_constraints(bounds: tuple) -> tuple[Constraint, ...]:
+    extra = []
+    for p, low, high, *_ in bounds:
+        if low is not _NONE and math.isfinite(low):
+            extra.append(Constraint(((p, Fraction(-1)),), exact(low, p), "<="))
+        if high is not _NONE and math.isfinite(high):
+            extra.append(Constraint(((p, Fraction(1)),), -exact(high, p), "<="))
+    return tuple(extra)
+
+
+@dataclass(frozen=True)
+class Interval:
+    """A set of reals from ``low`` to ``high`` (None: unbounded), each end open or closed."""
+
+    low: Optional[Fraction]
+    high: Optional[Fraction]
+    low_open: bool = False
+    high_open: bool = False
+
+    @cached_property
+    def _floats(self) -> tuple[float, float]:
+        """The ends rounded (monotone; beyond the floats' range: infinite)."""
+        return (-math.inf if self.low is None else _rounded(self.low),
+                math.inf if self.high is None else _rounded(self.high))
+
+    @property
+    def empty(self) -> bool:
+        if self.low is None or self.high is None:
+            return False
+        low, high = self._floats
+        if low != high:  # rounding is monotone: the ends are ordered as their roundings
+            return low > high
+        order = _order(self.low, self.high)
+        return order > 0 or (order == 0 and (self.low_open or self.high_open))
+
+    def contains(self, x: Any) -> bool:
+        """Whether the number ``x`` (a Fraction, or a float) lies in the interval."""
+        if type(x) is float:
+            if not math.isfinite(x):
+                x = Fraction(x)  # raises, as for any number that is not a real
+            else:
+                low, high = self._floats
+                if low < x < high:
+                    return True
+                if x < low or x > high:
+                    return False
+                x = Fraction(x)  # at an end's rounding: exactly
+        if self.low is not None and (x < self.low or (self.low_open and x == self.low)):
+            return False
+        return not (self.high is not None
+                    and (x > self.high or (self.high_open and x == self.high)))
+
+    def __str__(self) -> str:
+        low = "-∞" if self.low is None else _number(self.low)
+        high = "∞" if self.high is None else _number(self.high)
+        if self.low is not None and self.low == self.high:
+            return "{" + low + "}"
+        return (f"{'(' if self.low_open or self.low is None else '['}{low}, {high}"
+                f"{')' if self.high_open or self.high is None else ']'}")
+
+
+def interval_of(part: Sequence) -> Interval:
+    """The interval a conjunction of one-parameter constraints leaves (a constant constraint
+    that fails empties it): their :attr:`Constraint.limit` compared as floats, and exactly
+    where those are equal."""
+    low = high = None
+    flow = fhigh = 0.0
+    low_open = high_open = False
+    for c in part:
+        if not c.coeffs:
+            if not c.holds({}):
+                return Interval(Fraction(1), Fraction(0))
+            continue
+        value, fvalue, upper = c.limit
+        if c.op == "=":
+            candidates = ((False, True), (False, False))
+        else:  # k·x + const < / <= 0: an upper bound when k > 0, a lower one when k < 0
+            candidates = ((c.op == "<", upper),)
+        for is_open, up in candidates:  # the floats first, exactly where they are equal
+            if up and (high is None or fvalue < fhigh or (fvalue == fhigh and (
+                    (o := _order(value, high)) < 0 or (o == 0 and is_open)))):
+                high, fhigh, high_open = value, fvalue, is_open
+            if not up and (low is None or fvalue > flow or (fvalue == flow and (
+                    (o := _order(value, low)) > 0 or (o == 0 and is_open)))):
+                low, flow, low_open = value, fvalue, is_open
+    interval = Interval(low, high, low_open, high_open)
+    interval.__dict__["_floats"] = (-math.inf if low is None else flow,  # kept, as computed
+                                    math.inf if high is None else fhigh)
+    return interval
+
+
+def box_of(part: Sequence, params: tuple[str, ...]) -> Optional[dict]:
+    """Per parameter its interval, for a conjunction of one-parameter constraints."""
+    constant: list = []
+    named: dict[str, list] = {p: [] for p in params}
+    for c in part:
+        if len(c.coeffs) > 1:
+            return None
+        (named[c.coeffs[0][0]] if c.coeffs else constant).append(c)
+    return {p: interval_of(constant + named[p]) for p in params}
+
+
+def merge_intervals(pieces: list[Interval]) -> tuple[Interval, ...]:
+    """Intervals as disjoint ones in increasing order."""
+    def start(i: Interval):
+        return (-math.inf if i.low is None else i.low, i.low_open)
+
+    out: list[Interval] = []
+    for i in sorted(pieces, key=start):
+        if out and _touches(out[-1], i):
+            last = out[-1]
+            if last.high is None or (i.high is not None and (
+                    i.high < last.high or (i.high == last.high and not last.high_open))):
+                continue  # inside the last one
+            out[-1] = Interval(last.low, i.high, last.low_open, i.high_open)
+        else:
+            out.append(i)
+    return tuple(out)
+
+
+def _touches(a: Interval, b: Interval) -> bool:
+    """Whether ``b`` (starting at or after ``a``'s start) overlaps or adjoins ``a``."""
+    if a.high is None or b.low is None:
+        return True
+    return b.low < a.high or (b.low == a.high and not (a.high_open and b.low_open))
+
+
+def gap(x: Fraction, interval: Interval) -> Fraction:
+    """How far ``x`` lies outside the closure of ``interval`` (0 inside)."""
+    if interval.low is not None and x < interval.low:
+        return interval.low - x
+    if interval.high is not None and x > interval.high:
+        return x - interval.high
+    return Fraction(0)
+
+
+def clamp(x: float, interval: Interval) -> float:
+    """The float nearest ``x`` on ``interval`` over the reals (its bound rounded; the
+    evaluator then confirms it, or a float next to it)."""
+    if interval.contains(x):
+        return x
+    if interval.low is not None and x <= interval._floats[0] and \
+            (x < interval._floats[0] or Fraction(x) <= interval.low):
+        return float(interval.low)
+    return float(interval.high)
+
+
+def nearest_in_boxes(allowed, boxes: list[dict], point, scale=None) -> Optional[dict]:
+    """:meth:`~tracecheck.b.linear.AllowedSet.nearest` for a union of ``boxes`` (intervals
+    by parameter): in each the point nearest ``point``, its bounds rounded, or the allowed
+    float nearest that (:func:`confirmed`); the nearest of those (the first box's at a
+    tie). A box farther than the best point found cannot hold a nearer one: the boxes are
+    taken nearest first, and the evaluator is not asked about points of the others."""
+    if not boxes:
+        return None
+    params = allowed.params
+    x = {p: float(point[p]) for p in params}
+    s = {p: (scale or {}).get(p, 1.0) for p in params}
+    floor = [distance_floor(box, x, s) for box in boxes]
+    best, best_d, best_i = None, math.inf, len(boxes)
+    for i in sorted(range(len(boxes)), key=lambda i: (floor[i], i)):
+        if floor[i] > best_d:
+            break
+        box = boxes[i]
+        candidate = confirmed(allowed, {p: clamp(x[p], box[p]) for p in params}, box)
+        if candidate is None:
+            continue
+        d = sum(((candidate[p] - x[p]) / s[p]) ** 2 for p in params)
+        if d < best_d or (best is not None and d == best_d and i < best_i):
+            best, best_d, best_i = candidate, d, i
+    return best
+
+
+def confirmed(allowed, candidate: dict, box: dict) -> Optional[dict]:
+    """``candidate`` if the evaluator allows it, else the allowed float point nearest it on
+    the way into the box (bisection: the evaluator's float arithmetic may refuse the exact
+    boundary point) — moving first only the parameters whose float lies outside their
+    interval over the reals (a bound rounded, an open end), then all of them; None if none
+    is found (fail closed)."""
+    if allowed.contains(candidate):
+        return candidate
+    params = allowed.params
+    outside = [p for p in params if not box[p].contains(candidate[p])]
+    for moving in (outside, list(params)):
+        inner = dict(candidate)
+        inner.update({p: inner_point(box[p], candidate[p]) for p in moving})
+        if inner == candidate or not allowed.contains(inner):
+            continue
+        return allowed.towards(candidate, inner)
+    return neighbour(allowed.contains, params, candidate)
+
+
+def distance_floor(box: dict, x: dict, scale: dict) -> float:
+    """At most the squared distance, as :meth:`~tracecheck.b.linear.AllowedSet.nearest`
+    computes it in floats (each parameter's divided by ``scale``), from the float point
+    ``x`` to any point of ``box`` (intervals by parameter) or a few floats outside it: a
+    box with a larger one cannot hold the nearest point. 0 where ``x`` is not finite, or
+    a number overflows."""
+    total = 0.0
+    for p, interval in box.items():
+        v = x[p]
+        if not math.isfinite(v):
+            return 0.0
+        low, high = interval._floats
+        g = low - v if v < low else v - high if v > high else 0.0
+        if g > 0.0:  # less a margin far above every rounding on the way
+            ends = [abs(e) for e in (low, high, v) if math.isfinite(e)]
+            g = g * (1 - 1e-9) - 64 * math.ulp(max(ends))
+            try:
+                total += (g / scale[p]) ** 2 if g > 0.0 else 0.0
+            except (ArithmeticError, TypeError):
+                return 0.0
+    return total * (1 - 1e-9)
+
+
+def inner_point(i: Interval, x: float) -> float:
+    """A point well inside ``i`` (its middle; a step past a lone bound), to bisect
+    towards from ``x`` on its boundary."""
+    if i.low is not None and i.high is not None:  # float((low + high) / 2), one division
+        a, b = i.low, i.high
+        return (a.numerator * b.denominator + b.numerator * a.denominator) / \
+            (2 * a.denominator * b.denominator)
+    if i.low is not None:
+        return float(i.low) + max(1.0, abs(float(i.low)))
+    if i.high is not None:
+        return float(i.high) - max(1.0, abs(float(i.high)))
+    return x
+
+
+def _order(a: Fraction, b: Fraction) -> int:
+    """The sign of ``a - b``, in integers (no Fraction made)."""
+    x, y = a.numerator * b.denominator, b.numerator * a.denominator
+    return (x > y) - (x < y)
+
+
+def _rounded(value: Fraction) -> float:
+    try:
+        return value.numerator / value.denominator
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
+
+
+def _number(value: Fraction) -> str:
+    as_float = float(value)
+    return repr(as_float) if Fraction(as_float) == value else f"{as_float!r}…"
+
 
 #: the most active sets tried for one polytope
 MAX_SYSTEMS = 20_000
@@ -182,3 +571,69 @@ def distance_to(allowed, point) -> Optional[float]:
             d = sum(((x - y) ** 2 for x, y in zip(q, target)), Fraction(0))
             best = d if best is None or d < best else best
     return None if best is None else float(best) ** 0.5
+
+
+#: how many floats on either side of a point set :func:`neighbour` tries, and how many
+#: doublings :func:`towards` takes before it halves
+NUDGES = 4
+DOUBLINGS = 12
+
+Contains = Callable[[dict], bool]
+
+
+def towards(contains: Contains, params: Sequence[str], refused: dict, allowed: dict) -> dict:
+    """The point ``contains`` allows nearest ``refused`` on the segment to ``allowed``, to
+    the float: steps doubling from one float away (the evaluator's rounding usually refuses
+    only a few floats past a bound), then halving the rest in the floats' own order (at
+    most 64 halvings, whatever the magnitudes)."""
+    direction = {p: allowed[p] - refused[p] for p in params}
+
+    def at(t: float) -> dict:
+        return {p: refused[p] + t * direction[p] for p in params}
+    moving = [p for p in params if direction[p] != 0.0]
+    t = min(1.0, max([math.ulp(refused[p]) / abs(direction[p]) for p in moving]
+                     + [math.ulp(0.0)]))
+    lo = 0.0  # refused at lo, allowed at hi
+    for _ in range(DOUBLINGS):
+        if t >= 1.0 or contains(at(t)):
+            break
+        lo, t = t, min(1.0, 2.0 * t)
+    else:
+        t = 1.0
+    hi = t
+
+    def end(t: float) -> dict:  # at 1 the allowed point itself, not a rounding of it
+        return dict(allowed) if t >= 1.0 else at(t)
+    while True:
+        mid = _float_between(lo, hi)
+        low, high = at(lo), end(hi)
+        if mid is None or all(math.nextafter(low[p], high[p]) == high[p]
+                              or low[p] == high[p] for p in moving):
+            return high
+        if contains(at(mid)):
+            hi = mid
+        else:
+            lo = mid
+
+
+def neighbour(contains: Contains, params: Sequence[str], candidate: dict) -> Optional[dict]:
+    """For a point set (``3.0 * a = 1.0``): the floats next to ``candidate`` that
+    ``contains`` allows, nearest first."""
+    for steps in range(1, NUDGES + 1):
+        for direction in (-math.inf, math.inf):
+            point = dict(candidate)
+            for p in params:
+                for _ in range(steps):
+                    point[p] = math.nextafter(point[p], direction)
+            if contains(point):
+                return point
+    return None
+
+
+def _float_between(lo: float, hi: float) -> Optional[float]:
+    """The float halfway between ``0 <= lo < hi`` in the order of floats (their bit
+    patterns); None when they are next to each other."""
+    a, b = (struct.unpack("<q", struct.pack("<d", x))[0] for x in (lo, hi))
+    if b - a <= 1:
+        return None
+    return struct.unpack("<d", struct.pack("<q", (a + b) // 2))[0]
