@@ -244,3 +244,41 @@ def test_a_state_value_that_is_not_finite_is_refused_with_its_name():
         _set("Square", Limit=math.inf)
     assert "the solver cannot decide Square's guard: cannot translate inf" in \
         info.value.message
+
+
+DISC = """MACHINE Disc
+VARIABLES R, Gap
+INVARIANT R : REAL & Gap : REAL
+INITIALISATION R, Gap := 4.0, 10.0
+OPERATIONS
+  DRIVE(a, s) = PRE a : REAL & s : REAL & a * a + s * s <= R & a <= Gap
+    THEN R, Gap :(R : REAL & Gap : REAL) END
+END
+"""
+
+
+@pytest.mark.parametrize("r, text, witness", [
+    ("4.0", "DRIVE: (a, s): not linear; decided by the solver; allowed, e.g. a = ", True),
+    ("-1.0", "DRIVE: (a, s): not linear; decided by the solver; nothing allowed (the solver "
+             "proved it)", False),
+])
+def test_guards_names_an_allowed_point_of_a_set_the_solver_decides(capsys, tmp_path, r, text,
+                                                                   witness):
+    import json
+
+    from tests.helpers import run
+
+    (tmp_path / "disc.mch").write_text(DISC)
+    (tmp_path / "s.json").write_text(json.dumps({"R": r, "Gap": "1.0"}))
+    code, out, err = run(capsys, "guards", tmp_path / "disc.mch", "--state", tmp_path / "s.json")
+    assert code == 0, err
+    assert text in " ".join(out.split())
+    code, out, _ = run(capsys, "guards", tmp_path / "disc.mch", "--state", tmp_path / "s.json",
+                       "--json")
+    drive = json.loads(out)["allowed"]["DRIVE"]
+    assert drive["decided_by"] == "solver" and drive["undecided"] is None
+    if witness:
+        point = drive["witness"]
+        assert point["a"] ** 2 + point["s"] ** 2 <= 4.0 and point["a"] <= 1.0
+    else:
+        assert drive["witness"] is None

@@ -303,3 +303,58 @@ def test_train_takes_the_shield_mode_and_scale_only_with_a_shield(capsys, acc_en
     assert code == 2 and "--shield-mode project does not fit hybrid's action space" in \
         " ".join(err.split())
     assert not (tmp_path / "x.zip").exists()
+
+
+class _KeepAdapter(_Adapter):
+    fallback = "KEEP"  # without parameters: no fallback_action
+    fallback_action = None
+
+
+def test_a_fallback_without_parameters_and_a_refused_fallback_in_replace_mode():
+    nothing = _decided(_shield(adapter=_KeepAdapter()), 1.0, 30.0, 10.0)
+    d = nothing.filter(np.array([1.0, 0.0, 0.0, 1.0, 1.0]))
+    assert (d.op, d.parameters, d.deadlock, d.sent[0]) == ("KEEP", {}, True, 2)
+    # Gap 10, ego 15, lead 14: only BRAKE (b > 3.5); replace's fallback KEEP is refused, so
+    # the best-scored enabled operation is taken, as mask takes it — no deadlock
+    shield = _decided(_shield("replace", adapter=_KeepAdapter()), 10.0, 15.0, 14.0)
+    d = shield.filter(np.array([1.0, 0.5, 0.0, 2.0, 1.0]))
+    assert (d.op, d.deadlock) == ("BRAKE", False) and 3.5 < d.parameters["b"] <= 3.6
+    with pytest.raises(InputError, match=r"fallback_action = \(0\.0,\), but its fallback KEEP "
+                                         r"takes no parameters"):
+        _shield(adapter=type("Bad", (_KeepAdapter,), {"fallback_action": (0.0,)})())
+
+
+def test_hybrid_statistics_judge_every_step_and_count_every_fallback(capsys, tmp_path):
+    """Steps of KEEP (no parameters) count: the agent's scores say whether the shield changed
+    its choice, and a fallback KEEP is a fallback."""
+    from tracecheck.episodes import new_header
+    from tracecheck.episodes.files import write_run
+    from tracecheck.episodes.model import Episode, StepRecord, make_end
+
+    scores = {"ACCELERATE": 1.0, "BRAKE": 0.0, "KEEP": 0.5}
+    moves = [("ACCELERATE", {"a": 2.0}, False),  # as proposed
+             ("KEEP", None, False),  # the shield chose KEEP instead: an intervention
+             ("KEEP", None, True)]  # nothing allowed: the fallback KEEP
+    state = {"Gap": 40.0, "EgoSpeed": 20.0, "LeadSpeed": 20.0}
+    steps = [StepRecord(0, 0.0, None, state, 0.0, False)]
+    for k, (op, values, deadlock) in enumerate(moves, 1):
+        steps.append(StepRecord(k, float(k), op, state, 1.0, False, parameters=values,
+                                proposal={"a": 2.0}, action_values=scores,
+                                preferred_action="ACCELERATE", deadlock=deadlock or None,
+                                allowed_actions=() if deadlock else (op,)))
+    steps = tuple(steps)
+    path = tmp_path / "hybrid.mcap"
+    write_run(path, new_header("recorded", actions=list(scores),
+                               variables=["Gap", "EgoSpeed", "LeadSpeed"],
+                               action_parameters={"ACCELERATE": ["a"], "BRAKE": ["b"]},
+                               action_low=[0.0, 0.0], action_high=[2.0, 4.0],
+                               shield_mode="mask"),
+              [Episode(0, steps, make_end(steps, "time-limit"), seed=0)])
+    code, out, err = run(capsys, "stats", path, "--json")
+    assert code == 0, err
+    found = json.loads(out)["runs"][0]
+    continuous = found["continuous"]
+    assert (continuous["interventions"]["count"], continuous["interventions"]["steps"]) == (2, 3)
+    assert (continuous["fallback"]["count"], continuous["fallback"]["steps"]) == (1, 3)
+    per_episode = found["metrics"]["interventions"]
+    assert per_episode["mean"] == pytest.approx(2 / 3)

@@ -139,3 +139,45 @@ def test_the_bands_in_a_browser(hand_run, throttle_run, tmp_path):
         assert titles[0].startswith("step 1: a allowed in -4 … ")
     finally:
         browser.quit()
+
+
+def test_a_hybrid_operation_taken_at_single_steps_is_drawn_as_dots(tmp_path):
+    """A hybrid run: ACCELERATE executed at steps 1 and 3, BRAKE at step 2 — values with no
+    neighbour to join are dots, so none is invisible."""
+    from selenium.webdriver.common.by import By
+
+    from tracecheck.episodes import new_header
+    from tracecheck.episodes.files import write_run
+    from tracecheck.episodes.model import Episode, StepRecord, make_end
+
+    moves = [("ACCELERATE", {"a": 1.0}, {"a": ((0.0, 2.0),)}),
+             ("BRAKE", {"b": 3.0}, {"b": ((2.5, 4.0),)}),
+             ("ACCELERATE", {"a": 0.5}, {"a": ((0.0, 0.5),)})]
+    steps = [StepRecord(0, 0.0, None, {"x": 0.0}, 0.0, False)]
+    for k, (op, values, intervals) in enumerate(moves, 1):
+        steps.append(StepRecord(k, float(k), op, {"x": float(k)}, 1.0, False,
+                                parameters=values, proposal={"a": 2.0},
+                                allowed_intervals=intervals,
+                                allowed_actions=("ACCELERATE", "BRAKE")))
+    steps = tuple(steps)
+    path = tmp_path / "hybrid.mcap"
+    write_run(path, new_header("recorded", actions=["ACCELERATE", "BRAKE"], variables=["x"],
+                               action_parameters={"ACCELERATE": ["a"], "BRAKE": ["b"]},
+                               action_low=[0.0, 0.0], action_high=[2.0, 4.0],
+                               shield_mode="mask"),
+              [Episode(0, steps, make_end(steps, "time-limit"), seed=0)])
+    page = tmp_path / "hybrid.html"
+    page.write_text(render_episode(path, 0))
+    browser = open_browser()
+    try:
+        browser.get(page.as_uri())
+        assert browser_errors(browser) == []
+        accelerate, brake = _chart(browser, "ACCELERATE(a)"), _chart(browser, "BRAKE(b)")
+        assert _count(accelerate, "circle.series") == 2  # a at steps 1 and 3, apart
+        assert _count(brake, "circle.series") == 1  # b at step 2 alone
+        dots = accelerate.find_elements(By.CSS_SELECTOR, "circle.series title")
+        assert {d.get_attribute("textContent") for d in dots} == {"a executed"}
+        SCREENS.mkdir(exist_ok=True)
+        assert browser.save_screenshot(str(SCREENS / "viewer-hybrid.png"))
+    finally:
+        browser.quit()

@@ -401,8 +401,11 @@ class SolvedSet:
     def _undecided(self, what: str) -> UnsupportedError:
         return UnsupportedError(
             f"undecided for {self.op} in this state: {what}; tracecheck does not guess",
-            hint="give the solver more time per state (timeout_s), or write the guard "
-                 "linear in its parameters once the state is known (docs/continuous.md)")
+            hint="write the guard linear in its parameters once the state is known, or so "
+                 "that floats can meet it (an equation such as a * a = 2.0 has no float "
+                 "solution); from Python, give the solver more time per state "
+                 "(ContinuousShield(solver_timeout_s=…), solved_set(timeout_s=…)); "
+                 "docs/continuous.md")
 
 
 @deeply

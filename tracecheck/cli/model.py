@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from ..errors import EvaluationError, InputError, TracecheckError
+from ..errors import EvaluationError, InputError, TracecheckError, UnsupportedError
 from .common import (app, escape, out, load_model, plain, FORMAT, JSON, OutputFormat,
                      output_format, print_json, print_table, say, warn)
 
@@ -233,7 +233,31 @@ def guards(
     say(f"enabled: {', '.join(ordered) or '(none: deadlock)'}")
     say(f"disabled: {', '.join(blocked) or '(none)'}")
     for op, a in allowed.items():
-        say(f"{op}: {a}")
+        say(f"{op}: {a}{_solver_text(_solver_witness(a))}")
+
+
+def _solver_witness(allowed) -> Optional[dict]:
+    """For a set the solver decides (a guard not linear in its parameters): {"witness": an
+    allowed point the evaluator confirmed, or None where z3 proved nothing allowed; or
+    "undecided": why}; None for an exact set."""
+    from ..checking.solved_set import SolvedSet
+
+    if not isinstance(allowed, SolvedSet):
+        return None
+    try:
+        return {"witness": allowed.witness()}
+    except UnsupportedError as exc:
+        return {"undecided": exc.message}
+
+
+def _solver_text(found: Optional[dict]) -> str:
+    if found is None:
+        return ""
+    if "undecided" in found:
+        return f"; {found['undecided']}"
+    if found["witness"] is None:
+        return "; nothing allowed (the solver proved it)"
+    return "; allowed, e.g. " + ", ".join(f"{p} = {v!r}" for p, v in found["witness"].items())
 
 
 def _allowed_sets(machine, values) -> dict:
@@ -248,6 +272,10 @@ def _allowed_json(allowed) -> dict:
     """An allowed set in JSON: its parameters, its text, and in one dimension its intervals
     (bounds as numbers, exact where a float is)."""
     out: dict = {"parameters": list(allowed.params), "text": str(allowed)}
+    found = _solver_witness(allowed)
+    if found is not None:  # the solver's: an allowed point, none, or why it is not known
+        out.update({"decided_by": "solver", "witness": found.get("witness"),
+                    "undecided": found.get("undecided")})
     if allowed.intervals is not None:
         out["intervals"] = [{"low": None if i.low is None else float(i.low),
                              "high": None if i.high is None else float(i.high),

@@ -28,7 +28,8 @@ the environment's own ``(index, parameters)`` pair. Their modes:
     shield enables (an operation with parameters is enabled when some values within the
     space's bounds are allowed) — and its parameters projected onto its allowed set;
 ``replace``
-    the proposal if allowed, else the fallback operation with the fallback action.
+    the proposal if allowed, else the fallback operation with the fallback action; where the
+    shield refuses that too, the best-scored enabled operation, as ``mask`` takes it.
 
 Where the guard is not linear in the parameters the allowed set is the solver's
 (:mod:`tracecheck.checking.solved_set`: z3, within ``solver_timeout_s`` per state and
@@ -241,7 +242,9 @@ class ContinuousShield:
         if entry is None:
             if declared:
                 raise InputError(f"{where} has fallback_action = {declared!r}, but its "
-                                 f"fallback {self.fallback_op} takes no parameters")
+                                 f"fallback {self.fallback_op} takes no parameters",
+                                 hint="leave fallback_action out (or None) for a fallback "
+                                      "without parameters")
             return np.zeros(0)
         part = entry.part
         if declared is None:
@@ -399,7 +402,8 @@ class ContinuousShield:
                 kept = self._allowed_values(fallback, self.fallback, project=True) \
                     if fallback is not None else self.fallback
                 chosen = (self.fallback_op, kept) if kept is not None else None
-        else:  # mask: the best-scored enabled operation, its values projected
+        if chosen is None:  # mask, or a refused fallback: the best-scored enabled operation,
+            #                 its values projected
             for i in sorted((i for i, a in enumerate(self.actions) if a in self.enabled),
                             key=lambda i: -scores[i]):
                 op = self.actions[i]

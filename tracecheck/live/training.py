@@ -379,7 +379,7 @@ def _card(adapter, config: dict, algorithm: str, out: Path, *, seed: int, steps:
         "settings": settings, "actions": list(adapter.actions),
         "shield": shield.name if shield is not None else None,
         "shield_sha256": shield.sha256 if shield is not None else None,
-        "shielding": shielding, "masked": shielding == "masked",
+        "shielding": shielding, "masked": shielding.startswith("masked"),
         "learning_curve": returns.summary(curve),
         "versions": _versions((*packages, "gymnasium", *adapter.requires)),
         "sha256": file_sha256(out)})

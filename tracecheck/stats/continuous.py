@@ -63,7 +63,8 @@ class ContinuousSteps:
     distance: np.ndarray  # the projection distance (NaN where none was recorded)
     bounded: np.ndarray  # the row's allowed intervals were recorded
     boundary: np.ndarray  # … and an executed value lies on a shield's end of them
-    decided: np.ndarray  # the row's step was decoded (so ``fallback`` is known)
+    decided: np.ndarray  # the row is a step, decoded (so ``fallback`` is known): of a
+    #                      hybrid space's operations without parameters too
     fallback: np.ndarray  # the shield took the fallback (deadlock)
 
 
@@ -76,8 +77,9 @@ def _executed(cols: RunColumns) -> np.ndarray:
 
 def interventions(cols: RunColumns) -> tuple[np.ndarray, np.ndarray]:
     """(judged, intervened) per row: the row has the agent's proposal (values of an
-    operation's parameters, which only a live recording keeps); some executed value differs
-    from it, or the executed operation is another (a hybrid space's: other parameters).
+    operation's parameters, which only a live recording keeps, or for a hybrid space the
+    agent's score of every operation); some executed value differs from it, or the executed
+    operation is another (a hybrid space's: other parameters, or not the best-scored one).
 
     >>> import numpy as np
     >>> from types import SimpleNamespace as S
@@ -98,6 +100,12 @@ def interventions(cols: RunColumns) -> tuple[np.ndarray, np.ndarray]:
     has, asked = np.isfinite(executed), np.isfinite(proposed)
     judged = np.any(asked, axis=1)
     intervened = judged & np.any((has != asked) | (has & (executed != proposed)), axis=1)
+    scores = getattr(cols, "values", None)
+    if scores is not None and cols.n:  # a hybrid space: the operation the agent scored best
+        scored = np.all(np.isfinite(scores), axis=1) & (cols.action >= 0)
+        best = np.argmax(np.where(np.isfinite(scores), scores, -np.inf), axis=1)
+        intervened = intervened | (scored & (best != cols.action))
+        judged = judged | scored
     return judged, intervened
 
 
@@ -151,7 +159,8 @@ def continuous_steps(cols: RunColumns, episodes: Iterable[Episode], header=None
         boundary[rows_a[near]] = True
     distance = cols.distance if cols.distance is not None else np.full(cols.n, np.nan)
     return ContinuousSteps(names, acted, judged, intervened, np.asarray(distance, dtype=float),
-                           bounded, boundary & bounded, decided & acted, fallback & acted)
+                           bounded, boundary & bounded, decided & (cols.step > 0),
+                           fallback & (cols.step > 0))
 
 
 def _near(values: np.ndarray, ends: np.ndarray) -> np.ndarray:

@@ -281,7 +281,8 @@ def _aggregate(m: Metric, values: Optional[np.ndarray], cols: RunColumns) -> np.
         return np.add.reduceat(cols.reward, starts) - cols.reward[starts]
     if m.aggregate == "interventions":
         if cols.parameters and (cols.values is None or cols.proposals):
-            # continuous: the proposal was changed (a hybrid space's operation or values)
+            # continuous: the proposal was changed (a hybrid space's operation or values;
+            # its every step judged by the agent's scores)
             recorded, changed = continuous_interventions(cols)
         else:
             recorded = None if cols.values is None else _values_recorded(cols)
