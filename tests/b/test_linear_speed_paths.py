@@ -227,3 +227,33 @@ def test_the_nearest_point_skipping_far_boxes_is_the_one_every_box_gives(text, p
         allowed.nearest(p, scale or None)
     if best is not None:
         assert whole_guard(m, {"u": u, "v": 0.0}, best)
+
+
+# -- the nearest point of a polytope: the active set floats find, verified exactly
+
+PCOEF = st.integers(-3, 3).map(Fraction) | st.sampled_from([Fraction(1, 3), Fraction(-2, 7),
+                                                            Fraction(10 ** 9 + 1, 10 ** 9)])
+PROW = st.tuples(st.lists(PCOEF, min_size=2, max_size=2),
+                 st.integers(-6, 6).map(Fraction) | st.sampled_from([Fraction(1, 3)]),
+                 st.sampled_from(["<=", "<", "<=", "="]))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(PROW, min_size=1, max_size=7),
+       st.tuples(st.integers(-8, 8), st.integers(-8, 8), st.sampled_from([0, 1, -1])))
+def test_the_nearest_point_of_a_polytope_from_the_float_hint_is_the_exact_one(rows, point):
+    from unittest import mock
+
+    from tracecheck.b import polytope
+
+    p = [Fraction(point[0]) + Fraction(point[2], 3), Fraction(point[1])]
+    fast = polytope.nearest_in_polytope(rows, p)
+    with mock.patch.object(polytope, "nearest_active_set", lambda *args: None):
+        every = polytope.nearest_in_polytope(rows, p)  # every active set, in rationals
+    assert fast == every
+    # whatever set the floats suggest, only the nearest point passes the exact check
+    m = len([r for r in rows if any(r[0])])
+    for hint in [()] + [(i,) for i in range(m)] + [(i, j) for i in range(m)
+                                                     for j in range(i + 1, m)]:
+        with mock.patch.object(polytope, "nearest_active_set", lambda *_, h=hint: h):
+            assert polytope.nearest_in_polytope(rows, p) == every, hint

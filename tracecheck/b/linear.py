@@ -42,7 +42,7 @@ from .memo import MEMO_KEY, fresh
 from .polytope import (Constraint, Form, Interval, bound_constraint, box_constraints, box_of,
                        constraint_of, distance_to, exact, form_add, form_constant, form_neg,
                        form_times, gap, inner_point, interval_of, merge_intervals,
-                       nearest_in_boxes, nearest_point, ratio, towards)
+                       nearest_in_boxes, nearest_point, towards)
 
 __all__ = ["Constraint", "AllowedSet", "Interval", "allowed_set", "real_parameters",
            "parameter_range", "guard_with_parameters", "linear_form"]
@@ -542,7 +542,7 @@ class _Linearizer:
 
         def parts(env: dict) -> list:
             value = env[key] = fn(env)
-            return [[bound_constraint(p, ratio(value, "a value"), upper, kind)]]
+            return [[bound_constraint(p, _ratio(value, "a value"), upper, kind)]]
         return parts
 
     def expr(self, node: ast.Node) -> Callable[[dict], Form]:
@@ -562,7 +562,7 @@ class _Linearizer:
             zero = (0,) * len(self.order)
 
             def number(value: Any) -> Form:
-                n, d = ratio(value, "a value")
+                n, d = _ratio(value, "a value")
                 return zero + (n,), d
             return self.evaluated(node, number)
         if isinstance(node, ast.Name):
@@ -604,6 +604,13 @@ def _nodes(node: ast.Node, most: int) -> int:
         count += 1
         todo.extend(ast.children(todo.pop()))
     return count
+
+
+def _ratio(value: Any, what: str) -> tuple[int, int]:
+    """:func:`.polytope.exact` as (numerator, denominator), without making a Fraction."""
+    if type(value) is float and math.isfinite(value):
+        return value.as_integer_ratio()
+    return exact(value, what).as_integer_ratio()
 
 
 def _typing(node: ast.Rel) -> bool:

@@ -11,18 +11,23 @@ interval narrower than the rounding, the point clearly outside — and its margi
 float distance (within a few units in the last place of the exact one); every other row is
 left to the exact path. Only the margin is computed here: whether a step is allowed is the
 guard's evaluation, never this.
+
+The same division of work, for one state: :func:`nearest_active_set` finds in float
+arithmetic, every candidate at once, which constraints of a polytope over two parameters
+hold its nearest point to a given one; :func:`.polytope.nearest_in_polytope` verifies that
+hint exactly (and tries every candidate in rationals where it fails).
 """
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Optional
 
 import numpy as np
 
 from ..errors import UnsupportedError
 from . import ast
 
-__all__ = ["batch_margins"]
+__all__ = ["batch_margins", "nearest_active_set"]
 
 #: relative width below which a float interval, distance or bound is too close to call
 TOLERANCE = 1e-9
@@ -195,3 +200,50 @@ def _combine(a: Form, b: Form, sign: float) -> Form:
 
 def _scaled(form: Form, k) -> Form:
     return form[0] * k, form[1] * k
+
+
+def nearest_active_set(rows, point, required=()) -> Optional[tuple[int, ...]]:
+    """The rows (indices) of ``rows`` (coefficients, constant, op: ``a·x + c op 0``, each
+    naming a parameter) whose hyperplanes hold the point of the polytope's closure nearest
+    ``point``, over at most two parameters, found in floats: the projection onto every set
+    of at most two rows including ``required`` at once, the nearest that every row allows
+    within :data:`TOLERANCE`. A hint, None where floats find none (or there are more
+    parameters, or a number beyond the floats)."""
+    k, m = len(point), len(rows)
+    if k > 2 or not m:
+        return None
+    with np.errstate(all="ignore"):
+        try:
+            a = np.array([[float(x) for x in r[0]] for r in rows]).reshape(m, k)
+            c = np.array([float(r[1]) for r in rows])
+            p = np.array([float(x) for x in point])
+        except OverflowError:
+            return None
+        if not (np.isfinite(a).all() and np.isfinite(c).all() and np.isfinite(p).all()):
+            return None
+        sets = [s for s in [()] + [(i,) for i in range(m)] + (
+            [(i, j) for i in range(m) for j in range(i + 1, m)] if k == 2 else [])
+            if set(required) <= set(s)]
+        r = a @ p + c  # each row's value at the point
+        g = a @ a.T  # the rows' Gram matrix
+        x = np.empty((len(sets), k))
+        for n, s in enumerate(sets):  # few: a Python loop, each a closed form
+            if not s:
+                x[n] = p
+            elif len(s) == 1:
+                x[n] = p - r[s[0]] / g[s[0], s[0]] * a[s[0]]
+            else:
+                (i, j), det = s, g[s[0], s[0]] * g[s[1], s[1]] - g[s[0], s[1]] ** 2
+                if not abs(det) > TOLERANCE * g[i, i] * g[j, j]:
+                    x[n] = np.nan  # dependent, or nearly: left to the exact path
+                    continue
+                li, lj = (g[j, j] * r[i] - g[i, j] * r[j]) / det, \
+                    (g[i, i] * r[j] - g[i, j] * r[i]) / det
+                x[n] = p - li * a[i] - lj * a[j]
+        values = x @ a.T + c
+        slack = TOLERANCE * (1.0 + np.abs(x) @ np.abs(a).T + np.abs(c))
+        equal = np.array([op == "=" for _, _, op in rows])
+        ok = np.all(np.where(equal, np.abs(values), values) <= slack, axis=1)
+        d = np.where(ok, np.sum((x - p) ** 2, axis=1), np.inf)
+    best = int(np.argmin(d)) if len(d) else 0
+    return sets[best] if len(d) and np.isfinite(d[best]) else None

@@ -31,8 +31,9 @@ from math import comb, gcd
 from typing import Any, Callable, Mapping, Optional, Sequence
 
 from ..errors import UnsupportedError
+from .linear_batch import nearest_active_set
 
-__all__ = ["Constraint", "Form", "exact", "ratio", "form_constant", "form_add", "form_times",
+__all__ = ["Constraint", "Form", "exact", "form_constant", "form_add", "form_times",
            "form_neg", "constraint_of", "bound_constraint", "box_constraints", "Interval",
            "interval_of", "box_of", "merge_intervals", "gap", "clamp", "nearest_in_boxes",
            "confirmed", "distance_floor", "inner_point", "towards", "neighbour",
@@ -78,13 +79,6 @@ def exact(value: Any, what: str) -> Fraction:
     if isinstance(value, float) and not math.isfinite(value):
         raise UnsupportedError(f"{what} is not finite: {value!r}")
     return Fraction(value)
-
-
-def ratio(value: Any, what: str) -> tuple[int, int]:
-    """:func:`exact` as (numerator, denominator), without making a Fraction."""
-    if type(value) is float and math.isfinite(value):
-        return value.as_integer_ratio()
-    return exact(value, what).as_integer_ratio()
 
 
 #: a linear form over the parameters: (its numerators, one per parameter in a fixed order
@@ -421,7 +415,11 @@ Row = tuple[list[Fraction], Fraction, str]  # coefficients, constant, "<=" / "<"
 def nearest_in_polytope(rows: Sequence[Row], point: Sequence[Fraction]
                         ) -> Optional[list[Fraction]]:
     """The point of the closure of ``{x : a·x + c op 0 for each row}`` nearest ``point``
-    (Euclidean), exactly; None when the polytope is empty."""
+    (Euclidean), exactly; None when the polytope is empty. The active set that floats find
+    (:func:`.linear_batch.nearest_active_set`) is taken where its projection ``x``
+    satisfies every row and ``point - x`` is a non-negative combination of its inequalities'
+    normals (the optimality conditions; the nearest point is unique: it is the one trying
+    every active set in rationals gives); else every one is tried."""
     k = len(point)
     if any(not _holds(r, point) for r in rows if not any(r[0])):
         return None  # a constraint without a parameter that fails: empty
@@ -432,6 +430,11 @@ def nearest_in_polytope(rows: Sequence[Row], point: Sequence[Fraction]
         raise UnsupportedError(f"projecting onto a polytope of {len(rows)} constraints over "
                                f"{k} parameters would try {count} active sets (at most "
                                f"{MAX_SYSTEMS})")
+    hint = nearest_active_set(rows, point, equal)
+    solved = None if hint is None else _projection([rows[i] for i in hint], point)
+    if solved is not None and all(_holds(row, solved[0]) for row in rows) and all(
+            lam >= 0 for lam, i in zip(solved[1], hint) if rows[i][2] != "="):
+        return solved[0]
     best: Optional[list[Fraction]] = None
     best_d: Optional[Fraction] = None
     for r in range(min(k, len(rows)) + 1):
@@ -491,10 +494,16 @@ def _holds(row: Row, x: Sequence[Fraction]) -> bool:
 
 
 def _project(active: list[Row], point: Sequence[Fraction]) -> Optional[list[Fraction]]:
-    """``point`` projected onto ``{x : a·x + c = 0}`` for the ``active`` rows: ``x = p -
-    Aᵀ λ`` with ``(A Aᵀ) λ = A p + c``; None when the rows are dependent."""
+    """``point`` projected onto ``{x : a·x + c = 0}`` for the ``active`` rows; None when
+    the rows are dependent."""
+    solved = _projection(active, point)
+    return None if solved is None else solved[0]
+
+
+def _projection(active: list[Row], point: Sequence[Fraction]):
+    """(``x = p - Aᵀ λ``, ``λ``) with ``(A Aᵀ) λ = A p + c``; None for dependent rows."""
     if not active:
-        return list(point)
+        return list(point), []
     a = [row[0] for row in active]
     rhs = [sum((ai * pi for ai, pi in zip(row, point)), c) for row, (_, c, _) in
            zip(a, active)]
@@ -503,7 +512,7 @@ def _project(active: list[Row], point: Sequence[Fraction]) -> Optional[list[Frac
     if lam is None:
         return None
     return [pi - sum((lj * row[i] for lj, row in zip(lam, a)), Fraction(0))
-            for i, pi in enumerate(point)]
+            for i, pi in enumerate(point)], lam
 
 
 def _solve(m: list[list[Fraction]], b: list[Fraction]) -> Optional[list[Fraction]]:
