@@ -244,16 +244,16 @@ PROW = st.tuples(st.lists(PCOEF, min_size=2, max_size=2),
 def test_the_nearest_point_of_a_polytope_from_the_float_hint_is_the_exact_one(rows, point):
     from unittest import mock
 
-    from tracecheck.b import polytope
+    from tracecheck.b import linear_batch, polytope
 
     p = [Fraction(point[0]) + Fraction(point[2], 3), Fraction(point[1])]
     fast = polytope.nearest_in_polytope(rows, p)
-    with mock.patch.object(polytope, "nearest_active_set", lambda *args: None):
+    with mock.patch.object(linear_batch, "nearest_active_set", lambda *args: None):
         every = polytope.nearest_in_polytope(rows, p)  # every active set, in rationals
     assert fast == every
     # whatever set the floats suggest, only the nearest point passes the exact check
     m = len([r for r in rows if any(r[0])])
     for hint in [()] + [(i,) for i in range(m)] + [(i, j) for i in range(m)
                                                      for j in range(i + 1, m)]:
-        with mock.patch.object(polytope, "nearest_active_set", lambda *_, h=hint: h):
+        with mock.patch.object(linear_batch, "nearest_active_set", lambda *_, h=hint: h):
             assert polytope.nearest_in_polytope(rows, p) == every, hint

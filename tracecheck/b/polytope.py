@@ -31,7 +31,6 @@ from math import comb, gcd
 from typing import Any, Callable, Mapping, Optional, Sequence
 
 from ..errors import UnsupportedError
-from .linear_batch import nearest_active_set
 
 __all__ = ["Constraint", "Form", "exact", "form_constant", "form_add", "form_times",
            "form_neg", "constraint_of", "bound_constraint", "box_constraints", "Interval",
@@ -430,6 +429,8 @@ def nearest_in_polytope(rows: Sequence[Row], point: Sequence[Fraction]
         raise UnsupportedError(f"projecting onto a polytope of {len(rows)} constraints over "
                                f"{k} parameters would try {count} active sets (at most "
                                f"{MAX_SYSTEMS})")
+    from .linear_batch import nearest_active_set  # numpy: not for every machine loaded
+
     hint = nearest_active_set(rows, point, equal)
     solved = None if hint is None else _projection([rows[i] for i in hint], point)
     if solved is not None and all(_holds(row, solved[0]) for row in rows) and all(
