@@ -233,7 +233,8 @@ def nearest_active_set(rows, point, required=()) -> Optional[tuple[int, ...]]:
             elif len(s) == 1:
                 x[n] = p - r[s[0]] / g[s[0], s[0]] * a[s[0]]
             else:
-                (i, j), det = s, g[s[0], s[0]] * g[s[1], s[1]] - g[s[0], s[1]] ** 2
+                i, j = s
+                det = g[i, i] * g[j, j] - g[i, j] ** 2
                 if not abs(det) > TOLERANCE * g[i, i] * g[j, j]:
                     x[n] = np.nan  # dependent, or nearly: left to the exact path
                     continue
