@@ -8,6 +8,11 @@ proposal, the allowed intervals), median over states of a real episode, for
 * 2-D: the built-in ``highway_continuous`` (``DRIVE(acceleration, steering)``: the RSS
   bound over the vehicles ahead, steering rules) on highway-continuous states, and
   ``lunarlander_continuous`` (``FIRE(main, lateral)``) on lander states;
+* hybrid: the cruise control of tests/fixtures choosing ACCELERATE(a), BRAKE(b) or KEEP
+  (``hybrid_v1.mch``, mask mode: every operation's allowed set, the best-scored enabled one
+  projected);
+* not linear: the throttle with a guard quadratic in ``a`` (``Gap * 8.0 > (EgoSpeed + a) *
+  (EgoSpeed + a)``), decided by the solver (z3) within its 0.5 s budget per state;
 
 against the baseline of one unshielded highway-continuous environment step (median), the
 issue's yardstick (goal: at most 1 %).
@@ -38,6 +43,7 @@ ACC = ROOT / "tests" / "fixtures" / "acc_env"
 sys.path.insert(0, str(ACC))
 
 from acc_cruise import CruiseEnv  # noqa: E402
+from acc_cruise.hybrid import SHIELD as HYBRID_SHIELD, Hybrid, HybridEnv  # noqa: E402
 from acc_cruise.throttle import SHIELD_V1, Throttle, ThrottleEnv  # noqa: E402
 from tracecheck.checking.shield import load_shield  # noqa: E402
 from tracecheck.episodes.files import write_run  # noqa: E402
@@ -70,7 +76,8 @@ def live_states(adapter, env, n: int, machine) -> list[dict]:
 def decision_us(adapter, env, shield, states) -> float:
     continuous = ContinuousShield(shield.machine, adapter, env.action_space)
     rng = np.random.default_rng(0)
-    low, high = env.action_space.low, env.action_space.high
+    space = continuous.agent_space  # a hybrid space's: scores, then every parameter
+    low, high = space.low, space.high
     times = []
     for state in states:
         proposal = rng.uniform(low, high)
@@ -106,11 +113,21 @@ def live(n: int) -> None:
         adapter = get_adapter(name)
         cases.append((f"2-D {name}", adapter, adapter.make_env(adapter.config()),
                       adapter.default_shield))
-    print("| shield | decision (median µs) | of a highway step |\n|---|---|---|")
-    for label, adapter, env, spec in cases:
-        shield = load_shield(spec)
-        us = decision_us(adapter, env, shield, live_states(adapter, env, n, shield.machine))
-        print(f"| {label} | {us:,.0f} | {us / step:.1%} |")
+    cases.append(("hybrid: ACCELERATE(a), BRAKE(b), KEEP (tests/fixtures)", Hybrid(),
+                  HybridEnv(), HYBRID_SHIELD))
+    with tempfile.TemporaryDirectory() as tmp:
+        quadratic = Path(tmp) / "throttle_quadratic.mch"
+        quadratic.write_text(SHIELD_V1.read_text().replace(
+            "Gap + LeadSpeed - 1.0 - (EgoSpeed + a) > EgoSpeed + a",
+            "Gap * 8.0 > (EgoSpeed + a) * (EgoSpeed + a)"))
+        cases.append(("1-D throttle, guard not linear (the solver)", Throttle(), ThrottleEnv(),
+                      quadratic))
+        print("| shield | decision (median µs) | of a highway step |\n|---|---|---|")
+        for label, adapter, env, spec in cases:
+            shield = load_shield(spec)
+            us = decision_us(adapter, env, shield,
+                             live_states(adapter, env, n, shield.machine))
+            print(f"| {label} | {us:,.0f} | {us / step:.1%} |")
 
 
 def episodes(n: int, steps: int, continuous: bool):

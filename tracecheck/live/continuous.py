@@ -510,7 +510,8 @@ class ContinuousShield:
             if direction is None or not np.any(direction):
                 return None
             sent = np.where(direction != 0, np.nextafter(
-                sent, (direction * np.inf).astype(part.dtype)), sent).astype(part.dtype)
+                sent, np.where(direction > 0, np.inf, -np.inf).astype(part.dtype)),
+                sent).astype(part.dtype)
         return None
 
 
