@@ -210,8 +210,12 @@ class Compiler(Binders):
     def op_add(self, node, l, r) -> Fn:
         def add(env: Env) -> Any:
             a, b = l(env), r(env)
-            if type(a) is int and type(b) is int:
+            ta, tb = type(a), type(b)
+            if ta is int and tb is int:
                 return a + b
+            if ta in _NUMBER and tb in _NUMBER:  # the common case first: two numbers
+                v = a + b
+                return v if v - v == 0.0 else self.real(node, v)  # finite, else refused
             self.nums(node, a, b)
             return self.real(node, a + b)
         return add
@@ -219,6 +223,9 @@ class Compiler(Binders):
     def op_sub(self, node, l, r) -> Fn:
         def sub(env: Env) -> Any:
             a, b = l(env), r(env)
+            if type(a) in _NUMBER and type(b) in _NUMBER:
+                v = a - b
+                return v if v - v == 0 else self.real(node, v)
             if is_set(a) and is_set(b):
                 return _finite(self, node.left, a) - _finite(self, node.right, b)
             self.nums(node, a, b)
@@ -228,6 +235,9 @@ class Compiler(Binders):
     def op_mul(self, node, l, r) -> Fn:
         def mul(env: Env) -> Any:
             a, b = l(env), r(env)
+            if type(a) in _NUMBER and type(b) in _NUMBER:
+                v = a * b
+                return v if v - v == 0 else self.real(node, v)
             if is_set(a) and is_set(b):
                 if isinstance(a, SymbolicSet) or isinstance(b, SymbolicSet):
                     return Product(a, b)
@@ -541,6 +551,7 @@ class Compiler(Binders):
 # ------------------------------------------------------------------ helpers
 
 #: Nodes worth remembering per state: evaluated once even where definitions repeat them.
+_NUMBER = frozenset({int, float})  # the types arithmetic takes as they are (not bool)
 _MEMO_TYPES = (ast.Comprehension, ast.QuantExpr, ast.Image, ast.Quant, ast.Lambda)
 _SET_OPS = frozenset({"\\", "\\/", "/\\", "<|", "|>", "<<|", "|>>", "<+"})
 
