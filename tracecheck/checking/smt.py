@@ -16,7 +16,7 @@ from typing import Any, Callable, Optional
 
 from ..b import ast
 from ..b.linear import real_parameters
-from ..b.values import Elem
+from ..b.values import BUILTIN_SET_VALUES, Elem
 from ..errors import UnsupportedError
 from .encoding import ElementFunction, ElementSet, encode_variable, load_z3
 
@@ -367,6 +367,8 @@ class Translator:
             if isinstance(s, ElementSet):
                 return z3.Sum([z3.If(c, 1, 0) for c in s.member.values()]) if s.member \
                     else z3.IntVal(0)
+            if isinstance(s, _Nums):  # {x, y, z}: how many different values are in it
+                return _count_distinct(z3, s)
         if name == "bool":
             return self.pred(node.args[0], env)
         if name in ("RABS", "abs"):
@@ -430,8 +432,12 @@ class Translator:
             held = self._member(node, self.translate(node.left, env), node.right, env)
             return held if op == ":" else z3.Not(held)
         if op in ("<:", "/<:"):
-            a, b = self.translate(node.left, env), self.translate(node.right, env)
-            if isinstance(b, tuple) and b[0] == "type":  # S <: Vehicles-like carrier
+            a = self.translate(node.left, env)
+            b = None if isinstance(a, _Nums) else self.translate(node.right, env)
+            if isinstance(a, _Nums):  # {x, y} <: 0..9: each number in it is in the right side
+                held = z3.And([z3.Implies(c, self._member(node, v, node.right, env))
+                               for c, v in a.items])
+            elif isinstance(b, tuple) and b[0] == "type":  # S <: Vehicles-like carrier
                 held = z3.BoolVal(True)
             elif isinstance(b, ElementSet) and isinstance(a, ElementSet) and a.carrier == b.carrier:
                 held = z3.And([z3.Implies(a.member[e], b.member[e]) for e in a.member])
@@ -446,6 +452,9 @@ class Translator:
             return z3.BoolVal(x in self.machine.sets[right.id])
         if isinstance(right, ast.Name) and right.id in ("REAL", "INTEGER", "BOOL", "FLOAT"):
             return z3.BoolVal(True)  # the type checker made sure
+        if isinstance(right, ast.Name) and right.id in _NATURALS and z3.is_arith(x):
+            lo, hi = _NATURALS[right.id]
+            return z3.And(x >= lo, x <= hi) if hi is not None else x >= lo
         if (isinstance(right, ast.BinOp) and right.op in ("-->", "+->")
                 and isinstance(x, ElementFunction)):
             dom = self.translate(right.left, env) if not (isinstance(right.left, ast.Name)
@@ -469,6 +478,8 @@ class Translator:
         s = self.translate(right, env)
         if isinstance(s, ElementSet) and isinstance(x, Elem) and x in s.member:
             return s.member[x]
+        if isinstance(s, _Nums) and z3.is_arith(x):  # x : {1, y, 3}
+            return z3.Or([z3.And(c, x == v) for c, v in s.items])
         raise self.fail(node, "this membership")
 
     def _short_circuit(self, node, env, reached_when_left: bool, combine):
@@ -591,3 +602,20 @@ _SHARED = (ast.Comprehension, ast.Image, ast.Call, ast.Quant, ast.IfExpr)
 
 def _abs(z3, x):
     return z3.If(x >= 0, x, -x)
+
+
+#: The built-in sets of integers with bounds: (least, greatest or None), as the evaluator has
+#: them (NAT is 0..MAXINT).
+_NATURALS = {"NATURAL": (0, None), "NATURAL1": (1, None),
+             **{n: (BUILTIN_SET_VALUES[n].lo, BUILTIN_SET_VALUES[n].hi)
+                for n in ("NAT", "NAT1", "INT")}}
+
+
+def _count_distinct(z3, s: _Nums):
+    """``card`` of a set of numbers: each item counts where it is in the set and equals
+    none of the items in it before it."""
+    terms = []
+    for i, (c, v) in enumerate(s.items):
+        before = [z3.And(d, w == v) for d, w in s.items[:i]]
+        terms.append(z3.If(z3.And(c, z3.Not(z3.Or(before))) if before else c, 1, 0))
+    return z3.Sum(terms) if terms else z3.IntVal(0)

@@ -124,9 +124,16 @@ def eval_(
     state: Optional[Path] = typer.Option(None, "--state", "-s",
                                          help="JSON file: variable name -> B literal."),
     as_json: bool = typer.Option(False, "--json", help="Print the value as JSON."),
+    all_solutions: bool = typer.Option(False, "--all", help="A predicate with free "
+                                       "identifiers: list every solution (up to --limit)."),
+    limit: int = typer.Option(100, "--limit", help="With --all: at most this many solutions."),
+    timeout: float = typer.Option(10.0, "--timeout", help="Seconds a predicate with free "
+                                  "identifiers may be searched for a solution."),
 ) -> None:
     """Evaluate predicates or expressions and print their values in B notation, one per line
-    (the machine, the state and the grammar are loaded once for all of them)."""
+    (the machine, the state and the grammar are loaded once for all of them). A predicate
+    with identifiers nothing declares is solved for them, as ProB's :solve: TRUE and a
+    solution, FALSE where there is none, or unknown and why (exit 3)."""
     from ..b.notation import to_json
     from ..b.values import format_value
     from ..inputs import read_text
@@ -139,8 +146,11 @@ def eval_(
                      if line.strip() and not line.strip().startswith("//")]
     if not formulas:
         raise InputError("give a formula to evaluate, or --file with formulas")
-    evaluate = _evaluator(model, state)
-    results = []
+    if limit < 1:
+        raise InputError(f"--limit must be at least 1, not {limit}")
+    evaluate = _evaluator(model, state, {"timeout_s": timeout, "limit": limit,
+                                         "all_solutions": all_solutions})
+    results, texts = [], []
     for expr, where, line in formulas:
         try:
             value = evaluate(expr, where)
@@ -148,20 +158,81 @@ def eval_(
             if line is not None:  # a line of the file: point into the file
                 exc.line, exc.source = line[0], line[1]
             raise exc.located(file=where, source=expr) from None
+        if isinstance(value, _Solved):
+            results.append(_solved_json(expr, value.answer, all_solutions))
+            texts.append(_solved_text(value.answer, all_solutions))
+            continue
         results.append({"expression": expr, "value": format_value(value),
                         "json": to_json(value)})
+        texts.append([results[-1]["value"]])
     if as_json:
         print_json(results[0] if len(results) == 1 else results)
     else:
-        for r in results:
-            plain(r["value"])
+        for lines in texts:
+            for text_line in lines:
+                plain(text_line)
+    notes = [r["note"] for r in results if r.get("note")]
+    if notes:
+        warn(notes)
+    if any(r["value"] == "unknown" for r in results):
+        raise typer.Exit(3)
 
 
-def _evaluator(model: Optional[Path], state: Optional[Path]):
-    """``evaluate(text, where)`` in the scope of ``model`` and the values of ``state``."""
+class _Solved:
+    """What ``evaluate`` gives for a predicate solved for its free identifiers."""
+
+    def __init__(self, answer) -> None:
+        self.answer = answer
+
+
+def _solved_text(answer, all_solutions: bool) -> list[str]:
+    """ProB's way: TRUE and the solution's identifiers one per line; with --all one
+    solution per line and how many there are."""
+    if answer.status == "unknown":
+        return [f"unknown: {answer.reason}"]
+    if answer.status == "FALSE":
+        return ["FALSE"]
+    if not all_solutions:
+        return ["TRUE"] + [f"{n} = {v}" for n, v in answer.shown(answer.solutions[0]).items()]
+    lines = ["TRUE"] + [" & ".join(f"{n} = {v}" for n, v in answer.shown(s).items())
+                        for s in answer.solutions]
+    n = len(answer.solutions)
+    count = f"{n} solution{'s' if n != 1 else ''}"
+    if answer.complete:
+        lines.append(f"{count}: all of them")
+    elif answer.more:
+        lines.append(f"{count} (the limit): there are more")
+    else:
+        lines.append(f"{count}; there may be more ({answer.reason})")
+    return lines
+
+
+def _solved_json(expr: str, answer, all_solutions: bool) -> dict:
+    from ..b.notation import to_json
+
+    out = {"expression": expr, "value": answer.status, "method": answer.method}
+    if answer.status == "unknown":
+        out["reason"] = answer.reason
+    shown = [answer.shown(s) for s in answer.solutions]
+    values = [{n: to_json(v) for n, v in s.items()} for s in answer.solutions]
+    if all_solutions:
+        out.update(solutions=shown, json=values, complete=answer.complete, more=answer.more)
+        if answer.reason and answer.status != "unknown":
+            out["reason"] = answer.reason
+    elif answer.status == "TRUE":
+        out.update(solution=shown[0], json=values[0])
+    if answer.note:
+        out["note"] = answer.note
+    return out
+
+
+def _evaluator(model: Optional[Path], state: Optional[Path], solving: dict):
+    """``evaluate(text, where)`` in the scope of ``model`` and the values of ``state``: a
+    value, or a :class:`_Solved` for a predicate with free identifiers."""
     from ..b.evaluation import Compiler
     from ..b.state import read_state_file
     from ..b.typecheck import check_formula, type_of_value
+    from ..errors import BScopeError
 
     machine = load_model(model) if model is not None else None
     values = read_state_file(state) if state is not None else {}
@@ -172,13 +243,48 @@ def _evaluator(model: Optional[Path], state: Optional[Path]):
     for name, value in values.items():
         names.setdefault(name, type_of_value(value, owners))
     env = machine.env(values) if machine is not None else dict(values)
+    definitions = machine.definitions if machine else None
 
     def evaluate(expr: str, where: str):
-        node, _ = check_formula(expr, names, file=where,
-                                definitions=machine.definitions if machine else None)
+        try:
+            node, _ = check_formula(expr, names, file=where, definitions=definitions)
+        except BScopeError as exc:
+            return _solve(expr, where, exc, names, env, machine, solving)
         return Compiler(source=expr, file=where).compile(node)(env)
 
     return evaluate
+
+
+def _solve(expr: str, where: str, error, names: dict, env: dict, machine, solving: dict):
+    """The predicate ``expr`` solved for the identifiers in it that nothing declares
+    (``error``, the unknown identifier's, where it is not a predicate or has none)."""
+    from ..b.btypes import Var, resolve_all, show
+    from ..b.parser import parse_formula
+    from ..b.scope import expand, kind_of
+    from ..b.typecheck import check_formula
+    from ..checking.encoding import check_timeout
+    from ..checking.solving import free_identifiers, solve
+    from ..errors import BTypeError
+
+    definitions = machine.definitions if machine else None
+    node = parse_formula(expr, file=where)
+    if definitions:
+        node = expand(node, definitions)
+    free = free_identifiers(node, names)
+    if kind_of(node) != "predicate" or not free:
+        raise error
+    timeout_s = check_timeout(solving["timeout_s"], "--timeout")
+    typed = {**names, **{n: Var() for n in free}}
+    node, _ = check_formula(expr, typed, file=where, definitions=definitions,
+                            kind="predicate")
+    types = {n: resolve_all(typed[n]) for n in free}
+    for n, t in types.items():
+        if "?" in show(t):
+            raise BTypeError(f"cannot infer the type of {n}", file=where, source=expr,
+                             hint=f"add a conjunct that types it, e.g. {n} : INTEGER")
+    return _Solved(solve(node, types, env, sets=machine.sets if machine else {},
+                         source=expr, file=where, timeout_s=timeout_s,
+                         all_solutions=solving["all_solutions"], limit=solving["limit"]))
 
 
 @app.command("guards")

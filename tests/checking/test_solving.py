@@ -1,0 +1,156 @@
+"""Solving a predicate for its free identifiers (tracecheck.checking.solving): finite
+problems walked by the evaluator, the rest asked of z3; every solution the evaluator's, FALSE
+only where the search was complete or z3 proved it, unknown with the reason otherwise."""
+
+from __future__ import annotations
+
+import itertools
+
+import pytest
+
+from tracecheck.b import load_machine_text
+from tracecheck.b.btypes import INTEGER, Var, resolve_all
+from tracecheck.b.evaluation import Compiler
+from tracecheck.b.typecheck import check_formula
+from tracecheck.b.values import Elem
+from tracecheck.checking import solving
+from tracecheck.checking.solving import free_identifiers, solve
+from tracecheck.errors import TracecheckError
+
+pytest.importorskip("z3")
+
+SEND_MORE = ("{S,E,N,D,M,O,R,Y} <: 0..9 & card({S,E,N,D,M,O,R,Y}) = 8 & S /= 0 & M /= 0 & "
+             "S*1000+E*100+N*10+D + M*1000+O*100+R*10+E = M*10000+O*1000+N*100+E*10+Y")
+
+
+def answer(text: str, machine=None, **options):
+    names = dict(machine.type_objects) if machine else {}
+    from tracecheck.b.parser import parse_formula
+
+    free = free_identifiers(parse_formula(text, file="<t>"), names)
+    typed = {**names, **{n: Var() for n in free}}
+    node, _ = check_formula(text, typed, file="<t>", kind="predicate")
+    types = {n: resolve_all(typed[n]) for n in free}
+    env = machine.env({}) if machine else {}
+    return solve(node, types, env, sets=machine.sets if machine else {}, source=text,
+                 file="<t>", **options)
+
+
+def test_the_issue_example_is_solved_by_the_solver():
+    got = answer("x*x = 100 & x < 0")
+    assert (got.status, got.solutions, got.method) == ("TRUE", [{"x": -10}], "solver")
+
+
+def test_free_identifiers_in_the_order_they_appear_without_bound_or_builtin_names():
+    from tracecheck.b.parser import parse_formula
+
+    node = parse_formula("y : NAT & #z.(z : 1..3 & z = x) & x = y & MAXINT > y", file="<t>")
+    assert free_identifiers(node, {}) == ("y", "x")
+    assert free_identifiers(node, {"y": None}) == ("x",)
+
+
+def test_send_more_money():
+    got = answer(SEND_MORE, all_solutions=True)
+    assert got.status == "TRUE" and got.complete and got.more is False
+    assert got.solutions == [dict(S=9, E=5, N=6, D=7, M=1, O=0, R=8, Y=2)]
+
+
+@pytest.mark.parametrize("text,solutions,method", [
+    ("x : 1..10 & x * x = 49", [{"x": 7}], "enumeration"),
+    ("b : BOOL & x : 1..3 & (b = TRUE => x > 2) & (b = FALSE => x = 1)",
+     [{"b": False, "x": 1}, {"b": True, "x": 3}], "enumeration"),
+    ("x > 3 & x < 3", [], "enumeration"),
+    ("x : NAT & x > 2147483643", [{"x": 2147483644 + k} for k in range(4)], "enumeration"),
+    ("s <: 1..4 & card(s) = 3 & 2 /: s", [{"s": frozenset({1, 3, 4})}], "enumeration"),
+    ("x / 2 = -3 & x < 0", [{"x": -7}, {"x": -6}], "solver"),  # B truncates towards zero
+    ("x mod 3 = 2 & x < 0", [], "solver"),  # mod needs x >= 0: never defined here
+    ("x * x = 2", [], "solver"),
+    ("x : NATURAL & x + 5 = 3", [], "solver"),
+    ("x = MAXINT + 1", [{"x": 2147483648}], "enumeration"),
+])
+def test_all_solutions_of_finite_problems(text, solutions, method):
+    got = answer(text, all_solutions=True)
+    assert got.method == method
+    assert sorted(got.solutions, key=lambda s: sorted(s.items())) == \
+        sorted(solutions, key=lambda s: sorted(s.items()))
+    assert got.status == ("TRUE" if solutions else "FALSE") and got.complete
+
+
+def test_the_limit_says_whether_there_are_more():
+    got = answer("x > 0", all_solutions=True, limit=3)
+    assert got.status == "TRUE" and len(got.solutions) == 3 and not got.complete
+    assert got.more is True
+    got = answer("x : 1..1000 & x mod 7 = 0", all_solutions=True, limit=3)
+    assert [s["x"] for s in got.solutions] == [7, 14, 21] and got.more is True
+
+
+def test_what_the_solver_cannot_take_is_unknown_with_the_reason():
+    got = answer("x > 0 & [x] = [5]")
+    assert got.status == "unknown" and "<t>:1:10: cannot translate" in got.reason
+    got = answer("s <: INTEGER & card(s) = 2")
+    assert got.status == "unknown" and "s is of type POW(INTEGER)" in got.reason
+    got = answer("x*x*x + y*y*y = z*z*z & x > 0 & y > 0 & z > 0", timeout_s=0.5)
+    assert got.status == "unknown" and got.reason == "time limit (0.5 s)"
+
+
+def test_a_large_finite_problem_outside_the_solver_is_walked_until_the_time_limit():
+    got = answer("x : 1..400 & y : 1..400 & [x, y] = [400, 399]", timeout_s=30)
+    assert got.solutions == [{"x": 400, "y": 399}] and got.method == "enumeration"
+    got = answer("x : 1..4000 & y : 1..4000 & [x, y] = [0, 0]", timeout_s=0.3)
+    assert got.status == "unknown" and got.reason.startswith("time limit (0.3 s) after ")
+
+
+def test_reals_are_floats_the_evaluator_confirms():
+    got = answer("x * 3.0 = 1.0")
+    assert got.status == "TRUE" and 3.0 * got.solutions[0]["x"] == 1.0
+    got = answer("x * x = 2.0")  # ±√2: neither it nor a float next to it squares to 2.0
+    assert got.status == "unknown" and "not one in floats" in got.reason
+    assert answer("x > 1.0 & x < 0.5").status == "FALSE"
+
+
+def test_where_the_predicate_has_no_value_is_noted():
+    got = answer("x : 0..3 & 10 / x = 5")
+    assert got.solutions == [{"x": 2}] and "no value where x = 0: division by zero" in got.note
+    got = answer("x : INTEGER & 10 / x = 50")
+    assert got.status == "FALSE" and "no value where x = 0" in got.note
+
+
+def test_elements_of_a_machine_set_and_its_constants():
+    machine = load_machine_text("""MACHINE Paint
+SETS Colour = {red, green, blue}; Car
+CONSTANTS price
+PROPERTIES price : Colour --> NAT & price = {red |-> 3, green |-> 5, blue |-> 7}
+END""")
+    got = answer("c : Colour & price(c) > 4", machine, all_solutions=True)
+    assert got.solutions == [{"c": Elem("green")}, {"c": Elem("blue")}] and got.complete
+    got = answer("c /= d & price(c) + price(d) = 10 & c : Colour & d : Colour", machine,
+                 all_solutions=True)
+    assert [(s["c"], s["d"]) for s in got.solutions] == [("red", "blue"), ("blue", "red")]
+    got = answer("v : Car & v /= Car1", machine, all_solutions=True)
+    assert got.status == "TRUE" and Elem("Car1") not in [s["v"] for s in got.solutions]
+
+
+OPS = ["x + y", "x - y", "x * y", "x / y", "x mod y", "x ** 2 - y", "abs(x) - y",
+       "(x + y) / 3", "x / (y - 2)"]
+
+
+@pytest.mark.parametrize("expr", OPS)
+@pytest.mark.parametrize("rel,bound", [("=", 2), ("<", -3), (">=", 4)])
+def test_the_solver_finds_exactly_what_the_evaluator_finds(monkeypatch, expr, rel, bound):
+    """Integer semantics (truncating division, mod, well-definedness) are the evaluator's:
+    the solver's complete list equals brute force over the box."""
+    text = f"x >= -6 & x <= 6 & y >= -6 & y <= 6 & {expr} {rel} {bound}"
+    node, _ = check_formula(text, {"x": INTEGER, "y": INTEGER}, file="<t>")
+    fn = Compiler(source=text).compile(node)
+    expected = []
+    for x, y in itertools.product(range(-6, 7), repeat=2):
+        try:
+            if fn({"x": x, "y": y}) is True:
+                expected.append({"x": x, "y": y})
+        except TracecheckError:
+            pass
+    monkeypatch.setattr(solving, "SMALL_SPACE", 0)  # the solver, not the walk
+    got = answer(text, all_solutions=True, limit=200)
+    assert got.method == "solver" and got.complete
+    key = lambda s: (s["x"], s["y"])  # noqa: E731
+    assert sorted(got.solutions, key=key) == sorted(expected, key=key)

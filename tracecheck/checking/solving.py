@@ -1,0 +1,543 @@
+"""A predicate's free identifiers solved for, as ProB's ``:solve`` does (``tracecheck eval
+'x*x = 100 & x < 0'``): a solution, or a proof that there is none, or ``unknown`` with the
+reason — never a guess.
+
+* Where the conjuncts bound every identifier to a finite set (``x : 1..9``, ``{x, y} <: S``,
+  ``x < 5 & x >= 0``, BOOL, the elements of a set) and there are at most
+  :data:`SMALL_SPACE` candidates, tracecheck's own evaluator walks them (each conjunct
+  checked as soon as its identifiers have values): exact, and complete.
+* Otherwise identifiers that are integers, reals or booleans become z3 variables (the
+  translation of :mod:`.smt`, with its well-definedness conditions: a solution is one where
+  the predicate is defined and true). ``unsat`` is ``FALSE``; ``sat`` gives a model whose
+  values (reals rounded to floats) the evaluator checks again before they are a solution;
+  ``unknown`` (time limit, a construct z3 cannot take) is ``unknown`` with the reason.
+* A finite problem the solver cannot take is walked by the evaluator within the time limit.
+
+z3 is imported only when the solver is asked.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from fractions import Fraction
+from itertools import combinations, product
+from typing import Any, Iterator, Optional
+
+from ..b import ast
+from ..b.bindings import conjuncts
+from ..b.btypes import BOOL, INTEGER, REAL, Base, Type, show
+from ..b.evaluation import Compiler
+from ..b.memo import fresh
+from ..b.typecheck import UNSUPPORTED_KEYWORDS
+from ..b.values import (Elem, Interval, SymbolicSet, cardinality, format_value, members,
+                        sort_key)
+from ..errors import Disagreement, TracecheckError, UnsupportedError
+from .smt import Translator
+
+__all__ = ["Answer", "solve", "free_identifiers", "SMALL_SPACE", "MAX_SUBSET_BASE"]
+
+#: Candidate assignments the evaluator walks before the solver is asked instead.
+SMALL_SPACE = 100_000
+#: ``x <: S`` enumerates the subsets of S up to this many elements.
+MAX_SUBSET_BASE = 12
+#: Floats tried on each side of a real the solver chose, where its nearest float fails.
+NUDGES = 2
+
+
+@dataclass
+class Answer:
+    """``status``: TRUE (``solutions`` holds at least one), FALSE (none exists) or unknown
+    (``reason`` says why). Asked for all of them: ``complete`` when every solution is
+    listed, ``more`` True where there are more than the limit (None: not known)."""
+
+    status: str
+    names: tuple[str, ...]
+    solutions: list[dict[str, Any]] = field(default_factory=list)
+    complete: bool = True
+    more: Optional[bool] = None
+    reason: str = ""
+    method: str = ""
+    note: str = ""
+
+    def shown(self, solution: dict[str, Any]) -> dict[str, str]:
+        return {n: format_value(solution[n]) for n in self.names}
+
+
+def free_identifiers(node: ast.Node, known) -> tuple[str, ...]:
+    """The names ``node`` uses that nothing declares (not in ``known``, not built-in, not
+    bound inside it), in the order they first appear."""
+    free = {n for n in ast.free_names(node) if n not in known and n not in ast.BUILTIN_SETS
+            and n not in UNSUPPORTED_KEYWORDS and not n.endswith(("'", "$0"))}
+    out: list[str] = []
+    stack = [node]
+    while stack:
+        n = stack.pop()
+        if isinstance(n, ast.Name) and n.id in free and n.id not in out:
+            out.append(n.id)
+        stack.extend(reversed(ast.children(n)))
+    return tuple(out)
+
+
+def solve(node: ast.Node, types: dict[str, Type], env: dict, *, sets: Optional[dict] = None,
+          source: Optional[str] = None, file: Optional[str] = None, timeout_s: float = 10.0,
+          all_solutions: bool = False, limit: int = 100) -> Answer:
+    """Solve the predicate ``node`` for the identifiers ``types`` (name: resolved type; in
+    the order they are printed), everything else taking its value from ``env``; the first
+    solution, or with ``all_solutions`` up to ``limit`` of them. ``timeout_s`` bounds the
+    whole search. Raises :class:`Disagreement` where the evaluator rejects an integer
+    solution of the solver (a bug in one of the two)."""
+    problem = _Problem(node, types, env, sets or {}, source, file,
+                       time.monotonic() + timeout_s, timeout_s,
+                       limit if all_solutions else 1, all_solutions)
+    domains = problem.domains()
+    finite = all(d is not None for d in domains.values())
+    size = math.prod(len(d) for d in domains.values()) if finite else math.inf
+    if size <= SMALL_SPACE:
+        return problem.walk(domains)
+    why = problem.not_numbers(domains)
+    if why is None:
+        try:
+            solver = _Solver(problem)
+        except UnsupportedError as exc:
+            why = f"{exc.location}: {exc.message}"
+        else:
+            return solver.solve()
+    if finite:
+        return problem.walk(domains)
+    return problem.answer("unknown", reason=why)
+
+
+@dataclass
+class _Problem:
+    node: ast.Node
+    types: dict
+    env: dict
+    sets: dict
+    source: Optional[str]
+    file: Optional[str]
+    deadline: float
+    timeout_s: float
+    limit: int
+    all_solutions: bool
+
+    def __post_init__(self) -> None:
+        self.names = tuple(self.types)
+        self.compiler = Compiler(source=self.source, file=self.file)
+        with self.compiler.binding(self.names):  # nothing with them in it is remembered
+            self.whole = self.compiler.compile(self.node)
+
+    def answer(self, status: str, **fields) -> Answer:
+        return Answer(status, self.names, **fields)
+
+    def holds(self, solution: dict) -> bool:
+        """The evaluator's verdict on ``solution`` (False where the predicate has no value)."""
+        try:
+            return self.whole({**fresh(self.env), **solution}) is True
+        except TracecheckError:
+            return False
+
+    def closed(self, expr: ast.Node) -> Any:
+        """The value of ``expr`` if it reads none of the identifiers (else None)."""
+        if ast.free_names(expr) & set(self.names):
+            return None
+        try:
+            return self.compiler.compile(expr)(fresh(self.env))
+        except TracecheckError:
+            return None
+
+    # -- finite domains
+    def domains(self) -> dict[str, Optional[list]]:
+        """Each identifier's candidate values: every solution takes one of them (None:
+        nothing bounds it to a finite set)."""
+        found: dict[str, dict] = {n: {"in": None, "lo": None, "hi": None} for n in self.names}
+        for conj in conjuncts(self.node):
+            self._bound_by(conj, found)
+        return {n: self._domain(n, found[n]) for n in self.names}
+
+    def _bound_by(self, conj: ast.Node, found: dict) -> None:
+        if not isinstance(conj, ast.Rel):
+            return
+        left, right, op = conj.left, conj.right, conj.op
+        flip = {"<": ">", "<=": ">=", ">": "<", ">=": "<=", "=": "="}
+        if not (isinstance(left, ast.Name) and left.id in found) and op in flip and \
+                isinstance(right, ast.Name) and right.id in found:
+            left, right, op = right, left, flip[op]
+        if op == "<:" and isinstance(left, ast.SetExt) and all(
+                isinstance(i, ast.Name) and i.id in found for i in left.items):
+            for item in left.items:  # {x, y} <: S: each is in S
+                self._bound_by(ast.Rel(":", item, right), found)
+            return
+        if not (isinstance(left, ast.Name) and left.id in found):
+            return
+        bound = found[left.id]
+        if op == "<:":
+            value = self.closed(right)
+            if _small_set(value, MAX_SUBSET_BASE):
+                items = sorted(members(value), key=sort_key)
+                subsets = [frozenset(c) for k in range(len(items) + 1)
+                           for c in combinations(items, k)]
+                bound["in"] = _meet(bound["in"], subsets)
+            return
+        if op == ":" and isinstance(right, ast.Name) and right.id in ("NATURAL", "NATURAL1"):
+            _raise(bound, "lo", 0 if right.id == "NATURAL" else 1)
+            return
+        value = self.closed(right)
+        if value is None:
+            return
+        if op == "=":
+            bound["in"] = _meet(bound["in"], [value])
+        elif op == ":" and isinstance(value, Interval):
+            _raise(bound, "lo", value.lo)
+            _lower(bound, "hi", value.hi)
+        elif op == ":" and _small_set(value, SMALL_SPACE):
+            bound["in"] = _meet(bound["in"], sorted(members(value), key=sort_key))
+        elif op in ("<", "<=", ">", ">=") and type(value) is int:
+            if op in ("<", "<="):
+                _lower(bound, "hi", value - (op == "<"))
+            else:
+                _raise(bound, "lo", value + (op == ">"))
+
+    def _domain(self, name: str, bound: dict) -> Optional[list]:
+        t = self.types[name]
+        lo, hi, listed = bound["lo"], bound["hi"], bound["in"]
+        if listed is not None:
+            return [v for v in listed if (lo is None or not _is_int(v) or v >= lo)
+                    and (hi is None or not _is_int(v) or v <= hi)]
+        if t == INTEGER and lo is not None and hi is not None:
+            return range(lo, hi + 1) if hi >= lo else []  # type: ignore[return-value]
+        if t == BOOL:
+            return [False, True]
+        if isinstance(t, Base) and t.name in self.sets:
+            return list(self.sets[t.name])
+        return None
+
+    def not_numbers(self, domains: dict) -> Optional[str]:
+        """Why the solver cannot take the problem (an identifier it cannot choose that
+        nothing bounds to a finite set), or None."""
+        for n in self.names:
+            if self.types[n] not in (INTEGER, REAL, BOOL):
+                if domains[n] is None:
+                    return (f"{n} is of type {show(self.types[n])}: the solver chooses "
+                            f"numbers and booleans, and no conjunct bounds {n} to a finite "
+                            f"set (write {n} : S or {n} <: S)")
+                return (f"{n} is of type {show(self.types[n])}, which the solver does not "
+                        "choose")
+        return None
+
+    # -- walking the candidates
+    def walk(self, domains: dict) -> Answer:
+        order = sorted(self.names, key=lambda n: len(domains[n]))
+        checks: list[list] = [[] for _ in order]
+        with self.compiler.binding(self.names):
+            for conj in conjuncts(self.node):
+                used = ast.free_names(conj) & set(self.names)
+                depth = max((order.index(n) for n in used), default=0)
+                checks[depth].append(self.compiler.compile(conj))
+        env = fresh(self.env)
+        solutions: list[dict] = []
+        more, problem, clock = False, None, _Clock(self.deadline)
+        for leaf in _assignments(order, domains, checks, env, clock):
+            try:
+                if self.whole(leaf) is not True:
+                    continue
+            except TracecheckError as exc:
+                problem = problem or (dict((n, leaf[n]) for n in self.names), exc)
+                continue
+            if len(solutions) == self.limit:
+                more = True
+                break
+            solutions.append({n: leaf[n] for n in self.names})
+            if not self.all_solutions:
+                break
+        note = ""
+        if problem is not None:
+            where = " & ".join(f"{n} = {format_value(v)}" for n, v in problem[0].items())
+            note = f"the predicate has no value where {where}: {problem[1].message}"
+        stopped = clock.stopped
+        rank = {e: k for elems in self.sets.values() for k, e in enumerate(elems)}
+        solutions.sort(key=lambda s: [(0, rank[s[n]]) if s[n] in rank else
+                                      (1, sort_key(s[n])) for n in self.names])
+        if stopped and not solutions:
+            return self.answer("unknown", method="enumeration", note=note,
+                               reason=f"time limit ({self.timeout_s:g} s) after "
+                                      f"{clock.tried:,} of {math.prod(len(d) for d in domains.values()):,} "
+                                      "candidate values")
+        status = "TRUE" if solutions else "FALSE"
+        return self.answer(status, solutions=solutions, method="enumeration", note=note,
+                           complete=not (more or stopped), more=True if more else
+                           (None if stopped else False),
+                           reason=f"time limit ({self.timeout_s:g} s)" if stopped else "")
+
+
+class _Clock:
+    """Stops a walk at the deadline (looked at every 1024 values)."""
+
+    def __init__(self, deadline: float) -> None:
+        self.deadline, self.tried, self.stopped = deadline, 0, False
+
+    def tick(self) -> bool:
+        self.tried += 1
+        if self.tried % 1024 == 0 and time.monotonic() > self.deadline:
+            self.stopped = True
+        return self.stopped
+
+
+def _assignments(order, domains, checks, env, clock: _Clock) -> Iterator[dict]:
+    """``env`` with each combination of values that passes the conjuncts checked at each
+    depth (a conjunct with no value there is left to the whole predicate)."""
+    def go(depth: int) -> Iterator[dict]:
+        name = order[depth]
+        for value in domains[name]:
+            if clock.tick():
+                return
+            env[name] = value
+            if not all(_passes(c, env) for c in checks[depth]):
+                continue
+            if depth + 1 == len(order):
+                yield env
+            else:
+                yield from go(depth + 1)
+    if order:
+        yield from go(0)
+    else:
+        yield env
+
+
+def _passes(check, env) -> bool:
+    try:
+        return check(env) is not False
+    except TracecheckError:
+        return True
+
+
+def _is_int(v: Any) -> bool:
+    return type(v) is int
+
+
+def _small_set(value: Any, limit: int) -> bool:
+    if isinstance(value, frozenset):
+        return len(value) <= limit
+    if isinstance(value, SymbolicSet) and value.finiteness() is True:
+        try:
+            return cardinality(value) <= limit
+        except TracecheckError:
+            return False
+    return False
+
+
+def _meet(listed: Optional[list], values: list) -> list:
+    if listed is None:
+        return list(values)
+    keep = set(values)
+    return [v for v in listed if v in keep]
+
+
+def _raise(bound: dict, key: str, value: int) -> None:
+    bound[key] = value if bound[key] is None else max(bound[key], value)
+
+
+def _lower(bound: dict, key: str, value: int) -> None:
+    bound[key] = value if bound[key] is None else min(bound[key], value)
+
+
+# ------------------------------------------------------------------ the solver
+
+
+class _Scope:
+    """What :class:`~.smt.Translator` reads of a machine: no state variables, the values of
+    ``eval``'s scope as constants, the machine's sets."""
+
+    variables: tuple = ()
+    operations: dict = {}
+
+    def __init__(self, problem: _Problem) -> None:
+        self.base_env, self.sets = problem.env, problem.sets
+        self.file, self.source = problem.file, problem.source
+
+
+class _FreeTranslator(Translator):
+    """The translator over the free identifiers (solver variables, in ``env``); a
+    sub-formula that reads none of them is evaluated by tracecheck's evaluator and enters as
+    its value, where that is a number, a boolean or an element."""
+
+    def __init__(self, problem: _Problem) -> None:
+        super().__init__(_Scope(problem))
+        self.problem = problem
+        self.free: dict = {}
+
+    def translate(self, node: ast.Node, env: dict) -> Any:
+        if not isinstance(node, ast.Name) and not (ast.free_names(node, self.free)
+                                                   & (set(self.problem.names) | env.keys())):
+            value = self.problem.closed(node)
+            if type(value) in (bool, int) or isinstance(value, Elem):
+                return value if isinstance(value, Elem) else (
+                    self.z3.BoolVal(value) if type(value) is bool else self.z3.IntVal(value))
+            if type(value) is float and math.isfinite(value):
+                return self.z3.RealVal(Fraction(value))
+        return super().translate(node, env)
+
+
+class _Solver:
+    def __init__(self, problem: _Problem) -> None:
+        self.problem = problem
+        translator = _FreeTranslator(problem)
+        z3 = self.z3 = translator.z3
+        make = {INTEGER: z3.Int, REAL: z3.Real, BOOL: z3.Bool}
+        self.vars = {n: make[problem.types[n]](n) for n in problem.names}
+        with translator.reading(problem.file, problem.source):
+            formula, self.defined = translator.defined(
+                lambda: translator.pred(problem.node, dict(self.vars)))
+        self.solver = z3.Solver()
+        self.side = translator.side_conditions
+        self.constraints = [self.defined, formula, *self.side]
+
+    def undefined(self) -> str:
+        """Where there is no solution: a place where the predicate has no value, as the
+        evaluator says it ("" if the solver finds none in the time left)."""
+        self.solver = self.z3.Solver()
+        if self.check(self.z3.Not(self.defined), *self.side)[0] != "sat":
+            return ""
+        model = self.solver.model()
+        point = {n: self.values(model.eval(v, model_completion=True))
+                 for n, v in self.vars.items()}
+        try:
+            self.problem.whole({**fresh(self.problem.env), **point})
+        except TracecheckError as exc:
+            where = " & ".join(f"{n} = {format_value(v)}" for n, v in point.items())
+            return f"the predicate has no value where {where}: {exc.message}"
+        return ""
+
+    def values(self, v) -> Any:
+        """A value of the model as a B value (a real: the nearest float)."""
+        z3 = self.z3
+        if z3.is_int_value(v):
+            return v.as_long()
+        if z3.is_true(v) or z3.is_false(v):
+            return z3.is_true(v)
+        return _nearest_float(z3, v)
+
+    def check(self, *extra) -> tuple[str, str]:
+        """The solver's verdict (sat, unsat or unknown) with ``extra`` added, and why it is
+        unknown; within what is left of the time limit."""
+        z3, problem = self.z3, self.problem
+        left = problem.deadline - time.monotonic()
+        limit = f"time limit ({problem.timeout_s:g} s)"
+        if left <= 0:
+            return "unknown", limit
+        try:
+            with _interrupted_at(z3, left):
+                self.solver.add(*extra)
+                self.solver.set("timeout", max(1, int(left * 1000)))
+                verdict = self.solver.check()
+        except z3.Z3Exception as exc:  # interrupted while the question was asserted
+            return "unknown", limit if time.monotonic() >= problem.deadline else str(exc)
+        if verdict == z3.sat:
+            return "sat", ""
+        if verdict == z3.unsat:
+            return "unsat", ""
+        why = self.solver.reason_unknown()
+        return "unknown", limit if why in ("canceled", "timeout", "interrupted") else \
+            f"the solver: {why}"
+
+    def solve(self) -> Answer:
+        problem, z3 = self.problem, self.z3
+        solutions: list[dict] = []
+        verdict, why = self.check(*self.constraints)
+        while verdict == "sat" and len(solutions) < problem.limit:
+            model = self.solver.model()
+            exact = {n: model.eval(v, model_completion=True) for n, v in self.vars.items()}
+            found = self.confirmed(exact)
+            if found is None:
+                return self.unconfirmed(exact, solutions)
+            if found not in solutions:
+                solutions.append(found)
+            if not problem.all_solutions:
+                break
+            verdict, why = self.check(z3.Or([v != exact[n] for n, v in self.vars.items()]))
+        if not problem.all_solutions and solutions:
+            return problem.answer("TRUE", solutions=solutions, method="solver")
+        if verdict == "unknown" and not solutions:
+            return problem.answer("unknown", reason=why, method="solver")
+        if not solutions:
+            return problem.answer("FALSE", method="solver", note=self.undefined())
+        more = True if verdict == "sat" else (False if verdict == "unsat" else None)
+        return problem.answer("TRUE", solutions=solutions, method="solver",
+                              complete=verdict == "unsat", more=more,
+                              reason=why if verdict == "unknown" else "")
+
+    def confirmed(self, exact: dict) -> Optional[dict]:
+        """The model's values as B values the evaluator confirms: integers as they are,
+        reals as their nearest floats, else up to :data:`NUDGES` floats away; None."""
+        base = {n: self.values(v) for n, v in exact.items()}
+        reals = [n for n in base if type(base[n]) is float]
+        if any(not math.isfinite(base[n]) for n in reals):
+            return None
+        if self.problem.holds(base):
+            return base
+        steps = range(-NUDGES, NUDGES + 1)
+        tries = product(steps, repeat=len(reals)) if len(reals) <= 3 else \
+            ((s if i == j else 0 for j in range(len(reals))) for i in range(len(reals))
+             for s in steps)
+        for moves in tries:
+            moved = dict(base)
+            for n, k in zip(reals, moves):
+                moved[n] = _nudge(base[n], k)
+            if self.problem.holds(moved):
+                return moved
+        return None
+
+    def unconfirmed(self, exact: dict, solutions: list) -> Answer:
+        shown = ", ".join(f"{n} = {v}" for n, v in exact.items())
+        if not any(self.z3.is_arith(v) and not self.z3.is_int_value(v)
+                   for v in exact.values()):
+            raise Disagreement(f"the solver's solution {shown} is not confirmed by "
+                               "tracecheck's evaluator: one of the two has a bug; please "
+                               "report it", file=self.problem.file, source=self.problem.source)
+        reason = (f"the solver's solution over the exact reals ({shown}) is not one in "
+                  "floats, the evaluator's REALs, nor are the floats next to it")
+        if solutions:
+            return self.problem.answer("TRUE", solutions=solutions, method="solver",
+                                       complete=False, more=None, reason=reason)
+        return self.problem.answer("unknown", reason=reason, method="solver")
+
+
+@contextmanager
+def _interrupted_at(z3, seconds: float):
+    """z3 interrupted after ``seconds`` whatever it is doing: its own timeout counts only
+    while it checks, not while it rewrites a large term being asserted."""
+    lock, live = threading.Lock(), [True]
+
+    def stop() -> None:
+        with lock:
+            if live[0]:
+                z3.main_ctx().interrupt()
+
+    timer = threading.Timer(seconds, stop)
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    finally:
+        with lock:
+            live[0] = False
+        timer.cancel()
+
+
+def _nearest_float(z3, v) -> float:
+    if z3.is_algebraic_value(v):
+        v = v.approx(40)
+    try:
+        return float(Fraction(v.numerator_as_long(), v.denominator_as_long()))
+    except OverflowError:
+        return math.inf
+
+
+def _nudge(x: float, steps: int) -> float:
+    for _ in range(abs(steps)):
+        x = math.nextafter(x, math.copysign(math.inf, steps))
+    return x
+
