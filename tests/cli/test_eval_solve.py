@@ -1,0 +1,125 @@
+"""``tracecheck eval`` of a predicate with free identifiers: solved as ProB's :solve does —
+TRUE and a solution, FALSE, or unknown with the reason (exit 3); z3 imported only then."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+
+import pytest
+
+from tests.helpers import ROOT, run
+
+pytest.importorskip("z3")
+
+SEND_MORE = ("{S,E,N,D,M,O,R,Y} <: 0..9 & card({S,E,N,D,M,O,R,Y}) = 8 & S /= 0 & M /= 0 & "
+             "S*1000+E*100+N*10+D + M*1000+O*100+R*10+E = M*10000+O*1000+N*100+E*10+Y")
+
+
+def test_the_issue_example(capsys):
+    assert run(capsys, "eval", "x*x = 100 & x < 0") == (0, "TRUE\nx = -10\n", "")
+
+
+@pytest.mark.parametrize("args,code,printed", [
+    (("x > 3 & x < 3",), 0, "FALSE\n"),
+    (("x : 1..10 & x * x = 49",), 0, "TRUE\nx = 7\n"),
+    (("x * x = 100", "--all"), 0, "TRUE\nx = -10\nx = 10\n2 solutions: all of them\n"),
+    (("x : 1..100 & x mod 30 = 0", "--all", "--limit", "2"), 0,
+     "TRUE\nx = 30\nx = 60\n2 solutions (the limit): there are more\n"),
+    (("x : BOOL & y : 1..2 & (x = TRUE => y = 2)", "--all"), 0,
+     "TRUE\nx = FALSE & y = 1\nx = FALSE & y = 2\nx = TRUE & y = 2\n"
+     "3 solutions: all of them\n"),
+    (("x > 0 & [x] = [5]",), 3, "unknown: <expr>:1:10: cannot translate Pair to SMT\n"),
+    (("x*x*x + y*y*y = z*z*z & x > 0 & y > 0 & z > 0", "--timeout", "0.5"), 3,
+     "unknown: time limit (0.5 s)\n"),
+    (("1 + 1 = 2", "x + 1 = 3"), 0, "TRUE\nTRUE\nx = 2\n"),
+], ids=["false", "finite", "all", "limit", "bool", "untranslatable", "timeout", "mixed"])
+def test_solutions_and_answers(capsys, args, code, printed):
+    got = run(capsys, "eval", *args)
+    assert got[:2] == (code, printed), got[2]
+
+
+def test_send_more_money_in_under_ten_seconds(capsys):
+    start = time.monotonic()
+    code, out, _ = run(capsys, "eval", SEND_MORE)
+    assert code == 0 and out.split("\n")[:9] == [
+        "TRUE", "S = 9", "E = 5", "N = 6", "D = 7", "M = 1", "O = 0", "R = 8", "Y = 2"]
+    assert time.monotonic() - start < 10
+
+
+def test_json(capsys):
+    code, out, _ = run(capsys, "eval", "x*x = 100 & x < 0", "--json")
+    assert code == 0 and json.loads(out) == {
+        "expression": "x*x = 100 & x < 0", "value": "TRUE", "method": "solver",
+        "solution": {"x": "-10"}, "json": {"x": -10}}
+    code, out, _ = run(capsys, "eval", "x : 1..3 & x > 1", "--json", "--all")
+    data = json.loads(out)
+    assert (data["solutions"], data["complete"], data["more"]) == \
+        ([{"x": "2"}, {"x": "3"}], True, False)
+    code, out, _ = run(capsys, "eval", "x > 0 & [x] = [5]", "--json")
+    assert code == 3 and json.loads(out)["value"] == "unknown"
+    assert "cannot translate" in json.loads(out)["reason"]
+
+
+def test_where_the_predicate_has_no_value_is_a_warning(capsys):
+    code, out, err = run(capsys, "eval", "x : 0..3 & 10 / x = 5")
+    assert (code, out) == (0, "TRUE\nx = 2\n")
+    assert "warning: the predicate has no value where x = 0: division by zero" in err
+
+
+@pytest.mark.parametrize("args,fragment", [
+    (("x + 1",), "<expr>:1:1: unknown identifier x"),  # an expression is not solved
+    (("x = y",), "<expr>: cannot infer the type of x"),
+    (("x > 0", "--timeout", "0"), "--timeout must be a finite number of seconds above 0"),
+    (("x > 0", "--all", "--limit", "0"), "--limit must be at least 1"),
+    (("x > 0 & x = 1.0",), "type mismatch"),
+])
+def test_bad_input_is_exit_2(capsys, args, fragment):
+    code, _, err = run(capsys, "eval", *args)
+    assert code == 2 and fragment in err, err
+
+
+def test_free_identifiers_beside_a_model_and_a_state(capsys, tmp_path):
+    path = tmp_path / "Paint.mch"
+    path.write_text("""MACHINE Paint
+SETS Colour = {red, green, blue}
+CONSTANTS price
+PROPERTIES price : Colour --> NAT & price = {red |-> 3, green |-> 5, blue |-> 7}
+VARIABLES budget
+INVARIANT budget : NAT
+INITIALISATION budget := 0
+END""")
+    state = tmp_path / "s.json"
+    state.write_text(json.dumps({"budget": "10"}))
+    code, out, _ = run(capsys, "eval", "c : Colour & d : Colour & c /= d & "
+                       "price(c) + price(d) = budget", "--model", path, "--state", state,
+                       "--all")
+    assert (code, out) == (0, "TRUE\nc = red & d = blue\nc = blue & d = red\n"
+                              "2 solutions: all of them\n")
+    code, out, _ = run(capsys, "eval", "n * price(green) = budget", "--model", path,
+                       "--state", state)
+    assert (code, out) == (0, "TRUE\nn = 2\n")
+
+
+SCRIPT = """
+import sys
+from tracecheck.cli import main
+try:
+    main({args!r})
+except SystemExit:
+    pass
+print("z3" in sys.modules, file=sys.stderr)
+"""
+
+
+@pytest.mark.parametrize("args,z3", [
+    (["eval", "1 + 1"], False),
+    (["eval", "x : 1..3 & x > 2"], False),  # the evaluator walks it: no solver
+    (["eval", "x * x = 100"], True),
+], ids=["value", "finite", "solver"])
+def test_z3_is_imported_only_when_the_solver_is_asked(args, z3):
+    proc = subprocess.run([sys.executable, "-c", SCRIPT.format(args=args)],
+                          capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert proc.stderr.strip().splitlines()[-1] == str(z3)
