@@ -16,8 +16,8 @@ import pytest
 
 from tracecheck import errors as E
 from tracecheck.b.evaluation import Compiler
-from tracecheck.b.parser import parse_formula
-from tracecheck.b.scope import check_kind, kind_of
+from tracecheck.b.parser import library_definitions, parse_formula
+from tracecheck.b.scope import check_kind, expand, kind_of
 from tracecheck.b.typecheck import type_of_value, typecheck_formula
 from tracecheck.b.notation import parse_literal
 from tracecheck.b.values import Elem, FuncValue, is_set
@@ -25,7 +25,9 @@ from tracecheck.b.columns import Columns
 from tracecheck.b.vector import BatchFormula
 
 CORPUS = Path(__file__).with_name("corpus") / "expressions.txt"
-SOURCES = {"SUM", "REAL", "TC", "BRM", "LIT", "WD", "DRONE", "ISSUE"}
+SOURCES = {"SUM", "REAL", "TC", "BRM", "LIT", "WD", "DRONE", "ISSUE", "LIB"}
+#: ProB's console offers its library functions without an include, as the corpus does
+LIBRARY = library_definitions("*")
 
 
 @dataclass(frozen=True)
@@ -60,7 +62,7 @@ CASES = load_corpus()
 
 
 def prepare(formula: str, names: dict | None = None):
-    node = parse_formula(formula, file="<corpus>")
+    node = expand(parse_formula(formula, file="<corpus>"), LIBRARY)
     kind = kind_of(node)
     check_kind(node, kind, source=formula)
     typecheck_formula(node, names or {}, kind=kind, source=formula, file="<corpus>")

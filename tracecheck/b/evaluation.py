@@ -21,6 +21,7 @@ from .bindings import Binders
 from ..limits import DEEP, deep_recursion, deeply
 from .memo import constant_number, folded, memoised
 from .builtins import BUILTINS as _BUILTINS, UNSUPPORTED_HINTS as _UNSUPPORTED_HINTS
+from .library import FUNCTIONS as _LIBRARY, compile_call as _library_call
 from .finite import finite as _finite, members as _members
 from .spaces import FunctionSpace, Projection
 from .values import (BUILTIN_SET_VALUES, FuncValue, Interval, Product, SymbolicSet, as_sequence,
@@ -533,6 +534,8 @@ class Compiler(Binders):
         return lambda env: make_set([(p[1], p[0]) for p in _finite(self, node.rel, rel(env))])
 
     def c_Call(self, node: ast.Call) -> Fn:
+        if node.name in _LIBRARY:  # ProB's library files (DEFINITIONS "LibraryReals.def")
+            return _library_call(self, node)
         impl = _BUILTINS.get(node.name)
         if impl is None:
             raise self.error(UnsupportedError, node, f"not supported: {node.name}",

@@ -23,6 +23,7 @@ from lark.lexer import Lexer
 from ..errors import BSyntaxError, TracecheckError
 from . import ast
 from .builder import Builder, OperationSource, tok_pos, unquote
+from .library import LIBRARY_FILES, NOT_IMPLEMENTED, library_bodies
 from ..limits import deep_recursion
 
 __all__ = [
@@ -393,8 +394,13 @@ def _parse_definitions(body, text, file, kw) -> dict[str, Definition]:
     defs: dict[str, Definition] = {}
     for part in _split_definitions(body):
         if part[0].type == "STRING":
-            raise BSyntaxError("definition files (DEFINITIONS \"file.def\") are not supported",
-                               file=file, line=part[0].line, column=part[0].column, source=text)
+            for name, d in _library_definitions(part, text, file).items():
+                if name in defs:
+                    raise BSyntaxError(f"the definition {name} appears twice (also in "
+                                       f"{part[0].value})", file=file, line=part[0].line,
+                                       column=part[0].column, source=text)
+                defs[name] = d
+            continue
         try:
             eq_at = next(i for i, t in enumerate(part) if t.type == "DEF_EQ")
         except StopIteration:
@@ -408,6 +414,38 @@ def _parse_definitions(body, text, file, kw) -> dict[str, Definition]:
                                line=part[0].line, column=part[0].column, source=text)
         defs[name] = _parse_definition_body(name, params, part[eq_at + 1:], part[eq_at],
                                             text, file)
+    return defs
+
+
+def library_definitions(file_name: str) -> Optional[dict[str, Definition]]:
+    """The definitions ``DEFINITIONS "file_name"`` brings: one of ProB's standard library
+    files, whose functions tracecheck implements natively (:mod:`.library`); ``None`` for
+    any other file. ``library_definitions("*")``: every library function, as ProB's console
+    offers them without an include."""
+    names = LIBRARY_FILES if file_name == "*" else [file_name]
+    defs: dict[str, Definition] = {}
+    for name in names:
+        bodies = library_bodies(name)
+        if bodies is None:
+            return None
+        defs.update({n: Definition(n, params, "formula", body, 0)
+                     for n, (params, body) in bodies.items()})
+    return defs
+
+
+def _library_definitions(part: list[Token], text, file) -> dict[str, Definition]:
+    tok = part[0]
+    name = unquote(tok.value)
+    defs = library_definitions(name) if len(part) == 1 and name != "*" else None
+    if defs is None:
+        why = (f"ProB's {name} is not implemented: {NOT_IMPLEMENTED[name]}"
+               if name in NOT_IMPLEMENTED else
+               f"the definition file {tok.value} is not one of ProB's library files "
+               f"tracecheck implements; tracecheck reads no definition files")
+        raise BSyntaxError(f"not supported: DEFINITIONS {tok.value}: {why}", file=file,
+                           line=tok.line, column=tok.column, source=text,
+                           hint="tracecheck knows " + ", ".join(LIBRARY_FILES)
+                           + "; copy the definitions you need into the machine")
     return defs
 
 

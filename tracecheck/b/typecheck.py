@@ -16,6 +16,7 @@ from ..limits import deeply
 from .btypes import (BOOL, INTEGER, REAL, STRING, Base, TypeClash, Pow, Prod, Type, Var, resolve,
                      show, unify)
 from .scope import check_kind, expand, kind_of, render
+from .library import FUNCTIONS as _LIBRARY, call_type as _library_type
 
 __all__ = ["typecheck_machine", "typecheck_formula", "check_formula", "Typer",
            "type_of_value", "describe_value_type", "unify_quiet"]
@@ -297,6 +298,8 @@ class Typer:
 
     def call(self, node: ast.Call) -> Type:
         name = node.name
+        if name in _LIBRARY:  # ProB's library files (DEFINITIONS "LibraryReals.def")
+            return _library_type(self, node)
         if name == "bool":
             self.pred(node.args[0])
             return BOOL

@@ -28,6 +28,7 @@ from .arrays import (BatchContext, NotVectorizable, VectorValue, arith, bool_of,
                      fits, integral, intern_key, is_int_array, mark_nonfinite, num_of, per_row,
                      shared, typed_member)
 from .columns import Columns
+from .library import FUNCTIONS as _LIBRARY, vector_call as _library_call
 from ..limits import DEEP, deep_recursion
 from .values import Elem, FuncValue
 
@@ -392,6 +393,8 @@ class _VecCompiler:
         return apply
 
     def v_Call(self, node: ast.Call) -> Callable:
+        if node.name in _LIBRARY:  # ProB's library files (DEFINITIONS "LibraryReals.def")
+            return _library_call(self, node, NotVectorizable)
         arg = self.compile(node.args[0])
         name = node.name
         if name == "dom":
