@@ -106,7 +106,7 @@ FORMULAS = [
     ("IF x THEN 1 ELSIF y THEN 2 ELSE x END", A.IfExpr(((x, one), (y, two)), x)),
     ("LET x BE x = 1 IN x END", A.Let(("x",), A.Rel("=", x, one), x)),
     ("SIGMA(x).(x : S | x)", A.QuantExpr("SIGMA", ("x",), A.Rel(":", x, S), x)),
-    ("Σ(x)·(x ∈ S | x)", A.QuantExpr("SIGMA", ("x",), A.Rel(":", x, S), x)),
+    ("∑(x)·(x ∈ S | x)", A.QuantExpr("SIGMA", ("x",), A.Rel(":", x, S), x)),
     ("PI(x).(x : S | x)", A.QuantExpr("PI", ("x",), A.Rel(":", x, S), x)),
     ("floor(x)", A.Call("floor", (x,))),
     ("ceiling(x)", A.Call("ceiling", (x,))),

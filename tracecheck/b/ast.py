@@ -12,7 +12,8 @@ from typing import Optional
 __all__ = [
     "Pos", "Node", "Name", "IntLit", "RealLit", "StrLit", "BoolLit", "BinOp", "Neg",
     "Apply", "Call", "Image", "Inverse", "SetExt", "Template", "Pair", "Comprehension", "Lambda",
-    "QuantExpr", "IfExpr", "Let", "And", "Or", "Implies", "Equiv", "Not", "Rel", "Quant",
+    "QuantExpr", "IfExpr", "Let", "Record", "Struct", "Field", "And", "Or", "Implies", "Equiv",
+    "Not", "Rel", "Quant",
     "Subst", "Skip", "Assign", "BecomesIn", "BecomesSuchThat", "Parallel", "Sequence",
     "Pre", "Assert", "Select", "Any", "IfSubst", "LetSubst", "Choice", "SubstRef", "BUILTIN_FUNCTIONS",
     "BUILTIN_SETS", "children", "depth", "pair_of", "map_children", "binders", "free_names",
@@ -183,6 +184,28 @@ class Let(Node):
     ids: tuple[str, ...]
     pred: Node
     body: Node
+
+
+@dataclass(frozen=True, slots=True)
+class Record(Node):
+    """``rec(a: 1, b: TRUE)``: the fields in the order written (the value sorts them)."""
+
+    fields: tuple[tuple[str, Node], ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Struct(Node):
+    """``struct(a: INTEGER, b: BOOL)``: the set of records whose fields lie in those sets."""
+
+    fields: tuple[tuple[str, Node], ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Field(Node):
+    """``r'a``: the field ``a`` of the record ``r``."""
+
+    record: Node
+    name: str
 
 
 # ------------------------------------------------------------------ predicates

@@ -1,12 +1,14 @@
-"""B types: base types and sets' names, ``POW``, products and type variables, written in B
-notation (:func:`show`) and made equal by unification (:func:`unify`)."""
+"""B types: base types and sets' names, ``POW``, products, records and type variables, written
+in B notation (:func:`show`) and made equal by unification (:func:`unify`)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Optional, Union
 
-__all__ = ["Base", "Pow", "Prod", "Var", "Type", "INTEGER", "REAL", "BOOL", "STRING",
+from .names import name_text
+
+__all__ = ["Base", "Pow", "Prod", "Rec", "Var", "Type", "INTEGER", "REAL", "BOOL", "STRING",
            "resolve", "resolve_all", "show", "unify", "TypeClash"]
 
 
@@ -26,6 +28,13 @@ class Prod:
     right: "Type"
 
 
+@dataclass(frozen=True)
+class Rec:
+    """``struct(a:INTEGER,b:BOOL)``: a record type, its fields sorted by name (as ProB)."""
+
+    fields: tuple[tuple[str, "Type"], ...]
+
+
 class Var:
     """A type not known yet."""
 
@@ -36,7 +45,7 @@ class Var:
         self.numeric = numeric
 
 
-Type = Union[Base, Pow, Prod, Var]
+Type = Union[Base, Pow, Prod, Rec, Var]
 INTEGER, REAL, BOOL, STRING = Base("INTEGER"), Base("REAL"), Base("BOOL"), Base("STRING")
 _NUMERIC = (INTEGER, REAL)
 
@@ -54,6 +63,8 @@ def resolve_all(t: Type) -> Type:
         return Pow(resolve_all(t.elem))
     if isinstance(t, Prod):
         return Prod(resolve_all(t.left), resolve_all(t.right))
+    if isinstance(t, Rec):
+        return Rec(tuple((n, resolve_all(f)) for n, f in t.fields))
     return t
 
 
@@ -70,6 +81,8 @@ def show(t: Type) -> str:
         if isinstance(resolve(t.right), Prod):
             right = f"({right})"
         return f"{left}*{right}"
+    if isinstance(t, Rec):
+        return "struct(" + ",".join(f"{name_text(n)}:{show(f)}" for n, f in t.fields) + ")"
     return "?"
 
 
@@ -86,6 +99,8 @@ def _occurs(v: Var, t: Type) -> bool:
         return _occurs(v, t.elem)
     if isinstance(t, Prod):
         return _occurs(v, t.left) or _occurs(v, t.right)
+    if isinstance(t, Rec):
+        return any(_occurs(v, f) for _, f in t.fields)
     return False
 
 
@@ -112,5 +127,10 @@ def unify(a: Type, b: Type) -> None:
     if isinstance(a, Prod) and isinstance(b, Prod):
         unify(a.left, b.left)
         unify(a.right, b.right)
+        return
+    if isinstance(a, Rec) and isinstance(b, Rec) and [n for n, _ in a.fields] == [
+            n for n, _ in b.fields]:
+        for (_, fa), (_, fb) in zip(a.fields, b.fields):
+            unify(fa, fb)
         return
     raise TypeClash

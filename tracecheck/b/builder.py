@@ -17,7 +17,7 @@ from ..errors import BSyntaxError
 from . import ast
 from ..limits import read_int
 
-__all__ = ["Builder", "OperationSource", "tok_pos", "unquote"]
+__all__ = ["Builder", "OperationSource", "tok_pos", "unquote", "ident"]
 
 
 @dataclass(frozen=True)
@@ -38,6 +38,18 @@ def unquote(s: str) -> str:
     return re.sub(r"\\(.)", lambda m: _ESCAPES.get(m.group(1), m.group(0)), s[1:-1])
 
 
+_ID_ESCAPES = {**_ESCAPES, "`": "`"}
+
+
+def ident(tok) -> str:
+    """The identifier a NAME token stands for: ```my name``` (ProB's back-quoted identifier,
+    with ``\\``` and ``\\\\`` escapes) is ``my name``, so ```x``` and ``x`` are one name."""
+    text = str(tok)
+    if not text.startswith("`"):
+        return text
+    return re.sub(r"\\(.)", lambda m: _ID_ESCAPES.get(m.group(1), m.group(0)), text[1:-1])
+
+
 def tok_pos(tok: Token) -> ast.Pos:
     return ast.Pos(tok.line, tok.column, tok.end_line, tok.end_column, tok.start_pos, tok.end_pos)
 
@@ -54,7 +66,7 @@ _OPS = {
     "POWER": "**",
 }
 _UNI_SETS = {"ℕ": "NATURAL", "ℕ₁": "NATURAL1", "ℤ": "INTEGER", "ℝ": "REAL", "𝔹": "BOOL"}
-_QUANT_EXPR = {"SIGMA": "SIGMA", "Σ": "SIGMA", "PI": "PI", "Π": "PI", "UNION": "UNION",
+_QUANT_EXPR = {"SIGMA": "SIGMA", "∑": "SIGMA", "PI": "PI", "∏": "PI", "UNION": "UNION",
                "⋃": "UNION", "INTER": "INTER", "⋂": "INTER"}
 
 
@@ -180,7 +192,33 @@ class Builder(Transformer):
         return ast.Inverse(_strip(c)[0], pos=_pos(meta))
 
     def name(self, meta, c):
-        return ast.Name(str(c[0]), pos=tok_pos(c[0]))
+        return ast.Name(ident(c[0]), pos=tok_pos(c[0]))
+
+    def primed(self, meta, c):
+        """``x'``: the value of x before the step, in ``x : (P)``."""
+        if not isinstance(c[0], ast.Name) or c[0].id.endswith(("'", "$0")):
+            raise _error("only a name may be primed (x'); a record's field is r'name", meta)
+        return ast.Name(c[0].id + "'", pos=_pos(meta))
+
+    def field(self, meta, c):
+        return ast.Field(c[0], ident(c[2]), pos=_pos(meta))
+
+    def record(self, meta, c):
+        return ast.Record(c[0], pos=_pos(meta))
+
+    def struct(self, meta, c):
+        return ast.Struct(c[0], pos=_pos(meta))
+
+    def rec_fields(self, meta, c):
+        names = [n for n, _ in c]
+        for i, (name, value) in enumerate(c):
+            if name in names[:i]:
+                raise _error(f"the field {name} appears twice", value.pos or meta)
+        return tuple(c)
+
+    def rec_field(self, meta, c):
+        name, _, value = c
+        return (ident(name), value)
 
     def int_lit(self, meta, c):
         try:
@@ -285,10 +323,10 @@ class Builder(Transformer):
         return tuple(c)
 
     def binder(self, meta, c):
-        return tuple(str(t) for t in c)
+        return tuple(ident(t) for t in c)
 
     def name_list(self, meta, c):
-        return tuple(str(t) for t in c)
+        return tuple(ident(t) for t in c)
 
     # -- substitutions
     def seq(self, meta, c):
@@ -357,37 +395,37 @@ class Builder(Transformer):
         return _strip(c)[0]
 
     def subst_call(self, meta, c):
-        name = ast.Name(str(c[0]), pos=tok_pos(c[0]))
+        name = ast.Name(ident(c[0]), pos=tok_pos(c[0]))
         return ast.SubstRef(name, c[1] if len(c) > 1 else (), pos=_pos(meta))
 
     def lhs_list(self, meta, c):
         return tuple(c)
 
     def lhs(self, meta, c):
-        return ast.Name(str(c[0]), pos=tok_pos(c[0]))
+        return ast.Name(ident(c[0]), pos=tok_pos(c[0]))
 
     def lhs_apply(self, meta, c):
-        return ast.Apply(ast.Name(str(c[0]), pos=tok_pos(c[0])), c[1], pos=_pos(meta))
+        return ast.Apply(ast.Name(ident(c[0]), pos=tok_pos(c[0])), c[1], pos=_pos(meta))
 
     # -- clauses
     def machine_header(self, meta, c):
         if len(c) > 1:
             raise _error("machine parameters are not supported", meta)
-        return str(c[0])
+        return ident(c[0])
 
     def def_header(self, meta, c):
         c = _strip(c)
-        return str(c[0]), (c[1] if len(c) > 1 else ())
+        return ident(c[0]), (c[1] if len(c) > 1 else ())
 
     def sets_clause(self, meta, c):
         return [x for x in c if not isinstance(x, Token)]
 
     def deferred_set(self, meta, c):
-        return (str(c[0]), None, tok_pos(c[0]))
+        return (ident(c[0]), None, tok_pos(c[0]))
 
     def enumerated_set(self, meta, c):
         c = _strip(c)
-        return (str(c[0]), c[1], tok_pos(c[0]))
+        return (ident(c[0]), c[1], tok_pos(c[0]))
 
     def assertions_clause(self, meta, c):
         return [x for x in c if not isinstance(x, Token)]
@@ -406,18 +444,18 @@ class Builder(Transformer):
         return OperationSource(name, params, outputs, body, hpos)
 
     def op_plain(self, meta, c):
-        return (str(c[0]), (), (), tok_pos(c[0]))
+        return (ident(c[0]), (), (), tok_pos(c[0]))
 
     def op_params(self, meta, c):
-        return (str(c[0]), c[1], (), tok_pos(c[0]))
+        return (ident(c[0]), c[1], (), tok_pos(c[0]))
 
     def op_outputs(self, meta, c):
         c = _strip(c)
-        return (str(c[1]), (), c[0], tok_pos(c[1]))
+        return (ident(c[1]), (), c[0], tok_pos(c[1]))
 
     def op_outputs_params(self, meta, c):
         c = _strip(c)
-        return (str(c[1]), c[2], c[0], tok_pos(c[1]))
+        return (ident(c[1]), c[2], c[0], tok_pos(c[1]))
 
 
 def _branches(c):

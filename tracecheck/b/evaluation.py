@@ -18,6 +18,7 @@ from ..errors import BTypeError, EvaluationError, TracecheckError, UnsupportedEr
 from . import ast
 from .scope import render
 from .bindings import Binders
+from .records import Records, element_hint, set_element
 from ..limits import DEEP, deep_recursion, deeply
 from .memo import constant_number, folded, memoised
 from .builtins import BUILTINS as _BUILTINS, UNSUPPORTED_HINTS as _UNSUPPORTED_HINTS
@@ -34,7 +35,7 @@ Env = dict
 Fn = Callable[[Env], Any]
 
 
-class Compiler(Binders):
+class Compiler(Binders, Records):
     """Turns AST nodes into closures; knows the source text for located messages."""
 
     def __init__(self, *, source: Optional[str] = None, file: Optional[str] = None) -> None:
@@ -105,9 +106,12 @@ class Compiler(Binders):
             try:
                 return env[name]
             except KeyError:
+                found = set_element(name, env)  # S3: an element of a deferred set S
+                if found is not None:
+                    return found
                 raise self.error(EvaluationError, node, f"{name} has no value here",
-                                 hint="give it in the state, or declare it in the machine") \
-                    from None
+                                 hint=element_hint(name, env) or "give it in the state, or "
+                                 "declare it in the machine") from None
         return get
 
     def c_IntLit(self, node: ast.IntLit) -> Fn:

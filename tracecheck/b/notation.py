@@ -23,7 +23,7 @@ from typing import Any, Optional
 
 from ..errors import BSyntaxError, EvaluationError
 from ..limits import read_int
-from .values import Elem, FuncValue, format_value, make_set, sequence
+from .values import Elem, FuncValue, Record, format_value, make_set, sequence
 
 __all__ = ["parse_literal", "from_json", "to_json", "MAX_LITERAL_DEPTH"]
 
@@ -40,6 +40,7 @@ _FUNC_ITEM = re.compile(r"\((" + _IDENT + r")(?:↦|\|->)(" + _NUM + r")\)")
 _NUMBER = re.compile(_NUM + r"\Z")
 _NUMBER_AT = re.compile(_NUM)  # a number where the reader is
 _IDENT_AT = re.compile(_IDENT)
+_FIELD_AT = re.compile(r"([^\W\d]\w*|`(?:[^`\\]|\\.)+`)\s*:")
 _STRING_AT = re.compile(r'"((?:\\.|[^"\\])*)"')
 _ESCAPE = re.compile(r"\\(.)")
 
@@ -148,6 +149,8 @@ class _LiteralReader:
                 return True
             if word == "FALSE":
                 return False
+            if word == "rec" and self.peek("("):
+                return self.record()
             return Elem(word)
         raise self.fail(f"unexpected {c!r}")
 
@@ -181,6 +184,28 @@ class _LiteralReader:
     def sequence(self) -> frozenset:
         """``[a, b]``: ProB's notation for the sequence ``{1↦a, 2↦b}``."""
         return sequence(self.items("[", "]"))
+
+    def record(self) -> Record:
+        """``rec(a:1,b:TRUE)``, as ProB prints a record (the fields in any order)."""
+        self.expect("(")
+        fields: dict[str, Any] = {}
+        while True:
+            self.skip_ws()
+            m = _FIELD_AT.match(self.text, self.i)
+            if m is None:
+                raise self.fail("expected a field name and ':' in a record")
+            name = m.group(1)
+            if name.startswith("`"):
+                name = re.sub(r"\\(.)", r"\1", name[1:-1])
+            if name in fields:
+                raise self.fail(f"the field {name} appears twice in a record")
+            self.i = m.end()
+            fields[name] = self.maplets()
+            if not self.peek(","):
+                break
+            self.i += 1
+        self.expect(")")
+        return Record(fields.items())
 
     def pair(self) -> Any:
         self.expect("(")

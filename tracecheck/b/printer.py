@@ -4,13 +4,14 @@ from __future__ import annotations
 
 from . import ast
 from ..limits import deep_recursion, int_text
+from .names import name_text
 from .values import format_real
 
-__all__ = ["to_b"]
+__all__ = ["to_b", "name_text"]
 
 _ATOMS = (ast.Name, ast.IntLit, ast.RealLit, ast.StrLit, ast.BoolLit, ast.SetExt, ast.Apply,
           ast.Call, ast.Template, ast.Image, ast.Inverse, ast.Comprehension, ast.Lambda,
-          ast.QuantExpr, ast.Quant, ast.IfExpr, ast.Let)
+          ast.QuantExpr, ast.Quant, ast.IfExpr, ast.Let, ast.Record, ast.Struct, ast.Field)
 
 
 def _sub(node: ast.Node) -> str:
@@ -19,7 +20,7 @@ def _sub(node: ast.Node) -> str:
 
 
 def _ids(ids: tuple[str, ...]) -> str:
-    return ids[0] if len(ids) == 1 else "(" + ",".join(ids) + ")"
+    return name_text(ids[0]) if len(ids) == 1 else "(" + ",".join(map(name_text, ids)) + ")"
 
 
 def to_b(node: ast.Node) -> str:
@@ -32,7 +33,12 @@ def to_b(node: ast.Node) -> str:
 def _text(node: ast.Node) -> str:  # noqa: C901 - one branch per node type
     t = type(node)
     if t is ast.Name:
-        return node.id
+        return name_text(node.id)
+    if t in (ast.Record, ast.Struct):
+        fields = ",".join(f"{name_text(n)}:{_text(v)}" for n, v in node.fields)
+        return f"{'rec' if t is ast.Record else 'struct'}({fields})"
+    if t is ast.Field:
+        return f"{_sub(node.record)}'{name_text(node.name)}"
     if t is ast.IntLit:
         return int_text(node.value)
     if t is ast.RealLit:
@@ -67,12 +73,12 @@ def _text(node: ast.Node) -> str:  # noqa: C901 - one branch per node type
         return f"{_sub(node.left)}|->{_sub(node.right)}"
     if t is ast.Comprehension:
         if node.expr is None:
-            return "{" + ",".join(node.ids) + "|" + _text(node.pred) + "}"
-        return "{" + ",".join(node.ids) + "." + _text(node.pred) + "|" + _text(node.expr) + "}"
+            return "{" + ",".join(map(name_text, node.ids)) + "|" + _text(node.pred) + "}"
+        return "{" + ",".join(map(name_text, node.ids)) + "." + _text(node.pred) + "|" + _text(node.expr) + "}"
     if t is ast.Lambda:
         return f"%{_ids(node.ids)}.({_text(node.pred)}|{_text(node.expr)})"
     if t is ast.QuantExpr:
-        return f"{node.op}({','.join(node.ids)}).({_text(node.pred)}|{_text(node.expr)})"
+        return f"{node.op}({','.join(map(name_text, node.ids))}).({_text(node.pred)}|{_text(node.expr)})"
     if t is ast.IfExpr:
         (c, v), *rest = node.branches
         text = f"IF {_text(c)} THEN {_text(v)}"
@@ -80,7 +86,7 @@ def _text(node: ast.Node) -> str:  # noqa: C901 - one branch per node type
             text += f" ELSIF {_text(c)} THEN {_text(v)}"
         return text + f" ELSE {_text(node.else_)} END"
     if t in (ast.Let, ast.LetSubst):
-        return f"LET {','.join(node.ids)} BE {_text(node.pred)} IN {_text(node.body)} END"
+        return f"LET {','.join(map(name_text, node.ids))} BE {_text(node.pred)} IN {_text(node.body)} END"
     if t in (ast.And, ast.Or, ast.Implies, ast.Equiv):
         op = {ast.And: "&", ast.Or: "or", ast.Implies: "=>", ast.Equiv: "<=>"}[t]
         return f"{_sub(node.left)} {op} {_sub(node.right)}"
@@ -101,9 +107,9 @@ def _subst(node: ast.Node) -> str:  # noqa: C901
         return f"{','.join(_text(x) for x in node.targets)} := " \
                f"{','.join(_text(v) for v in node.values)}"
     if t is ast.BecomesIn:
-        return f"{','.join(node.ids)} :: {_text(node.set)}"
+        return f"{','.join(map(name_text, node.ids))} :: {_text(node.set)}"
     if t is ast.BecomesSuchThat:
-        return f"{','.join(node.ids)} : ({_text(node.pred)})"
+        return f"{','.join(map(name_text, node.ids))} : ({_text(node.pred)})"
     if t is ast.Parallel:
         return " || ".join(_block(i) for i in node.items)
     if t is ast.Sequence:
@@ -122,7 +128,7 @@ def _subst(node: ast.Node) -> str:  # noqa: C901
             text += f" ELSE {_text(node.else_)}"
         return text + " END"
     if t is ast.Any:
-        return f"ANY {','.join(node.ids)} WHERE {_text(node.pred)} THEN {_text(node.body)} END"
+        return f"ANY {','.join(map(name_text, node.ids))} WHERE {_text(node.pred)} THEN {_text(node.body)} END"
     if t is ast.Choice:
         return "CHOICE " + " OR ".join(_text(i) for i in node.items) + " END"
     if t is ast.SubstRef:

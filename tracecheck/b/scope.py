@@ -192,6 +192,9 @@ def _check_children(node: ast.Node, source: Optional[str]) -> None:
     elif isinstance(node, ast.Template):
         for a in node.holes:
             req(a, EXPR, "a template hole")
+    elif isinstance(node, (ast.Record, ast.Struct, ast.Field)):
+        for a in ast.children(node):
+            req(a, EXPR, "a record" if isinstance(node, ast.Field) else "a record field")
     elif isinstance(node, ast.IfExpr):
         kind = kind_of(node)
         for cond, value in node.branches:

@@ -8,13 +8,14 @@ INVARIANT, constants by the PROPERTIES.
 
 from __future__ import annotations
 
+import re
 from typing import Optional
 
 from ..errors import BScopeError, BTypeError, TracecheckError, UnsupportedError
 from . import ast
 from ..limits import deeply
-from .btypes import (BOOL, INTEGER, REAL, STRING, Base, TypeClash, Pow, Prod, Type, Var, resolve,
-                     show, unify)
+from .btypes import (BOOL, INTEGER, REAL, STRING, Base, TypeClash, Pow, Prod, Rec, Type, Var,
+                     resolve, show, unify)
 from .scope import check_kind, expand, kind_of, render
 from .library import FUNCTIONS as _LIBRARY, call_type as _library_type
 
@@ -33,7 +34,7 @@ _BUILTIN_TYPES = {
 #: B keywords tracecheck does not evaluate, with what they are (ProB's parser reads them).
 UNSUPPORTED_KEYWORDS = {
     "iterate": "iteration of a relation", "fnc": "transformation into a function",
-    "rel": "transformation into a relation", "rec": "records", "struct": "records",
+    "rel": "transformation into a relation",
     "tree": "trees", "btree": "trees", "bin": "trees", "left": "trees", "right": "trees",
     "sons": "trees", "father": "trees", "rank": "trees", "const": "trees", "top": "trees",
     "prefix": "trees", "postfix": "trees", "sizet": "trees", "mirror": "trees",
@@ -69,7 +70,25 @@ class Typer:
         raise BScopeError(f"unknown identifier {name}", file=self.file, source=self.source,
                           line=node.pos.line if node.pos else None,
                           column=node.pos.column if node.pos else None,
-                          hint=self.unknown_hint)
+                          hint=self.element_hint(base) or self.unknown_hint)
+
+    def element_hint(self, name: str) -> Optional[str]:
+        """What to say of ``S7`` where S is a set with fewer elements (ProB names a deferred
+        set's elements S1, S2, … up to its size)."""
+        m = re.fullmatch(r"(.+?)([0-9]+)", name)
+        if m is None:
+            return None
+        set_name = m.group(1)
+        for scope in self.scopes:
+            if scope.get(set_name) == Pow(Base(set_name)):
+                names = sorted((n for n, t in scope.items() if t == Base(set_name)),
+                               key=_natural)  # elements, not the variables typed by the set
+                shown = ", ".join(names if len(names) <= 4 else [*names[:2], "…", names[-1]])
+                return (f"the elements of {set_name} named here are {shown or 'none'} (ProB "
+                        f"names a deferred set's elements {set_name}1, {set_name}2, … up to its"
+                        f" size, from card({set_name}) = n or scope_{set_name}, else 2; a "
+                        f"constant c : {set_name} takes the place of one)")
+        return None
 
     def same(self, node: ast.Node, a: Type, b: Type, what: str = "") -> None:
         try:
@@ -194,6 +213,8 @@ class Typer:
             return Pow(Prod(b, a))
         if t in (ast.Comprehension, ast.Lambda, ast.QuantExpr):
             return self.binder_expr(node)
+        if t in (ast.Record, ast.Struct, ast.Field):
+            return self.record(node)
         if t is ast.IfExpr:
             result = Var()
             for c, v in node.branches:
@@ -212,6 +233,38 @@ class Typer:
             self.pred(node)
             return BOOL
         raise BTypeError(f"cannot type {t.__name__}")  # pragma: no cover
+
+    def record(self, node) -> Type:
+        """``rec(a: 1)`` (a record), ``struct(a: INTEGER)`` (a set of them), ``r'a``."""
+        if isinstance(node, ast.Field):
+            found = resolve(self.expr(node.record))
+            if isinstance(found, Var):
+                raise self.type_error(node, f"the type of `{render(node.record, self.source)}` "
+                                      f"must be known before its field {node.name} is taken",
+                                      hint="type the record first, e.g. r : struct(a: INTEGER)")
+            if not isinstance(found, Rec):
+                raise self.type_error(node, f"`{render(node.record, self.source)}` is not a "
+                                      f"record but {show(found)}")
+            fields = dict(found.fields)
+            if node.name not in fields:
+                raise self.type_error(node, f"the record type {show(found)} has no field "
+                                      f"{node.name}")
+            return fields[node.name]
+        fields = []
+        for name, value in node.fields:
+            t = self.expr(value)
+            if isinstance(node, ast.Struct):
+                elem = Var()
+                self.same(value, t, Pow(elem), "a struct field is a set: ")
+                t = elem
+            fields.append((name, t))
+        rec = Rec(tuple(sorted(fields, key=lambda f: f[0])))
+        return rec if isinstance(node, ast.Record) else Pow(rec)
+
+    def type_error(self, node: ast.Node, message: str, hint: Optional[str] = None):
+        return BTypeError(message, file=self.file, source=self.source, hint=hint,
+                          line=node.pos.line if node.pos else None,
+                          column=node.pos.column if node.pos else None)
 
     def binder_expr(self, node) -> Type:
         scope = self.bound(node.ids)
@@ -409,6 +462,10 @@ def typecheck_machine(machine) -> dict[str, str]:
         names[set_name] = Pow(Base(set_name))
         if set_name in machine.enumerated:
             names.update({str(e): Base(set_name) for e in elems})
+    for set_name, elems in machine.sets.items():  # ProB's S1, S2, … of a deferred set S
+        if set_name not in machine.enumerated:
+            names.update({str(e): Base(set_name) for e in elems if str(e) not in names
+                          and re.fullmatch(re.escape(set_name) + "[0-9]+", str(e))})
     for c in machine.constants_declared:
         names[c] = Var()
     for v in machine.variables:
@@ -438,6 +495,11 @@ def typecheck_machine(machine) -> dict[str, str]:
     return result
 
 
+def _natural(name: str):
+    m = re.fullmatch(r"(.*?)([0-9]+)", name)
+    return (m.group(1), int(m.group(2))) if m else (name, -1)
+
+
 # ------------------------------------------------------------------ values and states
 
 _ELEMENTS = Base("ELEMENTS")  # elements of sets no machine declares (eval without a model)
@@ -445,7 +507,7 @@ _ELEMENTS = Base("ELEMENTS")  # elements of sets no machine declares (eval witho
 
 def type_of_value(value, element_sets: Optional[dict] = None) -> Type:
     """The type of a concrete value (elements typed by the set that holds them)."""
-    from .values import Elem, SymbolicSet
+    from .values import Elem, Record, SymbolicSet
 
     if type(value) is bool:
         return BOOL
@@ -460,6 +522,8 @@ def type_of_value(value, element_sets: Optional[dict] = None) -> Type:
         return STRING
     if isinstance(value, tuple):
         return Prod(type_of_value(value[0], element_sets), type_of_value(value[1], element_sets))
+    if isinstance(value, Record):
+        return Rec(tuple((n, type_of_value(v, element_sets)) for n, v in value.fields))
     if isinstance(value, SymbolicSet):
         return Var()
     elem: Type = Var()

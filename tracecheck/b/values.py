@@ -17,9 +17,10 @@ from typing import Any, Callable, Iterable, Iterator, Optional
 
 from ..errors import EvaluationError, SetLimitError
 from ..limits import int_text
+from .names import name_text
 
 __all__ = [
-    "Elem", "FuncValue", "SymbolicSet", "BuiltinSet", "Interval", "PowSet", "Product",
+    "Elem", "Record", "FuncValue", "SymbolicSet", "BuiltinSet", "Interval", "PowSet", "Product",
     "SET_LIMIT", "check_size", "make_set", "hashable", "finiteness", "cardinality", "members",
     "explicit", "contains", "is_subset", "set_equal", "brief", "as_sequence", "sequence",
     "format_value", "format_real", "is_set", "BUILTIN_SET_VALUES", "sort_key", "set_key",
@@ -37,6 +38,34 @@ class Elem(str):
 
     def __repr__(self) -> str:
         return f"Elem({str(self)!r})"
+
+
+class Record:
+    """A B record ``rec(a:1,b:TRUE)``: (name, value) pairs sorted by name, as ProB keeps them
+    (so ``rec(b:1,a:2) = rec(a:2,b:1)``). Not a tuple: tuples are pairs."""
+
+    __slots__ = ("fields",)
+
+    def __init__(self, fields) -> None:
+        self.fields = tuple(sorted(((n, hashable(v)) for n, v in fields), key=lambda f: f[0]))
+
+    def names(self) -> tuple[str, ...]:
+        return tuple(n for n, _ in self.fields)
+
+    def get(self, name: str) -> Any:
+        for n, v in self.fields:
+            if n == name:
+                return v
+        raise KeyError(name)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Record) and self.fields == other.fields
+
+    def __hash__(self) -> int:
+        return hash(("rec", self.fields))
+
+    def __repr__(self) -> str:
+        return f"Record({list(self.fields)!r})"
 
 
 class FuncValue(frozenset):
@@ -455,7 +484,9 @@ def sort_key(value: Any):
         value = value.materialise()
     if isinstance(value, frozenset):
         return (5, len(value), tuple(sorted(sort_key(v) for v in value)))
-    return (6, repr(value))
+    if isinstance(value, Record):
+        return (6, tuple((n, sort_key(v)) for n, v in value.fields))
+    return (7, repr(value))
 
 
 def _natural(name: str):
@@ -501,6 +532,9 @@ def format_value(value: Any, *, ascii: bool = False) -> str:
             left = left[0]
         parts.append(format_value(left, ascii=ascii))
         return "(" + maplet.join(reversed(parts)) + ")"
+    if isinstance(value, Record):  # as ProB prints it: rec(a:1,b:TRUE)
+        return "rec(" + ",".join(f"{name_text(n)}:{format_value(v, ascii=ascii)}"
+                                 for n, v in value.fields) + ")"
     if isinstance(value, SymbolicSet):
         if value.finiteness() is True and value.card() <= _PRINT_LIMIT:
             return format_value(value.materialise(), ascii=ascii)

@@ -28,6 +28,7 @@ from .arrays import (BatchContext, NotVectorizable, VectorValue, arith, bool_of,
                      fits, integral, intern_key, is_int_array, mark_nonfinite, num_of, per_row,
                      shared, typed_member)
 from .columns import Columns
+from .records import set_element
 from .library import FUNCTIONS as _LIBRARY, vector_call as _library_call
 from ..limits import DEEP, deep_recursion
 from .values import Elem, FuncValue
@@ -94,6 +95,10 @@ class _VecCompiler:
             return lambda ctx: vec
         if name in _TYPE_SETS:
             return lambda ctx: ("type", name)
+        element = set_element(name, self.constants)  # S3: an element of a deferred set S
+        if element is not None:
+            vec = self.constant(element)
+            return lambda ctx: vec
         raise NotVectorizable(name)
 
     def v_IntLit(self, node) -> Callable:
