@@ -76,7 +76,7 @@ def test_an_export_draws_the_hand_made_run_s_ends(tmp_path, capsys):
     # the first interval's ends; none where nothing was allowed (episode 1, step 1) or for
     # the unbounded low end of (-inf, 0] (episode 1, step 2)
     assert _values(found, "/plot/a/allowed_low") == [-4.0, -4.0, -4.0, -3.0, -4.0, -3.0]
-    assert _values(found, "/plot/a/allowed_high") == [2.0, 1.0, -1.0, 0.0, -1.0, 1.5 + 1e-8,
+    assert _values(found, "/plot/a/allowed_high") == [2.0, 1.0, -1.0, 0.0, -1.0, 1.5 + 1e-4,
                                                       2.0]
     assert _values(found, "/plot/a/executed")[3] == -4.0
     assert _values(found, "/plot/projection_distance") == [0.0, 1.0, 0.5, 6.0, 1.0, 0.0, 0.0,
