@@ -47,6 +47,10 @@ class Translator:
     of the fresh variables translations introduce (min and max of a set of numbers), which
     every question to the solver must include."""
 
+    #: Whether ``x : {a, b}`` of numbers is translated (``eval``'s solver; shields' guards
+    #: with such a set keep being decided by the evaluator, their allowed set not computed).
+    number_sets = False
+
     def __init__(self, machine, prefix: str = "") -> None:
         self.z3 = load_z3()
         self.machine = machine
@@ -478,7 +482,7 @@ class Translator:
         s = self.translate(right, env)
         if isinstance(s, ElementSet) and isinstance(x, Elem) and x in s.member:
             return s.member[x]
-        if isinstance(s, _Nums) and z3.is_arith(x):  # x : {1, y, 3}
+        if isinstance(s, _Nums) and z3.is_arith(x) and self.number_sets:  # x : {1, y, 3}
             return z3.Or([z3.And(c, x == v) for c, v in s.items])
         raise self.fail(node, "this membership")
 

@@ -131,6 +131,10 @@ class _Problem:
             self.whole = self.compiler.compile(self.node)
 
     def answer(self, status: str, **fields) -> Answer:
+        """The answer, its solutions in order (elements as their sets list them)."""
+        rank = {e: k for elems in self.sets.values() for k, e in enumerate(elems)}
+        fields.get("solutions", []).sort(key=lambda s: [
+            (0, rank[s[n]]) if s[n] in rank else (1, sort_key(s[n])) for n in self.names])
         return Answer(status, self.names, **fields)
 
     def holds(self, solution: dict) -> bool:
@@ -258,9 +262,6 @@ class _Problem:
             where = " & ".join(f"{n} = {format_value(v)}" for n, v in problem[0].items())
             note = f"the predicate has no value where {where}: {problem[1].message}"
         stopped = clock.stopped
-        rank = {e: k for elems in self.sets.values() for k, e in enumerate(elems)}
-        solutions.sort(key=lambda s: [(0, rank[s[n]]) if s[n] in rank else
-                                      (1, sort_key(s[n])) for n in self.names])
         if stopped and not solutions:
             return self.answer("unknown", method="enumeration", note=note,
                                reason=f"time limit ({self.timeout_s:g} s) after "
@@ -363,6 +364,8 @@ class _FreeTranslator(Translator):
     """The translator over the free identifiers (solver variables, in ``env``); a
     sub-formula that reads none of them is evaluated by tracecheck's evaluator and enters as
     its value, where that is a number, a boolean or an element."""
+
+    number_sets = True
 
     def __init__(self, problem: _Problem) -> None:
         super().__init__(_Scope(problem))
