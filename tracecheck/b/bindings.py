@@ -45,11 +45,17 @@ def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
             gen = _generator_for(comp, conj, name, ids, bound)
             if gen is not None:
                 options.append((_cost(gen[1], conj), k, gen))
-        if options:
-            _, k, gen = min(options, key=lambda o: o[:2])
+        best = min(options, key=lambda o: o[:2]) if options else None
+        between = _interval_for(comp, node, conjs, name, ids, bound) \
+            if best is None or best[0] == 2 else None  # none, or only x : INTEGER and such
+        if between is None and best is not None:
+            _, k, gen = best
             plan.append(gen)
             bound |= set(gen[0])
             used.add(k)
+        elif between is not None:
+            plan.append(between)  # the comparisons stay filters: the range only walks
+            bound.add(name)
         else:
             problem = comp.error(
                 EvaluationError, node,
@@ -144,6 +150,63 @@ def domain(comp, node: ast.Node, mode: str, value: Any):
                          f"`{comp.text(node)}`",
                          hint="bound the variable by a finite set")
     raise comp.type_error(node, value, "a set")
+
+
+#: a comparison of the variable with a bound, as (the variable's side, the bound's side):
+#: ``x > E`` is a lower bound E + 1 on the left; ``E > x`` an upper bound E - 1
+#: the lower bound membership in a set of natural numbers implies (the membership stays a
+#: filter: NAT's upper end MAXINT too)
+_NATURALS = {"NATURAL": 0, "NAT": 0, "NATURAL1": 1, "NAT1": 1}
+_LOWER = {(">", "left"): 1, (">=", "left"): 0, ("<", "right"): 1, ("<=", "right"): 0}
+_UPPER = {("<", "left"): -1, ("<=", "left"): 0, (">", "right"): -1, (">=", "right"): 0}
+
+
+def _interval_for(comp, node: ast.Node, conjs: list[ast.Node], name: str,
+                  ids: tuple[str, ...], bound: set[str]):
+    """A generator of ``name`` over the integers its comparisons bound (``x > 0 & x < 4``
+    walks 1..3; ``x >= a & x <= b`` with a and b known), where it has both a lower and an
+    upper one; None where it has not. The bounds must be integers when evaluated (a REAL
+    variable is not walked: a located error says so)."""
+    lows, highs = [], []
+    pending = set(ids) - bound
+    for conj in conjs:
+        if isinstance(conj, ast.Rel) and conj.op == ":" and isinstance(conj.left, ast.Name) and conj.left.id == name and \
+                isinstance(conj.right, ast.Name) and conj.right.id in _NATURALS:
+            zero = ast.IntLit(_NATURALS[conj.right.id], pos=conj.pos)  # x : NATURAL: x >= 0
+            lows.append((comp.compile(zero), 0, zero))
+            continue
+        if not isinstance(conj, ast.Rel) or conj.op not in ("<", "<=", ">", ">="):
+            continue
+        for side, other in (("left", conj.right), ("right", conj.left)):
+            mine = conj.left if side == "left" else conj.right
+            if not (isinstance(mine, ast.Name) and mine.id == name) or \
+                    ast.free_names(other) & pending:
+                continue
+            if (conj.op, side) in _LOWER:
+                lows.append((comp.compile(other), _LOWER[conj.op, side], other))
+            else:
+                highs.append((comp.compile(other), _UPPER[conj.op, side], other))
+    if not lows or not highs:
+        return None
+
+    def end(env: Env, parts, pick) -> int:
+        found = []
+        for fn, shift, expr in parts:
+            value = fn(env)
+            if type(value) is not int:
+                raise comp.error(EvaluationError, expr,
+                                 f"cannot enumerate {name} in `{comp.text(node)}`: its bound "
+                                 f"`{comp.text(expr)}` is not an integer",
+                                 hint=f"a REAL variable is not enumerated; bound it by a "
+                                      f"finite set, e.g. {name} : S")
+            found.append(value + shift)
+        return pick(found)
+
+    def interval(env: Env):
+        from .values import Interval
+
+        return Interval(end(env, lows, max), end(env, highs, min))
+    return (name,), "in", interval
 
 
 def _names_in_pair(node: ast.Node) -> Optional[tuple[str, ...]]:

@@ -22,7 +22,6 @@ from dataclasses import dataclass
 from decimal import ROUND_HALF_UP, Decimal
 from typing import Any, Callable, Optional
 
-import numpy as np
 
 from ..errors import BTypeError, UnsupportedError, WellDefinednessError
 from . import ast
@@ -466,6 +465,8 @@ def vector_call(vc, node: ast.Call, not_vectorizable: type) -> Callable:
     impl = fn.impl
 
     def run(ctx) -> tuple:
+        import numpy as np  # the batch path only: eval's start-up does not load numpy
+
         values = []
         for a in args:
             tag, v = a(ctx)
