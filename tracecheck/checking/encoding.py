@@ -21,7 +21,7 @@ from ..b.values import FuncValue
 from ..errors import InputError, UnsupportedError
 
 __all__ = ["load_z3", "ElementSet", "ElementFunction", "encode_variable", "state_of_model",
-           "check_timeout", "MAX_TIMEOUT_S"]
+           "check_timeout", "MAX_TIMEOUT_S", "nudge"]
 
 
 def load_z3():
@@ -133,3 +133,11 @@ def check_timeout(seconds, what: str = "the timeout") -> float:
                          f"{MAX_TIMEOUT_S:,}), not {seconds!r}",
                          hint="give the seconds the solver may take per question, e.g. 10")
     return float(seconds)
+
+
+def nudge(x: float, steps: int) -> float:
+    """``x`` moved ``steps`` floats up (down where negative): a value near a solver's model
+    tried by the evaluator."""
+    for _ in range(abs(steps)):
+        x = math.nextafter(x, math.copysign(math.inf, steps))
+    return x

@@ -56,7 +56,7 @@ from ..b.typecheck import typecheck_formula
 from ..b.values import Elem, FuncValue
 from ..errors import InputError, TracecheckError, UnsupportedError, WellDefinednessError
 from ..limits import deeply
-from .encoding import ElementFunction, ElementSet, check_timeout, load_z3
+from .encoding import ElementFunction, ElementSet, check_timeout, load_z3, nudge
 from .smt import Translator
 
 __all__ = ["SolvedSet", "Nearest", "solved_set", "check_solvable", "DEFAULT_BUDGET_S",
@@ -329,7 +329,7 @@ class SolvedSet:
             [tuple(d if j == i else 0 for j in range(k)) for i in range(k) for d in (-1, 1)]
         for steps in range(1, NUDGES + 1):
             for sign in signs:
-                moved = {p: _nudge(rounded[p], d * steps) for p, d in zip(self.params, sign)}
+                moved = {p: nudge(rounded[p], d * steps) for p, d in zip(self.params, sign)}
                 if self.contains(moved):
                     return moved
         if towards is None:
@@ -609,12 +609,6 @@ def _as_float(x: Fraction) -> float:
         return float(x)
     except OverflowError:
         return math.inf
-
-
-def _nudge(x: float, steps: int) -> float:
-    for _ in range(abs(steps)):
-        x = math.nextafter(x, math.copysign(math.inf, steps))
-    return x
 
 
 def _distance(point: Mapping[str, Any], x: Mapping[str, float],

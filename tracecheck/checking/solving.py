@@ -36,6 +36,7 @@ from ..b.typecheck import UNSUPPORTED_KEYWORDS
 from ..b.values import (Elem, Interval, SymbolicSet, cardinality, format_value, members,
                         sort_key)
 from ..errors import Disagreement, TracecheckError, UnsupportedError
+from .encoding import nudge
 from .smt import Translator
 
 __all__ = ["Answer", "solve", "free_identifiers", "SMALL_SPACE", "MAX_SUBSET_BASE"]
@@ -488,7 +489,7 @@ class _Solver:
         for moves in tries:
             moved = dict(base)
             for n, k in zip(reals, moves):
-                moved[n] = _nudge(base[n], k)
+                moved[n] = nudge(base[n], k)
             if self.problem.holds(moved):
                 return moved
         return None
@@ -538,9 +539,4 @@ def _nearest_float(z3, v) -> float:
     except OverflowError:
         return math.inf
 
-
-def _nudge(x: float, steps: int) -> float:
-    for _ in range(abs(steps)):
-        x = math.nextafter(x, math.copysign(math.inf, steps))
-    return x
 
