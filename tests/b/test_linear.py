@@ -199,3 +199,18 @@ def test_enabled_decides_real_parameters_alike_state_by_state_and_in_batch(rows)
         assert ("Accelerate" in enabled) == (allowed.witness() is not None)
         # over the reals: some a in [-4, 2] with Gap - (Speed + a) * 1.5 > 10
         assert ("Accelerate" in enabled) == (state["Gap"] - (state["Speed"] - 4.0) * 1.5 > 10.0)
+
+
+@pytest.mark.parametrize("guard, expected", [
+    # "any acceleration up to 0.5, or full braking": the braking box lies in the other one
+    ("a >= -1.0 & s >= -0.5 & s <= 0.5 & (a <= 0.5 or a = -1.0)",
+     {"a": "[-1.0, 0.5]", "s": "[-0.5, 0.5]"}),
+    # two boxes, neither holding the other: no band to draw
+    ("s >= -0.5 & s <= 0.5 & ((a >= 0.0 & a <= 1.0) or (a >= -1.0 & a <= 0.5 & s >= 0.0))",
+     None),
+])
+def test_bands_of_a_union_of_boxes_where_one_holds_the_others(guard, expected):
+    m = machine(guard, "a, s")
+    bands = allowed_set(m, "Act", {"u": 0.0, "v": 0.0}).bands()
+    assert (None if bands is None else
+            {p: " ∪ ".join(str(i) for i in found) for p, found in bands.items()}) == expected

@@ -100,9 +100,11 @@ class AllowedSet:
         boxes = self._boxes()
         if not boxes:
             return {p: () for p in self.params}
-        if len(boxes) > 1:
-            return None
-        return {p: (boxes[0][p],) for p in self.params}
+        # a union is drawn where one of its boxes holds the others (the highway's "any
+        # acceleration, or full braking" is [-1, a] × S ∪ {-1} × S)
+        whole = next((b for b in boxes if all(_box_within(o, b, self.params) for o in boxes)),
+                     None)
+        return None if whole is None else {p: (whole[p],) for p in self.params}
 
     def witness(self) -> Optional[dict[str, float]]:
         """An allowed point the evaluator confirms (one well inside, else the one nearest
@@ -189,6 +191,19 @@ class AllowedSet:
             boxes = [" × ".join(str(box[p]) for p in self.params) for box in self._boxes()]
             return f"({', '.join(self.params)}) ∈ {' ∪ '.join(boxes) or '∅'}"
         return f"({', '.join(self.params)}): {len(self.parts)} polytope(s)"
+
+
+def _box_within(inner: dict, outer: dict, params) -> bool:
+    """Whether the box ``inner`` lies in the box ``outer`` (open and closed ends alike)."""
+    return all(_interval_within(inner[p], outer[p]) for p in params)
+
+
+def _interval_within(a, b) -> bool:
+    low = b.low is None or (a.low is not None and (
+        a.low > b.low or (a.low == b.low and (a.low_open or not b.low_open))))
+    high = b.high is None or (a.high is not None and (
+        a.high < b.high or (a.high == b.high and (a.high_open or not b.high_open))))
+    return low and high
 
 
 def real_parameters(op) -> bool:
