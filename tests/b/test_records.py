@@ -136,3 +136,16 @@ def test_batch_path_agrees_with_the_scalar_path_on_records(machine):
         batch = BatchFormula(node, machine.base_env, source=text)(cols)
         scalar = [machine.compile(node, source=text)(machine.env(s)) for s in states]
         assert [bool(v) for v in np.asarray(batch)] == scalar
+
+
+def test_a_back_quoted_name_declared_as_a_variable():
+    from tracecheck.b import load_machine_text
+
+    m = load_machine_text("""MACHINE BQ
+VARIABLES `my v`
+INVARIANT `my v` : 0..10
+INITIALISATION `my v` := 3
+OPERATIONS inc = SELECT `my v` < 10 THEN `my v` := `my v` + 1 END
+END""")
+    assert m.variables == ("my v",)
+    assert m.enabled({"my v": 4}) == {"inc"} and m.enabled({"my v": 10}) == set()

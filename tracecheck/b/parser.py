@@ -22,7 +22,7 @@ from lark.lexer import Lexer
 
 from ..errors import BSyntaxError, TracecheckError
 from . import ast
-from .builder import Builder, OperationSource, tok_pos, unquote
+from .builder import Builder, OperationSource, ident, tok_pos, unquote
 from .library import LIBRARY_FILES, NOT_IMPLEMENTED, library_bodies
 from ..limits import deep_recursion
 
@@ -353,7 +353,7 @@ def _fill_clause(src: MachineSource, kw: Token, body: list[Token], text: str,
 
 
 def _names_with_pos(body: list[Token]) -> list[tuple[str, ast.Pos]]:
-    return [(t.value, tok_pos(t)) for t in body if t.type == "NAME"]
+    return [(ident(t), tok_pos(t)) for t in body if t.type == "NAME"]
 
 
 def _descriptions(toks: list[Token], comments: list[Token]) -> dict[int, str]:
