@@ -345,3 +345,15 @@ def test_replay_keeps_the_actions_within_the_run_headers_action_space(tmp_path, 
     else:
         assert far.margin == pytest.approx(1.0) and far.deadlock_states == []
         assert far.allowed == "a ∈ (3.0, ∞)"
+
+
+def test_a_strict_guard_whose_values_begin_at_the_spaces_bound_allows_nothing(tmp_path):
+    """a > 2 within [-4, 2]: nothing — not a margin of 1 to the bound itself."""
+    (tmp_path / "far.mch").write_text(FAR)
+    path = tmp_path / "edge.mcap"
+    write_run(path, new_header("recorded", actions=["ACCELERATE"],
+                               action_parameters={"ACCELERATE": ["a"]},
+                               action_low=[-4.0], action_high=[2.0]), [
+        make(0, s(52.0, 20.0), [("ACCELERATE", {"a": 1.0}, s(52.0, 20.0))])])
+    (edge,) = replay([path], load_shield(tmp_path / "far.mch")).per_episode
+    assert edge.margin is None and edge.margin_note == "nothing allowed"

@@ -105,7 +105,10 @@ def test_reals_are_floats_the_evaluator_confirms():
     assert got.status == "TRUE" and 3.0 * got.solutions[0]["x"] == 1.0
     got = answer("x * x = 2.0")  # ±√2: neither it nor a float next to it squares to 2.0
     assert got.status == "unknown" and "not one in floats" in got.reason
-    assert answer("x > 1.0 & x < 0.5").status == "FALSE"
+    assert answer("x > 1.0 & x < 0.5").status == "FALSE"  # compared as it is: no rounding
+    # none over the exact reals, but 1.0e-300 + 1.0 = 1.0 in floats: not FALSE
+    got = answer("x : REAL & x + 1.0 = 1.0 & x > 0.0")
+    assert got.status == "unknown" and "the REALs are floats" in got.reason
 
 
 def test_where_the_predicate_has_no_value_is_noted():

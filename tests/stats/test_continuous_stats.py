@@ -150,3 +150,20 @@ def test_a_run_without_intervened_steps_says_so(tmp_path, capsys):
                                         ["interventions"]["mean"])
     code, out, _ = run(capsys, "stats", path, "--format", "md")
     assert "| Projection distance (intervened steps) | no steps |" in out
+
+
+def test_a_hybrid_choice_tied_with_the_best_score_is_no_intervention():
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from tracecheck.stats.continuous import interventions
+
+    nan = np.nan
+    cols = SimpleNamespace(n=3, parameters={"a": np.array([nan, nan, nan])},
+                           proposals={"a": np.array([nan, nan, nan])},
+                           values=np.array([[nan, nan], [1.0, 1.0], [1.0, 0.5]]),
+                           action=np.array([-1, 1, 1]))
+    judged, intervened = interventions(cols)
+    assert judged.tolist() == [False, True, True]
+    assert intervened.tolist() == [False, False, True]  # a tie at row 1; a lower score at 2

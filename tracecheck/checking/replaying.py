@@ -320,9 +320,10 @@ def _margins(machine, op, cols: RunColumns, bad: np.ndarray,
                                                    cols.parameters[p][bad])
         if bounds is not None:
             x = cols.parameters[p][bad]
-            with np.errstate(invalid="ignore"):
-                near_bound = (x - distance < bounds[0].get(p, -np.inf)) | \
-                    (x + distance > bounds[1].get(p, np.inf))
+            low, high = bounds[0].get(p, -np.inf), bounds[1].get(p, np.inf)
+            with np.errstate(invalid="ignore"):  # at a bound too: the guard may be strict
+                near_bound = (x - distance <= low + 1e-9 * (1 + abs(low))) | \
+                    (x + distance >= high - 1e-9 * (1 + abs(high)))
             decided = decided & (nothing | ~near_bound)  # nothing over the reals: nor within
         for i in np.flatnonzero(decided).tolist():
             r = int(bad[i])

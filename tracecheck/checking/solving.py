@@ -112,6 +112,22 @@ def solve(node: ast.Node, types: dict[str, Type], env: dict, *, sets: Optional[d
     return problem.answer("unknown", reason=why)
 
 
+def _rounds(problem) -> bool:
+    """Whether a REAL identifier meets float rounding in the predicate (an arithmetic
+    operation or a call over it): there, no solution over the exact reals does not mean
+    none in floats. Compared as it is (``x > 1.0 & x < 0.5``), a float is a real."""
+    reals = {n for n, t in problem.types.items() if t == REAL}
+
+    def walk(node) -> bool:
+        if isinstance(node, (ast.BinOp, ast.Neg, ast.Call)) and \
+                ast.free_names(node) & reals:
+            return True
+        found = []
+        ast.map_children(node, lambda c: found.append(c) or c)
+        return any(walk(c) for c in found)
+    return bool(reals) and walk(problem.node)
+
+
 @dataclass
 class _Problem:
     node: ast.Node
@@ -466,6 +482,12 @@ class _Solver:
             return problem.answer("TRUE", solutions=solutions, method="solver")
         if verdict == "unknown" and not solutions:
             return problem.answer("unknown", reason=why, method="solver")
+        if not solutions and _rounds(problem):
+            # no solution over the exact reals; the evaluator's REALs are floats, where one
+            # can exist all the same (x + 1.0 = 1.0 & x > 0.0 holds for x = 1.0e-300)
+            return problem.answer("unknown", method="solver",
+                                  reason="no solution over the exact reals, but the REALs "
+                                         "are floats, which the solver did not search")
         if not solutions:
             return problem.answer("FALSE", method="solver", note=self.undefined())
         more = True if verdict == "sat" else (False if verdict == "unsat" else None)

@@ -103,8 +103,11 @@ def interventions(cols: RunColumns) -> tuple[np.ndarray, np.ndarray]:
     scores = getattr(cols, "values", None)
     if scores is not None and cols.n:  # a hybrid space: the operation the agent scored best
         scored = np.all(np.isfinite(scores), axis=1) & (cols.action >= 0)
-        best = np.argmax(np.where(np.isfinite(scores), scores, -np.inf), axis=1)
-        intervened = intervened | (scored & (best != cols.action))
+        rows = np.flatnonzero(scored)
+        taken = np.zeros(cols.n)
+        taken[rows] = scores[rows, cols.action[rows]]
+        best = np.max(np.where(np.isfinite(scores), scores, -np.inf), axis=1)
+        intervened = intervened | (scored & (taken < best))  # a tie with the best is none
         judged = judged | scored
     return judged, intervened
 
