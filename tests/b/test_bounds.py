@@ -33,6 +33,7 @@ def ev(text, state=None):
     ("{x | x : INTEGER & x > 0 & x < 4}", frozenset({1, 2, 3})),  # not INTEGER: the range
     ("{x | x : NATURAL & x < 4}", frozenset({0, 1, 2, 3})),  # NATURAL gives x >= 0
     ("{x | x : NAT1 & x < 3}", frozenset({1, 2})),
+    ("{x | x : NAT & x < 5}", frozenset({0, 1, 2, 3, 4})),  # ProB's answer (was refused)
 ])
 def test_comparisons_bound_an_integer_variable(text, expected):
     assert ev(text, {"a": 3, "b": 5}) == expected

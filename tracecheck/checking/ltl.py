@@ -233,7 +233,10 @@ def parse_ltl(text: str, machine, *, where: str = "<ltl>") -> Formula:
 
 
 def _unknown_hint(machine) -> str:
-    names = [n for n in machine.type_objects if "$" not in n]
+    # a deferred set's own elements (Vehicles2, …) are not what an atom means to read
+    elements = {str(e) for s, elems in machine.sets.items() if s not in machine.enumerated
+                for e in elems} - set(machine.constants_declared)
+    names = [n for n in machine.type_objects if "$" not in n and n not in elements]
     shown = ", ".join(names[:12]) + (", …" if len(names) > 12 else "")
     return f"an atom reads the names of {machine.name}: {shown or 'none'}"
 
