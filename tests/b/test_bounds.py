@@ -34,6 +34,9 @@ def ev(text, state=None):
     ("{x | x : NATURAL & x < 4}", frozenset({0, 1, 2, 3})),  # NATURAL gives x >= 0
     ("{x | x : NAT1 & x < 3}", frozenset({1, 2})),
     ("{x | x : NAT & x < 5}", frozenset({0, 1, 2, 3, 4})),  # ProB's answer (was refused)
+    # a variable is planned once what it reads has values, whatever the order of the ids
+    ("{x, y | x = y + 1 & y : 1..3}", frozenset({(2, 1), (3, 2), (4, 3)})),
+    ("{x, y | y = 3 & x > 0 & x < y}", frozenset({(1, 3), (2, 3)})),
 ])
 def test_comparisons_bound_an_integer_variable(text, expected):
     assert ev(text, {"a": 3, "b": 5}) == expected

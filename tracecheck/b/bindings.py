@@ -35,28 +35,21 @@ def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
     plan: list[tuple[tuple[str, ...], str, Fn]] = []
     bound: set[str] = set()
     used: set[int] = set()
-    for name in ids:
-        if name in bound:
-            continue
-        options = []
-        for k, conj in enumerate(conjs):
-            if k in used:
-                continue
-            gen = _generator_for(comp, conj, name, ids, bound)
-            if gen is not None:
-                options.append((_cost(gen[1], conj), k, gen))
-        best = min(options, key=lambda o: o[:2]) if options else None
-        between = _interval_for(comp, node, conjs, name, ids, bound) \
-            if best is None or best[0] == 2 else None  # none, or only x : INTEGER and such
-        if between is None and best is not None:
-            _, k, gen = best
-            plan.append(gen)
-            bound |= set(gen[0])
-            used.add(k)
-        elif between is not None:
-            plan.append(between)  # the comparisons stay filters: the range only walks
-            bound.add(name)
+    while True:  # each round plans the first variable (in ids order) that can be walked now
+        waiting = [n for n in ids if n not in bound]
+        if not waiting:
+            break
+        for name in waiting:
+            step = _plan_one(comp, node, conjs, name, ids, bound, used)
+            if step is not None:
+                gen, k = step
+                plan.append(gen)
+                bound |= set(gen[0])
+                if k is not None:
+                    used.add(k)
+                break
         else:
+            name = waiting[0]
             problem = comp.error(
                 EvaluationError, node,
                 f"cannot enumerate {name} in `{comp.text(node)}`",
@@ -104,6 +97,26 @@ def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
                     yield exc
         return run_single
     return run
+
+
+def _plan_one(comp, node, conjs, name, ids, bound, used):
+    """(a generator of ``name`` from the conjuncts, the conjunct it uses or None) once the
+    variables in ``bound`` have values; None where none can walk it yet."""
+    options = []
+    for k, conj in enumerate(conjs):
+        if k in used:
+            continue
+        gen = _generator_for(comp, conj, name, ids, bound)
+        if gen is not None:
+            options.append((_cost(gen[1], conj), k, gen))
+    best = min(options, key=lambda o: o[:2]) if options else None
+    between = _interval_for(comp, node, conjs, name, ids, bound) \
+        if best is None or best[0] == 2 else None  # none, or only x : INTEGER and such
+    if between is not None:  # the comparisons stay filters: the range only walks
+        return between, None
+    if best is not None:
+        return best[2], best[1]
+    return None
 
 
 _HUGE_SETS = frozenset({"INTEGER", "NATURAL", "NATURAL1", "REAL", "FLOAT", "STRING", "INT",
