@@ -37,6 +37,9 @@ def ev(text, state=None):
     # a variable is planned once what it reads has values, whatever the order of the ids
     ("{x, y | x = y + 1 & y : 1..3}", frozenset({(2, 1), (3, 2), (4, 3)})),
     ("{x, y | y = 3 & x > 0 & x < y}", frozenset({(1, 3), (2, 3)})),
+    # BOOL variables walk their type
+    ("{a, b | a = TRUE or b = FALSE}", frozenset({(False, False), (True, False), (True, True)})),
+    ("#a.(a = TRUE & a /= FALSE)", True),
 ])
 def test_comparisons_bound_an_integer_variable(text, expected):
     assert ev(text, {"a": 3, "b": 5}) == expected
@@ -46,6 +49,7 @@ def test_comparisons_bound_an_integer_variable(text, expected):
     ("{x | x > 0}", "cannot enumerate x in `{x|x > 0}`"),
     ("{x | x > 0.5 & x < 4.0}", "its bound `0.5` is not an integer"),
     ("{x | x : INTEGER & x > 0}", "cannot enumerate the infinite set INTEGER"),
+    ("card({a, b | a /= b})", "cannot enumerate a in"),  # no type to walk
 ])
 def test_an_unbounded_or_real_variable_is_refused(text, fragment):
     with pytest.raises(EvaluationError, match=fragment.replace("{", r"\{").replace("}", r"\}")
@@ -59,3 +63,18 @@ def test_the_batch_path_agrees_row_by_row():
     batch = BatchFormula(parse_formula("card({x | x >= a & x < b})"), {})(cols)
     assert list(batch) == [ev("card({x | x >= a & x < b})", {"a": int(p), "b": int(q)})
                            for p, q in zip(a, b)] == [3, 0, 0, 2]
+
+
+def test_an_enumerated_sets_variable_walks_its_elements():
+    from tracecheck.b import load_machine_text
+    from tracecheck.b.values import Elem
+
+    m = load_machine_text("""MACHINE Col
+SETS COLOURS = {red, green, blue}
+VARIABLES cur
+INVARIANT cur : COLOURS
+INITIALISATION cur := red
+END""")
+    state = {"cur": Elem("red")}
+    assert m.evaluate("card({c, d | c /= d & c /= blue})", state) == 4
+    assert m.evaluate("{c | c /= cur} = {green, blue}", state) is True

@@ -48,17 +48,14 @@ def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
                 if k is not None:
                     used.add(k)
                 break
-        else:
+        else:  # nothing walks it: its type, where that is BOOL or a set's elements
             name = waiting[0]
             problem = comp.error(
                 EvaluationError, node,
                 f"cannot enumerate {name} in `{comp.text(node)}`",
                 hint=f"add a conjunct that bounds it to a finite set, e.g. {name} : S")
-
-            def fail(env: Env, problem=problem):
-                raise problem
-                yield  # pragma: no cover
-            return fail
+            plan.append(_by_type(name, ids, pred, problem))
+            bound.add(name)
     filters = [comp.compile(c) for k, c in enumerate(conjs) if k not in used]
 
     def run(env: Env, depth: int = 0) -> Iterator[Optional[TracecheckError]]:
@@ -97,6 +94,44 @@ def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
                     yield exc
         return run_single
     return run
+
+
+def _by_type(name: str, ids: tuple[str, ...], pred: ast.Node, problem: TracecheckError):
+    """A generator of ``name`` over its type, as the predicate types it with the values of
+    the names it reads (found once, when first walked): ``{TRUE, FALSE}`` for BOOL, the
+    elements of an enumerated or deferred set; ``problem`` (cannot enumerate) otherwise."""
+    outer = sorted(ast.free_names(pred) - set(ids))
+    found: list = []
+
+    def source(env: Env):
+        if not found:
+            found.append(_type_domain(name, ids, pred, outer, env, problem))
+        return found[0]
+    return (name,), "in", source
+
+
+def _type_domain(name, ids, pred, outer, env: Env, problem: TracecheckError):
+    from .btypes import BOOL, Base, resolve_all
+    from .typecheck import Typer, type_of_value
+    from .values import Elem
+
+    owners = {e: k for k in outer if isinstance(env.get(k), frozenset)
+              for e in env[k] if isinstance(e, Elem)}
+    sets = {k: v for k, v in env.items() if isinstance(v, frozenset) and v and
+            all(isinstance(e, Elem) for e in v)}
+    owners.update({e: k for k, v in sets.items() for e in v})
+    try:
+        typer = Typer({k: type_of_value(env[k], owners) for k in outer if k in env})
+        scope = typer.bound(ids)
+        typer.pred(pred)
+    except TracecheckError:
+        raise problem from None
+    kind = resolve_all(scope[name])
+    if kind == BOOL:
+        return frozenset({False, True})
+    if isinstance(kind, Base) and kind.name in sets:
+        return sets[kind.name]
+    raise problem
 
 
 def _plan_one(comp, node, conjs, name, ids, bound, used):
