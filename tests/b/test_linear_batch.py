@@ -74,3 +74,25 @@ def test_a_guard_it_cannot_build_leaves_every_row_to_the_exact_path():
     m = machine("a * a <= 4.0")
     cols = Columns.from_states([{"u": 0.0, "v": 0.0}])
     assert not batch_margins(m, "Act", cols, np.array([3.0]))[2].any()
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(guard(), st.lists(st.tuples(NUM, NUM, VALUE), min_size=1, max_size=10),
+       st.tuples(st.integers(-8, 0), st.integers(0, 8)))
+def test_decided_rows_within_an_action_space_are_the_exact_distance(text, rows, space):
+    """Cut to an action space's closed bounds, as replay cuts to the run header's."""
+    low, high = float(space[0]), float(space[1])
+    m = machine(text)
+    cols = Columns.from_states([{"u": u, "v": v} for u, v, _ in rows])
+    values = np.array([min(max(x, low), high) for _, _, x in rows])  # recorded inside
+    distance, nothing, decided = batch_margins(m, "Act", cols, values, (low, high))
+    for i, (u, v, _) in enumerate(rows):
+        if not decided[i]:
+            continue
+        within = allowed_set(m, "Act", {"u": u, "v": v}).within({"a": low}, {"a": high})
+        exact = within.distance({"a": float(values[i])})
+        if exact is None:
+            assert nothing[i], (text, u, v, values[i], space)
+        else:
+            assert not nothing[i] and abs(distance[i] - exact) <= 1e-9 * (1 + abs(values[i])), \
+                (text, u, v, values[i], space, distance[i], exact)

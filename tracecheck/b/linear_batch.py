@@ -36,12 +36,14 @@ Part = tuple  # (rows where the polytope applies, or None for all; [(coef, const
 Form = tuple  # (coefficient of the parameter per row, constant per row)
 
 
-def batch_margins(machine, op_name: str, cols, values: np.ndarray
+def batch_margins(machine, op_name: str, cols, values: np.ndarray,
+                  space: tuple[float, float] = (-np.inf, np.inf)
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For one-parameter ``op_name`` in the states of ``cols`` (one row per state) and the
-    parameter's ``values`` (one per row): (distance to the allowed set over the reals, as
-    floats; whether nothing is allowed; which rows are decided). Rows not decided — and
-    every row when the guard cannot be built here — are for :mod:`.linear`'s exact path."""
+    parameter's ``values`` (one per row): (distance to the allowed set over the reals
+    within the action ``space``'s closed bounds, as floats; whether nothing is allowed
+    there; which rows are decided). Rows not decided — and every row when the guard cannot
+    be built here — are for :mod:`.linear`'s exact path."""
     n = cols.n
     none = (np.full(n, np.nan), np.zeros(n, dtype=bool), np.zeros(n, dtype=bool))
     op = machine.operation(op_name)
@@ -57,10 +59,11 @@ def batch_margins(machine, op_name: str, cols, values: np.ndarray
             parts = build(cols, {})
         except UnsupportedError:
             return none
-        return _distances(parts, np.asarray(values, dtype=float), n)
+        return _distances(parts, np.asarray(values, dtype=float), n, space)
 
 
-def _distances(parts: list, x: np.ndarray, n: int):
+def _distances(parts: list, x: np.ndarray, n: int,
+               space: tuple[float, float] = (-np.inf, np.inf)):
     best = np.full(n, np.inf)
     some = np.zeros(n, dtype=bool)  # some polytope leaves values in the row
     unsure = ~np.isfinite(x)
@@ -78,6 +81,7 @@ def _distances(parts: list, x: np.ndarray, n: int):
             lower = ~flat & ((coef < 0) | (op == "="))
             high = np.where(upper, np.minimum(high, bound), high)
             low = np.where(lower, np.maximum(low, bound), low)
+        low, high = np.maximum(low, space[0]), np.minimum(high, space[1])  # the space's
         applies = np.ones(n, dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
         scale = TOLERANCE * (1.0 + np.maximum(np.abs(np.where(np.isfinite(low), low, 0)),
                                               np.abs(np.where(np.isfinite(high), high, 0))))

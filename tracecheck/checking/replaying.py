@@ -258,9 +258,10 @@ def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport,
     post_bad = np.zeros(cols.n, dtype=bool)
     post_bad[rows] = _postconditions(shield, cols, rows, actions)
     checks = _FileChecks(ops, matrix, feasible, deadlock, invariant_ok, post_bad, margins)
+    largest = _largest_margins(cols, margins)
     for i, ep in enumerate(cols.episode_ids):
         lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
-        report.per_episode.append(_episode(cols, checks, int(ep), lo, hi))
+        report.per_episode.append(_episode(cols, checks, int(ep), lo, hi, largest.get(i)))
 
 
 @dataclass(frozen=True)
@@ -307,24 +308,19 @@ def _margins(machine, op, cols: RunColumns, bad: np.ndarray,
     """The margin of each infeasible step row in ``bad`` (all of ``op``), to the values
     allowed within the action space's ``bounds``: for one parameter in float arithmetic
     over all of them at once where that decides it
-    (:func:`~tracecheck.b.linear_batch.batch_margins`; a row whose nearest allowed value
-    could lie outside the bounds is left to the exact path), else exactly, row by row."""
+    (:func:`~tracecheck.b.linear_batch.batch_margins`, each interval cut to the bounds; a
+    row at an end is left to the exact path), else exactly, row by row."""
     from ..b.linear_batch import batch_margins
 
     found: dict[int, _Margin] = {}
     decided = np.zeros(len(bad), dtype=bool)
     if len(op.params) == 1 and len(bad):
         (p,) = op.params
+        space = (-np.inf, np.inf) if bounds is None else \
+            (bounds[0].get(p, -np.inf), bounds[1].get(p, np.inf))
         distance, nothing, decided = batch_margins(machine, op.name,
                                                    cols.states.take(bad - 1),
-                                                   cols.parameters[p][bad])
-        if bounds is not None:
-            x = cols.parameters[p][bad]
-            low, high = bounds[0].get(p, -np.inf), bounds[1].get(p, np.inf)
-            with np.errstate(invalid="ignore"):  # at a bound too: the guard may be strict
-                near_bound = (x - distance <= low + 1e-9 * (1 + abs(low))) | \
-                    (x + distance >= high - 1e-9 * (1 + abs(high)))
-            decided = decided & (nothing | ~near_bound)  # nothing over the reals: nor within
+                                                   cols.parameters[p][bad], space)
         for i in np.flatnonzero(decided).tolist():
             r = int(bad[i])
             allowed = _Later(machine, op.name, cols, r, bounds)
@@ -483,8 +479,19 @@ class _FileChecks:
     margins: dict[int, _Margin] = field(default_factory=dict)
 
 
-def _episode(cols: RunColumns, checks: _FileChecks, ep: int, lo: int, hi: int
-             ) -> EpisodeReplay:
+def _largest_margins(cols: RunColumns, margins: dict) -> dict[int, float]:
+    """By episode index, the largest margin of its infeasible continuous steps (one pass
+    over the margins: a scan per episode costs episodes × margins)."""
+    largest: dict[int, float] = {}
+    for r, m in margins.items():
+        if m.margin is not None:
+            i = int(np.searchsorted(cols.starts, r, side="right")) - 1
+            largest[i] = max(largest.get(i, m.margin), m.margin)
+    return largest
+
+
+def _episode(cols: RunColumns, checks: _FileChecks, ep: int, lo: int, hi: int,
+             largest: Optional[float] = None) -> EpisodeReplay:
     """Episode ``ep`` of ``cols``, rows ``lo`` (its initial state) to ``hi`` (excluded)."""
     bad_steps = np.flatnonzero(~checks.feasible[lo + 1:hi]) + 1
     first = int(bad_steps[0]) if len(bad_steps) else None
@@ -501,7 +508,6 @@ def _episode(cols: RunColumns, checks: _FileChecks, ep: int, lo: int, hi: int
     crashes = np.flatnonzero(cols.crashed[lo:hi])
     crash_step = int(crashes[0]) if len(crashes) else None
     at = checks.margins.get(lo + first) if first is not None else None
-    known = [m.margin for r, m in checks.margins.items() if lo < r < hi and m.margin is not None]
     return EpisodeReplay(
         file=cols.path, episode=ep, steps=hi - lo - 1, first_infeasible=first, action=action,
         enabled=enabled, alternative=alternative, infeasible_steps=len(bad_steps),
@@ -512,7 +518,7 @@ def _episode(cols: RunColumns, checks: _FileChecks, ep: int, lo: int, hi: int
         postcondition_violations=[int(k) for k in
                                   np.flatnonzero(checks.postcondition_bad[lo:hi])],
         invariant_violations=[int(k) for k in np.flatnonzero(~checks.invariant_ok[lo:hi])],
-        max_margin=max(known) if known else None,
+        max_margin=largest,
         **({} if at is None else dict(parameters=at.point, allowed=at.allowed,
                                       margin=at.margin, margin_note=at.note)),
     )

@@ -149,7 +149,9 @@ def print_json(data) -> None:
     null with a ``KEY_note`` beside it (:mod:`tracecheck.jsontext`)."""
     from ..jsontext import json_text
 
-    out.print_json(json_text(data))
+    # straight to the stream, as rich's print_json would indent it but without its
+    # highlighting pass (which took most of a large report's time)
+    sys.stdout.write(json_text(data, indent=2, ensure_ascii=False) + "\n")
 
 
 def print_table(fmt: OutputFormat, table) -> None:
