@@ -357,3 +357,17 @@ def test_a_strict_guard_whose_values_begin_at_the_spaces_bound_allows_nothing(tm
         make(0, s(52.0, 20.0), [("ACCELERATE", {"a": 1.0}, s(52.0, 20.0))])])
     (edge,) = replay([path], load_shield(tmp_path / "far.mch")).per_episode
     assert edge.margin is None and edge.margin_note == "nothing allowed"
+
+
+def test_a_state_the_solver_cannot_decide_stops_replay_naming_it(capsys, tmp_path):
+    """a * a = 2.0 has no float solution: whether the state is a deadlock is undecided —
+    exit 2 naming the file, episode and step, never a guess."""
+    (tmp_path / "eq.mch").write_text(FAR.replace("a > Gap - 50.0", "a * a = Gap - 50.0"))
+    path = tmp_path / "eq.mcap"
+    write_run(path, new_header("recorded", actions=["ACCELERATE"],
+                               action_parameters={"ACCELERATE": ["a"]}), [
+        make(0, s(52.0, 20.0), [("ACCELERATE", {"a": 1.0}, s(52.0, 20.0))])])
+    code, out, err = run(capsys, "replay", path, "--shield", tmp_path / "eq.mch")
+    flat = " ".join(err.split())
+    assert code == 2 and f"{path}, episode 0, step 0: undecided for ACCELERATE" in flat
+    assert "tracecheck does not guess" in flat and "Traceback" not in err

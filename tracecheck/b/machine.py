@@ -410,8 +410,16 @@ class Machine:
                 (lambda env: self.allowed_in(name, env).within(*bounds).witness() is not None)
             others = columns.take(rest)
             first, index = others.distinct()
-            enabled[rest] = np.array([bool(decide(self.env(others.row(int(i)))))
-                                      for i in first], dtype=bool)[index]
+
+            def one(i: int) -> bool:
+                try:
+                    return bool(decide(self.env(others.row(i))))
+                except UnsupportedError as exc:  # undecided: say which state
+                    if others.label is None or exc.line is not None:
+                        raise
+                    raise UnsupportedError(f"{others.label(i)}: {exc.message}",
+                                           hint=exc.hint) from None
+            enabled[rest] = np.array([one(int(i)) for i in first], dtype=bool)[index]
         return enabled
 
     def invariant_batch(self, columns):
