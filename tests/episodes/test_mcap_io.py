@@ -20,8 +20,11 @@ from tracecheck.episodes.files import write_run
 from tracecheck.errors import DamagedEpisode, InputError
 
 
-def write(path, episodes, **header):
-    with EpisodeWriter(path, new_header("recorded", actions=["IDLE", "FASTER"], **header)) as w:
+def write(path, episodes, compress=True, **header):
+    """``compress=False``: no chunks (the layout of earlier files), for tests that edit
+    the bytes of messages."""
+    with EpisodeWriter(path, new_header("recorded", actions=["IDLE", "FASTER"], **header),
+                       compress=compress) as w:
         for e in episodes:
             w.write(e)
     return path
@@ -84,7 +87,7 @@ def test_write_run_leaves_no_partial_file(tmp_path, episodes):
 
 
 def test_truncated_file_keeps_complete_episodes(tmp_path, episodes):
-    path = write(tmp_path / "run.mcap", episodes)
+    path = write(tmp_path / "run.mcap", episodes, compress=False)
     data = path.read_bytes()
     # cut inside the third episode's step messages
     cut = tmp_path / "cut.mcap"
@@ -135,7 +138,7 @@ def test_foreign_mcap(tmp_path):
 ])
 def test_nan_or_infinity_in_a_step_message(tmp_path, episodes, good, bad, message):
     """JSON parsers that accept NaN and Infinity do not make them B values."""
-    path = write(tmp_path / "run.mcap", episodes[:1])
+    path = write(tmp_path / "run.mcap", episodes[:1], compress=False)
     data = path.read_bytes()
     assert good in data and len(bad) <= len(good)
     path.write_bytes(data.replace(good, bad.ljust(len(good)), 1))  # the same record length
@@ -144,7 +147,7 @@ def test_nan_or_infinity_in_a_step_message(tmp_path, episodes, good, bad, messag
 
 
 def test_message_that_breaks_the_schema(tmp_path, episodes):
-    path = write(tmp_path / "run.mcap", episodes[:1])
+    path = write(tmp_path / "run.mcap", episodes[:1], compress=False)
     data = path.read_bytes().replace(b'"crashed":false', b'"crashed":"nah"', 1)
     path.write_bytes(data)
     with pytest.raises(InputError, match=r"episode 0: bad tracecheck.Step message: crashed"):
@@ -312,7 +315,7 @@ def test_a_finished_file_is_read_from_its_run_blob_with_the_walk_s_answer(tmp_pa
     the blob stands for has changed)."""
     import tracecheck.episodes.columns as C
 
-    path = write(tmp_path / "run.mcap", episodes)
+    path = write(tmp_path / "run.mcap", episodes, compress=False)  # a bit of a message is flipped
     assert C._from_run_columns(path) is not None
     fast = read_columns(path)
     monkeypatch.setattr(C, "_from_run_columns", lambda p: None)

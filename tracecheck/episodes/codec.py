@@ -1,9 +1,12 @@
 """Encodings: B states as JSON for step messages, and episodes as binary numpy columns.
 
 The columns blob (one MCAP attachment per episode, media type
-``application/x-tracecheck-columns``) is ``b"TCC1"``, a little-endian uint32 header length, a
-JSON header naming each array (dtype, shape, offset) and the raw array bytes. Reading it is a
-few ``numpy.frombuffer`` calls, so a 1000-episode file loads in a fraction of a second.
+``application/x-tracecheck-columns``) is ``b"TCC3"``, a little-endian uint64 size, then
+compressed with zstd (MCAP never compresses attachments itself) a uint32 header length, a
+JSON header naming each array (dtype, shape, offset) and the raw array bytes, and last a
+CRC-32 of all of it. Reading it is one decompression and a few ``numpy.frombuffer`` calls, so a
+1000-episode file loads in a fraction of a second. ``TCC2`` (the same, uncompressed) and
+``TCC1`` (without the CRC) blobs of older files are still read.
 """
 
 from __future__ import annotations
@@ -29,8 +32,12 @@ __all__ = ["encode_state", "decode_state", "encode_columns", "decode_columns",
 COLUMNS_MEDIA_TYPE = "application/x-tracecheck-columns"
 #: every episode of a file in one blob, written when the file is closed
 RUN_COLUMNS_MEDIA_TYPE = "application/x-tracecheck-run-columns"
-_MAGIC = b"TCC2"  # TCC1 (files before checksums) are still read
-_OLD_MAGIC = b"TCC1"
+_MAGIC = b"TCC3"  # zstd-compressed arrays
+_PLAIN_MAGIC = b"TCC2"  # files before compression: still read
+_OLD_MAGIC = b"TCC1"  # … and before checksums
+#: arrays may decompress to at most this many times their compressed size (plus 1 MiB)
+_MAX_RATIO = 1000
+_ZSTD_LEVEL = 3
 
 
 def encode_value(value: Any) -> Any:
@@ -176,8 +183,11 @@ def _state_arrays(cols: Columns, arrays: dict[str, np.ndarray]
 
 
 def _pack(header: dict[str, Any], arrays: dict[str, np.ndarray]) -> bytes:
-    """The blob: magic, header length, JSON header (with each array's dtype, shape and
-    offset), the arrays' bytes, and a CRC-32 of all of it."""
+    """The blob: magic, the size of what follows it once decompressed, then compressed with
+    zstd: header length, JSON header (with each array's dtype, shape and offset) and the
+    arrays' bytes; last a CRC-32 of all of it."""
+    import zstandard
+
     header["arrays"] = []
     blobs, offset = [], 0
     for name, arr in arrays.items():
@@ -188,7 +198,9 @@ def _pack(header: dict[str, Any], arrays: dict[str, np.ndarray]) -> bytes:
         blobs.append(data)
         offset += len(data)
     head = orjson.dumps(header)
-    body = _MAGIC + struct.pack("<I", len(head)) + head + b"".join(blobs)
+    inner = b"".join([struct.pack("<I", len(head)), head, *blobs])
+    body = (_MAGIC + struct.pack("<Q", len(inner))
+            + zstandard.ZstdCompressor(level=_ZSTD_LEVEL).compress(inner))
     return body + struct.pack("<I", zlib.crc32(body))  # a flipped bit is found, not trusted
 
 
@@ -251,16 +263,20 @@ def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.
     """The header and arrays of a columns blob."""
     try:
         end = len(blob)
-        if blob[:4] == _MAGIC:
+        if blob[:4] in (_MAGIC, _PLAIN_MAGIC):
             end -= 4
             (crc,) = struct.unpack_from("<I", blob, end)
             if zlib.crc32(memoryview(blob)[:end]) != crc:  # no copy of the data
                 raise ValueError("its checksum does not match its contents")
         elif blob[:4] != _OLD_MAGIC:
             raise ValueError("not a tracecheck columns attachment")
-        (size,) = struct.unpack_from("<I", blob, 4)
-        header = orjson.loads(blob[8:8 + size])
-        base = 8 + size
+        at = 4
+        if blob[:4] == _MAGIC:
+            blob, at = _unpacked(blob, end), 0
+            end = len(blob)
+        (size,) = struct.unpack_from("<I", blob, at)
+        header = orjson.loads(blob[at + 4:at + 4 + size])
+        base = at + 4 + size
         arrays = {}
         for spec in header["arrays"]:
             dtype, shape, offset = _SAFE_DTYPES.get(spec["dtype"]), spec["shape"], spec["offset"]
@@ -279,6 +295,26 @@ def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.
         return header, arrays
     except (ValueError, KeyError, TypeError, struct.error, orjson.JSONDecodeError) as exc:
         raise InputError(f"{where}damaged columns attachment: {exc}") from None
+
+
+def _unpacked(blob: bytes, end: int) -> bytes:
+    """What a compressed blob holds between its size and its CRC, decompressed: exactly as
+    many bytes as it declares, and not too many for its compressed size."""
+    import zstandard
+
+    (size,) = struct.unpack_from("<Q", blob, 4)
+    limit = _MAX_RATIO * (end - 12) + (1 << 20)
+    if size > limit:
+        raise ValueError(f"it would decompress to {size} bytes from {end - 12} (more than "
+                         f"tracecheck's limit of {limit} bytes for it)")
+    try:
+        data = zstandard.ZstdDecompressor().decompress(bytes(blob[12:end]),
+                                                       max_output_size=max(size, 1))
+    except zstandard.ZstdError as exc:
+        raise ValueError(f"it does not decompress: {exc}") from None
+    if len(data) != size:
+        raise ValueError(f"it decompresses to {len(data)} bytes, not the {size} it declares")
+    return data
 
 
 def columns_from_arrays(header: dict, arrays: dict[str, np.ndarray],

@@ -29,7 +29,7 @@ from ..errors import DamagedEpisode, InputError, SalvagedEpisodeWarning, Tracech
 from . import schema
 from .codec import COLUMNS_MEDIA_TYPE, decode_columns, decode_state
 from .model import Episode, EpisodeEnd, StepRecord
-from .records import Attachment, Channel, Damage, MessageRef, Schema, mapped, walk
+from .records import Attachment, BadChunk, Channel, Damage, MessageRef, Schema, mapped, walk
 
 __all__ = ["read_run", "find_episode", "read_episodes", "read_header", "Run", "read_pieces", "Piece"]
 
@@ -104,6 +104,7 @@ class _Assembler:
         self.count = 0
         self.seen: set[int] = set()
         self.run_crc = 0
+        self.bad_chunk: Optional[str] = None  # why the chunk of the current episode is lost
 
     # -- errors
     def bad(self, why: str, episode=None, step=None) -> None:
@@ -167,6 +168,7 @@ class _Assembler:
         return None
 
     def start(self, data: bytes) -> None:
+        self.chunk_lost()
         if self.current is not None and self.broken is None:
             self.bad("the episode ends without its " +
                      ("columns attachment" if self.current.end else "end record"))
@@ -229,7 +231,34 @@ class _Assembler:
             raise _BadEpisode("the episode has no steps")
         piece.end = end
 
+    def damaged_chunk(self, why: str) -> None:
+        """A chunk (the messages of one episode) does not decompress or check: the episode
+        it held is named by the columns attachment after it."""
+        if self.header is None:
+            raise InputError(f"{self.path}: the run header's chunk is damaged ({why})")
+        self.chunk_lost()
+        if self.current is not None and self.broken is None:
+            self.bad("the episode ends without its "
+                     + ("columns attachment" if self.current.end else "end record"))
+        self.current = Piece(schema.EpisodeHeaderMessage(episode=-1), [])
+        self.broken, self.bad_chunk = "chunk", why
+
+    def chunk_lost(self, blob: Optional[bytes] = None) -> None:
+        """Report the damaged chunk before this point, naming its episode where ``blob`` (its
+        columns attachment) says which."""
+        if self.bad_chunk is None:
+            return
+        why, self.bad_chunk = self.bad_chunk, None
+        episode = "?"
+        if blob is not None:
+            try:
+                episode = decode_columns(blob)[0]["episode"]
+            except (InputError, KeyError, TypeError):
+                pass
+        self.bad(f"the chunk of the episode's messages is damaged ({why})", episode=episode)
+
     def attachment(self, blob: bytes) -> Optional[Piece]:
+        self.chunk_lost(blob)
         piece, broken = self.current, self.broken
         if piece is None or piece.end is None:
             if broken is None:
@@ -489,14 +518,19 @@ def _pieces(path: Path, buf, view, asm: "_Assembler") -> Iterator[Piece]:
                 piece.crc = zlib.crc32(rec[start + 22:end], piece.crc)
                 continue
         elif isinstance(record, Damage):
+            asm.chunk_lost()
             warnings.warn(asm.lost(record.why), DamagedEpisode, stacklevel=4)
             break
+        elif isinstance(record, BadChunk):
+            asm.damaged_chunk(record.why)
+            continue
         piece = asm.feed(record)
         if steps < 0 and isinstance(record, Channel):
             steps = next((k for k, v in asm.channels.items() if v == "tracecheck.Step"), -1)
         if piece is not None:
             yield piece
     else:
+        asm.chunk_lost()
         if asm.current is not None and asm.broken is None:
             warnings.warn(asm.lost("the last episode is not complete"), DamagedEpisode,
                           stacklevel=4)

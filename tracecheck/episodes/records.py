@@ -21,7 +21,7 @@ from typing import Any, Iterator, NamedTuple, Optional, Union
 
 from ..errors import InputError
 
-__all__ = ["walk", "Damage", "Schema", "Channel", "Attachment", "MessageRef", "MESSAGE", "MAGIC",
+__all__ = ["walk", "Damage", "BadChunk", "Schema", "Channel", "Attachment", "MessageRef", "MESSAGE", "MAGIC",
            "MAX_CHUNK_RATIO", "MAX_CHUNK_BYTES", "mapped"]
 
 MAGIC = b"\x89MCAP0\r\n"
@@ -44,6 +44,15 @@ class Damage:
     """Where and why the walk stopped early."""
 
     why: str
+
+
+@dataclass(frozen=True)
+class BadChunk:
+    """A chunk of the file's top level whose contents are damaged (it does not decompress or
+    its checksum does not match) while its record is whole: the walk goes on after it."""
+
+    why: str
+    at: int
 
 
 @dataclass(frozen=True)
@@ -75,7 +84,7 @@ class MessageRef(NamedTuple):
     end: int
 
 
-Record = Union[Schema, Channel, Attachment, MessageRef, Damage]
+Record = Union[Schema, Channel, Attachment, MessageRef, Damage, BadChunk]
 _new_ref = tuple.__new__  # a MessageRef without its Python-level __new__ (the hot loop)
 
 
@@ -189,7 +198,13 @@ def _records(buf, at: int, end: int, top: bool) -> Iterator[Record]:
                 data = f.blob(f.u64())
                 yield Attachment(name, media, data)
             elif op == CHUNK:
-                inner = _chunk(_Fields(buf, start, stop))
+                try:
+                    inner = _chunk(_Fields(buf, start, stop))
+                except _BadRecord as exc:
+                    if not top:
+                        raise
+                    yield BadChunk(f"the chunk at byte {start - 9}: {exc}", start - 9)
+                    continue
                 for record in _records(inner, 0, len(inner), top=False):
                     yield record
                     if isinstance(record, Damage):

@@ -2,8 +2,10 @@
 
 :class:`EpisodeWriter` writes each episode completely (header, steps, columns, end record)
 and flushes it to the operating system before the next one starts, so a run that is killed
-leaves a file whose finished episodes all read back. The file is MCAP without chunking:
-readable by any MCAP tool, and readable by tracecheck even when its tail is missing.
+leaves a file whose finished episodes all read back. The messages of each episode are one
+MCAP chunk compressed with zstd (MCAP's own chunk compression, which every MCAP reader
+decompresses), closed before the episode's columns attachment: readable by any MCAP tool, and
+readable by tracecheck even when its tail is missing.
 
 More channels beside tracecheck's own come from a plug-in (:class:`StepChannels`), made for
 the run's header by whoever records: the CLI hands the writer Foxglove's
@@ -18,7 +20,7 @@ import zlib
 from pathlib import Path
 from typing import IO, Any, Callable, Iterable, Optional, Protocol
 
-from mcap.writer import CompressionType, Writer
+from mcap.writer import CompressionType, IndexType, Writer
 from pydantic import ValidationError
 
 from .. import __version__
@@ -74,10 +76,12 @@ class EpisodeWriter:
 
     def __init__(self, path: str | Path, header: schema.RunHeaderMessage,
                  channels: Optional[ChannelsFactory] = None, *,
-                 stream: Optional[IO[bytes]] = None, name: Optional[str | Path] = None) -> None:
+                 stream: Optional[IO[bytes]] = None, name: Optional[str | Path] = None,
+                 compress: bool = True) -> None:
         self.path = Path(path)  # the file on disk (read back for the run's columns)
         self.name = str(name or path)  # … and how messages call it (the output's own name)
         self._given = stream  # a stream opened by the caller, which also closes it
+        self._compress = compress  # False: no chunks, the layout of earlier files
         self.header = header
         self._make_channels = channels  # more channels (Foxglove's: interop/foxglove.py)
         self._extra: Optional[StepChannels] = None
@@ -104,8 +108,12 @@ class EpisodeWriter:
             self._stream = self._given or open(self.path, "wb")
         except OSError as exc:
             raise InputError(f"cannot write {self.name}: {exc.strerror or exc}") from None
-        self._writer = Writer(self._stream, use_chunking=False,
-                              compression=CompressionType.NONE)
+        # one chunk per episode: never closed by size, only by _end_chunk; chunks and
+        # attachments indexed, not each message (readers find an episode by its chunk)
+        self._writer = Writer(self._stream, chunk_size=1 << 62, use_chunking=self._compress,
+                              compression=CompressionType.ZSTD,
+                              index_types=IndexType.ATTACHMENT | IndexType.CHUNK
+                              | IndexType.METADATA)
         self._writer.start(profile="tracecheck", library=f"tracecheck {__version__}")
         for name in schema.MESSAGES:
             sid = self._writer.register_schema(name=name, encoding="jsonschema",
@@ -118,6 +126,7 @@ class EpisodeWriter:
         self._crc = 0
         self._emit("tracecheck.RunHeader", self.header.model_dump_json().encode(), 0.0)
         self._run_crc = self._crc
+        self._end_chunk()
         self._flush()
 
     def _register_extra(self, extra: StepChannels) -> None:
@@ -192,6 +201,12 @@ class EpisodeWriter:
     def _flush(self) -> None:
         self._stream.flush()
 
+    def _end_chunk(self) -> None:
+        """Compress and write the chunk of messages so far (mcap's writer closes a chunk only
+        by size or at the end of the file; an episode must be on disk when it ends)."""
+        if self._compress:
+            self._writer._Writer__finalize_chunk()
+
     def write(self, episode: Episode) -> None:
         """Write ``episode`` completely, then flush it to disk."""
         if self._writer is None:
@@ -241,6 +256,7 @@ class EpisodeWriter:
                                        crashed=ep.end.crashed,
                                        total_reward=ep.end.total_reward, reason=ep.end.reason)
         self._emit("tracecheck.EpisodeEnd", end.model_dump_json().encode(), last)
+        self._end_chunk()  # before the attachment, which the writer puts straight in the file
         # the columns come last: an attachment in the file means its episode is complete
         cols = Columns.from_states([s.state for s in ep.steps])
         for s in ep.steps:
