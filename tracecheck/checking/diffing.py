@@ -15,7 +15,7 @@ the allowed interval moved from ``against`` to ``shield``.
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from operator import attrgetter
 from pathlib import Path
@@ -29,6 +29,7 @@ from ..errors import UnsupportedError
 from .executors import map_files
 from .replaying import add_up, check_parameters, enabled_matrix
 from .shield import Shield
+from ..jsontext import plain
 
 __all__ = ["diff", "DiffReport", "ChangedStep", "AllowedValues", "AllowedChange", "DETAILS"]
 
@@ -111,7 +112,7 @@ class DiffReport:
         return bool(self.changed_steps or self.enabled_set_changes)
 
     def to_json(self) -> dict:
-        return asdict(self)
+        return plain(self)
 
 
 #: each count of a diff report: the sum of the counts of its files

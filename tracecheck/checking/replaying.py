@@ -15,7 +15,7 @@ values lay from the nearest the shield allowed (Euclidean, in the parameters' un
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Optional, Sequence
 
@@ -28,6 +28,7 @@ from ..episodes.columns import RunColumns, read_columns
 from ..errors import InputError, UnsupportedError
 from .executors import map_files
 from .shield import Shield
+from ..jsontext import plain
 
 __all__ = ["replay", "replay_columns", "ReplayReport", "EpisodeReplay", "enabled_matrix",
            "check_parameters", "add_up", "OUTCOMES", "NEVER_BLOCKED"]
@@ -112,7 +113,7 @@ class ReplayReport:
                 or (NEVER_BLOCKED if e.crashed else "") for e in self.per_episode}
 
     def to_json(self) -> dict:
-        data = asdict(self)
+        data = plain(self)
         if self.resimulation is None:
             data.pop("resimulation")
         else:

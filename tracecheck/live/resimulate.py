@@ -11,7 +11,7 @@ them, in the run's ``--shield-mode``), in the recorded ``--scale``.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Optional
 
@@ -24,6 +24,7 @@ from ..episodes.columns import RunColumns, read_columns
 from ..episodes.reader import read_header
 from ..errors import InputError, printable
 from .agents import file_sha256
+from ..jsontext import plain
 
 __all__ = ["resimulate", "Resimulation", "summary"]
 
@@ -224,6 +225,6 @@ def summary(results: list[Resimulation]) -> dict:
         "no_crash_either_way": counts[NO_CRASH],
         "mismatches": counts[MISMATCH],
         "without_seed": counts[NO_SEED],
-        "per_episode": [asdict(r) for r in results],
+        "per_episode": [plain(r) for r in results],
     }
 
