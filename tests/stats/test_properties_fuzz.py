@@ -164,3 +164,13 @@ def test_the_intact_file_is_accepted_and_complete(reference):
     assert sorted(reference) == sorted(
         [(s, n) for s in ("metrics", "properties") for n in INTACT[s]])
     assert reference[("metrics", "margin")]["mean"] == 10.0
+
+
+def test_a_formula_without_a_value_names_its_property_file(capsys, hand_run, tmp_path):
+    """Found by the fuzz test above: an overflow named the run's state, not the property."""
+    path = tmp_path / "props.toml"
+    path.write_text('[properties.p]\npredicate = "Reward = 1.0e308 * 10.0"\n', encoding="utf-8")
+    code, out, err = run(capsys, "stats", str(hand_run), "-p", str(path), "--json")
+    assert code == 2 and out == ""
+    assert err.startswith(f"error: {path}: property p:1:10: {hand_run}, episode 0, step 0: "
+                          "the real result is out of range (overflow)"), err

@@ -177,7 +177,7 @@ def prepare(pset: PropertySet, environment="highway", sample: Optional[dict] = N
         elif m.node is not None:
             _check(m.node, "expression", where, m.expression, scope)
             formulas[("m", m.name)] = BatchFormula(m.node, scope.constants,
-                                                   source=m.expression)
+                                                   source=m.expression, file=where)
             note(m.node, None, where)
     for p in pset.properties:
         where = f"{pset.where}: property {p.name}"
@@ -187,7 +187,8 @@ def prepare(pset: PropertySet, environment="highway", sample: Optional[dict] = N
             note(None, p.predicate, where)
         elif p.node is not None:
             _check(p.node, "predicate", where, p.predicate, scope)
-            formulas[("p", p.name)] = BatchFormula(p.node, scope.constants, source=p.predicate)
+            formulas[("p", p.name)] = BatchFormula(p.node, scope.constants, source=p.predicate,
+                                                   file=where)
             note(p.node, None, where)
     return formulas
 
