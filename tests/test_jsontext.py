@@ -42,3 +42,30 @@ def test_script_json_cannot_end_or_comment_out_a_script(text):
     out = script_json({"s": text, "n": float("nan")})
     assert not set(out) & set("<>&\u2028\u2029")
     assert _strict(out) == {"s": text, "n": None, "n_note": "nan"}
+
+
+def test_orjson_and_json_write_the_same_data():
+    """orjson writes reports (fast); json only what orjson cannot: integers beyond 64 bits,
+    keys that are not strings. The data read back is the same either way."""
+    from dataclasses import dataclass
+
+    from tracecheck.jsontext import json_text, plain
+
+    @dataclass(frozen=True)
+    class Row:
+        name: str
+        value: float
+        items: tuple
+
+    data = {"rows": plain([Row("a", 1e-7, (1, 2)), Row("é<", float("inf"), ())]),
+            "big": 10 ** 30, "nested": {"x": [None, True, 2.5]}}
+    text = json_text(data, indent=2)
+    assert json.loads(text) == {"rows": [{"name": "a", "value": 1e-07, "items": [1, 2]},
+                                         {"name": "é<", "value": None, "value_note": "+inf",
+                                          "items": []}],
+                                "big": 10 ** 30, "nested": {"x": [None, True, 2.5]}}
+    small = {k: v for k, v in data.items() if k != "big"}  # orjson's path
+    assert json.loads(json_text(small, indent=2)) == {
+        k: v for k, v in json.loads(text).items() if k != "big"}
+    assert json_text({"a": [1, 2]}, separators=(",", ":")) == '{"a":[1,2]}'
+    assert json_text({1: 2}, indent=2) == '{\n  "1": 2\n}'
