@@ -123,3 +123,86 @@ def test_z3_is_imported_only_when_the_solver_is_asked(args, z3):
     proc = subprocess.run([sys.executable, "-c", SCRIPT.format(args=args)],
                           capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert proc.stderr.strip().splitlines()[-1] == str(z3)
+
+
+# ------------------------------------------------------------------ from ProB's notebooks
+AGATHA = (  # prob_solver_intro.ipynb of hhu-stups/prob2_jupyter_kernel: ProB says TRUE
+    'Persons = {"Agatha", "butler", "Charles"} & hates : Persons <-> Persons & '
+    'richer : Persons <-> Persons & richer /\\ id(Persons) = {} & '
+    '!(x,y,z).(x|->y:richer & y|->z:richer => x|->z:richer) & '
+    '!(x,y).(x:Persons & y:Persons & x/=y => (x|->y:richer <=> y|->x /: richer)) & '
+    'killer : Persons & victim : Persons & killer|->victim : hates & '
+    'killer|->victim /: richer & hates[{"Agatha"}] /\\ hates[{"Charles"}] = {} & '
+    'hates[{"Agatha"}] = Persons - {"butler"} & '
+    '!x.(x: Persons & x|-> "Agatha" /: richer => "butler"|->x : hates) & '
+    'hates[{"Agatha"}] <: hates[{"butler"}] & !x.(x:Persons => hates[{x}] /= Persons) & '
+    'victim = "Agatha"')
+
+
+def test_the_agatha_puzzle_is_solved_and_every_candidate_is_decided(capsys):
+    """It was FALSE: the transitivity conjunct could not be walked (z from y|->z : richer
+    with y known) and the walk took that refusal for 'no value here'."""
+    code, out, err = run(capsys, "eval", AGATHA)
+    assert code == 0 and out.startswith("TRUE\n") and 'killer = "Agatha"' in out
+
+
+def test_a_refusal_inside_the_search_is_unknown_never_false(capsys):
+    """A candidate the evaluator cannot decide is not one where the predicate is false."""
+    code, out, _ = run(capsys, "eval", "s : POW(1..3) & s /= {} & "
+                                       "!(x,y).(x : s & y > x => y : NATURAL)")
+    assert code == 3 and out.startswith("unknown: tracecheck's evaluator cannot decide the "
+                                        "predicate for its candidates: cannot enumerate y")
+
+
+@pytest.mark.parametrize("formula,printed", [
+    ("s1 = {2,3,5} & s2 = {4,8} & c = s1*s2 & r = c~[{8}]",
+     "TRUE\ns1 = {2,3,5}\ns2 = {4,8}\nc = {(2↦4),(2↦8),(3↦4),(3↦8),(5↦4),(5↦8)}\n"
+     "r = {2,3,5}\n"),
+    ("f = {1|->3, 2|->6} & r = f~[{6}] & not(r = {2})", "FALSE\n"),
+    ("x > y & y > x", "FALSE\n"),
+    ("x > y & y < 3 & y > 0", "TRUE\nx = 2\ny = 1\n"),
+], ids=["defined-by-equalities", "defined-then-false", "integers-by-default", "integers"])
+def test_sets_defined_by_equalities_and_untyped_numbers(capsys, formula, printed):
+    """An identifier one equality gives its value is known to the conjuncts after it,
+    whatever its type; a number compared and typed by nothing else is an INTEGER (ProB)."""
+    assert run(capsys, "eval", formula) == (0, printed, "")
+
+
+@pytest.mark.parametrize("formula,printed", [
+    ("{x|x*x=100}", "{-10,10}\n"),
+    ("#xx, yy.(xx > 2 & yy < 5 & xx < yy)", "TRUE\n"),
+    ("{x,y|x:1..3 & y*y = x}", "{(1↦-1),(1↦1)}\n"),
+    ("!x.(x*x = 4 => x : {-2,2})", "TRUE\n"),
+    ("{z | 5|->z : {(1|->2),(5|->3),(5|->4)}}", "{3,4}\n"),
+    ("{z | z|->5 : {(1|->5),(5|->3),(4|->5)}}", "{1,4}\n"),
+], ids=["squares", "exists", "pairs", "forall", "image", "inverse-image"])
+def test_bound_variables_nothing_walks_take_every_solution(capsys, formula, printed):
+    assert run(capsys, "eval", formula) == (0, printed, "")
+
+
+def test_a_comprehension_the_solver_cannot_list_is_refused(capsys):
+    code, out, err = run(capsys, "eval", "--timeout", "1", "{x | x > 1000}")
+    assert code == 2 and out == ""
+    assert "cannot enumerate x in `{x | x > 1000}`: the solver does not list every value " \
+           "(time limit (1 s))" in err
+
+
+def test_the_library_as_prob_s_console_offers_it(capsys):
+    assert run(capsys, "eval", "RSIN(RPI)", "RLOG(2.0,1024.0)", "STRING_LENGTH(\"abc\")") == \
+        (0, "1.2246467991473532E-16\n10.0\n3\n", "")
+
+
+def test_a_declared_external_function_is_prob_s_not_its_placeholder(capsys, tmp_path):
+    """ProB's .def files give an external function a placeholder body
+    (PROB_INFO_STR(x) == ""): never its value. tracecheck's own where it has one."""
+    model = tmp_path / "J.mch"
+    model.write_text('MACHINE J\nDEFINITIONS\n'
+                     '  EXTERNAL_FUNCTION_PROB_INFO_STR == STRING --> STRING;\n'
+                     '  PROB_INFO_STR(info_field_name) == "";\n'
+                     '  EXTERNAL_FUNCTION_STRING_LENGTH == STRING --> INTEGER;\n'
+                     '  STRING_LENGTH(x) == 0\nEND\n')
+    assert run(capsys, "eval", "-m", model, 'STRING_LENGTH("abc")') == (0, "3\n", "")
+    code, out, err = run(capsys, "eval", "-m", model, 'PROB_INFO_STR("prob-version")')
+    assert code == 2 and out == ""
+    assert "PROB_INFO_STR is one of ProB's external functions " \
+           "(EXTERNAL_FUNCTION_PROB_INFO_STR), which tracecheck does not implement" in err

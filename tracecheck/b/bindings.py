@@ -54,6 +54,10 @@ def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
                 EvaluationError, node,
                 f"cannot enumerate {name} in `{comp.text(node)}`",
                 hint=f"add a conjunct that bounds it to a finite set, e.g. {name} : S")
+            if comp.solver is not None:  # all the rest at once, by the solver's answers
+                plan.append(_by_solver(comp, tuple(waiting), pred, problem))
+                bound |= set(waiting)
+                continue
             plan.append(_by_type(name, ids, pred, problem))
             bound.add(name)
     filters = [comp.compile(c) for k, c in enumerate(conjs) if k not in used]
@@ -108,6 +112,22 @@ def _by_type(name: str, ids: tuple[str, ...], pred: ast.Node, problem: Tracechec
             found.append(_type_domain(name, ids, pred, outer, env, problem))
         return found[0]
     return (name,), "in", source
+
+
+def _by_solver(comp, names: tuple[str, ...], pred: ast.Node, problem: TracecheckError):
+    """A generator of ``names`` over every solution of ``pred`` for them, with the values
+    the other names have (``comp.solver``: all of them, or an error saying why not — a
+    solver that cannot list every solution never gives a part of them)."""
+    def source(env: Env):
+        solutions = comp.solver(pred, names, env, problem)
+        values = []
+        for found in solutions:
+            value = found[names[0]]
+            for n in names[1:]:
+                value = (value, found[n])
+            values.append(value)
+        return values
+    return names, "solved", source
 
 
 def _type_domain(name, ids, pred, outer, env: Env, problem: TracecheckError):
@@ -181,6 +201,8 @@ def _unpack(names: tuple[str, ...], value: Any, env: Env) -> bool:
 def domain(comp, node: ast.Node, mode: str, value: Any):
     if mode == "eq":
         return (value,)
+    if mode == "solved":
+        return value
     if mode == "sub":
         items = sorted(_finite(comp, node, value), key=repr)
         if len(items) > 16:
@@ -277,6 +299,8 @@ def _generator_for(comp, conj, name, ids, bound):
     if not isinstance(conj, ast.Rel) or conj.op not in (":", "=", "<:"):
         return None
     names = _names_in_pair(conj.left)
+    if conj.op == ":" and (not names or any(n in bound or n not in ids for n in names)):
+        return _pair_side(comp, conj, name, ids, bound)
     if not names or name not in names or any(n in bound or n not in ids for n in names):
         return None
     if conj.op != ":" and len(names) != 1:
@@ -286,6 +310,27 @@ def _generator_for(comp, conj, name, ids, bound):
         return None
     mode = {":": "in", "=": "eq", "<:": "sub"}[conj.op]
     return names, mode, comp.compile(conj.right)
+
+
+def _pair_side(comp, conj, name, ids, bound):
+    """``E |-> x : R`` (or ``x |-> E : R``) with E known: x over the image of E under R
+    (under its inverse)."""
+    pair = conj.left
+    if not isinstance(pair, ast.Pair):
+        return None
+    pending = set(ids) - bound
+    for mine, other, side in ((pair.right, pair.left, 1), (pair.left, pair.right, 0)):
+        if isinstance(mine, ast.Name) and mine.id == name and name in pending and \
+                not ast.free_names(other) & pending and \
+                not ast.free_names(conj.right) & pending:
+            key, rel = comp.compile(other), comp.compile(conj.right)
+
+            def image(env: Env, key=key, rel=rel, side=side):
+                k = key(env)
+                return frozenset(p[side] for p in _finite(comp, conj, rel(env))
+                                 if isinstance(p, tuple) and p[1 - side] == k)
+            return (name,), "in", image
+    return None
 
 
 class Binders:

@@ -44,6 +44,10 @@ class Compiler(Binders, Records):
         self.bound: list[str] = []
         self._free: dict = {}  # free names by node, see ast.free_names
         self._compiling = False  # inside compile: the calls for sub-formulas
+        #: ``solver(pred, names, env, problem)``: every solution of ``pred`` for bound
+        #: variables nothing walks (a list of {name: value}), or raises (``tracecheck eval``
+        #: gives one; without it such variables are refused)
+        self.solver: Optional[Callable] = None
 
     @contextmanager
     def binding(self, ids: tuple[str, ...]):

@@ -20,7 +20,7 @@ from lark import Lark, Token
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken, VisitError
 from lark.lexer import Lexer
 
-from ..errors import BSyntaxError, TracecheckError
+from ..errors import BSyntaxError, TracecheckError, UnsupportedError
 from . import ast
 from .builder import Builder, OperationSource, ident, tok_pos, unquote
 from .library import LIBRARY_FILES, NOT_IMPLEMENTED, library_bodies
@@ -414,6 +414,39 @@ def _parse_definitions(body, text, file, kw) -> dict[str, Definition]:
                                line=part[0].line, column=part[0].column, source=text)
         defs[name] = _parse_definition_body(name, params, part[eq_at + 1:], part[eq_at],
                                             text, file)
+    return _externals(defs, text, file)
+
+
+_EXTERNAL = ("EXTERNAL_FUNCTION_", "EXTERNAL_PREDICATE_", "EXTERNAL_SUBSTITUTION_")
+
+
+def _externals(defs: dict[str, Definition], text, file) -> dict[str, Definition]:
+    """A definition that ProB calls as an external function (an ``EXTERNAL_FUNCTION_NAME``
+    declares it) has a placeholder body, not its value (``PROB_INFO_STR(x) == ""``): where
+    tracecheck implements the function, its own implementation; else using it is refused."""
+    from .library import FUNCTIONS, library_bodies
+
+    native = {}
+    for lib in ("LibraryReals.def", "LibraryStrings.def", "CHOOSE.def", "SORT.def"):
+        native.update(library_bodies(lib) or {})
+    for key in list(defs):
+        prefix = next((p for p in _EXTERNAL if key.startswith(p)), None)
+        name = key[len(prefix):] if prefix else None
+        if name is None or name not in defs:
+            continue
+        d = defs[name]
+        if name in native and len(native[name][0]) == len(d.params):
+            params, body = native[name]
+            defs[name] = Definition(name, params, "formula", body, d.line)
+        elif name in ast.BUILTIN_FUNCTIONS or name in FUNCTIONS:
+            continue  # built in everywhere: the call is tracecheck's own
+        else:
+            why = UnsupportedError(f"{name} is one of ProB's external functions "
+                               f"({key}), which tracecheck does not implement; its "
+                               "DEFINITIONS body is ProB's placeholder, not its value",
+                               file=file, line=d.line, source=text,
+                               hint="write the value it stands for in the formula instead")
+            defs[name] = Definition(name, d.params, "unparsed", why, d.line)
     return defs
 
 

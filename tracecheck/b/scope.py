@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Mapping, Optional
 
-from ..errors import BScopeError, BSyntaxError, BTypeError, TracecheckError
+from ..errors import BScopeError, BSyntaxError, BTypeError, TracecheckError, UnsupportedError
 from . import ast
 from .parser import Definition
 
@@ -44,6 +44,8 @@ class _Expander:
         d = self.defs[name]
         if d.kind == "unparsed":
             err = d.body
+            if isinstance(err, UnsupportedError):  # an external function, see the parser
+                raise UnsupportedError(err.message, hint=err.hint)
             raise BSyntaxError(f"the definition {name} is used but could not be parsed: "
                                f"{err.message}", line=err.line, column=err.column)
         if name in self.stack:

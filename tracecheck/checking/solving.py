@@ -35,11 +35,12 @@ from ..b.memo import fresh
 from ..b.typecheck import UNSUPPORTED_KEYWORDS
 from ..b.values import (Elem, Interval, SymbolicSet, cardinality, format_value, members,
                         sort_key)
-from ..errors import Disagreement, TracecheckError, UnsupportedError
+from ..errors import Disagreement, TracecheckError, UnsupportedError, WellDefinednessError
 from .encoding import nudge
 from .smt import Translator
 
-__all__ = ["Answer", "solve", "free_identifiers", "SMALL_SPACE", "MAX_SUBSET_BASE"]
+__all__ = ["Answer", "solve", "free_identifiers", "bound_solver", "SMALL_SPACE", "MAX_SUBSET_BASE",
+           "BOUND_LIMIT"]
 
 #: Candidate assignments the evaluator walks before the solver is asked instead.
 SMALL_SPACE = 100_000
@@ -155,31 +156,45 @@ class _Problem:
         return Answer(status, self.names, **fields)
 
     def holds(self, solution: dict) -> bool:
-        """The evaluator's verdict on ``solution`` (False where the predicate has no value)."""
+        """The evaluator's verdict on ``solution`` (False where the predicate has no value;
+        where the evaluator cannot say — a refusal — its error is raised)."""
         try:
             return self.whole({**fresh(self.env), **solution}) is True
-        except TracecheckError:
+        except WellDefinednessError:
             return False
 
-    def closed(self, expr: ast.Node) -> Any:
-        """The value of ``expr`` if it reads none of the identifiers (else None)."""
-        if ast.free_names(expr) & set(self.names):
+    def closed(self, expr: ast.Node, known: Optional[dict] = None) -> Any:
+        """The value of ``expr`` if it reads none of the identifiers but those ``known``
+        (the one value each can take), else None."""
+        known = known or {}
+        if ast.free_names(expr) & (set(self.names) - set(known)):
             return None
         try:
-            return self.compiler.compile(expr)(fresh(self.env))
+            with self.compiler.binding(self.names):
+                return self.compiler.compile(expr)({**fresh(self.env), **known})
         except TracecheckError:
             return None
 
     # -- finite domains
     def domains(self) -> dict[str, Optional[list]]:
         """Each identifier's candidate values: every solution takes one of them (None:
-        nothing bounds it to a finite set)."""
-        found: dict[str, dict] = {n: {"in": None, "lo": None, "hi": None} for n in self.names}
-        for conj in conjuncts(self.node):
-            self._bound_by(conj, found)
-        return {n: self._domain(n, found[n]) for n in self.names}
+        nothing bounds it to a finite set). An identifier with one candidate (``s = {1, 2}``)
+        is known to the conjuncts after it, whatever its type (``c = s * s``), until
+        nothing more is learnt."""
+        known: dict[str, Any] = {}
+        while True:
+            found: dict[str, dict] = {n: {"in": None, "lo": None, "hi": None}
+                                      for n in self.names}
+            for conj in conjuncts(self.node):
+                self._bound_by(conj, found, known)
+            domains = {n: self._domain(n, found[n]) for n in self.names}
+            new = {n: d[0] for n, d in domains.items()
+                   if n not in known and d is not None and len(d) == 1}
+            if not new:
+                return domains
+            known.update(new)
 
-    def _bound_by(self, conj: ast.Node, found: dict) -> None:
+    def _bound_by(self, conj: ast.Node, found: dict, known: Optional[dict] = None) -> None:
         if not isinstance(conj, ast.Rel):
             return
         left, right, op = conj.left, conj.right, conj.op
@@ -190,13 +205,13 @@ class _Problem:
         if op == "<:" and isinstance(left, ast.SetExt) and all(
                 isinstance(i, ast.Name) and i.id in found for i in left.items):
             for item in left.items:  # {x, y} <: S: each is in S
-                self._bound_by(ast.Rel(":", item, right), found)
+                self._bound_by(ast.Rel(":", item, right), found, known)
             return
         if not (isinstance(left, ast.Name) and left.id in found):
             return
         bound = found[left.id]
         if op == "<:":
-            value = self.closed(right)
+            value = self.closed(right, known)
             if _small_set(value, MAX_SUBSET_BASE):
                 items = sorted(members(value), key=sort_key)
                 subsets = [frozenset(c) for k in range(len(items) + 1)
@@ -206,7 +221,7 @@ class _Problem:
         if op == ":" and isinstance(right, ast.Name) and right.id in ("NATURAL", "NATURAL1"):
             _raise(bound, "lo", 0 if right.id == "NATURAL" else 1)
             return
-        value = self.closed(right)
+        value = self.closed(right, known)
         if value is None:
             return
         if op == "=":
@@ -265,9 +280,13 @@ class _Problem:
             try:
                 if self.whole(leaf) is not True:
                     continue
-            except TracecheckError as exc:
+            except WellDefinednessError as exc:
                 problem = problem or (dict((n, leaf[n]) for n in self.names), exc)
                 continue
+            except TracecheckError as exc:  # a refusal: no answer from these candidates
+                return self.answer("unknown", method="enumeration",
+                                   reason=f"tracecheck's evaluator cannot decide the "
+                                          f"predicate for its candidates: {exc.message}")
             if len(solutions) == self.limit:
                 more = True
                 break
@@ -470,7 +489,13 @@ class _Solver:
         while verdict == "sat" and len(solutions) < problem.limit:
             model = self.solver.model()
             exact = {n: model.eval(v, model_completion=True) for n, v in self.vars.items()}
-            found = self.confirmed(exact)
+            try:
+                found = self.confirmed(exact)
+            except TracecheckError as exc:  # the evaluator refuses the predicate
+                return problem.answer(
+                    "unknown", method="solver",
+                    reason=f"tracecheck's evaluator cannot check the solver's solution: "
+                           f"{exc.message}")
             if found is None:
                 return self.unconfirmed(exact, solutions)
             if found not in solutions:
@@ -562,3 +587,54 @@ def _nearest_float(z3, v) -> float:
         return math.inf
 
 
+
+
+#: A comprehension or quantifier solved for its bound variables lists at most this many
+#: solutions (more: refused, as a set too large to build).
+BOUND_LIMIT = 10_000
+
+
+def bound_solver(names: dict, sets: dict, *, source: Optional[str] = None,
+                 file: Optional[str] = None, timeout_s: float = 10.0):
+    """The hook of :attr:`tracecheck.b.evaluation.Compiler.solver` for ``tracecheck eval``:
+    bound variables that nothing in a comprehension's or quantifier's predicate walks
+    (``{x | x*x = 100}``, ``#x.(x > 2 & x < y)``) take every solution of the predicate for
+    them — only where the solver finds them all (FALSE: none; a complete list), else the
+    evaluator's own refusal with the solver's reason. ``names``: the types of the names in
+    scope (a machine's); the values of the others (outer bound variables) are typed from
+    ``env``."""
+    from ..b.btypes import INTEGER, Var, resolve, resolve_all
+    from ..b.typecheck import type_of_value, typecheck_formula
+
+    owners = {e: k for k, elems in sets.items() for e in elems}
+
+    def solver(pred: ast.Node, ids: tuple[str, ...], env: dict, problem) -> list[dict]:
+        typed = dict(names)
+        for k in ast.free_names(pred) - set(ids) - set(typed):
+            if k in env:
+                typed[k] = type_of_value(env[k], owners)
+        typed.update({n: Var() for n in ids})
+        try:
+            typecheck_formula(pred, typed, kind="predicate", source=source, file=file)
+        except TracecheckError:
+            raise problem from None
+        for n in ids:  # compared or computed with, typed by nothing else: ProB's INTEGER
+            t = resolve(typed[n])
+            if isinstance(t, Var) and t.numeric:
+                t.ref = INTEGER
+        types = {n: resolve_all(typed[n]) for n in ids}
+        if any("?" in show(t) for t in types.values()):
+            raise problem
+        answer = solve(pred, types, env, sets=sets, source=source, file=file,
+                       timeout_s=timeout_s, all_solutions=True, limit=BOUND_LIMIT)
+        if answer.status == "FALSE":
+            return []
+        if answer.status == "TRUE" and answer.complete:
+            return answer.solutions
+        why = answer.reason or (f"more than {BOUND_LIMIT:,} solutions" if answer.more
+                                else "not every solution found")
+        raise type(problem)(f"{problem.message}: the solver does not list every value "
+                            f"({why})", file=problem.file, source=problem.source,
+                            line=problem.line, column=problem.column,
+                            hint=problem.hint) from None
+    return solver

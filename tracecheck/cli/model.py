@@ -243,22 +243,37 @@ def _evaluator(model: Optional[Path], state: Optional[Path], solving: dict):
     for name, value in values.items():
         names.setdefault(name, type_of_value(value, owners))
     env = machine.env(values) if machine is not None else dict(values)
-    definitions = machine.definitions if machine else None
+    # without a machine, ProB's library functions as its console offers them (RSQRT, …)
+    definitions = machine.definitions if machine else _console_library(values)
 
     def evaluate(expr: str, where: str):
+        from ..checking.solving import bound_solver
+
         try:
             node, _ = check_formula(expr, names, file=where, definitions=definitions)
         except BScopeError as exc:
             return _solve(expr, where, exc, names, env, machine, solving)
-        return Compiler(source=expr, file=where).compile(node)(env)
+        compiler = Compiler(source=expr, file=where)
+        # bound variables nothing walks ({x | x*x = 100}): the solver's complete answer
+        compiler.solver = bound_solver(names, machine.sets if machine else {}, source=expr,
+                                       file=where, timeout_s=solving["timeout_s"])
+        return compiler.compile(node)(env)
 
     return evaluate
+
+
+def _console_library(values: dict) -> dict:
+    """ProB's library functions, as its console offers them without an include (a name the
+    state gives a value keeps it)."""
+    from ..b.parser import library_definitions
+
+    return {n: d for n, d in (library_definitions("*") or {}).items() if n not in values}
 
 
 def _solve(expr: str, where: str, error, names: dict, env: dict, machine, solving: dict):
     """The predicate ``expr`` solved for the identifiers in it that nothing declares
     (``error``, the unknown identifier's, where it is not a predicate or has none)."""
-    from ..b.btypes import Var, resolve_all, show
+    from ..b.btypes import INTEGER, Var, resolve, resolve_all, show
     from ..b.parser import parse_formula
     from ..b.scope import expand, kind_of
     from ..b.typecheck import check_formula
@@ -266,7 +281,7 @@ def _solve(expr: str, where: str, error, names: dict, env: dict, machine, solvin
     from ..checking.solving import free_identifiers, solve
     from ..errors import BTypeError
 
-    definitions = machine.definitions if machine else None
+    definitions = machine.definitions if machine else _console_library(env)
     node = parse_formula(expr, file=where)
     if definitions:
         node = expand(node, definitions)
@@ -277,6 +292,10 @@ def _solve(expr: str, where: str, error, names: dict, env: dict, machine, solvin
     typed = {**names, **{n: Var() for n in free}}
     node, _ = check_formula(expr, typed, file=where, definitions=definitions,
                             kind="predicate")
+    for n in free:  # compared or computed with, typed by nothing else: ProB's INTEGER
+        t = resolve(typed[n])
+        if isinstance(t, Var) and t.numeric:
+            t.ref = INTEGER
     types = {n: resolve_all(typed[n]) for n in free}
     for n, t in types.items():
         if "?" in show(t):
