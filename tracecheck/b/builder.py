@@ -16,6 +16,7 @@ from lark import Token, Transformer, v_args
 from ..errors import BSyntaxError
 from . import ast
 from ..limits import read_int
+from .notation import ESCAPES as _ESCAPES, unescape
 
 __all__ = ["Builder", "OperationSource", "tok_pos", "unquote", "ident"]
 
@@ -29,13 +30,10 @@ class OperationSource:
     pos: Optional[ast.Pos] = None
 
 
-_ESCAPES = {'"': '"', "\\": "\\", "'": "'", "n": "\n", "t": "\t", "r": "\r"}
-
-
 def unquote(s: str) -> str:
     """The text of a string literal: ``\\"``, ``\\\\``, ``\\n``, ``\\t``, ``\\r`` and ``\\'``
     are escapes, as in ProB; any other backslash is kept (``"a /\\ b"`` keeps its ``/\\``)."""
-    return re.sub(r"\\(.)", lambda m: _ESCAPES.get(m.group(1), m.group(0)), s[1:-1])
+    return unescape(s[1:-1])
 
 
 _ID_ESCAPES = {**_ESCAPES, "`": "`"}

@@ -43,6 +43,14 @@ _IDENT_AT = re.compile(_IDENT)
 _FIELD_AT = re.compile(r"([^\W\d]\w*|`(?:[^`\\]|\\.)+`)\s*:")
 _STRING_AT = re.compile(r'"((?:\\.|[^"\\])*)"')
 _ESCAPE = re.compile(r"\\(.)")
+#: the escapes of a B string, as ProB reads them; any other backslash is kept ("\a" is
+#: backslash and a, ProB's own printing of it)
+ESCAPES = {'"': '"', "\\": "\\", "'": "'", "n": "\n", "t": "\t", "r": "\r"}
+
+
+def unescape(body: str) -> str:
+    """The text of a B string literal's body (between its quotes)."""
+    return _ESCAPE.sub(lambda m: ESCAPES.get(m.group(1), m.group(0)), body)
 
 
 def _number(text: str):
@@ -221,7 +229,7 @@ class _LiteralReader:
         if not m:
             raise self.fail("unterminated string")
         self.i = m.end()
-        return _ESCAPE.sub(r"\1", m.group(1))
+        return unescape(m.group(1))
 
 
 # ------------------------------------------------------------------ JSON
