@@ -321,12 +321,56 @@ def _strings() -> dict[str, Function]:
     return lib
 
 
+# ------------------------------------------------------------------ LibraryProB.def
+
+
+def _assert_expr(ok: bool, message: str, value: Any) -> Any:
+    if ok is not True:
+        raise Undefined(f"the assertion failed: {message}")
+    return value
+
+
+def _assert_true(ok: bool, message: str) -> bool:
+    if ok is not True:
+        raise Undefined(f"the assertion failed: {message}")
+    return True
+
+
+def _prob_lib() -> dict[str, Function]:
+    def expr_sig():
+        t = Var()
+        return (BOOL, STRING, t), t
+
+    def same_sig():
+        t = Var()
+        return (t,), t
+
+    def set_sig():
+        t = Pow(Var())
+        return (t,), t
+    return {
+        "ASSERT_EXPR": Function("ASSERT_EXPR", expr_sig, _assert_expr),
+        "ASSERT_TRUE": Function("ASSERT_TRUE", _sig(BOOL, STRING, BOOL), _assert_true,
+                                predicate=True),
+        "COPY": Function("COPY", same_sig, lambda v: v),  # for ProB's solver: the value
+        "FORCE": Function("FORCE", set_sig, lambda v: v),  # a set computed: it always is
+    }
+
+
+def _regex_lib() -> dict[str, Function]:
+    from .regex import regex_functions
+
+    return regex_functions(Function, _sig, Undefined, Refused)
+
+
 #: The library files tracecheck knows, with their functions.
 LIBRARY_FILES: dict[str, dict[str, Function]] = {
     "LibraryReals.def": _reals(),
     "CHOOSE.def": _choose_lib(),
     "SORT.def": _sort_lib(),
     "LibraryStrings.def": _strings(),
+    "LibraryRegex.def": _regex_lib(),
+    "LibraryProB.def": _prob_lib(),
 }
 
 #: Files of ProB's standard library tracecheck does not implement (a clear refusal).
@@ -335,7 +379,7 @@ NOT_IMPLEMENTED = {
     "LibraryIO.def": "it reads and writes files", "LibraryFiles.def": "it reads files",
     "LibraryMeta.def": "it describes ProB's state space",
     "LibraryXML.def": "records are not supported", "LibraryHash.def": "SICStus' term hash",
-    "LibraryRegex.def": "ProB's regular expressions", "SCCS.def": "not implemented",
+    "SCCS.def": "not implemented",
     "LibraryBits.def": "not implemented",
 }
 

@@ -424,10 +424,10 @@ def _externals(defs: dict[str, Definition], text, file) -> dict[str, Definition]
     """A definition that ProB calls as an external function (an ``EXTERNAL_FUNCTION_NAME``
     declares it) has a placeholder body, not its value (``PROB_INFO_STR(x) == ""``): where
     tracecheck implements the function, its own implementation; else using it is refused."""
-    from .library import FUNCTIONS, library_bodies
+    from .library import FUNCTIONS
 
     native = {}
-    for lib in ("LibraryReals.def", "LibraryStrings.def", "CHOOSE.def", "SORT.def"):
+    for lib in LIBRARY_FILES:
         native.update(library_bodies(lib) or {})
     for key in list(defs):
         prefix = next((p for p in _EXTERNAL if key.startswith(p)), None)

@@ -1,0 +1,310 @@
+"""ProB's ``LibraryRegex.def``: ECMAScript regular expressions (ProB runs them with the C++
+standard library) over B strings, here with Python's :mod:`re` after a translation that
+keeps ECMAScript's meaning or refuses.
+
+What the translation does, and why (ProB's notebook ``ExternalFunctions.ipynb`` documents the
+functions and their Unicode treatment):
+
+* strings and patterns are sequences of Unicode characters (ProB reads them as UTF-8): ``.``
+  is one character, positions and lengths count characters;
+* ``.`` matches anything but the line terminators LF, CR, U+2028 and U+2029; ``^`` and ``$``
+  are the ends of the whole string (Python's ``$`` also matches before a final newline);
+* ``[[:alpha:]]`` and the other POSIX classes, which ProB's examples show matching letters
+  such as ``ä``: the class is spelled out as the characters of the subject string that have
+  the property (a pattern only ever looks at those), plus the ASCII ones;
+* ``\\d \\w \\s \\b`` and their negations are ECMAScript's ASCII classes where the subject is
+  ASCII; with other characters in the subject they are refused (how ProB's C++ library
+  classifies them is not documented);
+* a replacement's ``$0``..``$9``, ``$&``, ``$$``, ``$``` and ``$'`` as ECMAScript (ProB's
+  example: ``$0`` is the whole match); anything else after ``$`` is refused;
+* what Python and ECMAScript read differently — lookbehind (ProB refuses it too), named
+  groups, inline flags, ``\\c``, ``\\u{…}``, a search or a replacement with an empty match —
+  is refused, never guessed.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+from .btypes import BOOL, INTEGER, STRING, Pow, Prod, Rec
+from .values import Record, sequence
+
+__all__ = ["regex_functions", "BadPattern", "Unsupported"]
+
+
+class BadPattern(Exception):
+    """The pattern is not an ECMAScript regular expression."""
+
+
+class Unsupported(Exception):
+    """The pattern or call means something tracecheck does not reproduce exactly."""
+
+
+_POSIX = {
+    "alpha": str.isalpha, "digit": lambda c: "0" <= c <= "9", "alnum": str.isalnum,
+    "upper": str.isupper, "lower": str.islower, "space": str.isspace,
+    "xdigit": lambda c: c in "0123456789abcdefABCDEF",
+    "punct": lambda c: c.isascii() and not c.isalnum() and c.isprintable() and c != " ",
+}
+_ASCII_CLASSES = "dDwWsSbB"
+_CONTROL = {"t": "\t", "n": "\n", "v": "\v", "f": "\f", "r": "\r", "0": "\0"}
+_DOT = "[^\\n\\r\\u2028\\u2029]"
+
+
+def _class_chars(name: str, subject: str) -> str:
+    test = _POSIX.get(name)
+    if test is None:
+        raise Unsupported(f"the character class [:{name}:]")
+    chars = {c for c in subject if test(c)}
+    chars |= {chr(k) for k in range(128) if test(chr(k))}
+    return "".join(re.escape(c) if c not in "-" else "\\-" for c in sorted(chars))
+
+
+def translate(pattern: str, subject: str) -> str:
+    """The Python pattern that means what the ECMAScript ``pattern`` means on ``subject``."""
+    out: list[str] = []
+    i, n, depth, groups = 0, len(pattern), 0, 0
+    ascii_subject = subject.isascii()
+    while i < n:
+        c = pattern[i]
+        if c == "\\":
+            i, piece, _ = _escape(pattern, i, ascii_subject)
+            out.append(piece)
+            continue
+        if c == "[":
+            i, piece = _bracket(pattern, i, subject, ascii_subject)
+            out.append(piece)
+            continue
+        if c == "(":
+            if pattern.startswith("(?", i):
+                if pattern.startswith(("(?:", "(?=", "(?!"), i):
+                    out.append(pattern[i:i + 3])
+                    i += 3
+                    depth += 1
+                    continue
+                if pattern.startswith(("(?<=", "(?<!"), i):
+                    raise Unsupported("lookbehind (ProB does not support it either)")
+                raise Unsupported(f"the group {pattern[i:i + 3]!r}")
+            groups += 1
+            depth += 1
+            out.append("(")
+        elif c == ")":
+            depth -= 1
+            if depth < 0:
+                raise BadPattern("an unmatched ')'")
+            out.append(")")
+        elif c == ".":
+            out.append(_DOT)
+        elif c == "^":
+            out.append("\\A")
+        elif c == "$":
+            out.append("\\Z")
+        elif c == "{":
+            m = re.match(r"\{(\d+)(,(\d*))?\}", pattern[i:])
+            if not m:
+                raise Unsupported("a '{' that is not a quantifier {n}, {n,} or {n,m}")
+            out.append(m.group(0))
+            i += len(m.group(0))
+            continue
+        elif c in "}]":
+            out.append("\\" + c)
+        else:
+            out.append(c)
+        i += 1
+    if depth:
+        raise BadPattern("an unclosed '('")
+    return "".join(out)
+
+
+def _escape(pattern: str, i: int, ascii_subject: bool) -> tuple[int, str, bool]:
+    if i + 1 >= len(pattern):
+        raise BadPattern("a '\\' at the end of the pattern")
+    e = pattern[i + 1]
+    if e in _ASCII_CLASSES:
+        if not ascii_subject:
+            raise Unsupported(f"\\{e} on a string with characters beyond ASCII (how ProB's C++ "
+                              "library classifies them is not documented)")
+        return i + 2, "\\" + e, False
+    if e.isdigit() and e != "0":
+        return i + 2, "\\" + e, True  # a back-reference
+    if e in _CONTROL:
+        if e == "0" and i + 2 < len(pattern) and pattern[i + 2].isdigit():
+            raise Unsupported("\\0 followed by a digit")
+        return i + 2, re.escape(_CONTROL[e]), False
+    if e == "x":
+        m = re.match(r"[0-9a-fA-F]{2}", pattern[i + 2:])
+        if not m:
+            raise BadPattern("\\x needs two hexadecimal digits")
+        return i + 4, re.escape(chr(int(m.group(0), 16))), False
+    if e == "u":
+        m = re.match(r"[0-9a-fA-F]{4}", pattern[i + 2:])
+        if not m:
+            raise Unsupported("\\u without four hexadecimal digits")
+        return i + 6, re.escape(chr(int(m.group(0), 16))), False
+    if e.isalnum():
+        raise Unsupported(f"the escape \\{e}")
+    return i + 2, re.escape(e), False  # an escaped punctuation character: itself
+
+
+def _bracket(pattern: str, i: int, subject: str, ascii_subject: bool) -> tuple[int, str]:
+    """``[...]`` from ``pattern[i]``: (the index after it, its Python form)."""
+    out = ["["]
+    i += 1
+    if pattern.startswith("^", i):
+        out.append("^")
+        i += 1
+    first = True
+    while True:
+        if i >= len(pattern):
+            raise BadPattern("an unclosed '['")
+        c = pattern[i]
+        if c == "]" and not first:
+            out.append("]")
+            return i + 1, "".join(out)
+        if c == "]":  # ECMAScript: [] matches nothing, [^] anything
+            raise Unsupported("an empty character class")
+        first = False
+        if pattern.startswith("[:", i):
+            end = pattern.find(":]", i + 2)
+            if end < 0:
+                raise BadPattern("an unclosed '[:'")
+            out.append(_class_chars(pattern[i + 2:end], subject))
+            i = end + 2
+            continue
+        if c == "[":
+            if pattern.startswith(("[.", "[="), i):
+                raise Unsupported("collating elements and equivalence classes")
+            out.append("\\[")
+        elif c == "\\":
+            i, piece, _ = _escape(pattern, i, ascii_subject)
+            if piece.startswith("\\") and len(piece) == 2 and piece[1].isdigit():
+                raise Unsupported("a back-reference inside a character class")
+            out.append(piece)
+            continue
+        elif c in "&~|" and pattern.startswith(c * 2, i):
+            out.append("\\" + c)  # Python reads a doubled one as a set operation
+        else:
+            out.append(c)
+        i += 1
+
+
+def _compile(pattern: str, subject: str) -> "re.Pattern":
+    python = translate(pattern, subject)
+    try:
+        return re.compile(python)
+    except re.error as exc:
+        raise BadPattern(str(exc)) from None
+
+
+def _match(s: str, p: str) -> bool:
+    return _compile(p, s).fullmatch(s) is not None
+
+
+def _is_regex(p: str) -> bool:
+    try:
+        _compile(p, "")
+    except BadPattern:
+        return False
+    return True
+
+
+def _all_matches(s: str, p: str, start: int = 0) -> list:
+    found = list(_compile(p, s).finditer(s, start))
+    if any(m.end() == m.start() for m in found):
+        raise Unsupported("a pattern that matches the empty string here (where the next "
+                          "search starts after an empty match differs between libraries)")
+    return found
+
+
+def _replace(s: str, p: str, r: str) -> str:
+    matches = _all_matches(s, p)
+    out, last = [], 0
+    for m in matches:
+        out.append(s[last:m.start()])
+        out.append(_substitute(r, m, s))
+        last = m.end()
+    out.append(s[last:])
+    return "".join(out)
+
+
+def _substitute(r: str, m: "re.Match", s: str) -> str:
+    out, i = [], 0
+    while i < len(r):
+        c = r[i]
+        if c != "$":
+            out.append(c)
+            i += 1
+            continue
+        nxt = r[i + 1:i + 2]
+        if nxt == "$":
+            out.append("$")
+        elif nxt == "&":
+            out.append(m.group(0))
+        elif nxt == "`":
+            out.append(s[:m.start()])
+        elif nxt == "'":
+            out.append(s[m.end():])
+        elif nxt.isdigit() and not r[i + 2:i + 3].isdigit():
+            k = int(nxt)
+            if k > (m.re.groups or 0):
+                raise Unsupported(f"${k} names a group the pattern does not have")
+            out.append(m.group(k) or "")
+        else:
+            raise Unsupported(f"the replacement {r!r} ($ followed by {nxt!r})")
+        i += 2
+    return "".join(out)
+
+
+def _search_str(s: str, p: str) -> str:
+    m = _compile(p, s).search(s)
+    return m.group(0) if m else ""
+
+
+def _search(s: str, start: int, p: str) -> Record:
+    if not 1 <= start <= len(s) + 1:
+        raise Unsupported(f"a search from position {start} of a string of {len(s)} characters")
+    if start > 1 and re.search(r"\^|\\[bB]", p):
+        raise Unsupported("^ or \\b in a search that does not start at the beginning")
+    m = _compile(p, s).search(s, start - 1)
+    if m is None:
+        return Record([("length", -1), ("position", -1), ("string", ""),
+                       ("submatches", frozenset())])
+    groups = m.groups()
+    if any(g is None for g in groups):
+        raise Unsupported("a group that took part in no match")
+    return Record([("length", m.end() - m.start()), ("position", m.start() + 1),
+                   ("string", m.group(0)), ("submatches", sequence(list(groups)))])
+
+
+def _search_all(s: str, p: str) -> Any:
+    return sequence([m.group(0) for m in _all_matches(s, p)])
+
+
+def regex_functions(function, sig, undefined, refused) -> dict:
+    """The functions of LibraryRegex.def as ``library.Function`` s (``function``: its class,
+    ``sig`` its signature helper; a :class:`BadPattern` is ``undefined``, an
+    :class:`Unsupported` ``refused``)."""
+    def guarded(fn):
+        def call(*args):
+            try:
+                return fn(*args)
+            except BadPattern as exc:
+                raise undefined(f"not a regular expression: {exc}") from None
+            except Unsupported as exc:
+                raise refused(str(exc)) from None
+        return call
+
+    S, Z = STRING, INTEGER
+    seq_s = Pow(Prod(INTEGER, STRING))
+    found = Rec((("length", Z), ("position", Z), ("string", S), ("submatches", seq_s)))
+    return {
+        "REGEX_MATCH": function("REGEX_MATCH", sig(S, S, BOOL), guarded(_match),
+                                predicate=True),
+        "IS_REGEX": function("IS_REGEX", sig(S, BOOL), guarded(_is_regex), predicate=True),
+        "REGEX_REPLACE": function("REGEX_REPLACE", sig(S, S, S, S), guarded(_replace)),
+        "REGEX_SEARCH_STR": function("REGEX_SEARCH_STR", sig(S, S, S), guarded(_search_str)),
+        "REGEX_SEARCH": function("REGEX_SEARCH", sig(S, Z, S, found), guarded(_search)),
+        "REGEX_SEARCH_ALL": function("REGEX_SEARCH_ALL", sig(S, S, seq_s),
+                                     guarded(_search_all)),
+    }
