@@ -206,3 +206,20 @@ def test_a_declared_external_function_is_prob_s_not_its_placeholder(capsys, tmp_
     assert code == 2 and out == ""
     assert "PROB_INFO_STR is one of ProB's external functions " \
            "(EXTERNAL_FUNCTION_PROB_INFO_STR), which tracecheck does not implement" in err
+
+
+def test_identifiers_an_equality_computes_from_walked_ones(capsys):
+    """y = COPY(x) with x walked: y is computed at each candidate (z3 cannot take COPY)."""
+    assert run(capsys, "eval", "x:1..3 & y=COPY(x) & 9/y=3") == (0, "TRUE\nx = 3\ny = 3\n", "")
+    assert run(capsys, "eval", "x:1..3 & y = x*x & z = y + 1 & z = 5") == \
+        (0, "TRUE\nx = 2\ny = 4\nz = 5\n", "")
+
+
+def test_no_solution_where_a_candidate_has_no_value_is_not_false(capsys):
+    """ProB's enumeration meets 10 / 0 and reports it; so does the walk (a solution found
+    stands, with a warning)."""
+    code, out, err = run(capsys, "eval", "x : 0..3 & 10 / x = 50")
+    assert code == 2 and out == ""
+    assert "the predicate has no value where x = 0: division by zero in `10 / x`" in err
+    code, out, err = run(capsys, "eval", 'x=0 & res=ASSERT_EXPR(bool(x>0),"no",10+x)')
+    assert code == 2 and "the assertion failed: no" in err

@@ -39,8 +39,7 @@ from ..errors import Disagreement, TracecheckError, UnsupportedError, WellDefine
 from .encoding import nudge
 from .smt import Translator
 
-__all__ = ["Answer", "solve", "free_identifiers", "bound_solver", "SMALL_SPACE", "MAX_SUBSET_BASE",
-           "BOUND_LIMIT"]
+__all__ = ["Answer", "solve", "free_identifiers", "SMALL_SPACE", "MAX_SUBSET_BASE"]
 
 #: Candidate assignments the evaluator walks before the solver is asked instead.
 SMALL_SPACE = 100_000
@@ -96,10 +95,12 @@ def solve(node: ast.Node, types: dict[str, Type], env: dict, *, sets: Optional[d
                        time.monotonic() + timeout_s, timeout_s,
                        limit if all_solutions else 1, all_solutions)
     domains = problem.domains()
-    finite = all(d is not None for d in domains.values())
-    size = math.prod(len(d) for d in domains.values()) if finite else math.inf
+    derived = problem.derived(domains)
+    walked = [d for n, d in domains.items() if n not in derived]
+    finite = all(d is not None for d in walked)
+    size = math.prod(len(d) for d in walked) if finite else math.inf
     if size <= SMALL_SPACE:
-        return problem.walk(domains)
+        return problem.walk(domains, derived)
     why = problem.not_numbers(domains)
     if why is None:
         try:
@@ -109,7 +110,7 @@ def solve(node: ast.Node, types: dict[str, Type], env: dict, *, sets: Optional[d
         else:
             return solver.solve()
     if finite:
-        return problem.walk(domains)
+        return problem.walk(domains, derived)
     return problem.answer("unknown", reason=why)
 
 
@@ -251,6 +252,29 @@ class _Problem:
             return list(self.sets[t.name])
         return None
 
+    def derived(self, domains: dict) -> dict[str, ast.Node]:
+        """Identifiers nothing bounds that an equality computes from the others
+        (``y = COPY(x)`` with x walked): computed at each candidate, not walked. In the
+        order they can be computed."""
+        known = {n for n, d in domains.items() if d is not None}
+        out: dict[str, ast.Node] = {}
+        changed = True
+        while changed:
+            changed = False
+            for conj in conjuncts(self.node):
+                if not (isinstance(conj, ast.Rel) and conj.op == "="):
+                    continue
+                for left, right in ((conj.left, conj.right), (conj.right, conj.left)):
+                    if not isinstance(left, ast.Name) or left.id not in self.names or \
+                            left.id in known or left.id in out:
+                        continue
+                    reads = ast.free_names(right) & set(self.names)
+                    if left.id not in reads and reads <= known | set(out):
+                        out[left.id] = right
+                        changed = True
+                        break
+        return out
+
     def not_numbers(self, domains: dict) -> Optional[str]:
         """Why the solver cannot take the problem (an identifier it cannot choose that
         nothing bounds to a finite set), or None."""
@@ -265,17 +289,35 @@ class _Problem:
         return None
 
     # -- walking the candidates
-    def walk(self, domains: dict) -> Answer:
-        order = sorted(self.names, key=lambda n: len(domains[n]))
+    def walk(self, domains: dict, derived: Optional[dict] = None) -> Answer:
+        derived = derived or {}
+        order = sorted((n for n in self.names if n not in derived),
+                       key=lambda n: len(domains[n]))
+        size = math.prod(len(domains[n]) for n in order)
+        order += list(derived)  # computed once what they read has values
         checks: list[list] = [[] for _ in order]
+        domains = dict(domains)
+        undefined: list = []  # (the values so far, the error) where a computed one has none
         with self.compiler.binding(self.names):
+            for name, expr in derived.items():
+                domains[name] = _computed(self.compiler.compile(expr), order, undefined)
             for conj in conjuncts(self.node):
                 used = ast.free_names(conj) & set(self.names)
                 depth = max((order.index(n) for n in used), default=0)
                 checks[depth].append(self.compiler.compile(conj))
-        env = fresh(self.env)
+        env, clock = fresh(self.env), _Clock(self.deadline)
+        try:
+            return self._walked(order, domains, checks, env, clock, size, undefined)
+        except WellDefinednessError:
+            raise
+        except TracecheckError as exc:  # a refusal computing an identifier: no answer
+            return self.answer("unknown", method="enumeration",
+                               reason=f"tracecheck's evaluator cannot decide the predicate "
+                                      f"for its candidates: {exc.message}")
+
+    def _walked(self, order, domains, checks, env, clock, size, undefined) -> Answer:
         solutions: list[dict] = []
-        more, problem, clock = False, None, _Clock(self.deadline)
+        more, problem = False, None
         for leaf in _assignments(order, domains, checks, env, clock):
             try:
                 if self.whole(leaf) is not True:
@@ -283,16 +325,13 @@ class _Problem:
             except WellDefinednessError as exc:
                 problem = problem or (dict((n, leaf[n]) for n in self.names), exc)
                 continue
-            except TracecheckError as exc:  # a refusal: no answer from these candidates
-                return self.answer("unknown", method="enumeration",
-                                   reason=f"tracecheck's evaluator cannot decide the "
-                                          f"predicate for its candidates: {exc.message}")
             if len(solutions) == self.limit:
                 more = True
                 break
             solutions.append({n: leaf[n] for n in self.names})
             if not self.all_solutions:
                 break
+        problem = problem or (undefined[0] if undefined else None)
         note = ""
         if problem is not None:
             where = " & ".join(f"{n} = {format_value(v)}" for n, v in problem[0].items())
@@ -301,8 +340,12 @@ class _Problem:
         if stopped and not solutions:
             return self.answer("unknown", method="enumeration", note=note,
                                reason=f"time limit ({self.timeout_s:g} s) after "
-                                      f"{clock.tried:,} of {math.prod(len(d) for d in domains.values()):,} "
-                                      "candidate values")
+                                      f"{clock.tried:,} of {size:,} candidate values")
+        if not solutions and problem is not None and not stopped:
+            # no solution, and a candidate where the predicate has no value: not FALSE but
+            # not well-defined, as ProB's enumeration finds it
+            raise WellDefinednessError(note, file=problem[1].file, source=problem[1].source,
+                                       line=problem[1].line, column=problem[1].column)
         status = "TRUE" if solutions else "FALSE"
         return self.answer(status, solutions=solutions, method="enumeration", note=note,
                            complete=not (more or stopped), more=True if more else
@@ -328,7 +371,8 @@ def _assignments(order, domains, checks, env, clock: _Clock) -> Iterator[dict]:
     depth (a conjunct with no value there is left to the whole predicate)."""
     def go(depth: int) -> Iterator[dict]:
         name = order[depth]
-        for value in domains[name]:
+        values = domains[name]
+        for value in (values(env) if callable(values) else values):
             if clock.tick():
                 return
             env[name] = value
@@ -342,6 +386,19 @@ def _assignments(order, domains, checks, env, clock: _Clock) -> Iterator[dict]:
         yield from go(0)
     else:
         yield env
+
+
+def _computed(fn, order: list, undefined: list):
+    """The values of an identifier an equality computes: the one its expression has here
+    (none where it has no value: the first such place goes to ``undefined``)."""
+    def values(env) -> list:
+        try:
+            return [fn(env)]
+        except WellDefinednessError as exc:
+            if not undefined:
+                undefined.append(({n: env[n] for n in order if n in env}, exc))
+            return []
+    return values
 
 
 def _passes(check, env) -> bool:
@@ -585,56 +642,3 @@ def _nearest_float(z3, v) -> float:
         return float(Fraction(v.numerator_as_long(), v.denominator_as_long()))
     except OverflowError:
         return math.inf
-
-
-
-
-#: A comprehension or quantifier solved for its bound variables lists at most this many
-#: solutions (more: refused, as a set too large to build).
-BOUND_LIMIT = 10_000
-
-
-def bound_solver(names: dict, sets: dict, *, source: Optional[str] = None,
-                 file: Optional[str] = None, timeout_s: float = 10.0):
-    """The hook of :attr:`tracecheck.b.evaluation.Compiler.solver` for ``tracecheck eval``:
-    bound variables that nothing in a comprehension's or quantifier's predicate walks
-    (``{x | x*x = 100}``, ``#x.(x > 2 & x < y)``) take every solution of the predicate for
-    them — only where the solver finds them all (FALSE: none; a complete list), else the
-    evaluator's own refusal with the solver's reason. ``names``: the types of the names in
-    scope (a machine's); the values of the others (outer bound variables) are typed from
-    ``env``."""
-    from ..b.btypes import INTEGER, Var, resolve, resolve_all
-    from ..b.typecheck import type_of_value, typecheck_formula
-
-    owners = {e: k for k, elems in sets.items() for e in elems}
-
-    def solver(pred: ast.Node, ids: tuple[str, ...], env: dict, problem) -> list[dict]:
-        typed = dict(names)
-        for k in ast.free_names(pred) - set(ids) - set(typed):
-            if k in env:
-                typed[k] = type_of_value(env[k], owners)
-        typed.update({n: Var() for n in ids})
-        try:
-            typecheck_formula(pred, typed, kind="predicate", source=source, file=file)
-        except TracecheckError:
-            raise problem from None
-        for n in ids:  # compared or computed with, typed by nothing else: ProB's INTEGER
-            t = resolve(typed[n])
-            if isinstance(t, Var) and t.numeric:
-                t.ref = INTEGER
-        types = {n: resolve_all(typed[n]) for n in ids}
-        if any("?" in show(t) for t in types.values()):
-            raise problem
-        answer = solve(pred, types, env, sets=sets, source=source, file=file,
-                       timeout_s=timeout_s, all_solutions=True, limit=BOUND_LIMIT)
-        if answer.status == "FALSE":
-            return []
-        if answer.status == "TRUE" and answer.complete:
-            return answer.solutions
-        why = answer.reason or (f"more than {BOUND_LIMIT:,} solutions" if answer.more
-                                else "not every solution found")
-        raise type(problem)(f"{problem.message}: the solver does not list every value "
-                            f"({why})", file=problem.file, source=problem.source,
-                            line=problem.line, column=problem.column,
-                            hint=problem.hint) from None
-    return solver

@@ -247,7 +247,7 @@ def _evaluator(model: Optional[Path], state: Optional[Path], solving: dict):
     definitions = machine.definitions if machine else _console_library(values)
 
     def evaluate(expr: str, where: str):
-        from ..checking.solving import bound_solver
+        from ..checking.bound_solver import bound_solver
 
         try:
             node, _ = check_formula(expr, names, file=where, definitions=definitions)

@@ -1,0 +1,65 @@
+"""Bound variables of ``tracecheck eval``'s comprehensions and quantifiers that nothing in
+their predicate walks, listed by the solver (:mod:`.solving`) — only where it lists them all.
+"""
+
+from __future__ import annotations
+
+from typing import Optional
+
+from ..b import ast
+from ..b.btypes import show
+from ..errors import TracecheckError
+from .solving import solve
+
+__all__ = ["bound_solver", "BOUND_LIMIT"]
+
+
+#: A comprehension or quantifier solved for its bound variables lists at most this many
+#: solutions (more: refused, as a set too large to build).
+BOUND_LIMIT = 10_000
+
+
+def bound_solver(names: dict, sets: dict, *, source: Optional[str] = None,
+                 file: Optional[str] = None, timeout_s: float = 10.0):
+    """The hook of :attr:`tracecheck.b.evaluation.Compiler.solver` for ``tracecheck eval``:
+    bound variables that nothing in a comprehension's or quantifier's predicate walks
+    (``{x | x*x = 100}``, ``#x.(x > 2 & x < y)``) take every solution of the predicate for
+    them — only where the solver finds them all (FALSE: none; a complete list), else the
+    evaluator's own refusal with the solver's reason. ``names``: the types of the names in
+    scope (a machine's); the values of the others (outer bound variables) are typed from
+    ``env``."""
+    from ..b.btypes import INTEGER, Var, resolve, resolve_all
+    from ..b.typecheck import type_of_value, typecheck_formula
+
+    owners = {e: k for k, elems in sets.items() for e in elems}
+
+    def solver(pred: ast.Node, ids: tuple[str, ...], env: dict, problem) -> list[dict]:
+        typed = dict(names)
+        for k in ast.free_names(pred) - set(ids) - set(typed):
+            if k in env:
+                typed[k] = type_of_value(env[k], owners)
+        typed.update({n: Var() for n in ids})
+        try:
+            typecheck_formula(pred, typed, kind="predicate", source=source, file=file)
+        except TracecheckError:
+            raise problem from None
+        for n in ids:  # compared or computed with, typed by nothing else: ProB's INTEGER
+            t = resolve(typed[n])
+            if isinstance(t, Var) and t.numeric:
+                t.ref = INTEGER
+        types = {n: resolve_all(typed[n]) for n in ids}
+        if any("?" in show(t) for t in types.values()):
+            raise problem
+        answer = solve(pred, types, env, sets=sets, source=source, file=file,
+                       timeout_s=timeout_s, all_solutions=True, limit=BOUND_LIMIT)
+        if answer.status == "FALSE":
+            return []
+        if answer.status == "TRUE" and answer.complete:
+            return answer.solutions
+        why = answer.reason or (f"more than {BOUND_LIMIT:,} solutions" if answer.more
+                                else "not every solution found")
+        raise type(problem)(f"{problem.message}: the solver does not list every value "
+                            f"({why})", file=problem.file, source=problem.source,
+                            line=problem.line, column=problem.column,
+                            hint=problem.hint) from None
+    return solver
