@@ -101,13 +101,17 @@ def excluded(case: Case) -> Optional[str]:
 
 # -- ProB's side
 def _normal(text: str) -> str:
-    """ProB's pretty-printed value in the ASCII-ready notation tracecheck reads: its minus
-    sign U+2212 outside strings as '-'."""
-    out, in_string = [], False
+    """ProB's pretty-printed value in the notation tracecheck reads: outside strings its
+    minus sign U+2212 as '-', and a record field's '∈' (the Unicode printing of
+    ``rec(a:1)`` in the notebooks) as ':'."""
+    out, in_string, escaped = [], False, False
     for ch in text:
-        if ch == '"':
+        if ch == '"' and not escaped:
             in_string = not in_string
-        out.append("-" if ch == "\u2212" and not in_string else ch)
+        escaped = in_string and ch == "\\" and not escaped
+        if not in_string:
+            ch = {"\u2212": "-", "\u2208": ":"}.get(ch, ch)
+        out.append(ch)
     return "".join(out)
 
 
@@ -150,7 +154,7 @@ def _evaluator(machine: Optional[str]):
     from tracecheck.cli.model import _evaluator as make
 
     return make(MACHINES / machine if machine else None, None,
-                {"timeout_s": 2.0, "limit": 100, "all_solutions": False})
+                {"timeout_s": 10.0, "limit": 100, "all_solutions": False})
 
 
 def ours(case: Case) -> tuple:
@@ -222,7 +226,7 @@ def judge(case: Case) -> tuple[str, str]:
         if mine[0] == "error" and mine[1] == "refused":
             return "refused", f"ProB: {kind} error; ours refused: {mine[2][:80]}"
         if mine[0] == "solved" and mine[1] == "unknown":
-            return "same", f"ProB: {kind} error; ours: unknown"
+            return "refused", f"ProB: {kind} error; ours: unknown ({mine[3][:80]})"
         return "different", f"ProB: {kind} error; ours: {_show(mine)}"
     if mine[0] == "error":
         return "refused", f"{mine[1]}: {mine[2][:120]}"
