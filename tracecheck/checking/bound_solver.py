@@ -9,7 +9,6 @@ from typing import Optional
 from ..b import ast
 from ..b.btypes import show
 from ..errors import TracecheckError
-from .solving import solve
 
 __all__ = ["bound_solver", "BOUND_LIMIT"]
 
@@ -34,6 +33,8 @@ def bound_solver(names: dict, sets: dict, *, source: Optional[str] = None,
     owners = {e: k for k, elems in sets.items() for e in elems}
 
     def solver(pred: ast.Node, ids: tuple[str, ...], env: dict, problem) -> list[dict]:
+        from .solving import solve  # only where a bound variable needs it (eval's start-up)
+
         typed = dict(names)
         for k in ast.free_names(pred) - set(ids) - set(typed):
             if k in env:
