@@ -110,19 +110,21 @@ try:
     main({args!r})
 except SystemExit:
     pass
-print("z3" in sys.modules, file=sys.stderr)
+print("z3" in sys.modules, "tracecheck.checking.solving" in sys.modules, file=sys.stderr)
 """
 
 
-@pytest.mark.parametrize("args,z3", [
-    (["eval", "1 + 1"], False),
-    (["eval", "x : 1..3 & x > 2"], False),  # the evaluator walks it: no solver
-    (["eval", "x * x = 100"], True),
-], ids=["value", "finite", "solver"])
-def test_z3_is_imported_only_when_the_solver_is_asked(args, z3):
+@pytest.mark.parametrize("args,z3,solving", [
+    (["eval", "1 + 1"], False, False),
+    (["eval", "{x | x : 1..3 & x > 1}"], False, False),  # walked: the evaluator's own
+    (["eval", "x : 1..3 & x > 2"], False, True),  # the evaluator walks it: no z3
+    (["eval", "x * x = 100"], True, True),
+    (["eval", "{x | x * x = 100}"], True, True),  # a bound variable nothing walks
+], ids=["value", "comprehension", "finite", "solver", "bound"])
+def test_z3_is_imported_only_when_the_solver_is_asked(args, z3, solving):
     proc = subprocess.run([sys.executable, "-c", SCRIPT.format(args=args)],
                           capture_output=True, text=True, cwd=ROOT, timeout=120)
-    assert proc.stderr.strip().splitlines()[-1] == str(z3)
+    assert proc.stderr.strip().splitlines()[-1] == f"{z3} {solving}"
 
 
 # ------------------------------------------------------------------ from ProB's notebooks
