@@ -38,7 +38,7 @@ def test_no_formula_gets_another_value_than_prob_s(verdicts):
 def test_prob_s_answer_for_at_least_the_share_measured(verdicts):
     counts = Counter(v for _, v, _ in verdicts)
     counted = counts["same"] + counts["refused"] + counts["different"]
-    assert counted == 385 and counts["same"] >= 308  # four in five (308 of 385): issue 27
+    assert counted == 385 and counts["same"] >= 310  # 81 %, at least four in five: issue 27
 
 
 @pytest.mark.parametrize("case_id,verdict", [

@@ -357,6 +357,63 @@ def _prob_lib() -> dict[str, Function]:
     }
 
 
+def _sccs(r: Any) -> frozenset:
+    """The strongly connected components of a finite relation (Tarjan's, iteratively). A
+    node on no cycle is refused: ProB's examples show components on cycles and nodes with
+    a loop (``{53}``), not what it gives for the others."""
+    pairs = _finite_items(r)
+    succ: dict = {}
+    for a, b in pairs:
+        succ.setdefault(a, []).append(b)
+        succ.setdefault(b, [])
+    index: dict = {}
+    low: dict = {}
+    stack: list = []
+    on: set = set()
+    out = []
+    for root in succ:
+        if root in index:
+            continue
+        work = [(root, iter(succ[root]))]
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on.add(root)
+        while work:
+            node, it = work[-1]
+            nxt = next(it, None)
+            if nxt is not None:
+                if nxt not in index:
+                    index[nxt] = low[nxt] = len(index)
+                    stack.append(nxt)
+                    on.add(nxt)
+                    work.append((nxt, iter(succ[nxt])))
+                elif nxt in on:
+                    low[node] = min(low[node], index[nxt])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                comp = set()
+                while True:
+                    x = stack.pop()
+                    on.discard(x)
+                    comp.add(x)
+                    if x == node:
+                        break
+                if len(comp) == 1 and node not in succ[node]:
+                    raise Refused(f"SCCS of a relation with a node on no cycle ({_shown(node)})")
+                out.append(frozenset(comp))
+    return frozenset(out)
+
+
+def _sccs_lib() -> dict[str, Function]:
+    def sig():
+        t = Var()
+        return (Pow(Prod(t, t)),), Pow(Pow(t))
+    return {"SCCS": Function("SCCS", sig, _sccs)}
+
+
 def _regex_lib() -> dict[str, Function]:
     from .regex import regex_functions
 
@@ -371,6 +428,7 @@ LIBRARY_FILES: dict[str, dict[str, Function]] = {
     "LibraryStrings.def": _strings(),
     "LibraryRegex.def": _regex_lib(),
     "LibraryProB.def": _prob_lib(),
+    "SCCS.def": _sccs_lib(),
 }
 
 #: Files of ProB's standard library tracecheck does not implement (a clear refusal).
@@ -379,7 +437,6 @@ NOT_IMPLEMENTED = {
     "LibraryIO.def": "it reads and writes files", "LibraryFiles.def": "it reads files",
     "LibraryMeta.def": "it describes ProB's state space",
     "LibraryXML.def": "records are not supported", "LibraryHash.def": "SICStus' term hash",
-    "SCCS.def": "not implemented",
     "LibraryBits.def": "not implemented",
 }
 
