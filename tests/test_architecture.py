@@ -115,37 +115,10 @@ class Package:
 
 def strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
     """The strongly connected components of more than one node (each sorted)."""
-    index: dict[str, int] = {}
-    low: dict[str, int] = {}
-    stack: list[str] = []
-    on_stack: set[str] = set()
-    found = []
+    from tracecheck.graphs import components
 
-    def visit(v: str) -> None:  # Tarjan's algorithm; the graphs here are shallow
-        index[v] = low[v] = len(index)
-        stack.append(v)
-        on_stack.add(v)
-        for w in sorted(graph.get(v, ())):
-            if w not in index:
-                visit(w)
-                low[v] = min(low[v], low[w])
-            elif w in on_stack:
-                low[v] = min(low[v], index[w])
-        if low[v] == index[v]:
-            component = []
-            while True:
-                w = stack.pop()
-                on_stack.discard(w)
-                component.append(w)
-                if w == v:
-                    break
-            if len(component) > 1:
-                found.append(sorted(component))
-
-    for v in sorted(graph):
-        if v not in index:
-            visit(v)
-    return sorted(found)
+    ordered = {v: sorted(graph.get(v, ())) for v in sorted(graph)}
+    return sorted(sorted(c) for c in components(ordered) if len(c) > 1)
 
 
 # ------------------------------------------------------------------ the four checks

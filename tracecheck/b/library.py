@@ -358,53 +358,22 @@ def _prob_lib() -> dict[str, Function]:
 
 
 def _sccs(r: Any) -> frozenset:
-    """The strongly connected components of a finite relation (Tarjan's, iteratively). A
-    node on no cycle is refused: ProB's examples show components on cycles and nodes with
-    a loop (``{53}``), not what it gives for the others."""
-    pairs = _finite_items(r)
+    """The strongly connected components of a finite relation. A node on no cycle is
+    refused: ProB's examples show components on cycles and nodes with a loop (``{53}``),
+    not what it gives for the others."""
+    from ..graphs import components
+
     succ: dict = {}
-    for a, b in pairs:
+    for a, b in _finite_items(r):
         succ.setdefault(a, []).append(b)
         succ.setdefault(b, [])
-    index: dict = {}
-    low: dict = {}
-    stack: list = []
-    on: set = set()
-    out = []
-    for root in succ:
-        if root in index:
-            continue
-        work = [(root, iter(succ[root]))]
-        index[root] = low[root] = len(index)
-        stack.append(root)
-        on.add(root)
-        while work:
-            node, it = work[-1]
-            nxt = next(it, None)
-            if nxt is not None:
-                if nxt not in index:
-                    index[nxt] = low[nxt] = len(index)
-                    stack.append(nxt)
-                    on.add(nxt)
-                    work.append((nxt, iter(succ[nxt])))
-                elif nxt in on:
-                    low[node] = min(low[node], index[nxt])
-                continue
-            work.pop()
-            if work:
-                low[work[-1][0]] = min(low[work[-1][0]], low[node])
-            if low[node] == index[node]:
-                comp = set()
-                while True:
-                    x = stack.pop()
-                    on.discard(x)
-                    comp.add(x)
-                    if x == node:
-                        break
-                if len(comp) == 1 and node not in succ[node]:
-                    raise Refused(f"SCCS of a relation with a node on no cycle ({_shown(node)})")
-                out.append(frozenset(comp))
-    return frozenset(out)
+    found = components(succ)
+    for comp in found:
+        if len(comp) == 1:
+            (node,) = comp
+            if node not in succ[node]:
+                raise Refused(f"SCCS of a relation with a node on no cycle ({_shown(node)})")
+    return frozenset(found)
 
 
 def _sccs_lib() -> dict[str, Function]:
