@@ -247,3 +247,28 @@ def test_a_shield_changed_on_the_way_is_refused():
     name, sha, path, text, file = shield.__reduce__()[1]
     with pytest.raises(InputError, match="arrived changed"):
         _rebuilt(name, sha, path, text.replace("40.0", "30.0"), file)
+
+
+def test_postconditions_over_views_and_copies_agree(toy, run_file, monkeypatch):
+    """Postconditions are evaluated over every neighbouring pair of rows at once (views of
+    the columns), the steps of each operation picked out; where that fails (a pair that is
+    no step may have no value), over copies of the steps alone. Both give one answer."""
+    import tracecheck.checking.replaying as R
+    from tracecheck.errors import EvaluationError
+
+    fast = replay([run_file], toy)
+    assert fast.per_episode[2].postcondition_violations == [3]
+
+    def refuse(*_):
+        raise EvaluationError("a pair that is no step")
+
+    monkeypatch.setattr(R, "shifted_pairs", refuse)
+    slow = replay([run_file], toy)
+    assert [e.postcondition_violations for e in slow.per_episode] == \
+        [e.postcondition_violations for e in fast.per_episode]
+    monkeypatch.undo()
+
+    def no_copies(*_):
+        raise AssertionError("the copies were made")
+    monkeypatch.setattr(R, "step_pairs", no_copies)
+    assert replay([run_file], toy).per_episode[2].postcondition_violations == [3]

@@ -159,6 +159,32 @@ class Columns:
         return state
 
 
+def shifted_pairs(cols: Columns) -> Columns:
+    """Columns over every pair of neighbouring rows: ``v`` the state at row i + 1, ``v$0``
+    the one at row i — views of the columns, not copies (pairs across two episodes are
+    among them: a caller keeps only the rows it asks about).
+
+    >>> pairs = shifted_pairs(Columns.from_states([{"x": 1}, {"x": 5}, {"x": 7}]))
+    >>> pairs.numbers["x"].tolist(), pairs.numbers["x$0"].tolist()
+    ([5, 7], [1, 5])
+    """
+    out = Columns(n=max(cols.n - 1, 0), elements=cols.elements)
+    for name, arr in cols.numbers.items():
+        out.numbers[name], out.numbers[name + "$0"] = arr[1:], arr[:-1]
+    for name, arr in cols.booleans.items():
+        out.booleans[name], out.booleans[name + "$0"] = arr[1:], arr[:-1]
+    for name, (vals, defined) in cols.functions.items():
+        out.functions[name] = (vals[1:], defined[1:])
+        out.functions[name + "$0"] = (vals[:-1], defined[:-1])
+    for name, mask in cols.masks.items():
+        out.masks[name], out.masks[name + "$0"] = mask[1:], mask[:-1]
+    for name, values in cols.others.items():
+        out.others[name], out.others[name + "$0"] = values[1:], values[:-1]
+    if cols.label is not None:
+        out.label = lambda i: f"{cols.label(int(i) + 1)} (and the state before)"
+    return out
+
+
 def step_pairs(cols: Columns, rows: np.ndarray) -> Columns:
     """Columns over step pairs: ``v`` the state at ``rows``, ``v$0`` the state before it.
 

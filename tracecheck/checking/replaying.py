@@ -14,6 +14,7 @@ values lay from the nearest the shield allowed (Euclidean, in the parameters' un
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,10 +23,10 @@ from typing import Any, Callable, Iterable, Optional, Sequence
 import numpy as np
 
 from ..b import ast
-from ..b.columns import step_pairs
+from ..b.columns import Columns, shifted_pairs, step_pairs
 from ..b.linear import real_parameters
 from ..episodes.columns import RunColumns, read_columns
-from ..errors import InputError, UnsupportedError
+from ..errors import InputError, TracecheckError, UnsupportedError
 from .executors import map_files
 from .shield import Shield
 from ..jsontext import plain
@@ -215,6 +216,7 @@ def _postconditions(shield: Shield, cols: RunColumns, rows: np.ndarray,
     """For each step row, whether the step breaks its operation's postcondition."""
     machine = shield.machine
     bad = np.zeros(len(rows), dtype=bool)
+    shifted: Optional[Columns] = None  # every neighbouring pair, as views (no copies)
     for code, name in enumerate(cols.action_names):
         which = np.flatnonzero(actions == code)
         if not len(which) or name not in machine.operations:
@@ -229,10 +231,17 @@ def _postconditions(shield: Shield, cols: RunColumns, rows: np.ndarray,
                           **{p: float(cols.parameters[p][r]) for p in params}}
                 bad[i] = not machine.effect_ok(name, before, cols.states.row(r))
             continue
-        pairs = step_pairs(cols.states, rows[which])
-        for p in params:
-            pairs.numbers[p] = cols.parameters[p][rows[which]]
-        bad[which] = ~machine.postcondition_batch(name, pairs)
+        try:  # over every pair at once (views), the steps of this operation picked out
+            if shifted is None:
+                shifted = shifted_pairs(cols.states)
+            views = dataclasses.replace(shifted, numbers={
+                **shifted.numbers, **{p: cols.parameters[p][1:] for p in params}})
+            bad[which] = ~machine.postcondition_batch(name, views)[rows[which] - 1]
+        except TracecheckError:  # maybe a pair that is no step of it: only its steps
+            pairs = step_pairs(cols.states, rows[which])
+            for p in params:
+                pairs.numbers[p] = cols.parameters[p][rows[which]]
+            bad[which] = ~machine.postcondition_batch(name, pairs)
     return bad
 
 
