@@ -172,6 +172,25 @@ def _count_reads(monkeypatch) -> list:
     return reads
 
 
+def test_past_its_tail_a_campaign_s_episodes_are_counted_not_listed(tmp_path, monkeypatch):
+    """A campaign of 10^5 episodes has tens of thousands that matter: the report lists the
+    first ones and counts the rest by kind (replay --csv lists them all)."""
+    import tracecheck.render.report as R
+
+    monkeypatch.setattr(R, "TAIL", 4)
+    out = tmp_path / "report.html"
+    render_report([NONE], out, shield=load_shield("paper"), pset=load_properties("generic"),
+                  max_pages=2)
+    page = out.read_text()
+    hidden = page[page.index("<details>"):]
+    assert "<summary>16 more episode(s)</summary>" in hidden
+    assert len(re.findall(r"<tr><td>\d+</td>", hidden)) == 4
+    note = re.search(r"… and (\d+) more, not listed: ([^.]*)\.", hidden)
+    assert note and note.group(1) == "12"
+    counts = [int(n) for n in re.findall(r"(\d+) with ", note.group(2))]
+    assert sum(counts) == 12 and "replay --csv</code> lists every episode" in hidden
+
+
 def test_the_report_reads_each_run_once_for_its_columns_and_once_for_its_episodes(
         monkeypatch, tmp_path):
     """The columns go to the statistics, replay and re-simulation; the episodes its

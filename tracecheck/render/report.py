@@ -40,6 +40,9 @@ td.pic svg{display:block}.bad{color:#c62828;font-weight:600}.good{color:#2e7d32;
 
 #: how many episodes per run are shown before the rest is collapsed
 SHOWN = 8
+#: rows of a run's collapsed tail of episodes that matter; the rest are counted by kind (a
+#: campaign of 10^5 episodes has tens of thousands: ``replay --csv`` lists every one)
+TAIL = 500
 #: significance level of the sentences
 ALPHA = 0.05
 
@@ -322,7 +325,8 @@ def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter
     head = ["episode", "steps", "first blocked step", "crash step", crash_header,
             "picture", "viewer"]
     rows = []
-    for i, e in enumerate(ranked):
+    counted = ranked[SHOWN + TAIL:]
+    for i, e in enumerate(ranked[:SHOWN + TAIL]):
         link = ""
         if i < len(paged):
             stem = page_stem.get(str(e.file)) or safe_name(Path(e.file).stem)
@@ -343,9 +347,25 @@ def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter
     head_row = "<tr>" + "".join(f"<th>{_e(h)}</th>" for h in head) + "</tr>"
     text = (f"<h3>{_e(name)}</h3><table>{head_row}{''.join(rows[:SHOWN])}</table>")
     if len(rows) > SHOWN:
-        text += (f"<details><summary>{len(rows) - SHOWN} more episode(s)</summary>"
-                 f"<table>{head_row}{''.join(rows[SHOWN:])}</table></details>")
+        text += (f"<details><summary>{len(rows) - SHOWN + len(counted)} more episode(s)"
+                 f"</summary><table>{head_row}{''.join(rows[SHOWN:])}</table>"
+                 f"{_counted(counted, crash_header, crash_cell)}</details>")
     return text
+
+
+def _counted(episodes: list, crash_header: str, crash_cell) -> str:
+    """The episodes past the tail's rows, counted by what the crash column says of them."""
+    if not episodes:
+        return ""
+    kinds: dict[str, int] = {}
+    for e in episodes:
+        verdict = crash_cell(e)
+        kind = f"{crash_header}: {verdict}" if verdict else "no crash"
+        kinds[kind] = kinds.get(kind, 0) + 1
+    listed = "; ".join(f"{n} with {_e(k)}" for k, n in
+                       sorted(kinds.items(), key=lambda kv: -kv[1]))
+    return (f"<p class='note'>… and {len(episodes)} more, not listed: {listed}. "
+            "<code>tracecheck replay --csv</code> lists every episode.</p>")
 
 
 def _pictures(result, shown: list, adapter, shield) -> dict[int, str]:
