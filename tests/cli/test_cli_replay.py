@@ -155,6 +155,34 @@ def test_replay_lists_the_first_episodes_that_matter_or_all(capsys, tmp_path):
     assert all(f"\n {i} " in out or f"\n{i} " in out for i in (0, 44))
 
 
+def test_a_campaign_s_episodes_are_aligned_lines_with_the_table_s_cells(capsys, tmp_path,
+                                                                         monkeypatch):
+    """--all over more than PLAIN_ROWS episodes: the same cells, as aligned lines (rich's
+    layout of 10^4 rows took 2 s)."""
+    import tracecheck.render.text as T
+    from tests.helpers import episode
+    from tracecheck.episodes import EpisodeWriter, new_header
+
+    path = tmp_path / "many.mcap"
+    with EpisodeWriter(path, new_header("recorded")) as w:
+        for i in range(12):
+            w.write(episode(i, 2, crash_at_end=True))
+    code, rich_out, _ = run(capsys, "replay", str(path), "--shield", "paper", "--all")
+    monkeypatch.setattr(T, "PLAIN_ROWS", 5)
+    code2, out, _ = run(capsys, "replay", str(path), "--shield", "paper", "--all")
+    assert code == code2 == 0
+    lines = out[out.index("episodes that matter\n"):].splitlines()[1:14]
+    assert lines[0].split()[:3] == ["ep.", "steps", "first"]
+    assert [line.split()[0] for line in lines[1:]] == [str(i) for i in range(12)]
+    starts = [line.index(lines[0].split()[1]) for line in lines[:1]]  # aligned columns
+    assert all(len(line) >= starts[0] for line in lines)
+    for i in range(12):  # each row's cells as rich prints them (rich wraps "other" on)
+        mine = next(line for line in lines[1:] if line.split()[0] == str(i)).split()
+        theirs = next(line for line in rich_out.splitlines()
+                      if line.split()[:1] == [str(i)]).split()
+        assert mine[:len(theirs)] == theirs and len(mine) >= 6
+
+
 def test_the_replay_report_fits_80_columns_without_breaking_words(capsys):
     """The main job's output: every line within 80 columns, headers whole, actions
     abbreviated and explained once."""

@@ -174,7 +174,7 @@ def _count_reads(monkeypatch) -> list:
 
 def test_past_its_tail_a_campaign_s_episodes_are_counted_not_listed(tmp_path, monkeypatch):
     """A campaign of 10^5 episodes has tens of thousands that matter: the report lists the
-    first ones and counts the rest by kind (replay --csv lists them all)."""
+    first ones and counts the rest by kind (replay --format csv lists them all)."""
     import tracecheck.render.report as R
 
     monkeypatch.setattr(R, "TAIL", 4)
@@ -188,7 +188,7 @@ def test_past_its_tail_a_campaign_s_episodes_are_counted_not_listed(tmp_path, mo
     note = re.search(r"… and (\d+) more, not listed: ([^.]*)\.", hidden)
     assert note and note.group(1) == "12"
     counts = [int(n) for n in re.findall(r"(\d+) with ", note.group(2))]
-    assert sum(counts) == 12 and "replay --csv</code> lists every episode" in hidden
+    assert sum(counts) == 12 and "replay --format csv</code> lists every episode" in hidden
 
 
 def test_the_report_reads_each_run_once_for_its_columns_and_once_for_its_episodes(

@@ -41,7 +41,7 @@ td.pic svg{display:block}.bad{color:#c62828;font-weight:600}.good{color:#2e7d32;
 #: how many episodes per run are shown before the rest is collapsed
 SHOWN = 8
 #: rows of a run's collapsed tail of episodes that matter; the rest are counted by kind (a
-#: campaign of 10^5 episodes has tens of thousands: ``replay --csv`` lists every one)
+#: campaign of 10^5 episodes has tens of thousands: ``replay --format csv`` lists every one)
 TAIL = 500
 #: significance level of the sentences
 ALPHA = 0.05
@@ -365,7 +365,7 @@ def _counted(episodes: list, crash_header: str, crash_cell) -> str:
     listed = "; ".join(f"{n} with {_e(k)}" for k, n in
                        sorted(kinds.items(), key=lambda kv: -kv[1]))
     return (f"<p class='note'>… and {len(episodes)} more, not listed: {listed}. "
-            "<code>tracecheck replay --csv</code> lists every episode.</p>")
+            "<code>tracecheck replay --format csv</code> lists every episode.</p>")
 
 
 def _pictures(result, shown: list, adapter, shield) -> dict[int, str]:

@@ -9,7 +9,11 @@ from rich.text import Text
 from ..checking.diffing import ChangedStep, DiffReport
 from ..checking.replaying import (MISMATCH, NEW_CRASH, NOT_PREVENTED, PREVENTED, EpisodeReplay,
                                ReplayReport)
-from .tables import TableData, markdown, md_text
+from .tables import TableData, fitted, markdown, md_text
+
+#: above this many rows, a table of episodes is printed as aligned lines (rich's layout of
+#: 10^4 rows takes seconds)
+PLAIN_ROWS = 200
 
 __all__ = ["replay_text", "replay_markdown", "replay_table", "diff_text", "diff_table",
            "crash_column", "literal_row", "continuous_cell", "action_call", "NOT_A_FLOAT"]
@@ -233,6 +237,11 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
     _, short_header, crash_cell = crash_column(r)
     headers = _with_crash_header(SHORT_HEADERS, short_header)
     shown = [_row(e, crash_cell, lambda a: codes.get(a, a)) for e in matters[:rows]]
+    if len(shown) > PLAIN_ROWS:  # --all of a campaign: aligned lines, not rich's layout
+        cut = 1 if one_file else 0
+        console.file.write("episodes that matter\n" + "\n".join(fitted(TableData.of(
+            headers[cut:], [[str(c) for c in row[cut:]] for row in shown]), 10 ** 6)) + "\n")
+        shown = []
     # "other" wraps between words only: never narrower than its longest word
     longest = max((len(w) for row in shown for w in row[-1].split()), default=5)
     for header in headers[1:] if one_file else headers:
@@ -244,7 +253,8 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
             table.add_column(header, no_wrap=True, overflow="fold")
     for row in shown:
         literal_row(table, row[1:] if one_file else row)
-    console.print(table)
+    if shown:
+        console.print(table)
     for line in _continuous_lines(r, matters[:rows]):
         console.print(Text(line), highlight=False, soft_wrap=False)
     legend = ", ".join(f"{c} = {a}" for a, c in sorted(codes.items(), key=lambda x: x[1])
