@@ -210,10 +210,13 @@ def _diff_file(cols: RunColumns, a: Shield, b: Shield, report: DiffReport,
     report.newly_blocked += int((fb & ~fa).sum())
     report.newly_allowed += int((fa & ~fb).sum())
     report.enabled_set_changes += int(np.any(ma != mb, axis=1).sum())
-    for i in np.flatnonzero(changed):
-        r = rows[i]
+    enabled = _EnabledNames(names)  # a campaign has 10^5 changed steps: names by pattern
+    params = {action: _parameter_names(cols, a, b, action) for action in cols.action_names}
+    for i in np.flatnonzero(changed).tolist():
+        r = int(rows[i])
         action = cols.action_names[cols.action[r]]
-        parameters = _parameters(cols, a, b, action, r)
+        parameters = None if params[action] is None else \
+            {p: float(cols.parameters[p][r]) for p in params[action]}
         allowed = None
         if parameters is not None:
             if details > 0:
@@ -225,8 +228,7 @@ def _diff_file(cols: RunColumns, a: Shield, b: Shield, report: DiffReport,
             file=cols.path, episode=int(cols.episode[r]), step=int(cols.step[r]),
             action=action, feasible_under_shield=bool(fa[i]),
             feasible_under_against=bool(fb[i]),
-            enabled_shield=[n for n, ok in zip(names, ma[r - 1]) if ok],
-            enabled_against=[n for n, ok in zip(names, mb[r - 1]) if ok],
+            enabled_shield=enabled(ma[r - 1]), enabled_against=enabled(mb[r - 1]),
             parameters=parameters, allowed=allowed))
     first_a = _first_false(cols, rows, fa)
     first_b = _first_false(cols, rows, fb)
@@ -253,16 +255,31 @@ def _first_false(cols: RunColumns, rows: np.ndarray, ok: np.ndarray) -> list[Opt
     return out
 
 
-def _parameters(cols: RunColumns, a: Shield, b: Shield, action: str, r: int
-                ) -> Optional[dict[str, float]]:
-    """The recorded values of step row ``r``'s action, if either shield has it as an
-    operation with REAL parameters (a continuous action); else None."""
+def _parameter_names(cols: RunColumns, a: Shield, b: Shield, action: str
+                     ) -> Optional[tuple[str, ...]]:
+    """The parameters whose recorded values a step of ``action`` shows, if either shield
+    has it as an operation with REAL parameters (a continuous action); else None."""
     for shield in (a, b):
         op = shield.machine.operations.get(action)
         if op is not None and real_parameters(op) and \
                 all(p in cols.parameters for p in op.params):
-            return {p: float(cols.parameters[p][r]) for p in op.params}
+            return tuple(op.params)
     return None
+
+
+class _EnabledNames:
+    """The names of the operations a row of an enabled matrix allows (a new list each
+    time), found once per pattern of the row."""
+
+    def __init__(self, names: tuple[str, ...]) -> None:
+        self.names, self.seen = names, {}
+
+    def __call__(self, row: np.ndarray) -> list[str]:
+        key = row.tobytes()
+        found = self.seen.get(key)
+        if found is None:
+            found = self.seen[key] = [n for n, ok in zip(self.names, row.tolist()) if ok]
+        return list(found)
 
 
 def _allowed_change(a: Shield, b: Shield, action: str, state: dict) -> AllowedChange:
