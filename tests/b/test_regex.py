@@ -49,6 +49,9 @@ from tests.helpers import run
     ('REGEX_MATCH("ab\\n","ab$")', "FALSE"),
     # . is not a line terminator
     ('REGEX_MATCH("a\\rb","a.b")', "FALSE"),
+    ('REGEX_MATCH("-5", "[-[:digit:]]+")', "TRUE"),  # a '-' first in a class is itself
+    ('IS_REGEX("*a")', "FALSE"),  # nothing to repeat
+    ('REGEX_MATCH("a b", "a\\sb")', "TRUE"),
 ], ids=lambda v: v if len(v) < 40 else v[:40])
 def test_prob_s_documented_answers(capsys, formula, value):
     assert run(capsys, "eval", "--timeout", "2", formula) == (0, value + "\n", "")
@@ -62,7 +65,24 @@ def test_prob_s_documented_answers(capsys, formula, value):
     ('REGEX_REPLACE("ab","a","$x")', "$ followed by 'x'"),
     ('REGEX_MATCH("a{","a{")', "a '{' that is not a quantifier"),
     ('REGEX_SEARCH("ab",2,"^b")', "^ or \\b in a search that does not start"),
-], ids=["lookbehind", "unicode-w", "empty-match", "python-group", "dollar", "brace", "anchor"])
+    # found by review: each read differently by Python's re and by ECMAScript
+    ('REGEX_MATCH("A", "[[:digit:]-a]")', "a range with a class of characters at one end"),
+    ('REGEX_MATCH("5", "[0-[:digit:]]")', "a range with a class of characters at one end"),
+    ('REGEX_MATCH("x", "[\\d-z]")', "a range with a class of characters at one end"),
+    ('REGEX_MATCH("b", "(a)?\\1b")', "\\1 refers to a group that may take part in no match"),
+    ('REGEX_MATCH("b", "(?:(a)|b)\\1")', "\\1 refers to a group"),
+    ('REGEX_MATCH("ab", "(?!(a))\\1ab")', "\\1 refers to a group"),
+    ('REGEX_MATCH("aa", "a*+a")', "a quantifier right after a quantifier"),
+    ('IS_REGEX("a++")', "a quantifier right after a quantifier"),
+    ('REGEX_MATCH("a","a{4294967295}")', "a repetition count or nesting too large"),
+    ('REGEX_MATCH("aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa!", "(a|aa)*b")',
+     "its matching can take exponential time"),
+    ('REGEX_SEARCH("ab",1,"(?:(a)|b)c")', "submatches of a group that may take part in no"),
+    ('REGEX_REPLACE("ab","(a)?b","$1")', "$1 names a group that may take part in no match"),
+], ids=["lookbehind", "unicode-w", "empty-match", "python-group", "dollar", "brace", "anchor",
+        "class-range", "range-class", "d-range", "optional-ref", "branch-ref", "lookahead-ref",
+        "possessive", "possessive-is", "huge-count", "exponential", "branch-submatch",
+        "optional-replace"])
 def test_what_could_be_read_differently_is_refused(capsys, formula, why):
     code, out, err = run(capsys, "eval", formula)
     assert code == 2 and out == "" and "not supported: " in err and why in err, err
@@ -81,6 +101,13 @@ def test_in_a_machine_as_prob_s_def_file_brings_them(capsys, tmp_path):
         (0, "TRUE\n4\n{1,2}\n", "")
     code, out, err = run(capsys, "eval", "-m", model, 'ASSERT_EXPR(bool(2<1),"too small",3)')
     assert code == 2 and "the assertion failed: too small" in err
+
+
+def test_ecmascript_s_whitespace_is_not_python_s():
+    """Python's \\s also takes U+001C..U+001F (found by review): ECMAScript's does not."""
+    from tracecheck.b.regex import _match
+
+    assert not _match("\x1c", "\\s") and _match(" ", "\\s") and _match("\x1f", "\\S")
 
 
 def test_strings_read_in_prob_s_notation_keep_unknown_escapes():

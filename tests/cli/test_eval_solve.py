@@ -225,3 +225,26 @@ def test_no_solution_where_a_candidate_has_no_value_is_not_false(capsys):
     assert "the predicate has no value where x = 0: division by zero in `10 / x`" in err
     code, out, err = run(capsys, "eval", 'x=0 & res=ASSERT_EXPR(bool(x>0),"no",10+x)')
     assert code == 2 and "the assertion failed: no" in err
+
+
+def test_a_declared_external_function_with_other_parameters_is_refused(capsys, tmp_path):
+    model = tmp_path / "M1.mch"
+    model.write_text("MACHINE M1\nDEFINITIONS\n"
+                     " EXTERNAL_FUNCTION_STRING_APPEND == STRING*STRING --> STRING;\n"
+                     ' STRING_APPEND(x,y,z) == "";\n'
+                     " EXTERNAL_FUNCTION_RSQRT == REAL --> REAL;\n RSQRT(x) == 0.0\nEND\n")
+    assert run(capsys, "eval", "-m", model, "RSQRT(4.0)") == (0, "2.0\n", "")
+    code, out, err = run(capsys, "eval", "-m", model, 'STRING_APPEND("a","b","c")')
+    assert code == 2 and "which tracecheck implements with 2 parameter(s), not 3" in err
+
+
+@pytest.mark.parametrize("formula", [
+    "#x.(x / 0 = 1)", "{x | x / 0 = 1}", "not(#x.(x / 0 = 1))", "#x.(x*x < 4 & 10/x = 7)",
+    "{x | x*x < 4 & 10/x /= 7}", "{x,y | x*x < 4 & y = 10/x}",
+    "card({x | x mod 2 = 0 & x < 4})", "x / 0 = 1",
+])
+def test_a_bound_or_free_variable_at_a_point_without_value_is_the_error(capsys, formula):
+    """Found by review: the solver's FALSE (or a complete list) left out the points where
+    the predicate has no value; B's (and ProB's) answer is that it is not well-defined."""
+    code, out, err = run(capsys, "eval", formula)
+    assert code == 2 and out == "" and "the predicate has no value where" in err, err

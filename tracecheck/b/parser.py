@@ -424,8 +424,6 @@ def _externals(defs: dict[str, Definition], text, file) -> dict[str, Definition]
     """A definition that ProB calls as an external function (an ``EXTERNAL_FUNCTION_NAME``
     declares it) has a placeholder body, not its value (``PROB_INFO_STR(x) == ""``): where
     tracecheck implements the function, its own implementation; else using it is refused."""
-    from .library import FUNCTIONS
-
     native = {}
     for lib in LIBRARY_FILES:
         native.update(library_bodies(lib) or {})
@@ -438,12 +436,15 @@ def _externals(defs: dict[str, Definition], text, file) -> dict[str, Definition]
         if name in native and len(native[name][0]) == len(d.params):
             params, body = native[name]
             defs[name] = Definition(name, params, "formula", body, d.line)
-        elif name in ast.BUILTIN_FUNCTIONS or name in FUNCTIONS:
-            continue  # built in everywhere: the call is tracecheck's own
-        else:
+        elif name in ast.BUILTIN_FUNCTIONS:
+            del defs[name]  # built in everywhere: the call is tracecheck's own (its arity too)
+        else:  # unknown, or with other parameters than tracecheck's own: refused
+            which = (f"which tracecheck implements with {len(native[name][0])} parameter(s), "
+                     f"not {len(d.params)}" if name in native else
+                     "which tracecheck does not implement")
             why = UnsupportedError(f"{name} is one of ProB's external functions "
-                               f"({key}), which tracecheck does not implement; its "
-                               "DEFINITIONS body is ProB's placeholder, not its value",
+                               f"({key}), {which}; its DEFINITIONS body is ProB's "
+                               "placeholder, not its value",
                                file=file, line=d.line, source=text,
                                hint="write the value it stands for in the formula instead")
             defs[name] = Definition(name, d.params, "unparsed", why, d.line)

@@ -47,7 +47,12 @@ _POSIX = {
     "xdigit": lambda c: c in "0123456789abcdefABCDEF",
     "punct": lambda c: c.isascii() and not c.isalnum() and c.isprintable() and c != " ",
 }
-_ASCII_CLASSES = "dDwWsSbB"
+#: ECMAScript's classes on ASCII text (Python's \\s would also take U+001C-U+001F)
+_ASCII_CLASSES = {"d": "[0-9]", "D": "[^0-9]", "w": "[A-Za-z0-9_]", "W": "[^A-Za-z0-9_]",
+                  "s": "[\\t\\n\\v\\f\\r ]", "S": "[^\\t\\n\\v\\f\\r ]",
+                  "b": "\\b", "B": "\\B"}
+#: … and inside a character class (where a negated one cannot be written)
+_IN_CLASS = {"d": "0-9", "w": "A-Za-z0-9_", "s": "\\t\\n\\v\\f\\r "}
 _CONTROL = {"t": "\t", "n": "\n", "v": "\v", "f": "\f", "r": "\r", "0": "\0"}
 _DOT = "[^\\n\\r\\u2028\\u2029]"
 
@@ -61,63 +66,122 @@ def _class_chars(name: str, subject: str) -> str:
     return "".join(re.escape(c) if c not in "-" else "\\-" for c in sorted(chars))
 
 
-def translate(pattern: str, subject: str) -> str:
-    """The Python pattern that means what the ECMAScript ``pattern`` means on ``subject``."""
+class _Frame:
+    """An open group while translating: the capturing groups inside it, whether a branch
+    (``|``) splits it, whether it is a lookahead, and whether it holds a quantifier."""
+
+    def __init__(self, lookahead: bool = False) -> None:
+        self.groups: list[int] = []
+        self.branches = False
+        self.lookahead = lookahead
+        self.quantified = False
+
+
+_QUANTIFIER = re.compile(r"[*+?]|\{(\d+)(,(\d*))?\}")
+
+
+def translate(pattern: str, subject: str) -> tuple[str, frozenset]:
+    """(the Python pattern that means what the ECMAScript ``pattern`` means on ``subject``,
+    the capturing groups that may take part in no match, or match more than once: under a
+    quantifier, in one branch of a ``|``, in a lookahead — where ECMAScript and Python keep
+    different captures)."""
     out: list[str] = []
-    i, n, depth, groups = 0, len(pattern), 0, 0
+    i, n, groups = 0, len(pattern), 0
+    frames = [_Frame()]
+    unsure: set[int] = set()
+    backrefs: list[int] = []
+    atom = False  # something a quantifier may follow was just written
     ascii_subject = subject.isascii()
     while i < n:
         c = pattern[i]
+        m = _QUANTIFIER.match(pattern, i)
+        if m:
+            if not atom:
+                raise BadPattern(f"nothing to repeat at {m.group(0)!r}")
+            out.append(m.group(0))
+            i = m.end()
+            if pattern.startswith("?", i):  # lazy
+                out.append("?")
+                i += 1
+            if _QUANTIFIER.match(pattern, i):
+                raise Unsupported("a quantifier right after a quantifier (Python reads "
+                                  "a*+ as possessive)")
+            frames[-1].quantified = True
+            atom = False
+            continue
+        if c == "{":
+            raise Unsupported("a '{' that is not a quantifier {n}, {n,} or {n,m}")
+        atom = True
         if c == "\\":
-            i, piece, _ = _escape(pattern, i, ascii_subject)
+            i, piece, ref = _escape(pattern, i, ascii_subject)
             out.append(piece)
+            if ref:
+                backrefs.append(ref)
             continue
         if c == "[":
             i, piece = _bracket(pattern, i, subject, ascii_subject)
             out.append(piece)
             continue
         if c == "(":
+            atom = False
             if pattern.startswith("(?", i):
                 if pattern.startswith(("(?:", "(?=", "(?!"), i):
+                    frames.append(_Frame(lookahead=pattern[i + 2] in "=!"))
                     out.append(pattern[i:i + 3])
                     i += 3
-                    depth += 1
                     continue
                 if pattern.startswith(("(?<=", "(?<!"), i):
                     raise Unsupported("lookbehind (ProB does not support it either)")
                 raise Unsupported(f"the group {pattern[i:i + 3]!r}")
             groups += 1
-            depth += 1
+            frames.append(_Frame())
+            frames[-1].groups.append(groups)
             out.append("(")
         elif c == ")":
-            depth -= 1
-            if depth < 0:
+            if len(frames) == 1:
                 raise BadPattern("an unmatched ')'")
+            done = frames.pop()
+            following = _QUANTIFIER.match(pattern, i + 1)
+            if done.branches or done.lookahead or following:
+                unsure.update(done.groups)
+            if following and (done.quantified or done.branches):
+                raise Unsupported("a repeated group that holds a quantifier or a '|' (its "
+                                  "matching can take exponential time)")
+            frames[-1].groups.extend(done.groups)
             out.append(")")
+        elif c == "|":
+            frames[-1].branches = True
+            atom = False
+            out.append("|")
         elif c == ".":
             out.append(_DOT)
         elif c == "^":
             out.append("\\A")
+            atom = False
         elif c == "$":
             out.append("\\Z")
-        elif c == "{":
-            m = re.match(r"\{(\d+)(,(\d*))?\}", pattern[i:])
-            if not m:
-                raise Unsupported("a '{' that is not a quantifier {n}, {n,} or {n,m}")
-            out.append(m.group(0))
-            i += len(m.group(0))
-            continue
+            atom = False
         elif c in "}]":
             out.append("\\" + c)
         else:
-            out.append(c)
+            out.append(re.escape(c))
         i += 1
-    if depth:
+    if len(frames) > 1:
         raise BadPattern("an unclosed '('")
-    return "".join(out)
+    if frames[0].branches:
+        unsure.update(frames[0].groups)
+    for k in backrefs:
+        if k > groups:
+            raise BadPattern(f"\\{k} refers to a group the pattern does not have")
+        if k in unsure:
+            raise Unsupported(f"\\{k} refers to a group that may take part in no match or "
+                              "in several (ECMAScript and Python differ there)")
+    return "".join(out), frozenset(unsure)
 
 
-def _escape(pattern: str, i: int, ascii_subject: bool) -> tuple[int, str, bool]:
+def _escape(pattern: str, i: int, ascii_subject: bool) -> tuple[int, str, int]:
+    """(the index after the escape at ``pattern[i]``, its Python form, the group it refers
+    to or 0)."""
     if i + 1 >= len(pattern):
         raise BadPattern("a '\\' at the end of the pattern")
     e = pattern[i + 1]
@@ -125,26 +189,28 @@ def _escape(pattern: str, i: int, ascii_subject: bool) -> tuple[int, str, bool]:
         if not ascii_subject:
             raise Unsupported(f"\\{e} on a string with characters beyond ASCII (how ProB's C++ "
                               "library classifies them is not documented)")
-        return i + 2, "\\" + e, False
+        return i + 2, _ASCII_CLASSES[e], 0
     if e.isdigit() and e != "0":
-        return i + 2, "\\" + e, True  # a back-reference
+        if i + 2 < len(pattern) and pattern[i + 2].isdigit():
+            raise Unsupported("a back-reference of two digits")
+        return i + 2, "\\" + e, int(e)
     if e in _CONTROL:
         if e == "0" and i + 2 < len(pattern) and pattern[i + 2].isdigit():
             raise Unsupported("\\0 followed by a digit")
-        return i + 2, re.escape(_CONTROL[e]), False
+        return i + 2, re.escape(_CONTROL[e]), 0
     if e == "x":
         m = re.match(r"[0-9a-fA-F]{2}", pattern[i + 2:])
         if not m:
             raise BadPattern("\\x needs two hexadecimal digits")
-        return i + 4, re.escape(chr(int(m.group(0), 16))), False
+        return i + 4, re.escape(chr(int(m.group(0), 16))), 0
     if e == "u":
         m = re.match(r"[0-9a-fA-F]{4}", pattern[i + 2:])
         if not m:
             raise Unsupported("\\u without four hexadecimal digits")
-        return i + 6, re.escape(chr(int(m.group(0), 16))), False
+        return i + 6, re.escape(chr(int(m.group(0), 16))), 0
     if e.isalnum():
         raise Unsupported(f"the escape \\{e}")
-    return i + 2, re.escape(e), False  # an escaped punctuation character: itself
+    return i + 2, re.escape(e), 0  # an escaped punctuation character: itself
 
 
 def _bracket(pattern: str, i: int, subject: str, ascii_subject: bool) -> tuple[int, str]:
@@ -154,32 +220,43 @@ def _bracket(pattern: str, i: int, subject: str, ascii_subject: bool) -> tuple[i
     if pattern.startswith("^", i):
         out.append("^")
         i += 1
-    first = True
+    start = i
     while True:
         if i >= len(pattern):
             raise BadPattern("an unclosed '['")
         c = pattern[i]
-        if c == "]" and not first:
+        if c == "]" and i > start:
             out.append("]")
             return i + 1, "".join(out)
         if c == "]":  # ECMAScript: [] matches nothing, [^] anything
             raise Unsupported("an empty character class")
-        first = False
-        if pattern.startswith("[:", i):
-            end = pattern.find(":]", i + 2)
-            if end < 0:
+        if pattern.startswith("[:", i) or (c == "\\" and pattern[i + 1:i + 2] in _IN_CLASS):
+            # a class of characters: never the end of a range
+            end = pattern.find(":]", i + 2) + 2 if c == "[" else i + 2
+            if c == "[" and end < 4:
                 raise BadPattern("an unclosed '[:'")
-            out.append(_class_chars(pattern[i + 2:end], subject))
-            i = end + 2
+            if (i - 1 > start and pattern[i - 1] == "-") or \
+                    (pattern.startswith("-", end) and not pattern.startswith("-]", end)):
+                raise Unsupported("a range with a class of characters at one end")
+            if c == "[":
+                out.append(_class_chars(pattern[i + 2:end - 2], subject))
+            else:
+                if not ascii_subject:
+                    raise Unsupported(f"\\{pattern[i + 1]} on a string with characters beyond "
+                                      "ASCII (how ProB's C++ library classifies them is not "
+                                      "documented)")
+                out.append(_IN_CLASS[pattern[i + 1]])
+            i = end
             continue
         if c == "[":
             if pattern.startswith(("[.", "[="), i):
                 raise Unsupported("collating elements and equivalence classes")
             out.append("\\[")
         elif c == "\\":
+            if pattern[i + 1:i + 2] in ("D", "W", "S", "b", "B") or \
+                    pattern[i + 1:i + 2].isdigit() and pattern[i + 1] != "0":
+                raise Unsupported(f"\\{pattern[i + 1]} inside a character class")
             i, piece, _ = _escape(pattern, i, ascii_subject)
-            if piece.startswith("\\") and len(piece) == 2 and piece[1].isdigit():
-                raise Unsupported("a back-reference inside a character class")
             out.append(piece)
             continue
         elif c in "&~|" and pattern.startswith(c * 2, i):
@@ -189,16 +266,18 @@ def _bracket(pattern: str, i: int, subject: str, ascii_subject: bool) -> tuple[i
         i += 1
 
 
-def _compile(pattern: str, subject: str) -> "re.Pattern":
-    python = translate(pattern, subject)
+def _compile(pattern: str, subject: str) -> tuple["re.Pattern", frozenset]:
+    python, unsure = translate(pattern, subject)
     try:
-        return re.compile(python)
+        return re.compile(python), unsure
     except re.error as exc:
         raise BadPattern(str(exc)) from None
+    except (OverflowError, RecursionError):
+        raise Unsupported("a repetition count or nesting too large for Python's re") from None
 
 
 def _match(s: str, p: str) -> bool:
-    return _compile(p, s).fullmatch(s) is not None
+    return _compile(p, s)[0].fullmatch(s) is not None
 
 
 def _is_regex(p: str) -> bool:
@@ -210,7 +289,7 @@ def _is_regex(p: str) -> bool:
 
 
 def _all_matches(s: str, p: str, start: int = 0) -> list:
-    found = list(_compile(p, s).finditer(s, start))
+    found = list(_compile(p, s)[0].finditer(s, start))
     if any(m.end() == m.start() for m in found):
         raise Unsupported("a pattern that matches the empty string here (where the next "
                           "search starts after an empty match differs between libraries)")
@@ -219,16 +298,17 @@ def _all_matches(s: str, p: str, start: int = 0) -> list:
 
 def _replace(s: str, p: str, r: str) -> str:
     matches = _all_matches(s, p)
+    unsure = _compile(p, s)[1]
     out, last = [], 0
     for m in matches:
         out.append(s[last:m.start()])
-        out.append(_substitute(r, m, s))
+        out.append(_substitute(r, m, s, unsure))
         last = m.end()
     out.append(s[last:])
     return "".join(out)
 
 
-def _substitute(r: str, m: "re.Match", s: str) -> str:
+def _substitute(r: str, m: "re.Match", s: str, unsure: frozenset) -> str:
     out, i = [], 0
     while i < len(r):
         c = r[i]
@@ -249,6 +329,9 @@ def _substitute(r: str, m: "re.Match", s: str) -> str:
             k = int(nxt)
             if k > (m.re.groups or 0):
                 raise Unsupported(f"${k} names a group the pattern does not have")
+            if k in unsure:
+                raise Unsupported(f"${k} names a group that may take part in no match or in "
+                                  "several (ECMAScript and Python differ there)")
             out.append(m.group(k) or "")
         else:
             raise Unsupported(f"the replacement {r!r} ($ followed by {nxt!r})")
@@ -257,7 +340,7 @@ def _substitute(r: str, m: "re.Match", s: str) -> str:
 
 
 def _search_str(s: str, p: str) -> str:
-    m = _compile(p, s).search(s)
+    m = _compile(p, s)[0].search(s)
     return m.group(0) if m else ""
 
 
@@ -266,7 +349,11 @@ def _search(s: str, start: int, p: str) -> Record:
         raise Unsupported(f"a search from position {start} of a string of {len(s)} characters")
     if start > 1 and re.search(r"\^|\\[bB]", p):
         raise Unsupported("^ or \\b in a search that does not start at the beginning")
-    m = _compile(p, s).search(s, start - 1)
+    compiled, unsure = _compile(p, s)
+    if unsure:
+        raise Unsupported("submatches of a group that may take part in no match or in "
+                          "several (ECMAScript and Python differ there)")
+    m = compiled.search(s, start - 1)
     if m is None:
         return Record([("length", -1), ("position", -1), ("string", ""),
                        ("submatches", frozenset())])

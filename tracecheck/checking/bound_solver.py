@@ -8,7 +8,7 @@ from typing import Optional
 
 from ..b import ast
 from ..b.btypes import show
-from ..errors import TracecheckError
+from ..errors import TracecheckError, WellDefinednessError
 
 __all__ = ["bound_solver", "BOUND_LIMIT"]
 
@@ -53,6 +53,9 @@ def bound_solver(names: dict, sets: dict, *, source: Optional[str] = None,
             raise problem
         answer = solve(pred, types, env, sets=sets, source=source, file=file,
                        timeout_s=timeout_s, all_solutions=True, limit=BOUND_LIMIT)
+        if answer.note:  # a value of the variables where the predicate has none
+            raise WellDefinednessError(answer.note, file=problem.file, source=problem.source,
+                                       line=problem.line, column=problem.column)
         if answer.status == "FALSE":
             return []
         if answer.status == "TRUE" and answer.complete:

@@ -25,7 +25,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from fractions import Fraction
 from itertools import combinations, product
-from typing import Any, Iterator, Optional
+from typing import Any, Optional
 
 from ..b import ast
 from ..b.bindings import conjuncts
@@ -36,6 +36,7 @@ from ..b.typecheck import UNSUPPORTED_KEYWORDS
 from ..b.values import (Elem, Interval, SymbolicSet, cardinality, format_value, members,
                         sort_key)
 from ..errors import Disagreement, TracecheckError, UnsupportedError, WellDefinednessError
+from .candidates import Clock, assignments, computed
 from .encoding import nudge
 from .smt import Translator
 
@@ -108,10 +109,17 @@ def solve(node: ast.Node, types: dict[str, Type], env: dict, *, sets: Optional[d
         except UnsupportedError as exc:
             why = f"{exc.location}: {exc.message}"
         else:
-            return solver.solve()
+            return _defined(solver.solve(), problem)
     if finite:
         return problem.walk(domains, derived)
     return problem.answer("unknown", reason=why)
+
+
+def _defined(answer: Answer, problem: "_Problem") -> Answer:
+    """No solution, and a point without value: not FALSE but the error (as the walk)."""
+    if answer.status == "FALSE" and answer.note:
+        raise WellDefinednessError(answer.note, file=problem.file, source=problem.source)
+    return answer
 
 
 def _rounds(problem) -> bool:
@@ -300,12 +308,12 @@ class _Problem:
         undefined: list = []  # (the values so far, the error) where a computed one has none
         with self.compiler.binding(self.names):
             for name, expr in derived.items():
-                domains[name] = _computed(self.compiler.compile(expr), order, undefined)
+                domains[name] = computed(self.compiler.compile(expr), order, undefined)
             for conj in conjuncts(self.node):
                 used = ast.free_names(conj) & set(self.names)
                 depth = max((order.index(n) for n in used), default=0)
                 checks[depth].append(self.compiler.compile(conj))
-        env, clock = fresh(self.env), _Clock(self.deadline)
+        env, clock = fresh(self.env), Clock(self.deadline)
         try:
             return self._walked(order, domains, checks, env, clock, size, undefined)
         except WellDefinednessError:
@@ -318,7 +326,7 @@ class _Problem:
     def _walked(self, order, domains, checks, env, clock, size, undefined) -> Answer:
         solutions: list[dict] = []
         more, problem = False, None
-        for leaf in _assignments(order, domains, checks, env, clock):
+        for leaf in assignments(order, domains, checks, env, clock):
             try:
                 if self.whole(leaf) is not True:
                     continue
@@ -351,61 +359,6 @@ class _Problem:
                            complete=not (more or stopped), more=True if more else
                            (None if stopped else False),
                            reason=f"time limit ({self.timeout_s:g} s)" if stopped else "")
-
-
-class _Clock:
-    """Stops a walk at the deadline (looked at every 1024 values)."""
-
-    def __init__(self, deadline: float) -> None:
-        self.deadline, self.tried, self.stopped = deadline, 0, False
-
-    def tick(self) -> bool:
-        self.tried += 1
-        if self.tried % 1024 == 0 and time.monotonic() > self.deadline:
-            self.stopped = True
-        return self.stopped
-
-
-def _assignments(order, domains, checks, env, clock: _Clock) -> Iterator[dict]:
-    """``env`` with each combination of values that passes the conjuncts checked at each
-    depth (a conjunct with no value there is left to the whole predicate)."""
-    def go(depth: int) -> Iterator[dict]:
-        name = order[depth]
-        values = domains[name]
-        for value in (values(env) if callable(values) else values):
-            if clock.tick():
-                return
-            env[name] = value
-            if not all(_passes(c, env) for c in checks[depth]):
-                continue
-            if depth + 1 == len(order):
-                yield env
-            else:
-                yield from go(depth + 1)
-    if order:
-        yield from go(0)
-    else:
-        yield env
-
-
-def _computed(fn, order: list, undefined: list):
-    """The values of an identifier an equality computes: the one its expression has here
-    (none where it has no value: the first such place goes to ``undefined``)."""
-    def values(env) -> list:
-        try:
-            return [fn(env)]
-        except WellDefinednessError as exc:
-            if not undefined:
-                undefined.append(({n: env[n] for n in order if n in env}, exc))
-            return []
-    return values
-
-
-def _passes(check, env) -> bool:
-    try:
-        return check(env) is not False
-    except TracecheckError:
-        return True
 
 
 def _is_int(v: Any) -> bool:
@@ -573,9 +526,10 @@ class _Solver:
         if not solutions:
             return problem.answer("FALSE", method="solver", note=self.undefined())
         more = True if verdict == "sat" else (False if verdict == "unsat" else None)
-        return problem.answer("TRUE", solutions=solutions, method="solver",
-                              complete=verdict == "unsat", more=more,
-                              reason=why if verdict == "unknown" else "")
+        complete = verdict == "unsat"
+        return problem.answer("TRUE", solutions=solutions, method="solver", complete=complete,
+                              more=more, reason=why if verdict == "unknown" else "",
+                              note=self.undefined() if complete else "")
 
     def confirmed(self, exact: dict) -> Optional[dict]:
         """The model's values as B values the evaluator confirms: integers as they are,
