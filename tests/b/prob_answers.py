@@ -2,7 +2,7 @@
 against ``tracecheck eval``: how many formulas get ProB's value, how many are refused, and
 that none gets another value.
 
-    python -m tests.b.prob_answers [--list same|refused|different|excluded|gave-up]
+    python -m tests.b.prob_answers [--list same|refused|different|excluded|gave-up|platform]
 
 The answers are in ``corpus/notebooks.jsonl``: one formula evaluation per line, as the
 notebook shows it (the cell's source, ProB's printed output or error, the machine loaded at
@@ -17,8 +17,11 @@ machine that is not published.
 Every other formula is one of:
 
 * ``same``: ProB's value (for a predicate solved for its free identifiers: the same TRUE or
-  FALSE, the solution re-checked by tracecheck; which solution is shown may differ);
-  ProB's error and a tracecheck error of the same kind (type, scope, well-definedness);
+  FALSE, the solution re-checked by tracecheck; which solution is shown may differ, where
+  ProB's is a solution for tracecheck too); ProB's error and a tracecheck error of the same
+  kind (type, scope, well-definedness);
+* ``platform``: two floats from transcendental functions a last bit apart (each platform's
+  C library rounds its own way): listed, not counted;
 * ``refused``: ProB gives a value and tracecheck refuses (a located error, or unknown);
 * ``gave-up``: ProB gives no value (an enumeration warning, a time-out, an internal error):
   tracecheck's answer, if any, is listed but not counted;
@@ -239,7 +242,11 @@ def judge(case: Case) -> tuple[str, str]:
             return "refused", f"unknown: {mine[3]}"
         if mine[1] != theirs[1]:
             return "different", f"ProB: {theirs[1]}; ours: {mine[1]}"
-        return "same", _solution_note(theirs[2], mine[2])
+        note = _solution_note(theirs[2], mine[2])
+        if note.startswith("another solution") and _prob_s_solution_fails(case, theirs[2]):
+            verdict = "platform" if _TRANSCENDENTAL.search(case.formula) else "different"
+            return verdict, note + ": ProB's is no solution here"
+        return "same", note
     # ProB printed a value
     if mine[0] == "solved":
         if mine[1] == "unknown":
@@ -273,6 +280,25 @@ def _platform_floats(case: Case, prob_text: str, value: Any) -> bool:
         return False
     return (type(value) is float and bool(_TRANSCENDENTAL.search(case.formula))
             and abs(theirs - value) <= 2 * math.ulp(max(abs(theirs), abs(value))))
+
+
+def _prob_s_solution_fails(case: Case, theirs: dict) -> bool:
+    """Whether ProB's solution, bound as it is, makes the predicate false for tracecheck
+    (another solution is as good, unless ProB's is not one: then the two differ on a value).
+    False where ProB's values are not ones tracecheck reads (not checked)."""
+    from tracecheck import errors as E
+    from tracecheck.b.notation import parse_literal
+    from tracecheck.b.values import format_value
+
+    bound = []
+    for name, text in theirs.items():
+        try:
+            bound.append(f"{name} = {format_value(parse_literal(_normal(text)))}")
+        except E.TracecheckError:
+            return False
+    fixed = Case(**{**case.__dict__, "formula": " & ".join(bound + [f"({case.formula})"])})
+    mine = ours(fixed)
+    return mine[0] == "solved" and mine[1] == "FALSE"
 
 
 def _solution_note(theirs: dict, mine: Optional[dict]) -> str:
