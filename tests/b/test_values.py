@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tracecheck.b.state import read_state_file
 from tracecheck.b.notation import from_json, parse_literal
@@ -98,3 +100,20 @@ def test_state_file_errors(tmp_path):
     arr.write_text("[1, 2]")
     with pytest.raises(InputError, match="JSON object mapping variable names"):
         read_state_file(arr)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.text(alphabet=st.characters(codec="utf-8", exclude_categories=("Cs",)), max_size=20))
+def test_a_string_prints_as_a_literal_that_reads_back_as_itself(text):
+    """Found by a new user: a newline was printed raw and could not be read back."""
+    from tracecheck.b.notation import parse_literal
+    from tracecheck.b.values import format_value
+
+    try:
+        back = parse_literal(format_value(text))
+    except Exception as exc:  # noqa: BLE001 - only our own error is allowed
+        from tracecheck.errors import TracecheckError
+
+        assert isinstance(exc, TracecheckError), exc
+        return
+    assert back == text

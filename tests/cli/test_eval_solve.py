@@ -248,3 +248,34 @@ def test_a_bound_or_free_variable_at_a_point_without_value_is_the_error(capsys, 
     the predicate has no value; B's (and ProB's) answer is that it is not well-defined."""
     code, out, err = run(capsys, "eval", formula)
     assert code == 2 and out == "" and "the predicate has no value where" in err, err
+
+
+# ------------------------------------------------------------------ found by a new user
+def test_reals_are_floats_so_a_list_over_them_is_not_said_complete(capsys):
+    """x + 1.0 = 2.0 also holds for the floats next to 1.0: "all of them" was wrong."""
+    code, out, _ = run(capsys, "eval", "x : REAL & x + 1.0 = 2.0", "--all")
+    assert code == 0 and out.startswith("TRUE\nx = 1.0\n1 solution; there may be more (the "
+                                        "REALs are floats")
+    assert run(capsys, "eval", "x : REAL & x = 1.0 + 2.0", "--all")[1].endswith(
+        "1 solution: all of them\n")  # no arithmetic over x: exactly one float
+
+
+@pytest.mark.parametrize("formula,printed", [
+    ("{x | x : INTEGER & x*x = 100}", "{-10,10}\n"),  # a typing conjunct: still solved
+    ("{x | x : NATURAL & x*x = 100}", "{10}\n"),
+    ("n = 49 & s = {x | x*x = n}", "TRUE\nn = 49\ns = {-7,7}\n"),  # inside a solved one
+    ("x : 1..5 & card({y | y*y = x}) = 2", "TRUE\nx = 1\n"),
+])
+def test_comprehensions_with_a_type_or_inside_a_solved_predicate(capsys, formula, printed):
+    assert run(capsys, "eval", formula) == (0, printed, "")
+
+
+def test_a_point_without_value_found_by_the_solver_is_located(capsys):
+    code, out, err = run(capsys, "eval", "x > 5 & 10/(x-6) = 100")
+    assert code == 2 and err.startswith("error: <expr>:1:9: the predicate has no value where "
+                                        "x = 6: division by zero in `10/(x-6)`")
+
+
+def test_strings_print_as_literals_that_read_back(capsys):
+    assert run(capsys, "eval", '"a\\nb"', 'x = "a\\tb\\\\c\\"d"') == \
+        (0, '"a\\nb"\nTRUE\nx = "a\\tb\\\\c\\"d"\n', "")

@@ -169,6 +169,9 @@ def _plan_one(comp, node, conjs, name, ids, bound, used):
         if best is None or best[0] == 2 else None  # none, or only x : INTEGER and such
     if between is not None:  # the comparisons stay filters: the range only walks
         return between, None
+    if best is not None and best[0] == 2 and comp.solver is not None and \
+            _infinite_set(conjs[best[1]]):
+        return None  # x : INTEGER and nothing else: the solver's answers, not INTEGER's
     if best is not None:
         return best[2], best[1]
     return None
@@ -176,6 +179,13 @@ def _plan_one(comp, node, conjs, name, ids, bound, used):
 
 _HUGE_SETS = frozenset({"INTEGER", "NATURAL", "NATURAL1", "REAL", "FLOAT", "STRING", "INT",
                         "NAT", "NAT1"})
+
+
+def _infinite_set(conj: ast.Node) -> bool:
+    """``x : INTEGER`` (NATURAL, NATURAL1, REAL, FLOAT, STRING): an infinite built-in set;
+    NAT and INT are finite (up to MAXINT), walked or refused as ever."""
+    right = conj.right if isinstance(conj, ast.Rel) else None
+    return isinstance(right, ast.Name) and right.id in _HUGE_SETS - {"INT", "NAT", "NAT1"}
 
 
 def _cost(mode: str, conj: ast.Node) -> int:

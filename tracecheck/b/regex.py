@@ -325,7 +325,10 @@ def _substitute(r: str, m: "re.Match", s: str, unsure: frozenset) -> str:
             out.append(s[:m.start()])
         elif nxt == "'":
             out.append(s[m.end():])
-        elif nxt.isdigit() and not r[i + 2:i + 3].isdigit():
+        elif nxt.isdigit() and r[i + 2:i + 3].isdigit():
+            raise Unsupported(f"a two-digit group reference ${r[i + 1:i + 3]} in the "
+                              "replacement (ECMAScript reads it by the groups there are)")
+        elif nxt.isdigit():
             k = int(nxt)
             if k > (m.re.groups or 0):
                 raise Unsupported(f"${k} names a group the pattern does not have")

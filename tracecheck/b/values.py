@@ -509,6 +509,11 @@ def format_real(x: float) -> str:
     return text
 
 
+#: a string printed as a B literal that reads back as itself (B's escapes: \\ \" \n \t \r)
+_STRING_ESCAPES = str.maketrans({"\\": "\\\\", '"': '\\"', "\n": "\\n", "\t": "\\t",
+                                 "\r": "\\r"})
+
+
 def format_value(value: Any, *, ascii: bool = False) -> str:
     """Write ``value`` in ProB's notation: ``{(EgoVehicle↦150.36),(Vehicles2↦21.9)}``."""
     maplet = "|->" if ascii else "↦"
@@ -523,7 +528,7 @@ def format_value(value: Any, *, ascii: bool = False) -> str:
     if isinstance(value, Elem):
         return str(value)
     if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return '"' + value.translate(_STRING_ESCAPES) + '"'
     if isinstance(value, tuple):
         # ProB's way: maplets associate to the left, so (a↦b)↦c prints as (a↦b↦c)
         parts, left = [format_value(value[1], ascii=ascii)], value[0]

@@ -4,6 +4,7 @@ their predicate walks, listed by the solver (:mod:`.solving`) — only where it 
 
 from __future__ import annotations
 
+import time
 from typing import Optional
 
 from ..b import ast
@@ -19,14 +20,16 @@ BOUND_LIMIT = 10_000
 
 
 def bound_solver(names: dict, sets: dict, *, source: Optional[str] = None,
-                 file: Optional[str] = None, timeout_s: float = 10.0):
+                 file: Optional[str] = None, timeout_s: float = 10.0,
+                 deadline: Optional[float] = None):
     """The hook of :attr:`tracecheck.b.evaluation.Compiler.solver` for ``tracecheck eval``:
     bound variables that nothing in a comprehension's or quantifier's predicate walks
     (``{x | x*x = 100}``, ``#x.(x > 2 & x < y)``) take every solution of the predicate for
     them — only where the solver finds them all (FALSE: none; a complete list), else the
     evaluator's own refusal with the solver's reason. ``names``: the types of the names in
     scope (a machine's); the values of the others (outer bound variables) are typed from
-    ``env``."""
+    ``env``. Each call has ``timeout_s``, or what is left until ``deadline`` (a search
+    that holds this one)."""
     from ..b.btypes import INTEGER, Var, resolve, resolve_all
     from ..b.typecheck import type_of_value, typecheck_formula
 
@@ -52,7 +55,9 @@ def bound_solver(names: dict, sets: dict, *, source: Optional[str] = None,
         if any("?" in show(t) for t in types.values()):
             raise problem
         answer = solve(pred, types, env, sets=sets, source=source, file=file,
-                       timeout_s=timeout_s, all_solutions=True, limit=BOUND_LIMIT)
+                       timeout_s=timeout_s if deadline is None else
+                       max(0.05, deadline - time.monotonic()),
+                       all_solutions=True, limit=BOUND_LIMIT)
         if answer.note:  # a value of the variables where the predicate has none
             raise WellDefinednessError(answer.note, file=problem.file, source=problem.source,
                                        line=problem.line, column=problem.column)

@@ -131,7 +131,7 @@ def check_timeout(seconds, what: str = "the timeout") -> float:
     if not ok:
         raise InputError(f"{what} must be a finite number of seconds above 0 (at most "
                          f"{MAX_TIMEOUT_S:,}), not {seconds!r}",
-                         hint="give the seconds the solver may take per question, e.g. 10")
+                         hint="give the solver's time limit in seconds, e.g. 10")
     return float(seconds)
 
 

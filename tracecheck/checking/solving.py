@@ -118,7 +118,10 @@ def solve(node: ast.Node, types: dict[str, Type], env: dict, *, sets: Optional[d
 def _defined(answer: Answer, problem: "_Problem") -> Answer:
     """No solution, and a point without value: not FALSE but the error (as the walk)."""
     if answer.status == "FALSE" and answer.note:
-        raise WellDefinednessError(answer.note, file=problem.file, source=problem.source)
+        at = problem.undefined_at
+        raise WellDefinednessError(answer.note, file=problem.file, source=problem.source,
+                                   line=getattr(at, "line", None),
+                                   column=getattr(at, "column", None))
     return answer
 
 
@@ -152,8 +155,14 @@ class _Problem:
     all_solutions: bool
 
     def __post_init__(self) -> None:
+        from .bound_solver import bound_solver
+
+        self.undefined_at: Optional[TracecheckError] = None  # where it has no value
         self.names = tuple(self.types)
         self.compiler = Compiler(source=self.source, file=self.file)
+        # a comprehension inside ({x | x*x = n}): its variables solved within this deadline
+        self.compiler.solver = bound_solver(self.types, self.sets, source=self.source,
+                                            file=self.file, deadline=self.deadline)
         with self.compiler.binding(self.names):  # nothing with them in it is remembered
             self.whole = self.compiler.compile(self.node)
 
@@ -288,6 +297,10 @@ class _Problem:
         nothing bounds to a finite set), or None."""
         for n in self.names:
             if self.types[n] not in (INTEGER, REAL, BOOL):
+                if domains[n] is None and self._equality_for(n):
+                    return (f"{n} is of type {show(self.types[n])}, which the solver does not "
+                            f"choose, and an equality computes it from identifiers that no "
+                            f"conjunct bounds to a finite set (bound them, e.g. x : 1..100)")
                 if domains[n] is None:
                     return (f"{n} is of type {show(self.types[n])}: the solver chooses "
                             f"numbers and booleans, and no conjunct bounds {n} to a finite "
@@ -295,6 +308,16 @@ class _Problem:
                 return (f"{n} is of type {show(self.types[n])}, which the solver does not "
                         "choose")
         return None
+
+    def _equality_for(self, name: str) -> bool:
+        """Whether a conjunct ``name = E`` (E without ``name``) computes it."""
+        for conj in conjuncts(self.node):
+            if isinstance(conj, ast.Rel) and conj.op == "=":
+                for left, right in ((conj.left, conj.right), (conj.right, conj.left)):
+                    if isinstance(left, ast.Name) and left.id == name and \
+                            name not in ast.free_names(right):
+                        return True
+        return False
 
     # -- walking the candidates
     def walk(self, domains: dict, derived: Optional[dict] = None) -> Answer:
@@ -444,19 +467,24 @@ class _Solver:
         self.side = translator.side_conditions
         self.constraints = [self.defined, formula, *self.side]
 
-    def undefined(self) -> str:
-        """Where there is no solution: a place where the predicate has no value, as the
-        evaluator says it ("" if the solver finds none in the time left)."""
+    def undefined(self) -> Optional[str]:
+        """A place where the predicate has no value, as the evaluator says it: "" where the
+        solver proves there is none, None where it cannot tell in the time left."""
         self.solver = self.z3.Solver()
-        if self.check(self.z3.Not(self.defined), *self.side)[0] != "sat":
-            return ""
-        model = self.solver.model()
+        verdict = self.check(self.z3.Not(self.defined), *self.side)[0]
+        if verdict != "sat":
+            return "" if verdict == "unsat" else None
+        try:
+            model = self.solver.model()
+        except self.z3.Z3Exception:  # interrupted at the time limit
+            return None
         point = {n: self.values(model.eval(v, model_completion=True))
                  for n, v in self.vars.items()}
         try:
             self.problem.whole({**fresh(self.problem.env), **point})
         except TracecheckError as exc:
             where = " & ".join(f"{n} = {format_value(v)}" for n, v in point.items())
+            self.problem.undefined_at = exc  # its place in the formula
             return f"the predicate has no value where {where}: {exc.message}"
         return ""
 
@@ -497,7 +525,11 @@ class _Solver:
         solutions: list[dict] = []
         verdict, why = self.check(*self.constraints)
         while verdict == "sat" and len(solutions) < problem.limit:
-            model = self.solver.model()
+            try:
+                model = self.solver.model()
+            except z3.Z3Exception:  # the time limit's interrupt came as the check ended
+                verdict, why = "unknown", f"time limit ({problem.timeout_s:g} s)"
+                break
             exact = {n: model.eval(v, model_completion=True) for n, v in self.vars.items()}
             try:
                 found = self.confirmed(exact)
@@ -524,12 +556,23 @@ class _Solver:
                                   reason="no solution over the exact reals, but the REALs "
                                          "are floats, which the solver did not search")
         if not solutions:
-            return problem.answer("FALSE", method="solver", note=self.undefined())
+            note = self.undefined()
+            if note is None:
+                return problem.answer("unknown", method="solver", reason="no solution, but "
+                                      "whether the predicate has a value everywhere is not "
+                                      "known within the time limit")
+            return problem.answer("FALSE", method="solver", note=note)
         more = True if verdict == "sat" else (False if verdict == "unsat" else None)
-        complete = verdict == "unsat"
+        complete, note = verdict == "unsat", ""
+        if complete and _rounds(problem):  # more floats next to these may solve it too
+            complete, more, why = False, None, "the REALs are floats, which the solver " \
+                                               "did not search one by one"
+        elif complete:
+            note = self.undefined()
+            if note is None:  # whether a point has no value: not known
+                complete, note, why = False, "", "time limit (is it defined everywhere?)"
         return problem.answer("TRUE", solutions=solutions, method="solver", complete=complete,
-                              more=more, reason=why if verdict == "unknown" else "",
-                              note=self.undefined() if complete else "")
+                              more=more, reason=why if not complete else "", note=note)
 
     def confirmed(self, exact: dict) -> Optional[dict]:
         """The model's values as B values the evaluator confirms: integers as they are,
