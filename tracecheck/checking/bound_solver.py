@@ -57,7 +57,7 @@ def bound_solver(names: dict, sets: dict, *, source: Optional[str] = None,
         answer = solve(pred, types, env, sets=sets, source=source, file=file,
                        timeout_s=timeout_s if deadline is None else
                        max(0.05, deadline - time.monotonic()),
-                       all_solutions=True, limit=BOUND_LIMIT)
+                       all_solutions=True, limit=BOUND_LIMIT, inner=bound_solver)
         if answer.note:  # a value of the variables where the predicate has none
             raise WellDefinednessError(answer.note, file=problem.file, source=problem.source,
                                        line=problem.line, column=problem.column)

@@ -25,7 +25,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from fractions import Fraction
 from itertools import combinations, product
-from typing import Any, Optional
+from typing import Any, Callable, Optional
 
 from ..b import ast
 from ..b.bindings import conjuncts
@@ -86,15 +86,18 @@ def free_identifiers(node: ast.Node, known) -> tuple[str, ...]:
 
 def solve(node: ast.Node, types: dict[str, Type], env: dict, *, sets: Optional[dict] = None,
           source: Optional[str] = None, file: Optional[str] = None, timeout_s: float = 10.0,
-          all_solutions: bool = False, limit: int = 100) -> Answer:
+          all_solutions: bool = False, limit: int = 100,
+          inner: Optional[Callable] = None) -> Answer:
     """Solve the predicate ``node`` for the identifiers ``types`` (name: resolved type; in
     the order they are printed), everything else taking its value from ``env``; the first
     solution, or with ``all_solutions`` up to ``limit`` of them. ``timeout_s`` bounds the
-    whole search. Raises :class:`Disagreement` where the evaluator rejects an integer
-    solution of the solver (a bug in one of the two)."""
+    whole search. ``inner``: how comprehensions and quantifiers inside it take their
+    variables (:func:`tracecheck.checking.bound_solver.bound_solver`, given by the caller).
+    Raises :class:`Disagreement` where the evaluator rejects an integer solution of the
+    solver (a bug in one of the two)."""
     problem = _Problem(node, types, env, sets or {}, source, file,
                        time.monotonic() + timeout_s, timeout_s,
-                       limit if all_solutions else 1, all_solutions)
+                       limit if all_solutions else 1, all_solutions, inner)
     domains = problem.domains()
     derived = problem.derived(domains)
     walked = [d for n, d in domains.items() if n not in derived]
@@ -153,16 +156,15 @@ class _Problem:
     timeout_s: float
     limit: int
     all_solutions: bool
+    inner: Optional[Callable] = None
 
     def __post_init__(self) -> None:
-        from .bound_solver import bound_solver
-
         self.undefined_at: Optional[TracecheckError] = None  # where it has no value
         self.names = tuple(self.types)
         self.compiler = Compiler(source=self.source, file=self.file)
-        # a comprehension inside ({x | x*x = n}): its variables solved within this deadline
-        self.compiler.solver = bound_solver(self.types, self.sets, source=self.source,
-                                            file=self.file, deadline=self.deadline)
+        if self.inner is not None:  # a comprehension inside ({x | x*x = n}): its variables
+            self.compiler.solver = self.inner(self.types, self.sets, source=self.source,
+                                              file=self.file, deadline=self.deadline)
         with self.compiler.binding(self.names):  # nothing with them in it is remembered
             self.whole = self.compiler.compile(self.node)
 

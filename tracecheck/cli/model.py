@@ -278,6 +278,7 @@ def _solve(expr: str, where: str, error, names: dict, env: dict, machine, solvin
     from ..b.scope import expand, kind_of
     from ..b.typecheck import check_formula
     from ..checking.encoding import check_timeout
+    from ..checking.bound_solver import bound_solver
     from ..checking.solving import free_identifiers, solve
     from ..errors import BTypeError
 
@@ -303,7 +304,8 @@ def _solve(expr: str, where: str, error, names: dict, env: dict, machine, solvin
                              hint=f"add a conjunct that types it, e.g. {n} : INTEGER")
     return _Solved(solve(node, types, env, sets=machine.sets if machine else {},
                          source=expr, file=where, timeout_s=timeout_s,
-                         all_solutions=solving["all_solutions"], limit=solving["limit"]))
+                         all_solutions=solving["all_solutions"], limit=solving["limit"],
+                         inner=bound_solver))
 
 
 @app.command("guards")
