@@ -11,12 +11,15 @@ from ..b import ast
 from ..b.btypes import show
 from ..errors import TracecheckError, WellDefinednessError
 
-__all__ = ["bound_solver", "BOUND_LIMIT"]
+__all__ = ["bound_solver", "BOUND_LIMIT", "BOUND_SECONDS"]
 
 
 #: A comprehension or quantifier solved for its bound variables lists at most this many
-#: solutions (more: refused, as a set too large to build).
+#: solutions (more: refused, as a set too large to build) …
 BOUND_LIMIT = 10_000
+#: … within at most this many seconds (an infinite set, {x | x > 1000}, is refused then,
+#: not at the end of the whole search's limit)
+BOUND_SECONDS = 2.0
 
 
 def bound_solver(names: dict, sets: dict, *, source: Optional[str] = None,
@@ -55,8 +58,8 @@ def bound_solver(names: dict, sets: dict, *, source: Optional[str] = None,
         if any("?" in show(t) for t in types.values()):
             raise problem
         answer = solve(pred, types, env, sets=sets, source=source, file=file,
-                       timeout_s=timeout_s if deadline is None else
-                       max(0.05, deadline - time.monotonic()),
+                       timeout_s=min(BOUND_SECONDS, timeout_s if deadline is None else
+                                     max(0.05, deadline - time.monotonic())),
                        all_solutions=True, limit=BOUND_LIMIT, inner=bound_solver)
         if answer.note:  # a value of the variables where the predicate has none
             raise WellDefinednessError(answer.note, file=problem.file, source=problem.source,
