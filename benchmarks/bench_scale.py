@@ -74,14 +74,37 @@ def commands(folder: Path, run: Path) -> dict[str, list[str]]:
     }
 
 
-def one_size(work: Path, n: int, repeat: int) -> dict[str, tuple[float, float]]:
+def written(run: Path, n: int) -> None:
+    """The run file of ``n`` episodes written in this process (the 40 traces imported once,
+    then written round-robin with new ids) — for sizes where timing the import itself would
+    take too long (``--no-import``)."""
+    import dataclasses
+    from itertools import cycle, islice
+
+    from tracecheck.episodes.files import write_run
+    from tracecheck.episodes.vocabulary import HIGHWAY
+    from tracecheck.episodes.writer import new_header
+    from tracecheck.interop import import_simb
+
+    sources = list(import_simb([SIMB / "base", SIMB / "base_shield"]))
+    episodes = (dataclasses.replace(e, id=k) for k, e in enumerate(islice(cycle(sources), n)))
+    write_run(run, new_header("imported-simb", variables=list(HIGHWAY.variables),
+                              actions=list(HIGHWAY.actions)), episodes)
+
+
+def one_size(work: Path, n: int, repeat: int,
+             timed_import: bool = True) -> dict[str, tuple[float, float]]:
     folder, run = work / f"traces-{n}", work / f"run-{n}.mcap"
     lay_out(folder, n)
-    imports = []
-    for _ in range(repeat):
-        run.unlink(missing_ok=True)
-        imports.append(measure([str(BIN), "import", "simb", str(folder), "-o", str(run)]))
-    rows = {"import simb": _median(imports)}
+    rows = {}
+    if timed_import:
+        imports = []
+        for _ in range(repeat):
+            run.unlink(missing_ok=True)
+            imports.append(measure([str(BIN), "import", "simb", str(folder), "-o", str(run)]))
+        rows["import simb"] = _median(imports)
+    else:
+        written(run, n)
     steps = _steps(run)
     print(f"  {n} episodes, {steps} steps, file {run.stat().st_size / 1e6:.1f} MB "
           f"({run.stat().st_size / steps:.0f} B per step)", flush=True)
@@ -113,7 +136,8 @@ def report(results: dict[int, dict[str, tuple[float, float]]]) -> None:
     print("\n| command | episodes | time s | peak MiB | hand-written's time / this | "
           f"time growth from {first} | memory growth from {first} |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
-    names = [k for k in results[first] if not k.startswith("_")]
+    names = [k for k in results[first] if not k.startswith("_")
+             and all(k in results[n] for n in sizes)]
     for name in names:
         for n in sizes:
             t, m = results[n][name]
@@ -130,6 +154,8 @@ def main() -> None:
     ap.add_argument("--sizes", type=int, nargs="+", default=[1000, 10000])
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--keep", type=Path, help="build the files here and keep them")
+    ap.add_argument("--no-import", action="store_true",
+                    help="write the files in this process instead of timing the import")
     args = ap.parse_args()
     work = args.keep or Path(tempfile.mkdtemp(prefix="bench-scale-"))
     work.mkdir(parents=True, exist_ok=True)
@@ -137,7 +163,7 @@ def main() -> None:
     try:
         for n in args.sizes:
             print(f"size {n}:", flush=True)
-            results[n] = one_size(work, n, args.repeat)
+            results[n] = one_size(work, n, args.repeat, timed_import=not args.no_import)
     finally:
         if args.keep is None:
             shutil.rmtree(work, ignore_errors=True)
