@@ -103,8 +103,8 @@ def one_size(work: Path, n: int, repeat: int,
             run.unlink(missing_ok=True)
             imports.append(measure([str(BIN), "import", "simb", str(folder), "-o", str(run)]))
         rows["import simb"] = _median(imports)
-    else:
-        written(run, n)
+    else:  # in a process of its own: a large parent would count in each child's peak memory
+        subprocess.run([sys.executable, __file__, "--write", str(run), str(n)], check=True)
     steps = _steps(run)
     print(f"  {n} episodes, {steps} steps, file {run.stat().st_size / 1e6:.1f} MB "
           f"({run.stat().st_size / steps:.0f} B per step)", flush=True)
@@ -156,7 +156,11 @@ def main() -> None:
     ap.add_argument("--keep", type=Path, help="build the files here and keep them")
     ap.add_argument("--no-import", action="store_true",
                     help="write the files in this process instead of timing the import")
+    ap.add_argument("--write", nargs=2, metavar=("RUN", "N"), help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.write:
+        written(Path(args.write[0]), int(args.write[1]))
+        return
     work = args.keep or Path(tempfile.mkdtemp(prefix="bench-scale-"))
     work.mkdir(parents=True, exist_ok=True)
     results = {}
