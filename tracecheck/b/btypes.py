@@ -68,6 +68,16 @@ def resolve_all(t: Type) -> Type:
     return t
 
 
+def resolved_defaulting(typed: dict, names) -> dict:
+    """The types of ``names`` in ``typed``, resolved; a number typed by nothing else (only
+    compared or computed with) is an INTEGER, as in ProB."""
+    for n in names:
+        t = resolve(typed[n])
+        if isinstance(t, Var) and t.numeric:
+            t.ref = INTEGER
+    return {n: resolve_all(typed[n]) for n in names}
+
+
 def show(t: Type) -> str:
     """A type in B notation, e.g. ``POW(Vehicles*REAL)``."""
     t = resolve(t)

@@ -33,7 +33,7 @@ def bound_solver(names: dict, sets: dict, *, source: Optional[str] = None,
     scope (a machine's); the values of the others (outer bound variables) are typed from
     ``env``. Each call has ``timeout_s``, or what is left until ``deadline`` (a search
     that holds this one)."""
-    from ..b.btypes import INTEGER, Var, resolve, resolve_all
+    from ..b.btypes import Var, resolved_defaulting
     from ..b.typecheck import type_of_value, typecheck_formula
 
     owners = {e: k for k, elems in sets.items() for e in elems}
@@ -50,11 +50,7 @@ def bound_solver(names: dict, sets: dict, *, source: Optional[str] = None,
             typecheck_formula(pred, typed, kind="predicate", source=source, file=file)
         except TracecheckError:
             raise problem from None
-        for n in ids:  # compared or computed with, typed by nothing else: ProB's INTEGER
-            t = resolve(typed[n])
-            if isinstance(t, Var) and t.numeric:
-                t.ref = INTEGER
-        types = {n: resolve_all(typed[n]) for n in ids}
+        types = resolved_defaulting(typed, ids)
         if any("?" in show(t) for t in types.values()):
             raise problem
         answer = solve(pred, types, env, sets=sets, source=source, file=file,

@@ -271,27 +271,33 @@ class _Problem:
             return list(self.sets[t.name])
         return None
 
+    def equalities(self) -> list[tuple[str, ast.Node]]:
+        """(identifier, E) for each conjunct ``identifier = E`` (either way round) where E
+        does not read the identifier."""
+        found = []
+        for conj in conjuncts(self.node):
+            if isinstance(conj, ast.Rel) and conj.op == "=":
+                for left, right in ((conj.left, conj.right), (conj.right, conj.left)):
+                    if isinstance(left, ast.Name) and left.id in self.names and \
+                            left.id not in ast.free_names(right):
+                        found.append((left.id, right))
+        return found
+
     def derived(self, domains: dict) -> dict[str, ast.Node]:
         """Identifiers nothing bounds that an equality computes from the others
         (``y = COPY(x)`` with x walked): computed at each candidate, not walked. In the
         order they can be computed."""
         known = {n for n, d in domains.items() if d is not None}
         out: dict[str, ast.Node] = {}
+        equalities = self.equalities()
         changed = True
         while changed:
             changed = False
-            for conj in conjuncts(self.node):
-                if not (isinstance(conj, ast.Rel) and conj.op == "="):
-                    continue
-                for left, right in ((conj.left, conj.right), (conj.right, conj.left)):
-                    if not isinstance(left, ast.Name) or left.id not in self.names or \
-                            left.id in known or left.id in out:
-                        continue
-                    reads = ast.free_names(right) & set(self.names)
-                    if left.id not in reads and reads <= known | set(out):
-                        out[left.id] = right
-                        changed = True
-                        break
+            for name, expr in equalities:
+                if name not in known and name not in out and \
+                        ast.free_names(expr) & set(self.names) <= known | set(out):
+                    out[name] = expr
+                    changed = True
         return out
 
     def not_numbers(self, domains: dict) -> Optional[str]:
@@ -299,7 +305,7 @@ class _Problem:
         nothing bounds to a finite set), or None."""
         for n in self.names:
             if self.types[n] not in (INTEGER, REAL, BOOL):
-                if domains[n] is None and self._equality_for(n):
+                if domains[n] is None and any(m == n for m, _ in self.equalities()):
                     return (f"{n} is of type {show(self.types[n])}, which the solver does not "
                             f"choose, and an equality computes it from identifiers that no "
                             f"conjunct bounds to a finite set (bound them, e.g. x : 1..100)")
@@ -310,16 +316,6 @@ class _Problem:
                 return (f"{n} is of type {show(self.types[n])}, which the solver does not "
                         "choose")
         return None
-
-    def _equality_for(self, name: str) -> bool:
-        """Whether a conjunct ``name = E`` (E without ``name``) computes it."""
-        for conj in conjuncts(self.node):
-            if isinstance(conj, ast.Rel) and conj.op == "=":
-                for left, right in ((conj.left, conj.right), (conj.right, conj.left)):
-                    if isinstance(left, ast.Name) and left.id == name and \
-                            name not in ast.free_names(right):
-                        return True
-        return False
 
     # -- walking the candidates
     def walk(self, domains: dict, derived: Optional[dict] = None) -> Answer:

@@ -273,7 +273,7 @@ def _console_library(values: dict) -> dict:
 def _solve(expr: str, where: str, error, names: dict, env: dict, machine, solving: dict):
     """The predicate ``expr`` solved for the identifiers in it that nothing declares
     (``error``, the unknown identifier's, where it is not a predicate or has none)."""
-    from ..b.btypes import INTEGER, Var, resolve, resolve_all, show
+    from ..b.btypes import Var, resolved_defaulting, show
     from ..b.parser import parse_formula
     from ..b.scope import expand, kind_of
     from ..b.typecheck import check_formula
@@ -293,11 +293,7 @@ def _solve(expr: str, where: str, error, names: dict, env: dict, machine, solvin
     typed = {**names, **{n: Var() for n in free}}
     node, _ = check_formula(expr, typed, file=where, definitions=definitions,
                             kind="predicate")
-    for n in free:  # compared or computed with, typed by nothing else: ProB's INTEGER
-        t = resolve(typed[n])
-        if isinstance(t, Var) and t.numeric:
-            t.ref = INTEGER
-    types = {n: resolve_all(typed[n]) for n in free}
+    types = resolved_defaulting(typed, free)
     for n, t in types.items():
         if "?" in show(t):
             raise BTypeError(f"cannot infer the type of {n}", file=where, source=expr,
