@@ -212,3 +212,25 @@ def open_browser():
 def browser_errors(browser) -> list:
     """The page's console errors so far."""
     return [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+
+
+def from_blobs(path: Path) -> bool:
+    """Whether every block of ``path`` is read from its run blob (not walked)."""
+    from tracecheck.episodes.blobs import blob_records, verified_block
+    from tracecheck.episodes.records import mapped
+
+    with mapped(path) as buf:
+        view = memoryview(buf)
+        try:
+            runs = blob_records(buf)
+            return bool(runs) and all(verified_block(buf, view, runs, k) is not None
+                                      for k in range(len(runs)))
+        finally:
+            view.release()
+
+
+def walking(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Make readers walk files episode by episode, as if no run blob fitted."""
+    import tracecheck.episodes.columns as C
+
+    monkeypatch.setattr(C, "blob_records", lambda buf: None)

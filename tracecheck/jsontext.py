@@ -50,16 +50,22 @@ def plain(value: Any) -> Any:
     return value
 
 
+#: values that are JSON as they are
+_AS_IS = frozenset({str, int, bool, type(None)})
+
+
 def _walk(value: Any) -> tuple[Any, Optional[str]]:
     """(the value with every non-finite float as None, a note saying what was replaced)."""
     kind = type(value)
-    if kind is str or kind is int or kind is bool or value is None:
+    if kind in _AS_IS:
         return value, None
     if isinstance(value, float):
         return (value, None) if math.isfinite(value) else (None, nonfinite_name(value))
     if isinstance(value, dict):
         return finite(value), None
     if isinstance(value, (list, tuple)):
+        if kind is list and all(type(v) in _AS_IS for v in value):
+            return value, None  # names, step numbers: nothing to replace (the common case)
         items, notes = [], []
         for i, v in enumerate(value):
             item, note = _walk(v)
@@ -76,7 +82,12 @@ def finite(data: Any) -> Any:
     if not isinstance(data, dict):
         return _walk(data)[0]
     out = {}
+    as_is = _AS_IS
     for key, value in data.items():
+        kind = type(value)
+        if kind in as_is or kind is float and value - value == 0.0:  # finite: as it is
+            out[key] = value
+            continue
         out[key], note = _walk(value)
         if note and f"{key}_note" not in data:
             out[f"{key}_note"] = note

@@ -15,9 +15,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from tests.helpers import episode
+from tests.helpers import episode, from_blobs, walking
 from tracecheck.episodes import EpisodeWriter, new_header, read_columns, read_header, read_run
-from tracecheck.episodes import columns as C
 from tracecheck.episodes import writer as W
 from tracecheck.episodes.codec import decode_columns
 from tracecheck.episodes.columns import episode_columns
@@ -59,9 +58,9 @@ def write(path: Path, episodes, **header) -> Path:
 
 def both_ways(path: Path, monkeypatch):
     """The columns of ``path`` from its run blob and from walking it episode by episode."""
-    assert C._from_run_columns(path) is not None
+    assert from_blobs(path)
     fast = read_columns(path)
-    monkeypatch.setattr(C, "_from_run_columns", lambda p: None)
+    walking(monkeypatch)
     slow = read_columns(path)
     monkeypatch.undo()
     return fast, slow

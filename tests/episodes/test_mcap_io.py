@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from tests.helpers import ROOT
+from tests.helpers import ROOT, from_blobs, walking
 from tracecheck.episodes.records import Attachment, walk
 from tracecheck.episodes import EpisodeWriter, new_header, read_columns, read_episodes, read_run
 from tracecheck.episodes.files import write_run
@@ -313,12 +313,11 @@ def test_a_finished_file_is_read_from_its_run_blob_with_the_walk_s_answer(tmp_pa
     """A closed file carries every episode in one blob: read in a few array operations, and
     exactly what reading it episode by episode gives (which is what happens when any byte
     the blob stands for has changed)."""
-    import tracecheck.episodes.columns as C
 
     path = write(tmp_path / "run.mcap", episodes, compress=False)  # a bit of a message is flipped
-    assert C._from_run_columns(path) is not None
+    assert from_blobs(path)
     fast = read_columns(path)
-    monkeypatch.setattr(C, "_from_run_columns", lambda p: None)
+    walking(monkeypatch)
     slow = read_columns(path)
     for key in ("episode_ids", "starts", "episode", "step", "time", "action", "reward",
                 "crashed", "values"):
@@ -332,6 +331,6 @@ def test_a_finished_file_is_read_from_its_run_blob_with_the_walk_s_answer(tmp_pa
     data = bytearray(path.read_bytes())
     data[data.find(b'"episode":1,"step":2') + 30] ^= 1  # one bit in episode 1's messages
     path.write_bytes(bytes(data))
-    assert C._from_run_columns(path) is None
+    assert not from_blobs(path)
     with pytest.raises(InputError, match="episode 1: "):
         read_columns(path)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 import time
 
@@ -89,6 +90,41 @@ def test_replay_diff_stats_per_file_on_ray(local_ray):
     sa = statistics(files, HIGHWAY_SET)
     sb = statistics(files, HIGHWAY_SET, executor="ray")
     assert sa["runs"] == sb["runs"] and sa["comparisons"] == sb["comparisons"]
+
+
+def test_ray_tasks_are_blocks_of_a_file(local_ray, tmp_path, monkeypatch):
+    """Issue 28: the unit of work on Ray is a block of a file's episodes; the answers are
+    the local ones (which read the file a block at a time in one process)."""
+    from tracecheck.checking.diffing import diff
+    from tracecheck.checking.executors import file_blocks
+    from tracecheck.checking.replaying import replay
+    from tracecheck.checking.shield import load_shield
+    from tracecheck.episodes import EpisodeWriter
+    from tracecheck.episodes import writer as W
+    from tracecheck.stats.estimates import statistics
+    from tracecheck.stats.properties import HIGHWAY_SET
+
+    source = ROOT / "sample_traces" / "base_none.mcap"
+    run = read_run(source)
+    monkeypatch.setattr(W, "BLOCK_ROWS", 150)
+    path = tmp_path / "blocks.mcap"
+    with EpisodeWriter(path, run.header) as out:
+        for ep in run.episodes:
+            out.write(ep)
+    units = file_blocks([path, source], "ray")
+    assert len(units) > 4 and {u[2] for u in units if u[1] == str(path)} == set(
+        range(len(units) - 1))
+    paper, none = load_shield("paper"), load_shield("none")
+    a, b = replay([path], paper), replay([path], paper, executor="ray")
+    assert a.per_episode == b.per_episode and len(a.per_episode) == len(run.episodes)
+    assert replay([source], paper).per_episode == [
+        dataclasses.replace(e, file=str(source)) for e in a.per_episode]
+    da, db = diff([path], paper, none), diff([path], paper, none, executor="ray")
+    assert (da.changed_steps, da.changes, da.episodes) == (db.changed_steps, db.changes,
+                                                           db.episodes) and da.changed_steps
+    sa = statistics([path], HIGHWAY_SET)
+    sb = statistics([path], HIGHWAY_SET, executor="ray")
+    assert sa["runs"] == sb["runs"]
 
 
 @pytest.fixture(scope="module")

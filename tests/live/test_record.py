@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import signal
@@ -175,7 +176,7 @@ def test_resimulation_reports_a_mismatch(tmp_path):
     report = replay([fake], shield)
     # force the episode to be re-simulated from step 1
     item = report.per_episode[0]
-    report.per_episode[0] = type(item)(**{**item.__dict__, "first_infeasible": 1})
+    report.per_episode[0] = dataclasses.replace(item, first_infeasible=1)
     (result,) = resimulate(fake, shield, report, agent=BASE)
     assert result.outcome == "did not reproduce" and result.detail.startswith("step 0: Reward")
 

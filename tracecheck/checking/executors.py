@@ -13,7 +13,7 @@ from typing import Optional
 from ..errors import InputError
 from ..limits import deep_recursion
 
-__all__ = ["map_files", "start_ray", "EXECUTORS"]
+__all__ = ["map_files", "file_blocks", "start_ray", "EXECUTORS"]
 
 EXECUTORS = ("local", "ray")
 
@@ -45,6 +45,19 @@ def _in_task(fn, job: bytes):
     unpickled here, with the recursion limit a deeply nested formula needs."""
     with deep_recursion():
         return fn(*pickle.loads(job))
+
+
+def file_blocks(paths, executor: str = "local") -> list[tuple[int, str, Optional[int]]]:
+    """The units of work over run files: (index of the file, its path, block or None for
+    the whole file). Locally a whole file each (read block by block all the same); on Ray
+    each block of a file that has them (:func:`~tracecheck.episodes.columns.blocks_of`)."""
+    from ..episodes.columns import blocks_of
+
+    out = []
+    for i, p in enumerate(paths):
+        count = blocks_of(p) if executor != "local" else 0
+        out += [(i, str(p), k) for k in range(count)] or [(i, str(p), None)]
+    return out
 
 
 def map_files(fn, jobs: list[tuple], executor: str = "local",

@@ -25,9 +25,9 @@ import numpy as np
 from ..b import ast
 from ..b.columns import Columns, shifted_pairs, step_pairs
 from ..b.linear import real_parameters
-from ..episodes.columns import RunColumns, read_columns
+from ..episodes.columns import RunColumns, read_blocks
 from ..errors import InputError, TracecheckError, UnsupportedError
-from .executors import map_files
+from .executors import file_blocks, map_files
 from .shield import Shield
 from ..jsontext import plain
 
@@ -45,7 +45,7 @@ PREVENTED, NOT_PREVENTED, NEW_CRASH, NO_CRASH, MISMATCH, NO_SEED = OUTCOMES = (
 NEVER_BLOCKED = "never blocked"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)  # slots: a campaign holds 10^5 of them
 class EpisodeReplay:
     """What replay found in one episode (steps are numbered from the initial state 0)."""
 
@@ -269,9 +269,18 @@ def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport,
     post_bad[rows] = _postconditions(shield, cols, rows, actions)
     checks = _FileChecks(ops, matrix, feasible, deadlock, invariant_ok, post_bad, margins)
     largest = _largest_margins(cols, margins)
-    for i, ep in enumerate(cols.episode_ids):
-        lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
-        report.per_episode.append(_episode(cols, checks, int(ep), lo, hi, largest.get(i)))
+    # per episode: does it have anything to list (most of a campaign's have not)
+    flagged = ~feasible | deadlock | ~invariant_ok | post_bad | cols.crashed
+    any_flag = np.logical_or.reduceat(flagged, cols.starts[:-1]) if cols.n else flagged
+    quiet = {}
+    for i, (ep, lo, hi) in enumerate(zip(cols.episode_ids.tolist(), cols.starts[:-1].tolist(),
+                                         cols.starts[1:].tolist())):
+        if any_flag[i]:
+            report.per_episode.append(_episode(cols, checks, ep, lo, hi, largest.get(i)))
+        else:  # nothing happened in it: the one record of such an episode, its length apart
+            if hi - lo not in quiet:
+                quiet[hi - lo] = _episode(cols, checks, ep, lo, hi)
+            report.per_episode.append(dataclasses.replace(quiet[hi - lo], episode=ep))
 
 
 @dataclass(frozen=True)
@@ -553,10 +562,15 @@ def _replay_columns(cols: RunColumns, shield: Shield, parsed: Sequence[tuple] = 
 
 
 def _replay_one(path: str, shield: Shield, parsed: Sequence[tuple] = (),
-                salvage: bool = False) -> ReplayReport:
-    """One file, in whichever process runs it (the shield itself is sent there: pickled as
-    its text, see :class:`Shield`; the parsed formulas as their dataclasses)."""
-    return _replay_columns(read_columns(path, salvage=salvage), shield, parsed)
+                salvage: bool = False, block: Optional[int] = None) -> ReplayReport:
+    """One file (or one block of it), block by block, in whichever process runs it (the
+    shield itself is sent there: pickled as its text, see :class:`Shield`; the parsed
+    formulas as their dataclasses)."""
+    report = ReplayReport(shield=shield.identity, files=[path])
+    for cols in read_blocks(path, salvage=salvage, block=block):
+        report.warnings += cols.warnings
+        _replay_file(shield, cols, report, parsed)
+    return report
 
 
 def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "local",
@@ -566,14 +580,15 @@ def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "loca
     check the LTL formulas ``ltl`` (and, with ``ltl_assertions``, the machine's
     ``ASSERT_LTL`` definitions) on every episode (see :mod:`tracecheck.checking.ltl`).
 
-    With ``executor="ray"`` each file is replayed in a Ray task; ``salvage``: as
+    Each file is read a block of episodes at a time (memory is set by the block, not the
+    file); with ``executor="ray"`` each block is replayed in a Ray task; ``salvage``: as
     :func:`~tracecheck.episodes.reader.read_run`.
     """
     paths = [str(p) for p in paths]
     report = ReplayReport(shield=shield.identity, files=paths)
     parsed = tuple(ltl_formulas(shield, ltl, ltl_assertions))  # errors before any file is read
     start = time.perf_counter()
-    jobs = [(p, shield, parsed, salvage) for p in paths]
+    jobs = [(p, shield, parsed, salvage, block) for _, p, block in file_blocks(paths, executor)]
     for part in map_files(_replay_one, jobs, executor, ray_address):
         report.per_episode += part.per_episode
         report.warnings += part.warnings

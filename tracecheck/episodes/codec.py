@@ -204,11 +204,14 @@ def _pack(header: dict[str, Any], arrays: dict[str, np.ndarray]) -> bytes:
     return body + struct.pack("<I", zlib.crc32(body))  # a flipped bit is found, not trusted
 
 
-def encode_run_columns(run, spans: np.ndarray, span_crcs: np.ndarray, head_crc: int) -> bytes:
-    """Every episode of a file in one columns blob (``run``: its
+def encode_run_columns(run, spans: np.ndarray, span_crcs: np.ndarray, head_crc: int,
+                       head_end: int) -> bytes:
+    """A block of episodes of a file in one columns blob (``run``: their
     :class:`~tracecheck.episodes.columns.RunColumns`, read back through the checked reader
-    when the file is closed), with the byte span of each episode's records and their CRC-32s:
-    a reader that finds the spans unchanged reads the whole file in a few array operations."""
+    when the block is closed), with the byte span of each episode's records and their CRC-32s
+    and the CRC-32 of the file's first ``head_end`` bytes (before any episode): a reader that
+    finds them unchanged reads the block in a few array operations (see
+    :mod:`tracecheck.episodes.blobs`)."""
     arrays: dict[str, np.ndarray] = {
         "time": np.asarray(run.time, dtype=np.float64),
         "action": np.asarray(run.action, dtype=np.int16),
@@ -234,6 +237,7 @@ def encode_run_columns(run, spans: np.ndarray, span_crcs: np.ndarray, head_crc: 
     arrays["run:spans"] = np.asarray(spans, dtype=np.int64).reshape(-1, 2)
     arrays["run:span_crcs"] = np.asarray(span_crcs, dtype=np.uint32)
     header: dict[str, Any] = {"episode": -1, "run": True, "head_crc": head_crc,
+                              "head_end": head_end,
                               "reasons": list(END_REASONS),
                               "elements": [str(e) for e in run.states.elements],
                               "actions": list(run.action_names), "kinds": kinds,

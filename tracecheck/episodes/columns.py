@@ -5,25 +5,24 @@ decoding a single step message.
 
 from __future__ import annotations
 
+import mmap
 import warnings
-import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Optional
+from typing import Iterator, Optional
 
 import numpy as np
 
 from ..b.columns import Columns
 from ..b.values import Elem
 from ..errors import InputError
-from .model import END_REASONS
-from .codec import (RUN_COLUMNS_MEDIA_TYPE, columns_from_arrays, decode_columns,
-                    parameter_arrays)
+from .blobs import BLOCK_ROWS, blob_records, verified_block
+from .codec import columns_from_arrays, parameter_arrays
 from ..errors import DamagedEpisode
-from .reader import check_columns, read_pieces
-from .records import find_attachment, mapped
+from .reader import read_pieces
+from .records import mapped
 
-__all__ = ["read_columns", "RunColumns", "episode_columns"]
+__all__ = ["read_columns", "read_blocks", "blocks_of", "join", "RunColumns", "episode_columns"]
 
 
 @dataclass
@@ -67,81 +66,114 @@ class RunColumns:
 
 
 def read_columns(path: str | Path, *, salvage: bool = False) -> RunColumns:
-    """All states of a file as numpy columns (see :class:`RunColumns`).
+    """All states of a file as numpy columns (see :class:`RunColumns`): its blocks
+    (:func:`read_blocks`) joined. A file with a damaged tail gives its complete episodes, with
+    the loss described in ``warnings``."""
+    return join(str(path), list(read_blocks(path, salvage=salvage)))
 
-    Decodes only the per-episode column attachments (each checked against its episode's
-    header, end record and last step message, see :mod:`tracecheck.episodes.reader`); a file
-    with a damaged tail gives its complete episodes, with the loss described in ``warnings``.
+
+def blocks_of(path: str | Path) -> int:
+    """How many blocks the file's run blobs give (0: it has none that fit, it is read whole):
+    the units of work of the Ray executor (see :func:`read_blocks`)."""
+    with mapped(Path(path)) as buf:
+        return len(blob_records(buf) or ())
+
+
+def read_blocks(path: str | Path, *, salvage: bool = False, block: Optional[int] = None,
+                regions: Optional[list[tuple[int, int]]] = None) -> Iterator[RunColumns]:
+    """The states of a file as numpy columns, one block of episodes at a time (each a
+    :class:`RunColumns` of its own, rows and episodes counted from 0 in it), so that memory is
+    set by the block, not the file: from the file's run blobs where every byte they stand for
+    is unchanged (:mod:`tracecheck.episodes.blobs`), else by walking the file episode by
+    episode — each episode checked against its header, end record and last step message (see
+    :mod:`tracecheck.episodes.reader`) — in blocks of about :data:`BLOCK_ROWS` states.
+
+    ``block``: only block ``block`` of :func:`blocks_of` (an error if it does not check);
+    ``regions``: only the episodes in these byte ranges, walked (the writer reads its blocks
+    back so). At least one block comes, empty where the file holds no complete episode.
     """
     path = Path(path)
-    whole = _from_run_columns(path)
-    if whole is not None:
-        return whole
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", DamagedEpisode)
-        decoded, reasons = [], []
-        for piece in read_pieces(path, decode=False, salvage=salvage):
-            decoded.append((piece.head.episode, *piece.columns))
-            reasons.append(piece.end.reason)
-    notes = [str(w.message) for w in caught if issubclass(w.category, DamagedEpisode)]
-    actions: list[str] = []
-    elements: list[str] = []
-    for _, header, _ in decoded:
-        actions += [a for a in header["actions"] if a not in actions]
-        elements += [e for e in header["elements"] if e not in elements]
-    parts = []
-    values = []
-    literals: dict = {}
-    for ep, header, arrays in decoded:
-        order = [actions.index(a) for a in header["actions"]]
-        remap = np.array(order + [-1], dtype=np.int16)
-        cols = columns_from_arrays(header, arrays, literals,
-                                   where=f"{path}, episode {ep}: ")
-        parts.append((ep, arrays, remap[arrays["action"]], _widen(cols, elements)))
-        table = np.full((len(arrays["time"]), len(actions)), np.nan)
-        if "values" in arrays:
-            table[:, order] = arrays["values"]
-        values.append(table)
-    result = _concatenate(str(path), parts, tuple(actions), tuple(Elem(e) for e in elements),
-                          notes)
-    if any("values" in arrays for _, _, arrays in decoded):
-        result.values = np.concatenate(values)
-    pieces = [arrays for _, _, arrays in decoded]
-    result.parameters = _joined(pieces, "par:")
-    result.proposals = _joined(pieces, "prop:")
-    result.distance = _joined(pieces, "dist").get("")
-    result.seeds = [header.get("seed") for _, header, _ in decoded]
-    result.reasons = reasons
-    return result
-
-
-def _joined(pieces: list[dict], prefix: str) -> dict[str, np.ndarray]:
-    """The columns named ``prefix + NAME`` of the episodes' arrays, one after the other, by
-    NAME; NaN in the rows of an episode without one (episodes of a file may differ in which
-    parameters their actions have)."""
-    def column(arrays: dict, name: str) -> np.ndarray:
-        found = arrays.get(prefix + name)
-        return np.full(len(arrays["time"]), np.nan) if found is None else found
-
-    names = sorted({k[len(prefix):] for arrays in pieces for k in arrays if k.startswith(prefix)})
-    return {name: np.concatenate([column(arrays, name) for arrays in pieces]) for name in names}
-
-
-def _from_run_columns(path: Path) -> Optional[RunColumns]:
-    """The whole file from the blob its writer left when it closed the file — only if every
-    byte before the blob is unchanged: the blob's own CRC, the CRC-32 of each episode's
-    records (header to columns attachment, one after the other up to the blob) and of
-    everything before the first episode. Otherwise None: the reader walks the file episode by
-    episode, finding and naming whatever changed, so both ways give the same answer."""
+    done = 0  # episodes given from blobs
     with mapped(path) as buf:
+        runs = [] if regions else blob_records(buf) or []
         view = memoryview(buf)
         try:
-            found = _verified_blob(buf, view)
+            for k in (range(len(runs)) if block is None else [block]):
+                found = verified_block(buf, view, runs, k) if k < len(runs) else None
+                cols = None if found is None else _block_columns(path, *found)
+                _forget(buf)  # the pages of the block just read leave this process
+                if cols is None:
+                    break
+                yield cols
+                done += len(cols.episode_ids)
+            else:
+                if runs:
+                    return
         finally:
             view.release()
-    if found is None:
-        return None
-    header, arrays = found
+    if block is not None:
+        raise InputError(f"{path}: block {block} of its episodes does not check (the file "
+                         "changed while it was read?)", hint="read it again")
+    yield from _walked(path, salvage, done, regions)
+
+
+def _forget(buf) -> None:
+    """Let the pages of a mapped file read so far go (they stay in the page cache)."""
+    if isinstance(buf, mmap.mmap) and hasattr(mmap, "MADV_DONTNEED"):
+        buf.madvise(mmap.MADV_DONTNEED)
+
+
+def _walked(path: Path, salvage: bool, skip: int, regions=None) -> Iterator[RunColumns]:
+    """The file's episodes walked record by record (the first ``skip`` left out: they came
+    from blobs), in blocks of about :data:`BLOCK_ROWS` states."""
+    pieces = read_pieces(path, decode=False, salvage=salvage, regions=regions)
+    group: list = []
+    rows = 0
+    given = False
+    notes: list[str] = []
+    while True:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", DamagedEpisode)
+            piece = next(pieces, None)
+        notes += [str(w.message) for w in caught if issubclass(w.category, DamagedEpisode)]
+        if piece is not None:
+            if skip:
+                skip -= 1
+                continue
+            group.append(piece)
+            rows += len(piece.columns[1]["time"])
+        if group and (piece is None or rows >= BLOCK_ROWS) or piece is None and not given:
+            yield _pieces_columns(path, group, notes)
+            group, rows, notes, given = [], 0, [], True
+        if piece is None:
+            return
+
+
+def _pieces_columns(path: Path, pieces: list, notes: list[str]) -> RunColumns:
+    """The columns of walked episodes (each episode's own actions and elements joined)."""
+    parts = []
+    literals: dict = {}  # parsed once for the block's episodes
+    for piece in pieces:
+        header, arrays = piece.columns
+        ep = piece.head.episode
+        states = columns_from_arrays(header, arrays, literals, where=f"{path}, episode {ep}: ")
+        n = len(arrays["time"])
+        parts.append(RunColumns(
+            path=str(path), episode_ids=np.array([ep], dtype=np.int64),
+            starts=np.array([0, n], dtype=np.int64), episode=np.full(n, ep, dtype=np.int64),
+            step=np.arange(n), time=arrays["time"], action=arrays["action"],
+            action_names=tuple(header["actions"]), reward=arrays["reward"],
+            crashed=arrays["crashed"].astype(bool), states=states, values=arrays.get("values"),
+            seeds=[header.get("seed")], reasons=[piece.end.reason],
+            parameters=_prefixed(arrays, "par:"), proposals=_prefixed(arrays, "prop:"),
+            distance=arrays.get("dist")))
+    joined = join(str(path), parts)
+    joined.warnings = list(notes)
+    return joined
+
+
+def _block_columns(path: Path, header: dict, arrays: dict) -> Optional[RunColumns]:
+    """The columns of one verified run blob (None: its states do not fit together)."""
     starts, ids = arrays["run:starts"], arrays["run:episodes"]
     body = {k: v for k, v in arrays.items() if not k.startswith("run:")}
     try:
@@ -152,62 +184,25 @@ def _from_run_columns(path: Path) -> Optional[RunColumns]:
     lengths = np.diff(starts)
     episode = np.repeat(ids, lengths)
     step = np.arange(n) - np.repeat(starts[:-1], lengths)
-    states.label = lambda i: f"{path}, episode {int(episode[i])}, step {int(step[i])}"
+    states.label = _labels(str(path), episode, step)
     return RunColumns(
         path=str(path), episode_ids=ids, starts=starts, episode=episode, step=step,
         time=body["time"], action=body["action"], action_names=tuple(header["actions"]),
         reward=body["reward"], crashed=body["crashed"].astype(bool), states=states,
-        values=body.get("values"), parameters=_joined([body], "par:"),
-        proposals=_joined([body], "prop:"), distance=body.get("dist"),
+        values=body.get("values"), parameters=_prefixed(body, "par:"),
+        proposals=_prefixed(body, "prop:"), distance=body.get("dist"),
         seeds=[int(x) if ok else None for x, ok in zip(arrays["run:seeds"].tolist(),
                                                        arrays["run:seeded"].tolist())],
         reasons=[header["reasons"][int(k)] for k in arrays["run:reasons"]])
 
 
-def _verified_blob(buf, view) -> Optional[tuple[dict, dict]]:
-    """The run blob's header and arrays where it fits together and every byte it stands for
-    is as written (see :func:`_from_run_columns`)."""
-    found = find_attachment(buf, RUN_COLUMNS_MEDIA_TYPE)
-    if found is None:
-        return None
-    offset, blob = found
-    try:
-        header, arrays = decode_columns(blob)
-        spans, crcs = arrays["run:spans"], arrays["run:span_crcs"]
-        starts, ids = arrays["run:starts"], arrays["run:episodes"]
-        e = len(ids)
-        if not (header.get("run") is True and e and spans.shape == (e, 2)
-                and crcs.shape == arrays["run:seeds"].shape == arrays["run:seeded"].shape == (e,)
-                and _reasons_fit(header, arrays, e)
-                and starts.shape == (e + 1,) and starts[0] == 0
-                and np.all(np.diff(starts) > 0) and len(np.unique(ids)) == e):
-            return None
-        # the episodes' records follow each other from the first to the blob's record
-        if not (0 < spans[0, 0] and np.all(spans[:, 0] < spans[:, 1])
-                and np.array_equal(spans[1:, 0], spans[:-1, 1]) and spans[-1, 1] == offset):
-            return None
-        if zlib.crc32(view[:int(spans[0, 0])]) != header.get("head_crc") or any(
-                zlib.crc32(view[a:b]) != crc for (a, b), crc in zip(spans.tolist(),
-                                                                    crcs.tolist())):
-            return None
-        body = {k: v for k, v in arrays.items() if not k.startswith("run:")}
-        check_columns({**header, "episode": 0}, body, first_action=False)
-        n = int(starts[-1])
-        first = np.zeros(n, dtype=bool)
-        first[starts[:-1]] = True
-        if len(body["time"]) != n or not np.array_equal(body["action"] == -1, first):
-            return None  # one row per state, no action exactly at each step 0
-    except (InputError, KeyError, TypeError, ValueError):
-        return None
-    return header, arrays
+def _labels(path: str, episode: np.ndarray, step: np.ndarray):
+    return lambda i: f"{path}, episode {int(episode[i])}, step {int(step[i])}"
 
 
-def _reasons_fit(header: dict, arrays: dict, episodes: int) -> bool:
-    """The blob names each episode's end reason (files written before it did: walked)."""
-    names, codes = header.get("reasons"), arrays.get("run:reasons")
-    return (isinstance(names, list) and all(n in END_REASONS for n in names)
-            and codes is not None and codes.shape == (episodes,) and codes.dtype.kind == "i"
-            and bool(np.all((codes >= 0) & (codes < len(names)))))
+def _prefixed(arrays: dict, prefix: str) -> dict[str, np.ndarray]:
+    """The columns named ``prefix + NAME``, by NAME in order."""
+    return {k[len(prefix):]: arrays[k] for k in sorted(arrays) if k.startswith(prefix)}
 
 
 def episode_columns(episodes, action_names) -> RunColumns:
@@ -245,7 +240,7 @@ def _continuous(steps) -> dict:
     arrays = parameter_arrays(len(steps), [s.parameters for s in steps],
                               [s.proposal for s in steps],
                               [s.projection_distance for s in steps])
-    return {"parameters": _joined([arrays], "par:"), "proposals": _joined([arrays], "prop:"),
+    return {"parameters": _prefixed(arrays, "par:"), "proposals": _prefixed(arrays, "prop:"),
             "distance": arrays.get("dist")}
 
 
@@ -268,37 +263,70 @@ def _widen(cols: Columns, elements: list[str]) -> Columns:
     return out
 
 
-def _concatenate(path: str, parts, actions, elements, notes) -> RunColumns:
-    lengths = [len(arrays["time"]) for _, arrays, _, _ in parts]
-    starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
-    n = int(starts[-1])
-    ids = np.array([ep for ep, _, _, _ in parts], dtype=np.int64)
-
-    def cat(key):
-        return (np.concatenate([arrays[key] for _, arrays, _, _ in parts]) if parts
-                else np.zeros(0))
-
-    states = Columns(n=n, elements=elements)
-    if parts:
-        first = parts[0][3]
+def join(path: str, blocks: list[RunColumns]) -> RunColumns:
+    """Blocks of one file (or the episodes of one) as one :class:`RunColumns`: actions and
+    elements in the order they first appear, a block's missing ones undefined or NaN."""
+    if len(blocks) == 1:
+        return blocks[0]
+    actions = tuple(dict.fromkeys(a for b in blocks for a in b.action_names))
+    elements = list(dict.fromkeys(str(e) for b in blocks for e in b.states.elements))
+    lengths = [b.n for b in blocks]
+    n = sum(lengths)
+    widened = [_widen(b.states, elements) for b in blocks]
+    states = Columns(n=n, elements=tuple(Elem(e) for e in elements))
+    if blocks:
+        first = widened[0]
         for name in first.numbers:
-            states.numbers[name] = np.concatenate([c.numbers[name] for *_, c in parts])
+            states.numbers[name] = np.concatenate([c.numbers[name] for c in widened])
         for name in first.booleans:
-            states.booleans[name] = np.concatenate([c.booleans[name] for *_, c in parts])
+            states.booleans[name] = np.concatenate([c.booleans[name] for c in widened])
         for name in first.functions:
             states.functions[name] = (
-                np.concatenate([c.functions[name][0] for *_, c in parts]),
-                np.concatenate([c.functions[name][1] for *_, c in parts]))
+                np.concatenate([c.functions[name][0] for c in widened]),
+                np.concatenate([c.functions[name][1] for c in widened]))
         for name in first.masks:
-            states.masks[name] = np.concatenate([c.masks[name] for *_, c in parts])
+            states.masks[name] = np.concatenate([c.masks[name] for c in widened])
         for name in first.others:
-            states.others[name] = [v for *_, c in parts for v in c.others[name]]
-    episode = np.repeat(ids, lengths)
-    step = np.concatenate([np.arange(m) for m in lengths]) if parts else np.zeros(0, np.int64)
-    states.label = lambda i: f"{path}, episode {int(episode[i])}, step {int(step[i])}"
-    return RunColumns(
-        path=path, episode_ids=ids, starts=starts,
-        episode=episode, step=step,
-        time=cat("time"), action=np.concatenate([a for _, _, a, _ in parts]) if parts
-        else np.zeros(0, dtype=np.int16), action_names=actions, reward=cat("reward"),
-        crashed=cat("crashed").astype(bool), states=states, warnings=notes)
+            states.others[name] = [v for c in widened for v in c.others[name]]
+    orders = [[actions.index(a) for a in b.action_names] for b in blocks]
+
+    def cat(arrays, dtype=np.float64):
+        return np.concatenate(arrays) if blocks else np.zeros(0, dtype=dtype)
+
+    ids = cat([b.episode_ids for b in blocks], np.int64)
+    episode_lengths = np.concatenate([np.diff(b.starts) for b in blocks]) if blocks else []
+    starts = np.concatenate([[0], np.cumsum(episode_lengths)]).astype(np.int64)
+    episode, step = cat([b.episode for b in blocks], np.int64), cat([b.step for b in blocks],
+                                                                    np.int64)
+    states.label = _labels(path, episode, step)
+    out = RunColumns(
+        path=path, episode_ids=ids, starts=starts, episode=episode, step=step,
+        time=cat([b.time for b in blocks]),
+        action=cat([np.array(o + [-1], dtype=np.int16)[b.action]
+                    for o, b in zip(orders, blocks)], np.int16),
+        action_names=actions, reward=cat([b.reward for b in blocks]),
+        crashed=cat([b.crashed for b in blocks], bool), states=states,
+        warnings=[w for b in blocks for w in b.warnings],
+        seeds=[s for b in blocks for s in b.seeds],
+        reasons=[r for b in blocks for r in b.reasons])
+    if any(b.values is not None for b in blocks):
+        values = np.full((n, len(actions)), np.nan)
+        row = 0
+        for o, b in zip(orders, blocks):
+            if b.values is not None:
+                values[row:row + b.n, o] = b.values
+            row += b.n
+        out.values = values
+    out.parameters = _joined_by_name([(b.n, b.parameters) for b in blocks])
+    out.proposals = _joined_by_name([(b.n, b.proposals) for b in blocks])
+    if any(b.distance is not None for b in blocks):
+        out.distance = _joined_by_name([(b.n, {"": b.distance} if b.distance is not None
+                                         else {}) for b in blocks])[""]
+    return out
+
+
+def _joined_by_name(parts: list[tuple[int, dict[str, np.ndarray]]]) -> dict[str, np.ndarray]:
+    """Columns by name of parts of ``n`` rows each, NaN where a part has none by that name."""
+    names = sorted({name for _, cols in parts for name in cols})
+    return {name: np.concatenate([cols.get(name, np.full(n, np.nan)) for n, cols in parts])
+            for name in names}

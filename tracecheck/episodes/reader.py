@@ -484,9 +484,11 @@ def check_columns(header: dict, arrays: dict, *, first_action: bool = True) -> N
 
 
 def read_pieces(path: str | Path, only: Optional[set[int]] = None, *, decode: bool = True,
-             salvage: bool = False) -> Iterator[Piece]:
+                salvage: bool = False, regions: Optional[list[tuple[int, int]]] = None
+                ) -> Iterator[Piece]:
     """The complete, checked episodes of a file in order (those in ``only`` when given;
-    ``decode=False``: step messages are counted, not decoded).
+    ``decode=False``: step messages are counted, not decoded; ``regions``: only the records
+    in these byte ranges, see :func:`~tracecheck.episodes.records.walk`).
 
     A damaged tail ends the iteration with a :class:`DamagedEpisode`; a file that is not
     a tracecheck run raises :class:`~tracecheck.errors.InputError`, and so does an episode
@@ -496,14 +498,15 @@ def read_pieces(path: str | Path, only: Optional[set[int]] = None, *, decode: bo
     with mapped(path) as buf:
         view = memoryview(buf)  # checksums over parts of the file without copying them
         try:
-            yield from _pieces(path, buf, view, _Assembler(path, only, decode, salvage))
+            yield from _pieces(path, buf, view, _Assembler(path, only, decode, salvage),
+                               regions)
         finally:
             view.release()
 
 
-def _pieces(path: Path, buf, view, asm: "_Assembler") -> Iterator[Piece]:
+def _pieces(path: Path, buf, view, asm: "_Assembler", regions=None) -> Iterator[Piece]:
     steps = -1  # the channel of step messages, once known
-    for record in walk(path, buf):
+    for record in walk(path, buf, regions):
         if type(record) is MessageRef:
             piece = asm.current
             data, start, end = record

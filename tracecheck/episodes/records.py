@@ -22,7 +22,8 @@ from typing import Any, Iterator, NamedTuple, Optional, Union
 from ..errors import InputError
 
 __all__ = ["walk", "Damage", "BadChunk", "Schema", "Channel", "Attachment", "MessageRef", "MESSAGE", "MAGIC",
-           "MAX_CHUNK_RATIO", "MAX_CHUNK_BYTES", "mapped"]
+           "MAX_CHUNK_RATIO", "MAX_CHUNK_BYTES", "mapped", "indexed_attachments",
+           "attachment_at"]
 
 MAGIC = b"\x89MCAP0\r\n"
 HEADER, FOOTER, SCHEMA, CHANNEL, MESSAGE, CHUNK, ATTACHMENT, DATA_END = 1, 2, 3, 4, 5, 6, 9, 15
@@ -155,13 +156,20 @@ def _open(path: Path):
         raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
 
 
-def walk(path: Path, buf) -> Iterator[Record]:
+def walk(path: Path, buf, regions: Optional[list[tuple[int, int]]] = None
+         ) -> Iterator[Record]:
     """The records of the MCAP file ``buf`` (read from ``path``), in order, up to the end
-    of its data section; a :class:`Damage` last where the file is damaged or ends early."""
+    of its data section; a :class:`Damage` last where the file is damaged or ends early.
+    ``regions``: only the records in these byte ranges of the file, one after the other
+    (each must start at a record)."""
     if bytes(buf[:8]) != MAGIC:
         raise InputError(f"{path} is not an MCAP file (it does not start with the MCAP magic "
                          "bytes)")
-    yield from _records(buf, 8, len(buf), top=True)
+    for start, end in regions or [(8, len(buf))]:
+        for record in _records(buf, start, end, top=True):
+            yield record
+            if isinstance(record, Damage):
+                return
 
 
 def _records(buf, at: int, end: int, top: bool) -> Iterator[Record]:
@@ -267,10 +275,10 @@ _FOOTER = struct.Struct("<BQQQI")
 ATTACHMENT_INDEX = 10
 
 
-def find_attachment(buf, media_type: str) -> Optional[tuple[int, bytes]]:
-    """The last attachment of ``media_type`` listed in the file's summary, as (offset of its
-    record, data), or None — where the file has no footer or summary, or anything in them
-    does not fit (a reader then walks the records instead)."""
+def indexed_attachments(buf) -> Optional[list[tuple[int, int, str]]]:
+    """The attachments the file's summary lists, as (offset of its record, size of its
+    record, media type) in the order of the file, or None — where the file has no footer or
+    summary, or anything in them does not fit (a reader then walks the records instead)."""
     end = len(buf) - 8
     if end < 8 + _FOOTER.size or bytes(buf[end:]) != MAGIC:
         return None
@@ -278,7 +286,7 @@ def find_attachment(buf, media_type: str) -> Optional[tuple[int, bytes]]:
     footer = end - _FOOTER.size
     if op != FOOTER or length != 20 or not 8 <= summary_start <= footer:
         return None
-    found = None
+    found = []
     try:
         at = summary_start
         while at + 9 <= footer:
@@ -291,14 +299,20 @@ def find_attachment(buf, media_type: str) -> Optional[tuple[int, bytes]]:
                 offset, size = f.u64(), f.u64()
                 f.take(24)
                 f.string()
-                if f.string() == media_type:
-                    found = (offset, size)
+                media = f.string()
+                if offset < 8 or offset + size > summary_start:
+                    return None
+                found.append((offset, size, media))
             at = stop
-        if found is None:
-            return None
-        offset, size = found
-        if offset < 8 or offset + size > summary_start:
-            return None
+    except (_BadRecord, struct.error):
+        return None
+    return sorted(found)
+
+
+def attachment_at(buf, offset: int, size: int, media_type: str) -> Optional[bytes]:
+    """The data of the attachment record at ``offset`` (``size`` bytes long, as the summary
+    lists it), or None where no such record of ``media_type`` lies there."""
+    try:
         op, length = _REC.unpack_from(buf, offset)
         if op != ATTACHMENT or 9 + length != size:
             return None
@@ -307,6 +321,6 @@ def find_attachment(buf, media_type: str) -> Optional[tuple[int, bytes]]:
         f.string()
         if f.string() != media_type:
             return None
-        return offset, f.blob(f.u64())
+        return f.blob(f.u64())
     except (_BadRecord, struct.error):
         return None

@@ -7,7 +7,7 @@ from typing import Iterable
 
 import numpy as np
 
-from .columns import read_columns
+from .columns import read_blocks
 
 from .reader import read_header
 
@@ -16,19 +16,21 @@ __all__ = ["summarise"]
 
 def summarise(paths: Iterable[str | Path], *, salvage: bool = False) -> dict:
     """Episodes, steps (agent actions), crashes, sources, agents and shields of the files
-    (``salvage``: as :func:`~tracecheck.episodes.columns.read_columns`)."""
+    (``salvage``: as :func:`~tracecheck.episodes.columns.read_columns`), a block of
+    episodes at a time."""
     files, warnings = [], []
     for path in paths:
         header = read_header(path)
-        cols = read_columns(path, salvage=salvage)
-        warnings += cols.warnings
-        episodes = len(cols.episode_ids)
-        last_rows = cols.starts[1:] - 1
-        crashes = int(np.count_nonzero(cols.crashed[last_rows])) if episodes else 0
+        episodes = rows = crashes = 0
+        for cols in read_blocks(path, salvage=salvage):
+            warnings += cols.warnings
+            episodes += len(cols.episode_ids)
+            rows += cols.n
+            crashes += int(np.count_nonzero(cols.crashed[cols.starts[1:] - 1]))
         files.append({
             "path": str(path), "source": header.source, "created": header.created,
             "model_name": header.model_name, "episodes": episodes,
-            "steps": cols.n - episodes, "crashes": crashes,
+            "steps": rows - episodes, "crashes": crashes,
             "agent": header.agent_id, "shield": header.shield_name,
             "environment": header.environment_id,
             "continuous": _continuous(header),

@@ -27,6 +27,7 @@ from .. import __version__
 from ..b.columns import Columns
 from ..errors import InputError, TracecheckError
 from . import schema
+from .blobs import BLOCK_ROWS
 from .codec import COLUMNS_MEDIA_TYPE, encode_columns, encode_state
 from .model import Episode
 
@@ -77,7 +78,7 @@ class EpisodeWriter:
     def __init__(self, path: str | Path, header: schema.RunHeaderMessage,
                  channels: Optional[ChannelsFactory] = None, *,
                  stream: Optional[IO[bytes]] = None, name: Optional[str | Path] = None,
-                 compress: bool = True) -> None:
+                 compress: bool = True, block_rows: Optional[int] = None) -> None:
         self.path = Path(path)  # the file on disk (read back for the run's columns)
         self.name = str(name or path)  # … and how messages call it (the output's own name)
         self._given = stream  # a stream opened by the caller, which also closes it
@@ -94,6 +95,12 @@ class EpisodeWriter:
         self._crc = 0  # CRC-32 of the messages of the episode being written
         self._spans: list[tuple[int, int]] = []  # per episode: its records' bytes in the file
         self._run_crc = 0  # … and of the run header
+        self._block_rows = block_rows or BLOCK_ROWS  # a run blob per block of this many states
+        self._block = 0  # the index in _spans of the first episode of the open block
+        self._rows = 0  # … and the states of its episodes so far
+        self._blobs = True  # False once a block did not read back: no more blobs
+        self._ids: set[int] = set()  # the episode ids so far (blobs only for unique ones)
+        self._head_crc: Optional[int] = None
 
     # -- context
     def __enter__(self) -> "EpisodeWriter":
@@ -150,8 +157,7 @@ class EpisodeWriter:
         if self._writer is None:
             return
         try:
-            if self._spans:
-                self._write_run_columns()
+            self._close_block()
             self._writer.finish()
         except OSError:
             pass  # disk full or gone: the episodes flushed so far stay readable
@@ -161,35 +167,44 @@ class EpisodeWriter:
                 self._stream.close()
             self._stream = None
 
-    def _write_run_columns(self) -> None:
-        """Every episode in one columns blob, read back through the checked reader, with the
-        CRC-32 of each episode's records: readers of the finished file take it at once."""
+    def _close_block(self) -> None:
+        """The episodes since the last blob in one columns blob, read back through the
+        checked reader, with the CRC-32 of each episode's records and of the file's head: a
+        reader takes the block from it at once (see :mod:`tracecheck.episodes.blobs`)."""
+        spans = self._spans[self._block:]
+        self._block, self._rows = len(self._spans), 0
+        if not spans or not self._blobs:
+            return
         import warnings
 
         from .codec import RUN_COLUMNS_MEDIA_TYPE, encode_run_columns
-        from .columns import read_columns
+        from .columns import join, read_blocks
         from .records import mapped
 
         self._stream.flush()
+        head_end = self._spans[0][0]
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                run = read_columns(self.path, salvage=False)
+                run = join(str(self.path), list(read_blocks(
+                    self.path, regions=[(8, head_end), (spans[0][0], spans[-1][1])])))
         except TracecheckError:
-            return  # the file reads as it is, without the blob
-        if len(run.episode_ids) != len(self._spans) or run.warnings:
+            run = None
+        if run is None or len(run.episode_ids) != len(spans) or run.warnings:
+            self._blobs = False  # the file reads as it is, walked from here on
             return
         with mapped(self.path) as buf:
             view = memoryview(buf)
             try:
-                crcs = [zlib.crc32(view[a:b]) for a, b in self._spans]
-                head = zlib.crc32(view[:self._spans[0][0]])
+                crcs = [zlib.crc32(view[a:b]) for a, b in spans]
+                if self._head_crc is None:
+                    self._head_crc = zlib.crc32(view[:head_end])
             finally:
                 view.release()
-        blob = encode_run_columns(run, self._spans, crcs, head)
+        blob = encode_run_columns(run, spans, crcs, self._head_crc, head_end)
         self._writer.add_attachment(create_time=self._clock_ns, log_time=self._clock_ns,
-                                    name="run.columns", media_type=RUN_COLUMNS_MEDIA_TYPE,
-                                    data=blob)
+                                    name=f"run-{len(self._spans)}.columns",
+                                    media_type=RUN_COLUMNS_MEDIA_TYPE, data=blob)
 
     # -- writing
     def _emit(self, name: str, data: bytes, at_s: float) -> None:
@@ -277,3 +292,9 @@ class EpisodeWriter:
                                     media_type=COLUMNS_MEDIA_TYPE, data=blob)
         self._clock_ns += int(round((last + _GAP_S) * _NS))
         self._spans.append((start, self._stream.tell()))  # header … columns attachment
+        if ep.id in self._ids:
+            self._blobs = False  # the reader walks the file, and names the id used twice
+        self._ids.add(ep.id)
+        self._rows += len(ep.steps)
+        if self._rows >= self._block_rows:
+            self._close_block()

@@ -33,7 +33,7 @@ never decoded here).
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Iterable, Optional
 
@@ -66,6 +66,15 @@ class ContinuousSteps:
     decided: np.ndarray  # the row is a step, decoded (so ``fallback`` is known): of a
     #                      hybrid space's operations without parameters too
     fallback: np.ndarray  # the shield took the fallback (deadlock)
+
+
+def joined_steps(parts: list[ContinuousSteps]) -> Optional[ContinuousSteps]:
+    """The :class:`ContinuousSteps` of a file's blocks, one after the other (None: none)."""
+    if not parts:
+        return None
+    names = tuple(sorted({p for part in parts for p in part.parameters}))
+    return ContinuousSteps(names, *(np.concatenate([getattr(part, f.name) for part in parts])
+                                    for f in fields(ContinuousSteps)[1:]))
 
 
 def _executed(cols: RunColumns) -> np.ndarray:

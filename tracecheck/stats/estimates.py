@@ -15,18 +15,18 @@ import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Optional
+from typing import Iterator, Optional
 
 import numpy as np
 
 from ..b.typecheck import typecheck_formula
 from ..b.arrays import float_column
 from ..b.vector import BatchFormula
-from ..episodes.columns import RunColumns, read_columns
+from ..episodes.columns import RunColumns, join, read_blocks, read_columns
 from ..errors import EvaluationError, InputError, TracecheckError
 from ..checking.crashflag import CRASH_FLAG, flagged, with_crash_flag
 from ..live.adapter import installed_adapter
-from .continuous import (INTERVALS, ContinuousSteps, continuous_summary,
+from .continuous import (INTERVALS, ContinuousSteps, continuous_summary, joined_steps,
                          read_continuous_steps)
 from .continuous import interventions as continuous_interventions
 from .properties import Metric, Property, PropertySet, load_properties, with_generic
@@ -490,14 +490,54 @@ def _paired(a: RunValues, b: RunValues, pset: PropertySet) -> Optional[dict]:
 
 
 def _evaluate_one(path: str, pset: PropertySet, name: Optional[str],
-                  environment=None, salvage: bool = False) -> RunValues:
-    """One file, in whichever process runs it."""
-    cols = read_columns(path, salvage=salvage)
-    sample = cols.states.row(0) if cols.states.n else None
-    formulas = prepare(pset, environment or environment_of(path), sample)
-    run = evaluate_run(path, pset, formulas, name, cols)
-    run.warnings += formulas["warnings"]
-    run.continuous = read_continuous_steps(path, cols, salvage=salvage)
+                  environment=None, salvage: bool = False, block: Optional[int] = None
+                  ) -> RunValues:
+    """One file (or one block of it), in whichever process runs it."""
+    return _evaluate_blocks(path, pset, name, environment or environment_of(path),
+                            read_blocks(path, salvage=salvage, block=block), salvage)[0]
+
+
+def _evaluate_blocks(path: str, pset: PropertySet, name: Optional[str], environment,
+                     blocks: Iterator[RunColumns], salvage: bool = False,
+                     formulas: Optional[dict] = None) -> tuple[RunValues, dict, float]:
+    """The values of one file from its blocks, one block in memory at a time (a run with
+    continuous actions: joined, for its steps' decoded messages); the formulas are prepared
+    from the first state where not given. Also the seconds spent reading the blocks."""
+    reading = 0.0
+    runs = []
+    while True:
+        start = time.perf_counter()
+        cols = next(blocks, None)
+        reading += time.perf_counter() - start
+        if cols is None:
+            break
+        if cols.parameters:  # continuous: every block at once, for the steps' messages
+            start = time.perf_counter()
+            cols = join(str(path), [cols, *blocks])
+            reading += time.perf_counter() - start
+        if formulas is None:
+            sample = cols.states.row(0) if cols.states.n else None
+            formulas = prepare(pset, environment, sample)
+            runs.append(RunValues(name or Path(path).stem, str(path), 0, [],
+                                  warnings=list(formulas["warnings"])))
+        runs.append(evaluate_run(path, pset, formulas, name, cols))
+        if cols.parameters:
+            start = time.perf_counter()
+            runs[-1].continuous = read_continuous_steps(path, cols, salvage=salvage)
+            reading += time.perf_counter() - start
+    return _merged(runs, name or Path(path).stem, str(path)), formulas, reading
+
+
+def _merged(parts: list[RunValues], name: str, file: str) -> RunValues:
+    """The values of a file's blocks, one after the other."""
+    run = RunValues(name, file, sum(r.episodes for r in parts),
+                    [s for r in parts for s in r.seeds],
+                    warnings=list(dict.fromkeys(w for r in parts for w in r.warnings)))
+    done = [r for r in parts if r.episodes]
+    for key in ("metrics", "properties"):
+        for k in (getattr(done[0], key) if done else ()):
+            getattr(run, key)[k] = np.concatenate([getattr(r, key)[k] for r in done])
+    run.continuous = joined_steps([r.continuous for r in parts if r.continuous is not None])
     return run
 
 
@@ -542,25 +582,26 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
         check_environment(adapter, environment)
         environment = adapter
     if executor != "local":
-        from ..checking.executors import map_files
+        from ..checking.executors import file_blocks, map_files
 
         start = time.perf_counter()
-        runs = map_files(_evaluate_one, [(str(p), pset, names[i] if names else None,
-                                          adapter, salvage) for i, p in enumerate(paths)],
-                         executor,
-                         ray_address)
-    else:
-        cols = columns or [read_columns(p, salvage=salvage) for p in paths]
-        sample = cols[0].states.row(0) if cols and cols[0].states.n else None
-        formulas = prepare(pset, environment, sample)
-        steps = [read_continuous_steps(p, c, salvage=salvage) for p, c in zip(paths, cols)]
-        start = time.perf_counter()
-        runs = [evaluate_run(p, pset, formulas, names[i] if names else None, cols[i])
+        units = file_blocks(paths, executor)
+        parts = map_files(_evaluate_one, [(p, pset, names[i] if names else None, adapter,
+                                           salvage, block) for i, p, block in units],
+                          executor, ray_address)
+        runs = [_merged([r for (j, _, _), r in zip(units, parts) if j == i],
+                        names[i] if names else Path(p).stem, str(p))
                 for i, p in enumerate(paths)]
-        for run, found in zip(runs, steps):
-            run.continuous = found
-        if runs:
-            runs[0].warnings += formulas["warnings"]
+    else:
+        start = time.perf_counter()
+        runs, formulas, reading = [], None, 0.0
+        for i, p in enumerate(paths):
+            blocks = iter([columns[i]]) if columns else read_blocks(p, salvage=salvage)
+            run, formulas, took = _evaluate_blocks(str(p), pset, names[i] if names else None,
+                                                   environment, blocks, salvage, formulas)
+            runs.append(run)
+            reading += took
+        start += reading  # the time spent reading is not the statistics'
     out = {"properties_set": pset.name, "interval": interval, "runs": [], "comparisons": [],
            "warnings": list(dict.fromkeys(w for r in runs for w in r.warnings))}
     for run in runs:

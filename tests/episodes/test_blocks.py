@@ -1,0 +1,154 @@
+"""Blocks of episodes (issue 28): a writer leaves a run blob every BLOCK_ROWS states, readers
+take a file a block at a time from them, and every command answers as if the file were read
+whole, walked episode by episode."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from tests.helpers import episode, from_blobs, run, walking
+from tracecheck.episodes import EpisodeWriter, new_header, read_columns
+from tracecheck.episodes import columns as C
+from tracecheck.episodes import writer as W
+from tracecheck.episodes.columns import blocks_of, read_blocks
+from tracecheck.episodes.records import walk, Attachment
+from tracecheck.episodes.codec import RUN_COLUMNS_MEDIA_TYPE
+from tracecheck.errors import InputError
+
+
+def write(path, episodes, block_rows=10, **kw):
+    with EpisodeWriter(path, new_header("recorded", model_name="HighwayEnvironment"),
+                       block_rows=block_rows, **kw) as out:
+        for ep in episodes:
+            out.write(ep)
+    return path
+
+
+def many(n=9):
+    """Episodes of 3 to 7 steps, one that crashes; a LANE_LEFT only from episode 6 on (an
+    action a later block has and an earlier one does not)."""
+    out = []
+    for i in range(n):
+        ep = episode(i, 3 + i % 5, crash_at_end=i == 4, live=i % 2 == 0)
+        if i >= 6:
+            steps = list(ep.steps)
+            steps[2] = dataclasses.replace(steps[2], action="LANE_LEFT")
+            ep = dataclasses.replace(ep, steps=tuple(steps))
+        out.append(ep)
+    return out
+
+
+def same(a, b) -> None:
+    for key in ("episode_ids", "starts", "episode", "step", "time", "action", "reward",
+                "crashed", "values"):
+        assert np.array_equal(getattr(a, key), getattr(b, key), equal_nan=True), key
+    assert a.action_names == b.action_names and a.seeds == b.seeds and a.reasons == b.reasons
+    assert [a.states.row(i) for i in range(a.n)] == [b.states.row(i) for i in range(b.n)]
+    assert a.states.label(a.n - 1) == b.states.label(b.n - 1)
+
+
+def blob_count(path) -> int:
+    return sum(isinstance(r, Attachment) and r.media_type == RUN_COLUMNS_MEDIA_TYPE
+               for r in walk(path, path.read_bytes()))
+
+
+def test_a_blob_per_block_and_the_blocks_read_as_the_walk(tmp_path, monkeypatch):
+    path = write(tmp_path / "run.mcap", many())
+    assert blob_count(path) == blocks_of(path) == 4  # 10 states or more each, the rest last
+    assert from_blobs(path)
+    blocks = list(read_blocks(path))
+    assert [len(b.episode_ids) for b in blocks] == [3, 2, 3, 1]
+    assert all(b.n >= 10 for b in blocks[:-1])
+    assert "LANE_LEFT" not in blocks[0].action_names and "LANE_LEFT" in blocks[-1].action_names
+    for k, b in enumerate(blocks):  # a block alone (a Ray task's) is the same block
+        same(next(read_blocks(path, block=k)), b)
+    whole = read_columns(path)
+    assert whole.action_names == ("IDLE", "FASTER", "LANE_LEFT")
+    walking(monkeypatch)
+    same(whole, read_columns(path))
+
+
+def test_the_walk_groups_episodes_into_blocks_too(tmp_path, monkeypatch):
+    path = write(tmp_path / "run.mcap", many(), block_rows=10 ** 9)
+    assert blocks_of(path) == 1
+    walking(monkeypatch)
+    monkeypatch.setattr(C, "BLOCK_ROWS", 16)
+    blocks = list(read_blocks(path))
+    assert [len(b.episode_ids) for b in blocks] == [4, 3, 2]
+    monkeypatch.setattr(C, "BLOCK_ROWS", 10 ** 9)
+    same(C.join(str(path), blocks), read_columns(path))
+
+
+def test_a_damaged_block_is_walked_and_named(tmp_path, monkeypatch):
+    path = write(tmp_path / "run.mcap", many(), compress=False)
+    data = bytearray(path.read_bytes())
+    data[data.find(b'"episode":5,"step":2') + 30] ^= 1  # one bit of episode 5 (block 2)
+    path.write_bytes(bytes(data))
+    assert not from_blobs(path)
+    assert next(read_blocks(path, block=1)).episode_ids.tolist() == [3, 4]
+    with pytest.raises(InputError, match="block 2 of its episodes does not check"):
+        next(read_blocks(path, block=2))
+    seen = []
+    with pytest.raises(InputError, match=r"run.mcap, episode 5: "):
+        for b in read_blocks(path):
+            seen += b.episode_ids.tolist()
+    assert seen == [0, 1, 2, 3, 4]  # blocks 0 and 1 came from their blobs
+    salvaged = read_columns(path, salvage=True)
+    assert salvaged.episode_ids.tolist() == [0, 1, 2, 3, 4, 6, 7, 8]
+    assert len(salvaged.warnings) == 1 and "episode 5" in salvaged.warnings[0]
+
+
+def test_an_id_used_twice_ends_the_blobs(tmp_path):
+    eps = many()
+    eps[7] = dataclasses.replace(eps[7], id=1)
+    path = write(tmp_path / "run.mcap", eps)
+    assert blob_count(path) == 2 and blocks_of(path) == 0  # none from its block on: walked
+    with pytest.raises(InputError, match="the episode id 1 is used twice"):
+        read_columns(path)
+
+
+def test_a_killed_writer_leaves_its_blocks_and_episodes(tmp_path):
+    path = tmp_path / "run.mcap"
+    out = EpisodeWriter(path, new_header("recorded"), block_rows=10)
+    out.open()
+    for ep in many(5):
+        out.write(ep)
+    out._stream.flush()  # killed here: no summary, no last blob
+    data = path.read_bytes()
+    out.close()
+    killed = tmp_path / "killed.mcap"
+    killed.write_bytes(data)
+    assert blocks_of(killed) == 0
+    cols = read_columns(killed)
+    assert cols.episode_ids.tolist() == [0, 1, 2, 3, 4] and not cols.warnings
+
+
+@pytest.mark.parametrize("command", [
+    ["replay", "--shield", "paper", "--json", "--ltl", "G not({Crash = TRUE})"],
+    ["diff", "--shield", "paper", "--against", "none", "--json"],
+    ["stats", "--json"],
+    ["info", "--json"],
+])
+def test_commands_answer_the_same_block_by_block(paper_traces, tmp_path, capsys,
+                                                 monkeypatch, command):
+    """The paper's traces in one block and in blocks of 200 states: every answer the same."""
+    one = tmp_path / "qqsingle.mcap"
+    run(capsys, "import", "simb", str(paper_traces / "simb" / "base"), "-o", str(one))
+    monkeypatch.setattr(W, "BLOCK_ROWS", 200)
+    blocked = tmp_path / "qqblocked.mcap"
+    run(capsys, "import", "simb", str(paper_traces / "simb" / "base"), "-o", str(blocked))
+    assert blocks_of(one) == 1 and blocks_of(blocked) > 3
+
+    def answer(path):
+        code, text, err = run(capsys, *command, str(path))
+        assert code in (0, 1), err
+        out = json.loads(text)
+        text = json.dumps(out).replace(str(path), "FILE").replace(path.stem, "NAME")
+        return {k: v for k, v in json.loads(text).items()
+                if k not in ("elapsed_s", "statistics_s", "steps_per_s")}
+
+    assert answer(one) == answer(blocked)

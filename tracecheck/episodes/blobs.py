@@ -1,0 +1,100 @@
+"""The run blobs a writer leaves in a file: each holds the columns of one *block* of episodes
+(a new block every :data:`BLOCK_ROWS` states or so, and one at the end), with the byte span
+of each of its episodes' records and their CRC-32s, and the CRC-32 of everything before the
+first episode.
+
+A block is taken from its blob only where every byte it stands for is as written: its
+episodes' records follow each other from the end of the previous blob (for the first block:
+from the file's head) up to its own blob, each with its checksum. Files from before blocks
+have one blob for the whole file: one block. A reader that finds a blob that does not fit
+walks the file episode by episode instead, which finds and names whatever changed.
+"""
+
+from __future__ import annotations
+
+import zlib
+from typing import Optional
+
+import numpy as np
+
+from ..errors import InputError
+from .codec import COLUMNS_MEDIA_TYPE, RUN_COLUMNS_MEDIA_TYPE, decode_columns
+from .model import END_REASONS
+from .reader import check_columns
+from .records import attachment_at, indexed_attachments
+
+__all__ = ["BLOCK_ROWS", "blob_records", "verified_block"]
+
+#: a writer closes a block once its episodes hold this many states: a reader's memory is
+#: set by the block, not by the file (about 20 MB of numpy columns for the highway)
+BLOCK_ROWS = 1 << 15
+
+
+def blob_records(buf) -> Optional[list[tuple[int, int]]]:
+    """(offset, size) of each run blob's record in the file, in order, as the summary lists
+    them; None where there is none or an episode's columns come after the last one (the
+    writer stopped writing blobs: the file is walked)."""
+    index = indexed_attachments(buf)
+    if index is None:
+        return None
+    runs = [(o, s) for o, s, media in index if media == RUN_COLUMNS_MEDIA_TYPE]
+    if not runs or any(media == COLUMNS_MEDIA_TYPE and o > runs[-1][0]
+                       for o, _, media in index):
+        return None
+    return runs
+
+
+def verified_block(buf, view, runs: list[tuple[int, int]], k: int
+                   ) -> Optional[tuple[dict, dict]]:
+    """The header and arrays of block ``k`` of ``runs`` (:func:`blob_records`) where it fits
+    together and every byte it stands for is as written, else None."""
+    offset, size = runs[k]
+    blob = attachment_at(buf, offset, size, RUN_COLUMNS_MEDIA_TYPE)
+    if blob is None:
+        return None
+    try:
+        header, arrays = decode_columns(blob)
+        spans, crcs = arrays["run:spans"], arrays["run:span_crcs"]
+        starts, ids = arrays["run:starts"], arrays["run:episodes"]
+        e = len(ids)
+        if not (header.get("run") is True and e and spans.shape == (e, 2)
+                and crcs.shape == arrays["run:seeds"].shape == arrays["run:seeded"].shape == (e,)
+                and _reasons_fit(header, arrays, e)
+                and starts.shape == (e + 1,) and starts[0] == 0
+                and np.all(np.diff(starts) > 0) and len(np.unique(ids)) == e):
+            return None
+        # the episodes' records follow each other from the previous blob (or the file's
+        # head) to this blob's record
+        first = int(spans[0, 0])
+        if not (0 < first and np.all(spans[:, 0] < spans[:, 1])
+                and np.array_equal(spans[1:, 0], spans[:-1, 1]) and spans[-1, 1] == offset
+                and (k == 0 or first == sum(runs[k - 1]))):
+            return None
+        # the head (schemas, channels, run header) as written: the first block starts right
+        # after it, a later one names where it ends
+        head_end = header.get("head_end", first if k == 0 else None)
+        if (type(head_end) is not int or not 0 < head_end <= first
+                or (k == 0 and head_end != first)
+                or zlib.crc32(view[:head_end]) != header.get("head_crc")):
+            return None
+        if any(zlib.crc32(view[a:b]) != crc for (a, b), crc in zip(spans.tolist(),
+                                                                   crcs.tolist())):
+            return None
+        body = {k: v for k, v in arrays.items() if not k.startswith("run:")}
+        check_columns({**header, "episode": 0}, body, first_action=False)
+        n = int(starts[-1])
+        starting = np.zeros(n, dtype=bool)
+        starting[starts[:-1]] = True
+        if len(body["time"]) != n or not np.array_equal(body["action"] == -1, starting):
+            return None  # one row per state, no action exactly at each step 0
+    except (InputError, KeyError, TypeError, ValueError):
+        return None
+    return header, arrays
+
+
+def _reasons_fit(header: dict, arrays: dict, episodes: int) -> bool:
+    """The blob names each episode's end reason (files written before it did: walked)."""
+    names, codes = header.get("reasons"), arrays.get("run:reasons")
+    return (isinstance(names, list) and all(n in END_REASONS for n in names)
+            and codes is not None and codes.shape == (episodes,) and codes.dtype.kind == "i"
+            and bool(np.all((codes >= 0) & (codes < len(names)))))

@@ -1,0 +1,128 @@
+"""Foxglove's own messages in protobuf, the encoding Foxglove publishes its schemas in.
+
+The ``foxglove.SceneUpdate`` and ``foxglove.Log`` messages of
+:mod:`tracecheck.interop.foxglove` (made in Foxglove's JSON form) are built as
+foxglove-sdk's message classes and encoded by it, and their channels registered with the
+``FileDescriptorSet`` foxglove-sdk ships: smaller than JSON, and readable by tools that decode
+Foxglove's protobuf schemas but not its JSON ones (Rerun). Without foxglove-sdk, the JSON
+form is written (:func:`protobuf_schemas` says which).
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any, Callable, Optional
+
+__all__ = ["protobuf_schemas", "encoder"]
+
+
+def _messages():
+    """foxglove-sdk's message classes, or None where it is not installed."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)
+            import foxglove.messages as m
+    except ImportError:
+        return None
+    return m
+
+
+def protobuf_schemas() -> dict[str, bytes]:
+    """The schema name -> serialized ``FileDescriptorSet`` of each Foxglove message written
+    in protobuf (empty without foxglove-sdk: JSON is written)."""
+    m = _messages()
+    if m is None:
+        return {}
+    return {schema.name: bytes(schema.data) for schema in
+            (m.SceneUpdate.get_schema(), m.Log.get_schema())}
+
+
+def encoder() -> Optional[Callable[[str, dict], bytes]]:
+    """``encode(schema name, message in Foxglove's JSON form) -> protobuf bytes`` for the
+    schemas of :func:`protobuf_schemas` (None without foxglove-sdk)."""
+    m = _messages()
+    if m is None:
+        return None
+    build = _Builder(m)
+    make = {"foxglove.SceneUpdate": build.scene_update, "foxglove.Log": build.log}
+    return lambda name, data: make[name](data).encode()
+
+
+def _by_value(kind) -> dict[int, Any]:
+    """An SDK enum's members by their numbers (the JSON form has the numbers)."""
+    return {getattr(kind, n).value: getattr(kind, n) for n in dir(kind)
+            if not n.startswith("_") and n not in ("name", "value")}
+
+
+class _Builder:
+    """The SDK's message objects from the JSON form, field by field (a field the SDK does not
+    know is an error in the SDK's constructor, not dropped)."""
+
+    def __init__(self, m) -> None:
+        self.m = m
+        self.line_types = _by_value(m.LinePrimitiveLineType)
+        self.levels = _by_value(m.LogLevel)
+        self.deletions = _by_value(m.SceneEntityDeletionType)
+
+    def time(self, d: dict):
+        return self.m.Timestamp(d["sec"], d["nsec"])
+
+    def duration(self, d: dict):
+        return self.m.Duration(d["sec"], d["nsec"])
+
+    def pose(self, d: dict):
+        m = self.m
+        return m.Pose(position=m.Vector3(**d["position"]),
+                      orientation=m.Quaternion(**d["orientation"]))
+
+    def color(self, d: dict):
+        return self.m.Color(**d)
+
+    def cube(self, d: dict):
+        return self.m.CubePrimitive(pose=self.pose(d["pose"]), size=self.m.Vector3(**d["size"]),
+                                    color=self.color(d["color"]))
+
+    def sphere(self, d: dict):
+        return self.m.SpherePrimitive(pose=self.pose(d["pose"]),
+                                      size=self.m.Vector3(**d["size"]),
+                                      color=self.color(d["color"]))
+
+    def line(self, d: dict):
+        m = self.m
+        return m.LinePrimitive(type=self.line_types[d["type"]], pose=self.pose(d["pose"]),
+                               thickness=d["thickness"], scale_invariant=d["scale_invariant"],
+                               points=[m.Point3(**p) for p in d["points"]],
+                               color=self.color(d["color"]),
+                               colors=[self.color(c) for c in d["colors"]],
+                               indices=list(d["indices"]))
+
+    def text(self, d: dict):
+        return self.m.TextPrimitive(pose=self.pose(d["pose"]), billboard=d["billboard"],
+                                    font_size=d["font_size"],
+                                    scale_invariant=d["scale_invariant"],
+                                    color=self.color(d["color"]), text=d["text"])
+
+    def entity(self, d: dict):
+        m = self.m
+        unknown = [k for k in ("arrows", "cylinders", "triangles", "models") if d.get(k)]
+        if unknown:
+            raise ValueError(f"tracecheck draws no {unknown[0]}")
+        return m.SceneEntity(
+            timestamp=self.time(d["timestamp"]), frame_id=d["frame_id"], id=d["id"],
+            lifetime=self.duration(d["lifetime"]), frame_locked=d["frame_locked"],
+            metadata=[m.KeyValuePair(**kv) for kv in d["metadata"]],
+            cubes=[self.cube(c) for c in d["cubes"]],
+            spheres=[self.sphere(s) for s in d["spheres"]],
+            lines=[self.line(x) for x in d["lines"]], texts=[self.text(t) for t in d["texts"]])
+
+    def scene_update(self, d: dict):
+        m = self.m
+        return m.SceneUpdate(
+            deletions=[m.SceneEntityDeletion(timestamp=self.time(x["timestamp"]),
+                                             type=self.deletions[x["type"]], id=x["id"])
+                       for x in d["deletions"]],
+            entities=[self.entity(e) for e in d["entities"]])
+
+    def log(self, d: dict):
+        return self.m.Log(timestamp=self.time(d["timestamp"]), level=self.levels[d["level"]],
+                          message=d["message"], name=d["name"], file=d["file"], line=d["line"])
