@@ -59,3 +59,61 @@ PUBLISHED = {
     "tracecheck.Scalar": {"type": "object", "additionalProperties": False,
                           "required": ["value"], "properties": {"value": {"type": "number"}}},
 }
+
+
+_CLASSES: dict = {}
+
+
+def decode(schema, data: bytes) -> dict:
+    """A message of an MCAP channel as Foxglove's JSON form: JSON as it is; protobuf decoded
+    with the ``FileDescriptorSet`` the file registered for it (every field, defaults too;
+    times as ``{"sec", "nsec"}``, enums as numbers)."""
+    import json
+
+    if schema.encoding == "jsonschema":
+        return json.loads(data)
+    assert schema.encoding == "protobuf", schema.encoding
+    key = (schema.name, bytes(schema.data))
+    if key not in _CLASSES:
+        from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+
+        files = descriptor_pb2.FileDescriptorSet.FromString(key[1])
+        pool = descriptor_pool.DescriptorPool()
+        for file in files.file:
+            pool.Add(file)
+        _CLASSES[key] = message_factory.GetMessageClass(pool.FindMessageTypeByName(schema.name))
+    return _as_json(_CLASSES[key].FromString(data))
+
+
+_TIMES = ("google.protobuf.Timestamp", "google.protobuf.Duration")
+
+
+def _as_json(message) -> dict:
+    out = {}
+    for field in message.DESCRIPTOR.fields:
+        value = getattr(message, field.name)
+        kind = field.message_type
+        if kind is not None and kind.full_name in _TIMES:
+            convert = lambda v: {"sec": v.seconds, "nsec": v.nanos}  # noqa: E731
+        elif kind is not None:
+            convert = _as_json
+        else:
+            convert = lambda v: v  # noqa: E731
+        repeated = field.is_repeated if hasattr(field, "is_repeated") else field.label == 3
+        out[field.name] = [convert(v) for v in value] if repeated else convert(value)
+    return out
+
+
+def channels_and_messages(path) -> dict:
+    """topic -> (schema name, schema encoding, [decoded messages in Foxglove's JSON form]) of
+    an MCAP file, each channel's message encoding the one its schema's encoding implies."""
+    from mcap.reader import make_reader
+
+    found: dict = {}
+    with open(path, "rb") as f:
+        for schema, channel, message in make_reader(f).iter_messages():
+            entry = found.setdefault(channel.topic, (schema.name, schema.encoding, []))
+            assert channel.message_encoding == (
+                "protobuf" if schema.encoding == "protobuf" else "json"), channel.topic
+            entry[2].append(decode(schema, message.data))
+    return found

@@ -7,23 +7,17 @@ import json
 
 import jsonschema
 import pytest
-from mcap.reader import make_reader
 
 from tests.helpers import ROOT, run, untimed
-from tests.interop.foxglove_schemas import PUBLISHED
+from tests.interop.foxglove_schemas import PUBLISHED, channels_and_messages, decode
 from tracecheck.episodes.model import StepRecord
 from tracecheck.interop.foxglove import SCHEMAS, TOPICS, FoxgloveChannels, step_messages
 
 PAPER = ROOT / "sample_traces" / "base_paper.mcap"
 
-def channels_and_messages(path):
-    """topic -> (schema name, schema encoding, [decoded messages])."""
-    found = {}
-    with open(path, "rb") as f:
-        for schema, channel, message in make_reader(f).iter_messages():
-            entry = found.setdefault(channel.topic, (schema.name, schema.encoding, []))
-            entry[2].append(json.loads(message.data))
-    return found
+#: Foxglove's own schemas are written in protobuf, with the descriptors foxglove-sdk ships
+ENCODINGS = {"foxglove.SceneUpdate": "protobuf", "foxglove.Log": "protobuf",
+             "tracecheck.Scalar": "jsonschema"}
 
 
 def check_all(found, absent=()):
@@ -33,7 +27,7 @@ def check_all(found, absent=()):
             assert topic not in found, topic
             continue
         schema_name, encoding, messages = found[topic]
-        assert (schema_name, encoding) == (name, "jsonschema"), topic
+        assert (schema_name, encoding) == (name, ENCODINGS[name]), topic
         published = jsonschema.Draft202012Validator(PUBLISHED[name])
         registered = jsonschema.Draft202012Validator(SCHEMAS[name])  # the one in the file
         for m in messages:
@@ -171,3 +165,41 @@ def test_every_message_parses_as_foxglove_s_own_schema(exported):
             assert parsed.ByteSize() > 0
         with pytest.raises(json_format.ParseError):  # the check can fail: a misspelt field
             json_format.ParseDict({**_as_protobuf_json(data), "mesage": "x"}, message())
+
+
+def test_protobuf_messages_are_the_json_form_exactly():
+    """Issue 28: Foxglove's scene and log go out in protobuf, with the descriptors foxglove-sdk
+    publishes: decoded with them, every field of every message is the JSON form's (none
+    lost, none changed), in fewer bytes."""
+    from types import SimpleNamespace
+
+    from tracecheck.episodes.reader import read_run
+    from tracecheck.interop.foxglove_protobuf import encoder, protobuf_schemas
+
+    schemas = protobuf_schemas()
+    assert set(schemas) == {"foxglove.SceneUpdate", "foxglove.Log"}
+    encode = encoder()
+    run_ = read_run(PAPER)
+    draw = FoxgloveChannels(run_.header)._draw
+    seen, sizes = set(), [0, 0]
+    for ep in run_.episodes[:3]:
+        for k, step in enumerate(ep.steps):
+            for m in step_messages(step, episode=ep.id, stamp_ns=k * 1_000_000_007 + 3,
+                                   previous_crashed=k > 0 and ep.steps[k - 1].crashed,
+                                   draw=draw):
+                name = TOPICS[m.topic]
+                if name not in schemas:
+                    continue
+                data = encode(name, m.data)
+                schema = SimpleNamespace(name=name, encoding="protobuf", data=schemas[name])
+                assert decode(schema, data) == m.data
+                seen.add(name)
+                kinds = {kind for e in m.data.get("entities", ()) for kind in
+                         ("cubes", "lines", "texts") if e[kind]}
+                seen |= kinds
+                sizes[0] += len(data)
+                sizes[1] += len(json.dumps(m.data, separators=(",", ":")))
+    assert seen >= {"foxglove.SceneUpdate", "foxglove.Log", "cubes", "lines"}
+    assert sizes[0] < 0.8 * sizes[1]
+    with pytest.raises(KeyError):  # a field the JSON form lacks is an error, not a default
+        encode("foxglove.Log", {"level": 3, "message": "x"})

@@ -5,14 +5,12 @@ run."""
 
 from __future__ import annotations
 
-import json
 
 import jsonschema
 import pytest
-from mcap.reader import make_reader
 
 from tests.helpers import run
-from tests.interop.foxglove_schemas import PUBLISHED
+from tests.interop.foxglove_schemas import PUBLISHED, channels_and_messages
 from tests.stats.continuous_run import record_throttle, write_hand_run
 from tracecheck.episodes import new_header
 from tracecheck.episodes.model import StepRecord
@@ -22,16 +20,6 @@ from tracecheck.interop.foxglove import (SCHEMAS, TOPICS, FoxgloveChannels, cont
 
 PLOTS = ("/plot/a/proposal", "/plot/a/executed", "/plot/a/allowed_low", "/plot/a/allowed_high",
          "/plot/projection_distance")
-
-
-def _channels(path) -> dict:
-    """topic -> (schema name, schema encoding, [decoded messages]) of an MCAP file."""
-    found: dict = {}
-    with open(path, "rb") as f:
-        for schema, channel, message in make_reader(f).iter_messages():
-            found.setdefault(channel.topic, (schema.name, schema.encoding, []))[2].append(
-                json.loads(message.data))
-    return found
 
 
 def _values(found, topic) -> list:
@@ -50,7 +38,7 @@ def recorded(tmp_path_factory):
 
 
 def test_a_continuous_recording_plots_proposal_execution_band_and_distance(recorded):
-    found = _channels(recorded)
+    found = channels_and_messages(recorded)
     steps = [s for e in read_run(recorded).episodes for s in e.steps[1:]]
     assert len(steps) == 50
     assert _values(found, "/plot/a/proposal") == [s.proposal["a"] for s in steps] == [2.0] * 50
@@ -71,7 +59,7 @@ def test_an_export_draws_the_hand_made_run_s_ends(tmp_path, capsys):
     out = tmp_path / "hand-fox.mcap"
     code, _, err = run(capsys, "export", "foxglove", hand, "-o", out)
     assert code == 0, err
-    found = _channels(out)
+    found = channels_and_messages(out)
     assert set(PLOTS) <= set(found)
     # the first interval's ends; none where nothing was allowed (episode 1, step 1) or for
     # the unbounded low end of (-inf, 0] (episode 1, step 2)

@@ -92,6 +92,22 @@ def test_replay_diff_stats_per_file_on_ray(local_ray):
     assert sa["runs"] == sb["runs"] and sa["comparisons"] == sb["comparisons"]
 
 
+def test_a_campaign_goes_to_ray_in_batches_of_episodes(local_ray, tmp_path):
+    """Issue 28: a Monte Carlo campaign of many short episodes is sent to Ray as batches of
+    consecutive episodes (a task per episode costs more than the episode); the file is the
+    local one, episode for episode."""
+    from tracecheck.live.executors import batch_size
+
+    assert [batch_size(n, 2) for n in (6, 20, 200, 10 ** 5)] == [1, 1, 3, 64]
+    lake = dict(agent=str(ROOT / "models" / "agents" / "frozenlake.npy"), shield="frozenlake",
+                env="frozenlake", env_config={"is_slippery": True}, episodes=200, seed=7,
+                workers=2)
+    record(RecordSettings(**lake, executor="ray"), tmp_path / "ray.mcap")
+    record(RecordSettings(**lake), tmp_path / "local.mcap")
+    assert [e.id for e in read_run(tmp_path / "ray.mcap").episodes] == list(range(200))
+    assert states(tmp_path / "ray.mcap") == states(tmp_path / "local.mcap")
+
+
 def test_ray_tasks_are_blocks_of_a_file(local_ray, tmp_path, monkeypatch):
     """Issue 28: the unit of work on Ray is a block of a file's episodes; the answers are
     the local ones (which read the file a block at a time in one process)."""

@@ -46,14 +46,18 @@ class StepChannels(Protocol):
     in the episode's checksum: tracecheck never reads them; the run blob's checksum of the
     file's bytes covers them)."""
 
-    #: JSON schemas by name, registered in this order
+    #: schemas by name, registered in this order: JSON schemas, or serialized protobuf
+    #: ``FileDescriptorSet``s for the names in ``schema_encodings``
     schemas: dict[str, bytes]
+    #: the schemas that are not JSON schemas: name -> "protobuf" (their messages protobuf)
+    schema_encodings: dict[str, str]
     #: topic → the name of its schema, channels registered in this order
     topics: dict[str, str]
 
     def messages(self, step, *, episode: int, stamp_ns: int,
                  previous_crashed: bool) -> Iterable[tuple[str, bytes]]:
-        """(topic, JSON message) for one step (a ``StepRecord``) at ``stamp_ns``."""
+        """(topic, message in its schema's encoding) for one step (a ``StepRecord``) at
+        ``stamp_ns``."""
         ...
 
 
@@ -137,11 +141,17 @@ class EpisodeWriter:
         self._flush()
 
     def _register_extra(self, extra: StepChannels) -> None:
-        ids = {name: self._writer.register_schema(name=name, encoding="jsonschema", data=text)
-               for name, text in extra.schemas.items()}
+        encodings = {name: getattr(extra, "schema_encodings", {}).get(name, "jsonschema")
+                     for name in extra.schemas}
+        if set(encodings.values()) - {"jsonschema", "protobuf"}:
+            raise TracecheckError(f"unknown schema encodings: {sorted(encodings.values())}")
+        ids = {name: self._writer.register_schema(name=name, encoding=encodings[name],
+                                                  data=data)
+               for name, data in extra.schemas.items()}
         for topic, name in extra.topics.items():
             self._channels[topic] = self._writer.register_channel(
-                topic=topic, message_encoding="json", schema_id=ids[name])
+                topic=topic, schema_id=ids[name],
+                message_encoding="protobuf" if encodings[name] == "protobuf" else "json")
         self._extra = extra
 
     def _emit_extra(self, episode: int, step, previous_crashed: bool) -> None:

@@ -307,9 +307,16 @@ class FoxgloveChannels:
         import orjson
 
         from ..render.scene import scene_drawer
+        from .foxglove_protobuf import encoder, protobuf_schemas
 
         self._dumps = orjson.dumps
-        self.schemas = {name: orjson.dumps(schema) for name, schema in SCHEMAS.items()}
+        # Foxglove's own messages in protobuf with its published descriptors (JSON without
+        # foxglove-sdk), tracecheck's scalars in JSON with their JSON schema
+        self._encode = encoder()
+        published = protobuf_schemas() if self._encode is not None else {}
+        self.schemas = {name: published.get(name) or orjson.dumps(schema)
+                        for name, schema in SCHEMAS.items()}
+        self.schema_encodings = {name: "protobuf" for name in published}
         self.topics = {**TOPICS, **continuous_topics(header)}
         # the adapter looked up once
         self._draw = scene_drawer(header.environment, shield=header.shield_name)
@@ -318,5 +325,10 @@ class FoxgloveChannels:
                  previous_crashed: bool) -> Iterator[tuple[str, bytes]]:
         for m in step_messages(step, episode=episode, stamp_ns=stamp_ns,
                                previous_crashed=previous_crashed, draw=self._draw):
-            if m.topic in self.topics:  # a step's parameters its run header does not declare
+            name = self.topics.get(m.topic)
+            if name is None:  # a step's parameters its run header does not declare
+                continue
+            if name in self.schema_encodings:
+                yield m.topic, self._encode(name, m.data)
+            else:
                 yield m.topic, self._dumps(m.data)

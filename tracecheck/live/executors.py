@@ -1,9 +1,11 @@
 """Where episodes are recorded: in local worker processes, or as tasks on a Ray cluster.
 
 Both executors yield the episodes of a recording in order (episode i has seed S + i), so the
-same agent, shield and seeds give the same file whichever runs them. On Ray each episode is a
-task; a worker killed mid-episode makes Ray run the task again from its seed (up to three
-times), and episodes are written once each, in order, as they come back.
+same agent, shield and seeds give the same file whichever runs them. On Ray each task is a
+batch of consecutive episodes (:func:`batch_size`: one episode for a short recording, up to 64
+for a campaign of 10^5 short ones, where a task per episode would cost more than the episode);
+a worker killed mid-task makes Ray run the task again from its seeds (up to three times), and
+episodes are written once each, in order, as they come back.
 """
 
 from __future__ import annotations
@@ -13,9 +15,21 @@ from typing import Iterator, Optional
 from ..checking.executors import start_ray
 from ..episodes.model import Episode
 
-__all__ = ["ray_episodes"]
+__all__ = ["ray_episodes", "batch_size"]
 
 _SESSION = None
+
+
+def batch_size(episodes: int, workers: int) -> int:
+    """Episodes per Ray task: about 32 tasks per worker at least (so the workers stay busy to
+    the end), at most 64 episodes in one."""
+    return max(1, min(64, episodes // (32 * max(workers, 1))))
+
+
+def _ray_episodes(settings, first: int, count: int, shield_ref: list, sha256: str
+                  ) -> list[Episode]:
+    """Runs on a Ray worker: episodes ``first`` to ``first + count - 1``."""
+    return [_ray_episode(settings, i, shield_ref, sha256) for i in range(first, first + count)]
 
 
 def _ray_episode(settings, index: int, shield_ref: list, sha256: str) -> Episode:
@@ -38,19 +52,22 @@ def ray_episodes(settings, address: Optional[str] = None, *, shield) -> Iterator
     ``settings.shield`` to load again) from Ray tasks, in order, as they finish."""
     ray, started = start_ray(address, settings.workers)
     try:
-        remote = ray.remote(max_retries=3)(_ray_episode)
+        remote = ray.remote(max_retries=3)(_ray_episodes)
         ref = [ray.put(shield)]  # in a list: a worker fetches it only when it needs it
-        pending = {remote.remote(settings, i, ref, shield.sha256): i
-                   for i in range(settings.episodes)}
-        ready: dict[int, Episode] = {}
+        size = batch_size(settings.episodes, settings.workers)
+        pending = {remote.remote(settings, first, min(size, settings.episodes - first), ref,
+                                 shield.sha256): first
+                   for first in range(0, settings.episodes, size)}
+        ready: dict[int, list[Episode]] = {}
         following = 0
         while pending:
             done, _ = ray.wait(list(pending), num_returns=1)
             for ref in done:
                 ready[pending.pop(ref)] = ray.get(ref)
             while following in ready:
-                yield ready.pop(following)
-                following += 1
+                batch = ready.pop(following)
+                yield from batch
+                following += len(batch)
     finally:
         if started:
             ray.shutdown()
