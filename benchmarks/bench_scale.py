@@ -1,6 +1,7 @@
 """Benchmark: how the cost of each command grows with the number of episodes.
 
     python benchmarks/bench_scale.py [--sizes 1000 10000 100000] [--repeat 1] [--keep DIR]
+                                     [--reuse]
 
 For each size N it lays out a folder of N SimB traces (the paper's 40 real ProB traces from
 ../shared, linked round-robin under new names: ``Timed_Simulation_<k>.json``), then runs each
@@ -13,6 +14,7 @@ resident set, from ``wait4``):
 - the baseline: the hand-written per-state script a user would write
   (``handwritten_check.py``) over the same folder.
 
+``--reuse`` takes the folders and run files an earlier ``--keep DIR`` left (no import row).
 Each row prints time and peak memory next to the baseline's at the same size (a ratio), and
 the growth from the smallest size, so the README can say how cost grows with the work.
 Medians over ``--repeat`` interleaved runs. The processes run with Python's bytecode cache
@@ -92,18 +94,22 @@ def written(run: Path, n: int) -> None:
                               actions=list(HIGHWAY.actions)), episodes)
 
 
-def one_size(work: Path, n: int, repeat: int,
-             timed_import: bool = True) -> dict[str, tuple[float, float]]:
+def one_size(work: Path, n: int, repeat: int, timed_import: bool = True,
+             reuse: bool = False) -> dict[str, tuple[float, float]]:
     folder, run = work / f"traces-{n}", work / f"run-{n}.mcap"
-    lay_out(folder, n)
     rows = {}
-    if timed_import:
+    if reuse:
+        if not (folder.is_dir() and run.is_file()):
+            raise SystemExit(f"--reuse: no {folder} and {run} (make them with --keep)")
+    elif timed_import:
+        lay_out(folder, n)
         imports = []
         for _ in range(repeat):
             run.unlink(missing_ok=True)
             imports.append(measure([str(BIN), "import", "simb", str(folder), "-o", str(run)]))
         rows["import simb"] = _median(imports)
     else:  # in a process of its own: a large parent would count in each child's peak memory
+        lay_out(folder, n)
         subprocess.run([sys.executable, __file__, "--write", str(run), str(n)], check=True)
     steps = _steps(run)
     print(f"  {n} episodes, {steps} steps, file {run.stat().st_size / 1e6:.1f} MB "
@@ -156,8 +162,12 @@ def main() -> None:
     ap.add_argument("--keep", type=Path, help="build the files here and keep them")
     ap.add_argument("--no-import", action="store_true",
                     help="write the files in this process instead of timing the import")
+    ap.add_argument("--reuse", action="store_true",
+                    help="with --keep: take the folders and files an earlier run left there")
     ap.add_argument("--write", nargs=2, metavar=("RUN", "N"), help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.reuse and args.keep is None:
+        ap.error("--reuse needs --keep DIR")
     if args.write:
         written(Path(args.write[0]), int(args.write[1]))
         return
@@ -167,7 +177,8 @@ def main() -> None:
     try:
         for n in args.sizes:
             print(f"size {n}:", flush=True)
-            results[n] = one_size(work, n, args.repeat, timed_import=not args.no_import)
+            results[n] = one_size(work, n, args.repeat, timed_import=not args.no_import,
+                                  reuse=args.reuse)
     finally:
         if args.keep is None:
             shutil.rmtree(work, ignore_errors=True)

@@ -91,6 +91,41 @@ def test_diff(paper_traces, tmp_path):
     assert back.newly_allowed == 233 and back.newly_blocked == 0
 
 
+def test_a_diff_lists_the_first_changes_and_counts_all(paper_traces, tmp_path, capsys,
+                                                      monkeypatch):
+    """Issue 28: a campaign's diff has 10^6 changed steps; the report lists the first
+    ``listed`` changed steps and episodes (in file order, block by block) and counts all,
+    exactly; ``--all`` lists every one."""
+    from tests.helpers import run
+    from tracecheck.episodes import writer as W
+
+    monkeypatch.setattr(W, "BLOCK_ROWS", 150)  # several blocks
+    path = tmp_path / "base.mcap"
+    write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / "base"]))
+    paper, none = load_shield("paper"), load_shield("none")
+    full = diff([path], paper, none, listed=None)
+    short = diff([path, path], paper, none, listed=30)
+    assert len(full.changes) == full.changed_steps == 233 and full.changes_left_out == 0
+    assert short.changes == full.changes[:30] and short.changes_left_out == 2 * 233 - 30
+    assert short.changed_episodes == (full.changed_episodes * 2)[:30]
+    assert short.episodes_left_out == 2 * 20 - 30 and short.changed_steps == 2 * 233
+    assert short.episodes_changed == 40
+    command = ["diff", "--shield", "paper", "--against", "none", str(path)]
+    code, text, err = run(capsys, *command, "--format", "csv")
+    assert code == 0 and len(text.splitlines()) == 234 and not err
+    import tracecheck.checking.diffing as D
+
+    monkeypatch.setattr(D, "LISTED", 100)
+    code, text, err = run(capsys, *command, "--format", "csv")
+    assert code == 0 and len(text.splitlines()) == 101
+    assert "listed the first 100 of 233 changed steps and of 20 changed episodes" in err
+    code, text, err = run(capsys, *command, "--format", "csv", "--all")
+    assert len(text.splitlines()) == 234 and not err
+    code, text, _ = run(capsys, *command)
+    assert ("… 193 more changed step(s): --format csv or json lists the first 100 (--all: "
+            "every one)") in " ".join(text.split())  # 40 rows shown, 100 listed, 233 found
+
+
 def _infeasible_steps(e):
     return [e.first_infeasible] if e.first_infeasible is not None else []
 

@@ -27,6 +27,7 @@ from ..b.linear import Interval, real_parameters
 from ..episodes.columns import RunColumns, read_blocks
 from ..errors import UnsupportedError
 from .executors import file_blocks, map_files
+from .shared import EnabledNames
 from .replaying import add_up, check_parameters, enabled_matrix
 from .shield import Shield
 from ..jsontext import plain
@@ -36,6 +37,8 @@ __all__ = ["diff", "DiffReport", "ChangedStep", "AllowedValues", "AllowedChange"
 #: how many changed steps of continuous actions get the allowed sets of both shields (the
 #: first ones, in the order of the files and their steps); the rest only their values
 DETAILS = 100
+#: how many changed steps (and changed episodes) a diff lists unless told otherwise
+LISTED = 10_000
 
 
 @dataclass(frozen=True)
@@ -102,6 +105,11 @@ class DiffReport:
     details: int = DETAILS
     #: … and how many more there were, whose allowed sets were not computed
     details_left_out: int = 0
+    #: how many changed steps and changed episodes are listed (the first ones; None: all) …
+    listed: Optional[int] = LISTED
+    #: … and how many more there were, counted but not listed
+    changes_left_out: int = 0
+    episodes_left_out: int = 0
     elapsed_s: float = 0.0
     changes: list[ChangedStep] = field(default_factory=list)
     changed_episodes: list[dict] = field(default_factory=list)
@@ -119,45 +127,65 @@ class DiffReport:
 _FILE_COUNTS = {name: attrgetter(name) for name in (
     "episodes", "steps", "states", "changed_steps", "newly_blocked", "newly_allowed",
     "enabled_set_changes", "episodes_changed", "crashes_in_changed_episodes",
-    "details_left_out")}
+    "details_left_out", "changes_left_out", "episodes_left_out")}
 
 
 def diff(paths: Iterable[str | Path], shield: Shield, against: Shield, *,
          executor: str = "local", ray_address: Optional[str] = None,
-         salvage: bool = False, details: int = DETAILS) -> DiffReport:
+         salvage: bool = False, details: int = DETAILS,
+         listed: Optional[int] = LISTED) -> DiffReport:
     """Evaluate both shields on every recorded state and report what changes from
     ``against`` (the old version, or the baseline) to ``shield``; with
     ``executor="ray"`` each block of a file in a Ray task (locally, a file is read a block
     at a time all the same); ``salvage``: as
     :func:`~tracecheck.episodes.reader.read_run`; ``details``: how many changed steps of
-    continuous actions get the allowed sets of both shields."""
+    continuous actions get the allowed sets of both shields; ``listed``: how many changed
+    steps and changed episodes the report lists (the first ones, the others counted: a
+    campaign has 10^6 changed steps; None: all)."""
     paths = [str(p) for p in paths]
     report = DiffReport(shield=shield.identity, against=against.identity, files=paths,
-                        details=details)
+                        details=details, listed=listed)
     start = time.perf_counter()
-    parts = map_files(_diff_one, [(p, shield, against, salvage, details, block)
+    parts = map_files(_diff_one, [(p, shield, against, salvage, details, block, listed)
                                   for _, p, block in file_blocks(paths, executor)],
                       executor, ray_address)
+    trimmed = [0, 0]
     for part in parts:
         report.changes += part.changes
         report.changed_episodes += part.changed_episodes
         report.warnings += part.warnings
+        trimmed = [t + n for t, n in zip(trimmed, _keep_listed(report))]
     add_up(report, parts, _FILE_COUNTS)
+    report.changes_left_out += trimmed[0]
+    report.episodes_left_out += trimmed[1]
     _keep_details(report, details)
     report.elapsed_s = round(time.perf_counter() - start, 6)
     return report
 
 
 def _diff_one(path: str, a: Shield, b: Shield, salvage: bool = False,
-              details: int = DETAILS, block: Optional[int] = None) -> DiffReport:
+              details: int = DETAILS, block: Optional[int] = None,
+              listed: Optional[int] = LISTED) -> DiffReport:
     """One file's diff (or one block's), block by block, in whichever process runs it (both
     shields sent there themselves)."""
-    report = DiffReport(shield=a.identity, against=b.identity, files=[path], details=details)
+    report = DiffReport(shield=a.identity, against=b.identity, files=[path], details=details,
+                        listed=listed)
     for cols in read_blocks(path, salvage=salvage, block=block):
         report.warnings += cols.warnings
         done = sum(c.allowed is not None for c in report.changes)
         _diff_file(cols, a, b, report, max(details - done, 0))
     return report
+
+
+def _keep_listed(report: DiffReport) -> tuple[int, int]:
+    """Only the first ``report.listed`` changed steps and changed episodes; how many of each
+    were left out here."""
+    out = []
+    for items in (report.changes, report.changed_episodes):
+        extra = 0 if report.listed is None else max(len(items) - report.listed, 0)
+        del items[len(items) - extra:]
+        out.append(extra)
+    return out[0], out[1]
 
 
 def _keep_details(report: DiffReport, details: int) -> None:
@@ -214,9 +242,14 @@ def _diff_file(cols: RunColumns, a: Shield, b: Shield, report: DiffReport,
     report.newly_blocked += int((fb & ~fa).sum())
     report.newly_allowed += int((fa & ~fb).sum())
     report.enabled_set_changes += int(np.any(ma != mb, axis=1).sum())
-    enabled = _EnabledNames(names)  # a campaign has 10^5 changed steps: names by pattern
+    enabled = EnabledNames(names)  # a campaign has 10^5 changed steps: names by pattern
     params = {action: _parameter_names(cols, a, b, action) for action in cols.action_names}
-    for i in np.flatnonzero(changed).tolist():
+    changed_at = np.flatnonzero(changed).tolist()
+    if report.listed is not None:  # the first ones listed, the others counted
+        room = max(report.listed - len(report.changes), 0)
+        report.changes_left_out += max(len(changed_at) - room, 0)
+        changed_at = changed_at[:room]
+    for i in changed_at:
         r = int(rows[i])
         action = cols.action_names[cols.action[r]]
         parameters = None if params[action] is None else \
@@ -242,6 +275,9 @@ def _diff_file(cols: RunColumns, a: Shield, b: Shield, report: DiffReport,
             crashed = bool(cols.crashed[lo:hi].any())
             report.episodes_changed += 1
             report.crashes_in_changed_episodes += crashed
+            if report.listed is not None and len(report.changed_episodes) >= report.listed:
+                report.episodes_left_out += 1
+                continue
             report.changed_episodes.append({
                 "file": cols.path, "episode": int(ep), "crashed": crashed,
                 "first_infeasible_shield": first_a[i], "first_infeasible_against": first_b[i]})
@@ -269,21 +305,6 @@ def _parameter_names(cols: RunColumns, a: Shield, b: Shield, action: str
                 all(p in cols.parameters for p in op.params):
             return tuple(op.params)
     return None
-
-
-class _EnabledNames:
-    """The names of the operations a row of an enabled matrix allows (a new list each
-    time), found once per pattern of the row."""
-
-    def __init__(self, names: tuple[str, ...]) -> None:
-        self.names, self.seen = names, {}
-
-    def __call__(self, row: np.ndarray) -> list[str]:
-        key = row.tobytes()
-        found = self.seen.get(key)
-        if found is None:
-            found = self.seen[key] = [n for n, ok in zip(self.names, row.tolist()) if ok]
-        return list(found)
 
 
 def _allowed_change(a: Shield, b: Shield, action: str, state: dict) -> AllowedChange:

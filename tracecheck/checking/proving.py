@@ -21,13 +21,13 @@ before it is reported; where the two disagree, that is said (the CLI raises
 
 from __future__ import annotations
 
-import threading
 import time
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Callable, Optional, Union
 
 from ..b.linear import real_parameters
+from .deadline import interrupted_at
 from ..errors import InputError, TracecheckError, UnsupportedError, WellDefinednessError
 from ..limits import deeply
 from .obligations import Given
@@ -110,30 +110,17 @@ def _ask(z3, solver, seconds: float, add: Callable[[], None]) -> tuple[object, s
     time went into asserting it is ``unknown (timeout)`` without a check.
     """
     deadline = time.monotonic() + seconds
-    lock, live = threading.Lock(), [True]
-
-    def interrupt():
-        with lock:
-            if live[0]:  # never an interrupt of the next question
-                z3.main_ctx().interrupt()
-
-    timer = threading.Timer(seconds, interrupt)
-    timer.daemon = True
-    timer.start()
-    try:
-        add()
-        left = deadline - time.monotonic()
-        if left <= 0:
-            return z3.unknown, "timeout"
-        solver.set("timeout", _ms(left))
-        verdict = solver.check()
-        return verdict, "" if verdict in (z3.sat, z3.unsat) else _why(solver)
-    except z3.Z3Exception as exc:  # z3 canceled while asserting
-        return z3.unknown, "timeout" if time.monotonic() >= deadline else str(exc)
-    finally:
-        with lock:
-            live[0] = False
-        timer.cancel()
+    with interrupted_at(z3, seconds):
+        try:
+            add()
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return z3.unknown, "timeout"
+            solver.set("timeout", _ms(left))
+            verdict = solver.check()
+            return verdict, "" if verdict in (z3.sat, z3.unsat) else _why(solver)
+        except z3.Z3Exception as exc:  # z3 canceled while asserting
+            return z3.unknown, "timeout" if time.monotonic() >= deadline else str(exc)
 
 
 def _solve(translator: Translator, constraints: list, timeout_s: float):

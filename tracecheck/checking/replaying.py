@@ -28,6 +28,7 @@ from ..b.linear import real_parameters
 from ..episodes.columns import RunColumns, read_blocks
 from ..errors import InputError, TracecheckError, UnsupportedError
 from .executors import file_blocks, map_files
+from .shared import EnabledNames, shared
 from .shield import Shield
 from ..jsontext import plain
 
@@ -267,7 +268,8 @@ def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport,
     invariant_ok = machine.invariant_batch(cols.states)
     post_bad = np.zeros(cols.n, dtype=bool)
     post_bad[rows] = _postconditions(shield, cols, rows, actions)
-    checks = _FileChecks(ops, matrix, feasible, deadlock, invariant_ok, post_bad, margins)
+    checks = _FileChecks(ops, matrix, feasible, deadlock, invariant_ok, post_bad, margins,
+                         EnabledNames(ops))
     largest = _largest_margins(cols, margins)
     # per episode: does it have anything to list (most of a campaign's have not)
     flagged = ~feasible | deadlock | ~invariant_ok | post_bad | cols.crashed
@@ -496,6 +498,8 @@ class _FileChecks:
     postcondition_bad: np.ndarray
     #: by row, the infeasible steps of continuous actions
     margins: dict[int, _Margin] = field(default_factory=dict)
+    #: the operations a row of ``enabled`` allows, by name (one list per pattern)
+    names: Optional[EnabledNames] = None
 
 
 def _largest_margins(cols: RunColumns, margins: dict) -> dict[int, float]:
@@ -517,8 +521,7 @@ def _episode(cols: RunColumns, checks: _FileChecks, ep: int, lo: int, hi: int,
     action = enabled = alternative = None
     if first is not None:
         action = cols.action_names[cols.action[lo + first]]
-        allowed = checks.enabled[lo + first - 1]
-        enabled = [o for o, ok in zip(checks.ops, allowed) if ok]
+        enabled = checks.names(checks.enabled[lo + first - 1])
         if cols.values is not None:
             q = cols.values[lo + first]  # the values that chose this step's action
             scored = [(q[cols.action_names.index(o)], o) for o in enabled
@@ -533,10 +536,9 @@ def _episode(cols: RunColumns, checks: _FileChecks, ep: int, lo: int, hi: int,
         crashed=crash_step is not None, crash_step=crash_step,
         crash_after_infeasible=crash_step is not None and first is not None
         and crash_step >= first,
-        deadlock_states=[int(k) for k in np.flatnonzero(checks.deadlock[lo:hi])],
-        postcondition_violations=[int(k) for k in
-                                  np.flatnonzero(checks.postcondition_bad[lo:hi])],
-        invariant_violations=[int(k) for k in np.flatnonzero(~checks.invariant_ok[lo:hi])],
+        deadlock_states=shared(np.flatnonzero(checks.deadlock[lo:hi]).tolist()),
+        postcondition_violations=shared(np.flatnonzero(checks.postcondition_bad[lo:hi]).tolist()),
+        invariant_violations=shared(np.flatnonzero(~checks.invariant_ok[lo:hi]).tolist()),
         max_margin=largest,
         **({} if at is None else dict(parameters=at.point, allowed=at.allowed,
                                       margin=at.margin, margin_note=at.note)),

@@ -19,9 +19,7 @@ z3 is imported only when the solver is asked.
 from __future__ import annotations
 
 import math
-import threading
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from fractions import Fraction
 from itertools import combinations, product
@@ -33,6 +31,7 @@ from ..b.btypes import BOOL, INTEGER, REAL, Base, Type, show
 from ..b.evaluation import Compiler
 from ..b.memo import fresh
 from ..b.typecheck import UNSUPPORTED_KEYWORDS
+from .deadline import interrupted_at
 from ..b.values import (Elem, Interval, SymbolicSet, cardinality, format_value, members,
                         sort_key)
 from ..errors import Disagreement, TracecheckError, UnsupportedError, WellDefinednessError
@@ -504,7 +503,7 @@ class _Solver:
         if left <= 0:
             return "unknown", limit
         try:
-            with _interrupted_at(z3, left):
+            with interrupted_at(z3, left):
                 self.solver.add(*extra)
                 self.solver.set("timeout", max(1, int(left * 1000)))
                 verdict = self.solver.check()
@@ -606,28 +605,6 @@ class _Solver:
             return self.problem.answer("TRUE", solutions=solutions, method="solver",
                                        complete=False, more=None, reason=reason)
         return self.problem.answer("unknown", reason=reason, method="solver")
-
-
-@contextmanager
-def _interrupted_at(z3, seconds: float):
-    """z3 interrupted after ``seconds`` whatever it is doing: its own timeout counts only
-    while it checks, not while it rewrites a large term being asserted."""
-    lock, live = threading.Lock(), [True]
-
-    def stop() -> None:
-        with lock:
-            if live[0]:
-                z3.main_ctx().interrupt()
-
-    timer = threading.Timer(seconds, stop)
-    timer.daemon = True
-    timer.start()
-    try:
-        yield
-    finally:
-        with lock:
-            live[0] = False
-        timer.cancel()
 
 
 def _nearest_float(z3, v) -> float:

@@ -114,6 +114,9 @@ def diff_cmd(
     fmt: OutputFormat = FORMAT,
     fail_on_change: bool = typer.Option(False, "--fail-on-change",
                                         help="Exit 1 when anything changed."),
+    all_changes: bool = typer.Option(False, "--all", help="List every changed step and "
+                                     "episode in CSV/JSON (default: the first 10 000 of "
+                                     "each; the others are counted)."),
     symbolic: bool = typer.Option(False, "--symbolic", help="Compare over every state that "
                                   "satisfies both invariants, with an SMT solver: per "
                                   "operation, equivalent or a state where they differ."),
@@ -128,7 +131,7 @@ def diff_cmd(
     ray_address: Optional[str] = RAY_ADDRESS,
 ) -> None:
     """Compare two shields on every recorded state: which steps does the change block or allow?"""
-    from ..checking.diffing import diff
+    from ..checking.diffing import LISTED, diff
     from ..render.text import diff_table, diff_text
 
     fmt = output_format(fmt, as_json)
@@ -147,8 +150,13 @@ def diff_cmd(
     if not runs:
         raise InputError("give run files to compare the shields on, or --symbolic")
     report = diff(runs, run_shield(shield, runs), run_shield(against, runs),
-                  executor=executor.value, ray_address=ray_address, salvage=salvage)
+                  executor=executor.value, ray_address=ray_address, salvage=salvage,
+                  listed=None if all_changes else LISTED)
     warn(report.warnings)
+    if (report.changes_left_out or report.episodes_left_out) and fmt != OutputFormat.text:
+        err.print(f"note: listed the first {report.listed} of {report.changed_steps} changed "
+                  f"steps and of {report.episodes_changed} changed episodes (the counts are "
+                  "all of them); --all lists every one", markup=False, highlight=False)
     if fmt == OutputFormat.json:
         print_json(report.to_json())
     elif fmt == OutputFormat.text:

@@ -18,7 +18,7 @@ from typing import Optional
 import numpy as np
 
 from ..errors import InputError
-from .codec import COLUMNS_MEDIA_TYPE, RUN_COLUMNS_MEDIA_TYPE, decode_columns
+from .codec import RUN_COLUMNS_MEDIA_TYPE, decode_columns
 from .model import END_REASONS
 from .reader import check_columns
 from .records import attachment_at, indexed_attachments
@@ -32,14 +32,13 @@ BLOCK_ROWS = 1 << 15
 
 def blob_records(buf) -> Optional[list[tuple[int, int]]]:
     """(offset, size) of each run blob's record in the file, in order, as the summary lists
-    them; None where there is none or an episode's columns come after the last one (the
-    writer stopped writing blobs: the file is walked)."""
-    index = indexed_attachments(buf)
+    them; None where there is none or another attachment (an episode's columns) comes after
+    the last one (the writer stopped writing blobs: the file is walked)."""
+    index = indexed_attachments(buf, RUN_COLUMNS_MEDIA_TYPE)
     if index is None:
         return None
-    runs = [(o, s) for o, s, media in index if media == RUN_COLUMNS_MEDIA_TYPE]
-    if not runs or any(media == COLUMNS_MEDIA_TYPE and o > runs[-1][0]
-                       for o, _, media in index):
+    runs, other = index
+    if not runs or other > runs[-1][0]:
         return None
     return runs
 

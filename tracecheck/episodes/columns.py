@@ -5,7 +5,6 @@ decoding a single step message.
 
 from __future__ import annotations
 
-import mmap
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,7 +19,7 @@ from .blobs import BLOCK_ROWS, blob_records, verified_block
 from .codec import columns_from_arrays, parameter_arrays
 from ..errors import DamagedEpisode
 from .reader import read_pieces
-from .records import mapped
+from .records import forget, mapped
 
 __all__ = ["read_columns", "read_blocks", "blocks_of", "join", "RunColumns", "episode_columns"]
 
@@ -96,12 +95,13 @@ def read_blocks(path: str | Path, *, salvage: bool = False, block: Optional[int]
     done = 0  # episodes given from blobs
     with mapped(path) as buf:
         runs = [] if regions else blob_records(buf) or []
+        forget(buf)  # the summary's pages too
         view = memoryview(buf)
         try:
             for k in (range(len(runs)) if block is None else [block]):
                 found = verified_block(buf, view, runs, k) if k < len(runs) else None
                 cols = None if found is None else _block_columns(path, *found)
-                _forget(buf)  # the pages of the block just read leave this process
+                forget(buf)  # the pages of the block just read leave this process
                 if cols is None:
                     break
                 yield cols
@@ -115,12 +115,6 @@ def read_blocks(path: str | Path, *, salvage: bool = False, block: Optional[int]
         raise InputError(f"{path}: block {block} of its episodes does not check (the file "
                          "changed while it was read?)", hint="read it again")
     yield from _walked(path, salvage, done, regions)
-
-
-def _forget(buf) -> None:
-    """Let the pages of a mapped file read so far go (they stay in the page cache)."""
-    if isinstance(buf, mmap.mmap) and hasattr(mmap, "MADV_DONTNEED"):
-        buf.madvise(mmap.MADV_DONTNEED)
 
 
 def _walked(path: Path, salvage: bool, skip: int, regions=None) -> Iterator[RunColumns]:

@@ -21,7 +21,7 @@ from typing import Any, Iterator, NamedTuple, Optional, Union
 
 from ..errors import InputError
 
-__all__ = ["walk", "Damage", "BadChunk", "Schema", "Channel", "Attachment", "MessageRef", "MESSAGE", "MAGIC",
+__all__ = ["forget", "walk", "Damage", "BadChunk", "Schema", "Channel", "Attachment", "MessageRef", "MESSAGE", "MAGIC",
            "MAX_CHUNK_RATIO", "MAX_CHUNK_BYTES", "mapped", "indexed_attachments",
            "attachment_at"]
 
@@ -275,38 +275,80 @@ _FOOTER = struct.Struct("<BQQQI")
 ATTACHMENT_INDEX = 10
 
 
-def indexed_attachments(buf) -> Optional[list[tuple[int, int, str]]]:
-    """The attachments the file's summary lists, as (offset of its record, size of its
-    record, media type) in the order of the file, or None — where the file has no footer or
-    summary, or anything in them does not fit (a reader then walks the records instead)."""
+def indexed_attachments(buf, media_type: str
+                        ) -> Optional[tuple[list[tuple[int, int]], int]]:
+    """From the file's summary: (offset, size) of each attachment record of ``media_type``,
+    in the order of the file, and the greatest offset of any other attachment (-1: none); or
+    None — where the file has no footer or summary, or anything in them does not fit (a
+    reader then walks the records instead). Nothing is kept per other attachment: a campaign
+    has 10^5 of them."""
     end = len(buf) - 8
     if end < 8 + _FOOTER.size or bytes(buf[end:]) != MAGIC:
         return None
-    op, length, summary_start, _, _ = _FOOTER.unpack_from(buf, end - _FOOTER.size)
+    op, length, summary_start, offsets_start, _ = _FOOTER.unpack_from(buf, end - _FOOTER.size)
     footer = end - _FOOTER.size
     if op != FOOTER or length != 20 or not 8 <= summary_start <= footer:
         return None
-    found = []
+    found, other = [], -1
+    wanted = media_type.encode()
+    unpack = _REC.unpack_from
     try:
-        at = summary_start
-        while at + 9 <= footer:
-            op, length = _REC.unpack_from(buf, at)
+        at, stop_at = _group(buf, summary_start, offsets_start, footer, ATTACHMENT_INDEX)
+        forgotten = at
+        while at + 9 <= stop_at:
+            if at - forgotten > _FORGET_EVERY:  # a campaign's index is megabytes: let the
+                forget(buf)                     # pages read so far go
+                forgotten = at
+            op, length = unpack(buf, at)
             start, stop = at + 9, at + 9 + length
-            if stop > footer:
+            if stop > stop_at:
                 return None
             if op == ATTACHMENT_INDEX:
                 f = _Fields(buf, start, stop)
                 offset, size = f.u64(), f.u64()
                 f.take(24)
-                f.string()
-                media = f.string()
+                f.take(f.u32())  # the name
+                n = f.u32()
                 if offset < 8 or offset + size > summary_start:
                     return None
-                found.append((offset, size, media))
+                if buf[f.take(n):f.at] == wanted:
+                    found.append((offset, size))
+                else:
+                    other = max(other, offset)
             at = stop
     except (_BadRecord, struct.error):
         return None
-    return sorted(found)
+    return sorted(found), other
+
+
+#: a scan of the summary lets the pages it read go every this many bytes
+_FORGET_EVERY = 1 << 22
+SUMMARY_OFFSET = 14
+
+
+def _group(buf, summary_start: int, offsets_start: int, footer: int, opcode: int
+           ) -> tuple[int, int]:
+    """Where the summary's records of ``opcode`` lie, as the file's summary offsets say
+    (only where they fit the summary); else the whole summary."""
+    has_offsets = summary_start < offsets_start <= footer
+    end = offsets_start if has_offsets else footer  # the summary's records end here
+    at = offsets_start if has_offsets else footer
+    while at + 9 + 17 <= footer:
+        op, length = _REC.unpack_from(buf, at)
+        if op != SUMMARY_OFFSET or length != 17:
+            break
+        group, start, size = struct.unpack_from("<BQQ", buf, at + 9)
+        if group == opcode and summary_start <= start and start + size <= end:
+            return start, start + size
+        at += 9 + length
+    return summary_start, end
+
+
+def forget(buf) -> None:
+    """Let the pages of a mapped file read so far leave this process (they stay in the
+    page cache): what a reader of a large file keeps is then what it decoded."""
+    if isinstance(buf, mmap.mmap) and hasattr(mmap, "MADV_DONTNEED"):
+        buf.madvise(mmap.MADV_DONTNEED)
 
 
 def attachment_at(buf, offset: int, size: int, media_type: str) -> Optional[bytes]:

@@ -359,9 +359,11 @@ def diff_text(console: Console, d: DiffReport, rows: int) -> None:
         console.print(f"actions: {legend}", highlight=False, soft_wrap=False)
     for line in _diff_continuous_lines(d, d.changes[:rows]):
         console.print(Text(line), highlight=False, soft_wrap=False)
-    if len(d.changes) > rows:
-        console.print(f"… {len(d.changes) - rows} more changed step(s): --format csv or json "
-                      "lists them all" + (
+    if len(d.changes) > rows or d.changes_left_out:
+        more = max(len(d.changes) - rows, 0) + d.changes_left_out
+        console.print(f"… {more} more changed step(s): --format csv or json lists " + (
+                          f"the first {d.listed} (--all: every one)" if d.changes_left_out
+                          else "them all") + (
                           f" (with the allowed sets of the first {d.details} of continuous "
                           f"actions; {d.details_left_out} more have their values only)"
                           if d.details_left_out else ""), highlight=False, soft_wrap=False)
