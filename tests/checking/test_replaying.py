@@ -126,6 +126,22 @@ def test_a_diff_lists_the_first_changes_and_counts_all(paper_traces, tmp_path, c
             "every one)") in " ".join(text.split())  # 40 rows shown, 100 listed, 233 found
 
 
+def test_steps_no_longer_listed_are_not_counted_as_having_values_only():
+    """A part's changed steps left out of the list were counted in its details_left_out
+    (values only, no allowed sets): once not listed at all, they leave that count."""
+    from tracecheck.checking.diffing import ChangedStep, DiffReport, _keep_listed
+
+    def change(k, continuous):
+        return ChangedStep(file="f", episode=0, step=k, action="GO", feasible_under_shield=True,
+                           feasible_under_against=False, enabled_shield=["GO"],
+                           enabled_against=[], parameters={"a": 1.0} if continuous else None)
+
+    report = DiffReport(shield={}, against={}, files=[], listed=3)
+    report.changes = [change(k, k % 2 == 0) for k in range(8)]
+    assert _keep_listed(report) == (5, 0, 2)  # steps 4 and 6 of those left out: values only
+    assert [c.step for c in report.changes] == [0, 1, 2]
+
+
 def _infeasible_steps(e):
     return [e.first_infeasible] if e.first_infeasible is not None else []
 

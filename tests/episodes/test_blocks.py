@@ -14,7 +14,7 @@ from tests.helpers import episode, from_blobs, run, walking
 from tracecheck.episodes import EpisodeWriter, new_header, read_columns
 from tracecheck.episodes import columns as C
 from tracecheck.episodes import writer as W
-from tracecheck.episodes.columns import blocks_of, read_blocks
+from tracecheck.episodes.columns import BlockUnchecked, block_refs, blocks_of, read_blocks
 from tracecheck.episodes.records import walk, Attachment
 from tracecheck.episodes.codec import RUN_COLUMNS_MEDIA_TYPE
 from tracecheck.errors import InputError
@@ -64,8 +64,8 @@ def test_a_blob_per_block_and_the_blocks_read_as_the_walk(tmp_path, monkeypatch)
     assert [len(b.episode_ids) for b in blocks] == [3, 2, 3, 1]
     assert all(b.n >= 10 for b in blocks[:-1])
     assert "LANE_LEFT" not in blocks[0].action_names and "LANE_LEFT" in blocks[-1].action_names
-    for k, b in enumerate(blocks):  # a block alone (a Ray task's) is the same block
-        same(next(read_blocks(path, block=k)), b)
+    for ref, b in zip(block_refs(path), blocks):  # a block alone (a Ray task's): the same
+        same(next(read_blocks(path, block=ref)), b)
     whole = read_columns(path)
     assert whole.action_names == ("IDLE", "FASTER", "LANE_LEFT")
     walking(monkeypatch)
@@ -89,9 +89,10 @@ def test_a_damaged_block_is_walked_and_named(tmp_path, monkeypatch):
     data[data.find(b'"episode":5,"step":2') + 30] ^= 1  # one bit of episode 5 (block 2)
     path.write_bytes(bytes(data))
     assert not from_blobs(path)
-    assert next(read_blocks(path, block=1)).episode_ids.tolist() == [3, 4]
-    with pytest.raises(InputError, match="block 2 of its episodes does not check"):
-        next(read_blocks(path, block=2))
+    refs = block_refs(path)
+    assert next(read_blocks(path, block=refs[1])).episode_ids.tolist() == [3, 4]
+    with pytest.raises(BlockUnchecked, match="block 2 of its episodes does not check"):
+        next(read_blocks(path, block=refs[2]))
     seen = []
     with pytest.raises(InputError, match=r"run.mcap, episode 5: "):
         for b in read_blocks(path):
@@ -170,3 +171,54 @@ def test_files_from_before_blocks_read_as_before(monkeypatch):
     walking(monkeypatch)
     for cols, path in zip(fast, (old_blob, no_blob)):
         same(cols, read_columns(path))
+
+
+def test_a_block_of_another_file_is_refused(tmp_path):
+    """A Ray task gets block k of the file as it was counted; the file written again (other
+    blocks) in between: the task's block does not check, it is not read from the new file."""
+    path = write(tmp_path / "run.mcap", many())
+    refs = block_refs(path)
+    write(path, many()[:5])
+    assert len(block_refs(path)) == 2
+    with pytest.raises(BlockUnchecked):
+        next(read_blocks(path, block=refs[1]))
+
+
+def test_the_data_section_ends_at_the_last_blob(tmp_path, monkeypatch):
+    """Nothing may follow the last blob but the data section's end: a file where something
+    does is walked (and reads the same)."""
+    from tracecheck.episodes.blobs import blob_records
+    from tracecheck.episodes.records import mapped
+
+    path = write(tmp_path / "run.mcap", many(), compress=False)
+    with mapped(path) as buf:
+        end = sum(blob_records(buf)[-1])
+    before = read_columns(path)
+    assert blocks_of(path) == 4
+    data = bytearray(path.read_bytes())
+    assert data[end] == 15  # MCAP's DataEnd
+    data[end] = 0x80  # a record of a kind MCAP readers skip
+    path.write_bytes(bytes(data))
+    assert blocks_of(path) == 0
+    same(read_columns(path), before)
+
+
+def test_a_variable_of_two_kinds_is_named(tmp_path):
+    """Episodes whose variable changes kind (a number, then a boolean) or goes missing: an
+    error naming it, not one kind taken for all (nor a KeyError)."""
+    from tracecheck.episodes.model import Episode, StepRecord, make_end
+
+    def ep(i, value, name="Foo"):
+        steps = tuple(StepRecord(k, float(k), None if k == 0 else "GO", {name: value, "x": 1.0},
+                                 0.0, False) for k in range(3))
+        return Episode(i, steps, make_end(steps))
+
+    for second, message in ((True, "the variable Foo is a number in episode 0 and a boolean "
+                                   "in episode 1"),
+                            (2.0, "the variable Bar is in episode 1 but not in episode 0")):
+        for rows in (3, 1000):  # in two blocks; in one (the walk of the writer's read-back)
+            path = write(tmp_path / f"run{rows}.mcap",
+                         [ep(0, 1.0), ep(1, second, "Foo" if second is True else "Bar")],
+                         block_rows=rows)
+            with pytest.raises(InputError, match=message.replace("(", r"\(")):
+                read_columns(path)

@@ -26,7 +26,7 @@ import numpy as np
 from ..b.linear import Interval, real_parameters
 from ..episodes.columns import RunColumns, read_blocks
 from ..errors import UnsupportedError
-from .executors import file_blocks, map_files
+from .executors import map_file_blocks
 from .shared import EnabledNames
 from .replaying import add_up, check_parameters, enabled_matrix
 from .shield import Shield
@@ -146,10 +146,10 @@ def diff(paths: Iterable[str | Path], shield: Shield, against: Shield, *,
     report = DiffReport(shield=shield.identity, against=against.identity, files=paths,
                         details=details, listed=listed)
     start = time.perf_counter()
-    parts = map_files(_diff_one, [(p, shield, against, salvage, details, block, listed)
-                                  for _, p, block in file_blocks(paths, executor)],
-                      executor, ray_address)
-    trimmed = [0, 0]
+    parts = [part for _, part in map_file_blocks(
+        _diff_one, lambda _, p, block: (p, shield, against, salvage, details, block, listed),
+        paths, executor, ray_address)]
+    trimmed = [0, 0, 0]
     for part in parts:
         report.changes += part.changes
         report.changed_episodes += part.changed_episodes
@@ -158,13 +158,14 @@ def diff(paths: Iterable[str | Path], shield: Shield, against: Shield, *,
     add_up(report, parts, _FILE_COUNTS)
     report.changes_left_out += trimmed[0]
     report.episodes_left_out += trimmed[1]
+    report.details_left_out -= trimmed[2]  # counted by their part, now not listed at all
     _keep_details(report, details)
     report.elapsed_s = round(time.perf_counter() - start, 6)
     return report
 
 
 def _diff_one(path: str, a: Shield, b: Shield, salvage: bool = False,
-              details: int = DETAILS, block: Optional[int] = None,
+              details: int = DETAILS, block=None,
               listed: Optional[int] = LISTED) -> DiffReport:
     """One file's diff (or one block's), block by block, in whichever process runs it (both
     shields sent there themselves)."""
@@ -177,15 +178,20 @@ def _diff_one(path: str, a: Shield, b: Shield, salvage: bool = False,
     return report
 
 
-def _keep_listed(report: DiffReport) -> tuple[int, int]:
-    """Only the first ``report.listed`` changed steps and changed episodes; how many of each
-    were left out here."""
+def _keep_listed(report: DiffReport) -> tuple[int, int, int]:
+    """Only the first ``report.listed`` changed steps and changed episodes: how many of each
+    were left out here, and how many of the steps left out were counted as having their
+    values only (``details_left_out``: they are not listed at all now)."""
     out = []
+    values_only = 0
     for items in (report.changes, report.changed_episodes):
         extra = 0 if report.listed is None else max(len(items) - report.listed, 0)
+        if items is report.changes:
+            values_only = sum(c.parameters is not None and c.allowed is None
+                              for c in items[len(items) - extra:])
         del items[len(items) - extra:]
         out.append(extra)
-    return out[0], out[1]
+    return out[0], out[1], values_only
 
 
 def _keep_details(report: DiffReport, details: int) -> None:

@@ -13,7 +13,7 @@ from typing import Optional
 from ..errors import InputError
 from ..limits import deep_recursion
 
-__all__ = ["map_files", "file_blocks", "start_ray", "EXECUTORS"]
+__all__ = ["map_files", "map_file_blocks", "file_blocks", "start_ray", "EXECUTORS", "UNCHECKED"]
 
 EXECUTORS = ("local", "ray")
 
@@ -47,16 +47,57 @@ def _in_task(fn, job: bytes):
         return fn(*pickle.loads(job))
 
 
-def file_blocks(paths, executor: str = "local") -> list[tuple[int, str, Optional[int]]]:
-    """The units of work over run files: (index of the file, its path, block or None for
-    the whole file). Locally a whole file each (read block by block all the same); on Ray
-    each block of a file that has them (:func:`~tracecheck.episodes.columns.blocks_of`)."""
-    from ..episodes.columns import blocks_of
+def file_blocks(paths, executor: str = "local") -> list[tuple[int, str, object]]:
+    """The units of work over run files: (index of the file, its path, a
+    :class:`~tracecheck.episodes.columns.BlockRef` or None for the whole file). Locally a
+    whole file each (read block by block all the same); on Ray each block of a file that has
+    them (:func:`~tracecheck.episodes.columns.block_refs`), but a run with continuous actions
+    whole (its statistics decode every step of it)."""
+    from ..episodes.columns import block_refs
+    from ..episodes.reader import read_header
 
     out = []
     for i, p in enumerate(paths):
-        count = blocks_of(p) if executor != "local" else 0
-        out += [(i, str(p), k) for k in range(count)] or [(i, str(p), None)]
+        refs = [] if executor == "local" or read_header(p).action_parameters \
+            else block_refs(p)
+        out += [(i, str(p), ref) for ref in refs] or [(i, str(p), None)]
+    return out
+
+
+#: what a task over a block returns when the block does not check (then its whole file is
+#: read again, walked: the walk names the damage, or salvages)
+UNCHECKED = "tracecheck: block unchecked"
+
+
+def _unit(fn, job: tuple):
+    from ..episodes.columns import BlockUnchecked
+
+    try:
+        return fn(*job)
+    except BlockUnchecked:
+        return UNCHECKED
+
+
+def map_file_blocks(fn, make_job, paths, executor: str = "local",
+                    address: Optional[str] = None) -> list[tuple[int, object]]:
+    """``fn(*make_job(i, path, block))`` for each unit of :func:`file_blocks` (file ``i`` of
+    ``paths``), locally or as Ray
+    tasks: (index of the file, result) in file order. A file one of whose blocks does not
+    check when its task reads it (damaged, or changed since it was counted) is done again
+    whole, as the local executor does it."""
+    units = file_blocks(paths, executor)
+    results = map_files(_unit, [(fn, make_job(i, p, ref)) for i, p, ref in units], executor,
+                        address)
+    redo = sorted({i for (i, _, _), r in zip(units, results) if r == UNCHECKED})
+    again = dict(zip(redo, map_files(fn, [make_job(i, str(paths[i]), None) for i in redo],
+                                     executor, address)))
+    out, given = [], set()
+    for (i, _, _), r in zip(units, results):
+        if i not in again:
+            out.append((i, r))
+        elif i not in given:  # the whole file once, in place of its blocks
+            out.append((i, again[i]))
+            given.add(i)
     return out
 
 

@@ -27,7 +27,7 @@ from ..b.columns import Columns, shifted_pairs, step_pairs
 from ..b.linear import real_parameters
 from ..episodes.columns import RunColumns, read_blocks
 from ..errors import InputError, TracecheckError, UnsupportedError
-from .executors import file_blocks, map_files
+from .executors import map_file_blocks
 from .shared import EnabledNames, shared
 from .shield import Shield
 from ..jsontext import plain
@@ -564,7 +564,7 @@ def _replay_columns(cols: RunColumns, shield: Shield, parsed: Sequence[tuple] = 
 
 
 def _replay_one(path: str, shield: Shield, parsed: Sequence[tuple] = (),
-                salvage: bool = False, block: Optional[int] = None) -> ReplayReport:
+                salvage: bool = False, block=None) -> ReplayReport:
     """One file (or one block of it), block by block, in whichever process runs it (the
     shield itself is sent there: pickled as its text, see :class:`Shield`; the parsed
     formulas as their dataclasses)."""
@@ -590,8 +590,9 @@ def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "loca
     report = ReplayReport(shield=shield.identity, files=paths)
     parsed = tuple(ltl_formulas(shield, ltl, ltl_assertions))  # errors before any file is read
     start = time.perf_counter()
-    jobs = [(p, shield, parsed, salvage, block) for _, p, block in file_blocks(paths, executor)]
-    for part in map_files(_replay_one, jobs, executor, ray_address):
+    for _, part in map_file_blocks(_replay_one,
+                                   lambda _, p, block: (p, shield, parsed, salvage, block), paths,
+                                   executor, ray_address):
         report.per_episode += part.per_episode
         report.warnings += part.warnings
         for entry in part.ltl:

@@ -21,7 +21,7 @@ from ..errors import InputError
 from .codec import RUN_COLUMNS_MEDIA_TYPE, decode_columns
 from .model import END_REASONS
 from .reader import check_columns
-from .records import attachment_at, indexed_attachments
+from .records import DATA_END, attachment_at, indexed_attachments
 
 __all__ = ["BLOCK_ROWS", "blob_records", "verified_block"]
 
@@ -32,13 +32,16 @@ BLOCK_ROWS = 1 << 15
 
 def blob_records(buf) -> Optional[list[tuple[int, int]]]:
     """(offset, size) of each run blob's record in the file, in order, as the summary lists
-    them; None where there is none or another attachment (an episode's columns) comes after
-    the last one (the writer stopped writing blobs: the file is walked)."""
+    them; None where there is none, another attachment (an episode's columns) comes after
+    the last one (the writer stopped writing blobs), or the data section does not end right
+    after it: the file is then walked."""
     index = indexed_attachments(buf, RUN_COLUMNS_MEDIA_TYPE)
     if index is None:
         return None
     runs, other = index
-    if not runs or other > runs[-1][0]:
+    # the data section ends right after the last blob: no record (an episode) follows it
+    if not runs or other > runs[-1][0] or sum(runs[-1]) >= len(buf) \
+            or buf[sum(runs[-1])] != DATA_END:
         return None
     return runs
 

@@ -21,7 +21,8 @@ from ..errors import DamagedEpisode
 from .reader import read_pieces
 from .records import forget, mapped
 
-__all__ = ["read_columns", "read_blocks", "blocks_of", "join", "RunColumns", "episode_columns"]
+__all__ = ["read_columns", "read_blocks", "blocks_of", "block_refs", "BlockRef",
+           "BlockUnchecked", "join", "RunColumns", "episode_columns"]
 
 
 @dataclass
@@ -72,13 +73,34 @@ def read_columns(path: str | Path, *, salvage: bool = False) -> RunColumns:
 
 
 def blocks_of(path: str | Path) -> int:
-    """How many blocks the file's run blobs give (0: it has none that fit, it is read whole):
+    """How many blocks the file's run blobs give (0: it has none that fit, it is read whole)."""
+    return len(block_refs(path))
+
+
+@dataclass(frozen=True)
+class BlockRef:
+    """Block ``index`` of the ``count`` blocks of a file, whose run blob is the record at
+    ``offset`` (``size`` bytes): what a Ray task reads, and checks it finds so."""
+
+    index: int
+    count: int
+    offset: int
+    size: int
+
+
+class BlockUnchecked(InputError):
+    """A block a task was sent does not check (damaged, or the file changed since)."""
+
+
+def block_refs(path: str | Path) -> list[BlockRef]:
+    """The blocks of the file's run blobs (none: it has none that fit, it is read whole):
     the units of work of the Ray executor (see :func:`read_blocks`)."""
     with mapped(Path(path)) as buf:
-        return len(blob_records(buf) or ())
+        runs = blob_records(buf) or []
+    return [BlockRef(k, len(runs), o, s) for k, (o, s) in enumerate(runs)]
 
 
-def read_blocks(path: str | Path, *, salvage: bool = False, block: Optional[int] = None,
+def read_blocks(path: str | Path, *, salvage: bool = False, block: Optional[BlockRef] = None,
                 regions: Optional[list[tuple[int, int]]] = None) -> Iterator[RunColumns]:
     """The states of a file as numpy columns, one block of episodes at a time (each a
     :class:`RunColumns` of its own, rows and episodes counted from 0 in it), so that memory is
@@ -87,7 +109,8 @@ def read_blocks(path: str | Path, *, salvage: bool = False, block: Optional[int]
     episode — each episode checked against its header, end record and last step message (see
     :mod:`tracecheck.episodes.reader`) — in blocks of about :data:`BLOCK_ROWS` states.
 
-    ``block``: only block ``block`` of :func:`blocks_of` (an error if it does not check);
+    ``block``: only that block of :func:`block_refs` (:class:`BlockUnchecked` if the file's
+    blobs are no longer those or the block does not check);
     ``regions``: only the episodes in these byte ranges, walked (the writer reads its blocks
     back so). At least one block comes, empty where the file holds no complete episode.
     """
@@ -98,8 +121,11 @@ def read_blocks(path: str | Path, *, salvage: bool = False, block: Optional[int]
         forget(buf)  # the summary's pages too
         view = memoryview(buf)
         try:
-            for k in (range(len(runs)) if block is None else [block]):
-                found = verified_block(buf, view, runs, k) if k < len(runs) else None
+            same = block is None or (len(runs) == block.count
+                                     and runs[block.index] == (block.offset, block.size))
+            wanted = range(len(runs)) if block is None else [block.index] if same else []
+            for k in wanted:
+                found = verified_block(buf, view, runs, k)
                 cols = None if found is None else _block_columns(path, *found)
                 forget(buf)  # the pages of the block just read leave this process
                 if cols is None:
@@ -107,13 +133,13 @@ def read_blocks(path: str | Path, *, salvage: bool = False, block: Optional[int]
                 yield cols
                 done += len(cols.episode_ids)
             else:
-                if runs:
-                    return
+                if wanted:
+                    return  # every block from its blob
         finally:
             view.release()
     if block is not None:
-        raise InputError(f"{path}: block {block} of its episodes does not check (the file "
-                         "changed while it was read?)", hint="read it again")
+        raise BlockUnchecked(f"{path}: block {block.index} of its episodes does not check "
+                             "(damaged, or the file changed while it was read)")
     yield from _walked(path, salvage, done, regions)
 
 
@@ -267,6 +293,7 @@ def join(path: str, blocks: list[RunColumns]) -> RunColumns:
     lengths = [b.n for b in blocks]
     n = sum(lengths)
     widened = [_widen(b.states, elements) for b in blocks]
+    _same_variables(path, blocks)
     states = Columns(n=n, elements=tuple(Elem(e) for e in elements))
     if blocks:
         first = widened[0]
@@ -317,6 +344,38 @@ def join(path: str, blocks: list[RunColumns]) -> RunColumns:
         out.distance = _joined_by_name([(b.n, {"": b.distance} if b.distance is not None
                                          else {}) for b in blocks])[""]
     return out
+
+
+#: what each kind of column holds, in words
+_KIND_WORDS = {"numbers": "a number", "booleans": "a boolean",
+               "functions": "a function of set elements", "masks": "a set of elements",
+               "others": "a value of another kind"}
+
+
+def _kinds(cols: Columns) -> dict[str, str]:
+    return {name: kind for kind in _KIND_WORDS for name in getattr(cols, kind)}
+
+
+def _same_variables(path: str, blocks: list[RunColumns]) -> None:
+    """The blocks (or episodes) of a file have the same variables, each of one kind: else an
+    error naming the variable and an episode where it differs (never one kind silently
+    taken for all)."""
+    first = _kinds(blocks[0].states) if blocks else {}
+    for b in blocks[1:]:
+        mine = _kinds(b.states)
+        if mine == first:
+            continue
+        name = next(v for v in sorted(set(first) | set(mine)) if first.get(v) != mine.get(v))
+        e0 = int(blocks[0].episode_ids[0]) if len(blocks[0].episode_ids) else "?"
+        ep = int(b.episode_ids[0]) if len(b.episode_ids) else "?"
+        if name in first and name in mine:
+            what = (f"is {_KIND_WORDS[first[name]]} in episode {e0} and "
+                    f"{_KIND_WORDS[mine[name]]} in episode {ep}")
+        else:
+            what = (f"is in episode {e0} but not in episode {ep}" if name in first
+                    else f"is in episode {ep} but not in episode {e0}")
+        raise InputError(f"{path}: the variable {name} {what}; the episodes of a file must "
+                         "have the same variables, each of one kind")
 
 
 def _joined_by_name(parts: list[tuple[int, dict[str, np.ndarray]]]) -> dict[str, np.ndarray]:

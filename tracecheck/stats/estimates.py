@@ -490,8 +490,7 @@ def _paired(a: RunValues, b: RunValues, pset: PropertySet) -> Optional[dict]:
 
 
 def _evaluate_one(path: str, pset: PropertySet, name: Optional[str],
-                  environment=None, salvage: bool = False, block: Optional[int] = None
-                  ) -> RunValues:
+                  environment=None, salvage: bool = False, block=None) -> RunValues:
     """One file (or one block of it), in whichever process runs it."""
     return _evaluate_blocks(path, pset, name, environment or environment_of(path),
                             read_blocks(path, salvage=salvage, block=block), salvage)[0]
@@ -503,15 +502,19 @@ def _evaluate_blocks(path: str, pset: PropertySet, name: Optional[str], environm
     """The values of one file from its blocks, one block in memory at a time (a run with
     continuous actions: joined, for its steps' decoded messages); the formulas are prepared
     from the first state where not given. Also the seconds spent reading the blocks."""
+    from ..episodes.reader import read_header
+
     reading = 0.0
     runs = []
+    declared = bool(read_header(path).action_parameters)  # a run of continuous actions
     while True:
         start = time.perf_counter()
         cols = next(blocks, None)
         reading += time.perf_counter() - start
         if cols is None:
             break
-        if cols.parameters:  # continuous: every block at once, for the steps' messages
+        if cols.parameters or declared:  # continuous: every block at once, for the steps'
+            #                              messages (a block of discrete steps of it too)
             start = time.perf_counter()
             cols = join(str(path), [cols, *blocks])
             reading += time.perf_counter() - start
@@ -582,14 +585,13 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
         check_environment(adapter, environment)
         environment = adapter
     if executor != "local":
-        from ..checking.executors import file_blocks, map_files
+        from ..checking.executors import map_file_blocks
 
         start = time.perf_counter()
-        units = file_blocks(paths, executor)
-        parts = map_files(_evaluate_one, [(p, pset, names[i] if names else None, adapter,
-                                           salvage, block) for i, p, block in units],
-                          executor, ray_address)
-        runs = [_merged([r for (j, _, _), r in zip(units, parts) if j == i],
+        parts = map_file_blocks(_evaluate_one, lambda i, p, block: (
+            p, pset, names[i] if names else None, adapter, salvage, block),
+            [str(p) for p in paths], executor, ray_address)
+        runs = [_merged([r for j, r in parts if j == i],
                         names[i] if names else Path(p).stem, str(p))
                 for i, p in enumerate(paths)]
     else:
