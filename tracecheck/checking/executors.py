@@ -81,8 +81,8 @@ def _unit(fn, job: tuple):
 def map_file_blocks(fn, make_job, paths, executor: str = "local",
                     address: Optional[str] = None) -> list[tuple[int, object]]:
     """``fn(*make_job(i, path, block))`` for each unit of :func:`file_blocks` (file ``i`` of
-    ``paths``), locally or as Ray
-    tasks: (index of the file, result) in file order. A file one of whose blocks does not
+    ``paths``), locally or as Ray tasks: (index of the file, result) in file order. A file
+    one of whose blocks does not
     check when its task reads it (damaged, or changed since it was counted) is done again
     whole, as the local executor does it."""
     units = file_blocks(paths, executor)

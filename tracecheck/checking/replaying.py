@@ -550,15 +550,17 @@ def replay_columns(cols: RunColumns, shield: Shield, ltl: Sequence[str] = (),
     """Replay the already-read columns of one file (``cols.path``) against ``shield``, with
     the LTL formulas as :func:`replay`: for a caller that has the columns for more than
     replay (the report's statistics), so the file is read once."""
-    return _replay_columns(cols, shield, ltl_formulas(shield, ltl, ltl_assertions))
+    return _replay_blocks(cols.path, [cols], shield, ltl_formulas(shield, ltl, ltl_assertions))
 
 
-def _replay_columns(cols: RunColumns, shield: Shield, parsed: Sequence[tuple] = ()
-                    ) -> ReplayReport:
-    """:func:`replay_columns` with the formulas already parsed (:func:`ltl_formulas`)."""
-    report = ReplayReport(shield=shield.identity, files=[cols.path])
-    report.warnings += cols.warnings
-    _replay_file(shield, cols, report, parsed)
+def _replay_blocks(path: str, blocks: Iterable[RunColumns], shield: Shield,
+                   parsed: Sequence[tuple] = ()) -> ReplayReport:
+    """The blocks of one file replayed, one after the other, with the formulas already
+    parsed (:func:`ltl_formulas`)."""
+    report = ReplayReport(shield=shield.identity, files=[path])
+    for cols in blocks:
+        report.warnings += cols.warnings
+        _replay_file(shield, cols, report, parsed)
     add_up(report, report.per_episode, _EPISODE_COUNTS)
     return report
 
@@ -568,11 +570,8 @@ def _replay_one(path: str, shield: Shield, parsed: Sequence[tuple] = (),
     """One file (or one block of it), block by block, in whichever process runs it (the
     shield itself is sent there: pickled as its text, see :class:`Shield`; the parsed
     formulas as their dataclasses)."""
-    report = ReplayReport(shield=shield.identity, files=[path])
-    for cols in read_blocks(path, salvage=salvage, block=block):
-        report.warnings += cols.warnings
-        _replay_file(shield, cols, report, parsed)
-    return report
+    return _replay_blocks(path, read_blocks(path, salvage=salvage, block=block), shield,
+                          parsed)
 
 
 def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "local",
