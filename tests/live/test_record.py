@@ -75,6 +75,64 @@ def test_workers_do_not_change_episodes(tmp_path):
     assert [e.actions for e in a] == [e.actions for e in b]
 
 
+def test_in_order_keeps_order_and_at_most_limit_jobs_ahead():
+    from tracecheck.live.executors import in_order
+
+    started, given = [], []
+
+    def submit(job):
+        started.append(job)
+        assert len(started) - len(given) <= 3  # never more than the limit not yet given
+        return job * 10
+
+    for value in in_order(submit, range(10), 3, lambda handle: handle + 1):
+        given.append(value)
+    assert given == [10 * i + 1 for i in range(10)] and started == list(range(10))
+    assert list(in_order(submit, [], 3, lambda h: h)) == []
+    with pytest.raises(ValueError, match="at least 1"):
+        next(in_order(submit, range(3), 0, lambda h: h))
+
+
+def test_workers_run_only_a_few_episodes_ahead_of_the_writer(tmp_path, monkeypatch):
+    """A writer slower than the workers (the CLI's Foxglove channels) must not make finished
+    episodes pile up in the recording process: workers wait for it."""
+    from tracecheck.live import record as recording
+    from tracecheck.live.executors import IN_FLIGHT
+    from tracecheck.live.rollout import Session
+
+    log = tmp_path / "started"
+    episode = Session.episode
+
+    def logged(self, index):
+        with open(log, "a") as f:
+            f.write(f"{index}\n")
+        return episode(self, index)
+
+    monkeypatch.setattr(Session, "episode", logged)  # the forked workers inherit it
+    fl = settings(agent=str(ROOT / "models" / "agents" / "frozenlake.npy"), shield="frozenlake",
+                  env="frozenlake", episodes=40, workers=2, duration=None)
+    shield = load_shield("frozenlake")
+    episodes = recording.episodes(fl, shield)
+    first = next(episodes)
+    time.sleep(2.0)  # ample for the workers to run all 40 had they not to wait
+    assert first.id == 0
+    assert len(log.read_text().split()) <= 1 + IN_FLIGHT * 2
+    rest = list(episodes)
+    assert [e.id for e in rest] == list(range(1, 40))
+    assert sorted(map(int, log.read_text().split())) == list(range(40))
+
+
+def test_a_worker_that_cannot_start_is_an_error_not_a_hang():
+    """A shield the environment's actions do not fit, given past :func:`check_settings`: the
+    workers cannot start, and the recording says why instead of waiting for ever."""
+    from tracecheck.live import record as recording
+
+    fl = settings(agent=str(ROOT / "models" / "agents" / "frozenlake.npy"), shield="none",
+                  env="frozenlake", episodes=4, workers=2, duration=None)
+    with pytest.raises(InputError, match="one operation per action"):
+        list(recording.episodes(fl, load_shield("none")))
+
+
 def _wait_for_episodes(path, count: int, seconds: float) -> None:
     """Until a recording being written holds ``count`` finished episodes."""
     deadline = time.time() + seconds

@@ -3,8 +3,9 @@
 Any environment with an adapter (:mod:`tracecheck.live.adapter`; the highway by default).
 Episode i uses seed ``seed + i``, so runs with different shields face the same scenarios.
 Episodes run in worker processes and come back in order, so the same seed gives the same
-file whatever the number of workers; each finished episode is written (and flushed) at once,
-so an interrupted run keeps every finished episode.
+file whatever the number of workers (a few episodes per worker run ahead of the writer, not
+more: memory stays flat however many are recorded); each finished episode is written (and
+flushed) at once, so an interrupted run keeps every finished episode.
 """
 
 from __future__ import annotations
@@ -20,20 +21,25 @@ from ..outputs import input_paths
 from ..episodes.writer import ChannelsFactory, new_header
 from ..episodes.model import Episode
 from ..errors import InputError
+from .executors import IN_FLIGHT, in_order
 from .rollout import RecordSettings, Session, resolve
 
 __all__ = ["RecordSettings", "record", "episodes", "check_settings", "recording_header"]
 
 
 _SESSION: Optional[Session] = None
+_FAILED: Optional[BaseException] = None
 
 
 def _init_worker(settings: RecordSettings, shield) -> None:
-    global _SESSION
+    global _SESSION, _FAILED
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole process group:
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # the parent handles it and stops us
     _die_with_parent()
-    _SESSION = Session(settings, shield=shield)
+    try:
+        _SESSION = Session(settings, shield=shield)
+    except Exception as error:  # raised from an initializer, the pool starts workers for ever
+        _FAILED = error  # raised by the first episode instead, so it reaches the parent
 
 
 def _die_with_parent() -> None:
@@ -49,6 +55,8 @@ def _die_with_parent() -> None:
 
 
 def _work(index: int) -> Episode:
+    if _FAILED is not None:
+        raise _FAILED
     assert _SESSION is not None
     return _SESSION.episode(index)
 
@@ -71,7 +79,8 @@ def episodes(settings: RecordSettings, shield) -> Iterator[Episode]:
     with ctx.Pool(settings.workers, initializer=_init_worker,
                   initargs=(settings, shield)) as pool:
         try:
-            yield from pool.imap(_work, range(settings.episodes))
+            yield from in_order(lambda i: pool.apply_async(_work, (i,)), range(settings.episodes),
+                                IN_FLIGHT * settings.workers, lambda handle: handle.get())
         finally:
             pool.terminate()
 
