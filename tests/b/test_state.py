@@ -60,6 +60,24 @@ def test_a_state_without_numpy_comes_back_as_it_is():
     assert native_state(values) is values
 
 
+def test_a_map_keyed_by_pairs_comes_back_as_the_same_object_every_step():
+    """A grid world's map, ``(x |-> y) |-> KIND``: one object in every state, kept as it is
+    (the file's writer formats it once per episode, not once per step: FrozenLake recorded
+    5× faster), and numpy inside such a map still converted, the first time and after."""
+    grid = FuncValue({(x, y): Elem("ICE") for x in range(8) for y in range(8)})
+    for _ in range(3):
+        assert native_state({"field": grid, "x": 1})["field"] is grid
+    with_numpy = FuncValue({(np.int64(0), 0): Elem("HOLE"), (1, 0): np.float32(0.5)})
+    for _ in range(2):
+        converted = native_state({"field": with_numpy})["field"]
+        assert converted == FuncValue({(0, 0): Elem("HOLE"), (1, 0): 0.5})
+        assert {type(k[0]) for k in converted.map} == {int}
+        assert type(converted.map[(1, 0)]) is float
+    shared = frozenset({(np.int64(2), 3)})
+    for _ in range(2):
+        assert type(next(iter(native_state({"s": shared})["s"]))[0]) is int
+
+
 def test_machine_questions_take_float32_observations(acc):
     """Bug 10: ``Machine.enabled({"Gap": np.float32(30.0), …})`` was a type error."""
     obs = np.array([30.0, 20.0, 18.0], dtype=np.float32)

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any, Mapping, Optional
 
 from ..errors import BSyntaxError, InputError, TracecheckError, caret_excerpt
+from ..identity import ByIdentity
 from ..inputs import read_json
 from .notation import from_json
 from .values import Elem, FuncValue
@@ -73,18 +74,24 @@ def native_state(state: Mapping[str, Any], types: Optional[Mapping[str, Any]] = 
     return state if out is None else out
 
 
+#: sets found to hold no numpy value: a grid world's map is one object in every state, and
+#: walking it every step was a third of a FrozenLake rollout
+_CLEAN: ByIdentity[bool] = ByIdentity(64)
+
+
 def _native(value: Any, name: str, btype: Any, where: str) -> Any:
     """One value of ``name`` converted (the same object when nothing in it is numpy)."""
     kind = type(value)
     if kind in _PLAIN:
         return value
-    if kind is FuncValue:
-        if _PLAIN.issuperset(map(type, value.map)) and _PLAIN.issuperset(
-                map(type, value.map.values())):  # the common case, at C speed
+    if kind is FuncValue or kind is frozenset:
+        if _CLEAN.get(value):
             return value
-        return FuncValue({_native(k, name, None, where): _native(v, name, None, where)
-                          for k, v in value.map.items()})
-    if kind is frozenset or kind is tuple:
+        native = _native_set(value, kind, name, where)
+        if native is value:
+            _CLEAN.put(value, True)
+        return native
+    if kind is tuple:
         if _PLAIN.issuperset(map(type, value)):
             return value
         items = [_native(v, name, None, where) for v in value]
@@ -92,6 +99,24 @@ def _native(value: Any, name: str, btype: Any, where: str) -> Any:
     if kind.__module__ == "numpy":
         return _numpy(value, name, btype, where)
     return value  # symbolic sets and the like: B's own values
+
+
+def _native_set(value: Any, kind: type, name: str, where: str) -> Any:
+    """A set or function converted (the same object when nothing in it is numpy)."""
+    if kind is FuncValue:
+        if _PLAIN.issuperset(map(type, value.map)) and _PLAIN.issuperset(
+                map(type, value.map.values())):  # the common case, at C speed
+            return value
+        items = {_native(k, name, None, where): _native(v, name, None, where)
+                 for k, v in value.map.items()}
+        if all(a is b for a, b in zip(items, value.map)) and all(
+                a is b for a, b in zip(items.values(), value.map.values())):
+            return value  # the same object: a grid world's map is one object every step
+        return FuncValue(items)
+    if _PLAIN.issuperset(map(type, value)):
+        return value
+    items = [_native(v, name, None, where) for v in value]
+    return value if all(a is b for a, b in zip(items, value)) else kind(items)
 
 
 def _numpy(value: Any, name: str, btype: Any, where: str) -> Any:

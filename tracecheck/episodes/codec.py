@@ -23,6 +23,7 @@ from ..b.notation import from_json, parse_literal
 from ..b.values import Elem, FuncValue, format_value
 from ..b.columns import Columns
 from ..errors import InputError, TracecheckError
+from ..identity import ByIdentity
 from .model import END_REASONS
 
 __all__ = ["encode_state", "decode_state", "encode_columns", "decode_columns",
@@ -57,21 +58,17 @@ def encode_value(value: Any) -> Any:
     return _literal(value)
 
 
-_RECENT: dict[int, tuple[Any, str]] = {}
+_RECENT: ByIdentity[str] = ByIdentity(64)
 
 
 def _literal(value: Any) -> str:
-    """``format_value``, remembered for the same object: a grid world's map is one object
+    """``format_value``, remembered for the same set: a grid world's map is one object
     in every step of an episode, and writing it out is the costly part of a step."""
-    hit = _RECENT.get(id(value))
-    if hit is not None and hit[0] is value:
-        return hit[1]
+    text = _RECENT.get(value)
+    if text is not None:
+        return text
     text = format_value(value)
-    if isinstance(value, frozenset):
-        if len(_RECENT) >= 64:
-            _RECENT.clear()
-        _RECENT[id(value)] = (value, text)  # the entry keeps the object, so its id stays its own
-    return text
+    return _RECENT.put(value, text) if isinstance(value, frozenset) else text
 
 
 def encode_state(state: Mapping[str, Any]) -> dict[str, Any]:

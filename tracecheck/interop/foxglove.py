@@ -33,6 +33,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable, Iterator, Optional
 
+from ..identity import ByIdentity
 from ..live.scene import Box, Circle, Line, Scene
 from ..render.scene import builtin_scene, scene_kind, vehicles
 
@@ -166,8 +167,17 @@ def _rgba(color) -> dict:
     return dict(zip("rgba", map(float, color)))
 
 
+#: the primitives of shapes drawn again and again (a grid world's tiles); nobody changes them
+_DRAWN: ByIdentity[tuple[str, dict]] = ByIdentity(4096)
+
+
 def _primitive(shape) -> tuple[str, dict]:
     """(the entity's list, the primitive) of one scene shape."""
+    drawn = _DRAWN.get(shape)
+    return drawn if drawn is not None else _DRAWN.put(shape, _draw(shape))
+
+
+def _draw(shape) -> tuple[str, dict]:
     if isinstance(shape, Box):
         color = shape.fill if shape.fill is not None else (shape.stroke or (0.5, 0.5, 0.5, 1))
         if shape.fill is None:

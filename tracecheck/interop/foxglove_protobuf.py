@@ -13,6 +13,8 @@ from __future__ import annotations
 import warnings
 from typing import Any, Callable, Optional
 
+from ..identity import ByIdentity
+
 __all__ = ["protobuf_schemas", "encoder"]
 
 
@@ -63,6 +65,12 @@ class _Builder:
         self.line_types = _by_value(m.LinePrimitiveLineType)
         self.levels = _by_value(m.LogLevel)
         self.deletions = _by_value(m.SceneEntityDeletionType)
+        #: the SDK's primitives of primitives drawn again and again (a grid world's tiles)
+        self._made: ByIdentity[Any] = ByIdentity(4096)
+
+    def _once(self, make: Callable[[dict], Any], d: dict):
+        made = self._made.get(d)
+        return made if made is not None else self._made.put(d, make(d))
 
     def time(self, d: dict):
         return self.m.Timestamp(d["sec"], d["nsec"])
@@ -111,9 +119,10 @@ class _Builder:
             timestamp=self.time(d["timestamp"]), frame_id=d["frame_id"], id=d["id"],
             lifetime=self.duration(d["lifetime"]), frame_locked=d["frame_locked"],
             metadata=[m.KeyValuePair(**kv) for kv in d["metadata"]],
-            cubes=[self.cube(c) for c in d["cubes"]],
-            spheres=[self.sphere(s) for s in d["spheres"]],
-            lines=[self.line(x) for x in d["lines"]], texts=[self.text(t) for t in d["texts"]])
+            cubes=[self._once(self.cube, c) for c in d["cubes"]],
+            spheres=[self._once(self.sphere, s) for s in d["spheres"]],
+            lines=[self._once(self.line, x) for x in d["lines"]],
+            texts=[self._once(self.text, t) for t in d["texts"]])
 
     def scene_update(self, d: dict):
         m = self.m

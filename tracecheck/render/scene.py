@@ -13,6 +13,7 @@ from typing import Callable, Optional
 
 from ..b.values import format_value
 from ..errors import InputError
+from ..identity import ByIdentity
 from ..live.scene import (BLACK, GREEN, GREY, RED, WHITE, YELLOW, Box, Circle, Color, Line,
                           Scene, Shape)
 
@@ -59,12 +60,24 @@ def scene_kind(state: dict) -> str:
     if all(hasattr(state.get(v), "map") for v in _ROAD):
         return "road"
     field_ = state.get("field")
-    if (type(state.get("x")) is int and type(state.get("y")) is int and hasattr(field_, "map")
-            and field_.map
-            and all(isinstance(k, tuple) and len(k) == 2 and all(type(c) is int for c in k)
-                    for k in field_.map)):
+    if type(state.get("x")) is int and type(state.get("y")) is int and _is_map(field_):
         return "grid"
     return "none"
+
+
+#: whether a value is a grid world's map, by the value (one object in every state of a run)
+_MAPS: ByIdentity[bool] = ByIdentity(16)
+
+
+def _is_map(value) -> bool:
+    """A function keyed by (x, y) pairs of integers."""
+    if not hasattr(value, "map") or not value.map:
+        return False
+    known = _MAPS.get(value)
+    if known is None:
+        known = _MAPS.put(value, all(isinstance(k, tuple) and len(k) == 2
+                                     and all(type(c) is int for c in k) for k in value.map))
+    return known
 
 
 DANGER = {"HOLE", "CLIFF"}
@@ -151,22 +164,35 @@ def road_scene(state: dict, crashed: bool = False, zones: bool = False,
     return Scene(tuple(shapes), (-60.0, -4.0, 200.0, 16.0), _ASPHALT, ROAD_CAPTION)
 
 
+#: a map's tiles and size, drawn once for the map (one object in every state of a run)
+_TILES: ByIdentity[tuple[tuple[Shape, ...], float, float]] = ByIdentity(16)
+
+
+def _tiles(field_) -> tuple[tuple[Shape, ...], float, float]:
+    """The tiles of a grid world's map, its columns and rows."""
+    drawn = _TILES.get(field_)
+    if drawn is None:
+        grid = grid_cells({"field": field_})
+        drawn = _TILES.put(field_, (tuple(
+            Box(x + 0.5, y + 0.5, 1.0, 1.0, fill=(0.15, 0.2, 0.22, 1.0) if danger
+                else (0.87, 0.94, 0.98, 1.0), stroke=WHITE, stroke_width=0.04,
+                label=f"({x}, {y}): {label}", group="map", depth=0.05)
+            for x, y, danger, label in grid["cells"]), float(grid["cols"]),
+            float(grid["rows"])))
+    return drawn
+
+
 def grid_scene(state: dict, crashed: bool = False) -> Scene:
     """A grid world: one tile per cell (holes and cliffs dark), the goal, the agent."""
-    grid = grid_cells(state)
-    shapes: list[Shape] = [
-        Box(x + 0.5, y + 0.5, 1.0, 1.0, fill=(0.15, 0.2, 0.22, 1.0) if danger
-            else (0.87, 0.94, 0.98, 1.0), stroke=WHITE, stroke_width=0.04,
-            label=f"({x}, {y}): {label}", group="map", depth=0.05)
-        for x, y, danger, label in grid["cells"]]
+    tiles, cols, rows = _tiles(state["field"])
+    shapes: list[Shape] = list(tiles)
     if "goal_x" in state and "goal_y" in state:
         shapes.append(Box(state["goal_x"] + 0.5, state["goal_y"] + 0.5, 0.6, 0.6, fill=YELLOW,
                           label="goal", group="goal", depth=0.1))
     shapes.append(Circle(state["x"] + 0.5, state["y"] + 0.5, 0.3,
                          fill=RED if crashed else GREEN, stroke=BLACK,
                          label=f"agent at ({state['x']}, {state['y']})", group="agent"))
-    return Scene(tuple(shapes), (0.0, 0.0, float(grid["cols"]), float(grid["rows"])),
-                 None, GRID_CAPTION, scale=40.0)
+    return Scene(tuple(shapes), (0.0, 0.0, cols, rows), None, GRID_CAPTION, scale=40.0)
 
 
 def builtin_scene(state: dict, crashed: bool = False, zones: bool = False) -> Optional[Scene]:
