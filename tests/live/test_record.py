@@ -75,6 +75,22 @@ def test_workers_do_not_change_episodes(tmp_path):
     assert [e.actions for e in a] == [e.actions for e in b]
 
 
+def test_a_campaign_in_tasks_of_several_episodes_is_the_same_campaign(tmp_path):
+    """Over 64 episodes per worker, a worker runs several per task: the same episodes, in
+    order, as one process gives."""
+    from tracecheck.live import record as recording
+
+    fl = dict(agent=str(ROOT / "models" / "agents" / "frozenlake.npy"), shield="frozenlake",
+              env="frozenlake", env_config={"is_slippery": True}, episodes=300, duration=None)
+    shield = load_shield("frozenlake")
+    one = list(recording.episodes(settings(**fl), shield))
+    two = list(recording.episodes(settings(**fl, workers=2), shield))
+    assert recording.batch_size(300, 2) == 4  # tasks of four episodes, not one
+    assert [e.id for e in two] == list(range(300))
+    assert [e.actions for e in one] == [e.actions for e in two]
+    assert [[s.state for s in e.steps] for e in one] == [[s.state for s in e.steps] for e in two]
+
+
 def test_in_order_keeps_order_and_at_most_limit_jobs_ahead():
     from tracecheck.live.executors import in_order
 

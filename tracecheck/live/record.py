@@ -3,9 +3,11 @@
 Any environment with an adapter (:mod:`tracecheck.live.adapter`; the highway by default).
 Episode i uses seed ``seed + i``, so runs with different shields face the same scenarios.
 Episodes run in worker processes and come back in order, so the same seed gives the same
-file whatever the number of workers (a few episodes per worker run ahead of the writer, not
-more: memory stays flat however many are recorded); each finished episode is written (and
-flushed) at once, so an interrupted run keeps every finished episode.
+file whatever the number of workers (a few tasks per worker run ahead of the writer, not
+more: memory stays flat however many are recorded). A task is one episode, or up to
+:data:`LOCAL_BATCH` in a campaign of over 64 episodes per worker; each episode that comes
+back is written (and flushed) at once, so an interrupted run keeps every episode that came
+back.
 """
 
 from __future__ import annotations
@@ -21,13 +23,17 @@ from ..outputs import input_paths
 from ..episodes.writer import ChannelsFactory, new_header
 from ..episodes.model import Episode
 from ..errors import InputError
-from .executors import IN_FLIGHT, in_order
+from .executors import IN_FLIGHT, batch_size, in_order
 from .rollout import RecordSettings, Session, resolve
 
 __all__ = ["RecordSettings", "record", "episodes", "check_settings", "recording_header"]
 
 
 _SESSION: Optional[Session] = None
+#: the most episodes a worker runs in one task: fewer tasks cost less (a FrozenLake campaign
+#: ran 1.5x faster in tasks of 64 episodes than one by one), few enough that a finished
+#: episode is soon written
+LOCAL_BATCH = 8
 _FAILED: Optional[BaseException] = None
 
 
@@ -54,11 +60,12 @@ def _die_with_parent() -> None:
         pass
 
 
-def _work(index: int) -> Episode:
+def _work(first: int, count: int) -> list[Episode]:
+    """Episodes ``first`` to ``first + count - 1``."""
     if _FAILED is not None:
         raise _FAILED
     assert _SESSION is not None
-    return _SESSION.episode(index)
+    return [_SESSION.episode(i) for i in range(first, first + count)]
 
 
 def episodes(settings: RecordSettings, shield) -> Iterator[Episode]:
@@ -78,9 +85,13 @@ def episodes(settings: RecordSettings, shield) -> Iterator[Episode]:
     ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
     with ctx.Pool(settings.workers, initializer=_init_worker,
                   initargs=(settings, shield)) as pool:
+        size = min(LOCAL_BATCH, batch_size(settings.episodes, settings.workers))
+        batches = ((first, min(size, settings.episodes - first))
+                   for first in range(0, settings.episodes, size))
         try:
-            yield from in_order(lambda i: pool.apply_async(_work, (i,)), range(settings.episodes),
-                                IN_FLIGHT * settings.workers, lambda handle: handle.get())
+            for batch in in_order(lambda job: pool.apply_async(_work, job), batches,
+                                  IN_FLIGHT * settings.workers, lambda handle: handle.get()):
+                yield from batch
         finally:
             pool.terminate()
 
