@@ -222,3 +222,39 @@ def test_a_variable_of_two_kinds_is_named(tmp_path):
                          block_rows=rows)
             with pytest.raises(InputError, match=message.replace("(", r"\(")):
                 read_columns(path)
+
+
+def test_the_summary_indexes_are_kept_as_bytes_and_written_the_same(tmp_path, monkeypatch):
+    """The writer keeps its chunk and attachment indexes (one of each per episode) packed,
+    not as the ``mcap`` Writer's objects: the file is byte for byte the one the Writer writes
+    keeping them itself, and readable by the ``mcap`` reader's summary."""
+    from mcap.reader import make_reader
+
+    header = new_header("recorded", model_name="HighwayEnvironment")
+
+    def written(path):
+        with EpisodeWriter(path, header, block_rows=10) as out:
+            for ep in many():
+                out.write(ep)
+        return path.read_bytes()
+
+    monkeypatch.setattr(W._time, "time_ns", lambda: 1_700_000_000_000_000_000)  # one clock
+    packed = []
+    original = W.pack_indexes
+    monkeypatch.setattr(W, "pack_indexes", lambda w: packed.append(original(w)) or packed[-1])
+    assert written(tmp_path / "packed.mcap") and packed == [True]  # this mcap keeps its lists
+    monkeypatch.setattr(W, "pack_indexes", lambda w: False)
+    assert written(tmp_path / "packed.mcap") == written(tmp_path / "objects.mcap")
+    with open(tmp_path / "packed.mcap", "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert len(summary.chunk_indexes) == 1 + 9  # the head's, and one per episode
+    assert len(summary.attachment_indexes) == 9 + blob_count(tmp_path / "packed.mcap")
+
+
+def test_packed_indexes_refuse_a_writer_that_keeps_them_elsewhere():
+    class Other:
+        _Writer__chunk_indices = ["an index already"]
+        _Writer__attachment_indexes: list = []
+
+    assert W.pack_indexes(Other()) is False
+    assert Other._Writer__chunk_indices == ["an index already"]
