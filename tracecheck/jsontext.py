@@ -16,13 +16,14 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-from typing import Any, Optional
+from typing import Any, Callable, Iterable, Optional
 
 import orjson
 
 from .limits import long_integers
 
-__all__ = ["finite", "json_text", "script_json", "nonfinite_name", "plain"]
+__all__ = ["finite", "json_text", "script_json", "nonfinite_name", "plain", "Rows",
+           "write_json"]
 
 
 def nonfinite_name(x: float) -> str:
@@ -110,6 +111,74 @@ def json_text(data: Any, *, indent: Optional[int] = None, ensure_ascii: bool = F
     with long_integers():
         return json.dumps(data, allow_nan=False, indent=indent, ensure_ascii=ensure_ascii,
                           separators=separators)
+
+
+class Rows:
+    """A list of objects (dicts) that :func:`write_json` writes a few hundred at a time, each
+    made by ``make`` from one of ``items`` only then: a campaign's 10^5 episodes never stand
+    in memory as JSON objects, or as one text, all at once."""
+
+    __slots__ = ("items", "make")
+
+    def __init__(self, items: Iterable, make: Callable[[Any], Any] = lambda item: item):
+        self.items, self.make = items, make
+
+    def __iter__(self):
+        return map(self.make, self.items)
+
+
+#: items of a :class:`Rows` made and written together
+_ROWS_AT_ONCE = 500
+
+
+def write_json(data: dict, out) -> None:
+    """``data`` (a dict) written to the text stream ``out`` exactly as
+    ``json_text(data, indent=2)`` writes it, with each value that is a :class:`Rows` as a list
+    written a part at a time.
+
+    >>> import io
+    >>> out = io.StringIO()
+    >>> write_json({"n": 2, "items": Rows([1.5, float("inf")], lambda x: {"x": x})}, out)
+    >>> out.getvalue() == json_text({"n": 2, "items": [{"x": 1.5}, {"x": float("inf")}]},
+    ...                             indent=2)
+    True
+    """
+    rest = finite({k: v for k, v in data.items() if type(v) is not Rows})
+    pairs: list = []
+    for key, value in data.items():
+        if type(value) is Rows:
+            pairs.append((key, value))
+            continue
+        pairs.append((key, rest[key]))
+        note = f"{key}_note"
+        if note in rest and note not in data:
+            pairs.append((note, rest[note]))
+    if not pairs:
+        out.write("{}")
+        return
+    out.write("{")
+    for n, (key, value) in enumerate(pairs):
+        out.write(",\n" if n else "\n")
+        if type(value) is not Rows:
+            out.write(json_text({key: value}, indent=2)[2:-2])  # '{\n  "key": …\n}'
+            continue
+        out.write(json_text({key: []}, indent=2)[2:-4])  # '  "key": '
+        _write_rows(value, out)
+    out.write("\n}")
+
+
+def _write_rows(rows: Rows, out) -> None:
+    """The items of ``rows`` as a list at the indentation of a value of the top object."""
+    items = iter(rows)
+    written = False
+    while True:
+        part = [item for _, item in zip(range(_ROWS_AT_ONCE), items)]
+        if not part:
+            break
+        text = json_text(part, indent=2)  # '[\n  item,\n  item\n]'
+        out.write((",\n" if written else "[\n") + "  " + text[2:-2].replace("\n", "\n  "))
+        written = True
+    out.write("\n  ]" if written else "[]")
 
 
 #: what could end, or comment out, an HTML ``<script>`` element holding JSON (``</script>``,

@@ -30,9 +30,11 @@ from ..errors import InputError, TracecheckError, UnsupportedError
 from .executors import map_file_blocks
 from .shared import EnabledNames, shared
 from .shield import Shield
-from ..jsontext import plain
+from .episode_results import EpisodeReplay, EpisodeRows
+from ..jsontext import Rows, plain
 
-__all__ = ["replay", "replay_columns", "ReplayReport", "EpisodeReplay", "enabled_matrix",
+__all__ = ["replay", "replay_columns", "ReplayReport", "EpisodeReplay", "EpisodeRows",
+           "enabled_matrix",
            "check_parameters", "add_up", "OUTCOMES", "NEVER_BLOCKED"]
 
 #: what re-simulating one episode can find, in the words every output uses (the lines under
@@ -44,42 +46,6 @@ PREVENTED, NOT_PREVENTED, NEW_CRASH, NO_CRASH, MISMATCH, NO_SEED = OUTCOMES = (
 #: what re-simulation says of a crash in an episode the shield would not have blocked
 #: anything in: nothing to re-run, the recorded crash stands
 NEVER_BLOCKED = "never blocked"
-
-
-@dataclass(frozen=True, slots=True)  # slots: a campaign holds 10^5 of them
-class EpisodeReplay:
-    """What replay found in one episode (steps are numbered from the initial state 0)."""
-
-    file: str
-    episode: int
-    steps: int
-    first_infeasible: Optional[int]
-    action: Optional[str]
-    enabled: Optional[list[str]]
-    alternative: Optional[str]
-    infeasible_steps: int
-    crashed: bool
-    crash_step: Optional[int]
-    crash_after_infeasible: bool
-    deadlock_states: list[int]
-    postcondition_violations: list[int]
-    invariant_violations: list[int]
-    #: a continuous action at the first infeasible step: its recorded parameter values, the
-    #: values the shield allowed there (``a ∈ [-4.0, 0.3)``), how far outside they lay
-    #: (Euclidean, in the parameters' units; None: see ``margin_note``) …
-    parameters: Optional[dict[str, float]] = None
-    allowed: Optional[str] = None
-    margin: Optional[float] = None
-    #: … why there is no margin (nothing allowed, the allowed set not boxes, a guard not
-    #: linear in the parameters)
-    margin_note: Optional[str] = None
-    #: the largest margin over the episode's infeasible continuous actions
-    max_margin: Optional[float] = None
-
-    @property
-    def matters(self) -> bool:
-        return (self.crashed or self.first_infeasible is not None or bool(self.deadlock_states)
-                or bool(self.postcondition_violations) or bool(self.invariant_violations))
 
 
 @dataclass
@@ -97,7 +63,7 @@ class ReplayReport:
     postcondition_violations: int = 0
     invariant_violations: int = 0
     elapsed_s: float = 0.0
-    per_episode: list[EpisodeReplay] = field(default_factory=list)
+    per_episode: EpisodeRows = field(default_factory=EpisodeRows)
     warnings: list[str] = field(default_factory=list)
     resimulation: Optional[dict] = None
     ltl: list[dict] = field(default_factory=list)  # per formula, see add_ltl
@@ -115,13 +81,27 @@ class ReplayReport:
                 or (NEVER_BLOCKED if e.crashed else "") for e in self.per_episode}
 
     def to_json(self) -> dict:
-        data = plain(self)
+        data = self.json_parts()
+        data["per_episode"] = list(data["per_episode"])
+        return data
+
+    def json_parts(self) -> dict:
+        """:meth:`to_json` with the episodes as a :class:`~tracecheck.jsontext.Rows`, each
+        made only as it is written (:func:`~tracecheck.jsontext.write_json`)."""
+        data = {f.name: (None if f.name == "per_episode" else plain(getattr(self, f.name)))
+                for f in dataclasses.fields(self)}
+        outcomes = self.resimulated()
+        names = [f.name for f in dataclasses.fields(EpisodeReplay)]
+
+        def entry(e: EpisodeReplay) -> dict:
+            row = {name: getattr(e, name) for name in names}
+            if outcomes is not None:
+                row["resimulated"] = outcomes[(e.file, e.episode)] or None
+            return row
+
+        data["per_episode"] = Rows(self.per_episode, entry)
         if self.resimulation is None:
             data.pop("resimulation")
-        else:
-            outcomes = self.resimulated()
-            for entry in data["per_episode"]:
-                entry["resimulated"] = outcomes[(entry["file"], entry["episode"])] or None
         if not self.ltl:
             data.pop("ltl")
         data["steps_per_s"] = round(self.steps / self.elapsed_s) if self.elapsed_s else None
@@ -282,7 +262,7 @@ def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport,
         else:  # nothing happened in it: the one record of such an episode, its length apart
             if hi - lo not in quiet:
                 quiet[hi - lo] = _episode(cols, checks, ep, lo, hi)
-            report.per_episode.append(dataclasses.replace(quiet[hi - lo], episode=ep))
+            _append_as(report.per_episode, quiet[hi - lo], ep)
 
 
 @dataclass(frozen=True)
@@ -299,6 +279,15 @@ class _Margin:
     def allowed(self) -> Optional[str]:
         """The allowed set in words (made only for the steps a report shows)."""
         return None if self.allowed_set is None else str(self.allowed_set)
+
+
+def _append_as(episodes, like: EpisodeReplay, episode: int) -> None:
+    """Episode ``episode``, ``like`` but for its id, to a report's episodes (compactly where
+    they are :class:`EpisodeRows`)."""
+    if isinstance(episodes, EpisodeRows):
+        episodes.append_as(like, episode)
+    else:
+        episodes.append(dataclasses.replace(like, episode=episode))
 
 
 def check_parameters(shield: Shield, cols: RunColumns, rows: np.ndarray, actions: np.ndarray,
@@ -619,5 +608,11 @@ _EPISODE_COUNTS: dict[str, Callable[[EpisodeReplay], int]] = {
 def add_up(report, parts: Sequence, counts: dict[str, Callable]) -> None:
     """Each count of ``report`` (replay's, diff's) as the sum over its ``parts`` (episodes,
     files) of what ``counts[name]`` says one part adds: a total is never kept by hand."""
-    for name, count in counts.items():
-        setattr(report, name, sum(int(count(part)) for part in parts))
+    if isinstance(parts, EpisodeRows):
+        parts = parts.records()  # what is counted does not depend on an episode's id
+    totals = dict.fromkeys(counts, 0)
+    for part in parts:
+        for name, count in counts.items():
+            totals[name] += int(count(part))
+    for name, total in totals.items():
+        setattr(report, name, total)

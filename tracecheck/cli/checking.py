@@ -58,7 +58,7 @@ def replay_cmd(
         report.resimulation = _resimulate(runs, loaded, report, agent, env, salvage)
     rows = len(report.per_episode) if all_rows else ROWS
     if fmt == OutputFormat.json:
-        print_json(report.to_json())
+        print_json(report.json_parts())
     elif fmt == OutputFormat.md:
         plain(replay_markdown(report, rows))
     elif fmt == OutputFormat.csv:

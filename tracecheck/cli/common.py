@@ -146,12 +146,17 @@ def output_format(fmt: OutputFormat, as_json: bool) -> OutputFormat:
 
 def print_json(data) -> None:
     """``data`` as indented, strict JSON on standard output: a number that is not finite is
-    null with a ``KEY_note`` beside it (:mod:`tracecheck.jsontext`)."""
-    from ..jsontext import json_text
+    null with a ``KEY_note`` beside it (:mod:`tracecheck.jsontext`); a dict's values that are
+    :class:`~tracecheck.jsontext.Rows` (a campaign's episodes) a few hundred items at a time."""
+    from ..jsontext import json_text, write_json
 
     # straight to the stream, as rich's print_json would indent it but without its
     # highlighting pass (which took most of a large report's time)
-    sys.stdout.write(json_text(data, indent=2, ensure_ascii=False) + "\n")
+    if isinstance(data, dict):
+        write_json(data, sys.stdout)
+        sys.stdout.write("\n")
+    else:
+        sys.stdout.write(json_text(data, indent=2, ensure_ascii=False) + "\n")
 
 
 def print_table(fmt: OutputFormat, table) -> None:
