@@ -93,6 +93,10 @@ class EpisodeRows(Sequence[EpisodeReplay]):
             return [self._at(i) for i in range(*k.indices(len(self)))]
         return self._at(k)
 
+    def __setitem__(self, k: int, e: EpisodeReplay) -> None:
+        self._items[k] = e
+        self._ids[k] = e.episode
+
     def __iter__(self) -> Iterator[EpisodeReplay]:
         replace = dataclasses.replace
         for e, ep in zip(self._items, self._ids):
