@@ -16,7 +16,7 @@ from typing import Callable, Iterable, Iterator, Optional, TypeVar
 from ..checking.executors import start_ray
 from ..episodes.model import Episode
 
-__all__ = ["ray_episodes", "batch_size", "in_order", "IN_FLIGHT"]
+__all__ = ["ray_episodes", "batch_size", "batches", "in_order", "IN_FLIGHT"]
 
 J = TypeVar("J")
 H = TypeVar("H")
@@ -50,6 +50,11 @@ def in_order(submit: Callable[[J], H], jobs: Iterable[J], limit: int,
         if not ahead:
             return
         yield result(ahead.popleft())
+
+
+def batches(episodes: int, size: int) -> Iterator[tuple[int, int]]:
+    """(first episode, count) of each task of ``size`` episodes (the last one the rest)."""
+    return ((first, min(size, episodes - first)) for first in range(0, episodes, size))
 
 
 def batch_size(episodes: int, workers: int) -> int:
@@ -88,10 +93,8 @@ def ray_episodes(settings, address: Optional[str] = None, *, shield) -> Iterator
         ref = [ray.put(shield)]  # in a list: a worker fetches it only when it needs it
         size = batch_size(settings.episodes, settings.workers)
         cpus = max(settings.workers, int(ray.cluster_resources().get("CPU", 0)))
-        batches = ((first, min(size, settings.episodes - first))
-                   for first in range(0, settings.episodes, size))
         for batch in in_order(lambda job: remote.remote(settings, *job, ref, shield.sha256),
-                              batches, IN_FLIGHT * cpus, ray.get):
+                              batches(settings.episodes, size), IN_FLIGHT * cpus, ray.get):
             yield from batch
     finally:
         if started:

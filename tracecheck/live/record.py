@@ -23,7 +23,7 @@ from ..outputs import input_paths
 from ..episodes.writer import ChannelsFactory, new_header
 from ..episodes.model import Episode
 from ..errors import InputError
-from .executors import IN_FLIGHT, batch_size, in_order
+from .executors import IN_FLIGHT, batch_size, batches, in_order
 from .rollout import RecordSettings, Session, resolve
 
 __all__ = ["RecordSettings", "record", "episodes", "check_settings", "recording_header"]
@@ -86,10 +86,9 @@ def episodes(settings: RecordSettings, shield) -> Iterator[Episode]:
     with ctx.Pool(settings.workers, initializer=_init_worker,
                   initargs=(settings, shield)) as pool:
         size = min(LOCAL_BATCH, batch_size(settings.episodes, settings.workers))
-        batches = ((first, min(size, settings.episodes - first))
-                   for first in range(0, settings.episodes, size))
         try:
-            for batch in in_order(lambda job: pool.apply_async(_work, job), batches,
+            for batch in in_order(lambda job: pool.apply_async(_work, job),
+                                  batches(settings.episodes, size),
                                   IN_FLIGHT * settings.workers, lambda handle: handle.get()):
                 yield from batch
         finally:
