@@ -221,6 +221,27 @@ def test_a_counterexample_that_rounding_moves_across_a_boundary_is_not_a_disagre
     assert r["reason"].startswith("over the exact reals, at a boundary")
 
 
+def test_a_counterexample_the_solver_cannot_place_in_time_is_unknown(capsys, tmp_path,
+                                                                     monkeypatch):
+    """Where the evaluator does not confirm the solver's state and the solver does not
+    decide in time whether rounding to floats is why: not known, and not a disagreement
+    (which says one of the two has a bug, exit 4) — as a loaded machine once reported."""
+    import tracecheck.checking.proving as proving
+
+    holds_at = proving._holds_at
+    monkeypatch.setattr(proving, "_holds_at",
+                        lambda tr, model, cons, timeout_s: holds_at(tr, model, cons, 1e-9))
+    path = tmp_path / "Third.mch"
+    path.write_text("MACHINE Third\nVARIABLES x\nINVARIANT x : REAL & x * x = 2.0 & x > 0.0\n"
+                    "INITIALISATION x := 0.0\nOPERATIONS\n"
+                    "  A = SELECT x < 0.0 THEN skip END\nEND\n")
+    code, out, err = run(capsys, "prove", str(path), "--deadlock-free", "--json")
+    (r,) = json.loads(out)
+    assert code == 3, err
+    assert r["status"] == "unknown" and r["disagreement"] is None
+    assert "did not decide in time whether rounding" in r["reason"]
+
+
 def _distinct_terms(term) -> int:
     seen, todo = set(), [term]
     while todo:

@@ -218,7 +218,15 @@ def _obligation(name: str, build: Callable[[], list], ctx: _Context,
         result.disagreement = f"tracecheck's evaluator cannot evaluate the state: {exc.message}"
         return result
     if not confirmed:
-        if not _holds_at(translator, model, constraints + translator.side_conditions, ctx.timeout_s):
+        holds = _holds_at(translator, model, constraints + translator.side_conditions,
+                          ctx.timeout_s)
+        if holds is None:  # the solver did not say in time: neither a finding nor a bug
+            return Result(name, UNKNOWN, state=state, reading=result.reading,
+                          reason=("tracecheck's evaluator does not confirm the solver's "
+                                  "counterexample, and the solver did not decide in time "
+                                  "whether rounding its exact reals to floats is why "
+                                  "(a longer --timeout may)"))
+        if not holds:
             # the solver's exact reals, rounded to floats, moved the state across a boundary:
             # a counterexample over the reals that floats cannot show — no disagreement
             result.reason = ("over the exact reals, at a boundary: the nearest float state "
@@ -230,9 +238,11 @@ def _obligation(name: str, build: Callable[[], list], ctx: _Context,
     return result
 
 
-def _holds_at(translator: Translator, model, constraints: list, timeout_s: float) -> bool:
+def _holds_at(translator: Translator, model, constraints: list,
+              timeout_s: float) -> Optional[bool]:
     """Whether ``constraints`` still hold when every real of ``model`` is rounded to the
-    nearest float (the state tracecheck's evaluator sees), fresh variables re-solved."""
+    nearest float (the state tracecheck's evaluator sees), fresh variables re-solved; None
+    where the solver does not decide it within ``timeout_s``."""
     z3 = translator.z3
     fixed = []
     for enc in translator.variables.values():
@@ -249,7 +259,8 @@ def _holds_at(translator: Translator, model, constraints: list, timeout_s: float
                     got = z3.RealVal(Fraction(float(exact)))
                 fixed.append(var == got)
     solver = z3.Solver()
-    return _ask(z3, solver, timeout_s, lambda: solver.add(*constraints, *fixed))[0] != z3.unsat
+    verdict = _ask(z3, solver, timeout_s, lambda: solver.add(*constraints, *fixed))[0]
+    return True if verdict == z3.sat else False if verdict == z3.unsat else None
 
 
 def _reading(state: dict, describe: Optional[Describe], limit: int = 6) -> str:
