@@ -12,6 +12,7 @@ from typing import Any, Optional
 
 from ..errors import TracecheckError
 from .common import DEBUG, app, err, escape
+from .heap import steady_heap
 
 # each module registers its commands on `app`, in the order `tracecheck --help` lists them
 from . import model  # noqa: E402,F401  check-model, eval, guards
@@ -30,6 +31,7 @@ def main(argv: Optional[list[str]] = None) -> Any:
     from ..limits import deep_recursion, long_integers
 
     _stop_on_sigterm()
+    steady_heap()
     DEBUG["on"] = False
     try:
         # a command reads, prints and evaluates B: integers of up to 310 000 digits (in JSON

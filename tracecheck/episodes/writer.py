@@ -338,8 +338,9 @@ class PackedIndex:
         return self._count
 
     def __iter__(self):
-        if self._data:
-            yield _Written(bytes(self._data))
+        if self._data:  # a view, not a copy: 19 MB for 10^5 episodes, while the summary is
+            with memoryview(self._data) as view:  # built from it
+                yield _Written(view)
 
 
 class _Written:
