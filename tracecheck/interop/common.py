@@ -63,7 +63,7 @@ class FoundFiles(Sequence[Path]):
     def __iter__(self) -> Iterator[Path]:
         for folder, names in self._groups:
             for name in names:
-                yield Path(name) if folder is None else folder / name
+                yield _path(folder, name)
 
     def __getitem__(self, k):
         if isinstance(k, slice):
@@ -74,8 +74,11 @@ class FoundFiles(Sequence[Path]):
         k %= n
         g = bisect.bisect_right(self._starts, k) - 1
         folder, names = self._groups[g]
-        name = names[k - self._starts[g]]
-        return Path(name) if folder is None else folder / name
+        return _path(folder, names[k - self._starts[g]])
+
+
+def _path(folder: Optional[Path], name: str) -> Path:
+    return Path(name) if folder is None else folder / name
 
 
 def expand_paths(paths: Iterable[str | Path], pattern: str) -> FoundFiles:
