@@ -203,3 +203,16 @@ def test_integers_beyond_64_bits_are_exact_on_the_batch_path_too(text):
     batch = BatchFormula(parse_formula(text), {})
     assert batch._plan(cols) is not None
     assert batch(cols).tolist() == [batch._row(cols, i) for i in range(3)]
+
+
+@given(st.integers(0, 20), st.integers(0, 4), st.integers(0, 2 ** 32 - 1),
+       st.sampled_from([bool, np.int64, float]))
+def test_all_last_is_numpys_all_along_the_last_axis(width, rows, seed, dtype):
+    from tracecheck.b.arrays import all_last
+
+    rng = np.random.default_rng(seed)
+    for shape in ((width,), (rows, width), (rows, 1, width)):
+        values = (rng.random(shape) < 0.9).astype(dtype)
+        got, want = all_last(values), np.all(values, axis=-1)
+        assert got.dtype == want.dtype and got.shape == want.shape
+        assert np.array_equal(got, want)

@@ -24,9 +24,9 @@ from ..errors import TracecheckError
 from . import ast
 from .bindings import conjuncts
 from .evaluation import Compiler
-from .arrays import (BatchContext, NotVectorizable, VectorValue, arith, bool_of, concat_numbers,
-                     fits, integral, intern_key, is_int_array, mark_nonfinite, num_of, per_row,
-                     shared, typed_member)
+from .arrays import (BatchContext, NotVectorizable, VectorValue, all_last, arith, bool_of,
+                     concat_numbers, fits, integral, intern_key, is_int_array, mark_nonfinite,
+                     num_of, per_row, shared, typed_member)
 from .columns import Columns
 from .records import set_element
 from .library import FUNCTIONS as _LIBRARY, vector_call as _library_call
@@ -277,11 +277,11 @@ class _VecCompiler:
                 if a[0] != b[0] or a[0] not in ("num", "bool", "elem", "set", "func"):
                     raise NotVectorizable("=")
                 if a[0] == "set":
-                    res = per_row(np.all(a[1] == b[1], axis=-1))
+                    res = per_row(all_last(a[1] == b[1]))
                 elif a[0] == "func":
                     (va, da), (vb, db) = a[1], b[1]
                     same = (da == db) & ((va == vb) | ~da)
-                    res = per_row(np.all(same, axis=-1))
+                    res = per_row(all_last(same))
                 elif a[0] == "elem":
                     res = np.equal(self.elem_index(a[1]), self.elem_index(b[1]))
                 else:
@@ -302,7 +302,7 @@ class _VecCompiler:
                 a, b = l(ctx), r(ctx)
                 if a[0] != "set" or b[0] != "set":
                     raise NotVectorizable("<:")
-                res = per_row(np.all(~a[1] | b[1], axis=-1))
+                res = per_row(all_last(~a[1] | b[1]))
                 return ("bool", res if op == "<:" else ~res)
             return subset
         raise NotVectorizable(op)
