@@ -537,7 +537,8 @@ def test_a_working_user_adapter_is_not_changed_by_the_guard(broken, toy, tmp_pat
     (["record", "--env", "frozenlake", "--agent", AGENTS / "frozenlake.npy", "-n", 1,
       "--env-config", "is_slippery=maybe"], "the setting is_slippery='maybe' does not fit the "
                                             "environment frozenlake: is_slippery takes true or "
-                                            "false"),
+                                            "false hint: e.g. is_slippery=true on the command "
+                                            "line, is_slippery=True from Python"),
     (["train", "--env", "frozenlake", "--algorithm", "q-learning", "--steps", 10,
       "--env-config", "is_slippery=0"], "the setting is_slippery=0 does not fit"),
     (["record", "--env", "frozenlake", "--agent", AGENTS / "frozenlake.npy", "-n", 1,

@@ -609,7 +609,8 @@ def typed_setting(env: str, key: str, value: Any, kinds: Optional[frozenset[str]
         takes = " or ".join(dict.fromkeys(_KIND_TEXT[k] for k in sorted(shown)))
         raise InputError(f"the setting {key}={value!r} does not fit the environment {env}: "
                          f"{key} takes {takes}",
-                         hint=f"e.g. {key}=true" if kinds == {"bool"} else None)
+                         hint=f"e.g. {key}=true on the command line, {key}=True from "
+                              "Python" if kinds == {"bool"} else None)
     return value
 
 
