@@ -29,14 +29,16 @@ def test_natural_key_orders_as_the_parts_do(names):
 
 
 def test_natural_order_of_a_folder(tmp_path):
+    """``1²2``: a superscript two is a digit to ``str.isdigit`` but not to ``int``; the key
+    of lists of parts raised a ValueError on it."""
     for name in ["Timed_Simulation_10.json", "Timed_Simulation_9.json",
                  "Timed_Simulation_09.json", "Timed_Simulation_100.json", "notes.txt",
-                 "Timed_Simulation_².json"]:
+                 "Timed_Simulation_².json", "Timed_Simulation_1²2.json"]:
         (tmp_path / name).write_text("{}")
     found = expand_paths([tmp_path], "*.json")
     assert [p.name for p in found] == [
-        "Timed_Simulation_09.json", "Timed_Simulation_9.json", "Timed_Simulation_10.json",
-        "Timed_Simulation_100.json", "Timed_Simulation_².json"]
+        "Timed_Simulation_1²2.json", "Timed_Simulation_09.json", "Timed_Simulation_9.json",
+        "Timed_Simulation_10.json", "Timed_Simulation_100.json", "Timed_Simulation_².json"]
 
 
 def test_found_files_behave_as_a_list(tmp_path):
