@@ -221,6 +221,27 @@ def test_a_counterexample_that_rounding_moves_across_a_boundary_is_not_a_disagre
     assert r["reason"].startswith("over the exact reals, at a boundary")
 
 
+def test_a_disagreement_rounding_cannot_explain_is_reported_without_asking_again(
+        capsys, tmp_path, monkeypatch):
+    """Integers only: rounding to floats moves nothing, so an unconfirmed counterexample is a
+    disagreement (exit 4) at once — even where the solver could not have re-checked it in
+    time (it is not asked)."""
+    import tracecheck.checking.proving as proving
+    from tracecheck.b.machine import Machine
+
+    asked = []
+    holds_at = proving._holds_at
+    monkeypatch.setattr(proving, "_holds_at", lambda tr, model, cons, timeout_s: asked.append(1)
+                        or holds_at(tr, model, cons, 1e-9))
+    monkeypatch.setattr(Machine, "is_enabled", lambda self, op, state: True)
+    path = tmp_path / "Count.mch"
+    path.write_text("MACHINE Count\nVARIABLES n\nINVARIANT n : INTEGER & n >= 0\n"
+                    "INITIALISATION n := 0\nOPERATIONS\n"
+                    "  Up = SELECT n < 10 THEN n := n + 1 END\nEND\n")
+    code, _, err = run(capsys, "prove", str(path), "--deadlock-free")
+    assert asked and code == 4 and "the solver and the evaluator disagree" in err
+
+
 def test_a_counterexample_the_solver_cannot_place_in_time_is_unknown(capsys, tmp_path,
                                                                      monkeypatch):
     """Where the evaluator does not confirm the solver's state and the solver does not

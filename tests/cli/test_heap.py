@@ -55,3 +55,26 @@ def test_the_cli_fixes_it_and_importing_the_library_does_not(monkeypatch):
     assert called == [1]
     assert _run("import tracecheck, tracecheck.episodes, tracecheck.checking, sys; "
                 "print('tracecheck.cli.heap' in sys.modules)") == "False"
+
+
+def test_steady_heap_leaves_a_user_s_tunables_and_other_c_libraries_alone(monkeypatch):
+    monkeypatch.setattr(heap.sys, "platform", "linux")
+    monkeypatch.delenv("MALLOC_MMAP_THRESHOLD_", raising=False)
+    monkeypatch.setenv("GLIBC_TUNABLES", "glibc.malloc.mmap_threshold=65536")
+    monkeypatch.setattr(heap.ctypes, "CDLL", lambda name: pytest.fail("asked the C library"))
+    assert heap.steady_heap() is False
+    monkeypatch.delenv("GLIBC_TUNABLES")
+
+    class NoMallopt:  # musl and others: no such function
+        pass
+
+    monkeypatch.setattr(heap.ctypes, "CDLL", lambda name: NoMallopt())
+    assert heap.steady_heap() is False
+
+    def unloadable(name):
+        raise OSError("no C library")
+
+    monkeypatch.setattr(heap.ctypes, "CDLL", unloadable)
+    assert heap.steady_heap() is False
+    monkeypatch.setattr(heap.sys, "platform", "darwin")
+    assert heap.steady_heap() is False

@@ -242,9 +242,12 @@ def _holds_at(translator: Translator, model, constraints: list,
               timeout_s: float) -> Optional[bool]:
     """Whether ``constraints`` still hold when every real of ``model`` is rounded to the
     nearest float (the state tracecheck's evaluator sees), fresh variables re-solved; None
-    where the solver does not decide it within ``timeout_s``."""
+    where the solver does not decide it within ``timeout_s``. Where rounding moves no value,
+    they hold (the model itself is the answer): the solver is not asked, so that a
+    disagreement is never hidden behind a question it could not answer in time."""
     z3 = translator.z3
     fixed = []
+    moved = False
     for enc in translator.variables.values():
         cells = enc.cells.values() if isinstance(enc, ElementFunction) else \
             [(None, v) for v in enc.member.values()] if isinstance(enc, ElementSet) else \
@@ -253,11 +256,16 @@ def _holds_at(translator: Translator, model, constraints: list,
             for var in ([defined] if defined is not None else []) + [value]:
                 got = model.eval(var, model_completion=True)
                 if z3.is_rational_value(got) or z3.is_algebraic_value(got):
-                    if z3.is_algebraic_value(got):
+                    algebraic = z3.is_algebraic_value(got)
+                    if algebraic:
                         got = got.approx(20)
                     exact = Fraction(got.numerator_as_long(), got.denominator_as_long())
-                    got = z3.RealVal(Fraction(float(exact)))
+                    rounded = Fraction(float(exact))
+                    moved = moved or algebraic or rounded != exact
+                    got = z3.RealVal(rounded)
                 fixed.append(var == got)
+    if not moved:
+        return True
     solver = z3.Solver()
     verdict = _ask(z3, solver, timeout_s, lambda: solver.add(*constraints, *fixed))[0]
     return True if verdict == z3.sat else False if verdict == z3.unsat else None

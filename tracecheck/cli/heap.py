@@ -4,8 +4,8 @@ A command that reads a large file decodes it a block at a time into arrays of a 
 frees them and decodes the next. glibc's ``malloc`` serves allocations from 128 KiB up by
 ``mmap``, but each time such a mapping is freed it raises that threshold to its size (up to
 32 MiB), so later blocks are carved from the heap, where they fragment and stay: ``replay``
-of a 10⁵-episode file peaked at 115–143 MiB from run to run, against 107 MiB with the
-threshold fixed at the same speed (``benchmarks/bench_scale.py``). The command fixes it; the
+of a 10⁵-episode file peaked at 115–143 MiB from run to run, against 105–108 MiB with
+the threshold fixed, at the same speed (``benchmarks/bench_scale.py``). The command fixes it; the
 library leaves the allocator of a program that imports it alone.
 """
 
@@ -25,8 +25,9 @@ _M_MMAP_THRESHOLD = -3  # glibc's malloc.h
 def steady_heap() -> bool:
     """Fix glibc's mmap threshold at :data:`MMAP_THRESHOLD` for this process (and the worker
     processes it forks); whether it did. Not on other C libraries, nor where the user set
-    ``MALLOC_MMAP_THRESHOLD_`` themselves."""
-    if not sys.platform.startswith("linux") or "MALLOC_MMAP_THRESHOLD_" in os.environ:
+    it themselves (``MALLOC_MMAP_THRESHOLD_``, ``GLIBC_TUNABLES=glibc.malloc.mmap_threshold=…``)."""
+    if not sys.platform.startswith("linux") or "MALLOC_MMAP_THRESHOLD_" in os.environ \
+            or "mmap_threshold" in os.environ.get("GLIBC_TUNABLES", ""):
         return False
     try:
         mallopt = ctypes.CDLL(None).mallopt

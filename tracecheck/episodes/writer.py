@@ -338,15 +338,17 @@ class PackedIndex:
         return self._count
 
     def __iter__(self):
-        if self._data:  # a view, not a copy: 19 MB for 10^5 episodes, while the summary is
-            with memoryview(self._data) as view:  # built from it
+        # a view, not a copy (19 MB for 10^5 episodes), released when the loop moves on:
+        # the record is to be written inside the loop (the mcap Writer's summary does)
+        if self._data:
+            with memoryview(self._data) as view:
                 yield _Written(view)
 
 
 class _Written:
     __slots__ = ("data",)
 
-    def __init__(self, data: bytes) -> None:
+    def __init__(self, data: memoryview) -> None:
         self.data = data
 
     def write(self, builder: RecordBuilder) -> None:
