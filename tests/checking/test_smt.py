@@ -206,16 +206,23 @@ def test_an_environment_s_declared_ranges_are_assumed(capsys, tmp_path):
     assert code == 0 and out.strip() == "deadlock-free: proved"
 
 
-def test_a_counterexample_that_rounding_moves_across_a_boundary_is_not_a_disagreement(
-        capsys, tmp_path):
-    """Over the reals x = √2 makes x * x = 2.0 true; as the nearest float it is false. The
-    solver's counterexample is reported as one over the reals, not as a disagreement."""
+def _prove_third(capsys, tmp_path):
+    """``prove --deadlock-free --json`` of a machine whose only states are x = √2 over the
+    reals (no float): (exit code, its one result, stderr)."""
     path = tmp_path / "Third.mch"
     path.write_text("MACHINE Third\nVARIABLES x\nINVARIANT x : REAL & x * x = 2.0 & x > 0.0\n"
                     "INITIALISATION x := 0.0\nOPERATIONS\n"
                     "  A = SELECT x < 0.0 THEN skip END\nEND\n")
     code, out, err = run(capsys, "prove", str(path), "--deadlock-free", "--json")
     (r,) = json.loads(out)
+    return code, r, err
+
+
+def test_a_counterexample_that_rounding_moves_across_a_boundary_is_not_a_disagreement(
+        capsys, tmp_path):
+    """Over the reals x = √2 makes x * x = 2.0 true; as the nearest float it is false. The
+    solver's counterexample is reported as one over the reals, not as a disagreement."""
+    code, r, err = _prove_third(capsys, tmp_path)
     assert code == 1, err
     assert r["status"] == "counterexample" and r["disagreement"] is None
     assert r["reason"].startswith("over the exact reals, at a boundary")
@@ -252,12 +259,7 @@ def test_a_counterexample_the_solver_cannot_place_in_time_is_unknown(capsys, tmp
     holds_at = proving._holds_at
     monkeypatch.setattr(proving, "_holds_at",
                         lambda tr, model, cons, timeout_s: holds_at(tr, model, cons, 1e-9))
-    path = tmp_path / "Third.mch"
-    path.write_text("MACHINE Third\nVARIABLES x\nINVARIANT x : REAL & x * x = 2.0 & x > 0.0\n"
-                    "INITIALISATION x := 0.0\nOPERATIONS\n"
-                    "  A = SELECT x < 0.0 THEN skip END\nEND\n")
-    code, out, err = run(capsys, "prove", str(path), "--deadlock-free", "--json")
-    (r,) = json.loads(out)
+    code, r, err = _prove_third(capsys, tmp_path)
     assert code == 3, err
     assert r["status"] == "unknown" and r["disagreement"] is None
     assert "did not decide in time whether rounding" in r["reason"]
