@@ -110,6 +110,18 @@ def test_reals_are_floats_the_evaluator_confirms():
     assert got.status == "unknown" and "the REALs are floats" in got.reason
 
 
+@pytest.mark.parametrize("text", [
+    "x : INTEGER & real(x) * 0.1 = 0.30000000000000004",  # x = 3 in floats, none exactly
+    "x : INTEGER & x > 0 & real(x) + 1.0E16 = 1.0E16",  # x = 1 in floats, none exactly
+])
+def test_an_integer_made_real_meets_float_rounding_too(text):
+    got = answer(text)
+    assert got.status == "unknown" and "the REALs are floats" in got.reason
+    assert answer(text.replace("x : INTEGER", "x : 0..10")).status == "TRUE"  # walked
+    assert answer("x : INTEGER & x * x = 9 & x < 0").status == "TRUE"  # integers: no rounding
+    assert answer("x : INTEGER & x * x = 8").status == "FALSE"
+
+
 def test_where_the_predicate_has_no_value_is_noted():
     got = answer("x : 0..3 & 10 / x = 5")
     assert got.solutions == [{"x": 2}] and "no value where x = 0: division by zero" in got.note

@@ -229,7 +229,30 @@ def test_a_traces_setup_constants_must_give_the_machines_constants(tmp_path):
                                                      machine))).tasks
     assert (row.status, row.reason) == (
         "failed", "step 0: $setup_constants gives constants the machine does not have "
-                  "(far = 5)")
+                  "(far = 5, not 4)")
+    # a value is a literal of the constant's type, never text pasted into a predicate
+    (row,) = run_project(read_project(_trace_project(
+        tmp_path, _trace(tmp_path, far("9 or TRUE = TRUE")), machine))).tasks
+    assert row.status == "not run"
+    assert "tracecheck cannot check its $setup_constants" in row.reason
+    assert "far" in row.reason and "'9 or TRUE = TRUE'" in row.reason
+    (row,) = run_project(read_project(_trace_project(
+        tmp_path, _trace(tmp_path, far("TRUE")), machine))).tasks
+    assert row.status == "not run" and "far must be of type INTEGER" in row.reason
+
+
+def test_an_initialisation_it_cannot_check_is_not_run_not_failed(tmp_path):
+    """ANY over NAT hits the size limit: tracecheck cannot tell, so the replay is not run
+    (it used to say the INITIALISATION cannot give the recorded state)."""
+    machine = tmp_path / "Pyth.mch"
+    machine.write_text((FIXTURES / "Corridor.mch").read_text().replace(
+        "MACHINE Corridor", "MACHINE Pyth").replace(
+        "pos := 0 || Crash := FALSE", "Crash := FALSE; ANY r1, r2 WHERE r1 : NAT & "
+                                      "r2 : NAT & r1*r1 + r2*r2 = 25 THEN pos := r1 + r2 - 5 END"))
+    (row,) = run_project(read_project(_trace_project(tmp_path, _trace(tmp_path, lambda ts: 0),
+                                                     machine))).tasks
+    assert row.status == "not run", row.reason
+    assert "cannot tell whether the INITIALISATION can give this state" in row.reason
 
 
 def walk(eid: int, cells: list[int]) -> Episode:

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any, Iterator, Optional
 
 from ..errors import EvaluationError
@@ -125,17 +126,22 @@ class Projection(SymbolicSet):
 
 
 class SeqSet(SymbolicSet):
-    """``seq(S)``, ``seq1(S)``, ``iseq(S)``, ``iseq1(S)``, ``perm(S)``: membership only."""
+    """``seq(S)``, ``seq1(S)``, ``iseq(S)``, ``iseq1(S)``, ``perm(S)``: membership; the
+    elements of the finite ones (an injective sequence over a finite set, a permutation)."""
 
     def __init__(self, kind: str, base: Any) -> None:
         self.kind, self.base = kind, base
         self.name = f"{kind}({format_value(base)})"
 
     def finiteness(self) -> Optional[bool]:
-        if self.kind in ("seq", "seq1") and finiteness(self.base) is not None:
-            if finiteness(self.base) is False or cardinality(self.base) > 0:
-                return False
-        return None
+        fb = finiteness(self.base)
+        if fb is True and cardinality(self.base) == 0:
+            return True  # seq({}) = iseq({}) = perm({}) = {[]}; seq1({}) = iseq1({}) = {}
+        if self.kind in ("seq", "seq1"):
+            return None if fb is None else False  # a non-empty base: every length
+        if fb is True:
+            return True  # no item twice: at most card(S) items
+        return False if (fb is False and self.kind != "perm") else None
 
     def contains(self, value: Any) -> bool:
         items = as_sequence(value)
@@ -149,14 +155,44 @@ class SeqSet(SymbolicSet):
             return covers(set(items), self.base)
         return True
 
+    def card(self) -> int:
+        if self.finiteness() is not True:
+            return SymbolicSet.card(self)
+        n = cardinality(self.base)
+        if self.kind == "perm":
+            return math.factorial(n)
+        counts = [math.perm(n, k) for k in range(n + 1)]  # injective sequences of length k
+        if self.kind in ("seq1", "iseq1"):
+            counts[0] = 0
+        return sum(counts) if n else counts[0]
+
+    def elements(self) -> Iterator[Any]:
+        if self.finiteness() is not True:
+            return SymbolicSet.elements(self)
+        check_size(self.card(), self.name)
+        from itertools import permutations
+        base = sorted(members(self.base), key=sort_key)
+        if self.kind == "perm":
+            lengths: Any = [len(base)]
+        else:
+            lengths = range(1 if self.kind in ("seq1", "iseq1") else 0, len(base) + 1)
+        return (FuncValue({i + 1: x for i, x in enumerate(p)})
+                for k in lengths for p in permutations(base, k))
+
     def key(self) -> tuple:
         return ("seq", self.kind, set_key(self.base))
 
 
 def covers(values: set, space: Any) -> bool:
-    """Whether ``values`` are exactly the elements of the finite set ``space``."""
-    if finiteness(space) is not True:
+    """Whether ``values`` are exactly the elements of the finite set ``space`` (an error
+    where tracecheck cannot tell whether ``space`` is finite: an infinite one is never
+    covered)."""
+    fs = finiteness(space)
+    if fs is False:
         return False
+    if fs is None:
+        raise EvaluationError(f"cannot tell whether {format_value(space)} is finite, so "
+                              f"whether these {len(values)} values are all of it")
     if cardinality(space) != len(values):
         return False
     return all(contains(space, v) for v in values)

@@ -262,8 +262,11 @@ def _possible(machine, op, before, state) -> bool:
             return machine.effect_ok(op, before, state)
         except UnsupportedError:
             return _possible_by_running(machine, op, before, state)
-    except EvaluationError:
-        return False
+    except EvaluationError as exc:  # a limit, a set it cannot walk: it cannot tell
+        what = "the INITIALISATION" if op is None else op
+        raise UnsupportedError(f"tracecheck cannot tell whether {what} can give this state: "
+                               f"{exc.message}", file=exc.file, source=exc.source,
+                               line=exc.line, column=exc.column, hint=exc.hint) from None
 
 
 def _possible_by_running(machine, op, before, state) -> bool:

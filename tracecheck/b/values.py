@@ -384,7 +384,7 @@ def cardinality(s: Any) -> int:
         return len(s)
     if isinstance(s, SymbolicSet):
         if s.finiteness() is not True:
-            raise EvaluationError(f"the set {s.name} is not finite: it has no card")
+            raise EvaluationError(_not_finite(s, "it has no card"))
         return s.card()
     raise EvaluationError(f"{brief(s)} is not a set")
 
@@ -404,10 +404,17 @@ def explicit(s: Any) -> frozenset:
         return s
     if isinstance(s, SymbolicSet):
         if s.finiteness() is not True:
-            raise EvaluationError(f"the set {s.name} is infinite; tracecheck computes with "
-                                  "finite sets here")
+            raise EvaluationError(_not_finite(s, "tracecheck computes with finite sets here"))
         return s.materialise()
     raise EvaluationError(f"{brief(s)} is not a set")
+
+
+def _not_finite(s: "SymbolicSet", what: str) -> str:
+    """Why a set without a known finite size is refused: infinite, or not known to be
+    finite (never called infinite where tracecheck cannot tell)."""
+    if s.finiteness() is False:
+        return f"the set {s.name} is infinite: {what}"
+    return f"tracecheck cannot tell whether the set {s.name} is finite: {what}"
 
 
 def contains(s: Any, v: Any) -> bool:

@@ -128,19 +128,33 @@ def _defined(answer: Answer, problem: "_Problem") -> Answer:
 
 
 def _rounds(problem) -> bool:
-    """Whether a REAL identifier meets float rounding in the predicate (an arithmetic
-    operation or a call over it): there, no solution over the exact reals does not mean
-    none in floats. Compared as it is (``x > 1.0 & x < 0.5``), a float is a real."""
-    reals = {n for n, t in problem.types.items() if t == REAL}
+    """Whether float rounding can meet a free identifier in the predicate: an arithmetic
+    operation or a call over it where REALs are about (a REAL identifier, a real literal, a
+    constant that is a float, or ``real(…)`` of an integer: ``real(x) * 0.1 =
+    0.30000000000000004`` holds for x = 3 in floats and for no x over the exact reals).
+    There, no solution over the exact reals does not mean none in floats. Compared as it
+    is (``x > 1.0 & x < 0.5``), a float is a real."""
+    free = set(problem.names)
+    if not (any(t == REAL for t in problem.types.values())
+            or _mentions_reals(problem.node, problem.env)):
+        return False
 
     def walk(node) -> bool:
         if isinstance(node, (ast.BinOp, ast.Neg, ast.Call)) and \
-                ast.free_names(node) & reals:
+                ast.free_names(node) & free:
             return True
-        found = []
-        ast.map_children(node, lambda c: found.append(c) or c)
-        return any(walk(c) for c in found)
-    return bool(reals) and walk(problem.node)
+        return any(walk(c) for c in ast.children(node))
+    return walk(problem.node)
+
+
+def _mentions_reals(node, env: dict) -> bool:
+    """Whether ``node`` has a real literal, a conversion to REAL or a name whose value is a
+    float."""
+    if isinstance(node, ast.RealLit) or (isinstance(node, ast.Call) and node.name == "real"):
+        return True
+    if isinstance(node, ast.Name) and type(env.get(node.id)) is float:
+        return True
+    return any(_mentions_reals(c, env) for c in ast.children(node))
 
 
 @dataclass

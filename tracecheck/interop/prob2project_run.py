@@ -379,15 +379,13 @@ def _first_state(path: Path, episode, machine) -> Optional[tuple[str, str]]:
                   and t.get("name") == "$setup_constants"), None)
     values = setup.get("destState") if setup else None
     if values and isinstance(values, dict):
-        text = " & ".join(f"{k} = {v}" for k, v in values.items())
         try:
-            node = machine.check_formula(text, file=f"{path}: $setup_constants")
-            same = bool(machine.compile(node)(dict(machine.base_env)))
+            differ = _other_constants(machine, values, f"{path}: $setup_constants")
         except TracecheckError as exc:
             return NOT_RUN, f"tracecheck cannot check its $setup_constants: {exc.render()}"
-        if not same:
+        if differ:
             return FAILED, ("step 0: $setup_constants gives constants the machine does not "
-                            f"have ({_short(text)})")
+                            f"have ({_short('; '.join(differ))})")
     state = episode.steps[0].state
     try:
         ok = initial_state_ok(machine, state)
@@ -399,6 +397,31 @@ def _first_state(path: Path, episode, machine) -> Optional[tuple[str, str]]:
         return None
     return FAILED, "step 0: the INITIALISATION cannot give the recorded state" + \
         _differing(machine, state)
+
+
+def _other_constants(machine, values: dict, where: str) -> list[str]:
+    """The constants ``values`` (name: ProB's text of a value) gives other values than the
+    machine's, as ``"Far = 5, not 4"``. Each value is read as a literal of its constant's
+    type — never spliced into a predicate, so ``"9 or TRUE = TRUE"`` is an error, not a
+    formula. Raises :class:`TracecheckError` for a name that is not a constant, a value that
+    is not a literal or one of another type."""
+    from ..b.typecheck import describe_value_type, type_of_value, unify_quiet
+    from ..b.values import format_value
+    from .common import read_literal
+
+    owners, differ = machine.element_sets(), []
+    for name, text in values.items():
+        if name not in machine.constants:
+            raise InputError(f"{where}: {name} is not a constant of {machine.name} (its "
+                             f"constants are {', '.join(machine.constants) or 'none'})")
+        value = read_literal(text, f"{where}: {name}")
+        wanted = machine.type_objects.get(name)
+        if wanted is not None and not unify_quiet(wanted, type_of_value(value, owners)):
+            raise InputError(f"{where}: {name} must be of type {machine.types[name]}, but "
+                             f"{text!r} is of type {describe_value_type(value, owners)}")
+        if value != machine.constants[name]:
+            differ.append(f"{name} = {text}, not {format_value(machine.constants[name])}")
+    return differ
 
 
 def _differing(machine, state) -> str:
