@@ -6,12 +6,14 @@ from __future__ import annotations
 from fractions import Fraction
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tracecheck.b import load_machine_text
 from tracecheck.b.linear import allowed_set
 from tracecheck.b.polytope import nearest_in_polytope
+from tracecheck.errors import UnsupportedError
 
 COEF = st.integers(-3, 3).map(Fraction)
 ROW = st.tuples(st.lists(COEF, min_size=2, max_size=2), st.integers(-6, 6).map(Fraction),
@@ -90,3 +92,47 @@ def test_equalities_over_several_parameters_find_an_allowed_float_or_say_undecid
     thin = _go("a + 3.0*b <= G & a + 3.0*b > G - 1.0E-15")  # allowed, but no float found
     with pytest.raises(UnsupportedError, match="undecided"):
         thin.allowed("Go", {"G": 1.0}).witness()
+
+
+def _edge_set(accepted_floats: int, exact_floats: int = 18, check=None):
+    """u in [-1, the 18th float above -1] over the reals, of which the evaluator accepts
+    only -1.0 and the next ``accepted_floats`` floats (a guard's rounding at the edge)."""
+    import math
+    from fractions import Fraction as F
+
+    from tracecheck.b.linear import AllowedSet
+    from tracecheck.b.polytope import Constraint
+
+    hi, ok = -1.0, -1.0
+    for _ in range(exact_floats):
+        hi = math.nextafter(hi, 0.0)
+    for _ in range(accepted_floats):
+        ok = math.nextafter(ok, 0.0)
+    parts = ((Constraint((("u", F(-1)),), F(-1), "<="),
+              Constraint((("u", F(1)),), -F(hi), "<=")),)
+    return AllowedSet(("u",), parts, check or (lambda p: -1.0 <= p["u"] <= ok)), ok
+
+
+def test_a_narrow_interval_is_searched_float_by_float_before_nothing_is_said():
+    """The new user's double integrator: u ∈ [-1.0, -0.999999999999998…] over the reals,
+    the evaluator accepts -1.0 and six floats above it; neither the middle nor the ends
+    nor the floats next to them pass, and "deadlock" was said."""
+    allowed, ok = _edge_set(6)
+    assert allowed.witness() == {"u": ok}  # the accepted float nearest 0
+    assert allowed.nearest({"u": 0.3}) == {"u": ok}
+    assert allowed.nearest({"u": -3.0}) == {"u": -1.0}
+    nothing, _ = _edge_set(6, check=lambda p: False)  # every float searched: none
+    assert nothing.witness() is None
+
+
+def test_a_wide_interval_no_float_of_which_passes_is_undecided_not_empty():
+    from fractions import Fraction as F
+
+    from tracecheck.b.linear import AllowedSet
+    from tracecheck.b.polytope import Constraint
+
+    wide = AllowedSet(("u",), ((Constraint((("u", F(-1)),), F(-1), "<="),
+                                Constraint((("u", F(1)),), F(0), "<=")),), lambda p: False)
+    with pytest.raises(UnsupportedError, match="undecided: the guard allows values over "
+                                               r"the reals \(\[-1.0, 0.0\]\)"):
+        wide.witness()

@@ -122,3 +122,23 @@ def test_ambiguous_or_meaningless_numpy_values_are_refused(sets, name, value, fr
     assert f"state.json: {name} " in info.value.render() and fragment in info.value.render()
     with pytest.raises(InputError, match=f"the state: {name} "):
         sets.enabled({name: value})
+
+
+def test_a_python_nan_is_refused_as_a_numpy_one():
+    """``Machine.invariant({"X": float("nan")})`` was True: a Python NaN slipped past the
+    check numpy's get."""
+    import math
+
+    from tracecheck.b.machine import load_machine_text
+    from tracecheck.b.values import FuncValue
+    from tracecheck.errors import InputError
+
+    m = load_machine_text("MACHINE N VARIABLES X INVARIANT X : REAL & X <= 10.0 "
+                          "INITIALISATION X := 0.0 END")
+    for bad in (math.nan, math.inf, -math.inf):
+        with pytest.raises(InputError, match=f"X is {bad}, not a B real"):
+            m.invariant({"X": bad})
+    assert m.invariant({"X": 3.0}) is True
+    for nested in (FuncValue({1: math.nan}), frozenset({(1, math.nan)}), (1.0, math.nan)):
+        with pytest.raises(InputError, match="not a B real"):
+            native_state({"F": nested})

@@ -537,3 +537,16 @@ def test_a_projected_float32_action_counts_as_on_the_boundary(capsys, throttle):
     assert code == 0, err
     boundary = json.loads(out)["runs"][0]["continuous"]["boundary"]
     assert boundary["count"] == projected
+
+
+def test_a_float64_proposal_the_space_rounds_is_no_intervention():
+    """0.3 as float64 reaches a float32 space as 0.30000001…: allowed, so the shield did
+    not intervene (it used to say replaced, distance 1.19e-8); the rounding is recorded."""
+    shield = _decide(_shield(), _state(40.0, 20.0, 20.0))
+    d = shield.filter(np.array([0.3]))
+    assert not d.intervened and d.distance == 0.0 and d.cast and not d.deadlock
+    assert d.executed.tolist() == [float(np.float32(0.3))] and d.proposal == {"a": 0.3}
+    exact = shield.filter(np.array([0.5]))  # a float32 value: nothing rounded
+    assert not exact.intervened and not exact.cast
+    moved = _decide(_shield(), _state(28.0, 20.0, 15.0)).filter(np.array([1.7]))
+    assert moved.intervened and moved.distance == pytest.approx(0.7, abs=1e-6)

@@ -37,7 +37,7 @@ __all__ = ["Constraint", "Form", "exact", "form_constant", "form_add", "form_tim
            "interval_of", "box_of", "merge_intervals", "gap", "clamp", "nearest_in_boxes",
            "confirmed", "distance_floor", "inner_point", "towards", "neighbour",
            "nearest_in_polytope", "interior", "nearest_point", "distance_to", "MAX_SYSTEMS",
-           "NUDGES", "DOUBLINGS"]
+           "NUDGES", "DOUBLINGS", "FLOAT_SCAN", "scan_boxes", "float_range"]
 
 
 @dataclass(frozen=True)
@@ -328,7 +328,70 @@ def nearest_in_boxes(allowed, boxes: list[dict], point, scale=None) -> Optional[
         d = sum(((candidate[p] - x[p]) / s[p]) ** 2 for p in params)
         if d < best_d or (best is not None and d == best_d and i < best_i):
             best, best_d, best_i = candidate, d, i
+    if best is None:  # non-empty over the reals, yet no float tried was allowed
+        return scan_boxes(allowed, boxes, x, s)
     return best
+
+
+#: The most floats of one box tried one by one, where neither a point well inside it nor
+#: its edges nor the floats next to them pass the evaluator, before tracecheck says it
+#: cannot tell (a box of a few floats at the edge of an allowed set: its ends' roundings)
+FLOAT_SCAN = 1 << 14
+
+
+def scan_boxes(allowed, boxes: list[dict], x: dict, s: dict) -> Optional[dict]:
+    """The allowed float point nearest ``x`` among every float point of ``boxes``: None
+    only where each box was searched whole and the evaluator allows none of its floats.
+    Raises :class:`UnsupportedError` where a box holds more than :data:`FLOAT_SCAN` float
+    points — non-empty over the reals, so "nothing allowed" would be a guess."""
+    from itertools import product
+
+    params = allowed.params
+    best, best_d = None, None
+    at, scale = {p: exact(x[p], p) for p in params}, {p: Fraction(s[p]) for p in params}
+    for box in boxes:
+        ranges = {p: float_range(box[p]) for p in params}
+        sizes = [_float_count(*ranges[p]) if ranges[p] else math.inf for p in params]
+        if math.prod(sizes) > FLOAT_SCAN:
+            raise UnsupportedError(
+                "undecided: the guard allows values over the reals (" + " × ".join(
+                    str(box[p]) for p in params) + "), but the evaluator's float arithmetic "
+                "refuses the floats tracecheck tried, and there are too many to try all")
+        axes = [[_from_index(k) for k in range(_index(ranges[p][0]), _index(ranges[p][1]) + 1)]
+                for p in params]
+        for values in product(*axes):
+            point = dict(zip(params, values))
+            d = sum(((Fraction(point[p]) - at[p]) / scale[p]) ** 2 for p in params)  # exact
+            if (best_d is None or d < best_d) and allowed.contains(point):
+                best, best_d = point, d
+    return best
+
+
+def float_range(i: Interval) -> Optional[tuple[float, float]]:
+    """The least and the greatest float in ``i`` (None where an end is unbounded or beyond
+    the floats; lowest above highest where no float lies in it)."""
+    low, high = i._floats
+    if not (math.isfinite(low) and math.isfinite(high)):
+        return None
+    if not i.contains(low):
+        low = math.nextafter(low, math.inf)
+    if not i.contains(high):
+        high = math.nextafter(high, -math.inf)
+    return low, high
+
+
+def _index(x: float) -> int:
+    """The float's place in the order of all floats (0.0 and -0.0 both at 0)."""
+    k = struct.unpack("<q", struct.pack("<d", x))[0]
+    return k if k >= 0 else -(k & 0x7FFF_FFFF_FFFF_FFFF)
+
+
+def _from_index(k: int) -> float:
+    return struct.unpack("<d", struct.pack("<q", k if k >= 0 else (-k) | -(1 << 63)))[0]
+
+
+def _float_count(low: float, high: float) -> int:
+    return max(0, _index(high) - _index(low) + 1)
 
 
 def confirmed(allowed, candidate: dict, box: dict) -> Optional[dict]:

@@ -64,7 +64,7 @@ def native_state(state: Mapping[str, Any], types: Optional[Mapping[str, Any]] = 
     """
     out = None
     for name, value in state.items():
-        if type(value) in _PLAIN:
+        if type(value) in _PLAIN and (type(value) is not float or math.isfinite(value)):
             continue
         native = _native(value, name, (types or {}).get(name), where)
         if native is not value:
@@ -82,6 +82,9 @@ _CLEAN: ByIdentity[bool] = ByIdentity(64)
 def _native(value: Any, name: str, btype: Any, where: str) -> Any:
     """One value of ``name`` converted (the same object when nothing in it is numpy)."""
     kind = type(value)
+    if kind is float and not math.isfinite(value):  # a Python NaN as a numpy one
+        raise InputError(f"{where}: {name} is {value}, not a B real",
+                         hint="B reals are finite numbers; check the observation")
     if kind in _PLAIN:
         return value
     if kind is FuncValue or kind is frozenset:
@@ -92,7 +95,7 @@ def _native(value: Any, name: str, btype: Any, where: str) -> Any:
             _CLEAN.put(value, True)
         return native
     if kind is tuple:
-        if _PLAIN.issuperset(map(type, value)):
+        if _PLAIN.issuperset(map(type, value)) and _finite(value):
             return value
         items = [_native(v, name, None, where) for v in value]
         return value if all(a is b for a, b in zip(items, value)) else kind(items)
@@ -105,7 +108,8 @@ def _native_set(value: Any, kind: type, name: str, where: str) -> Any:
     """A set or function converted (the same object when nothing in it is numpy)."""
     if kind is FuncValue:
         if _PLAIN.issuperset(map(type, value.map)) and _PLAIN.issuperset(
-                map(type, value.map.values())):  # the common case, at C speed
+                map(type, value.map.values())) and _finite(value.map.values()) and \
+                _finite(value.map):  # the common case, at C speed
             return value
         items = {_native(k, name, None, where): _native(v, name, None, where)
                  for k, v in value.map.items()}
@@ -113,10 +117,15 @@ def _native_set(value: Any, kind: type, name: str, where: str) -> Any:
                 a is b for a, b in zip(items.values(), value.map.values())):
             return value  # the same object: a grid world's map is one object every step
         return FuncValue(items)
-    if _PLAIN.issuperset(map(type, value)):
+    if _PLAIN.issuperset(map(type, value)) and _finite(value):
         return value
     items = [_native(v, name, None, where) for v in value]
     return value if all(a is b for a, b in zip(items, value)) else kind(items)
+
+
+def _finite(values) -> bool:
+    """Whether no Python float among ``values`` is NaN or infinite."""
+    return all(math.isfinite(v) for v in values if type(v) is float)
 
 
 def _numpy(value: Any, name: str, btype: Any, where: str) -> Any:

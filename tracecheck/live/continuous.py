@@ -74,6 +74,8 @@ class Decision:
     proposed_op: str = ""  # the operation the agent proposed
     sent: Any = None  # what the environment's step receives
     scores: Optional[dict[str, float]] = None  # a hybrid agent's score of each operation
+    cast: bool = False  # the proposal is not a value of the space's float type: the
+    #                     environment receives it rounded (not an intervention)
 
 
 @dataclass(frozen=True)
@@ -427,15 +429,19 @@ class ContinuousShield:
         entry = self.ops.get(op)
         params = entry.part.params if entry is not None else ()
         same = op == proposed
-        distance = float(np.sqrt(np.sum(((executed - proposal) / entry.scale) ** 2))) \
-            if same and entry is not None else (0.0 if same else None)
         mine = self.ops.get(proposed)
+        # the proposal as the environment receives it (a float32 space rounds a float64
+        # 0.3): the shield intervened only where it executed something else
+        as_sent = proposal.astype(mine.part.dtype).astype(np.float64) if mine else proposal
+        intervened = not same or bool(np.any(executed != as_sent))
+        distance = float(np.sqrt(np.sum(((executed - proposal) / entry.scale) ** 2))) \
+            if same and entry is not None and intervened else (0.0 if same else None)
         return Decision(
             executed=executed, parameters=dict(zip(params, executed.tolist())),
             proposal=dict(zip(mine.part.params, proposal.tolist())) if mine else {},
-            distance=distance, intervened=not same or bool(np.any(executed != proposal)),
+            distance=distance, intervened=intervened,
             deadlock=deadlock, op=op, proposed_op=proposed, sent=self._sent(op, executed),
-            scores=scores)
+            scores=scores, cast=bool(np.any(as_sent != proposal)))
 
     # -- hybrid actions in and out
     def _hybrid_proposal(self, action: Any) -> tuple[np.ndarray, str, np.ndarray]:

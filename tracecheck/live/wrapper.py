@@ -213,5 +213,5 @@ class ShieldWrapper(gym.Wrapper):
             replaced=decision.intervened, proposal=decision.proposal,
             executed=decision.parameters, distance=decision.distance,
             fallback_taken=decision.deadlock, step_decision_us=decision_us,
-            intervals=bands, problem=problem, scores=decision.scores)
+            intervals=bands, problem=problem, scores=decision.scores, cast=decision.cast)
         return obs, reward, terminated, truncated, info
