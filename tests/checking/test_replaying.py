@@ -223,8 +223,19 @@ def test_shield_loading_errors(tmp_path):
     # for replay, a shield needs operations for the actions a recording uses
     sample = ROOT / "sample_traces" / "base_none.mcap"
     with pytest.raises(InputError, match=r"base_none.mcap: the episodes use the action "
-                                         r"\w+, which the shield partial has no operation"):
+                                         r"LANE_LEFT \(114 step\(s\), the first at episode 1 "
+                                         r"step 1\), which the shield partial has no operation "
+                                         r"for \(its operations are IDLE, FASTER\)"):
         replay([sample], load_shield(partial))
+    # so does diff, for either shield (a misspelt operation made every step "newly blocked")
+    misspelt = tmp_path / "Misspelt.mch"
+    misspelt.write_text((ROOT / "models" / "shields" / "paper.mch").read_text()
+                        .replace("FASTER", "FASTRE"))
+    for pair in ((load_shield("paper"), load_shield(misspelt)),
+                 (load_shield(misspelt), load_shield("paper"))):
+        with pytest.raises(InputError, match=r"the episodes use the action FASTER \(\d+ "
+                                             r"step\(s\).*which the shield (misspelt|Misspelt)"):
+            diff([sample], *pair)
     shield = load_shield("paper")
     assert shield.name == "paper" and shield.identity["sha256"] == shield.machine.sha256
 

@@ -394,3 +394,24 @@ def test_export_simb_refuses_a_folder_that_is_not_empty(tmp_path, capsys):
     code, _, err = run(capsys, "export", "simb", str(sample), "-o", str(folder), "--force")
     assert code == 0 and not (folder / "Timed_Simulation_99.json").exists()
     assert len(list(folder.glob("Timed_Simulation_*.json"))) == 24
+
+
+def test_a_shield_whose_sets_do_not_fit_the_environment_is_refused_before_recording():
+    """A 4x4 lake under the 8x8 shield: the map is no function on the shield's cells, and
+    replay would report an invariant violation at every state; record says so at once."""
+    from tracecheck.checking.shield import check_vocabulary, load_shield
+    from tracecheck.errors import InputError
+    from tracecheck.live.adapter import get_adapter
+
+    adapter = get_adapter("frozenlake")
+    shield = load_shield("frozenlake", actions=adapter.actions)
+    env = adapter.make_env({"map_name": "4x4"})
+    try:
+        with pytest.raises(InputError, match=r"the first state of frozenlake breaks the "
+                                             r"invariant of the shield frozenlake: field : "
+                                             r"\(0..n-1\) \* \(0..n-1\) --> GROUND\n"
+                                             r".*a map of another size"):
+            check_vocabulary(shield, adapter, env)
+        check_vocabulary(shield, adapter, adapter.make_env({}))  # the 8x8 map fits
+    finally:
+        env.close()

@@ -28,7 +28,7 @@ from ..episodes.columns import RunColumns, read_blocks
 from ..errors import UnsupportedError
 from .executors import map_file_blocks
 from .shared import EnabledNames
-from .replaying import add_up, check_parameters, enabled_matrix
+from .replaying import add_up, check_actions, check_parameters, enabled_matrix
 from .shield import Shield
 from ..jsontext import plain
 
@@ -229,8 +229,10 @@ def _with_parameters(shield: Shield, cols: RunColumns, rows: np.ndarray, ok: np.
 def _diff_file(cols: RunColumns, a: Shield, b: Shield, report: DiffReport,
                details: int = DETAILS) -> None:
     names = tuple(dict.fromkeys(list(a.machine.operations) + list(b.machine.operations)))
-    ma, mb = _aligned(a, cols, names), _aligned(b, cols, names)
     rows = np.flatnonzero(cols.step > 0)
+    for shield in (a, b):  # as replay: an action one of them cannot take is no "change"
+        check_actions(shield, cols, rows, cols.action[rows])
+    ma, mb = _aligned(a, cols, names), _aligned(b, cols, names)
     col = {n: j for j, n in enumerate(names)}
     to_col = np.array([col.get(x, -1) for x in cols.action_names] + [-1], dtype=np.int64)
     acts = to_col[cols.action[rows]]

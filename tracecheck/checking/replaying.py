@@ -179,6 +179,25 @@ def _candidates(shield: Shield, cols: RunColumns,
     return found
 
 
+def check_actions(shield: Shield, cols: RunColumns, rows: np.ndarray,
+                  actions: np.ndarray) -> None:
+    """Refuse a run that takes an action the shield has no operation for (a misspelt
+    operation would otherwise block every such step), naming the first step that does."""
+    ops = shield.machine.operations
+    for code, name in enumerate(cols.action_names):
+        if name in ops:
+            continue
+        which = np.flatnonzero(actions == code)
+        if len(which):
+            r = int(rows[which[0]])
+            raise InputError(f"{cols.path}: the episodes use the action {name} "
+                             f"({len(which):,} step(s), the first at episode "
+                             f"{int(cols.episode[r])} step {int(cols.step[r])}), which the "
+                             f"shield {shield.name} has no operation for (its operations are "
+                             f"{', '.join(ops) or 'none'})",
+                             hint="check the operation's spelling in the shield")
+
+
 def _check_variables(shield: Shield, cols: RunColumns) -> None:
     have = cols.states.names() | set(shield.machine.base_env)
     machine = shield.machine
@@ -232,13 +251,9 @@ def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport,
     if ltl:
         _check_ltl(shield, cols, report, ltl, {o: matrix[:, i] for i, o in enumerate(ops)})
     op_index = {o: i for i, o in enumerate(ops)}
-    unknown = [a for a in cols.action_names if a not in op_index]
     rows = np.flatnonzero(cols.step > 0)
     actions = cols.action[rows]
-    used_unknown = [a for a in unknown if np.any(actions == cols.action_names.index(a))]
-    if used_unknown:
-        raise InputError(f"{cols.path}: the episodes use the action {used_unknown[0]}, which "
-                         f"the shield {shield.name} has no operation for")
+    check_actions(shield, cols, rows, actions)
     to_op = np.array([op_index.get(a, 0) for a in cols.action_names] + [0], dtype=np.int64)
     feasible = np.ones(cols.n, dtype=bool)
     feasible[rows] = matrix[rows - 1, to_op[actions]]

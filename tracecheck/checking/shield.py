@@ -161,3 +161,12 @@ def check_vocabulary(shield: Shield, adapter, env) -> None:
     obs, info = env.reset(seed=0)
     state = adapter.observer(env).state(obs, dict(info, crashed=False), 0.0, True)
     machine.check_state(state, where=f"the first state of {adapter.name}")
+    broken, _ = machine.invariant_check(state)
+    if broken:  # sets of another size (a 9x7 map under a 7x7 shield): replay would report
+        #         an invariant violation at every state
+        raise InputError(f"the first state of {adapter.name} breaks the invariant of the "
+                         f"shield {shield.name}: {broken[0]}"
+                         + (f" (and {len(broken) - 1} more conjunct(s))" if broken[1:] else ""),
+                         hint="the shield's sets or constants do not describe this "
+                              "environment (a map of another size?); `tracecheck guards` "
+                              "shows the state against the shield")
