@@ -412,6 +412,6 @@ def test_a_shield_whose_sets_do_not_fit_the_environment_is_refused_before_record
                                              r"\(0..n-1\) \* \(0..n-1\) --> GROUND\n"
                                              r".*a map of another size"):
             check_vocabulary(shield, adapter, env)
-        check_vocabulary(shield, adapter, adapter.make_env({}))  # the 8x8 map fits
+        check_vocabulary(shield, adapter, adapter.make_env(adapter.default_config()))  # 8x8 fits
     finally:
         env.close()
