@@ -371,3 +371,27 @@ def test_a_state_the_solver_cannot_decide_stops_replay_naming_it(capsys, tmp_pat
     flat = " ".join(err.split())
     assert code == 2 and f"{path}, episode 0, step 0: undecided for ACCELERATE" in flat
     assert "tracecheck does not guess" in flat and "Traceback" not in err
+
+
+def acc_shield(tmp_path):
+    path = tmp_path / "acc.mch"
+    path.write_text(ACC)
+    return load_shield(path)
+
+
+def test_recorded_values_of_a_parameter_not_typed_real_are_refused(tmp_path, run_file):
+    """``ACCELERATE(a) = PRE a : 0..1``: "some value allowed" passed the recorded 1.5, -4.0
+    and 2.0 as every step feasible, and diff against another such shield found nothing."""
+    path = tmp_path / "int.mch"
+    path.write_text(ACC.replace("MACHINE Acc", "MACHINE Int").replace(
+        "a : REAL & a >= -4.0 & a <= 2.0 & Gap - (Speed + a) * 1.5 > 10.0", "a : 0..1")
+        .replace("Speed := Speed + a", "skip"))
+    integer = load_shield(path)
+    message = (r"acc.mcap: the run records values of ACCELERATE's parameter a \(1.5 at "
+               r"episode 0 step 1\), but the shield int does not type it REAL")
+    with pytest.raises(InputError, match=message):
+        replay([run_file], integer)
+    from tracecheck.checking.diffing import diff
+    for pair in ((integer, load_shield(path)), (acc_shield(tmp_path), integer)):
+        with pytest.raises(InputError, match="does not type it REAL"):
+            diff([run_file], *pair)

@@ -317,15 +317,37 @@ def check_parameters(shield: Shield, cols: RunColumns, rows: np.ndarray, actions
     bounds = space_bounds(cols) if margins else {}
     for code, name in enumerate(cols.action_names):
         op = machine.operations.get(name)
-        if op is None or not real_parameters(op):
+        if op is None or not op.params:
             continue
         which = rows[actions == code]
         if not len(which):
+            continue
+        if not real_parameters(op):
+            _refuse_recorded_values(shield, cols, op, which)
             continue
         feasible[which] = ok = _guard_with_parameters(shield, cols, op, which)
         if margins:
             found.update(_margins(machine, op, cols, which[~ok], bounds.get(name)))
     return found
+
+
+def _refuse_recorded_values(shield: Shield, cols: RunColumns, op, which: np.ndarray) -> None:
+    """A run that recorded values of an operation's parameters the shield does not type
+    REAL: "some value allowed" would pass a recorded 2.0 against ``a : 0..1``, so the
+    recorded values cannot be judged — an error naming the first such step."""
+    recorded = [p for p in op.params if p in cols.parameters]
+    for p in recorded:
+        given = np.flatnonzero(np.isfinite(cols.parameters[p][which]))
+        if len(given):
+            r = int(which[given[0]])
+            raise InputError(
+                f"{cols.path}: the run records values of {op.name}'s parameter {p} "
+                f"({float(cols.parameters[p][r])!r} at episode {int(cols.episode[r])} step "
+                f"{int(cols.step[r])}), but the shield {shield.name} does not type it REAL "
+                f"(`{p} : REAL` in the guard of {op.name}): tracecheck cannot judge the "
+                "recorded values against it",
+                hint="a shield for continuous actions types each parameter REAL and bounds "
+                     "it with comparisons (a >= 0.0 & a <= 1.0)")
 
 
 def _margins(machine, op, cols: RunColumns, bad: np.ndarray,
