@@ -126,7 +126,9 @@ def test_running_the_older_project_without_scripts():
     assert rows["#3"].reason == "step 2: RIGHT cannot reach the recorded state"
     assert rows["#4"].reason.startswith("no trace file at ")
     assert "deselected" in rows["#5"].reason and not rows["#5"].selected
-    assert "--no-scripts" in rows["Script_Safe"].reason
+    assert rows["Script_Safe"].reason.startswith(
+        f"it runs the script {FIXTURES / 'Corridor.py'}, which only the project file names: "
+        "give --run-scripts")
     assert "unknown identifier speed" in rows["Sim_Speed"].reason
     assert "simulationItems[10]" in rows["Sim_Speed"].reason
     assert "tracecheck does not run LTL tasks" in rows["#20"].reason
@@ -166,7 +168,7 @@ def test_a_folder_with_fewer_traces_than_asked_is_not_run():
 def test_a_script_that_gives_fewer_executions_leaves_its_tasks_not_run(monkeypatch):
     monkeypatch.setattr(prob2project_run, "script_episodes",
                         lambda *a, **k: [walk(0, [0, 1, 2, 3])])
-    rows = {t.task: t for t in run_project(read_project(OLD)).tasks}
+    rows = {t.task: t for t in run_project(read_project(OLD), RunOptions(scripts=True)).tasks}
     assert (rows["Script_Safe"].status, rows["Script_Safe"].reason) == (
         "not run", "the script gave 1 complete executions; the task asks for 3 — it must "
                    "not end before tracecheck sends finished")
@@ -271,7 +273,8 @@ def test_a_script_runs_once_per_simulation_with_the_tasks_settings(monkeypatch):
         return [walk(k, [0, 1, 2, 3]) for k in range(episodes)]
 
     monkeypatch.setattr(prob2project_run, "script_episodes", fake)
-    report = run_project(read_project(OLD), RunOptions(python="/opt/py/bin/python"))
+    report = run_project(read_project(OLD), RunOptions(python="/opt/py/bin/python",
+                                                       scripts=True))
     assert calls == [(("/opt/py/bin/python", "Corridor.py"), 3, FIXTURES, 60000, None,
                       "Corridor")]
     rows = {t.task: t for t in report.tasks}
@@ -286,15 +289,39 @@ def test_a_failing_script_leaves_its_tasks_not_run(monkeypatch):
         raise Failure("the script ended before it connected")
 
     monkeypatch.setattr(prob2project_run, "script_episodes", dies)
-    rows = {t.task: t for t in run_project(read_project(OLD)).tasks}
+    rows = {t.task: t for t in run_project(read_project(OLD), RunOptions(scripts=True)).tasks}
     assert rows["Script_Safe"].status == "not run"
     assert rows["Script_Safe"].reason == \
         "the script failed: the script ended before it connected"
 
 
+def test_a_script_only_the_project_names_is_not_run_unless_asked(monkeypatch, tmp_path):
+    """A project file is data: its scripts run only with --run-scripts, and then only
+    those in the project's folder (not ../x.py, not an absolute path)."""
+    calls = []
+    monkeypatch.setattr(prob2project_run, "script_episodes",
+                        lambda *a, **k: calls.append(a) or [walk(0, [0, 1])])
+    rows = {t.task: t for t in run_project(read_project(OLD)).tasks}
+    assert calls == [] and rows["Script_Safe"].status == "not run"
+    assert "Corridor.py, which only the project file names" in rows["Script_Safe"].reason
+    data = json.loads(OLD.read_text())
+    outside = tmp_path / "elsewhere.py"
+    outside.write_text("raise SystemExit('must not run')\n")
+    for where in ("../elsewhere.py", str(outside)):
+        project = tmp_path / "inner" / "P.prob2project"
+        project.parent.mkdir(exist_ok=True)
+        text = json.dumps(data).replace('"Corridor.py"', json.dumps(where))
+        project.write_text(text.replace('"Corridor.mch"', json.dumps(str(FIXTURES / "Corridor.mch"))))
+        rows = {t.task: t for t in run_project(read_project(project),
+                                                RunOptions(scripts=True)).tasks}
+        assert calls == [], where
+        assert "lies outside the project's folder" in rows["Script_Safe"].reason, \
+            rows["Script_Safe"].reason
+
+
 def test_the_real_script_over_the_external_protocol():
     pytest.importorskip("tracecheck.live.external")
-    report = run_project(read_project(OLD), RunOptions(machines=("Corridor",)))
+    report = run_project(read_project(OLD), RunOptions(machines=("Corridor",), scripts=True))
     rows = {t.task: t for t in report.tasks}
     assert rows["Script_Safe"].status == "success", rows["Script_Safe"].reason
     assert rows["Script_Steps"].details["metrics"]["EXPRESSION"]["mean"] == 3.0
@@ -303,7 +330,8 @@ def test_the_real_script_over_the_external_protocol():
 def _script_project(tmp_path: Path, tasks: list) -> Path:
     data = {"name": "S", "machines": [{
         "name": "Corridor", "location": str(FIXTURES / "Corridor.mch"), "traces": [],
-        "simulations": [{"path": str(FIXTURES / "Corridor.py"), "simulationItems": tasks}]}]}
+        "simulations": [{"path": "Corridor.py", "simulationItems": tasks}]}]}
+    shutil.copy(FIXTURES / "Corridor.py", tmp_path)  # scripts run only in the project's folder
     path = tmp_path / "S.prob2project"
     path.write_text(json.dumps(data))
     return path
@@ -328,7 +356,8 @@ def _far(task_id: str, **window) -> dict:
 def test_a_script_run_cut_by_an_ending_condition_runs_every_execution(tmp_path, window,
                                                                         greatest):
     pytest.importorskip("tracecheck.live.external")
-    report = run_project(read_project(_script_project(tmp_path, [_far("Far", **window)])))
+    report = run_project(read_project(_script_project(tmp_path, [_far("Far", **window)])),
+                         RunOptions(scripts=True))
     (row,) = report.tasks
     assert row.status == ("success" if greatest == 2.0 else "failed"), row.reason
     assert row.executions == 4

@@ -43,8 +43,12 @@ def project_cmd(
                                      "SIMULATION=DIR for one simulation (its path as the "
                                      "project writes it, or its file name), DIR for every "
                                      "other one (repeatable)."),
-    no_scripts: bool = typer.Option(False, "--no-scripts", help="Never run a simulation's "
-                                    "script: simulations without --traces are not run."),
+    run_scripts: bool = typer.Option(False, "--run-scripts/--no-scripts",
+                                     help="Run the simulations' scripts the project names "
+                                          "(code, with your permissions: only for projects "
+                                          "you trust; only scripts in the project's folder). "
+                                          "Without it, a simulation without --traces is not "
+                                          "run."),
     python: str = typer.Option("python3", "--python", help="The Python that runs the "
                                "simulations' scripts (the authors' need their own pinned "
                                "packages)."),
@@ -56,8 +60,8 @@ def project_cmd(
     as_json: bool = JSON,
 ) -> None:
     """Run a ProB2-UI project's validation tasks: trace replays, SimB hypothesis tests,
-    estimations and Monte Carlo runs. Running a project runs its simulations' scripts (as
-    ProB2-UI does) unless --traces or --no-scripts says otherwise. Exit 0 when every task
+    estimations and Monte Carlo runs. A simulation's script (which ProB2-UI would run) runs
+    only with --run-scripts; else give its timed traces with --traces. Exit 0 when every task
     ran and succeeded, 1 when one failed, 3 when none failed but some were not run."""
     from ..interop.prob2project import read_project
     from ..interop.prob2project_run import RunOptions, exit_code, run_project
@@ -65,7 +69,7 @@ def project_cmd(
 
     fmt = output_format(fmt, as_json)
     options = RunOptions(machines=tuple(machine), executions=executions,
-                         traces=_traces(traces), scripts=not no_scripts, python=python,
+                         traces=_traces(traces), scripts=run_scripts, python=python,
                          seed=seed, step_timeout=step_timeout)
     report = run_project(read_project(project), options)
     if fmt == OutputFormat.json:

@@ -10,9 +10,9 @@ validation table would, each with its verdict: success, failed or not run (with 
   (:mod:`tracecheck.stats.simb_tasks`) on executions from a folder of SimB timed traces
   (``Timed_Simulation_*.json``: the simulation's path when it is a folder, or a folder given
   with ``traces``) or from the external script the simulation names, run with ``python``
-  (:mod:`tracecheck.live.external`; running a project runs its scripts, as ProB2-UI does —
-  ``scripts=False`` never does). The tasks of one simulation share its executions: the
-  script runs once, for the most executions any of them asks for, cut where the longest of
+  (:mod:`tracecheck.live.external`; only with ``scripts=True``, the CLI's
+  ``--run-scripts``: ProB2-UI runs them, but a project file is data). The tasks of one
+  simulation share its executions: the script runs once, for the most executions any of them asks for, cut where the longest of
   their windows surely ends (else at the script's ``done``). A task with fewer executions
   than it asks for is not run.
 * every other task (LTL, model checking, symbolic checking, proof obligations …): not run,
@@ -42,14 +42,16 @@ NOT_ALL_RUN = 3
 class RunOptions:
     """How to run a project. ``traces``: a folder of SimB timed traces per simulation path
     (as the project writes it, or its file name; the key ``""``: every simulation without
-    its own); ``scripts``: whether a simulation's script may be run; ``python``: the
+    its own); ``scripts``: whether a simulation's script may be run (off unless the user
+    says so: a project file is data, and its scripts are code; even then only scripts in
+    the project's folder); ``python``: the
     interpreter that runs the scripts; ``seed``: SimB's random steps before a property
     (``MAX_STEPS_BEFORE_PROPERTY``)."""
 
     machines: tuple[str, ...] = ()
     executions: Optional[int] = None
     traces: Mapping[str, Path] = field(default_factory=dict)
-    scripts: bool = True
+    scripts: bool = False
     python: str = "python3"
     seed: int = 0
     step_timeout: float = 30.0
@@ -270,12 +272,28 @@ class _MachineRun:
                 "timed traces; tracecheck does not run SimB's own simulations: give a "
                 "folder of its traces with --traces")
         if not self.options.scripts:
-            return [], str(path), ("running scripts is off (--no-scripts): give a folder "
-                                   "of timed traces with --traces")
+            return [], str(path), (f"it runs the script {path}, which only the project file "
+                                   "names: give --run-scripts to run the project's scripts "
+                                   "(with your permissions; only for projects you trust), "
+                                   "or a folder of timed traces with --traces")
+        outside = self._outside_project(path)
+        if outside:
+            return [], str(path), outside
         if not path.is_file():
             return [], str(path), f"no script at {path}"
         episodes, source, error = self._run_script(path, wanted or 1, group)
         return episodes, source, error
+
+    def _outside_project(self, path: Path) -> str:
+        """Why a script is not run even with ``--run-scripts``: it lies outside the
+        project's folder (``../x.py``, an absolute path), "" when it is inside."""
+        home = self.project.folder.resolve()
+        try:
+            path.resolve().relative_to(home)
+        except ValueError:
+            return (f"the script {path} lies outside the project's folder {home}; tracecheck "
+                    "runs only the scripts inside it, even with --run-scripts")
+        return ""
 
     def _read_traces(self, folder: Path, wanted: Optional[int]) -> tuple[list, str, str]:
         from .common import expand_paths, vocabulary_of
