@@ -112,3 +112,18 @@ def test_bad_input_is_exit_2_with_the_file_and_field(capsys, tmp_path):
     code, _, err = run(capsys, "project", tmp_path / "none.prob2project")
     assert code == 2 and "none.prob2project" in err
     assert "Traceback" not in err
+
+
+def test_names_and_locations_from_the_project_never_drive_the_terminal(capsys, tmp_path):
+    """A project's name, a task's id and a trace location with terminal escapes: shown as
+    escapes in text, Markdown and CSV (they reached the terminal raw)."""
+    bad = {**SAFE, "id": "safe\x1b[2J\x1b]0;owned\x07"}
+    path = _project(tmp_path, [bad], ["good.prob2trace", "\x1b[31mmissing\x1b[0m.prob2trace"])
+    data = json.loads(path.read_text())
+    data["name"] = "Mini\x1b[5m"
+    path.write_text(json.dumps(data))
+    for fmt in ("text", "md", "csv"):
+        code, out, err = run(capsys, "project", path, "--format", fmt)
+        assert code == 3, err
+        assert "\x1b" not in out + err and "\x07" not in out + err, fmt
+        assert "\\x1b[2J" in out and "\\x1b[31mmissing" in out, fmt

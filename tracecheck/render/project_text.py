@@ -4,6 +4,7 @@ Markdown and CSV with every field, and the JSON report (the library's own ``to_j
 
 from __future__ import annotations
 
+from ..errors import printable
 from .tables import TableData, fitted, terminal_width, wrapped
 
 __all__ = ["project_table", "project_text", "project_summary"]
@@ -54,7 +55,7 @@ def project_text(console, report) -> None:
     heading = f"{report.project} ({report.file})"
     if len(machines) == 1:
         heading += f", machine {machines[0]}"
-    console.print(heading, markup=False)
+    console.print(printable(heading), markup=False)
     for line in fitted(table, width, shrink=len(table.headers) - 1):
         console.print(line, markup=False)
     notes = []

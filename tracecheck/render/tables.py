@@ -21,6 +21,8 @@ import shutil
 import textwrap
 from dataclasses import dataclass
 
+from ..errors import printable
+
 __all__ = ["TableData", "Number", "is_number", "markdown", "md_text", "csv_text", "csv_cell",
            "csv_rows", "fitted", "wrapped", "terminal_width"]
 
@@ -41,7 +43,7 @@ def _text_cell(value) -> str:
         return ""
     if isinstance(value, Number):
         return value
-    return Number(value) if is_number(value) else str(value)
+    return Number(value) if is_number(value) else printable(str(value))
 
 
 @dataclass(frozen=True)
@@ -59,8 +61,9 @@ class TableData:
     @classmethod
     def of(cls, headers, rows) -> TableData:
         """Cells from any values: None is empty, a number keeps its kind (see :class:`Number`),
-        anything else is its ``str``."""
-        return cls(tuple(str(h) for h in headers),
+        anything else is its ``str`` with control characters shown as escapes (a name
+        from an input file never drives the terminal)."""
+        return cls(tuple(printable(str(h)) for h in headers),
                    tuple(tuple(_text_cell(c) for c in row) for row in rows))
 
 
@@ -80,7 +83,8 @@ def md_text(text: str, *, cell: bool = True) -> str:
     >>> md_text("two\nlines", cell=False)
     'two lines'
     """
-    return str(text).replace("\r\n", "\n").translate(_MD_TABLE if cell else _MD_LINE)
+    return printable(str(text).replace("\r\n", "\n").replace("\r", "\n")).translate(
+        _MD_TABLE if cell else _MD_LINE)
 
 
 def markdown(table: TableData) -> str:
@@ -152,5 +156,5 @@ def terminal_width() -> int:
 
 def wrapped(line: str, width: int, indent: str = "  ") -> str:
     """``line`` wrapped between words (never inside one), later lines indented."""
-    return textwrap.fill(line, width, subsequent_indent=indent, break_long_words=False,
+    return textwrap.fill(printable(line), width, subsequent_indent=indent, break_long_words=False,
                          break_on_hyphens=False)
