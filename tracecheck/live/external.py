@@ -480,11 +480,15 @@ class _Run:
                                   f"({exc.message}): {_quote(answer.predicate)}") from None
 
     def _holds_on_constants(self, answer: _Answer, where: str) -> bool:
+        """Whether the script's ``$setup_constants`` predicate holds for the machine's
+        constants (an error where tracecheck cannot evaluate it: not "does not hold")."""
         node = self._parse(answer, where)
         try:
             return bool(self.machine.compile(node)(dict(self.machine.base_env)))
-        except TracecheckError:
-            return False
+        except TracecheckError as exc:
+            raise self.link.error(f"{where}: tracecheck cannot evaluate its $setup_constants "
+                                  f"predicate ({exc.message}): {_quote(answer.predicate)}"
+                                  ) from None
 
     def _after(self, op: Optional[str], state: dict, answer: _Answer, where: str) -> dict:
         from ..b.transitions import equations
