@@ -192,3 +192,22 @@ def test_the_python_section_of_docs_environments_runs():
     runner.run(test)
     result = runner.summarize(verbose=False)
     assert result.attempted >= 15 and result.failed == 0
+
+
+def test_a_guard_it_cannot_evaluate_fails_closed_and_says_why(tmp_path):
+    """A guard without a value in a state (here a division by zero) is neither TRUE nor
+    FALSE: its action is not allowed, the others are, and info says which guard and why
+    (it used to stop the episode with the error)."""
+    from tests.live.toy import SHIELD, CorridorEnv, Corridor
+
+    path = tmp_path / "undefined.mch"
+    path.write_text(SHIELD.replace("Right = SELECT pos < 5", "Right = SELECT 10 / (pos - 2) > 0"))
+    env = ShieldWrapper(CorridorEnv(slip=False), load_shield(path), fallback="Left",
+                        adapter=Corridor())
+    _, info = env.reset(seed=0)  # pos = 2: Right's guard divides by zero
+    assert info["shield"]["allowed"] == ["Left"] and not info["shield"]["deadlock"]
+    assert info["shield"]["problem"].startswith("Right: ") and "division by zero" in \
+        info["shield"]["problem"]
+    *_, info = env.step(1)  # Right asked for: not allowed, so replaced
+    assert info["shield"]["replaced"] and info["shield"]["taken"] == "Left"
+    assert "problem" not in info["shield"]  # pos = 1: every guard evaluates

@@ -32,7 +32,7 @@ import gymnasium as gym
 import numpy as np
 
 from ..b.memo import MEMO_KEY
-from ..errors import InputError
+from ..errors import InputError, TracecheckError
 from ..checking.shield import Shield
 
 __all__ = ["ShieldWrapper", "choose", "adapter_for"]
@@ -113,6 +113,7 @@ class ShieldWrapper(gym.Wrapper):
         self.state: dict[str, Any] = {}
         self.allowed = np.ones(len(self.actions), dtype=bool)
         self.decision_us = 0.0
+        self.problem: Optional[str] = None  # why a guard could not be evaluated, if so
         self._env = dict(shield.machine.base_env)  # kept: each decision only updates it
 
     def _decide(self) -> None:
@@ -128,12 +129,31 @@ class ShieldWrapper(gym.Wrapper):
                 self.continuous.decide(env)
                 enabled = self.continuous.enabled
             else:
-                enabled = self.shield.machine.enabled_in(env)
+                enabled = self._enabled_discrete(env)
             self.decision_us = (time.perf_counter() - start) * 1e6
         finally:
             if collecting:
                 gc.enable()
         self.allowed = np.array([a in enabled for a in self.actions], dtype=bool)
+
+    def _enabled_discrete(self, env: dict) -> set[str]:
+        """The operations enabled in ``env``: where a guard cannot be evaluated (a refusal,
+        not FALSE) its action is not allowed — the shield fails closed — and
+        :attr:`problem` says why (``info["shield"]["problem"]``)."""
+        machine = self.shield.machine
+        try:
+            self.problem = None
+            return machine.enabled_in(env)
+        except TracecheckError:  # which guard, and why: one by one
+            enabled, problems = set(), []
+            for name in self.actions:
+                try:
+                    if machine.is_enabled_in(name, env):
+                        enabled.add(name)
+                except TracecheckError as exc:
+                    problems.append(f"{name}: {exc.message}")
+            self.problem = "; ".join(problems) or None
+            return enabled
 
     def _info(self, info: dict, requested: Optional[int] = None,
               taken: Optional[int] = None) -> dict:
@@ -145,6 +165,8 @@ class ShieldWrapper(gym.Wrapper):
             "deadlock": not self.allowed.any(),
             "decision_us": self.decision_us,
         }
+        if self.continuous is None and self.problem is not None:
+            info["shield"]["problem"] = self.problem  # guards it could not evaluate
         if taken is not None:
             info["shield"].update(requested=self.actions[requested],
                                   taken=self.actions[taken], replaced=requested != taken)
