@@ -173,6 +173,8 @@ def test_two_agents_take_turns_one_operation_per_move(tmp_path, capsys):
     ("unknown", "episode 1, step 1: answered the operation 'Jump', which the machine "
                 "Corridor does not have; it has Left, Right"),
     ("badpred", "episode 1, step 1: sent a predicate tracecheck cannot use"),
+    ("hugedelta", "episode 1, step 1: 'delta' must be a time in milliseconds, 0 to one "
+                  "year"),
     ("partial", "episode 1, initialisation ($initialise_machine): pos fixed neither by the "
                 "predicate nor by the operation (its `pos :: …` chooses it); the script sent "
                 "'moves = 0'"),
@@ -183,7 +185,8 @@ def test_two_agents_take_turns_one_operation_per_move(tmp_path, capsys):
     ("liar", "episode 1, step 1 (Right): no state satisfies the predicate with the values "
              "Right gives the variables it does not fix; the script sent 'pos = 2 & moves > "
              "100'"),
-], ids=["dies", "garbage", "unknown-operation", "bad-predicate", "undetermined", "hangs",
+], ids=["dies", "garbage", "unknown-operation", "bad-predicate", "huge-delta", "undetermined",
+        "hangs",
         "impossible-start", "no-state-fits"])
 def test_a_faulty_script_ends_cleanly_keeping_complete_episodes(tmp_path, capsys, mode,
                                                                 message):

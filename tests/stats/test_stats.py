@@ -120,6 +120,21 @@ def test_intervals_and_tests_against_reference_values(hand_run):
     assert t["normal_rejected"] and t["exact_rejected"]
 
 
+@pytest.mark.parametrize("p,tail,k,rejected", [
+    (1.0, "left", 50, False), (1.0, "left", 49, True), (0.0, "right", 0, False),
+    (0.0, "right", 1, True), (1.0, "two", 49, True)])
+def test_a_test_of_probability_0_or_1_is_the_exact_point_mass(p, tail, k, rejected):
+    """PROBABILITY 1.0 or 0.0 divided by σ = 0 (a ZeroDivisionError traceback): the
+    binomial is a point mass, decided exactly."""
+    from tracecheck.stats.estimates import _hypothesis
+    from tracecheck.stats.properties import HypothesisTest, Property
+
+    t = _hypothesis(k, 50, Property("x", "TRUE = TRUE", None,
+                                    test=HypothesisTest(p, 0.05, tail)))
+    assert t["z"] is None and t["normal_p_value"] == t["exact_p_value"]
+    assert t["exact_rejected"] is rejected and "σ = 0" in t["method"]
+
+
 def test_paired_comparison_on_sample_traces():
     from tests.helpers import ROOT
 

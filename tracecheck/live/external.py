@@ -455,11 +455,11 @@ class _Run:
             if isinstance(value, bool):
                 raise ValueError
             ms = float(value)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):  # 401 digits: no float
             ms = math.nan
         if not 0.0 <= ms <= 365 * 24 * 3600 * 1000:
-            raise self.link.error(f"{where}: 'delta' must be a time in milliseconds (0 or "
-                                  f"more): {_quote(line)}")
+            raise self.link.error(f"{where}: 'delta' must be a time in milliseconds, 0 to "
+                                  f"one year: {_quote(line)}")
         return ms
 
     def _done(self, value: Any, line: str, where: str) -> bool:

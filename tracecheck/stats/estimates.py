@@ -428,19 +428,20 @@ def _hypothesis(k: int, n: int, p: Property) -> dict:
     from scipy import stats
 
     t = p.test
-    ratio = k / n
-    z = (ratio - t.p) / math.sqrt(t.p * (1 - t.p) / n)
-    if t.tail == "left":  # H1: the probability is below p
-        normal_p, alternative = float(stats.norm.cdf(z)), "less"
-    elif t.tail == "right":
-        normal_p, alternative = float(stats.norm.sf(z)), "greater"
-    else:
-        normal_p, alternative = float(2 * stats.norm.sf(abs(z))), "two-sided"
+    alternative = {"left": "less", "right": "greater"}.get(t.tail, "two-sided")
     exact_p = float(stats.binomtest(k, n, t.p, alternative=alternative).pvalue)
+    method = "normal approximation (SimB) and exact binomial"
+    if 0.0 < t.p < 1.0:
+        z: Optional[float] = (k / n - t.p) / math.sqrt(t.p * (1 - t.p) / n)
+        normal_p = float({"less": stats.norm.cdf(z), "greater": stats.norm.sf(z)}.get(
+            alternative, 2 * stats.norm.sf(abs(z))))
+    else:  # p = 0 or 1: the binomial is a point mass (σ = 0), no normal to approximate it
+        z, normal_p = None, exact_p
+        method = f"exact binomial (p = {t.p:g}: the normal approximation has σ = 0)"
     return {"p": t.p, "alpha": t.alpha, "tail": t.tail, "z": z,
             "normal_p_value": normal_p, "normal_rejected": normal_p < t.alpha,
             "exact_p_value": exact_p, "exact_rejected": exact_p < t.alpha,
-            "method": "normal approximation (SimB) and exact binomial"}
+            "method": method}
 
 
 def run_statistics(run: RunValues, pset: PropertySet, interval: str = "wilson") -> dict:
