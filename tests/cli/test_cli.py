@@ -106,6 +106,12 @@ def test_eval_with_model_and_state(capsys, tmp_path):
     ("{x | x : NAT & x > 5}", "the set 0..2147483647 has 2,147,483,648 elements; tracecheck "
                               "builds or walks at most 1,000,000 elements of one set"),
     ("10 ** 10 ** 10 > 0", "has more than 1,000,000 bits"),
+    # * too: checked before it is computed (it ignored every limit)
+    ("(10 ** 200000) * (10 ** 200000) > 0", "the integer result of * in `(10 ** 200000) * "
+                                            "(10 ** 200000)` has more than 1,000,000 bits"),
+    # a card of 500 000 digits: refused before computing it (printing it was a traceback)
+    ("card((1..100000) --> (1..100000)) > 0", "card((1..100000 --> 1..100000)) has more "
+                                              "than 1,000,000 bits: too large to compute"),
     ("7" * 310_002 + " > 0", "<expr>:1:1: an integer of 310002 digits is longer than the "
                              "310000 digits tracecheck reads"),
 ], ids=lambda v: v[:40])

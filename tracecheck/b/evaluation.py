@@ -67,6 +67,13 @@ class Compiler(Binders, Records):
     def text(self, node: ast.Node) -> str:
         return render(node, self.source)
 
+    def too_large(self, node: ast.Node, op: str) -> EvaluationError:
+        """A limit, not an undefined value: an integer result over :data:`_MAX_INT_BITS`
+        bits is refused before it is computed (its time and memory are the user's)."""
+        return self.error(EvaluationError, node,
+                          f"the integer result of {op} in `{self.text(node)}` has more than "
+                          f"{_MAX_INT_BITS:,} bits; tracecheck does not compute it")
+
     def wd(self, node: ast.Node, message: str) -> WellDefinednessError:
         return self.error(WellDefinednessError, node, f"{message} in `{self.text(node)}`")
 
@@ -245,6 +252,9 @@ class Compiler(Binders, Records):
         def mul(env: Env) -> Any:
             a, b = l(env), r(env)
             if type(a) in _NUMBER and type(b) in _NUMBER:
+                if type(a) is int and type(b) is int and \
+                        a.bit_length() + b.bit_length() > _MAX_INT_BITS:
+                    raise self.too_large(node, "*")
                 v = a * b
                 return v if v - v == 0 else self.real(node, v)
             if is_set(a) and is_set(b):
@@ -285,8 +295,7 @@ class Compiler(Binders, Records):
                 if b < 0:
                     raise self.wd(node, f"negative exponent {b} for an integer power")
                 if abs(a) > 1 and b * math.log2(abs(a)) > _MAX_INT_BITS:
-                    raise self.wd(node, f"{a} ** {b} has more than {_MAX_INT_BITS:,} bits; "
-                                  "tracecheck does not compute it")
+                    raise self.too_large(node, "**")
             try:
                 return self.real(node, a ** b)
             except OverflowError:

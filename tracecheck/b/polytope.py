@@ -340,30 +340,41 @@ FLOAT_SCAN = 1 << 14
 
 
 def scan_boxes(allowed, boxes: list[dict], x: dict, s: dict) -> Optional[dict]:
-    """The allowed float point nearest ``x`` among every float point of ``boxes``: None
-    only where each box was searched whole and the evaluator allows none of its floats.
-    Raises :class:`UnsupportedError` where a box holds more than :data:`FLOAT_SCAN` float
-    points — non-empty over the reals, so "nothing allowed" would be a guess."""
+    """The allowed float point nearest ``x`` among the float points of ``boxes``: every
+    float of each parameter whose interval holds at most :data:`FLOAT_SCAN` of them (all
+    such together), a point well inside and the one nearest ``x`` for the others. None only
+    where every box was searched whole and the evaluator allows none of its floats; raises
+    :class:`UnsupportedError` where a box could not be searched whole and none of the
+    points tried passed — non-empty over the reals, so "nothing allowed" would be a
+    guess."""
     from itertools import product
 
     params = allowed.params
-    best, best_d = None, None
+    best, best_d, whole = None, None, True
     at, scale = {p: exact(x[p], p) for p in params}, {p: Fraction(s[p]) for p in params}
     for box in boxes:
         ranges = {p: float_range(box[p]) for p in params}
-        sizes = [_float_count(*ranges[p]) if ranges[p] else math.inf for p in params]
-        if math.prod(sizes) > FLOAT_SCAN:
-            raise UnsupportedError(
-                "undecided: the guard allows values over the reals (" + " × ".join(
-                    str(box[p]) for p in params) + "), but the evaluator's float arithmetic "
-                "refuses the floats tracecheck tried, and there are too many to try all")
+        sizes = {p: _float_count(*ranges[p]) if ranges[p] else math.inf for p in params}
+        if 0 in sizes.values():  # no float lies in it: no float point of it to allow
+            continue
+        small = [p for p in params if sizes[p] <= FLOAT_SCAN]
+        if math.prod(sizes[p] for p in small) > FLOAT_SCAN:
+            small = []
+        whole = whole and len(small) == len(params)
         axes = [[_from_index(k) for k in range(_index(ranges[p][0]), _index(ranges[p][1]) + 1)]
-                for p in params]
+                if p in small else
+                sorted({inner_point(box[p], x[p]), clamp(x[p], box[p])}) for p in params]
         for values in product(*axes):
             point = dict(zip(params, values))
             d = sum(((Fraction(point[p]) - at[p]) / scale[p]) ** 2 for p in params)  # exact
             if (best_d is None or d < best_d) and allowed.contains(point):
                 best, best_d = point, d
+    if best is None and not whole:
+        raise UnsupportedError(
+            "undecided: the guard allows values over the reals (" + " ∪ ".join(
+                " × ".join(str(box[p]) for p in params) for box in boxes) + "), but the "
+            "evaluator's float arithmetic refuses every float point tracecheck tried, and "
+            "there are too many to try them all")
     return best
 
 

@@ -6,13 +6,16 @@ from __future__ import annotations
 import math
 from typing import Any, Iterator, Optional
 
-from ..errors import EvaluationError
+from ..errors import EvaluationError, SetLimitError
 from .values import (FuncValue, PowSet, Product, SymbolicSet, as_sequence, cardinality,
                      check_size, contains, finiteness, format_value, is_set, members, set_key,
                      sort_key)
 
 __all__ = ["FunctionSpace", "Projection", "SeqSet", "covers"]
 
+
+#: the largest card of a function space computed (an integer of this many bits, as ``**``)
+CARD_BITS = 1_000_000
 
 _TOTAL = ("-->", ">->", "-->>", ">->>")
 _INJECTIVE = (">->", ">+>", ">->>", ">+>>")
@@ -60,8 +63,13 @@ class FunctionSpace(SymbolicSet):
         if self.finiteness() is not True:
             return SymbolicSet.card(self)
         d, r = cardinality(self.dom), cardinality(self.ran)
+        bits = {"<->": d * r, "+->": d * math.log2(r + 1),
+                "-->": d * math.log2(r) if r else 0}.get(self.op, 0)
+        if bits > CARD_BITS:
+            raise SetLimitError(f"card({self.name}) has more than {CARD_BITS:,} bits: too "
+                                "large to compute")
         if self.op == "<->":
-            return 2 ** (d * r) if d * r <= 100_000 else SymbolicSet.card(self)
+            return 2 ** (d * r)
         if self.op == "+->":
             return (r + 1) ** d
         if self.op == "-->":

@@ -162,8 +162,9 @@ def check_size(n: int, what: str) -> None:
 
 
 def _count(n: int) -> str:
-    text = int_text(n)
-    return f"{n:,}" if len(text) <= 30 else f"about 10^{len(text) - 1}"
+    if n.bit_length() > 100:  # the digits estimated, never converted (it may be huge)
+        return f"about 10^{int((n.bit_length() - 1) * math.log10(2))}"
+    return f"{n:,}"
 
 
 def hashable(v: Any) -> Any:
