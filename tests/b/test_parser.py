@@ -282,3 +282,22 @@ def test_the_grammar_cache_is_private(tmp_path, monkeypatch):
     assert grammar_cache("parser") == path
     monkeypatch.setenv("TRACECHECK_NO_CACHE", "1")
     assert grammar_cache("parser") is False
+
+
+def test_a_formula_longer_than_the_limit_is_refused_before_it_is_lexed():
+    """A 1.5 MB predicate from a script was parsed whole (800 MB) before the nesting limit
+    refused it; now its length is checked first, in no time."""
+    import time
+
+    from tracecheck.b.parser import MAX_FORMULA_CHARS, parse_substitution
+
+    text = "x = 1 & " * (MAX_FORMULA_CHARS // 8) + "x = 1"
+    start = time.perf_counter()
+    with pytest.raises(BSyntaxError, match=f"the formula is {len(text):,} characters long; "
+                                           f"tracecheck reads formulas of up to "
+                                           f"{MAX_FORMULA_CHARS:,} characters"):
+        parse_formula(text, file="script")
+    assert time.perf_counter() - start < 0.5
+    with pytest.raises(BSyntaxError, match="the substitution is"):
+        parse_substitution("x := 1 || " * (MAX_FORMULA_CHARS // 10) + "x := 1")
+    assert parse_formula("x = 1 & " * 1000 + "x = 1")  # long, but within both limits
