@@ -160,3 +160,21 @@ def test_the_authors_rsqrt_predicates_on_the_paper_traces(trace):
                   for s in states]
         batch = BatchFormula(node, shield.constants, source=prop.predicate)(cols)
         assert [bool(v) for v in batch] == scalar, prop.name
+
+
+def test_the_string_functions_refuse_a_string_over_the_limit_before_building_it(capsys):
+    """STRING_JOIN of large strings reached 4 GB; now the size is checked first."""
+    from tests.helpers import run
+    from tracecheck.b.library import MAX_STRING
+
+    join = 'STRING_JOIN(%i.(i : 1..2000 | STRING_JOIN(%j.(j : 1..1000 | "abcdefghij"), "")), "")'
+    code, out, err = run(capsys, "eval", f"STRING_LENGTH({join})")
+    assert code == 2 and out == "", err
+    assert (f"STRING_JOIN would build a string of 20,000,000 characters; tracecheck builds "
+            f"strings of up to {MAX_STRING:,}") in " ".join(err.split())
+    half = f'STRING_JOIN(%j.(j : 1..{MAX_STRING // 64} | "{"abcdefgh" * 8}"), "")'
+    code, out, err = run(capsys, "eval", f"STRING_LENGTH(STRING_APPEND({half}, {half}))")
+    assert code == 2 and f"STRING_APPEND would build a string of {2 * MAX_STRING:,}" in \
+        " ".join(err.split())
+    code, out, _ = run(capsys, "eval", 'STRING_JOIN(["a", "b"], "-")')
+    assert (code, out.strip()) == (0, '"a-b"')

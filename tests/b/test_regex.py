@@ -77,11 +77,18 @@ def test_prob_s_documented_answers(capsys, formula, value):
     ('REGEX_MATCH("a","a{4294967295}")', "a repetition count or nesting too large"),
     ('REGEX_MATCH("aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa!", "(a|aa)*b")',
      "its matching can take exponential time"),
+    # catastrophic backtracking without a repeated group (they ran past any timeout)
+    ('REGEX_MATCH("' + "a" * 40 + '", "' + "a?" * 40 + "a" * 40 + '")',
+     "a pattern with 40 repetitions of variable width, on a string of 40 characters, can "
+     "take about 41^40 steps"),
+    ('REGEX_MATCH("' + "abc" * 13 + '", "' + ".*" * 8 + 'x")',
+     "a pattern with 8 repetitions of variable width"),
     ('REGEX_SEARCH("ab",1,"(?:(a)|b)c")', "submatches of a group that may take part in no"),
     ('REGEX_REPLACE("ab","(a)?b","$1")', "$1 names a group that may take part in no match"),
 ], ids=["lookbehind", "unicode-w", "empty-match", "python-group", "dollar", "brace", "anchor",
         "class-range", "range-class", "d-range", "optional-ref", "branch-ref", "lookahead-ref",
-        "possessive", "possessive-is", "huge-count", "exponential", "branch-submatch",
+        "possessive", "possessive-is", "huge-count", "exponential", "optional-40",
+        "dot-star-8", "branch-submatch",
         "optional-replace"])
 def test_what_could_be_read_differently_is_refused(capsys, formula, why):
     code, out, err = run(capsys, "eval", formula)
@@ -117,3 +124,11 @@ def test_strings_read_in_prob_s_notation_keep_unknown_escapes():
 
     assert parse_literal('"\\a"') == "\\a" and parse_literal('"(\\d+)"') == "(\\d+)"
     assert parse_literal('"\\\\\\""') == '\\"' and parse_literal('"x\\ny"') == "x\ny"
+
+
+def test_a_few_repetitions_on_ordinary_strings_still_match(capsys):
+    code, out, _ = run(capsys, "eval", 'REGEX_MATCH("john@example.com", '
+                                       '"^[a-z]+@[a-z]+\\.[a-z]+$")')
+    assert (code, out.strip()) == (0, "TRUE")
+    code, out, _ = run(capsys, "eval", 'REGEX_MATCH("' + "a" * 400 + '", "a{400}")')
+    assert (code, out.strip()) == (0, "TRUE")  # a fixed count is no choice to backtrack

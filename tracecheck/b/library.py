@@ -286,15 +286,37 @@ def _to_string(v: Any) -> str:
                   "ProB documents)")
 
 
+#: The longest string the string functions build (checked before they build it)
+MAX_STRING = 16 * 1024 * 1024
+
+
+def _sized(n: int, name: str) -> None:
+    if n > MAX_STRING:
+        raise Refused(f"{name} would build a string of {n:,} characters; tracecheck builds "
+                      f"strings of up to {MAX_STRING:,}")
+
+
+def _append(a: str, b: str) -> str:
+    _sized(len(a) + len(b), "STRING_APPEND")
+    return a + b
+
+
+def _join(s: Any, sep: str) -> str:
+    items = _seq(s)
+    if not all(type(x) is str for x in items):
+        raise Undefined(f"{_shown(s)} is not a sequence of strings")
+    _sized(sum(map(len, items)) + len(sep) * max(len(items) - 1, 0), "STRING_JOIN")
+    return sep.join(items)
+
+
 def _strings() -> dict[str, Function]:
     S, Z = STRING, INTEGER
     sq = Pow(Prod(INTEGER, STRING))
     lib = {
-        "STRING_APPEND": Function("STRING_APPEND", _sig(S, S, S), lambda a, b: a + b),
+        "STRING_APPEND": Function("STRING_APPEND", _sig(S, S, S), _append),
         "STRING_LENGTH": Function("STRING_LENGTH", _sig(S, Z), len),
         "STRING_SPLIT": Function("STRING_SPLIT", _sig(S, S, sq), _split),
-        "STRING_JOIN": Function("STRING_JOIN", _sig(sq, S, S),
-                                lambda s, sep: sep.join(_seq(s))),
+        "STRING_JOIN": Function("STRING_JOIN", _sig(sq, S, S), _join),
         "STRING_CHARS": Function("STRING_CHARS", _sig(S, sq), lambda s: sequence(list(s))),
         "STRING_CODES": Function("STRING_CODES", _sig(S, Pow(Prod(Z, Z))),
                                  lambda s: sequence([ord(ch) for ch in s])),

@@ -91,6 +91,7 @@ def translate(pattern: str, subject: str) -> tuple[str, frozenset]:
     unsure: set[int] = set()
     backrefs: list[int] = []
     atom = False  # something a quantifier may follow was just written
+    variable = 0  # quantifiers of variable width: each a choice backtracking may revisit
     ascii_subject = subject.isascii()
     while i < n:
         c = pattern[i]
@@ -99,6 +100,8 @@ def translate(pattern: str, subject: str) -> tuple[str, frozenset]:
             if not atom:
                 raise BadPattern(f"nothing to repeat at {m.group(0)!r}")
             out.append(m.group(0))
+            if m.group(1) is None or m.group(3) != m.group(1):  # not a fixed {n} or {n,n}
+                variable += 1
             i = m.end()
             if pattern.startswith("?", i):  # lazy
                 out.append("?")
@@ -176,7 +179,27 @@ def translate(pattern: str, subject: str) -> tuple[str, frozenset]:
         if k in unsure:
             raise Unsupported(f"\\{k} refers to a group that may take part in no match or "
                               "in several (ECMAScript and Python differ there)")
+    _backtracking(variable, subject)
     return "".join(out), frozenset(unsure)
+
+
+#: The most steps a match may take by the bound below: Python's re cannot be interrupted
+#: (no --timeout reaches it), so a pattern that could take longer is refused before it runs
+BACKTRACK_STEPS = 10 ** 8
+
+
+def _backtracking(variable: int, subject: str) -> None:
+    """Refuse a pattern whose ``variable`` repetitions could backtrack past
+    :data:`BACKTRACK_STEPS` on ``subject``: with k of them a failing match may try every
+    way of splitting n characters among them, about (n + 1)^k (``.*`` eight times then
+    ``x``; ``a?`` forty times then ``a`` forty times). Repeated groups that hold a
+    quantifier are refused by :func:`translate` already."""
+    if variable >= 2 and (len(subject) + 1) ** variable > BACKTRACK_STEPS:
+        raise Unsupported(f"a pattern with {variable} repetitions of variable width, on a "
+                          f"string of {len(subject)} characters, can take about "
+                          f"{len(subject) + 1}^{variable} steps to fail; tracecheck refuses "
+                          f"matches that could take over {BACKTRACK_STEPS:.0e} (Python's "
+                          "regular expressions cannot be interrupted)")
 
 
 def _escape(pattern: str, i: int, ascii_subject: bool) -> tuple[int, str, int]:
