@@ -416,3 +416,15 @@ END''')
     state.write_text('{"Gap": 10.0, "Speed": 20.0}')
     code, out, _ = run(capsys, "guards", model, "--state", state)
     assert code == 0 and "(none: deadlock)" in out and "ACCELERATE: a ∈ ∅" in out
+
+
+def test_timeout_bounds_the_evaluation_itself(capsys):
+    """10^8 pairs, each set within the size limit: --timeout stopped only the solver."""
+    import time
+
+    start = time.monotonic()
+    code, out, err = run(capsys, "eval", "--timeout", "1",
+                         "card({x, y | x : 1..10000 & y : 1..10000 & x + y = 3}) = 2")
+    assert code == 2 and out == ""
+    assert "--timeout: tracecheck's evaluation took longer than 1 s" in err
+    assert time.monotonic() - start < 5

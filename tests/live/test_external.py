@@ -175,6 +175,8 @@ def test_two_agents_take_turns_one_operation_per_move(tmp_path, capsys):
     ("badpred", "episode 1, step 1: sent a predicate tracecheck cannot use"),
     ("hugedelta", "episode 1, step 1: 'delta' must be a time in milliseconds, 0 to one "
                   "year"),
+    ("slowpred", "episode 1, step 1 (Right): --step-timeout: tracecheck's evaluation took "
+                 "longer than 1 s; the script sent"),
     ("partial", "episode 1, initialisation ($initialise_machine): pos fixed neither by the "
                 "predicate nor by the operation (its `pos :: …` chooses it); the script sent "
                 "'moves = 0'"),
@@ -185,7 +187,8 @@ def test_two_agents_take_turns_one_operation_per_move(tmp_path, capsys):
     ("liar", "episode 1, step 1 (Right): no state satisfies the predicate with the values "
              "Right gives the variables it does not fix; the script sent 'pos = 2 & moves > "
              "100'"),
-], ids=["dies", "garbage", "unknown-operation", "bad-predicate", "huge-delta", "undetermined",
+], ids=["dies", "garbage", "unknown-operation", "bad-predicate", "huge-delta", "slow-predicate",
+        "undetermined",
         "hangs",
         "impossible-start", "no-state-fits"])
 def test_a_faulty_script_ends_cleanly_keeping_complete_episodes(tmp_path, capsys, mode,

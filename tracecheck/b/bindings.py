@@ -14,6 +14,7 @@ from typing import Any, Callable, Iterator, Optional
 
 from ..errors import BTypeError, EvaluationError, TracecheckError, UnsupportedError
 from . import ast
+from .clock import tick
 from .finite import finite as _finite, members as _members
 from .values import FuncValue, SymbolicSet, make_set, sort_key
 
@@ -75,6 +76,7 @@ def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
             return
         names, mode, source = plan[depth]
         for value in domain(comp, node, mode, source(env)):
+            tick()
             if len(names) == 1:
                 env[names[0]] = value
             else:
@@ -87,6 +89,7 @@ def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
 
         def run_single(env: Env) -> Iterator[Optional[TracecheckError]]:  # the common case
             for value in domain(comp, node, "in", source(env)):
+                tick()
                 env[name] = value
                 try:
                     for f in filters:

@@ -127,13 +127,15 @@ def eval_(
     all_solutions: bool = typer.Option(False, "--all", help="A predicate with free "
                                        "identifiers: list every solution (up to --limit)."),
     limit: int = typer.Option(100, "--limit", help="With --all: at most this many solutions."),
-    timeout: float = typer.Option(10.0, "--timeout", help="Seconds a predicate with free "
-                                  "identifiers may be searched for a solution."),
+    timeout: float = typer.Option(10.0, "--timeout", help="Seconds the evaluation of one "
+                                  "formula may take, a search for a solution of a predicate "
+                                  "with free identifiers included."),
 ) -> None:
     """Evaluate predicates or expressions and print their values in B notation, one per line
     (the machine, the state and the grammar are loaded once for all of them). A predicate
     with identifiers nothing declares is solved for them, as ProB's :solve: TRUE and a
     solution, FALSE where there is none, or unknown and why (exit 3)."""
+    from ..b.clock import time_limit
     from ..b.notation import to_json
     from ..b.values import format_value
     from ..inputs import read_text
@@ -153,7 +155,8 @@ def eval_(
     results, texts = [], []
     for expr, where, line in formulas:
         try:
-            value = evaluate(expr, where)
+            with time_limit(timeout, "--timeout"):
+                value = evaluate(expr, where)
         except TracecheckError as exc:
             if line is not None:  # a line of the file: point into the file
                 exc.line, exc.source = line[0], line[1]

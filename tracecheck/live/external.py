@@ -491,6 +491,7 @@ class _Run:
                                   ) from None
 
     def _after(self, op: Optional[str], state: dict, answer: _Answer, where: str) -> dict:
+        from ..b.clock import time_limit
         from ..b.transitions import equations
 
         try:  # the common shape (`v = literal & …`) read fast, typed as the grammar would
@@ -499,8 +500,9 @@ class _Run:
             raise self.link.error(f"{where}: sent a predicate tracecheck cannot use "
                                   f"({exc.message}): {_quote(answer.predicate)}") from None
         node = self._parse(answer, where) if fixed is None else None
-        try:
-            after = self.machine.successor(op, state, node, fixed=fixed)
+        try:  # --step-timeout bounds tracecheck's own evaluation of the answer too
+            with time_limit(self.settings.step_timeout, "--step-timeout"):
+                after = self.machine.successor(op, state, node, fixed=fixed)
         except TracecheckError as exc:
             raise self.link.error(f"{where} ({op or INIT}): {exc.message}; the script sent "
                                   f"{_quote(answer.predicate)}") from None
