@@ -380,3 +380,16 @@ def test_stats_on_a_script_run_says_where_its_properties_come_from(tmp_path, cap
     assert code == 0 and "the runs come from an agent script (states of Corridor): generic " \
         "statistics (give --properties FILE for the machine's own properties)" in text
     assert "not installed" not in text
+
+
+def test_a_process_the_script_detaches_is_ended_with_it(tmp_path, capsys):
+    """A child that calls setsid() and forks again is in no process group of the script's:
+    it outlived record; the run's mark in its environment finds it."""
+    out = tmp_path / "daemon.mcap"
+    code, _, err = record(capsys, "--external", f"{PY} corridor_agent.py daemon", "--cwd",
+                          HERE, "-o", out)
+    assert code == 0, err
+    deadline = time.monotonic() + 5
+    while scripts_running("corridor_agent.py daemon") and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not scripts_running("corridor_agent.py daemon")

@@ -196,6 +196,7 @@ class _Link:
         self.log = tempfile.TemporaryFile()
         self.buffer = b""
         self.finished = False
+        self.mark = ""  # MARK=value in the script's environment (set when it starts)
 
     def __enter__(self) -> "_Link":
         try:
@@ -214,10 +215,12 @@ class _Link:
         self.server.listen(1)
         port = self.server.getsockname()[1]
         argv = [*self.settings.command, str(port)]
+        self.mark = f"{MARK}={os.getpid()}-{port}-{time.monotonic_ns()}"
+        env = dict(os.environ, **dict([self.mark.split("=", 1)]))
         try:
             self.proc = subprocess.Popen(argv, cwd=self.settings.cwd, stdin=subprocess.DEVNULL,
                                          stdout=self.log, stderr=subprocess.STDOUT,
-                                         start_new_session=True)
+                                         start_new_session=True, env=env)
         except OSError as exc:
             raise ExternalError(f"cannot start {shlex.join(self.settings.command)}"
                                 f"{' in ' + str(self.settings.cwd) if self.settings.cwd else ''}"
@@ -333,7 +336,42 @@ class _Link:
                     proc.wait()
         if proc is not None:  # children it left behind in its session
             _signal_group(proc, signal.SIGKILL)
+            _kill_marked(self.mark)  # … and those it detached (setsid, a double fork)
         self.log.close()
+
+
+#: the variable set in the script's environment, with a value of this run's own: every
+#: process the script starts inherits it, also one that leaves the script's session
+MARK = "TRACECHECK_EXTERNAL_RUN"
+
+
+def _kill_marked(mark: str) -> list[int]:
+    """Kill the processes whose environment holds ``mark`` (this run's value of
+    :data:`MARK`): a script's descendants that left its session. Linux's ``/proc``; where
+    there is none, nothing is found. Returns the pids killed."""
+    killed: list[int] = []
+    if not mark.startswith(MARK + "="):  # never an empty or foreign pattern
+        return killed
+    wanted = mark.encode()
+    try:
+        pids = [int(p) for p in os.listdir("/proc") if p.isdigit()]
+    except OSError:
+        return killed
+    for pid in pids:
+        if pid == os.getpid():
+            continue
+        try:
+            with open(f"/proc/{pid}/environ", "rb") as f:
+                found = wanted in f.read().split(b"\0")
+        except OSError:  # gone, or another user's
+            continue
+        if found:
+            try:
+                os.kill(pid, signal.SIGKILL)
+                killed.append(pid)
+            except (ProcessLookupError, PermissionError):
+                pass
+    return killed
 
 
 def _signal_group(proc: subprocess.Popen, sig: int) -> None:
