@@ -36,6 +36,7 @@ from functools import cached_property
 from typing import Any, Callable, Mapping, Optional
 
 from ..errors import UnsupportedError
+from ..limits import DEEP, deep_recursion, deeply
 from . import ast
 from .bindings import conjuncts
 from .memo import MEMO_KEY, fresh
@@ -304,8 +305,12 @@ def linear_form(machine, op_name: str) -> Callable[[dict], list]:
 
 def _linearizer(machine, op_name: str) -> "_Linearizer":
     op = machine.operation(op_name)
-    return machine.cached("linear guards", op_name, lambda: _Linearizer(
-        set(op.params), machine.compiler(), machine.source).compile(op.guard))
+
+    def build() -> "_Linearizer":
+        with deep_recursion():  # a guard of 1500 disjuncts nests 1500 deep
+            return _Linearizer(set(op.params), machine.compiler(), machine.source
+                               ).compile(op.guard)
+    return machine.cached("linear guards", op_name, build)
 
 
 def _residual_guard(machine, op_name: str) -> Callable[[dict], Any]:
@@ -358,6 +363,7 @@ class _Linearizer:
         self.fns: dict[str, Callable] = {}  # … compiled (reading the names inside them)
         self.form: Callable[[dict], list] = lambda env: []
         self.residual_guard: Optional[ast.Node] = None
+        self._free: dict = {}  # free names by node identity (see free_names)
 
     def compile(self, guard: ast.Node) -> "_Linearizer":
         self.residual_guard = self.residual(guard)  # names each sub-formula of the state
@@ -371,11 +377,13 @@ class _Linearizer:
         for n in list(self.names):
             walk(n)
         for n, count in seen.items():
-            if count > 1 and n not in self.names and ast.free_names(n) and _nodes(n, 4) >= 4:
+            if count > 1 and n not in self.names and self.free_names(n) and _nodes(n, 4) >= 4:
                 self.names[n] = f"$linear{len(self.names)}"
         self.fns.update({key: self.comp.compile(self.definition(n))
                          for n, key in self.names.items()})
         self.form = self.pred(guard, True)
+        if ast.depth(guard) > DEEP:  # its forms call each other once per level
+            self.form = deeply(self.form)
         return self
 
     def run(self, env: dict) -> list:
@@ -392,13 +400,18 @@ class _Linearizer:
         return UnsupportedError(f"the guard is not linear in its parameters: {why} in "
                                 f"`{render(node, self.source)[:80]}`")
 
+    def free_names(self, node: ast.Node) -> frozenset[str]:
+        """:func:`ast.free_names`, remembered for the guard's nodes: asked at every level of
+        a guard of 1500 disjuncts, it was quadratic (18 M calls, 19 s)."""
+        return ast.free_names(node, self._free)
+
     def free(self, node: ast.Node) -> bool:
-        return not (ast.free_names(node) & self.params)
+        return not (self.free_names(node) & self.params)
 
     def slot(self, node: ast.Node) -> Optional[str]:
         """The name a sub-formula free of parameters is kept under in the state's dict;
         None for one without names (literals: the compiler folds it)."""
-        if not ast.free_names(node):
+        if not self.free_names(node):
             return None
         return self.names.setdefault(node, f"$linear{len(self.names)}")
 
@@ -529,7 +542,7 @@ class _Linearizer:
         else:
             def parts(env: dict) -> list:
                 return [[constraint_of(form_add(left(env), right(env), -1), op, order)]]
-        if ast.free_names(node) - self.params:
+        if self.free_names(node) - self.params:
             return parts
         made: list = []  # over the parameters and literals alone: the same in every state
 
@@ -562,7 +575,7 @@ class _Linearizer:
 
     def expr(self, node: ast.Node) -> Callable[[dict], Form]:
         fn = self.linear(node)
-        if self.free(node) or ast.free_names(node) - self.params:
+        if self.free(node) or self.free_names(node) - self.params:
             return fn
         made: list = []  # over the parameters and literals alone: the same in every state
 
