@@ -24,12 +24,13 @@ __all__ = [
 ]
 
 
-def printable(text: str) -> str:
+def printable(text: str, keep: str = "\n") -> str:
     """``text`` with control characters (terminal escapes, NUL, …) shown as escapes: a
-    message never lets an input file drive the terminal. Line breaks stay."""
-    if text.isprintable() or all(c.isprintable() or c == "\n" for c in text):
+    message never lets an input file drive the terminal. Line breaks stay (and the other
+    characters of ``keep``: a table cell keeps its tabs and carriage returns as data)."""
+    if text.isprintable() or all(c.isprintable() or c in keep for c in text):
         return text
-    return "".join(c if c.isprintable() or c == "\n" else repr(c)[1:-1] for c in text)
+    return "".join(c if c.isprintable() or c in keep else repr(c)[1:-1] for c in text)
 
 
 def caret_excerpt(source: str | None, line: int | None, column: int | None) -> str:

@@ -22,15 +22,16 @@ or three parameters, refused beyond :data:`MAX_SYSTEMS`.
 from __future__ import annotations
 
 import math
-import struct
 from dataclasses import dataclass
 from fractions import Fraction
 from functools import cached_property, lru_cache
 from itertools import combinations
 from math import comb, gcd
-from typing import Any, Callable, Mapping, Optional, Sequence
+from typing import Any, Mapping, Optional, Sequence
 
 from ..errors import UnsupportedError
+from .floats import (DOUBLINGS, NUDGES, float_count, float_range, from_index, index,
+                     neighbour, towards)
 
 __all__ = ["Constraint", "Form", "exact", "form_constant", "form_add", "form_times",
            "form_neg", "constraint_of", "bound_constraint", "box_constraints", "Interval",
@@ -354,14 +355,14 @@ def scan_boxes(allowed, boxes: list[dict], x: dict, s: dict) -> Optional[dict]:
     at, scale = {p: exact(x[p], p) for p in params}, {p: Fraction(s[p]) for p in params}
     for box in boxes:
         ranges = {p: float_range(box[p]) for p in params}
-        sizes = {p: _float_count(*ranges[p]) if ranges[p] else math.inf for p in params}
+        sizes = {p: float_count(*ranges[p]) if ranges[p] else math.inf for p in params}
         if 0 in sizes.values():  # no float lies in it: no float point of it to allow
             continue
         small = [p for p in params if sizes[p] <= FLOAT_SCAN]
         if math.prod(sizes[p] for p in small) > FLOAT_SCAN:
             small = []
         whole = whole and len(small) == len(params)
-        axes = [[_from_index(k) for k in range(_index(ranges[p][0]), _index(ranges[p][1]) + 1)]
+        axes = [[from_index(k) for k in range(index(ranges[p][0]), index(ranges[p][1]) + 1)]
                 if p in small else
                 sorted({inner_point(box[p], x[p]), clamp(x[p], box[p])}) for p in params]
         for values in product(*axes):
@@ -376,33 +377,6 @@ def scan_boxes(allowed, boxes: list[dict], x: dict, s: dict) -> Optional[dict]:
             "evaluator's float arithmetic refuses every float point tracecheck tried, and "
             "there are too many to try them all")
     return best
-
-
-def float_range(i: Interval) -> Optional[tuple[float, float]]:
-    """The least and the greatest float in ``i`` (None where an end is unbounded or beyond
-    the floats; lowest above highest where no float lies in it)."""
-    low, high = i._floats
-    if not (math.isfinite(low) and math.isfinite(high)):
-        return None
-    if not i.contains(low):
-        low = math.nextafter(low, math.inf)
-    if not i.contains(high):
-        high = math.nextafter(high, -math.inf)
-    return low, high
-
-
-def _index(x: float) -> int:
-    """The float's place in the order of all floats (0.0 and -0.0 both at 0)."""
-    k = struct.unpack("<q", struct.pack("<d", x))[0]
-    return k if k >= 0 else -(k & 0x7FFF_FFFF_FFFF_FFFF)
-
-
-def _from_index(k: int) -> float:
-    return struct.unpack("<d", struct.pack("<q", k if k >= 0 else (-k) | -(1 << 63)))[0]
-
-
-def _float_count(low: float, high: float) -> int:
-    return max(0, _index(high) - _index(low) + 1)
 
 
 def confirmed(allowed, candidate: dict, box: dict) -> Optional[dict]:
@@ -655,69 +629,3 @@ def distance_to(allowed, point) -> Optional[float]:
             d = sum(((x - y) ** 2 for x, y in zip(q, target)), Fraction(0))
             best = d if best is None or d < best else best
     return None if best is None else float(best) ** 0.5
-
-
-#: how many floats on either side of a point set :func:`neighbour` tries, and how many
-#: doublings :func:`towards` takes before it halves
-NUDGES = 4
-DOUBLINGS = 12
-
-Contains = Callable[[dict], bool]
-
-
-def towards(contains: Contains, params: Sequence[str], refused: dict, allowed: dict) -> dict:
-    """The point ``contains`` allows nearest ``refused`` on the segment to ``allowed``, to
-    the float: steps doubling from one float away (the evaluator's rounding usually refuses
-    only a few floats past a bound), then halving the rest in the floats' own order (at
-    most 64 halvings, whatever the magnitudes)."""
-    direction = {p: allowed[p] - refused[p] for p in params}
-
-    def at(t: float) -> dict:
-        return {p: refused[p] + t * direction[p] for p in params}
-    moving = [p for p in params if direction[p] != 0.0]
-    t = min(1.0, max([math.ulp(refused[p]) / abs(direction[p]) for p in moving]
-                     + [math.ulp(0.0)]))
-    lo = 0.0  # refused at lo, allowed at hi
-    for _ in range(DOUBLINGS):
-        if t >= 1.0 or contains(at(t)):
-            break
-        lo, t = t, min(1.0, 2.0 * t)
-    else:
-        t = 1.0
-    hi = t
-
-    def end(t: float) -> dict:  # at 1 the allowed point itself, not a rounding of it
-        return dict(allowed) if t >= 1.0 else at(t)
-    while True:
-        mid = _float_between(lo, hi)
-        low, high = at(lo), end(hi)
-        if mid is None or all(math.nextafter(low[p], high[p]) == high[p]
-                              or low[p] == high[p] for p in moving):
-            return high
-        if contains(at(mid)):
-            hi = mid
-        else:
-            lo = mid
-
-
-def neighbour(contains: Contains, params: Sequence[str], candidate: dict) -> Optional[dict]:
-    """For a point set (``3.0 * a = 1.0``): the floats next to ``candidate`` that
-    ``contains`` allows, nearest first."""
-    for steps in range(1, NUDGES + 1):
-        for direction in (-math.inf, math.inf):
-            point = dict(candidate)
-            for p in params:
-                for _ in range(steps):
-                    point[p] = math.nextafter(point[p], direction)
-            if contains(point):
-                return point
-    return None
-
-
-def _float_between(lo: float, hi: float) -> Optional[float]:
-    """The float halfway between ``0 <= lo < hi`` in the order of floats (their bit
-    patterns); None when they are next to each other."""
-    a, b = (struct.unpack("<q", struct.pack("<d", x))[0] for x in (lo, hi))
-    if b - a <= 1:
-        return None
-    return struct.unpack("<d", struct.pack("<q", (a + b) // 2))[0]

@@ -28,7 +28,8 @@ from ..episodes.columns import RunColumns, read_blocks
 from ..errors import UnsupportedError
 from .executors import map_file_blocks
 from .shared import EnabledNames
-from .replaying import add_up, check_actions, check_parameters, enabled_matrix
+from .fit import check_actions
+from .replaying import add_up, check_parameters, enabled_matrix
 from .shield import Shield
 from ..jsontext import plain
 

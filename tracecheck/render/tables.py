@@ -38,12 +38,17 @@ def is_number(value) -> bool:
             and math.isfinite(value))
 
 
+#: what a cell keeps of the control characters: its line breaks and tabs are data (CSV
+#: quotes them, Markdown shows them as <br>), every other one is shown as an escape
+_CELL_KEEPS = "\n\r\t"
+
+
 def _text_cell(value) -> str:
     if value is None:
         return ""
     if isinstance(value, Number):
         return value
-    return Number(value) if is_number(value) else printable(str(value))
+    return Number(value) if is_number(value) else printable(str(value), _CELL_KEEPS)
 
 
 @dataclass(frozen=True)
@@ -63,7 +68,7 @@ class TableData:
         """Cells from any values: None is empty, a number keeps its kind (see :class:`Number`),
         anything else is its ``str`` with control characters shown as escapes (a name
         from an input file never drives the terminal)."""
-        return cls(tuple(printable(str(h)) for h in headers),
+        return cls(tuple(printable(str(h), _CELL_KEEPS) for h in headers),
                    tuple(tuple(_text_cell(c) for c in row) for row in rows))
 
 
@@ -83,7 +88,7 @@ def md_text(text: str, *, cell: bool = True) -> str:
     >>> md_text("two\nlines", cell=False)
     'two lines'
     """
-    return printable(str(text).replace("\r\n", "\n").replace("\r", "\n")).translate(
+    return printable(str(text), _CELL_KEEPS).replace("\r\n", "\n").translate(
         _MD_TABLE if cell else _MD_LINE)
 
 
@@ -132,6 +137,8 @@ def fitted(table: TableData, width: int, shrink: int = 0) -> list[str]:
     """The table as aligned lines of at most ``width`` characters for a terminal: cells are
     never wrapped or broken; only column ``shrink`` (a file name, say) is cut, ending in
     "…", when the line would be too wide (it keeps at least 8 characters)."""
+    table = TableData(tuple(map(printable, table.headers)),  # a terminal: no \r, no \t
+                      tuple(tuple(map(printable, row)) for row in table.rows))
     widths = [max([len(h), *(len(row[i]) for row in table.rows)])
               for i, h in enumerate(table.headers)]
     over = sum(widths) + 2 * (len(widths) - 1) - width

@@ -1,0 +1,67 @@
+"""Whether a run fits a shield before it is judged by it: every action the run takes is an
+operation of the shield (a misspelt one would block every such step), the states have the
+variables its guards and invariant read, and recorded values of parameters are of
+parameters the shield types REAL ("some value allowed" would pass a recorded 2.0 against
+``a : 0..1``). Replay and diff refuse a run that does not fit, naming the first step."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..b import ast
+from ..episodes.columns import RunColumns
+from ..errors import InputError
+from .shield import Shield
+
+__all__ = ["check_actions", "check_variables", "refuse_recorded_values"]
+
+
+def check_actions(shield: Shield, cols: RunColumns, rows: np.ndarray,
+                  actions: np.ndarray) -> None:
+    """Refuse a run that takes an action the shield has no operation for (a misspelt
+    operation would otherwise block every such step), naming the first step that does."""
+    ops = shield.machine.operations
+    for code, name in enumerate(cols.action_names):
+        if name in ops:
+            continue
+        which = np.flatnonzero(actions == code)
+        if len(which):
+            r = int(rows[which[0]])
+            raise InputError(f"{cols.path}: the episodes use the action {name} "
+                             f"({len(which):,} step(s), the first at episode "
+                             f"{int(cols.episode[r])} step {int(cols.step[r])}), which the "
+                             f"shield {shield.name} has no operation for (its operations are "
+                             f"{', '.join(ops) or 'none'})",
+                             hint="check the operation's spelling in the shield")
+
+
+def check_variables(shield: Shield, cols: RunColumns) -> None:
+    have = cols.states.names() | set(shield.machine.base_env)
+    machine = shield.machine
+    needed = set().union(*machine.guard_variables().values())
+    if machine.invariant_node is not None:
+        needed |= ast.free_names(machine.invariant_node)
+    missing = sorted(n for n in needed if n not in have and n in machine.variables)
+    if missing and cols.n:
+        raise InputError(f"{cols.path}: the states have no {', '.join(missing)}, which the "
+                         f"shield {shield.name} reads (episode {int(cols.episode_ids[0])}, "
+                         "step 0)")
+
+
+def refuse_recorded_values(shield: Shield, cols: RunColumns, op, which: np.ndarray) -> None:
+    """A run that recorded values of an operation's parameters the shield does not type
+    REAL: "some value allowed" would pass a recorded 2.0 against ``a : 0..1``, so the
+    recorded values cannot be judged — an error naming the first such step."""
+    recorded = [p for p in op.params if p in cols.parameters]
+    for p in recorded:
+        given = np.flatnonzero(np.isfinite(cols.parameters[p][which]))
+        if len(given):
+            r = int(which[given[0]])
+            raise InputError(
+                f"{cols.path}: the run records values of {op.name}'s parameter {p} "
+                f"({float(cols.parameters[p][r])!r} at episode {int(cols.episode[r])} step "
+                f"{int(cols.step[r])}), but the shield {shield.name} does not type it REAL "
+                f"(`{p} : REAL` in the guard of {op.name}): tracecheck cannot judge the "
+                "recorded values against it",
+                hint="a shield for continuous actions types each parameter REAL and bounds "
+                     "it with comparisons (a >= 0.0 & a <= 1.0)")
