@@ -219,10 +219,15 @@ def test_a_decompression_bomb_is_refused(tmp_path):
         read_columns(bomb)
     cols = read_columns(bomb, salvage=True)
     assert cols.n == 0 and "a chunk would decompress" in cols.warnings[0]
-    liar = _rechunk(path, tmp_path / "liar.mcap",
-                    lambda inner: _chunk_record(b"\0" * (50 << 20), 1000))
+    liar = _rechunk(path, tmp_path / "liar.mcap", lambda inner: _chunk_record(
+        b"", 1000, data=lz4.frame.compress(b"\0" * (50 << 20), store_size=False)))
     with pytest.raises(InputError, match="a chunk decompresses to 1001 bytes, not the 1000"):
         read_columns(liar)
+    sized = _rechunk(path, tmp_path / "sized.mcap",
+                     lambda inner: _chunk_record(b"\0" * (50 << 20), 1000))
+    with pytest.raises(InputError, match="a chunk declares 1000 bytes but its lz4 frame "
+                                         "52428800: refused before decompressing"):
+        read_columns(sized)
     odd = _rechunk(path, tmp_path / "odd.mcap",
                    lambda inner: _chunk_record(inner, len(inner), "brotli", data=inner))
     with pytest.raises(InputError, match="a chunk uses the unknown compression 'brotli'"):

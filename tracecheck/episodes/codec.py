@@ -24,6 +24,7 @@ from ..b.values import Elem, FuncValue, format_value
 from ..b.columns import Columns
 from ..errors import InputError, TracecheckError
 from ..identity import ByIdentity
+from .frames import unzstd
 from .model import END_REASONS
 
 __all__ = ["encode_state", "decode_state", "encode_columns", "decode_columns",
@@ -300,22 +301,14 @@ def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.
 
 def _unpacked(blob: bytes, end: int) -> bytes:
     """What a compressed blob holds between its size and its CRC, decompressed: exactly as
-    many bytes as it declares, and not too many for its compressed size."""
-    import zstandard
-
+    many bytes as it declares, not too many for its compressed size, and only where its zstd
+    frame declares the same (see :mod:`tracecheck.episodes.frames`)."""
     (size,) = struct.unpack_from("<Q", blob, 4)
     limit = _MAX_RATIO * (end - 12) + (1 << 20)
     if size > limit:
         raise ValueError(f"it would decompress to {size} bytes from {end - 12} (more than "
                          f"tracecheck's limit of {limit} bytes for it)")
-    try:
-        data = zstandard.ZstdDecompressor().decompress(bytes(blob[12:end]),
-                                                       max_output_size=max(size, 1))
-    except zstandard.ZstdError as exc:
-        raise ValueError(f"it does not decompress: {exc}") from None
-    if len(data) != size:
-        raise ValueError(f"it decompresses to {len(data)} bytes, not the {size} it declares")
-    return data
+    return unzstd(bytes(blob[12:end]), size, "it")
 
 
 def columns_from_arrays(header: dict, arrays: dict[str, np.ndarray],

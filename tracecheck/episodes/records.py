@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any, Iterator, NamedTuple, Optional, Union
 
 from ..errors import InputError
+from .frames import unlz4, unzstd
 
 __all__ = ["forget", "walk", "Damage", "BadChunk", "Schema", "Channel", "Attachment", "MessageRef", "MESSAGE", "MAGIC",
            "MAX_CHUNK_RATIO", "MAX_CHUNK_BYTES", "mapped", "indexed_attachments",
@@ -38,6 +39,8 @@ _U16 = struct.Struct("<H")
 _U32 = struct.Struct("<I")
 _U64 = struct.Struct("<Q")
 _CHUNK = struct.Struct("<QQQI")
+#: the package that decompresses each compression of chunks
+_PACKAGES = {"zstd": "zstandard", "lz4": "lz4"}
 
 
 @dataclass(frozen=True)
@@ -233,41 +236,25 @@ def _chunk(f: _Fields) -> bytes:
     if size > limit:
         raise _BadRecord(f"a chunk would decompress to {size} bytes from {len(data)} (more than "
                          f"tracecheck's limit of {limit} bytes for it)")
-    if compression == "":
-        out = bytes(data)
-    elif compression == "zstd":
-        try:
-            import zstandard
-        except ImportError:
-            raise _BadRecord("a chunk is zstd-compressed and the zstandard package is not "
-                             "installed (pip install zstandard)") from None
-        try:
-            out = zstandard.ZstdDecompressor().decompress(bytes(data), max_output_size=size)
-        except zstandard.ZstdError as exc:
-            raise _BadRecord(f"a zstd chunk does not decompress: {exc}") from None
-    elif compression == "lz4":
-        try:
-            import lz4.frame
-        except ImportError:
-            raise _BadRecord("a chunk is lz4-compressed and the lz4 package is not installed "
-                             "(pip install lz4)") from None
-        try:
-            out = _lz4(lz4.frame, bytes(data), size)
-        except RuntimeError as exc:
-            raise _BadRecord(f"an lz4 chunk does not decompress: {exc}") from None
-    else:
-        raise _BadRecord(f"a chunk uses the unknown compression {compression!r}")
+    try:
+        if compression == "":
+            out = bytes(data)
+        elif compression == "zstd":
+            out = unzstd(bytes(data), size, "a chunk")
+        elif compression == "lz4":
+            out = unlz4(bytes(data), size, "a chunk")
+        else:
+            raise _BadRecord(f"a chunk uses the unknown compression {compression!r}")
+    except ImportError:
+        raise _BadRecord(f"a chunk is {compression}-compressed and the {_PACKAGES[compression]} "
+                         f"package is not installed (pip install {_PACKAGES[compression]})"
+                         ) from None
+    except ValueError as exc:
+        raise _BadRecord(str(exc)) from None
     if len(out) != size:
         raise _BadRecord(f"a chunk decompresses to {len(out)} bytes, not the {size} it declares")
     if crc and zlib.crc32(out) != crc:
         raise _BadRecord("a chunk's checksum does not match its contents")
-    return out
-
-
-def _lz4(frame, data: bytes, size: int) -> bytes:
-    """Decompress at most ``size + 1`` bytes (more means the chunk lied about its size)."""
-    d = frame.LZ4FrameDecompressor()
-    out = d.decompress(data, max_length=size + 1)
     return out
 
 
