@@ -222,9 +222,9 @@ def from_blobs(path: Path) -> bool:
     with mapped(path) as buf:
         view = memoryview(buf)
         try:
-            runs = blob_records(buf)
-            return bool(runs) and all(verified_block(buf, view, runs, k) is not None
-                                      for k in range(len(runs)))
+            index = blob_records(buf)
+            return index is not None and all(
+                verified_block(buf, view, index, k) is not None for k in range(len(index.runs)))
         finally:
             view.release()
 

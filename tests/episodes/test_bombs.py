@@ -148,7 +148,7 @@ def test_a_run_blob_bomb_is_not_read_and_the_file_is_walked(tmp_path, monkeypatc
 
     with mapped(path) as buf:
         blobs = [attachment_at(buf, o, s, RUN_COLUMNS_MEDIA_TYPE)
-                 for o, s in blob_records(buf)]
+                 for o, s in blob_records(buf).runs]
     assert len(blobs) == 3
     with pytest.raises(InputError, match="it declares .* but its zstd frame 3221225472"):
         decode_columns(blobs[0])

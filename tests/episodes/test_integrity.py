@@ -177,13 +177,15 @@ def _chunk_record(inner: bytes, declared: int, compression: str = "lz4",
 
 
 def _rechunk(path, out, make_chunk):
-    """``path`` with its episode records (everything after the run header) in one chunk."""
+    """``path`` with its episode records (everything after the run header) in one chunk, as
+    another MCAP tool may write it: without the old summary, whose offsets no longer hold (a
+    footer that names no summary)."""
     data = path.read_bytes()
     msgs = [r for r in walk(path, data) if type(r) is MessageRef]
     begin = msgs[1].start - 9  # the first episode header's record
-    end = data.rfind(b"\x0f", 0, len(data))  # the data end record
-    summary_free = data[:begin] + make_chunk(data[begin:_data_end(path, data)])
-    out.write_bytes(summary_free + data[_data_end(path, data):])
+    end = _data_end(path, data)  # the data end record
+    footer = struct.pack("<BQQQI", 2, 20, 0, 0, 0) + data[-8:]
+    out.write_bytes(data[:begin] + make_chunk(data[begin:end]) + data[end:end + 13] + footer)
     assert end > begin
     return out
 

@@ -13,43 +13,62 @@ walks the file episode by episode instead, which finds and names whatever change
 from __future__ import annotations
 
 import zlib
-from typing import Optional
+from typing import NamedTuple, Optional
 
 import numpy as np
 
 from ..errors import InputError
-from .codec import RUN_COLUMNS_MEDIA_TYPE, decode_columns
+from .codec import COLUMNS_MEDIA_TYPE, RUN_COLUMNS_MEDIA_TYPE, decode_columns
 from .model import END_REASONS
 from .reader import check_columns
 from .records import DATA_END, attachment_at, indexed_attachments
 
-__all__ = ["BLOCK_ROWS", "blob_records", "verified_block"]
+__all__ = ["BLOCK_ROWS", "BlobIndex", "blob_records", "verified_block"]
 
 #: a writer closes a block once its episodes hold this many states: a reader's memory is
 #: set by the block, not by the file (about 20 MB of numpy columns for the highway)
 BLOCK_ROWS = 1 << 15
 
 
-def blob_records(buf) -> Optional[list[tuple[int, int]]]:
-    """(offset, size) of each run blob's record in the file, in order, as the summary lists
-    them; None where there is none, another attachment (an episode's columns) comes after
-    the last one (the writer stopped writing blobs), or the data section does not end right
-    after it: the file is then walked."""
-    index = indexed_attachments(buf, RUN_COLUMNS_MEDIA_TYPE)
+class BlobIndex(NamedTuple):
+    """The run blobs of a file and its episodes' columns, as its summary lists them."""
+
+    #: (offset, size) of each run blob's record, in order
+    runs: list[tuple[int, int]]
+    #: (offset, size) of each episode's columns attachment record, in order
+    episodes: np.ndarray
+
+
+def blob_records(buf) -> Optional[BlobIndex]:
+    """The run blobs and episodes' columns the file's summary lists; None where it lists no
+    blob, another attachment (an episode's columns) comes after the last one (the writer
+    stopped writing blobs), or the data section does not end right after it: the file is
+    then walked."""
+    index = indexed_attachments(buf, RUN_COLUMNS_MEDIA_TYPE, also=COLUMNS_MEDIA_TYPE)
     if index is None:
         return None
-    runs, other = index
+    runs, other, episodes = index
     # the data section ends right after the last blob: no record (an episode) follows it
     if not runs or other > runs[-1][0] or sum(runs[-1]) >= len(buf) \
             or buf[sum(runs[-1])] != DATA_END:
         return None
-    return runs
+    episodes = np.frombuffer(episodes, dtype=np.int64).reshape(-1, 2)
+    return BlobIndex(runs, episodes[np.argsort(episodes[:, 0], kind="stable")])
 
 
-def verified_block(buf, view, runs: list[tuple[int, int]], k: int
-                   ) -> Optional[tuple[dict, dict]]:
-    """The header and arrays of block ``k`` of ``runs`` (:func:`blob_records`) where it fits
-    together and every byte it stands for is as written, else None."""
+def _listed(index: BlobIndex, k: int) -> np.ndarray:
+    """(offset, size) of the episodes' columns the summary lists between run blob ``k`` and
+    the one before it (for the first: from the file's start)."""
+    runs, offsets = index.runs, index.episodes[:, 0]
+    lo = sum(runs[k - 1]) if k else 0
+    return index.episodes[np.searchsorted(offsets, lo):np.searchsorted(offsets, runs[k][0])]
+
+
+def verified_block(buf, view, index: BlobIndex, k: int) -> Optional[tuple[dict, dict]]:
+    """The header and arrays of block ``k`` of ``index`` (:func:`blob_records`) where it
+    fits together, every byte it stands for is as written, and its episodes are the ones the
+    summary lists before its blob; else None."""
+    runs = index.runs
     offset, size = runs[k]
     blob = attachment_at(buf, offset, size, RUN_COLUMNS_MEDIA_TYPE)
     if blob is None:
@@ -71,6 +90,10 @@ def verified_block(buf, view, runs: list[tuple[int, int]], k: int
         if not (0 < first and np.all(spans[:, 0] < spans[:, 1])
                 and np.array_equal(spans[1:, 0], spans[:-1, 1]) and spans[-1, 1] == offset
                 and (k == 0 or first == sum(runs[k - 1]))):
+            return None
+        # … and end with the columns the summary lists there, one each
+        listed = _listed(index, k)
+        if not np.array_equal(listed[:, 0] + listed[:, 1], spans[:, 1]):
             return None
         # the head (schemas, channels, run header) as written: the first block starts right
         # after it, a later one names where it ends

@@ -96,7 +96,8 @@ def block_refs(path: str | Path) -> list[BlockRef]:
     """The blocks of the file's run blobs (none: it has none that fit, it is read whole):
     the units of work of the Ray executor (see :func:`read_blocks`)."""
     with mapped(Path(path)) as buf:
-        runs = blob_records(buf) or []
+        index = blob_records(buf)
+    runs = index.runs if index is not None else []
     return [BlockRef(k, len(runs), o, s) for k, (o, s) in enumerate(runs)]
 
 
@@ -117,7 +118,8 @@ def read_blocks(path: str | Path, *, salvage: bool = False, block: Optional[Bloc
     path = Path(path)
     done = 0  # episodes given from blobs
     with mapped(path) as buf:
-        runs = [] if regions else blob_records(buf) or []
+        index = None if regions else blob_records(buf)
+        runs = index.runs if index is not None else []
         forget(buf)  # the summary's pages too
         view = memoryview(buf)
         try:
@@ -125,7 +127,7 @@ def read_blocks(path: str | Path, *, salvage: bool = False, block: Optional[Bloc
                                      and runs[block.index] == (block.offset, block.size))
             wanted = range(len(runs)) if block is None else [block.index] if same else []
             for k in wanted:
-                found = verified_block(buf, view, runs, k)
+                found = verified_block(buf, view, index, k)
                 cols = None if found is None else _block_columns(path, *found)
                 forget(buf)  # the pages of the block just read leave this process
                 if cols is None:
