@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import struct
 import zlib
-from typing import Any, Mapping, Optional, Sequence
+from typing import Any, Mapping, NamedTuple, Optional, Sequence
 
 import numpy as np
 import orjson
@@ -28,8 +28,8 @@ from .frames import unzstd
 from .model import END_REASONS
 
 __all__ = ["encode_state", "decode_state", "encode_columns", "decode_columns",
-           "encode_run_columns", "parameter_arrays", "COLUMNS_MEDIA_TYPE",
-           "RUN_COLUMNS_MEDIA_TYPE"]
+           "unpack_columns", "arrays_of", "Packed", "encode_run_columns", "parameter_arrays",
+           "COLUMNS_MEDIA_TYPE", "RUN_COLUMNS_MEDIA_TYPE"]
 
 COLUMNS_MEDIA_TYPE = "application/x-tracecheck-columns"
 #: every episode of a file in one blob, written when the file is closed
@@ -261,8 +261,25 @@ def _dictionary(values: Sequence[Any]) -> tuple[np.ndarray, list[str]]:
 _SAFE_DTYPES = {d: np.dtype(d) for d in ("<f8", "<i8", "<i2", "|b1", "<u4")}
 
 
+class Packed(NamedTuple):
+    """A columns blob opened (:func:`unpack_columns`): its JSON header, and the bytes that
+    hold its arrays — ``data[base:end]``, each at its spec's offset from ``base``."""
+
+    header: dict
+    data: bytes
+    base: int
+    end: int
+
+
 def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.ndarray]]:
     """The header and arrays of a columns blob."""
+    packed = unpack_columns(blob, where=where)
+    return packed.header, arrays_of(packed, where=where)
+
+
+def unpack_columns(blob: bytes, *, where: str = "") -> Packed:
+    """A columns blob with its checksum checked and its arrays decompressed, not yet read
+    (:func:`arrays_of` reads and checks them)."""
     try:
         end = len(blob)
         if blob[:4] in (_MAGIC, _PLAIN_MAGIC):
@@ -278,7 +295,18 @@ def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.
             end = len(blob)
         (size,) = struct.unpack_from("<I", blob, at)
         header = orjson.loads(blob[at + 4:at + 4 + size])
-        base = at + 4 + size
+        if not isinstance(header, dict):
+            raise ValueError("its header is not a table")
+        return Packed(header, blob, at + 4 + size, end)
+    except (ValueError, struct.error, orjson.JSONDecodeError) as exc:
+        raise InputError(f"{where}damaged columns attachment: {exc}") from None
+
+
+def arrays_of(packed: Packed, *, where: str = "") -> dict[str, np.ndarray]:
+    """The arrays of an opened columns blob, by name: each of a dtype tracecheck writes, of
+    at most two dimensions, inside the blob (views of its bytes, not copies)."""
+    header, blob, base, end = packed
+    try:
         arrays = {}
         for spec in header["arrays"]:
             dtype, shape, offset = _SAFE_DTYPES.get(spec["dtype"]), spec["shape"], spec["offset"]
@@ -294,8 +322,8 @@ def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.
             arrays[spec["name"]] = np.frombuffer(
                 blob, dtype=dtype, count=count, offset=base + spec["offset"]
             ).reshape(spec["shape"])
-        return header, arrays
-    except (ValueError, KeyError, TypeError, struct.error, orjson.JSONDecodeError) as exc:
+        return arrays
+    except (ValueError, KeyError, TypeError) as exc:
         raise InputError(f"{where}damaged columns attachment: {exc}") from None
 
 

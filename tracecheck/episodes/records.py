@@ -388,17 +388,20 @@ def forget(buf) -> None:
 def attachment_at(buf, offset: int, size: int, media_type: str) -> Optional[bytes]:
     """The data of the attachment record at ``offset`` (``size`` bytes long, as the summary
     lists it), or None where no such record of ``media_type`` lies there."""
+    end = offset + size  # each field read only within the record (a reader checks 10^5)
     try:
         op, length = _REC.unpack_from(buf, offset)
-        if op != ATTACHMENT or 9 + length != size:
+        if op != ATTACHMENT or 9 + length != size or end > len(buf):
             return None
-        f = _Fields(buf, offset + 9, offset + size)
-        f.take(16)
-        f.string()
-        if f.string() != media_type:
+        at = offset + 9 + 16  # past its log and create time
+        at += 4 + _U32.unpack_from(buf, at)[0]  # its name
+        n = _U32.unpack_from(buf, at)[0] if at + 4 <= end else -1
+        if not 0 <= n <= end - at - 12 or buf[at + 4:at + 4 + n] != media_type.encode():
             return None
-        return f.blob(f.u64())
-    except (_BadRecord, struct.error):
+        at += 4 + n
+        n = _U64.unpack_from(buf, at)[0]
+        return buf[at + 8:at + 8 + n] if n <= end - at - 8 else None
+    except struct.error:
         return None
 
 
