@@ -66,15 +66,20 @@ def other_seed(a):
     a["seed"] = 99
 
 
+def other_reason(a):
+    a["reason"] = "deadlock"
+
+
 CASES = [
     (flip_last_crash, "the columns, end record and last step disagree on whether it crashed "
                       "(False, True, True)"),
     (last_action, "the last step's action is 'IDLE' in its message and 'SLOWER' in the columns"),
     (other_seed, "the columns say seed 99, the episode header 1001"),
+    (other_reason, "the columns say it ended by 'deadlock', the end record by 'crashed'"),
 ]
 
 
-@pytest.mark.parametrize("change,message", CASES, ids=["crash", "action", "seed"])
+@pytest.mark.parametrize("change,message", CASES, ids=["crash", "action", "seed", "reason"])
 def test_columns_that_contradict_the_messages(tmp_path, change, message):
     path = write(tmp_path / "run.mcap", episodes(), change)
     for read in (read_columns, lambda p: list(read_episodes(p))):

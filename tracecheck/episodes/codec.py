@@ -107,12 +107,14 @@ def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optio
                    seed: Optional[int] = None, checksums: Optional[dict] = None, *,
                    parameters: Optional[Sequence[Optional[Mapping[str, float]]]] = None,
                    proposals: Optional[Sequence[Optional[Mapping[str, float]]]] = None,
-                   distances: Optional[Sequence[Optional[float]]] = None) -> bytes:
+                   distances: Optional[Sequence[Optional[float]]] = None,
+                   reason: Optional[str] = None) -> bytes:
     """One episode's steps as a binary columns blob (``values``: the agent's action values
     per step, when recorded; ``checksums``: CRC-32s of the episode's messages and the run
     header, so that readers find a changed byte anywhere in the episode; ``parameters``,
     ``proposals``, ``distances``: a continuous action's values, the agent's proposal and
-    how far the shield moved it, per step — see :func:`parameter_arrays`)."""
+    how far the shield moved it, per step — see :func:`parameter_arrays`; ``reason``: why
+    it ended, as its end record says, so that a run blob's is checked against it)."""
     index = {a: i for i, a in enumerate(action_names)}
     arrays: dict[str, np.ndarray] = {
         "time": np.asarray(times, dtype=np.float64),
@@ -131,6 +133,7 @@ def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optio
     arrays.update(parameter_arrays(len(times), parameters, proposals, distances))
     kinds, literals = _state_arrays(cols, arrays)
     header: dict[str, Any] = {"episode": episode, "seed": seed, **(checksums or {}),
+                              **({"reason": reason} if reason is not None else {}),
                               "elements": [str(e) for e in cols.elements],
                               "actions": list(action_names), "kinds": kinds,
                               "literals": literals}

@@ -323,6 +323,9 @@ def _agree(piece: Piece, decoded: bool) -> None:
     if header.get("seed") != head.seed:
         raise _BadEpisode(f"the columns say seed {header.get('seed')!r}, the episode header "
                           f"{head.seed!r}")
+    if header.get("reason", end.reason) != end.reason:  # files before it have none
+        raise _BadEpisode(f"the columns say it ended by {header.get('reason')!r}, the end "
+                          f"record by {end.reason!r}")
     names = header["actions"]
     crashed = bool(arrays["crashed"][-1])
     if decoded:
