@@ -5,8 +5,10 @@ checks every length against what is left before reading it, so a truncated or da
 ends in a :class:`Damage` that says where, never in an exception from deep inside a parser.
 Only the few record kinds tracecheck reads are parsed (schemas, channels, messages,
 attachments, chunks); message bodies are handed on as offsets, so a reader that skips most
-messages pays for none of them. Chunks (tracecheck writes none, but other MCAP tools may
-rewrite a file with them) are decompressed with a limit on the decompression ratio and size.
+messages pays for none of them. Chunks (tracecheck writes one per episode; other MCAP tools may
+chunk a file otherwise) are decompressed with a limit on the decompression ratio and size,
+checked — with the size the chunk's frame itself declares — before anything is decompressed
+(:mod:`tracecheck.episodes.frames`).
 """
 
 from __future__ import annotations
