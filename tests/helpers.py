@@ -216,15 +216,17 @@ def browser_errors(browser) -> list:
 
 def from_blobs(path: Path) -> bool:
     """Whether every block of ``path`` is read from its run blob (not walked)."""
-    from tracecheck.episodes.blobs import blob_records, verified_block
+    from tracecheck.episodes.blobs import BlobDisagrees, blob_records, verified_block
     from tracecheck.episodes.records import mapped
 
     with mapped(path) as buf:
         view = memoryview(buf)
         try:
-            runs = blob_records(buf)
-            return bool(runs) and all(verified_block(buf, view, runs, k) is not None
-                                      for k in range(len(runs)))
+            index = blob_records(buf)
+            return index is not None and all(
+                verified_block(buf, view, index, k) is not None for k in range(len(index.runs)))
+        except BlobDisagrees:
+            return False
         finally:
             view.release()
 

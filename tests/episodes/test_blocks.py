@@ -192,7 +192,7 @@ def test_the_data_section_ends_at_the_last_blob(tmp_path, monkeypatch):
 
     path = write(tmp_path / "run.mcap", many(), compress=False)
     with mapped(path) as buf:
-        end = sum(blob_records(buf)[-1])
+        end = sum(blob_records(buf).runs[-1])
     before = read_columns(path)
     assert blocks_of(path) == 4
     data = bytearray(path.read_bytes())

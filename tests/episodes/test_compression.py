@@ -134,6 +134,6 @@ def test_a_columns_blob_that_lies_about_its_size_is_refused(tmp_path):
     body = bytearray(blob[:-4])
     struct.pack_into("<Q", body, 4, struct.unpack_from("<Q", blob, 4)[0] - 1)
     short = bytes(body) + struct.pack("<I", zlib.crc32(bytes(body)))
-    with pytest.raises(InputError, match="x: damaged columns attachment: it does not "
-                                         "decompress|decompresses to"):
+    with pytest.raises(InputError, match=r"x: damaged columns attachment: it declares \d+ "
+                                         r"bytes but its zstd frame \d+: refused before"):
         decode_columns(short, where="x: ")

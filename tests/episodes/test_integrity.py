@@ -66,15 +66,20 @@ def other_seed(a):
     a["seed"] = 99
 
 
+def other_reason(a):
+    a["reason"] = "deadlock"
+
+
 CASES = [
     (flip_last_crash, "the columns, end record and last step disagree on whether it crashed "
                       "(False, True, True)"),
     (last_action, "the last step's action is 'IDLE' in its message and 'SLOWER' in the columns"),
     (other_seed, "the columns say seed 99, the episode header 1001"),
+    (other_reason, "the columns say it ended by 'deadlock', the end record by 'crashed'"),
 ]
 
 
-@pytest.mark.parametrize("change,message", CASES, ids=["crash", "action", "seed"])
+@pytest.mark.parametrize("change,message", CASES, ids=["crash", "action", "seed", "reason"])
 def test_columns_that_contradict_the_messages(tmp_path, change, message):
     path = write(tmp_path / "run.mcap", episodes(), change)
     for read in (read_columns, lambda p: list(read_episodes(p))):
@@ -177,13 +182,15 @@ def _chunk_record(inner: bytes, declared: int, compression: str = "lz4",
 
 
 def _rechunk(path, out, make_chunk):
-    """``path`` with its episode records (everything after the run header) in one chunk."""
+    """``path`` with its episode records (everything after the run header) in one chunk, as
+    another MCAP tool may write it: without the old summary, whose offsets no longer hold (a
+    footer that names no summary)."""
     data = path.read_bytes()
     msgs = [r for r in walk(path, data) if type(r) is MessageRef]
     begin = msgs[1].start - 9  # the first episode header's record
-    end = data.rfind(b"\x0f", 0, len(data))  # the data end record
-    summary_free = data[:begin] + make_chunk(data[begin:_data_end(path, data)])
-    out.write_bytes(summary_free + data[_data_end(path, data):])
+    end = _data_end(path, data)  # the data end record
+    footer = struct.pack("<BQQQI", 2, 20, 0, 0, 0) + data[-8:]
+    out.write_bytes(data[:begin] + make_chunk(data[begin:end]) + data[end:end + 13] + footer)
     assert end > begin
     return out
 
@@ -219,10 +226,15 @@ def test_a_decompression_bomb_is_refused(tmp_path):
         read_columns(bomb)
     cols = read_columns(bomb, salvage=True)
     assert cols.n == 0 and "a chunk would decompress" in cols.warnings[0]
-    liar = _rechunk(path, tmp_path / "liar.mcap",
-                    lambda inner: _chunk_record(b"\0" * (50 << 20), 1000))
+    liar = _rechunk(path, tmp_path / "liar.mcap", lambda inner: _chunk_record(
+        b"", 1000, data=lz4.frame.compress(b"\0" * (50 << 20), store_size=False)))
     with pytest.raises(InputError, match="a chunk decompresses to 1001 bytes, not the 1000"):
         read_columns(liar)
+    sized = _rechunk(path, tmp_path / "sized.mcap",
+                     lambda inner: _chunk_record(b"\0" * (50 << 20), 1000))
+    with pytest.raises(InputError, match="a chunk declares 1000 bytes but its lz4 frame "
+                                         "52428800: refused before decompressing"):
+        read_columns(sized)
     odd = _rechunk(path, tmp_path / "odd.mcap",
                    lambda inner: _chunk_record(inner, len(inner), "brotli", data=inner))
     with pytest.raises(InputError, match="a chunk uses the unknown compression 'brotli'"):

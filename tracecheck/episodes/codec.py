@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import struct
 import zlib
-from typing import Any, Mapping, Optional, Sequence
+from typing import Any, Mapping, NamedTuple, Optional, Sequence
 
 import numpy as np
 import orjson
@@ -24,11 +24,12 @@ from ..b.values import Elem, FuncValue, format_value
 from ..b.columns import Columns
 from ..errors import InputError, TracecheckError
 from ..identity import ByIdentity
+from .frames import unzstd
 from .model import END_REASONS
 
 __all__ = ["encode_state", "decode_state", "encode_columns", "decode_columns",
-           "encode_run_columns", "parameter_arrays", "COLUMNS_MEDIA_TYPE",
-           "RUN_COLUMNS_MEDIA_TYPE"]
+           "unpack_columns", "arrays_of", "Packed", "encode_run_columns", "parameter_arrays",
+           "COLUMNS_MEDIA_TYPE", "RUN_COLUMNS_MEDIA_TYPE"]
 
 COLUMNS_MEDIA_TYPE = "application/x-tracecheck-columns"
 #: every episode of a file in one blob, written when the file is closed
@@ -106,12 +107,14 @@ def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optio
                    seed: Optional[int] = None, checksums: Optional[dict] = None, *,
                    parameters: Optional[Sequence[Optional[Mapping[str, float]]]] = None,
                    proposals: Optional[Sequence[Optional[Mapping[str, float]]]] = None,
-                   distances: Optional[Sequence[Optional[float]]] = None) -> bytes:
+                   distances: Optional[Sequence[Optional[float]]] = None,
+                   reason: Optional[str] = None) -> bytes:
     """One episode's steps as a binary columns blob (``values``: the agent's action values
     per step, when recorded; ``checksums``: CRC-32s of the episode's messages and the run
     header, so that readers find a changed byte anywhere in the episode; ``parameters``,
     ``proposals``, ``distances``: a continuous action's values, the agent's proposal and
-    how far the shield moved it, per step — see :func:`parameter_arrays`)."""
+    how far the shield moved it, per step — see :func:`parameter_arrays`; ``reason``: why
+    it ended, as its end record says, so that a run blob's is checked against it)."""
     index = {a: i for i, a in enumerate(action_names)}
     arrays: dict[str, np.ndarray] = {
         "time": np.asarray(times, dtype=np.float64),
@@ -130,6 +133,7 @@ def encode_columns(episode: int, times: Sequence[float], actions: Sequence[Optio
     arrays.update(parameter_arrays(len(times), parameters, proposals, distances))
     kinds, literals = _state_arrays(cols, arrays)
     header: dict[str, Any] = {"episode": episode, "seed": seed, **(checksums or {}),
+                              **({"reason": reason} if reason is not None else {}),
                               "elements": [str(e) for e in cols.elements],
                               "actions": list(action_names), "kinds": kinds,
                               "literals": literals}
@@ -260,8 +264,25 @@ def _dictionary(values: Sequence[Any]) -> tuple[np.ndarray, list[str]]:
 _SAFE_DTYPES = {d: np.dtype(d) for d in ("<f8", "<i8", "<i2", "|b1", "<u4")}
 
 
+class Packed(NamedTuple):
+    """A columns blob opened (:func:`unpack_columns`): its JSON header, and the bytes that
+    hold its arrays — ``data[base:end]``, each at its spec's offset from ``base``."""
+
+    header: dict
+    data: bytes
+    base: int
+    end: int
+
+
 def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.ndarray]]:
     """The header and arrays of a columns blob."""
+    packed = unpack_columns(blob, where=where)
+    return packed.header, arrays_of(packed, where=where)
+
+
+def unpack_columns(blob: bytes, *, where: str = "") -> Packed:
+    """A columns blob with its checksum checked and its arrays decompressed, not yet read
+    (:func:`arrays_of` reads and checks them)."""
     try:
         end = len(blob)
         if blob[:4] in (_MAGIC, _PLAIN_MAGIC):
@@ -277,7 +298,18 @@ def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.
             end = len(blob)
         (size,) = struct.unpack_from("<I", blob, at)
         header = orjson.loads(blob[at + 4:at + 4 + size])
-        base = at + 4 + size
+        if not isinstance(header, dict):
+            raise ValueError("its header is not a table")
+        return Packed(header, blob, at + 4 + size, end)
+    except (ValueError, struct.error, orjson.JSONDecodeError) as exc:
+        raise InputError(f"{where}damaged columns attachment: {exc}") from None
+
+
+def arrays_of(packed: Packed, *, where: str = "") -> dict[str, np.ndarray]:
+    """The arrays of an opened columns blob, by name: each of a dtype tracecheck writes, of
+    at most two dimensions, inside the blob (views of its bytes, not copies)."""
+    header, blob, base, end = packed
+    try:
         arrays = {}
         for spec in header["arrays"]:
             dtype, shape, offset = _SAFE_DTYPES.get(spec["dtype"]), spec["shape"], spec["offset"]
@@ -293,29 +325,21 @@ def decode_columns(blob: bytes, *, where: str = "") -> tuple[dict, dict[str, np.
             arrays[spec["name"]] = np.frombuffer(
                 blob, dtype=dtype, count=count, offset=base + spec["offset"]
             ).reshape(spec["shape"])
-        return header, arrays
-    except (ValueError, KeyError, TypeError, struct.error, orjson.JSONDecodeError) as exc:
+        return arrays
+    except (ValueError, KeyError, TypeError) as exc:
         raise InputError(f"{where}damaged columns attachment: {exc}") from None
 
 
 def _unpacked(blob: bytes, end: int) -> bytes:
     """What a compressed blob holds between its size and its CRC, decompressed: exactly as
-    many bytes as it declares, and not too many for its compressed size."""
-    import zstandard
-
+    many bytes as it declares, not too many for its compressed size, and only where its zstd
+    frame declares the same (see :mod:`tracecheck.episodes.frames`)."""
     (size,) = struct.unpack_from("<Q", blob, 4)
     limit = _MAX_RATIO * (end - 12) + (1 << 20)
     if size > limit:
         raise ValueError(f"it would decompress to {size} bytes from {end - 12} (more than "
                          f"tracecheck's limit of {limit} bytes for it)")
-    try:
-        data = zstandard.ZstdDecompressor().decompress(bytes(blob[12:end]),
-                                                       max_output_size=max(size, 1))
-    except zstandard.ZstdError as exc:
-        raise ValueError(f"it does not decompress: {exc}") from None
-    if len(data) != size:
-        raise ValueError(f"it decompresses to {len(data)} bytes, not the {size} it declares")
-    return data
+    return unzstd(bytes(blob[12:end]), size, "it")
 
 
 def columns_from_arrays(header: dict, arrays: dict[str, np.ndarray],

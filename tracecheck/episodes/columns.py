@@ -15,7 +15,7 @@ import numpy as np
 from ..b.columns import Columns
 from ..b.values import Elem
 from ..errors import InputError
-from .blobs import BLOCK_ROWS, blob_records, verified_block
+from .blobs import BLOCK_ROWS, BlobDisagrees, blob_records, verified_block
 from .codec import columns_from_arrays, parameter_arrays
 from ..errors import DamagedEpisode
 from .reader import read_pieces
@@ -96,7 +96,8 @@ def block_refs(path: str | Path) -> list[BlockRef]:
     """The blocks of the file's run blobs (none: it has none that fit, it is read whole):
     the units of work of the Ray executor (see :func:`read_blocks`)."""
     with mapped(Path(path)) as buf:
-        runs = blob_records(buf) or []
+        index = blob_records(buf)
+    runs = index.runs if index is not None else []
     return [BlockRef(k, len(runs), o, s) for k, (o, s) in enumerate(runs)]
 
 
@@ -116,8 +117,10 @@ def read_blocks(path: str | Path, *, salvage: bool = False, block: Optional[Bloc
     """
     path = Path(path)
     done = 0  # episodes given from blobs
+    notes: list[str] = []  # why a blob that checks was not used
     with mapped(path) as buf:
-        runs = [] if regions else blob_records(buf) or []
+        index = None if regions else blob_records(buf)
+        runs = index.runs if index is not None else []
         forget(buf)  # the summary's pages too
         view = memoryview(buf)
         try:
@@ -125,8 +128,7 @@ def read_blocks(path: str | Path, *, salvage: bool = False, block: Optional[Bloc
                                      and runs[block.index] == (block.offset, block.size))
             wanted = range(len(runs)) if block is None else [block.index] if same else []
             for k in wanted:
-                found = verified_block(buf, view, runs, k)
-                cols = None if found is None else _block_columns(path, *found)
+                cols = _from_blob(path, buf, view, index, k, notes)
                 forget(buf)  # the pages of the block just read leave this process
                 if cols is None:
                     break
@@ -140,17 +142,35 @@ def read_blocks(path: str | Path, *, salvage: bool = False, block: Optional[Bloc
     if block is not None:
         raise BlockUnchecked(f"{path}: block {block.index} of its episodes does not check "
                              "(damaged, or the file changed while it was read)")
-    yield from _walked(path, salvage, done, regions)
+    yield from _walked(path, salvage, done, regions, notes)
 
 
-def _walked(path: Path, salvage: bool, skip: int, regions=None) -> Iterator[RunColumns]:
+def _from_blob(path: Path, buf, view, index, k: int, notes: list[str]
+               ) -> Optional[RunColumns]:
+    """Block ``k`` of the file from its run blob, or None where the blob does not check —
+    or checks but holds otherwise than its episodes' own columns (then ``notes`` says so:
+    the blob was edited, or written otherwise than this tracecheck writes blobs)."""
+    try:
+        found = verified_block(buf, view, index, k)
+    except BlobDisagrees as exc:
+        notes.append(f"{path}: the run blob of block {k} holds otherwise than its episodes' "
+                     f"own columns ({exc}); they were read one by one instead, as render and "
+                     "export read them — the blob was edited after the file was written, or "
+                     "written otherwise than this tracecheck writes blobs")
+        return None
+    return None if found is None else _block_columns(path, *found)
+
+
+def _walked(path: Path, salvage: bool, skip: int, regions=None,
+            notes: Optional[list[str]] = None) -> Iterator[RunColumns]:
     """The file's episodes walked record by record (the first ``skip`` left out: they came
-    from blobs), in blocks of about :data:`BLOCK_ROWS` states."""
+    from blobs), in blocks of about :data:`BLOCK_ROWS` states; ``notes``: warnings the first
+    block carries."""
     pieces = read_pieces(path, decode=False, salvage=salvage, regions=regions)
     group: list = []
     rows = 0
     given = False
-    notes: list[str] = []
+    notes = list(notes or [])
     while True:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", DamagedEpisode)

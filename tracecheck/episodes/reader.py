@@ -29,7 +29,9 @@ from ..errors import DamagedEpisode, InputError, SalvagedEpisodeWarning, Tracech
 from . import schema
 from .codec import COLUMNS_MEDIA_TYPE, decode_columns, decode_state
 from .model import Episode, EpisodeEnd, StepRecord
-from .records import Attachment, BadChunk, Channel, Damage, MessageRef, Schema, mapped, walk
+from .listing import CUT_HINT, Holdings
+from .records import (Attachment, BadChunk, Channel, Damage, DataEnd, MessageRef, Schema,
+                      mapped, walk)
 
 __all__ = ["read_run", "find_episode", "read_episodes", "read_header", "Run", "read_pieces", "Piece"]
 
@@ -278,6 +280,14 @@ class _Assembler:
             return None
         return piece
 
+    def cut(self, why: Optional[str]) -> None:
+        """The file's summary or run blobs say episodes are missing (see :mod:`.listing`)."""
+        if why is not None and not self.salvage:
+            raise InputError(f"{self.path}: {why}", hint=CUT_HINT)
+        if why is not None:
+            warnings.warn(f"{self.path}: {why}; only the episodes it holds are read",
+                          SalvagedEpisodeWarning, stacklevel=4)
+
     def lost(self, why: str) -> str:
         partial = ""
         if self.current is not None and self.broken is None:
@@ -313,6 +323,9 @@ def _agree(piece: Piece, decoded: bool) -> None:
     if header.get("seed") != head.seed:
         raise _BadEpisode(f"the columns say seed {header.get('seed')!r}, the episode header "
                           f"{head.seed!r}")
+    if header.get("reason", end.reason) != end.reason:  # files before it have none
+        raise _BadEpisode(f"the columns say it ended by {header.get('reason')!r}, the end "
+                          f"record by {end.reason!r}")
     names = header["actions"]
     crashed = bool(arrays["crashed"][-1])
     if decoded:
@@ -506,6 +519,7 @@ def read_pieces(path: str | Path, only: Optional[set[int]] = None, *, decode: bo
 
 def _pieces(path: Path, buf, view, asm: "_Assembler", regions=None) -> Iterator[Piece]:
     steps = -1  # the channel of step messages, once known
+    held, data_end = Holdings(), None  # what the walk met, for the summary (whole files)
     for record in walk(path, buf, regions):
         if type(record) is MessageRef:
             piece = asm.current
@@ -527,6 +541,10 @@ def _pieces(path: Path, buf, view, asm: "_Assembler", regions=None) -> Iterator[
         elif isinstance(record, BadChunk):
             asm.damaged_chunk(record.why)
             continue
+        elif isinstance(record, Attachment):
+            held.met(record)
+        elif type(record) is DataEnd:
+            data_end = record.at
         piece = asm.feed(record)
         if steps < 0 and isinstance(record, Channel):
             steps = next((k for k, v in asm.channels.items() if v == "tracecheck.Step"), -1)
@@ -540,6 +558,8 @@ def _pieces(path: Path, buf, view, asm: "_Assembler", regions=None) -> Iterator[
     if asm.header is None:
         raise InputError(f"{path} is an MCAP file but not a tracecheck run (no "
                          "/tracecheck/run header)")
+    if regions is None:
+        asm.cut(held.problem(buf, data_end))
 
 
 def read_episodes(path: str | Path, only: Optional[set[int]] = None, *,

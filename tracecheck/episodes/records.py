@@ -5,14 +5,17 @@ checks every length against what is left before reading it, so a truncated or da
 ends in a :class:`Damage` that says where, never in an exception from deep inside a parser.
 Only the few record kinds tracecheck reads are parsed (schemas, channels, messages,
 attachments, chunks); message bodies are handed on as offsets, so a reader that skips most
-messages pays for none of them. Chunks (tracecheck writes none, but other MCAP tools may
-rewrite a file with them) are decompressed with a limit on the decompression ratio and size.
+messages pays for none of them. Chunks (tracecheck writes one per episode; other MCAP tools may
+chunk a file otherwise) are decompressed with a limit on the decompression ratio and size,
+checked — with the size the chunk's frame itself declares — before anything is decompressed
+(:mod:`tracecheck.episodes.frames`).
 """
 
 from __future__ import annotations
 
 import mmap
 import struct
+from array import array
 from contextlib import contextmanager
 import zlib
 from dataclasses import dataclass
@@ -20,10 +23,12 @@ from pathlib import Path
 from typing import Any, Iterator, NamedTuple, Optional, Union
 
 from ..errors import InputError
+from .frames import unlz4, unzstd
 
-__all__ = ["forget", "walk", "Damage", "BadChunk", "Schema", "Channel", "Attachment", "MessageRef", "MESSAGE", "MAGIC",
-           "MAX_CHUNK_RATIO", "MAX_CHUNK_BYTES", "mapped", "indexed_attachments",
-           "attachment_at"]
+__all__ = ["forget", "walk", "Damage", "BadChunk", "Schema", "Channel", "Attachment",
+           "MessageRef", "DataEnd", "MESSAGE", "MAGIC", "MAX_CHUNK_RATIO", "MAX_CHUNK_BYTES",
+           "mapped", "indexed_attachments", "summary_listing", "attachment_at",
+           "attachment_name"]
 
 MAGIC = b"\x89MCAP0\r\n"
 HEADER, FOOTER, SCHEMA, CHANNEL, MESSAGE, CHUNK, ATTACHMENT, DATA_END = 1, 2, 3, 4, 5, 6, 9, 15
@@ -38,6 +43,8 @@ _U16 = struct.Struct("<H")
 _U32 = struct.Struct("<I")
 _U64 = struct.Struct("<Q")
 _CHUNK = struct.Struct("<QQQI")
+#: the package that decompresses each compression of chunks
+_PACKAGES = {"zstd": "zstandard", "lz4": "lz4"}
 
 
 @dataclass(frozen=True)
@@ -74,6 +81,14 @@ class Attachment:
     name: str
     media_type: str
     data: bytes
+    at: int = -1  # where its record starts in the file (-1: inside a chunk)
+
+
+@dataclass(frozen=True)
+class DataEnd:
+    """The end of the data section: the summary, where the file has one, starts ``at``."""
+
+    at: int
 
 
 class MessageRef(NamedTuple):
@@ -85,7 +100,7 @@ class MessageRef(NamedTuple):
     end: int
 
 
-Record = Union[Schema, Channel, Attachment, MessageRef, Damage, BadChunk]
+Record = Union[Schema, Channel, Attachment, MessageRef, Damage, BadChunk, DataEnd]
 _new_ref = tuple.__new__  # a MessageRef without its Python-level __new__ (the hot loop)
 
 
@@ -204,7 +219,7 @@ def _records(buf, at: int, end: int, top: bool) -> Iterator[Record]:
                 f.take(16)
                 name, media = f.string(), f.string()
                 data = f.blob(f.u64())
-                yield Attachment(name, media, data)
+                yield Attachment(name, media, data, start - 9 if top else -1)
             elif op == CHUNK:
                 try:
                     inner = _chunk(_Fields(buf, start, stop))
@@ -218,6 +233,8 @@ def _records(buf, at: int, end: int, top: bool) -> Iterator[Record]:
                     if isinstance(record, Damage):
                         return
             elif op in (DATA_END, FOOTER) and top:
+                if op == DATA_END:
+                    yield DataEnd(stop)
                 return
         except _BadRecord as exc:
             yield Damage(f"the record at byte {start - 9}: {exc}")
@@ -233,30 +250,21 @@ def _chunk(f: _Fields) -> bytes:
     if size > limit:
         raise _BadRecord(f"a chunk would decompress to {size} bytes from {len(data)} (more than "
                          f"tracecheck's limit of {limit} bytes for it)")
-    if compression == "":
-        out = bytes(data)
-    elif compression == "zstd":
-        try:
-            import zstandard
-        except ImportError:
-            raise _BadRecord("a chunk is zstd-compressed and the zstandard package is not "
-                             "installed (pip install zstandard)") from None
-        try:
-            out = zstandard.ZstdDecompressor().decompress(bytes(data), max_output_size=size)
-        except zstandard.ZstdError as exc:
-            raise _BadRecord(f"a zstd chunk does not decompress: {exc}") from None
-    elif compression == "lz4":
-        try:
-            import lz4.frame
-        except ImportError:
-            raise _BadRecord("a chunk is lz4-compressed and the lz4 package is not installed "
-                             "(pip install lz4)") from None
-        try:
-            out = _lz4(lz4.frame, bytes(data), size)
-        except RuntimeError as exc:
-            raise _BadRecord(f"an lz4 chunk does not decompress: {exc}") from None
-    else:
-        raise _BadRecord(f"a chunk uses the unknown compression {compression!r}")
+    try:
+        if compression == "":
+            out = bytes(data)
+        elif compression == "zstd":
+            out = unzstd(bytes(data), size, "a chunk")
+        elif compression == "lz4":
+            out = unlz4(bytes(data), size, "a chunk")
+        else:
+            raise _BadRecord(f"a chunk uses the unknown compression {compression!r}")
+    except ImportError:
+        raise _BadRecord(f"a chunk is {compression}-compressed and the {_PACKAGES[compression]} "
+                         f"package is not installed (pip install {_PACKAGES[compression]})"
+                         ) from None
+    except ValueError as exc:
+        raise _BadRecord(str(exc)) from None
     if len(out) != size:
         raise _BadRecord(f"a chunk decompresses to {len(out)} bytes, not the {size} it declares")
     if crc and zlib.crc32(out) != crc:
@@ -264,24 +272,18 @@ def _chunk(f: _Fields) -> bytes:
     return out
 
 
-def _lz4(frame, data: bytes, size: int) -> bytes:
-    """Decompress at most ``size + 1`` bytes (more means the chunk lied about its size)."""
-    d = frame.LZ4FrameDecompressor()
-    out = d.decompress(data, max_length=size + 1)
-    return out
-
-
 _FOOTER = struct.Struct("<BQQQI")
 ATTACHMENT_INDEX = 10
 
 
-def indexed_attachments(buf, media_type: str
-                        ) -> Optional[tuple[list[tuple[int, int]], int]]:
+def indexed_attachments(buf, media_type: str, also: str = ""
+                        ) -> Optional[tuple[list[tuple[int, int]], int, array]]:
     """From the file's summary: (offset, size) of each attachment record of ``media_type``,
-    in the order of the file, and the greatest offset of any other attachment (-1: none); or
-    None — where the file has no footer or summary, or anything in them does not fit (a
-    reader then walks the records instead). Nothing is kept per other attachment: a campaign
-    has 10^5 of them."""
+    in the order of the file, the greatest offset of any other attachment (-1: none), and
+    the offset and size of each attachment of the media type ``also``, one after the other
+    (as listed: 16 bytes each, not objects — a campaign has 10^5 of them); or None — where
+    the file has no footer or summary, or anything in them does not fit (a reader then walks
+    the records instead)."""
     end = len(buf) - 8
     if end < 8 + _FOOTER.size or bytes(buf[end:]) != MAGIC:
         return None
@@ -289,8 +291,8 @@ def indexed_attachments(buf, media_type: str
     footer = end - _FOOTER.size
     if op != FOOTER or length != 20 or not 8 <= summary_start <= footer:
         return None
-    found, other = [], -1
-    wanted = media_type.encode()
+    found, other, more = [], -1, array("q")
+    wanted, also = media_type.encode(), also.encode()
     unpack = _REC.unpack_from
     try:
         at, stop_at = _group(buf, summary_start, offsets_start, footer, ATTACHMENT_INDEX)
@@ -311,14 +313,48 @@ def indexed_attachments(buf, media_type: str
                 n = f.u32()
                 if offset < 8 or offset + size > summary_start:
                     return None
-                if buf[f.take(n):f.at] == wanted:
+                media = buf[f.take(n):f.at]
+                if media == wanted:
                     found.append((offset, size))
                 else:
                     other = max(other, offset)
+                    if media == also:
+                        more += array("q", (offset, size))
             at = stop
     except (_BadRecord, struct.error):
         return None
-    return sorted(found), other
+    return sorted(found), other, more
+
+
+def summary_listing(buf, data_end: int) -> Optional[tuple[int, list[tuple[int, str, str]]]]:
+    """Where the file's footer says its summary starts, and (offset, name, media type) of
+    each attachment the summary lists, in the order of offsets — the summary read from
+    ``data_end``, where the data section ends (a summary always starts there: a footer that
+    says otherwise is itself a sign that bytes were cut out or put in). None where there is
+    no summary to read: no footer (a killed recording), a footer naming none, or records
+    there that do not read."""
+    end = len(buf) - 8
+    if end < data_end + _FOOTER.size or bytes(buf[end:]) != MAGIC:
+        return None
+    footer = end - _FOOTER.size
+    op, length, summary_start, _, _ = _FOOTER.unpack_from(buf, footer)
+    if op != FOOTER or length != 20 or not summary_start:
+        return None
+    listed, at = [], data_end
+    try:
+        while at < footer:
+            op, length = _REC.unpack_from(buf, at)
+            start, at = at + 9, at + 9 + length
+            if at > footer:
+                return None
+            if op == ATTACHMENT_INDEX:
+                f = _Fields(buf, start, at)
+                offset = f.u64()
+                f.take(32)  # its length, log and create time, data size
+                listed.append((offset, f.string(), f.string()))
+    except (_BadRecord, struct.error):
+        return None
+    return summary_start, sorted(listed)
 
 
 #: a scan of the summary lets the pages it read go every this many bytes
@@ -354,15 +390,31 @@ def forget(buf) -> None:
 def attachment_at(buf, offset: int, size: int, media_type: str) -> Optional[bytes]:
     """The data of the attachment record at ``offset`` (``size`` bytes long, as the summary
     lists it), or None where no such record of ``media_type`` lies there."""
+    end = offset + size  # each field read only within the record (a reader checks 10^5)
     try:
         op, length = _REC.unpack_from(buf, offset)
-        if op != ATTACHMENT or 9 + length != size:
+        if op != ATTACHMENT or 9 + length != size or end > len(buf):
             return None
-        f = _Fields(buf, offset + 9, offset + size)
-        f.take(16)
-        f.string()
-        if f.string() != media_type:
+        at = offset + 9 + 16  # past its log and create time
+        at += 4 + _U32.unpack_from(buf, at)[0]  # its name
+        n = _U32.unpack_from(buf, at)[0] if at + 4 <= end else -1
+        if not 0 <= n <= end - at - 12 or buf[at + 4:at + 4 + n] != media_type.encode():
             return None
-        return f.blob(f.u64())
-    except (_BadRecord, struct.error):
+        at += 4 + n
+        n = _U64.unpack_from(buf, at)[0]
+        return buf[at + 8:at + 8 + n] if n <= end - at - 8 else None
+    except struct.error:
         return None
+
+
+def attachment_name(buf, offset: int) -> str:
+    """The name of the attachment record at ``offset`` ("?" where none reads there)."""
+    try:
+        op, length = _REC.unpack_from(buf, offset)
+        if op != ATTACHMENT or offset + 9 + length > len(buf):
+            return "?"
+        f = _Fields(buf, offset + 9, offset + 9 + length)
+        f.take(16)
+        return f.string()
+    except (_BadRecord, struct.error):
+        return "?"

@@ -298,7 +298,8 @@ class EpisodeWriter:
                                                        "run_crc": self._run_crc},
                               parameters=[s.parameters for s in ep.steps],
                               proposals=[s.proposal for s in ep.steps],
-                              distances=[s.projection_distance for s in ep.steps])
+                              distances=[s.projection_distance for s in ep.steps],
+                              reason=ep.end.reason)
         t = self._clock_ns + int(round(last * _NS))
         self._writer.add_attachment(create_time=t, log_time=t,
                                     name=f"episode-{ep.id}.columns",
