@@ -418,6 +418,27 @@ END''')
     assert code == 0 and "(none: deadlock)" in out and "ACCELERATE: a ∈ ∅" in out
 
 
+def test_guards_says_undecided_where_no_float_of_an_allowed_set_passes(tmp_path, capsys):
+    """Over the reals a ∈ (0.5, 1.0]; in floats a + 1.0E300 - 1.0E300 is 0.0 for every such
+    a: not "nothing allowed" (a deadlock) but undecided, exit 3."""
+    model = tmp_path / "round.mch"
+    model.write_text("""MACHINE Round
+VARIABLES x
+INVARIANT x : REAL
+INITIALISATION x := 0.0
+OPERATIONS
+  PUSH(a) = PRE a : REAL & a >= 0.0 & a <= 1.0 & a + 1.0E300 - 1.0E300 > 0.5 THEN skip END;
+  IDLE = skip
+END""")
+    state = tmp_path / "s.json"
+    state.write_text('{"x": 0.0}')
+    code, out, _ = run(capsys, "guards", model, "--state", state)
+    assert code == 3 and "enabled: IDLE" in out and "deadlock" not in out
+    assert "undecided: PUSH (undecided: the guard allows values over the reals" in out
+    code, out, _ = run(capsys, "guards", model, "--state", state, "--json")
+    assert code == 3 and list(json.loads(out)["undecided"]) == ["PUSH"]
+
+
 def test_timeout_bounds_the_evaluation_itself(capsys):
     """10^8 pairs, each set within the size limit: --timeout stopped only the solver."""
     import time

@@ -326,8 +326,9 @@ def guards(
     values = read_state_file(state)
     machine.check_state(values, where=str(state))
     missing = [v for v in machine.variables if v not in values]
+    undecided: dict[str, str] = {}  # operations whose guard it cannot decide here: why
     try:
-        enabled = machine.enabled(values)
+        enabled = _enabled(machine, values, undecided)
     except EvaluationError as exc:
         name = next((v for v in missing if exc.message == f"{v} has no value here"), None)
         if name is None:
@@ -336,30 +337,52 @@ def guards(
                          f"that a guard reads ({exc.location})", file=str(state),
                          hint=f'add "{name}": … to the state file') from None
     ordered = [op for op in machine.operations if op in enabled]
-    blocked = [op for op in machine.operations if op not in enabled]
+    blocked = [op for op in machine.operations if op not in enabled and op not in undecided]
     allowed = _allowed_sets(machine, values)
     broken, unchecked = machine.invariant_check(values)
     warn(_state_warnings(machine, str(state), missing, broken, unchecked))
     if fmt == OutputFormat.json:
         print_json({"machine": machine.name, "enabled": ordered, "disabled": blocked,
+                    "undecided": undecided,
                     "allowed": {op: _allowed_json(a) for op, a in allowed.items()},
                     "missing_variables": missing,
                     "invariant_holds": False if broken else None if unchecked else True,
                     "invariant_violations": broken,
                     "invariant_unchecked": [{"conjunct": c, "reason": why}
                                             for c, why in unchecked]})
-        return
-    if fmt != OutputFormat.text:
+    elif fmt != OutputFormat.text:
         extra = ["allowed"] if allowed else []  # a column only for REAL parameters
         print_table(fmt, TableData.of(["operation", "enabled", *extra],
-                                      ([op, "yes" if op in enabled else "no",
+                                      ([op, "yes" if op in enabled else
+                                        "undecided" if op in undecided else "no",
                                         *([str(allowed.get(op, ""))] if allowed else [])]
                                        for op in machine.operations)))
-        return
-    say(f"enabled: {', '.join(ordered) or '(none: deadlock)'}")
-    say(f"disabled: {', '.join(blocked) or '(none)'}")
-    for op, a in allowed.items():
-        say(f"{op}: {a}{_solver_text(_solver_witness(a))}")
+    else:
+        none = "(none: deadlock)" if not undecided else "(none)"
+        say(f"enabled: {', '.join(ordered) or none}")
+        say(f"disabled: {', '.join(blocked) or '(none)'}")
+        for op, why in undecided.items():
+            say(f"undecided: {op} ({why})")
+        for op, a in allowed.items():
+            say(f"{op}: {a}{_solver_text(_solver_witness(a))}")
+    if undecided:  # the answer is not complete: "cannot tell" is no "disabled"
+        raise typer.Exit(3)
+
+
+def _enabled(machine, values, undecided: dict) -> set:
+    """The operations enabled in ``values``; one whose guard tracecheck cannot decide there
+    (an allowed set no float of which it could confirm) goes to ``undecided`` with why."""
+    try:
+        return machine.enabled(values)
+    except UnsupportedError:
+        found = set()
+        for op in machine.operations:
+            try:
+                if machine.is_enabled(op, values):
+                    found.add(op)
+            except UnsupportedError as exc:
+                undecided[op] = exc.message
+        return found
 
 
 def _solver_witness(allowed) -> Optional[dict]:
