@@ -81,7 +81,8 @@ class Columns:
                 isinstance(v, FuncValue) and all(key in index and type(x) in (int, float)
                                                  for key, x in v.map.items())
                 for v in values):
-            vals = np.zeros((self.n, k))
+            integers = not any(type(x) is float for v in values for x in v.map.values())
+            vals = np.zeros((self.n, k), dtype=np.int64 if integers else float)  # 3 / 2 is 1
             defined = np.zeros((self.n, k), dtype=bool)
             for row, v in enumerate(values):
                 for key, x in v.map.items():
@@ -150,8 +151,8 @@ class Columns:
         for name, arr in self.booleans.items():
             state[name] = bool(arr[i])
         for name, (vals, defined) in self.functions.items():
-            state[name] = FuncValue({e: float(vals[i, j]) for j, e in enumerate(self.elements)
-                                     if defined[i, j]})
+            state[name] = FuncValue({e: vals[i, j].item() for j, e in enumerate(self.elements)
+                                     if defined[i, j]})  # an int stays an int
         for name, mask in self.masks.items():
             state[name] = frozenset(e for j, e in enumerate(self.elements) if mask[i, j])
         for name, values in self.others.items():

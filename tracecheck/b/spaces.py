@@ -167,6 +167,9 @@ class SeqSet(SymbolicSet):
         if self.finiteness() is not True:
             return SymbolicSet.card(self)
         n = cardinality(self.base)
+        if math.lgamma(n + 1) / math.log(2) > CARD_BITS:  # n! (and e·n! for iseq) bits
+            raise SetLimitError(f"card({self.name}) has more than {CARD_BITS:,} bits: too "
+                                "large to compute")
         if self.kind == "perm":
             return math.factorial(n)
         counts = [math.perm(n, k) for k in range(n + 1)]  # injective sequences of length k

@@ -522,6 +522,14 @@ _STRING_ESCAPES = str.maketrans({"\\": "\\\\", '"': '\\"', "\n": "\\n", "\t": "\
                                  "\r": "\\r"})
 
 
+def _countable(value: SymbolicSet) -> float:
+    """A finite set's card, infinite where it is too large to count (it is then named)."""
+    try:
+        return value.card()
+    except SetLimitError:
+        return math.inf
+
+
 def format_value(value: Any, *, ascii: bool = False) -> str:
     """Write ``value`` in ProB's notation: ``{(EgoVehicle↦150.36),(Vehicles2↦21.9)}``."""
     maplet = "|->" if ascii else "↦"
@@ -549,7 +557,7 @@ def format_value(value: Any, *, ascii: bool = False) -> str:
         return "rec(" + ",".join(f"{name_text(n)}:{format_value(v, ascii=ascii)}"
                                  for n, v in value.fields) + ")"
     if isinstance(value, SymbolicSet):
-        if value.finiteness() is True and value.card() <= _PRINT_LIMIT:
+        if value.finiteness() is True and _countable(value) <= _PRINT_LIMIT:
             return format_value(value.materialise(), ascii=ascii)
         return value.name
     if isinstance(value, frozenset):

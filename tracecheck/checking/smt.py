@@ -527,6 +527,8 @@ class Translator:
             out = self.translate(node.else_, env)
         finally:
             del self.path[len(self.path) - len(conds):]
+        if not all(z3.is_expr(v) or type(v) in (bool, int) for v in (*values, out)):
+            raise self.fail(node, "an IF-THEN-ELSE whose values are sets")  # z3.If takes terms
         for c, v in zip(reversed(conds), reversed(values)):
             out = z3.If(c, v, out)
         return out
