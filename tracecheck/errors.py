@@ -14,6 +14,7 @@ __all__ = [
     "BScopeError",
     "WellDefinednessError",
     "EvaluationError",
+    "TimeLimitError",
     "SetLimitError",
     "UnsupportedError",
     "ModelError",
@@ -124,6 +125,13 @@ class EvaluationError(TracecheckError):
 
 class SetLimitError(EvaluationError):
     """A finite set too large to build or walk element by element."""
+
+
+class TimeLimitError(EvaluationError):
+    """tracecheck's own evaluation ran past a time limit (``--timeout``, ``--step-timeout``):
+    it could not tell, which says nothing of the value — unknown, exit 3."""
+
+    exit_code = 3
 
 
 class UnsupportedError(TracecheckError):

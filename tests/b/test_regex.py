@@ -132,3 +132,9 @@ def test_a_few_repetitions_on_ordinary_strings_still_match(capsys):
     assert (code, out.strip()) == (0, "TRUE")
     code, out, _ = run(capsys, "eval", 'REGEX_MATCH("' + "a" * 400 + '", "a{400}")')
     assert (code, out.strip()) == (0, "TRUE")  # a fixed count is no choice to backtrack
+
+
+def test_a_fixed_count_is_no_repetition_to_backtrack(capsys):
+    code, out, err = run(capsys, "eval", 'REGEX_MATCH("' + "1" * 1000 + '", '
+                                         '"[0-9]{4}-[0-9]{2}-[0-9]{2}")')
+    assert (code, out.strip()) == (0, "FALSE"), err

@@ -446,6 +446,6 @@ def test_timeout_bounds_the_evaluation_itself(capsys):
     start = time.monotonic()
     code, out, err = run(capsys, "eval", "--timeout", "1",
                          "card({x, y | x : 1..10000 & y : 1..10000 & x + y = 3}) = 2")
-    assert code == 2 and out == ""
+    assert code == 3 and out == ""  # unknown: it could not tell
     assert "--timeout: tracecheck's evaluation took longer than 1 s" in err
     assert time.monotonic() - start < 5

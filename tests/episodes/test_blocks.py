@@ -258,3 +258,23 @@ def test_packed_indexes_refuse_a_writer_that_keeps_them_elsewhere():
 
     assert W.pack_indexes(Other()) is False
     assert Other._Writer__chunk_indices == ["an index already"]
+
+
+def test_an_integer_function_stays_integer_across_episodes_of_other_elements(tmp_path):
+    """Episodes with different elements are widened to one element axis: that made an
+    integer function a float column again (F(a) / 2 divided reals on replay)."""
+    from tracecheck.b.values import Elem, FuncValue
+    from tracecheck.episodes import new_header, read_columns
+    from tracecheck.episodes.files import write_run
+    from tracecheck.episodes.model import Episode, StepRecord, make_end
+
+    def episode(eid, f):
+        steps = tuple(StepRecord(k, float(k), None if k == 0 else "GO", {"F": f}, 0.0, False)
+                      for k in range(3))
+        return Episode(eid, steps, make_end(steps))
+    a, b = Elem("a"), Elem("b")
+    path = tmp_path / "ints.mcap"
+    write_run(path, new_header("recorded", actions=["GO"]),
+              [episode(0, FuncValue({a: 3})), episode(1, FuncValue({a: 3, b: -3}))])
+    vals, defined = read_columns(path).states.functions["F"]
+    assert vals.dtype == np.int64 and vals[defined].tolist() == [3, 3, 3, 3, -3, 3, -3, 3, -3]

@@ -160,3 +160,20 @@ def test_a_run_blob_bomb_is_not_read_and_the_file_is_walked(tmp_path, monkeypatc
     finally:
         tracemalloc.stop()
     assert cols.episode_ids.tolist() == [0, 1, 2] and not cols.warnings
+
+
+def test_a_streamed_frame_without_its_size_is_read_within_the_records_size():
+    """A streaming writer's frame (Go's mcap CLI, python-zstandard's compressobj) does not
+    say its size and uses its own window (2 MiB at level 3): read, bounded by the size the
+    record declares — not refused as damage."""
+    import zstandard
+
+    from tracecheck.episodes.frames import unzstd
+
+    data = bytes(range(256)) * 2000  # 512 000 bytes
+    co = zstandard.ZstdCompressor(level=3).compressobj()
+    frame = co.compress(data) + co.flush()
+    assert zstandard.frame_content_size(frame) == -1
+    assert unzstd(frame, len(data), "a chunk") == data
+    with pytest.raises(ValueError):
+        unzstd(frame, len(data) - 1, "a chunk")  # more than the record says: refused

@@ -5,7 +5,8 @@ The evaluator's loops that can run long without building anything large — the 
 walks of bound variables (``card({x, y | x : 1..10000 & y : 1..10000 & …})`` is 10^8 pairs
 of sets each within the size limit) and the walks of sets — call :func:`tick`; inside
 :func:`time_limit` it raises :class:`~tracecheck.errors.EvaluationError` once the limit has
-passed (a refusal: the evaluation could not finish, which says nothing of its value).
+passed (:class:`~tracecheck.errors.TimeLimitError`, a refusal: the evaluation could not
+finish, which says nothing of its value; ``eval`` exits 3, unknown).
 Outside any limit a tick costs one counter increment.
 
 >>> import time
@@ -25,7 +26,7 @@ from contextlib import contextmanager
 from contextvars import ContextVar
 from typing import Iterator, Optional
 
-from ..errors import EvaluationError
+from ..errors import EvaluationError, TimeLimitError
 
 __all__ = ["time_limit", "tick"]
 
@@ -64,5 +65,5 @@ def tick() -> None:
         return
     limit = _LIMIT.get()
     if limit is not None and time.monotonic() > limit[0]:
-        raise EvaluationError(f"{limit[2]}: tracecheck's evaluation took longer than "
-                              f"{limit[1]:g} s")
+        raise TimeLimitError(f"{limit[2]}: tracecheck's evaluation took longer than "
+                             f"{limit[1]:g} s")

@@ -100,7 +100,8 @@ def translate(pattern: str, subject: str) -> tuple[str, frozenset]:
             if not atom:
                 raise BadPattern(f"nothing to repeat at {m.group(0)!r}")
             out.append(m.group(0))
-            if m.group(1) is None or m.group(3) != m.group(1):  # not a fixed {n} or {n,n}
+            fixed = m.group(1) is not None and (m.group(2) is None or m.group(3) == m.group(1))
+            if not fixed:  # *, +, ?, {n,}, {n,m}: a choice backtracking may revisit
                 variable += 1
             i = m.end()
             if pattern.startswith("?", i):  # lazy

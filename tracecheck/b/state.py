@@ -95,7 +95,7 @@ def _native(value: Any, name: str, btype: Any, where: str) -> Any:
             _CLEAN.put(value, True)
         return native
     if kind is tuple:
-        if _PLAIN.issuperset(map(type, value)) and _finite(value):
+        if _plain_and_finite(value):
             return value
         items = [_native(v, name, None, where) for v in value]
         return value if all(a is b for a, b in zip(items, value)) else kind(items)
@@ -107,24 +107,36 @@ def _native(value: Any, name: str, btype: Any, where: str) -> Any:
 def _native_set(value: Any, kind: type, name: str, where: str) -> Any:
     """A set or function converted (the same object when nothing in it is numpy)."""
     if kind is FuncValue:
-        if _PLAIN.issuperset(map(type, value.map)) and _PLAIN.issuperset(
-                map(type, value.map.values())) and _finite(value.map.values()) and \
-                _finite(value.map):  # the common case, at C speed
-            return value
+        if _plain_and_finite(value.map) and _plain_and_finite(value.map.values()):
+            return value  # the common case, at C speed
         items = {_native(k, name, None, where): _native(v, name, None, where)
                  for k, v in value.map.items()}
         if all(a is b for a, b in zip(items, value.map)) and all(
                 a is b for a, b in zip(items.values(), value.map.values())):
             return value  # the same object: a grid world's map is one object every step
         return FuncValue(items)
-    if _PLAIN.issuperset(map(type, value)) and _finite(value):
+    if _plain_and_finite(value):
         return value
     items = [_native(v, name, None, where) for v in value]
     return value if all(a is b for a, b in zip(items, value)) else kind(items)
 
 
-def _finite(values) -> bool:
-    """Whether no Python float among ``values`` is NaN or infinite."""
+_NUMBERS = frozenset({int, float, bool})
+_NO_FLOAT = _PLAIN - {float}
+
+
+def _plain_and_finite(values) -> bool:
+    """Whether ``values`` are all plain B values and none is a NaN or infinite float (a
+    numpy value or a NaN takes the slow path, which converts or refuses it)."""
+    if _NO_FLOAT.issuperset(map(type, values)):  # elements, ints: the common keys
+        return True
+    kinds = set(map(type, values))
+    if not _PLAIN.issuperset(kinds):
+        return False
+    if float not in kinds:
+        return True
+    if _NUMBERS.issuperset(kinds) and math.isfinite(sum(values)):  # one C call: a NaN or
+        return True  # an infinity makes the sum one (an overflow too: checked one by one)
     return all(math.isfinite(v) for v in values if type(v) is float)
 
 

@@ -293,7 +293,7 @@ def _widen(cols: Columns, elements: list[str]) -> Columns:
     out = Columns(n=cols.n, elements=tuple(Elem(e) for e in elements),
                   numbers=cols.numbers, booleans=cols.booleans, others=cols.others)
     for name, (vals, defined) in cols.functions.items():
-        v, d = np.zeros((cols.n, k)), np.zeros((cols.n, k), dtype=bool)
+        v, d = np.zeros((cols.n, k), dtype=vals.dtype), np.zeros((cols.n, k), dtype=bool)
         v[:, where], d[:, where] = vals, defined
         out.functions[name] = (v, d)
     for name, mask in cols.masks.items():

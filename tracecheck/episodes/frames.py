@@ -21,6 +21,10 @@ __all__ = ["unzstd", "unlz4"]
 _MIN_WINDOW = 1 << 20
 
 
+#: zstd's own limit on a frame's window where nothing else bounds it (128 MiB; the output
+#: is still bounded by the size the record declares)
+_DEFAULT_WINDOW = 1 << 27
+
 _LOCAL = threading.local()  # a thread's decompressors, by window (one costs 14 µs to make)
 
 
@@ -55,8 +59,10 @@ def unzstd(data: bytes, size: int, what: str) -> bytes:
     if declared not in (-1, size):  # -1: the frame does not say; the output is bounded
         raise ValueError(f"{what} declares {size} bytes but its zstd frame {declared}: "
                          "refused before decompressing (a decompression bomb, or damage)")
-    try:
-        out = _decompressor(zstandard, size).decompress(data, max_output_size=max(size, 1))
+    try:  # a frame that does not say its size (a streaming writer's, with its own window):
+        #     the output is bounded, the window is zstd's default limit
+        window = size if declared == size else _DEFAULT_WINDOW
+        out = _decompressor(zstandard, window).decompress(data, max_output_size=max(size, 1))
     except zstandard.ZstdError as exc:
         raise ValueError(f"{what} does not decompress (zstd): {exc}") from None
     if len(out) != size:
