@@ -25,7 +25,7 @@ import threading
 from contextlib import contextmanager
 from typing import Callable, Iterator, Optional, TypeVar
 
-__all__ = ["MAX_DIGITS", "RECURSION_LIMIT", "DEEP", "long_integers", "deep_recursion",
+__all__ = ["MAX_DIGITS", "MAX_INT_BITS", "RECURSION_LIMIT", "DEEP", "long_integers", "deep_recursion",
            "read_int", "int_text", "deeply"]
 
 #: Integers up to this many decimal digits are read and printed — every integer the engine
@@ -33,6 +33,10 @@ __all__ = ["MAX_DIGITS", "RECURSION_LIMIT", "DEEP", "long_integers", "deep_recur
 #: literal is refused with its place. Python's own default limit (4300) is raised to it
 #: while the engine reads or prints one.
 MAX_DIGITS = 310_000
+
+#: The most bits an integer the engine computes may have (``*``, ``**``, PI, a card): a
+#: larger result is refused before it is computed (about 301 030 digits, under MAX_DIGITS)
+MAX_INT_BITS = 1_000_000
 
 #: Formulas up to :data:`tracecheck.b.parser.MAX_DEPTH` levels take a few Python frames per
 #: level to build, check and evaluate (all Python-level recursion, which does not grow the C

@@ -79,8 +79,8 @@ def test_prob_s_documented_answers(capsys, formula, value):
      "its matching can take exponential time"),
     # catastrophic backtracking without a repeated group (they ran past any timeout)
     ('REGEX_MATCH("' + "a" * 40 + '", "' + "a?" * 40 + "a" * 40 + '")',
-     "a pattern with 40 repetitions of variable width, on a string of 40 characters, can "
-     "take about 41^40 steps"),
+     "a pattern with 40 repetitions of variable width (a search's start counts as one), on "
+     "a string of 40 characters, can take about 41^40 steps"),
     ('REGEX_MATCH("' + "abc" * 13 + '", "' + ".*" * 8 + 'x")',
      "a pattern with 8 repetitions of variable width"),
     ('REGEX_SEARCH("ab",1,"(?:(a)|b)c")', "submatches of a group that may take part in no"),
@@ -138,3 +138,17 @@ def test_a_fixed_count_is_no_repetition_to_backtrack(capsys):
     code, out, err = run(capsys, "eval", 'REGEX_MATCH("' + "1" * 1000 + '", '
                                          '"[0-9]{4}-[0-9]{2}-[0-9]{2}")')
     assert (code, out.strip()) == (0, "FALSE"), err
+
+
+def test_a_search_counts_its_start_and_a_replacement_its_size(capsys):
+    """`.*b` tried from each of 60 000 positions took 7 s (Python's re cannot be stopped);
+    4000 replacements of a 60 000-character `$&` built 240 M characters."""
+    code, _, err = run(capsys, "eval", 'REGEX_SEARCH_STR("' + "a" * 60000 + '", ".*b")')
+    assert code == 2 and "a pattern with 2 repetitions of variable width (a search's start " \
+        "counts as one), on a string of 60000 characters" in " ".join(err.split())
+    code, out, _ = run(capsys, "eval", 'REGEX_SEARCH_STR("' + "a" * 500 + 'b", ".*b")')
+    assert code == 0 and out.strip() == '"' + "a" * 500 + 'b"'
+    big = "x" * 60000
+    code, _, err = run(capsys, "eval", f'REGEX_REPLACE("{"a" * 4000}", "a", "{big}")')
+    assert code == 2 and "REGEX_REPLACE would build a string of over 16,777,216 characters" \
+        in " ".join(err.split())

@@ -109,6 +109,9 @@ def test_eval_with_model_and_state(capsys, tmp_path):
     # * too: checked before it is computed (it ignored every limit)
     ("(10 ** 200000) * (10 ** 200000) > 0", "the integer result of * in `(10 ** 200000) * "
                                             "(10 ** 200000)` has more than 1,000,000 bits"),
+    ("PI(x).(x : 1..300000 | x) > 0", "the integer result of PI in `PI(x).(x : 1..300000 | "
+                                      "x)` has more than 1,000,000 bits"),
+    ("card((1..100000) >-> (1..100000)) > 0", "has about 10^500000 elements"),
     # a card of 500 000 digits: refused before computing it (printing it was a traceback)
     ("card((1..100000) --> (1..100000)) > 0", "card((1..100000 --> 1..100000)) has more "
                                               "than 1,000,000 bits: too large to compute"),

@@ -9,10 +9,10 @@ walked."""
 
 from __future__ import annotations
 
-import math
 from typing import Any, Callable, Iterator, Optional
 
 from ..errors import BTypeError, EvaluationError, TracecheckError, UnsupportedError
+from ..limits import MAX_INT_BITS
 from . import ast
 from .clock import tick
 from .finite import finite as _finite, members as _members
@@ -101,6 +101,18 @@ def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
                     yield exc
         return run_single
     return run
+
+
+def _product(comp, node: ast.Node, values: list) -> Any:
+    """PI's product, refused (a limit, as ``*``) once an integer would pass the bits
+    ``*`` allows — checked before each multiplication, not after a product of 10^6 bits."""
+    out: Any = 1
+    for v in values:
+        if type(v) is int and type(out) is int and \
+                out.bit_length() + v.bit_length() > MAX_INT_BITS:
+            raise comp.too_large(node, "PI")
+        out = out * v
+    return out
 
 
 def _by_type(name: str, ids: tuple[str, ...], pred: ast.Node, problem: TracecheckError):
@@ -413,7 +425,7 @@ class Binders:
             if op == "SIGMA":
                 return sum(values, 0)
             if op == "PI":
-                return math.prod(values)
+                return _product(self, node, values)
             if op == "UNION":
                 return frozenset().union(*values)
             if not values:

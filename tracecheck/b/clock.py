@@ -26,7 +26,7 @@ from contextlib import contextmanager
 from contextvars import ContextVar
 from typing import Iterator, Optional
 
-from ..errors import EvaluationError, TimeLimitError
+from ..errors import TimeLimitError
 
 __all__ = ["time_limit", "tick"]
 

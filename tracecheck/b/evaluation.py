@@ -19,7 +19,7 @@ from . import ast
 from .scope import render
 from .bindings import Binders
 from .records import Records, element_hint, set_element
-from ..limits import DEEP, deep_recursion, deeply
+from ..limits import DEEP, MAX_INT_BITS, deep_recursion, deeply
 from .memo import constant_number, folded, memoised
 from .builtins import BUILTINS as _BUILTINS, UNSUPPORTED_HINTS as _UNSUPPORTED_HINTS
 from .library import FUNCTIONS as _LIBRARY, compile_call as _library_call
@@ -585,7 +585,7 @@ def _name_applied_to_name(node: ast.Node) -> Optional[tuple[str, str]]:
 
 
 _ARROWS = {"-->", "+->", "<->", ">->", ">+>", "-->>", "+->>", ">->>", ">+>>"}
-_MAX_INT_BITS = 1_000_000
+_MAX_INT_BITS = MAX_INT_BITS
 _OP_NAMES = {"+": "add", "-": "sub", "*": "mul", "/": "div", "mod": "mod", "**": "pow",
              ";": "comp", "><": "direct", "^": "concat",
              "\\/": "union", "/\\": "inter", "\\": "minus", "<|": "domres", "|>": "ranres",

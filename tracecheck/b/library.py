@@ -23,6 +23,7 @@ from decimal import ROUND_HALF_UP, Decimal
 from typing import Any, Callable, Optional
 
 
+from .regex import MAX_RESULT
 from ..errors import BTypeError, UnsupportedError, WellDefinednessError
 from . import ast
 from .btypes import BOOL, INTEGER, REAL, STRING, Pow, Prod, Type, Var
@@ -287,7 +288,7 @@ def _to_string(v: Any) -> str:
 
 
 #: The longest string the string functions build (checked before they build it)
-MAX_STRING = 16 * 1024 * 1024
+MAX_STRING = MAX_RESULT  # one limit for every string built (REGEX_REPLACE's too)
 
 
 def _sized(n: int, name: str) -> None:

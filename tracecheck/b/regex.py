@@ -80,11 +80,12 @@ class _Frame:
 _QUANTIFIER = re.compile(r"[*+?]|\{(\d+)(,(\d*))?\}")
 
 
-def translate(pattern: str, subject: str) -> tuple[str, frozenset]:
+def translate(pattern: str, subject: str, search: bool = False) -> tuple[str, frozenset]:
     """(the Python pattern that means what the ECMAScript ``pattern`` means on ``subject``,
     the capturing groups that may take part in no match, or match more than once: under a
     quantifier, in one branch of a ``|``, in a lookahead — where ECMAScript and Python keep
-    different captures)."""
+    different captures). ``search``: the pattern is tried from every position (refused where
+    that could backtrack too long, see :func:`_backtracking`)."""
     out: list[str] = []
     i, n, groups = 0, len(pattern), 0
     frames = [_Frame()]
@@ -180,7 +181,7 @@ def translate(pattern: str, subject: str) -> tuple[str, frozenset]:
         if k in unsure:
             raise Unsupported(f"\\{k} refers to a group that may take part in no match or "
                               "in several (ECMAScript and Python differ there)")
-    _backtracking(variable, subject)
+    _backtracking(variable + search, subject)  # a search tries each start as well
     return "".join(out), frozenset(unsure)
 
 
@@ -196,7 +197,8 @@ def _backtracking(variable: int, subject: str) -> None:
     ``x``; ``a?`` forty times then ``a`` forty times). Repeated groups that hold a
     quantifier are refused by :func:`translate` already."""
     if variable >= 2 and (len(subject) + 1) ** variable > BACKTRACK_STEPS:
-        raise Unsupported(f"a pattern with {variable} repetitions of variable width, on a "
+        raise Unsupported(f"a pattern with {variable} repetitions of variable width (a "
+                          f"search's start counts as one), on a "
                           f"string of {len(subject)} characters, can take about "
                           f"{len(subject) + 1}^{variable} steps to fail; tracecheck refuses "
                           f"matches that could take over {BACKTRACK_STEPS:.0e} (Python's "
@@ -290,8 +292,9 @@ def _bracket(pattern: str, i: int, subject: str, ascii_subject: bool) -> tuple[i
         i += 1
 
 
-def _compile(pattern: str, subject: str) -> tuple["re.Pattern", frozenset]:
-    python, unsure = translate(pattern, subject)
+def _compile(pattern: str, subject: str, search: bool = False
+             ) -> tuple["re.Pattern", frozenset]:
+    python, unsure = translate(pattern, subject, search)
     try:
         return re.compile(python), unsure
     except re.error as exc:
@@ -313,7 +316,7 @@ def _is_regex(p: str) -> bool:
 
 
 def _all_matches(s: str, p: str, start: int = 0) -> list:
-    found = list(_compile(p, s)[0].finditer(s, start))
+    found = list(_compile(p, s, search=True)[0].finditer(s, start))
     if any(m.end() == m.start() for m in found):
         raise Unsupported("a pattern that matches the empty string here (where the next "
                           "search starts after an empty match differs between libraries)")
@@ -322,14 +325,22 @@ def _all_matches(s: str, p: str, start: int = 0) -> list:
 
 def _replace(s: str, p: str, r: str) -> str:
     matches = _all_matches(s, p)
-    unsure = _compile(p, s)[1]
-    out, last = [], 0
+    unsure = _compile(p, s, search=True)[1]
+    out, last, size = [], 0, len(s)
     for m in matches:
         out.append(s[last:m.start()])
         out.append(_substitute(r, m, s, unsure))
+        size += len(out[-1]) - (m.end() - m.start())
+        if size > MAX_RESULT:  # before the next one is built
+            raise Unsupported(f"REGEX_REPLACE would build a string of over {MAX_RESULT:,} "
+                              "characters")
         last = m.end()
     out.append(s[last:])
     return "".join(out)
+
+
+#: The longest string a replacement builds (the string library's limit)
+MAX_RESULT = 16 * 1024 * 1024
 
 
 def _substitute(r: str, m: "re.Match", s: str, unsure: frozenset) -> str:
@@ -367,7 +378,7 @@ def _substitute(r: str, m: "re.Match", s: str, unsure: frozenset) -> str:
 
 
 def _search_str(s: str, p: str) -> str:
-    m = _compile(p, s)[0].search(s)
+    m = _compile(p, s, search=True)[0].search(s)
     return m.group(0) if m else ""
 
 
@@ -376,7 +387,7 @@ def _search(s: str, start: int, p: str) -> Record:
         raise Unsupported(f"a search from position {start} of a string of {len(s)} characters")
     if start > 1 and re.search(r"\^|\\[bB]", p):
         raise Unsupported("^ or \\b in a search that does not start at the beginning")
-    compiled, unsure = _compile(p, s)
+    compiled, unsure = _compile(p, s, search=True)
     if unsure:
         raise Unsupported("submatches of a group that may take part in no match or in "
                           "several (ECMAScript and Python differ there)")

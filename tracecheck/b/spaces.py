@@ -7,15 +7,17 @@ import math
 from typing import Any, Iterator, Optional
 
 from ..errors import EvaluationError, SetLimitError
-from .values import (FuncValue, PowSet, Product, SymbolicSet, as_sequence, cardinality,
-                     check_size, contains, finiteness, format_value, is_set, members, set_key,
-                     sort_key)
+from ..limits import MAX_INT_BITS
+from .clock import tick
+from .values import (SET_LIMIT, FuncValue, PowSet, Product, SymbolicSet, as_sequence,
+                     cardinality, check_size, contains, finiteness, format_value, is_set,
+                     members, set_key, sort_key)
 
 __all__ = ["FunctionSpace", "Projection", "SeqSet", "covers"]
 
 
 #: the largest card of a function space computed (an integer of this many bits, as ``**``)
-CARD_BITS = 1_000_000
+CARD_BITS = MAX_INT_BITS
 
 _TOTAL = ("-->", ">->", "-->>", ">->>")
 _INJECTIVE = (">->", ">+>", ">->>", ">+>>")
@@ -87,6 +89,11 @@ class FunctionSpace(SymbolicSet):
             yield from PowSet(Product(frozenset(dom), frozenset(ran))).elements()
             return
         choices = [ran] if self.op in _TOTAL else [[_NONE] + ran]
+        if len(dom) * math.log2(max(len(choices[0]), 1)) > 64:  # not computed: far too many
+            raise SetLimitError(f"the set {self.name} has about 10^"
+                                f"{int(len(dom) * math.log10(len(choices[0])))} elements; "
+                                f"tracecheck builds or walks at most {SET_LIMIT:,} elements "
+                                "of one set")
         check_size(len(choices[0]) ** len(dom), self.name)
         for pick in product(choices[0], repeat=len(dom)):
             f = FuncValue({x: y for x, y in zip(dom, pick) if y is not _NONE})
@@ -172,10 +179,11 @@ class SeqSet(SymbolicSet):
                                 "large to compute")
         if self.kind == "perm":
             return math.factorial(n)
-        counts = [math.perm(n, k) for k in range(n + 1)]  # injective sequences of length k
-        if self.kind in ("seq1", "iseq1"):
-            counts[0] = 0
-        return sum(counts) if n else counts[0]
+        total = 1  # Σ_k n!/(n-k)! injective sequences of length k, by Horner: 1 + n(1 + …)
+        for j in range(1, n + 1):
+            tick()
+            total = 1 + j * total
+        return total - 1 if self.kind in ("seq1", "iseq1") else total
 
     def elements(self) -> Iterator[Any]:
         if self.finiteness() is not True:
