@@ -38,7 +38,7 @@ ALLOWED = {
     ("checking/solving.py", "_small_set", "TracecheckError"):
         "a heuristic, not an answer: False only means 'do not enumerate it' (the solver or "
         "the evaluator's refusal decides)",
-    ("live/continuous.py", "_enabled", "UnsupportedError"):
+    ("live/continuous.py", "_enabled", "TracecheckError"):
         "the live shield must act: it fails closed (not enabled) and records why in "
         "self.problem, which info['shield']['problem'] and the recording keep",
 }

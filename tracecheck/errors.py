@@ -29,7 +29,12 @@ def printable(text: str, keep: str = "\n") -> str:
     """``text`` with control characters (terminal escapes, NUL, …) shown as escapes: a
     message never lets an input file drive the terminal. Line breaks stay (and the other
     characters of ``keep``: a table cell keeps its tabs and carriage returns as data)."""
-    if text.isprintable() or all(c.isprintable() or c in keep for c in text):
+    if text.isprintable():
+        return text
+    probe = text
+    for c in keep:  # at C speed: a large table or report is mostly printable
+        probe = probe.replace(c, "")
+    if probe.isprintable():
         return text
     return "".join(c if c.isprintable() or c in keep else repr(c)[1:-1] for c in text)
 

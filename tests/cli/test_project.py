@@ -127,3 +127,19 @@ def test_names_and_locations_from_the_project_never_drive_the_terminal(capsys, t
         assert code == 3, err
         assert "\x1b" not in out + err and "\x07" not in out + err, fmt
         assert "\\x1b[2J" in out and "\\x1b[31mmissing" in out, fmt
+
+
+def test_b_strings_and_warnings_never_drive_the_terminal(capsys, tmp_path):
+    """A machine's string constant with an escape sequence: check-model, eval and the
+    warnings of guards printed it raw."""
+    model = tmp_path / "E.mch"
+    model.write_text('MACHINE E\nCONSTANTS c\nPROPERTIES c = "ok\x1b[31mRED"\nVARIABLES x\n'
+                     'INVARIANT x : INTEGER & c = "no\x1b[2J"\nINITIALISATION x := 0\n'
+                     'OPERATIONS Go = SELECT c = "ok\x1b[31mRED" THEN skip END\nEND\n')
+    state = tmp_path / "s.json"
+    state.write_text('{"x": "0"}')
+    for args in (("check-model", model), ("eval", "--model", model, "c"),
+                 ("guards", model, "--state", state)):
+        code, out, err = run(capsys, *args)
+        assert code == 0, err
+        assert "\x1b" not in out + err and "\\x1b" in out + err, args

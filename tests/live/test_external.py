@@ -393,3 +393,28 @@ def test_a_process_the_script_detaches_is_ended_with_it(tmp_path, capsys):
     while scripts_running("corridor_agent.py daemon") and time.monotonic() < deadline:
         time.sleep(0.1)
     assert not scripts_running("corridor_agent.py daemon")
+
+
+def test_only_the_processes_with_this_runs_mark_are_killed():
+    from tracecheck.live.external import MARK, _kill_marked
+
+    mark = f"{MARK}=test-{os.getpid()}-{time.monotonic_ns()}"
+    def start(env_value):
+        env = dict(os.environ)
+        env.pop(MARK, None)
+        if env_value is not None:
+            env[MARK] = env_value
+        return subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"],
+                                env=env)
+    marked = start(mark.split("=", 1)[1])
+    others = [start(None), start(mark.split("=", 1)[1] + "0"), start(mark.split("=", 1)[1][:-1])]
+    try:
+        time.sleep(0.3)
+        assert _kill_marked(mark) == [marked.pid]
+        assert marked.wait(timeout=5) == -signal.SIGKILL
+        assert all(p.poll() is None for p in others)  # no mark, a longer or shorter one
+        assert _kill_marked(f"{MARK}=") == [] and _kill_marked("") == []
+    finally:
+        for p in [marked, *others]:
+            p.kill()
+            p.wait()

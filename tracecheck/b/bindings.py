@@ -240,9 +240,10 @@ def domain(comp, node: ast.Node, mode: str, value: Any):
     if isinstance(value, SymbolicSet) and value.finiteness() is True:
         return _members(comp, node, value)
     if isinstance(value, SymbolicSet):
+        what = "the infinite set" if value.finiteness() is False else \
+            "the set, not known to be finite,"
         raise comp.error(EvaluationError, node,
-                         f"cannot enumerate the infinite set {value.name} in "
-                         f"`{comp.text(node)}`",
+                         f"cannot enumerate {what} {value.name} in `{comp.text(node)}`",
                          hint="bound the variable by a finite set")
     raise comp.type_error(node, value, "a set")
 

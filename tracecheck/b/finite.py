@@ -20,8 +20,10 @@ def finite(comp, node: ast.Node, v: Any) -> frozenset:
     if not isinstance(v, SymbolicSet):
         raise comp.type_error(node, v, "a set")
     if v.finiteness() is not True:
+        what = "the infinite set" if v.finiteness() is False else \
+            "a set tracecheck cannot tell is finite:"
         raise comp.error(EvaluationError, node,
-                         f"`{comp.text(node)}` is the infinite set {v.name}; tracecheck "
+                         f"`{comp.text(node)}` is {what} {v.name}; tracecheck "
                          "only computes with finite sets here")
     try:
         return values.explicit(v)

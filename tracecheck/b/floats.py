@@ -33,10 +33,12 @@ def index(x: float) -> int:
 
 
 def from_index(k: int) -> float:
+    """The float at place ``k`` of :func:`index`."""
     return struct.unpack("<d", struct.pack("<q", k if k >= 0 else (-k) | -(1 << 63)))[0]
 
 
 def float_count(low: float, high: float) -> int:
+    """How many floats lie from ``low`` to ``high`` (0 where ``low`` is above)."""
     return max(0, index(high) - index(low) + 1)
 
 

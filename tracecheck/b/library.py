@@ -154,7 +154,8 @@ def _finite_items(s: Any) -> list:
         return list(s)
     if isinstance(s, SymbolicSet):
         if s.finiteness() is not True:
-            raise Refused(f"the infinite set {s.name} (ProB: 'not guaranteed to work for "
+            what = "infinite" if s.finiteness() is False else "not known to be finite"
+            raise Refused(f"the set {s.name} ({what}; ProB: 'not guaranteed to work for "
                           "infinite sets')")
         return list(explicit(s))
     raise Refused(f"not a set: {_shown(s)}")

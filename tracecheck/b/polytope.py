@@ -342,8 +342,8 @@ FLOAT_SCAN = 1 << 14
 
 def scan_boxes(allowed, boxes: list[dict], x: dict, s: dict) -> Optional[dict]:
     """The allowed float point nearest ``x`` among the float points of ``boxes``: every
-    float of each parameter whose interval holds at most :data:`FLOAT_SCAN` of them (all
-    such together), a point well inside and the one nearest ``x`` for the others. None only
+    float of each parameter whose interval holds few of them (:data:`FLOAT_SCAN` for all
+    boxes together), a point well inside and the one nearest ``x`` for the others. None only
     where every box was searched whole and the evaluator allows none of its floats; raises
     :class:`UnsupportedError` where a box could not be searched whole and none of the
     points tried passed — non-empty over the reals, so "nothing allowed" would be a
@@ -351,16 +351,17 @@ def scan_boxes(allowed, boxes: list[dict], x: dict, s: dict) -> Optional[dict]:
     from itertools import product
 
     params = allowed.params
-    best, best_d, whole = None, None, True
+    best, best_d, whole, budget = None, None, True, FLOAT_SCAN  # for all boxes together
     at, scale = {p: exact(x[p], p) for p in params}, {p: Fraction(s[p]) for p in params}
     for box in boxes:
         ranges = {p: float_range(box[p]) for p in params}
         sizes = {p: float_count(*ranges[p]) if ranges[p] else math.inf for p in params}
         if 0 in sizes.values():  # no float lies in it: no float point of it to allow
             continue
-        small = [p for p in params if sizes[p] <= FLOAT_SCAN]
-        if math.prod(sizes[p] for p in small) > FLOAT_SCAN:
+        small = [p for p in params if sizes[p] <= budget]
+        if math.prod(sizes[p] for p in small) > budget:
             small = []
+        budget -= math.prod(sizes[p] for p in small)
         whole = whole and len(small) == len(params)
         axes = [[from_index(k) for k in range(index(ranges[p][0]), index(ranges[p][1]) + 1)]
                 if p in small else

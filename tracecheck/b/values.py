@@ -109,10 +109,11 @@ class SymbolicSet:
 
     def card(self) -> int:
         """The exact number of elements of a finite set (without building it)."""
-        raise EvaluationError(f"the set {self.name} is infinite: it has no card")
+        raise EvaluationError(_not_finite(self, "it has no card"))
 
     def elements(self) -> Iterator[Any]:
-        raise EvaluationError(f"cannot enumerate the infinite set {self.name}",
+        what = "infinite" if self.finiteness() is False else "not known to be finite"
+        raise EvaluationError(f"cannot enumerate the set {self.name} ({what})",
                               hint="restrict the variable with a finite set, e.g. x : 1..10")
 
     def key(self) -> tuple:

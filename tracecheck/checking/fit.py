@@ -36,6 +36,7 @@ def check_actions(shield: Shield, cols: RunColumns, rows: np.ndarray,
 
 
 def check_variables(shield: Shield, cols: RunColumns) -> None:
+    """Refuse a run whose states lack a variable the shield's guards or invariant read."""
     have = cols.states.names() | set(shield.machine.base_env)
     machine = shield.machine
     needed = set().union(*machine.guard_variables().values())

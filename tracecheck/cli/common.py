@@ -13,7 +13,7 @@ from typing import Optional
 import typer
 
 from .. import __version__
-from ..errors import InputError
+from ..errors import InputError, printable
 
 app = typer.Typer(
     name="tracecheck",
@@ -44,6 +44,12 @@ class _Console:
                                     markup=False, **self._options)
         return self._console
 
+    def print(self, *objects, **options) -> None:
+        """rich's print, every string first with its control characters shown as escapes:
+        a name or a B string from an input never drives the terminal."""
+        self.console.print(*(printable(o) if isinstance(o, str) else o for o in objects),
+                           **options)
+
     def __getattr__(self, name: str):
         return getattr(self.console, name)
 
@@ -56,8 +62,10 @@ def escape(text: str) -> str:
 
 
 def plain(line: str) -> None:
-    """Print one line to standard output as it is: no markup, no emoji codes, no rich."""
-    sys.stdout.write(line + "\n")
+    """Print one line to standard output as it is: no markup, no emoji codes, no rich —
+    and no control character from an input (a B string, a name) that could drive the
+    terminal: those are shown as escapes (tabs and line breaks stay, as CSV has them)."""
+    sys.stdout.write(printable(line, "\n\r\t") + "\n")
 
 
 def say(line: str, indent: str = "  ") -> None:
@@ -346,7 +354,7 @@ def progress(label: str, total: Optional[int] = None, unit: str = "episodes",
 def warn(messages) -> None:
     """Print each warning of a library result (damaged files and the like)."""
     for warning in messages:
-        err.print(f"[yellow]warning[/yellow]: {escape(warning)}", markup=True)
+        err.print(f"[yellow]warning[/yellow]: {escape(printable(warning))}", markup=True)
 
 
 FORCE = typer.Option(False, "--force", help="Replace an existing output, only once the new "

@@ -49,7 +49,7 @@ from typing import Any, Optional, Sequence
 import numpy as np
 
 from ..b.linear import AllowedSet, linear_form, parameter_range, real_parameters
-from ..errors import InputError, UnsupportedError
+from ..errors import InputError, TracecheckError, UnsupportedError
 
 __all__ = ["ContinuousShield", "Decision", "MODES", "interval_pairs", "space_parts",
            "SpacePart"]
@@ -324,19 +324,17 @@ class ContinuousShield:
                                    timeout_s=self.solver_timeout_s) if entry.solver else \
                     allowed_set(self.machine, name, env=env)
                 entry.allowed = found.within(entry.low, entry.high)
-            except UnsupportedError as exc:
-                entry.allowed, self.problem = None, str(exc)
+            except TracecheckError as exc:  # undecided, a limit, a value it has not: it
+                entry.allowed, self.problem = None, str(exc)  # cannot tell, so not allowed
         self.enabled = {name for name in self.actions if self._enabled(name, env)}
 
     def _enabled(self, name: str, env: dict) -> bool:
         entry = self.ops.get(name)
-        if entry is None:
-            return self.machine.is_enabled_in(name, env)
-        if entry.allowed is None:
-            return False
         try:
-            return entry.allowed.witness() is not None
-        except UnsupportedError as exc:
+            if entry is None:
+                return self.machine.is_enabled_in(name, env)
+            return entry.allowed is not None and entry.allowed.witness() is not None
+        except TracecheckError as exc:  # it cannot tell: not allowed (fails closed), and why
             self.problem = str(exc)
             return False
 
@@ -381,7 +379,7 @@ class ContinuousShield:
         try:
             nearest = entry.allowed.nearest(dict(zip(params, proposal.tolist())),
                                             dict(zip(params, entry.scale.tolist())))
-        except UnsupportedError as exc:  # too many constraints to project onto
+        except TracecheckError as exc:  # too many constraints, a limit: nothing confirmed
             nearest, self.problem = None, str(exc)
         if nearest is None:
             return None

@@ -43,6 +43,7 @@ from pathlib import Path
 from typing import Any, Iterator, Optional, Sequence
 
 from ..episodes.model import Episode, StepRecord, make_end
+from ..b.clock import time_limit
 from ..errors import InputError, TracecheckError, printable
 
 __all__ = ["ExternalSettings", "ExternalError", "external_episodes", "split_command",
@@ -347,31 +348,52 @@ MARK = "TRACECHECK_EXTERNAL_RUN"
 
 def _kill_marked(mark: str) -> list[int]:
     """Kill the processes whose environment holds ``mark`` (this run's value of
-    :data:`MARK`): a script's descendants that left its session. Linux's ``/proc``; where
+    :data:`MARK`, whole): a script's descendants that left its session — whatever they are
+    (a daemon the script started is ended too). Each is pinned by a pidfd before its
+    environment is read, so a pid reused meanwhile is never signalled; the scan is repeated
+    while it finds some (a marked process may fork while it runs). Linux's ``/proc``; where
     there is none, nothing is found. Returns the pids killed."""
     killed: list[int] = []
-    if not mark.startswith(MARK + "="):  # never an empty or foreign pattern
-        return killed
+    if not mark.startswith(MARK + "=") or len(mark) <= len(MARK) + 1:
+        return killed  # never an empty or foreign pattern
     wanted = mark.encode()
-    try:
-        pids = [int(p) for p in os.listdir("/proc") if p.isdigit()]
-    except OSError:
-        return killed
-    for pid in pids:
-        if pid == os.getpid():
-            continue
-        try:
-            with open(f"/proc/{pid}/environ", "rb") as f:
-                found = wanted in f.read().split(b"\0")
-        except OSError:  # gone, or another user's
-            continue
-        if found:
-            try:
-                os.kill(pid, signal.SIGKILL)
-                killed.append(pid)
-            except (ProcessLookupError, PermissionError):
-                pass
+    for _ in range(5):
+        found = [pid for pid in _pids() if pid != os.getpid() and _kill_if(pid, wanted)]
+        killed += found
+        if not found:
+            break
     return killed
+
+
+def _pids() -> list[int]:
+    try:
+        return [int(p) for p in os.listdir("/proc") if p.isdigit()]
+    except OSError:
+        return []
+
+
+def _kill_if(pid: int, wanted: bytes) -> bool:
+    """SIGKILL ``pid`` if its environment holds ``wanted``; whether it did."""
+    try:
+        fd = os.pidfd_open(pid)  # the process itself from now on, not whoever gets its pid
+    except (OSError, AttributeError):
+        fd = None
+        if hasattr(os, "pidfd_open"):
+            return False  # gone (or not ours)
+    try:
+        with open(f"/proc/{pid}/environ", "rb") as f:
+            if wanted not in f.read().split(b"\0"):
+                return False
+        if fd is not None:
+            signal.pidfd_send_signal(fd, signal.SIGKILL)
+        else:
+            os.kill(pid, signal.SIGKILL)
+        return True
+    except (OSError, ProcessLookupError):  # gone, or another user's
+        return False
+    finally:
+        if fd is not None:
+            os.close(fd)
 
 
 def _signal_group(proc: subprocess.Popen, sig: int) -> None:
@@ -440,7 +462,8 @@ class _Run:
             n = len(steps)
             where = f"episode {k}, step {n}"
             try:
-                allowed = self.machine.enabled(state)
+                with time_limit(self.settings.step_timeout, "--step-timeout"):
+                    allowed = self.machine.enabled(state)
             except TracecheckError as exc:
                 raise self.link.error(f"{where}: the guards of {self.machine.name} cannot be "
                                       f"evaluated in the state before it: {exc.message}") \
@@ -522,14 +545,14 @@ class _Run:
         constants (an error where tracecheck cannot evaluate it: not "does not hold")."""
         node = self._parse(answer, where)
         try:
-            return bool(self.machine.compile(node)(dict(self.machine.base_env)))
+            with time_limit(self.settings.step_timeout, "--step-timeout"):
+                return bool(self.machine.compile(node)(dict(self.machine.base_env)))
         except TracecheckError as exc:
             raise self.link.error(f"{where}: tracecheck cannot evaluate its $setup_constants "
                                   f"predicate ({exc.message}): {_quote(answer.predicate)}"
                                   ) from None
 
     def _after(self, op: Optional[str], state: dict, answer: _Answer, where: str) -> dict:
-        from ..b.clock import time_limit
         from ..b.transitions import equations
 
         try:  # the common shape (`v = literal & …`) read fast, typed as the grammar would
@@ -559,7 +582,12 @@ class _Run:
                 enabled: Optional[tuple[str, ...]]) -> StepRecord:
         crashed = False
         if self.crash is not None:
-            crashed = bool(self.crash(self.machine.env(state)))
+            try:
+                with time_limit(self.settings.step_timeout, "--step-timeout"):
+                    crashed = bool(self.crash(self.machine.env(state)))
+            except TracecheckError as exc:  # the episodes so far are kept, as for any fault
+                raise self.link.error(f"step {n}: --crash cannot be evaluated in the state "
+                                      f"the script sent ({exc.message})") from None
         elif self.crash_var is not None:
             crashed = bool(state[self.crash_var])
         reward = 0.0
