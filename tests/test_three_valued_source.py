@@ -38,6 +38,10 @@ ALLOWED = {
     ("checking/solving.py", "_small_set", "TracecheckError"):
         "a heuristic, not an answer: False only means 'do not enumerate it' (the solver or "
         "the evaluator's refusal decides)",
+    ("live/external.py", "_kill_if", "(OSError, AttributeError)"):
+        "not an evaluation: whether a process was killed (it is gone, or not ours)",
+    ("live/external.py", "_kill_if", "(OSError, ProcessLookupError)"):
+        "not an evaluation: whether a process was killed (it is gone, or not ours)",
     ("live/continuous.py", "_enabled", "TracecheckError"):
         "the live shield must act: it fails closed (not enabled) and records why in "
         "self.problem, which info['shield']['problem'] and the recording keep",

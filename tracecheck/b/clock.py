@@ -14,7 +14,7 @@ Outside any limit a tick costs one counter increment.
 ...     try:
 ...         while True:
 ...             tick()
-...     except EvaluationError as exc:
+...     except TimeLimitError as exc:
 ...         print(exc.message)
 the predicate: tracecheck's evaluation took longer than 0.01 s
 """
