@@ -21,7 +21,7 @@ from pathlib import Path
 from tracecheck.episodes import read_columns, read_run
 from tracecheck.episodes.files import write_run
 from tracecheck.episodes.writer import new_header
-from tracecheck.episodes.vocabulary import HIGHWAY
+from tracecheck.live.envs.highway import HIGHWAY
 from tracecheck.interop import import_simb
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -48,7 +48,7 @@ def main() -> None:
         imports = []
         for _ in range(max(1, args.repeat // 2)):
             t = time.perf_counter()
-            episodes, steps, _ = write_run(out, header, import_simb([folder]), force=True)
+            episodes, steps, _ = write_run(out, header, import_simb([folder], vocab=HIGHWAY), force=True)
             imports.append(time.perf_counter() - t)
         reads = []
         for _ in range(args.repeat):

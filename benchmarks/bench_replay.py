@@ -27,7 +27,7 @@ import handwritten_check as handwritten
 from tracecheck.episodes import read_columns, read_run
 from tracecheck.episodes.files import write_run
 from tracecheck.episodes.writer import new_header
-from tracecheck.episodes.vocabulary import HIGHWAY
+from tracecheck.live.envs.highway import HIGHWAY
 from tracecheck.interop import export_simb, import_simb
 from tracecheck.checking.diffing import diff
 from tracecheck.checking.replaying import replay
@@ -38,7 +38,7 @@ SIMB = ROOT.parent / "shared" / "data" / "paper-traces" / "simb"
 
 
 def build(path: Path, episodes: int) -> None:
-    sources = list(import_simb([SIMB / "base", SIMB / "base_shield"]))
+    sources = list(import_simb([SIMB / "base", SIMB / "base_shield"], vocab=HIGHWAY))
     import dataclasses
 
     eps = (dataclasses.replace(e, id=i) for i, e in enumerate(islice(cycle(sources), episodes)))
@@ -89,7 +89,7 @@ def main() -> None:
         path = Path(tmp) / "run.mcap"
         build(path, args.episodes)
         folder = Path(tmp) / "simb"
-        export_simb(read_run(path).episodes, folder, "HighwayEnvironment")
+        export_simb(read_run(path).episodes, folder, HIGHWAY.name)
         reports = {name: replay([path], sh) for name, sh in shields.items()}  # compile once
         steps, infeasible = handwritten.check(folder)
         assert (steps, infeasible) == (reports["paper"].steps,

@@ -84,11 +84,11 @@ def written(run: Path, n: int) -> None:
     from itertools import cycle, islice
 
     from tracecheck.episodes.files import write_run
-    from tracecheck.episodes.vocabulary import HIGHWAY
+    from tracecheck.live.envs.highway import HIGHWAY
     from tracecheck.episodes.writer import new_header
     from tracecheck.interop import import_simb
 
-    sources = list(import_simb([SIMB / "base", SIMB / "base_shield"]))
+    sources = list(import_simb([SIMB / "base", SIMB / "base_shield"], vocab=HIGHWAY))
     episodes = (dataclasses.replace(e, id=k) for k, e in enumerate(islice(cycle(sources), n)))
     write_run(run, new_header("imported-simb", variables=list(HIGHWAY.variables),
                               actions=list(HIGHWAY.actions)), episodes)

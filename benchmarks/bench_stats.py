@@ -23,7 +23,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_replay import SIMB, build  # noqa: E402
 
 from tracecheck.episodes import read_columns  # noqa: E402
-from tracecheck.stats.properties import HIGHWAY_SET  # noqa: E402
+from tracecheck.stats.properties import load_properties  # noqa: E402
+
+HIGHWAY_SET = load_properties("highway")
 from tracecheck.stats.estimates import statistics  # noqa: E402
 
 

@@ -11,8 +11,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from tracecheck.stats.properties import HIGHWAY_SET
 from tracecheck.stats.estimates import statistics
+from tracecheck.stats.properties import load_properties
+
+HIGHWAY_SET = load_properties("highway")
 
 # The paper's Tables 2 and 3 (BASE none, BASE shield, HIGHER PENALTY none, HP shield).
 PAPER_METRICS = {

@@ -92,12 +92,12 @@ class Fuzzer:
         if not sources:
             raise SystemExit(f"the paper's traces are not at {SIMB}")
         from tracecheck.episodes.files import write_run
-        from tracecheck.episodes.vocabulary import HIGHWAY
+        from tracecheck.live.envs.highway import HIGHWAY
         from tracecheck.episodes.writer import new_header
 
         write_run(self.run, new_header("imported-simb", model_name=HIGHWAY.name,
                                        variables=list(HIGHWAY.variables),
-                                       actions=list(HIGHWAY.actions)), import_simb(sources),
+                                       actions=list(HIGHWAY.actions)), import_simb(sources, vocab=HIGHWAY),
                   channels=FoxgloveChannels if foxglove else None)
         self.intact = self.run.read_bytes()
         header, episodes = read_header(self.run), read_run(self.run).episodes

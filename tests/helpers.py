@@ -159,12 +159,12 @@ def forget_acc() -> None:
     import importlib
     import sys
 
-    from tracecheck.live import adapter
+    from tracecheck import registry
 
     for name in [m for m in sys.modules if m == "acc_cruise" or m.startswith("acc_cruise.")]:
         del sys.modules[name]
     importlib.invalidate_caches()
-    adapter._entry_points.cache_clear()
+    registry.entry_points.cache_clear()
 
 
 @contextmanager

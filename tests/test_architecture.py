@@ -274,6 +274,56 @@ def test_no_module_is_over_650_lines(tracecheck):
     assert not problems, "split these on the seams they mark:\n" + "\n".join(problems)
 
 
+def environment_names(root: Path = ROOT) -> set[str]:
+    """The names of tracecheck's own environments, read from their entry points in
+    ``pyproject.toml``: each name, its first word (``highway`` of ``highway-continuous``)
+    and its spelling with an underscore (``highway_continuous``)."""
+    import tomllib
+
+    project = tomllib.loads((root / "pyproject.toml").read_text())["project"]
+    names = set(project["entry-points"]["tracecheck.environments"])
+    return names | {n.split("-")[0] for n in names} | {n.replace("-", "_") for n in names}
+
+
+def environment_mentions(root: Path, package: str = "tracecheck",
+                         allowed: str = "live/envs/") -> list[str]:
+    """Where a file of ``package`` outside ``allowed`` names one of the environments (in
+    code, strings, comments or docstrings; any case; 'frozen lake' spelled apart too)."""
+    import re
+
+    names = environment_names(ROOT)
+    pattern = re.compile("|".join(
+        re.escape(n).replace("lake", r"\s*lake").replace("walking", r"\s*walking")
+        .replace("lander", r"\s*lander") for n in sorted(names, key=len, reverse=True)),
+        re.IGNORECASE)
+    found = []
+    for path in sorted((root / package).rglob("*")):
+        relative = path.relative_to(root / package).as_posix()
+        if not path.is_file() or relative.startswith(allowed) or path.suffix in (".pyc",):
+            continue
+        for number, line in enumerate(path.read_text(errors="replace").splitlines(), 1):
+            hit = pattern.search(line)
+            if hit:
+                found.append(f"{package}/{relative}:{number}: {hit.group(0)!r}")
+    return found
+
+
+def test_no_environment_is_named_outside_its_adapters():
+    """An environment is one module under live/envs/ and its entry point: nothing else in
+    tracecheck/ names one (no default, no registry, no help text, no example)."""
+    problems = environment_mentions(ROOT)
+    assert not problems, "name no environment outside tracecheck/live/envs/:\n" + \
+        "\n".join(problems[:30])
+
+
+def test_the_environment_check_finds_a_name(tmp_path):
+    (tmp_path / "pkg" / "live" / "envs").mkdir(parents=True)
+    (tmp_path / "pkg" / "stats.py").write_text('DEFAULT = "highway"\n# a Frozen Lake map\n')
+    (tmp_path / "pkg" / "live" / "envs" / "highway.py").write_text('name = "highway"\n')
+    assert environment_mentions(tmp_path, "pkg") == ["pkg/stats.py:1: 'highway'",
+                                                     "pkg/stats.py:2: 'Frozen Lake'"]
+
+
 def imports_of_test_modules(pkg: Package) -> list[str]:
     """Imports of a test module or a conftest (shared code belongs in a helper module)."""
     return sorted({f"{i.source} imports {i.target} ({pkg.where(i)})" for i in pkg.imports

@@ -21,6 +21,7 @@ from tracecheck.b.scope import check_kind, expand, kind_of
 from tracecheck.b.typecheck import typecheck_formula
 from tracecheck.b.vector import BatchFormula
 from tracecheck.stats.properties import load_properties
+from tracecheck.live.envs.highway import HIGHWAY
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPER_TRACES = ROOT.parent / "shared" / "data" / "paper-traces" / "prob2trace"
@@ -150,7 +151,7 @@ def test_the_authors_rsqrt_predicates_on_the_paper_traces(trace):
     from tracecheck.interop.prob2trace import read_prob2trace
 
     shield = load_machine(PAPER_SHIELD)
-    episode = read_prob2trace(trace, 0)
+    episode = read_prob2trace(trace, 0, HIGHWAY)
     states = [dict(s) for s in episode.states]
     assert states
     cols = Columns.from_states(states)

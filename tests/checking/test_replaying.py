@@ -14,12 +14,13 @@ from tracecheck.b.values import FuncValue
 from tracecheck.episodes import EpisodeWriter, new_header, read_columns
 from tracecheck.episodes.files import write_run
 from tracecheck.episodes.model import Episode, StepRecord, make_end
-from tracecheck.episodes.vocabulary import HIGHWAY_ACTIONS
+from tracecheck.live.envs.highway import ACTIONS as HIGHWAY_ACTIONS
 from tracecheck.errors import InputError, TracecheckError
 from tracecheck.interop import import_simb
 from tracecheck.checking.diffing import diff
 from tracecheck.checking.replaying import enabled_matrix, replay
 from tracecheck.checking.shield import load_shield
+from tracecheck.live.envs.highway import HIGHWAY
 
 def test_hand_built_episodes(toy, run_file):
     report = replay([run_file], toy)
@@ -63,7 +64,7 @@ def test_paper_shield_on_paper_traces(paper_traces, tmp_path):
     paper = load_shield("paper")
     for folder, steps, infeasible in (("base", 765, 233), ("base_shield", 1179, 0)):
         path = tmp_path / f"{folder}.mcap"
-        write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / folder]))
+        write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / folder], vocab=HIGHWAY))
         report = replay([path], paper)
         assert (report.steps, report.infeasible_steps) == (steps, infeasible)
         assert report.deadlock_states == report.postcondition_violations == 0
@@ -75,7 +76,7 @@ def test_paper_shield_on_paper_traces(paper_traces, tmp_path):
 
 def test_diff(paper_traces, tmp_path):
     path = tmp_path / "base.mcap"
-    write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / "base"]))
+    write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / "base"], vocab=HIGHWAY))
     paper, none = load_shield("paper"), load_shield("none")
     same = diff([path], paper, paper)
     assert same.changed_steps == same.enabled_set_changes == same.episodes_changed == 0
@@ -101,7 +102,7 @@ def test_a_diff_lists_the_first_changes_and_counts_all(paper_traces, tmp_path, c
 
     monkeypatch.setattr(W, "BLOCK_ROWS", 150)  # several blocks
     path = tmp_path / "base.mcap"
-    write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / "base"]))
+    write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / "base"], vocab=HIGHWAY))
     paper, none = load_shield("paper"), load_shield("none")
     full = diff([path], paper, none, listed=None)
     short = diff([path, path], paper, none, listed=30)
@@ -151,7 +152,7 @@ def test_strict_is_deadlock_free_on_paper_traces(paper_traces, tmp_path):
     write_run(path, new_header("imported-simb"),
               (dataclasses.replace(e, id=i) for i, e in enumerate(
                   import_simb([paper_traces / "simb" / "base",
-                               paper_traces / "simb" / "base_shield"]))))
+                               paper_traces / "simb" / "base_shield"], vocab=HIGHWAY))))
     report = replay([path], load_shield("strict"))
     assert report.deadlock_states == 0
     assert report.infeasible_steps > 233  # stricter than the paper's shield on base/
@@ -211,9 +212,9 @@ def test_missing_variable_is_an_input_error(tmp_path):
 
 
 def test_shield_loading_errors(tmp_path):
-    with pytest.raises(InputError, match="unknown shield 'sturdy': give one of none, paper, "
-                                         "strict, frozenlake, cliffwalking, "
-                                         "highway_continuous, lunarlander_continuous or the "
+    with pytest.raises(InputError, match="unknown shield 'sturdy': give one of none, "
+                                         "cliffwalking, frozenlake, highway_continuous, "
+                                         "lunarlander_continuous, paper, strict or the "
                                          "path of a .mch file"):
         load_shield("sturdy")
     partial = tmp_path / "partial.mch"
@@ -242,7 +243,7 @@ def test_shield_loading_errors(tmp_path):
 
 def test_replay_speed_paths_agree_on_real_data(paper_traces, tmp_path):
     path = tmp_path / "base.mcap"
-    write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / "base"]))
+    write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / "base"], vocab=HIGHWAY))
     cols = read_columns(path)
     paper = load_shield("paper")
     matrix, ops = enabled_matrix(paper, cols)

@@ -91,8 +91,8 @@ def test_interrupted_import_says_what_it_kept(capsys, tmp_path, monkeypatch, exi
         target.write_bytes(b"old")
     trace = tmp_path / "t.json"
     trace.write_text("{}")
-    code, _, err = run(capsys, "import", "simb", str(trace), "-o", str(target),
-                       *(["--force"] if existing else []))
+    code, _, err = run(capsys, "import", "simb", str(trace), "--env", "highway", "-o",
+                       str(target), *(["--force"] if existing else []))
     assert code == 130
     assert err.strip() == f"interrupted: {target} was not {'changed' if existing else 'written'}"
     assert (target.read_bytes() == b"old") if existing else not target.exists()

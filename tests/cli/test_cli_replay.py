@@ -13,12 +13,13 @@ from tracecheck.cli import main
 from tracecheck.episodes import new_header
 from tracecheck.episodes.files import write_run
 from tracecheck.interop import import_simb
+from tracecheck.live.envs.highway import HIGHWAY
 
 
 @pytest.fixture(scope="module")
 def base(paper_traces, tmp_path_factory):
     path = tmp_path_factory.mktemp("runs") / "base.mcap"
-    write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / "base"]))
+    write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / "base"], vocab=HIGHWAY))
     return path
 
 

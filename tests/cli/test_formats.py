@@ -28,7 +28,8 @@ TABLES = {
                "ci95_high", "holds", "method"], 2 * 15),  # generic (5) + the paper's (11) - 1
     "info": (["info", NONE, PAPER], ["file", "source", "episodes", "steps", "crashes", "model"],
              2),
-    "envs": (["envs"], ["name", "environment", "actions", "variables", "shield", "installed"],
+    "envs": (["envs"], ["name", "environment", "actions", "variables", "shield", "installed",
+                        "description", "brings", "horizon"],
              None),
     "check-model": (["check-model", "paper"],
                     ["kind", "name", "value or type", "guard", "description"], 1 + 1 + 9 + 5),

@@ -83,7 +83,8 @@ def test_a_new_recording_carries_the_channels(tmp_path):
 
     path = tmp_path / "run.mcap"
     record(RecordSettings(agent=str(ROOT / "models" / "agents" / "base.zip"), shield="paper",
-                          episodes=1, seed=3, duration=6), path, channels=FoxgloveChannels)
+                          episodes=1, seed=3, duration=6, env="highway"), path,
+           channels=FoxgloveChannels)
     found = channels_and_messages(path)
     check_all(found)
     allowed = [m["value"] for m in found["/plot/allowed_actions"][2]]

@@ -8,7 +8,7 @@ import pytest
 
 from tests.helpers import ROOT, episode as make_episode
 from tracecheck.b.machine import load_machine
-from tracecheck.episodes.vocabulary import HIGHWAY
+from tracecheck.live.envs.highway import HIGHWAY
 from tracecheck.errors import InputError
 from tracecheck.interop import export_prob2trace, export_simb, import_prob2trace, import_simb
 from tracecheck.interop.common import vocabulary_of
@@ -24,8 +24,8 @@ def same(a, b):
 
 
 def test_paper_simb_traces(paper_traces):
-    base = list(import_simb([paper_traces / "simb" / "base"]))
-    shield = list(import_simb([paper_traces / "simb" / "base_shield"]))
+    base = list(import_simb([paper_traces / "simb" / "base"], vocab=HIGHWAY))
+    shield = list(import_simb([paper_traces / "simb" / "base_shield"], vocab=HIGHWAY))
     assert len(base) == len(shield) == 20
     assert sum(e.end.steps for e in base) == 765
     assert sum(e.end.crashed for e in base) == 9 and sum(e.end.crashed for e in shield) == 1
@@ -38,7 +38,7 @@ def test_paper_simb_traces(paper_traces):
 
 
 def test_paper_prob2traces(paper_traces):
-    eps = list(import_prob2trace([paper_traces / "prob2trace"]))
+    eps = list(import_prob2trace([paper_traces / "prob2trace"], vocab=HIGHWAY))
     assert len(eps) == 4
     names = [e.origin.rsplit("/", 1)[-1] for e in eps]
     assert names[0] == "Agent_Lane_Left_Collision.prob2trace"
@@ -49,9 +49,9 @@ def test_paper_prob2traces(paper_traces):
 
 
 def test_simb_round_trip(paper_traces, tmp_path):
-    eps = list(import_simb([paper_traces / "simb" / "base_shield"]))
-    export_simb(eps, tmp_path / "out")
-    back = list(import_simb([tmp_path / "out"]))
+    eps = list(import_simb([paper_traces / "simb" / "base_shield"], vocab=HIGHWAY))
+    export_simb(eps, tmp_path / "out", HIGHWAY.name)
+    back = list(import_simb([tmp_path / "out"], vocab=HIGHWAY))
     for a, b in zip(eps, back):
         same(a, b)
     doc = json.loads((tmp_path / "out" / "Timed_Simulation_1.json").read_text())
@@ -62,9 +62,9 @@ def test_simb_round_trip(paper_traces, tmp_path):
 
 
 def test_prob2trace_round_trip(paper_traces, tmp_path):
-    for k, ep in enumerate(import_prob2trace([paper_traces / "prob2trace"])):
-        path = export_prob2trace(ep, tmp_path / f"{k}.prob2trace")
-        (back,) = import_prob2trace([path])
+    for k, ep in enumerate(import_prob2trace([paper_traces / "prob2trace"], vocab=HIGHWAY)):
+        path = export_prob2trace(ep, tmp_path / f"{k}.prob2trace", HIGHWAY)
+        (back,) = import_prob2trace([path], vocab=HIGHWAY)
         same(ep, back)
     doc = json.loads(path.read_text())
     assert doc["metadata"]["fileType"] == "Trace" and doc["metadata"]["formatVersion"] == 5
@@ -73,15 +73,15 @@ def test_prob2trace_round_trip(paper_traces, tmp_path):
 
 def test_round_trip_of_hand_made_episode(tmp_path):
     ep = make_episode(0, 4, crash_at_end=True)
-    export_simb([ep], tmp_path)
-    (back,) = import_simb([tmp_path / "Timed_Simulation_1.json"])
+    export_simb([ep], tmp_path, HIGHWAY.name)
+    (back,) = import_simb([tmp_path / "Timed_Simulation_1.json"], vocab=HIGHWAY)
     assert [s.state for s in back.steps] == [s.state for s in ep.steps]
-    (again,) = import_prob2trace([export_prob2trace(ep, tmp_path / "e.prob2trace")])
+    (again,) = import_prob2trace([export_prob2trace(ep, tmp_path / "e.prob2trace", HIGHWAY)], vocab=HIGHWAY)
     assert [s.state for s in again.steps] == [s.state for s in ep.steps]
 
 
 def test_prob2trace_only_writes_changes():
-    doc = prob2trace_document(make_episode(0, 2))
+    doc = prob2trace_document(make_episode(0, 2), HIGHWAY)
     step1 = doc["transitionList"][2]
     assert "Crash" in step1["destStateNotChanged"] and "VehiclesX" in step1["destState"]
 
@@ -97,7 +97,7 @@ def _init(state):
             "fixedVariables": state}
 
 
-GOOD = simb_document(make_episode(0, 1))["activations"][1]["fixedVariables"]
+GOOD = simb_document(make_episode(0, 1), HIGHWAY.name)["activations"][1]["fixedVariables"]
 
 
 @pytest.mark.parametrize("activations,fragment", [
@@ -120,7 +120,7 @@ GOOD = simb_document(make_episode(0, 1))["activations"][1]["fixedVariables"]
 ])
 def test_bad_simb(tmp_path, activations, fragment):
     with pytest.raises(InputError) as info:
-        list(import_simb([_simb(tmp_path, activations)]))
+        list(import_simb([_simb(tmp_path, activations)], vocab=HIGHWAY))
     assert fragment in str(info.value)
 
 
@@ -128,7 +128,7 @@ def test_json_nested_too_deeply_or_too_large(tmp_path, monkeypatch):
     path = tmp_path / "deep.json"
     path.write_text('{"activations": ' + "[" * 5000 + "]" * 5000 + "}")
     with pytest.raises(InputError) as info:
-        list(import_simb([path]))
+        list(import_simb([path], vocab=HIGHWAY))
     assert info.value.message == "not valid JSON: depth limit exceeded"
     assert (info.value.file, info.value.line, info.value.column) == (str(path), 1, 1041)
     import tracecheck.inputs as inputs
@@ -139,14 +139,14 @@ def test_json_nested_too_deeply_or_too_large(tmp_path, monkeypatch):
     big.write_text(" " * 2000)
     with pytest.raises(InputError, match=r"the trace file .*big.json has 2,000 bytes; "
                                          r"tracecheck reads at most 1,000 for a trace file"):
-        list(import_simb([big]))
+        list(import_simb([big], vocab=HIGHWAY))
 
 
 def test_malformed_json_is_located(tmp_path):
     path = tmp_path / "broken.json"
     path.write_text('{"activations": [\n  {"execute": "IDLE",}\n]}')
     with pytest.raises(InputError) as info:
-        list(import_simb([path]))
+        list(import_simb([path], vocab=HIGHWAY))
     assert (info.value.file, info.value.line) == (str(path), 2)
     assert "not valid JSON" in info.value.message
 
@@ -162,14 +162,14 @@ def test_bad_prob2trace(tmp_path, doc, fragment):
     path.write_text(json.dumps(doc))
     with pytest.raises(InputError, match=fragment.replace("(", r"\(").replace(")", r"\)")
                        .replace("$", r"\$")):
-        list(import_prob2trace([path]))
+        list(import_prob2trace([path], vocab=HIGHWAY))
 
 
 def test_missing_paths(tmp_path):
     with pytest.raises(InputError, match="no such file or folder"):
-        list(import_simb([tmp_path / "nope"]))
+        list(import_simb([tmp_path / "nope"], vocab=HIGHWAY))
     with pytest.raises(InputError, match="holds no \\*.json files"):
-        list(import_simb([tmp_path]))
+        list(import_simb([tmp_path], vocab=HIGHWAY))
 
 
 def test_import_checked_against_a_machine(paper_traces, tmp_path):

@@ -87,9 +87,9 @@ def install(monkeypatch) -> None:
     """Make ``cruise`` an installed adapter (an entry point of the group), for one test."""
     from importlib import metadata
 
-    from tracecheck.live import adapter
+    from tracecheck import registry
 
-    points = dict(adapter._entry_points())
+    points = dict(registry.entry_points())
     points["cruise"] = metadata.EntryPoint("cruise", "tests.live.cruise:Cruise",
-                                           adapter.ENTRY_POINT_GROUP)
-    monkeypatch.setattr(adapter, "_entry_points", lambda: points)
+                                           registry.ENTRY_POINT_GROUP)
+    monkeypatch.setattr(registry, "entry_points", lambda: points)

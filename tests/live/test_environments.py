@@ -125,7 +125,7 @@ def test_frozenlake_replay_resimulate_stats_render(frozen, tmp_path, capsys):
     assert code == 0, err
     text = page.read_text()
     data = json.loads(text.split("const DATA = ", 1)[1].split(";\nconst ACTIONS", 1)[0])
-    from tracecheck.render.scene import GRID_CAPTION
+    from tracecheck.live.envs.grid_scene import GRID_CAPTION
 
     assert data["scene"]["caption"] == GRID_CAPTION
     tiles = {s["label"] for s in data["scene"]["shapes"] if s["kind"] == "box"}
@@ -234,7 +234,8 @@ def test_q_learning_trains_in_seconds_with_a_model_card(tmp_path, capsys):
 
 
 def test_adapters_by_name_and_by_path():
-    assert get_adapter(None).name == "highway"
+    with pytest.raises(InputError, match="no environment named: give --env NAME"):
+        get_adapter(None)  # no environment is anyone's default
     assert load_adapter(TOY).name == "corridor"
     with pytest.raises(InputError, match="cannot import the adapter module 'no_such_module'"):
         load_adapter("no_such_module:Thing")
@@ -531,8 +532,9 @@ def test_a_working_user_adapter_is_not_changed_by_the_guard(broken, toy, tmp_pat
                                      "frozenlake"),
     (["train", "--env", "frozenlake", "--algorithm", "q-learning", "--steps", 10, "--seed",
       -1], "Invalid value for '--seed': -1 is not in the range 0<=x<=4294967295"),
-    (["train", "--steps", 10, "--env-config", "nonsense=1"],
+    (["train", "--env", "highway", "--steps", 10, "--env-config", "nonsense=1"],
      "unknown setting 'nonsense' for the environment highway; it takes action, "),
+    (["train", "--steps", 10], "no environment named: give --env NAME (installed: "),
     (["train", "--steps", 10, "--seed", -1], "Invalid value for '--seed'"),
     (["record", "--env", "frozenlake", "--agent", AGENTS / "frozenlake.npy", "-n", 1,
       "--env-config", "is_slippery=maybe"], "the setting is_slippery='maybe' does not fit the "
@@ -544,7 +546,7 @@ def test_a_working_user_adapter_is_not_changed_by_the_guard(broken, toy, tmp_pat
     (["record", "--env", "frozenlake", "--agent", AGENTS / "frozenlake.npy", "-n", 1,
       "--env-config", "map_name=8"], "the setting map_name=8 does not fit the environment "
                                      "frozenlake: map_name takes a string"),
-    (["train", "--steps", 10, "--env-config", "duration=x"],
+    (["train", "--env", "highway", "--steps", 10, "--env-config", "duration=x"],
      "the setting duration='x' does not fit the environment highway: duration takes a number"),
     (["train", "--env", "frozenlake", "--algorithm", "q-learning", "--steps", 200,
       "--env-config", "map_name=99x99"],
@@ -597,7 +599,7 @@ def test_env_config_values_are_typed_as_the_environment_takes_them(tmp_path, cap
 
 
 def test_a_setting_is_checked_against_its_annotation_and_default():
-    from tracecheck.live.adapter import parse_config, setting_kinds, typed_setting
+    from tracecheck.live.settings import parse_config, setting_kinds, typed_setting
 
     assert parse_config(["a=True", "b=false", "c=3", "d=0.5", "e=8x8", 'f="4"']) == \
         {"a": True, "b": False, "c": 3, "d": 0.5, "e": "8x8", "f": "4"}

@@ -29,7 +29,8 @@ def local_ray():
 
 
 def settings(**kw):
-    values = dict(agent=AGENT, shield="paper", episodes=6, seed=300, duration=12, workers=2)
+    values = dict(agent=AGENT, shield="paper", episodes=6, seed=300, duration=12, workers=2,
+                  env="highway")
     values.update(kw)
     return RecordSettings(**values)
 
@@ -75,7 +76,9 @@ def test_killed_worker_loses_and_duplicates_nothing(local_ray, tmp_path):
 
 
 def test_replay_diff_stats_per_file_on_ray(local_ray):
-    from tracecheck.stats.properties import HIGHWAY_SET
+    from tracecheck.stats.properties import load_properties
+
+    HIGHWAY_SET = load_properties("highway")
     from tracecheck.checking.diffing import diff
     from tracecheck.checking.replaying import replay
     from tracecheck.checking.shield import load_shield
@@ -118,7 +121,9 @@ def test_ray_tasks_are_blocks_of_a_file(local_ray, tmp_path, monkeypatch):
     from tracecheck.episodes import EpisodeWriter
     from tracecheck.episodes import writer as W
     from tracecheck.stats.estimates import statistics
-    from tracecheck.stats.properties import HIGHWAY_SET
+    from tracecheck.stats.properties import load_properties
+
+    HIGHWAY_SET = load_properties("highway")
 
     source = ROOT / "sample_traces" / "base_none.mcap"
     run = read_run(source)

@@ -30,7 +30,7 @@ BASE = ROOT / "models" / "agents" / "base.zip"
 
 
 def settings(**kw):
-    values = dict(agent=str(BASE), shield="paper", episodes=3, seed=40, duration=8)
+    values = dict(agent=str(BASE), shield="paper", episodes=3, seed=40, duration=8, env="highway")
     values.update(kw)
     return RecordSettings(**values)
 
@@ -297,7 +297,7 @@ def test_record_bad_input_before_any_episode(capsys, tmp_path, args, fragment):
 
 def test_train_writes_agent_and_card(capsys, tmp_path):
     out = tmp_path / "agent.zip"
-    code, text, _ = run(capsys, "train", "--steps", "64", "--seed", "3", "-o", str(out))
+    code, text, _ = run(capsys, "train", "--env", "highway", "--steps", "64", "--seed", "3", "-o", str(out))
     assert code == 0 and out.exists()
     card = json.loads(out.with_suffix(".json").read_text())
     assert card["steps"] == 64 and card["seed"] == 3 and card["reward_profile"] == "base"

@@ -16,7 +16,8 @@ from tests.live.toy import SHIELD, Corridor
 from tracecheck.checking.shield import load_shield
 from tracecheck.errors import InputError
 from tracecheck.live.adapter import get_adapter
-from tracecheck.live.agents import PAPER_DQN, load_agent
+from tracecheck.live.agents import load_agent
+from tracecheck.live.envs.highway import PAPER_DQN
 from tracecheck.live.training import LEARNERS, train_agent
 from tracecheck.live.wrapper import ShieldWrapper
 from tracecheck.render.curves import CURVE_SIZE
@@ -134,12 +135,15 @@ def test_an_unmasked_learner_does_ask_for_blocked_actions(blocked_requests):
 
 def test_the_paper_settings_stay_the_highways_and_others_get_their_own():
     dqn = LEARNERS["dqn"].settings
-    assert dqn(True, 20_000) == dict(PAPER_DQN, exploration_fraction=0.3)
-    assert dqn(False, 20_000)["gamma"] == 0.99 and "policy_kwargs" not in dqn(False, 20_000)
-    assert LEARNERS["ppo"].settings(True, 20_000) == {
+    highway = get_adapter("highway")
+    assert {**dqn(20_000), **highway.training_settings("dqn", 20_000)} == dict(
+        PAPER_DQN, exploration_fraction=0.3)
+    assert get_adapter("cliffwalking").training_settings("dqn", 20_000) == {}
+    assert dqn(20_000)["gamma"] == 0.99 and "policy_kwargs" not in dqn(20_000)
+    assert {**LEARNERS["ppo"].settings(20_000), **highway.training_settings("ppo", 20_000)} == {
         "n_steps": 2048, "batch_size": 64, "learning_rate": 3e-4, "gamma": 0.8}
-    assert LEARNERS["ppo"].settings(False, 300)["n_steps"] == 320  # one rollout, whole batches
-    assert LEARNERS["ppo"].settings(False, 3000)["n_steps"] == 1536  # two, not 2 × 2048
+    assert LEARNERS["ppo"].settings(300)["n_steps"] == 320  # one rollout, whole batches
+    assert LEARNERS["ppo"].settings(3000)["n_steps"] == 1536  # two, not 2 × 2048
     assert LEARNERS["ppo"] is not LEARNERS["maskable-ppo"]
     assert LEARNERS["maskable-ppo"].settings is LEARNERS["ppo"].settings
 

@@ -136,13 +136,13 @@ def test_two_adapters_for_one_id_are_ambiguous(monkeypatch):
     import gymnasium as gym
 
     from tests.live.cruise import ENV_ID, install
-    from tracecheck.live import adapter
+    from tracecheck import registry
 
     install(monkeypatch)
-    points = dict(adapter._entry_points())
+    points = dict(registry.entry_points())
     points["cruise2"] = metadata.EntryPoint("cruise2", "tests.live.cruise:Cruise",
-                                            adapter.ENTRY_POINT_GROUP)
-    monkeypatch.setattr(adapter, "_entry_points", lambda: points)
+                                            registry.ENTRY_POINT_GROUP)
+    monkeypatch.setattr(registry, "entry_points", lambda: points)
     with pytest.raises(InputError, match="are all for 'TracecheckCruise-v0'; give the one"):
         ShieldWrapper(gym.make(ENV_ID), cruise_shield())
 

@@ -129,10 +129,10 @@ def test_report_in_a_browser(tmp_path):
     from selenium.webdriver.common.by import By
 
     out = tmp_path / "report.html"
-    from tracecheck.stats.properties import HIGHWAY_SET
+    from tracecheck.stats.properties import load_properties
     from tracecheck.render.report import render_report
 
-    render_report([NONE], out, shield=load_shield("paper"), pset=HIGHWAY_SET, max_pages=2)
+    render_report([NONE], out, shield=load_shield("paper"), pset=load_properties("highway"), max_pages=2)
     browser = open_browser()
     try:
         browser.get(out.as_uri())

@@ -65,18 +65,20 @@ def test_a_grid_map_is_drawn_once_and_each_map_as_itself():
     Foxglove primitives) are built once for it — and a different map, even one equal in
     size, gets its own tiles, never the last one's."""
     from tracecheck.b.values import Elem, FuncValue
-    from tracecheck.render.scene import grid_scene
+    from tracecheck.live.envs.grid_scene import grid_scene
+
+    holes = frozenset({"HOLE"})
 
     def lake(holes):
         return FuncValue({(x, y): Elem("HOLE" if (x, y) in holes else "ICE")
                           for x in range(4) for y in range(4)})
 
     one, other = lake({(1, 1)}), lake({(2, 3)})
-    first = grid_scene({"x": 0, "y": 0, "field": one})
-    again = grid_scene({"x": 1, "y": 0, "field": one})
+    first = grid_scene({"x": 0, "y": 0, "field": one}, danger=holes)
+    again = grid_scene({"x": 1, "y": 0, "field": one}, danger=holes)
     assert all(a is b for a, b in zip(first.shapes[:16], again.shapes[:16]))
     assert first.shapes[-1].x == 0.5 and again.shapes[-1].x == 1.5  # the agent moved
-    dark = {(s.x - 0.5, s.y - 0.5) for s in grid_scene({"x": 0, "y": 0, "field": other}).shapes
+    dark = {(s.x - 0.5, s.y - 0.5) for s in grid_scene({"x": 0, "y": 0, "field": other}, danger=holes).shapes
             if s.group == "map" and s.fill[0] < 0.5}
     assert dark == {(2, 3)}
     cubes = [e for e in scene_entities(first, 0) if e["id"] == "map"][0]["cubes"]

@@ -11,7 +11,8 @@ import pytest
 from tests.helpers import ROOT, browser_errors, open_browser
 from tests.live.toy import CRUISE_SHIELD, Cruise
 from tracecheck.checking.shield import load_shield
-from tracecheck.render.scene import GRID_CAPTION, ROAD_CAPTION
+from tracecheck.live.envs.grid_scene import GRID_CAPTION
+from tracecheck.live.envs.highway_scene import ROAD_CAPTION
 from tracecheck.render.viewer import NO_SCENE, episode_data, render_episode, short_value
 
 NONE = ROOT / "sample_traces" / "base_none.mcap"

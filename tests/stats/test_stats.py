@@ -12,8 +12,11 @@ from tracecheck.episodes.files import write_run
 from tracecheck.episodes.model import Episode, StepRecord, make_end
 from tracecheck.errors import BScopeError, BTypeError, InputError
 from tracecheck.interop import import_simb
-from tracecheck.stats.properties import HIGHWAY_SET, load_properties, parse_properties
+from tracecheck.live.envs.highway import HIGHWAY
 from tracecheck.stats.estimates import statistics
+from tracecheck.stats.properties import load_properties, parse_properties
+
+HIGHWAY_SET = load_properties("highway")
 
 
 @pytest.fixture(scope="module")
@@ -22,7 +25,7 @@ def paper_runs(paper_traces, tmp_path_factory):
     paths = []
     for name in ("base", "base_shield"):
         path = folder / f"{name}.mcap"
-        write_run(path, new_header("imported-simb"), import_simb([paper_traces / "simb" / name]))
+        write_run(path, new_header("imported-simb", variables=list(HIGHWAY.variables)), import_simb([paper_traces / "simb" / name], vocab=HIGHWAY))
         paths.append(path)
     return paths
 
@@ -148,7 +151,7 @@ def test_paired_comparison_on_sample_traces():
 
 def test_empty_run_is_reported_as_such(tmp_path):
     path = tmp_path / "empty.mcap"
-    with EpisodeWriter(path, new_header("recorded")):
+    with EpisodeWriter(path, new_header("recorded", environment="highway")):
         pass
     (r,) = statistics([path], HIGHWAY_SET)["runs"]
     assert r["episodes"] == 0 and r["note"] == "no episodes: nothing to estimate"

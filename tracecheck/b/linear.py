@@ -101,7 +101,7 @@ class AllowedSet:
         boxes = self._boxes()
         if not boxes:
             return {p: () for p in self.params}
-        # a union is drawn where one of its boxes holds the others (the highway's "any
+        # a union is drawn where one of its boxes holds the others (a guard's "any
         # acceleration, or full braking" is [-1, a] × S ∪ {-1} × S)
         whole = next((b for b in boxes if all(_box_within(o, b, self.params) for o in boxes)),
                      None)

@@ -14,7 +14,7 @@ from .values import Elem, FuncValue
 
 __all__ = ["read_state_file", "state_from_json", "native_state", "MAX_STATE_BYTES"]
 
-#: The largest state file tracecheck reads (a highway state is about 1 kB).
+#: The largest state file tracecheck reads (a state of five vehicles' positions, speeds and accelerations is about 1 kB).
 MAX_STATE_BYTES = 16 << 20
 
 
@@ -75,7 +75,7 @@ def native_state(state: Mapping[str, Any], types: Optional[Mapping[str, Any]] = 
 
 
 #: sets found to hold no numpy value: a grid world's map is one object in every state, and
-#: walking it every step was a third of a FrozenLake rollout
+#: walking it every step was a third of a grid world's rollout
 _CLEAN: ByIdentity[bool] = ByIdentity(64)
 
 

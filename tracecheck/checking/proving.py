@@ -272,7 +272,7 @@ def _holds_at(translator: Translator, model, constraints: list,
 
 
 def _reading(state: dict, describe: Optional[Describe], limit: int = 6) -> str:
-    """One line: what ``describe`` (an environment's, e.g. the highway's vehicles on the
+    """One line: what ``describe`` (an environment's, e.g. vehicles on the
     road) says of the state; otherwise its first variables."""
     text = describe(state) if describe is not None else None
     if text is not None:

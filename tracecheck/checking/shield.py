@@ -1,8 +1,9 @@
 """Shields: B machines with one operation per agent action, whose guards say what is safe.
 
-A shield is asked for by a built-in name (``none``, ``paper``, ``strict``: the machines in
-``models/shields/``) or by the path of any ``.mch`` file. Its identity is its name plus the
-sha256 of its text, so a report always says exactly which shield it used.
+A shield is asked for by the name of one an installed environment brings (its adapter's
+``shields``; ``tracecheck envs`` lists them), by ``none`` (every action allowed, made for the
+actions of the run or agent), or by the path of any ``.mch`` file. Its identity is its name plus
+the sha256 of its text, so a report always says exactly which shield it used.
 """
 
 from __future__ import annotations
@@ -11,12 +12,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
+from .. import registry
 from ..b.machine import Machine, load_machine
-from ..episodes.vocabulary import HIGHWAY_ACTIONS
 from ..errors import InputError
 
-__all__ = ["Shield", "load_shield", "for_actions", "BUILTIN_SHIELDS", "SHIELD_DIR",
-           "check_vocabulary", "data_dir"]
+__all__ = ["Shield", "load_shield", "for_actions", "builtin_shields", "shield_names",
+           "SHIELD_DIR", "check_vocabulary", "data_dir"]
 
 def data_dir() -> Path:
     """Where the built-in shields and bundled agents are: ``models/`` of a source checkout, or
@@ -29,9 +30,23 @@ def data_dir() -> Path:
     return Path(str(resources.files("tracecheck.models")))
 
 
+#: where tracecheck's own environments keep their shields' files
 SHIELD_DIR = data_dir() / "shields"
-BUILTIN_SHIELDS = ("none", "paper", "strict", "frozenlake", "cliffwalking", "highway_continuous",
-                   "lunarlander_continuous")
+
+
+def builtin_shields() -> dict[str, Path]:
+    """The shields the installed environments bring, by name (their adapters' ``shields``).
+
+    Returns:
+        ``{name: path of the .mch file}``, sorted by name.
+    """
+    found = registry.bundled("shields")
+    return {name: Path(found[name][1]) for name in sorted(found)}
+
+
+def shield_names() -> list[str]:
+    """Every name ``--shield`` takes besides a path: ``none`` and the environments' shields."""
+    return ["none", *(n for n in builtin_shields() if n != "none")]
 
 
 @dataclass(frozen=True)
@@ -63,19 +78,21 @@ def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None,
     each, see :attr:`~tracecheck.live.adapter.EnvAdapter.parameters`).
     """
     text = str(spec)
-    if text == "none" and actions is not None and (tuple(actions) != HIGHWAY_ACTIONS
-                                                   or parameters):
+    builtin = builtin_shields() if Path(text).suffix != ".mch" else {}
+    if text == "none" and actions is not None and (
+            parameters or "none" not in builtin
+            or set(load_machine(builtin["none"]).operations) != set(actions)):
         return _none_for(actions, parameters or {})
-    if text in BUILTIN_SHIELDS:
-        path, name = SHIELD_DIR / f"{text}.mch", text
+    if text in builtin:
+        path, name = builtin[text], text
         if not path.exists():
-            raise InputError(f"the built-in shield {text} is not installed at {path}; "
-                             "reinstall tracecheck")
+            raise InputError(f"the shield {text} of an installed environment is not at "
+                             f"{path}; reinstall the environment's package")
     else:
         path = Path(text)
         if path.suffix != ".mch" and not path.exists():
             raise InputError(f"unknown shield {text!r}: give one of "
-                             f"{', '.join(BUILTIN_SHIELDS)} or the path of a .mch file")
+                             f"{', '.join(shield_names())} or the path of a .mch file")
         name = path.stem
     machine = load_machine(path)
     machine.decide_beyond_linear(beyond_linear)

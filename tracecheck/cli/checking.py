@@ -238,8 +238,8 @@ def prove_cmd(
 
 def _describe(machine, adapter=None):
     """How a counterexample reads: as ``adapter`` (``--env``) describes a state, else as
-    the first installed adapter whose variables ``machine`` declares does (the highway's
-    for its shields: vehicles on the road); None: the state's values as they are."""
+    the first installed adapter whose variables ``machine`` declares does (e.g. vehicles
+    on a road); None: the state's values as they are."""
     from ..live.adapter import adapters
 
     found = ([adapter] if adapter is not None else []) + [

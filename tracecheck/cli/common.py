@@ -11,12 +11,54 @@ from pathlib import Path
 from typing import Optional
 
 import typer
+from typer.core import TyperGroup
 
 from .. import __version__
 from ..errors import InputError, printable
 
+class _Group(TyperGroup):
+    """The command group: a command's help is completed with what is installed (the
+    ``{environments}``, ``{shields}`` and ``{property_sets}`` of its options' help texts) when
+    it is asked for — only then, since that imports every environment's adapter."""
+
+    def resolve_command(self, ctx, args):
+        name, command, rest = super().resolve_command(ctx, args)
+        if command is not None and any(a in ("--help",) for a in rest):
+            fill_help(command)
+        return name, command, rest
+
+
+#: the placeholders of help texts that :func:`fill_help` completes
+PLACEHOLDERS = ("environments", "shields", "property_sets")
+
+
+def installed_names() -> dict[str, str]:
+    """What the help texts' placeholders stand for: the installed environments, the shields
+    and the property sets they bring."""
+    from .. import registry
+    from ..checking.shield import shield_names
+    from ..stats.properties import builtin_sets
+
+    return {"environments": ", ".join(registry.names()), "shields": ", ".join(shield_names()),
+            "property_sets": ", ".join(builtin_sets())}
+
+
+def fill_help(command) -> None:
+    """Complete the help texts of ``command``'s options (and of a group's commands) with
+    :func:`installed_names`."""
+    names = None
+    for param in getattr(command, "params", ()):
+        text = getattr(param, "help", None)
+        if text and any("{" + key + "}" in text for key in PLACEHOLDERS):
+            names = names or installed_names()
+            for key, value in names.items():
+                text = text.replace("{" + key + "}", value)
+            param.help = text
+
+
 app = typer.Typer(
     name="tracecheck",
+    cls=_Group,
     help="Validate reinforcement-learning agents and their B safety shields.",
     no_args_is_help=True,
     add_completion=False,
@@ -108,11 +150,11 @@ SALVAGE = typer.Option(False, "--salvage",
 
 
 def load_model(path: Path):
-    """A machine from a path, or a built-in shield by name (none, paper, strict)."""
+    """A machine from a path, or an installed environment's shield by name."""
     from ..b.machine import load_machine
-    from ..checking.shield import BUILTIN_SHIELDS, load_shield
+    from ..checking.shield import builtin_shields, load_shield
 
-    if str(path) in BUILTIN_SHIELDS:
+    if str(path) in builtin_shields():
         return load_shield(str(path)).machine
     return load_machine(path)
 
@@ -185,8 +227,12 @@ class FailOn(str, Enum):
     mismatch = "mismatch"  # replay --resimulate: an episode did not reproduce the recording
 
 
-SHIELD_HELP = ("A built-in shield (none, paper, strict, frozenlake, cliffwalking, "
-               "highway_continuous, lunarlander_continuous) or the path of a .mch file.")
+SHIELD_HELP = ("A shield an installed environment brings ({shields}) or the path of a .mch "
+               "file.")
+#: --properties of the commands that compute statistics
+PROPERTIES_HELP = ("A property set ({property_sets}) or a property file (TOML). Default: "
+                   "generic (episode length, return, interventions, crashes, time limits) and "
+                   "the environment's own.")
 ROWS = 40
 
 # the options of the commands that run episodes (record, simulate)
@@ -212,22 +258,22 @@ class Interval(str, Enum):
     clopper_pearson = "clopper-pearson"
 
 
-ENV = typer.Option(None, "--env", help="The environment: an installed adapter (highway, "
-                    "frozenlake, cliffwalking; see `tracecheck envs`) or package.module:Class "
-                    "(importing it runs its code). Default: highway.")
+ENV = typer.Option(None, "--env", help="The environment: an installed adapter ({environments}; "
+                   "see `tracecheck envs`) or package.module:Class (importing it runs its "
+                   "code). Default: the one the agent's model card names.")
 ENV_CONFIG = typer.Option([], "--env-config", help="key=value on top of the environment's "
                            "configuration, e.g. is_slippery=true (repeatable).")
 PROFILE = typer.Option(None, "--profile", help="A named configuration of the environment "
-                        "(highway: base, higher-penalty).")
+                        "(`tracecheck envs` lists them).")
 DURATION = typer.Option(None, "--duration", min=1, help="Agent steps per episode (default: "
-                         "the environment's: highway 60, frozenlake and cliffwalking 100).")
+                         "the environment's horizon, `tracecheck envs`).")
 AGENT = typer.Option(None, "--agent", help="A stable-baselines3 agent (.zip; loading it runs "
                       "code from the file: only use files you trust) or a Q-table (.npy). "
                       "Required unless --external.")
 
 
 def record_settings(env: Optional[str], env_config: list[str], **fields):
-    from ..live.adapter import parse_config
+    from ..live.settings import parse_config
     from ..live.record import RecordSettings
 
     if fields.get("agent") is None:
@@ -235,8 +281,13 @@ def record_settings(env: Optional[str], env_config: list[str], **fields):
                          "that speaks SimB's external-simulation protocol)")
     if fields.get("seed") is None:
         fields["seed"] = 0
-    return RecordSettings(env=env or "highway", env_config=parse_config(env_config) or None,
-                          **fields)
+    if env is None:
+        from ..live.agents import card_environment
+
+        env, source = card_environment(fields["agent"])
+        err.print(f"environment {env}, as {source} says (--env chooses another)",
+                  markup=False, highlight=False)
+    return RecordSettings(env=env, env_config=parse_config(env_config) or None, **fields)
 
 
 # the options of continuous actions (record, simulate)
@@ -276,7 +327,7 @@ def continuous_options(shield_mode: Optional[str], scale: Optional[str],
 EXTERNAL = typer.Option(None, "--external", help="Run this agent script instead of --agent: "
                         "a command line (split as a shell would, run without one, the port "
                         "appended) that speaks SimB's external-simulation protocol, e.g. "
-                        "'python3 FrozenLake.py'; --shield names the machine that answers it "
+                        "'python3 agent.py'; --shield names the machine that answers it "
                         "(docs/simb-external.md). It runs code: only scripts you trust.")
 CWD = typer.Option(None, "--cwd", help="The folder --external's script runs in (default: the "
                    "current one).")

@@ -23,25 +23,39 @@ app.add_typer(import_app, name="import")
 app.add_typer(export_app, name="export")
 
 
-def _vocabulary(model: Optional[Path]):
-    from ..episodes.vocabulary import HIGHWAY
-    from ..interop.common import vocabulary_of
+def _vocabulary(kind: str, paths: list[Path], model: Optional[Path], env: Optional[str]):
+    """The vocabulary traces are read in, and the machine they are checked against: the
+    machine ``--model`` names, else the environment ``--env`` names, else the installed
+    environment whose variables the first trace's states have (said on stderr)."""
+    from ..interop.common import trace_variables, vocabulary_of
+    from ..live.adapter import claiming_adapter, load_adapter
 
-    if model is None:
-        return HIGHWAY, None
-    machine = load_model(model)
-    return vocabulary_of(machine), machine
+    if model is not None:
+        machine = load_model(model)
+        return vocabulary_of(machine), machine
+    if env is not None:
+        return load_adapter(env).vocabulary(), None
+    variables = trace_variables(kind, paths)
+    adapter = claiming_adapter(variables) if variables else None
+    if adapter is None:
+        raise InputError(f"no --model or --env given, and no installed environment has the "
+                         f"variables of these traces ({', '.join(variables) or 'none found'})",
+                         hint="give --model MACHINE.mch (the traces' machine) or --env NAME")
+    err.print(f"the traces' states are read in the vocabulary of the environment "
+              f"{adapter.name} (their variables are its; --model or --env chooses another)",
+              markup=False, highlight=False)
+    return adapter.vocabulary(), None
 
 
 def _import(kind: str, paths: list[Path], output: Path, model: Optional[Path],
-            force: bool) -> None:
+            force: bool, env: Optional[str] = None) -> None:
     from ..episodes.files import check_run_output, write_run
     from ..episodes.writer import new_header
     from ..interop import import_prob2trace, import_simb
 
     inputs = [*paths, *input_paths(model)]
     check_run_output(output, inputs, force=force)
-    vocab, machine = _vocabulary(model)
+    vocab, machine = _vocabulary(kind, paths, model, env)
     reader = import_simb if kind == "simb" else import_prob2trace
     header = new_header(f"imported-{kind}", model_name=vocab.name,
                         variables=list(vocab.variables), actions=list(vocab.actions),
@@ -77,8 +91,11 @@ def _counted(episodes, advance):
 
 _OUTPUT = typer.Option(..., "--output", "-o", help="The MCAP file to write.")
 _MODEL = typer.Option(None, "--model", "-m",
-                      help="Check names and types against this machine instead of the "
-                           "paper's highway vocabulary.")
+                      help="Check names and types against this machine (default: the "
+                           "vocabulary of the installed environment whose variables the "
+                           "traces have).")
+_IMPORT_ENV = typer.Option(None, "--env", help="Read the states in this installed "
+                           "environment's vocabulary (its variables and actions).")
 
 
 @import_app.command("simb")
@@ -86,10 +103,11 @@ def import_simb_cmd(
     paths: list[Path] = typer.Argument(..., help="Timed_Simulation_N.json files or folders."),
     output: Path = _OUTPUT,
     model: Optional[Path] = _MODEL,
+    env: Optional[str] = _IMPORT_ENV,
     force: bool = FORCE,
 ) -> None:
     """Import SimB timed-simulation traces."""
-    _import("simb", paths, output, model, force)
+    _import("simb", paths, output, model, force, env)
 
 
 @import_app.command("prob2trace")
@@ -97,16 +115,17 @@ def import_prob2trace_cmd(
     paths: list[Path] = typer.Argument(..., help=".prob2trace files or folders."),
     output: Path = _OUTPUT,
     model: Optional[Path] = _MODEL,
+    env: Optional[str] = _IMPORT_ENV,
     force: bool = FORCE,
 ) -> None:
     """Import ProB2 trace files (one episode each; 1 s between steps)."""
-    _import("prob2trace", paths, output, model, force)
+    _import("prob2trace", paths, output, model, force, env)
 
 
 @import_app.command("minari")
 def import_minari_cmd(
     dataset: str = typer.Argument(..., help="A local Minari dataset id, e.g. "
-                                            "tracecheck/highway/paper-v0."),
+                                            "tracecheck/corridor/base-v0."),
     env: str = typer.Option(..., "--env", help="The adapter that makes the dataset's "
                             "observations B states: an installed one (see `tracecheck envs`) "
                             "or package.module:Class (importing it runs its code)."),
@@ -169,7 +188,6 @@ def export_prob2trace_cmd(
     force: bool = FORCE,
 ) -> None:
     """Export one episode as a ProB2 trace (opens in ProB2-UI)."""
-    from ..episodes.vocabulary import HIGHWAY, Vocabulary
     from ..episodes.reader import find_episode, read_run
     from ..interop import export_prob2trace
     from ..outputs import check_output
@@ -179,11 +197,26 @@ def export_prob2trace_cmd(
     chosen = find_episode(run, result, episode, salvage)
     warn(result.warnings)
     header = result.header
-    vocab = HIGHWAY if header is None or not header.model_name else Vocabulary(
-        HIGHWAY.variables, HIGHWAY.actions, header.model_name)
+    vocab = _run_vocabulary(header)
     export_prob2trace(chosen, output, vocab, force=force, inputs=[run])
     out.print(f"wrote episode {episode} ({chosen.end.steps} steps) -> {output}",
               markup=False)
+
+
+def _run_vocabulary(header):
+    """A run's vocabulary for its traces: its header's variables, actions and machine, and
+    the set of elements its environment's traces list (where that is installed)."""
+    from ..episodes.vocabulary import Vocabulary
+    from ..live.adapter import run_adapter
+
+    adapter = run_adapter(header.environment, tuple(header.variables or ())) \
+        if header is not None else None
+    own = adapter.vocabulary() if adapter is not None else None
+    name = (header.model_name if header is not None and header.model_name
+            else own.name if own is not None else "unnamed")
+    return Vocabulary(tuple(header.variables or ()) if header is not None else (),
+                      tuple(header.actions or ()) if header is not None else (), name,
+                      own.set_name if own is not None else "")
 
 
 @export_app.command("simb")
@@ -203,7 +236,7 @@ def export_simb_cmd(
     check_simb_folder(output, [run], force=force)
     episodes, header = _episodes(run, salvage)
     written = export_simb(episodes, output, (header.model_name if header and header.model_name
-                                             else "HighwayEnvironment"), force=force,
+                                             else _run_vocabulary(header).name), force=force,
                           inputs=[run])
     out.print(f"wrote {len(written)} SimB trace(s) -> {output}", markup=False)
 

@@ -21,8 +21,7 @@ def train_cmd(
     env: Optional[str] = ENV,
     env_config: list[str] = ENV_CONFIG,
     algorithm: Optional[Algorithm] = typer.Option(
-        None, "--algorithm", help="dqn (the default for discrete actions; the paper's settings "
-        "on the highway), ppo, a2c (stable-baselines3), maskable-ppo (sb3-contrib) or "
+        None, "--algorithm", help="dqn (the default for discrete actions), ppo, a2c (stable-baselines3), maskable-ppo (sb3-contrib) or "
         "q-learning (a Q-table, for environments with discrete observations); for continuous "
         "actions sac (the default), td3, ppo or a2c."),
     shield: Optional[str] = typer.Option(None, "--shield", "-s", help="Train with this shield "
@@ -37,8 +36,8 @@ def train_cmd(
     shield_mode: Optional[str] = SHIELD_MODE,
     scale: Optional[str] = SCALE,
     profile: Optional[str] = typer.Option(None, "--profile", help="A named configuration of "
-                                          "the environment (highway: its reward profiles "
-                                          "base (the default), higher-penalty); refused for "
+                                          "the environment (`tracecheck envs` lists them; "
+                                          "default: its 'base', if it has one); refused for "
                                           "an environment without any."),
     steps: Optional[int] = typer.Option(None, "--steps", min=1, help="Environment steps "
                                         "(default: 20000, 200000 for q-learning)."),
@@ -50,10 +49,11 @@ def train_cmd(
                                 "curve NAME.curve.png go beside it."),
     force: bool = FORCE,
 ) -> None:
-    """Train an agent on any environment with an adapter — DQN (the paper's settings on the
-    highway), PPO, A2C, MaskablePPO or a Q-table — optionally with a shield in the loop; a
-    progress bar shows the mean return of the last 20 episodes."""
-    from ..live.adapter import load_adapter, parse_config
+    """Train an agent on any environment with an adapter — DQN, PPO, A2C, MaskablePPO, SAC,
+    TD3 or a Q-table, with the environment's own settings where it has them — optionally with
+    a shield in the loop; a progress bar shows the mean return of the last 20 episodes."""
+    from ..live.adapter import load_adapter
+    from ..live.settings import parse_config
 
     adapter = load_adapter(env)
     if algorithm is None:
@@ -100,13 +100,12 @@ def train_cmd(
 
 def _profile(adapter, profile: Optional[str]) -> Optional[str]:
     """The named configuration to train in: the one given (the environment must have it),
-    else the highway's ``base`` (the model card names it), else none."""
+    else its ``base`` where it has one (the model card names it), else none."""
     if profile is None:
         return "base" if "base" in adapter.profiles else None
     if not adapter.profiles:
         raise InputError(f"--profile {profile}: the environment {adapter.name} has no named "
-                         "configurations (profiles are the highway's reward profiles: base, "
-                         "higher-penalty)",
+                         "configurations (`tracecheck envs` lists each environment's)",
                          hint="leave --profile out; set the environment's own settings with "
                               "--env-config key=value")
     return profile
@@ -164,7 +163,8 @@ def record_cmd(
     profile: Optional[str] = PROFILE,
     fallback: Optional[str] = typer.Option(None, "--fallback",
                                            help="Action taken when the shield allows nothing "
-                                                "(default: the environment's; highway SLOWER)."),
+                                                "(default: the environment's fallback, "
+                                                "`tracecheck envs`)."),
     shield_mode: Optional[str] = SHIELD_MODE,
     scale: Optional[str] = SCALE,
     output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
@@ -287,13 +287,22 @@ def _kept(what: str, output: Path, episodes: int, existed: bool) -> str:
 
 
 
+def _brings(row: dict) -> str:
+    """The shields, property sets and profiles an environment brings, in one line."""
+    parts = [f"{what} {', '.join(row[key])}" for what, key in (
+        ("shields", "shields"), ("property sets", "property_sets"), ("profiles", "profiles"))
+        if row[key]]
+    return "; ".join(parts)
+
+
 @app.command("envs")
 def envs_cmd(
     as_json: bool = JSON,
     fmt: OutputFormat = FORMAT,
 ) -> None:
-    """List the environment adapters: actions, state variables, default shield, and whether
-    the packages they need are installed."""
+    """List the environments: what each is, its actions and state variables, the shields and
+    property sets it brings, its profiles and horizon, and whether the packages it needs are
+    installed."""
     import importlib.util
 
     from ..live.adapter import adapters
@@ -306,9 +315,12 @@ def envs_cmd(
         row = {"name": info.name, "adapter": info.target, "problem": info.problem}
         if a is not None:
             missing = [p for p in a.requires if importlib.util.find_spec(p) is None]
-            row.update(environment=a.env_id, actions=list(a.actions),
-                       variables=list(a.variables), default_shield=a.default_shield,
-                       horizon=a.horizon, installed=not missing, missing=missing)
+            row.update(environment=a.env_id, description=a.description,
+                       actions=list(a.actions), variables=list(a.variables),
+                       default_shield=a.default_shield, shields=sorted(a.shields),
+                       property_sets=sorted(a.property_sets), profiles=sorted(a.profiles),
+                       fallback=a.fallback, horizon=a.horizon, installed=not missing,
+                       missing=missing)
             if a.parameters:  # continuous: each action with the parameters it binds
                 row["parameters"] = {op: list(p) for op, p in a.parameters.items()}
         rows.append(row)
@@ -316,21 +328,30 @@ def envs_cmd(
         print_json(rows)
         return
     table = TableData.of(
-        ["name", "environment", "actions", "variables", "shield", "installed"],
-        ([r["name"], r["adapter"], "", "", "", f"no: {r['problem']}"] if r["problem"] else
+        ["name", "environment", "actions", "variables", "shield", "installed", "description",
+         "brings", "horizon"],
+        ([r["name"], r["adapter"], "", "", "", f"no: {r['problem']}", "", "", ""]
+         if r["problem"] else
          [r["name"], r["environment"],
           ", ".join(f"{op}({', '.join(r['parameters'][op])})" if op in r.get("parameters", {})
                     else op for op in r["actions"]), ", ".join(r["variables"]),
           r["default_shield"] or "",
-          "yes" if r["installed"] else "no: needs " + ", ".join(r["missing"])]
+          "yes" if r["installed"] else "no: needs " + ", ".join(r["missing"]),
+          r["description"], _brings(r), str(r["horizon"])]
          for r in rows))
     if fmt != OutputFormat.text:
         print_table(fmt, table)
         return
-    for name, environment, actions, variables, shield, installed in table.rows:
+    for (name, environment, actions, variables, shield, installed, description, brings,
+         horizon) in table.rows:
         if not actions:  # a block per environment, wrapped between items
             say(f"{name} ({environment}): {installed}")
             continue
         say(f"{name} ({environment}), shield {shield or '(none)'}, installed: {installed}")
+        if description:
+            say(f"  {description}", "    ")
         say(f"  actions: {actions}", "    ")
         say(f"  variables: {variables}", "    ")
+        if brings:
+            say(f"  brings: {brings}", "    ")
+        say(f"  horizon: {horizon} steps", "    ")

@@ -14,8 +14,8 @@ from .common import (app, escape, out, load_model, plain, FORMAT, JSON, OutputFo
 
 @app.command("check-model")
 def check_model(
-    model: Path = typer.Argument(..., help="A classical B machine (.mch), or none, paper, "
-                                           "strict."),
+    model: Path = typer.Argument(..., help="A classical B machine (.mch), or a shield an "
+                                           "installed environment brings ({shields})."),
     as_json: bool = JSON,
     fmt: OutputFormat = FORMAT,
 ) -> None:

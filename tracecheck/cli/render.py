@@ -7,7 +7,8 @@ from typing import Optional
 
 import typer
 
-from .common import app, out, err, SHIELD_HELP, SALVAGE, FORCE, RUN_ENV, run_adapter
+from .common import (app, out, err, SHIELD_HELP, PROPERTIES_HELP, SALVAGE, FORCE, RUN_ENV,
+                     run_adapter)
 
 
 @app.command("render")
@@ -33,7 +34,7 @@ def render_cmd(
 
     inputs = [run, *input_paths(shield)]
     path = check_output(output, inputs, force=force, example="episode.html")
-    adapter = run_adapter(env)  # its scene() hook draws the picture; without it, the built-ins
+    adapter = run_adapter(env)  # its scene() hook draws the picture; else the run's own
     loaded = load_shield(shield) if shield else None
     if (ltl or ltl_assertions) and loaded is None:
         raise InputError("--ltl and --ltl-assertions need --shield: the machine the formulas "
@@ -51,9 +52,7 @@ def report_cmd(
     salvage: bool = SALVAGE,
     shield: Optional[str] = typer.Option(None, "--shield", "-s", help=SHIELD_HELP),
     properties: Optional[str] = typer.Option(
-        None, "--properties", "-p", help="A built-in set (generic, highway, frozenlake, "
-        "cliffwalking) or a property file (TOML). Default: generic and the environment's "
-        "own."),
+        None, "--properties", "-p", help=PROPERTIES_HELP),
     env: Optional[str] = RUN_ENV,
     output: Path = typer.Option(..., "--output", "-o", help="The HTML report to write (its "
                                 "viewer pages go into NAME_files/ beside it)."),

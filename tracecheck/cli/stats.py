@@ -13,7 +13,7 @@ from .common import (CRASH, CWD, ENDING_TIME, EXTERNAL, STEP_TIMEOUT, external_s
                      app, out, err, warn, Executor, FILE_EXECUTOR, EPISODE_EXECUTOR, RAY_ADDRESS,
                      OutputFormat, FORMAT, JSON, output_format, print_json, plain, progress,
                      Interval, ENV, ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, FORCE,
-                     RUN_SHIELD, SEED, WORKERS, SALVAGE, RUN_ENV, run_adapter, SCALE,
+                     RUN_SHIELD, PROPERTIES_HELP, SEED, WORKERS, SALVAGE, RUN_ENV, run_adapter, SCALE,
                      SHIELD_MODE, continuous_options)
 
 
@@ -40,9 +40,7 @@ def stats_cmd(
     runs: list[Path] = typer.Argument(..., help="MCAP run files: one column each."),
     salvage: bool = SALVAGE,
     properties: Optional[str] = typer.Option(
-        None, "--properties", "-p", help="A built-in set (generic; highway: the paper's; "
-        "frozenlake; cliffwalking) or a property file (TOML). Default: generic (episode "
-        "length, return, interventions, crashes, time limits) and the environment's own."),
+        None, "--properties", "-p", help=PROPERTIES_HELP),
     env: Optional[str] = RUN_ENV,
     names: Optional[list[str]] = typer.Option(None, "--names",
                                               help="Only these metrics and properties."),
@@ -96,9 +94,7 @@ def simulate_cmd(
     ray_address: Optional[str] = RAY_ADDRESS,
     profile: Optional[str] = PROFILE,
     properties: Optional[str] = typer.Option(
-        None, "--properties", "-p", help="A built-in set (generic, highway, frozenlake, "
-        "cliffwalking) or a property file (TOML). Default: generic and the environment's "
-        "own."),
+        None, "--properties", "-p", help=PROPERTIES_HELP),
     until_ci_width: Optional[float] = typer.Option(
         None, "--until-ci-width", help="Stop once every property's 95 % interval is narrower "
                                        "than this (a share, e.g. 0.1)."),

@@ -30,7 +30,7 @@ from .records import DATA_END, attachment_at, indexed_attachments
 __all__ = ["BLOCK_ROWS", "BlobIndex", "BlobDisagrees", "blob_records", "verified_block"]
 
 #: a writer closes a block once its episodes hold this many states: a reader's memory is
-#: set by the block, not by the file (about 20 MB of numpy columns for the highway)
+#: set by the block, not by the file (about 20 MB of numpy columns for 10⁴ episodes of five vehicles)
 BLOCK_ROWS = 1 << 15
 
 

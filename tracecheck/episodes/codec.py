@@ -248,7 +248,7 @@ def encode_run_columns(run, spans: np.ndarray, span_crcs: np.ndarray, head_crc: 
 
 def _dictionary(values: Sequence[Any]) -> tuple[np.ndarray, list[str]]:
     """Any B values as an index per row into their distinct literals (a value that stays the
-    same over an episode, like a FrozenLake map, is written once)."""
+    same over an episode, like a grid world's map, is written once)."""
     index: dict[Any, int] = {}
     literals: list[str] = []
     rows = np.empty(len(values), dtype=np.uint32)

@@ -50,8 +50,9 @@ class RunHeaderMessage(_Message):
     created: str = Field(description="ISO 8601 time the file was written")
     source: Source
     environment: Optional[str] = Field(
-        None, description="the environment adapter (highway, frozenlake, …); a file without "
-                          "one is from the highway")
+        None, description="the environment adapter's name; a file without one "
+                          "names none (the installed environment that claims its variables, "
+                          "if any, is taken)")
     environment_id: Optional[str] = None
     environment_config: Optional[dict[str, Any]] = None
     agent_id: Optional[str] = None

@@ -11,12 +11,12 @@ from typing import Any, Iterable, Iterator, Mapping, Optional, Sequence
 
 from ..b.notation import parse_literal
 from ..episodes.model import Episode, StepRecord, make_end
-from ..episodes.vocabulary import HIGHWAY, Vocabulary
+from ..episodes.vocabulary import Vocabulary
 from ..errors import InputError, TracecheckError
 from ..inputs import read_json
 
 __all__ = ["load_json", "read_literal", "build_episode", "natural_key", "expand_paths",
-           "FoundFiles"]
+           "FoundFiles", "trace_variables"]
 
 INIT = "$initialise_machine"
 SETUP = "$setup_constants"
@@ -134,9 +134,9 @@ def build_episode(episode_id: int, origin: str, items: list[tuple],
         if unknown:
             raise InputError(f"{here}: unknown variable {unknown[0]!r}; the variables are "
                              f"{', '.join(vocab.variables)}",
-                             hint="the states are read in the paper's highway vocabulary "
-                                  "unless --model MACHINE.mch names their machine"
-                             if vocab is HIGHWAY else None)
+                             hint="the states are read in the vocabulary of "
+                                  f"{vocab.name} unless --model MACHINE.mch names their "
+                                  "machine")
         missing = [v for v in vocab.variables if v not in state]
         if missing:
             raise InputError(f"{here}: no value for {', '.join(missing)}")
@@ -162,7 +162,7 @@ def _flag(value: Any, where: str) -> bool:
 
 def vocabulary_of(machine) -> Vocabulary:
     """The variables and operations of a loaded machine, as an import vocabulary."""
-    set_name = next(iter(machine.sets), "Vehicles")
+    set_name = next(iter(machine.sets), "")
     return Vocabulary(tuple(machine.variables), tuple(machine.operations), machine.name,
                       set_name)
 
@@ -191,3 +191,30 @@ def refuse_continuous(episodes: Iterable[Episode], fmt: str) -> None:
 
 def state_changes(prev: Mapping[str, Any], state: Mapping[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in state.items() if k not in prev or prev[k] != v}
+
+
+def trace_variables(kind: str, paths: Iterable[str | Path]) -> tuple[str, ...]:
+    """The state variables of the first trace among ``paths`` (its initial state's), to find
+    the environment whose vocabulary the traces are in.
+
+    Args:
+        kind: ``simb`` (SimB timed traces, ``*.json``) or ``prob2trace``.
+        paths: trace files and folders of them.
+
+    Returns:
+        The variable names, sorted; none when the first trace has no state to read.
+    """
+    found = expand_paths(paths, "*.json" if kind == "simb" else "*.prob2trace")
+    if not len(found):
+        return ()
+    data = load_json(found[0])
+    if not isinstance(data, dict):
+        return ()
+    steps = data.get("activations") if kind == "simb" else data.get("transitionList")
+    for step in steps if isinstance(steps, list) else ():
+        if not isinstance(step, dict) or step.get("execute", step.get("name")) == SETUP:
+            continue
+        state = step.get("fixedVariables") if kind == "simb" else step.get("destState")
+        if isinstance(state, dict) and state:
+            return tuple(sorted(str(k) for k in state))
+    return ()

@@ -2,20 +2,16 @@
 
 Every step of an episode becomes, next to tracecheck's own messages:
 
-* ``/foxglove/scene`` (``foxglove.SceneUpdate``): the step's scene
-  (:mod:`tracecheck.render.scene`, the one the HTML viewer draws) in the frame ``road``, one
+* ``/foxglove/scene`` (``foxglove.SceneUpdate``): the step's scene as its environment draws it
+  (its adapter's ``scene`` hook, the one the HTML viewer draws) in the frame ``road``, one
   entity per group of shapes: boxes as cubes, circles as spheres, lines as line strips, text
-  as billboards, y flipped to Foxglove's left-handed-up convention. On the highway the
-  vehicles are 5 m × 2 m cubes (the ego vehicle at x = 0, blue, red once crashed) with their
-  velocity as lines, and for the ``paper`` shield the zones its guards test, red where a
-  vehicle blocks an action; a grid world is 1 × 1 tiles (holes and cliffs dark), the goal
-  and the agent on them; an adapter with a ``scene`` hook draws its own;
+  as billboards, y flipped to Foxglove's left-handed-up convention; none for a run whose
+  environment draws nothing or is not installed here;
 * ``/foxglove/log`` (``foxglove.Log``): one entry per shield intervention (the agent's choice
   replaced), deadlock (nothing allowed) and crash;
-* ``/plot/speed``, ``/plot/reward``, ``/plot/nearest_gap``, ``/plot/allowed_actions``
-  (``tracecheck.Scalar``, ``{"value": x}``): lines in a Plot panel. ``nearest_gap`` is the
-  distance in metres between the ego vehicle's centre and the nearest other present vehicle's
-  centre; ``allowed_actions`` the number of actions the live shield allowed;
+* ``/plot/reward``, ``/plot/allowed_actions`` (``tracecheck.Scalar``, ``{"value": x}``): lines
+  in a Plot panel; ``allowed_actions`` the number of actions the live shield allowed; and one
+  ``/plot/NAME`` per number the environment plots (its adapter's ``plotted`` and ``plots``);
 * for continuous actions (a run whose header declares ``action_parameters``), also
   ``tracecheck.Scalar`` channels per parameter P: ``/plot/P/proposal`` (the agent's value),
   ``/plot/P/executed`` (the value taken), ``/plot/P/allowed_low`` and ``/plot/P/allowed_high``
@@ -23,7 +19,7 @@ Every step of an episode becomes, next to tracecheck's own messages:
   nothing was allowed), and ``/plot/projection_distance``; the log then has an entry where
   the shield moved a proposal.
 
-A value a state does not have (no speed in a grid world) gives no message on that channel.
+A value a state does not have gives no message on that channel.
 The messages are derived from the step: tracecheck itself never reads them back.
 """
 
@@ -35,19 +31,24 @@ from typing import Any, Callable, Iterator, Optional
 
 from ..identity import ByIdentity
 from ..live.scene import Box, Circle, Line, Scene
-from ..render.scene import builtin_scene, scene_kind, vehicles
 
 __all__ = ["FoxgloveChannels", "FoxgloveMessage", "step_messages", "scene_entities", "SCHEMAS",
-           "TOPICS", "SCALARS", "CONTINUOUS_SCALARS", "continuous_topics"]
+           "TOPICS", "SCALARS", "CONTINUOUS_SCALARS", "continuous_topics", "plot_topics"]
 
 SCENE, LOG, SCALAR = "foxglove.SceneUpdate", "foxglove.Log", "tracecheck.Scalar"
-SCALARS = ("speed", "reward", "nearest_gap", "allowed_actions")
+SCALARS = ("reward", "allowed_actions")
 #: topic -> schema name
 TOPICS = {"/foxglove/scene": SCENE, "/foxglove/log": LOG,
           **{f"/plot/{name}": SCALAR for name in SCALARS}}
 #: per parameter of a continuous action: ``/plot/P/NAME``
 CONTINUOUS_SCALARS = ("proposal", "executed", "allowed_low", "allowed_high")
 DISTANCE_TOPIC = "/plot/projection_distance"
+
+
+def plot_topics(adapter) -> dict[str, str]:
+    """The channels of the numbers an environment plots (topic -> schema name; none without
+    its adapter)."""
+    return {f"/plot/{name}": SCALAR for name in getattr(adapter, "plotted", ())}
 
 
 def continuous_topics(header) -> dict[str, str]:
@@ -224,30 +225,25 @@ def scene_entities(scene: Scene, ns: int) -> list[dict]:
     return list(entities.values())
 
 
-def _road_scalars(state) -> tuple[Optional[float], Optional[float]]:
-    """The ego vehicle's speed and the distance to the nearest other present vehicle."""
-    cars = vehicles(state)
-    ego = next((v for v in cars if v["name"] == "EgoVehicle"), None)
-    if ego is None:
-        return None, None
-    gaps = [math.hypot(v["x"], v["y"]) for v in cars if v is not ego and v["present"]]
-    return ego["vx"], (min(gaps) if gaps else None)
-
-
-def step_messages(step, *, episode: int, stamp_ns: int, zones: bool = False,
-                  previous_crashed: bool = False,
-                  draw: Optional[Callable[[Any], Optional[Scene]]] = None
+def step_messages(step, *, episode: int, stamp_ns: int, previous_crashed: bool = False,
+                  draw: Optional[Callable[[Any], Optional[Scene]]] = None,
+                  plots: Optional[Callable[[dict], dict[str, float]]] = None
                   ) -> Iterator[FoxgloveMessage]:
-    """The Foxglove messages of one step (a ``StepRecord``) at ``stamp_ns``; ``zones`` draws
-    the paper shield's zones; ``previous_crashed`` keeps a crash from being logged twice;
-    ``draw`` gives the step's scene (:func:`tracecheck.render.scene.scene_drawer`; default:
-    the built-in scenes)."""
-    state = step.state
-    speed = gap = None
-    if scene_kind(state) == "road":
-        speed, gap = _road_scalars(state)
-    scene = (draw(step) if draw is not None
-             else builtin_scene(state, bool(step.crashed), zones))
+    """The Foxglove messages of one step (a ``StepRecord``) at ``stamp_ns``.
+
+    Args:
+        step: the step.
+        episode: its episode's number (in the log's entries).
+        stamp_ns: the messages' time stamp.
+        previous_crashed: whether the step before had crashed (a crash is logged once).
+        draw: the step's scene (:func:`tracecheck.render.scene.scene_drawer`; None: no
+            scene).
+        plots: the numbers the environment plots of a state (its adapter's ``plots``).
+
+    Yields:
+        One :class:`FoxgloveMessage` per channel with something to say.
+    """
+    scene = draw(step) if draw is not None else None
     entities = scene_entities(scene, stamp_ns) if scene is not None else []
     if entities:
         yield FoxgloveMessage("/foxglove/scene", {
@@ -271,11 +267,11 @@ def step_messages(step, *, episode: int, stamp_ns: int, zones: bool = False,
         yield FoxgloveMessage("/foxglove/log", {
             "timestamp": _stamp(stamp_ns), "level": level, "message": message,
             "name": "tracecheck", "file": f"episode {episode}", "line": step.step})
-    values = {"speed": speed, "reward": step.reward, "nearest_gap": gap,
+    values = {"reward": step.reward,
               "allowed_actions": (len(step.allowed_actions)
-                                  if step.allowed_actions is not None else None)}
-    for name in SCALARS:
-        value = values[name]
+                                  if step.allowed_actions is not None else None),
+              **(plots(step.state) if plots is not None else {})}
+    for name, value in values.items():
         if value is not None and math.isfinite(value):
             yield FoxgloveMessage(f"/plot/{name}", {"value": float(value)})
     for topic, value in _continuous_scalars(step):
@@ -309,14 +305,13 @@ def _continuous_scalars(step) -> Iterator[tuple[str, Optional[float]]]:
 
 class FoxgloveChannels:
     """Foxglove's channels as the writer's plug-in
-    (:class:`~tracecheck.episodes.writer.StepChannels`) for the run of ``header``: the
-    zones drawn under the ``paper`` shield, the scene from the environment's own ``scene()``
-    hook where its adapter is installed, else the built-in scenes."""
+    (:class:`~tracecheck.episodes.writer.StepChannels`) for the run of ``header``: the scene
+    and the plotted numbers of the run's environment where its adapter is installed."""
 
     def __init__(self, header) -> None:
         import orjson
 
-        from ..render.scene import scene_drawer
+        from ..render.scene import scene_adapter, scene_drawer
         from .foxglove_protobuf import encoder, protobuf_schemas
 
         self._dumps = orjson.dumps
@@ -327,14 +322,17 @@ class FoxgloveChannels:
         self.schemas = {name: published.get(name) or orjson.dumps(schema)
                         for name, schema in SCHEMAS.items()}
         self.schema_encodings = {name: "protobuf" for name in published}
-        self.topics = {**TOPICS, **continuous_topics(header)}
         # the adapter looked up once
-        self._draw = scene_drawer(header.environment, shield=header.shield_name)
+        adapter = scene_adapter(header.environment, tuple(header.variables or ()))
+        self.topics = {**TOPICS, **plot_topics(adapter), **continuous_topics(header)}
+        self._draw = scene_drawer(adapter=adapter, shield=header.shield_name)
+        self._plots = adapter.plots if adapter is not None else None
 
     def messages(self, step, *, episode: int, stamp_ns: int,
                  previous_crashed: bool) -> Iterator[tuple[str, bytes]]:
         for m in step_messages(step, episode=episode, stamp_ns=stamp_ns,
-                               previous_crashed=previous_crashed, draw=self._draw):
+                               previous_crashed=previous_crashed, draw=self._draw,
+                               plots=self._plots):
             name = self.topics.get(m.topic)
             if name is None:  # a step's parameters its run header does not declare
                 continue

@@ -58,7 +58,7 @@ def check_dataset_id(dataset_id: str) -> str:
     if match is None or len(match.group("namespace") or "--") < 2 or len(dataset_id) > 1000:
         raise InputError(f"{dataset_id!r} is not a Minari dataset id: write (namespace/)name-vN "
                          "with letters, digits, - and _ (a namespace of 2 characters or more), "
-                         "e.g. tracecheck/highway/paper-v0")
+                         "e.g. tracecheck/corridor/base-v0")
     return dataset_id
 
 

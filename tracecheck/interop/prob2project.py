@@ -3,7 +3,7 @@
 A project is JSON. Two layouts are read, the ones the authors' projects and current ProB2-UI
 write:
 
-* **per machine lists** (ProB2-UI 1.1 and the authors' ``HighwayEnvironment.prob2project``):
+* **per machine lists** (ProB2-UI 1.1, and the paper authors' project):
   ``traces: [{location, selected}]`` and ``simulations: [{path, simulationItems: [{id, type,
   information}]}]``, beside ``temporalFormulas``, ``modelcheckingItems``,
   ``symbolicCheckingFormulas``, ``proofObligationItems``, ``testCases``…;

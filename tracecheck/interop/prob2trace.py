@@ -15,7 +15,7 @@ from typing import Iterable, Optional, Sequence
 from .. import __version__
 from ..b.values import format_value
 from ..episodes.model import Episode
-from ..episodes.vocabulary import HIGHWAY, Vocabulary
+from ..episodes.vocabulary import Vocabulary
 from ..errors import InputError
 from .common import (INIT, SETUP, build_episode, check_types, expand_paths, load_json,
                      read_literal, state_changes)
@@ -25,7 +25,7 @@ __all__ = ["import_prob2trace", "read_prob2trace", "export_prob2trace", "prob2tr
 STEP_SECONDS = 1.0
 
 
-def read_prob2trace(path: Path, episode_id: int, vocab: Vocabulary = HIGHWAY,
+def read_prob2trace(path: Path, episode_id: int, vocab: Vocabulary,
                     machine=None, step_seconds: float = STEP_SECONDS) -> Episode:
     """One ProB2 trace file as an episode."""
     data = load_json(path)
@@ -75,14 +75,14 @@ def _parameters(params, where: str) -> Optional[dict]:
     return out
 
 
-def import_prob2trace(paths: Iterable[str | Path], *, vocab: Vocabulary = HIGHWAY,
+def import_prob2trace(paths: Iterable[str | Path], *, vocab: Vocabulary,
                       machine=None, first_id: int = 0) -> Iterable[Episode]:
     """Episodes from ``.prob2trace`` files (and folders of them)."""
     for k, path in enumerate(expand_paths(paths, "*.prob2trace")):
         yield read_prob2trace(path, first_id + k, vocab, machine)
 
 
-def prob2trace_document(episode: Episode, vocab: Vocabulary = HIGHWAY) -> dict:
+def prob2trace_document(episode: Episode, vocab: Vocabulary) -> dict:
     """A ProB2 trace of ``episode``, in the format ProB2-UI writes (format version 5)."""
     transitions = [_transition(SETUP, {}, [])]
     prev: dict = {}
@@ -101,7 +101,7 @@ def prob2trace_document(episode: Episode, vocab: Vocabulary = HIGHWAY) -> dict:
         "transitionList": transitions,
         "variableNames": variables,
         "constantNames": [],
-        "setNames": [vocab.set_name],
+        "setNames": [vocab.set_name] if vocab.set_name else [],
         "machineOperationInfos": {op: _operation_info(op, variables, _names(episode, op))
                                   for op in used},
         "globalIdentifierTypes": {},
@@ -132,7 +132,7 @@ def _operation_info(op, variables, parameters):
             "writtenVariables": variables, "nonDetWrittenVariables": variables}
 
 
-def export_prob2trace(episode: Episode, path: str | Path, vocab: Vocabulary = HIGHWAY, *,
+def export_prob2trace(episode: Episode, path: str | Path, vocab: Vocabulary, *,
                       force: bool = False, inputs: Sequence[Path] = ()) -> Path:
     """Write ``episode`` as a ``.prob2trace`` file, by the output rule
     (:mod:`tracecheck.outputs`): not one of ``inputs``, an existing file only with

@@ -16,7 +16,7 @@ from typing import Any, Iterable, Optional, Sequence
 from .. import __version__
 from ..b.values import format_value
 from ..episodes.model import Episode
-from ..episodes.vocabulary import HIGHWAY, Vocabulary
+from ..episodes.vocabulary import Vocabulary
 from ..errors import InputError, printable
 from .common import (INIT, SETUP, build_episode, check_types, expand_paths, load_json,
                      read_literal, refuse_continuous)
@@ -24,7 +24,7 @@ from .common import (INIT, SETUP, build_episode, check_types, expand_paths, load
 __all__ = ["import_simb", "read_simb", "export_simb", "simb_document"]
 
 
-def read_simb(path: Path, episode_id: int, vocab: Vocabulary = HIGHWAY,
+def read_simb(path: Path, episode_id: int, vocab: Vocabulary,
               machine=None) -> Episode:
     """One SimB trace file as an episode."""
     data = load_json(path)
@@ -71,14 +71,14 @@ def _ending_time(metadata) -> Optional[float]:
     return int(m.group(1)) / 1000.0 if m else None
 
 
-def import_simb(paths: Iterable[str | Path], *, vocab: Vocabulary = HIGHWAY,
+def import_simb(paths: Iterable[str | Path], *, vocab: Vocabulary,
                 machine=None, first_id: int = 0) -> Iterable[Episode]:
     """Episodes from SimB trace files and folders of them (``Timed_Simulation_*.json``)."""
     for k, path in enumerate(expand_paths(paths, "*.json")):
         yield read_simb(path, first_id + k, vocab, machine)
 
 
-def simb_document(episode: Episode, model_name: str = "HighwayEnvironment") -> dict:
+def simb_document(episode: Episode, model_name: str) -> dict:
     """A SimB timed trace of ``episode``, as ProB writes them."""
     acts = [_activation("$setup_constants", "$setup_constants", 0, None, None)]
     ids = [f"{s.action}_{s.step + 1}" for s in episode.steps[1:]]
@@ -147,7 +147,7 @@ def check_simb_folder(folder: str | Path, inputs: Sequence[Path] = (), *,
 
 
 def export_simb(episodes: Iterable[Episode], folder: str | Path,
-                model_name: str = "HighwayEnvironment", *, force: bool = False,
+                model_name: str, *, force: bool = False,
                 inputs: Sequence[Path] = ()) -> list[Path]:
     """Write one ``Timed_Simulation_N.json`` per episode (N from 1) into ``folder``.
 

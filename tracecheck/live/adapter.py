@@ -5,10 +5,14 @@ which action index is which B operation, how an observation becomes a B state, w
 is, how long an episode may last. Recording, shielding, training and re-simulation use only
 this interface; replay, diff and statistics never import an environment at all.
 
-Adapters are found through the entry-point group ``tracecheck.environments`` (the built-in
-ones are registered there too) or given on the command line as ``package.module:Class``. A
-name stored in a file is only ever looked up among the installed entry points — never
-imported as a module path — because importing an adapter runs code.
+An adapter class is the environment's one descriptor: besides the hooks, it declares the
+shields and property sets it brings (``--shield``/``--properties`` names), a one-line
+description, its training presets, the scene it is drawn with and whether a run that names no
+environment is in its vocabulary. Adapters are found through the entry-point group
+``tracecheck.environments`` (:mod:`tracecheck.registry`; the built-in ones are registered there
+too) or given on the command line as ``package.module:Class``. A name stored in a file is only
+ever looked up among the installed entry points — never imported as a module path — because
+importing an adapter runs code.
 
 An adapter is checked when it is loaded (a name, actions that are distinct strings), and an
 exception from a user's adapter — its module, constructor, ``make_env``, ``state`` and the
@@ -38,21 +42,22 @@ import importlib
 import os
 import re
 from dataclasses import dataclass
-from importlib import metadata
-from typing import TYPE_CHECKING, Any, Collection, Optional
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Collection, Mapping, Optional
 
 from ..errors import InputError, TracecheckError, printable
+from .settings import gymnasium_keys, gymnasium_kinds, setting_kinds, typed_setting
+from .. import registry
+from ..registry import ENTRY_POINT_GROUP
 
 if TYPE_CHECKING:
+    from ..episodes.vocabulary import Vocabulary
     from .scene import Scene
 
 __all__ = ["EnvAdapter", "Observer", "adapters", "get_adapter", "installed_adapter",
            "load_adapter", "AdapterInfo",
-           "ENTRY_POINT_GROUP", "parse_config", "setting_kinds", "typed_setting",
-           "gymnasium_keys", "gymnasium_kinds", "MakeError", "GymnasiumAdapter",
-           "adapters_for_env_id"]
-
-ENTRY_POINT_GROUP = "tracecheck.environments"
+           "ENTRY_POINT_GROUP", "MakeError", "GymnasiumAdapter",
+           "adapters_for_env_id", "claiming_adapter", "run_adapter"]
 
 #: what the user's code may raise that is reported as its error: any exception, and
 #: SystemExit (``sys.exit()`` in a hook must not end tracecheck silently with its code) —
@@ -77,8 +82,10 @@ class EnvAdapter:
     everything else has a default.
     """
 
-    #: short name (``--env frozenlake``)
+    #: short name (``--env corridor``)
     name: str = ""
+    #: one line for people: what the environment is (``tracecheck envs``)
+    description: str = ""
     #: the Gymnasium id
     env_id: str = ""
     #: action index -> B operation name
@@ -87,6 +94,8 @@ class EnvAdapter:
     variables: tuple[str, ...] = ()
     #: the B machine the states belong to (run headers name it)
     model_name: str = ""
+    #: the set of elements of that machine that ProB's traces list (``setNames``), if any
+    set_name: str = ""
     #: a shield that fits (a built-in one's name or a .mch path): ``tracecheck envs`` lists
     #: it, and LTL/STL properties in ``stats`` are read in its machine
     default_shield: Optional[str] = None
@@ -108,11 +117,20 @@ class EnvAdapter:
     horizon: int = 100
     #: Python packages the environment needs (``tracecheck envs`` says whether they are here)
     requires: tuple[str, ...] = ("gymnasium",)
-    #: named configurations (the highway's reward profiles)
+    #: named configurations (``--profile``, e.g. reward profiles)
     profiles: dict[str, dict[str, Any]] = {}
+    #: the shields this environment brings, by name: ``--shield NAME`` anywhere loads the
+    #: ``.mch`` file at that path (absolute, e.g. ``Path(__file__).with_name("corridor.mch")``)
+    shields: Mapping[str, str | Path] = {}
+    #: the property sets this environment brings, by name (``--properties NAME``): the text
+    #: of a property file (TOML), or the :class:`~pathlib.Path` of one
+    property_sets: Mapping[str, str | Path] = {}
     #: the environment's own property set, which ``stats`` adds to the generic one (a
-    #: built-in set's name or the path of a property file), if any
+    #: property set's name or the path of a property file), if any
     properties: Optional[str] = None
+    #: the shape of the observations its agents take, checked when an agent is loaded before
+    #: the environment is made (None: checked against the environment once it is made)
+    observation_shape: Optional[tuple[int, ...]] = None
     #: B predicates every state of this environment satisfies (declared value ranges, e.g.
     #: ``x : 0..7``); ``prove --env`` assumes them. Only what the environment guarantees:
     #: a range stated too narrowly would make a proof wrong.
@@ -183,13 +201,66 @@ class EnvAdapter:
     def fallback_index(self) -> int:
         return self.actions.index(self.fallback) if self.fallback else 0
 
-    def scene(self, step) -> Optional["Scene"]:
-        """What a step looks like, for the viewer and Foxglove (optional): a
-        :class:`tracecheck.live.scene.Scene` of boxes, circles, lines and text, drawn from
-        ``step.state`` (its B state) and ``step.crashed``; None: no picture (the viewer then
-        shows the time series and the state table). See docs/environments.md, "Drawing your
-        environment"."""
+    def scene(self, step, shield: Optional[str] = None) -> Optional["Scene"]:
+        """What a step looks like, for the viewer, the report and Foxglove (optional).
+
+        Args:
+            step: a ``StepRecord``: its B state ``step.state`` and ``step.crashed``.
+            shield: the name of the shield the run is drawn with (a scene may show what
+                that shield's guards test); an adapter whose ``scene`` takes only ``step``
+                is called without it.
+
+        Returns:
+            A :class:`tracecheck.live.scene.Scene` of boxes, circles, lines and text; None:
+            no picture (the viewer then shows the time series and the state table). See
+            docs/environments.md, "Drawing your environment".
+        """
         return None
+
+    #: the names of the numbers :meth:`plots` gives (Foxglove's ``/plot/NAME`` channels)
+    plotted: tuple[str, ...] = ()
+
+    def plots(self, state: dict[str, Any]) -> dict[str, float]:
+        """Numbers of a state worth a line of their own in Foxglove's Plot panel
+        (``/plot/NAME``), e.g. a speed or a distance; none by default.
+
+        Args:
+            state: a B state of this environment.
+
+        Returns:
+            ``{name: value}``; a name the state has no value for is left out.
+        """
+        return {}
+
+    def training_settings(self, algorithm: str, steps: int) -> dict[str, Any]:
+        """The environment's own training settings for ``train``, on top of the algorithm's
+        defaults (e.g. a discount factor, or a paper's settings).
+
+        Args:
+            algorithm: the ``--algorithm`` (``dqn``, ``ppo``, ``a2c``, ``maskable-ppo``,
+                ``sac``, ``td3``).
+            steps: the environment steps the training runs.
+
+        Returns:
+            Keyword arguments of the algorithm's class; none by default.
+        """
+        return {}
+
+    def vocabulary(self) -> "Vocabulary":
+        """The variables and actions of this environment's states, as traces are read in
+        (``import simb --env``) and written."""
+        from ..episodes.vocabulary import Vocabulary
+
+        return Vocabulary(tuple(self.variables), tuple(self.actions),
+                          self.model_name or self.name, self.set_name)
+
+    def claims(self, variables: Collection[str]) -> bool:
+        """Whether a run that names no environment (an imported trace, a file from before
+        environments were recorded) has this environment's states: ``variables`` are the
+        run's state variables. False by default: only an environment whose vocabulary
+        others share (a paper's traces) claims such runs.
+        """
+        return False
 
     def describe(self, state: dict[str, Any]) -> Optional[str]:
         """A B state in one line for people (optional): how ``prove`` and ``diff
@@ -206,35 +277,42 @@ class AdapterInfo:
     problem: Optional[str]
 
 
-@functools.lru_cache(maxsize=1)
-def _entry_points() -> dict[str, metadata.EntryPoint]:
-    """The installed adapters (scanning the installed distributions once per process)."""
-    found = {ep.name: ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP)}
-    for name, target in _BUILTIN.items():  # also when running from a source tree
-        found.setdefault(name, metadata.EntryPoint(name, target, ENTRY_POINT_GROUP))
-    return found
-
-
-_BUILTIN = {
-    "highway": "tracecheck.live.envs.highway:HighwayAdapter",
-    "frozenlake": "tracecheck.live.envs.frozenlake:FrozenLakeAdapter",
-    "cliffwalking": "tracecheck.live.envs.cliffwalking:CliffWalkingAdapter",
-    "lunarlander": "tracecheck.live.envs.lunarlander:LunarLanderAdapter",
-    "highway-continuous": "tracecheck.live.envs.highway_continuous:HighwayContinuousAdapter",
-    "lunarlander-continuous": "tracecheck.live.envs.lunarlander_continuous:LunarLanderContinuousAdapter",
-}
-
-
 def adapters() -> list[AdapterInfo]:
     """Every installed adapter, loaded where it can be (else the reason it cannot)."""
     out = []
-    for name, ep in sorted(_entry_points().items()):
-        try:
-            adapter, problem = _instance(ep.load(), ep.value), None
-        except _USERS as exc:  # noqa: BLE001 - a broken plug-in must not stop the list
-            adapter, problem = None, f"{type(exc).__name__}: {exc}"
-        out.append(AdapterInfo(name, ep.value, adapter, problem))
+    for entry in registry.registered():
+        adapter, problem = None, entry.problem
+        if entry.cls is not None:
+            try:
+                adapter = _instance(entry.cls, entry.target)
+            except _USERS as exc:  # noqa: BLE001 - a broken plug-in must not stop the list
+                problem = f"{type(exc).__name__}: {exc}"
+        out.append(AdapterInfo(entry.name, entry.target, adapter, problem))
     return out
+
+
+def run_adapter(environment: Optional[str],
+                variables: Collection[str] = ()) -> Optional[EnvAdapter]:
+    """The installed adapter of a run: the one its header names, else the one that claims
+    its state ``variables`` (a run that names no environment); None when neither is
+    installed here.
+
+    Args:
+        environment: the environment the run's header names (None: it names none).
+        variables: the run's state variables (its header's).
+    """
+    if environment:
+        return installed_adapter(environment, required=False)
+    return claiming_adapter(variables) if variables else None
+
+
+def claiming_adapter(variables: Collection[str]) -> Optional[EnvAdapter]:
+    """The installed adapter that claims a run naming no environment, by its state
+    ``variables`` (:meth:`EnvAdapter.claims`); None when none does."""
+    for info in adapters():
+        if info.adapter is not None and info.adapter.claims(tuple(variables)):
+            return info.adapter
+    return None
 
 
 def adapters_for_env_id(env_id: Optional[str],
@@ -246,13 +324,15 @@ def adapters_for_env_id(env_id: Optional[str],
 
 
 def get_adapter(name: Optional[str]) -> EnvAdapter:
-    """The installed adapter registered under ``name`` (None: the highway, the default for
-    files recorded before adapters existed)."""
-    name = name or "highway"
-    ep = _entry_points().get(name)
+    """The installed adapter registered under ``name``."""
+    if not name:
+        raise InputError("no environment named: give --env NAME (installed: "
+                         f"{', '.join(sorted(registry.entry_points()))}) or --env "
+                         "package.module:Class", hint="tracecheck envs lists them")
+    ep = registry.entry_points().get(name)
     if ep is None:
         raise InputError(f"unknown environment {name!r}; the installed ones are "
-                         f"{', '.join(sorted(_entry_points()))}",
+                         f"{', '.join(sorted(registry.entry_points()))}",
                          hint="give your own adapter as --env package.module:Class")
     try:
         loaded = ep.load()
@@ -284,7 +364,7 @@ def load_adapter(spec: Optional[str]) -> EnvAdapter:
         return get_adapter(spec)
     if not _SPEC.fullmatch(spec):
         raise InputError(f"--env {spec!r} is not an adapter: give an installed one's name "
-                         f"({', '.join(sorted(_entry_points()))}) or package.module:Class, "
+                         f"({', '.join(sorted(registry.entry_points()))}) or package.module:Class, "
                          "e.g. my_envs.corridor:Corridor")
     module_name, _, attr = spec.partition(":")
     try:
@@ -357,7 +437,7 @@ def _settings(adapter: EnvAdapter, config) -> str:
         default = adapter.default_config()
     except Exception:  # noqa: BLE001 - said where it is used
         default = {}
-    changed = {k: v for k, v in dict(config or {}).items() if default.get(k, _NO) != v}
+    changed = {k: v for k, v in dict(config or {}).items() if k not in default or default[k] != v}
     return ", ".join(f"{k}={v!r}" for k, v in changed.items()) or "its default settings"
 
 
@@ -397,6 +477,20 @@ _ATTRIBUTES = (
     ("profiles", "a dict of named configurations (name -> dict of settings)",
      lambda v: isinstance(v, dict) and all(isinstance(k, str) and isinstance(c, dict)
                                            for k, c in v.items())),
+    ("description", "a string (one line for people)", lambda v: isinstance(v, str)),
+    ("shields", "a dict from a shield's name to the path of its .mch file",
+     lambda v: isinstance(v, Mapping) and all(isinstance(k, str) and k and isinstance(
+         f, (str, Path)) for k, f in v.items())),
+    ("property_sets", "a dict from a property set's name to its TOML text or the Path of "
+                      "its file",
+     lambda v: isinstance(v, Mapping) and all(isinstance(k, str) and k and isinstance(
+         f, (str, Path)) for k, f in v.items())),
+    ("observation_shape", "None or a tuple of whole numbers (the observations' shape)",
+     lambda v: v is None or (isinstance(v, tuple) and all(
+         isinstance(x, int) and not isinstance(x, bool) for x in v))),
+    ("plotted", "a tuple of names (strings) of the numbers plots() gives", _strings),
+    ("set_name", "a string (the set of elements ProB's traces list, or empty)",
+     lambda v: isinstance(v, str)),
 )
 
 
@@ -472,63 +566,6 @@ def _instance(cls, where: str) -> EnvAdapter:
     return adapter
 
 
-def _gymnasium_parameters(env_id: str):
-    import gymnasium as gym
-
-    try:
-        entry = gym.spec(env_id).entry_point
-        try:
-            hash(entry)
-        except TypeError:  # an entry point that cannot key the cache: looked at each time
-            return _entry_parameters.__wrapped__(entry)
-        return _entry_parameters(entry)
-    except Exception:  # noqa: BLE001 - a package missing: make_env will say so
-        return None
-
-
-@functools.cache
-def _entry_parameters(entry):
-    """The keyword parameters of a registered entry point, read-only (None: it takes any);
-    remembered per entry point (one that fails to load raises, and is tried again)."""
-    import inspect
-    from types import MappingProxyType
-
-    from gymnasium.envs.registration import load_env_creator
-
-    params = inspect.signature(load_env_creator(entry) if isinstance(entry, str)
-                               else entry).parameters
-    if any(p.kind == p.VAR_KEYWORD for p in params.values()):
-        return None
-    return MappingProxyType({k: p for k, p in params.items() if k != "render_mode"})
-
-
-#: what ``gymnasium.make`` itself takes
-_MAKE_KINDS = {"max_episode_steps": frozenset({"int", "None"}),
-               "disable_env_checker": frozenset({"bool", "None"})}
-
-
-def gymnasium_keys(env_id: str) -> Optional[frozenset[str]]:
-    """The keyword arguments ``gymnasium.make(env_id, **config)`` takes: those of the
-    registered environment class and of ``make`` itself (None where they cannot be known)."""
-    params = _gymnasium_parameters(env_id)
-    return None if params is None else frozenset(params) | frozenset(_MAKE_KINDS)
-
-
-def gymnasium_kinds(env_id: str) -> dict[str, Optional[frozenset[str]]]:
-    """What each keyword argument of ``gymnasium.make(env_id, **config)`` takes, from the
-    environment class's annotations and defaults (:func:`setting_kinds`)."""
-    params = _gymnasium_parameters(env_id) or {}
-    return {**{k: setting_kinds(p.default, p.annotation) for k, p in params.items()},
-            **_MAKE_KINDS}
-
-
-_NO = object()
-#: how messages say what a kind of setting takes
-_KIND_TEXT = {"bool": "true or false", "int": "an integer", "float": "a number",
-              "str": "a string", "None": "null", "list": "a list", "tuple": "a list",
-              "dict": "an object ({…})"}
-
-
 class GymnasiumAdapter(EnvAdapter):
     """An adapter for an environment registered with Gymnasium under ``env_id``: made with
     ``gymnasium.make(env_id, **config).unwrapped`` (no time limit of Gymnasium's own: the
@@ -549,87 +586,3 @@ class GymnasiumAdapter(EnvAdapter):
         import gymnasium as gym
 
         return gym.make(self.env_id, render_mode=render_mode, **config).unwrapped
-
-
-def setting_kinds(default: Any = _NO, annotation: Any = _NO) -> Optional[frozenset[str]]:
-    """The kinds of value a setting takes: from its annotation where that is made of
-    ``bool``, ``int``, ``float``, ``str``, ``None``, ``list[…]``, ``tuple[…]``, ``dict[…]``
-    joined by ``|``; else from its default's type (a number: an integer or a real); None
-    (anything) where neither says.
-
-    >>> sorted(setting_kinds(True)), sorted(setting_kinds(1, "str | None"))
-    (['bool'], ['None', 'str'])
-    """
-    import inspect
-
-    if annotation not in (_NO, inspect.Parameter.empty, None):
-        text = annotation if isinstance(annotation, str) else \
-            getattr(annotation, "__name__", None) if isinstance(annotation, type) else \
-            str(annotation)
-        names = {re.split(r"[\[\s]", part.strip())[0] for part in str(text).split("|")}
-        if names <= set(_KIND_TEXT):
-            return frozenset(names)
-    if isinstance(default, bool):
-        return frozenset({"bool"})
-    if isinstance(default, (int, float)):
-        return frozenset({"int", "float"})
-    if isinstance(default, str):
-        return frozenset({"str"})
-    if isinstance(default, (list, tuple)):
-        return frozenset({"list", "tuple"})
-    if isinstance(default, dict):
-        return frozenset({"dict"})
-    return None
-
-
-def typed_setting(env: str, key: str, value: Any, kinds: Optional[frozenset[str]]) -> Any:
-    """``value`` as the setting ``key`` of ``env`` takes it (``kinds``, see
-    :func:`setting_kinds`); an :class:`InputError` naming the key, the value and what it
-    takes where it does not fit."""
-    if kinds is None:
-        return value
-    if isinstance(value, bool):
-        ok = "bool" in kinds
-    elif isinstance(value, int):
-        ok = bool(kinds & {"int", "float"})
-        value = value if "int" in kinds or not ok else float(value)
-    elif isinstance(value, float):
-        ok = "float" in kinds
-    elif isinstance(value, str):
-        ok = "str" in kinds
-    elif value is None:
-        ok = "None" in kinds
-    elif isinstance(value, (list, tuple)):
-        ok = bool(kinds & {"list", "tuple"})
-        value = tuple(value) if "list" not in kinds else list(value)
-    else:
-        ok = isinstance(value, dict) and "dict" in kinds
-    if not ok:
-        shown = kinds - {"int"} if "float" in kinds else kinds  # a number: either
-        takes = " or ".join(dict.fromkeys(_KIND_TEXT[k] for k in sorted(shown)))
-        raise InputError(f"the setting {key}={value!r} does not fit the environment {env}: "
-                         f"{key} takes {takes}",
-                         hint=f"e.g. {key}=true on the command line, {key}=True from "
-                              "Python" if kinds == {"bool"} else None)
-    return value
-
-
-def parse_config(items: list[str]) -> dict[str, Any]:
-    """``key=value`` settings: values read as JSON where they parse (true, 3, 0.5, "s"),
-    Python's ``True`` and ``False`` as booleans, else as strings (the adapter's
-    :meth:`~EnvAdapter.check_config` then checks each against what its setting takes)."""
-    import orjson
-
-    out: dict[str, Any] = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep or not key:
-            raise InputError(f"--env-config takes key=value, not {item!r}")
-        if value in ("True", "False"):
-            out[key] = value == "True"
-            continue
-        try:
-            out[key] = orjson.loads(value)  # no NaN, nesting bounded
-        except orjson.JSONDecodeError:
-            out[key] = value
-    return out

@@ -24,23 +24,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["Agent", "load_agent", "PAPER_DQN", "Q_LEARNING", "file_sha256"]
-
-#: The paper's DQN settings (§4.2), for stable-baselines3.
-PAPER_DQN: dict[str, Any] = {
-    "policy_kwargs": {"net_arch": [256, 256]},
-    "learning_rate": 5e-4,
-    "gamma": 0.9,
-    "buffer_size": 15_000,
-    "batch_size": 32,
-    "learning_starts": 200,
-    "train_freq": 1,
-    "gradient_steps": 1,
-    "target_update_interval": 50,
-    "exploration_initial_eps": 1.0,
-    "exploration_final_eps": 0.05,
-}
-
+__all__ = ["Agent", "load_agent", "Q_LEARNING", "file_sha256", "card_environment"]
 
 #: Tabular Q-learning: step size, discount, and epsilon-greedy exploration falling linearly
 #: from 1 to its floor over the first 80 % of the steps.
@@ -254,9 +238,10 @@ def _algorithms(sb3):
 def _check_observations(path: Path, space, adapter, env) -> None:
     """The agent's observation space must be the environment's."""
     if env is None:
-        if adapter.name == "highway" and getattr(space, "shape", None) != (5, 5):
-            raise InputError(f"{path}: the agent observes shape {space.shape}; the highway "
-                             "Kinematics observation is (5, 5)")
+        wanted = adapter.observation_shape
+        if wanted is not None and getattr(space, "shape", None) != tuple(wanted):
+            raise InputError(f"{path}: the agent observes shape {space.shape}; {adapter.name} "
+                             f"gives observations of shape {tuple(wanted)}")
         return
     theirs = env.observation_space
     if type(space) is not type(theirs) or getattr(space, "shape", None) != getattr(
@@ -311,3 +296,46 @@ def write_card(card: dict, path: Path) -> None:
     from ..jsontext import json_text
 
     write_file(path, json_text(card, indent=2) + "\n")
+
+
+def card_environment(agent: str | Path) -> tuple[str, str]:
+    """The environment an agent was trained in, as its model card (``NAME.json`` beside it)
+    says: an installed environment's name, or a Gymnasium id that one installed environment
+    has (for a command given no ``--env``).
+
+    Args:
+        agent: the agent file.
+
+    Returns:
+        (the environment's name, what it was read from, for people).
+
+    Raises:
+        InputError: the card is missing, names no environment, or names one that no single
+            installed environment is — saying which ``--env`` to give.
+    """
+    from ..inputs import read_json
+    from .adapter import adapters, adapters_for_env_id
+
+    if not Path(agent).is_file():
+        raise InputError(f"no such agent file: {agent}")
+    card_path = Path(agent).with_suffix(".json")
+    installed = sorted(a.name for a in adapters() if a.adapter is not None)
+    hint = f"give --env NAME (installed: {', '.join(installed)}) or --env package.module:Class"
+    if not card_path.is_file():
+        raise InputError(f"no --env given, and the agent {agent} has no model card "
+                         f"({card_path.name}) naming its environment", hint=hint)
+    card = read_json(card_path, "model card")
+    named = card.get("environment") if isinstance(card, dict) else None
+    if not isinstance(named, str) or not named:
+        raise InputError(f"no --env given, and the model card {card_path} names no "
+                         "environment", hint=hint)
+    if named in installed:
+        return named, f"the model card {card_path}"
+    matches = [a.name for a in adapters_for_env_id(named)]
+    if len(matches) == 1:
+        return matches[0], f"the model card {card_path} (Gymnasium id {named})"
+    if matches:
+        raise InputError(f"no --env given, and the model card {card_path} names {named}, "
+                         f"which {', '.join(matches)} all are", hint="give --env with one of them")
+    raise InputError(f"no --env given, and the environment {named!r} of the model card "
+                     f"{card_path} is not installed here", hint=hint)

@@ -35,7 +35,7 @@ def in_order(submit: Callable[[J], H], jobs: Iterable[J], limit: int,
     """``result(submit(job))`` for each of ``jobs``, in order, with at most ``limit`` jobs
     submitted and not yet given (``submit`` starts a job and returns a handle; ``result``
     waits for it). The writer is often slower than the workers, and a finished job waits in
-    this process until it is written: an unbounded queue held 2.4 GB after 5000 FrozenLake
+    this process until it is written: an unbounded queue held 2.4 GB after 5000 grid-world
     episodes."""
     if limit < 1:
         raise ValueError(f"limit must be at least 1, not {limit}")

@@ -95,7 +95,7 @@ def split_command(text: str) -> tuple[str, ...]:
 
 def script_of(command: Sequence[str], cwd: Optional[Path]) -> Optional[Path]:
     """The script a command runs: its first argument after the program that is a file
-    (``python3 FrozenLake.py``), else the program itself when it is a file there."""
+    (``python3 agent.py``), else the program itself when it is a file there."""
     base = Path(cwd or ".")
     for arg in [*command[1:], command[0]]:
         path = base / arg

@@ -1,6 +1,6 @@
 """Recording: run an agent under a shield for many episodes and write them to MCAP.
 
-Any environment with an adapter (:mod:`tracecheck.live.adapter`; the highway by default).
+Any environment with an adapter (:mod:`tracecheck.live.adapter`).
 Episode i uses seed ``seed + i``, so runs with different shields face the same scenarios.
 Episodes run in worker processes and come back in order, so the same seed gives the same
 file whatever the number of workers (a few tasks per worker run ahead of the writer, not
@@ -30,7 +30,7 @@ __all__ = ["RecordSettings", "record", "episodes", "check_settings", "recording_
 
 
 _SESSION: Optional[Session] = None
-#: the most episodes a worker runs in one task: fewer tasks cost less (a FrozenLake campaign
+#: the most episodes a worker runs in one task: fewer tasks cost less (a grid-world campaign
 #: ran 1.5x faster in tasks of 64 episodes than one by one), few enough that a finished
 #: episode is soon written
 LOCAL_BATCH = 8

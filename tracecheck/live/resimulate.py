@@ -101,7 +101,7 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
     ``salvage``: as :func:`~tracecheck.episodes.reader.read_run`; ``cols``: the file's
     columns when they were read already (else read here, with ``salvage``).
     """
-    from .adapter import MakeError, get_adapter, load_adapter
+    from .adapter import MakeError, claiming_adapter, get_adapter, load_adapter
     from .rollout import RecordSettings, Session
 
     path = str(path)
@@ -120,7 +120,13 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
     if header.environment_config is None:
         raise InputError(f"{path} was not recorded by tracecheck (source {header.source}): "
                          "it has no environment to re-simulate")
-    adapter = load_adapter(env) if env is not None else get_adapter(header.environment)
+    adapter = load_adapter(env) if env is not None else (
+        get_adapter(header.environment) if header.environment
+        else claiming_adapter(header.variables or ()))
+    if adapter is None:
+        raise InputError(f"{path} names no environment, and no installed one has its states "
+                         f"({', '.join(header.variables or ()) or 'none declared'})",
+                         hint="give the environment with --env")
     if header.environment and adapter.name != header.environment:
         raise InputError(f"{path} was recorded in {header.environment}, not {adapter.name}")
     cols = cols if cols is not None else read_columns(path, salvage=salvage)

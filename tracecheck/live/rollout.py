@@ -43,7 +43,8 @@ class RecordSettings:
     workers: int = 1
     executor: str = "local"
     ray_address: Optional[str] = None
-    env: str = "highway"
+    #: the environment (an installed one's name or package.module:Class)
+    env: Optional[str] = None
     env_config: Optional[dict] = None
     #: continuous actions: how the shield makes an action allowed (project, replace, mask;
     #: None: project for a Box, mask for a hybrid space) and the unit of each component in

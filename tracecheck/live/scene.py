@@ -3,7 +3,7 @@
 :mod:`tracecheck.render.viewer`) draws them as SVG and the Foxglove writer
 (:mod:`tracecheck.interop.foxglove`) converts them to a ``foxglove.SceneUpdate``.
 
-Coordinates are the environment's own units (metres on the highway, cells in a grid world),
+Coordinates are the environment's own units (metres on a road, cells in a grid world),
 x to the right and y *down*, as on a page; Foxglove's y points the other way and its writer
 flips it. Colours are RGBA in 0..1. Every shape has a ``group`` (the Foxglove entity it joins,
 e.g. one per vehicle) and an optional ``label`` (the viewer's hover text).
@@ -149,6 +149,9 @@ class Scene:
     caption: str = ""
     #: the picture's size on the page relative to its view (pixels per unit), None: fit
     scale: Optional[float] = field(default=None)
+    #: the region a small picture (the report's thumbnails) shows, (x, y, width, height);
+    #: None: the whole view
+    focus: Optional[tuple[float, float, float, float]] = None
 
     def __post_init__(self):
         if not isinstance(self.shapes, tuple) or not all(
@@ -161,4 +164,10 @@ class Scene:
         if self.view[2] <= 0 or self.view[3] <= 0:
             raise InputError(f"a Scene has view {self.view!r}: its width and height must be "
                              "above 0")
+        if self.focus is not None:
+            if not isinstance(self.focus, tuple) or len(self.focus) != 4 or any(
+                    isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
+                    for v in self.focus) or self.focus[2] <= 0 or self.focus[3] <= 0:
+                raise InputError(f"a Scene has focus {self.focus!r}: give (x, y, width, "
+                                 "height) with a width and height above 0, or None")
         _color("Scene", "background", self.background)

@@ -14,7 +14,8 @@ the same length as ``record``), and with ``--shield`` wrapped in
   greedy choice is the best-valued allowed action. The TD target is left as DQN has it — the
   maximum over *all* actions of the next state — because the replay buffer does not keep the
   next state's mask: the values of actions the shield blocks are still learned from, and may
-  be overestimated, but never chosen. On the highway, the paper's settings (:data:`PAPER_DQN`).
+  be overestimated, but never chosen. An environment may set its own (its adapter's
+  ``training_settings``).
 * ``ppo``, ``a2c`` — stable-baselines3's PPO and A2C do not take a mask. Under a shield an
   action it blocks is *replaced* (the wrapper's rule: the fallback if the shield allows it,
   else the first allowed action): the learner learns in the shielded environment, crediting
@@ -47,7 +48,7 @@ from typing import Any, Callable, Optional, Sequence
 import numpy as np
 
 from ..errors import InputError
-from .agents import PAPER_DQN, Q_LEARNING, agent_outputs, file_sha256, save_model, write_card
+from .agents import Q_LEARNING, agent_outputs, file_sha256, save_model, write_card
 
 __all__ = ["train_agent", "train_q_table", "shielding_text", "LEARNERS", "ALGORITHMS", "Learner", "Returns",
            "Progress", "CurveDrawer"]
@@ -59,29 +60,27 @@ Progress = Callable[[int, int, Optional[float]], None]
 CurveDrawer = Callable[..., Any]
 
 
-def _dqn_settings(highway: bool, steps: int) -> dict[str, Any]:
-    if highway:  # the paper's (§4.2), exploration over its first 6000 of 20 000 steps
-        return dict(PAPER_DQN, exploration_fraction=min(1.0, 6000 / steps))
+def _dqn_settings(steps: int) -> dict[str, Any]:
     return {"learning_starts": min(1000, steps // 10), "exploration_fraction": 0.5,
             "learning_rate": 1e-3, "gamma": 0.99, "target_update_interval": 250}
 
 
-def _ppo_settings(highway: bool, steps: int) -> dict[str, Any]:
+def _ppo_settings(steps: int) -> dict[str, Any]:
     # rollouts of at most SB3's 2048 steps, as equal as whole batches of 64 make them, so
     # that the last one ends close to ``steps``
     rollouts = -(-steps // 2048)
     return {"n_steps": -(-steps // (rollouts * 64)) * 64, "batch_size": 64,
-            "learning_rate": 3e-4, "gamma": 0.8 if highway else 0.99}
+            "learning_rate": 3e-4, "gamma": 0.99}
 
 
-def _a2c_settings(highway: bool, steps: int) -> dict[str, Any]:
-    return {"n_steps": 5, "learning_rate": 7e-4, "gamma": 0.8 if highway else 0.99}
+def _a2c_settings(steps: int) -> dict[str, Any]:
+    return {"n_steps": 5, "learning_rate": 7e-4, "gamma": 0.99}
 
 
-def _off_policy_settings(highway: bool, steps: int) -> dict[str, Any]:
+def _off_policy_settings(steps: int) -> dict[str, Any]:
     """SAC's and TD3's: learning after a tenth of the steps (at most 1000)."""
     return {"learning_starts": min(1000, steps // 10), "learning_rate": 3e-4,
-            "buffer_size": 100_000, "batch_size": 256, "gamma": 0.8 if highway else 0.99}
+            "buffer_size": 100_000, "batch_size": 256, "gamma": 0.99}
 
 
 @dataclass(frozen=True)
@@ -91,7 +90,7 @@ class Learner:
     name: str                       #: the class name, as the model card says it
     package: str                    #: where the class lives
     masks: bool                     #: chooses among ``action_masks()`` (else: replaced)
-    settings: Callable[[bool, int], dict[str, Any]]  #: (on the highway?, steps) -> settings
+    settings: Callable[[int], dict[str, Any]]  #: steps -> the algorithm's own settings
     needs_mask: bool = False        #: cannot run without the wrapper (MaskablePPO)
     discrete: bool = True           #: takes discrete actions
     continuous: bool = False        #: takes continuous actions (a Box)
@@ -175,7 +174,7 @@ def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
     ``shield`` if given; save the agent (``.zip``), its learning curve and its model card
     (see the module docstring); returns the card.
 
-    Example: ``train_agent(get_adapter("cliffwalking"), {}, "ppo", "a.zip", steps=2000)``.
+    Example: ``train_agent(get_adapter("corridor"), {}, "ppo", "a.zip", steps=2000)``.
     """
     import torch
 
@@ -209,7 +208,7 @@ def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
         shield_mode = "mask" if space_parts(adapter, _space(adapter, config))[0] else "project"
     vec = _vec_env(adapter, config, shield, horizon, intervention_penalty,
                    mode=shield_mode, scale=scale)
-    settings = learner.settings(adapter.name == "highway", steps)
+    settings = {**learner.settings(steps), **adapter.training_settings(algorithm, steps)}
     policy = "MultiInputPolicy" if type(vec.observation_space).__name__ == "Dict" else \
         "MlpPolicy"
     model = _learner_class(learner, shield is not None)(policy, vec, seed=seed, verbose=0,

@@ -8,7 +8,7 @@ asks the shield which actions are enabled, exposes
 them as ``action_masks()`` (the sb3-contrib MaskablePPO convention) and reports the decision,
 the B state and whether the step crashed in ``info``. Any agent can so be shielded, in
 training too. When the shield allows nothing it fails closed: the step is a deadlock and the
-fallback action (the adapter's: SLOWER on the highway) is taken, and said so.
+fallback action (the adapter's ``fallback``) is taken, and said so.
 
 For continuous actions (an adapter that declares ``parameters`` for a ``Box`` action space)
 ``step`` takes the agent's action vector and executes the proposal if the shield allows it,
@@ -55,7 +55,7 @@ def adapter_for(env: gym.Env):
                          hint="give it: ShieldWrapper(env, shield, adapter=MyAdapter()); the "
                               f"installed adapters are {known}")
     matches = adapters_for_env_id(env_id, found)
-    if len(matches) > 1:  # one id, two action spaces (highway, highway-continuous)
+    if len(matches) > 1:  # one id, two action spaces (discrete and continuous)
         continuous = getattr(env.action_space, "n", None) is None
         matches = [a for a in matches if bool(a.adapter.parameters) == continuous] or matches
     if len(matches) == 1:

@@ -232,8 +232,8 @@ def _check_run(run, cols, shield, resimulate: bool, agent, env) -> dict:
 
 
 def _environment(path, header) -> str:
-    """The run's environment as the statistics take it (never the highway for a file whose
-    states are another machine's); an external script's is its own."""
+    """The run's environment as the statistics take it (the one its file names, or the
+    installed one that claims its states); an external script's is its own."""
     from ..stats.estimates import environment_of
 
     if header.source == "external":
@@ -372,9 +372,12 @@ def _pictures(result, shown: list, adapter, shield) -> dict[int, str]:
     """Per episode shown (among those ``result`` decoded): the scene at its first blocked
     step (else at its crash), or where the environment draws none, its numeric variables
     over time."""
-    from .scene import scene_drawer, scene_kind, scene_svg
+    from .scene import scene_drawer, scene_svg
 
-    draw = scene_drawer(adapter=adapter, shield=shield.name)
+    header = result.header
+    draw = scene_drawer(getattr(header, "environment", None), adapter=adapter,
+                        shield=shield.name,
+                        variables=tuple(getattr(header, "variables", None) or ()))
     wanted = {e.episode: e.first_infeasible if e.first_infeasible is not None else
               (e.crash_step or 0) for e in shown}
     out = {}
@@ -383,9 +386,7 @@ def _pictures(result, shown: list, adapter, shield) -> dict[int, str]:
             continue  # decoded for its viewer page only
         k = min(wanted[ep.id], len(ep.steps) - 1)
         scene = draw(ep.steps[k])
-        # the road near the ego vehicle: a thumbnail of the whole view would be a thin strip
-        near = (-30.0, -4.0, 100.0, 16.0) if scene_kind(ep.steps[k].state) == "road" else None
-        out[ep.id] = (scene_svg(scene, 300, view=near) if scene is not None
+        out[ep.id] = (scene_svg(scene, 300, view=scene.focus) if scene is not None
                       else _sparklines(ep, wanted[ep.id]))
     return out
 

@@ -15,9 +15,8 @@ end reaches the chart's edge; a step where nothing was allowed marked red); the 
 says what was proposed, executed and allowed, and how far the shield moved the proposal.
 
 Above them, the step's scene (:mod:`tracecheck.render.scene`) where the environment has one:
-the highway's road around the ego vehicle with the zones of the ``paper`` shield, a grid
-world's map, or what a user's adapter draws with its ``scene`` hook — with a caption saying
-how to read it. An environment without a scene gets no empty canvas.
+what its adapter draws with its ``scene`` hook (a road with the zones a shield tests, a grid
+world's map, …), with a caption saying how to read it. An environment without a scene gets no empty canvas.
 """
 
 from __future__ import annotations
@@ -155,13 +154,14 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
     run header), as JSON-ready data (``ltl``: (name, text, formula) of LTL formulas over
     ``shield``'s machine, each marked where the episode first violates it, checked on
     ``cols``, the run's columns, which ``ltl`` needs; ``adapter``: the environment's adapter
-    (``--env``), whose ``scene`` hook draws the steps; without one, the built-in scenes —
-    render imports no environment package)."""
+    (``--env``), whose ``scene`` hook draws the steps; without one, the installed adapter of
+    the run's environment, if any)."""
     if ltl and cols is None:
         raise ValueError("LTL marks are checked on the run's columns: give cols")
     machine = shield.machine if shield is not None else None
-    # render imports no environment: the adapter given, else the built-in scenes
-    draw = scene_drawer(adapter=adapter, shield=shield.name if shield is not None else None)
+    draw = scene_drawer(getattr(header, "environment", None), adapter=adapter,
+                        shield=shield.name if shield is not None else None,
+                        variables=tuple(getattr(header, "variables", None) or ()))
     scene, per_step = _scenes(ep, draw)
     steps, blocked, interventions = [], [], []
     for k, s in enumerate(ep.steps):

@@ -51,19 +51,20 @@ class RunValues:
 
 
 def environment_of(path: str | Path) -> str:
-    """The environment a run file's states come from. A file that names none (imported
-    traces, files from before adapters) is the highway's when its states are in the highway's
-    vocabulary (or it declares none); else it is named by its machine (looked up among the
-    installed adapters only, so usually none: generic statistics), never taken for the
-    highway's."""
-    from ..episodes.vocabulary import HIGHWAY_VARIABLES
+    """The environment a run file's states come from: the one its header names; for a file
+    that names none (imported traces, files from before environments were recorded), the
+    installed environment that claims its state variables
+    (:meth:`~tracecheck.live.adapter.EnvAdapter.claims`), else the name of its machine
+    (looked up among the installed adapters only, so usually none: generic statistics)."""
     from ..episodes.reader import read_header
+    from ..live.adapter import claiming_adapter
 
     header = read_header(path)
     if header.environment:
         return header.environment
-    if not header.variables or set(HIGHWAY_VARIABLES) <= set(header.variables):
-        return "highway"
+    claimed = claiming_adapter(header.variables) if header.variables else None
+    if claimed is not None:
+        return claimed.name
     return header.model_name or "unnamed"
 
 
@@ -78,7 +79,7 @@ class _Scope:
     own_crashed: bool
 
 
-def _typing_scope(environment="highway", sample: Optional[dict] = None,
+def _typing_scope(environment=None, sample: Optional[dict] = None,
                   machine=None) -> _Scope:
     """The names and constants properties are checked against: those of ``machine`` when
     given, else of the environment's machine (the shield its adapter names), else the types
@@ -130,8 +131,9 @@ def _check(node, kind: str, where: str, text: str, scope: _Scope) -> None:
 def default_set(paths: list[str | Path], adapter=None) -> tuple[PropertySet, list[str]]:
     """The generic set with the runs' environment's own set added where it has one (its
     adapter given, or installed), and notes for people (an adapter not installed here)."""
-    environment = environment_of(paths[0]) if paths else "highway"
-    adapter = adapter if adapter is not None else installed_adapter(environment, required=False)
+    environment = environment_of(paths[0]) if paths else None
+    adapter = adapter if adapter is not None else (
+        installed_adapter(environment, required=False) if environment else None)
     if adapter is None:
         from ..episodes.reader import read_header
 
@@ -151,7 +153,7 @@ def adapter_set(adapter) -> PropertySet:
     return with_generic(load_properties(adapter.properties) if adapter.properties else None)
 
 
-def prepare(pset: PropertySet, environment="highway", sample: Optional[dict] = None,
+def prepare(pset: PropertySet, environment=None, sample: Optional[dict] = None,
             machine=None) -> dict:
     """Type-check every formula of ``pset`` against the environment's machine (a name or an
     adapter; ``sample``: a state to take types from where there is no machine; ``machine``:
@@ -160,6 +162,8 @@ def prepare(pset: PropertySet, environment="highway", sample: Optional[dict] = N
     recorded crash flag."""
     needs_scope = any(m.node is not None for m in pset.metrics) or any(
         p.node is not None for p in pset.properties)
+    if machine is None:
+        environment = _environment_adapter(environment, sample) or environment
     scope = _typing_scope(environment, sample, machine) if needs_scope else None
     formulas: dict = {"warnings": []}
 
@@ -191,6 +195,20 @@ def prepare(pset: PropertySet, environment="highway", sample: Optional[dict] = N
                                                    file=where)
             note(p.node, None, where)
     return formulas
+
+
+def _environment_adapter(environment, sample: Optional[dict]):
+    """The adapter of the runs' environment: the one named (or given) where it is installed,
+    else — for runs that name none — the installed one that claims the variables of a
+    sample state; None where neither is."""
+    from ..live.adapter import EnvAdapter, claiming_adapter
+
+    if isinstance(environment, EnvAdapter):
+        return environment
+    adapter = installed_adapter(environment, required=False) if environment else None
+    if adapter is None and sample:
+        adapter = claiming_adapter(tuple(sample))
+    return adapter
 
 
 def _machine(environment):
@@ -581,7 +599,7 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
         names = ", ".join(sorted(environments))
         raise InputError(f"the runs come from different environments ({names}); "
                          "compare runs of one environment")
-    environment = environments.pop() if environments else "highway"
+    environment = environments.pop() if environments else None
     if adapter is not None:
         check_environment(adapter, environment)
         environment = adapter

@@ -45,6 +45,7 @@ set added (:func:`with_generic`).
 
 from __future__ import annotations
 
+import functools
 import math
 import tomllib
 import unicodedata
@@ -57,10 +58,11 @@ from ..b.parser import parse_formula
 from ..b.scope import EXPR, PRED, check_kind
 from ..episodes.model import END_REASONS
 from ..errors import InputError, TracecheckError
+from .. import registry
 from ..inputs import read_text
 
 __all__ = ["Metric", "Property", "HypothesisTest", "PropertySet", "load_properties",
-           "HIGHWAY_SET", "GENERIC_SET", "AGGREGATES", "KINDS", "TAILS", "ESTIMATE_TYPES",
+           "builtin_sets", "GENERIC_SET", "AGGREGATES", "KINDS", "TAILS", "ESTIMATE_TYPES",
            "with_generic"]
 
 AGGREGATES = ("steps", "average", "sum", "sum_between_steps", "min", "max", "return", "stl",
@@ -122,61 +124,6 @@ class PropertySet:
                              f"{', '.join(unknown)}; it has {', '.join(sorted(known))}")
         return PropertySet(self.name, tuple(m for m in self.metrics if m.name in names),
                            tuple(p for p in self.properties if p.name in names), self.file)
-
-
-SPEED = "RSQRT(VehiclesVx(EgoVehicle)**2 + VehiclesVy(EgoVehicle)**2)"
-ACCEL = "RSQRT(VehiclesAx(EgoVehicle)**2 + VehiclesAy(EgoVehicle)**2)"
-
-#: The paper's SimB tasks (its Tables 2 and 3), exactly.
-HIGHWAY_TOML = f"""
-[metrics.episode_length]
-aggregate = "steps"
-description = "Episode length [s]"
-
-[metrics.velocity]
-expression = "{SPEED}"
-aggregate = "average"
-description = "Velocity [m/s]"
-
-[metrics.distance]
-expression = "VehiclesVx(EgoVehicle)"
-aggregate = "sum_between_steps"
-description = "Distance [m]"
-
-[metrics.right_lane]
-expression = "IF VehiclesY(EgoVehicle) >= 7.0 THEN 1.0 ELSE 0.0 END"
-aggregate = "sum_between_steps"
-description = "On right lane [s]"
-
-[metrics.total_reward]
-expression = "Reward"
-aggregate = "sum"
-description = "Total reward"
-
-[properties.SAF1]
-predicate = "Crash = FALSE"
-description = "The agent must avoid collisions with other vehicles"
-
-[properties.SAF2]
-predicate = "Crash = FALSE => {SPEED} >= 20.0"
-description = "The agent must drive faster than 20 m/s"
-
-[properties.SAF3]
-predicate = "Crash = FALSE => {SPEED} <= 30.0"
-description = "The agent must drive slower than 30 m/s"
-
-[properties.SAF4]
-predicate = "Crash = FALSE => (VehiclesAx(EgoVehicle) < 0.0 => {ACCEL} <= 5.0)"
-description = "The agent should decelerate at a maximum of 5 m/s²"
-
-[properties.SAF5]
-predicate = "Crash = FALSE => (VehiclesAx(EgoVehicle) > 0.0 => {ACCEL} <= 5.0)"
-description = "The agent should accelerate at a maximum of 5 m/s²"
-
-[properties.SAF6]
-predicate = "not(#v.(v : PresentVehicles \\\\ {{EgoVehicle}} & VehiclesX(v) >= -15.0 & VehiclesX(v) <= 15.0 & VehiclesY(v) >= -4.0 & VehiclesY(v) <= 4.0))"
-description = "Keep 2 m lateral and 10 m longitudinal safety distance to each other vehicle"
-"""
 
 
 def _formula(text: object, kind: str, where: str, file: str) -> ast.Node:
@@ -352,60 +299,6 @@ def _property(name: str, spec: dict, file: str) -> Property:
                     _string(spec, "description", where, file), test)
 
 
-HIGHWAY_SET = parse_properties(HIGHWAY_TOML, name="highway", file="<highway>")
-
-
-#: Grid worlds (the frozenlake and cliffwalking adapters' default sets).
-FROZENLAKE_TOML = """
-[metrics.episode_length]
-aggregate = "steps"
-description = "Episode length (steps)"
-
-[metrics.return]
-aggregate = "return"
-description = "Return (1 for reaching the goal)"
-
-[properties.GOAL]
-predicate = "x = goal_x & y = goal_y"
-kind = "eventually"
-description = "reached the goal"
-
-[properties.HOLE]
-predicate = "field(x |-> y) = HOLE"
-kind = "eventually"
-description = "fell into a hole"
-"""
-
-CLIFFWALKING_TOML = """
-[metrics.episode_length]
-aggregate = "steps"
-description = "Episode length (steps)"
-
-[metrics.return]
-aggregate = "return"
-description = "Return (-1 a step, -100 a fall)"
-
-[properties.GOAL]
-predicate = "x = goal_x & y = goal_y"
-kind = "eventually"
-description = "reached the goal"
-"""
-
-LUNARLANDER_TOML = """
-[metrics.episode_length]
-aggregate = "steps"
-description = "Episode length (steps of 1/50 s)"
-
-[metrics.return]
-aggregate = "return"
-description = "Return"
-
-[properties.LANDED]
-predicate = "left_leg_on_ground = TRUE & right_leg_on_ground = TRUE"
-kind = "eventually"
-description = "both legs on the ground at some point"
-"""
-
 #: What ``stats`` gives for any run, whatever its environment (and whether or not its
 #: adapter is installed): from what every recording holds.
 GENERIC_TOML = """
@@ -437,7 +330,7 @@ GENERIC_SET = parse_properties(GENERIC_TOML, name="generic", file="<generic>")
 
 def with_generic(own: Optional[PropertySet]) -> PropertySet:
     """The generic set, with an environment's own set added (its entries replace generic
-    ones of the same name, in place: the highway's ``episode_length`` is in seconds)."""
+    ones of the same name, in place: an environment's ``episode_length`` may count seconds)."""
     if own is None:
         return GENERIC_SET
     mine = {m.name: m for m in own.metrics}
@@ -447,18 +340,37 @@ def with_generic(own: Optional[PropertySet]) -> PropertySet:
     return PropertySet(f"generic+{own.name}", tuple(metrics), tuple(properties), own.file)
 
 
-BUILTIN_SETS = {"highway": HIGHWAY_TOML, "frozenlake": FROZENLAKE_TOML,
-                "cliffwalking": CLIFFWALKING_TOML, "lunarlander": LUNARLANDER_TOML}
+def builtin_sets() -> list[str]:
+    """Every name ``--properties`` takes besides a path: ``generic`` and the property sets the
+    installed environments bring (their adapters' ``property_sets``)."""
+    return ["generic", *sorted(registry.bundled("property_sets"))]
 
 
 def load_properties(spec: str | Path) -> PropertySet:
-    """A built-in set (``generic``, ``highway``, ``frozenlake``, ``cliffwalking``,
-    ``lunarlander``), or a property file."""
-    if str(spec) == "highway":
-        return HIGHWAY_SET
+    """A property set by name or from a file.
+
+    Args:
+        spec: ``generic``, the name of a set an installed environment brings, or the path of
+            a property file (TOML).
+
+    Returns:
+        The parsed and type-checked-for-syntax :class:`PropertySet`.
+
+    >>> load_properties("generic").name
+    'generic'
+    """
     if str(spec) == "generic":
         return GENERIC_SET
-    if str(spec) in BUILTIN_SETS:
-        return parse_properties(BUILTIN_SETS[str(spec)], name=str(spec), file=f"<{spec}>")
+    found = registry.bundled("property_sets").get(str(spec)) if not Path(spec).suffix else None
+    if found is not None:
+        return _bundled_set(str(spec), found[1])
     path = Path(spec)
     return parse_properties(read_text(path, "property file"), name=path.stem, file=str(path))
+
+
+@functools.lru_cache(maxsize=32)
+def _bundled_set(name: str, source: str | Path) -> PropertySet:
+    """An environment's property set: its TOML text, or the path of its file (parsed once)."""
+    if isinstance(source, Path):
+        return parse_properties(read_text(source, "property file"), name=name, file=str(source))
+    return parse_properties(source, name=name, file=f"<{name}>")

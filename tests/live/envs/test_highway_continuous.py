@@ -10,8 +10,8 @@ import pytest
 
 from tests.helpers import run
 from tracecheck.b.values import Elem, FuncValue, format_value
-from tracecheck.checking.shield import BUILTIN_SHIELDS, load_shield
-from tracecheck.episodes.vocabulary import HIGHWAY
+from tracecheck.checking.shield import builtin_shields, load_shield
+from tracecheck.live.envs.highway import HIGHWAY
 
 pytest.importorskip("highway_env")
 
@@ -56,7 +56,7 @@ def test_the_adapter_is_the_highway_with_one_operation_of_two_parameters(adapter
     assert adapter.actions == ("DRIVE",)
     assert adapter.parameters == {"DRIVE": ("acceleration", "steering")}
     assert adapter.fallback is None and adapter.fallback_action == (-1.0, 0.0)
-    assert adapter.default_shield == "highway_continuous" in BUILTIN_SHIELDS
+    assert adapter.default_shield == "highway_continuous" in builtin_shields()
     assert adapter.variables == HIGHWAY.variables and adapter.seconds_per_step == 1.0
     assert adapter.properties == "highway"
 

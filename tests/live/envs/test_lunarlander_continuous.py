@@ -10,7 +10,7 @@ import pytest
 
 from tests.helpers import run
 from tracecheck.b.values import FuncValue, format_value
-from tracecheck.checking.shield import BUILTIN_SHIELDS, load_shield
+from tracecheck.checking.shield import builtin_shields, load_shield
 from tracecheck.live.adapter import get_adapter
 
 pytest.importorskip("Box2D", reason="LunarLander needs the box2d extra "
@@ -43,7 +43,7 @@ def test_the_adapter_is_the_lander_with_one_operation_of_two_parameters(adapter,
     assert adapter.env_id == "LunarLanderContinuous-v3" and env.continuous
     assert adapter.actions == ("FIRE",) and adapter.parameters == {"FIRE": ("main", "lateral")}
     assert adapter.fallback_action == (1.0, 0.0) and adapter.fallback is None
-    assert adapter.default_shield == "lunarlander_continuous" in BUILTIN_SHIELDS
+    assert adapter.default_shield == "lunarlander_continuous" in builtin_shields()
     assert adapter.variables == get_adapter("lunarlander").variables
     assert env.action_space.shape == (2,) and env.action_space.low.tolist() == [-1.0, -1.0]
     assert "continuous" not in adapter.config_keys() and "gravity" in adapter.config_keys()

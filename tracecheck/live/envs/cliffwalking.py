@@ -11,21 +11,42 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...checking.shield import SHIELD_DIR
 from .grid import GridAdapter
 
 __all__ = ["CliffWalkingAdapter"]
 
 
+#: ``--properties cliffwalking``: what ``stats`` adds to the generic set for this environment
+CLIFFWALKING_TOML = """
+[metrics.episode_length]
+aggregate = "steps"
+description = "Episode length (steps)"
+
+[metrics.return]
+aggregate = "return"
+description = "Return (-1 a step, -100 a fall)"
+
+[properties.GOAL]
+predicate = "x = goal_x & y = goal_y"
+kind = "eventually"
+description = "reached the goal"
+"""
+
+
 class CliffWalkingAdapter(GridAdapter):
     name = "cliffwalking"
+    description = "Gymnasium's CliffWalking-v1, 12×4: reach the goal without falling off the cliff"
     env_id = "CliffWalking-v1"
     actions = ("Move_Up", "Move_Right", "Move_Down", "Move_Left")
     model_name = "CliffWalking"
     default_shield = "cliffwalking"
+    shields = {"cliffwalking": SHIELD_DIR / "cliffwalking.mch"}
     horizon = 100
     #: gymnasium's CliffWalking is always 12 columns by 4 rows
     assumptions = ("x : 0..11", "y : 0..3")
     properties = "cliffwalking"
+    property_sets = {"cliffwalking": CLIFFWALKING_TOML}
     danger = b"C"
     kinds = ("GRASS", "CLIFF")
 

@@ -11,19 +11,45 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...checking.shield import SHIELD_DIR
 from .grid import GridAdapter
 
 __all__ = ["FrozenLakeAdapter"]
 
 
+#: ``--properties frozenlake``: what ``stats`` adds to the generic set for this environment
+FROZENLAKE_TOML = """
+[metrics.episode_length]
+aggregate = "steps"
+description = "Episode length (steps)"
+
+[metrics.return]
+aggregate = "return"
+description = "Return (1 for reaching the goal)"
+
+[properties.GOAL]
+predicate = "x = goal_x & y = goal_y"
+kind = "eventually"
+description = "reached the goal"
+
+[properties.HOLE]
+predicate = "field(x |-> y) = HOLE"
+kind = "eventually"
+description = "fell into a hole"
+"""
+
+
 class FrozenLakeAdapter(GridAdapter):
     name = "frozenlake"
+    description = "Gymnasium's FrozenLake-v1, 8×8: reach the goal without falling into a hole"
     env_id = "FrozenLake-v1"
     actions = ("Move_Left", "Move_Down", "Move_Right", "Move_Up")
     model_name = "FrozenLake"
     default_shield = "frozenlake"
+    shields = {"frozenlake": SHIELD_DIR / "frozenlake.mch"}
     horizon = 100
     properties = "frozenlake"
+    property_sets = {"frozenlake": FROZENLAKE_TOML}
     danger = b"H"
     kinds = ("ICE", "HOLE")
 

@@ -11,6 +11,7 @@ from typing import Any, Optional
 
 from ...b.values import Elem, FuncValue
 from ..adapter import GymnasiumAdapter, Observer
+from .grid_scene import grid_scene
 
 __all__ = ["GridAdapter"]
 
@@ -29,6 +30,14 @@ class GridAdapter(GymnasiumAdapter):
 
     def observer(self, env) -> Observer:
         return _GridObserver(self, env)
+
+    def scene(self, step, shield: Optional[str] = None):
+        """The grid from above: the tiles to avoid dark, the goal, the agent."""
+        state = step.state
+        if type(state.get("x")) is not int or type(state.get("y")) is not int or \
+                not isinstance(state.get("field"), FuncValue) or not state["field"].map:
+            return None
+        return grid_scene(state, bool(step.crashed), frozenset({self.kinds[1]}))
 
     @staticmethod
     def grid_state(obs, grid: tuple[int, FuncValue, tuple[int, int]]) -> dict[str, Any]:

@@ -23,15 +23,25 @@ from typing import Any, Mapping, Optional
 import numpy as np
 
 from ...b.values import Elem, FuncValue, format_value
-from ...episodes.vocabulary import HIGHWAY, HIGHWAY_ACTIONS
+from ...checking.shield import SHIELD_DIR
+from ...episodes.vocabulary import Vocabulary
 from ...errors import InputError
-from ..adapter import EnvAdapter, Observer, setting_kinds
+from ..adapter import EnvAdapter, Observer
+from ..settings import setting_kinds
+from .highway_properties import HIGHWAY_TOML
+from .highway_scene import road_plots, road_scene
 
 __all__ = ["ENV_ID", "REWARD_PROFILES", "env_config", "make_env", "StateAdapter", "ACTIONS",
-           "ELEMENTS", "HighwayAdapter", "road_reading"]
+           "ELEMENTS", "HighwayAdapter", "road_reading", "HIGHWAY", "PAPER_DQN"]
 
 ENV_ID = "highway-fast-v0"
-ACTIONS = HIGHWAY_ACTIONS  # highway-env's DiscreteMetaAction order: 0 = LANE_LEFT, …
+#: The state variables of the paper's highway model (Section 4.1).
+VARIABLES = ("Crash", "PresentVehicles", "VehiclesX", "VehiclesY", "VehiclesVx", "VehiclesVy",
+             "VehiclesAx", "VehiclesAy", "Reward")
+#: The agent's actions, in highway-env's DiscreteMetaAction order: 0 = LANE_LEFT, …
+ACTIONS = ("LANE_LEFT", "IDLE", "LANE_RIGHT", "FASTER", "SLOWER")
+#: The paper's vocabulary, which ProB's and SimB's traces of the paper use.
+HIGHWAY = Vocabulary(VARIABLES, ACTIONS, "HighwayEnvironment", "Vehicles")
 ELEMENTS = tuple(Elem(n) for n in ("EgoVehicle", "Vehicles2", "Vehicles3", "Vehicles4",
                                    "Vehicles5"))
 #: Reward settings: highway-env's defaults, and the paper's HIGHER PENALTY agent (§4.2).
@@ -131,19 +141,42 @@ class _HighwayObserver(Observer):
         return self.inner.state(obs, reward, bool(info.get("crashed", False)), initial=initial)
 
 
+#: The paper's DQN settings (§4.2), for stable-baselines3.
+PAPER_DQN: dict[str, Any] = {
+    "policy_kwargs": {"net_arch": [256, 256]},
+    "learning_rate": 5e-4,
+    "gamma": 0.9,
+    "buffer_size": 15_000,
+    "batch_size": 32,
+    "learning_starts": 200,
+    "train_freq": 1,
+    "gradient_steps": 1,
+    "target_update_interval": 50,
+    "exploration_initial_eps": 1.0,
+    "exploration_final_eps": 0.05,
+}
+
+
 class HighwayAdapter(EnvAdapter):
     name = "highway"
+    description = ("highway-env's highway-fast-v0: three lanes, five vehicles observed, the "
+                   "paper's case study")
     env_id = ENV_ID
     actions = ACTIONS
-    variables = HIGHWAY.variables
+    variables = VARIABLES
     model_name = HIGHWAY.name
+    set_name = HIGHWAY.set_name
     default_shield = "paper"
     fallback = "SLOWER"
     seconds_per_step = 1.0
     horizon = 60
     requires = ("gymnasium", "highway_env")
     profiles = REWARD_PROFILES
+    shields = {name: SHIELD_DIR / f"{name}.mch" for name in ("none", "paper", "strict")}
+    property_sets = {"highway": HIGHWAY_TOML}
     properties = "highway"
+    observation_shape = (5, 5)  # the Kinematics observation: 5 vehicles, 5 features
+    plotted = ("speed", "nearest_gap")
 
     def default_config(self) -> dict[str, Any]:
         return env_config("base", self.horizon)
@@ -177,6 +210,27 @@ class HighwayAdapter(EnvAdapter):
 
     def describe(self, state: dict[str, Any]) -> Optional[str]:
         return road_reading(state)
+
+    def scene(self, step, shield: Optional[str] = None):
+        """The road around the ego vehicle; for the ``paper`` shield, the zones it tests."""
+        if not all(isinstance(step.state.get(v), FuncValue) for v in VARIABLES[2:6]):
+            return None
+        return road_scene(step.state, bool(step.crashed), zones=shield == "paper")
+
+    def plots(self, state: dict[str, Any]) -> dict[str, float]:
+        """The ego vehicle's speed (m/s) and the distance to the nearest other vehicle (m)."""
+        return road_plots(state)
+
+    def training_settings(self, algorithm: str, steps: int) -> dict[str, Any]:
+        """The paper's DQN settings (§4.2; exploration over the first 6000 of 20 000 steps),
+        and a discount of 0.8 for the other algorithms."""
+        if algorithm == "dqn":
+            return dict(PAPER_DQN, exploration_fraction=min(1.0, 6000 / steps))
+        return {"gamma": 0.8}
+
+    def claims(self, variables) -> bool:
+        """A run in the paper's vocabulary is the highway's (its ProB and SimB traces)."""
+        return set(VARIABLES) <= set(variables)
 
 
 def road_reading(state: dict[str, Any]) -> Optional[str]:

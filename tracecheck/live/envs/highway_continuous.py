@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from typing import Any, Optional
 
+from ...checking.shield import SHIELD_DIR
 from .highway import HighwayAdapter, env_config
 
 __all__ = ["ACTION_CONFIG", "HighwayContinuousAdapter", "continuous_config"]
@@ -35,14 +36,22 @@ def continuous_config(profile: str = "base", duration: int = 60) -> dict[str, An
 
 class HighwayContinuousAdapter(HighwayAdapter):
     name = "highway-continuous"
+    description = ("the highway with continuous actions: acceleration and steering in "
+                   "[-1, 1]")
     actions = ("DRIVE",)
     parameters = {"DRIVE": ("acceleration", "steering")}
     default_shield = "highway_continuous"
+    shields = {"highway_continuous": SHIELD_DIR / "highway_continuous.mch"}
+    observation_shape = None  # checked against the environment (its agents are made for it)
     fallback = None
     fallback_action = (-1.0, 0.0)  # full braking (-5 m/s²), steering straight
 
     def default_config(self) -> dict[str, Any]:
         return continuous_config("base", self.horizon)
+
+    def claims(self, variables) -> bool:
+        """A run that names no environment is the discrete highway's, never this one's."""
+        return False
 
     def config(self, overrides: Optional[dict[str, Any]] = None,
                profile: Optional[str] = None, horizon: Optional[int] = None) -> dict[str, Any]:

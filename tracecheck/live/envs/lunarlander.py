@@ -43,8 +43,26 @@ class _LanderObserver(Observer):
                 "surface": self.surface}
 
 
+#: ``--properties lunarlander``: what ``stats`` adds to the generic set for this environment
+LUNARLANDER_TOML = """
+[metrics.episode_length]
+aggregate = "steps"
+description = "Episode length (steps of 1/50 s)"
+
+[metrics.return]
+aggregate = "return"
+description = "Return"
+
+[properties.LANDED]
+predicate = "left_leg_on_ground = TRUE & right_leg_on_ground = TRUE"
+kind = "eventually"
+description = "both legs on the ground at some point"
+"""
+
+
 class LunarLanderAdapter(GymnasiumAdapter):
     name = "lunarlander"
+    description = "Gymnasium's LunarLander-v3 (Box2D): land between the flags without crashing"
     env_id = "LunarLander-v3"
     actions = ("Do_Nothing", "Fire_Left", "Fire_Down", "Fire_Right")
     variables = ("x", "y", "v_x", "v_y", "angle", "v_angular", "left_leg_on_ground",
@@ -54,6 +72,7 @@ class LunarLanderAdapter(GymnasiumAdapter):
     horizon = 1000
     requires = ("gymnasium", "Box2D")
     properties = "lunarlander"
+    property_sets = {"lunarlander": LUNARLANDER_TOML}
 
     def observer(self, env) -> Observer:
         return _LanderObserver(self, env)

@@ -15,6 +15,7 @@ shield's own rules never leave nothing: each bounds one parameter).
 
 from __future__ import annotations
 
+from ...checking.shield import SHIELD_DIR
 from .lunarlander import LunarLanderAdapter
 
 __all__ = ["LunarLanderContinuousAdapter"]
@@ -22,10 +23,12 @@ __all__ = ["LunarLanderContinuousAdapter"]
 
 class LunarLanderContinuousAdapter(LunarLanderAdapter):
     name = "lunarlander-continuous"
+    description = "LunarLander with continuous thrust: main engine and lateral boosters in [-1, 1]"
     env_id = "LunarLanderContinuous-v3"
     actions = ("FIRE",)
     parameters = {"FIRE": ("main", "lateral")}
     default_shield = "lunarlander_continuous"
+    shields = {"lunarlander_continuous": SHIELD_DIR / "lunarlander_continuous.mch"}
     fallback_action = (1.0, 0.0)  # full main thrust against a hard landing, boosters off
 
     def config_keys(self):

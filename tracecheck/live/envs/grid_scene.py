@@ -1,0 +1,56 @@
+"""How a grid world is drawn: one tile per cell from above (the tiles to avoid dark), the
+goal, the agent."""
+
+from __future__ import annotations
+
+from ...b.values import format_value
+from ...identity import ByIdentity
+from ..scene import BLACK, GREEN, RED, WHITE, YELLOW, Box, Circle, Scene, Shape
+
+__all__ = ["grid_cells", "grid_scene", "GRID_CAPTION"]
+
+GRID_CAPTION = ("The grid world from above: dark cells are holes or cliffs, the yellow square "
+                "the goal, the green disc the agent (red once it fell).")
+
+
+def grid_cells(state: dict, danger: frozenset[str]) -> dict:
+    """A map's cells (x, y, whether its kind is one of ``danger``, its kind), columns, rows."""
+    cells = [[x, y, str(v) in danger, format_value(v)]
+             for (x, y), v in sorted(state["field"].map.items())]
+    return {"cols": max(c[0] for c in cells) + 1, "rows": max(c[1] for c in cells) + 1,
+            "cells": cells}
+
+
+#: a map's tiles and size, drawn once for the map (one object in every state of a run)
+_TILES: ByIdentity[tuple[tuple[Shape, ...], float, float]] = ByIdentity(16)
+
+
+def _tiles(field_, danger: frozenset[str]) -> tuple[tuple[Shape, ...], float, float]:
+    """The tiles of a grid world's map, its columns and rows."""
+    drawn = _TILES.get(field_)
+    if drawn is None:
+        grid = grid_cells({"field": field_}, danger)
+        drawn = _TILES.put(field_, (tuple(
+            Box(x + 0.5, y + 0.5, 1.0, 1.0, fill=(0.15, 0.2, 0.22, 1.0) if danger
+                else (0.87, 0.94, 0.98, 1.0), stroke=WHITE, stroke_width=0.04,
+                label=f"({x}, {y}): {label}", group="map", depth=0.05)
+            for x, y, danger, label in grid["cells"]), float(grid["cols"]),
+            float(grid["rows"])))
+    return drawn
+
+
+def grid_scene(state: dict, crashed: bool = False,
+               danger: frozenset[str] = frozenset()) -> Scene:
+    """A grid world: one tile per cell (those of a kind in ``danger`` dark), the goal, the
+    agent."""
+    tiles, cols, rows = _tiles(state["field"], danger)
+    shapes: list[Shape] = list(tiles)
+    if "goal_x" in state and "goal_y" in state:
+        shapes.append(Box(state["goal_x"] + 0.5, state["goal_y"] + 0.5, 0.6, 0.6, fill=YELLOW,
+                          label="goal", group="goal", depth=0.1))
+    shapes.append(Circle(state["x"] + 0.5, state["y"] + 0.5, 0.3,
+                         fill=RED if crashed else GREEN, stroke=BLACK,
+                         label=f"agent at ({state['x']}, {state['y']})", group="agent"))
+    return Scene(tuple(shapes), (0.0, 0.0, cols, rows), None, GRID_CAPTION, scale=40.0)
+
+
