@@ -227,15 +227,15 @@ def test_a_script_that_never_connects():
 def test_the_cli_waits_at_least_a_minute_for_the_connection_and_notes_unbounded_episodes(
         tmp_path, capsys):
     from tracecheck.cli.common import external_settings
+    from tracecheck.cli.run_options import RunOptions
 
-    settings, _ = external_settings("python3 agent.py", shield=str(CORRIDOR), episodes=1,
-                                    cwd=None, step_timeout=0.5, crash=None, ending_time=None,
-                                    duration=None)
+    settings, _ = external_settings(RunOptions.given(external="python3 agent.py",
+                                                     shield=str(CORRIDOR), step_timeout=0.5), 1)
     assert (settings.step_timeout, settings.connect_timeout) == (0.5, 60.0)
     assert "neither --duration nor --ending-time" in capsys.readouterr().err
-    settings, _ = external_settings("python3 agent.py", shield=str(CORRIDOR), episodes=1,
-                                    cwd=None, step_timeout=45, crash=None, ending_time=None,
-                                    duration=10)
+    settings, _ = external_settings(RunOptions.given(external="python3 agent.py",
+                                                     shield=str(CORRIDOR), step_timeout=45,
+                                                     duration=10), 1)
     assert settings.connect_timeout == 90 and settings.max_steps == 10
     assert capsys.readouterr().err == ""
 

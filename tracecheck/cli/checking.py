@@ -102,6 +102,16 @@ def _seconds(value: float) -> float:
     return check_timeout(value, "--timeout")
 
 
+#: the solver's options, declared once for ``prove`` and ``diff --symbolic``
+SOLVER_TIMEOUT = typer.Option(10.0, "--timeout", callback=_seconds, help="Seconds the solver "
+                              "may take per question (prove: each obligation, and whether any "
+                              "state satisfies the invariant and assumptions; diff --symbolic: "
+                              "each operation).")
+COUNTEREXAMPLES = typer.Option(None, "--counterexamples", help="Write each counterexample "
+                               "(prove) or differing state (diff --symbolic) as a state file "
+                               "into this folder (a new or empty one, or --force).")
+
+
 @app.command("diff")
 def diff_cmd(
     runs: Optional[list[Path]] = typer.Argument(None, help="MCAP run files (none with "
@@ -120,12 +130,8 @@ def diff_cmd(
     symbolic: bool = typer.Option(False, "--symbolic", help="Compare over every state that "
                                   "satisfies both invariants, with an SMT solver: per "
                                   "operation, equivalent or a state where they differ."),
-    timeout: float = typer.Option(10.0, "--timeout", callback=_seconds, help="--symbolic: "
-                                  "seconds the solver may take per question (each operation)."),
-    counterexamples: Optional[Path] = typer.Option(None, "--counterexamples", help="--symbolic:"
-                                                   " write each differing state as a state file "
-                                                   "into this folder (a new or empty one, or "
-                                                   "--force)."),
+    timeout: float = SOLVER_TIMEOUT,
+    counterexamples: Optional[Path] = COUNTEREXAMPLES,
     force: bool = FORCE,
     executor: Executor = FILE_EXECUTOR,
     ray_address: Optional[str] = RAY_ADDRESS,
@@ -149,6 +155,14 @@ def diff_cmd(
         return
     if not runs:
         raise InputError("give run files to compare the shields on, or --symbolic")
+    solver = [flag for flag, value, option in (("--timeout", timeout, SOLVER_TIMEOUT),
+                                                ("--counterexamples", counterexamples,
+                                                 COUNTEREXAMPLES))
+              if value != option.default]
+    if solver:
+        raise InputError(f"{', '.join(solver)} only apply to --symbolic (the solver's "
+                         "comparison over every state); on recorded states there is no "
+                         "solver")
     report = diff(runs, run_shield(shield, runs), run_shield(against, runs),
                   executor=executor.value, ray_address=ray_address, salvage=salvage,
                   listed=None if all_changes else LISTED)
@@ -197,13 +211,8 @@ def prove_cmd(
                                                "obligations: deadlock_free, well_defined, "
                                                "assume = a list, implies tables of operation and "
                                                "predicate (see docs/prove.md)."),
-    timeout: float = typer.Option(10.0, "--timeout", callback=_seconds, help="Seconds the "
-                                  "solver may take per question (each obligation, and whether "
-                                  "any state satisfies the invariant and assumptions)."),
-    counterexamples: Optional[Path] = typer.Option(None, "--counterexamples", help="Write "
-                                                   "each counterexample as a state file into "
-                                                   "this folder (a new or empty one, or "
-                                                   "--force)."),
+    timeout: float = SOLVER_TIMEOUT,
+    counterexamples: Optional[Path] = COUNTEREXAMPLES,
     force: bool = FORCE,
     as_json: bool = JSON,
     fmt: OutputFormat = FORMAT,

@@ -272,22 +272,29 @@ AGENT = typer.Option(None, "--agent", help="A stable-baselines3 agent (.zip; loa
                       "Required unless --external.")
 
 
-def record_settings(env: Optional[str], env_config: list[str], **fields):
-    from ..live.settings import parse_config
+def record_settings(run, episodes: int):
+    """The ``RecordSettings`` of a command that runs an agent (``run``: its
+    :class:`~tracecheck.cli.run_options.RunOptions`); without ``--env``, the environment the
+    agent's model card names (said on stderr)."""
     from ..live.record import RecordSettings
+    from ..live.settings import parse_config
 
-    if fields.get("agent") is None:
+    if run.agent is None:
         raise InputError("--agent is required (or --external 'CMD' to run an agent script "
                          "that speaks SimB's external-simulation protocol)")
-    if fields.get("seed") is None:
-        fields["seed"] = 0
+    env = run.env
     if env is None:
         from ..live.agents import card_environment
 
-        env, source = card_environment(fields["agent"])
+        env, source = card_environment(run.agent)
         err.print(f"environment {env}, as {source} says (--env chooses another)",
                   markup=False, highlight=False)
-    return RecordSettings(env=env, env_config=parse_config(env_config) or None, **fields)
+    return RecordSettings(agent=str(run.agent), shield=run.shield, episodes=episodes,
+                          seed=0 if run.seed is None else run.seed, duration=run.duration,
+                          profile=run.profile, fallback=run.fallback, workers=run.workers,
+                          executor=run.executor.value, ray_address=run.ray_address, env=env,
+                          env_config=parse_config(run.env_config) or None,
+                          **continuous_options(run.shield_mode, run.scale))
 
 
 # the options of continuous actions (record, simulate)
@@ -301,15 +308,10 @@ SCALE = typer.Option(None, "--scale", help="Continuous actions: the unit of each
                      "projection distances, comma-separated (e.g. 4,0.5; default 1 each).")
 
 
-def continuous_options(shield_mode: Optional[str], scale: Optional[str],
-                       external: Optional[str] = None) -> dict:
+def continuous_options(shield_mode: Optional[str], scale: Optional[str]) -> dict:
     """``RecordSettings`` fields of --shield-mode and --scale (checked against the
-    environment when the recording is checked); refused with ``--external``."""
+    environment when the recording is checked)."""
     from ..live.continuous import MODES
-
-    if external is not None and (shield_mode is not None or scale is not None):
-        raise InputError("--shield-mode and --scale are for continuous actions; an "
-                         "--external script chooses among the machine's operations")
 
     if shield_mode is not None and shield_mode not in MODES:
         raise InputError(f"--shield-mode {shield_mode!r}: give one of {', '.join(MODES)}")
@@ -341,34 +343,25 @@ ENDING_TIME = typer.Option(None, "--ending-time", min=1, help="With --external: 
                            "its deltas) reaches this many milliseconds.")
 
 
-def external_settings(command: str, *, shield: str, episodes: int, cwd: Optional[Path],
-                      step_timeout: float, crash: Optional[str], ending_time: Optional[int],
-                      duration: Optional[int], **unused):
-    """The settings and the machine of ``--external``; the options that only make sense for
-    an agent tracecheck runs (``unused``: their values; None, 1 or local when not given)
-    are refused by name."""
+def external_settings(run, episodes: int):
+    """The settings and the machine of ``--external`` (``run``: the command's
+    :class:`~tracecheck.cli.run_options.RunOptions`, whose options that apply only to an
+    agent tracecheck runs were refused by their declaration)."""
     from ..checking.shield import load_shield
     from ..live.external import ExternalSettings, split_command
 
-    defaults = {"workers": 1, "executor": "local"}
-    given = [f"--{k.replace('_', '-')}" for k, v in unused.items()
-             if v not in (None, []) and v != defaults.get(k)]
-    if given:
-        raise InputError(f"--external runs the agent script's own environment: "
-                         f"{', '.join(given)} cannot be used with it",
-                         hint="the script decides the agent, the environment and its seeds")
-    if shield == "none":
+    if run.shield == "none":
         raise InputError("--external needs --shield naming the machine that answers the "
                          "script (a .mch file, or a built-in shield other than none)")
-    if duration is None and ending_time is None:
+    if run.duration is None and run.ending_time is None:
         err.print("note: neither --duration nor --ending-time: each episode lasts until the "
                   "script says done", markup=False, highlight=False)
-    settings = ExternalSettings(command=split_command(command), episodes=episodes, cwd=cwd,
-                                ending_time_ms=ending_time, max_steps=duration,
-                                step_timeout=step_timeout,
-                                connect_timeout=max(60.0, 2 * step_timeout),
-                                crash=crash)
-    return settings, load_shield(shield)
+    settings = ExternalSettings(command=split_command(run.external), episodes=episodes,
+                                cwd=run.cwd, ending_time_ms=run.ending_time,
+                                max_steps=run.duration, step_timeout=run.step_timeout,
+                                connect_timeout=max(60.0, 2 * run.step_timeout),
+                                crash=run.crash)
+    return settings, load_shield(run.shield)
 
 
 class Algorithm(str, Enum):

@@ -9,11 +9,11 @@ import typer
 
 from ..errors import InputError
 from ..outputs import input_paths
-from .common import (SCALE, SHIELD_MODE, continuous_options, CRASH, CWD, ENDING_TIME, EXTERNAL, STEP_TIMEOUT, external_settings,
-                     app, err, Executor, EPISODE_EXECUTOR, RAY_ADDRESS, ENV,
-                     ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, Algorithm, FORCE,
-                     RUN_SHIELD, SEED, WORKERS, FORMAT, JSON, OutputFormat, output_format,
-                     print_json, print_table, progress, say, SHIELD_HELP)
+from .common import (SCALE, SHIELD_MODE, continuous_options, external_settings, app, err, ENV,
+                     ENV_CONFIG, DURATION, record_settings, Algorithm, FORCE, FORMAT,
+                     JSON, OutputFormat, output_format, print_json, print_table, progress, say,
+                     SHIELD_HELP)
+from .run_options import EXTERNAL_MODE, RunOptions, run_options
 
 
 @app.command("train")
@@ -144,56 +144,25 @@ def _say_trained(card: dict, output: Path) -> None:
 
 
 @app.command("record")
+@run_options
 def record_cmd(
-    agent: Optional[Path] = AGENT,
-    external: Optional[str] = EXTERNAL,
-    cwd: Optional[Path] = CWD,
-    step_timeout: float = STEP_TIMEOUT,
-    crash: Optional[str] = CRASH,
-    ending_time: Optional[int] = ENDING_TIME,
-    shield: str = RUN_SHIELD,
+    run: RunOptions,
     episodes: int = typer.Option(..., "--episodes", "-n", min=1, help="How many episodes."),
-    seed: Optional[int] = SEED,
-    env: Optional[str] = ENV,
-    env_config: list[str] = ENV_CONFIG,
-    duration: Optional[int] = DURATION,
-    workers: int = WORKERS,
-    executor: Executor = EPISODE_EXECUTOR,
-    ray_address: Optional[str] = RAY_ADDRESS,
-    profile: Optional[str] = PROFILE,
-    fallback: Optional[str] = typer.Option(None, "--fallback",
-                                           help="Action taken when the shield allows nothing "
-                                                "(default: the environment's fallback, "
-                                                "`tracecheck envs`)."),
-    shield_mode: Optional[str] = SHIELD_MODE,
-    scale: Optional[str] = SCALE,
-    output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
-    force: bool = FORCE,
 ) -> None:
     """Run an agent under a shield (pre-shielding) and record every episode to MCAP — or,
     with --external, an agent script that speaks SimB's external-simulation protocol, the
     shield's machine answering it as ProB would."""
-    if external is not None:
-        continuous_options(shield_mode, scale, external)
-        settings, machine = external_settings(
-            external, shield=shield, episodes=episodes, cwd=cwd, step_timeout=step_timeout,
-            crash=crash, ending_time=ending_time, duration=duration, agent=agent, seed=seed,
-            env=env, env_config=env_config, workers=workers, executor=executor.value,
-            ray_address=ray_address, profile=profile, fallback=fallback)
-        _record_external(settings, machine, output, force)
+    if run.mode == EXTERNAL_MODE:
+        settings, machine = external_settings(run, episodes)
+        _record_external(settings, machine, run.output, run.force)
         return
-    _no_external_options(cwd=cwd, crash=crash, ending_time=ending_time,
-                         step_timeout=step_timeout)
     import time as _time
 
     from ..interop.foxglove import FoxgloveChannels
     from ..live.record import record
 
-    settings = record_settings(env, env_config, agent=str(agent) if agent is not None else None,
-                         shield=shield, episodes=episodes,
-                         seed=seed, duration=duration, profile=profile, fallback=fallback,
-                         workers=workers, executor=executor.value, ray_address=ray_address,
-                         **continuous_options(shield_mode, scale))
+    settings = record_settings(run, episodes)
+    output, force, shield = run.output, run.force, run.shield
     stats = {"crashes": 0, "steps": 0, "episodes": 0}
     existed = output.exists()
     start = _time.perf_counter()
@@ -223,17 +192,6 @@ def record_cmd(
                "was taken" if fallbacks else "")
     say(f"recorded {n} episode(s), {steps} step(s), {crashes} crash(es){nothing} with shield "
         f"{shield} in {took:.1f} s ({steps / took:.0f} steps/s) -> {output}")
-
-
-def _no_external_options(**given) -> None:
-    """The options of --external, refused without it (``step_timeout`` has a default)."""
-    from .common import STEP_TIMEOUT as default
-
-    used = [f"--{k.replace('_', '-')}" for k, v in given.items()
-            if v is not None and not (k == "step_timeout" and v == default.default)]
-    if used:
-        raise InputError(f"{', '.join(used)} only apply to --external 'CMD' (an agent script "
-                         "that speaks SimB's external-simulation protocol)")
 
 
 def _record_external(settings, machine, output: Path, force: bool) -> None:

@@ -59,6 +59,18 @@ class RunOptions:
     output: Path
     force: bool
 
+    @classmethod
+    def given(cls, **values: Any) -> "RunOptions":
+        """The options as a command gets them when only ``values`` are given on its command
+        line (each other option its declared default).
+
+        >>> RunOptions.given(external="python3 agent.py", shield="m.mch").step_timeout
+        30.0
+        """
+        defaults = {name: (None if option.default is ... else option.default)
+                    for name, (_, option, _) in DECLARED.items()}
+        return cls(**{**defaults, **values})
+
     @property
     def mode(self) -> str:
         """``external`` with ``--external``, else ``agent``."""

@@ -9,12 +9,11 @@ from typing import Optional
 import typer
 
 from ..outputs import input_paths
-from .common import (CRASH, CWD, ENDING_TIME, EXTERNAL, STEP_TIMEOUT, external_settings,
-                     app, out, err, warn, Executor, FILE_EXECUTOR, EPISODE_EXECUTOR, RAY_ADDRESS,
-                     OutputFormat, FORMAT, JSON, output_format, print_json, plain, progress,
-                     Interval, ENV, ENV_CONFIG, PROFILE, DURATION, AGENT, record_settings, FORCE,
-                     RUN_SHIELD, PROPERTIES_HELP, SEED, WORKERS, SALVAGE, RUN_ENV, run_adapter, SCALE,
-                     SHIELD_MODE, continuous_options)
+from .common import (external_settings, app, out, err, warn, Executor, FILE_EXECUTOR,
+                     RAY_ADDRESS, OutputFormat, FORMAT, JSON, output_format, print_json, plain,
+                     progress, Interval, record_settings, PROPERTIES_HELP, SALVAGE, RUN_ENV,
+                     run_adapter, FORCE)
+from .run_options import EXTERNAL_MODE, RunOptions, run_options
 
 
 def _print_stats(result: dict, fmt: OutputFormat, plot: Optional[Path],
@@ -75,35 +74,18 @@ def stats_cmd(
 
 
 @app.command("simulate")
+@run_options
 def simulate_cmd(
-    agent: Optional[Path] = AGENT,
-    external: Optional[str] = EXTERNAL,
-    cwd: Optional[Path] = CWD,
-    step_timeout: float = STEP_TIMEOUT,
-    crash: Optional[str] = CRASH,
-    ending_time: Optional[int] = ENDING_TIME,
-    shield: str = RUN_SHIELD,
+    run: RunOptions,
     episodes: int = typer.Option(..., "--episodes", "-n", min=1,
                                  help="Episodes (at most, with --until-ci-width)."),
-    seed: Optional[int] = SEED,
-    env: Optional[str] = ENV,
-    env_config: list[str] = ENV_CONFIG,
-    duration: Optional[int] = DURATION,
-    workers: int = WORKERS,
-    executor: Executor = EPISODE_EXECUTOR,
-    ray_address: Optional[str] = RAY_ADDRESS,
-    profile: Optional[str] = PROFILE,
     properties: Optional[str] = typer.Option(
         None, "--properties", "-p", help=PROPERTIES_HELP),
     until_ci_width: Optional[float] = typer.Option(
         None, "--until-ci-width", help="Stop once every property's 95 % interval is narrower "
                                        "than this (a share, e.g. 0.1)."),
-    shield_mode: Optional[str] = SHIELD_MODE,
-    scale: Optional[str] = SCALE,
     as_json: bool = JSON,
     fmt: OutputFormat = FORMAT,
-    output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
-    force: bool = FORCE,
 ) -> None:
     """Monte Carlo: record episodes and validate them in one go (SimB-style)."""
     from ..stats.properties import load_properties, with_generic
@@ -112,37 +94,27 @@ def simulate_cmd(
     from ..stats.simulate import simulate
 
     fmt = output_format(fmt, as_json)
-    if external is not None:
+    if run.mode == EXTERNAL_MODE:
         from ..stats.simulate import simulate_external
 
-        continuous_options(shield_mode, scale, external)
-
-        settings, machine = external_settings(
-            external, shield=shield, episodes=episodes, cwd=cwd, step_timeout=step_timeout,
-            crash=crash, ending_time=ending_time, duration=duration, agent=agent, seed=seed,
-            env=env, env_config=env_config, workers=workers, executor=executor.value,
-            ray_address=ray_address, profile=profile)
+        settings, machine = external_settings(run, episodes)
         pset = load_properties(properties) if properties else with_generic(None)
         with progress("simulating", episodes) as advance:
-            result = simulate_external(settings, machine, output, pset,
-                                       until_width=until_ci_width, force=force,
+            result = simulate_external(settings, machine, run.output, pset,
+                                       until_width=until_ci_width, force=run.force,
                                        inputs=input_paths(properties),
                                        progress=lambda ep: advance(),
                                        channels=FoxgloveChannels)
         _print_simulation(result, fmt)
         return
-    settings = record_settings(env, env_config, agent=str(agent) if agent is not None else None,
-                         shield=shield, episodes=episodes,
-                         seed=seed, duration=duration, profile=profile, workers=workers,
-                         executor=executor.value, ray_address=ray_address,
-                         **continuous_options(shield_mode, scale))
+    settings = record_settings(run, episodes)
     from ..stats.estimates import adapter_set
 
     pset = load_properties(properties) if properties else adapter_set(resolve(settings)[0])
     with progress("simulating", episodes) as advance:
-        result = simulate(settings, output, pset, until_width=until_ci_width, force=force,
-                          inputs=input_paths(properties), progress=lambda ep: advance(),
-                          channels=FoxgloveChannels)
+        result = simulate(settings, run.output, pset, until_width=until_ci_width,
+                          force=run.force, inputs=input_paths(properties),
+                          progress=lambda ep: advance(), channels=FoxgloveChannels)
     _print_simulation(result, fmt)
 
 
