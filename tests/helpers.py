@@ -236,3 +236,13 @@ def walking(monkeypatch: pytest.MonkeyPatch) -> None:
     import tracecheck.episodes.columns as C
 
     monkeypatch.setattr(C, "blob_records", lambda buf: None)
+
+
+def write_report(runs, out, *, max_pages: int = 20, force: bool = False, **validate_options):
+    """``tracecheck report`` from Python: validate the runs (replay, re-simulation,
+    statistics), then draw them; (report, pages written)."""
+    from tracecheck.render.report import render_report
+    from tracecheck.stats.validation import validate
+
+    return render_report(validate(runs, **validate_options), out, max_pages=max_pages,
+                         force=force)

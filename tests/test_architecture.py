@@ -324,6 +324,70 @@ def test_the_environment_check_finds_a_name(tmp_path):
                                                      "pkg/stats.py:2: 'Frozen Lake'"]
 
 
+#: a format chosen anywhere but the one emitter (render/emit.py) and the option's own parsing
+_FORMAT_CHOICE = r"OutputFormat\.(json|md|csv)\b|\bfmt\s*[!=]=\s*[\"'](json|md|csv)[\"']"
+
+
+def format_choices(root: Path, package: str = "tracecheck",
+                   allowed: tuple[str, ...] = ("render/emit.py", "cli/common.py")) -> list[str]:
+    """Where a module other than the emitter picks what to print by the output format."""
+    import re
+
+    found = []
+    for path in sorted((root / package).rglob("*.py")):
+        relative = path.relative_to(root / package).as_posix()
+        if relative in allowed:
+            continue
+        for number, line in enumerate(path.read_text().splitlines(), 1):
+            if re.search(_FORMAT_CHOICE, line):
+                found.append(f"{package}/{relative}:{number}: {line.strip()}")
+    return found
+
+
+def test_one_emitter_writes_every_format():
+    """Every command hands a Report to render.emit.emit, which alone chooses by --format
+    (seven commands dispatched by hand)."""
+    problems = format_choices(ROOT)
+    assert not problems, "use tracecheck.render.emit.emit:\n" + "\n".join(problems)
+
+
+#: another package's name-mangled private attributes (``_Writer__finalize_chunk``), and why
+#: the one still used is: ``pack_indexes`` keeps mcap's summary indexes as bytes (90 MB for
+#: 10^5 episodes otherwise); it checks they are the lists it expects and does nothing where
+#: they are not (an mcap that keeps them otherwise), and mcap is pinned to a tested range
+MANGLED_ALLOWED = {"tracecheck/episodes/writer.py": {"_Writer__chunk_indices",
+                                                     "_Writer__attachment_indexes"}}
+
+
+def mangled_names(root: Path, package: str = "tracecheck") -> list[str]:
+    """Uses of another class's name-mangled private attributes, outside the allowed ones."""
+    import re
+
+    found = []
+    for path in sorted((root / package).rglob("*.py")):
+        relative = f"{package}/{path.relative_to(root / package).as_posix()}"
+        for number, line in enumerate(path.read_text().splitlines(), 1):
+            for name in re.findall(r"\b_[A-Z][A-Za-z0-9]*__[a-z][a-z0-9_]*", line):
+                if name not in MANGLED_ALLOWED.get(relative, set()):
+                    found.append(f"{relative}:{number}: {name}")
+    return found
+
+
+def test_no_private_attribute_of_another_package():
+    problems = mangled_names(ROOT)
+    assert not problems, "use the package's public API:\n" + "\n".join(problems)
+
+
+def test_the_format_and_private_checks_find_what_they_look_for(tmp_path):
+    (tmp_path / "pkg" / "cli").mkdir(parents=True)
+    (tmp_path / "pkg" / "cli" / "x.py").write_text(
+        "if fmt == OutputFormat.csv:\n    pass\nw._Writer__finalize_chunk()\n"
+        "if fmt == 'md':\n    pass\n")
+    assert format_choices(tmp_path, "pkg") == [
+        "pkg/cli/x.py:1: if fmt == OutputFormat.csv:", "pkg/cli/x.py:4: if fmt == 'md':"]
+    assert mangled_names(tmp_path, "pkg") == ["pkg/cli/x.py:3: _Writer__finalize_chunk"]
+
+
 def imports_of_test_modules(pkg: Package) -> list[str]:
     """Imports of a test module or a conftest (shared code belongs in a helper module)."""
     return sorted({f"{i.source} imports {i.target} ({pkg.where(i)})" for i in pkg.imports

@@ -212,24 +212,24 @@ def test_the_allowed_sets_are_bounded(tmp_path):
 def test_the_text_says_how_many_were_left_out(tmp_path):
     from rich.console import Console
 
-    from tracecheck.render.text import diff_table, diff_text
+    from tracecheck.render.text import DiffOutput
 
     path = record(tmp_path / "run.mcap", [make(0, s(51.0, 20.0), [(1.0, s(51.0, 20.0))] * 2)])
     report = diff([path], load_shield(car(tmp_path, "v2", "8.5")),
                   load_shield(car(tmp_path, "v1", "10.0")), details=1)
     console = Console(file=io.StringIO(), width=200)
-    diff_text(console, report, 40)
+    DiffOutput(report, 40).text(console)
     printed = flat(console.file.getvalue())
     assert "episode 0, step 1: ACCELERATE(a=1) newly allowed: a ∈ [-4.0, 0.5) → " in printed
     assert ("episode 0, step 2: ACCELERATE(a=1) newly allowed: allowed sets left out (only "
             "the first 1 are computed)") in printed
-    diff_text(console, report, 1)
+    DiffOutput(report, 1).text(console)
     printed = flat(console.file.getvalue())
     assert ("… 1 more changed step(s): --format csv or json lists them all (with the allowed "
             "sets of the first 1 of continuous actions; 1 more have their values only)"
             in printed)
     left_out = "left out (only the first 1 are computed)"
-    assert diff_table(report).rows[1][-4:] == ("a=1.0", left_out, left_out, "")
+    assert DiffOutput(report, 1).table().rows[1][-4:] == ("a=1.0", left_out, left_out, "")
 
 
 def test_a_discrete_diff_is_as_before(capsys):

@@ -443,10 +443,10 @@ def test_the_episode_table_never_breaks_a_word_and_csv_lists_every_step(capsys, 
 
     from tracecheck.checking.replaying import replay
     from tracecheck.checking.shield import load_shield
-    from tracecheck.render.text import replay_table
+    from tracecheck.render.text import ReplayOutput
 
     report = replay([run_file], load_shield(shield))
     many = replace(report.per_episode[0], postcondition_violations=list(range(1, 11)))
-    table = replay_table(report, episodes=[many])
+    table = ReplayOutput(replace(report, per_episode=[many]), 40).table()
     other = table.rows[0][table.headers.index("other")]
     assert other == "postcondition " + ", ".join(str(k) for k in range(1, 11))

@@ -156,13 +156,13 @@ def test_file_names_reach_csv_and_markdown_inert(capsys, tmp_path, monkeypatch):
 
 
 def test_stats_csv_keeps_numbers_and_makes_text_inert():
-    from tracecheck.render.stats_text import stats_csv
+    from tracecheck.render.stats_text import StatsOutput
 
     result = {"runs": [{"name": "=run", "file": "@f.mcap", "episodes": 2,
                         "metrics": {"-m": {"mean": -3.5, "sd": 0.5, "ci95": [-4.0, -3.0],
                                            "method": "t"}},
                         "properties": {}}]}
-    rows = list(csv.reader(io.StringIO(stats_csv(result))))
+    rows = list(csv.reader(io.StringIO(StatsOutput(result).csv())))
     assert rows[1] == ["'=run", "'@f.mcap", "2", "'-m", "metric", "-3.5", "0.5", "-4.0", "-3.0",
                        "", "t"]
 

@@ -6,7 +6,7 @@ import re
 import shutil
 
 
-from tests.helpers import ROOT, browser_errors, open_browser, run
+from tests.helpers import write_report, ROOT, browser_errors, open_browser, run
 from tracecheck.episodes import EpisodeWriter, new_header
 from tracecheck.render.viewer import episode_data, render_episode
 from tracecheck.checking.shield import load_shield
@@ -130,9 +130,8 @@ def test_report_in_a_browser(tmp_path):
 
     out = tmp_path / "report.html"
     from tracecheck.stats.properties import load_properties
-    from tracecheck.render.report import render_report
 
-    render_report([NONE], out, shield=load_shield("paper"), pset=load_properties("highway"), max_pages=2)
+    write_report([NONE], out, shield=load_shield("paper"), pset=load_properties("highway"), max_pages=2)
     browser = open_browser()
     try:
         browser.get(out.as_uri())
@@ -147,7 +146,6 @@ def test_report_in_a_browser(tmp_path):
 
 
 def test_report_pages_of_runs_with_the_same_file_name_do_not_collide(tmp_path):
-    from tracecheck.render.report import render_report
     from tracecheck.stats.properties import load_properties
 
     runs = []
@@ -155,7 +153,7 @@ def test_report_pages_of_runs_with_the_same_file_name_do_not_collide(tmp_path):
         (tmp_path / folder).mkdir()
         runs.append(tmp_path / folder / "run.mcap")
         shutil.copy(ROOT / "sample_traces" / sample, runs[-1])
-    page, count = render_report(runs, tmp_path / "out" / "report.html",
+    page, count = write_report(runs, tmp_path / "out" / "report.html",
                                 shield=load_shield("strict"),
                                 pset=load_properties("highway"), max_pages=200)
     written = sorted(p.name for p in (tmp_path / "out" / "report_files").glob("*.html"))

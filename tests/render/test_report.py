@@ -10,10 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.helpers import ROOT
+from tests.helpers import write_report, ROOT
 from tracecheck.checking.shield import load_shield
-from tracecheck.render.report import (comparison_sentences, render_report,
-                                      resimulation_headline)
+from tracecheck.render.report import (comparison_sentences, resimulation_headline)
 from tracecheck.stats.properties import load_properties
 
 NONE = ROOT / "sample_traces" / "base_none.mcap"
@@ -24,7 +23,7 @@ CORRIDOR = "tests.live.toy:Corridor"
 @pytest.fixture(scope="module")
 def highway_report(tmp_path_factory):
     out = tmp_path_factory.mktemp("report") / "report.html"
-    render_report([NONE, PAPER], out, shield=load_shield("paper"),
+    write_report([NONE, PAPER], out, shield=load_shield("paper"),
                   pset=load_properties("highway"), max_pages=6)
     return out
 
@@ -126,7 +125,7 @@ def corridor(tmp_path_factory):
 def test_a_users_environment_gets_the_headline_and_time_series(corridor, tmp_path):
     recorded, shield, agent, props = corridor
     out = tmp_path / "report.html"
-    render_report([recorded], out, shield=load_shield(str(shield)),
+    write_report([recorded], out, shield=load_shield(str(shield)),
                   pset=load_properties(str(props)), resimulate=True, agent=agent,
                   env=CORRIDOR)
     page = out.read_text()
@@ -179,7 +178,7 @@ def test_past_its_tail_a_campaign_s_episodes_are_counted_not_listed(tmp_path, mo
 
     monkeypatch.setattr(R, "TAIL", 4)
     out = tmp_path / "report.html"
-    render_report([NONE], out, shield=load_shield("paper"), pset=load_properties("generic"),
+    write_report([NONE], out, shield=load_shield("paper"), pset=load_properties("generic"),
                   max_pages=2)
     page = out.read_text()
     hidden = page[page.index("<details>"):]
@@ -196,7 +195,7 @@ def test_the_report_reads_each_run_once_for_its_columns_and_once_for_its_episode
     """The columns go to the statistics, replay and re-simulation; the episodes its
     pictures and viewer pages show are decoded in one walk of the file."""
     reads = _count_reads(monkeypatch)
-    _, pages = render_report([NONE, PAPER], tmp_path / "report.html",
+    _, pages = write_report([NONE, PAPER], tmp_path / "report.html",
                              shield=load_shield("paper"), pset=load_properties("highway"),
                              max_pages=6)
     assert pages == 5
@@ -208,7 +207,7 @@ def test_the_report_reads_each_run_once_for_its_columns_and_once_for_its_episode
 def test_the_report_with_resimulation_reads_each_run_once(corridor, monkeypatch, tmp_path):
     recorded, shield, agent, props = corridor
     reads = _count_reads(monkeypatch)
-    render_report([recorded], tmp_path / "report.html", shield=load_shield(str(shield)),
+    write_report([recorded], tmp_path / "report.html", shield=load_shield(str(shield)),
                   pset=load_properties(str(props)), resimulate=True, agent=agent,
                   env=CORRIDOR)
     assert Counter(reads) == {("read_columns", "toy.mcap"): 1, ("read_run", "toy.mcap"): 1,
@@ -221,7 +220,7 @@ def test_report_text_is_inert(tmp_path):
     hostile = tmp_path / "<b>x<i>&.mcap"
     shutil.copy(NONE, hostile)
     out = tmp_path / "r.html"
-    render_report([hostile], out, shield=load_shield("paper"), pset=load_properties("highway"),
+    write_report([hostile], out, shield=load_shield("paper"), pset=load_properties("highway"),
                   max_pages=1)
     page = out.read_text()
     assert "<b>x<i>" not in page and "&lt;b&gt;x&lt;i&gt;&amp;.mcap" in page

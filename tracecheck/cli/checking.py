@@ -10,7 +10,7 @@ import typer
 from ..errors import InputError
 from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, RAY_ADDRESS, OutputFormat,
                      FailOn, SHIELD_HELP, ROWS, run_shield, SALVAGE, FORMAT, JSON, output_format,
-                     print_json, print_table, plain, progress, FORCE, run_adapter)
+                     progress, FORCE, run_adapter)
 
 
 @app.command("replay")
@@ -44,7 +44,9 @@ def replay_cmd(
 ) -> None:
     """Replay episodes against a shield: where would it have blocked the recorded action?"""
     from ..checking.replaying import replay
-    from ..render.text import replay_markdown, replay_table, replay_text
+    from ..live.resimulate import with_resimulation
+    from ..render.emit import emit
+    from ..render.text import ReplayOutput
 
     fmt = output_format(fmt, as_json)
     if FailOn.mismatch in fail_on and not resimulate:
@@ -55,16 +57,12 @@ def replay_cmd(
                     ltl_assertions=ltl_assertions, salvage=salvage)
     warn(report.warnings)
     if resimulate:
-        report.resimulation = _resimulate(runs, loaded, report, agent, env, salvage)
+        todo = sum(e.first_infeasible is not None for e in report.per_episode)
+        with progress("re-simulating under " + loaded.name, todo) as advance:
+            report = with_resimulation(report, runs, loaded, agent=agent, env=env,
+                                       salvage=salvage, progress=lambda r: advance())
     rows = len(report.per_episode) if all_rows else ROWS
-    if fmt == OutputFormat.json:
-        print_json(report.json_parts())
-    elif fmt == OutputFormat.md:
-        plain(replay_markdown(report, rows))
-    elif fmt == OutputFormat.csv:
-        print_table(fmt, replay_table(report))
-    else:
-        replay_text(out, report, rows)
+    emit(ReplayOutput(report, rows), fmt.value, out)
     mismatches = report.resimulation["mismatches"] if report.resimulation else 0
     if mismatches:
         err.print(f"warning: {mismatches} of {report.resimulation['resimulated']} re-simulated "
@@ -80,19 +78,6 @@ def replay_cmd(
         err.print(f"failing: {', '.join(failed)} found (--fail-on)")
         raise typer.Exit(1)
 
-
-
-def _resimulate(runs: list[Path], shield, report, agent: Optional[Path],
-                env: Optional[str] = None, salvage: bool = False) -> dict:
-    from ..live.resimulate import resimulate, summary
-
-    results = []
-    todo = sum(e.first_infeasible is not None for e in report.per_episode)
-    with progress("re-simulating under " + shield.name, todo) as advance:
-        for run in runs:
-            results += resimulate(run, shield, report, agent=agent, env=env,
-                                  progress=lambda r: advance(), salvage=salvage)
-    return summary(results)
 
 
 def _seconds(value: float) -> float:
@@ -138,7 +123,8 @@ def diff_cmd(
 ) -> None:
     """Compare two shields on every recorded state: which steps does the change block or allow?"""
     from ..checking.diffing import LISTED, diff
-    from ..render.text import diff_table, diff_text
+    from ..render.emit import emit
+    from ..render.text import DiffOutput
 
     fmt = output_format(fmt, as_json)
     if symbolic:
@@ -171,12 +157,7 @@ def diff_cmd(
         err.print(f"note: listed the first {report.listed} of {report.changed_steps} changed "
                   f"steps and of {report.episodes_changed} changed episodes (the counts are "
                   "all of them); --all lists every one", markup=False, highlight=False)
-    if fmt == OutputFormat.json:
-        print_json(report.to_json())
-    elif fmt == OutputFormat.text:
-        diff_text(out, report, ROWS)
-    else:
-        print_table(fmt, diff_table(report))
+    emit(DiffOutput(report, ROWS), fmt.value, out)
     if fail_on_change and report.anything_changed:
         err.print("failing: the shields differ on these episodes (--fail-on-change)")
         raise typer.Exit(1)
@@ -271,15 +252,11 @@ def _print_results(results, machine, fmt: OutputFormat, folder: Optional[Path]) 
     satisfies the invariants and assumptions: nothing was proved)."""
     from ..checking.proving import UNKNOWN, VACUOUS
     from ..errors import Disagreement
-    from ..render.prove_text import prove_json, prove_table, prove_text
+    from ..render.emit import emit
+    from ..render.prove_text import ProveOutput
 
     written = {} if folder is None else _write_counterexamples(results, machine, folder)
-    if fmt == OutputFormat.json:
-        print_json(prove_json(results, written))
-    elif fmt != OutputFormat.text:
-        print_table(fmt, prove_table(results, written))
-    else:
-        prove_text(out, results, written)
+    emit(ProveOutput(results, written), fmt.value, out)
     bad = [r for r in results if r.disagreement]
     if bad:
         raise Disagreement(f"{bad[0].obligation}: {bad[0].disagreement}",

@@ -15,6 +15,7 @@ from typer.core import TyperGroup
 
 from .. import __version__
 from ..errors import InputError, printable
+from ..render.tables import plain, say  # noqa: F401 - the commands print with them
 
 class _Group(TyperGroup):
     """The command group: a command's help is completed with what is installed (the
@@ -101,21 +102,6 @@ def escape(text: str) -> str:
     from rich.markup import escape as rich_escape
 
     return rich_escape(text)
-
-
-def plain(line: str) -> None:
-    """Print one line to standard output as it is: no markup, no emoji codes, no rich —
-    and no control character from an input (a B string, a name) that could drive the
-    terminal: those are shown as escapes (tabs and line breaks stay, as CSV has them)."""
-    sys.stdout.write(printable(line, "\n\r\t") + "\n")
-
-
-def say(line: str, indent: str = "  ") -> None:
-    """A message line for people, wrapped between words at the terminal's width (80 when
-    there is none), later lines indented; a long file name stays whole on a line of its own."""
-    from ..render.tables import terminal_width, wrapped
-
-    plain(wrapped(line, terminal_width(), indent))
 
 
 out = _Console()
@@ -207,16 +193,6 @@ def print_json(data) -> None:
         sys.stdout.write("\n")
     else:
         sys.stdout.write(json_text(data, indent=2, ensure_ascii=False) + "\n")
-
-
-def print_table(fmt: OutputFormat, table) -> None:
-    """A ``TableData`` as Markdown or CSV on standard output, as it is."""
-    from ..render.tables import csv_text, markdown
-
-    if fmt == OutputFormat.csv:
-        sys.stdout.write(csv_text(table))
-    else:
-        plain(markdown(table))
 
 
 class FailOn(str, Enum):

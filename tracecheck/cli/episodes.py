@@ -11,7 +11,7 @@ import typer
 from ..errors import InputError
 from ..outputs import input_paths
 from .common import (app, out, err, warn, load_model, SALVAGE, FORMAT, JSON, OutputFormat,
-                     output_format, plain, print_json, print_table, progress, FORCE, say)
+                     output_format, progress, FORCE, say)
 
 
 import_app = typer.Typer(help="Import ProB/SimB traces or a Minari dataset into an MCAP run "
@@ -273,28 +273,10 @@ def info(
 ) -> None:
     """Summarise run files: episodes, steps, crashes, sources, agents and shields."""
     from ..episodes.summary import summarise
-    from ..render.tables import TableData
+    from ..render.emit import emit
+    from ..render.listing_text import InfoOutput
 
     fmt = output_format(fmt, as_json)
     summary = summarise(runs, salvage=salvage)
     warn(summary["warnings"])
-    if fmt == OutputFormat.json:
-        print_json(summary)
-        return
-    table = TableData.of(["file", "source", "episodes", "steps", "crashes", "model"],
-                         ([f["path"], f["source"], f["episodes"], f["steps"], f["crashes"],
-                           f["model_name"]] for f in summary["files"]))
-    if fmt != OutputFormat.text:
-        print_table(fmt, table)
-        return
-    from ..render.tables import fitted, terminal_width
-
-    for line in fitted(table, terminal_width()):
-        plain(line)
-    rate = summary["crashes"] / summary["episodes"] if summary["episodes"] else 0.0
-    lines = [f"total: {summary['episodes']} episode(s), {summary['steps']} step(s), "
-             f"{summary['crashes']} crash(es) ({rate:.1%})"]
-    lines += [f"{key}: {('; ' if key == 'continuous' else ', ').join(summary[key])}"
-              for key in ("agents", "shields", "continuous") if summary[key]]
-    for line in lines:
-        say(line)
+    emit(InfoOutput(summary), fmt.value, out)

@@ -9,10 +9,9 @@ import typer
 
 from ..errors import InputError
 from ..outputs import input_paths
-from .common import (SCALE, SHIELD_MODE, continuous_options, external_settings, app, err, ENV,
-                     ENV_CONFIG, DURATION, record_settings, Algorithm, FORCE, FORMAT,
-                     JSON, OutputFormat, output_format, print_json, print_table, progress, say,
-                     SHIELD_HELP)
+from .common import (SCALE, SHIELD_MODE, continuous_options, external_settings, app, err, out,
+                     ENV, ENV_CONFIG, DURATION, record_settings, Algorithm, FORCE, FORMAT, JSON,
+                     OutputFormat, output_format, progress, say, SHIELD_HELP)
 from .run_options import EXTERNAL_MODE, RunOptions, run_options
 
 
@@ -245,14 +244,6 @@ def _kept(what: str, output: Path, episodes: int, existed: bool) -> str:
 
 
 
-def _brings(row: dict) -> str:
-    """The shields, property sets and profiles an environment brings, in one line."""
-    parts = [f"{what} {', '.join(row[key])}" for what, key in (
-        ("shields", "shields"), ("property sets", "property_sets"), ("profiles", "profiles"))
-        if row[key]]
-    return "; ".join(parts)
-
-
 @app.command("envs")
 def envs_cmd(
     as_json: bool = JSON,
@@ -264,7 +255,8 @@ def envs_cmd(
     import importlib.util
 
     from ..live.adapter import adapters
-    from ..render.tables import TableData
+    from ..render.emit import emit
+    from ..render.listing_text import EnvsOutput
 
     fmt = output_format(fmt, as_json)
     rows = []
@@ -282,34 +274,4 @@ def envs_cmd(
             if a.parameters:  # continuous: each action with the parameters it binds
                 row["parameters"] = {op: list(p) for op, p in a.parameters.items()}
         rows.append(row)
-    if fmt == OutputFormat.json:
-        print_json(rows)
-        return
-    table = TableData.of(
-        ["name", "environment", "actions", "variables", "shield", "installed", "description",
-         "brings", "horizon"],
-        ([r["name"], r["adapter"], "", "", "", f"no: {r['problem']}", "", "", ""]
-         if r["problem"] else
-         [r["name"], r["environment"],
-          ", ".join(f"{op}({', '.join(r['parameters'][op])})" if op in r.get("parameters", {})
-                    else op for op in r["actions"]), ", ".join(r["variables"]),
-          r["default_shield"] or "",
-          "yes" if r["installed"] else "no: needs " + ", ".join(r["missing"]),
-          r["description"], _brings(r), str(r["horizon"])]
-         for r in rows))
-    if fmt != OutputFormat.text:
-        print_table(fmt, table)
-        return
-    for (name, environment, actions, variables, shield, installed, description, brings,
-         horizon) in table.rows:
-        if not actions:  # a block per environment, wrapped between items
-            say(f"{name} ({environment}): {installed}")
-            continue
-        say(f"{name} ({environment}), shield {shield or '(none)'}, installed: {installed}")
-        if description:
-            say(f"  {description}", "    ")
-        say(f"  actions: {actions}", "    ")
-        say(f"  variables: {variables}", "    ")
-        if brings:
-            say(f"  brings: {brings}", "    ")
-        say(f"  horizon: {horizon} steps", "    ")
+    emit(EnvsOutput(rows), fmt.value, out)

@@ -8,8 +8,8 @@ from typing import Optional
 import typer
 
 from ..errors import EvaluationError, InputError, TracecheckError, UnsupportedError
-from .common import (app, escape, out, load_model, plain, FORMAT, JSON, OutputFormat,
-                     output_format, print_json, print_table, say, warn)
+from .common import (app, out, load_model, plain, FORMAT, JSON, OutputFormat,
+                     output_format, print_json, warn)
 
 
 @app.command("check-model")
@@ -20,71 +20,11 @@ def check_model(
     fmt: OutputFormat = FORMAT,
 ) -> None:
     """Parse and check a B machine; list its sets, constants, variables and operations."""
-    from ..b.values import format_value
-    from ..render.tables import TableData, terminal_width
+    from ..render.emit import emit
+    from ..render.listing_text import ModelOutput
 
     fmt = output_format(fmt, as_json)
-    machine = load_model(model)
-    types = machine.types
-    described = machine.descriptions
-    summary = {
-        "machine": machine.name,
-        "file": str(model),
-        "sha256": machine.sha256,
-        "sets": {n: [str(e) for e in elems] for n, elems in machine.sets.items()},
-        "constants": {n: format_value(v) for n, v in machine.constants.items()},
-        "variables": {v: {"type": types.get(v), "description": described.get(v)}
-                      for v in machine.variables},
-        "operations": {
-            name: {"guard": op.guard_source, "parameters": list(op.params),
-                   "description": op.description}
-            for name, op in machine.operations.items()
-        },
-        # every /*@desc …*/ of the machine: sets, constants, variables and operations
-        "descriptions": {**described, **{n: op.description for n, op in
-                                         machine.operations.items() if op.description}},
-    }
-    if fmt == OutputFormat.json:
-        print_json(summary)
-        return
-    if fmt != OutputFormat.text:  # one row per set, constant, variable and operation
-        print_table(fmt, TableData.of(["kind", "name", "value or type", "guard", "description"], [
-            *(["set", n, "{" + ", ".join(e) + "}", "", described.get(n, "")]
-              for n, e in summary["sets"].items()),
-            *(["constant", n, v, "", described.get(n, "")]
-              for n, v in summary["constants"].items()),
-            *(["variable", n, i["type"] or "?", "", i["description"] or ""]
-              for n, i in summary["variables"].items()),
-            *(["operation", n + (f"({', '.join(i['parameters'])})" if i["parameters"] else ""),
-               "", i["guard"] or "TRUE", i["description"] or ""]
-              for n, i in summary["operations"].items())]))
-        return
-    out.print(f"[bold]MACHINE {escape(machine.name)}[/bold]  ({escape(str(model))}, sha256 "
-              f"{machine.sha256[:12]}…)", markup=True)
-
-    def desc(name: str) -> str:
-        return f" — {described[name]}" if name in described else ""
-
-    for name, elems in summary["sets"].items():
-        out.print(f"  set {name} = {{{', '.join(elems)}}}{desc(name)}", markup=False)
-    for name, value in summary["constants"].items():
-        out.print(f"  constant {name} = {value}{desc(name)}", markup=False)
-    from rich.table import Table
-
-    from ..render.text import literal_row
-
-    table = Table("variable", "type", "description", box=None, pad_edge=False)
-    for name, info in summary["variables"].items():
-        literal_row(table, [name, info["type"] or "?", info["description"] or ""])
-    if machine.variables:
-        out.print(table)
-    for name, info in summary["operations"].items():
-        guard = info["guard"] or "TRUE"
-        params = f"({', '.join(info['parameters'])})" if info["parameters"] else ""
-        about = f" ({info['description']})" if info["description"] else ""
-        plain(_clip(f"  operation {name}{params}{about}: guard {guard}", terminal_width()))
-    out.print(f"[green]ok[/green]: {len(machine.operations)} operation(s), "
-              f"{len(machine.variables)} variable(s)", markup=True)
+    emit(ModelOutput(load_model(model), str(model)), fmt.value, out)
 
 
 def _state_warnings(machine, where: str, missing: list[str], broken: list[str],
@@ -108,10 +48,6 @@ def _state_warnings(machine, where: str, missing: list[str], broken: list[str],
         out.append(f"{where}: the INVARIANT of {machine.name} cannot be checked: "
                    f"{'; '.join(others)}")
     return out
-
-
-def _clip(text: str, width: int = 100) -> str:
-    return text if len(text) <= width else text[: width - 1] + "…"
 
 
 @app.command("eval", context_settings={"ignore_unknown_options": True})
@@ -316,9 +252,9 @@ def guards(
 ) -> None:
     """List the operations whose guard holds in a state."""
     from ..b.state import read_state_file
-    from ..render.tables import TableData
-
     from ..checking.shield import beyond_linear
+    from ..render.emit import emit
+    from ..render.listing_text import GuardsOutput
 
     fmt = output_format(fmt, as_json)
     machine = load_model(model)
@@ -336,35 +272,11 @@ def guards(
         raise InputError(f"the state gives no value for {name}, a variable of {machine.name} "
                          f"that a guard reads ({exc.location})", file=str(state),
                          hint=f'add "{name}": … to the state file') from None
-    ordered = [op for op in machine.operations if op in enabled]
-    blocked = [op for op in machine.operations if op not in enabled and op not in undecided]
     allowed = _allowed_sets(machine, values)
     broken, unchecked = machine.invariant_check(values)
     warn(_state_warnings(machine, str(state), missing, broken, unchecked))
-    if fmt == OutputFormat.json:
-        print_json({"machine": machine.name, "enabled": ordered, "disabled": blocked,
-                    "undecided": undecided,
-                    "allowed": {op: _allowed_json(a) for op, a in allowed.items()},
-                    "missing_variables": missing,
-                    "invariant_holds": False if broken else None if unchecked else True,
-                    "invariant_violations": broken,
-                    "invariant_unchecked": [{"conjunct": c, "reason": why}
-                                            for c, why in unchecked]})
-    elif fmt != OutputFormat.text:
-        extra = ["allowed"] if allowed else []  # a column only for REAL parameters
-        print_table(fmt, TableData.of(["operation", "enabled", *extra],
-                                      ([op, "yes" if op in enabled else
-                                        "undecided" if op in undecided else "no",
-                                        *([str(allowed.get(op, ""))] if allowed else [])]
-                                       for op in machine.operations)))
-    else:
-        none = "(none: deadlock)" if not undecided else "(none)"
-        say(f"enabled: {', '.join(ordered) or none}")
-        say(f"disabled: {', '.join(blocked) or '(none)'}")
-        for op, why in undecided.items():
-            say(f"undecided: {op} ({why})")
-        for op, a in allowed.items():
-            say(f"{op}: {a}{_solver_text(_solver_witness(a))}")
+    emit(GuardsOutput(machine, enabled, undecided, allowed, missing, broken, unchecked),
+         fmt.value, out)
     if undecided:  # the answer is not complete: "cannot tell" is no "disabled"
         raise typer.Exit(3)
 
@@ -385,30 +297,6 @@ def _enabled(machine, values, undecided: dict) -> set:
         return found
 
 
-def _solver_witness(allowed) -> Optional[dict]:
-    """For a set the solver decides (a guard not linear in its parameters): {"witness": an
-    allowed point the evaluator confirmed, or None where z3 proved nothing allowed; or
-    "undecided": why}; None for an exact set."""
-    from ..checking.solved_set import SolvedSet
-
-    if not isinstance(allowed, SolvedSet):
-        return None
-    try:
-        return {"witness": allowed.witness()}
-    except UnsupportedError as exc:
-        return {"undecided": exc.message}
-
-
-def _solver_text(found: Optional[dict]) -> str:
-    if found is None:
-        return ""
-    if "undecided" in found:
-        return f"; {found['undecided']}"
-    if found["witness"] is None:
-        return "; nothing allowed (the solver proved it)"
-    return "; allowed, e.g. " + ", ".join(f"{p} = {v!r}" for p, v in found["witness"].items())
-
-
 def _allowed_sets(machine, values) -> dict:
     """For each operation with REAL parameters, the values its guard allows in the state."""
     from ..b.linear import real_parameters
@@ -417,18 +305,3 @@ def _allowed_sets(machine, values) -> dict:
             if real_parameters(op)}
 
 
-def _allowed_json(allowed) -> dict:
-    """An allowed set in JSON: its parameters, its text, and in one dimension its intervals
-    (bounds as numbers, exact where a float is)."""
-    out: dict = {"parameters": list(allowed.params), "text": str(allowed)}
-    found = _solver_witness(allowed)
-    if found is not None:  # the solver's: an allowed point, none, or why it is not known
-        out.update({"decided_by": "solver", "witness": found.get("witness"),
-                    "undecided": found.get("undecided")})
-    if allowed.intervals is not None:
-        out["intervals"] = [{"low": None if i.low is None else float(i.low),
-                             "high": None if i.high is None else float(i.high),
-                             "low_open": i.low_open or i.low is None,
-                             "high_open": i.high_open or i.high is None}
-                            for i in allowed.intervals]
-    return out

@@ -9,8 +9,7 @@ from typing import Optional
 import typer
 
 from ..errors import InputError
-from .common import (FORMAT, JSON, OutputFormat, app, err, out, output_format, plain,
-                     print_json, print_table)
+from .common import FORMAT, JSON, OutputFormat, app, err, out, output_format
 
 
 def _traces(values: list[str]) -> dict[str, Path]:
@@ -65,30 +64,19 @@ def project_cmd(
     ran and succeeded, 1 when one failed, 3 when none failed but some were not run."""
     from ..interop.prob2project import read_project
     from ..interop.prob2project_run import RunOptions, exit_code, run_project
-    from ..render.project_text import project_summary, project_table, project_text
+    from ..render.emit import emit
+    from ..render.project_text import ProjectOutput
 
     fmt = output_format(fmt, as_json)
     options = RunOptions(machines=tuple(machine), executions=executions,
                          traces=_traces(traces), scripts=run_scripts, python=python,
                          seed=seed, step_timeout=step_timeout)
     report = run_project(read_project(project), options)
-    if fmt == OutputFormat.json:
-        print_json(report.to_json())
-    elif fmt == OutputFormat.md:
-        plain(_markdown(report, project_table))
-    elif fmt == OutputFormat.csv:
-        print_table(fmt, project_table(report))
-    else:
-        project_text(out, report)
+    shown = ProjectOutput(report)
+    emit(shown, fmt.value, out)
     code = exit_code(report)
     if code == 3 and fmt != OutputFormat.text:
-        err.print(f"note: {project_summary(report)}", highlight=False)
+        err.print(f"note: {shown.summary()}", highlight=False)
     if code:
         raise typer.Exit(code)
 
-
-def _markdown(report, table) -> str:
-    from ..render.project_text import project_summary
-    from ..render.tables import markdown, md_text
-
-    return markdown(table(report)) + "\n\n" + md_text(project_summary(report), cell=False)

@@ -67,19 +67,22 @@ def report_cmd(
 ) -> None:
     """Write an HTML validation report: the runs side by side, replay and re-simulation,
     comparisons, statistics with plots, episode pictures and viewers."""
-    from ..stats.properties import load_properties
-    from ..render.report import render_report
     from ..checking.shield import load_shield
     from ..outputs import input_paths
-
-    loaded = load_shield(shield) if shield else None
+    from ..render.report import check_report_output, render_report
     from ..stats.estimates import default_set
+    from ..stats.properties import load_properties
+    from ..stats.validation import validate
 
+    inputs = input_paths(shield, properties)
+    check_report_output(output, [*runs, *inputs], force=force)
+    loaded = load_shield(shield) if shield else None
     adapter = run_adapter(env)
     pset, notes = (load_properties(properties), []) if properties else default_set(runs, adapter)
     for line in notes:
         err.print(f"note: {line}")
-    page, pages = render_report(runs, output, shield=loaded, pset=pset, force=force,
-                                inputs=input_paths(shield, properties), resimulate=resimulate,
-                                agent=agent, env=env, adapter=adapter, salvage=salvage)
+    validation = validate(runs, shield=loaded, pset=pset, resimulate=resimulate, agent=agent,
+                          env=env, adapter=adapter, salvage=salvage)
+    page, pages = render_report(validation, output, force=force, inputs=inputs,
+                                adapter=adapter, salvage=salvage)
     out.print(f"wrote {page} and {pages} episode page(s)", markup=False)

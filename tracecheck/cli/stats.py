@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import Optional
 
@@ -10,28 +9,21 @@ import typer
 
 from ..outputs import input_paths
 from .common import (external_settings, app, out, err, warn, Executor, FILE_EXECUTOR,
-                     RAY_ADDRESS, OutputFormat, FORMAT, JSON, output_format, print_json, plain,
-                     progress, Interval, record_settings, PROPERTIES_HELP, SALVAGE, RUN_ENV,
-                     run_adapter, FORCE)
+                     RAY_ADDRESS, OutputFormat, FORMAT, JSON, output_format, progress, Interval,
+                     record_settings, PROPERTIES_HELP, SALVAGE, RUN_ENV, run_adapter, FORCE)
 from .run_options import EXTERNAL_MODE, RunOptions, run_options
 
 
 def _print_stats(result: dict, fmt: OutputFormat, plot: Optional[Path],
                  force: bool = False) -> None:
-    from ..render.stats_text import stats_csv, stats_markdown, stats_plots, stats_text
+    from ..render.emit import emit
+    from ..render.stats_text import StatsOutput, stats_plots
 
     warn(result["warnings"])
     if plot is not None:
         written = stats_plots(result, plot, force=force)
         err.print(f"wrote {len(written)} plot file(s) into {plot}")
-    if fmt == OutputFormat.json:
-        print_json(result)
-    elif fmt == OutputFormat.md:
-        plain(stats_markdown(result))
-    elif fmt == OutputFormat.csv:
-        sys.stdout.write(stats_csv(result))
-    else:
-        stats_text(out, result)
+    emit(StatsOutput(result), fmt.value, out)
 
 
 @app.command("stats")

@@ -230,10 +230,11 @@ class EpisodeWriter:
         self._stream.flush()
 
     def _end_chunk(self) -> None:
-        """Compress and write the chunk of messages so far (mcap's writer closes a chunk only
-        by size or at the end of the file; an episode must be on disk when it ends)."""
+        """Compress and write the chunk of messages so far, and flush it (mcap's writer
+        closes a chunk by itself only by size or at the end of the file; an episode must be
+        on disk when it ends): mcap's public ``Writer.flush``."""
         if self._compress:
-            self._writer._Writer__finalize_chunk()
+            self._writer.flush()
 
     def write(self, episode: Episode) -> None:
         """Write ``episode`` completely, then flush it to disk."""

@@ -26,7 +26,7 @@ from ..errors import InputError, printable
 from .agents import file_sha256
 from ..jsontext import plain
 
-__all__ = ["resimulate", "Resimulation", "summary"]
+__all__ = ["resimulate", "Resimulation", "summary", "with_resimulation"]
 
 AGENT_DIR = SHIELD_DIR.parent / "agents"
 TOLERANCE = 1e-6
@@ -234,3 +234,30 @@ def summary(results: list[Resimulation]) -> dict:
         "per_episode": [plain(r) for r in results],
     }
 
+
+
+def with_resimulation(report, runs, shield, *, agent=None, env: Optional[str] = None,
+                      salvage: bool = False, progress=None):
+    """``report`` (a :class:`~tracecheck.checking.replaying.ReplayReport` of ``runs``) with
+    what re-simulating its infeasible episodes under ``shield`` found: a new report, the
+    given one unchanged.
+
+    Args:
+        report: the replay of ``runs`` against ``shield``.
+        runs: the run files.
+        shield: the shield to re-simulate under.
+        agent: the agent (None: the one each run names).
+        env: the environment (None: the one each run names).
+        salvage: as :func:`~tracecheck.episodes.reader.read_run`.
+        progress: called with each episode's result as it is re-simulated.
+
+    Returns:
+        The report with ``resimulation`` set (:func:`summary` of every episode's result).
+    """
+    import dataclasses
+
+    results = []
+    for run in runs:
+        results += resimulate(run, shield, report, agent=agent, env=env, progress=progress,
+                              salvage=salvage)
+    return dataclasses.replace(report, resimulation=summary(results))

@@ -5,9 +5,10 @@ Markdown and CSV with every field, and the JSON report (the library's own ``to_j
 from __future__ import annotations
 
 from ..errors import printable
-from .tables import TableData, fitted, terminal_width, wrapped
+from .emit import Report
+from .tables import TableData, fitted, markdown, md_text, terminal_width, wrapped
 
-__all__ = ["project_table", "project_text", "project_summary"]
+__all__ = ["ProjectOutput"]
 
 _TYPES = {"REPLAY_TRACE": "trace replay", "HYPOTHESIS_TEST": "hypothesis test",
           "ESTIMATION": "estimation", "MONTE_CARLO_SIMULATION": "Monte Carlo"}
@@ -21,7 +22,7 @@ def _first_line(text: str) -> str:
     return text.splitlines()[0] if text else ""
 
 
-def project_table(report) -> TableData:
+def _project_table(report) -> TableData:
     """Every task with every field, for Markdown and CSV (reasons whole, on one line)."""
     return TableData.of(
         ["machine", "task", "type", "checks", "executions", "status", "result", "reason",
@@ -30,7 +31,7 @@ def project_table(report) -> TableData:
           " ".join(t.reason.split()), t.source, t.where] for t in report.tasks))
 
 
-def project_summary(report) -> str:
+def _project_summary(report) -> str:
     """One line: how many tasks succeeded, failed, were not run."""
     counts = {s: report.count(s) for s in ("success", "failed", "not run")}
     deselected = sum(1 for t in report.tasks if not t.selected)
@@ -41,7 +42,7 @@ def project_summary(report) -> str:
     return line
 
 
-def project_text(console, report) -> None:
+def _project_text(console, report) -> None:
     """The validation table fitted to the terminal (the formula column cut when it must be),
     then per task its numbers and, where it failed or did not run, why; a summary last.
     Everything printed as it is (no markup)."""
@@ -72,4 +73,28 @@ def project_text(console, report) -> None:
         for note in notes:
             console.print(note, markup=False)
     console.print("", markup=False)
-    console.print(project_summary(report), markup=False)
+    console.print(_project_summary(report), markup=False)
+
+
+class ProjectOutput(Report):
+    """``project``'s report in every format (Markdown: the table, then the summary)."""
+
+    def __init__(self, report) -> None:
+        self.report = report
+
+    def data(self):
+        return self.report.to_json()
+
+    def table(self) -> TableData:
+        return _project_table(self.report)
+
+    def markdown(self) -> str:
+        return markdown(self.table()) + "\n\n" + md_text(_project_summary(self.report),
+                                                         cell=False)
+
+    def summary(self) -> str:
+        """One line: how many tasks succeeded, failed and were not run."""
+        return _project_summary(self.report)
+
+    def text(self, console) -> None:
+        _project_text(console, self.report)

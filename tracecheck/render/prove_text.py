@@ -9,9 +9,10 @@ from rich.console import Console
 
 from ..b.notation import to_json
 from ..checking.proving import VACUOUS, Result
+from .emit import Report
 from .tables import TableData
 
-__all__ = ["prove_text", "prove_table", "prove_json"]
+__all__ = ["ProveOutput"]
 
 
 def _decisions(extra: Optional[dict]) -> str:
@@ -26,7 +27,7 @@ def _decisions(extra: Optional[dict]) -> str:
     return text
 
 
-def prove_json(results: list[Result], written: dict[int, str]) -> list[dict]:
+def _prove_json(results: list[Result], written: dict[int, str]) -> list[dict]:
     """Each result as JSON, with the file its counterexample was written to (``written``:
     {result index: path})."""
     return [{
@@ -37,7 +38,7 @@ def prove_json(results: list[Result], written: dict[int, str]) -> list[dict]:
     } for i, r in enumerate(results)]
 
 
-def prove_table(results: list[Result], written: dict[int, str]) -> TableData:
+def _prove_table(results: list[Result], written: dict[int, str]) -> TableData:
     """One row per result, for Markdown and CSV."""
     return TableData.of(
         ["obligation", "status", "reason", "reading", "decisions", "counterexample file"],
@@ -45,7 +46,7 @@ def prove_table(results: list[Result], written: dict[int, str]) -> TableData:
          for i, r in enumerate(results)))
 
 
-def prove_text(console: Console, results: list[Result], written: dict[int, str]) -> None:
+def _prove_text(console: Console, results: list[Result], written: dict[int, str]) -> None:
     """A line per result (vacuity said once, first), its reading, the shields' decisions
     and its counterexample file indented under it; names printed as they are."""
     vacuous = next((r.reason for r in results if r.status == VACUOUS), None)
@@ -62,3 +63,20 @@ def prove_text(console: Console, results: list[Result], written: dict[int, str])
             console.print("  " + _decisions(r.extra), markup=False)
         if i in written:
             console.print(f"  state: {written[i]}", markup=False)
+
+
+class ProveOutput(Report):
+    """``prove``'s and ``diff --symbolic``'s results in every format (``written``: the
+    counterexample file of each result that has one, by its index)."""
+
+    def __init__(self, results: list[Result], written: dict[int, str]) -> None:
+        self.results, self.written = results, written
+
+    def data(self):
+        return _prove_json(self.results, self.written)
+
+    def table(self) -> TableData:
+        return _prove_table(self.results, self.written)
+
+    def text(self, console) -> None:
+        _prove_text(console, self.results, self.written)

@@ -15,15 +15,14 @@ import html
 from pathlib import Path
 from typing import Optional, Sequence
 
-from ..errors import InputError
-from ..stats.properties import PropertySet
 from ..checking.replaying import (MISMATCH, NEVER_BLOCKED, NEW_CRASH, NO_CRASH, NO_SEED,
                                 NOT_PREVENTED, PREVENTED)
 from ..checking.shield import Shield
 from ..outputs import write_file
 from .viewer import episode_view, numeric_series, viewer_page
 
-__all__ = ["render_report", "comparison_sentences", "resimulation_headline"]
+__all__ = ["render_report", "check_report_output", "comparison_sentences",
+           "resimulation_headline"]
 
 _STYLE = """body{font-family:system-ui,sans-serif;margin:1.5em;color:#222;max-width:1400px}
 table{border-collapse:collapse;font-size:.85em;margin:.5em 0}td,th{border:1px solid #ccc;
@@ -139,41 +138,52 @@ def comparison_sentences(result: dict) -> list[str]:
 
 # ------------------------------------------------------------------ the report
 
-def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
-                  pset: PropertySet, max_pages: int = 20, force: bool = False,
-                  inputs: Sequence[Path] = (), resimulate: bool = False,
-                  agent: Optional[Path] = None, env: Optional[str] = None,
-                  adapter=None, salvage: bool = False) -> tuple[Path, int]:
-    """Write the report to ``out`` and viewer pages beside it (``NAME_files/``); (report,
-    pages written). With ``resimulate`` (needs ``shield``), the episodes the shield would
-    have blocked are re-simulated under it (as ``replay --resimulate``; ``agent`` and
-    ``env`` as there). Both outputs follow the output rule (:mod:`tracecheck.outputs`);
-    ``salvage``: as :func:`~tracecheck.episodes.reader.read_run`."""
-    from ..episodes.columns import read_columns
-    from ..outputs import check_output, safe_name
-    from ..stats.estimates import statistics
-    from .stats_text import stats_rows, stats_svgs
+def check_report_output(out: Path, inputs: Sequence[Path], force: bool = False) -> Path:
+    """The output rule for a report and its folder of viewer pages (``NAME_files/``), before
+    any work: neither may be an input, and existing ones are replaced only with ``force``.
+
+    Returns:
+        The folder of viewer pages.
+    """
+    from ..outputs import check_output
 
     out = Path(out)
     pages_dir = out.with_name(out.stem + "_files")
-    check_output(out, [*runs, *inputs], force=force, example="report.html")
-    check_output(pages_dir, [*runs, *inputs], force=force, kind="folder",
+    check_output(out, list(inputs), force=force, example="report.html")
+    check_output(pages_dir, list(inputs), force=force, kind="folder",
                  what="folder of viewer pages", contents=("*.html",))
-    if resimulate and shield is None:
-        raise InputError("--resimulate needs --shield: the shield to re-simulate under")
-    columns = []
-    for run in runs:
-        if not Path(run).exists():
-            raise InputError(f"no such file: {run}")
-        columns.append(read_columns(run, salvage=salvage))  # read once: statistics below takes them
-        if not len(columns[-1].episode_ids):
-            raise InputError(f"{run} holds no complete episode: nothing to report")
+    return pages_dir
+
+
+def render_report(validation, out: Path, *, max_pages: int = 20, force: bool = False,
+                  inputs: Sequence[Path] = (), adapter=None,
+                  salvage: bool = False) -> tuple[Path, int]:
+    """Draw a :class:`~tracecheck.stats.validation.Validation` as an HTML report at ``out``
+    with viewer pages beside it (``NAME_files/``).
+
+    Args:
+        validation: what :func:`~tracecheck.stats.validation.validate` found.
+        out: the report to write (the output rule: :mod:`tracecheck.outputs`).
+        max_pages: the most viewer pages written.
+        force: replace an existing report and folder of pages.
+        inputs: the files read (never an output).
+        adapter: the runs' environment adapter (draws the pictures), where given.
+        salvage: as :func:`~tracecheck.episodes.reader.read_run`.
+
+    Returns:
+        (the report, how many viewer pages were written).
+    """
+    from ..outputs import safe_name
+    from .stats_text import stats_rows, stats_svgs
+
+    runs, shield, pset = list(validation.runs), validation.shield, validation.pset
+    out = Path(out)
+    pages_dir = check_report_output(out, [*runs, *inputs], force=force)
     stems, taken = [Path(r).stem for r in runs], set()
     page_stem = {str(r): safe_name(stem if stems.count(stem) == 1 else f"{stem}_{i + 1}", taken)
                  for i, (r, stem) in enumerate(zip(runs, stems))}
-    checked = [_check_run(run, cols, shield, resimulate, agent, env)
-               for run, cols in zip(runs, columns)]
-    result = statistics(runs, pset, columns=columns, adapter=adapter, salvage=salvage)
+    checked = list(validation.checked)
+    result = validation.statistics
     parts = [f"<h1>tracecheck validation report</h1><p class='note'>"
              f"{len(runs)} run(s)" + (f"; shield {_e(shield.name)} (sha256 {_e(shield.sha256)})"
                                       if shield is not None else "; no shield to replay")
@@ -196,7 +206,7 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
     pages: list = []
     if shield is not None:
         order = ("what re-simulation found: prevented, new crash, not prevented, did not "
-                 "reproduce, no seed, never blocked, no crash" if resimulate else
+                 "reproduce, no seed, never blocked, no crash" if validation.resimulated else
                  "crashes after a blocked step, other crashes, blocked steps")
         parts.append("<h2>Episodes that matter</h2><p class='note'>Per run, those that matter "
                      f"most first: {order}. The picture shows the first blocked step (else "
@@ -211,24 +221,6 @@ def render_report(runs: list[Path], out: Path, *, shield: Optional[Shield],
         _write_pages(pages_dir, pages, shield, adapter)
     write_file(out, page)
     return out, len(pages)
-
-
-def _check_run(run, cols, shield, resimulate: bool, agent, env) -> dict:
-    """One run: its header, replay and (with ``resimulate``) re-simulation, on its columns
-    ``cols`` (read once, for the statistics too)."""
-    from ..checking.replaying import replay_columns
-    from ..episodes.reader import read_header
-
-    entry = {"file": str(run), "header": read_header(run), "replay": None, "resim": None}
-    if shield is not None:
-        entry["replay"] = replay_columns(cols, shield)
-        if resimulate:
-            from ..live.resimulate import resimulate as again, summary
-
-            entry["resim"] = summary(again(run, shield, entry["replay"], agent=agent, env=env,
-                                           cols=cols))
-            entry["replay"].resimulation = entry["resim"]  # the table shows what it found
-    return entry
 
 
 def _environment(path, header) -> str:
@@ -250,8 +242,8 @@ def _agent(header) -> str:
 
 
 def _run_section(c: dict, shield: Optional[Shield]) -> str:
-    h, r = c["header"], c["replay"]
-    rows = [("environment", _environment(c["file"], h)), ("source", h.source),
+    h, r = c.header, c.replay
+    rows = [("environment", _environment(c.file, h)), ("source", h.source),
             ("recorded under shield", h.shield_name or "—"), ("agent", _agent(h))]
     if r is not None:
         rows += [("episodes", r.episodes), ("steps", r.steps),
@@ -265,14 +257,14 @@ def _run_section(c: dict, shield: Optional[Shield]) -> str:
                          f"{r.deadlock_states} / {r.postcondition_violations} / "
                          f"{r.invariant_violations}"))
     body = "".join(f"<tr><th>{_e(k)}</th><td>{_e(v)}</td></tr>" for k, v in rows)
-    text = f"<section class='run'><h3>{_e(Path(c['file']).name)}</h3><table>{body}</table>"
-    if c["resim"] is not None and not c["resim"]["resimulated"]:
+    text = f"<section class='run'><h3>{_e(Path(c.file).name)}</h3><table>{body}</table>"
+    if c.resimulation is not None and not c.resimulation["resimulated"]:
         text += (f"<p class='headline'>Re-simulation: nothing to re-run, {_e(shield.name)} "
                  "would have blocked no step.</p>")
-    elif c["resim"] is not None:
+    elif c.resimulation is not None:
         text += (f"<p class='headline'>Re-simulation: "
-                 f"{_e(resimulation_headline(shield.name, r.crashes, c['resim']))}.</p>")
-    elif r is not None and r.crashes and c["header"].source == "external":
+                 f"{_e(resimulation_headline(shield.name, r.crashes, c.resimulation))}.</p>")
+    elif r is not None and r.crashes and c.header.source == "external":
         text += ("<p class='note'>Whether blocking would have prevented a crash cannot be "
                  "told here: the run comes from an agent script (--external), which "
                  "tracecheck cannot re-simulate; record it again under the shield.</p>")
@@ -291,7 +283,7 @@ _GOOD, _BAD = {PREVENTED}, {NOT_PREVENTED, NEW_CRASH, MISMATCH}
 
 def _ranked(c: dict) -> list:
     """The episodes that matter of a run, those that matter most first."""
-    r = c["replay"]
+    r = c.replay
     outcomes = r.resimulated()
 
     def rank(e):
@@ -312,16 +304,16 @@ def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter
     from ..episodes.reader import find_episode, read_run
 
     ranked = _ranked(c)
-    name = Path(c["file"]).name
+    name = Path(c.file).name
     if not ranked:
         return f"<h3>{_e(name)}</h3><p>No episode crashed or had a blocked step.</p>"
     shown, paged = ranked[:SHOWN], ranked[:max(0, max_pages - len(pages))]
     # the episodes its pictures and its viewer pages show, decoded in one walk of the file
-    result = read_run(c["file"], {e.episode for e in shown + paged}, salvage=salvage)
+    result = read_run(c.file, {e.episode for e in shown + paged}, salvage=salvage)
     pictures = _pictures(result, shown, adapter, shield)
-    crash_header, _, crash_cell = crash_column(c["replay"])
+    crash_header, _, crash_cell = crash_column(c.replay)
     new_steps = {r["episode"]: r["new_crash_step"]
-                 for r in (c["resim"] or {}).get("per_episode", [])}
+                 for r in (c.resimulation or {}).get("per_episode", [])}
     head = ["episode", "steps", "first blocked step", "crash step", crash_header,
             "picture", "viewer"]
     rows = []

@@ -12,7 +12,10 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-__all__ = ["stats_text", "stats_markdown", "stats_csv", "stats_plots", "check_plot_folder",
+from .emit import Report
+from .tables import TableData
+
+__all__ = ["StatsOutput", "stats_plots", "check_plot_folder",
            "plain_plot_text", "stats_svgs", "stats_rows"]
 
 #: What ``stats --plot`` writes into its folder (``--force`` replaces only such a folder).
@@ -108,7 +111,7 @@ def _distance_cell(distance: dict, key, lines: bool) -> str:
     return f"mean {d['mean']:.3g},{_SEP[lines]}max {d['max']:.3g}"
 
 
-def stats_text(console: Console, result: dict) -> None:
+def _stats_text(console: Console, result: dict) -> None:
     from .text import literal_row
 
     header, rows = stats_rows(result, lines=True)
@@ -143,13 +146,13 @@ def stats_text(console: Console, result: dict) -> None:
                           f"p={t}, Wilcoxon p={w})", highlight=False, soft_wrap=False)
 
 
-def stats_markdown(result: dict) -> str:
-    from .tables import TableData, markdown
+def _stats_markdown(result: dict) -> str:
+    from .tables import markdown
 
     return markdown(TableData.of(*stats_rows(result)))
 
 
-def stats_csv(result: dict) -> str:
+def _stats_csv(result: dict) -> str:
     """One row per run and metric or property; numbers stay numbers, text is made inert
     (:func:`~tracecheck.render.tables.csv_cell`)."""
     from .tables import csv_rows
@@ -302,3 +305,26 @@ def _save(fig, folder: Path, stem: str) -> list[Path]:
         paths.append(path)
     plt.close(fig)
     return paths
+
+
+class StatsOutput(Report):
+    """``stats``'s and ``simulate``'s statistics in every format."""
+
+    def __init__(self, result: dict) -> None:
+        self.result = result
+
+    def data(self):
+        return self.result
+
+    def table(self) -> TableData:
+        header, rows = stats_rows(self.result)
+        return TableData.of(header, rows)
+
+    def markdown(self) -> str:
+        return _stats_markdown(self.result)
+
+    def csv(self) -> str:
+        return _stats_csv(self.result)
+
+    def text(self, console) -> None:
+        _stats_text(console, self.result)

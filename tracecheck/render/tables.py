@@ -18,13 +18,14 @@ import io
 import math
 import numbers
 import shutil
+import sys
 import textwrap
 from dataclasses import dataclass
 
 from ..errors import printable
 
 __all__ = ["TableData", "Number", "is_number", "markdown", "md_text", "csv_text", "csv_cell",
-           "csv_rows", "fitted", "wrapped", "terminal_width"]
+           "csv_rows", "fitted", "wrapped", "terminal_width", "plain", "say"]
 
 
 class Number(str):
@@ -165,3 +166,16 @@ def wrapped(line: str, width: int, indent: str = "  ") -> str:
     """``line`` wrapped between words (never inside one), later lines indented."""
     return textwrap.fill(printable(line), width, subsequent_indent=indent, break_long_words=False,
                          break_on_hyphens=False)
+
+
+def plain(line: str) -> None:
+    """Print one line to standard output as it is: no markup, no emoji codes, no rich —
+    and no control character from an input (a B string, a name) that could drive the
+    terminal: those are shown as escapes (tabs and line breaks stay, as CSV has them)."""
+    sys.stdout.write(printable(line, "\n\r\t") + "\n")
+
+
+def say(line: str, indent: str = "  ") -> None:
+    """A message line for people, wrapped between words at the terminal's width (80 when
+    there is none), later lines indented; a long file name stays whole on a line of its own."""
+    plain(wrapped(line, terminal_width(), indent))

@@ -9,14 +9,15 @@ from rich.text import Text
 from ..checking.diffing import ChangedStep, DiffReport
 from ..checking.replaying import (MISMATCH, NEW_CRASH, NOT_PREVENTED, PREVENTED, EpisodeReplay,
                                ReplayReport)
+from .emit import Report
 from .tables import TableData, fitted, markdown, md_text
 
 #: above this many rows, a table of episodes is printed as aligned lines (rich's layout of
 #: 10^4 rows takes seconds)
 PLAIN_ROWS = 200
 
-__all__ = ["replay_text", "replay_markdown", "replay_table", "diff_text", "diff_table",
-           "crash_column", "literal_row", "continuous_cell", "action_call", "NOT_A_FLOAT"]
+__all__ = ["ReplayOutput", "DiffOutput", "crash_column", "literal_row", "continuous_cell",
+           "action_call", "NOT_A_FLOAT"]
 
 
 def literal_row(table: Table, cells) -> None:
@@ -222,7 +223,7 @@ def _continuous_lines(r: ReplayReport, episodes) -> list[str]:
     return _with_legend(lines, (e.allowed for e in shown))
 
 
-def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
+def _replay_text(console: Console, r: ReplayReport, rows: int) -> None:
     for i, line in enumerate(_summary_lines(r) + _resim_lines(r) + _ltl_lines(r, rows)):
         console.print(Text(line, style="bold" if i == 0 else ""), highlight=False,
                       soft_wrap=False)  # wrapped between words; names printed as they are
@@ -271,7 +272,7 @@ def replay_text(console: Console, r: ReplayReport, rows: int) -> None:
                       "gives everything")
 
 
-def replay_table(r: ReplayReport, episodes=None) -> TableData:
+def _replay_table(r: ReplayReport, episodes=None) -> TableData:
     """The episode table with full names: ``episodes`` (default: every episode replayed);
     then a column ``LTL NAME: FORMULA`` per LTL formula checked (its text too: CSV has no
     other place for it): holds, violated, or violated at step k (the first step where ``G
@@ -309,20 +310,20 @@ def _continuous_row(e: EpisodeReplay) -> list:
             e.max_margin]
 
 
-def replay_markdown(r: ReplayReport, rows: int) -> str:
+def _replay_markdown(r: ReplayReport, rows: int) -> str:
     lines = [f"# Replay: shield `{r.shield['name']}`", ""]
     lines += [f"- {md_text(line, cell=False)}"
               for line in _summary_lines(r) + _resim_lines(r) + _ltl_lines(r, rows)]
     matters = [e for e in r.per_episode if e.matters]
     if matters:
-        lines += ["", markdown(replay_table(r, matters[:rows]))]
+        lines += ["", markdown(_replay_table(r, matters[:rows]))]
         if len(matters) > rows:
             lines.append(f"\n{len(matters) - rows} more episode(s): --all lists them, the "
                          "JSON report has everything.")
     return "\n".join(lines)
 
 
-def diff_text(console: Console, d: DiffReport, rows: int) -> None:
+def _diff_text(console: Console, d: DiffReport, rows: int) -> None:
     # a Text, not markup: shield and file names are printed as they are, brackets and all
     console.print(Text(f"Shield {d.shield['name']} ({_short(d.shield['sha256'])}) against "
                        f"{d.against['name']} ({_short(d.against['sha256'])}): {d.episodes} "
@@ -430,7 +431,7 @@ def _diff_continuous_row(c: ChangedStep, d: DiffReport) -> list:
             new.text if new.text is not None else new.note, c.allowed.moved or ""]
 
 
-def diff_table(d: DiffReport) -> TableData:
+def _diff_table(d: DiffReport) -> TableData:
     """Every changed step, with full action names; for continuous actions also their values,
     the values each shield allowed and how they moved."""
     a, b = d.shield["name"], d.against["name"]
@@ -439,3 +440,38 @@ def diff_table(d: DiffReport) -> TableData:
                          f"enabled by {b}"] + (_diff_continuous_headers(d) if continuous else []),
                         (_diff_row(c) + (_diff_continuous_row(c, d) if continuous else [])
                          for c in d.changes))
+
+
+class ReplayOutput(Report):
+    """``replay``'s report in every format (``rows``: the episodes listed for people)."""
+
+    def __init__(self, report: ReplayReport, rows: int) -> None:
+        self.report, self.rows = report, rows
+
+    def data(self):
+        return self.report.json_parts()
+
+    def table(self) -> TableData:
+        return _replay_table(self.report)
+
+    def markdown(self) -> str:
+        return _replay_markdown(self.report, self.rows)
+
+    def text(self, console) -> None:
+        _replay_text(console, self.report, self.rows)
+
+
+class DiffOutput(Report):
+    """``diff``'s report on recorded states in every format."""
+
+    def __init__(self, report: DiffReport, rows: int) -> None:
+        self.report, self.rows = report, rows
+
+    def data(self):
+        return self.report.to_json()
+
+    def table(self) -> TableData:
+        return _diff_table(self.report)
+
+    def text(self, console) -> None:
+        _diff_text(console, self.report, self.rows)
