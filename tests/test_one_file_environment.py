@@ -226,3 +226,22 @@ def test_a_grid_of_an_environment_not_installed_gets_no_other_grid_picture(tmp_p
     page = (tmp_path / "v.html").read_text()
     assert "holes or cliffs" not in page and "The grid world from above" not in page
     assert '"scene": null' in page or '"scene":null' in page
+
+
+def test_what_a_new_user_got_wrong_is_said_plainly(corridor, tmp_path):
+    """A misspelled property set lists the sets; render with another environment's --env is
+    refused, as stats and report refuse it; an option that does not apply reads well."""
+    root, _ = corridor
+    if not (root / "none.mcap").exists():
+        run(corridor, "record", "--env", "corridor", "--agent", "left.npy", "--shield", "none",
+            "--episodes", "3", "-o", "none.mcap")
+    out = run(corridor, "stats", "none.mcap", "--properties", "coridor", code=2)
+    assert "unknown property set 'coridor': give one of generic," in out and "corridor" in out
+    out = run(corridor, "render", "none.mcap", "-e", "0", "--env", "frozenlake", "-o",
+              tmp_path / "m.html", code=2)
+    assert "the runs come from the environment corridor, but --env gives" in " ".join(out.split())
+    out = run(corridor, "record", "--env", "corridor", "--agent", "left.npy", "--cwd", ".",
+              "-n", "1", "-o", tmp_path / "c.mcap", code=2)
+    assert "--cwd only applies to --external" in " ".join(out.split())
+    help_text = " ".join(run(corridor, "replay", "--help").split())
+    assert "--env" in help_text and "corridor" in help_text

@@ -236,7 +236,8 @@ def test_the_workflow_on_an_environment_installed_as_an_entry_point(acc_env, acc
     assert {s["name"] for s in data["series"]} >= {"Gap", "EgoSpeed", "LeadSpeed"}
     assert data["blocked"] and data["crash_step"] is not None and data["environment"] == "acc"
     assert "5 m × 2 m" not in page and "vehicles are drawn" not in page
-    assert data["scene"] is None  # no --env: render imports no environment, draws no scene
+    # no --env: the installed environment the run names draws it (its scene hook)
+    assert data["scene"]["caption"] == "The ego car (blue, red once crashed) behind the lead car."
 
     # report: the runs side by side, the headline, the table that agrees with it
     page = (tmp_path / "report.html").read_text()

@@ -30,10 +30,10 @@ def test_record_and_simulate_take_the_same_run_options():
 
 @pytest.mark.parametrize("command", ["record", "simulate"])
 @pytest.mark.parametrize("given,refused", [
-    (["--cwd", "."], "--cwd only apply to --external"),
-    (["--crash", "Crash = TRUE"], "--crash only apply to --external"),
-    (["--ending-time", "5"], "--ending-time only apply to --external"),
-    (["--step-timeout", "3"], "--step-timeout only apply to --external"),
+    (["--cwd", "."], "--cwd only applies to --external"),
+    (["--crash", "Crash = TRUE"], "--crash only applies to --external"),
+    (["--ending-time", "5"], "--ending-time only applies to --external"),
+    (["--step-timeout", "3"], "--step-timeout only applies to --external"),
 ])
 def test_an_external_option_without_external_is_refused_by_both(capsys, tmp_path, command,
                                                                 given, refused):
@@ -61,7 +61,7 @@ def test_the_defaults_are_the_declared_ones():
     options = RunOptions.given(agent=AGENT)
     assert options.mode == "agent" and options.shield == "none" and options.workers == 1
     options.check()  # nothing given that does not apply
-    with pytest.raises(Exception, match="--cwd only apply to --external"):
+    with pytest.raises(Exception, match="--cwd only applies to --external"):
         RunOptions.given(agent=AGENT, cwd=ROOT).check()
 
 
@@ -72,4 +72,4 @@ def test_the_solvers_options_on_recorded_states_are_refused(capsys, tmp_path, gi
     run_file = ROOT / "sample_traces" / "base_none.mcap"
     code, _, err = run(capsys, "diff", run_file, "--shield", "strict", "--against", "paper",
                        *given)
-    assert code == 2 and "only apply to --symbolic" in err
+    assert code == 2 and "only applies to --symbolic" in err

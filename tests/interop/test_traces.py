@@ -182,3 +182,23 @@ def test_import_checked_against_a_machine(paper_traces, tmp_path):
     wrong = _simb(tmp_path, [_init({**GOOD, "Reward": "1"})])
     with pytest.raises(InputError, match="step 0: Reward must be of type REAL"):
         list(import_simb([wrong], vocab=vocab, machine=machine))
+
+
+def test_an_episode_that_did_not_end_by_its_time_limit_is_not_read_back_as_one(tmp_path):
+    """ENDING_TIME is written only for an episode that ended by its time limit: a crash in
+    states without a Crash variable (a new user's tank) was read back as 'time-limit'."""
+    from tracecheck.episodes.model import Episode, StepRecord, make_end
+    from tracecheck.episodes.vocabulary import Vocabulary
+
+    def episode(reason):
+        steps = tuple(StepRecord(step=k, time=float(k), action=None if k == 0 else "Fill",
+                                 state={"level": k}, reward=0.0, crashed=k == 2)
+                      for k in range(3))
+        return Episode(id=0, steps=steps, end=make_end(steps, reason), seed=0)
+
+    tank = Vocabulary(("level",), ("Fill",), "Tank")
+    for reason, expected in (("crashed", "end-of-trace"), ("time-limit", "time-limit")):
+        folder = tmp_path / reason
+        export_simb([episode(reason)], folder, tank.name)
+        (back,) = import_simb([folder], vocab=tank)
+        assert back.end.reason == expected, reason

@@ -287,7 +287,7 @@ def test_external_needs_a_machine_and_its_options_need_external(tmp_path, capsys
     assert code == 2 and "--external needs --shield naming the machine" in stderr
     code, _, stderr = run(capsys, "record", "--agent", ROOT / "models" / "agents" / "base.zip",
                           "--cwd", HERE, "--episodes", 1, "-o", tmp_path / "x.mcap")
-    assert code == 2 and "--cwd only apply to --external" in " ".join(stderr.split())
+    assert code == 2 and "--cwd only applies to --external" in " ".join(stderr.split())
     code, _, stderr = run(capsys, "record", "--episodes", 1, "-o", tmp_path / "x.mcap")
     assert code == 2 and "--agent is required (or --external" in " ".join(stderr.split())
 

@@ -18,7 +18,7 @@ from tracecheck.errors import InputError
 from tracecheck.live.adapter import get_adapter
 from tracecheck.live.agents import load_agent
 from tracecheck.live.envs.highway import PAPER_DQN
-from tracecheck.live.training import LEARNERS, train_agent
+from tracecheck.live.training import LEARNERS, Training, train_agent
 from tracecheck.live.wrapper import ShieldWrapper
 from tracecheck.render.curves import CURVE_SIZE
 
@@ -95,8 +95,8 @@ def test_a_masked_learner_never_asks_for_a_blocked_action(tmp_path, blocked_requ
         pytest.importorskip("sb3_contrib")
     adapter = get_adapter("cliffwalking")
     shield = load_shield("cliffwalking", actions=adapter.actions)
-    card = train_agent(adapter, adapter.config(), algorithm, tmp_path / "a.zip", shield=shield,
-                       steps=600, seed=1)
+    card = train_agent(adapter, adapter.config(), algorithm, tmp_path / "a.zip",
+                       Training(steps=600, seed=1), shield=shield)
     assert blocked_requests["steps"] >= 600 and blocked_requests["blocked"] == 0
     assert (card["shield"], card["shield_sha256"]) == ("cliffwalking", shield.sha256)
     card = json.loads((tmp_path / "a.json").read_text())
@@ -258,7 +258,7 @@ def test_an_environment_without_discrete_actions_is_refused(tmp_path):
     with pytest.raises(InputError, match=r"corridor has the action space Box\(-1\.0, 1\.0, "
                        r"\(1,\), float32\); train needs 2 discrete actions, one per action of "
                        r"the adapter \(Left, Right\)"):
-        train_agent(Sliding(), {}, "ppo", tmp_path / "a.zip", steps=10)
+        train_agent(Sliding(), {}, "ppo", tmp_path / "a.zip", Training(steps=10))
     assert not (tmp_path / "a.zip").exists()
 
 

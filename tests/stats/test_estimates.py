@@ -12,7 +12,8 @@ from tests.helpers import ACC_SPEC, ROOT, run
 from tracecheck.episodes.columns import episode_columns
 from tracecheck.episodes.model import Episode, StepRecord, make_end
 from tracecheck.errors import InputError
-from tracecheck.stats.estimates import evaluate_run, interventions, prepare
+from tracecheck.stats.estimates import evaluate_run, interventions
+from tracecheck.stats.formulas import prepare
 from tracecheck.stats.properties import GENERIC_SET, parse_properties, with_generic, \
     load_properties
 
@@ -58,7 +59,7 @@ def test_env_must_be_the_runs_environment(acc_runs, capsys):
 
 
 def test_the_highway_default_is_generic_plus_the_papers():
-    from tracecheck.stats.estimates import default_set
+    from tracecheck.stats.formulas import default_set
 
     pset, notes = default_set([ROOT / "sample_traces" / "base_none.mcap"])
     names = [m.name for m in pset.metrics]
@@ -101,11 +102,11 @@ def test_a_crashed_of_the_environments_own_wins_with_a_warning():
     pset = parse_properties('[properties.C]\npredicate = "crashed = TRUE"\nkind = "final"',
                             name="t", file="t.toml")
     formulas = prepare(pset, "nowhere", {"crashed": False})
-    assert formulas["warnings"] == ["t.toml: property C: crashed is the environment's own "
+    assert formulas.warnings == ["t.toml: property C: crashed is the environment's own "
                                     "variable here, not the recorded crash flag"]
     assert evaluate_run("<t>", pset, formulas, cols=cols).properties["C"].tolist() == [False]
     plain = prepare(pset, "nowhere", {"x": 1})
-    assert plain["warnings"] == []
+    assert plain.warnings == []
 
 
 def test_interventions_come_from_the_recorded_action_values():

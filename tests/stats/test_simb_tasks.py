@@ -15,7 +15,8 @@ from tracecheck.b.machine import load_machine
 from tracecheck.episodes.columns import episode_columns
 from tracecheck.episodes.model import Episode, StepRecord, make_end
 from tracecheck.errors import InputError
-from tracecheck.stats.estimates import evaluate_run, prepare, run_statistics
+from tracecheck.stats.estimates import evaluate_run, run_statistics
+from tracecheck.stats.formulas import prepare
 from tracecheck.stats.properties import Metric, PropertySet, parse_properties
 from tracecheck.stats.simb_tasks import (FAILED, NOT_RUN, SUCCESS, SimbTask, Window,
                                          evaluate_task, simb_hypothesis, window)

@@ -431,7 +431,7 @@ def test_an_integer_that_fits_a_float_is_its_value(capsys, tmp_path):
 def test_an_imported_run_of_another_machine_is_not_taken_for_the_highways(tmp_path):
     """Issue 23: a file naming no environment (imported with --model) was read as the
     highway's: without --properties, the highway's set ("unknown identifier VehiclesVx")."""
-    from tracecheck.stats.estimates import default_set, environment_of
+    from tracecheck.stats.formulas import default_set, environment_of
 
     path = tmp_path / "lake.mcap"
     steps = tuple(StepRecord(k, float(k), None if k == 0 else "Move_Right", {"x": k, "y": 0},

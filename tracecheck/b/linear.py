@@ -35,18 +35,27 @@ from fractions import Fraction
 from functools import cached_property
 from typing import Any, Callable, Mapping, Optional
 
+from .cache import Cache
 from ..errors import UnsupportedError
 from ..limits import DEEP, deep_recursion, deeply
 from . import ast
 from .bindings import conjuncts
 from .memo import MEMO_KEY, fresh
 from .polytope import (Constraint, Form, Interval, bound_constraint, box_constraints, box_of,
+                       box_within,
                        constraint_of, distance_to, exact, form_add, form_constant, form_neg,
                        form_times, gap, inner_point, interval_of, merge_intervals,
                        nearest_in_boxes, nearest_point, towards)
 
 __all__ = ["Constraint", "AllowedSet", "Interval", "allowed_set", "real_parameters",
            "parameter_range", "guard_with_parameters", "linear_form"]
+
+#: per machine and operation: whether it has REAL parameters, its guard's linear form, the
+#: guard with what reads only the state named, and the guard with its parameters bound
+_REAL_PARAMETERS: Cache = Cache("real parameters")
+_LINEAR_GUARDS: Cache = Cache("linear guards")
+_RESIDUAL_GUARDS: Cache = Cache("linear residual guards")
+_BOUND_GUARDS: Cache = Cache("guards with parameters bound")
 
 #: the most polytopes a guard's disjunctions may make (each a conjunction of constraints)
 MAX_PARTS = 256
@@ -103,7 +112,7 @@ class AllowedSet:
             return {p: () for p in self.params}
         # a union is drawn where one of its boxes holds the others (a guard's "any
         # acceleration, or full braking" is [-1, a] × S ∪ {-1} × S)
-        whole = next((b for b in boxes if all(_box_within(o, b, self.params) for o in boxes)),
+        whole = next((b for b in boxes if all(box_within(o, b, self.params) for o in boxes)),
                      None)
         return None if whole is None else {p: (whole[p],) for p in self.params}
 
@@ -194,19 +203,6 @@ class AllowedSet:
         return f"({', '.join(self.params)}): {len(self.parts)} polytope(s)"
 
 
-def _box_within(inner: dict, outer: dict, params) -> bool:
-    """Whether the box ``inner`` lies in the box ``outer`` (open and closed ends alike)."""
-    return all(_interval_within(inner[p], outer[p]) for p in params)
-
-
-def _interval_within(a, b) -> bool:
-    low = b.low is None or (a.low is not None and (
-        a.low > b.low or (a.low == b.low and (a.low_open or not b.low_open))))
-    high = b.high is None or (a.high is not None and (
-        a.high < b.high or (a.high == b.high and (a.high_open or not b.high_open))))
-    return low and high
-
-
 def real_parameters(op) -> bool:
     """Whether every parameter of ``op`` is typed REAL by a conjunct ``p : REAL`` of its
     guard (the operations :func:`allowed_set` is for)."""
@@ -226,7 +222,7 @@ def allowed_set(machine, op_name: str, state: Optional[Mapping[str, Any]] = None
     Raises :class:`UnsupportedError` naming the sub-formula when the guard is not linear in
     the parameters once the state is substituted."""
     op = machine.operation(op_name)
-    if not machine.cached("real parameters", op_name, lambda: real_parameters(op)):
+    if not machine.cached(_REAL_PARAMETERS, op_name, lambda: real_parameters(op)):
         raise UnsupportedError(f"{op_name} has no parameters typed `p : REAL` in its guard")
     lin = _linearizer(machine, op_name)
     # one copy of the state for every evaluation here: what does not depend on a parameter
@@ -310,7 +306,7 @@ def _linearizer(machine, op_name: str) -> "_Linearizer":
         with deep_recursion():  # a guard of 1500 disjuncts nests 1500 deep
             return _Linearizer(set(op.params), machine.compiler(), machine.source
                                ).compile(op.guard)
-    return machine.cached("linear guards", op_name, build)
+    return machine.cached(_LINEAR_GUARDS, op_name, build)
 
 
 def _residual_guard(machine, op_name: str) -> Callable[[dict], Any]:
@@ -322,7 +318,7 @@ def _residual_guard(machine, op_name: str) -> Callable[[dict], Any]:
         comp = machine.compiler()
         with comp.binding(tuple(machine.operation(op_name).params)):
             return comp.compile(_linearizer(machine, op_name).residual_guard)
-    return machine.cached("linear residual guards", op_name, compiled)
+    return machine.cached(_RESIDUAL_GUARDS, op_name, compiled)
 
 
 def guard_with_parameters(machine, op_name: str) -> Callable[[dict], Any]:
@@ -333,7 +329,7 @@ def guard_with_parameters(machine, op_name: str) -> Callable[[dict], Any]:
         op = machine.operation(op_name)
         with comp.binding(tuple(op.params)):
             return comp.compile(op.guard)
-    return machine.cached("guards with parameters bound", op_name, compiled)
+    return machine.cached(_BOUND_GUARDS, op_name, compiled)
 
 
 #: the formulas evaluated in the environment of the formula around them (no binders):
@@ -426,7 +422,7 @@ class _Linearizer:
 
     def evaluated(self, node: ast.Node, then: Callable[[Any], Any]) -> Callable[[dict], Any]:
         """``then`` of ``node``'s value in the state: computed once when ``node`` reads no
-        name (unless that fails: then in each state, failing there as before)."""
+        name (unless that fails: then in each state, where it fails as it would)."""
         key = self.slot(node)
         if key is None:
             fn = self.comp.compile(node)

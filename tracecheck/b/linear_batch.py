@@ -24,10 +24,14 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from .cache import Cache
 from ..errors import UnsupportedError
 from . import ast
 
 __all__ = ["batch_margins", "nearest_active_set"]
+
+#: each operation's guard as a batch of linear forms in its parameter, once per machine
+_BATCH_LINEAR: Cache = Cache("batch linear guards")
 
 #: relative width below which a float interval, distance or bound is too close to call
 TOLERANCE = 1e-9
@@ -50,7 +54,7 @@ def batch_margins(machine, op_name: str, cols, values: np.ndarray,
     if len(op.params) != 1 or not n:
         return none
     try:
-        build = machine.cached("batch linear guards", op_name, lambda: _BatchLinearizer(
+        build = machine.cached(_BATCH_LINEAR, op_name, lambda: _BatchLinearizer(
             op.params[0], machine).pred(op.guard, True))
     except UnsupportedError:
         return none

@@ -16,12 +16,13 @@ from __future__ import annotations
 import hashlib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping, Optional
+from typing import Any, Callable, Mapping, Optional, TypeVar
 
 from ..errors import BScopeError, EvaluationError, InputError, TracecheckError, UnsupportedError
 from ..inputs import read_text
 from . import ast
 from .bindings import conjuncts
+from .cache import Cache
 from .constants import setup_constants
 from .evaluation import Compiler
 from .linear import real_parameters
@@ -31,6 +32,9 @@ from .state import native_state
 from .scope import PRED, check_kind, check_subst, expand, render
 from .substitution import SubstCompiler, before_after, guard_of, strip_guards, written
 from .values import Elem
+
+K = TypeVar("K")
+V = TypeVar("V")
 
 __all__ = ["Machine", "Operation", "load_machine", "load_machine_text"]
 
@@ -197,8 +201,8 @@ class Machine:
     def allowed(self, op: str, state: Mapping[str, Any]):
         """The values of ``op``'s REAL parameters its guard allows in ``state``: an
         :class:`~tracecheck.b.linear.AllowedSet` (exact over the reals, confirmed by the
-        evaluator), or where the guard is not linear in them what
-        :meth:`decide_beyond_linear` gave (the solver's set), if anything."""
+        evaluator), or where the guard is not linear in them what :meth:`beyond_linear`
+        gives (a shield's machine: the solver's set; else refused)."""
         return self.allowed_in(op, self.env(state))
 
     def allowed_in(self, op: str, env: dict[str, Any]):
@@ -208,17 +212,11 @@ class Machine:
         try:
             return allowed_set(self, op, env=env)
         except UnsupportedError:
-            beyond = self._compiled.get("beyond linear")
-            if beyond is None or not real_parameters(self.operation(op)):
+            beyond = self.beyond_linear(op, env) if real_parameters(self.operation(op)) \
+                else None
+            if beyond is None:
                 raise
-            return beyond(self, op, env)
-
-    def decide_beyond_linear(self, factory: Callable[[Any, str, dict], Any]) -> None:
-        """Where a guard is not linear in its REAL parameters, :meth:`allowed` asks
-        ``factory(machine, op, env)`` (the checking layer gives the solver's
-        :func:`~tracecheck.checking.solved_set.solved_set`, within a time budget) instead
-        of refusing."""
-        self._compiled["beyond linear"] = factory
+            return beyond
 
     def allows(self, op: str, state: Mapping[str, Any], parameters: Mapping[str, Any]) -> bool:
         """Whether ``op``'s guard holds in ``state`` with its parameters bound to
@@ -308,13 +306,25 @@ class Machine:
         after = self.native(state, where="the initial state")
         return bool(check(dict(self.base_env), dict(after)))
 
-    def cached(self, kind: str, key: Any, make: Callable[[], Any]) -> Any:
-        """What ``make()`` builds for (``kind``, ``key``), built once per machine: compiled
-        checks that other modules keep with the machine they belong to."""
-        cache = self._compiled.setdefault(kind, {})
-        if key not in cache:
-            cache[key] = make()
-        return cache[key]
+    def cached(self, cache: "Cache[K, V]", key: K, make: Callable[[], V]) -> V:
+        """What ``make()`` builds for ``key`` in ``cache``, built once per machine.
+
+        Args:
+            cache: a module's own :class:`Cache` (its compiled checks, kept with the machine
+                they belong to, and gone with it).
+            key: what the value is for (an operation's name, a formula).
+            make: builds the value the first time.
+        """
+        store = self._compiled.setdefault(cache, {})
+        if key not in store:
+            store[key] = make()
+        return store[key]
+
+    def beyond_linear(self, op: str, env: dict[str, Any]):
+        """The allowed set of ``op`` in ``env`` where its guard is not linear in its REAL
+        parameters: None here (:meth:`allowed` then refuses, UnsupportedError); a shield's
+        machine (:class:`tracecheck.checking.shield.ShieldMachine`) asks the solver."""
+        return None
 
     def successor(self, op: Optional[str], before: Mapping[str, Any],
                   predicate: Optional[ast.Node], *, fixed: Optional[Mapping[str, Any]] = None):
@@ -486,21 +496,35 @@ class Machine:
 # ------------------------------------------------------------------ loading
 
 
-def load_machine(path: str | Path) -> Machine:
-    """Read and set up the machine in ``path``."""
-    return load_machine_text(read_text(path, "model file"), file=str(path))
+def load_machine(path: str | Path, kind: "Optional[type[Machine]]" = None) -> Machine:
+    """Read, check and set up the classical B machine in ``path``.
+
+    Args:
+        path: a ``.mch`` file.
+        kind: the class made (:class:`Machine`, or a subclass such as a shield's).
+
+    Returns:
+        The :class:`Machine`: its sets, constants, variables and operations, ready to
+        evaluate guards (:meth:`Machine.enabled`).
+
+    Raises:
+        TracecheckError: a located error (file, line, column) for what it cannot read.
+    """
+    return load_machine_text(read_text(path, "model file"), file=str(path), kind=kind)
 
 
-def load_machine_text(text: str, *, file: Optional[str] = None) -> Machine:
-    """Set up a machine from its text (see :func:`load_machine`)."""
+def load_machine_text(text: str, *, file: Optional[str] = None,
+                      kind: "Optional[type[Machine]]" = None) -> Machine:
+    """Set up a machine from its text (see :func:`load_machine`; ``kind``: the class made,
+    :class:`Machine` or a subclass)."""
     try:
         with deep_recursion():  # expanding, checking and setting up recurse into formulas
-            return _build(parse_machine_source(text, file=file))
+            return _build(parse_machine_source(text, file=file), kind or Machine)
     except TracecheckError as exc:
         raise exc.located(file=file or "<model>", source=text) from None
 
 
-def _build(src: MachineSource) -> Machine:
+def _build(src: MachineSource, kind: "type[Machine]") -> Machine:
     defs = src.definitions
     _check_names(src)
 
@@ -537,7 +561,7 @@ def _build(src: MachineSource) -> Machine:
     if src.initialisation is not None:
         init = expand(src.initialisation, defs)
         check_subst(init, source=src.text)
-    machine = Machine(
+    machine = kind(
         name=src.name, file=src.file, source=src.text,
         sha256=hashlib.sha256(src.text.encode("utf-8")).hexdigest(), sets=sets,
         enumerated=enumerated, constants=constants,

@@ -38,6 +38,7 @@ __all__ = ["Constraint", "Form", "exact", "form_constant", "form_add", "form_tim
            "interval_of", "box_of", "merge_intervals", "gap", "clamp", "nearest_in_boxes",
            "confirmed", "distance_floor", "inner_point", "towards", "neighbour",
            "nearest_in_polytope", "interior", "nearest_point", "distance_to", "MAX_SYSTEMS",
+           "box_within",
            "NUDGES", "DOUBLINGS", "FLOAT_SCAN", "scan_boxes", "float_range"]
 
 
@@ -630,3 +631,16 @@ def distance_to(allowed, point) -> Optional[float]:
             d = sum(((x - y) ** 2 for x, y in zip(q, target)), Fraction(0))
             best = d if best is None or d < best else best
     return None if best is None else float(best) ** 0.5
+
+
+def box_within(inner: dict, outer: dict, params) -> bool:
+    """Whether the box ``inner`` lies in the box ``outer`` (open and closed ends alike)."""
+    return all(_interval_within(inner[p], outer[p]) for p in params)
+
+
+def _interval_within(a, b) -> bool:
+    low = b.low is None or (a.low is not None and (
+        a.low > b.low or (a.low == b.low and (a.low_open or not b.low_open))))
+    high = b.high is None or (a.high is not None and (
+        a.high < b.high or (a.high == b.high and (a.high_open or not b.high_open))))
+    return low and high

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 from itertools import islice
 from typing import Any, Callable, Mapping, Optional
 
+from .cache import Cache
 from ..errors import EvaluationError, InputError, TracecheckError, UnsupportedError
 from . import ast
 from .bindings import conjuncts
@@ -41,6 +42,9 @@ from .values import Elem
 
 __all__ = ["Successor", "successor", "fixed_values", "equations", "initial_state_ok",
            "UndeterminedError"]
+
+#: per machine, (operation, strict) -> how its successors are found
+_PLANS: Cache = Cache("successor plans")
 
 #: the most candidate outcomes tried for one step (SELECT/CHOICE branches, ANY values)
 MAX_CANDIDATES = 4096
@@ -293,7 +297,7 @@ def initial_state_ok(machine, state: Mapping[str, Any]) -> bool:
 
 
 def _plan(machine, op, body, strict: bool = False) -> Plan:
-    return machine.cached("successor plans", (op, strict), lambda: _Planner(
+    return machine.cached(_PLANS, (op, strict), lambda: _Planner(
         SubstCompiler(machine.compiler()), strict).plan(body or ast.Skip()))
 
 

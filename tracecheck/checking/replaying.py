@@ -22,6 +22,7 @@ from typing import Any, Callable, Iterable, Optional, Sequence
 
 import numpy as np
 
+from ..b.cache import Cache
 from ..b.columns import Columns, shifted_pairs, step_pairs
 from ..b.linear import real_parameters
 from ..episodes.columns import RunColumns, read_blocks
@@ -36,6 +37,9 @@ from ..jsontext import Rows, plain
 __all__ = ["replay", "replay_columns", "ReplayReport", "EpisodeReplay", "EpisodeRows",
            "enabled_matrix",
            "check_parameters", "add_up", "OUTCOMES", "NEVER_BLOCKED"]
+
+#: per machine, an operation's guard over the columns with its recorded parameters bound
+_BATCH_BOUND_GUARDS: Cache = Cache("batch guards with parameters")
 
 #: what re-simulating one episode can find, in the words every output uses (the lines under
 #: the summary, the episode table in every format, the JSON): the recorded crash prevented or
@@ -373,7 +377,7 @@ def _guard_with_parameters(shield: Shield, cols: RunColumns, op, which: np.ndarr
         label = cols.states.label
         before.label = lambda i: (f"{label(int(which[i]))} ({op.name}'s guard in the state "
                                   "before, its parameters as recorded)")
-    guard = machine.cached("batch guards with parameters", op.name,
+    guard = machine.cached(_BATCH_BOUND_GUARDS, op.name,
                            lambda: machine.batch(op.guard))
     return np.asarray(guard(before), dtype=bool)
 
@@ -552,13 +556,25 @@ def _replay_one(path: str, shield: Shield, parsed: Sequence[tuple] = (),
 def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "local",
            ray_address: Optional[str] = None, ltl: Sequence[str] = (),
            ltl_assertions: bool = False, salvage: bool = False) -> ReplayReport:
-    """Replay every episode of the files against ``shield`` (see the module docstring);
-    check the LTL formulas ``ltl`` (and, with ``ltl_assertions``, the machine's
-    ``ASSERT_LTL`` definitions) on every episode (see :mod:`tracecheck.checking.ltl`).
+    """Replay every episode of the files against ``shield`` (see the module docstring).
 
     Each file is read a block of episodes at a time (memory is set by the block, not the
-    file); with ``executor="ray"`` each block is replayed in a Ray task; ``salvage``: as
-    :func:`~tracecheck.episodes.reader.read_run`.
+    file).
+
+    Args:
+        paths: run files (MCAP).
+        shield: the shield (:func:`~tracecheck.checking.shield.load_shield`).
+        executor: ``local``, or ``ray`` (each block in a Ray task at ``ray_address``).
+        ltl: LTL formulas to check on every episode (:mod:`tracecheck.checking.ltl`).
+        ltl_assertions: also check the machine's ``ASSERT_LTL`` definitions.
+        salvage: as :func:`~tracecheck.episodes.reader.read_run`.
+
+    Returns:
+        The :class:`ReplayReport`: per episode the first step the shield would have blocked.
+
+    >>> from tracecheck.checking.shield import load_shield
+    >>> replay(["sample_traces/base_none.mcap"], load_shield("paper")).episodes  # repo root
+    12
     """
     paths = [str(p) for p in paths]
     report = ReplayReport(shield=shield.identity, files=paths)

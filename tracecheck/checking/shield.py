@@ -13,11 +13,11 @@ from pathlib import Path
 from typing import Optional
 
 from .. import registry
-from ..b.machine import Machine, load_machine
+from ..b.machine import Machine, load_machine, load_machine_text
 from ..errors import InputError
 
-__all__ = ["Shield", "load_shield", "for_actions", "builtin_shields", "shield_names",
-           "SHIELD_DIR", "check_vocabulary", "data_dir"]
+__all__ = ["Shield", "ShieldMachine", "load_shield", "for_actions", "builtin_shields",
+           "shield_names", "SHIELD_DIR", "check_vocabulary", "data_dir"]
 
 def data_dir() -> Path:
     """Where the built-in shields and bundled agents are: ``models/`` of a source checkout, or
@@ -70,12 +70,23 @@ class Shield:
 
 def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None,
                 parameters: Optional[dict[str, tuple[str, ...]]] = None) -> Shield:
-    """The shield ``spec`` names: a built-in name or a path to a ``.mch`` file.
+    """The shield ``spec`` names.
 
-    With ``actions`` (the live agent's actions) it must have one operation for each; replay
-    and diff check instead that each action a recording uses has an operation. ``none``
-    is built for the actions (and, for continuous actions, the REAL ``parameters`` of
-    each, see :attr:`~tracecheck.live.adapter.EnvAdapter.parameters`).
+    Args:
+        spec: the name of a shield an installed environment brings (:func:`shield_names`),
+            ``none``, or the path of a ``.mch`` file.
+        actions: the live agent's actions: the shield must have one operation for each
+            (replay and diff check instead that each action a recording uses has one);
+            ``none`` is built for them.
+        parameters: for ``none`` and continuous actions, the REAL parameters of each action
+            (:attr:`~tracecheck.live.adapter.EnvAdapter.parameters`).
+
+    Returns:
+        The :class:`Shield`: its name, the sha256 of its text, its path and its machine (a
+        :class:`ShieldMachine`).
+
+    >>> load_shield("none", actions=("Left", "Right")).machine.operations.keys()
+    dict_keys(['Left', 'Right'])
     """
     text = str(spec)
     builtin = builtin_shields() if Path(text).suffix != ".mch" else {}
@@ -94,8 +105,7 @@ def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None,
             raise InputError(f"unknown shield {text!r}: give one of "
                              f"{', '.join(shield_names())} or the path of a .mch file")
         name = path.stem
-    machine = load_machine(path)
-    machine.decide_beyond_linear(beyond_linear)
+    machine = load_machine(path, kind=ShieldMachine)
     shield = Shield(name=name, sha256=machine.sha256, path=str(path), machine=machine)
     return for_actions(shield, actions) if actions is not None else shield
 
@@ -105,12 +115,22 @@ def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None,
 OFFLINE_SOLVER_S = 2.0
 
 
-def beyond_linear(machine, op: str, env: dict):
-    """The allowed set of ``op`` in ``env`` where its guard is not linear in its REAL
-    parameters: the solver's (:mod:`.solved_set`), within :data:`OFFLINE_SOLVER_S`."""
-    from .solved_set import solved_set
+class ShieldMachine(Machine):
+    """A shield's machine: where a guard is not linear in its REAL parameters, its allowed
+    set in a recorded state is the solver's (:mod:`.solved_set`, within
+    :data:`OFFLINE_SOLVER_S`) — where a plain :class:`~tracecheck.b.machine.Machine`
+    (:func:`~tracecheck.b.machine.load_machine`) refuses. Everything else is the same.
+    """
 
-    return solved_set(machine, op, env=env, timeout_s=OFFLINE_SOLVER_S)
+    def beyond_linear(self, op: str, env: dict):
+        from .solved_set import solved_set
+
+        return solved_set(self, op, env=env, timeout_s=OFFLINE_SOLVER_S)
+
+
+def load_solving(path: str | Path) -> ShieldMachine:
+    """The machine in ``path`` as a shield's (:class:`ShieldMachine`)."""
+    return load_machine(path, kind=ShieldMachine)
 
 
 def for_actions(shield: Shield, actions: tuple[str, ...]) -> Shield:
@@ -126,21 +146,16 @@ def for_actions(shield: Shield, actions: tuple[str, ...]) -> Shield:
 
 def _rebuilt(name: str, sha256: str, path: str, text: str, file: Optional[str]) -> Shield:
     """A pickled :class:`Shield` again, from its text (the sha256 checked: the same shield)."""
-    from ..b.machine import load_machine_text
-
-    machine = load_machine_text(text, file=file)
+    machine = load_machine_text(text, file=file, kind=ShieldMachine)
     if machine.sha256 != sha256:
         raise InputError(f"the shield {name} sent to a worker arrived changed (sha256 "
                          f"{machine.sha256[:12]}, not {sha256[:12]})")
-    machine.decide_beyond_linear(beyond_linear)
     return Shield(name=name, sha256=sha256, path=path, machine=machine)
 
 
 def _none_for(actions: tuple[str, ...], parameters: dict[str, tuple[str, ...]]) -> Shield:
     """``none`` for any environment: one operation per action, each always enabled (with
     its REAL parameters, any value allowed)."""
-    from ..b.machine import load_machine_text
-
     def op(a: str) -> str:
         params = parameters.get(a)
         if not params:
@@ -150,7 +165,7 @@ def _none_for(actions: tuple[str, ...], parameters: dict[str, tuple[str, ...]]) 
     ops = ";\n  ".join(op(a) for a in actions)
     text = (f"/* everything allowed: built from the actions */\nMACHINE none\nOPERATIONS\n"
             f"  {ops}\nEND\n")
-    machine = load_machine_text(text, file="none")
+    machine = load_machine_text(text, file="none", kind=ShieldMachine)
     return Shield(name="none", sha256=machine.sha256, path="none", machine=machine)
 
 

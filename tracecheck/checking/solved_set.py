@@ -47,6 +47,7 @@ from fractions import Fraction
 from itertools import product
 from typing import Any, Callable, Mapping, Optional
 
+from ..b.cache import Cache
 from ..b import ast
 from ..b.btypes import BOOL, INTEGER, REAL, Base, Pow, Prod, resolve_all
 from ..b.linear import AllowedSet, guard_with_parameters, real_parameters
@@ -61,6 +62,9 @@ from .smt import Translator
 
 __all__ = ["SolvedSet", "Nearest", "solved_set", "check_solvable", "DEFAULT_BUDGET_S",
            "DEFAULT_TOLERANCE"]
+
+#: per machine, a formula without parameters -> its compiled form (evaluated in the state)
+_STATE_PARTS: Cache = Cache("solver: parts without parameters")
 
 #: the solver's time for one state, all questions together (seconds)
 DEFAULT_BUDGET_S = 0.5
@@ -512,7 +516,7 @@ class _GuardTranslator(Translator):
             return self.opaque(node)
         machine = self.machine
         try:
-            fn = machine.cached("solver: parts without parameters", node,
+            fn = machine.cached(_STATE_PARTS, node,
                                 lambda: machine.compiler().compile(node))
             value = fn(self.env)
         except WellDefinednessError:

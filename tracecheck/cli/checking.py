@@ -146,7 +146,8 @@ def diff_cmd(
                                                  COUNTEREXAMPLES))
               if value != option.default]
     if solver:
-        raise InputError(f"{', '.join(solver)} only apply to --symbolic (the solver's "
+        raise InputError(f"{', '.join(solver)} only appl{'y' if len(solver) > 1 else 'ies'} to "
+                         "--symbolic (the solver's "
                          "comparison over every state); on recorded states there is no "
                          "solver")
     report = diff(runs, run_shield(shield, runs), run_shield(against, runs),

@@ -135,14 +135,16 @@ SALVAGE = typer.Option(False, "--salvage",
                             "files), with a warning, instead of stopping with exit 2.")
 
 
-def load_model(path: Path):
-    """A machine from a path, or an installed environment's shield by name."""
+def load_model(path: Path, *, solving: bool = False):
+    """A machine from a path, or an installed environment's shield by name (a shield's
+    machine, :class:`~tracecheck.checking.shield.ShieldMachine`, also with ``solving``: its
+    allowed sets beyond linear guards are the solver's)."""
     from ..b.machine import load_machine
-    from ..checking.shield import builtin_shields, load_shield
+    from ..checking.shield import ShieldMachine, builtin_shields, load_shield
 
     if str(path) in builtin_shields():
         return load_shield(str(path)).machine
-    return load_machine(path)
+    return load_machine(path, kind=ShieldMachine if solving else None)
 
 
 class Executor(str, Enum):
@@ -384,8 +386,9 @@ FORCE = typer.Option(False, "--force", help="Replace an existing output, only on
 #: ``--env`` of the commands that read runs (stats, report, render, replay, …): the same
 #: lookup as ``ENV`` (:func:`tracecheck.live.adapter.load_adapter`), but optional there — a
 #: run names its environment, and one whose adapter is not installed still works without it
-RUN_ENV = typer.Option(None, "--env", help="The runs' environment adapter: an installed one's "
-                       "name or package.module:Class (importing it runs its code). Default: "
+RUN_ENV = typer.Option(None, "--env", help="The runs' environment adapter: an installed one "
+                       "({environments}) or package.module:Class (importing it runs its "
+                       "code). Default: "
                        "the one the files name, where it is installed; without it, what "
                        "needs no adapter still works.")
 

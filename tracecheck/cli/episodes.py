@@ -38,9 +38,11 @@ def _vocabulary(kind: str, paths: list[Path], model: Optional[Path], env: Option
     variables = trace_variables(kind, paths)
     adapter = claiming_adapter(variables) if variables else None
     if adapter is None:
-        raise InputError(f"no --model or --env given, and no installed environment has the "
-                         f"variables of these traces ({', '.join(variables) or 'none found'})",
-                         hint="give --model MACHINE.mch (the traces' machine) or --env NAME")
+        raise InputError(f"no --model or --env given, and no installed environment claims "
+                         f"traces of these variables ({', '.join(variables) or 'none found'}) "
+                         "as its own", hint="give --env NAME to read them in an installed "
+                         "environment's vocabulary, or --model MACHINE.mch (the traces' "
+                         "machine)")
     err.print(f"the traces' states are read in the vocabulary of the environment "
               f"{adapter.name} (their variables are its; --model or --env chooses another)",
               markup=False, highlight=False)

@@ -121,10 +121,12 @@ def _train(adapter, config: dict, algorithm: Algorithm, shield, *, output: Path,
         for key in ("intervention_penalty", "shield_mode", "scale"):
             options.pop(key, None)
         return train_q_table(adapter, config, output, draw_curve=learning_curve, **options)
-    from ..live.training import train_agent
+    from ..live.training import Training, train_agent
 
-    return train_agent(adapter, config, algorithm.value, output, shield=shield,
-                       profile=profile, draw_curve=learning_curve, **options)
+    progress, force, inputs = options.pop("progress"), options.pop("force"), options.pop("inputs")
+    return train_agent(adapter, config, algorithm.value, output,
+                       Training(profile=profile, **options), shield=shield, progress=progress,
+                       force=force, inputs=inputs, draw_curve=learning_curve)
 
 
 def _say_trained(card: dict, output: Path) -> None:

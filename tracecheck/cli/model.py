@@ -252,13 +252,11 @@ def guards(
 ) -> None:
     """List the operations whose guard holds in a state."""
     from ..b.state import read_state_file
-    from ..checking.shield import beyond_linear
     from ..render.emit import emit
     from ..render.listing_text import GuardsOutput
 
     fmt = output_format(fmt, as_json)
-    machine = load_model(model)
-    machine.decide_beyond_linear(beyond_linear)  # a guard not linear: the solver's set
+    machine = load_model(model, solving=True)  # a guard not linear: the solver's set
     values = read_state_file(state)
     machine.check_state(values, where=str(state))
     missing = [v for v in machine.variables if v not in values]

@@ -35,6 +35,10 @@ def render_cmd(
     inputs = [run, *input_paths(shield)]
     path = check_output(output, inputs, force=force, example="episode.html")
     adapter = run_adapter(env)  # its scene() hook draws the picture; else the run's own
+    if adapter is not None and run.exists():
+        from ..stats.formulas import check_environment, environment_of
+
+        check_environment(adapter, environment_of(run))  # never another environment's picture
     loaded = load_shield(shield) if shield else None
     if (ltl or ltl_assertions) and loaded is None:
         raise InputError("--ltl and --ltl-assertions need --shield: the machine the formulas "
@@ -70,7 +74,7 @@ def report_cmd(
     from ..checking.shield import load_shield
     from ..outputs import input_paths
     from ..render.report import check_report_output, render_report
-    from ..stats.estimates import default_set
+    from ..stats.formulas import default_set
     from ..stats.properties import load_properties
     from ..stats.validation import validate
 

@@ -92,8 +92,9 @@ class RunOptions:
                              f"{', '.join(given)} cannot be used with it",
                              hint="the script decides the agent, the environment and its "
                                   "seeds")
-        raise InputError(f"{', '.join(given)} only apply to --external 'CMD' (an agent script "
-                         "that speaks SimB's external-simulation protocol)")
+        raise InputError(f"{', '.join(given)} only appl{'y' if len(given) > 1 else 'ies'} to "
+                         "--external 'CMD' (an agent script that speaks SimB's "
+                         "external-simulation protocol)")
 
 
 def _given(value: Any, option) -> bool:

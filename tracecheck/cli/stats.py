@@ -48,7 +48,8 @@ def stats_cmd(
     """Estimate metrics and property shares per run, side by side like the paper's tables."""
     fmt = output_format(fmt, as_json)
     from ..stats.properties import load_properties
-    from ..stats.estimates import default_set, statistics
+    from ..stats.estimates import statistics
+    from ..stats.formulas import default_set
 
     from ..render.stats_text import check_plot_folder
 
@@ -100,7 +101,7 @@ def simulate_cmd(
         _print_simulation(result, fmt)
         return
     settings = record_settings(run, episodes)
-    from ..stats.estimates import adapter_set
+    from ..stats.formulas import adapter_set
 
     pset = load_properties(properties) if properties else adapter_set(resolve(settings)[0])
     with progress("simulating", episodes) as advance:

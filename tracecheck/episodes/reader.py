@@ -18,6 +18,7 @@ import math
 import warnings
 import zlib
 from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
 from typing import Iterator, Optional
 
@@ -89,6 +90,20 @@ def _parse(name: str, data: bytes):
         raise _BadEpisode(f"bad {name} message: {loc}: {first['msg']}") from None
 
 
+#: the bytes of an MCAP Message record before its data: channel id (2), sequence (4), log
+#: time (8), publish time (8) — the MCAP specification's layout
+MESSAGE_FIELDS = 2 + 4 + 8 + 8
+
+
+class EpisodeDamage(Enum):
+    """Why the episode being assembled is damaged (its remaining messages are skipped)."""
+
+    STRAY = "a message outside any episode"
+    REUSED_ID = "an episode id used twice"
+    BAD_MESSAGE = "a message that does not check"
+    LOST_CHUNK = "the chunk of its messages is damaged"
+
+
 class _Assembler:
     """Builds checked pieces from records; raises (or, salvaging, warns) per bad episode."""
 
@@ -102,7 +117,8 @@ class _Assembler:
         self.channels: dict[int, str] = {}
         self.header: Optional[schema.RunHeaderMessage] = None
         self.current: Optional[Piece] = None
-        self.broken: Optional[str] = None  # the current episode is damaged (salvaging)
+        #: why the current episode is damaged (salvaging: the rest of it is skipped)
+        self.broken: Optional[EpisodeDamage] = None
         self.count = 0
         self.seen: set[int] = set()
         self.run_crc = 0
@@ -124,7 +140,7 @@ class _Assembler:
             buf, start, stop = record
             name = self.channels.get(buf[start] | buf[start + 1] << 8)
             if name is not None:
-                return self.message(name, buf, start + 22, stop)
+                return self.message(name, buf, start + MESSAGE_FIELDS, stop)
         elif isinstance(record, Attachment):
             if record.media_type == COLUMNS_MEDIA_TYPE:
                 return self.attachment(record.data)
@@ -156,7 +172,7 @@ class _Assembler:
             self.start(data)
         elif self.current is None:  # a stray message: one warning, the rest of it ignored
             self.current = Piece(schema.EpisodeHeaderMessage(episode=-1), [])
-            self.broken = "stray"
+            self.broken = EpisodeDamage.STRAY
             self.bad(f"a {name} message comes outside any episode", episode="?")
         elif self.broken is None:
             try:
@@ -165,7 +181,7 @@ class _Assembler:
                 elif name == "tracecheck.EpisodeEnd":
                     self.finish(data)
             except _BadEpisode as exc:
-                self.broken = str(exc)
+                self.broken = EpisodeDamage.BAD_MESSAGE
                 self.bad(str(exc))
         return None
 
@@ -178,13 +194,13 @@ class _Assembler:
         try:
             head = _parse("tracecheck.EpisodeHeader", data)
         except _BadEpisode as exc:
-            self.broken = str(exc)
+            self.broken = EpisodeDamage.BAD_MESSAGE
             self.current = Piece(schema.EpisodeHeaderMessage(episode=-1), [])
             self.bad(str(exc), episode="?")
             return
         self.current = Piece(head, [], crc=zlib.crc32(data))
         if head.episode in self.seen:
-            self.broken = "used twice"
+            self.broken = EpisodeDamage.REUSED_ID
             self.bad(f"the episode id {head.episode} is used twice",
                      )
         self.seen.add(head.episode)
@@ -243,7 +259,7 @@ class _Assembler:
             self.bad("the episode ends without its "
                      + ("columns attachment" if self.current.end else "end record"))
         self.current = Piece(schema.EpisodeHeaderMessage(episode=-1), [])
-        self.broken, self.bad_chunk = "chunk", why
+        self.broken, self.bad_chunk = EpisodeDamage.LOST_CHUNK, why
 
     def chunk_lost(self, blob: Optional[bytes] = None) -> None:
         """Report the damaged chunk before this point, naming its episode where ``blob`` (its
@@ -530,9 +546,9 @@ def _pieces(path: Path, buf, view, asm: "_Assembler", regions=None) -> Iterator[
                 # a step that is not decoded: counted, checksummed, the last one kept for
                 # the cross-check (the hot loop of reading a file's columns)
                 piece.count += 1
-                piece.last = (data, start + 22, end)
+                piece.last = (data, start + MESSAGE_FIELDS, end)
                 rec = view if data is buf else memoryview(data)
-                piece.crc = zlib.crc32(rec[start + 22:end], piece.crc)
+                piece.crc = zlib.crc32(rec[start + MESSAGE_FIELDS:end], piece.crc)
                 continue
         elif isinstance(record, Damage):
             asm.chunk_lost()
@@ -572,8 +588,20 @@ def read_episodes(path: str | Path, only: Optional[set[int]] = None, *,
 
 def read_run(path: str | Path, only: Optional[set[int]] = None, *,
              salvage: bool = False) -> Run:
-    """The header and all complete episodes of a file (or those in ``only``); warnings are
-    collected, not raised."""
+    """The header and all complete episodes of a file.
+
+    Args:
+        path: a run file.
+        only: the episode ids to decode (None: all).
+        salvage: leave out episodes whose parts disagree, with a warning, instead of
+            refusing the file.
+
+    Returns:
+        A :class:`Run`: header, episodes, and the warnings (collected, not raised).
+
+    >>> len(read_run("sample_traces/base_none.mcap", {0}).episodes)  # repo root
+    1
+    """
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", DamagedEpisode)
         episodes = list(read_episodes(path, only, salvage=salvage))

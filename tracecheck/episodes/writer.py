@@ -364,7 +364,7 @@ _INDEX_LISTS = ("_Writer__chunk_indices", "_Writer__attachment_indexes")
 def pack_indexes(writer: Writer) -> bool:
     """Have ``writer`` keep its chunk and attachment indexes as :class:`PackedIndex`es (the
     summary it writes is the same, byte for byte); False where this ``mcap`` keeps them under
-    other names (then as its objects, as before)."""
+    other names (then as its objects)."""
     lists = [getattr(writer, name, None) for name in _INDEX_LISTS]
     if not all(type(found) is list and not found for found in lists):
         return False

@@ -69,7 +69,7 @@ def _parameters(params, where: str) -> Optional[dict]:
     out = {}
     for name, text in params.items():
         value = read_literal(text, f"{where}, parameter {name}")
-        if type(value) is not float:  # not a continuous action's: left out, as before
+        if type(value) is not float:  # not a continuous action's: not kept
             return None
         out[str(name)] = value
     return out

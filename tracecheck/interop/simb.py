@@ -89,7 +89,10 @@ def simb_document(episode: Episode, model_name: str) -> dict:
         delay = int(round((s.time - prev_t) * 1000))
         prev_t = s.time
         acts.append(_activation(ids[k], s.action, delay, s.state, ids[k + 1:k + 2] or None))
-    ending = int(round(episode.steps[-1].time * 1000))
+    # ENDING_TIME says the simulation ran until its clock reached it: written only for an
+    # episode that ended by its time limit (a crash read back as one was a wrong answer)
+    ending = (f"; ENDING_TIME : {int(round(episode.steps[-1].time * 1000))}"
+              if episode.end.reason == "time-limit" else "")
     return {
         "variables": {},
         "activations": acts,
@@ -98,7 +101,7 @@ def simb_document(episode: Episode, model_name: str) -> dict:
             "fileType": "Timed_Trace",
             "formatVersion": 3,
             "savedAt": _dt.datetime.now(_dt.timezone.utc).isoformat().replace("+00:00", "Z"),
-            "creator": f"tracecheck {__version__}; ENDING_TIME : {ending}",
+            "creator": f"tracecheck {__version__}{ending}",
             "modelName": model_name,
         },
     }

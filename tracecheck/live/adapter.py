@@ -3,7 +3,8 @@
 An adapter is the one place that knows an environment: its Gymnasium id and configuration,
 which action index is which B operation, how an observation becomes a B state, what a crash
 is, how long an episode may last. Recording, shielding, training and re-simulation use only
-this interface; replay, diff and statistics never import an environment at all.
+this interface; replay, diff and statistics never make an environment (they read the installed
+adapters' declarations: the shields and property sets they bring, the runs they claim).
 
 An adapter class is the environment's one descriptor: besides the hooks, it declares the
 shields and property sets it brings (``--shield``/``--properties`` names), a one-line
@@ -76,10 +77,28 @@ class Observer:
 
 
 class EnvAdapter:
-    """What tracecheck needs to know of an environment (see the module docstring).
+    """What tracecheck knows of an environment: its one descriptor (see the module docstring).
 
     Subclasses set the class attributes and implement :meth:`make_env` and :meth:`state`;
-    everything else has a default.
+    everything else has a default. Registered by one entry point of
+    ``tracecheck.environments`` (or given as ``--env package.module:Class``), an adapter is
+    seen by every command: ``tracecheck envs`` lists it with what it brings.
+
+    Example::
+
+        class Corridor(EnvAdapter):
+            name = "corridor"
+            description = "a corridor with a pit at one end"
+            env_id = "Corridor-v0"
+            actions = ("Left", "Right")
+            variables = ("pos",)
+            shields = {"corridor": Path(__file__).with_name("corridor.mch")}
+
+            def make_env(self, config, render_mode=None):
+                return CorridorEnv(**config)
+
+            def state(self, obs, info, reward, env, initial):
+                return {"pos": int(obs)}
     """
 
     #: short name (``--env corridor``)
@@ -184,6 +203,16 @@ class EnvAdapter:
         return {k: typed_setting(self.name, k, v, kinds.get(k)) for k, v in overrides.items()}
 
     def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
+        """Make the environment.
+
+        Args:
+            config: its configuration (:meth:`config`: the defaults, a profile, the
+                user's ``--env-config``).
+            render_mode: Gymnasium's ``render_mode``, if one is asked for.
+
+        Returns:
+            A ``gymnasium.Env``.
+        """
         raise NotImplementedError
 
     def observer(self, env) -> Observer:
@@ -191,11 +220,35 @@ class EnvAdapter:
         return Observer(self, env)
 
     def state(self, obs, info: dict, reward: float, env, initial: bool) -> dict[str, Any]:
-        """The B state of an observation."""
+        """The B state of an observation.
+
+        Args:
+            obs: the observation ``reset`` or ``step`` returned.
+            info: the info dict with it.
+            reward: the step's reward (0 after ``reset``).
+            env: the environment (for what the observation does not hold, e.g. a map).
+            initial: whether this is the observation of ``reset``.
+
+        Returns:
+            ``{variable: value}`` for each of :attr:`variables`, as B values: ``bool``,
+            ``int``, ``float`` (a REAL), ``str`` (a STRING), ``frozenset`` (a set),
+            :class:`~tracecheck.b.values.Elem` (an element of an enumerated or deferred
+            set) and :class:`~tracecheck.b.values.FuncValue` (a function or relation).
+        """
         raise NotImplementedError
 
     def crashed(self, obs, reward: float, terminated: bool, info: dict) -> bool:
-        """Whether this step ended in the failure the shield is meant to prevent."""
+        """Whether this step ended in the failure the shield is meant to prevent.
+
+        Args:
+            obs: the observation after the step.
+            reward: the step's reward.
+            terminated: Gymnasium's ``terminated``.
+            info: the step's info dict.
+
+        Returns:
+            True for a crash; by default ``info["crashed"]``.
+        """
         return bool(info.get("crashed", False))
 
     def fallback_index(self) -> int:
@@ -496,8 +549,8 @@ _ATTRIBUTES = (
 
 def _check_attributes(adapter: EnvAdapter, where: str) -> None:
     """Every attribute the adapter declares has the type tracecheck reads it as (checked
-    when it is loaded, not where it is first used: ``horizon = "abc"`` was a TypeError in
-    the middle of a recording, ``assumptions = "pos > 1"`` read letter by letter); reading
+    when it is loaded, not where it is first used: ``horizon = "abc"`` would fail in
+    the middle of a recording, ``assumptions = "pos > 1"`` be read letter by letter); reading
     one that raises is reported like a hook's error."""
     def read(attr: str):
         try:

@@ -200,7 +200,7 @@ class ContinuousShield:
             raise InputError(f"{where} has fallback = {self.fallback_op!r}, not one of its "
                              f"actions ({', '.join(self.actions)})")
         self.fallback = self._fallback(adapter, where)
-        if not self.hybrid:  # the one operation's, as before
+        if not self.hybrid:  # the one operation's
             self.op, self.dtype = parts[0].op, parts[0].dtype
         self.enabled: set[str] = set()
         self.problem: Optional[str] = None  # why nothing could be confirmed, if so

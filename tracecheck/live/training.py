@@ -50,7 +50,7 @@ import numpy as np
 from ..errors import InputError
 from .agents import Q_LEARNING, agent_outputs, file_sha256, save_model, write_card
 
-__all__ = ["train_agent", "train_q_table", "shielding_text", "LEARNERS", "ALGORITHMS", "Learner", "Returns",
+__all__ = ["Training", "train_agent", "train_q_table", "shielding_text", "LEARNERS", "ALGORITHMS", "Learner", "Returns",
            "Progress", "CurveDrawer"]
 
 #: ``progress(steps done, total, mean return of the last episodes or None)``
@@ -83,7 +83,7 @@ def _off_policy_settings(steps: int) -> dict[str, Any]:
             "buffer_size": 100_000, "batch_size": 256, "gamma": 0.99}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Learner:
     """One ``--algorithm``: its class, its settings, and how a shield reaches it."""
 
@@ -97,14 +97,18 @@ class Learner:
 
 
 LEARNERS: dict[str, Learner] = {
-    "dqn": Learner("DQN", "stable_baselines3", True, _dqn_settings),
-    "ppo": Learner("PPO", "stable_baselines3", False, _ppo_settings, continuous=True),
-    "a2c": Learner("A2C", "stable_baselines3", False, _a2c_settings, continuous=True),
-    "maskable-ppo": Learner("MaskablePPO", "sb3_contrib", True, _ppo_settings, True),
-    "sac": Learner("SAC", "stable_baselines3", False, _off_policy_settings, discrete=False,
-                   continuous=True),
-    "td3": Learner("TD3", "stable_baselines3", False, _off_policy_settings, discrete=False,
-                   continuous=True),
+    "dqn": Learner(name="DQN", package="stable_baselines3", masks=True,
+                   settings=_dqn_settings),
+    "ppo": Learner(name="PPO", package="stable_baselines3", masks=False,
+                   settings=_ppo_settings, continuous=True),
+    "a2c": Learner(name="A2C", package="stable_baselines3", masks=False,
+                   settings=_a2c_settings, continuous=True),
+    "maskable-ppo": Learner(name="MaskablePPO", package="sb3_contrib", masks=True,
+                            settings=_ppo_settings, needs_mask=True),
+    "sac": Learner(name="SAC", package="stable_baselines3", masks=False,
+                   settings=_off_policy_settings, discrete=False, continuous=True),
+    "td3": Learner(name="TD3", package="stable_baselines3", masks=False,
+                   settings=_off_policy_settings, discrete=False, continuous=True),
 }
 ALGORITHMS = (*LEARNERS, "q-learning")
 
@@ -163,20 +167,55 @@ def _outputs(out: Path, suffix: str, example: str, force: bool, inputs: Sequence
     return out, card, check_output(curve_path(out), inputs, force=force, what="learning curve")
 
 
-def train_agent(adapter, config: dict, algorithm: str, out: str | Path, *,
-                shield=None, steps: int, seed: int = 0, horizon: Optional[int] = None,
-                profile: Optional[str] = None, progress: Optional[Progress] = None,
-                force: bool = False, inputs: Sequence[Path] = (),
-                draw_curve: Optional[CurveDrawer] = None,
-                intervention_penalty: float = 0.0, shield_mode: Optional[str] = None,
-                scale: Optional[Sequence[float]] = None) -> dict[str, Any]:
-    """Train ``algorithm`` (a key of :data:`LEARNERS`) on the adapter's environment, under
-    ``shield`` if given; save the agent (``.zip``), its learning curve and its model card
-    (see the module docstring); returns the card.
+@dataclass(frozen=True, kw_only=True)
+class Training:
+    """How an agent is trained (everything but the environment, the algorithm and the
+    files): its steps, seed and episode horizon, the named configuration, and for continuous
+    actions under a shield how the shield acts and what an intervention costs.
 
-    Example: ``train_agent(get_adapter("corridor"), {}, "ppo", "a.zip", steps=2000)``.
+    >>> Training(steps=2000, seed=3).horizon is None
+    True
+    """
+
+    steps: int                                  #: environment steps
+    seed: int = 0                               #: stable-baselines3's and NumPy's seed
+    horizon: Optional[int] = None               #: agent steps per episode (None: the adapter's)
+    profile: Optional[str] = None               #: the named configuration (the model card's)
+    intervention_penalty: float = 0.0           #: reward lost per unit of projection distance
+    shield_mode: Optional[str] = None           #: continuous: project, replace or mask
+    scale: Optional[Sequence[float]] = None     #: continuous: the unit of each component
+
+
+def train_agent(adapter, config: dict, algorithm: str, out: str | Path, training: Training, *,
+                shield=None, progress: Optional[Progress] = None, force: bool = False,
+                inputs: Sequence[Path] = (),
+                draw_curve: Optional[CurveDrawer] = None) -> dict[str, Any]:
+    """Train ``algorithm`` on the adapter's environment, under ``shield`` if given; save the
+    agent (``.zip``), its learning curve and its model card (see the module docstring).
+
+    Args:
+        adapter: the environment's adapter.
+        config: the environment's configuration (:meth:`EnvAdapter.config`).
+        algorithm: a key of :data:`LEARNERS`.
+        out: the agent file to write (its card ``NAME.json`` beside it).
+        training: steps, seed, horizon and the rest (:class:`Training`).
+        shield: a shield in the loop (masked or replaced, see the module docstring).
+        progress: called with (steps done, total, mean return of the last episodes).
+        force: replace existing outputs.
+        inputs: the files read (never an output).
+        draw_curve: draws the learning curve (None: none drawn).
+
+    Returns:
+        The model card.
+
+    Example: ``train_agent(get_adapter("corridor"), {}, "ppo", "a.zip", Training(steps=2000))``.
     """
     import torch
+
+    steps, seed, horizon, profile = (training.steps, training.seed, training.horizon,
+                                     training.profile)
+    intervention_penalty, shield_mode, scale = (training.intervention_penalty,
+                                                training.shield_mode, training.scale)
 
     if algorithm not in LEARNERS:
         raise InputError(f"unknown algorithm {algorithm!r}; the algorithms are "

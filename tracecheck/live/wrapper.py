@@ -86,6 +86,21 @@ class ShieldWrapper(gym.Wrapper):
     ``step(action)`` takes an allowed action as given. An action the shield does not allow is
     replaced — by the fallback if the shield allows it, else by the first allowed action —
     and ``info["shield"]["replaced"]`` says so; MaskablePPO-style agents never send one.
+
+    Args:
+        env: the environment (an installed adapter has its id, or give ``adapter``).
+        shield: the shield (:func:`~tracecheck.checking.shield.load_shield`).
+        fallback: the action taken when the shield allows nothing (default: the adapter's).
+        adapter: the environment's adapter (default: the installed one of ``env``'s id).
+        mode: continuous actions: ``project``, ``replace`` or ``mask``.
+        scale: continuous actions: the unit of each component in projection distances.
+
+    Example::
+
+        env = ShieldWrapper(gym.make("Corridor-v0"), load_shield("corridor"))  # installed
+        obs, info = env.reset(seed=0)
+        obs, reward, terminated, truncated, info = env.step(env.action_masks().argmax())
+        info["shield"]["allowed"]   # the actions the shield allowed in that state
     """
 
     def __init__(self, env: gym.Env, shield: Shield, fallback: Optional[str] = None,

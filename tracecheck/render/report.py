@@ -15,6 +15,7 @@ import html
 from pathlib import Path
 from typing import Optional, Sequence
 
+from ..stats.levels import SIGNIFICANCE
 from ..checking.replaying import (MISMATCH, NEVER_BLOCKED, NEW_CRASH, NO_CRASH, NO_SEED,
                                 NOT_PREVENTED, PREVENTED)
 from ..checking.shield import Shield
@@ -43,7 +44,7 @@ SHOWN = 8
 #: campaign of 10^5 episodes has tens of thousands: ``replay --format csv`` lists every one)
 TAIL = 500
 #: significance level of the sentences
-ALPHA = 0.05
+ALPHA = SIGNIFICANCE
 
 
 def _e(text) -> str:
@@ -226,7 +227,7 @@ def render_report(validation, out: Path, *, max_pages: int = 20, force: bool = F
 def _environment(path, header) -> str:
     """The run's environment as the statistics take it (the one its file names, or the
     installed one that claims its states); an external script's is its own."""
-    from ..stats.estimates import environment_of
+    from ..stats.formulas import environment_of
 
     if header.source == "external":
         return f"the script's own (states of {header.model_name})"

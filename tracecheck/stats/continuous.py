@@ -39,6 +39,7 @@ from typing import Iterable, Optional
 
 import numpy as np
 
+from .levels import CONFIDENCE
 from ..episodes.columns import RunColumns
 from ..episodes.model import Episode
 
@@ -228,7 +229,7 @@ def _share(count: int, steps: int, interval: str) -> dict:
 
     out = {"count": count, "steps": steps, "ratio": None, "ci95": None, "method": interval}
     if steps:
-        ci = stats.binomtest(count, steps).proportion_ci(confidence_level=0.95,
+        ci = stats.binomtest(count, steps).proportion_ci(confidence_level=CONFIDENCE,
                                                          method=INTERVALS[interval])
         out.update(ratio=count / steps, ci95=[float(ci.low), float(ci.high)])
     return out

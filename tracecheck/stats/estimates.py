@@ -12,27 +12,25 @@ from __future__ import annotations
 
 import math
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator, Optional
 
 import numpy as np
 
-from ..b.typecheck import typecheck_formula
+from .levels import CONFIDENCE
 from ..b.arrays import float_column
-from ..b.vector import BatchFormula
 from ..episodes.columns import RunColumns, join, read_blocks, read_columns
-from ..errors import EvaluationError, InputError, TracecheckError
-from ..checking.crashflag import CRASH_FLAG, flagged, with_crash_flag
-from ..live.adapter import installed_adapter
+from ..errors import InputError
+from ..checking.crashflag import with_crash_flag
 from .continuous import (INTERVALS, ContinuousSteps, continuous_summary, joined_steps,
                          read_continuous_steps)
 from .continuous import interventions as continuous_interventions
-from .properties import Metric, Property, PropertySet, load_properties, with_generic
+from .formulas import check_environment, environment_of, naming, prepare
+from .properties import Metric, Property, PropertySet
 
 __all__ = ["RunValues", "StatsResult", "evaluate_run", "statistics", "run_statistics",
-           "INTERVALS", "default_set", "adapter_set"]
+           "INTERVALS"]
 
 
 @dataclass
@@ -48,219 +46,6 @@ class RunValues:
     warnings: list[str] = field(default_factory=list)
     #: continuous actions: what the shield did at each step (None for a discrete run)
     continuous: Optional[ContinuousSteps] = None
-
-
-def environment_of(path: str | Path) -> str:
-    """The environment a run file's states come from: the one its header names; for a file
-    that names none (imported traces, files from before environments were recorded), the
-    installed environment that claims its state variables
-    (:meth:`~tracecheck.live.adapter.EnvAdapter.claims`), else the name of its machine
-    (looked up among the installed adapters only, so usually none: generic statistics)."""
-    from ..episodes.reader import read_header
-    from ..live.adapter import claiming_adapter
-
-    header = read_header(path)
-    if header.environment:
-        return header.environment
-    claimed = claiming_adapter(header.variables) if header.variables else None
-    if claimed is not None:
-        return claimed.name
-    return header.model_name or "unnamed"
-
-
-@dataclass
-class _Scope:
-    """What formulas are checked against: names with their types, constants, the state
-    variables (for hints), and whether ``crashed`` is the environment's own name."""
-
-    names: dict
-    constants: dict
-    variables: tuple
-    own_crashed: bool
-
-
-def _typing_scope(environment=None, sample: Optional[dict] = None,
-                  machine=None) -> _Scope:
-    """The names and constants properties are checked against: those of ``machine`` when
-    given, else of the environment's machine (the shield its adapter names), else the types
-    of a sample state's values — and the recorded crash flag ``crashed``, unless they have a
-    ``crashed`` of their own."""
-    from ..b.btypes import BOOL
-    from ..b.typecheck import type_of_value
-    from ..checking.shield import load_shield
-
-    adapter = None if machine is not None else installed_adapter(environment, required=False)
-    if machine is None and adapter is not None and adapter.default_shield is not None:
-        machine = load_shield(adapter.default_shield).machine
-    if machine is not None:
-        names, constants, variables = (dict(machine.type_objects), dict(machine.base_env),
-                                       machine.variables)
-    else:  # no machine: the recorded states' own types (none before the first episode)
-        sample = sample or {}
-        names, constants = {k: type_of_value(v) for k, v in sample.items()}, {}
-        variables = tuple(sample) or (tuple(adapter.variables) if adapter else ())
-    own = CRASH_FLAG in names
-    if not own:
-        names[CRASH_FLAG] = BOOL
-    return _Scope(names, constants, variables, own)
-
-
-def _class(adapter) -> str:
-    return f"{type(adapter).__module__}:{type(adapter).__qualname__}"
-
-
-def _reads_crashed(node, text: Optional[str]) -> bool:
-    import re
-
-    from ..b.ast import free_names
-
-    if node is not None:
-        return CRASH_FLAG in free_names(node)
-    return bool(re.search(rf"\b{CRASH_FLAG}\b", text or ""))
-
-
-def _check(node, kind: str, where: str, text: str, scope: _Scope) -> None:
-    try:
-        typecheck_formula(node, scope.names, kind=kind, source=text, file=where,
-                          unknown_hint="the state variables are "
-                                       f"{', '.join([*scope.variables, CRASH_FLAG])}")
-    except TracecheckError as exc:
-        raise exc.located(file=where, source=text) from None
-
-
-def default_set(paths: list[str | Path], adapter=None) -> tuple[PropertySet, list[str]]:
-    """The generic set with the runs' environment's own set added where it has one (its
-    adapter given, or installed), and notes for people (an adapter not installed here)."""
-    environment = environment_of(paths[0]) if paths else None
-    adapter = adapter if adapter is not None else (
-        installed_adapter(environment, required=False) if environment else None)
-    if adapter is None:
-        from ..episodes.reader import read_header
-
-        if paths and read_header(paths[0]).source == "external":
-            return with_generic(None), [
-                f"the runs come from an agent script (states of {environment}): generic "
-                "statistics (give --properties FILE for the machine's own properties)"]
-        return with_generic(None), [
-            f"the environment {environment} of these runs is not installed here: generic "
-            "statistics only (give --env package.module:Class for its own property set)"]
-    return adapter_set(adapter), []
-
-
-def adapter_set(adapter) -> PropertySet:
-    """The generic set with the adapter's own added (``stats`` and ``simulate`` without
-    ``--properties``)."""
-    return with_generic(load_properties(adapter.properties) if adapter.properties else None)
-
-
-def prepare(pset: PropertySet, environment=None, sample: Optional[dict] = None,
-            machine=None) -> dict:
-    """Type-check every formula of ``pset`` against the environment's machine (a name or an
-    adapter; ``sample``: a state to take types from where there is no machine; ``machine``:
-    a machine to use instead, a ProB project's) and prepare it for batch evaluation.
-    ``formulas["warnings"]`` says where ``crashed`` is the environment's own name, not the
-    recorded crash flag."""
-    needs_scope = any(m.node is not None for m in pset.metrics) or any(
-        p.node is not None for p in pset.properties)
-    if machine is None:
-        environment = _environment_adapter(environment, sample) or environment
-    scope = _typing_scope(environment, sample, machine) if needs_scope else None
-    formulas: dict = {"warnings": []}
-
-    def note(node, text, where) -> None:
-        if scope is not None and scope.own_crashed and _reads_crashed(node, text):
-            formulas["warnings"].append(f"{where}: crashed is the environment's own "
-                                        "variable here, not the recorded crash flag")
-
-    for m in pset.metrics:
-        where = f"{pset.where}: metric {m.name}"
-        if m.aggregate == "stl":
-            formulas[("m", m.name)] = _Temporal("stl", m.expression, _machine(environment),
-                                                where)
-            note(None, m.expression, where)
-        elif m.node is not None:
-            _check(m.node, "expression", where, m.expression, scope)
-            formulas[("m", m.name)] = BatchFormula(m.node, scope.constants,
-                                                   source=m.expression, file=where)
-            note(m.node, None, where)
-    for p in pset.properties:
-        where = f"{pset.where}: property {p.name}"
-        if p.kind in ("ltl", "stl"):
-            formulas[("p", p.name)] = _Temporal(p.kind, p.predicate, _machine(environment),
-                                                where)
-            note(None, p.predicate, where)
-        elif p.node is not None:
-            _check(p.node, "predicate", where, p.predicate, scope)
-            formulas[("p", p.name)] = BatchFormula(p.node, scope.constants, source=p.predicate,
-                                                   file=where)
-            note(p.node, None, where)
-    return formulas
-
-
-def _environment_adapter(environment, sample: Optional[dict]):
-    """The adapter of the runs' environment: the one named (or given) where it is installed,
-    else — for runs that name none — the installed one that claims the variables of a
-    sample state; None where neither is."""
-    from ..live.adapter import EnvAdapter, claiming_adapter
-
-    if isinstance(environment, EnvAdapter):
-        return environment
-    adapter = installed_adapter(environment, required=False) if environment else None
-    if adapter is None and sample:
-        adapter = claiming_adapter(tuple(sample))
-    return adapter
-
-
-def _machine(environment):
-    """The machine of the environment's default shield (what LTL properties are read in),
-    with the recorded crash flag as one more variable (unless it has a ``crashed``)."""
-    from ..checking.shield import load_shield
-
-    adapter = installed_adapter(environment)
-    if adapter.default_shield is None:
-        raise InputError(f"the environment {adapter.name} names no machine to read LTL and "
-                         "STL properties in: its adapter has no default_shield",
-                         hint=f"set default_shield = \"NAME_OR_PATH.mch\" (a built-in shield's "
-                              f"name or the path of a .mch file) on {_class(adapter)}")
-    machine = load_shield(adapter.default_shield).machine
-    return flagged(machine)
-
-
-@contextmanager
-def _naming(where: str):
-    """An :class:`EvaluationError` raised inside says ``where`` first (the metric)."""
-    try:
-        yield
-    except EvaluationError as exc:
-        if not exc.message.startswith(where):
-            exc.message = f"{where}: {exc.message}"
-            exc.args = (exc.render(),)
-        raise
-
-
-class _Temporal:
-    """An LTL or STL formula over whole episodes: per episode, whether it holds (LTL; STL:
-    a positive robustness) or its robustness (STL)."""
-
-    def __init__(self, logic: str, text: str, machine, where: str) -> None:
-        from ..checking.ltl import parse_ltl
-        from ..checking.stl import parse_stl
-
-        self.logic, self.machine, self.where = logic, machine, where
-        self.formula = (parse_ltl if logic == "ltl" else parse_stl)(text, machine, where=where)
-
-    def values(self, cols: RunColumns) -> np.ndarray:
-        from ..checking.stl import episode_robustness
-
-        with _naming(self.where):
-            return episode_robustness(self.formula, cols, self.machine)
-
-    def holds(self, cols: RunColumns) -> np.ndarray:
-        from ..checking.ltl import evaluate_ltl
-
-        if self.logic == "stl":
-            return self.values(cols) > 0
-        return evaluate_ltl(self.formula, cols, self.machine)[cols.starts[:-1]]
 
 
 def _values_recorded(cols: RunColumns) -> np.ndarray:
@@ -360,12 +145,12 @@ def evaluate_run(path: str | Path, pset: PropertySet, formulas: dict,
     cols = with_crash_flag(cols)
     for m in pset.metrics:
         if m.aggregate == "stl":
-            run.metrics[m.name] = formulas[("m", m.name)].values(cols)
+            run.metrics[m.name] = formulas.metrics[m.name].values(cols)
             continue
         values = None
         if m.node is not None:
-            with _naming(f"{pset.where}: metric {m.name}"):
-                values = float_column(formulas[("m", m.name)](cols.states), cols.states,
+            with naming(f"{pset.where}: metric {m.name}"):
+                values = float_column(formulas.metrics[m.name](cols.states), cols.states,
                                       f"`{m.expression}`")
         run.metrics[m.name] = _aggregate(m, values, cols)
     for p in pset.properties:
@@ -373,8 +158,8 @@ def evaluate_run(path: str | Path, pset: PropertySet, formulas: dict,
             run.properties[p.name] = np.array([r == p.predicate for r in cols.reasons],
                                               dtype=bool)
             continue
-        formula = formulas[("p", p.name)]
-        with _naming(f"{pset.where}: property {p.name}"):
+        formula = formulas.properties[p.name]
+        with naming(f"{pset.where}: property {p.name}"):
             run.properties[p.name] = formula.holds(cols) if p.kind in ("ltl", "stl") else \
                 _holds(p, formula(cols.states), cols)
     return run
@@ -392,7 +177,7 @@ def _metric_stats(values: np.ndarray, m: Metric) -> dict:
     if n >= 2:
         with np.errstate(invalid="ignore"):  # inf - inf: nan, noted below
             sd = float(np.std(values, ddof=1))
-        half = float(stats.t.ppf(0.975, n - 1)) * sd / math.sqrt(n)
+        half = float(stats.t.ppf(1 - (1 - CONFIDENCE) / 2, n - 1)) * sd / math.sqrt(n)
         out.update(sd=sd, ci95=[mean - half, mean + half])
     if m.estimate is not None:
         value, eps = m.estimate
@@ -432,7 +217,7 @@ def _property_stats(holds: np.ndarray, p: Property, interval: str) -> dict:
     from scipy import stats
 
     n, k = len(holds), int(np.count_nonzero(holds))
-    ci = stats.binomtest(k, n).proportion_ci(confidence_level=0.95,
+    ci = stats.binomtest(k, n).proportion_ci(confidence_level=CONFIDENCE,
                                              method=INTERVALS[interval])
     out = {"holds": k, "episodes": n, "ratio": k / n, "ci95": [float(ci.low), float(ci.high)],
            "method": interval}
@@ -541,7 +326,7 @@ def _evaluate_blocks(path: str, pset: PropertySet, name: Optional[str], environm
             sample = cols.states.row(0) if cols.states.n else None
             formulas = prepare(pset, environment, sample)
             runs.append(RunValues(name or Path(path).stem, str(path), 0, [],
-                                  warnings=list(formulas["warnings"])))
+                                  warnings=list(formulas.warnings)))
         runs.append(evaluate_run(path, pset, formulas, name, cols))
         if cols.parameters:
             start = time.perf_counter()
@@ -561,14 +346,6 @@ def _merged(parts: list[RunValues], name: str, file: str) -> RunValues:
             getattr(run, key)[k] = np.concatenate([getattr(r, key)[k] for r in done])
     run.continuous = joined_steps([r.continuous for r in parts if r.continuous is not None])
     return run
-
-
-def check_environment(adapter, environment: str) -> None:
-    """``--env`` must be the adapter of the runs' environment (the name in their files)."""
-    if adapter.name != environment:
-        raise InputError(f"the runs come from the environment {environment}, but --env gives "
-                         f"the adapter of {adapter.name}",
-                         hint=f"give the adapter of {environment}, or leave --env out")
 
 
 class StatsResult(dict):

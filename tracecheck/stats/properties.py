@@ -365,6 +365,9 @@ def load_properties(spec: str | Path) -> PropertySet:
     if found is not None:
         return _bundled_set(str(spec), found[1])
     path = Path(spec)
+    if not path.suffix and not path.exists():
+        raise InputError(f"unknown property set {str(spec)!r}: give one of "
+                         f"{', '.join(builtin_sets())} or the path of a property file (TOML)")
     return parse_properties(read_text(path, "property file"), name=path.stem, file=str(path))
 
 

@@ -183,7 +183,7 @@ def _predicates(window: Window, machine, cols) -> dict:
     from ..checking.crashflag import with_crash_flag
 
     states = with_crash_flag(cols).states
-    return {key: np.asarray(formulas[("p", key)](states), dtype=bool) for key in named}
+    return {key: np.asarray(formulas.properties[key](states), dtype=bool) for key in named}
 
 
 def has_setup(machine) -> bool:

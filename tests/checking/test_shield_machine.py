@@ -1,0 +1,44 @@
+"""What a machine loaded by itself and a shield's machine answer where a guard is not linear
+in its REAL parameters: explicitly different types (the solver was injected after loading,
+so the same file answered differently by how it was loaded)."""
+
+from __future__ import annotations
+
+import pytest
+
+from tracecheck.b.machine import Machine, load_machine
+from tracecheck.checking.shield import ShieldMachine, load_shield
+from tracecheck.errors import UnsupportedError
+
+pytest.importorskip("z3")
+
+SQUARE = """MACHINE Square
+VARIABLES x
+INVARIANT x : REAL
+INITIALISATION x := 0.0
+OPERATIONS
+  Act(a) = PRE a : REAL & a * a <= x THEN skip END
+END
+"""
+
+
+def test_a_plain_machine_refuses_where_a_shields_machine_asks_the_solver(tmp_path):
+    path = tmp_path / "square.mch"
+    path.write_text(SQUARE)
+    plain, shield = load_machine(path), load_shield(path).machine
+    assert type(plain) is Machine and isinstance(shield, ShieldMachine)
+    with pytest.raises(UnsupportedError):
+        plain.allowed("Act", {"x": 4.0})
+    allowed = shield.allowed("Act", {"x": 4.0})
+    assert allowed.contains({"a": 1.5}) and not allowed.contains({"a": 2.5})
+    assert load_machine(path, kind=ShieldMachine).allowed("Act", {"x": 4.0}).contains({"a": 2.0})
+
+
+def test_the_shield_machine_survives_pickling(tmp_path):
+    import pickle
+
+    path = tmp_path / "square.mch"
+    path.write_text(SQUARE)
+    again = pickle.loads(pickle.dumps(load_shield(path)))
+    assert isinstance(again.machine, ShieldMachine)
+    assert again.machine.allowed("Act", {"x": 1.0}).contains({"a": -1.0})
