@@ -20,14 +20,13 @@ import zlib
 from pathlib import Path
 from typing import IO, Any, Callable, Iterable, Optional, Protocol
 
-from mcap.data_stream import RecordBuilder
-from mcap.writer import CompressionType, IndexType, Writer
 from pydantic import ValidationError
 
 from .. import __version__
 from ..b.columns import Columns
 from ..errors import InputError, TracecheckError
 from . import schema
+from .mcap_out import McapOut
 from .blobs import BLOCK_ROWS
 from .codec import COLUMNS_MEDIA_TYPE, encode_columns, encode_state
 from .model import Episode
@@ -93,7 +92,7 @@ class EpisodeWriter:
         self._extra: Optional[StepChannels] = None
         self.episodes = 0
         self._stream: Optional[IO[bytes]] = None
-        self._writer: Optional[Writer] = None
+        self._writer: Optional[McapOut] = None
         self._channels: dict[str, int] = {}
         self._clock_ns = 0
         self._actions = list(header.actions)
@@ -122,13 +121,9 @@ class EpisodeWriter:
             self._stream = self._given or open(self.path, "wb")
         except OSError as exc:
             raise InputError(f"cannot write {self.name}: {exc.strerror or exc}") from None
-        # one chunk per episode: never closed by size, only by _end_chunk; chunks and
-        # attachments indexed, not each message (readers find an episode by its chunk)
-        self._writer = Writer(self._stream, chunk_size=1 << 62, use_chunking=self._compress,
-                              compression=CompressionType.ZSTD,
-                              index_types=IndexType.ATTACHMENT | IndexType.CHUNK
-                              | IndexType.METADATA)
-        pack_indexes(self._writer)
+        # one chunk per episode, ended by _end_chunk; chunks and attachments indexed, not
+        # each message (readers find an episode by its chunk)
+        self._writer = McapOut(self._stream, chunked=self._compress)
         self._writer.start(profile="tracecheck", library=f"tracecheck {__version__}")
         for name in schema.MESSAGES:
             sid = self._writer.register_schema(name=name, encoding="jsonschema",
@@ -230,11 +225,10 @@ class EpisodeWriter:
         self._stream.flush()
 
     def _end_chunk(self) -> None:
-        """Compress and write the chunk of messages so far, and flush it (mcap's writer
-        closes a chunk by itself only by size or at the end of the file; an episode must be
-        on disk when it ends): mcap's public ``Writer.flush``."""
+        """Compress and write the chunk of messages so far, and flush it: an episode is on
+        disk when it ends."""
         if self._compress:
-            self._writer.flush()
+            self._writer.end_chunk()
 
     def write(self, episode: Episode) -> None:
         """Write ``episode`` completely, then flush it to disk."""
@@ -316,58 +310,3 @@ class EpisodeWriter:
         self._rows += len(ep.steps)
         if self._rows >= self._block_rows:
             self._close_block()
-
-
-class PackedIndex:
-    """Index records of a file's summary (a chunk's, an attachment's: one of each per
-    episode) kept as the bytes they are written as until the file is closed, not as objects:
-    a campaign of 10^5 episodes held about 90 MB of them. Iterated, it is one record that
-    writes all of them."""
-
-    __slots__ = ("_data", "_count")
-
-    def __init__(self) -> None:
-        self._data = bytearray()
-        self._count = 0
-
-    def append(self, record) -> None:
-        builder = RecordBuilder()
-        record.write(builder)
-        self._data += builder.end()
-        self._count += 1
-
-    def __len__(self) -> int:
-        return self._count
-
-    def __iter__(self):
-        # a view, not a copy (19 MB for 10^5 episodes), released when the loop moves on:
-        # the record is to be written inside the loop (the mcap Writer's summary does)
-        if self._data:
-            with memoryview(self._data) as view:
-                yield _Written(view)
-
-
-class _Written:
-    __slots__ = ("data",)
-
-    def __init__(self, data: memoryview) -> None:
-        self.data = data
-
-    def write(self, builder: RecordBuilder) -> None:
-        builder.write(self.data)
-
-
-#: the lists of index records an ``mcap`` Writer keeps for its summary (its own names)
-_INDEX_LISTS = ("_Writer__chunk_indices", "_Writer__attachment_indexes")
-
-
-def pack_indexes(writer: Writer) -> bool:
-    """Have ``writer`` keep its chunk and attachment indexes as :class:`PackedIndex`es (the
-    summary it writes is the same, byte for byte); False where this ``mcap`` keeps them under
-    other names (then as its objects)."""
-    lists = [getattr(writer, name, None) for name in _INDEX_LISTS]
-    if not all(type(found) is list and not found for found in lists):
-        return False
-    for name in _INDEX_LISTS:
-        setattr(writer, name, PackedIndex())
-    return True
