@@ -224,7 +224,7 @@ def test_decoded_steps_are_each_compared(tmp_path):
                                                   "writes"),
 ], ids=["inf", "-inf", "negative", "shape", "dtype", "name", "dist-name"])
 def test_columns_of_parameters_that_are_refused(change, message):
-    from tracecheck.episodes.reader import check_columns
+    from tracecheck.episodes.column_checks import check_columns
 
     arrays = {"time": np.zeros(3), "action": np.array([-1, 0, 0], dtype=np.int16),
               "reward": np.zeros(3), "crashed": np.zeros(3, dtype=bool)}

@@ -272,7 +272,7 @@ def test_repeated_episode_ids_are_an_error(tmp_path, episodes):
      "variable x refers to literal 2 of 2"),
 ])
 def test_columns_that_do_not_fit_together_are_an_error(change, message):
-    from tracecheck.episodes.reader import check_columns
+    from tracecheck.episodes.column_checks import check_columns
 
     arrays = {"time": np.zeros(3), "action": np.array([-1, 0, 1], dtype=np.int16),
               "reward": np.zeros(3), "crashed": np.zeros(3, dtype=bool)}

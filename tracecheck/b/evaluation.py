@@ -599,12 +599,38 @@ _CMP = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge
 
 def compile_formula(node: ast.Node, *, source: Optional[str] = None,
                     file: Optional[str] = None) -> Fn:
-    """Compile ``node`` into a function of an environment dict."""
+    """Compile ``node`` into a function of an environment dict (evaluate it many times).
+
+    Args:
+        node: a parsed formula.
+        source: its text, for located error messages.
+        file: where it comes from.
+
+    Returns:
+        A function from an environment (names to values) to the formula's value.
+
+    >>> from tracecheck.b.parser import parse_formula
+    >>> f = compile_formula(parse_formula("x * x"))
+    >>> f({"x": 3}), f({"x": 4})
+    (9, 16)
+    """
     return Compiler(source=source, file=file).compile(node)
 
 
 def evaluate(node: ast.Node, env: dict, *, source: Optional[str] = None) -> Any:
-    """Evaluate ``node`` once in ``env`` (a dict of names to values).
+    """Evaluate ``node`` once in ``env``.
+
+    Args:
+        node: a parsed formula (:func:`~tracecheck.b.parser.parse_formula`).
+        env: the values of its free names.
+        source: its text, for located error messages.
+
+    Returns:
+        Its value: a bool for a predicate, else a B value (int, float, set, …).
+
+    Raises:
+        EvaluationError: where it is not well-defined; UnsupportedError (a refusal, never a
+            guess) where tracecheck cannot compute it exactly.
 
     >>> from tracecheck.b.parser import parse_formula
     >>> evaluate(parse_formula("card({x | x : 1..10 & x mod 3 = 0})"), {})

@@ -509,14 +509,29 @@ def load_machine(path: str | Path, kind: "Optional[type[Machine]]" = None) -> Ma
 
     Raises:
         TracecheckError: a located error (file, line, column) for what it cannot read.
+
+    >>> load_machine("models/shields/paper.mch").name  # repo root
+    'PaperShield'
     """
     return load_machine_text(read_text(path, "model file"), file=str(path), kind=kind)
 
 
 def load_machine_text(text: str, *, file: Optional[str] = None,
                       kind: "Optional[type[Machine]]" = None) -> Machine:
-    """Set up a machine from its text (see :func:`load_machine`; ``kind``: the class made,
-    :class:`Machine` or a subclass)."""
+    """Set up a machine from its text (see :func:`load_machine`).
+
+    Args:
+        text: the machine's text.
+        file: where it comes from, for error messages.
+        kind: the class made (:class:`Machine`, or a subclass such as a shield's).
+
+    Returns:
+        The :class:`Machine`.
+
+    >>> load_machine_text("MACHINE M VARIABLES x INVARIANT x : 0..3 INITIALISATION x := 0 "
+    ...                   "OPERATIONS Up = SELECT x < 3 THEN x := x + 1 END END").enabled({"x": 3})
+    set()
+    """
     try:
         with deep_recursion():  # expanding, checking and setting up recurse into formulas
             return _build(parse_machine_source(text, file=file), kind or Machine)

@@ -64,6 +64,14 @@ def parse_literal(text: str, *, file: Optional[str] = None, where: str = "") -> 
     functions: ``{(EgoVehicle↦150.36),(Vehicles2↦21.9)}``. The common shapes are read by a
     regular expression; the rest by a small recursive-descent reader.
 
+    Args:
+        text: the literal.
+        file: where it comes from, for error messages.
+        where: what it is (a variable's value, say), for error messages.
+
+    Returns:
+        The B value (:mod:`tracecheck.b.values`).
+
     >>> parse_literal("{(a↦1.5),(b↦2.0)}") == {("a", 1.5), ("b", 2.0)}
     True
     """

@@ -223,7 +223,17 @@ def _after(tok: Token) -> tuple[int, int]:
 
 
 def parse_formula(text: str, *, file: Optional[str] = None) -> ast.Node:
-    """Parse a predicate or expression.
+    """Parse a predicate or expression of classical B.
+
+    Args:
+        text: the formula (ASCII or Unicode notation).
+        file: where it comes from, for error messages.
+
+    Returns:
+        Its syntax tree (:mod:`tracecheck.b.ast`).
+
+    Raises:
+        TracecheckError: a located syntax error (line, column, what was expected).
 
     >>> parse_formula("x + 1 > 2")
     Rel(op='>', left=BinOp(op='+', left=Name(id='x'), right=IntLit(value=1)), right=IntLit(value=2))
@@ -234,7 +244,18 @@ def parse_formula(text: str, *, file: Optional[str] = None) -> ast.Node:
 
 
 def parse_substitution(text: str, *, file: Optional[str] = None) -> ast.Subst:
-    """Parse a substitution such as ``x := x + 1 || y :: BOOL``."""
+    """Parse a substitution such as ``x := x + 1 || y :: BOOL``.
+
+    Args:
+        text: the substitution.
+        file: where it comes from, for error messages.
+
+    Returns:
+        Its syntax tree (an :class:`~tracecheck.b.ast.Subst`).
+
+    >>> type(parse_substitution("x := x + 1")).__name__
+    'Assign'
+    """
     _check_length(text, file, "substitution")
     toks, _ = tokens(text, file=file)
     return _parse_tokens(toks, "substitution", text, file, "the substitution")

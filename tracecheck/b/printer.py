@@ -25,7 +25,18 @@ def _ids(ids: tuple[str, ...]) -> str:
 
 def to_b(node: ast.Node) -> str:
     """ASCII B text for ``node``, parenthesised so that it parses back to the same tree (as
-    deeply nested as the parser reads: the recursion limit is raised while it prints)."""
+    deeply nested as the parser reads: the recursion limit is raised while it prints).
+
+    Args:
+        node: a syntax tree.
+
+    Returns:
+        Its B text.
+
+    >>> from tracecheck.b.parser import parse_formula
+    >>> to_b(parse_formula("x+1>2"))
+    '(x+1) > 2'
+    """
     with deep_recursion():
         return _text(node)
 

@@ -38,7 +38,20 @@ def state_from_json(data: Any, *, file: str = "<state>") -> dict[str, Any]:
 
 
 def read_state_file(path: str | Path) -> dict[str, Any]:
-    """Read a state file, e.g. ``{"Crash": "FALSE", "VehiclesX": "{(EgoVehicle↦1.0)}"}``."""
+    """Read a state file, e.g. ``{"Crash": "FALSE", "VehiclesX": "{(EgoVehicle↦1.0)}"}``.
+
+    Args:
+        path: a JSON file of variable names to B literals (ProB's notation).
+
+    Returns:
+        The state: variable names to B values.
+
+    Raises:
+        InputError: naming the file, the variable and what is wrong.
+
+    >>> sorted(read_state_file("models/examples/state_approaching.json"))[:2]  # repo root
+    ['Crash', 'PresentVehicles']
+    """
     return state_from_json(read_json(path, "state file", MAX_STATE_BYTES), file=str(path))
 
 

@@ -532,7 +532,18 @@ def _countable(value: SymbolicSet) -> float:
 
 
 def format_value(value: Any, *, ascii: bool = False) -> str:
-    """Write ``value`` in ProB's notation: ``{(EgoVehicle↦150.36),(Vehicles2↦21.9)}``."""
+    """Write ``value`` in ProB's notation: ``{(EgoVehicle↦150.36),(Vehicles2↦21.9)}``.
+
+    Args:
+        value: a B value.
+        ascii: ``|->`` instead of ``↦``.
+
+    Returns:
+        Its text, as ProB prints it (and :func:`~tracecheck.b.notation.parse_literal` reads).
+
+    >>> format_value(frozenset({1, 2}))
+    '{1,2}'
+    """
     maplet = "|->" if ascii else "↦"
     if value is True:
         return "TRUE"

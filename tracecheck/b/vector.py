@@ -584,5 +584,21 @@ class BatchFormula:
 
 def evaluate_batch(node: ast.Node, cols: Columns, constants: Mapping[str, Any] = {},
                    *, source: Optional[str] = None) -> np.ndarray:
-    """Evaluate ``node`` in every row of ``cols`` (see the module docstring)."""
+    """Evaluate ``node`` in every row of ``cols`` (see the module docstring).
+
+    Args:
+        node: a parsed formula.
+        cols: the states as columns (:class:`Columns`).
+        constants: the values of names that are the same in every row.
+        source: its text, for located error messages.
+
+    Returns:
+        One value per row (a numpy array): what :func:`~tracecheck.b.evaluation.evaluate`
+        gives in each state, row by row.
+
+    >>> from tracecheck.b.parser import parse_formula
+    >>> cols = Columns.from_states([{"x": 1}, {"x": 5}])
+    >>> evaluate_batch(parse_formula("x > 2"), cols).tolist()
+    [False, True]
+    """
     return BatchFormula(node, constants, source=source)(cols)

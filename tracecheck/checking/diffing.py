@@ -135,14 +135,28 @@ def diff(paths: Iterable[str | Path], shield: Shield, against: Shield, *,
          executor: str = "local", ray_address: Optional[str] = None,
          salvage: bool = False, details: int = DETAILS,
          listed: Optional[int] = LISTED) -> DiffReport:
-    """Evaluate both shields on every recorded state and report what changes from
-    ``against`` (the old version, or the baseline) to ``shield``; with
-    ``executor="ray"`` each block of a file in a Ray task (locally, a file is read a block
-    at a time all the same); ``salvage``: as
-    :func:`~tracecheck.episodes.reader.read_run`; ``details``: how many changed steps of
-    continuous actions get the allowed sets of both shields; ``listed``: how many changed
-    steps and changed episodes the report lists (the first ones, the others counted: a
-    campaign has 10^6 changed steps; None: all)."""
+    """Evaluate both shields on every recorded state and report what changes from ``against``
+    (the old version, or the baseline) to ``shield``.
+
+    Args:
+        paths: run files.
+        shield: the new shield.
+        against: the shield it is compared with.
+        executor: ``local``, or ``ray`` (each block of a file in a Ray task at
+            ``ray_address``; locally a file is read a block at a time all the same).
+        salvage: as :func:`~tracecheck.episodes.reader.read_run`.
+        details: how many changed steps of continuous actions get both shields' allowed sets.
+        listed: how many changed steps and episodes the report lists (the others counted;
+            None: all).
+
+    Returns:
+        The :class:`DiffReport`.
+
+    >>> from tracecheck.checking.shield import load_shield
+    >>> d = diff(["sample_traces/base_none.mcap"], load_shield("strict"), load_shield("paper"))
+    >>> d.episodes  # repo root
+    24
+    """
     paths = [str(p) for p in paths]
     report = DiffReport(shield=shield.identity, against=against.identity, files=paths,
                         details=details, listed=listed)

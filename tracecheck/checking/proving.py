@@ -324,13 +324,25 @@ def prove(machine, *, deadlock_free: bool = False,
           implies: tuple[tuple[str, Union[str, Given]], ...] = (), well_defined: bool = False,
           assume: tuple[Union[str, Given], ...] = (), timeout_s: float = 10.0,
           describe: Optional[Describe] = None) -> list[Result]:
-    """Check the obligations over every state that satisfies the invariant and ``assume``
-    (read where they are defined). Every formula is type-checked first (a mistake is an
-    error naming its option, ``--assume`` or ``--implies``, or the place a :class:`Given`
-    says); an obligation whose formulas cannot be translated is ``unknown``, with the
-    reason; if no state satisfies the invariant and assumptions, each is ``vacuous``.
-    ``describe`` says how a counterexample reads (see :data:`Describe`). ``machine``: a
-    :class:`~tracecheck.b.machine.Machine` or a shield (:func:`~tracecheck.checking.load_shield`).
+    """Check the obligations over every state that satisfies the invariant and ``assume``.
+
+    Every formula is type-checked first (a mistake is an error naming its option, ``--assume``
+    or ``--implies``, or the place a :class:`Given` says); an obligation whose formulas cannot
+    be translated is ``unknown``, with the reason; if no state satisfies the invariant and
+    assumptions, each is ``vacuous``.
+
+    Args:
+        machine: a :class:`~tracecheck.b.machine.Machine` or a shield
+            (:func:`~tracecheck.checking.load_shield`).
+        deadlock_free: in every state some operation is enabled.
+        implies: (operation, predicate): whenever the operation is enabled, the predicate holds.
+        well_defined: no guard is ill-defined in any state.
+        assume: predicates the states satisfy.
+        timeout_s: the solver's time per question.
+        describe: how a counterexample reads (see :data:`Describe`).
+
+    Returns:
+        One :class:`Result` per obligation: proved, counterexample, unknown or vacuous.
 
     >>> from tracecheck.b.machine import load_machine_text
     >>> m = load_machine_text("MACHINE C VARIABLES n INVARIANT n : 0..5 INITIALISATION "
@@ -473,12 +485,27 @@ def _well_defined(machine, ctx: _Context) -> Result:
 @deeply
 def symbolic_diff(a, b, *, timeout_s: float = 10.0, labels: Optional[tuple[str, str]] = None,
                   describe: Optional[Describe] = None) -> list[Result]:
-    """Per operation of either machine: equivalent over every state satisfying both
-    invariants, a state where they decide differently (a guard not well-defined there does
-    not enable its operation), unknown where a guard cannot be translated or the solver
-    gives up, or ``only in`` one of them. ``labels`` name the two shields in messages
-    (default: their machine names), ``describe`` how a state where they differ reads.
-    Vacuous where no state satisfies both invariants. ``a`` and ``b``: machines or shields.
+    """Compare two shields over every state satisfying both invariants, operation by operation.
+
+    Args:
+        a: the new machine or shield.
+        b: the one it is compared with.
+        timeout_s: the solver's time per operation.
+        labels: the two shields' names in messages (default: their machines' names).
+        describe: how a state where they differ reads.
+
+    Returns:
+        Per operation of either machine a :class:`Result`: equivalent, a state where they
+        decide differently (a guard not well-defined there does not enable its operation),
+        unknown (a guard that cannot be translated, or the solver gives up), or ``only in`` one
+        of them; vacuous where no state satisfies both invariants.
+
+    >>> from tracecheck.b.machine import load_machine_text
+    >>> def shield(bound):
+    ...     return load_machine_text(f"MACHINE S VARIABLES n INVARIANT n : 0..5 INITIALISATION "
+    ...                              f"n := 0 OPERATIONS inc = SELECT n < {bound} THEN skip END END")
+    >>> [r.status for r in symbolic_diff(shield(3), shield(4))]
+    ['counterexample']
     """
     a, b = machine_of(a), machine_of(b)
     timeout_s = check_timeout(timeout_s)

@@ -574,7 +574,7 @@ def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "loca
 
     >>> from tracecheck.checking.shield import load_shield
     >>> replay(["sample_traces/base_none.mcap"], load_shield("paper")).episodes  # repo root
-    12
+    24
     """
     paths = [str(p) for p in paths]
     report = ReplayReport(shield=shield.identity, files=paths)

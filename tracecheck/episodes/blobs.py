@@ -24,7 +24,7 @@ from ..errors import InputError
 from .agreement import block_agrees
 from .codec import COLUMNS_MEDIA_TYPE, RUN_COLUMNS_MEDIA_TYPE, arrays_of, unpack_columns
 from .model import END_REASONS
-from .reader import check_columns
+from .column_checks import check_columns
 from .records import DATA_END, attachment_at, indexed_attachments
 
 __all__ = ["BLOCK_ROWS", "BlobIndex", "BlobDisagrees", "blob_records", "verified_block"]

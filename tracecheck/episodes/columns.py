@@ -68,7 +68,18 @@ class RunColumns:
 def read_columns(path: str | Path, *, salvage: bool = False) -> RunColumns:
     """All states of a file as numpy columns (see :class:`RunColumns`): its blocks
     (:func:`read_blocks`) joined. A file with a damaged tail gives its complete episodes, with
-    the loss described in ``warnings``."""
+    the loss described in ``warnings``.
+
+    Args:
+        path: a run file.
+        salvage: leave out episodes whose parts disagree, with a warning.
+
+    Returns:
+        The :class:`RunColumns`.
+
+    >>> len(read_columns("sample_traces/base_none.mcap").episode_ids)  # repo root
+    24
+    """
     return join(str(path), list(read_blocks(path, salvage=salvage)))
 
 

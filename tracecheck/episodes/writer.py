@@ -66,7 +66,18 @@ ChannelsFactory = Callable[["schema.RunHeaderMessage"], StepChannels]
 
 
 def new_header(source: str, **fields: Any) -> schema.RunHeaderMessage:
-    """A run header stamped with this tracecheck version and the current time."""
+    """A run header stamped with this tracecheck version and the current time.
+
+    Args:
+        source: how the run came to be (``recorded``, ``imported-simb``, …).
+        fields: the header's other fields (environment, variables, actions, shield, …).
+
+    Returns:
+        The header message (:class:`~tracecheck.episodes.schema.RunHeaderMessage`).
+
+    >>> new_header("recorded", environment="corridor").environment
+    'corridor'
+    """
     now = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
     return schema.RunHeaderMessage(tracecheck_version=__version__, created=now, source=source,
                                    **fields)
