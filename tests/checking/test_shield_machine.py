@@ -42,3 +42,27 @@ def test_the_shield_machine_survives_pickling(tmp_path):
     again = pickle.loads(pickle.dumps(load_shield(path)))
     assert isinstance(again.machine, ShieldMachine)
     assert again.machine.allowed("Act", {"x": 1.0}).contains({"a": -1.0})
+
+
+def test_a_run_whose_states_have_another_type_than_the_shield_declares_is_refused(tmp_path):
+    """A REAL where the shield declares INTEGER (a new user's adapter gave floats): replay
+    judged the guards on values the shield cannot have and answered with exit 0."""
+    from tracecheck.checking.replaying import replay
+    from tracecheck.episodes import EpisodeWriter, new_header
+    from tracecheck.episodes.model import Episode, StepRecord, make_end
+    from tracecheck.errors import InputError
+
+    shield_path = tmp_path / "tank.mch"
+    shield_path.write_text("MACHINE Tank VARIABLES level INVARIANT level : 0..10 "
+                           "INITIALISATION level := 0 OPERATIONS Fill = SELECT level < 9 THEN "
+                           "level := level + 1 END END")
+    steps = tuple(StepRecord(step=k, time=float(k), action=None if k == 0 else "Fill",
+                             state={"level": float(k)}, reward=0.0, crashed=False)
+                  for k in range(3))
+    run = tmp_path / "tank.mcap"
+    with EpisodeWriter(run, new_header("recorded", variables=["level"],
+                                       actions=["Fill"])) as out:
+        out.write(Episode(id=0, steps=steps, end=make_end(steps), seed=0))
+    with pytest.raises(InputError, match="the states give level as a REAL .* but the shield "
+                                         "tank declares it INTEGER"):
+        replay([run], load_shield(shield_path))

@@ -36,9 +36,12 @@ def check_actions(shield: Shield, cols: RunColumns, rows: np.ndarray,
 
 
 def check_variables(shield: Shield, cols: RunColumns) -> None:
-    """Refuse a run whose states lack a variable the shield's guards or invariant read."""
+    """Refuse a run whose states lack a variable the shield's guards or invariant read, or
+    give a variable a value of another type than the shield declares (a REAL where it says
+    INTEGER: the guards would be evaluated on values the shield cannot have)."""
     have = cols.states.names() | set(shield.machine.base_env)
     machine = shield.machine
+    _check_scalar_types(shield, cols)
     needed = set().union(*machine.guard_variables().values())
     if machine.invariant_node is not None:
         needed |= ast.free_names(machine.invariant_node)
@@ -66,3 +69,29 @@ def refuse_recorded_values(shield: Shield, cols: RunColumns, op, which: np.ndarr
                 "recorded values against it",
                 hint="a shield for continuous actions types each parameter REAL and bounds "
                      "it with comparisons (a >= 0.0 & a <= 1.0)")
+
+
+#: the declared types of the scalar columns a run's states hold, and what each column holds
+_HELD = {"INTEGER": "an INTEGER", "REAL": "a REAL", "BOOL": "a BOOL"}
+
+
+def _check_scalar_types(shield: Shield, cols: RunColumns) -> None:
+    """Each scalar variable the shield declares INTEGER, REAL or BOOL, recorded as such."""
+    states, machine = cols.states, shield.machine
+    for name in machine.variables:
+        declared = machine.types.get(name)
+        if declared not in _HELD or not cols.n:
+            continue
+        if name in states.numbers:
+            held = "REAL" if states.numbers[name].dtype.kind == "f" else "INTEGER"
+        elif name in states.booleans:
+            held = "BOOL"
+        else:
+            continue  # elements, sets, functions: checked where they are evaluated
+        if held != declared:
+            raise InputError(f"{cols.path}: the states give {name} as {_HELD[held]} (episode "
+                             f"{int(cols.episode_ids[0])}, step 0), but the shield "
+                             f"{shield.name} declares it {declared}: its guards cannot be "
+                             "judged on values it cannot have",
+                             hint="record the variable as the shield types it (the "
+                                  "adapter's state()), or give a shield that types it so")

@@ -559,8 +559,8 @@ def read_header(path: str | Path) -> schema.RunHeaderMessage:
     Returns:
         The header: source, environment, variables, actions, shield, agent, …
 
-    >>> read_header("sample_traces/base_none.mcap").model_name  # repo root
-    'HighwayEnvironment'
+    >>> read_header("sample_traces/base_none.mcap").source  # repo root
+    'recorded'
     """
     path = Path(path)
     with mapped(path) as buf:
