@@ -66,3 +66,23 @@ def test_a_run_whose_states_have_another_type_than_the_shield_declares_is_refuse
     with pytest.raises(InputError, match="the states give level as a REAL .* but the shield "
                                          "tank declares it INTEGER"):
         replay([run], load_shield(shield_path))
+
+
+def test_a_first_state_without_a_declared_variable_is_refused_before_any_episode(tmp_path):
+    """state() that leaves out a variable the adapter declares: the recording went on, and
+    only replay refused the file ('the states have no LeadSpeed')."""
+    from tests.live.toy import CRUISE_SHIELD, Cruise
+    from tracecheck.checking.shield import check_vocabulary
+    from tracecheck.errors import InputError
+
+    class Forgetful(Cruise):
+        def state(self, obs, info, reward, env, initial):
+            return {k: v for k, v in super().state(obs, info, reward, env, initial).items()
+                    if k != "LeadSpeed"}
+
+    path = tmp_path / "cruise.mch"
+    path.write_text(CRUISE_SHIELD)
+    adapter = Forgetful()
+    with pytest.raises(InputError, match="the first state of cruise gives no value for "
+                                         "LeadSpeed, a variable the adapter declares"):
+        check_vocabulary(load_shield(path), adapter, adapter.make_env({}))

@@ -192,6 +192,11 @@ def check_vocabulary(shield: Shield, adapter, env) -> None:
                              f"{', '.join(adapter.variables)})")
     obs, info = env.reset(seed=0)
     state = adapter.observer(env).state(obs, dict(info, crashed=False), 0.0, True)
+    unset = [v for v in adapter.variables if v not in state]
+    if unset:  # the recording would lack it, and replay refuse it only then
+        raise InputError(f"the first state of {adapter.name} gives no value for {unset[0]}, "
+                         f"a variable the adapter declares ({', '.join(adapter.variables)})",
+                         hint="state() returns a value for each of the adapter's variables")
     machine.check_state(state, where=f"the first state of {adapter.name}")
     broken, _ = machine.invariant_check(state)
     if broken:  # sets of another size (a 9x7 map under a 7x7 shield): replay would report
