@@ -18,13 +18,14 @@ True
 from __future__ import annotations
 
 import functools
+from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 from typing import Any, Optional
 
 __all__ = ["ENTRY_POINT_GROUP", "Registered", "entry_points", "registered", "bundled",
-           "names"]
+           "clashes", "names"]
 
 ENTRY_POINT_GROUP = "tracecheck.environments"
 
@@ -112,8 +113,40 @@ def bundled(attribute: str) -> dict[str, tuple[str, Any]]:
         ``{name: (environment, value)}``.
     """
     out: dict[str, tuple[str, Any]] = {}
-    for entry in registered():
-        mapping = getattr(entry.cls, attribute, None) if entry.cls is not None else None
-        for key, value in dict(mapping or {}).items():
-            out.setdefault(str(key), (entry.name, value))
+    for name, mapping in _declared(attribute):
+        for key, value in mapping.items():
+            out.setdefault(key, (name, value))
     return out
+
+
+def clashes(attribute: str) -> dict[str, list[str]]:
+    """The names that more than one registered environment declares under ``attribute``
+    with different values (a name that means two things is refused where it is asked for).
+
+    Returns:
+        ``{name: [the environments that declare it]}``.
+    """
+    seen: dict[str, dict[str, Any]] = {}
+    for name, mapping in _declared(attribute):
+        for key, value in mapping.items():
+            seen.setdefault(key, {})[name] = value
+    return {key: sorted(by) for key, by in seen.items()
+            if len({str(v) for v in by.values()}) > 1}
+
+
+def _declared(attribute: str):
+    """(environment, its mapping under ``attribute``) for each registered environment whose
+    declaration is a mapping of names to strings or paths; one that is not (or that raises
+    when read) is left out here — ``tracecheck envs`` says what is wrong with it."""
+    for entry in registered():
+        if entry.cls is None:
+            continue
+        try:
+            mapping = getattr(entry.cls, attribute, None)
+        except _USERS:  # noqa: BLE001 - a plug-in's property: its problem, shown by envs
+            continue
+        if not isinstance(mapping, Mapping) or not all(
+                isinstance(k, str) and k and isinstance(v, (str, Path))
+                for k, v in mapping.items()):
+            continue
+        yield entry.name, dict(mapping)

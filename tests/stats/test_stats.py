@@ -442,6 +442,6 @@ def test_an_imported_run_of_another_machine_is_not_taken_for_the_highways(tmp_pa
         w.write(Episode(0, steps, make_end(steps, "end-of-trace")))
     assert environment_of(path) == "FrozenLake"
     pset, notes = default_set([path])
-    assert "the environment FrozenLake of these runs is not installed here" in notes[0]
+    assert "these runs name no environment and no installed one claims their states" in notes[0]
     result = statistics([path], pset)
     assert result["runs"][0]["metrics"]["episode_length"]["mean"] == 2

@@ -90,6 +90,11 @@ def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None,
     """
     text = str(spec)
     builtin = builtin_shields() if Path(text).suffix != ".mch" else {}
+    twice = registry.clashes("shields").get(text) if text in builtin else None
+    if twice:
+        raise InputError(f"the shield name {text!r} is declared by the environments "
+                         f"{', '.join(twice)}, each for its own machine",
+                         hint="give the path of the .mch file you mean")
     if text == "none" and actions is not None and (
             parameters or "none" not in builtin
             or set(load_machine(builtin["none"]).operations) != set(actions)):

@@ -45,7 +45,7 @@ def installed_names() -> dict[str, str]:
 
 
 def fill_help(command) -> None:
-    """Complete the help texts of ``command``'s options (and of a group's commands) with
+    """Complete the help texts of ``command``'s options and arguments with
     :func:`installed_names`."""
     names = None
     for param in getattr(command, "params", ()):

@@ -32,9 +32,10 @@ def _vocabulary(kind: str, paths: list[Path], model: Optional[Path], env: Option
 
     if model is not None:
         machine = load_model(model)
-        return vocabulary_of(machine), machine
+        return vocabulary_of(machine), machine, None
     if env is not None:
-        return load_adapter(env).vocabulary(), None
+        adapter = load_adapter(env)
+        return adapter.vocabulary(), None, adapter.name
     variables = trace_variables(kind, paths)
     adapter = claiming_adapter(variables) if variables else None
     if adapter is None:
@@ -46,7 +47,7 @@ def _vocabulary(kind: str, paths: list[Path], model: Optional[Path], env: Option
     err.print(f"the traces' states are read in the vocabulary of the environment "
               f"{adapter.name} (their variables are its; --model or --env chooses another)",
               markup=False, highlight=False)
-    return adapter.vocabulary(), None
+    return adapter.vocabulary(), None, adapter.name
 
 
 def _import(kind: str, paths: list[Path], output: Path, model: Optional[Path],
@@ -57,9 +58,9 @@ def _import(kind: str, paths: list[Path], output: Path, model: Optional[Path],
 
     inputs = [*paths, *input_paths(model)]
     check_run_output(output, inputs, force=force)
-    vocab, machine = _vocabulary(kind, paths, model, env)
+    vocab, machine, environment = _vocabulary(kind, paths, model, env)
     reader = import_simb if kind == "simb" else import_prob2trace
-    header = new_header(f"imported-{kind}", model_name=vocab.name,
+    header = new_header(f"imported-{kind}", model_name=vocab.name, environment=environment,
                         variables=list(vocab.variables), actions=list(vocab.actions),
                         shield_name=machine.name if machine is not None else None,
                         shield_sha256=machine.sha256 if machine is not None else None)

@@ -36,9 +36,9 @@ def render_cmd(
     path = check_output(output, inputs, force=force, example="episode.html")
     adapter = run_adapter(env)  # its scene() hook draws the picture; else the run's own
     if adapter is not None and run.exists():
-        from ..stats.formulas import check_environment, environment_of
+        from ..stats.formulas import check_environment
 
-        check_environment(adapter, environment_of(run))  # never another environment's picture
+        check_environment(adapter, run)  # never another environment's picture
     loaded = load_shield(shield) if shield else None
     if (ltl or ltl_assertions) and loaded is None:
         raise InputError("--ltl and --ltl-assertions need --shield: the machine the formulas "

@@ -362,10 +362,19 @@ def run_adapter(environment: Optional[str],
 def claiming_adapter(variables: Collection[str]) -> Optional[EnvAdapter]:
     """The installed adapter that claims a run naming no environment, by its state
     ``variables`` (:meth:`EnvAdapter.claims`); None when none does."""
+    claiming = []
     for info in adapters():
-        if info.adapter is not None and info.adapter.claims(tuple(variables)):
-            return info.adapter
-    return None
+        if info.adapter is None:
+            continue
+        try:
+            if info.adapter.claims(tuple(variables)):
+                claiming.append(info.adapter)
+        except TracecheckError:  # a plug-in's failing claims(): it claims nothing
+            continue
+    if len(claiming) > 1:
+        raise InputError(f"the run names no environment, and {', '.join(a.name for a in claiming)} "
+                         "all claim its states", hint="give the environment with --env")
+    return claiming[0] if claiming else None
 
 
 def adapters_for_env_id(env_id: Optional[str],
@@ -436,7 +445,7 @@ def load_adapter(spec: Optional[str]) -> EnvAdapter:
 
 #: the hooks whose exceptions are reported as the adapter's (with its name and the hook)
 _HOOKS = ("make_env", "state", "crashed", "default_config", "config", "config_keys",
-          "fallback_index", "scene", "describe")
+          "fallback_index", "scene", "describe", "claims", "plots", "training_settings")
 
 
 def _raised(where: str, exc: BaseException, hook: str) -> InputError:

@@ -298,6 +298,10 @@ def write_card(card: dict, path: Path) -> None:
     write_file(path, json_text(card, indent=2) + "\n")
 
 
+#: the algorithms that take only one kind of action space: continuous (True) or discrete
+_ONE_KIND = {"DQN": False, "MaskablePPO": False, "q-learning": False, "SAC": True, "TD3": True}
+
+
 def card_environment(agent: str | Path) -> tuple[str, str]:
     """The environment an agent was trained in, as its model card (``NAME.json`` beside it)
     says: an installed environment's name, or a Gymnasium id that one installed environment
@@ -331,11 +335,16 @@ def card_environment(agent: str | Path) -> tuple[str, str]:
                          "environment", hint=hint)
     if named in installed:
         return named, f"the model card {card_path}"
-    matches = [a.name for a in adapters_for_env_id(named)]
-    if len(matches) == 1:
-        return matches[0], f"the model card {card_path} (Gymnasium id {named})"
-    if matches:
-        raise InputError(f"no --env given, and the model card {card_path} names {named}, "
-                         f"which {', '.join(matches)} all are", hint="give --env with one of them")
+    found = [a.adapter for a in adapters_for_env_id(named)]
+    algorithm = card.get("algorithm") if isinstance(card, dict) else None
+    if len(found) > 1 and algorithm in _ONE_KIND:  # the algorithm says which action space
+        found = [a for a in found if bool(a.parameters) == _ONE_KIND[algorithm]]
+    if len(found) == 1:
+        return found[0].name, f"the model card {card_path} (Gymnasium id {named})"
+    if found:
+        raise InputError(f"no --env given, and the model card {card_path} names the "
+                         f"Gymnasium id {named}, which several installed environments have: "
+                         f"{', '.join(a.name for a in found)}",
+                         hint="give --env with one of them")
     raise InputError(f"no --env given, and the environment {named!r} of the model card "
                      f"{card_path} is not installed here", hint=hint)

@@ -378,7 +378,8 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
                          "compare runs of one environment")
     environment = environments.pop() if environments else None
     if adapter is not None:
-        check_environment(adapter, environment)
+        for path in paths:
+            check_environment(adapter, path)
         environment = adapter
     if executor != "local":
         from ..checking.executors import map_file_blocks

@@ -22,7 +22,7 @@ from ..checking.crashflag import CRASH_FLAG, flagged
 from ..episodes.columns import RunColumns
 from ..errors import EvaluationError, InputError, TracecheckError
 from ..live.adapter import installed_adapter
-from .properties import PropertySet, load_properties, with_generic
+from .properties import PropertySet, bundled_set, load_properties, with_generic
 
 __all__ = ["Formulas", "prepare", "environment_of", "default_set", "adapter_set",
            "check_environment", "naming"]
@@ -50,10 +50,22 @@ def environment_of(path: str | Path) -> str:
     header = read_header(path)
     if header.environment:
         return header.environment
-    claimed = claiming_adapter(header.variables) if header.variables else None
+    claimed = claiming_adapter(header.variables or _first_variables(path))
     if claimed is not None:
         return claimed.name
     return header.model_name or "unnamed"
+
+
+def _first_variables(path: str | Path) -> tuple[str, ...]:
+    """The variables of a run's first state (a header that declares none: files written
+    through the library without them)."""
+    from ..episodes.reader import read_episodes
+
+    try:
+        first = next(iter(read_episodes(path)), None)
+    except TracecheckError:  # what is damaged is said where the run is read for its values
+        return ()
+    return tuple(first.steps[0].state) if first is not None and first.steps else ()
 
 
 @dataclass
@@ -75,11 +87,10 @@ def _typing_scope(environment=None, sample: Optional[dict] = None,
     ``crashed`` of their own."""
     from ..b.btypes import BOOL
     from ..b.typecheck import type_of_value
-    from ..checking.shield import load_shield
 
     adapter = None if machine is not None else installed_adapter(environment, required=False)
     if machine is None and adapter is not None and adapter.default_shield is not None:
-        machine = load_shield(adapter.default_shield).machine
+        machine = own_shield(adapter).machine
     if machine is not None:
         names, constants, variables = (dict(machine.type_objects), dict(machine.base_env),
                                        machine.variables)
@@ -129,6 +140,11 @@ def default_set(paths: list[str | Path], adapter=None) -> tuple[PropertySet, lis
             return with_generic(None), [
                 f"the runs come from an agent script (states of {environment}): generic "
                 "statistics (give --properties FILE for the machine's own properties)"]
+        if paths and not read_header(paths[0]).environment:
+            return with_generic(None), [
+                "these runs name no environment and no installed one claims their states: "
+                "generic statistics only (give --env NAME or --properties FILE for their "
+                "own properties)"]
         return with_generic(None), [
             f"the environment {environment} of these runs is not installed here: generic "
             "statistics only (give --env package.module:Class for its own property set)"]
@@ -138,7 +154,24 @@ def default_set(paths: list[str | Path], adapter=None) -> tuple[PropertySet, lis
 def adapter_set(adapter) -> PropertySet:
     """The generic set with the adapter's own added (``stats`` and ``simulate`` without
     ``--properties``)."""
+    own = adapter.property_sets.get(adapter.properties) if adapter.properties else None
+    if own is not None:  # the environment's own set, whatever another declares by its name
+        return with_generic(bundled_set(adapter.properties, own))
     return with_generic(load_properties(adapter.properties) if adapter.properties else None)
+
+
+def own_shield(adapter):
+    """The adapter's default shield: one it brings itself by that name (whatever another
+    environment declares by the same name), else :func:`load_shield` of the name or path."""
+    from ..checking.shield import Shield, ShieldMachine, load_shield
+    from ..b.machine import load_machine
+
+    own = adapter.shields.get(adapter.default_shield)
+    if own is None:
+        return load_shield(adapter.default_shield)
+    machine = load_machine(own, kind=ShieldMachine)
+    return Shield(name=adapter.default_shield, sha256=machine.sha256, path=str(own),
+                  machine=machine)
 
 
 def prepare(pset: PropertySet, environment=None, sample: Optional[dict] = None,
@@ -202,7 +235,6 @@ def _environment_adapter(environment, sample: Optional[dict]):
 def _machine(environment):
     """The machine of the environment's default shield (what LTL properties are read in),
     with the recorded crash flag as one more variable (unless it has a ``crashed``)."""
-    from ..checking.shield import load_shield
 
     adapter = installed_adapter(environment)
     if adapter.default_shield is None:
@@ -210,7 +242,7 @@ def _machine(environment):
                          "STL properties in: its adapter has no default_shield",
                          hint=f"set default_shield = \"NAME_OR_PATH.mch\" (a built-in shield's "
                               f"name or the path of a .mch file) on {_class(adapter)}")
-    machine = load_shield(adapter.default_shield).machine
+    machine = own_shield(adapter).machine
     return flagged(machine)
 
 
@@ -251,9 +283,13 @@ class _Temporal:
         return evaluate_ltl(self.formula, cols, self.machine)[cols.starts[:-1]]
 
 
-def check_environment(adapter, environment: str) -> None:
-    """``--env`` must be the adapter of the runs' environment (the name in their files)."""
-    if adapter.name != environment:
+def check_environment(adapter, path: str | Path) -> None:
+    """``--env`` must be the adapter of the environment a run's file names (a run that
+    names none takes the adapter given: its machine, its picture)."""
+    from ..episodes.reader import read_header
+
+    environment = read_header(path).environment
+    if environment and adapter.name != environment:
         raise InputError(f"the runs come from the environment {environment}, but --env gives "
                          f"the adapter of {adapter.name}",
                          hint=f"give the adapter of {environment}, or leave --env out")

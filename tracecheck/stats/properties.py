@@ -62,6 +62,7 @@ from .. import registry
 from ..inputs import read_text
 
 __all__ = ["Metric", "Property", "HypothesisTest", "PropertySet", "load_properties",
+           "bundled_set",
            "builtin_sets", "GENERIC_SET", "AGGREGATES", "KINDS", "TAILS", "ESTIMATE_TYPES",
            "with_generic"]
 
@@ -362,8 +363,13 @@ def load_properties(spec: str | Path) -> PropertySet:
     if str(spec) == "generic":
         return GENERIC_SET
     found = registry.bundled("property_sets").get(str(spec)) if not Path(spec).suffix else None
+    twice = registry.clashes("property_sets").get(str(spec)) if found is not None else None
+    if twice:
+        raise InputError(f"the property set name {str(spec)!r} is declared by the "
+                         f"environments {', '.join(twice)}, each for its own",
+                         hint="give the path of the property file you mean")
     if found is not None:
-        return _bundled_set(str(spec), found[1])
+        return bundled_set(str(spec), found[1])
     path = Path(spec)
     if not path.suffix and not path.exists():
         raise InputError(f"unknown property set {str(spec)!r}: give one of "
@@ -372,7 +378,7 @@ def load_properties(spec: str | Path) -> PropertySet:
 
 
 @functools.lru_cache(maxsize=32)
-def _bundled_set(name: str, source: str | Path) -> PropertySet:
+def bundled_set(name: str, source: str | Path) -> PropertySet:
     """An environment's property set: its TOML text, or the path of its file (parsed once)."""
     if isinstance(source, Path):
         return parse_properties(read_text(source, "property file"), name=name, file=str(source))

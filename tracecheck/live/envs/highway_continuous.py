@@ -53,6 +53,10 @@ class HighwayContinuousAdapter(HighwayAdapter):
         """A run that names no environment is the discrete highway's, never this one's."""
         return False
 
+    def training_settings(self, algorithm: str, steps: int) -> dict[str, Any]:
+        """The algorithms' own settings (the discrete highway's are the paper's DQN's)."""
+        return {}
+
     def config(self, overrides: Optional[dict[str, Any]] = None,
                profile: Optional[str] = None, horizon: Optional[int] = None) -> dict[str, Any]:
         """The highway's configuration (:meth:`HighwayAdapter.config`) with continuous
