@@ -95,8 +95,8 @@ def _counted(episodes, advance):
 _OUTPUT = typer.Option(..., "--output", "-o", help="The MCAP file to write.")
 _MODEL = typer.Option(None, "--model", "-m",
                       help="Check names and types against this machine (default: the "
-                           "vocabulary of the installed environment whose variables the "
-                           "traces have).")
+                           "vocabulary of the installed environment that claims the traces' "
+                           "variables as its own, see `tracecheck envs`).")
 _IMPORT_ENV = typer.Option(None, "--env", help="Read the states in this installed "
                            "environment's vocabulary (its variables and actions).")
 
