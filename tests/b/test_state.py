@@ -105,16 +105,17 @@ def test_arrays_become_sets_where_the_type_says_so(sets):
 
 
 @pytest.mark.parametrize("name,value,fragment", [
-    ("speed", np.array([2.5]), "speed is a numpy array of shape (1,) and dtype float64, which "
-                               "is ambiguous as a B value of type REAL"),
-    ("seq", np.array([1, 2]), "a sequence is a function from 1..n"),
-    ("pairs", np.array([1.0, 2.0]), "a sequence is a function from 1..n"),
-    ("speeds", np.array([[1.0, 2.0]]), "of type POW(REAL)"),
+    ("speed", np.array([2.5]), "speed is of type REAL in Sets, but it is a numpy array of "
+                               "shape (1,) and dtype float64\n  hint: give one value: obs[0]"),
+    ("pairs", np.array([1.0, 2.0]), "a numpy array of shape (2,) is ambiguous here; say which "
+                                    "index each entry has: declare pairs : 0..1 --> …"),
+    ("speeds", np.array([[1.0, 2.0]]), "speeds is of type POW(REAL) in Sets, but it is a numpy "
+                                       "array of shape (1, 2)"),
     ("unknown", np.array([1.0]), "not known (not a variable of the machine)"),
     ("speed", np.float32("nan"), "speed is nan, not a B real"),
     ("speed", np.float32("inf"), "speed is inf, not a B real"),
-    ("speed", np.datetime64("2024-01-01"), "speed is a numpy datetime64, which is no B value"),
-], ids=["array-for-a-real", "sequence", "1d-for-a-relation", "2d-for-a-set", "untyped", "nan",
+    ("speed", np.datetime64("2024-01-01"), "a numpy datetime64 is no B value"),
+], ids=["array-for-a-real", "1d-for-a-relation", "2d-for-a-set", "untyped", "nan",
         "inf", "datetime"])
 def test_ambiguous_or_meaningless_numpy_values_are_refused(sets, name, value, fragment):
     with pytest.raises(InputError) as info:

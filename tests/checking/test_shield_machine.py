@@ -83,6 +83,6 @@ def test_a_first_state_without_a_declared_variable_is_refused_before_any_episode
     path = tmp_path / "cruise.mch"
     path.write_text(CRUISE_SHIELD)
     adapter = Forgetful()
-    with pytest.raises(InputError, match="the first state of cruise gives no value for "
+    with pytest.raises(InputError, match=r"state\(\) of the adapter cruise \(the first state\) gives no value for "
                                          "LeadSpeed, a variable the adapter declares"):
         check_vocabulary(load_shield(path), adapter, adapter.make_env({}))

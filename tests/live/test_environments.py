@@ -243,6 +243,65 @@ def test_adapters_by_name_and_by_path():
         load_adapter("json:JSONDecoder")
 
 
+def test_states_of_python_values_record_train_and_replay_alike(tmp_path, capsys):
+    """Issue 42: a str naming an element, a numpy array map, a Python set — converted by the
+    machine's types on every path: record with the shield, record with ``--shield none``
+    (the environment's own shield types the states), replay, the wrapper."""
+    from tests.live.toy import LAVA_SHIELD, CorridorEnv, LavaCorridor
+    from tracecheck.b.values import Elem, FuncValue
+    from tracecheck.checking.shield import load_shield
+    from tracecheck.live.wrapper import ShieldWrapper
+
+    shield = tmp_path / "lava.mch"
+    shield.write_text(LAVA_SHIELD)
+    agent = tmp_path / "left.npy"
+    np.save(agent, left_leaning_table())
+    lava = "tests.live.toy:LavaCorridor"
+    shielded = tmp_path / "shielded.mcap"
+    code, _, err = run(capsys, "record", "--env", lava, "--agent", agent, "--shield", shield,
+                       "-n", 3, "--seed", 0, "-o", shielded)
+    assert code == 0, err
+    episodes = list(read_episodes(shielded))
+    assert not any(e.end.crashed for e in episodes)
+    first = episodes[0].steps[0].state
+    assert type(first["ahead"]) is Elem and type(first["cells"]) is FuncValue
+    assert first["cells"].map[0] == Elem("Lava") and first["seen"] == frozenset({Elem("Floor")})
+    # unshielded, typed by the environment's own shield: the same values, a crash replayed
+    LavaCorridor.default_shield = str(shield)
+    try:
+        free = tmp_path / "free.mcap"
+        code, _, err = run(capsys, "record", "--env", lava, "--agent", agent, "--shield",
+                           "none", "-n", 3, "--seed", 0, "-o", free)
+        assert code == 0, err
+        assert type(next(iter(read_episodes(free))).steps[0].state["behind"]) is Elem
+        code, out, err = run(capsys, "replay", free, "--shield", shield, "--json")
+        assert code == 0, err
+        assert json.loads(out)["crashes_after_infeasible"] == 3
+    finally:
+        del LavaCorridor.default_shield
+    env = ShieldWrapper(CorridorEnv(slip=False), load_shield(shield), adapter=LavaCorridor())
+    _, info = env.reset(seed=0)
+    assert info["b_state"]["behind"] == Elem("Floor") and env.action_masks().tolist() == [True, True]
+    env.step(0)
+    assert env.action_masks().tolist() == [False, True]  # Lava behind
+
+
+def test_a_state_of_the_wrong_type_is_refused_naming_state_and_the_variable(tmp_path, capsys):
+    from tests.live.toy import LAVA_SHIELD
+
+    shield = tmp_path / "lava.mch"
+    shield.write_text(LAVA_SHIELD.replace("{Floor, Lava, Goal}", "{Floor, Lava, Exit}"))
+    agent = tmp_path / "left.npy"
+    np.save(agent, left_leaning_table())
+    code, _, err = run(capsys, "record", "--env", "tests.live.toy:LavaCorridor", "--agent",
+                       agent, "--shield", shield, "-n", 1, "-o", tmp_path / "x.mcap")
+    assert code == 2
+    assert ("state() of the adapter lavacorridor (the first state): ahead is of type CELL in "
+            "LavaCorridor, but it is 'Goal' (a Python str)") in err
+    assert "give the name of one of its elements as a str: Floor, Lava, Exit" in err
+    assert not (tmp_path / "x.mcap").exists()
+
+
 def test_shield_wrapper_on_a_toy_environment(tmp_path):
     """The wrapper without highway-env: masks, the decision in info, replaced actions and a
     fail-closed deadlock."""

@@ -69,6 +69,36 @@ class Corridor(EnvAdapter):
         return bool(terminated) and int(obs) == 0
 
 
+LAVA_SHIELD = """
+MACHINE LavaCorridor
+SETS CELL = {Floor, Lava, Goal}
+VARIABLES pos, ahead, behind, cells, seen
+INVARIANT pos : 0..5 & ahead : CELL & behind : CELL & cells : 0..5 --> CELL & seen : POW(CELL)
+INITIALISATION pos := 2 || ahead := Floor || behind := Floor || cells := (0..5) * {Floor}
+  || seen := {}
+OPERATIONS
+  Left = SELECT behind /= Lava & cells(pos - 1) /= Lava THEN skip END;
+  Right = SELECT ahead /= Lava THEN skip END
+END
+"""
+
+
+class LavaCorridor(Corridor):
+    """The corridor in the vocabulary of a user's grid world: elements given as ``str``,
+    the map as a numpy array of names, a set as a Python ``set``, the position as numpy —
+    converted by the machine's types (:mod:`tracecheck.b.conversion`)."""
+
+    name = "lavacorridor"
+    variables = ("pos", "ahead", "behind", "cells", "seen")
+    model_name = "LavaCorridor"
+
+    def state(self, obs, info: dict, reward: float, env, initial: bool) -> dict[str, Any]:
+        cells = np.array(["Lava", "Floor", "Floor", "Floor", "Floor", "Goal"])
+        p = int(obs)
+        return {"pos": np.int64(p), "ahead": str(cells[min(p + 1, 5)]),
+                "behind": cells[max(p - 1, 0)], "cells": cells, "seen": {"Floor", str(cells[p])}}
+
+
 def left_leaning_table() -> np.ndarray:
     """A Q-table that prefers Left everywhere: unshielded it walks into the pit."""
     table = np.zeros((6, 2))

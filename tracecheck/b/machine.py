@@ -28,6 +28,7 @@ from .evaluation import Compiler
 from .linear import real_parameters
 from ..limits import deep_recursion
 from .parser import MachineSource, parse_formula, parse_machine_source
+from .conversion import StateTypes, convert_state
 from .state import native_state
 from .scope import PRED, check_kind, check_subst, expand, render
 from .substitution import SubstCompiler, before_after, guard_of, strip_guards, written
@@ -107,30 +108,47 @@ class Machine:
 
     def native(self, state: Mapping[str, Any], *, where: str = "the state"
                ) -> Mapping[str, Any]:
-        """``state`` with numpy values converted for B (:func:`.state.native_state`, arrays
-        by this machine's variable types); the same mapping when it has none."""
-        return native_state(state, self.type_objects, where=where)
+        """``state`` from Python code made B values by this machine's types
+        (:func:`.conversion.convert_state`: numpy values exactly, a ``str`` naming an
+        element, a ``dict`` for a function, arrays by the invariant's index sets); the same
+        mapping when nothing needed converting."""
+        return convert_state(state, self.state_types(), where=where)
+
+    def state_types(self) -> StateTypes:
+        """What converting this machine's states needs (:class:`.conversion.StateTypes`)."""
+        types = self._compiled.get("state_types")
+        if types is None:
+            types = self._compiled["state_types"] = StateTypes.of(self)
+        return types
 
     def element_sets(self) -> dict[Elem, str]:
         """Which set each element belongs to."""
         return {e: name for name, elems in self.sets.items() for e in elems}
 
-    def check_state(self, state: Mapping[str, Any], *, where: str = "the state") -> None:
+    def check_state(self, state: Mapping[str, Any], *, where: str = "the state",
+                    python: bool = False) -> None:
         """Raise :class:`InputError` unless every value in ``state`` fits its variable's type.
 
         Names the variable, the type it needs and the type of the value it got; values of
-        names the machine does not declare are an error too.
+        names the machine does not declare are an error too. ``python``: the state comes
+        from Python code (an adapter's ``state()``), not a file of B literals — the hints
+        say so.
         """
         from .typecheck import describe_value_type, type_of_value, unify_quiet
 
         owners = self.element_sets()
-        for name, value in self.native(state, where=where).items():
+        given = (self.native(state, where=where) if python else  # B literals: no int for
+                 native_state(state, self.type_objects, where=where))  # a REAL, no str for an element
+        for name, value in given.items():
             if name not in self.variables:
                 if name in self.constants or name in self.sets:
                     continue
                 raise InputError(f"{where} gives a value for {name}, which the machine "
                                  f"{self.name} does not declare; its variables are "
-                                 f"{', '.join(self.variables)}")
+                                 f"{', '.join(self.variables)}",
+                                 hint="name the variables as the machine does (the adapter's "
+                                      "variables and the keys state() returns)" if python
+                                 else None)
             wanted = self.type_objects.get(name)
             if wanted is None:
                 continue
@@ -141,7 +159,10 @@ class Machine:
             if not unify_quiet(wanted, type_of_value(value, owners)):
                 raise InputError(f"{where}: {name} must be of type {self.types[name]}, but "
                                  f"its value is of type {describe_value_type(value, owners)}",
-                                 hint="reals are written with a decimal point: 1.0, not 1")
+                                 hint="give B values by the machine's types: a str naming an "
+                                      "element, a dict for a function (docs/environments.md, "
+                                      "\"States\")" if python else
+                                 "reals are written with a decimal point: 1.0, not 1")
 
     def compiler(self) -> Compiler:
         return Compiler(source=self.source, file=self.file)

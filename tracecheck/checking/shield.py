@@ -14,10 +14,10 @@ from typing import Optional
 
 from .. import registry
 from ..b.machine import Machine, load_machine, load_machine_text
-from ..errors import InputError
+from ..errors import InputError, TracecheckError
 
 __all__ = ["Shield", "ShieldMachine", "load_shield", "for_actions", "builtin_shields",
-           "shield_names", "SHIELD_DIR", "check_vocabulary", "data_dir"]
+           "shield_names", "SHIELD_DIR", "check_vocabulary", "typing_machine", "data_dir"]
 
 def data_dir() -> Path:
     """Where the built-in shields and bundled agents are: ``models/`` of a source checkout, or
@@ -174,6 +174,29 @@ def _none_for(actions: tuple[str, ...], parameters: dict[str, tuple[str, ...]]) 
     return Shield(name="none", sha256=machine.sha256, path="none", machine=machine)
 
 
+def typing_machine(adapter) -> Optional["Machine"]:
+    """The machine whose types make ``adapter``'s states B values when the shield gives
+    none (``none``): the environment's own shield (:attr:`~tracecheck.live.adapter.EnvAdapter.default_shield`),
+    or None — then only what needs no type is converted.
+
+    Args:
+        adapter: an environment adapter.
+
+    Returns:
+        The machine of its default shield, or None when it has none that loads.
+
+    >>> typing_machine(type("NoShield", (), {"default_shield": None})()) is None
+    True
+    """
+    name = getattr(adapter, "default_shield", None)
+    if not name:
+        return None
+    try:
+        return load_shield(name).machine
+    except TracecheckError:
+        return None
+
+
 def check_vocabulary(shield: Shield, adapter, env) -> None:
     """Before any episode: the environment's states fit the shield's machine. Each variable
     the adapter gives must be declared (and of the declared type, tried on a real first
@@ -184,11 +207,15 @@ def check_vocabulary(shield: Shield, adapter, env) -> None:
     given = set(adapter.variables)
     extra = [v for v in adapter.variables if v not in machine.variables]
     if extra:
+        own = adapter.default_shield and adapter.default_shield != shield.name and \
+            Path(str(adapter.default_shield)).stem != Path(str(shield.path)).stem
         raise InputError(f"the environment {adapter.name} gives the variable {extra[0]}, which "
                          f"the shield {shield.name} does not declare (its variables are "
                          f"{', '.join(machine.variables)})",
-                         hint=f"use a shield written for {adapter.name}, e.g. "
-                              f"{adapter.default_shield or 'none'}")
+                         hint=(f"use a shield written for {adapter.name}, e.g. "
+                               f"{adapter.default_shield}") if own else
+                         f"name the variables alike in the adapter's `variables` (and the keys "
+                         f"its state() returns) and in the shield's VARIABLES")
     for name, read in machine.guard_variables().items():
         missing = sorted(read - given)
         if missing:
@@ -197,12 +224,14 @@ def check_vocabulary(shield: Shield, adapter, env) -> None:
                              f"{', '.join(adapter.variables)})")
     obs, info = env.reset(seed=0)
     state = adapter.observer(env).state(obs, dict(info, crashed=False), 0.0, True)
+    where = f"state() of the adapter {adapter.name} (the first state)"
     unset = [v for v in adapter.variables if v not in state]
     if unset:  # the recording would lack it, and replay refuse it only then
-        raise InputError(f"the first state of {adapter.name} gives no value for {unset[0]}, "
+        raise InputError(f"{where} gives no value for {unset[0]}, "
                          f"a variable the adapter declares ({', '.join(adapter.variables)})",
                          hint="state() returns a value for each of the adapter's variables")
-    machine.check_state(state, where=f"the first state of {adapter.name}")
+    state = machine.native(state, where=where)
+    machine.check_state(state, where=where, python=True)
     broken, _ = machine.invariant_check(state)
     if broken:  # sets of another size (a 9x7 map under a 7x7 shield): replay would report
         #         an invariant violation at every state

@@ -230,10 +230,12 @@ class EnvAdapter:
             initial: whether this is the observation of ``reset``.
 
         Returns:
-            ``{variable: value}`` for each of :attr:`variables`, as B values: ``bool``,
-            ``int``, ``float`` (a REAL), ``str`` (a STRING), ``frozenset`` (a set),
-            :class:`~tracecheck.b.values.Elem` (an element of an enumerated or deferred
-            set) and :class:`~tracecheck.b.values.FuncValue` (a function or relation).
+            ``{variable: value}`` for each of :attr:`variables`, in Python or numpy
+            values that the shield's types make B values (:mod:`tracecheck.b.conversion`,
+            docs/environments.md, "States"): ``int``, ``float`` (a REAL), ``bool``, a
+            ``str`` naming an element of an enumerated or deferred set (or a STRING), a
+            ``set``, a ``dict`` for a function, a ``list`` for a sequence, a ``tuple`` for
+            a pair, a numpy array where the invariant gives the index set.
         """
         raise NotImplementedError
 

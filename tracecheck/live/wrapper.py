@@ -33,7 +33,8 @@ import numpy as np
 
 from ..b.memo import MEMO_KEY
 from ..errors import InputError, TracecheckError
-from ..checking.shield import Shield
+from ..b.conversion import convert_state
+from ..checking.shield import Shield, typing_machine
 
 __all__ = ["ShieldWrapper", "choose", "adapter_for"]
 
@@ -130,6 +131,11 @@ class ShieldWrapper(gym.Wrapper):
         self.decision_us = 0.0
         self.problem: Optional[str] = None  # why a guard could not be evaluated, if so
         self._env = dict(shield.machine.base_env)  # kept: each decision only updates it
+        #: the machine whose types make the adapter's states B values: the shield's, or for
+        #: a shield without variables (``none``) the environment's own shield, if any
+        self._typing = (shield.machine if shield.machine.variables
+                        else typing_machine(self.env_adapter))
+        self._checked = False  # the first state checked against the shield's types
 
     def _decide(self) -> None:
         # no garbage collection inside the decision: its latency is the shield's own
@@ -188,11 +194,21 @@ class ShieldWrapper(gym.Wrapper):
         return info
 
     def _state(self, obs, info: dict, reward: float, initial: bool) -> dict[str, Any]:
-        """The adapter's B state of this observation, numpy values made B's own (a float32
-        becomes the float it is: the same value the shield decides on and the file keeps)."""
+        """The adapter's B state of this observation, made B values by the machine's types
+        (:mod:`tracecheck.b.conversion`: a float32 becomes the float it is, a str naming an
+        element the element, a dict a function), checked against them at the first state."""
         state = self.observer.state(obs, info, reward, initial)
-        return self.shield.machine.native(
-            state, where=f"the state from the adapter {self.env_adapter.name}")
+        where = f"state() of the adapter {self.env_adapter.name}"
+        machine = self._typing
+        if machine is None:
+            return convert_state(state, None, where=where)
+        state = machine.native(state, where=where)
+        if not self._checked and machine is self.shield.machine:
+            declared = machine.variables  # others are the environment's, not the shield's
+            machine.check_state({k: v for k, v in state.items() if k in declared},
+                                where=where, python=True)
+            self._checked = True
+        return state
 
     def action_masks(self) -> np.ndarray:
         """Which actions the shield allows in the current state; in a deadlock (nothing
