@@ -302,6 +302,24 @@ def test_a_state_of_the_wrong_type_is_refused_naming_state_and_the_variable(tmp_
     assert not (tmp_path / "x.mcap").exists()
 
 
+def test_a_misnamed_variable_does_not_recommend_the_shield_just_refused(tmp_path, capsys):
+    from tests.live.toy import LAVA_SHIELD, LavaCorridor
+
+    shield = tmp_path / "lava.mch"
+    shield.write_text(LAVA_SHIELD.replace("seen", "visited"))
+    agent = tmp_path / "left.npy"
+    np.save(agent, left_leaning_table())
+    LavaCorridor.default_shield = str(shield)
+    try:
+        code, _, err = run(capsys, "record", "--env", "tests.live.toy:LavaCorridor", "--agent",
+                           agent, "--shield", shield, "-n", 1, "-o", tmp_path / "x.mcap")
+    finally:
+        del LavaCorridor.default_shield
+    assert code == 2 and "gives the variable seen, which the shield lava does not declare" in err
+    assert "hint: name the variables alike in the adapter's `variables`" in err
+    assert "e.g." not in err
+
+
 def test_shield_wrapper_on_a_toy_environment(tmp_path):
     """The wrapper without highway-env: masks, the decision in info, replaced actions and a
     fail-closed deadlock."""

@@ -271,3 +271,20 @@ def test_without_sb3_contrib_maskable_ppo_says_how_to_get_it(capsys, tmp_path, m
                        str(tmp_path / "a.zip"))
     assert code == 2 and "--algorithm maskable-ppo needs sb3-contrib" in err
     assert "pip install 'tracecheck[maskable]'" in err
+
+
+@pytest.mark.parametrize("algorithm", ["ppo", "dqn"])
+def test_an_agent_trained_on_images_records_on_the_same_adapter(capsys, tmp_path, algorithm):
+    """Issue 42: stable-baselines3 trains on the channel-first transpose of a 7×7×3 image
+    (3, 7, 7); record refused the agent `train` had just written for that adapter."""
+    image = "tests.live.toy:ImageCorridor"
+    agent = tmp_path / "a.zip"
+    code, _, err = run(capsys, "train", "--env", image, "--algorithm", algorithm, "--steps",
+                       "100", "-o", str(agent))
+    assert code == 0, err
+    code, out, err = run(capsys, "record", "--env", image, "--agent", str(agent), "-n", "2",
+                         "-o", str(tmp_path / "run.mcap"))
+    assert code == 0 and "recorded 2 episode(s)" in out, err
+    code, _, err = run(capsys, "record", "--env", TOY, "--agent", str(agent), "-n", "1",
+                       "-o", str(tmp_path / "other.mcap"))
+    assert code == 2 and "the agent observes Box(0, 255, (3, 7, 7), uint8)" in err

@@ -176,3 +176,41 @@ class Cruise(EnvAdapter):
             Text(gap / 2, -2.2, f"gap {gap:.1f} m", 1.6, group="gap")),
             view=(-10.0, -5.0, 90.0, 8.0), caption="The ego car (blue, red once crashed) "
             "behind the lead car (grey), 4 m long each; the label is the gap between them.")
+
+
+# ------------------------------------------------------------------ an image observation
+
+class ImageCorridorEnv(CorridorEnv):
+    """The corridor seen as a 7×7 RGB picture (channel last, as MiniGrid's ``ImgObsWrapper``
+    gives): the agent's cell lit on the middle row."""
+
+    def __init__(self, slip: bool = True, render_mode: Optional[str] = None) -> None:
+        super().__init__(slip, render_mode)
+        self.observation_space = gym.spaces.Box(0, 255, (7, 7, 3), np.uint8)
+
+    def image(self) -> np.ndarray:
+        picture = np.zeros((7, 7, 3), np.uint8)
+        picture[3, self.pos, :] = 255
+        return picture
+
+    def reset(self, *, seed: Optional[int] = None, options=None):
+        super().reset(seed=seed)
+        return self.image(), {}
+
+    def step(self, action):
+        _, reward, terminated, truncated, info = super().step(action)
+        return self.image(), reward, terminated, truncated, info
+
+
+class ImageCorridor(Corridor):
+    name = "imagecorridor"
+    observation_shape = (7, 7, 3)
+
+    def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
+        return ImageCorridorEnv(**config)
+
+    def state(self, obs, info: dict, reward: float, env, initial: bool) -> dict[str, Any]:
+        return {"pos": int(env.unwrapped.pos)}
+
+    def crashed(self, obs, reward: float, terminated: bool, info: dict) -> bool:
+        return bool(terminated) and reward == 0.0

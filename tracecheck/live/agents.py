@@ -236,18 +236,50 @@ def _algorithms(sb3):
 
 
 def _check_observations(path: Path, space, adapter, env) -> None:
-    """The agent's observation space must be the environment's."""
+    """The agent's observation space must be the environment's — or, for an image, the
+    channel-first one stable-baselines3 trains on (its ``VecTransposeImage``: ``(7, 7, 3)``
+    becomes ``(3, 7, 7)``, and its policy transposes each observation back when it acts)."""
     if env is None:
         wanted = adapter.observation_shape
-        if wanted is not None and getattr(space, "shape", None) != tuple(wanted):
+        shape = getattr(space, "shape", None)
+        if wanted is not None and shape != tuple(wanted) and shape != _channels_first(
+                tuple(wanted)):
             raise InputError(f"{path}: the agent observes shape {space.shape}; {adapter.name} "
                              f"gives observations of shape {tuple(wanted)}")
         return
     theirs = env.observation_space
-    if type(space) is not type(theirs) or getattr(space, "shape", None) != getattr(
-            theirs, "shape", None) or getattr(space, "n", None) != getattr(theirs, "n", None):
-        raise InputError(f"{path}: the agent observes {space}, but {adapter.name} gives "
-                         f"{theirs}")
+    if _same_space(space, theirs) or _same_space(space, _transposed_image(theirs)):
+        return
+    raise InputError(f"{path}: the agent observes {space}, but {adapter.name} gives "
+                     f"{theirs}", hint="record with the environment (and the --env-config) "
+                                       "the agent was trained in")
+
+
+def _same_space(space, theirs) -> bool:
+    return theirs is not None and type(space) is type(theirs) and getattr(
+        space, "shape", None) == getattr(theirs, "shape", None) and getattr(
+        space, "n", None) == getattr(theirs, "n", None)
+
+
+def _channels_first(shape: tuple) -> Optional[tuple]:
+    return (shape[2], shape[0], shape[1]) if len(shape) == 3 else None
+
+
+def _transposed_image(space):
+    """The channel-first space stable-baselines3 trains an agent on when ``space`` is a
+    channel-last image; None for any other space."""
+    from stable_baselines3.common.preprocessing import (is_image_space,
+                                                        is_image_space_channels_first)
+
+    try:
+        if is_image_space(space) and not is_image_space_channels_first(
+                space):
+            from stable_baselines3.common.vec_env import VecTransposeImage
+
+            return VecTransposeImage.transpose_space(space)
+    except (AssertionError, ValueError, TypeError):
+        return None
+    return None
 
 
 def _load_table(path: Path, actions: Optional[tuple[str, ...]], env) -> Agent:
