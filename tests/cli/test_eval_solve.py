@@ -31,7 +31,7 @@ def test_the_issue_example(capsys):
     (("x : BOOL & y : 1..2 & (x = TRUE => y = 2)", "--all"), 0,
      "TRUE\nx = FALSE & y = 1\nx = FALSE & y = 2\nx = TRUE & y = 2\n"
      "3 solutions: all of them\n"),
-    (("x > 0 & [x] = [5]",), 3, "unknown: <expr>:1:10: cannot translate Pair to SMT\n"),
+    (("x > 0 & [x] = [5]",), 3, "unknown: <expr>:1:9: cannot translate this set to SMT\n"),
     (("x*x*x + y*y*y = z*z*z & x > 0 & y > 0 & z > 0", "--timeout", "0.5"), 3,
      "unknown: time limit (0.5 s)\n"),
     (("1 + 1 = 2", "x + 1 = 3"), 0, "TRUE\nTRUE\nx = 2\n"),

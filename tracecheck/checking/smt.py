@@ -16,9 +16,10 @@ from typing import Any, Callable, Optional
 
 from ..b import ast
 from ..b.linear import real_parameters
-from ..b.values import BUILTIN_SET_VALUES, Elem
+from ..b.values import BUILTIN_SET_VALUES, Elem, FuncValue
 from ..errors import UnsupportedError
-from .encoding import ElementFunction, ElementSet, encode_variable, load_z3
+from .encoding import (ElementFunction, ElementSet, ElementTerm, FiniteFunction,
+                       encode_variable, load_z3)
 
 __all__ = ["Translator", "MAX_EXPONENT", "MAX_DEGREE"]
 
@@ -31,6 +32,14 @@ class _Nums:
 
 
 _EMPTY = object()  # the set {} (its carrier comes from the other side)
+
+
+@dataclass
+class _Pair:
+    """``a |-> b`` of numbers: only an argument of an application (``field(x |-> y)``)."""
+
+    left: Any
+    right: Any
 
 #: The largest literal exponent ``x ** n`` is translated with (larger: ``unknown``).
 MAX_EXPONENT = 64
@@ -158,6 +167,18 @@ class Translator:
             carrier = next((s for s, elems in sets.items() if value <= set(elems)), None)
             if carrier is not None:
                 return ElementSet(carrier, {e: z3.BoolVal(e in value) for e in sets[carrier]})
+        if isinstance(value, FuncValue) and value.map and all(
+                isinstance(k, Elem) for k in value.map) and len(
+                {type(v) for v in value.map.values()}) == 1 and type(
+                next(iter(value.map.values()))) in (bool, int, float):
+            sets = self.machine.sets  # a constant function over elements: ElementFunction
+            carrier = next((s for s, elems in sets.items() if set(value.map) <= set(elems)),
+                           None)
+            if carrier is not None:
+                filler = next(iter(value.map.values()))
+                return ElementFunction(carrier, {
+                    e: (z3.BoolVal(e in value.map),
+                        self._constant(value.map.get(e, filler), node)) for e in sets[carrier]})
         raise self.fail(node, f"the constant value {value!r}")
 
     def t_IntLit(self, node, env):
@@ -349,15 +370,40 @@ class Translator:
         return _Nums([(self.z3.And(s.member[e], d), v) for e, (d, v) in f.cells.items()])
 
     def t_Apply(self, node: ast.Apply, env: dict) -> Any:
+        z3 = self.z3
         f = self.translate(node.fn, env)
-        if not isinstance(f, ElementFunction) or len(node.args) != 1:
+        if len(node.args) != 1 or not isinstance(f, (ElementFunction, FiniteFunction)):
             raise self.fail(node, "this application")
         x = self.translate(node.args[0], env)
+        if isinstance(f, FiniteFunction):
+            return self._apply_finite(node, f, x)
+        if isinstance(x, ElementTerm) and x.carrier == f.carrier:  # f(ahead): by cases
+            cells = [(x.term == x.consts[e], d, v) for e, (d, v) in f.cells.items()]
+            self._need(z3.Or([z3.And(is_e, d) for is_e, d, _ in cells]), node)
+            out = cells[-1][2]
+            for is_e, _, v in reversed(cells[:-1]):
+                out = z3.If(is_e, v, out)
+            return out
         if not isinstance(x, Elem) or x not in f.cells:
             raise self.fail(node, "an application to something that is not an element")
         defined, value = f.cells[x]
         self._need(defined, node)
         return value
+
+    def _apply_finite(self, node: ast.Apply, f: FiniteFunction, x) -> Any:
+        """``f(i)`` or ``f(i |-> j)`` of a function over integers: the array's value there,
+        well-defined where the index is in the domain."""
+        z3 = self.z3
+        pairs = isinstance(f.keys[0], tuple)
+        index = (x.left, x.right) if isinstance(x, _Pair) else (x,)
+        if len(index) != (2 if pairs else 1) or not all(z3.is_int(i) for i in index):
+            raise self.fail(node, "an application to an index of another kind than the "
+                                  "function's domain")
+        self._need(_in_keys(z3, f.keys, index), node)
+        return f.value(f.array[index] if len(index) == 1 else f.array[index[0], index[1]])
+
+    def t_Pair(self, node: ast.Pair, env: dict) -> Any:
+        return _Pair(self._num(node.left, env), self._num(node.right, env))
 
     def t_Call(self, node: ast.Call, env: dict) -> Any:
         z3 = self.z3
@@ -425,6 +471,8 @@ class Translator:
                 b = ElementSet(a.carrier, {e: z3.BoolVal(False) for e in a.member})
             if isinstance(a, Elem) and isinstance(b, Elem):
                 eq = z3.BoolVal(a == b)
+            elif isinstance(a, ElementTerm) or isinstance(b, ElementTerm):
+                eq = self._same_element(node, a, b)
             elif isinstance(a, ElementSet) and isinstance(b, ElementSet) and a.carrier == b.carrier:
                 eq = z3.And([a.member[e] == b.member[e] for e in a.member])
             elif z3.is_expr(a) and z3.is_expr(b) and not isinstance(a, Elem):
@@ -450,8 +498,31 @@ class Translator:
             return held if op == "<:" else z3.Not(held)
         raise self.fail(node, f"the relation {op}")
 
+    def _same_element(self, node, a, b) -> Any:
+        """``a = b`` where one side is an element the solver chooses."""
+        term = a if isinstance(a, ElementTerm) else b
+        other = b if term is a else a
+        if isinstance(other, ElementTerm):
+            if other.carrier != term.carrier:
+                raise self.fail(node, "an equality of elements of different sets")
+            return term.term == other.term
+        if isinstance(other, Elem):
+            const = term.consts.get(other)
+            return term.term == const if const is not None else self.z3.BoolVal(False)
+        raise self.fail(node, "this equality")
+
     def _member(self, node, x, right: ast.Node, env: dict) -> Any:
         z3 = self.z3
+        if isinstance(x, ElementTerm):
+            if isinstance(right, ast.Name) and right.id in self.machine.sets:
+                return z3.BoolVal(right.id == x.carrier)
+            s = self.translate(right, env)
+            if isinstance(s, ElementSet) and s.carrier == x.carrier:
+                return z3.Or([z3.And(x.term == x.consts[e], c) for e, c in s.member.items()])
+            raise self.fail(node, "this membership")
+        if (isinstance(x, FiniteFunction) and isinstance(right, ast.BinOp)
+                and right.op in ("-->", "+->")):
+            return self._function_member(node, x, right, env)
         if isinstance(right, ast.Name) and right.id in self.machine.sets and isinstance(x, Elem):
             return z3.BoolVal(x in self.machine.sets[right.id])
         if isinstance(right, ast.Name) and right.id in ("REAL", "INTEGER", "BOOL", "FLOAT"):
@@ -464,13 +535,18 @@ class Translator:
             dom = self.translate(right.left, env) if not (isinstance(right.left, ast.Name)
                                                   and right.left.id in self.machine.sets) else None
             cells = x.cells
+            r = right.right  # each value in the range too (0..3: not every integer)
+            ranged = z3.BoolVal(True) if isinstance(r, ast.Name) and r.id in (
+                "REAL", "INTEGER", "BOOL", "FLOAT") else z3.And(
+                [z3.Implies(d, self._member(node, v, r, env)) for d, v in cells.values()])
             if dom is None:
-                return z3.And([d for d, _ in cells.values()]) if right.op == "-->" \
-                    else z3.BoolVal(True)
+                return z3.And(ranged, z3.And([d for d, _ in cells.values()])) \
+                    if right.op == "-->" else ranged
             dom = self._as_set(dom, right)
             if right.op == "-->":
-                return z3.And([d == dom.member[e] for e, (d, _) in cells.items()])
-            return z3.And([z3.Implies(d, dom.member[e]) for e, (d, _) in cells.items()])
+                return z3.And(ranged, z3.And([d == dom.member[e] for e, (d, _) in cells.items()]))
+            return z3.And(ranged, z3.And([z3.Implies(d, dom.member[e])
+                                          for e, (d, _) in cells.items()]))
         if isinstance(right, ast.BinOp) and right.op == ".." and self.z3.is_arith(x):
             lo, hi = self._num(right.left, env), self._num(right.right, env)
             return z3.And(lo <= x, x <= hi)
@@ -485,6 +561,25 @@ class Translator:
         if isinstance(s, _Nums) and z3.is_arith(x) and self.number_sets:  # x : {1, y, 3}
             return z3.Or([z3.And(c, x == v) for c, v in s.items])
         raise self.fail(node, "this membership")
+
+    def _function_member(self, node, f: FiniteFunction, right: ast.BinOp, env: dict) -> Any:
+        """``f : D --> R`` of a function over integers: its domain is its keys by its
+        encoding, so D must be a set of the constants; each value in R."""
+        from ..b.values import explicit
+
+        z3 = self.z3
+        try:
+            dom = explicit(self.machine.compile(right.left)(dict(self.machine.base_env)))
+        except Exception:  # noqa: BLE001 - not a set of the constants: not translated
+            raise self.fail(node, "a function's domain that is not a set of the constants") \
+                from None
+        if right.op == "-->" and set(dom) != set(f.keys) or not set(f.keys) <= set(dom):
+            return z3.BoolVal(False)
+        r = right.right
+        if isinstance(r, ast.Name) and (r.id in ("REAL", "INTEGER", "BOOL")
+                                        or r.id == f.carrier):
+            return z3.BoolVal(True)
+        return z3.And([self._member(node, f.value(f.at(k)), r, env) for k in f.keys])
 
     def _short_circuit(self, node, env, reached_when_left: bool, combine):
         """``combine(left, right)``: the right side is reached (for well-definedness) only
@@ -604,6 +699,20 @@ class Translator:
 
 # sub-formulas translated once per binding (see Translator.translate)
 _SHARED = (ast.Comprehension, ast.Image, ast.Call, ast.Quant, ast.IfExpr)
+
+
+def _in_keys(z3, keys: tuple, index: tuple) -> Any:
+    """That ``index`` (z3 integers) is one of ``keys``: bounds where the keys are a range
+    (or a product of two), else one equation per key."""
+    axes = list(zip(*keys)) if isinstance(keys[0], tuple) else [keys]
+    spans = [(min(a), max(a)) for a in axes]
+    full = 1
+    for lo, hi in spans:
+        full *= hi - lo + 1
+    if full == len(set(keys)):
+        return z3.And([z3.And(lo <= i, i <= hi) for (lo, hi), i in zip(spans, index)])
+    return z3.Or([z3.And([i == v for i, v in zip(index, k if isinstance(k, tuple) else (k,))])
+                  for k in keys])
 
 
 def _abs(z3, x):
