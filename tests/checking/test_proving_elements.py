@@ -100,3 +100,87 @@ END
 """, "rng")
     code, out, err = run(capsys, "prove", rng, "--deadlock-free")
     assert (code, out) == (0, "deadlock-free: proved\n"), err
+
+
+# ------------------------------------------------------------------ continuous actions
+
+PUSH = """MACHINE Push
+CONSTANTS VMAX, A, DT
+PROPERTIES VMAX = 10.0 & A = 2.0 & DT = 0.5
+VARIABLES V
+INVARIANT V : REAL & V >= 0.0 & V <= VMAX
+INITIALISATION V := 0.0
+OPERATIONS
+    PUSH(u) = PRE u : REAL & V + A*DT*u <= VMAX & V + A*DT*u >= 0.0 THEN V := V + A*DT*u END
+END
+"""
+
+#: the throttle environment's action space is Box(-4, 2); this guard allows only a >= 3
+#: while EgoSpeed < 5: the live shield deadlocks there
+OUTSIDE = """MACHINE Outside
+VARIABLES Gap, EgoSpeed, LeadSpeed
+INVARIANT Gap : REAL & EgoSpeed : REAL & LeadSpeed : REAL & EgoSpeed >= 0.0 & LeadSpeed >= 0.0
+INITIALISATION Gap, EgoSpeed, LeadSpeed := 40.0, 20.0, 20.0
+OPERATIONS
+    ACCELERATE(a) = PRE a : REAL & (EgoSpeed < 5.0 => a >= 3.0) & a <= 10.0 THEN skip END
+END
+"""
+
+
+def test_a_claim_about_every_allowed_action(capsys, tmp_path):
+    push = write(tmp_path, PUSH, "push")
+    code, out, err = run(capsys, "prove", push, "--implies", "PUSH(u) => V + A*DT*u <= VMAX")
+    assert (code, out) == (0, "PUSH(u) => V + A*DT*u <= VMAX: proved\n"), err
+    code, out, err = run(capsys, "prove", push, "--implies", "PUSH(v) => v <= 1.0", "--json")
+    (finding,) = json.loads(out)
+    assert code == 1 and finding["status"] == "counterexample"
+    assert finding["reading"].startswith("PUSH allows v = ") and finding["disagreement"] is None
+    code, _, err = run(capsys, "prove", push, "--implies", "PUSH => V + A*DT*u <= VMAX")
+    assert code == 2 and "unknown identifier u" in err
+    assert "hint: PUSH has the parameter(s) u: write 'PUSH(u) => …'" in err
+    code, _, err = run(capsys, "prove", push, "--implies", "PUSH(u, w) => u < 1.0")
+    assert code == 2 and "PUSH has 1 parameter(s) (u); PUSH(u, w) names 2" in err
+    code, _, err = run(capsys, "prove", push, "--implies", "PUSH(V) => V < 1.0")
+    assert code == 2 and "apart from each other and from the machine's names (V is one)" in err
+    obligations = tmp_path / "obs.toml"
+    obligations.write_text('[[implies]]\noperation = "PUSH(u)"\npredicate = "u <= 10.0"\n')
+    code, out, err = run(capsys, "prove", push, "--obligations", obligations)
+    assert (code, out) == (0, "PUSH(u) => u <= 10.0: proved\n"), err
+
+
+def test_prove_with_the_environment_takes_its_action_space(capsys, tmp_path, acc_env):
+    """`prove --deadlock-free` said proved for a shield whose allowed set lies outside the
+    action space where the live shield deadlocks — without a word."""
+    outside = write(tmp_path, OUTSIDE, "outside")
+    code, out, err = run(capsys, "prove", outside, "--deadlock-free")
+    assert (code, out) == (0, "deadlock-free: proved\n")
+    assert "warning: ACCELERATE.a is bounded by no action space: the proof takes every real " \
+           "as an action" in err
+    env = "acc_cruise.throttle:Throttle"
+    code, out, err = run(capsys, "prove", outside, "--deadlock-free", "--env", env, "--json")
+    (finding,) = json.loads(out)
+    assert code == 1 and finding["status"] == "counterexample", err
+    assert finding["disagreement"] is None and finding["state"]["EgoSpeed"] < 5.0
+    assert "bounded by no action space" not in err
+    code, out, err = run(capsys, "prove", outside, "--implies", "ACCELERATE(a) => a <= 2.0",
+                         "--env", env)
+    assert (code, out) == (0, "ACCELERATE(a) => a <= 2.0: proved\n"), err
+    code, out, _ = run(capsys, "prove", outside, "--implies", "ACCELERATE(a) => a <= 2.0")
+    assert code == 1 and "ACCELERATE allows a = " in out
+
+
+def test_guards_with_the_environment_cut_the_allowed_set_to_its_action_space(capsys, tmp_path,
+                                                                             acc_env):
+    outside = write(tmp_path, OUTSIDE, "outside")
+    state = tmp_path / "s.json"
+    state.write_text('{"Gap": "40.0", "EgoSpeed": "2.0", "LeadSpeed": "20.0"}')
+    code, out, _ = run(capsys, "guards", outside, "-s", state)
+    assert code == 0 and out.splitlines() == ["enabled: ACCELERATE", "disabled: (none)",
+                                              "ACCELERATE: a ∈ [3.0, 10.0]"]
+    code, out, _ = run(capsys, "guards", outside, "-s", state, "--env",
+                       "acc_cruise.throttle:Throttle")
+    assert code == 0 and out.splitlines() == [
+        "enabled: (none: deadlock)", "disabled: ACCELERATE",
+        "ACCELERATE: a ∈ ∅ (within the action space: a ∈ [-4.0, 2.0])"]
+    code, _, err = run(capsys, "guards", outside, "-s", state, "--env", "frozenlake")
+    assert code == 2 and "frozenlake takes discrete actions" in err

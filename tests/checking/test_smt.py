@@ -238,7 +238,8 @@ def test_a_disagreement_rounding_cannot_explain_is_reported_without_asking_again
 
     asked = []
     holds_at = proving._holds_at
-    monkeypatch.setattr(proving, "_holds_at", lambda tr, model, cons, timeout_s: asked.append(1)
+    monkeypatch.setattr(proving, "_holds_at", lambda tr, model, cons, timeout_s, terms=():
+                        asked.append(1)
                         or holds_at(tr, model, cons, 1e-9))
     monkeypatch.setattr(Machine, "is_enabled", lambda self, op, state: True)
     path = tmp_path / "Count.mch"
@@ -258,7 +259,7 @@ def test_a_counterexample_the_solver_cannot_place_in_time_is_unknown(capsys, tmp
 
     holds_at = proving._holds_at
     monkeypatch.setattr(proving, "_holds_at",
-                        lambda tr, model, cons, timeout_s: holds_at(tr, model, cons, 1e-9))
+                        lambda tr, model, cons, timeout_s, terms=(): holds_at(tr, model, cons, 1e-9))
     code, r, err = _prove_third(capsys, tmp_path)
     assert code == 3, err
     assert r["status"] == "unknown" and r["disagreement"] is None

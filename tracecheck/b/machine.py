@@ -175,18 +175,21 @@ class Machine:
             check_kind(node, kind, source=text, context="the formula")
         return node
 
-    def check_formula(self, text: str, *, file: str, kind: str = PRED) -> ast.Node:
+    def check_formula(self, text: str, *, file: str, kind: str = PRED,
+                      extra: Optional[Mapping[str, Any]] = None,
+                      hint: Optional[str] = None) -> ast.Node:
         """``text`` parsed, its definitions expanded and type-checked in this machine's
         scope — the one path ``eval --model`` takes too (:func:`.typecheck.check_formula`).
         For formulas a user gives (``prove --assume``); ``file`` names where they came from
-        (``--assume``, ``obs.toml: implies[2].predicate``)."""
+        (``--assume``, ``obs.toml: implies[2].predicate``). ``extra``: more names in scope
+        and their types (an operation's parameters); ``hint`` for an unknown name."""
         from .typecheck import check_formula
 
-        names = ", ".join([*self.variables, *self.constants]) or "none"
-        node, _ = check_formula(text, self.type_objects, file=file, kind=kind,
-                                definitions=self.definitions,
-                                unknown_hint=f"the variables and constants of {self.name} are "
-                                             f"{names}")
+        names = ", ".join([*self.variables, *self.constants, *(extra or {})]) or "none"
+        node, _ = check_formula(text, {**self.type_objects, **(extra or {})}, file=file,
+                                kind=kind, definitions=self.definitions,
+                                unknown_hint=hint or f"the variables and constants of "
+                                                     f"{self.name} are {names}")
         return node
 
     def compile(self, node: ast.Node, *, source: Optional[str] = None) -> Callable[[dict], Any]:

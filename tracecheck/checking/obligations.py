@@ -17,13 +17,14 @@ Each mistake in a file names the file and the key; its predicates are type-check
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError
 from ..inputs import read_text
 
-__all__ = ["Given", "Obligations", "read_obligations", "implication", "KEYS"]
+__all__ = ["Given", "Obligations", "read_obligations", "implication", "operation_spec", "KEYS"]
 
 #: the keys of an obligations file
 KEYS = ("deadlock_free", "well_defined", "assume", "implies")
@@ -32,10 +33,12 @@ KEYS = ("deadlock_free", "well_defined", "assume", "implies")
 @dataclass(frozen=True)
 class Given:
     """A formula a user gave, and where it came from, for messages: an option
-    (``--assume``) or a file and entry (``obs.toml: implies[2].predicate``)."""
+    (``--assume``) or a file and entry (``obs.toml: implies[2].predicate``). ``params``:
+    the names an implication gives its operation's REAL parameters (``PUSH(u) => …``)."""
 
     text: str
     where: str
+    params: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -61,16 +64,39 @@ class Obligations:
         return not (self.deadlock_free or self.implies or self.well_defined)
 
 
+_OPERATION = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_.]*)\s*(?:\(\s*([A-Za-z_]\w*(?:\s*,\s*"
+                        r"[A-Za-z_]\w*)*)\s*\))?\s*")
+
+
+def operation_spec(text: str, where: str) -> tuple[str, tuple[str, ...]]:
+    """``OP`` or ``OP(u, v)`` as (operation, names of its parameters).
+
+    >>> operation_spec("PUSH(u)", "--implies")
+    ('PUSH', ('u',))
+    """
+    m = _OPERATION.fullmatch(text)
+    if m is None:
+        raise InputError(f"{where}: {text.strip()!r} is no operation: give OP, or OP(u) to "
+                         "name the REAL parameters of an operation")
+    names = tuple(n.strip() for n in m.group(2).split(",")) if m.group(2) else ()
+    return m.group(1), names
+
+
 def implication(text: str, where: str = "--implies") -> tuple[str, Given]:
-    """``'OP => PREDICATE'`` as (operation, predicate).
+    """``'OP => PREDICATE'`` as (operation, predicate); ``'OP(u) => PREDICATE'`` names the
+    operation's REAL parameters: the predicate must hold for every value it allows.
 
     >>> implication("Inc => x < 3")
-    ('Inc', Given(text='x < 3', where='--implies'))
+    ('Inc', Given(text='x < 3', where='--implies', params=()))
+    >>> implication("PUSH(u) => v + u <= 2.0")[1].params
+    ('u',)
     """
     op, sep, pred = text.partition("=>")
     if not sep or not op.strip() or not pred.strip():
-        raise InputError(f"{where} takes 'OP => PREDICATE', not {text!r}")
-    return op.strip(), Given(pred.strip(), where)
+        raise InputError(f"{where} takes 'OP => PREDICATE' (or 'OP(u) => PREDICATE' for "
+                         f"every allowed value u), not {text!r}")
+    name, params = operation_spec(op, where)
+    return name, Given(pred.strip(), where, params)
 
 
 def read_obligations(path: str | Path, machine) -> Obligations:
@@ -111,10 +137,11 @@ def _implications(path, items, machine) -> tuple[tuple[str, Given], ...]:
                 and isinstance(item.get("predicate"), str)):
             raise InputError(f"{path}: implies[{i + 1}] needs operation = \"OP\" and "
                              "predicate = \"…\"")
-        if item["operation"] not in machine.operations:
+        op, params = operation_spec(item["operation"], f"{path}: implies[{i + 1}].operation")
+        if op not in machine.operations:
             raise InputError(f"{path}: implies[{i + 1}].operation: unknown operation "
-                             f"{item['operation']!r}; the operations of {machine.name} are "
+                             f"{op!r}; the operations of {machine.name} are "
                              f"{', '.join(machine.operations)}")
-        out.append((item["operation"], Given(item["predicate"],
-                                             f"{path}: implies[{i + 1}].predicate")))
+        out.append((op, Given(item["predicate"], f"{path}: implies[{i + 1}].predicate",
+                              params)))
     return tuple(out)

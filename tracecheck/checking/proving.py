@@ -21,6 +21,7 @@ before it is reported; where the two disagree, that is said (the CLI raises
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -31,12 +32,14 @@ from .deadline import interrupted_at
 from ..errors import InputError, TracecheckError, UnsupportedError, WellDefinednessError
 from ..limits import deeply
 from .obligations import Given
-from .encoding import (MAX_TIMEOUT_S, ElementFunction, ElementSet, check_timeout, load_z3,
+from .encoding import (MAX_TIMEOUT_S, ElementFunction, ElementSet, ElementTerm, FiniteFunction,
+                       check_timeout, load_z3,
                        state_of_model)
 from .shield import Shield
 from .smt import Translator
 
-__all__ = ["prove", "symbolic_diff", "Result", "Describe", "check_timeout",
+__all__ = ["prove", "symbolic_diff", "Result", "Describe", "Bounds", "unbounded_parameters",
+           "check_timeout",
            "PROVED", "EQUIVALENT", "COUNTEREXAMPLE", "NOT_DEFINED", "UNKNOWN", "VACUOUS"]
 
 PROVED, EQUIVALENT, COUNTEREXAMPLE = "proved", "equivalent", "counterexample"
@@ -46,6 +49,9 @@ ONLY_IN = "only in "  # + the shield: an operation the other shield does not hav
 #: How a counterexample state reads for people, in one line (None: as its variables'
 #: values): an environment's :meth:`~tracecheck.live.adapter.EnvAdapter.describe`.
 Describe = Callable[[dict], Optional[str]]
+#: an action space's bounds of operations' REAL parameters: ``{op: ({p: low}, {p: high})}``
+#: (a side without a bound left out), as the live shield and replay take them
+Bounds = dict
 
 
 
@@ -190,7 +196,7 @@ def _satisfiable(translator: Translator, parts: list[tuple[str, object]], timeou
 
 
 def _obligation(name: str, build: Callable[[], list], ctx: _Context,
-                explain: Callable[[object], _Finding]) -> Result:
+                explain: Callable[[object], _Finding], terms: list = ()) -> Result:
     """Solve ``build()``'s constraints under ``ctx.base``: unsat is proved; a model is read
     by ``explain`` and confirmed by tracecheck's evaluator."""
     translator = ctx.translator
@@ -219,7 +225,7 @@ def _obligation(name: str, build: Callable[[], list], ctx: _Context,
         return result
     if not confirmed:
         holds = _holds_at(translator, model, constraints + translator.side_conditions,
-                          ctx.timeout_s)
+                          ctx.timeout_s, terms)
         if holds is None:  # the solver did not say in time: neither a finding nor a bug
             return Result(name, UNKNOWN, state=state, reading=result.reading,
                           reason=("tracecheck's evaluator does not confirm the solver's "
@@ -239,7 +245,7 @@ def _obligation(name: str, build: Callable[[], list], ctx: _Context,
 
 
 def _holds_at(translator: Translator, model, constraints: list,
-              timeout_s: float) -> Optional[bool]:
+              timeout_s: float, terms: list = ()) -> Optional[bool]:
     """Whether ``constraints`` still hold when every real of ``model`` is rounded to the
     nearest float (the state tracecheck's evaluator sees), fresh variables re-solved; None
     where the solver does not decide it within ``timeout_s``. Where rounding moves no value,
@@ -248,9 +254,11 @@ def _holds_at(translator: Translator, model, constraints: list,
     z3 = translator.z3
     fixed = []
     moved = False
-    for enc in translator.variables.values():
+    for enc in [*translator.variables.values(), *terms]:  # terms: an action's values
         cells = enc.cells.values() if isinstance(enc, ElementFunction) else \
             [(None, v) for v in enc.member.values()] if isinstance(enc, ElementSet) else \
+            [(None, enc.term)] if isinstance(enc, ElementTerm) else \
+            [(None, enc.at(k)) for k in enc.keys] if isinstance(enc, FiniteFunction) else \
             [(None, enc)]
         for defined, value in cells:
             for var in ([defined] if defined is not None else []) + [value]:
@@ -286,10 +294,16 @@ def _reading(state: dict, describe: Optional[Describe], limit: int = 6) -> str:
 # ------------------------------------------------------------------ the evaluator's view
 
 
-def _decides(machine, op: str, state: dict) -> Optional[bool]:
+def _decides(machine, op: str, state: dict, bounds: Optional[Bounds] = None
+             ) -> Optional[bool]:
     """Whether ``op`` is enabled in ``state`` by tracecheck's evaluator; None where its
-    guard is not well-defined there — which does not enable the operation."""
+    guard is not well-defined there — which does not enable the operation. With
+    ``bounds`` (an action space's), an operation with REAL parameters is enabled where its
+    guard allows a value inside them: the live shield's decision."""
     try:
+        if bounds and op in bounds:
+            low, high = bounds[op]
+            return machine.allowed(op, state).within(low, high).witness() is not None
         return machine.is_enabled(op, state)
     except WellDefinednessError:
         return None
@@ -323,7 +337,8 @@ def _given(item: Union[str, Given], where: str) -> Given:
 def prove(machine, *, deadlock_free: bool = False,
           implies: tuple[tuple[str, Union[str, Given]], ...] = (), well_defined: bool = False,
           assume: tuple[Union[str, Given], ...] = (), timeout_s: float = 10.0,
-          describe: Optional[Describe] = None) -> list[Result]:
+          describe: Optional[Describe] = None,
+          bounds: Optional[Bounds] = None) -> list[Result]:
     """Check the obligations over every state that satisfies the invariant and ``assume``.
 
     Every formula is type-checked first (a mistake is an error naming its option, ``--assume``
@@ -340,6 +355,10 @@ def prove(machine, *, deadlock_free: bool = False,
         assume: predicates the states satisfy.
         timeout_s: the solver's time per question.
         describe: how a counterexample reads (see :data:`Describe`).
+        bounds: the action space's bounds of operations with REAL parameters
+            (``{op: ({p: low}, {p: high})}``, an environment's: ``prove --env``): an
+            operation is enabled where its guard allows an action inside them, and a claim
+            ``OP(u) => P`` is about those actions. Without them every real is an action.
 
     Returns:
         One :class:`Result` per obligation: proved, counterexample, unknown or vacuous.
@@ -359,14 +378,17 @@ def prove(machine, *, deadlock_free: bool = False,
         if op not in machine.operations:
             raise InputError(f"unknown operation {op!r} in {claim.where}; the operations of "
                              f"{machine.name} are {', '.join(machine.operations)}")
+        _check_parameters(machine, op, claim)
     # every formula the user gave is checked before the solver sees any of them
     assumed = [(g, machine.check_formula(g.text, file=g.where)) for g in assumed]
-    claims = [(op, g, machine.check_formula(g.text, file=g.where)) for op, g in claims]
+    claims = [(op, g, machine.check_formula(g.text, file=g.where, **_scope(machine, op, g)))
+              for op, g in claims]
     names = (["deadlock-free"] if deadlock_free else []) + \
-        [f"{op} => {g.text}" for op, g, _ in claims] + \
+        [_claim_name(op, g) for op, g, _ in claims] + \
         (["well-defined guards"] if well_defined else [])
     try:
         translator = Translator(machine)
+        translator.bounds = dict(bounds or {})
         parts = [("the invariant", z3.And(*translator.defined(translator.invariant)))]
         for g, node in assumed:  # the invariant and assumptions are read where defined
             with translator.reading(g.where, g.text):
@@ -382,7 +404,8 @@ def prove(machine, *, deadlock_free: bool = False,
     if deadlock_free:
         results.append(_deadlock_free(machine, ctx))
     for op, given, node in claims:
-        results.append(_implication(machine, ctx, op, given, node))
+        results.append(_action_implication(machine, ctx, op, given, node) if given.params
+                       else _implication(machine, ctx, op, given, node))
     if well_defined:
         results.append(_well_defined(machine, ctx))
     return _if_satisfiable(results, satisfiable, why, "the invariant and assumptions")
@@ -420,7 +443,8 @@ def _deadlock_free(machine, ctx: _Context) -> Result:
                "there)" if bad else ""
 
         def confirm(state):
-            decided = {op: _decides(machine, op, state) for op in machine.operations}
+            decided = {op: _decides(machine, op, state, translator.bounds)
+                       for op in machine.operations}
             return not any(decided.values()) and \
                 [op for op, d in decided.items() if d is None] == bad
         return _Finding(COUNTEREXAMPLE, "no operation is enabled" + note, confirm)
@@ -449,14 +473,155 @@ def _implication(machine, ctx: _Context, op: str, given: Given, node) -> Result:
                 try:
                     holds(state)
                 except WellDefinednessError:
-                    return bool(_decides(machine, op, state))
+                    return bool(_decides(machine, op, state, translator.bounds))
                 return False
             return _Finding(NOT_DEFINED, f"{op} is enabled and {given.text} is not "
                                          "well-defined", confirm)
         return _Finding(COUNTEREXAMPLE, f"{op} is enabled and {given.text} does not hold",
-                        lambda state: bool(_decides(machine, op, state)) and not holds(state))
+                        lambda state: bool(_decides(machine, op, state, translator.bounds))
+                        and not holds(state))
 
     return _obligation(f"{op} => {given.text}", build, ctx, explain)
+
+
+def unbounded_parameters(machine) -> list[str]:
+    """The REAL parameters (``OP.p``) that ``machine``'s guards do not bound on both sides
+    by conjuncts of their own (``u >= -1.0 & u <= 1.0``): for them a proof without an
+    action space (``prove --env``) assumes every real is an action.
+
+    Args:
+        machine: a machine or a shield.
+
+    Returns:
+        ``["PUSH.u", …]``, in the order of the operations.
+    """
+    from ..b.linear import parameter_range
+
+    machine = machine_of(machine)
+    out = []
+    for name, op in machine.operations.items():
+        if not (op.params and real_parameters(op)):
+            continue
+        try:
+            bands = (parameter_range(machine, name) or _NO_RANGE).bands()
+        except TracecheckError:
+            bands = None
+        for p in op.params:
+            pieces = (bands or {}).get(p) or ()
+            if not pieces or any(i.low is None or i.high is None for i in pieces):
+                out.append(f"{name}.{p}")
+    return out
+
+
+class _NoRange:
+    @staticmethod
+    def bands():
+        return None
+
+
+_NO_RANGE = _NoRange()
+
+
+def _claim_name(op: str, given: Given) -> str:
+    return f"{op}({', '.join(given.params)}) => {given.text}" if given.params else \
+        f"{op} => {given.text}"
+
+
+def _check_parameters(machine, op: str, given: Given) -> None:
+    """``OP(u) => P`` names each REAL parameter of ``op`` once, with a name of its own."""
+    operation = machine.operations[op]
+    if not given.params:
+        return
+    if not (operation.params and real_parameters(operation)):
+        raise InputError(f"{given.where}: {op} has no REAL parameters; write '{op} => …'")
+    if len(given.params) != len(operation.params):
+        raise InputError(f"{given.where}: {op} has {len(operation.params)} parameter(s) "
+                         f"({', '.join(operation.params)}); {op}({', '.join(given.params)}) "
+                         f"names {len(given.params)}")
+    taken = set(machine.variables) | set(machine.constants) | set(machine.base_env)
+    clash = [n for n in given.params if n in taken]
+    if clash or len(set(given.params)) != len(given.params):
+        raise InputError(f"{given.where}: name the parameters of {op} apart from each other "
+                         f"and from the machine's names" + (f" ({clash[0]} is one)" if clash
+                                                            else ""))
+
+
+def _scope(machine, op: str, given: Given) -> dict:
+    """What a claim about ``op`` may name besides the machine's names: the parameters
+    ``OP(u)`` names (REAL); a hint where it names a parameter without them."""
+    from ..b.btypes import REAL
+
+    params = machine.operations[op].params
+    if given.params:
+        return {"extra": {n: REAL for n in given.params}}
+    if params:
+        return {"hint": f"{op} has the parameter(s) {', '.join(params)}: write "
+                        f"'{op}({', '.join(params)}) => …' to claim something of every value "
+                        "its guard allows"}
+    return {}
+
+
+def _box(translator: Translator, op: str, values: dict) -> list:
+    """The action space's bounds of ``op``'s parameters (``values``: their solver terms)."""
+    z3 = translator.z3
+    low, high = translator.bounds.get(op, ({}, {}))
+    return [z3.RealVal(Fraction(low[p])) <= v for p, v in values.items() if p in low] + \
+        [v <= z3.RealVal(Fraction(high[p])) for p, v in values.items() if p in high]
+
+
+def _action_implication(machine, ctx: _Context, op: str, given: Given, node) -> Result:
+    """For every state and every value of ``op``'s REAL parameters its guard allows (inside
+    the action space's bounds, where given), ``node`` holds with the parameters named as
+    ``given.params`` says: a counterexample is a state and an action."""
+    translator, z3 = ctx.translator, ctx.translator.z3
+    values = translator.parameters(op)  # OP.p: free, so the model gives the action
+    named = {n: values[p] for n, p in zip(given.params, machine.operations[op].params)}
+    wd: dict = {}
+    action: dict = {}
+
+    def build():
+        guard, defined = translator.defined(lambda: translator.guard_at(op))
+        with translator.reading(given.where, given.text):
+            claim, wd["claim"] = translator.defined(lambda: translator.pred(node, named))
+        return [defined, guard, *_box(translator, op, values),
+                z3.Not(z3.And(wd["claim"], claim))]
+
+    def holds(state):
+        env = machine.env(state)
+        env.update({n: action[p] for n, p in zip(given.params, machine.operations[op].params)})
+        return bool(machine.compile(node, source=given.text)(env))
+
+    def inside() -> bool:
+        low, high = translator.bounds.get(op, ({}, {}))
+        return all(low.get(p, -math.inf) <= v <= high.get(p, math.inf)
+                   for p, v in action.items())
+
+    def explain(model) -> _Finding:
+        action.update({p: _real(z3, model.eval(v, model_completion=True))
+                       for p, v in values.items()})
+        shown = ", ".join(f"{n} = {action[p]!r}" for n, p in
+                          zip(given.params, machine.operations[op].params))
+        if _undefined(translator, model, wd):
+            def confirm(state):
+                try:
+                    holds(state)
+                except WellDefinednessError:
+                    return inside() and machine.allows(op, state, action)
+                return False
+            return _Finding(NOT_DEFINED, f"{op} allows {shown} and {given.text} is not "
+                                         "well-defined", confirm)
+        return _Finding(COUNTEREXAMPLE, f"{op} allows {shown} and {given.text} does not hold",
+                        lambda state: inside() and machine.allows(op, state, action)
+                        and not holds(state))
+
+    return _obligation(_claim_name(op, given), build, ctx, explain, terms=list(values.values()))
+
+
+def _real(z3, value) -> float:
+    """A solver's real as the nearest float (the action tracecheck's evaluator is given)."""
+    if z3.is_algebraic_value(value):
+        value = value.approx(20)
+    return float(Fraction(value.numerator_as_long(), value.denominator_as_long()))
 
 
 def _well_defined(machine, ctx: _Context) -> Result:

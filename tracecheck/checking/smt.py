@@ -73,6 +73,9 @@ class Translator:
         self._raw: list = []  # every condition met, with the path it was met under
         self._free: dict = {}  # free names by node
         self._degrees: dict = {}  # z3 term id -> (term, its degree as a polynomial)
+        #: the action space's bounds of REAL parameters, ``{op: ({p: low}, {p: high})}``:
+        #: an operation is enabled where its guard allows a value inside them
+        self.bounds: dict = {}
         self.file, self.source = machine.file, machine.source  # what positions refer to
         for name in machine.variables:
             self.variables[name] = encode_variable(self.z3, machine, name, prefix)
@@ -679,7 +682,13 @@ class Translator:
         operation = self.machine.operations[op]
         if operation.params and real_parameters(operation):
             bound = self.parameters(op)
-            return self.z3.Exists(list(bound.values()), self.pred(operation.guard, bound))
+            guard = self.pred(operation.guard, bound)
+            low, high = self.bounds.get(op, ({}, {}))  # the action space's, where given
+            box = [self.z3.RealVal(Fraction(low[p])) <= v for p, v in bound.items() if p in low]
+            box += [v <= self.z3.RealVal(Fraction(high[p])) for p, v in bound.items()
+                    if p in high]
+            return self.z3.Exists(list(bound.values()), self.z3.And(*box, guard) if box
+                                  else guard)
         if operation.params:
             raise self.fail(operation.guard, f"the guard of {op}, which has parameters")
         return self.pred(operation.guard) if operation.guard is not None else \

@@ -204,7 +204,7 @@ def prove_cmd(
     unknown; 4: the solver and tracecheck's evaluator disagree; 5: vacuous, no state
     satisfies the invariant and assumptions (see docs/prove.md)."""
     from ..checking.obligations import Given, Obligations, implication, read_obligations
-    from ..checking.proving import prove
+    from ..checking.proving import prove, unbounded_parameters
     from ..checking.shield import load_shield
 
     fmt = output_format(fmt, as_json)
@@ -221,9 +221,19 @@ def prove_cmd(
     asked = asked.also(Obligations(implies=tuple(implication(item) for item in implies)))
     if asked.empty:
         raise InputError("nothing to prove: give --deadlock-free, --implies or --well-defined")
+    bounds = None
+    if adapter is not None and adapter.parameters:
+        from ..live.continuous import action_bounds
+
+        bounds = action_bounds(adapter)
+    elif unbounded_parameters(machine):
+        free = unbounded_parameters(machine)
+        warn([f"{', '.join(free)} {'is' if len(free) == 1 else 'are'} bounded by no action "
+              "space: the proof takes every real as an action (--env ENV takes the "
+              "environment's action space, as the live shield does)"])
     results = prove(machine, deadlock_free=asked.deadlock_free, implies=asked.implies,
                     well_defined=asked.well_defined, assume=asked.assume, timeout_s=timeout,
-                    describe=_describe(machine, adapter))
+                    describe=_describe(machine, adapter), bounds=bounds)
     _print_results(results, machine, fmt, counterexamples)
 
 

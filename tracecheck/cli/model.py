@@ -247,6 +247,10 @@ def _solve(expr: str, where: str, error, names: dict, env: dict, machine, solvin
 def guards(
     model: Path = typer.Argument(..., help="A classical B machine (.mch)."),
     state: Path = typer.Option(..., "--state", "-s", help="JSON file: variable -> B literal."),
+    env: Optional[str] = typer.Option(None, "--env", help="An environment with continuous "
+                                      "actions ({environments}, or package.module:Class): the "
+                                      "values of REAL parameters are those its action space "
+                                      "holds, as the live shield takes them."),
     as_json: bool = JSON,
     fmt: OutputFormat = FORMAT,
 ) -> None:
@@ -271,12 +275,38 @@ def guards(
                          f"that a guard reads ({exc.location})", file=str(state),
                          hint=f'add "{name}": … to the state file') from None
     allowed = _allowed_sets(machine, values)
+    bounds = _action_space(env)
+    for op, (low, high) in bounds.items():  # what the live shield can take
+        if op in allowed:
+            if not hasattr(allowed[op], "within"):
+                undecided[op] = ("its allowed set is the solver's, which is not cut to the "
+                                 "action space here")
+                enabled.discard(op)
+                continue
+            allowed[op] = allowed[op].within(low, high)
+            if allowed[op].witness() is None:
+                enabled.discard(op)
     broken, unchecked = machine.invariant_check(values)
     warn(_state_warnings(machine, str(state), missing, broken, unchecked))
-    emit(GuardsOutput(machine, enabled, undecided, allowed, missing, broken, unchecked),
-         fmt.value, out)
+    emit(GuardsOutput(machine, enabled, undecided, allowed, missing, broken, unchecked,
+                      bounds), fmt.value, out)
     if undecided:  # the answer is not complete: "cannot tell" is no "disabled"
         raise typer.Exit(3)
+
+
+def _action_space(env: Optional[str]) -> dict:
+    """The bounds of ``env``'s action space on each operation's REAL parameters (none
+    without ``--env``, or for an environment of discrete actions)."""
+    if env is None:
+        return {}
+    from ..live.adapter import load_adapter
+    from ..live.continuous import action_bounds
+
+    adapter = load_adapter(env)
+    if not adapter.parameters:
+        raise InputError(f"--env {env}: {adapter.name} takes discrete actions; --env bounds "
+                         "the REAL parameters of continuous ones")
+    return action_bounds(adapter)
 
 
 def _enabled(machine, values, undecided: dict) -> set:

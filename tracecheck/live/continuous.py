@@ -51,7 +51,7 @@ import numpy as np
 from ..b.linear import AllowedSet, linear_form, parameter_range, real_parameters
 from ..errors import InputError, TracecheckError, UnsupportedError
 
-__all__ = ["ContinuousShield", "Decision", "MODES", "interval_pairs", "space_parts",
+__all__ = ["ContinuousShield", "Decision", "MODES", "interval_pairs", "space_parts", "action_bounds",
            "SpacePart"]
 
 #: how a continuous shield makes an action allowed (``mask``: hybrid spaces only)
@@ -87,6 +87,34 @@ class SpacePart:
     low: np.ndarray  # float64
     high: np.ndarray
     dtype: np.dtype  # the float type the environment takes them in
+
+
+def action_bounds(adapter, config: Optional[dict] = None) -> dict[str, tuple[dict, dict]]:
+    """The bounds the environment's action space puts on each operation's REAL parameters,
+    ``{op: ({p: low}, {p: high})}`` (an infinite end left out): what ``prove --env`` and
+    ``guards --env`` take, as the live shield does.
+
+    Args:
+        adapter: an adapter that declares ``parameters``.
+        config: the environment's configuration (None: its default).
+
+    Returns:
+        The bounds; empty for an adapter of discrete actions.
+    """
+    if not adapter.parameters:
+        return {}
+    env = adapter.make_env(config if config is not None else adapter.config(None))
+    try:
+        space = env.action_space
+    finally:
+        env.close()
+    _, parts = space_parts(adapter, space)
+    out = {}
+    for part in parts:
+        low = {p: float(v) for p, v in zip(part.params, part.low) if np.isfinite(v)}
+        high = {p: float(v) for p, v in zip(part.params, part.high) if np.isfinite(v)}
+        out[part.op] = (low, high)
+    return out
 
 
 def space_parts(adapter, space) -> tuple[bool, tuple[SpacePart, ...]]:

@@ -212,8 +212,9 @@ class GuardsOutput(Report):
 
     def __init__(self, machine, enabled: set, undecided: dict[str, str], allowed: dict,
                  missing: list[str], broken: list[str],
-                 unchecked: list[tuple[str, str]]) -> None:
+                 unchecked: list[tuple[str, str]], bounds: Optional[dict] = None) -> None:
         self.machine, self.enabled, self.undecided = machine, enabled, undecided
+        self.bounds = bounds or {}  # the action space's, where --env gave one
         self.allowed, self.missing, self.broken, self.unchecked = (allowed, missing, broken,
                                                                    unchecked)
         self.ordered = [op for op in machine.operations if op in enabled]
@@ -224,6 +225,8 @@ class GuardsOutput(Report):
         return {"machine": self.machine.name, "enabled": self.ordered,
                 "disabled": self.blocked, "undecided": self.undecided,
                 "allowed": {op: allowed_json(a) for op, a in self.allowed.items()},
+                "action_space": {op: {"low": lo, "high": hi}
+                                 for op, (lo, hi) in self.bounds.items()} or None,
                 "missing_variables": self.missing,
                 "invariant_holds": False if self.broken else None if self.unchecked else True,
                 "invariant_violations": self.broken,
@@ -246,4 +249,8 @@ class GuardsOutput(Report):
         for op, why in self.undecided.items():
             say(f"undecided: {op} ({why})")
         for op, a in self.allowed.items():
-            say(f"{op}: {a}{_solver_text(_solver_witness(a))}")
+            space = self.bounds.get(op)
+            within = "" if space is None else " (within the action space: " + ", ".join(
+                f"{p} ∈ [{space[0].get(p, '-inf')}, {space[1].get(p, 'inf')}]"
+                for p in self.machine.operations[op].params) + ")"
+            say(f"{op}: {a}{within}{_solver_text(_solver_witness(a))}")
