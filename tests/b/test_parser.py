@@ -301,3 +301,17 @@ def test_a_formula_longer_than_the_limit_is_refused_before_it_is_lexed():
     with pytest.raises(BSyntaxError, match="the substitution is"):
         parse_substitution("x := 1 || " * (MAX_FORMULA_CHARS // 10) + "x := 1")
     assert parse_formula("x = 1 & " * 1000 + "x = 1")  # long, but within both limits
+
+
+def test_the_us_spelling_initialization_is_the_initialisation():
+    """Issue 42: `INITIALIZATION` was refused as an unsupported clause telling the user to
+    put everything into one machine."""
+    from tracecheck.b.machine import load_machine_text
+
+    text = ("MACHINE M\nVARIABLES x\nINVARIANT x : 0..3\nINITIALIZATION x := 2\n"
+            "OPERATIONS Up = SELECT x < 3 THEN x := x + 1 END\nEND")
+    m = load_machine_text(text)
+    assert m.initialisation == load_machine_text(
+        text.replace("INITIALIZATION", "INITIALISATION")).initialisation
+    with pytest.raises(BSyntaxError, match="the clause INITIALISATION appears twice"):
+        load_machine_text(text.replace("OPERATIONS", "INITIALISATION x := 1\nOPERATIONS"))

@@ -700,3 +700,27 @@ def test_an_environment_refusing_its_settings_shows_its_traceback_with_debug(tmp
     code, _, err = run(capsys, "--debug", *args)
     assert code == 2 and "Traceback (most recent call last)" in err
     assert "KeyError: '99x99'" in err and not (tmp_path / "q.npy").exists()
+
+
+def test_a_wrapper_whose_adapter_names_another_number_of_actions_is_refused(tmp_path):
+    """Issue 42: 7 actions in the environment, 3 in the adapter: accepted, then step(6)
+    raised IndexError."""
+    import gymnasium as gym
+
+    from tests.live.toy import SHIELD, Corridor, CorridorEnv
+    from tracecheck.checking.shield import load_shield
+    from tracecheck.live.wrapper import ShieldWrapper
+
+    path = tmp_path / "corridor.mch"
+    path.write_text(SHIELD)
+    env = CorridorEnv()
+    env.action_space = gym.spaces.Discrete(7)
+    with pytest.raises(InputError, match=r"the environment's action space Discrete\(7\) has 7 "
+                                         r"actions, but the adapter corridor names 2 \(Left, "
+                                         r"Right\)") as info:
+        ShieldWrapper(env, load_shield(path), adapter=Corridor())
+    assert "one operation per action" in info.value.render()
+    env.action_space = gym.spaces.Box(-1.0, 1.0, (1,))
+    with pytest.raises(InputError, match="has 2 discrete actions") as info:
+        ShieldWrapper(env, load_shield(path), adapter=Corridor())
+    assert "parameters = " in info.value.render()

@@ -46,7 +46,7 @@ CLAUSES = (
 _UNSUPPORTED_CLAUSES = (
     "MODEL", "SYSTEM", "REFINEMENT", "IMPLEMENTATION", "INCLUDES", "SEES", "EXTENDS",
     "USES", "PROMOTES", "IMPORTS", "REFINES", "CONSTRAINTS", "LOCAL_OPERATIONS", "VALUES",
-    "INITIALIZATION", "EVENTS",
+    "EVENTS",
 )
 _OPENERS = {"LPAR", "LSQB", "LBRACE", "BEGIN", "IF", "SELECT", "PRE", "ANY", "LET",
             "CHOICE", "ASSERT", "VAR", "CASE"}
@@ -331,6 +331,8 @@ def _split_clauses(toks: list[Token], text: str, file: Optional[str]):
                            column=col, source=text)
     clauses: list[tuple[Token, list[Token]]] = []
     for tok in toks[:-1]:
+        if tok.type == "NAME" and tok.value == "INITIALIZATION":  # the US spelling, as ProB
+            tok = Token.new_borrow_pos("NAME", "INITIALISATION", tok)
         if tok.type == "NAME" and tok.value in _UNSUPPORTED_CLAUSES:
             raise BSyntaxError(f"the clause {tok.value} is not supported by tracecheck",
                                file=file, line=tok.line, column=tok.column, source=text,

@@ -52,11 +52,26 @@ def main(argv: Optional[list[str]] = None) -> Any:
     except SystemExit as exc:  # Typer turns Ctrl-C into a silent exit 130: say so
         if exc.code == 130 and _from_interrupt(exc):
             err.print("interrupted")
+        if exc.code == 1 and _closed_pipe(exc):  # `tracecheck diff … | head`: Typer says 1,
+            sys.exit(CLOSED_PIPE)  # the code of --fail-on-change; a shell says 141
         raise
     except RecursionError:
         err.print("[red]error[/red]: the input is nested too deeply for tracecheck "
                   "(a formula or value with thousands of levels); split it up", markup=True)
         sys.exit(2)
+
+
+#: the exit status when the reader of standard output stopped reading (``| head``): what a
+#: shell reports for a program a closed pipe ended (128 + SIGPIPE), never a finding's code
+CLOSED_PIPE = 141
+
+
+def _closed_pipe(exc: BaseException) -> bool:
+    """Whether ``exc`` ends a command whose output pipe was closed (Typer exits 1 then)."""
+    import errno
+
+    context = exc.__context__
+    return isinstance(context, OSError) and context.errno == errno.EPIPE
 
 
 def _from_interrupt(exc: BaseException) -> bool:

@@ -24,7 +24,21 @@ def check_model(
     from ..render.listing_text import ModelOutput
 
     fmt = output_format(fmt, as_json)
-    emit(ModelOutput(load_model(model), str(model)), fmt.value, out)
+    machine = load_model(model)
+    warn(f"{model}: {what}: {fix}" for what, fix in _untyped_reals(machine))
+    emit(ModelOutput(machine, str(model)), fmt.value, out)
+
+
+def _untyped_reals(machine) -> list[tuple[str, str]]:
+    """Each parameter the guard makes a REAL without typing it ``p : REAL`` — tracecheck
+    does not take its operation for continuous actions (``guards`` cannot enumerate it,
+    ``record`` refuses it): (what is wrong, what to do)."""
+    from ..b.linear import untyped_real_parameters
+
+    return [(f"the parameter {p} of {op} is a REAL by its use, but its guard does not type it",
+             f"add `{p} : REAL` (PRE {p} : REAL & …) so that tracecheck takes {op}'s values as "
+             "continuous actions (docs/continuous.md)")
+            for op, p in untyped_real_parameters(machine)]
 
 
 def _state_warnings(machine, where: str, missing: list[str], broken: list[str],
@@ -261,6 +275,8 @@ def guards(
 
     fmt = output_format(fmt, as_json)
     machine = load_model(model, solving=True)  # a guard not linear: the solver's set
+    for what, fix in _untyped_reals(machine):  # it cannot enumerate the parameter
+        raise InputError(what, file=str(model), hint=fix)
     values = read_state_file(state)
     machine.check_state(values, where=str(state))
     missing = [v for v in machine.variables if v not in values]

@@ -189,7 +189,11 @@ def _load_continuous(path: Path, adapter, env, saved: set[str]) -> Agent:
         if not adapter.parameters:
             raise InputError(f"{path}: the agent ({name.split('-')[0]}) takes continuous "
                              f"actions ({space}); {adapter.name} has {len(adapter.actions)} "
-                             f"discrete actions ({', '.join(adapter.actions)})")
+                             f"discrete actions ({', '.join(adapter.actions)})",
+                             hint=f"an environment with continuous actions declares which "
+                                  f"REAL parameters of which operation they bind: parameters "
+                                  f"= {{\"{adapter.actions[0]}\": (\"u\",)}} in the adapter "
+                                  "(docs/continuous.md)")
         takes = _components(adapter, env)
         if shape != (len(takes),):
             raise InputError(f"{path}: the agent acts with {shape[0]} component(s) ({space}); "

@@ -119,6 +119,21 @@ class ShieldWrapper(gym.Wrapper):
             if self.continuous.hybrid:  # the agent acts with one vector (scores, values)
                 self.action_space = self.continuous.agent_space
         self.actions = tuple(self.env_adapter.actions)
+        n = getattr(env.action_space, "n", None)
+        name = self.env_adapter.name
+        if self.continuous is None and n is None:
+            raise InputError(f"the adapter {name} has {len(self.actions)} discrete actions "
+                             f"({', '.join(self.actions)}), but the environment's action space "
+                             f"is {env.action_space}",
+                             hint="for continuous actions the adapter declares parameters = "
+                                  "{\"OP\": (\"u\",)}: the operation each component binds "
+                                  "(docs/continuous.md)")
+        if n is not None and int(n) != len(self.actions):
+            raise InputError(f"the environment's action space {env.action_space} has {int(n)} "
+                             f"actions, but the adapter {name} names {len(self.actions)} "
+                             f"({', '.join(self.actions)}): each action index needs its B "
+                             "operation", hint="list one operation per action, in the "
+                                               "environment's order, in the adapter's actions")
         fallback = fallback or self.env_adapter.fallback or self.actions[0]
         if fallback not in self.actions:
             raise InputError(f"unknown fallback action {fallback!r}; the actions are "
