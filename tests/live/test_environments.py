@@ -724,3 +724,13 @@ def test_a_wrapper_whose_adapter_names_another_number_of_actions_is_refused(tmp_
     with pytest.raises(InputError, match="has 2 discrete actions") as info:
         ShieldWrapper(env, load_shield(path), adapter=Corridor())
     assert "parameters = " in info.value.render()
+
+
+def test_an_observation_the_agent_cannot_act_on_is_refused_saying_where():
+    from tracecheck.live.rollout import _finite
+
+    _finite(np.array([1.0, 2.0], np.float32))
+    _finite(3)
+    with pytest.raises(InputError, match=r"the observation holds nan \(at index \[1, 0\]\), "
+                                         "which the agent cannot act on"):
+        _finite(np.array([[1.0], [np.nan]]))

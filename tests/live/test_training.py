@@ -288,3 +288,54 @@ def test_an_agent_trained_on_images_records_on_the_same_adapter(capsys, tmp_path
     code, _, err = run(capsys, "record", "--env", TOY, "--agent", str(agent), "-n", "1",
                        "-o", str(tmp_path / "other.mcap"))
     assert code == 2 and "the agent observes Box(0, 255, (3, 7, 7), uint8)" in err
+
+
+@pytest.mark.parametrize("shield", ["none", "cruise"])
+def test_a_nan_observation_names_the_episode_step_and_variable(capsys, tmp_path, shield):
+    """Issue 42: under a shield "the real result is out of range (overflow) in `W - M - X`",
+    naming no NaN, episode or step; with --shield none a stable-baselines3 traceback."""
+    from tests.live.toy import CRUISE_SHIELD
+
+    agent = tmp_path / "a.zip"
+    code, _, err = run(capsys, "train", "--env", "tests.live.toy:Cruise", "--algorithm", "ppo",
+                       "--steps", "64", "-o", str(agent))
+    assert code == 0, err
+    path = tmp_path / "cruise.mch"
+    path.write_text(CRUISE_SHIELD)
+    code, _, err = run(capsys, "record", "--env", "tests.live.toy:NanCruise", "--agent",
+                       str(agent), "--shield", str(path) if shield == "cruise" else "none",
+                       "-n", "1", "-o", str(tmp_path / "run.mcap"))
+    assert code == 2 and "Traceback" not in err
+    said = " ".join(err.split())
+    assert "episode 0 (seed 0), step 3: state() of the adapter nancruise: Gap is nan, not a " \
+           "B real" in said, said
+    assert "hint: B reals are finite numbers" in said
+
+
+def test_a_continuous_agent_for_an_adapter_without_parameters_says_how_to_declare_them(
+        tmp_path):
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+
+    from tests.live.toy import CorridorEnv
+
+    env = CorridorEnv()
+    env.action_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
+    path = tmp_path / "push.zip"
+    PPO("MlpPolicy", env, n_steps=8, batch_size=8).save(path)
+    with pytest.raises(InputError, match=r"has 2 discrete actions \(Left, Right\)") as info:
+        load_agent(path, Corridor(), None)
+    assert 'parameters = {"Left": ("u",)} in the adapter' in info.value.render()
+
+
+def test_the_wrapper_takes_only_action_indices(tmp_path):
+    path = tmp_path / "corridor.mch"
+    path.write_text(SHIELD)
+    from tests.live.toy import CorridorEnv
+
+    env = ShieldWrapper(CorridorEnv(slip=False), load_shield(path), adapter=Corridor())
+    env.reset(seed=0)
+    for bad in (-1, 2, 2.7, "Left"):
+        with pytest.raises(InputError, match=r"an action is an index 0 … 1"):
+            env.step(bad)
+    env.step(np.int64(1))

@@ -214,3 +214,25 @@ class ImageCorridor(Corridor):
 
     def crashed(self, obs, reward: float, terminated: bool, info: dict) -> bool:
         return bool(terminated) and reward == 0.0
+
+
+# ------------------------------------------------------------------ a NaN observation
+
+class NanCruise(Cruise):
+    """The cruise control whose sensor fails at step 3: the gap becomes NaN."""
+
+    name = "nancruise"
+
+    def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
+        env = CruiseEnv()
+        step, count = env.step, [0]
+
+        def failing(action):
+            count[0] += 1
+            obs, *rest = step(action)
+            if count[0] == 3:
+                obs = obs.copy()
+                obs[0] = np.nan
+            return (obs, *rest)
+        env.step = failing
+        return env

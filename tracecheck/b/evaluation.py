@@ -220,7 +220,8 @@ class Compiler(Binders, Records):
     def real(self, node: ast.Node, v: Any) -> Any:
         """``v`` unless it is a real that overflowed (inf) or is not a number (NaN)."""
         if type(v) is float and not math.isfinite(v):
-            raise self.wd(node, "the real result is out of range (overflow)")
+            raise self.wd(node, "the real result is not a number (NaN)" if v != v else
+                          "the real result is out of range (overflow)")
         return v
 
     def op_add(self, node, l, r) -> Fn:

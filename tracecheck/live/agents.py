@@ -127,7 +127,10 @@ def load_agent(path: str | Path, adapter=None, env=None) -> Agent:
             return Agent(str(path), file_sha256(path), name, model)
         if getattr(space, "n", None) != len(actions):
             raise InputError(f"{path}: the agent has action space {space}; {adapter.name} "
-                             f"has {len(actions)} discrete actions ({', '.join(actions)})")
+                             f"has {len(actions)} discrete actions ({', '.join(actions)})",
+                             hint=_PARAMETERS_HINT.format(op=actions[0])
+                             if getattr(space, "shape", None) and getattr(space, "n", None)
+                             is None else None)
         _check_observations(path, model.observation_space, adapter, env)
         return Agent(str(path), file_sha256(path), name, model)
     raise InputError(f"{path} is not a stable-baselines3 DQN, PPO or A2C agent nor an "
@@ -190,16 +193,20 @@ def _load_continuous(path: Path, adapter, env, saved: set[str]) -> Agent:
             raise InputError(f"{path}: the agent ({name.split('-')[0]}) takes continuous "
                              f"actions ({space}); {adapter.name} has {len(adapter.actions)} "
                              f"discrete actions ({', '.join(adapter.actions)})",
-                             hint=f"an environment with continuous actions declares which "
-                                  f"REAL parameters of which operation they bind: parameters "
-                                  f"= {{\"{adapter.actions[0]}\": (\"u\",)}} in the adapter "
-                                  "(docs/continuous.md)")
+                             hint=_PARAMETERS_HINT.format(op=adapter.actions[0]))
         takes = _components(adapter, env)
         if shape != (len(takes),):
             raise InputError(f"{path}: the agent acts with {shape[0]} component(s) ({space}); "
                              f"{adapter.name} takes {len(takes)} ({', '.join(takes)})")
         _check_observations(path, model.observation_space, adapter, env)
     return Agent(str(path), file_sha256(path), name, model)
+
+
+#: what an adapter of continuous actions declares (an agent acting with vectors met one
+#: that declares none)
+_PARAMETERS_HINT = ("an environment with continuous actions declares which REAL parameters of "
+                    "which operation they bind: parameters = {{\"{op}\": (\"u\",)}} in the "
+                    "adapter (docs/continuous.md)")
 
 
 def _components(adapter, env) -> list[str]:

@@ -13,7 +13,7 @@ from typing import Any, Callable, Optional, Sequence
 import numpy as np
 
 from ..episodes.model import Episode, StepRecord, make_end
-from ..errors import InputError
+from ..errors import InputError, TracecheckError
 
 __all__ = ["RecordSettings", "resolve", "Session", "run_episode", "Diverged", "end_reason"]
 
@@ -88,6 +88,7 @@ class Session:
         self.shield = for_actions(shield, actions)
         self.env = ShieldWrapper(env, self.shield, settings.fallback, self.adapter,
                                  mode=settings.shield_mode, scale=settings.scale)
+        self.step_reached = 0  # of the episode running: where an error happened
 
     def episode(self, index: int) -> Episode:
         return run_episode(self, index)
@@ -104,16 +105,33 @@ def run_episode(session: Session, index: int, *, seed: Optional[int] = None,
     of the scripted part, the initial one included, and returns what differs from the
     recording, if anything: that ends the rollout with :class:`Diverged`.
     """
+    seed = session.settings.seed + index if seed is None else seed
+    try:
+        if session.env.continuous is not None:
+            return _continuous_episode(session, index, seed=seed, script=script, check=check)
+        return _discrete_episode(session, index, seed=seed, script=script, check=check)
+    except TracecheckError as exc:  # a state or observation the step could not take: where
+        if isinstance(exc, InputError) and not exc.message.startswith("episode "):
+            step = session.step_reached
+            raise InputError(f"episode {index} (seed {seed}), "
+                             f"{'the reset' if not step else f'step {step}'}: {exc.message}",
+                             hint=exc.hint) from exc
+        raise
+
+
+def _discrete_episode(session: Session, index: int, *, seed: int, script: Sequence[str],
+                      check) -> Episode:
+    """:func:`run_episode` for discrete actions."""
     from .wrapper import choose
 
-    seed = session.settings.seed + index if seed is None else seed
-    if session.env.continuous is not None:
-        return _continuous_episode(session, index, seed=seed, script=script, check=check)
     env, agent = session.env, session.agent
     actions, dt = env.actions, session.adapter.seconds_per_step
-    obs, info, steps = _start(env, seed, check)
+    obs, info, steps = _start(session, seed, check)
     reason = "time-limit"
     for k in range(1, session.horizon + 1):
+        session.step_reached = k - 1  # the observation came from the step before
+        _finite(obs)
+        session.step_reached = k
         values = agent.values(obs)
         allowed = env.action_masks()
         decision_us = info["shield"]["decision_us"]
@@ -139,10 +157,24 @@ def run_episode(session: Session, index: int, *, seed: Optional[int] = None,
     return Episode(id=index, steps=steps_t, end=make_end(steps_t, reason), seed=seed)
 
 
-def _start(env, seed: int, check) -> tuple[Any, dict, list[StepRecord]]:
+def _finite(obs) -> None:
+    """An observation the agent can act on: no NaN or infinity (a policy network turns one
+    into NaN probabilities, and stable-baselines3 then fails with a traceback)."""
+    arr = np.asarray(obs)
+    if arr.dtype.kind in "fc" and not np.isfinite(arr).all():
+        where = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
+        raise InputError(f"the observation holds {arr[where] if where else arr[()]} (at index "
+                         f"{list(where)}), which the agent cannot act on",
+                         hint="the environment gave a NaN or infinite observation: check it "
+                              "at this seed and step, or replace such values in an "
+                              "observation wrapper")
+
+
+def _start(session, seed: int, check) -> tuple[Any, dict, list[StepRecord]]:
     """The environment reset with ``seed``: (observation, info, [the initial state's
     record]), the initial state checked by ``check``."""
-    obs, info = env.reset(seed=seed)
+    session.step_reached = 0
+    obs, info = session.env.reset(seed=seed)
     _check(check, 0, info["b_state"])
     return obs, info, [StepRecord(0, 0.0, None, info["b_state"], 0.0, False,
                                   observation=_rows(obs))]
@@ -155,9 +187,13 @@ def _continuous_episode(session: Session, index: int, *, seed: int,
     the proposal, the executed parameters, the distance and the allowed intervals."""
     env, agent = session.env, session.agent
     dt = session.adapter.seconds_per_step
-    obs, info, steps = _start(env, seed, check)
+    obs, info, steps = _start(session, seed, check)
     reason = "time-limit"
     for k in range(1, session.horizon + 1):
+        session.step_reached = k - 1  # the observation came from the step before
+        if k > len(script):
+            _finite(obs)
+        session.step_reached = k
         proposal = script[k - 1] if k <= len(script) else agent.act(obs)
         allowed = tuple(a for a, ok in zip(env.actions, env.allowed) if ok)  # decided in
         obs, reward, terminated, truncated, info = env.step(proposal)

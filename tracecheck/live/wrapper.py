@@ -71,6 +71,19 @@ def adapter_for(env: gym.Env):
                      "adapter=…)")
 
 
+def _action_index(action: Any, n: int) -> int:
+    """A discrete action as its index 0 … n-1 (a numpy integer too); an InputError for
+    anything else (-1 took the last action, 2.7 the third)."""
+    try:
+        index = int(action)
+    except (TypeError, ValueError):
+        index = -1
+    if not 0 <= index < n or index != action:
+        raise InputError(f"ShieldWrapper.step({action!r}): an action is an index 0 … {n - 1} "
+                         f"of the adapter's actions")
+    return index
+
+
 def choose(values: Sequence[float], allowed: Sequence[bool],
            fallback: int) -> tuple[int, bool]:
     """The highest-valued allowed action; (fallback, True) when nothing is allowed."""
@@ -246,7 +259,7 @@ class ShieldWrapper(gym.Wrapper):
     def step(self, action):
         if self.continuous is not None:
             return self._step_continuous(action)
-        requested = int(action)
+        requested = _action_index(action, len(self.actions))
         taken = requested
         if not self.allowed[requested]:
             if self.allowed[self.fallback] or not self.allowed.any():
