@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import json
 
 import pytest
@@ -199,6 +201,36 @@ def test_an_episode_that_did_not_end_by_its_time_limit_is_not_read_back_as_one(t
     tank = Vocabulary(("level",), ("Fill",), "Tank")
     for reason, expected in (("crashed", "end-of-trace"), ("time-limit", "time-limit")):
         folder = tmp_path / reason
-        export_simb([episode(reason)], folder, tank.name)
+        export_simb([episode(reason)], folder, tank.name, lossy=True)
         (back,) = import_simb([folder], vocab=tank)
         assert back.end.reason == expected, reason
+
+
+def test_a_trace_export_that_would_drop_crashes_rewards_or_proposals_refuses(tmp_path):
+    """Issue 42: export prob2trace then import dropped the crash flag, the rewards and the
+    proposals with exit 0 (export simb refused only continuous values)."""
+    from tracecheck.episodes.model import Episode, StepRecord, make_end
+    from tracecheck.episodes.vocabulary import Vocabulary
+    from tracecheck.errors import InputError
+    from tracecheck.interop import export_prob2trace
+
+    def episode(**last):
+        steps = tuple(StepRecord(step=k, time=float(k), action=None if k == 0 else "Fill",
+                                 state={"level": k}, **{"reward": 0.0, "crashed": False,
+                                                        **(last if k == 2 else {})})
+                      for k in range(3))
+        return Episode(id=4, steps=steps, end=make_end(steps, "end-of-trace"), seed=0)
+
+    tank = Vocabulary(("level",), ("Fill",), "Tank")
+    for i, (extra, said) in enumerate((({"crashed": True}, "has no place for the crash (episode 4, step 2; "
+                                             "the states have no Crash variable)"),
+                        ({"reward": 1.5}, "has no place for the rewards (episode 4, step 2: 1.5;"),
+                        ({"proposal": {"u": 0.5}}, "the agent's proposals"))):
+        trace = tmp_path / f"t{i}.prob2trace"
+        with pytest.raises(InputError, match=re.escape(said)):
+            export_prob2trace(episode(**extra), trace, tank)
+        with pytest.raises(InputError, match="exporting would drop it"):
+            export_simb([episode(**extra)], tmp_path / "simb", tank.name)
+        assert not trace.exists()
+        export_prob2trace(episode(**extra), trace, tank, lossy=True)
+    export_prob2trace(episode(), tmp_path / "plain.prob2trace", tank)  # nothing to lose

@@ -137,7 +137,11 @@ def test_frozenlake_replay_resimulate_stats_render(frozen, tmp_path, capsys):
 
 def test_export_import_replay_round_trip(frozen, tmp_path, capsys):
     traces = tmp_path / "simb"
-    assert run(capsys, "export", "simb", frozen, "-o", traces)[0] == 0
+    code, _, err = run(capsys, "export", "simb", frozen, "-o", traces)
+    assert code == 2 and "a SimB timed trace has no place for the crash" in err
+    assert "--lossy exports the states and actions anyway" in err and not traces.exists()
+    code, _, err = run(capsys, "export", "simb", frozen, "-o", traces, "--lossy")
+    assert code == 0 and "note: a SimB timed trace has no place for the crash" in err
     back = tmp_path / "back.mcap"
     assert run(capsys, "import", "simb", traces, "--model", "frozenlake", "-o", back)[0] == 0
     _, a, _ = run(capsys, "replay", frozen, "--shield", "frozenlake", "--json")

@@ -182,6 +182,20 @@ def _episodes(run: Path, salvage: bool) -> list:
     return result.episodes, result.header
 
 
+#: ``--lossy`` of the trace exports (ProB, SimB): states and actions only
+LOSSY = typer.Option(False, "--lossy", help="Export the states and actions even where the "
+                     "trace format has no place for the run's crashes, rewards or proposals "
+                     "(refused without it); what is left out is said on stderr.")
+
+
+def _say_lossy(episodes, fmt: str, lossy: bool) -> None:
+    from ..interop.common import lossy as dropped
+
+    if lossy:
+        for line in dropped(episodes, fmt):
+            err.print(f"note: {line}: left out (--lossy)", markup=False, highlight=False)
+
+
 @export_app.command("prob2trace")
 def export_prob2trace_cmd(
     run: Path = typer.Argument(..., help="An MCAP run file."),
@@ -189,6 +203,7 @@ def export_prob2trace_cmd(
     episode: int = typer.Option(..., "--episode", "-e", help="The episode number."),
     output: Path = typer.Option(..., "--output", "-o", help="The .prob2trace file to write."),
     force: bool = FORCE,
+    lossy: bool = LOSSY,
 ) -> None:
     """Export one episode as a ProB2 trace (opens in ProB2-UI)."""
     from ..episodes.reader import find_episode, read_run
@@ -201,7 +216,8 @@ def export_prob2trace_cmd(
     warn(result.warnings)
     header = result.header
     vocab = _run_vocabulary(header)
-    export_prob2trace(chosen, output, vocab, force=force, inputs=[run])
+    export_prob2trace(chosen, output, vocab, force=force, inputs=[run], lossy=lossy)
+    _say_lossy([chosen], "a ProB2 trace", lossy)
     out.print(f"wrote episode {episode} ({chosen.end.steps} steps) -> {output}",
               markup=False)
 
@@ -231,6 +247,7 @@ def export_simb_cmd(
     force: bool = typer.Option(False, "--force", help="Replace a folder of SimB traces: the "
                                "old traces are removed only once the new ones are all "
                                "written (a folder that holds other files is refused)."),
+    lossy: bool = LOSSY,
 ) -> None:
     """Export every episode as a SimB timed trace (Timed_Simulation_N.json)."""
     from ..interop import export_simb
@@ -240,7 +257,8 @@ def export_simb_cmd(
     episodes, header = _episodes(run, salvage)
     written = export_simb(episodes, output, (header.model_name if header and header.model_name
                                              else _run_vocabulary(header).name), force=force,
-                          inputs=[run])
+                          inputs=[run], lossy=lossy)
+    _say_lossy(episodes, "a SimB timed trace", lossy)
     out.print(f"wrote {len(written)} SimB trace(s) -> {output}", markup=False)
 
 

@@ -189,6 +189,41 @@ def refuse_continuous(episodes: Iterable[Episode], fmt: str) -> None:
                                   "complete record")
 
 
+def lossy(episodes: Iterable[Episode], fmt: str) -> list[str]:
+    """What writing ``episodes`` in ``fmt`` (a ProB or SimB trace: states and actions) would
+    leave out: a crash where the states have no ``Crash`` variable, a reward where they have
+    no ``Reward`` one, what a continuous shield did with a proposal. One line per kind,
+    naming the first episode and step; empty when nothing is lost."""
+    found: dict[str, str] = {}
+    for episode in episodes:
+        for s in episode.steps:
+            here = f"episode {episode.id}, step {s.step}"
+            if s.crashed and "Crash" not in s.state:
+                found.setdefault("crash", f"the crash ({here}; the states have no Crash "
+                                          "variable)")
+            if s.reward and "Reward" not in s.state:
+                found.setdefault("reward", f"the rewards ({here}: {s.reward}; the states have "
+                                           "no Reward variable)")
+            if s.proposal or s.allowed_intervals or s.projection_distance is not None:
+                found.setdefault("proposal", f"the agent's proposals and the shield's allowed "
+                                             f"intervals ({here})")
+    return [f"{fmt} has no place for {found[kind]}" for kind in ("crash", "reward", "proposal")
+            if kind in found]
+
+
+def refuse_lossy(episodes: Iterable[Episode], fmt: str, *, allow: bool) -> list[str]:
+    """Refuse to write ``episodes`` in ``fmt`` where it would drop data (:func:`lossy`);
+    with ``allow`` (``--lossy``) return what is dropped, for a note."""
+    dropped = lossy(episodes, fmt)
+    if dropped and not allow:
+        raise InputError(f"{dropped[0]}: exporting would drop it"
+                         + (f" (and {len(dropped) - 1} more kind(s) of data)" if dropped[1:]
+                            else ""),
+                         hint="the run file itself is the complete record; --lossy exports "
+                              "the states and actions anyway, saying what it leaves out")
+    return dropped
+
+
 def state_changes(prev: Mapping[str, Any], state: Mapping[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in state.items() if k not in prev or prev[k] != v}
 

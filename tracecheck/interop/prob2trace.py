@@ -133,12 +133,17 @@ def _operation_info(op, variables, parameters):
 
 
 def export_prob2trace(episode: Episode, path: str | Path, vocab: Vocabulary, *,
-                      force: bool = False, inputs: Sequence[Path] = ()) -> Path:
+                      force: bool = False, inputs: Sequence[Path] = (),
+                      lossy: bool = False) -> Path:
     """Write ``episode`` as a ``.prob2trace`` file, by the output rule
     (:mod:`tracecheck.outputs`): not one of ``inputs``, an existing file only with
-    ``force``, renamed into place once complete."""
+    ``force``, renamed into place once complete. What a ProB trace has no place for (a
+    crash without a ``Crash`` variable, rewards, proposals) is refused, unless ``lossy``."""
     from ..outputs import check_output, write_file
     from ..jsontext import json_text
+    from .common import refuse_lossy
+
+    refuse_lossy([episode], "a ProB2 trace", allow=lossy)
 
     path = check_output(Path(path), inputs, force=force, example="episode.prob2trace")
     return write_file(path, json_text(prob2trace_document(episode, vocab), indent=2,

@@ -19,7 +19,7 @@ from ..episodes.model import Episode
 from ..episodes.vocabulary import Vocabulary
 from ..errors import InputError, printable
 from .common import (INIT, SETUP, build_episode, check_types, expand_paths, load_json,
-                     read_literal, refuse_continuous)
+                     read_literal, refuse_continuous, refuse_lossy)
 
 __all__ = ["import_simb", "read_simb", "export_simb", "simb_document"]
 
@@ -151,12 +151,14 @@ def check_simb_folder(folder: str | Path, inputs: Sequence[Path] = (), *,
 
 def export_simb(episodes: Iterable[Episode], folder: str | Path,
                 model_name: str, *, force: bool = False,
-                inputs: Sequence[Path] = ()) -> list[Path]:
+                inputs: Sequence[Path] = (), lossy: bool = False) -> list[Path]:
     """Write one ``Timed_Simulation_N.json`` per episode (N from 1) into ``folder``.
 
     The traces go into a new folder beside it, which replaces ``folder`` once every trace
     is written: an error leaves an existing folder as it was (see :func:`check_simb_folder`
-    for which folders may be replaced).
+    for which folders may be replaced). What a timed trace has no place for (a crash
+    without a ``Crash`` variable, rewards, a continuous action's values) is refused, unless
+    ``lossy`` (:func:`~tracecheck.interop.common.lossy` says what is left out).
     """
     from ..outputs import atomic_folder, inside, open_new
     from ..jsontext import json_text
@@ -164,6 +166,7 @@ def export_simb(episodes: Iterable[Episode], folder: str | Path,
     folder = check_simb_folder(folder, inputs, force=force)
     episodes = list(episodes)
     refuse_continuous(episodes, "a SimB timed trace")
+    refuse_lossy(episodes, "a SimB timed trace", allow=lossy)
     names = []
     with atomic_folder(folder) as tmp:
         for n, episode in enumerate(episodes, start=1):
