@@ -64,8 +64,10 @@ def test_user_formulas_are_type_checked_before_the_solver(capsys, counter, monke
     def no_solver(*a, **k):
         raise AssertionError("the solver was asked")
 
-    monkeypatch.setattr(P, "_satisfiable", no_solver)
-    monkeypatch.setattr(P, "_solve", no_solver)
+    from tracecheck.checking import confirming
+
+    monkeypatch.setattr(P, "check_satisfiable", no_solver)
+    monkeypatch.setattr(confirming, "solve", no_solver)
     code, out, err = run(capsys, "prove", counter, *args)
     assert code == 2 and out == ""
     assert err.startswith(message), err
@@ -246,8 +248,10 @@ def test_an_ill_defined_guard_does_not_enable_its_operation(capsys, tmp_path):
 
 def test_the_evaluator_counts_an_erroring_guard_as_not_enabled():
     machine = load_machine_text(GUARDED, file="D.mch")
-    assert P._decides(machine, "Inc", {"x": 0}) is None
-    assert P._decides(machine, "Inc", {"x": 2}) is True
+    from tracecheck.checking.confirming import decides
+
+    assert decides(machine, "Inc", {"x": 0}) is None
+    assert decides(machine, "Inc", {"x": 2}) is True
 
 
 # ------------------------------------------------------------------ symbolic diff

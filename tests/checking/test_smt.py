@@ -233,12 +233,12 @@ def test_a_disagreement_rounding_cannot_explain_is_reported_without_asking_again
     """Integers only: rounding to floats moves nothing, so an unconfirmed counterexample is a
     disagreement (exit 4) at once — even where the solver could not have re-checked it in
     time (it is not asked)."""
-    import tracecheck.checking.proving as proving
+    import tracecheck.checking.confirming as confirming
     from tracecheck.b.machine import Machine
 
     asked = []
-    holds_at = proving._holds_at
-    monkeypatch.setattr(proving, "_holds_at", lambda tr, model, cons, timeout_s, terms=():
+    holds_at = confirming.holds_at
+    monkeypatch.setattr(confirming, "holds_at", lambda tr, model, cons, timeout_s, terms=():
                         asked.append(1)
                         or holds_at(tr, model, cons, 1e-9))
     monkeypatch.setattr(Machine, "is_enabled", lambda self, op, state: True)
@@ -255,10 +255,10 @@ def test_a_counterexample_the_solver_cannot_place_in_time_is_unknown(capsys, tmp
     """Where the evaluator does not confirm the solver's state and the solver does not
     decide in time whether rounding to floats is why: not known, and not a disagreement
     (which says one of the two has a bug, exit 4) — as a loaded machine once reported."""
-    import tracecheck.checking.proving as proving
+    import tracecheck.checking.confirming as confirming
 
-    holds_at = proving._holds_at
-    monkeypatch.setattr(proving, "_holds_at",
+    holds_at = confirming.holds_at
+    monkeypatch.setattr(confirming, "holds_at",
                         lambda tr, model, cons, timeout_s, terms=(): holds_at(tr, model, cons, 1e-9))
     code, r, err = _prove_third(capsys, tmp_path)
     assert code == 3, err

@@ -525,3 +525,71 @@ def test_a_run_header_config_the_adapter_refuses_names_no_option_export_lacks(
     err = " ".join(err.split())
     assert code == 2 and f"{bad}: its environment_config does not fit frozenlake: unknown " \
         "setting 'nonsense'" in err and "--env-config" not in err, err
+
+
+def _record(capsys, tmp_path, env: str, agent_table, name: str, n: int = 3):
+    if agent_table is None:  # observations that are no index: an (untrained) PPO agent
+        from stable_baselines3 import PPO
+
+        from tests.live.toy import ByteCorridorEnv
+
+        agent = tmp_path / f"{name}.zip"
+        PPO("MlpPolicy", ByteCorridorEnv(), n_steps=8, batch_size=8, seed=0).save(agent)
+    else:
+        agent = tmp_path / f"{name}.npy"
+        np.save(agent, agent_table)
+    out = tmp_path / f"{name}.mcap"
+    code, _, err = run(capsys, "record", "--env", env, "--agent", str(agent), "--shield", "none",
+                       "-n", str(n), "-o", str(out))
+    assert code == 0, err
+    return out
+
+
+def test_observations_that_do_not_fit_the_space_are_refused_not_written_as_zeros(capsys,
+                                                                                  tmp_path):
+    pytest.importorskip("stable_baselines3")
+    recorded = _record(capsys, tmp_path, "tests.live.toy:ByteCorridor", None, "bytes")
+    code, _, err = run(capsys, "export", "minari", str(recorded), "--dataset-id", "t/b/b-v0",
+                       "--env", "tests.live.toy:ByteCorridor")
+    said = " ".join(err.split())
+    assert code == 2 and f"{recorded}, episode 0, step 0: the observation's value" in said
+    assert "is not a value of the environment's observation space Box(0, 255, (2,), uint8)" \
+        in said and "floats in [0, 1] under a uint8 Box?" in said
+    assert not minari.list_local_datasets()
+
+
+def test_an_exported_dataset_imports_back_with_its_states_and_crashes(capsys, tmp_path):
+    """The importer read states from an environment never reset (LunarLander failed, an
+    adapter reading the environment got the wrong states) and took every termination for a
+    crash (a goal reached came back crashed)."""
+    from tests.live.toy import left_leaning_table
+
+    table = left_leaning_table()
+    table[3:, :] = (0.0, 1.0)  # from cell 3 on it walks right, to the goal
+    image = "tests.live.toy:HiddenCorridor"
+    recorded = _record(capsys, tmp_path, image, table, "hidden", n=8)
+    original = read_run(recorded).episodes
+    assert {e.end.reason for e in original} == {"crashed", "end-of-trace"}
+    code, _, err = run(capsys, "export", "minari", str(recorded), "--dataset-id", "t/i/i-v0",
+                       "--env", image)
+    assert code == 0, err
+    back = tmp_path / "back.mcap"
+    code, _, err = run(capsys, "import", "minari", "t/i/i-v0", "--env", image, "-o", str(back))
+    assert code == 0, err
+    again = read_run(back).episodes
+    assert [[s.state for s in e.steps] for e in again] == \
+        [[s.state for s in e.steps] for e in original]
+    assert [e.end.reason for e in again] == [e.end.reason for e in original]
+
+
+def test_a_wrapper_minari_cannot_make_again_is_refused_with_what_to_do(capsys, tmp_path):
+    from tests.live.toy import left_leaning_table
+
+    wrapped = "tests.live.toy:WrappedCorridor"
+    recorded = _record(capsys, tmp_path, wrapped, left_leaning_table(), "wrapped")
+    code, _, err = run(capsys, "export", "minari", str(recorded), "--dataset-id", "t/w/w-v0",
+                       "--env", wrapped)
+    said = " ".join(err.split())
+    assert code == 2 and "the environment is wrapped in _PlainWrapper, which does not record " \
+                         "its arguments" in said
+    assert "inherit gymnasium.utils.RecordConstructorArgs" in said and "Traceback" not in err

@@ -236,3 +236,59 @@ class NanCruise(Cruise):
             return (obs, *rest)
         env.step = failing
         return env
+
+
+class ByteCorridorEnv(CorridorEnv):
+    """The corridor whose observation space says uint8 while it gives floats in [0, 1]."""
+
+    def __init__(self, slip: bool = True, render_mode: Optional[str] = None) -> None:
+        super().__init__(slip, render_mode)
+        self.observation_space = gym.spaces.Box(0, 255, (2,), np.uint8)
+
+    def reset(self, *, seed: Optional[int] = None, options=None):
+        super().reset(seed=seed)
+        return np.array([self.pos / 5, 0.5]), {}
+
+    def step(self, action):
+        _, reward, terminated, truncated, info = super().step(action)
+        return np.array([self.pos / 5, 0.5]), reward, terminated, truncated, info
+
+
+class ByteCorridor(Corridor):
+    name = "bytecorridor"
+
+    def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
+        return ByteCorridorEnv(**config)
+
+    def state(self, obs, info: dict, reward: float, env, initial: bool) -> dict[str, Any]:
+        return {"pos": int(env.unwrapped.pos)}
+
+    def crashed(self, obs, reward: float, terminated: bool, info: dict) -> bool:
+        return bool(terminated) and reward == 0.0
+
+
+class _PlainWrapper(gym.ObservationWrapper):
+    """A wrapper that does not record its arguments (as MiniGrid's ImgObsWrapper)."""
+
+    def observation(self, observation):
+        return observation
+
+
+class WrappedCorridor(Corridor):
+    name = "wrappedcorridor"
+
+    def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
+        gym.register("TracecheckCorridor-v0", entry_point=CorridorEnv,
+                     disable_env_checker=True) if "TracecheckCorridor-v0" not in gym.registry \
+            else None
+        return _PlainWrapper(gym.make("TracecheckCorridor-v0", **config))
+
+
+class HiddenCorridor(Corridor):
+    """The corridor whose states the adapter reads from the environment, not the
+    observation (as LunarLander's terrain, or a grid world's map)."""
+
+    name = "hiddencorridor"
+
+    def state(self, obs, info: dict, reward: float, env, initial: bool) -> dict[str, Any]:
+        return {"pos": int(env.unwrapped.pos)}

@@ -214,36 +214,6 @@ def real_parameters(op) -> bool:
     return set(op.params) <= typed
 
 
-def untyped_real_parameters(machine) -> list[tuple[str, str]]:
-    """The parameters (operation, parameter) the type checker makes REAL but no conjunct
-    ``p : REAL`` of the guard types: tracecheck takes an operation's parameters as
-    continuous actions only when each is typed so (:func:`real_parameters`).
-
-    >>> from tracecheck.b.machine import load_machine_text
-    >>> m = load_machine_text("MACHINE M VARIABLES v INVARIANT v : REAL INITIALISATION "
-    ...     "v := 0.0 OPERATIONS PUSH(u) = PRE v + u <= 1.0 THEN skip END END")
-    >>> untyped_real_parameters(m)
-    [('PUSH', 'u')]
-    """
-    from .btypes import REAL, Var, resolve
-    from .typecheck import typecheck_formula
-    from ..errors import TracecheckError
-
-    out = []
-    for name, op in machine.operations.items():
-        if not op.params or op.guard is None or real_parameters(op):
-            continue
-        fresh = {p: Var(numeric=False) for p in op.params}
-        try:
-            typecheck_formula(op.guard, {**machine.type_objects, **fresh})
-        except TracecheckError:
-            continue
-        typed = {c.left.id for c in conjuncts(op.guard) if isinstance(c, ast.Rel)
-                 and c.op == ":" and isinstance(c.left, ast.Name)}
-        out += [(name, p) for p, t in fresh.items() if resolve(t) == REAL and p not in typed]
-    return out
-
-
 def allowed_set(machine, op_name: str, state: Optional[Mapping[str, Any]] = None, *,
                 env: Optional[dict] = None) -> AllowedSet:
     """The values of ``op_name``'s REAL parameters its guard allows in ``state`` (or in an

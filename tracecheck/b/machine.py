@@ -28,7 +28,7 @@ from .evaluation import Compiler
 from .linear import real_parameters
 from ..limits import deep_recursion
 from .parser import MachineSource, parse_formula, parse_machine_source
-from .conversion import StateTypes, convert_state
+from .conversion import StateTypes, convert_state, unknown_elements
 from .state import native_state
 from .scope import PRED, check_kind, check_subst, expand, render
 from .substitution import SubstCompiler, before_after, guard_of, strip_guards, written
@@ -152,7 +152,7 @@ class Machine:
             wanted = self.type_objects.get(name)
             if wanted is None:
                 continue
-            unknown = _unknown_elements(value, owners)
+            unknown = unknown_elements(value, owners)
             if unknown:
                 raise InputError(f"{where}: {name} mentions {', '.join(sorted(unknown))}, "
                                  f"which no set of {self.name} contains")
@@ -626,19 +626,6 @@ def _op_description(src: MachineSource, op, until: int) -> Optional[str]:
     before = [t for end, t in src.descriptions.items() if op.pos.end < end <= body.start]
     after = [t for end, t in sorted(src.descriptions.items()) if body.end <= end < until]
     return (before or after or [None])[0]
-
-
-def _unknown_elements(value: Any, owners: dict) -> set[str]:
-    if isinstance(value, Elem):
-        return set() if value in owners else {str(value)}
-    if isinstance(value, tuple):
-        return _unknown_elements(value[0], owners) | _unknown_elements(value[1], owners)
-    if isinstance(value, frozenset):
-        out: set[str] = set()
-        for item in value:
-            out |= _unknown_elements(item, owners)
-        return out
-    return set()
 
 
 def _check_names(src: MachineSource) -> None:

@@ -20,7 +20,7 @@ from .scope import check_kind, expand, kind_of, render
 from .library import FUNCTIONS as _LIBRARY, call_type as _library_type
 
 __all__ = ["typecheck_machine", "typecheck_formula", "check_formula", "Typer",
-           "type_of_value", "describe_value_type", "unify_quiet"]
+           "type_of_value", "describe_value_type", "unify_quiet", "untyped_real_parameters"]
 
 
 _BUILTIN_TYPES = {
@@ -586,3 +586,33 @@ def check_formula(text: str, names: dict[str, Type], *, file: str,
     except TracecheckError as exc:
         raise exc.located(file=file, source=text) from None
     return node, kind or found
+
+
+def untyped_real_parameters(machine) -> list[tuple[str, str]]:
+    """The parameters (operation, parameter) the type checker makes REAL but no conjunct
+    ``p : REAL`` of the guard types: tracecheck takes an operation's parameters as
+    continuous actions only when each is typed so (:func:`.linear.real_parameters`).
+
+    >>> from tracecheck.b.machine import load_machine_text
+    >>> m = load_machine_text("MACHINE M VARIABLES v INVARIANT v : REAL INITIALISATION "
+    ...     "v := 0.0 OPERATIONS PUSH(u) = PRE v + u <= 1.0 THEN skip END END")
+    >>> untyped_real_parameters(m)
+    [('PUSH', 'u')]
+    """
+    def conjuncts(node):
+        return conjuncts(node.left) + conjuncts(node.right) if isinstance(node, ast.And) \
+            else [node]
+
+    out = []
+    for name, op in machine.operations.items():
+        if not op.params or op.guard is None:
+            continue
+        fresh = {p: Var(numeric=False) for p in op.params}
+        try:
+            typecheck_formula(op.guard, {**machine.type_objects, **fresh})
+        except TracecheckError:
+            continue
+        typed = {c.left.id for c in conjuncts(op.guard) if isinstance(c, ast.Rel)
+                 and c.op == ":" and isinstance(c.left, ast.Name)}
+        out += [(name, p) for p, t in fresh.items() if resolve(t) == REAL and p not in typed]
+    return out

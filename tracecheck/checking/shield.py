@@ -214,8 +214,8 @@ def check_vocabulary(shield: Shield, adapter, env) -> None:
                          f"{', '.join(machine.variables)})",
                          hint=(f"use a shield written for {adapter.name}, e.g. "
                                f"{adapter.default_shield}") if own else
-                         f"name the variables alike in the adapter's `variables` (and the keys "
-                         f"its state() returns) and in the shield's VARIABLES")
+                         "name the variables alike in the adapter's `variables` (and the keys "
+                         "its state() returns) and in the shield's VARIABLES")
     for name, read in machine.guard_variables().items():
         missing = sorted(read - given)
         if missing:

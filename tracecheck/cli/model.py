@@ -33,7 +33,7 @@ def _untyped_reals(machine) -> list[tuple[str, str]]:
     """Each parameter the guard makes a REAL without typing it ``p : REAL`` — tracecheck
     does not take its operation for continuous actions (``guards`` cannot enumerate it,
     ``record`` refuses it): (what is wrong, what to do)."""
-    from ..b.linear import untyped_real_parameters
+    from ..b.typecheck import untyped_real_parameters
 
     return [(f"the parameter {p} of {op} is a REAL by its use, but its guard does not type it",
              f"add `{p} : REAL` (PRE {p} : REAL & …) so that tracecheck takes {op}'s values as "

@@ -168,7 +168,20 @@ def _observation(rows, space, where: str):
     if value.size != int(np.prod(space.shape)):
         raise InputError(f"{where}: an observation of shape {value.shape} does not fit the "
                          f"environment's {space} (was it recorded with another configuration?)")
-    return value.reshape(space.shape).astype(space.dtype)
+    value = value.reshape(space.shape)
+    cast = value.astype(space.dtype)
+    exact = cast.astype(np.float64) == value
+    inside = exact & (cast >= space.low) & (cast <= space.high) if hasattr(space, "low") \
+        else exact
+    if not inside.all():  # 0.25 under a uint8 Box became 0: written, every value would be
+        at = tuple(int(i) for i in np.argwhere(~inside)[0])
+        raise InputError(f"{where}: the observation's value {value[at]!r} at index {list(at)} "
+                         f"is not a value of the environment's observation space {space}",
+                         hint="the environment's observations do not fit the space it "
+                              "declares (floats in [0, 1] under a uint8 Box?): a Minari "
+                              "dataset stores them in that space's type, so declare the "
+                              "space the observations have")
+    return cast
 
 
 def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
@@ -223,7 +236,8 @@ def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
                  "preferred": np.full(n + 1, -1, dtype=np.int64),
                  "action_values": np.full((n + 1, len(actions)), np.nan),
                  "b_state": np.array([json.dumps(encode_state(s.state)).encode()
-                                      for s in ep.steps], dtype=object)}
+                                      for s in ep.steps], dtype=object),
+                 "crashed": np.array([bool(s.crashed) for s in ep.steps], dtype=bool)}
         for j, s in enumerate(ep.steps[1:], start=1):
             for a in s.allowed_actions or ():
                 infos["allowed"][j, actions.index(a)] = True
@@ -249,12 +263,13 @@ def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
     description = (f"Episodes of agent {header.agent_id or 'unknown'} under the B shield "
                    f"{shield} (sha256 {header.shield_sha256 or '-'}), recorded by tracecheck. "
                    f"infos: allowed (shield mask over {', '.join(actions)}), intervened, "
-                   "deadlock, b_state (JSON).")
+                   "deadlock, b_state (JSON), crashed.")
     try:
         work = Path(tempfile.mkdtemp(prefix=".tracecheck-", dir=root))  # hidden: not listed
     except OSError as exc:
         raise InputError(f"cannot write in the Minari datasets folder {root}: "
                          f"{exc.strerror or exc}") from None
+    _recoverable(made)
     try:
         with _datasets_path(work), warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # its advice to add an e-mail address
@@ -276,6 +291,24 @@ def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
         shutil.rmtree(work, ignore_errors=True)
         made.close()
     return minari.load_dataset(dataset_id)
+
+
+def _recoverable(made) -> None:
+    """Minari stores how to make the environment again (its spec, wrappers included): a
+    wrapper that does not record its arguments cannot be, and Minari's own error says only
+    which class it is not."""
+    spec = getattr(made, "spec", None)
+    bad = [w.name for w in getattr(spec, "additional_wrappers", None) or ()
+           if getattr(w, "kwargs", {}) is None]
+    if bad:
+        raise InputError(f"cannot export: the environment is wrapped in {', '.join(bad)}, which "
+                         "does not record its arguments, so Minari cannot store how to make "
+                         "the environment again",
+                         hint=f"make {bad[0]} also inherit gymnasium.utils.RecordConstructorArgs "
+                              f"(and call RecordConstructorArgs.__init__(self, …) in its "
+                              "__init__), or have the adapter's make_env wrap the environment "
+                              "in a subclass that does; MiniGrid's ImgObsWrapper and "
+                              "FullyObsWrapper do not")
 
 
 def _refuse_taken(root: Path, dataset_id: str) -> None:

@@ -19,7 +19,8 @@ from ..errors import InputError
 __all__ = ["check_observations", "check_infos", "check_counts", "check_episode_steps"]
 
 #: the infos tracecheck's export writes, and the ones import reads back
-SHIELD_INFOS = ("allowed", "intervened", "deadlock", "preferred", "action_values", "b_state")
+SHIELD_INFOS = ("allowed", "intervened", "deadlock", "preferred", "action_values", "b_state",
+                "crashed")
 
 
 # ------------------------------------------------------------------ observations
@@ -114,7 +115,8 @@ def check_infos(infos, n: int, actions: int, where: str) -> None:
             ("preferred", None, "iu", "action indices"),
             ("deadlock", None, "b", "true/false"),
             ("intervened", None, "b", "true/false"),
-            ("b_state", None, "OSU", "texts")):
+            ("b_state", None, "OSU", "texts"),
+            ("crashed", None, "b", "true/false")):
         if key not in infos:
             continue
         value = np.asarray(infos[key])

@@ -138,8 +138,12 @@ def import_minari(dataset_id: str, adapter_name: str, *,
         from ..episodes.codec import encode_state
 
         for index, data in _episode_data(dataset, dataset_id):
-            observer = adapter.observer(env)
             where = f"{dataset_id}, episode {index}"
+            stored = _stored(data.infos, len(data.actions), adapter, where)
+            observer = None
+            if stored is None:  # a dataset of other origin: the adapter reads observations
+                env.reset(seed=seeds[index])  # of the environment as it made that episode
+                observer = adapter.observer(env)
             n = len(data.actions)
             steps = []
             _check_lengths(data, n, where)
@@ -152,11 +156,11 @@ def import_minari(dataset_id: str, adapter_name: str, *,
             if bad.size:
                 raise InputError(f"{where}, step {bad[0] + 1}: the reward is {rewards[bad[0]]}")
             for k in range(n + 1):
-                crashed = bool(k == n and n and data.terminations[-1])
                 reward = 0.0 if k == 0 else float(rewards[k - 1])
+                crashed = _crashed(adapter, data, stored, k, n, reward, where)
                 try:
-                    state = observer.state(data.observations[k], {"crashed": crashed}, reward,
-                                           initial=k == 0)
+                    state = stored[0][k] if stored is not None else observer.state(
+                        data.observations[k], {"crashed": crashed}, reward, initial=k == 0)
                     encode_state(state)  # a value a run file cannot hold (NaN), said here
                 except TracecheckError as exc:
                     raise InputError(f"{where}, step {k}: {exc.message}") from exc
@@ -180,6 +184,60 @@ def import_minari(dataset_id: str, adapter_name: str, *,
             progress()
 
     return header, episodes()
+
+
+def _stored(infos, n: int, adapter, where: str):
+    """(states, crash flags) tracecheck's export stored in ``infos`` (``b_state``, JSON per
+    observation; ``crashed``, where written) — what the episode was, not what the adapter
+    would read from the observations again; None for a dataset without them."""
+    from ..episodes.codec import decode_state
+
+    texts = infos.get("b_state") if isinstance(infos, dict) else None
+    if texts is None or np.shape(texts) != (n + 1,):
+        return None
+    states = []
+    for k, text in enumerate(texts):
+        here = f"{where}, step {k}: its infos/b_state"
+        try:
+            data = json.loads(text.decode() if isinstance(text, bytes) else str(text))
+        except (ValueError, UnicodeDecodeError):
+            raise InputError(f"{here} is not JSON") from None
+        if not isinstance(data, dict):
+            raise InputError(f"{here} is not a JSON object of the state's variables")
+        state = decode_state(data, where=here)
+        missing = [v for v in adapter.variables if v not in state]
+        if missing:
+            raise InputError(f"{here} gives no value for {missing[0]}, a variable of "
+                             f"{adapter.name}", hint="import it with the environment it was "
+                                                     "exported from (--env)")
+        states.append(state)
+    flags = infos.get("crashed")
+    crashed = [bool(f) for f in np.asarray(flags)] if flags is not None and \
+        np.shape(flags) == (n + 1,) and np.asarray(flags).dtype == bool else None
+    return states, crashed
+
+
+def _crashed(adapter, data, stored, k: int, n: int, reward: float, where: str) -> bool:
+    """Whether step ``k`` crashed: as stored by tracecheck's export; else, at an episode's
+    last step if it terminated, as the adapter judges it (a goal reached terminates too)."""
+    if stored is not None and stored[1] is not None:
+        return stored[1][k]
+    if not (k == n and n and data.terminations[-1]):
+        return False
+    try:
+        return bool(adapter.crashed(_observation_at(data.observations, k), reward, True,
+                                    {"crashed": True}))
+    except Exception as exc:  # noqa: BLE001 - the user's adapter: said with the place
+        raise InputError(f"{where}, step {k}: the {adapter.name} adapter cannot judge whether "
+                         f"the episode crashed: {type(exc).__name__}: {exc}") from None
+
+
+def _observation_at(observations, k: int):
+    if isinstance(observations, dict):
+        return {key: _observation_at(v, k) for key, v in observations.items()}
+    if isinstance(observations, (tuple, list)):
+        return type(observations)(_observation_at(v, k) for v in observations)
+    return observations[k]
 
 
 def _episode_data(dataset, dataset_id: str):

@@ -230,12 +230,9 @@ class EnvAdapter:
             initial: whether this is the observation of ``reset``.
 
         Returns:
-            ``{variable: value}`` for each of :attr:`variables`, in Python or numpy
-            values that the shield's types make B values (:mod:`tracecheck.b.conversion`,
-            docs/environments.md, "States"): ``int``, ``float`` (a REAL), ``bool``, a
-            ``str`` naming an element of an enumerated or deferred set (or a STRING), a
-            ``set``, a ``dict`` for a function, a ``list`` for a sequence, a ``tuple`` for
-            a pair, a numpy array where the invariant gives the index set.
+            ``{variable: value}`` for each of :attr:`variables`: Python or numpy values
+            the shield's types make B values (:mod:`tracecheck.b.conversion`; a ``str``
+            naming an element, a ``dict`` for a function: docs/environments.md, "States").
         """
         raise NotImplementedError
 
