@@ -232,3 +232,29 @@ def test_report_resimulate_needs_a_shield(capsys, tmp_path):
     code, _, err = run(capsys, "report", str(NONE), "--resimulate", "-o",
                        str(tmp_path / "r.html"))
     assert code == 2 and "--resimulate needs --shield" in err
+
+
+def test_the_picture_shows_the_state_where_the_shield_would_have_acted(tmp_path):
+    """Issue 42: the thumbnail "at the first blocked step" drew the state after the blocked
+    action — the agent already in the hole — not the state the shield decides in."""
+    from tracecheck.checking.replaying import replay
+    from tracecheck.episodes.reader import read_run
+    from tracecheck.live.record import RecordSettings, record
+
+    run_file = tmp_path / "lake.mcap"
+    record(RecordSettings(env="frozenlake", agent=str(ROOT / "models" / "agents" /
+                                                      "frozenlake.npy"),
+                          shield="none", episodes=3, seed=0, duration=30,
+                          env_config={"is_slippery": True}), run_file)
+    shield = load_shield("frozenlake")
+    out = tmp_path / "report.html"
+    write_report([run_file], out, shield=shield, pset=load_properties("generic"))
+    pictures = dict(re.findall(r"<tr><td>(\d+)</td>.*?<td class='pic'><svg.*?<title>agent at "
+                               r"\((\d+, \d+)\)</title>", out.read_text()))
+    episodes = {e.id: e for e in read_run(run_file).episodes}
+    blocked = {e.episode: e.first_infeasible for e in replay([run_file], shield).per_episode
+               if e.first_infeasible is not None}
+    assert blocked and set(blocked) <= {int(k) for k in pictures}
+    for episode, k in blocked.items():
+        before = episodes[episode].steps[k - 1].state
+        assert pictures[str(episode)] == f"{before['x']}, {before['y']}"

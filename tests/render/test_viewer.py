@@ -143,3 +143,49 @@ def test_the_time_series_panel_in_a_browser(cruise_runs, cruise_shield, lake_run
         assert browser.find_element(By.CSS_SELECTOR, "#series .chart .value").text != "150.6"
     finally:
         browser.quit()
+
+
+class _GridCruise(Cruise):
+    """The cruise run drawn as a 7×7 grid with no scale (a MiniGrid user's scene)."""
+
+    scale = None
+
+    def scene(self, step, shield=None):
+        from tracecheck.live.scene import Box, Scene
+
+        tiles = tuple(Box(x + 0.5, y + 0.5, 0.95, 0.95, fill=(0.6, 0.6, 0.6, 1.0))
+                      for x in range(7) for y in range(7))
+        return Scene(tiles, view=(0.0, 0.0, 7.0, 7.0), caption="a 7×7 grid",
+                     scale=self.scale)
+
+
+@pytest.mark.parametrize("scale", [None, 400.0])
+def test_a_scene_fits_beside_its_controls(cruise_runs, cruise_shield, tmp_path, scale):
+    """Issue 42: a custom 7×7 scene was drawn at the page's width (about 1300 px high), the
+    controls and charts below the fold; a scale asked for more than fits is held to it."""
+    from selenium.webdriver.common.by import By
+
+    adapter = _GridCruise()
+    adapter.scale = scale
+    page = tmp_path / "grid.html"
+    page.write_text(render_episode(cruise_runs[0], 1, cruise_shield, adapter=adapter))
+    browser = open_browser()
+    try:
+        browser.set_window_size(1366, 900)
+        browser.get(page.as_uri())
+        height = browser.execute_script("return window.innerHeight")
+        box = browser.find_element(By.ID, "picture").rect
+        assert browser_errors(browser) == []
+        assert 100 < box["height"] <= 0.6 * height + 2 and box["width"] == box["height"]
+        SCREENS.mkdir(exist_ok=True)
+        browser.save_screenshot(str(SCREENS / f"viewer-grid-{scale}.png"))
+    finally:
+        browser.quit()
+
+
+def test_a_scene_s_scale_is_checked():
+    from tracecheck.errors import InputError
+    from tracecheck.live.scene import Scene
+
+    with pytest.raises(InputError, match="a Scene has scale -1: give the pixels per unit"):
+        Scene((), view=(0.0, 0.0, 1.0, 1.0), scale=-1)

@@ -147,7 +147,9 @@ class Scene:
     view: tuple[float, float, float, float]
     background: Optional[Color] = None
     caption: str = ""
-    #: the picture's size on the page relative to its view (pixels per unit), None: fit
+    #: pixels per unit of the view on the viewer's page (a 7×7 grid at 40: 280 px), never
+    #: more than fits the page; None: as large as fits (the page's width, 60 % of the
+    #: window's height)
     scale: Optional[float] = field(default=None)
     #: the region a small picture (the report's thumbnails) shows, (x, y, width, height);
     #: None: the whole view
@@ -170,4 +172,8 @@ class Scene:
                     for v in self.focus) or self.focus[2] <= 0 or self.focus[3] <= 0:
                 raise InputError(f"a Scene has focus {self.focus!r}: give (x, y, width, "
                                  "height) with a width and height above 0, or None")
+        if self.scale is not None and (isinstance(self.scale, bool) or not isinstance(
+                self.scale, (int, float)) or not math.isfinite(self.scale) or self.scale <= 0):
+            raise InputError(f"a Scene has scale {self.scale!r}: give the pixels per unit of "
+                             "its view (a number above 0), or None to fit the page")
         _color("Scene", "background", self.background)

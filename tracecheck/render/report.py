@@ -210,8 +210,8 @@ def render_report(validation, out: Path, *, max_pages: int = 20, force: bool = F
                  "reproduce, no seed, never blocked, no crash" if validation.resimulated else
                  "crashes after a blocked step, other crashes, blocked steps")
         parts.append("<h2>Episodes that matter</h2><p class='note'>Per run, those that matter "
-                     f"most first: {order}. The picture shows the first blocked step (else "
-                     "the crash).</p>")
+                     f"most first: {order}. The picture shows the state in which the shield "
+                     "would first have blocked the agent's action (else the crash).</p>")
         budget = max(1, max_pages // len(checked))  # every run gets its viewer pages
         for c in checked:
             parts.append(_episodes_section(c, shield, pages, page_stem, pages_dir,
@@ -362,17 +362,18 @@ def _counted(episodes: list, crash_header: str, crash_cell) -> str:
 
 
 def _pictures(result, shown: list, adapter, shield) -> dict[int, str]:
-    """Per episode shown (among those ``result`` decoded): the scene at its first blocked
-    step (else at its crash), or where the environment draws none, its numeric variables
-    over time."""
+    """Per episode shown (among those ``result`` decoded): the scene of the state in which
+    the shield would first have blocked the action (the state before the first blocked step:
+    where it would have acted, not the state that action led to), else at its crash; or
+    where the environment draws none, its numeric variables over time."""
     from .scene import scene_drawer, scene_svg
 
     header = result.header
     draw = scene_drawer(getattr(header, "environment", None), adapter=adapter,
                         shield=shield.name,
                         variables=tuple(getattr(header, "variables", None) or ()))
-    wanted = {e.episode: e.first_infeasible if e.first_infeasible is not None else
-              (e.crash_step or 0) for e in shown}
+    wanted = {e.episode: max(e.first_infeasible - 1, 0) if e.first_infeasible is not None
+              else (e.crash_step or 0) for e in shown}
     out = {}
     for ep in result.episodes:
         if ep.id not in wanted:
