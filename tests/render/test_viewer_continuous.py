@@ -181,3 +181,44 @@ def test_a_hybrid_operation_taken_at_single_steps_is_drawn_as_dots(tmp_path):
         assert browser.save_screenshot(str(SCREENS / "viewer-hybrid.png"))
     finally:
         browser.quit()
+
+
+def test_render_with_another_shield_draws_that_shield_s_band(throttle_run, tmp_path):
+    """Issue 42: `render --shield S` on a continuous run marked S's blocked steps but drew
+    only the live shield's band."""
+    from selenium.webdriver.common.by import By
+
+    from tests.helpers import ACC_ENV
+    from tracecheck.checking.shield import load_shield
+    from tracecheck.episodes.reader import read_run
+
+    v1 = load_shield(str(ACC_ENV / "acc_cruise" / "throttle_v1.mch"))
+    v2 = load_shield(str(ACC_ENV / "acc_cruise" / "throttle_v2.mch"))
+    action = episode_data(throttle_run, 0, v2)["series"][0]
+    steps = read_run(throttle_run).episodes[0].steps
+    assert action["shield_bands"][0] is None and len(action["shield_bands"]) == len(steps)
+    for k in range(1, len(steps)):  # v2's guard in the state before each step: 5 m more
+        s = steps[k - 1].state
+        bound = (s["Gap"] + s["LeadSpeed"] - 6.0 - 2.0 * s["EgoSpeed"]) / 2.0
+        (band,) = action["shield_bands"][k] or [[None, None]]
+        if bound < -4.0:
+            assert action["shield_bands"][k] == []
+        else:
+            assert band[0] == -4.0 and band[1] == pytest.approx(min(bound, 2.0), abs=1e-9)
+    assert action["shield_bands"] != action["bands"]  # not the live shield's (v1's)
+    assert "shield_bands" not in episode_data(throttle_run, 0, None)["series"][0]
+    page = tmp_path / "v2.html"
+    page.write_text(render_episode(throttle_run, 0, v2))
+    browser = open_browser()
+    try:
+        browser.set_window_size(1400, 1300)
+        browser.get(page.as_uri())
+        assert browser_errors(browser) == []
+        chart = _chart(browser, "ACCELERATE(a)")
+        drawn = chart.find_elements(By.CSS_SELECTOR, "rect.shield-allowed, rect.shield-none")
+        assert len(drawn) == sum(max(len(b), 1) for b in action["shield_bands"] if b is not None)
+        assert "allowed by throttle_v2" in chart.text
+        SCREENS.mkdir(exist_ok=True)
+        browser.save_screenshot(str(SCREENS / "viewer-continuous-other-shield.png"))
+    finally:
+        browser.quit()

@@ -183,7 +183,7 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
             **_continuous_step(s),
         })
     crash = next((s["step"] for s in steps if s["crashed"]), None)
-    actions = action_series(ep)
+    actions = action_series(ep, shield)
     series = actions + numeric_series([s.state for s in ep.steps])
     rewards = [float(s.reward) for s in ep.steps]
     if not any(line["values"] == rewards for entry in series for line in entry["lines"]):
@@ -249,12 +249,14 @@ def _per_step(ep: Episode, field: str, name: str) -> list:
     return [None if v is None else float(v) for v in found]
 
 
-def action_series(ep: Episode) -> list[dict]:
+def action_series(ep: Episode, shield: Optional[Shield] = None) -> list[dict]:
     """One chart per parameter of the episode's continuous actions (none for a discrete
     episode), as :func:`numeric_series` gives them, with ``bands``: per step the allowed
-    intervals of the parameter (``[[low, high], …]``, None for an unbounded end; ``[]``:
-    nothing allowed; None where none were recorded). Its lines: the agent's proposal (dashed)
-    and the executed value."""
+    intervals of the parameter the live shield recorded (``[[low, high], …]``, None for an
+    unbounded end; ``[]``: nothing allowed; None where none were recorded), and with a
+    ``shield`` (``render --shield S``) ``shield_bands``: what S's guard allows at each step,
+    in the state before it (None where S's allowed set is the solver's, not intervals). Its
+    lines: the agent's proposal (dashed) and the executed value."""
     owner: dict[str, str] = {}
     for s in ep.steps:
         for name in s.parameters or ():
@@ -263,12 +265,33 @@ def action_series(ep: Episode) -> list[dict]:
     for name, op in owner.items():
         bands = [None if s.allowed_intervals is None or name not in s.allowed_intervals
                  else _bands(s.allowed_intervals[name]) for s in ep.steps]
-        out.append({"name": f"{op}({name})", "parameter": name, "kind": "action",
-                    "lines": [{"label": f"{name} proposed", "values": _per_step(ep, "proposal", name),
-                               "dashed": True},
-                              {"label": f"{name} executed", "values": _per_step(ep, "parameters", name)}],
-                    "bands": bands})
+        entry = {"name": f"{op}({name})", "parameter": name, "kind": "action",
+                 "lines": [{"label": f"{name} proposed", "values": _per_step(ep, "proposal", name),
+                            "dashed": True},
+                           {"label": f"{name} executed", "values": _per_step(ep, "parameters", name)}],
+                 "bands": bands}
+        if shield is not None and op in shield.machine.operations and real_parameters(
+                shield.machine.operations[op]):
+            entry["shield_bands"] = [None] + [_shield_band(shield.machine, op, name, before.state)
+                                              for before in ep.steps[:-1]]
+        out.append(entry)
     return out
+
+
+def _shield_band(machine, op: str, name: str, state) -> Optional[list]:
+    """What ``machine``'s guard of ``op`` allows of parameter ``name`` in ``state``, as
+    intervals; None where that is no set of intervals (the solver's set, several parameters
+    not separable) or the guard cannot be judged there (nothing is drawn)."""
+    from ..errors import TracecheckError
+    from ..live.continuous import interval_pairs
+
+    try:
+        bands = machine.allowed(op, state).bands()
+    except (TracecheckError, AttributeError):
+        return None
+    if bands is None or name not in bands:
+        return None
+    return _bands(interval_pairs(bands[name]))
 
 
 def _ltl_marks(cols: Optional[RunColumns], episode: int, shield: Optional[Shield],
