@@ -197,7 +197,7 @@ def test_the_walkthrough_with_an_agent_of_full_throttle(walkthrough, capsys):
     flat = _flat(out)
     assert code == 0 and "crashes: 3, of which 3 at or after the first infeasible step" in flat
     assert "continuous actions at the first infeasible step" in flat
-    assert re.search(r"ACCELERATE\(a=2\): a ∈ [\[{(]-3\.0.*, [0-9.]+ outside", flat), flat
+    assert re.search(r"ACCELERATE\(a=2\): a ∈ [\[{(]-3\.0.*, [0-9.]+ from the nearest allowed value", flat), flat
 
     code, out, _ = run(capsys, "replay", "v1.mcap", "--shield", "rover_v1.mch")
     flat = _flat(out)

@@ -134,7 +134,7 @@ def test_the_text_report_shows_the_first_continuous_action(capsys, run_file, tmp
     assert code == 0
     text = " ".join(out.split())
     assert re.search(r"episode 0, step 1: ACCELERATE\(a=1\.5\): a ∈ \[-4\.0, 0\.(3|29+)\d*…?\), "
-                     r"1\.2 outside", text), out
+                     r"1\.2 from the nearest allowed value", text), out
     assert "episode 2, step 1: ACCELERATE(a=-4): a ∈ ∅, nothing allowed" in text
     code, out, _ = run(capsys, "replay", run_file, "--shield", shield, "--json")
     data = json.loads(out)["per_episode"]

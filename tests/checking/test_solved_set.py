@@ -162,7 +162,7 @@ def test_a_quantifier_over_the_states_elements():
 
 def test_within_bounds_every_answer_lies_in_the_box():
     allowed = _set("Disc").within({"a": 0.5, "s": -math.inf}, {"a": 1.0})
-    assert str(allowed) == "(a, s): not linear; decided by the solver within a ∈ [0.5, 1.0]"
+    assert str(allowed) == "(a, s): not linear; decided by the solver (searched within the action space: a ∈ [0.5, 1.0])"
     assert not allowed.contains({"a": 0.0, "s": 0.0})  # allowed, outside the box
     w = allowed.witness()
     assert 0.5 <= w["a"] <= 1.0 and allowed.contains(w)
@@ -176,7 +176,7 @@ def test_within_bounds_every_answer_lies_in_the_box():
     assert outside.witness() is None and outside.nearest({"a": 0.0, "s": 0.0}) is None
     # bounds narrow further, never widen
     narrower = allowed.within({"a": 0.0}, {"a": 0.75})
-    assert str(narrower).endswith("a ∈ [0.5, 0.75]")
+    assert str(narrower).endswith("a ∈ [0.5, 0.75])")
 
 
 # ------------------------------------------------------------------ undecided, refused

@@ -412,7 +412,7 @@ def test_a_guard_not_linear_in_its_parameters_is_decided_by_the_solver():
     shield = _shield(machine=load_machine_text(QUADRATIC))
     assert shield.ops["ACCELERATE"].solver
     _decide(shield, _state(4.0, 1.0, 1.0))  # (1 + a)² < 4: -3 < a < 1
-    assert str(shield.allowed) == "a: not linear; decided by the solver within a ∈ [-4.0, 2.0]"
+    assert str(shield.allowed) == "a: not linear; decided by the solver (searched within the action space: a ∈ [-4.0, 2.0])"
     d = shield.filter([2.0])  # projected to just below 1, confirmed by the evaluator
     assert d.intervened and not d.deadlock and 0.999 < d.parameters["a"] < 1.0
     assert shield.machine.allows("ACCELERATE", _state(4.0, 1.0, 1.0), d.parameters)
@@ -445,7 +445,12 @@ def test_prob2trace_keeps_the_values_and_formats_without_a_place_refuse(capsys, 
     trace = tmp_path / "ep0.prob2trace"
     code, _, err = run(capsys, "export", "prob2trace", runs["none"], "--episode", "0", "-o",
                        trace)
+    assert code == 2 and "a ProB2 trace has no place for the crash" in err  # issue 42: dropped
+    assert not trace.exists()
+    code, _, err = run(capsys, "export", "prob2trace", runs["none"], "--episode", "0", "-o",
+                       trace, "--lossy")
     assert code == 0, err
+    assert "note: a ProB2 trace has no place for the agent's proposals" in err
     doc = json.loads(trace.read_text())
     assert doc["transitionList"][2]["params"] == {"a": "2.0"}
     assert doc["machineOperationInfos"]["ACCELERATE"]["parameterNames"] == ["a"]

@@ -445,3 +445,32 @@ def test_an_imported_run_of_another_machine_is_not_taken_for_the_highways(tmp_pa
     assert "these runs name no environment and no installed one claims their states" in notes[0]
     result = statistics([path], pset)
     assert result["runs"][0]["metrics"]["episode_length"]["mean"] == 2
+
+
+def test_four_runs_at_80_columns_keep_their_labels(tmp_path):
+    """Issue 42: `stats` of four runs at 80 columns collapsed the row-label column — numbers
+    without names. The runs now go into as many tables as the width needs, each with the
+    labels."""
+    import io
+    import shutil
+
+    from rich.console import Console
+
+    from tests.helpers import ROOT
+    from tracecheck.render.stats_text import _stats_text
+
+    runs = []
+    for name in ("a", "b", "c", "d"):
+        runs.append(tmp_path / f"{name}.mcap")
+        shutil.copy(ROOT / "sample_traces" / "base_paper.mcap", runs[-1])
+    result = statistics(runs, load_properties("highway"))
+    for width, tables in ((80, 2), (200, 1)):
+        stream = io.StringIO()
+        _stats_text(Console(file=stream, width=width, force_terminal=False), result)
+        text = stream.getvalue()
+        table_lines = [line for line in text.splitlines() if line[:1] in "┃│┏┡├└"]
+        assert max(len(line) for line in table_lines) <= width
+        assert text.count("│ Episode length [s]") == tables  # whole, in every table
+        heads = [line for line in table_lines if line.startswith("┃") and "ep.)" not in line]
+        assert sorted(c.strip() for line in heads for c in line.strip("┃").split("┃")[1:]) \
+            == ["a", "b", "c", "d"]

@@ -250,7 +250,7 @@ class SolvedSet:
             if p in low or p in high:
                 bounds.append(f"{p} ∈ [{low.get(p, -math.inf)!r}, {high.get(p, math.inf)!r}]")
         shown = self.params[0] if len(self.params) == 1 else f"({', '.join(self.params)})"
-        within = f" within {', '.join(bounds)}" if bounds else ""
+        within = f" (searched within the action space: {', '.join(bounds)})" if bounds else ""
         return f"{shown}: not linear; decided by the solver{within}"
 
     # -- questions to z3

@@ -115,14 +115,22 @@ def _stats_text(console: Console, result: dict) -> None:
     from .text import literal_row
 
     header, rows = stats_rows(result, lines=True)
-    table = Table(title=Text(f"{result['properties_set']}: metrics mean ± sd [95 % t interval]; "
-                             f"properties % of episodes [95 % {result['interval']} interval]"),
-                  show_lines=True)
-    for i, name in enumerate(header):  # a value column keeps each item on a line of its own
-        table.add_column(Text(name), no_wrap=i > 0)
-    for row in rows:
-        literal_row(table, row)
-    console.print(table, soft_wrap=False)
+    title = (f"{result['properties_set']}: metrics mean ± sd [95 % t interval]; "
+             f"properties % of episodes [95 % {result['interval']} interval]")
+    groups = _run_groups(header, rows, console.width)
+    for n, group in enumerate(groups):  # runs side by side as far as the width takes them,
+        #                                 each table with the labels (numbers never nameless)
+        table = Table(title=Text(title if len(groups) == 1 else
+                                 f"{title} ({n + 1} of {len(groups)}: runs "
+                                 f"{', '.join(str(header[i]).split(chr(10))[0] for i in group)})"),
+                      show_lines=True)
+        table.add_column(Text(header[0]), min_width=min(_LABEL_WIDTH, _widest([r[0] for r in rows])),
+                         overflow="fold")
+        for i in group:  # a value column keeps each item on a line of its own
+            table.add_column(Text(header[i]), no_wrap=True)
+        for row in rows:
+            literal_row(table, [row[0], *(row[i] for i in group)])
+        console.print(table, soft_wrap=False)
     if any("continuous" in r for r in result["runs"]):
         console.print(Text("Shares of steps treat the steps as independent trials; the "
                            "boundary is the shield's, not the action space's own bounds "
@@ -144,6 +152,29 @@ def _stats_text(console: Console, result: dict) -> None:
             w = "n/a" if m["wilcoxon_p"] is None else f"{m['wilcoxon_p']:.3g}"
             console.print(f"  {name}: mean difference {m['mean_difference']:.3f} (paired t "
                           f"p={t}, Wilcoxon p={w})", highlight=False, soft_wrap=False)
+
+
+#: the width the row labels keep however many runs share the line
+_LABEL_WIDTH = 22
+
+
+def _widest(cells) -> int:
+    return max((len(line) for cell in cells for line in str(cell).split("\n")), default=0)
+
+
+def _run_groups(header: list, rows: list, width: int) -> list[list[int]]:
+    """The run columns (indices into ``header``) in groups that fit ``width`` beside the
+    labels: all in one where they fit; at least one run per group."""
+    groups: list[list[int]] = [[]]
+    used = _LABEL_WIDTH + 4  # the label column and the table's outer borders
+    for i in range(1, len(header)):
+        need = _widest([header[i], *(r[i] for r in rows)]) + 3
+        if groups[-1] and used + need > width:
+            groups.append([])
+            used = _LABEL_WIDTH + 4
+        groups[-1].append(i)
+        used += need
+    return groups
 
 
 def _stats_markdown(result: dict) -> str:

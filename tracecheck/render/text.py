@@ -180,13 +180,14 @@ def action_call(action: str, parameters: dict) -> str:
 
 def continuous_cell(e: EpisodeReplay) -> str:
     """A continuous action at the first infeasible step, its values, what the shield allowed
-    and how far outside: ``ACCELERATE(a=1.5): a ∈ [-4.0, 0.3), 1.2 outside`` ("" for an
-    episode without one)."""
+    and how far from it: ``ACCELERATE(a=1.5): a ∈ [-4.0, 0.3), 1.2 from the nearest
+    allowed value`` ("" for an episode without one; a set the solver decides is said as
+    one, with the region it was searched in)."""
     if e.parameters is None:
         return ""
     text = action_call(e.action, e.parameters) + (f": {e.allowed}" if e.allowed else "")
-    return text + (f", {_number(e.margin)} outside" if e.margin is not None
-                   else f", {e.margin_note}")
+    return text + (f", {_number(e.margin)} from the nearest allowed value"
+                   if e.margin is not None else f", {e.margin_note}")
 
 
 #: what an interval's end followed by ``…`` means (said under the lines that show one)
@@ -213,7 +214,8 @@ def _continuous_lines(r: ReplayReport, episodes) -> list[str]:
     if not shown:
         return []
     lines = ["continuous actions at the first infeasible step — the recorded values, those the "
-             "shield allowed there and how far outside (Euclidean, in the parameters' units):"]
+             "shield allowed there and how far from them (Euclidean, in the parameters' "
+             "units):"]
     for e in shown:
         largest = ""
         if e.max_margin is not None and e.max_margin != e.margin:
