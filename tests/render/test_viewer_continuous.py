@@ -192,7 +192,6 @@ def test_render_with_another_shield_draws_that_shield_s_band(throttle_run, tmp_p
     from tracecheck.checking.shield import load_shield
     from tracecheck.episodes.reader import read_run
 
-    v1 = load_shield(str(ACC_ENV / "acc_cruise" / "throttle_v1.mch"))
     v2 = load_shield(str(ACC_ENV / "acc_cruise" / "throttle_v2.mch"))
     action = episode_data(throttle_run, 0, v2)["series"][0]
     steps = read_run(throttle_run).episodes[0].steps
