@@ -11,12 +11,19 @@ import pytest
 from tests.helpers import ROOT, browser_errors, open_browser
 from tests.live.toy import CRUISE_SHIELD, Cruise
 from tracecheck.checking.shield import load_shield
+from tracecheck.live.adapter import EnvAdapter
 from tracecheck.live.envs.grid_scene import GRID_CAPTION
 from tracecheck.live.envs.highway_scene import ROAD_CAPTION
-from tracecheck.render.viewer import NO_SCENE, episode_data, render_episode, short_value
+from tracecheck.render.viewer import episode_data, render_episode, short_value
 
 NONE = ROOT / "sample_traces" / "base_none.mcap"
 SCREENS = Path("/tmp/tracecheck-screens")
+
+
+class _NoScene(Cruise):
+    """The cruise adapter without its scene hook."""
+
+    scene = EnvAdapter.scene
 
 
 @pytest.fixture(scope="module")
@@ -55,9 +62,15 @@ def test_a_non_highway_episode_does_not_carry_the_highway_caption(cruise_runs, c
     """Bug 7: the highway's caption ("vehicles are drawn as 5 m × 2 m boxes") was printed
     under every episode, over a page that drew nothing."""
     plain = render_episode(cruise_runs[0], 0, cruise_shield)
-    assert "5 m × 2 m" not in plain and "draws no picture" in NO_SCENE
+    assert "5 m × 2 m" not in plain
     data = episode_data(cruise_runs[0], 0, cruise_shield)
-    assert data["scene"] is None and data["no_scene_caption"] == NO_SCENE
+    # issue 42: a caption that is true — the run's environment is not installed here
+    assert data["scene"] is None and data["no_scene_caption"].startswith(
+        "The run's environment cruise is not installed here, so no picture is drawn (give its "
+        "adapter with --env package.module:Class")
+    plain_data = episode_data(cruise_runs[0], 0, cruise_shield, adapter=_NoScene())
+    assert plain_data["no_scene_caption"].startswith("The environment cruise draws no picture "
+                                                     "(its adapter has no scene() hook")
     assert [s["name"] for s in data["series"]] == ["Gap", "Speed", "LeadSpeed", "reward"]
     drawn = episode_data(cruise_runs[0], 0, cruise_shield, adapter=Cruise())
     assert drawn["scene"]["caption"].startswith("The ego car (blue")
@@ -132,7 +145,7 @@ def test_the_time_series_panel_in_a_browser(cruise_runs, cruise_shield, lake_run
         assert cruise["caption"].startswith("The ego car") and cruise["crash"][0] == 1
         assert cruise["blocked"][0] >= 1
         plain = _read_page(browser, pages["cruise-shielded"][0], "viewer-cruise-shielded.png")
-        assert not plain["picture"] and "draws no picture" in plain["caption"]
+        assert not plain["picture"] and "no picture is drawn" in plain["caption"]
         assert "5 m × 2 m" not in browser.page_source
         assert plain["interventions"][0] > 0  # the live shield replaced ACCEL
         # the rounded value in the chart's key, the exact one on hover

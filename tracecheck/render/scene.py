@@ -71,6 +71,29 @@ def scene_drawer(environment: Optional[str] = None, adapter=None, *,
     return draw
 
 
+def no_scene_caption(environment: Optional[str], adapter=None,
+                     variables: tuple[str, ...] = ()) -> str:
+    """What the viewer says where a run is drawn without a picture — truthfully: its
+    environment is not installed here, or its adapter draws none.
+
+    Args:
+        environment: the run's environment, as its header names it.
+        adapter: the adapter given (``--env``), if any.
+        variables: the run's state variables.
+    """
+    charts = "the charts show every numeric variable over the episode."
+    found = adapter if adapter is not None else scene_adapter(environment, variables)
+    if found is None:
+        named = f"The run's environment {environment}" if environment else \
+            "The run names no environment, and no installed one claims its states; it"
+        return (f"{named} is not installed here, so no picture is drawn (give its adapter "
+                f"with --env package.module:Class to draw its scene); {charts}")
+    if _hook(found) is None:
+        return (f"The environment {found.name} draws no picture (its adapter has no scene() "
+                f"hook: see docs/environments.md, \"Drawing your environment\"); {charts}")
+    return f"The environment {found.name} draws no picture of these states; {charts}"
+
+
 def scene_adapter(environment: Optional[str], variables: tuple[str, ...] = ()):
     """The installed adapter of a run (:func:`tracecheck.live.adapter.run_adapter`), None
     where its environment is not installed here (it is then drawn without a picture)."""

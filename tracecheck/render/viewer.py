@@ -35,18 +35,13 @@ from ..episodes.reader import find_episode, read_run
 from ..checking.shield import Shield
 from ..errors import InputError
 from ..jsontext import script_json
-from .scene import scene_drawer, shape_json, css
+from .scene import no_scene_caption, scene_drawer, shape_json, css
 from .tables import is_number
 
 __all__ = ["render_episode", "viewer_page", "episode_data", "episode_view", "short_value",
            "numeric_series", "action_series"]
 
 _TEMPLATE = (Path(__file__).with_name("viewer.html")).read_text(encoding="utf-8")
-NO_SCENE = ("This environment draws no picture (its adapter has no scene() hook: see "
-            "docs/environments.md, \"Drawing your environment\"); the charts show every "
-            "numeric variable over the episode.")
-
-
 def _round(x: float) -> str:
     if not math.isfinite(x):
         return str(x)
@@ -194,7 +189,9 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
         "file": str(run), "episode": ep.id, "seed": ep.seed, "origin": ep.origin,
         "environment": header.environment if header is not None else None,
         "actions": _action_names(ep, header),
-        "scene": scene, "no_scene_caption": NO_SCENE,
+        "scene": scene, "no_scene_caption": no_scene_caption(
+            getattr(header, "environment", None), adapter,
+            tuple(getattr(header, "variables", None) or ())) if scene is None else None,
         "shield": shield.name if shield is not None else None,
         "first_infeasible": blocked[0] if blocked else None, "blocked": blocked,
         "interventions": interventions, "crash_step": crash,
