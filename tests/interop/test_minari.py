@@ -593,3 +593,26 @@ def test_a_wrapper_minari_cannot_make_again_is_refused_with_what_to_do(capsys, t
     assert code == 2 and "the environment is wrapped in _PlainWrapper, which does not record " \
                          "its arguments" in said
     assert "inherit gymnasium.utils.RecordConstructorArgs" in said and "Traceback" not in err
+
+
+def test_a_foreign_dataset_s_states_are_converted_by_the_environment_s_shield(capsys,
+                                                                               tmp_path):
+    """The adapter's str elements and numpy map become B values on import as on record."""
+    from tests.live.toy import LAVA_SHIELD, LavaCorridor
+    from tracecheck.b.values import Elem, FuncValue
+
+    shield = tmp_path / "lava.mch"
+    shield.write_text(LAVA_SHIELD)
+    dataset = _toy_dataset("t/toy/lava-v0")
+    LavaCorridor.default_shield = str(shield)
+    try:
+        out = tmp_path / "lava.mcap"
+        code, _, err = run(capsys, "import", "minari", dataset, "--env",
+                           "tests.live.toy:LavaCorridor", "-o", str(out))
+    finally:
+        del LavaCorridor.default_shield
+    assert code == 0, err
+    state = read_run(out).episodes[0].steps[0].state
+    assert type(state["ahead"]) is Elem and type(state["cells"]) is FuncValue
+    code, out_text, err = run(capsys, "replay", str(out), "--shield", str(shield), "--json")
+    assert code == 0, err

@@ -134,6 +134,11 @@ def import_minari(dataset_id: str, adapter_name: str, *,
                         agent_id=meta.get("agent"), shield_name=meta.get("shield"),
                         shield_sha256=meta.get("shield_sha256"))
 
+    from ..b.conversion import convert_state
+    from ..checking.shield import typing_machine
+
+    typing = typing_machine(adapter)  # the adapter's states made B values by its shield's types
+
     def episodes():
         from ..episodes.codec import encode_state
 
@@ -159,8 +164,11 @@ def import_minari(dataset_id: str, adapter_name: str, *,
                 reward = 0.0 if k == 0 else float(rewards[k - 1])
                 crashed = _crashed(adapter, data, stored, k, n, reward, where)
                 try:
-                    state = stored[0][k] if stored is not None else observer.state(
-                        data.observations[k], {"crashed": crashed}, reward, initial=k == 0)
+                    state = stored[0][k] if stored is not None else convert_state(
+                        observer.state(data.observations[k], {"crashed": crashed}, reward,
+                                       initial=k == 0),
+                        typing.state_types() if typing is not None else None,
+                        where=f"state() of the adapter {adapter.name}")
                     encode_state(state)  # a value a run file cannot hold (NaN), said here
                 except TracecheckError as exc:
                     raise InputError(f"{where}, step {k}: {exc.message}") from exc
