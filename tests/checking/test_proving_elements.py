@@ -184,3 +184,31 @@ def test_guards_with_the_environment_cut_the_allowed_set_to_its_action_space(cap
         "ACCELERATE: a ∈ ∅ (within the action space: a ∈ [-4.0, 2.0])"]
     code, _, err = run(capsys, "guards", outside, "-s", state, "--env", "frozenlake")
     assert code == 2 and "frozenlake takes discrete actions" in err
+
+
+def test_a_map_applied_to_two_arguments_and_assumed_whole(capsys, tmp_path):
+    """A new user's `grid(x-1, y)` (B's f(a, b) for f(a |-> b)) was `unknown`, and a whole
+    map assumed (`grid = {…}`) "cannot translate a number that is not one"."""
+    text = """MACHINE Lava
+SETS CELL = {Floor, Lava}
+VARIABLES x, y, grid
+INVARIANT x : 0..1 & y : 0..1 & grid : (0..1)*(0..1) --> CELL
+INITIALISATION x := 0 || y := 0 || grid := (0..1)*(0..1) * {Floor}
+OPERATIONS
+    Left = SELECT x > 0 & grid(x-1, y) /= Lava THEN skip END;
+    Right = SELECT x < 1 & grid(x+1, y) /= Lava THEN skip END;
+    Stay = SELECT grid(x, y) = Floor THEN skip END
+END
+"""
+    shield = write(tmp_path, text, "lava")
+    code, out, err = run(capsys, "prove", shield, "--deadlock-free")
+    assert code == 1 and out.startswith("deadlock-free: counterexample"), (out, err)
+    whole = "grid = {((0|->0)|->Floor), ((0|->1)|->Lava), ((1|->0)|->Lava), ((1|->1)|->Floor)}"
+    code, out, err = run(capsys, "prove", shield, "--deadlock-free", "--assume", whole)
+    assert (code, out) == (0, "deadlock-free: proved\n"), err
+    code, out, _ = run(capsys, "prove", shield, "--implies", "Left => grid(0, y) = Floor",
+                       "--assume", whole)
+    assert code == 0 and "proved" in out
+    code, out, _ = run(capsys, "prove", shield, "--deadlock-free", "--assume",
+                       "grid = {((0|->0)|->Lava)}")  # another domain: no such state
+    assert code == 5 and "vacuous" in out

@@ -60,3 +60,29 @@ def test_a_new_recording_is_created_exclusively_in_place(tmp_path, target):
             pass
     assert target.read_bytes() == b"keep"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["link.mcap", "precious", "run.mcap"]
+
+
+def test_a_set_of_one_element_in_a_first_state_is_the_same_column_as_of_two(tmp_path):
+    """A new user's `near : POW(CELL)` was {Floor} in one episode's first state and {Floor,
+    Lava} in another's: record wrote the file, and every command then refused it ("a value
+    of another kind in episode 0 and a set of elements in episode 1")."""
+    from tracecheck.b.values import Elem
+    from tracecheck.episodes.model import Episode, StepRecord, make_end
+    from tracecheck.episodes.reader import read_run
+
+    floor, lava = Elem("Floor"), Elem("Lava")
+
+    def ep(eid, sets):
+        steps = tuple(StepRecord(step=k, time=float(k), action=None if k == 0 else "Go",
+                                 state={"near": s, "x": k}, reward=0.0, crashed=False)
+                      for k, s in enumerate(sets))
+        return Episode(id=eid, steps=steps, end=make_end(steps), seed=eid)
+
+    path = tmp_path / "near.mcap"
+    episodes = [ep(0, [frozenset({floor}), frozenset({floor, lava})]),
+                ep(1, [frozenset({floor, lava}), frozenset()])]
+    write_run(path, new_header("recorded", actions=["Go"], variables=["near", "x"]), episodes)
+    cols = read_columns(path)
+    assert "near" in cols.states.masks and cols.n == 4
+    assert [e.steps[1].state["near"] for e in read_run(path).episodes] == \
+        [frozenset({floor, lava}), frozenset()]

@@ -52,13 +52,17 @@ class Columns:
                     elements: Optional[Sequence[Elem]] = None) -> "Columns":
         """Columns from scalar states (dicts of B values), e.g. read from a trace."""
         n = len(states)
-        if elements is None:
+        if elements is None:  # every state's: a set of one element in the first state and
+            #                   of two later must still be one column of one kind
             found: dict[Elem, None] = {}
-            for value in (states[0].values() if states else ()):
-                if isinstance(value, FuncValue):
-                    found.update({k: None for k in value.map if isinstance(k, Elem)})
-                elif isinstance(value, frozenset):
-                    found.update({k: None for k in value if isinstance(k, Elem)})
+            seen: set[int] = set()  # a grid world's map is one object in every state
+            for state in states:
+                for value in state.values():
+                    if type(value) not in (FuncValue, frozenset) or id(value) in seen:
+                        continue
+                    seen.add(id(value))
+                    keys = value.map if type(value) is FuncValue else value
+                    found.update({k: None for k in keys if isinstance(k, Elem)})
             elements = tuple(sorted(found, key=sort_key))
         elements = tuple(elements)
         index = {e: i for i, e in enumerate(elements)}

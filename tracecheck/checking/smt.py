@@ -17,7 +17,8 @@ from ..b import ast
 from ..b.linear import real_parameters
 from ..b.values import Elem, FuncValue
 from ..errors import UnsupportedError
-from .encoding import ElementFunction, ElementSet, ElementTerm, encode_variable, load_z3
+from .encoding import (ElementFunction, ElementSet, ElementTerm, FiniteFunction,
+                       encode_variable, load_z3)
 from .smt_sets import EMPTY, Nums, SetTranslation
 
 __all__ = ["Translator", "MAX_EXPONENT", "MAX_DEGREE"]
@@ -328,7 +329,14 @@ class Translator(SetTranslation):
             a, b = self._num(node.left, env), self._num(node.right, env)
             return {"<": a < b, "<=": a <= b, ">": a > b, ">=": a >= b}[op]
         if op in ("=", "/="):
-            a, b = self.translate(node.left, env), self.translate(node.right, env)
+            a = self.translate(node.left, env)
+            if isinstance(a, FiniteFunction):  # a whole map: cell by cell
+                eq = self.function_equals(node, a, node.right)
+                return eq if op == "=" else z3.Not(eq)
+            b = self.translate(node.right, env)
+            if isinstance(b, FiniteFunction):
+                eq = self.function_equals(node, b, node.left)
+                return eq if op == "=" else z3.Not(eq)
             if a is EMPTY and isinstance(b, ElementSet):
                 a, b = b, a
             if b is EMPTY and isinstance(a, ElementSet):

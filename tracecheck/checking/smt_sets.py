@@ -136,6 +136,9 @@ class SetTranslation:
     def t_Apply(self, node: ast.Apply, env: dict) -> Any:
         z3 = self.z3
         f = self.translate(node.fn, env)
+        if isinstance(f, FiniteFunction) and len(node.args) == 2:  # grid(x, y): grid(x |-> y)
+            return self._apply_finite(node, f, _Pair(self._num(node.args[0], env),
+                                                      self._num(node.args[1], env)))
         if len(node.args) != 1 or not isinstance(f, (ElementFunction, FiniteFunction)):
             raise self.fail(node, "this application")
         x = self.translate(node.args[0], env)
@@ -168,6 +171,34 @@ class SetTranslation:
 
     def t_Pair(self, node: ast.Pair, env: dict) -> Any:
         return _Pair(self._num(node.left, env), self._num(node.right, env))
+
+    def function_equals(self, node, f: FiniteFunction, other: ast.Node) -> Any:
+        """``f = {…}`` of a function over integers and a value of the constants (a whole map
+        assumed): the array's value at each key is the value's there."""
+        from ..b.values import FuncValue
+
+        z3 = self.z3
+        if ast.free_names(other) - set(self.machine.base_env):
+            raise self.fail(node, "an equality of a map with a value that is not of the "
+                                  "constants (compare it cell by cell: grid(x |-> y) = …)")
+        try:
+            value = self.machine.compile(other)(dict(self.machine.base_env))
+        except Exception:  # noqa: BLE001 - not evaluated here: not translated
+            raise self.fail(other, "this value") from None
+        if not isinstance(value, frozenset) or not all(type(p) is tuple for p in value):
+            return z3.BoolVal(False)  # not a function (the type checker let a set through)
+        mapping = value.map if isinstance(value, FuncValue) else dict(value)
+        if set(mapping) != set(f.keys) or len(mapping) != len(value):
+            return z3.BoolVal(False)  # another domain, or not a function
+        return z3.And([f.at(k) == self._cell(node, f, mapping[k]) for k in f.keys])
+
+    def _cell(self, node, f: FiniteFunction, v) -> Any:
+        """A value of the constants as a term of ``f``'s values."""
+        if f.carrier is not None:
+            if not isinstance(v, Elem) or v not in f.consts:
+                raise self.fail(node, f"the value {v!r} in a map of {f.carrier}")
+            return f.consts[v]
+        return self._constant(v, node)
 
     def _same_element(self, node, a, b) -> Any:
         """``a = b`` where one side is an element the solver chooses."""
