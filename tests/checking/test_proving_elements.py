@@ -82,6 +82,8 @@ def test_the_built_in_grid_shields_prove(capsys, shield):
     code, out, err = run(capsys, "prove", shield, "--deadlock-free")
     assert code == 1 and out.startswith("deadlock-free: counterexample\n"), (out, err)
     assert "disagree" not in out + err
+    assert "entries, the whole value with --format json or --counterexamples)" in out
+    assert max(len(line) for line in out.splitlines()) < 400  # the map cut, not 1000 wide
     code, out, err = run(capsys, "prove", shield, "--well-defined")
     assert (code, out) == (0, "well-defined guards: proved\n"), err
 

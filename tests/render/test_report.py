@@ -258,3 +258,13 @@ def test_the_picture_shows_the_state_where_the_shield_would_have_acted(tmp_path)
     for episode, k in blocked.items():
         before = episodes[episode].steps[k - 1].state
         assert pictures[str(episode)] == f"{before['x']}, {before['y']}"
+
+
+def test_crashes_the_shield_would_not_have_blocked_need_no_re_simulation(tmp_path):
+    """A new user's shielded run had crashes (slips) but no blocked step: the report still
+    said whether blocking would have prevented them "needs re-simulation"."""
+    out = tmp_path / "report.html"
+    write_report([PAPER], out, shield=load_shield("paper"), pset=load_properties("generic"))
+    page = out.read_text()
+    assert "needs re-simulation" not in page
+    assert "paper would have blocked no step before any of these crashes" in page

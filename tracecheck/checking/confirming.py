@@ -269,8 +269,17 @@ def reading(state: dict, describe: Optional[Describe], limit: int = 6) -> str:
         return text
     from ..b.values import format_value
 
-    parts = [f"{k} = {format_value(v)}" for k, v in state.items()][:limit]
+    parts = [f"{k} = {_brief(format_value(v), v)}" for k, v in state.items()][:limit]
     return ", ".join(parts) + (", …" if len(state) > limit else "")
+
+
+def _brief(text: str, value, width: int = 120) -> str:
+    """A value's text for one line: a long one (a grid map) cut, saying how much is left
+    out (JSON and --counterexamples keep the whole state)."""
+    if len(text) <= width:
+        return text
+    size = f"{len(value)} entries, " if isinstance(value, frozenset) else ""
+    return f"{text[:width]}… ({size}the whole value with --format json or --counterexamples)"
 
 
 # ------------------------------------------------------------------ the evaluator's view

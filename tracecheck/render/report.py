@@ -269,9 +269,12 @@ def _run_section(c: dict, shield: Optional[Shield]) -> str:
         text += ("<p class='note'>Whether blocking would have prevented a crash cannot be "
                  "told here: the run comes from an agent script (--external), which "
                  "tracecheck cannot re-simulate; record it again under the shield.</p>")
-    elif r is not None and r.crashes:
+    elif r is not None and r.crashes and r.crashes_after_infeasible:
         text += ("<p class='note'>Whether blocking would have prevented a crash needs "
                  "re-simulation: <code>tracecheck report --resimulate</code>.</p>")
+    elif r is not None and r.crashes:  # no crash came after a step the shield would block
+        text += (f"<p class='note'>{_e(shield.name)} would have blocked no step before any "
+                 "of these crashes: blocking could not have prevented them.</p>")
     return text + "</section>"
 
 
