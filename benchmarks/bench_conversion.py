@@ -78,8 +78,8 @@ def main() -> None:
     print(f"{'state':<22} {'before µs':>10} {'after µs':>10} {'ratio':>7}")
     for name, machine, state in cases:
         types, kinds = machine.type_objects, machine.state_types()
-        before = _timed(lambda: native_state(state, types), args.n, args.repeat)
-        after = _timed(lambda: convert_state(state, kinds), args.n, args.repeat)
+        before = _timed(lambda s=state, t=types: native_state(s, t), args.n, args.repeat)
+        after = _timed(lambda s=state, k=kinds: convert_state(s, k), args.n, args.repeat)
         print(f"{name:<22} {before * 1e6:>10.2f} {after * 1e6:>10.2f} {after / before:>7.2f}")
     user = load_machine_text(USER)
     grid = np.full((7, 7), "Floor")

@@ -83,7 +83,8 @@ def test_the_text_names_the_values_both_sets_and_how_they_moved(capsys, versions
     code, out, _ = run(capsys, "diff", path, "--shield", v2, "--against", v1)
     printed = flat(out)
     assert code == 0
-    assert "changed steps: 3 (newly blocked 1, newly allowed 2)" in printed
+    assert "changed steps: 3 (newly blocked 1, newly allowed 2: by v2, where v1 decided " \
+        "otherwise)" in printed
     assert ("continuous actions at the changed steps — the recorded values, then what v1 "
             "allowed in the state before → what v2 allows, and how it moved:") in printed
     for line in ("episode 0, step 1: ACCELERATE(a=1) newly allowed: a ∈ [-4.0, 0.5) → "

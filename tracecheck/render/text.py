@@ -331,9 +331,10 @@ def _diff_text(console: Console, d: DiffReport, rows: int) -> None:
                        f"{d.against['name']} ({_short(d.against['sha256'])}): {d.episodes} "
                        f"episode(s), {d.steps} step(s), {d.states} state(s)", style="bold"),
                   highlight=False, soft_wrap=False)
-    console.print(f"changed steps: {d.changed_steps} (newly blocked {d.newly_blocked}, newly "
-                  f"allowed {d.newly_allowed}); states whose enabled set differs: "
-                  f"{d.enabled_set_changes}", highlight=False, soft_wrap=False)
+    console.print(Text(f"changed steps: {d.changed_steps} (newly blocked {d.newly_blocked}, "
+                       f"newly allowed {d.newly_allowed}: by {d.shield['name']}, where "
+                       f"{d.against['name']} decided otherwise); states whose enabled set "
+                       f"differs: {d.enabled_set_changes}"), highlight=False, soft_wrap=False)
     console.print(f"episodes whose first infeasible step moved: {d.episodes_changed} "
                   f"({d.crashes_in_changed_episodes} of them crashed)", highlight=False,
                   soft_wrap=False)
