@@ -274,7 +274,8 @@ def _run_section(c: dict, shield: Optional[Shield]) -> str:
                  "re-simulation: <code>tracecheck report --resimulate</code>.</p>")
     elif r is not None and r.crashes:  # no crash came after a step the shield would block
         text += (f"<p class='note'>{_e(shield.name)} would have blocked no step before any "
-                 "of these crashes: blocking could not have prevented them.</p>")
+                 "of these crashes: its blocking is not what they hinge on, and there is "
+                 "nothing to re-simulate.</p>")
     return text + "</section>"
 
 
