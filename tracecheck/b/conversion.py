@@ -196,8 +196,9 @@ def convert_state(state: Mapping[str, Any], types: Optional[StateTypes] = None, 
     >>> from tracecheck.b.machine import load_machine_text
     >>> m = load_machine_text("MACHINE M SETS C={Ice,Lava} VARIABLES a, g "
     ...     "INVARIANT a : C & g : 0..1 --> C INITIALISATION a := Ice || g := {0|->Ice,1|->Ice} END")
-    >>> convert_state({"a": "Lava", "g": {0: "Ice", 1: "Lava"}}, StateTypes.of(m))
-    {'a': Elem('Lava'), 'g': FuncValue({(0, Elem('Ice')), (1, Elem('Lava'))})}
+    >>> state = convert_state({"a": "Lava", "g": {0: "Ice", 1: "Lava"}}, StateTypes.of(m))
+    >>> state["a"], state["g"].map
+    (Elem('Lava'), {0: Elem('Ice'), 1: Elem('Lava')})
     """
     out = None
     kinds = types.kinds if types is not None else {}
