@@ -180,7 +180,22 @@ class Cruise(EnvAdapter):
 
 # ------------------------------------------------------------------ an image observation
 
-class ImageCorridorEnv(CorridorEnv):
+class _ViewedCorridorEnv(CorridorEnv):
+    """The corridor whose observation is :meth:`view` of the agent's cell."""
+
+    def view(self) -> np.ndarray:
+        raise NotImplementedError
+
+    def reset(self, *, seed: Optional[int] = None, options=None):
+        super().reset(seed=seed)
+        return self.view(), {}
+
+    def step(self, action):
+        _, reward, terminated, truncated, info = super().step(action)
+        return self.view(), reward, terminated, truncated, info
+
+
+class ImageCorridorEnv(_ViewedCorridorEnv):
     """The corridor seen as a 7×7 RGB picture (channel last, as MiniGrid's ``ImgObsWrapper``
     gives): the agent's cell lit on the middle row."""
 
@@ -188,18 +203,10 @@ class ImageCorridorEnv(CorridorEnv):
         super().__init__(slip, render_mode)
         self.observation_space = gym.spaces.Box(0, 255, (7, 7, 3), np.uint8)
 
-    def image(self) -> np.ndarray:
+    def view(self) -> np.ndarray:
         picture = np.zeros((7, 7, 3), np.uint8)
         picture[3, self.pos, :] = 255
         return picture
-
-    def reset(self, *, seed: Optional[int] = None, options=None):
-        super().reset(seed=seed)
-        return self.image(), {}
-
-    def step(self, action):
-        _, reward, terminated, truncated, info = super().step(action)
-        return self.image(), reward, terminated, truncated, info
 
 
 class ImageCorridor(Corridor):
@@ -238,20 +245,15 @@ class NanCruise(Cruise):
         return env
 
 
-class ByteCorridorEnv(CorridorEnv):
+class ByteCorridorEnv(_ViewedCorridorEnv):
     """The corridor whose observation space says uint8 while it gives floats in [0, 1]."""
 
     def __init__(self, slip: bool = True, render_mode: Optional[str] = None) -> None:
         super().__init__(slip, render_mode)
         self.observation_space = gym.spaces.Box(0, 255, (2,), np.uint8)
 
-    def reset(self, *, seed: Optional[int] = None, options=None):
-        super().reset(seed=seed)
-        return np.array([self.pos / 5, 0.5]), {}
-
-    def step(self, action):
-        _, reward, terminated, truncated, info = super().step(action)
-        return np.array([self.pos / 5, 0.5]), reward, terminated, truncated, info
+    def view(self) -> np.ndarray:
+        return np.array([self.pos / 5, 0.5])
 
 
 class ByteCorridor(Corridor):

@@ -13,7 +13,6 @@ from ..errors import InputError, TracecheckError, WellDefinednessError
 from .confirming import (COUNTEREXAMPLE, NOT_DEFINED, Context, Finding, Result, machine_of,
                          obligation, undefined)
 from .obligations import Given
-from .smt import Translator
 
 __all__ = ["unbounded_parameters", "claim_name", "check_parameters", "claim_scope",
            "action_implication"]
@@ -38,23 +37,15 @@ def unbounded_parameters(machine) -> list[str]:
         if not (op.params and real_parameters(op)):
             continue
         try:
-            bands = (parameter_range(machine, name) or _NO_RANGE).bands()
-        except TracecheckError:
+            found = parameter_range(machine, name)
+            bands = found.bands() if found is not None else None
+        except TracecheckError:  # not known to be bounded: said as unbounded (a warning)
             bands = None
         for p in op.params:
             pieces = (bands or {}).get(p) or ()
             if not pieces or any(i.low is None or i.high is None for i in pieces):
                 out.append(f"{name}.{p}")
     return out
-
-
-class _NoRange:
-    @staticmethod
-    def bands():
-        return None
-
-
-_NO_RANGE = _NoRange()
 
 
 def claim_name(op: str, given: Given) -> str:
@@ -96,14 +87,6 @@ def claim_scope(machine, op: str, given: Given) -> dict:
     return {}
 
 
-def _box(translator: Translator, op: str, values: dict) -> list:
-    """The action space's bounds of ``op``'s parameters (``values``: their solver terms)."""
-    z3 = translator.z3
-    low, high = translator.bounds.get(op, ({}, {}))
-    return [z3.RealVal(Fraction(low[p])) <= v for p, v in values.items() if p in low] + \
-        [v <= z3.RealVal(Fraction(high[p])) for p, v in values.items() if p in high]
-
-
 def action_implication(machine, ctx: Context, op: str, given: Given, node) -> Result:
     """For every state and every value of ``op``'s REAL parameters its guard allows (inside
     the action space's bounds, where given), ``node`` holds with the parameters named as
@@ -118,7 +101,7 @@ def action_implication(machine, ctx: Context, op: str, given: Given, node) -> Re
         guard, defined = translator.defined(lambda: translator.guard_at(op))
         with translator.reading(given.where, given.text):
             claim, wd["claim"] = translator.defined(lambda: translator.pred(node, named))
-        return [defined, guard, *_box(translator, op, values),
+        return [defined, guard, *translator.action_box(op, values),
                 z3.Not(z3.And(wd["claim"], claim))]
 
     def holds(state):

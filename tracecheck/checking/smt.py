@@ -456,10 +456,7 @@ class Translator(SetTranslation):
         if operation.params and real_parameters(operation):
             bound = self.parameters(op)
             guard = self.pred(operation.guard, bound)
-            low, high = self.bounds.get(op, ({}, {}))  # the action space's, where given
-            box = [self.z3.RealVal(Fraction(low[p])) <= v for p, v in bound.items() if p in low]
-            box += [v <= self.z3.RealVal(Fraction(high[p])) for p, v in bound.items()
-                    if p in high]
+            box = self.action_box(op, bound)
             return self.z3.Exists(list(bound.values()), self.z3.And(*box, guard) if box
                                   else guard)
         if operation.params:
@@ -467,6 +464,13 @@ class Translator(SetTranslation):
         return self.pred(operation.guard) if operation.guard is not None else \
             self.z3.BoolVal(True)
 
+
+    def action_box(self, op: str, values: dict) -> list:
+        """The action space's bounds (:attr:`bounds`, where given) of ``op``'s parameters,
+        ``values`` their solver terms: one constraint per finite end."""
+        low, high = self.bounds.get(op, ({}, {}))
+        return [self.z3.RealVal(Fraction(low[p])) <= v for p, v in values.items() if p in low] \
+            + [v <= self.z3.RealVal(Fraction(high[p])) for p, v in values.items() if p in high]
 
     def parameters(self, op: str) -> dict:
         """``op``'s REAL parameters as solver reals, named ``OP.p`` (the same in every

@@ -167,7 +167,7 @@ class SetTranslation:
             raise self.fail(node, "an application to an index of another kind than the "
                                   "function's domain")
         self._need(_in_keys(z3, f.keys, index), node)
-        return f.value(f.array[index] if len(index) == 1 else f.array[index[0], index[1]])
+        return f.value(f.at(index if pairs else index[0]))
 
     def t_Pair(self, node: ast.Pair, env: dict) -> Any:
         return _Pair(self._num(node.left, env), self._num(node.right, env))

@@ -226,8 +226,7 @@ def prove_cmd(
         from ..live.continuous import action_bounds
 
         bounds = action_bounds(adapter)
-    elif unbounded_parameters(machine):
-        free = unbounded_parameters(machine)
+    elif free := unbounded_parameters(machine):
         warn([f"{', '.join(free)} {'is' if len(free) == 1 else 'are'} bounded by no action "
               "space: the proof takes every real as an action (--env ENV takes the "
               "environment's action space, as the live shield does)"])
