@@ -84,10 +84,10 @@ def no_scene_caption(environment: Optional[str], adapter=None,
     charts = "the charts show every numeric variable over the episode."
     found = adapter if adapter is not None else scene_adapter(environment, variables)
     if found is None:
-        named = f"The run's environment {environment}" if environment else \
-            "The run names no environment, and no installed one claims its states; it"
-        return (f"{named} is not installed here, so no picture is drawn (give its adapter "
-                f"with --env package.module:Class to draw its scene); {charts}")
+        why = (f"The run's environment {environment} is not installed here" if environment
+               else "The run names no environment and no installed one claims its states")
+        return (f"{why}, so no picture is drawn (give its adapter with --env "
+                f"package.module:Class to draw its scene); {charts}")
     if _hook(found) is None:
         return (f"The environment {found.name} draws no picture (its adapter has no scene() "
                 f"hook: see docs/environments.md, \"Drawing your environment\"); {charts}")
