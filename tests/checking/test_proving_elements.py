@@ -214,3 +214,16 @@ END
     code, out, _ = run(capsys, "prove", shield, "--deadlock-free", "--assume",
                        "grid = {((0|->0)|->Lava)}")  # another domain: no such state
     assert code == 5 and "vacuous" in out
+
+
+def test_guards_says_the_action_space_once_for_a_set_the_solver_decides(capsys, tmp_path,
+                                                                        acc_env):
+    square = write(tmp_path, OUTSIDE.replace("(EgoSpeed < 5.0 => a >= 3.0) & a <= 10.0",
+                                             "a * a <= EgoSpeed"), "square")
+    state = tmp_path / "s.json"
+    state.write_text('{"Gap": "40.0", "EgoSpeed": "2.0", "LeadSpeed": "20.0"}')
+    code, out, _ = run(capsys, "guards", square, "-s", state, "--env",
+                       "acc_cruise.throttle:Throttle")
+    flat = " ".join(out.split())
+    assert code == 0 and flat.count("within the action space") == 1, out
+    assert "decided by the solver (searched within the action space: a ∈ [-4.0, 2.0])" in flat

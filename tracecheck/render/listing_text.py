@@ -250,7 +250,8 @@ class GuardsOutput(Report):
             say(f"undecided: {op} ({why})")
         for op, a in self.allowed.items():
             space = self.bounds.get(op)
-            within = "" if space is None else " (within the action space: " + ", ".join(
+            said = "within the action space" in str(a)  # the solver's set says it already
+            within = "" if space is None or said else " (within the action space: " + ", ".join(
                 f"{p} ∈ [{space[0].get(p, '-inf')}, {space[1].get(p, 'inf')}]"
                 for p in self.machine.operations[op].params) + ")"
             say(f"{op}: {a}{within}{_solver_text(_solver_witness(a))}")
