@@ -269,8 +269,10 @@ def action_series(ep: Episode, shield: Optional[Shield] = None) -> list[dict]:
                  "bands": bands}
         if shield is not None and op in shield.machine.operations and real_parameters(
                 shield.machine.operations[op]):
-            entry["shield_bands"] = [None] + [_shield_band(shield.machine, op, name, before.state)
-                                              for before in ep.steps[:-1]]
+            bands_of_s = [None] + [_shield_band(shield.machine, op, name, before.state)
+                                   for before in ep.steps[:-1]]
+            if any(b is not None for b in bands_of_s):  # a set the solver decides: none
+                entry["shield_bands"] = bands_of_s
         out.append(entry)
     return out
 
