@@ -359,7 +359,7 @@ def _kill_marked(mark: str) -> list[int]:
     wanted = mark.encode()
     for _ in range(5):
         found = [pid for pid in _pids() if pid != os.getpid() and _kill_if(pid, wanted)]
-        killed += found
+        killed += [pid for pid in found if pid not in killed]  # one still dying is seen again
         if not found:
             break
     return killed
