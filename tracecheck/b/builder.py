@@ -58,6 +58,7 @@ _OPS = {
     "NOT_STRICT_SUBSET": "/<<:", "TOTAL_FUN": "-->", "PARTIAL_FUN": "+->", "RELATION": "<->",
     "TOTAL_INJ": ">->", "PARTIAL_INJ": ">+>", "TOTAL_SURJ": "-->>", "PARTIAL_SURJ": "+->>",
     "TOTAL_BIJ": ">->>", "PARTIAL_BIJ": ">+>>", "DIRECT_PRODUCT": "><", "CONCAT": "^",
+    "PREPEND": "->", "APPEND": "<-", "TAKE": "/|\\", "DROP": "\\|/",
     "MAPLET": "|->", "UNION": "\\/", "INTER": "/\\", "SETMINUS": "\\",
     "DOM_RES": "<|", "RAN_RES": "|>", "DOM_SUB": "<<|", "RAN_SUB": "|>>", "OVERRIDE": "<+",
     "INTERVAL": "..", "PLUS": "+", "MINUS": "-", "TIMES": "*", "DIVIDE": "/", "MOD": "mod",

@@ -19,15 +19,15 @@ from . import ast
 from .scope import render
 from .bindings import Binders
 from .records import Records, element_hint, set_element
+from .sequences import Sequences
 from ..limits import DEEP, MAX_INT_BITS, deep_recursion, deeply
 from .memo import constant_number, folded, memoised
 from .builtins import BUILTINS as _BUILTINS, UNSUPPORTED_HINTS as _UNSUPPORTED_HINTS
 from .library import FUNCTIONS as _LIBRARY, compile_call as _library_call
 from .finite import finite as _finite, members as _members
 from .spaces import FunctionSpace, Projection
-from .values import (BUILTIN_SET_VALUES, FuncValue, Interval, Product, SymbolicSet, as_sequence,
-                     brief, contains, finiteness, format_value, hashable, is_set, is_subset,
-                     make_set, sequence, set_equal)
+from .values import (BUILTIN_SET_VALUES, FuncValue, Interval, Product, SymbolicSet, brief, contains, finiteness, format_value, hashable, is_set, is_subset,
+                     make_set, set_equal)
 
 __all__ = ["Compiler", "compile_formula", "evaluate", "Env"]
 
@@ -35,7 +35,7 @@ Env = dict
 Fn = Callable[[Env], Any]
 
 
-class Compiler(Binders, Records):
+class Compiler(Binders, Records, Sequences):
     """Turns AST nodes into closures; knows the source text for located messages."""
 
     def __init__(self, *, source: Optional[str] = None, file: Optional[str] = None) -> None:
@@ -321,18 +321,6 @@ class Compiler(Binders, Records):
             return make_set([(x, (y, z)) for x, y in a for z in by_first.get(x, ())])
         return self.set_op(node, l, r, direct)
 
-    def op_concat(self, node, l, r) -> Fn:
-        def concat(env: Env) -> Any:
-            return sequence(self.seq_items(node.left, l(env))
-                              + self.seq_items(node.right, r(env)))
-        return concat
-
-    def seq_items(self, node: ast.Node, v: Any) -> list:
-        items = as_sequence(_finite(self, node, v) if isinstance(v, SymbolicSet) else v)
-        if items is None:
-            raise self.wd(node, f"{brief(v)} is not a sequence")
-        return items
-
     def op_union(self, node, l, r) -> Fn:
         return self.set_op(node, l, r, lambda a, b: a | b)
 
@@ -588,7 +576,8 @@ def _name_applied_to_name(node: ast.Node) -> Optional[tuple[str, str]]:
 _ARROWS = {"-->", "+->", "<->", ">->", ">+>", "-->>", "+->>", ">->>", ">+>>"}
 _MAX_INT_BITS = MAX_INT_BITS
 _OP_NAMES = {"+": "add", "-": "sub", "*": "mul", "/": "div", "mod": "mod", "**": "pow",
-             ";": "comp", "><": "direct", "^": "concat",
+             ";": "comp", "><": "direct", "^": "concat", "->": "prepend", "<-": "append",
+             "/|\\": "take", "\\|/": "drop",
              "\\/": "union", "/\\": "inter", "\\": "minus", "<|": "domres", "|>": "ranres",
              "<<|": "domsub", "|>>": "ransub", "<+": "override"}
 _TEMPLATE_FORMAT = re.compile(r"\d{1,2}f")

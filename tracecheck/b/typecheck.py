@@ -329,6 +329,18 @@ class Typer:
             self.same(node.left, left, Pow(Prod(INTEGER, Var())))
             self.same(node, left, right)
             return left
+        if op in ("->", "<-"):
+            a = Var()
+            seq, elem = (node.right, right), (node.left, left)
+            if op == "<-":
+                seq, elem = elem, seq
+            self.same(seq[0], seq[1], Pow(Prod(INTEGER, a)))
+            self.same(elem[0], elem[1], a)
+            return seq[1]
+        if op in ("/|\\", "\\|/"):
+            self.same(node.left, left, Pow(Prod(INTEGER, Var())))
+            self.same(node.right, right, INTEGER)
+            return left
         if op in ("\\/", "/\\", "\\"):
             self.same(node.left, left, Pow(Var()))
             self.same(node, left, right)
