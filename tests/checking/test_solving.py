@@ -147,6 +147,31 @@ END""")
     assert [(s["v"], s["w"]) for s in got.solutions] == [("Car1", "Car2"), ("Car2", "Car1")]
 
 
+
+def test_a_set_an_equality_fixes_enters_the_solver_as_a_value():
+    # f is no number, but its one value is known: the solver takes x with f in its scope
+    got = answer("f = {(1|->3),(2|->6)} & x * x = f(2) + 3 & x < 0")
+    assert got.status == "TRUE" and got.names == ("f", "x")
+    assert got.solutions == [{"f": frozenset({(1, 3), (2, 6)}), "x": -3}]
+    assert answer("f = {(1|->3)} & x * x = f(1) + 2").status == "FALSE"  # z3's proof
+
+
+def test_elements_the_solver_does_not_choose_are_walked_and_the_numbers_solved_at_each():
+    machine = load_machine_text("""MACHINE Rail
+SETS Trains = {thomas, gordon, percy}
+END""")
+    text = ("pos = {thomas|->100, gordon|->2020, percy|->20} & t1 : dom(pos) & t2 : dom(pos) & "
+            "pos(t1) < pos(t2) & x : INTEGER & x * 2 = pos(t2) - pos(t1) & x > 999")
+    got = answer(text, machine, all_solutions=True)
+    assert [(s["t1"], s["t2"], s["x"]) for s in got.solutions] == [
+        ("percy", "gordon", 1000)] and got.complete
+    assert answer("t : Trains & x * x = 15", machine).status == "FALSE"  # every t: z3 proved
+    with pytest.raises(WellDefinednessError, match="division by zero"):
+        answer("t : Trains & x = 1 / 0 + 0 * x", machine)
+    got = answer("t : Trains & y : Trains & x > 2 & x * x = 9", machine, all_solutions=True,
+                 limit=4)
+    assert len(got.solutions) == 4 and not got.complete and got.more is not False
+
 OPS = ["x + y", "x - y", "x * y", "x / y", "x mod y", "x ** 2 - y", "abs(x) - y",
        "(x + y) / 3", "x / (y - 2)"]
 

@@ -45,6 +45,8 @@ __all__ = ["Answer", "solve", "free_identifiers", "SMALL_SPACE", "MAX_SUBSET_BAS
 SMALL_SPACE = 100_000
 #: ``x <: S`` enumerates the subsets of S up to this many elements.
 MAX_SUBSET_BASE = 12
+#: Candidates of the identifiers the solver does not choose, each solved for the rest.
+MAX_PICKED = 1_000
 #: Floats tried on each side of a real the solver chose, where its nearest float fails.
 NUDGES = 2
 
@@ -104,7 +106,20 @@ def solve(node: ast.Node, types: dict[str, Type], env: dict, *, sets: Optional[d
     size = math.prod(len(d) for d in walked) if finite else math.inf
     if size <= SMALL_SPACE:
         return problem.walk(domains, derived)
+    fixed = {n: d[0] for n, d in domains.items() if d is not None and len(d) == 1}
+    if fixed and len(fixed) < len(types):  # f = {…} & x*x = 100: f in the scope, x solved
+        rest = solve(node, {n: t for n, t in types.items() if n not in fixed},
+                     {**env, **fixed}, sets=sets, source=source, file=file,
+                     timeout_s=max(0.0, problem.deadline - time.monotonic()),
+                     all_solutions=all_solutions, limit=limit, inner=inner)
+        rest.names = problem.names
+        rest.solutions = [{**fixed, **s} for s in rest.solutions]
+        return rest
     why = problem.not_numbers(domains)
+    picked = [n for n in problem.names if types[n] not in (INTEGER, REAL, BOOL)]
+    if why is not None and all(domains[n] is not None for n in picked) and \
+            math.prod(len(domains[n]) for n in picked) <= MAX_PICKED:
+        return _picked(problem, picked, domains, inner)
     if why is None:
         try:
             solver = _Solver(problem)
@@ -115,6 +130,47 @@ def solve(node: ast.Node, types: dict[str, Type], env: dict, *, sets: Optional[d
     if finite:
         return problem.walk(domains, derived)
     return problem.answer("unknown", reason=why)
+
+
+def _picked(problem: "_Problem", picked: list, domains: dict,
+            inner: Optional[Callable]) -> Answer:
+    """Each candidate of the identifiers the solver does not choose (``t1 : dom(f)``, an
+    element of a deferred set), the numbers solved for at each: the answers merged. No
+    solution anywhere is FALSE only where every candidate's answer is FALSE."""
+    names = [n for n in problem.names if n not in picked]
+    solutions: list[dict] = []
+    more: Optional[bool] = False
+    unknown, undefined, complete = None, None, True
+    for values in product(*(domains[n] for n in picked)):
+        fixed = dict(zip(picked, values))
+        try:
+            answer = solve(problem.node, {n: problem.types[n] for n in names},
+                           {**problem.env, **fixed}, sets=problem.sets,
+                           source=problem.source, file=problem.file,
+                           timeout_s=max(0.0, problem.deadline - time.monotonic()),
+                           all_solutions=problem.all_solutions, limit=problem.limit,
+                           inner=inner)
+        except WellDefinednessError as exc:
+            undefined = undefined or exc
+            continue
+        if answer.status == "unknown":
+            unknown = unknown or answer
+            complete = False
+        complete = complete and answer.complete
+        solutions += [{**fixed, **s} for s in answer.solutions]
+        if len(solutions) >= problem.limit:
+            complete = False  # the candidates after these not asked
+            break
+    more = True if len(solutions) > problem.limit else None
+    solutions = solutions[:problem.limit]
+    if solutions:
+        return problem.answer("TRUE", solutions=solutions, method="enumeration and solver",
+                              complete=complete and not more, more=False if complete else more)
+    if unknown is not None:
+        return problem.answer("unknown", reason=unknown.reason, method=unknown.method)
+    if undefined is not None:
+        raise undefined
+    return problem.answer("FALSE", method="enumeration and solver")
 
 
 def _defined(answer: Answer, problem: "_Problem") -> Answer:
