@@ -313,7 +313,8 @@ OPERATIONS
     choice = CHOICE x := 1 OR y := 1 END;
     param(p) = PRE p : 1..3 & p > x THEN x := p END;
     nothing = skip;
-    badseq = BEGIN x :: {1, 2} ; y := x END
+    badseq = BEGIN x :: {1, 2} ; y := x END;
+    suchseq = BEGIN x : (x > x$0) ; y := x END
 END
 """
 
@@ -363,9 +364,13 @@ def test_guards_of_each_form(substs):
     assert substs.enabled(S(3)) >= {"assign", "nothing", "ifop", "sel"}
 
 
-def test_non_deterministic_sequence_is_not_checked(substs):
-    with pytest.raises(UnsupportedError, match="first part is not deterministic"):
-        substs.check_after("badseq", S(), S(1, 1))
+def test_a_non_deterministic_first_part_of_a_sequence_has_every_outcome(substs):
+    assert substs.check_after("badseq", S(), S(1, 1))
+    assert substs.check_after("badseq", S(), S(2, 2))
+    assert not substs.check_after("badseq", S(), S(1, 2))
+    # outcomes of `x : (P)` cannot be listed: refused, never a verdict
+    with pytest.raises(UnsupportedError, match=r"listing the outcomes of `x : \(x > x\$0\)`"):
+        substs.check_after("suchseq", S(), S(1, 1))
 
 
 def test_unknown_operation(substs):

@@ -15,7 +15,7 @@ __all__ = [
     "QuantExpr", "IfExpr", "Let", "Record", "Struct", "Field", "And", "Or", "Implies", "Equiv",
     "Not", "Rel", "Quant",
     "Subst", "Skip", "Assign", "BecomesIn", "BecomesSuchThat", "Parallel", "Sequence",
-    "Pre", "Assert", "Select", "Any", "IfSubst", "LetSubst", "Choice", "SubstRef", "BUILTIN_FUNCTIONS",
+    "Pre", "Assert", "Select", "Any", "IfSubst", "LetSubst", "Choice", "VarSubst", "While", "SubstRef", "BUILTIN_FUNCTIONS",
     "BUILTIN_SETS", "children", "depth", "pair_of", "map_children", "binders", "free_names",
 ]
 
@@ -44,6 +44,11 @@ class Pos:
     end_column: int
     start: int = 0
     end: int = 0
+
+    def point(self) -> "Pos":
+        """Where this starts, covering no text: the place of a node tracecheck builds (its
+        errors point here; it prints as B, not as this text)."""
+        return Pos(self.line, self.column, self.line, self.column, self.start, self.start)
 
 
 @dataclass(frozen=True, slots=True)
@@ -352,6 +357,24 @@ class SubstRef(Subst):
 @dataclass(frozen=True, slots=True)
 class Choice(Subst):
     items: tuple[Subst, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class VarSubst(Subst):
+    """``VAR x, y IN S END``: local variables, without a value until S assigns them."""
+
+    ids: tuple[str, ...]
+    body: Subst
+
+
+@dataclass(frozen=True, slots=True)
+class While(Subst):
+    """``WHILE P DO S INVARIANT I VARIANT V END``."""
+
+    cond: Node
+    body: Subst
+    invariant: Node
+    variant: Node
 
 
 def pair_of(args: tuple[Node, ...]) -> Node:

@@ -393,6 +393,27 @@ class Builder(Transformer):
     def or_branch(self, meta, c):
         return _strip(c)[0]
 
+    def case_subst(self, meta, c):
+        """``CASE E OF EITHER v THEN S OR … ELSE T END END``: a SELECT on ``E : {v, …}``
+        (the B book's meaning: without ELSE, a value in no branch is not a possible step)."""
+        c = _strip(c)
+        expr, items = c[0], [(c[1], c[2])] + [i for i in c[3:] if i[0] != "else"]
+        else_ = next((i[1] for i in c[3:] if i[0] == "else"), None)
+        at = expr.pos.point() if expr.pos else None
+        branches = tuple((ast.Rel(":", expr, ast.SetExt(tuple(values), pos=at), pos=at), body)
+                         for values, body in items)
+        return ast.Select(branches, else_, pos=_pos(meta))
+
+    def case_or(self, meta, c):
+        c = _strip(c)
+        return (c[0], c[1])
+
+    def var_subst(self, meta, c):
+        return ast.VarSubst(c[0], c[1], pos=_pos(meta))
+
+    def while_subst(self, meta, c):
+        return ast.While(c[0], c[1], c[2], c[3], pos=_pos(meta))
+
     def subst_call(self, meta, c):
         name = ast.Name(ident(c[0]), pos=tok_pos(c[0]))
         return ast.SubstRef(name, c[1] if len(c) > 1 else (), pos=_pos(meta))

@@ -142,6 +142,11 @@ def _subst(node: ast.Node) -> str:  # noqa: C901
         return f"ANY {','.join(map(name_text, node.ids))} WHERE {_text(node.pred)} THEN {_text(node.body)} END"
     if t is ast.Choice:
         return "CHOICE " + " OR ".join(_text(i) for i in node.items) + " END"
+    if t is ast.VarSubst:
+        return f"VAR {','.join(map(name_text, node.ids))} IN {_text(node.body)} END"
+    if t is ast.While:
+        return (f"WHILE {_text(node.cond)} DO {_text(node.body)} INVARIANT "
+                f"{_text(node.invariant)} VARIANT {_text(node.variant)} END")
     if t is ast.SubstRef:
         args = f"({','.join(_text(a) for a in node.args)})" if node.args else ""
         return node.name.id + args

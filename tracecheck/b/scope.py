@@ -244,3 +244,10 @@ def check_subst(subst: ast.Subst, *, source: Optional[str] = None) -> None:
     elif isinstance(subst, (ast.Parallel, ast.Sequence, ast.Choice)):
         for item in subst.items:
             check_subst(item, source=source)
+    elif isinstance(subst, ast.VarSubst):
+        check_subst(subst.body, source=source)
+    elif isinstance(subst, ast.While):
+        check_kind(subst.cond, PRED, source=source, context="the WHILE condition")
+        check_kind(subst.invariant, PRED, source=source, context="a loop's INVARIANT")
+        check_kind(subst.variant, EXPR, source=source, context="a loop's VARIANT")
+        check_subst(subst.body, source=source)

@@ -14,6 +14,7 @@ from ..errors import UnsupportedError
 from . import ast
 from .evaluation import Compiler, Env
 from .memo import MEMO_KEY, fresh
+from .outcomes import Enumeration, after as _after
 from .values import make_set
 
 __all__ = ["written", "guard_of", "SubstCompiler", "strip_guards", "before_after"]
@@ -34,8 +35,10 @@ def written(s: ast.Subst) -> frozenset[str]:
     if isinstance(s, (ast.Select, ast.IfSubst)):
         out = frozenset().union(*(written(b) for _, b in s.branches))
         return out | (written(s.else_) if s.else_ is not None else frozenset())
-    if isinstance(s, (ast.Any, ast.LetSubst)):
+    if isinstance(s, (ast.Any, ast.LetSubst, ast.VarSubst)):
         return written(s.body) - frozenset(s.ids)
+    if isinstance(s, ast.While):
+        return written(s.body)
     return frozenset()
 
 
@@ -45,7 +48,7 @@ def _and(parts: list[ast.Node]) -> Optional[ast.Node]:
         return None
     node = parts[0]
     for p in parts[1:]:
-        node = ast.And(node, p, pos=p.pos)
+        node = ast.And(node, p, pos=p.pos.point() if p.pos else None)
     return node
 
 
@@ -67,7 +70,8 @@ def guard_of(s: ast.Subst) -> Optional[ast.Node]:
             node = ast.Or(node, o, pos=o.pos) if node is not None and o is not None else None
         return node
     if isinstance(s, ast.Any):
-        return ast.Quant("#", s.ids, _and([s.pred, guard_of(s.body)]), pos=s.pos)
+        return ast.Quant("#", s.ids, _and([s.pred, guard_of(s.body)]),
+                         pos=s.pos.point() if s.pos else None)
     if isinstance(s, ast.Parallel):
         return _and([guard_of(i) for i in s.items])
     if isinstance(s, ast.Sequence):
@@ -75,10 +79,22 @@ def guard_of(s: ast.Subst) -> Optional[ast.Node]:
     if isinstance(s, ast.LetSubst):
         inner = guard_of(s.body)
         return ast.Let(s.ids, s.pred, inner, pos=s.pos) if inner is not None else None
+    if isinstance(s, (ast.VarSubst, ast.While)):
+        inner = guard_of(s.body)
+        if inner is not None and (isinstance(s, ast.While)
+                                  or ast.free_names(inner) & frozenset(s.ids)):
+            where = "a WHILE's body" if isinstance(s, ast.While) else "VAR on its locals"
+            raise UnsupportedError(
+                f"not supported: a guard (PRE, SELECT, ANY) inside {where}: when the "
+                "operation is enabled is then known only by running it",
+                line=inner.pos.line if inner.pos else None,
+                column=inner.pos.column if inner.pos else None,
+                hint="put the guard before the loop or the VAR")
+        return inner
     return None
 
 
-class SubstCompiler:
+class SubstCompiler(Enumeration):
     """Compiles a substitution into ``check(pre_env, post) -> bool``.
 
     ``pre_env`` holds constants, the variables before and any local variables; ``post``
@@ -150,20 +166,25 @@ class SubstCompiler:
         return lambda pre, post: all(p(pre, post) for p in parts)
 
     def s_Sequence(self, s: ast.Sequence) -> Check:
-        first = self.execute(ast.Sequence(s.items[:-1], pos=s.pos) if len(s.items) > 2
-                             else s.items[0])
+        head = ast.Sequence(s.items[:-1], pos=s.pos) if len(s.items) > 2 else s.items[0]
+        try:
+            run = self.execute(head)
+
+            def first(env: Env) -> list:
+                mid = run(env)
+                return [] if mid is None else [mid]
+        except UnsupportedError:  # not deterministic: every outcome, as ANY is enumerated
+            first = self.outcomes(head)
         last = self.compile(s.items[-1])
         last_writes = written(s.items[-1])
 
         def sequence(pre: Env, post: dict) -> bool:
-            mid = first(fresh(pre))
-            if mid is None:
-                return False
-            env = fresh(pre)
-            env.update(mid)
-            untouched = {n: v for n, v in mid.items() if n not in last_writes}
-            return last(env, post) and all(post[n] == v for n, v in untouched.items()
-                                           if n in post)
+            for mid in first(fresh(pre)):
+                untouched = {n: v for n, v in mid.items() if n not in last_writes}
+                if last(_after(pre, mid), post) and all(
+                        post[n] == v for n, v in untouched.items() if n in post):
+                    return True
+            return False
         return sequence
 
     def s_Pre(self, s: ast.Pre) -> Check:
@@ -235,6 +256,21 @@ class SubstCompiler:
             return body(env, post)
         return let
 
+    def s_VarSubst(self, s: ast.VarSubst) -> Check:
+        return self._by_outcomes(s)
+
+    def s_While(self, s: ast.While) -> Check:
+        return self._by_outcomes(s)
+
+    def _by_outcomes(self, s: ast.Subst) -> Check:
+        """Whether ``post`` is one of the outcomes of ``s`` (every one enumerated)."""
+        run, names = self.outcomes(s), tuple(sorted(written(s)))
+
+        def check(pre: Env, post: dict) -> bool:
+            return any(all(post[n] == upd.get(n, pre.get(n)) for n in names if n in post)
+                       for upd in run(fresh(pre)))
+        return check
+
     def _assignment(self, s: ast.Assign) -> Callable[[Env], Optional[dict]]:
         """``x, f(a) := E, F`` run: every right side (and argument) in the state before."""
         parts = []
@@ -291,6 +327,16 @@ class SubstCompiler:
                         return body(env)
                 return other(env)
             return run_if
+        if isinstance(s, (ast.VarSubst, ast.While)):
+            every = self.outcomes(s)
+
+            def run_one(env: Env) -> Optional[dict]:
+                found = every(env)
+                if len(found) > 1:
+                    raise self.comp.error(UnsupportedError, s, "not deterministic here: "
+                                          f"{len(found)} possible outcomes")
+                return found[0] if found else None
+            return run_one
         raise self.comp.error(
             UnsupportedError, s,
             "tracecheck cannot check a sequence whose first part is not deterministic",

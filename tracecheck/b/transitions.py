@@ -436,6 +436,12 @@ class _Planner:
         parts = [self.plan(i) for i in s.items]
         return lambda env, fixed: _capped(u for p in parts for u in p(env, fixed))
 
+    def p_VarSubst(self, s: ast.Subst) -> Plan:
+        every = self.subst.outcomes(s)
+        return lambda env, fixed: _capped(every(env))
+
+    p_While = p_VarSubst
+
     def p_LetSubst(self, s: ast.LetSubst) -> Plan:
         with self.comp.binding(s.ids):
             assign = self.comp.let_values(s, s.ids, s.pred)

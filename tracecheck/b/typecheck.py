@@ -461,6 +461,17 @@ class Typer:
         elif isinstance(s, (ast.Parallel, ast.Sequence, ast.Choice)):
             for item in s.items:
                 self.subst(item)
+        elif isinstance(s, ast.VarSubst):
+            self.bound(s.ids)
+            try:
+                self.subst(s.body)
+            finally:
+                self.scopes.pop()
+        elif isinstance(s, ast.While):
+            self.pred(s.cond)
+            self.subst(s.body)
+            self.pred(s.invariant)
+            self.same(s.variant, self.expr(s.variant), INTEGER, "a VARIANT: ")
 
 
 def typecheck_machine(machine) -> dict[str, str]:
