@@ -8,6 +8,7 @@ do instead.
 from __future__ import annotations
 
 __all__ = [
+    "JoinedText",
     "TracecheckError",
     "BSyntaxError",
     "BTypeError",
@@ -51,6 +52,27 @@ def caret_excerpt(source: str | None, line: int | None, column: int | None) -> s
     return f"\n    {text}\n    {' ' * (col - 1)}^"
 
 
+class JoinedText(str):
+    """Text joined from several files (a machine and the machines it sees and includes):
+    an error placed in it is told in the file it came from, at that file's line."""
+
+    parts: tuple[tuple[int, str | None, str], ...]  # (first line here, file, its text)
+
+    def __new__(cls, parts: list[tuple[str | None, str]]) -> "JoinedText":
+        out = super().__new__(cls, "\n".join(text for _, text in parts))
+        first, placed = 1, []
+        for file, text in parts:
+            placed.append((first, file, text))
+            first += text.count("\n") + 1
+        out.parts = tuple(placed)
+        return out
+
+    def where(self, line: int) -> tuple[str | None, int, str]:
+        """(file, line in it, its text) of ``line`` of the joined text."""
+        first, file, text = next(p for p in reversed(self.parts) if p[0] <= line)
+        return file, line - first + 1, text
+
+
 class TracecheckError(Exception):
     """Base class: every error tracecheck raises on bad input is one of these."""
 
@@ -72,7 +94,14 @@ class TracecheckError(Exception):
         self.column = column
         self.source = source
         self.hint = hint
+        self._place()
         super().__init__(self.render())
+
+    def _place(self) -> None:
+        """An error in a :class:`JoinedText`: its own file, line and text."""
+        if isinstance(self.source, JoinedText) and self.line:
+            file, self.line, self.source = self.source.where(self.line)
+            self.file = file or self.file
 
     @property
     def location(self) -> str:
@@ -98,6 +127,7 @@ class TracecheckError(Exception):
             self.file = file
         if source and not self.source:
             self.source = source
+        self._place()
         self.args = (self.render(),)
         return self
 

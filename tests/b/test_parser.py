@@ -243,7 +243,7 @@ def test_machine_clauses():
     ("", "the file is empty"),
     ("MACHINE M VARIABLES x INVARIANT x : BOOL", "does not end with END"),
     ("SYSTEM M END", "SYSTEM is not supported"),
-    ("MACHINE M SEES N END", "the clause SEES is not supported"),
+    ("MACHINE M REFINES N END", "the clause REFINES is not supported"),
     ("MACHINE M VARIABLES x VARIABLES y END", "the clause VARIABLES appears twice"),
     ("MACHINE M DEFINITIONS d = 1 END", "needs '==' after its name"),
     ("MACHINE M DEFINITIONS d == 1; d == 2 END", "the definition d appears twice"),

@@ -23,6 +23,8 @@ from lark.lexer import Lexer
 from ..errors import BSyntaxError, TracecheckError, UnsupportedError
 from . import ast
 from .builder import Builder, OperationSource, ident, tok_pos, unquote
+from .clauses import CLAUSES, CLOSERS, OPENERS
+from .composition import compose
 from .library import LIBRARY_FILES, NOT_IMPLEMENTED, library_bodies
 from ..limits import deep_recursion
 
@@ -38,20 +40,10 @@ _STARTS = [
     "machine_header", "name_list", "def_header",
 ]
 
-CLAUSES = (
-    "MACHINE", "SETS", "CONSTANTS", "CONCRETE_CONSTANTS", "ABSTRACT_CONSTANTS", "PROPERTIES",
-    "VARIABLES", "CONCRETE_VARIABLES", "ABSTRACT_VARIABLES", "INVARIANT", "ASSERTIONS",
-    "DEFINITIONS", "INITIALISATION", "OPERATIONS",
-)
 _UNSUPPORTED_CLAUSES = (
-    "MODEL", "SYSTEM", "REFINEMENT", "IMPLEMENTATION", "INCLUDES", "SEES", "EXTENDS",
-    "USES", "PROMOTES", "IMPORTS", "REFINES", "CONSTRAINTS", "LOCAL_OPERATIONS", "VALUES",
-    "EVENTS",
+    "MODEL", "SYSTEM", "REFINEMENT", "IMPLEMENTATION", "REFINES", "LOCAL_OPERATIONS",
+    "VALUES", "EVENTS",
 )
-_OPENERS = {"LPAR", "LSQB", "LBRACE", "BEGIN", "IF", "SELECT", "PRE", "ANY", "LET",
-            "CHOICE", "ASSERT", "VAR", "CASE"}
-_CLOSERS = {"RPAR", "RSQB", "RBRACE", "END"}
-
 #: Definitions that only tools read; their bodies may use syntax tracecheck does not parse.
 TOOL_DEFINITION_PREFIXES = (
     "VISB_", "ANIMATION_", "ASSERT_LTL", "ASSERT_CTL", "SET_PREF_", "CUSTOM_GRAPH",
@@ -330,14 +322,19 @@ def _split_clauses(toks: list[Token], text: str, file: Optional[str]):
         raise BSyntaxError("the machine does not end with END", file=file, line=line,
                            column=col, source=text)
     clauses: list[tuple[Token, list[Token]]] = []
+    depth = 0  # a WHILE's INVARIANT inside an operation is no clause
     for tok in toks[:-1]:
         if tok.type == "NAME" and tok.value == "INITIALIZATION":  # the US spelling, as ProB
             tok = Token.new_borrow_pos("NAME", "INITIALISATION", tok)
-        if tok.type == "NAME" and tok.value in _UNSUPPORTED_CLAUSES:
+        depth += (tok.type in OPENERS) - (tok.type in CLOSERS)
+        if depth > 0 or tok.type not in ("NAME", tok.value):
+            clauses[-1][1].append(tok)
+            continue
+        if tok.value in _UNSUPPORTED_CLAUSES:
             raise BSyntaxError(f"the clause {tok.value} is not supported by tracecheck",
                                file=file, line=tok.line, column=tok.column, source=text,
                                hint="put everything the shield needs into one machine")
-        if tok.type == "NAME" and tok.value in CLAUSES:
+        if tok.value in CLAUSES:
             if any(k.value == tok.value for k, _ in clauses):
                 raise BSyntaxError(f"the clause {tok.value} appears twice", file=file,
                                    line=tok.line, column=tok.column, source=text)
@@ -350,6 +347,9 @@ def _split_clauses(toks: list[Token], text: str, file: Optional[str]):
 def parse_machine_source(text: str, *, file: Optional[str] = None) -> MachineSource:
     """Parse a whole machine into its clauses (see :class:`MachineSource`)."""
     toks, comments = tokens(text, file=file)
+    flat = compose(text, toks, file, lambda t, f: tokens(t, file=f))
+    if flat is not None:  # SEES, INCLUDES, …: one machine of several (composition.py)
+        text, toks, comments = flat
     clauses = _split_clauses(toks, text, file)
     header_kw, header = clauses[0]
     name_tree = _parse_tokens(header, "machine_header", text, file, "the MACHINE clause",
@@ -419,9 +419,9 @@ def _split_definitions(body: list[Token]) -> list[list[Token]]:
     parts: list[list[Token]] = [[]]
     depth = 0
     for tok in body:
-        if tok.type in _OPENERS:
+        if tok.type in OPENERS:
             depth += 1
-        elif tok.type in _CLOSERS:
+        elif tok.type in CLOSERS:
             depth -= 1
         if tok.type == "SEMI" and depth == 0:
             parts.append([])
