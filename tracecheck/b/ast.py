@@ -24,7 +24,7 @@ BUILTIN_FUNCTIONS = frozenset({
     "card", "dom", "ran", "min", "max", "POW", "POW1", "FIN", "FIN1", "bool", "floor",
     "ceiling", "real", "RSQRT", "RABS", "union", "inter", "id", "prj1", "prj2", "closure",
     "closure1", "succ", "pred", "abs", "size", "first", "last", "front", "tail", "rev",
-    "seq", "seq1", "iseq", "iseq1", "perm", "conc",
+    "seq", "seq1", "iseq", "iseq1", "perm", "conc", "iterate", "fnc", "rel",
 })
 
 #: Names of the built-in sets.

@@ -6,14 +6,14 @@ from __future__ import annotations
 import math
 from typing import Any, Callable
 
-from ..errors import TracecheckError
+from ..errors import TracecheckError, UnsupportedError
 from . import ast
 from .finite import finite as _finite
 from .spaces import SeqSet
 from .values import (FuncValue, Interval, PowSet, SymbolicSet, brief, cardinality, make_set,
                      sequence)
 
-__all__ = ["BUILTINS", "UNSUPPORTED_HINTS"]
+__all__ = ["BUILTINS", "UNSUPPORTED_HINTS", "iterate"]
 
 def _card(c, node: ast.Call, v: Any) -> int:
     if isinstance(v, frozenset):
@@ -98,6 +98,9 @@ BUILTINS: dict[str, Callable[[Any, ast.Call, Any], Any]] = {
     "prj1": lambda c, n, v: _component(c, n, v, 0),
     "prj2": lambda c, n, v: _component(c, n, v, 1),
     "closure1": lambda c, n, v: _closure1(_finite(c, n.args[0], v)),
+    "fnc": lambda c, n, v: _fnc(_finite(c, n.args[0], v)),
+    "rel": lambda c, n, v: make_set([(x, y) for x, ys in _finite(c, n.args[0], v)
+                                     for y in _finite(c, n.args[0], ys)]),
     "size": lambda c, n, v: len(c.seq_items(n.args[0], v)),
     "first": lambda c, n, v: _nonempty_seq(c, n, v)[0],
     "last": lambda c, n, v: _nonempty_seq(c, n, v)[-1],
@@ -130,6 +133,33 @@ def _nonempty_seq(c, node: ast.Call, v: Any) -> list:
     if not items:
         raise c.wd(node, f"{node.name} of the empty sequence")
     return items
+
+
+def _fnc(rel) -> frozenset:
+    """``fnc(r)``: each x of dom(r) to the set of its images."""
+    images: dict = {}
+    for x, y in rel:
+        images.setdefault(x, set()).add(y)
+    return make_set([(x, frozenset(ys)) for x, ys in images.items()])
+
+
+def iterate(c, node: ast.Call, r: Any, n: Any) -> Any:
+    """``iterate(r, n)``: r composed with itself n times (n >= 1; n = 0 is the identity over
+    the whole type, refused)."""
+    n = c.int_of(node.args[1], n)
+    if n < 0:
+        raise c.wd(node, f"iterate of a negative number of times ({n})")
+    if n == 0:
+        raise c.error(UnsupportedError, node, "not supported: iterate(r, 0), the identity "
+                      "over the whole type", hint="write id(S) for the set S you mean")
+    pairs = _finite(c, node.args[0], r)
+    step: dict = {}
+    for x, y in pairs:
+        step.setdefault(x, []).append(y)
+    out = pairs
+    for _ in range(n - 1):
+        out = make_set([(x, z) for x, y in out for z in step.get(y, ())])
+    return out
 
 
 def _closure1(rel: frozenset) -> frozenset:

@@ -22,7 +22,7 @@ from .records import Records, element_hint, set_element
 from .sequences import Sequences
 from ..limits import DEEP, MAX_INT_BITS, deep_recursion, deeply
 from .memo import constant_number, folded, memoised
-from .builtins import BUILTINS as _BUILTINS, UNSUPPORTED_HINTS as _UNSUPPORTED_HINTS
+from .builtins import BUILTINS as _BUILTINS, UNSUPPORTED_HINTS as _UNSUPPORTED_HINTS, iterate as _iterate
 from .library import FUNCTIONS as _LIBRARY, compile_call as _library_call
 from .finite import finite as _finite, members as _members
 from .spaces import FunctionSpace, Projection
@@ -542,6 +542,9 @@ class Compiler(Binders, Records, Sequences):
     def c_Call(self, node: ast.Call) -> Fn:
         if node.name in _LIBRARY:  # ProB's library files (DEFINITIONS "LibraryReals.def")
             return _library_call(self, node)
+        if node.name == "iterate" and len(node.args) == 2:
+            r, n = self.compile(node.args[0]), self.compile(node.args[1])
+            return lambda env: _iterate(self, node, r(env), n(env))
         impl = _BUILTINS.get(node.name)
         if impl is None:
             raise self.error(UnsupportedError, node, f"not supported: {node.name}",
@@ -550,9 +553,10 @@ class Compiler(Binders, Records, Sequences):
             s, t = self.compile(node.args[0]), self.compile(node.args[1])
             which = int(node.name[-1])
             return lambda env: Projection(which, s(env), t(env))
-        if len(node.args) != 1:
-            raise self.error(BTypeError, node,
-                             f"{node.name} takes one argument, not {len(node.args)}")
+        if len(node.args) != 1 or node.name == "iterate":
+            raise self.error(BTypeError, node, f"{node.name} takes "
+                             f"{'two arguments' if node.name == 'iterate' else 'one argument'}"
+                             f", not {len(node.args)}")
         arg = self.compile(node.args[0])
         return lambda env: impl(self, node, arg(env))
 

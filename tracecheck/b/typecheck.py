@@ -33,8 +33,6 @@ _BUILTIN_TYPES = {
 
 #: B keywords tracecheck does not evaluate, with what they are (ProB's parser reads them).
 UNSUPPORTED_KEYWORDS = {
-    "iterate": "iteration of a relation", "fnc": "transformation into a function",
-    "rel": "transformation into a relation",
     "tree": "trees", "btree": "trees", "bin": "trees", "left": "trees", "right": "trees",
     "sons": "trees", "father": "trees", "rank": "trees", "const": "trees", "top": "trees",
     "prefix": "trees", "postfix": "trees", "sizet": "trees", "mirror": "trees",
@@ -375,6 +373,21 @@ class Typer:
             return Pow(Prod(Prod(s, t), s if name == "prj1" else t))
         arg = self.expr(node.args[0])
         a, b = Var(), Var()
+        if name == "iterate" and len(node.args) != 2:
+            raise BTypeError(f"iterate takes two arguments (a relation and how many times), "
+                             f"not {len(node.args)}", file=self.file, source=self.source,
+                             line=node.pos.line if node.pos else None,
+                             column=node.pos.column if node.pos else None)
+        if name == "iterate":
+            self.same(node.args[0], arg, Pow(Prod(a, a)))
+            self.same(node.args[1], self.expr(node.args[1]), INTEGER)
+            return arg
+        if name == "fnc":
+            self.same(node.args[0], arg, Pow(Prod(a, b)))
+            return Pow(Prod(a, Pow(b)))
+        if name == "rel":
+            self.same(node.args[0], arg, Pow(Prod(a, Pow(b))))
+            return Pow(Prod(a, b))
         if name in ("prj1", "prj2"):
             self.same(node.args[0], arg, Prod(a, b))
             return a if name == "prj1" else b
