@@ -48,6 +48,8 @@ class Compiler(Binders, Records, Sequences):
         #: variables nothing walks (a list of {name: value}), or raises (``tracecheck eval``
         #: gives one; without it such variables are refused)
         self.solver: Optional[Callable] = None
+        #: the machine's constants without a value, and why (Machine.unset_constants)
+        self.unset: dict[str, str] = {}
 
     @contextmanager
     def binding(self, ids: tuple[str, ...]):
@@ -120,6 +122,11 @@ class Compiler(Binders, Records, Sequences):
                 found = set_element(name, env)  # S3: an element of a deferred set S
                 if found is not None:
                     return found
+                if name in self.unset:
+                    raise self.error(EvaluationError, node, f"the constant {name} has no "
+                                     f"value: {self.unset[name]}",
+                                     hint=f"fix it in the PROPERTIES ({name} = value)") \
+                        from None
                 raise self.error(EvaluationError, node, f"{name} has no value here",
                                  hint=element_hint(name, env) or "give it in the state, or "
                                  "declare it in the machine") from None

@@ -26,6 +26,7 @@ from .cache import Cache
 from .constants import setup_constants
 from .evaluation import Compiler
 from .linear import real_parameters
+from .machine_batch import BatchQuestions
 from ..limits import deep_recursion
 from .parser import MachineSource, parse_formula, parse_machine_source
 from .conversion import StateTypes, convert_state, unknown_elements
@@ -61,7 +62,7 @@ class Operation:
 
 
 @dataclass
-class Machine:
+class Machine(BatchQuestions):
     """A loaded machine. Build one with :func:`load_machine`."""
 
     name: str
@@ -82,6 +83,8 @@ class Machine:
     constants_declared: tuple[str, ...] = ()
     types: dict[str, str] = field(default_factory=dict)
     type_objects: dict = field(default_factory=dict, repr=False)
+    #: constants the PROPERTIES do not give one value, and why (see :meth:`settle_constants`)
+    unset_constants: dict[str, str] = field(default_factory=dict)
     _compiled: dict = field(default_factory=dict, repr=False)
 
     # -- environments
@@ -165,7 +168,22 @@ class Machine:
                                  "reals are written with a decimal point: 1.0, not 1")
 
     def compiler(self) -> Compiler:
-        return Compiler(source=self.source, file=self.file)
+        comp = Compiler(source=self.source, file=self.file)
+        comp.unset = self.unset_constants
+        return comp
+
+    def fix_constants(self, values: Mapping[str, Any]) -> None:
+        """Give constants their values (set up after loading: :meth:`settle_constants`)."""
+        self.constants.update(values)
+        self._compiled.pop("base_env", None)
+
+    def settle_constants(self, names: list[str]) -> None:
+        """Give the constants ``names``, which no equality of the PROPERTIES fixes, their
+        values: here none (each is recorded in :attr:`unset_constants` with the reason); a
+        shield's machine (:class:`tracecheck.checking.shield.ShieldMachine`) asks the
+        solver, as ProB's SETUP_CONSTANTS does."""
+        self.unset_constants = {n: "no equality of the PROPERTIES fixes it (c = value), and "
+                                   "this machine is not set up with the solver" for n in names}
 
     # -- formulas
     def parse(self, text: str, *, kind: str = PRED) -> ast.Node:
@@ -193,8 +211,9 @@ class Machine:
         return node
 
     def compile(self, node: ast.Node, *, source: Optional[str] = None) -> Callable[[dict], Any]:
-        return Compiler(source=source or self.source, file=None if source else self.file
-                        ).compile(node)
+        comp = Compiler(source=source or self.source, file=None if source else self.file)
+        comp.unset = self.unset_constants
+        return comp.compile(node)
 
     def evaluate(self, text_or_node, state: Mapping[str, Any]) -> Any:
         """Evaluate a formula (text or node) in ``state``."""
@@ -381,98 +400,6 @@ class Machine:
             return False
         return bool(check(pre, dict(after)))
 
-    # -- batch evaluation over columns (one call per formula for a whole recording)
-    def batch(self, node: ast.Node):
-        """A :class:`~tracecheck.b.vector.BatchFormula` for ``node`` in this machine."""
-        from .vector import BatchFormula
-
-        return BatchFormula(node, self.base_env, source=self.source, file=self.file)
-
-    def _batch_cached(self, key: tuple, node: ast.Node):
-        cache = self._compiled.setdefault("batch", {})
-        if key not in cache:
-            cache[key] = self.batch(node)
-        return cache[key]
-
-    def enabled_batch(self, columns, candidates: Optional[Mapping[str, Any]] = None, *,
-                      bounds: Optional[Mapping[str, tuple[dict, dict]]] = None) -> dict:
-        """For each operation, a bool array: is it enabled in each row of ``columns``?
-
-        An operation with REAL parameters is enabled where some values are allowed. Where
-        ``candidates[op]`` (a list of ``{parameter: array of a value per row}``, NaN: none)
-        holds values that its guard allows, by one batch evaluation of the guard with them
-        bound, that is the answer (the evaluator confirmed an allowed value); the other rows
-        are decided one distinct state at a time, as :meth:`enabled` decides them — within
-        ``bounds[op]`` (an action space's (low, high) by parameter) where given."""
-        import numpy as np
-
-        out = {}
-        memo: dict = {}  # what the guards have in common, computed once
-        for name, op in self.operations.items():
-            if op.guard is None:
-                out[name] = np.ones(columns.n, dtype=bool)
-                continue
-            if real_parameters(op):
-                out[name] = self._enabled_real(name, columns, (candidates or {}).get(name, ()),
-                                               (bounds or {}).get(name))
-                continue
-            out[name] = self._batch_cached(("guard", name), op.enabling_guard)(columns, memo
-                                                                              ).astype(bool)
-        return out
-
-    def _enabled_real(self, name: str, columns, candidates,
-                      bounds: Optional[tuple[dict, dict]] = None) -> Any:
-        """:meth:`enabled_batch` for an operation with REAL parameters (some values allowed
-        within ``bounds``, where given: candidates are the caller's to keep within them)."""
-        import numpy as np
-
-        op = self.operation(name)
-        enabled = np.zeros(columns.n, dtype=bool)
-        guard = self._batch_cached(("guard with parameters", name), op.guard)
-        for values in candidates:
-            given = np.all([np.isfinite(values[p]) for p in op.params], axis=0)
-            rows = np.flatnonzero(given & ~enabled)
-            if not len(rows):
-                continue
-            bound = columns.take(rows)
-            bound.numbers.update({p: np.asarray(values[p], dtype=float)[rows]
-                                  for p in op.params})
-            enabled[rows] = np.asarray(guard(bound), dtype=bool)
-        rest = np.flatnonzero(~enabled)
-        if len(rest):  # the scalar decision, once per distinct state
-            decide = self._guard_fns()[name] if bounds is None else \
-                (lambda env: self.allowed_in(name, env).within(*bounds).witness() is not None)
-            others = columns.take(rest)
-            first, index = others.distinct()
-
-            def one(i: int) -> bool:
-                try:
-                    return bool(decide(self.env(others.row(i))))
-                except UnsupportedError as exc:  # undecided: say which state
-                    if others.label is None or exc.line is not None:
-                        raise
-                    raise UnsupportedError(f"{others.label(i)}: {exc.message}",
-                                           hint=exc.hint) from None
-            enabled[rest] = np.array([one(int(i)) for i in first], dtype=bool)[index]
-        return enabled
-
-    def invariant_batch(self, columns):
-        """A bool array: does the INVARIANT hold in each row of ``columns``?"""
-        import numpy as np
-
-        if self.invariant_node is None:
-            return np.ones(columns.n, dtype=bool)
-        return self._batch_cached(("invariant",), self.invariant_node)(columns).astype(bool)
-
-    def postcondition_batch(self, op: str, pairs):
-        """A bool array over step pairs (``v`` after, ``v$0`` before, see
-        :meth:`postcondition`): is each step a possible effect of ``op``? None when the body
-        has no such predicate (then :meth:`effect_ok` decides step by step)."""
-        node = self.postcondition(op)
-        if node is None:
-            return None
-        return self._batch_cached(("post", op), node)(pairs).astype(bool)
-
     def invariant(self, state: Mapping[str, Any]) -> bool:
         """Whether the INVARIANT holds in ``state``."""
         if self.invariant_node is None:
@@ -511,6 +438,23 @@ class Machine:
                     raise
                 unchecked.append((render(c, self.source), exc.message))
         return broken, unchecked
+
+    def constant_assertions(self) -> list[tuple[str, Optional[bool], str]]:
+        """Each ASSERTION as (its text, its value, why there is none): those that read no
+        variable decided once over the constants (None and the reason where tracecheck
+        cannot tell); those that read variables are for each state (None, "reads …")."""
+        out: list[tuple[str, Optional[bool], str]] = []
+        for node in self.assertion_nodes:
+            text = render(node, self.source)
+            reads = sorted(ast.free_names(node) & set(self.variables))
+            if reads:
+                out.append((text, None, f"reads {', '.join(reads)}: holds or not per state"))
+                continue
+            try:
+                out.append((text, self.compile(node)(dict(self.base_env)) is True, ""))
+            except TracecheckError as exc:
+                out.append((text, None, exc.message))
+        return out
 
     def assertions(self, state: Mapping[str, Any]) -> list[bool]:
         env = self.env(state)
@@ -612,6 +556,9 @@ def _build(src: MachineSource, kind: "type[Machine]") -> Machine:
     from .typecheck import typecheck_machine
 
     machine.types = typecheck_machine(machine)
+    unset = [c for c in machine.constants_declared if c not in machine.constants]
+    if unset:
+        machine.settle_constants(unset)
     return machine
 
 

@@ -374,20 +374,16 @@ class Typer:
         arg = self.expr(node.args[0])
         a, b = Var(), Var()
         if name == "iterate" and len(node.args) != 2:
-            raise BTypeError(f"iterate takes two arguments (a relation and how many times), "
-                             f"not {len(node.args)}", file=self.file, source=self.source,
-                             line=node.pos.line if node.pos else None,
-                             column=node.pos.column if node.pos else None)
+            raise BTypeError(f"iterate takes two arguments (a relation, how many times), not "
+                             f"{len(node.args)}", file=self.file, source=self.source,
+                             line=node.pos.line, column=node.pos.column)
         if name == "iterate":
             self.same(node.args[0], arg, Pow(Prod(a, a)))
             self.same(node.args[1], self.expr(node.args[1]), INTEGER)
             return arg
-        if name == "fnc":
-            self.same(node.args[0], arg, Pow(Prod(a, b)))
-            return Pow(Prod(a, Pow(b)))
-        if name == "rel":
-            self.same(node.args[0], arg, Pow(Prod(a, Pow(b))))
-            return Pow(Prod(a, b))
+        if name in ("fnc", "rel"):  # S <-> T to S +-> POW(T), and back
+            self.same(node.args[0], arg, Pow(Prod(a, b if name == "fnc" else Pow(b))))
+            return Pow(Prod(a, Pow(b) if name == "fnc" else b))
         if name in ("prj1", "prj2"):
             self.same(node.args[0], arg, Prod(a, b))
             return a if name == "prj1" else b

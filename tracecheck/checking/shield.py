@@ -132,6 +132,11 @@ class ShieldMachine(Machine):
 
         return solved_set(self, op, env=env, timeout_s=OFFLINE_SOLVER_S)
 
+    def settle_constants(self, names: list[str]) -> None:
+        from .constants_setup import settle
+
+        settle(self, names)
+
 
 def load_solving(path: str | Path) -> ShieldMachine:
     """The machine in ``path`` as a shield's (:class:`ShieldMachine`)."""

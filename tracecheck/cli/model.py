@@ -19,14 +19,22 @@ def check_model(
     as_json: bool = JSON,
     fmt: OutputFormat = FORMAT,
 ) -> None:
-    """Parse and check a B machine; list its sets, constants, variables and operations."""
+    """Parse and check a B machine; list its sets, constants (those the PROPERTIES fix, set
+    up by the solver where no equality does), variables and operations, and its ASSERTIONS
+    over the constants: exit 1 where one is false, 3 where one cannot be decided."""
     from ..render.emit import emit
     from ..render.listing_text import ModelOutput
 
     fmt = output_format(fmt, as_json)
-    machine = load_model(model)
+    machine = load_model(model, solving=True)  # constants the PROPERTIES fix: the solver's
     warn(f"{model}: {what}: {fix}" for what, fix in _untyped_reals(machine))
     emit(ModelOutput(machine, str(model)), fmt.value, out)
+    values = [value for _, value, why in machine.constant_assertions()
+              if not why.startswith("reads ")]
+    if False in values:  # an assertion over the constants is false: exit 1, as a check fails
+        raise typer.Exit(1)
+    if None in values:  # one tracecheck cannot decide: unknown
+        raise typer.Exit(3)
 
 
 def _untyped_reals(machine) -> list[tuple[str, str]]:
@@ -187,7 +195,7 @@ def _evaluator(model: Optional[Path], state: Optional[Path], solving: dict):
     from ..b.typecheck import check_formula, type_of_value
     from ..errors import BScopeError
 
-    machine = load_model(model) if model is not None else None
+    machine = load_model(model, solving=True) if model is not None else None
     values = read_state_file(state) if state is not None else {}
     if machine is not None:
         machine.check_state(values, where=str(state))
@@ -207,6 +215,7 @@ def _evaluator(model: Optional[Path], state: Optional[Path], solving: dict):
         except BScopeError as exc:
             return _solve(expr, where, exc, names, env, machine, solving)
         compiler = Compiler(source=expr, file=where)
+        compiler.unset = machine.unset_constants if machine else {}
         # bound variables nothing walks ({x | x*x = 100}): the solver's complete answer
         compiler.solver = bound_solver(names, machine.sets if machine else {}, source=expr,
                                        file=where, timeout_s=solving["timeout_s"])

@@ -105,6 +105,11 @@ class ModelOutput(Report):
             "sha256": machine.sha256,
             "sets": {n: [str(e) for e in elems] for n, elems in machine.sets.items()},
             "constants": {n: format_value(v) for n, v in machine.constants.items()},
+            # constants the PROPERTIES leave without one value, and why
+            "unset_constants": dict(machine.unset_constants),
+            "assertions": [{"assertion": text, "value": None if value is None else
+                            ("TRUE" if value else "FALSE"), "why": why}
+                           for text, value, why in machine.constant_assertions()],
             "variables": {v: {"type": types.get(v), "description": described.get(v)}
                           for v in machine.variables},
             "operations": {
@@ -128,6 +133,10 @@ class ModelOutput(Report):
               for n, e in summary["sets"].items()),
             *(["constant", n, v, "", described.get(n, "")]
               for n, v in summary["constants"].items()),
+            *(["constant", n, f"no value: {why}", "", described.get(n, "")]
+              for n, why in summary["unset_constants"].items()),
+            *(["assertion", a["assertion"], a["value"] or a["why"], "", ""]
+              for a in summary["assertions"]),
             *(["variable", n, i["type"] or "?", "", i["description"] or ""]
               for n, i in summary["variables"].items()),
             *(["operation", n + (f"({', '.join(i['parameters'])})" if i["parameters"] else ""),
@@ -151,6 +160,12 @@ class ModelOutput(Report):
             console.print(f"  set {name} = {{{', '.join(elems)}}}{desc(name)}", markup=False)
         for name, value in summary["constants"].items():
             console.print(f"  constant {name} = {value}{desc(name)}", markup=False)
+        for name, why in summary["unset_constants"].items():
+            plain(f"  constant {name}: no value — {why}{desc(name)}")
+        for a in summary["assertions"]:
+            plain(f"  assertion {a['assertion']}: {a['value'] or 'cannot tell: ' + a['why']}"
+                  if a["value"] or not a["why"].startswith("reads ") else
+                  f"  assertion {a['assertion']}: {a['why']}")
         table = Table("variable", "type", "description", box=None, pad_edge=False)
         for name, info in summary["variables"].items():
             literal_row(table, [name, info["type"] or "?", info["description"] or ""])
@@ -161,7 +176,13 @@ class ModelOutput(Report):
             params = f"({', '.join(info['parameters'])})" if info["parameters"] else ""
             about = f" ({info['description']})" if info["description"] else ""
             plain(_clip(f"  operation {name}{params}{about}: guard {guard}", terminal_width()))
-        console.print(f"[green]ok[/green]: {len(machine.operations)} operation(s), "
+        verdicts = [a["value"] for a in summary["assertions"]
+                    if a["value"] or not a["why"].startswith("reads ")]
+        status = ("[red]FALSE[/red]: an assertion over the constants is false; "
+                  if "FALSE" in verdicts else
+                  "[yellow]unknown[/yellow]: an assertion tracecheck cannot decide; "
+                  if None in verdicts else "[green]ok[/green]: ")
+        console.print(f"{status}{len(machine.operations)} operation(s), "
                       f"{len(machine.variables)} variable(s)", markup=True)
 
 

@@ -1,0 +1,85 @@
+"""Constants the PROPERTIES fix without an equality, set up by the solver as ProB's
+SETUP_CONSTANTS does (tracecheck.checking.constants_setup); `check-model` shows them and
+decides the ASSERTIONS over the constants."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tracecheck.b import load_machine_text
+from tracecheck.checking.shield import ShieldMachine
+from tracecheck.errors import EvaluationError, ModelError
+
+from tests.helpers import run
+
+pytest.importorskip("z3")
+
+MACHINE = """MACHINE P
+CONSTANTS n, m, q
+PROPERTIES n : 1..10 & n * n = 49 & m : 1..3 & q : INTEGER & q > 100 & q mod 7 = 3 &
+           q * q = 29241
+ASSERTIONS n = 7; n > 8; m < 5; x >= 0
+VARIABLES x
+INVARIANT x : 0..n
+INITIALISATION x := 0
+OPERATIONS Up = SELECT x < n THEN x := x + 1 END
+END"""
+
+
+def shield(text: str) -> ShieldMachine:
+    return load_machine_text(text, file="P.mch", kind=ShieldMachine)
+
+
+def test_one_solution_gives_the_constants_their_values():
+    m = shield(MACHINE)
+    assert m.constants == {"n": 7, "q": 171}  # z3 for q: no small space to walk
+    assert m.enabled({"x": 6}) == {"Up"} and m.enabled({"x": 7}) == set()
+
+
+def test_several_solutions_leave_a_constant_without_value_and_list_them():
+    m = shield(MACHINE)
+    assert list(m.unset_constants) == ["m"]
+    why = m.unset_constants["m"]
+    assert "allow 3 solutions" in why and "m = 1" in why and "m = 3" in why
+    with pytest.raises(EvaluationError, match="the constant m has no value: the PROPERTIES "
+                                              "allow 3 solutions"):
+        m.evaluate("m + 1", {"x": 0})
+
+
+def test_properties_without_a_solution_are_an_error_at_load():
+    with pytest.raises(ModelError, match="no values of the constants n satisfy") as err:
+        shield("MACHINE P CONSTANTS n PROPERTIES n : 1..10 & n * n = 50 END")
+    assert err.value.line == 1
+
+
+def test_what_the_solver_cannot_decide_stays_without_value_with_its_reason():
+    m = shield("MACHINE P CONSTANTS s PROPERTIES s <: INTEGER & 5 : s END")
+    assert "the solver cannot set it up" in m.unset_constants["s"]
+
+
+def test_a_plain_machine_does_not_ask_the_solver_and_says_so():
+    m = load_machine_text(MACHINE, file="P.mch")
+    assert m.constants == {} and set(m.unset_constants) == {"n", "m", "q"}
+    with pytest.raises(EvaluationError, match="not set up with the solver"):
+        m.evaluate("n", {"x": 0})
+
+
+def test_check_model_shows_the_constants_and_decides_the_assertions(tmp_path, capsys):
+    path = tmp_path / "P.mch"
+    path.write_text(MACHINE)
+    code, out, _ = run(capsys, "check-model", path)
+    assert code == 1  # n > 8 is false
+    assert "constant n = 7" in out and "constant q = 171" in out
+    assert "constant m: no value — the PROPERTIES allow 3 solutions" in out
+    assert "assertion n = 7: TRUE" in out and "assertion n > 8: FALSE" in out
+    assert "assertion x >= 0: reads x: holds or not per state" in out
+    data = json.loads(run(capsys, "check-model", path, "--format", "json")[1])
+    assert data["constants"] == {"n": "7", "q": "171"}
+    assert [a["value"] for a in data["assertions"]] == ["TRUE", "FALSE", None, None]
+    path.write_text(MACHINE.replace("n = 7; n > 8; ", ""))
+    assert run(capsys, "check-model", path)[0] == 3  # m < 5: m has no value
+    path.write_text(MACHINE.replace("n = 7; n > 8; m < 5; ", ""))
+    code, out, _ = run(capsys, "check-model", path)
+    assert code == 0 and "ok: 1 operation(s)" in out

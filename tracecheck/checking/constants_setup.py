@@ -1,0 +1,72 @@
+"""Constants the PROPERTIES fix without a plain equality (``n : 1..10 & n * n = 49``), set
+up by the solver as ProB's SETUP_CONSTANTS sets them up (:mod:`.solving`: the evaluator's
+walk, or z3, every solution confirmed by the evaluator).
+
+* One solution: the constants take it.
+* Several: a constant that has the same value in all of them (all of them listed) takes it;
+  the others stay without a value, the solutions named in the reason — tracecheck does not
+  pick one, where ProB's animator lets the user choose.
+* No solution: the machine is an error (no values satisfy its PROPERTIES).
+* The solver cannot tell in :data:`SETUP_S` seconds: the constants stay without a value,
+  with the solver's reason.
+
+A constant without a value is refused, with its reason, wherever a formula reads it.
+"""
+
+from __future__ import annotations
+
+from ..b.btypes import resolve_all
+from ..b.values import format_value
+from ..errors import ModelError, TracecheckError, WellDefinednessError
+from .solving import solve
+
+__all__ = ["settle", "SETUP_S", "SHOWN"]
+
+#: the solver's time for a machine's constants
+SETUP_S = 5.0
+#: solutions asked for (several: the reason lists them)
+SHOWN = 5
+
+
+def settle(machine, names: list[str], *, timeout_s: float = SETUP_S) -> None:
+    """Set up ``machine``'s constants ``names`` from its PROPERTIES (see the module
+    docstring): their values into ``machine.constants``, the others into
+    ``machine.unset_constants`` with the reason."""
+    node = machine.properties_node
+    if node is None:
+        machine.unset_constants = {n: "the machine has no PROPERTIES" for n in names}
+        return
+    types = {n: resolve_all(machine.type_objects[n]) for n in names}
+    try:
+        answer = solve(node, types, dict(machine.base_env), sets=dict(machine.sets),
+                       source=machine.source, file=machine.file, timeout_s=timeout_s,
+                       all_solutions=True, limit=SHOWN)
+    except WellDefinednessError as exc:
+        raise ModelError(f"the PROPERTIES are not well-defined for the constants "
+                         f"{', '.join(names)}: {exc.message}", line=exc.line,
+                         column=exc.column) from None
+    except TracecheckError as exc:
+        machine.unset_constants = {n: f"the solver cannot set it up: {exc.message}"
+                                   for n in names}
+        return
+    if answer.status == "FALSE":
+        raise ModelError(f"no values of the constants {', '.join(names)} satisfy the "
+                         "PROPERTIES (the solver proved it; ProB finds no SETUP_CONSTANTS)",
+                         line=node.pos.line if node.pos else None,
+                         column=node.pos.column if node.pos else None)
+    if answer.status != "TRUE":
+        machine.unset_constants = {n: f"the solver cannot set it up: {answer.reason}"
+                                   for n in names}
+        return
+    found = answer.solutions
+    fixed = {n: found[0][n] for n in names
+             if answer.complete and all(s[n] == found[0][n] for s in found)}
+    machine.fix_constants(fixed)
+    listed = "; ".join(" & ".join(f"{n} = {format_value(s[n])}" for n in names)
+                       for s in found)
+    how_many = f"{len(found)}" if answer.complete else f"more than {len(found)}" \
+        if answer.more else f"at least {len(found)}"
+    more = "" if answer.complete else "; …"
+    machine.unset_constants = {
+        n: f"the PROPERTIES allow {how_many} solutions ({listed}{more}); tracecheck does "
+           "not pick one" for n in names if n not in fixed}
