@@ -99,7 +99,29 @@ def excluded(case: Case) -> Optional[str]:
     used = names & set(case.lets)
     if used:
         return "a name from :let (" + ", ".join(sorted(used)) + ")"
+    other = _refuted_by_prob(case)
+    if other is not None:
+        return (f"ProB's Kodkod backend (bounded integers) answers {case.output.split()[0]}, "
+                f"ProB's own solver {other} for the same formula in this notebook")
     return None
+
+
+def _refuted_by_prob(case: Case) -> Optional[str]:
+    """ProB's own answer where ``case`` is an answer of its Kodkod backend that ProB's own
+    solver, asked the same formula in the same notebook, contradicts (None otherwise)."""
+    if "kodkod" not in (case.command or "") or not case.output:
+        return None
+    for other in _all_cases():
+        if other.notebook == case.notebook and other.formula == case.formula and \
+                "kodkod" not in (other.command or "") and other.output and \
+                other.output.split()[0] != case.output.split()[0]:
+            return other.output.split()[0]
+    return None
+
+
+@cache
+def _all_cases() -> tuple:
+    return tuple(load())
 
 
 # -- ProB's side

@@ -38,7 +38,9 @@ def test_no_formula_gets_another_value_than_prob_s(verdicts):
 def test_prob_s_answer_for_at_least_the_share_measured(verdicts):
     counts = Counter(v for _, v, _ in verdicts)
     counted = counts["same"] + counts["refused"] + counts["different"]
-    assert counted == 384 and counts["same"] >= 309  # 80.5 %, four in five is 308: issue 27
+    # 321 of 383 (83.8 %) measured in issue 43: a Kodkod answer ProB's own solver contradicts
+    # in the same notebook is not counted (SlotSolverKodkodTest2#3)
+    assert counted == 383 and counts["same"] >= 321
 
 
 def test_the_one_platform_float_is_the_documented_one(verdicts):
@@ -55,6 +57,12 @@ def test_the_one_platform_float_is_the_documented_one(verdicts):
     ("prob_solver_intro#9", "same"),        # {x|x*x=100}
     ("prob_solver_intro#31", "same"),       # who killed Agatha (it was FALSE)
     ("eval#6", "excluded"),                 # MAXINT: a preference
+    ("SlotSolverKodkodTest2#3", "excluded"),  # Kodkod FALSE; ProB's solver TRUE (#4)
+    ("SlotSolverKodkodTest2#4", "same"),
+    ("Functional_Programming_in_B#4", "same"),  # ([2,3,5,7,11] ; %x.(x:INTEGER|x*x))
+    ("Functional_Programming_in_B#6", "same"),  # iterate(f,3)(2) of a lambda over INTEGER
+    ("SETS_RODIN18#132", "same"),           # {x|x>1000 & x mod 25 = 0} tested for members
+    ("SETS_RODIN18#53", "same"),            # elements walked, numbers solved at each
 ])
 def test_cases_that_were_wrong_or_are_telling(verdicts, case_id, verdict):
     found = [(v, d) for c, v, d in verdicts if c.id == case_id]

@@ -15,6 +15,7 @@ from ..errors import BTypeError, EvaluationError, TracecheckError, UnsupportedEr
 from ..limits import MAX_INT_BITS
 from . import ast
 from .clock import tick
+from .defined import Defined, cannot_list
 from .finite import finite as _finite, members as _members
 from .values import FuncValue, SymbolicSet, make_set, sort_key
 
@@ -405,15 +406,34 @@ class Binders:
             else:
                 value = _tuple_of(node.ids)
         ids = node.ids
-        return _scoped(lambda env: make_set(_each(bind, ids, env, value)), ids)
+        listed = _scoped(lambda env: make_set(_each(bind, ids, env, value)), ids)
+        return listed if node.expr is not None else self._held(node, listed, None)
 
     def c_Lambda(self, node: ast.Lambda) -> Fn:
         with self.binding(node.ids):
             bind = self.bindings(node, node.ids, node.pred)
             key, value = _tuple_of(node.ids), self.compile(node.expr)
         ids = node.ids
-        return _scoped(lambda env: FuncValue(dict(_each(bind, ids, env,
-                                                        lambda e: (key(e), value(e))))), ids)
+        listed = _scoped(lambda env: FuncValue(dict(_each(bind, ids, env,
+                                                          lambda e: (key(e), value(e))))), ids)
+        return self._held(node, listed, value)
+
+    def _held(self, node, listed: Fn, value: Optional[Fn]) -> Fn:
+        """``listed``, or where its values cannot be listed (``{x | x > 1000}``, ``%x.(x :
+        INTEGER | x * x)``) the set held by its definition (:mod:`.defined`)."""
+        with self.binding(node.ids):
+            test = self.compile(node.pred)
+        text, free = self.text(node), tuple(sorted(ast.free_names(node)))
+
+        def held(env: Env) -> Any:
+            try:
+                return listed(env)
+            except EvaluationError as exc:
+                if not cannot_list(exc):
+                    raise
+                return Defined(node.ids, test, value, env, text,
+                               lambda message: self.wd(node, message), free)
+        return held
 
     def c_QuantExpr(self, node: ast.QuantExpr) -> Fn:
         with self.binding(node.ids):

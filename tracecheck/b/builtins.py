@@ -8,6 +8,7 @@ from typing import Any, Callable
 
 from ..errors import TracecheckError, UnsupportedError
 from . import ast
+from .defined import Chain, applies
 from .finite import finite as _finite
 from .spaces import SeqSet
 from .values import (FuncValue, Interval, PowSet, SymbolicSet, brief, cardinality, make_set,
@@ -152,6 +153,8 @@ def iterate(c, node: ast.Call, r: Any, n: Any) -> Any:
     if n == 0:
         raise c.error(UnsupportedError, node, "not supported: iterate(r, 0), the identity "
                       "over the whole type", hint="write id(S) for the set S you mean")
+    if applies(r):  # a lambda over an infinite set: applied n times
+        return Chain([r] * n, f"iterate({r.name}, {n})")
     pairs = _finite(c, node.args[0], r)
     step: dict = {}
     for x, y in pairs:

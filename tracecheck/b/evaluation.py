@@ -24,9 +24,11 @@ from ..limits import DEEP, MAX_INT_BITS, deep_recursion, deeply
 from .memo import constant_number, folded, memoised
 from .builtins import BUILTINS as _BUILTINS, UNSUPPORTED_HINTS as _UNSUPPORTED_HINTS, iterate as _iterate
 from .library import FUNCTIONS as _LIBRARY, compile_call as _library_call
+from .combined import SYMBOLS, combine
+from .defined import Chain, applies
 from .finite import finite as _finite, members as _members
 from .spaces import FunctionSpace, Projection
-from .values import (BUILTIN_SET_VALUES, FuncValue, Interval, Product, SymbolicSet, brief, contains, finiteness, format_value, hashable, is_set, is_subset,
+from .values import (BUILTIN_SET_VALUES, FuncValue, Interval, Product, SymbolicSet, brief, contains, format_value, hashable, is_set, is_subset,
                      make_set, set_equal)
 
 __all__ = ["Compiler", "compile_formula", "evaluate", "Env"]
@@ -250,8 +252,13 @@ class Compiler(Binders, Records, Sequences):
             if type(a) in _NUMBER and type(b) in _NUMBER:
                 v = a - b
                 return v if v - v == 0 else self.real(node, v)
-            if is_set(a) and is_set(b):
-                return _finite(self, node.left, a) - _finite(self, node.right, b)
+            if isinstance(a, frozenset) and isinstance(b, frozenset):
+                return a - b
+            if is_set(a) and is_set(b):  # NATURAL - {3}: held symbolically
+                try:
+                    return combine("\\", a, b)
+                except TracecheckError as exc:
+                    raise self.at(node, exc) from None
             self.nums(node, a, b)
             return self.real(node, a - b)
         return sub
@@ -318,7 +325,17 @@ class Compiler(Binders, Records, Sequences):
             for y, z in b:
                 by_first.setdefault(y, []).append(z)
             return make_set([(x, z) for x, y in a for z in by_first.get(y, ())])
-        return self.set_op(node, l, r, compose)
+        listed = self.set_op(node, l, r, compose)
+
+        def composed(env: Env) -> Any:
+            a, b = l(env), r(env)
+            if not applies(b):
+                return listed(env)
+            if applies(a):  # (f ; g) of two lambdas: one after the other
+                return Chain([a, b], f"({a.name} ; {b.name})")
+            return make_set([(x, b.apply(y)) for x, y in _finite(self, node.left, a)
+                             if b.in_domain(y)])
+        return composed
 
     def op_direct(self, node, l, r) -> Fn:
         def direct(a, b):
@@ -362,15 +379,13 @@ class Compiler(Binders, Records, Sequences):
             a, b = l(env), r(env)
             if isinstance(a, frozenset) and isinstance(b, frozenset):
                 return fn(a, b)
-            if is_set(a) and is_set(b) and node.op in ("/\\", "\\"):
-                # one finite side is enough: NATURAL /\ (-2..2), (1..5) \ NATURAL1
-                keep = node.op == "/\\"
-                if finiteness(a) is True:
-                    return make_set([x for x in _members(self, node.left, a)
-                                      if contains(b, x) == keep])
-                if keep and finiteness(b) is True:
-                    return make_set([x for x in _members(self, node.right, b)
-                                      if contains(a, x)])
+            if is_set(a) and is_set(b) and node.op in SYMBOLS:
+                # a small side walked (NATURAL /\ (-2..2), (1..5) \ NATURAL1), else held
+                # symbolically: NATURAL \ {3}, NAT \/ {-1}
+                try:
+                    return combine(node.op, a, b)
+                except TracecheckError as exc:
+                    raise self.at(node, exc) from None
             return fn(_finite(self, node.left, a), _finite(self, node.right, b))
         return apply
 
@@ -522,6 +537,8 @@ class Compiler(Binders, Records, Sequences):
                     return f.map[x]
                 raise self.wd(node, f"{brief(x)} is not in the domain of the function") \
                     from None
+        if applies(f):  # %x.(x : INTEGER | x * x)(3)
+            return f.apply(x)
         if isinstance(f, SymbolicSet):
             f = _finite(self, node.fn, f)
         if isinstance(f, frozenset):
@@ -539,6 +556,9 @@ class Compiler(Binders, Records, Sequences):
             r, s = rel(env), arg(env)
             if not is_set(s):
                 raise self.type_error(node.arg, s, "a set")
+            if applies(r):  # f[1..10] of a lambda over INTEGER: its finite argument walked
+                return make_set([r.apply(x) for x in _members(self, node.arg, s)
+                                 if r.in_domain(x)])
             return make_set([p[1] for p in _finite(self, node.rel, r) if contains(s, p[0])])
         return image
 

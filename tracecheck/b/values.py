@@ -458,10 +458,10 @@ def set_equal(a: Any, b: Any) -> bool:
     if {fa, fb} == {True, False}:
         return False
     if fa is False and fb is False:
-        if a.key() == b.key():
-            return True
         if isinstance(a, BuiltinSet) and isinstance(b, BuiltinSet):
-            return False
+            return a.key() == b.key()
+    if isinstance(a, SymbolicSet) and isinstance(b, SymbolicSet) and a.key() == b.key():
+        return True  # the same set, however it is held
     raise EvaluationError(f"cannot decide whether {format_value(a)} = {format_value(b)}",
                           hint="tracecheck compares finite sets, and infinite sets it can name")
 
