@@ -13,7 +13,7 @@ import pytest
 from tracecheck.b import load_machine
 from tracecheck.b.columns import Columns
 from tracecheck.b.values import Elem
-from tracecheck.errors import BScopeError, BTypeError
+from tracecheck.errors import BScopeError, BSyntaxError, BTypeError
 
 from tests.helpers import PAPER_SHIELD, PAPER_TRACES, ROOT, run, simb_states
 
@@ -206,3 +206,28 @@ def test_replay_and_diff_of_the_paper_traces_see_no_change_with_the_composed_shi
         reports.append({k: v for k, v in report.items() if "shield" not in k
                         and k not in ("model", "provenance", "elapsed_s", "steps_per_s")})
     assert reports[0] == reports[1] and reports[0]["episodes"] == 40
+
+
+def test_definition_files_of_the_user_s_own(tmp_path, monkeypatch):
+    (tmp_path / "common.def").write_text('DEFINITIONS\n  LIMIT == 5;\n  ok(v) == v < LIMIT;\n'
+                                         '  "more.def"\n')
+    (tmp_path / "more.def").write_text("DEFINITIONS TWICE(v) == 2 * v")
+    write(tmp_path, M="""MACHINE M
+DEFINITIONS "common.def"; "LibraryStrings.def"; STEP == TWICE(1)
+VARIABLES x
+INVARIANT x : 0..10
+INITIALISATION x := 0
+OPERATIONS Up = SELECT ok(x) THEN x := x + STEP END
+END""")
+    m = load_machine(tmp_path / "M.mch")
+    assert m.is_enabled("Up", {"x": 4}) and not m.is_enabled("Up", {"x": 5})
+    assert m.check_after("Up", {"x": 1}, {"x": 3})
+    assert m.evaluate('STRING_LENGTH("abc")', {"x": 0}) == 3  # the library still built in
+    # an error in a definition file is told there
+    (tmp_path / "more.def").write_text("DEFINITIONS\nTWICE(v) == 2 *")
+    with pytest.raises(BSyntaxError) as err:
+        load_machine(tmp_path / "M.mch")
+    assert err.value.file == str(tmp_path / "more.def") and err.value.line == 2
+    (tmp_path / "M.mch").write_text((tmp_path / "M.mch").read_text().replace("common", "gone"))
+    with pytest.raises(BScopeError, match="no definition file gone.def: gone.def is in none"):
+        load_machine(tmp_path / "M.mch")

@@ -152,6 +152,8 @@ class _Composer:
                 raise self.error(BScopeError, f"PROMOTES {tok.value}: no included machine "
                                  "has this operation", tok)
             unit.operations[tok.value] = callable_ops[tok.value]
+        if own.get("DEFINITIONS"):
+            own["DEFINITIONS"] = self.definitions(own["DEFINITIONS"], folders, chain)
         # the machine's own part
         if file not in self.seen_files:
             self.seen_files.add(file)
@@ -176,16 +178,43 @@ class _Composer:
             unit.operations[op.name] = op
         return unit
 
-    def load(self, name: str, at: Token, folders: list[Path], chain: tuple) -> _Unit:
+    def find(self, file_name: str, what: str, at: Token, folders: list[Path]) -> Path:
         for folder in folders:
-            path = folder / f"{name}.mch"
+            path = folder / file_name
             if path.is_file():
-                break
-        else:
-            raise self.error(BScopeError, f"no machine {name}: {name}.mch is in none of "
-                             f"{', '.join(str(f) for f in folders)}", at,
-                             hint="put it beside the machine, or name its folder in "
-                                  "TRACECHECK_MACHINE_PATH")
+                return path
+        raise self.error(BScopeError, f"no {what}: {file_name} is in none of "
+                         f"{', '.join(str(f) for f in folders)}", at,
+                         hint="put it beside the machine, or name its folder in "
+                              "TRACECHECK_MACHINE_PATH")
+
+    def definitions(self, toks: list[Token], folders: list[Path], chain: tuple
+                    ) -> list[Token]:
+        """A DEFINITIONS clause with each file of the user's own (``"defs.def"``) in place
+        of its name: the definitions that file's own DEFINITIONS clause holds."""
+        parts = []
+        for part in _split(toks, "SEMI"):
+            name = _own_definition_files(part)
+            if not name or len(part) != 1:
+                parts.append(part)
+                continue
+            path = self.find(name[0], f"definition file {name[0]}", part[0], folders)
+            key = str(path.resolve())
+            if key in chain or len(chain) > MAX_NESTING:
+                raise self.error(BScopeError, f"{name[0]} includes itself", part[0])
+            placed = self.place(read_text(path, "definition file"), str(path))
+            if not placed or placed[0].value != "DEFINITIONS":
+                raise self.error(BSyntaxError, f"{path} does not start with DEFINITIONS (a "
+                                 "definition file holds one DEFINITIONS clause)",
+                                 placed[0] if placed else part[0])
+            body = placed[1:-1] if placed[-1].type == "END" else placed[1:]
+            if body:
+                parts.append(self.definitions(body, [path.resolve().parent] + folders[1:],
+                                              chain + (key,)))
+        return _join(parts, "SEMI", toks[0]) if parts else []
+
+    def load(self, name: str, at: Token, folders: list[Path], chain: tuple) -> _Unit:
+        path = self.find(f"{name}.mch", f"machine {name}", at, folders)
         key = str(path.resolve())
         if key in chain or len(chain) > MAX_NESTING:
             raise self.error(BScopeError, f"{name} includes itself (through "
@@ -210,7 +239,8 @@ def compose(text: str, toks: list[Token], file: Optional[str], lex
     """
     clauses = _clauses(toks, keep_all=True)
     header = clauses.get("MACHINE", [])
-    if not any(k in clauses for k in COMPOSITION_CLAUSES) and len(header) <= 1:
+    if not any(k in clauses for k in COMPOSITION_CLAUSES) and len(header) <= 1 and \
+            not _own_definition_files(clauses.get("DEFINITIONS", [])):
         return None
     composer = _Composer(lex)
     placed = composer.place(text, file)
@@ -320,6 +350,17 @@ def _clauses(toks: list[Token], keep_all: bool = False) -> dict[str, list[Token]
         elif current is not None:
             out[current].append(tok)
     return out
+
+
+def _own_definition_files(toks: list[Token]) -> list[str]:
+    """The definition files named in a DEFINITIONS clause that are not ProB's library
+    files (those tracecheck implements itself)."""
+    from .builder import unquote
+    from .library import LIBRARY_FILES, NOT_IMPLEMENTED
+
+    names = [unquote(t.value) for t in toks if t.type == "STRING"]
+    return [n for n in names if n.endswith(".def") and n not in LIBRARY_FILES
+            and n not in NOT_IMPLEMENTED]
 
 
 def _split(toks: list[Token], sep: str) -> list[list[Token]]:

@@ -514,8 +514,8 @@ def _library_definitions(part: list[Token], text, file) -> dict[str, Definition]
     if defs is None:
         why = (f"ProB's {name} is not implemented: {NOT_IMPLEMENTED[name]}"
                if name in NOT_IMPLEMENTED else
-               f"the definition file {tok.value} is not one of ProB's library files "
-               f"tracecheck implements; tracecheck reads no definition files")
+               f"{tok.value} is no definition file (a name ending in .def, found beside "
+               f"the machine) and not one of ProB's library files tracecheck implements")
         raise BSyntaxError(f"not supported: DEFINITIONS {tok.value}: {why}", file=file,
                            line=tok.line, column=tok.column, source=text,
                            hint="tracecheck knows " + ", ".join(LIBRARY_FILES)
