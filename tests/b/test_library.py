@@ -60,9 +60,11 @@ def test_without_the_include_the_names_are_unknown():
         load_machine_text(machine("half == 0.5", "& RSIN(c) > 0.0"))
 
 
-@pytest.mark.parametrize("file", ["Mine.def", "LibraryMath.def", "LibraryIO.def"])
-def test_other_definition_files_are_refused_naming_the_file(file):
-    with pytest.raises(E.BSyntaxError) as info:
+@pytest.mark.parametrize("file,cls", [("Mine.def", E.BScopeError),  # not found
+                                      ("LibraryMath.def", E.BSyntaxError),
+                                      ("LibraryIO.def", E.BSyntaxError), ("notes.txt", E.BSyntaxError)])
+def test_other_definition_files_are_refused_naming_the_file(file, cls):
+    with pytest.raises(cls) as info:
         load_machine_text(machine(f'"{file}"'))
     assert file in str(info.value) and info.value.line == 2
 

@@ -103,8 +103,9 @@ def test_eval_with_model_and_state(capsys, tmp_path):
     ("+".join(["1"] * 10000) + " > 0", "the formula nests more than 2000 levels deep"),
     ("not(" * 2500 + "1 = 1" + ")" * 2500, "the formula nests more than 2000 levels deep"),
     ("iterate({(1|->2)}, 0) = {}", "<expr>:1:1: not supported: iterate(r, 0)"),
-    ("{x | x : NAT & x > 5}", "the set 0..2147483647 has 2,147,483,648 elements; tracecheck "
-                              "builds or walks at most 1,000,000 elements of one set"),
+    ("card({x | x : NAT & x > 5})", "the set 0..2147483647 has 2,147,483,648 elements; "
+                                    "tracecheck builds or walks at most 1,000,000 elements "
+                                    "of one set"),
     ("10 ** 10 ** 10 > 0", "has more than 1,000,000 bits"),
     # * too: checked before it is computed (it ignored every limit)
     ("(10 ** 200000) * (10 ** 200000) > 0", "the integer result of * in `(10 ** 200000) * "

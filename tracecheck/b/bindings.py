@@ -432,7 +432,7 @@ class Binders:
                 if not cannot_list(exc):
                     raise
                 return Defined(node.ids, test, value, env, text,
-                               lambda message: self.wd(node, message), free)
+                               lambda message: self.wd(node, message), free, exc)
         return held
 
     def c_QuantExpr(self, node: ast.QuantExpr) -> Fn:

@@ -24,12 +24,7 @@ SYMBOLS = {"\\/": "∪", "/\\": "∩", "\\": "∖"}
 def _small(s: Any) -> bool:
     if isinstance(s, frozenset):
         return True
-    if finiteness(s) is not True:
-        return False
-    try:
-        return cardinality(s) <= SET_LIMIT
-    except EvaluationError:
-        return False
+    return finiteness(s) is True and cardinality(s) <= SET_LIMIT
 
 
 def combine(op: str, a: Any, b: Any) -> Any:

@@ -35,14 +35,22 @@ class Defined(SymbolicSet):
     was built in."""
 
     def __init__(self, ids: tuple[str, ...], test: Fn, value: Optional[Fn], env: dict,
-                 text: str, wd: Callable[[str], Exception], free: tuple[str, ...] = ()
-                 ) -> None:
+                 text: str, wd: Callable[[str], Exception], free: tuple[str, ...] = (),
+                 why: Optional[EvaluationError] = None) -> None:
         self.ids, self.test, self.value = ids, test, value
         self.env = fresh(env)
         self.name = text
         self._wd = wd  # the located not-well-defined error for a message
         # the same definition over the same values of its free names: the same set
         self._key = ("defined", text, tuple((n, hashable(env.get(n))) for n in free))
+        self.why = why  # why its elements cannot be listed: said where they are asked for
+
+    def refusal(self) -> EvaluationError:
+        if self.why is None:
+            return EvaluationError(f"cannot list the elements of {self.name}")
+        return type(self.why)(self.why.message, file=self.why.file, line=self.why.line,
+                              column=self.why.column, source=self.why.source,
+                              hint=self.why.hint)
 
     def finiteness(self) -> Optional[bool]:
         return None

@@ -19,16 +19,16 @@ from . import ast
 from .scope import render
 from .bindings import Binders
 from .records import Records, element_hint, set_element
+from .relations import Relations
 from .sequences import Sequences
 from ..limits import DEEP, MAX_INT_BITS, deep_recursion, deeply
 from .memo import constant_number, folded, memoised
 from .builtins import BUILTINS as _BUILTINS, UNSUPPORTED_HINTS as _UNSUPPORTED_HINTS, iterate as _iterate
 from .library import FUNCTIONS as _LIBRARY, compile_call as _library_call
 from .combined import SYMBOLS, combine
-from .defined import Chain, applies
-from .finite import finite as _finite, members as _members
+from .finite import finite as _finite
 from .spaces import FunctionSpace, Projection
-from .values import (BUILTIN_SET_VALUES, FuncValue, Interval, Product, SymbolicSet, brief, contains, format_value, hashable, is_set, is_subset,
+from .values import (BUILTIN_SET_VALUES, Interval, Product, SymbolicSet, brief, format_value, hashable, is_set, is_subset,
                      make_set, set_equal)
 
 __all__ = ["Compiler", "compile_formula", "evaluate", "Env"]
@@ -37,7 +37,7 @@ Env = dict
 Fn = Callable[[Env], Any]
 
 
-class Compiler(Binders, Records, Sequences):
+class Compiler(Binders, Records, Sequences, Relations):
     """Turns AST nodes into closures; knows the source text for located messages."""
 
     def __init__(self, *, source: Optional[str] = None, file: Optional[str] = None) -> None:
@@ -319,32 +319,6 @@ class Compiler(Binders, Records, Sequences):
                 raise self.wd(node, "0.0 raised to a negative power") from None
         return power
 
-    def op_comp(self, node, l, r) -> Fn:
-        def compose(a, b):
-            by_first: dict = {}
-            for y, z in b:
-                by_first.setdefault(y, []).append(z)
-            return make_set([(x, z) for x, y in a for z in by_first.get(y, ())])
-        listed = self.set_op(node, l, r, compose)
-
-        def composed(env: Env) -> Any:
-            a, b = l(env), r(env)
-            if not applies(b):
-                return listed(env)
-            if applies(a):  # (f ; g) of two lambdas: one after the other
-                return Chain([a, b], f"({a.name} ; {b.name})")
-            return make_set([(x, b.apply(y)) for x, y in _finite(self, node.left, a)
-                             if b.in_domain(y)])
-        return composed
-
-    def op_direct(self, node, l, r) -> Fn:
-        def direct(a, b):
-            by_first: dict = {}
-            for x, z in b:
-                by_first.setdefault(x, []).append(z)
-            return make_set([(x, (y, z)) for x, y in a for z in by_first.get(x, ())])
-        return self.set_op(node, l, r, direct)
-
     def op_union(self, node, l, r) -> Fn:
         return self.set_op(node, l, r, lambda a, b: a | b)
 
@@ -498,74 +472,6 @@ class Compiler(Binders, Records, Sequences):
         return choose
 
     # -- application
-    def c_Apply(self, node: ast.Apply) -> Fn:
-        arg = self.compile(ast.pair_of(node.args))
-        if isinstance(node.fn, ast.Name) and node.fn.id not in BUILTIN_SET_VALUES:
-            name = node.fn.id
-
-            def apply_name(env: Env) -> Any:
-                x = arg(env)
-                try:
-                    return env[name].map[x]
-                except (KeyError, AttributeError, TypeError):
-                    if name not in env:
-                        raise self.error(EvaluationError, node.fn,
-                                         f"{name} has no value here") from None
-                    return self.apply_value(node, env[name], x)
-            return apply_name
-        fn = self.compile(node.fn)
-
-        def apply(env: Env) -> Any:
-            return self.apply_value(node, fn(env), arg(env))
-        return apply
-
-    def apply_value(self, node: ast.Apply, f: Any, x: Any) -> Any:
-        if isinstance(f, Projection):
-            try:
-                return f.apply(x)
-            except KeyError:
-                raise self.wd(node, f"{brief(x)} is not in the domain of {f.name}") from None
-        if isinstance(f, FuncValue):
-            try:
-                return f.map[x]
-            except KeyError:
-                raise self.wd(node, f"{format_value(x)} is not in the domain of the function") \
-                    from None
-            except TypeError:
-                x = hashable(x)
-                if x in f.map:
-                    return f.map[x]
-                raise self.wd(node, f"{brief(x)} is not in the domain of the function") \
-                    from None
-        if applies(f):  # %x.(x : INTEGER | x * x)(3)
-            return f.apply(x)
-        if isinstance(f, SymbolicSet):
-            f = _finite(self, node.fn, f)
-        if isinstance(f, frozenset):
-            images = [p[1] for p in f if isinstance(p, tuple) and self.equal(node, p[0], x)]
-            if len(images) != 1:
-                what = "not in the domain" if not images else "mapped to several values"
-                raise self.wd(node, f"{format_value(x)} is {what} of the relation")
-            return images[0]
-        raise self.type_error(node.fn, f, "a function")
-
-    def c_Image(self, node: ast.Image) -> Fn:
-        rel, arg = self.compile(node.rel), self.compile(node.arg)
-
-        def image(env: Env) -> frozenset:
-            r, s = rel(env), arg(env)
-            if not is_set(s):
-                raise self.type_error(node.arg, s, "a set")
-            if applies(r):  # f[1..10] of a lambda over INTEGER: its finite argument walked
-                return make_set([r.apply(x) for x in _members(self, node.arg, s)
-                                 if r.in_domain(x)])
-            return make_set([p[1] for p in _finite(self, node.rel, r) if contains(s, p[0])])
-        return image
-
-    def c_Inverse(self, node: ast.Inverse) -> Fn:
-        rel = self.compile(node.rel)
-        return lambda env: make_set([(p[1], p[0]) for p in _finite(self, node.rel, rel(env))])
-
     def c_Call(self, node: ast.Call) -> Fn:
         if node.name in _LIBRARY:  # ProB's library files (DEFINITIONS "LibraryReals.def")
             return _library_call(self, node)

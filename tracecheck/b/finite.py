@@ -20,6 +20,9 @@ def finite(comp, node: ast.Node, v: Any) -> frozenset:
     if not isinstance(v, SymbolicSet):
         raise comp.type_error(node, v, "a set")
     if v.finiteness() is not True:
+        known = v.refusal()
+        if known is not None:
+            raise known
         what = "the infinite set" if v.finiteness() is False else \
             "a set tracecheck cannot tell is finite:"
         raise comp.error(EvaluationError, node,

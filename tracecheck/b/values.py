@@ -109,10 +109,18 @@ class SymbolicSet:
 
     def card(self) -> int:
         """The exact number of elements of a finite set (without building it)."""
-        raise EvaluationError(_not_finite(self, "it has no card"))
+        raise self.refusal() or EvaluationError(_not_finite(self, "it has no card"))
+
+    def refusal(self) -> Optional[EvaluationError]:
+        """Why its elements cannot be listed, where the set knows better than "not finite"
+        (None here)."""
+        return None
 
     def elements(self) -> Iterator[Any]:
         what = "infinite" if self.finiteness() is False else "not known to be finite"
+        known = self.refusal()
+        if known is not None:
+            raise known
         raise EvaluationError(f"cannot enumerate the set {self.name} ({what})",
                               hint="restrict the variable with a finite set, e.g. x : 1..10")
 
@@ -386,7 +394,7 @@ def cardinality(s: Any) -> int:
         return len(s)
     if isinstance(s, SymbolicSet):
         if s.finiteness() is not True:
-            raise EvaluationError(_not_finite(s, "it has no card"))
+            raise s.refusal() or EvaluationError(_not_finite(s, "it has no card"))
         return s.card()
     raise EvaluationError(f"{brief(s)} is not a set")
 
@@ -406,7 +414,8 @@ def explicit(s: Any) -> frozenset:
         return s
     if isinstance(s, SymbolicSet):
         if s.finiteness() is not True:
-            raise EvaluationError(_not_finite(s, "tracecheck computes with finite sets here"))
+            raise s.refusal() or EvaluationError(
+                _not_finite(s, "tracecheck computes with finite sets here"))
         return s.materialise()
     raise EvaluationError(f"{brief(s)} is not a set")
 

@@ -1,0 +1,120 @@
+"""Relations and functions for the scalar compiler: application ``f(x)``, image ``r[S]``,
+inverse ``r~``, composition ``(r ; s)`` and direct product ``r >< s`` — of explicit sets,
+symbolic ones (projections, function spaces) and functions held by their definition
+(:mod:`.defined`). A mixin of :class:`~tracecheck.b.evaluation.Compiler`, which gives
+``compile``, ``set_op``, ``wd``, ``error``, ``type_error`` and ``equal``."""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+from ..errors import EvaluationError
+from . import ast
+from .defined import Chain, applies
+from .finite import finite as _finite, members as _members
+from .spaces import Projection
+from .values import (BUILTIN_SET_VALUES, FuncValue, SymbolicSet, brief, contains,
+                     format_value, hashable, is_set, make_set)
+
+__all__ = ["Relations"]
+
+Env = dict
+Fn = Callable[[Env], Any]
+
+
+class Relations:
+    """``c_Apply``, ``c_Image``, ``c_Inverse``, ``op_comp``, ``op_direct``."""
+
+    def op_comp(self, node, l, r) -> Fn:
+        def compose(a, b):
+            by_first: dict = {}
+            for y, z in b:
+                by_first.setdefault(y, []).append(z)
+            return make_set([(x, z) for x, y in a for z in by_first.get(y, ())])
+        listed = self.set_op(node, l, r, compose)
+
+        def composed(env: Env) -> Any:
+            a, b = l(env), r(env)
+            if not applies(b):
+                return listed(env)
+            if applies(a):  # (f ; g) of two lambdas: one after the other
+                return Chain([a, b], f"({a.name} ; {b.name})")
+            return make_set([(x, b.apply(y)) for x, y in _finite(self, node.left, a)
+                             if b.in_domain(y)])
+        return composed
+
+    def op_direct(self, node, l, r) -> Fn:
+        def direct(a, b):
+            by_first: dict = {}
+            for x, z in b:
+                by_first.setdefault(x, []).append(z)
+            return make_set([(x, (y, z)) for x, y in a for z in by_first.get(x, ())])
+        return self.set_op(node, l, r, direct)
+
+    def c_Apply(self, node: ast.Apply) -> Fn:
+        arg = self.compile(ast.pair_of(node.args))
+        if isinstance(node.fn, ast.Name) and node.fn.id not in BUILTIN_SET_VALUES:
+            name = node.fn.id
+
+            def apply_name(env: Env) -> Any:
+                x = arg(env)
+                try:
+                    return env[name].map[x]
+                except (KeyError, AttributeError, TypeError):
+                    if name not in env:
+                        raise self.error(EvaluationError, node.fn,
+                                         f"{name} has no value here") from None
+                    return self.apply_value(node, env[name], x)
+            return apply_name
+        fn = self.compile(node.fn)
+
+        def apply(env: Env) -> Any:
+            return self.apply_value(node, fn(env), arg(env))
+        return apply
+
+    def apply_value(self, node: ast.Apply, f: Any, x: Any) -> Any:
+        if isinstance(f, Projection):
+            try:
+                return f.apply(x)
+            except KeyError:
+                raise self.wd(node, f"{brief(x)} is not in the domain of {f.name}") from None
+        if isinstance(f, FuncValue):
+            try:
+                return f.map[x]
+            except KeyError:
+                raise self.wd(node, f"{format_value(x)} is not in the domain of the function") \
+                    from None
+            except TypeError:
+                x = hashable(x)
+                if x in f.map:
+                    return f.map[x]
+                raise self.wd(node, f"{brief(x)} is not in the domain of the function") \
+                    from None
+        if applies(f):  # %x.(x : INTEGER | x * x)(3)
+            return f.apply(x)
+        if isinstance(f, SymbolicSet):
+            f = _finite(self, node.fn, f)
+        if isinstance(f, frozenset):
+            images = [p[1] for p in f if isinstance(p, tuple) and self.equal(node, p[0], x)]
+            if len(images) != 1:
+                what = "not in the domain" if not images else "mapped to several values"
+                raise self.wd(node, f"{format_value(x)} is {what} of the relation")
+            return images[0]
+        raise self.type_error(node.fn, f, "a function")
+
+    def c_Image(self, node: ast.Image) -> Fn:
+        rel, arg = self.compile(node.rel), self.compile(node.arg)
+
+        def image(env: Env) -> frozenset:
+            r, s = rel(env), arg(env)
+            if not is_set(s):
+                raise self.type_error(node.arg, s, "a set")
+            if applies(r):  # f[1..10] of a lambda over INTEGER: its finite argument walked
+                return make_set([r.apply(x) for x in _members(self, node.arg, s)
+                                 if r.in_domain(x)])
+            return make_set([p[1] for p in _finite(self, node.rel, r) if contains(s, p[0])])
+        return image
+
+    def c_Inverse(self, node: ast.Inverse) -> Fn:
+        rel = self.compile(node.rel)
+        return lambda env: make_set([(p[1], p[0]) for p in _finite(self, node.rel, rel(env))])
