@@ -231,3 +231,21 @@ END""")
     (tmp_path / "M.mch").write_text((tmp_path / "M.mch").read_text().replace("common", "gone"))
     with pytest.raises(BScopeError, match="no definition file gone.def: gone.def is in none"):
         load_machine(tmp_path / "M.mch")
+
+
+def test_a_call_of_no_operation_is_an_error_at_load(tmp_path):
+    write(tmp_path, Ctx=CTX, Counter=COUNTER, Main=MAIN.replace("c.Inc(1) END", "c.Nope(1) END"))
+    with pytest.raises(BScopeError, match="unknown operation or substitution c.Nope") as err:
+        load_machine(tmp_path / "Main.mch")
+    assert err.value.line == 9
+
+
+def test_renamed_names_in_eval_and_a_parameter_breaking_constraints(tmp_path, capsys):
+    write(tmp_path, Ctx=CTX, Counter=COUNTER, Main=MAIN)
+    state = tmp_path / "s.json"
+    state.write_text('{"c.count": "2", "light": "red", "seen": "0"}')
+    assert run(capsys, "eval", "-m", tmp_path / "Main.mch", "-s", state, "c.count + 1",
+               "c.count < limit")[:2] == (0, "3\nTRUE\n")
+    write(tmp_path, E="MACHINE E SEES Ctx INCLUDES Counter(-1) END")
+    code, _, err = run(capsys, "check-model", tmp_path / "E.mch")
+    assert code == 2 and "`(-1) : NATURAL` is false" in err and "E.mch:1:37" in err

@@ -148,3 +148,54 @@ def test_while_keywords_inside_an_operation_are_not_clauses():
     with pytest.raises(BSyntaxError, match="expected"):
         load_machine_text(loop_machine("WHILE x < 2 DO x := x + 1 VARIANT 2 - x END"),
                           file="l.mch")
+
+
+GUARDS = "MACHINE G VARIABLES c, s INVARIANT c : INTEGER & s : INTEGER " \
+         "INITIALISATION c := 0 || s := 0 OPERATIONS Op = {} END"
+POINTS = [{"c": c, "s": s} for c in (-1, 0, 1, 4) for s in (0, 1, 3)]
+
+
+@pytest.mark.parametrize("body,enabled", [
+    # IF: the first branch whose condition holds; no ELSE: skip
+    ("IF c > 0 THEN SELECT s > 2 THEN s := 0 END ELSE s := 1 END",
+     lambda c, s: c <= 0 or s > 2),
+    ("CHOICE SELECT c > 3 THEN s := 1 END OR PRE c < 0 THEN s := 2 END END",
+     lambda c, s: c > 3 or c < 0),
+    ("SELECT c = 0 THEN SELECT s = 1 THEN s := 2 END ELSE skip END",
+     lambda c, s: c != 0 or s == 1),
+    ("CASE c OF EITHER 0 THEN SELECT s = 1 THEN s := 2 END OR 1 THEN skip END END",
+     lambda c, s: (c == 0 and s == 1) or c == 1),
+])
+def test_guards_inside_if_choice_and_select_else_count(body, enabled):
+    m = load_machine_text(GUARDS.format(body), file="g.mch")
+    got = [m.is_enabled("Op", p) for p in POINTS]
+    assert got == [enabled(p["c"], p["s"]) for p in POINTS]
+    batch = m.enabled_batch(Columns.from_states(POINTS))["Op"].tolist()
+    assert batch == got
+    # where enabled, some step is possible; where not, none
+    for p, on in zip(POINTS, got):
+        steps = [m.check_after("Op", p, {"c": p["c"], "s": s}) for s in (0, 1, 2, 3)]
+        assert any(steps) == on, (body, p)
+
+
+@pytest.mark.parametrize("body", [
+    "BEGIN c := 1 ; SELECT c > 5 THEN s := 1 END END",
+    "BEGIN c :: 1..3 ; PRE c > 5 THEN s := 1 END END",
+    "VAR t IN t := 1 ; ANY q WHERE q : 1..t THEN s := q END END",
+    "VAR i IN i := 0; WHILE i < 3 DO SELECT i < 1 THEN i := i + 1 END INVARIANT i : 0..3 "
+    "VARIANT 3 - i END; s := i END",
+])
+def test_a_guard_after_a_sequence_or_inside_a_loop_is_refused_at_load(body):
+    # it would be left out of the operation's guard: enabled, and no step possible
+    with pytest.raises(UnsupportedError, match="after `;`|inside a WHILE's body") as err:
+        load_machine_text(GUARDS.format(body), file="g.mch")
+    assert err.value.file == "g.mch" and err.value.line == 1
+
+
+def test_outputs_are_not_part_of_the_state_checked():
+    m = load_machine_text("MACHINE C VARIABLES x INVARIANT x : 0..5 INITIALISATION x := 0 "
+                          "OPERATIONS v <-- Get = v := x; w <-- Pick = w :: 1..x END")
+    assert m.check_after("Get", {"x": 1}, {"x": 1}) and not m.check_after("Get", {"x": 1},
+                                                                          {"x": 2})
+    assert m.check_after("Pick", {"x": 1}, {"x": 1})
+    assert not m.check_after("Pick", {"x": 0}, {"x": 0})  # 1..0 is empty: no step

@@ -409,7 +409,7 @@ def _instantiated(sub: _Unit, values: dict[str, list[Token]], prefix: Optional[s
             if tok.type == "NAME" and tok.value in values:
                 arg = values[tok.value]
                 out += arg if len(arg) == 1 else \
-                    [_sym(tok, "LPAR", "(")] + arg + [_sym(tok, "RPAR", ")")]
+                    [_sym(arg[0], "LPAR", "(")] + arg + [_sym(arg[-1], "RPAR", ")")]
             elif tok.type == "NAME" and (new_name := _renamed(tok.value, renames)):
                 out.append(Token.new_borrow_pos("NAME", new_name, tok))
             else:

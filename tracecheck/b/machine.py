@@ -189,7 +189,8 @@ class Machine(BatchQuestions):
     def parse(self, text: str, *, kind: str = PRED) -> ast.Node:
         """Parse ``text`` in this machine's scope (its definitions expanded)."""
         with deep_recursion():
-            node = expand(parse_formula(text), self.definitions)
+            node = expand(parse_formula(text, dotted=frozenset(
+                n for n in (*self.variables, *self.constants) if "." in n)), self.definitions)
             check_kind(node, kind, source=text, context="the formula")
         return node
 
@@ -500,11 +501,13 @@ def load_machine_text(text: str, *, file: Optional[str] = None,
     ...                   "OPERATIONS Up = SELECT x < 3 THEN x := x + 1 END END").enabled({"x": 3})
     set()
     """
+    src = None
     try:
         with deep_recursion():  # expanding, checking and setting up recurse into formulas
-            return _build(parse_machine_source(text, file=file), kind or Machine)
-    except TracecheckError as exc:
-        raise exc.located(file=file or "<model>", source=text) from None
+            src = parse_machine_source(text, file=file)
+            return _build(src, kind or Machine)
+    except TracecheckError as exc:  # in the text of every machine read (SEES, INCLUDES)
+        raise exc.located(file=file or "<model>", source=src.text if src else text) from None
 
 
 def _build(src: MachineSource, kind: "type[Machine]") -> Machine:

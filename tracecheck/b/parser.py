@@ -214,12 +214,14 @@ def _after(tok: Token) -> tuple[int, int]:
     return tok.end_line or tok.line, (tok.end_column or tok.column)
 
 
-def parse_formula(text: str, *, file: Optional[str] = None) -> ast.Node:
+def parse_formula(text: str, *, file: Optional[str] = None,
+                  dotted: frozenset[str] = frozenset()) -> ast.Node:
     """Parse a predicate or expression of classical B.
 
     Args:
         text: the formula (ASCII or Unicode notation).
         file: where it comes from, for error messages.
+        dotted: names written ``r.x`` (of a machine included with renaming), read as one.
 
     Returns:
         Its syntax tree (:mod:`tracecheck.b.ast`).
@@ -232,7 +234,28 @@ def parse_formula(text: str, *, file: Optional[str] = None) -> ast.Node:
     """
     _check_length(text, file, "formula")
     toks, _ = tokens(text, file=file)
+    if dotted:
+        toks = merge_dotted(toks, dotted)
     return _parse_tokens(toks, "formula", text, file, "the formula")
+
+
+def merge_dotted(toks: list[Token], dotted: frozenset[str]) -> list[Token]:
+    """``r . x`` as the one name ``r.x`` where that is one of ``dotted`` (a variable or
+    operation of a machine included with renaming)."""
+    out: list[Token] = []
+    k = 0
+    while k < len(toks):
+        tok = toks[k]
+        if tok.type == "NAME" and k + 2 < len(toks) and toks[k + 1].type == "DOT" and \
+                toks[k + 2].type == "NAME" and f"{tok.value}.{toks[k + 2].value}" in dotted:
+            last = toks[k + 2]
+            out.append(Token("NAME", f"{tok.value}.{last.value}", tok.start_pos, tok.line,
+                             tok.column, last.end_line, last.end_column, last.end_pos))
+            k += 3
+        else:
+            out.append(tok)
+            k += 1
+    return out
 
 
 def parse_substitution(text: str, *, file: Optional[str] = None) -> ast.Subst:

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 from typing import Mapping, Optional
 
-from ..errors import BScopeError, BSyntaxError, BTypeError, TracecheckError, UnsupportedError
+from ..errors import (BScopeError, BSyntaxError, BTypeError, JoinedText, TracecheckError,
+                      UnsupportedError)
 from . import ast
 from .parser import Definition
 
@@ -21,12 +22,20 @@ PRED, EXPR = "predicate", "expression"
 
 def render(node: ast.Node, source: Optional[str]) -> str:
     """The source text of ``node`` (or its printed form when no source is known)."""
-    if source is not None and node.pos is not None and node.pos.end > node.pos.start:
+    if source is not None and node.pos is not None and node.pos.end > node.pos.start and \
+            not _across_files(source, node.pos):
         text = source[node.pos.start:node.pos.end]
         return " ".join(text.split())
     from .printer import to_b
 
     return to_b(node)
+
+
+def _across_files(source: str, pos: ast.Pos) -> bool:
+    """Whether ``pos`` spans two files of a machine made of several (a parameter's value
+    put into the included machine's text): its text is then printed, not cut out."""
+    return isinstance(source, JoinedText) and \
+        source.where(pos.line)[0] != source.where(pos.end_line)[0]
 
 
 def _located(exc: TracecheckError, node: ast.Node) -> TracecheckError:
@@ -246,6 +255,13 @@ def check_subst(subst: ast.Subst, *, source: Optional[str] = None) -> None:
             check_subst(item, source=source)
     elif isinstance(subst, ast.VarSubst):
         check_subst(subst.body, source=source)
+    elif isinstance(subst, ast.SubstRef):  # left after the definitions were expanded
+        raise BScopeError(f"unknown operation or substitution {subst.name.id}: neither an "
+                          "operation of an included machine nor a substitution definition",
+                          source=source, line=subst.pos.line if subst.pos else None,
+                          column=subst.pos.column if subst.pos else None,
+                          hint="an included machine's operation is called by its name, "
+                               "renamed r.Op for INCLUDES r.M")
     elif isinstance(subst, ast.While):
         check_kind(subst.cond, PRED, source=source, context="the WHILE condition")
         check_kind(subst.invariant, PRED, source=source, context="a loop's INVARIANT")

@@ -15,7 +15,7 @@ from . import ast
 from .evaluation import Compiler, Env
 from .memo import MEMO_KEY, fresh
 from .outcomes import Enumeration, after as _after
-from .values import make_set
+from .values import cardinality, finiteness, make_set
 
 __all__ = ["written", "guard_of", "SubstCompiler", "strip_guards", "before_after"]
 
@@ -61,20 +61,27 @@ def guard_of(s: ast.Subst) -> Optional[ast.Node]:
     if isinstance(s, (ast.Pre, ast.Assert)):
         cond = s.guard if isinstance(s, ast.Pre) else None
         return _and([cond, guard_of(s.body)])
-    if isinstance(s, ast.Select):
-        if s.else_ is not None:
-            return None
-        options = [_and([c, guard_of(b)]) for c, b in s.branches]
-        node = options[0]
-        for o in options[1:]:
-            node = ast.Or(node, o, pos=o.pos) if node is not None and o is not None else None
-        return node
+    if isinstance(s, (ast.Select, ast.IfSubst)):
+        return _branch_guard(s)
+    if isinstance(s, ast.Choice):
+        options = [guard_of(i) for i in s.items]
+        return None if any(o is None for o in options) else _any_of(options)
     if isinstance(s, ast.Any):
         return ast.Quant("#", s.ids, _and([s.pred, guard_of(s.body)]),
                          pos=s.pos.point() if s.pos else None)
     if isinstance(s, ast.Parallel):
         return _and([guard_of(i) for i in s.items])
     if isinstance(s, ast.Sequence):
+        for later in s.items[1:]:
+            inner = guard_of(later)
+            if inner is not None:
+                raise UnsupportedError(
+                    "not supported: a guard (PRE, SELECT, ANY, a called operation's PRE) "
+                    "after `;`: when the operation is enabled would depend on the state "
+                    "halfway through it", line=later.pos.line if later.pos else None,
+                    column=later.pos.column if later.pos else None,
+                    hint="put the guard before the first `;` (or use || where the parts "
+                         "are independent)")
         return guard_of(s.items[0])
     if isinstance(s, ast.LetSubst):
         inner = guard_of(s.body)
@@ -92,6 +99,32 @@ def guard_of(s: ast.Subst) -> Optional[ast.Node]:
                 hint="put the guard before the loop or the VAR")
         return inner
     return None
+
+
+def _branch_guard(s) -> Optional[ast.Node]:
+    """SELECT's and IF's guard: some branch is taken and its body enabled (IF: the first
+    branch whose condition holds; without ELSE, IF's is skip and SELECT's blocks)."""
+    bodies = [guard_of(b) for _, b in s.branches]
+    other = guard_of(s.else_) if s.else_ is not None else None
+    if isinstance(s, ast.Select) and s.else_ is None:
+        return _any_of([_and([c, g]) for (c, _), g in zip(s.branches, bodies)])
+    if all(g is None for g in bodies) and other is None:
+        return None  # an ELSE (or IF's skip) is always there to take
+    options, before = [], []
+    first_only = isinstance(s, ast.IfSubst)
+    for (c, _), g in zip(s.branches, bodies):
+        options.append(_and((before if first_only else []) + [c, g]))
+        before.append(ast.Not(c, pos=c.pos.point() if c.pos else None))
+    options.append(_and(before + [other]) or ast.Rel("=", ast.BoolLit(True),
+                                                     ast.BoolLit(True)))
+    return _any_of(options)
+
+
+def _any_of(options: list[ast.Node]) -> ast.Node:
+    node = options[0]
+    for o in options[1:]:
+        node = ast.Or(node, o, pos=o.pos.point() if o.pos else None)
+    return node
 
 
 class SubstCompiler(Enumeration):
@@ -125,7 +158,9 @@ class SubstCompiler(Enumeration):
             val = self.comp.compile(value)
             if isinstance(target, ast.Name):
                 name = target.id
-                parts.append(lambda pre, post, name=name, val=val: post[name] == val(pre))
+                # an output (v <-- Op) is not in the state: its value is not checked
+                parts.append(lambda pre, post, name=name, val=val:
+                             val(pre) == post[name] if name in post else val(pre) is not None)
             else:
                 name = target.fn.id
                 key = self.comp.compile(ast.pair_of(target.args))
@@ -140,6 +175,9 @@ class SubstCompiler(Enumeration):
         names = s.ids
 
         def becomes_in(pre: Env, post: dict) -> bool:
+            if names[0] not in post:  # an output: any value of the set (there is one?)
+                v = values(pre)
+                return finiteness(v) is not True or cardinality(v) > 0
             new = post[names[0]]
             for n in names[1:]:
                 new = (new, post[n])
@@ -157,6 +195,10 @@ class SubstCompiler(Enumeration):
             for n, p1, p2 in primed:
                 if n in pre:  # an INITIALISATION has no value before
                     env[p1] = env[p2] = pre[n]
+                if n not in post:
+                    raise self.comp.error(UnsupportedError, s, f"not supported: the output "
+                                          f"{n} of `{self.comp.text(s)}` (it is no variable "
+                                          "of the state, and its values are not listed)")
                 env[n] = post[n]
             return bool(pred(env))
         return such_that

@@ -607,7 +607,7 @@ def check_formula(text: str, names: dict[str, Type], *, file: str,
     from .parser import parse_formula
 
     try:
-        node = parse_formula(text, file=file)
+        node = parse_formula(text, file=file, dotted=frozenset(n for n in names if "." in n))
         if definitions:
             node = expand(node, definitions)
         found = kind_of(node)
