@@ -273,6 +273,10 @@ class Builder(Transformer):
             node = ast.BinOp(";", node, item, pos=_pos(meta))
         return node
 
+    def parallel_product(self, meta, c):
+        left, right = [x for x in c if not isinstance(x, Token)]
+        return ast.BinOp("||", left, right, pos=_pos(meta))
+
     def template(self, meta, c):
         return _template(c[0], self.parse_hole)
 
@@ -490,6 +494,12 @@ def _branches(c):
 
 
 def _binder_names(items, meta) -> tuple[str, ...]:
+    if len(items) == 1 and isinstance(items[0], ast.Pair):  # {(x, y) | P} is {x, y | P}
+        flat, node = [], items[0]
+        while isinstance(node, ast.Pair):  # left-nested, as x, y, z make (x |-> y) |-> z
+            flat.insert(0, node.right)
+            node = node.left
+        items = [node] + flat
     names = []
     for item in items:
         if not isinstance(item, ast.Name) or item.id.endswith(("'", "$0")):

@@ -513,7 +513,7 @@ def _name_applied_to_name(node: ast.Node) -> Optional[tuple[str, str]]:
 _ARROWS = {"-->", "+->", "<->", ">->", ">+>", "-->>", "+->>", ">->>", ">+>>"}
 _MAX_INT_BITS = MAX_INT_BITS
 _OP_NAMES = {"+": "add", "-": "sub", "*": "mul", "/": "div", "mod": "mod", "**": "pow",
-             ";": "comp", "><": "direct", "^": "concat", "->": "prepend", "<-": "append",
+             ";": "comp", "><": "direct", "||": "parallel", "^": "concat", "->": "prepend", "<-": "append",
              "/|\\": "take", "\\|/": "drop",
              "\\/": "union", "/\\": "inter", "\\": "minus", "<|": "domres", "|>": "ranres",
              "<<|": "domsub", "|>>": "ransub", "<+": "override"}

@@ -58,8 +58,8 @@ def _text(node: ast.Node) -> str:  # noqa: C901 - one branch per node type
         return '"' + node.value.replace("\\", "\\\\").replace('"', '\\"') + '"'
     if t is ast.BoolLit:
         return "TRUE" if node.value else "FALSE"
-    if t is ast.BinOp and node.op == ";":
-        return f"({_sub(node.left)} ; {_sub(node.right)})"
+    if t is ast.BinOp and node.op in (";", "||"):
+        return f"({_sub(node.left)} {node.op} {_sub(node.right)})"
     if t is ast.Template:
         parts = [node.texts[0]]
         for fmt, hole, text in zip(node.formats, node.holes, node.texts[1:]):

@@ -43,6 +43,11 @@ class Relations:
                              if b.in_domain(y)])
         return composed
 
+    def op_parallel(self, node, l, r) -> Fn:
+        """``(r || s)``: {((x, y), (z, w)) | (x, z) : r & (y, w) : s}."""
+        return self.set_op(node, l, r, lambda a, b: make_set(
+            [((x, y), (z, w)) for x, z in a for y, w in b]))
+
     def op_direct(self, node, l, r) -> Fn:
         def direct(a, b):
             by_first: dict = {}

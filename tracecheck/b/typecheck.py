@@ -313,16 +313,12 @@ class Typer:
             self.same(node.right, right, INTEGER, "the exponent must be an INTEGER (ProB allows "
                       "only INTEGER ** INTEGER and REAL ** INTEGER): ")
             return left
-        if op == ";":
-            a, b, c = Var(), Var(), Var()
+        if op in (";", "><", "||"):  # r : a <-> b, s : (b, a or c) <-> d
+            a, b, c, d = Var(), Var(), Var(), Var()
             self.same(node.left, left, Pow(Prod(a, b)))
-            self.same(node.right, right, Pow(Prod(b, c)))
-            return Pow(Prod(a, c))
-        if op == "><":
-            a, b, c = Var(), Var(), Var()
-            self.same(node.left, left, Pow(Prod(a, b)))
-            self.same(node.right, right, Pow(Prod(a, c)))
-            return Pow(Prod(a, Prod(b, c)))
+            self.same(node.right, right, Pow(Prod({";": b, "><": a}.get(op, c), d)))
+            return Pow({";": Prod(a, d), "><": Prod(a, Prod(b, d))}.get(
+                op, Prod(Prod(a, c), Prod(b, d))))
         if op == "^":
             self.same(node.left, left, Pow(Prod(INTEGER, Var())))
             self.same(node, left, right)
