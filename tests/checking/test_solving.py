@@ -200,3 +200,15 @@ def test_the_solver_finds_exactly_what_the_evaluator_finds(monkeypatch, expr, re
     assert got.method == "solver" and got.complete
     key = lambda s: (s["x"], s["y"])  # noqa: E731
     assert sorted(got.solutions, key=key) == sorted(expected, key=key)
+
+
+def test_sets_and_relations_over_finite_types_are_walked():
+    # B, C, D have no bound but their type POW(BOOL): walked, and the search is complete
+    assert answer("A \\/ B = D & A /\\ C = {} & D = C & A /= {} & A : POW(BOOL)").status \
+        == "FALSE"
+    got = answer("r : BOOL <-> BOOL & card(r) = 3 & (r ; r) = r", all_solutions=True)
+    F, T = False, True  # of the four 3-pair relations, those without (T, F) or (F, T)
+    assert got.complete and sorted(sorted(s["r"]) for s in got.solutions) == [
+        [(F, F), (F, T), (T, T)], [(F, F), (T, F), (T, T)]]
+    got = answer("x <: BOOL & card(x) = 2")
+    assert got.solutions == [{"x": frozenset({False, True})}]

@@ -26,11 +26,11 @@ from typing import Any, Callable, Optional
 
 from ..b import ast
 from ..b.bindings import conjuncts
-from ..b.btypes import BOOL, INTEGER, REAL, Base, Type, show
+from ..b.btypes import BOOL, INTEGER, REAL, Base, Pow, Prod, Type, show
 from ..b.evaluation import Compiler
 from ..b.memo import fresh
 from ..b.typecheck import UNSUPPORTED_KEYWORDS
-from ..b.values import (Interval, SymbolicSet, cardinality, format_value, members,
+from ..b.values import (Interval, SymbolicSet, cardinality, format_value, make_set, members,
                         sort_key)
 from ..errors import TracecheckError, UnsupportedError, WellDefinednessError
 from .candidates import Clock, assignments, computed
@@ -299,10 +299,26 @@ class _Problem:
                     and (hi is None or not _is_int(v) or v <= hi)]
         if t == INTEGER and lo is not None and hi is not None:
             return range(lo, hi + 1) if hi >= lo else []  # type: ignore[return-value]
+        return self.type_values(t)
+
+    def type_values(self, t) -> Optional[list]:
+        """Every value of a finite type (BOOL, a machine's set, sets and pairs of them: ``A
+        \\/ B = D & A : POW(BOOL)`` walks B and D too), None where it is infinite or large."""
         if t == BOOL:
             return [False, True]
-        if isinstance(t, Base) and t.name in self.sets:
-            return list(self.sets[t.name])
+        if isinstance(t, Base):
+            return list(self.sets[t.name]) if t.name in self.sets else None
+        if isinstance(t, Prod):
+            a, b = self.type_values(t.left), self.type_values(t.right)
+            if a is None or b is None or len(a) * len(b) > SMALL_SPACE:
+                return None
+            return [(x, y) for x in a for y in b]
+        if isinstance(t, Pow):
+            items = self.type_values(t.elem)
+            if items is None or len(items) > MAX_SUBSET_BASE:
+                return None
+            return [make_set(c) for k in range(len(items) + 1)
+                    for c in combinations(items, k)]
         return None
 
     def equalities(self) -> list[tuple[str, ast.Node]]:
