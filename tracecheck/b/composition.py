@@ -33,7 +33,7 @@ from lark import Token
 
 from ..errors import BScopeError, BSyntaxError, JoinedText
 from ..inputs import read_text
-from .clauses import CLAUSES, CLOSERS as _CLOSERS, OPENERS as _OPENERS
+from .clauses import CLAUSES, CLOSERS as _CLOSERS, OPENERS as _OPENERS, merge_dotted
 
 __all__ = ["COMPOSITION_CLAUSES", "compose", "search_folders"]
 
@@ -132,8 +132,8 @@ class _Composer:
                     prefixes[prefix] = sub
                 included.append((prefix, sub, kw))
         promoted = [t for t in clauses.pop("PROMOTES", []) if t.type != "COMMA"]
-        own = _merge_dotted(clauses, prefixes)
-        promoted = _merge_dotted({"P": promoted}, prefixes)["P"]
+        own = {k: merge_dotted(v, lambda r, _: r in prefixes) for k, v in clauses.items()}
+        promoted = merge_dotted(promoted, lambda r, _: r in prefixes)
         callable_ops: dict[str, _Op] = {}
         for _, sub, kw in included:
             for key, part in sub.context.items():
@@ -439,31 +439,6 @@ def _renamed(name: str, renames: dict[str, str]) -> Optional[str]:
     base = name.rstrip("\u2032\u2018\u2019")
     base = base[:-2] if base.endswith("$0") and base not in renames else base
     return renames[base] + name[len(base):] if base in renames else None
-
-
-def _merge_dotted(clauses: dict[str, list[Token]], prefixes: dict[str, _Unit]
-                  ) -> dict[str, list[Token]]:
-    """``r . x`` as the one name ``r.x`` where r renames an included machine."""
-    if not prefixes:
-        return clauses
-    out = {}
-    for key, toks in clauses.items():
-        merged: list[Token] = []
-        k = 0
-        while k < len(toks):
-            tok = toks[k]
-            if tok.type == "NAME" and tok.value in prefixes and k + 2 < len(toks) and \
-                    toks[k + 1].type == "DOT" and toks[k + 2].type == "NAME":
-                last = toks[k + 2]
-                merged.append(Token("NAME", f"{tok.value}.{last.value}", tok.start_pos,
-                                    tok.line, tok.column, last.end_line, last.end_column,
-                                    last.end_pos))
-                k += 3
-            else:
-                merged.append(tok)
-                k += 1
-        out[key] = merged
-    return out
 
 
 def _operations(toks: list[Token], composer: _Composer) -> list[_Op]:

@@ -23,7 +23,7 @@ from lark.lexer import Lexer
 from ..errors import BSyntaxError, TracecheckError, UnsupportedError
 from . import ast
 from .builder import Builder, OperationSource, ident, tok_pos, unquote
-from .clauses import CLAUSES, CLOSERS, OPENERS
+from .clauses import CLAUSES, CLOSERS, OPENERS, merge_dotted
 from .composition import compose
 from .library import LIBRARY_FILES, NOT_IMPLEMENTED, library_bodies
 from ..limits import deep_recursion
@@ -235,27 +235,8 @@ def parse_formula(text: str, *, file: Optional[str] = None,
     _check_length(text, file, "formula")
     toks, _ = tokens(text, file=file)
     if dotted:
-        toks = merge_dotted(toks, dotted)
+        toks = merge_dotted(toks, lambda a, b: f"{a}.{b}" in dotted)
     return _parse_tokens(toks, "formula", text, file, "the formula")
-
-
-def merge_dotted(toks: list[Token], dotted: frozenset[str]) -> list[Token]:
-    """``r . x`` as the one name ``r.x`` where that is one of ``dotted`` (a variable or
-    operation of a machine included with renaming)."""
-    out: list[Token] = []
-    k = 0
-    while k < len(toks):
-        tok = toks[k]
-        if tok.type == "NAME" and k + 2 < len(toks) and toks[k + 1].type == "DOT" and \
-                toks[k + 2].type == "NAME" and f"{tok.value}.{toks[k + 2].value}" in dotted:
-            last = toks[k + 2]
-            out.append(Token("NAME", f"{tok.value}.{last.value}", tok.start_pos, tok.line,
-                             tok.column, last.end_line, last.end_column, last.end_pos))
-            k += 3
-        else:
-            out.append(tok)
-            k += 1
-    return out
 
 
 def parse_substitution(text: str, *, file: Optional[str] = None) -> ast.Subst:
