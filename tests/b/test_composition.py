@@ -249,3 +249,17 @@ def test_renamed_names_in_eval_and_a_parameter_breaking_constraints(tmp_path, ca
     write(tmp_path, E="MACHINE E SEES Ctx INCLUDES Counter(-1) END")
     code, _, err = run(capsys, "check-model", tmp_path / "E.mch")
     assert code == 2 and "`(-1) : NATURAL` is false" in err and "E.mch:1:37" in err
+
+
+@pytest.mark.parametrize("text,message", [
+    ("MACHINE Z SEES END", "the SEES clause is empty"),
+    ("MACHINE Z SEES Ctx OPERATIONS END", "the OPERATIONS clause is empty"),
+    ("MACHINE Z(a SEES Ctx END", r"expected the machine's name, or M\(p, …\)"),
+    ("MACHINE Z SEES Ctx OPERATIONS = skip END", "an operation needs a name before its '='"),
+    ("MACHINE Z INCLUDES a.b.Ctx END", "expected a machine's name, or r.M to rename it"),
+])
+def test_a_composed_machine_s_syntax_errors_are_located(tmp_path, text, message):
+    write(tmp_path, Ctx=CTX, Z=text)
+    with pytest.raises(BSyntaxError, match=message) as err:
+        load_machine(tmp_path / "Z.mch")
+    assert err.value.file == str(tmp_path / "Z.mch") and err.value.line == 1

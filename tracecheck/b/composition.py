@@ -111,6 +111,7 @@ class _Composer:
     # -- one machine
     def unit(self, toks: list[Token], file: str, folders: list[Path], chain: tuple) -> _Unit:
         clauses = _clauses(toks)
+        _check_clauses(toks, clauses, self)
         header = clauses.pop("MACHINE")
         name, params = header[0].value, [t.value for t in header[1:] if t.type == "NAME"]
         unit = _Unit(name, file, params)
@@ -237,7 +238,7 @@ def compose(text: str, toks: list[Token], file: Optional[str], lex
         file: its path.
         lex: ``(text, file) -> (tokens, comments)``, the parser's lexer.
     """
-    clauses = _clauses(toks, keep_all=True)
+    clauses = _clauses(toks)
     header = clauses.get("MACHINE", [])
     if not any(k in clauses for k in COMPOSITION_CLAUSES) and len(header) <= 1 and \
             not _own_definition_files(clauses.get("DEFINITIONS", [])):
@@ -336,7 +337,7 @@ def _sequence(parts: list[tuple[list[Token], frozenset]], at: Token) -> list[Tok
 # ------------------------------------------------------------------ token helpers
 
 
-def _clauses(toks: list[Token], keep_all: bool = False) -> dict[str, list[Token]]:
+def _clauses(toks: list[Token]) -> dict[str, list[Token]]:
     """The machine's clauses by keyword (the last END left out)."""
     known = set(CLAUSES) | set(COMPOSITION_CLAUSES)
     out: dict[str, list[Token]] = {}
@@ -350,6 +351,21 @@ def _clauses(toks: list[Token], keep_all: bool = False) -> dict[str, list[Token]
         elif current is not None:
             out[current].append(tok)
     return out
+
+
+def _check_clauses(toks: list[Token], clauses: dict, composer: "_Composer") -> None:
+    """A clause with nothing in it, or a header that is not ``M`` or ``M(p, …)``, is an error
+    (as for a machine read on its own)."""
+    header = clauses.get("MACHINE", [])
+    kinds = [t.type for t in header]
+    if not header or header[0].type != "NAME" or (len(header) > 1 and (
+            kinds[1] != "LPAR" or kinds[-1] != "RPAR" or len(kinds) < 4
+            or kinds[2:-1] != ["NAME", "COMMA"] * (len(kinds) // 2 - 2) + ["NAME"])):
+        raise composer.error(BSyntaxError, "expected the machine's name, or M(p, …) with "
+                             "its parameters, after MACHINE", header[0] if header else toks[0])
+    for tok in toks[:-1]:
+        if tok.value in clauses and not clauses[tok.value] and tok.type in ("NAME", tok.value):
+            raise composer.error(BSyntaxError, f"the {tok.value} clause is empty", tok)
 
 
 def _own_definition_files(toks: list[Token]) -> list[str]:
@@ -449,14 +465,15 @@ def _operations(toks: list[Token], composer: _Composer) -> list[_Op]:
             raise composer.error(BSyntaxError, "an operation needs '=' after its header",
                                  part[0])
         header, body = part[:eq], part[eq + 1:]
-        names = [t.value for t in header if t.type == "NAME"]
         out_at = next((i for i, t in enumerate(header) if t.type == "OUTPUT"), None)
         outputs = [t.value for t in header[:out_at] if t.type == "NAME"] \
             if out_at is not None else []
         rest = header[out_at + 1:] if out_at is not None else header
+        if not rest or rest[0].type != "NAME":
+            raise composer.error(BSyntaxError, "an operation needs a name before its '='",
+                                 (rest or part)[0])
         name = rest[0].value
         params = [t.value for t in rest[1:] if t.type == "NAME"]
-        assert names  # a header has a name
         ops.append(_Op(name, params, outputs, header, body))
     return ops
 
