@@ -257,6 +257,7 @@ def test_renamed_names_in_eval_and_a_parameter_breaking_constraints(tmp_path, ca
     ("MACHINE Z(a SEES Ctx END", r"expected the machine's name, or M\(p, …\)"),
     ("MACHINE Z SEES Ctx OPERATIONS = skip END", "an operation needs a name before its '='"),
     ("MACHINE Z INCLUDES a.b.Ctx END", "expected a machine's name, or r.M to rename it"),
+    ("MACHINE Z REFINES Y SEES Ctx END", "the clause REFINES is not supported"),
 ])
 def test_a_composed_machine_s_syntax_errors_are_located(tmp_path, text, message):
     write(tmp_path, Ctx=CTX, Z=text)

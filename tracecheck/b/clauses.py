@@ -8,13 +8,18 @@ from typing import Callable
 
 from lark import Token
 
-__all__ = ["CLAUSES", "OPENERS", "CLOSERS", "merge_dotted"]
+__all__ = ["CLAUSES", "UNSUPPORTED_CLAUSES", "OPENERS", "CLOSERS", "merge_dotted"]
 
 #: The clauses of a machine tracecheck reads by itself.
 CLAUSES = (
     "MACHINE", "SETS", "CONSTANTS", "CONCRETE_CONSTANTS", "ABSTRACT_CONSTANTS", "PROPERTIES",
     "VARIABLES", "CONCRETE_VARIABLES", "ABSTRACT_VARIABLES", "INVARIANT", "ASSERTIONS",
     "DEFINITIONS", "INITIALISATION", "OPERATIONS",
+)
+#: Clauses tracecheck refuses (refinement, Event-B), with a located error.
+UNSUPPORTED_CLAUSES = (
+    "MODEL", "SYSTEM", "REFINEMENT", "IMPLEMENTATION", "REFINES", "LOCAL_OPERATIONS",
+    "VALUES", "EVENTS",
 )
 #: Token types that open a part an END or a bracket closes.
 OPENERS = {"LPAR", "LSQB", "LBRACE", "BEGIN", "IF", "SELECT", "PRE", "ANY", "LET",

@@ -33,7 +33,8 @@ from lark import Token
 
 from ..errors import BScopeError, BSyntaxError, JoinedText
 from ..inputs import read_text
-from .clauses import CLAUSES, CLOSERS as _CLOSERS, OPENERS as _OPENERS, merge_dotted
+from .clauses import (CLAUSES, CLOSERS as _CLOSERS, OPENERS as _OPENERS, UNSUPPORTED_CLAUSES,
+                      merge_dotted)
 
 __all__ = ["COMPOSITION_CLAUSES", "compose", "search_folders"]
 
@@ -339,7 +340,7 @@ def _sequence(parts: list[tuple[list[Token], frozenset]], at: Token) -> list[Tok
 
 def _clauses(toks: list[Token]) -> dict[str, list[Token]]:
     """The machine's clauses by keyword (the last END left out)."""
-    known = set(CLAUSES) | set(COMPOSITION_CLAUSES)
+    known = set(CLAUSES) | set(COMPOSITION_CLAUSES) | set(UNSUPPORTED_CLAUSES)
     out: dict[str, list[Token]] = {}
     current, depth = None, 0
     for tok in toks[:-1]:
@@ -364,8 +365,12 @@ def _check_clauses(toks: list[Token], clauses: dict, composer: "_Composer") -> N
         raise composer.error(BSyntaxError, "expected the machine's name, or M(p, …) with "
                              "its parameters, after MACHINE", header[0] if header else toks[0])
     for tok in toks[:-1]:
-        if tok.value in clauses and not clauses[tok.value] and tok.type in ("NAME", tok.value):
-            raise composer.error(BSyntaxError, f"the {tok.value} clause is empty", tok)
+        if tok.value in clauses and tok.type in ("NAME", tok.value):
+            if tok.value in UNSUPPORTED_CLAUSES:
+                raise composer.error(BSyntaxError, f"the clause {tok.value} is not supported "
+                                     "by tracecheck (it reads abstract machines)", tok)
+            if not clauses[tok.value]:
+                raise composer.error(BSyntaxError, f"the {tok.value} clause is empty", tok)
 
 
 def _own_definition_files(toks: list[Token]) -> list[str]:

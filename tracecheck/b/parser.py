@@ -23,7 +23,7 @@ from lark.lexer import Lexer
 from ..errors import BSyntaxError, TracecheckError, UnsupportedError
 from . import ast
 from .builder import Builder, OperationSource, ident, tok_pos, unquote
-from .clauses import CLAUSES, CLOSERS, OPENERS, merge_dotted
+from .clauses import CLAUSES, CLOSERS, OPENERS, UNSUPPORTED_CLAUSES, merge_dotted
 from .composition import compose
 from .library import LIBRARY_FILES, NOT_IMPLEMENTED, library_bodies
 from ..limits import deep_recursion
@@ -40,10 +40,6 @@ _STARTS = [
     "machine_header", "name_list", "def_header",
 ]
 
-_UNSUPPORTED_CLAUSES = (
-    "MODEL", "SYSTEM", "REFINEMENT", "IMPLEMENTATION", "REFINES", "LOCAL_OPERATIONS",
-    "VALUES", "EVENTS",
-)
 #: Definitions that only tools read; their bodies may use syntax tracecheck does not parse.
 TOOL_DEFINITION_PREFIXES = (
     "VISB_", "ANIMATION_", "ASSERT_LTL", "ASSERT_CTL", "SET_PREF_", "CUSTOM_GRAPH",
@@ -313,7 +309,7 @@ def _split_clauses(toks: list[Token], text: str, file: Optional[str]):
         raise BSyntaxError("the file is empty; a machine starts with MACHINE", file=file,
                            line=1, column=1, source=text)
     first = toks[0]
-    if first.type == "NAME" and first.value in _UNSUPPORTED_CLAUSES:
+    if first.type == "NAME" and first.value in UNSUPPORTED_CLAUSES:
         raise BSyntaxError(f"{first.value} is not supported: tracecheck reads classical B "
                            "machines (MACHINE … END)", file=file, line=first.line,
                            column=first.column, source=text)
@@ -334,7 +330,7 @@ def _split_clauses(toks: list[Token], text: str, file: Optional[str]):
         if depth > 0 or tok.type not in ("NAME", tok.value):
             clauses[-1][1].append(tok)
             continue
-        if tok.value in _UNSUPPORTED_CLAUSES:
+        if tok.value in UNSUPPORTED_CLAUSES:
             raise BSyntaxError(f"the clause {tok.value} is not supported by tracecheck",
                                file=file, line=tok.line, column=tok.column, source=text,
                                hint="put everything the shield needs into one machine")
