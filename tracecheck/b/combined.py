@@ -32,7 +32,7 @@ def combine(op: str, a: Any, b: Any) -> Any:
     walk, else symbolic."""
     small_a, small_b = _small(a), _small(b)
     if op == "/\\" and (small_a or small_b):
-        walk, other = (a, b) if small_a and (not small_b or _size(a) <= _size(b)) else (b, a)
+        walk, other = (a, b) if small_a and (not small_b or cardinality(a) <= cardinality(b)) else (b, a)
         return make_set([x for x in members(walk) if contains(other, x)])
     if op == "\\" and small_a:
         return make_set([x for x in members(a) if not contains(b, x)])
@@ -41,16 +41,12 @@ def combine(op: str, a: Any, b: Any) -> Any:
     return Combined(op, a, b)
 
 
-def _size(s: Any) -> int:
-    return len(s) if isinstance(s, frozenset) else cardinality(s)
-
-
 class Combined(SymbolicSet):
     """``a op b`` held as its two sides."""
 
     def __init__(self, op: str, a: Any, b: Any) -> None:
         self.op, self.a, self.b = op, a, b
-        self.name = f"({_shown(a)} {SYMBOLS[op]} {_shown(b)})"
+        self.name = f"({format_value(a)} {SYMBOLS[op]} {format_value(b)})"
 
     def contains(self, value: Any) -> bool:
         if self.op == "\\/":
@@ -98,7 +94,3 @@ class Combined(SymbolicSet):
 
 def _key(s: Any) -> Any:
     return s.key() if isinstance(s, SymbolicSet) else s
-
-
-def _shown(s: Any) -> str:
-    return format_value(s)

@@ -33,8 +33,10 @@ from lark import Token
 
 from ..errors import BScopeError, BSyntaxError, JoinedText
 from ..inputs import read_text
+from .builder import unquote
 from .clauses import (CLAUSES, CLOSERS as _CLOSERS, OPENERS as _OPENERS, UNSUPPORTED_CLAUSES,
                       merge_dotted)
+from .library import LIBRARY_FILES, NOT_IMPLEMENTED
 
 __all__ = ["COMPOSITION_CLAUSES", "compose", "search_folders"]
 
@@ -376,9 +378,6 @@ def _check_clauses(toks: list[Token], clauses: dict, composer: "_Composer") -> N
 def _own_definition_files(toks: list[Token]) -> list[str]:
     """The definition files named in a DEFINITIONS clause that are not ProB's library
     files (those tracecheck implements itself)."""
-    from .builder import unquote
-    from .library import LIBRARY_FILES, NOT_IMPLEMENTED
-
     names = [unquote(t.value) for t in toks if t.type == "STRING"]
     return [n for n in names if n.endswith(".def") and n not in LIBRARY_FILES
             and n not in NOT_IMPLEMENTED]

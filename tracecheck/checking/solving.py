@@ -134,7 +134,6 @@ def _picked(problem: "_Problem", picked: list, domains: dict,
     solution anywhere is FALSE only where every candidate's answer is FALSE."""
     names = [n for n in problem.names if n not in picked]
     solutions: list[dict] = []
-    more: Optional[bool] = False
     unknown, undefined, complete = None, None, True
     for values in product(*(domains[n] for n in picked)):
         fixed = dict(zip(picked, values))
@@ -156,7 +155,7 @@ def _picked(problem: "_Problem", picked: list, domains: dict,
         if len(solutions) >= problem.limit:
             complete = False  # the candidates after these not asked
             break
-    more = True if len(solutions) > problem.limit else None
+    more: Optional[bool] = True if len(solutions) > problem.limit else None
     solutions = solutions[:problem.limit]
     if solutions:
         return problem.answer("TRUE", solutions=solutions, method="enumeration and solver",
