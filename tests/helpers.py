@@ -246,3 +246,21 @@ def write_report(runs, out, *, max_pages: int = 20, force: bool = False, **valid
 
     return render_report(validate(runs, **validate_options), out, max_pages=max_pages,
                          force=force)
+
+
+def solved(text: str, machine=None, **options):
+    """``tracecheck.checking.solving.solve`` of the predicate ``text`` for its free
+    identifiers (typed as ``eval`` types them), in ``machine``'s scope if one is given."""
+    from tracecheck.b.btypes import Var, resolve_all
+    from tracecheck.b.parser import parse_formula
+    from tracecheck.b.typecheck import check_formula
+    from tracecheck.checking.solving import free_identifiers, solve
+
+    names = dict(machine.type_objects) if machine else {}
+    free = free_identifiers(parse_formula(text, file="<t>"), names)
+    typed = {**names, **{n: Var() for n in free}}
+    node, _ = check_formula(text, typed, file="<t>", kind="predicate")
+    types = {n: resolve_all(typed[n]) for n in free}
+    env = machine.env({}) if machine else {}
+    return solve(node, types, env, sets=machine.sets if machine else {}, source=text,
+                 file="<t>", **options)

@@ -55,8 +55,12 @@ def test_properties_without_a_solution_are_an_error_at_load():
 
 
 def test_what_the_solver_cannot_decide_stays_without_value_with_its_reason():
-    m = shield("MACHINE P CONSTANTS s PROPERTIES s <: INTEGER & 5 : s END")
+    m = shield("MACHINE P CONSTANTS s PROPERTIES s <: INTEGER & card(s) = 2 END")
     assert "the solver cannot set it up" in m.unset_constants["s"]
+    assert "card(" in m.unset_constants["s"]
+    m = shield("MACHINE P CONSTANTS s PROPERTIES s <: INTEGER & 5 : s END")  # z3's sets
+    assert m.unset_constants["s"].startswith("the PROPERTIES allow at least 1 solution (s = ")
+    assert "the solver cannot tell whether others (" in m.unset_constants["s"]
 
 
 def test_a_plain_machine_does_not_ask_the_solver_and_says_so():

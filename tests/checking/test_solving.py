@@ -9,31 +9,19 @@ import itertools
 import pytest
 
 from tracecheck.b import load_machine_text
-from tracecheck.b.btypes import INTEGER, Var, resolve_all
+from tracecheck.b.btypes import INTEGER
 from tracecheck.b.evaluation import Compiler
 from tracecheck.b.typecheck import check_formula
 from tracecheck.b.values import Elem
 from tracecheck.checking import solving
-from tracecheck.checking.solving import free_identifiers, solve
+from tracecheck.checking.solving import free_identifiers
 from tracecheck.errors import TracecheckError, WellDefinednessError
+from tests.helpers import solved as answer
 
 pytest.importorskip("z3")
 
 SEND_MORE = ("{S,E,N,D,M,O,R,Y} <: 0..9 & card({S,E,N,D,M,O,R,Y}) = 8 & S /= 0 & M /= 0 & "
              "S*1000+E*100+N*10+D + M*1000+O*100+R*10+E = M*10000+O*1000+N*100+E*10+Y")
-
-
-def answer(text: str, machine=None, **options):
-    names = dict(machine.type_objects) if machine else {}
-    from tracecheck.b.parser import parse_formula
-
-    free = free_identifiers(parse_formula(text, file="<t>"), names)
-    typed = {**names, **{n: Var() for n in free}}
-    node, _ = check_formula(text, typed, file="<t>", kind="predicate")
-    types = {n: resolve_all(typed[n]) for n in free}
-    env = machine.env({}) if machine else {}
-    return solve(node, types, env, sets=machine.sets if machine else {}, source=text,
-                 file="<t>", **options)
 
 
 def test_the_issue_example_is_solved_by_the_solver():
@@ -87,7 +75,9 @@ def test_what_the_solver_cannot_take_is_unknown_with_the_reason():
     got = answer("x > 0 & [x] = [5]")
     assert got.status == "unknown" and "<t>:1:9: cannot translate this set" in got.reason
     got = answer("s <: INTEGER & card(s) = 2")
-    assert got.status == "unknown" and "s is of type POW(INTEGER)" in got.reason
+    assert got.status == "unknown" and "cannot translate card(…) here" in got.reason
+    got = answer("s <: STRING & card(s) = 2")
+    assert got.status == "unknown" and "s is of type POW(STRING)" in got.reason
     got = answer("x*x*x + y*y*y = z*z*z & x > 0 & y > 0 & z > 0", timeout_s=0.5)
     assert got.status == "unknown" and got.reason == "time limit (0.5 s)"
 

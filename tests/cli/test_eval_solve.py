@@ -151,9 +151,11 @@ def test_the_agatha_puzzle_is_solved_and_every_candidate_is_decided(capsys):
 def test_a_refusal_inside_the_search_is_unknown_never_false(capsys):
     """A candidate the evaluator cannot decide is not one where the predicate is false."""
     code, out, _ = run(capsys, "eval", "s : POW(1..3) & s /= {} & "
-                                       "!(x,y).(x : s & y > x => y : NATURAL)")
+                                       "!(x,y).(x : s & y > x => 2 ** y > y)")
     assert code == 3 and out.startswith("unknown: tracecheck's evaluator cannot decide the "
                                         "predicate for its candidates: cannot enumerate y")
+    assert out.count("the solver") == 1 and "does not find a value or show there is " \
+        "none" in out and "a power whose exponent is not a literal natural" in out
 
 
 @pytest.mark.parametrize("formula,printed", [
@@ -281,3 +283,32 @@ def test_a_point_without_value_found_by_the_solver_is_located(capsys):
 def test_strings_print_as_literals_that_read_back(capsys):
     assert run(capsys, "eval", '"a\\nb"', 'x = "a\\tb\\\\c\\"d"') == \
         (0, '"a\\nb"\nTRUE\nx = "a\\tb\\\\c\\"d"\n', "")
+
+
+@pytest.mark.parametrize("formula,code,printed", [
+    ("#xx.(xx : NAT1 & xx mod 3 = 0)", 0, "TRUE\n"),
+    ("#x.(x : NATURAL1 & x mod 3 = 0 & x > 100)", 0, "TRUE\n"),
+    ("#x.(x > 0 & x * x = 50)", 0, "FALSE\n"),
+    ("!x.(x > 0 => x * x > 0)", 0, "TRUE\n"),
+    ("!x.(x > 0 => x * x > 5)", 0, "FALSE\n"),
+    ("!x.(x : NATURAL => 10 mod (x + 1) >= 0)", 0, "TRUE\n"),
+    ("f = {x,y|x:NATURAL & y**2 >= x & (y-1)**2 <x} & r = closure1(f)[{10000}]", 0,
+     "TRUE\nf = {x,y|x:NATURAL & y**2 >= x & (y-1)**2 <x}\nr = {2,4,10,100}\n"),
+    ("f = {x,y|x:NATURAL & y**2 >= x & (y-1)**2 <x} & r = f(100000)", 0,
+     "TRUE\nf = {x,y|x:NATURAL & y**2 >= x & (y-1)**2 <x}\nr = 317\n"),
+], ids=["nat1", "natural1", "none", "forall", "counterexample", "mod", "closure", "apply"])
+def test_quantifiers_the_solver_cannot_list_are_decided_by_one_value(
+        capsys, formula, code, printed):
+    """∃ needs one value (∀ of P => Q one of P & not Q), where the solver also shows the
+    body has a value everywhere: B's well-definedness, as the evaluator's walk."""
+    assert run(capsys, "eval", formula)[:2] == (code, printed)
+
+
+@pytest.mark.parametrize("formula,message", [
+    ("#x.(x : INTEGER & 10 / x = 2)", "the predicate has no value where x = 0: division by zero"),
+    ("!x.(x : INTEGER => 10 mod x >= 0)", "the predicate has no value where x = 0"),
+])
+def test_a_quantifier_decided_by_one_value_is_still_undefined_where_a_value_is(
+        capsys, formula, message):
+    code, _, err = run(capsys, "eval", formula)
+    assert code != 0 and message in err

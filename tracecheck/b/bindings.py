@@ -11,7 +11,8 @@ from __future__ import annotations
 
 from typing import Any, Callable, Iterator, Optional
 
-from ..errors import BTypeError, EvaluationError, TracecheckError, UnsupportedError
+from ..errors import (BTypeError, EvaluationError, SetLimitError, TracecheckError,
+                      UnsupportedError, WellDefinednessError)
 from ..limits import MAX_INT_BITS
 from . import ast
 from .clock import tick
@@ -376,10 +377,37 @@ class Binders:
                 bindings = self.bindings(node, node.ids, domain_pred)
                 check = self.compile(rest)
 
-            return _scoped(self.quantifier(node, bindings, check), node.ids)
+            return _scoped(self._witnessed(node, self.quantifier(node, bindings, check),
+                                           domain_pred, ast.And(domain_pred, ast.Not(rest))),
+                           node.ids)
         with self.binding(node.ids):
             bindings = self.bindings(node, node.ids, node.body)
-        return _scoped(self.quantifier(node, bindings, None), node.ids)
+        return _scoped(self._witnessed(node, self.quantifier(node, bindings, None),
+                                       node.body, node.body), node.ids)
+
+    def _witnessed(self, node: ast.Quant, quant: Fn, walked: ast.Node,
+                   witness: ast.Node) -> Fn:
+        """``quant``, or — where the solver cannot list every value of its variables
+        (``#x.(x : NAT1 & x mod 3 = 0)``) — the solver asked for one value of ``witness``
+        (the body of ∃; P & not Q for ∀ of P => Q): one is TRUE for ∃ and FALSE for ∀,
+        none the other way; defined everywhere, or the solver's error."""
+        if self.solver is None:
+            return quant
+        ids, solver = node.ids, self.solver
+
+        def decided(env: Env) -> bool:
+            try:
+                return quant(env)
+            except TracecheckError as exc:
+                if isinstance(exc, WellDefinednessError) or not (
+                        getattr(exc, "unlisted", None) is walked
+                        or isinstance(exc, SetLimitError)):
+                    raise
+                problem = getattr(exc, "asked", exc)
+            found = solver(witness, ids, {k: v for k, v in env.items() if k not in ids},
+                           problem, one=True)
+            return bool(found) == (node.op == "#")
+        return decided
 
     def quantifier(self, node: ast.Quant, bindings, check: Optional[Fn]) -> Fn:
         """∀ (with ``check``, the implication's right side) or ∃ (``check`` None), decided
@@ -423,6 +451,7 @@ class Binders:
         INTEGER | x * x)``) the set held by its definition (:mod:`.defined`)."""
         with self.binding(node.ids):
             test = self.compile(node.pred)
+            images = self._images(node) if value is None and len(node.ids) > 1 else None
         text, free = self.text(node), tuple(sorted(ast.free_names(node)))
 
         def held(env: Env) -> Any:
@@ -432,8 +461,19 @@ class Binders:
                 if not cannot_list(exc):
                     raise
                 return Defined(node.ids, test, value, env, text,
-                               lambda message: self.wd(node, message), free, exc)
+                               lambda message: self.wd(node, message), free, exc, images)
         return held
+
+    def _images(self, node: ast.Comprehension) -> Callable[[Env, Any], list]:
+        """For ``{x, y | P}``: the values of y with x bound (as a binder finds them: by
+        the conjuncts, or the solver's complete list), each once, in order."""
+        last = node.ids[-1]
+        rest = self.bindings(node, (last,), node.pred)
+
+        def images(env: Env, arg: Any) -> list:
+            found = _each(rest, (last,), env, lambda e: e[last])
+            return sorted(set(found), key=sort_key)
+        return images
 
     def c_QuantExpr(self, node: ast.QuantExpr) -> Fn:
         with self.binding(node.ids):

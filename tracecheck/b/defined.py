@@ -4,7 +4,11 @@
 Membership is decided by the predicate with the element bound (and, for a lambda, its
 value compared); a lambda is applied by evaluating its body where the argument satisfies
 its predicate (elsewhere: not well-defined); its image of a finite set, its composition
-after a finite relation (``[2, 3] ; f``) and ``iterate(f, n)`` follow. Anything that needs the
+after a finite relation (``[2, 3] ; f``) and ``iterate(f, n)`` follow. A relation given by a
+predicate (``{x, y | x : NATURAL & y**2 >= x & (y-1)**2 < x}``) relates each argument to the
+values of its last variable the predicate has with the others bound (``images``, found by
+the evaluator or the solver, all of them or refused): its image of a finite set, and its
+application where there is exactly one. Anything that needs the
 elements (``card``, printing them, equality with another set) is refused, as for any set
 tracecheck cannot tell is finite.
 """
@@ -36,8 +40,10 @@ class Defined(SymbolicSet):
 
     def __init__(self, ids: tuple[str, ...], test: Fn, value: Optional[Fn], env: dict,
                  text: str, wd: Callable[[str], Exception], free: tuple[str, ...] = (),
-                 why: Optional[EvaluationError] = None) -> None:
+                 why: Optional[EvaluationError] = None,
+                 images: Optional[Callable[[dict, Any], list]] = None) -> None:
         self.ids, self.test, self.value = ids, test, value
+        self._images, self._found = images, {}  # the images by argument, found once
         self.env = fresh(env)
         self.name = text
         self._wd = wd  # the located not-well-defined error for a message
@@ -64,12 +70,31 @@ class Defined(SymbolicSet):
         env[self.ids[0]] = args
         return env
 
+    def relates(self) -> bool:
+        """Whether it is a relation whose images of an argument can be found."""
+        return self.value is None and self._images is not None
+
+    def images(self, arg: Any) -> list:
+        """The values a relation given by a predicate relates ``arg`` to."""
+        key = hashable(arg)
+        if key not in self._found:
+            env = fresh(self.env)
+            for name in reversed(self.ids[1:-1]):
+                if not isinstance(arg, tuple):
+                    raise EvaluationError(f"{arg!r} does not fit the variables of {self.name}")
+                arg, env[name] = arg
+            env[self.ids[0]] = arg
+            self._found[key] = self._images(env, arg) if self._images else []
+        return self._found[key]
+
     def in_domain(self, args: Any) -> bool:
+        if self.relates():
+            return bool(self.images(args))
         return self.test(self._bound(args)) is True
 
     def contains(self, value: Any) -> bool:
         if self.value is None:
-            return self.in_domain(value)
+            return self.test(self._bound(value)) is True
         if not isinstance(value, tuple):
             return False
         args, image = value
@@ -78,6 +103,15 @@ class Defined(SymbolicSet):
 
     def apply(self, args: Any) -> Any:
         """The lambda's value at ``args`` (not well-defined outside its domain)."""
+        if self.relates():
+            found = self.images(args)
+            if len(found) == 1:
+                return found[0]
+            if not found:
+                raise self._wd(f"{format_value(args)} is not in the domain of {self.name}")
+            raise self._wd(f"{self.name} is not a function at {format_value(args)}: it "
+                           f"relates it to {', '.join(format_value(v) for v in found[:3])}"
+                           f"{' …' if len(found) > 3 else ''}")
         if self.value is None:
             raise EvaluationError(f"cannot apply the set {self.name}: tracecheck applies "
                                   "functions given by a lambda (%x.(P | E)), not by a "
@@ -122,4 +156,5 @@ class Chain(SymbolicSet):
 
 def applies(f: Any) -> bool:
     """Whether ``f`` is a function held by its definition (it can be applied)."""
-    return isinstance(f, Chain) or (isinstance(f, Defined) and f.value is not None)
+    return isinstance(f, Chain) or (isinstance(f, Defined) and (f.value is not None
+                                                                 or f.relates()))

@@ -46,9 +46,10 @@ class Compiler(Binders, Records, Sequences, Relations):
         self.bound: list[str] = []
         self._free: dict = {}  # free names by node, see ast.free_names
         self._compiling = False  # inside compile: the calls for sub-formulas
-        #: ``solver(pred, names, env, problem)``: every solution of ``pred`` for bound
-        #: variables nothing walks (a list of {name: value}), or raises (``tracecheck eval``
-        #: gives one; without it such variables are refused)
+        #: ``solver(pred, names, env, problem, one=False)``: every solution of ``pred`` for
+        #: bound variables nothing walks (a list of {name: value}), or raises (``tracecheck
+        #: eval`` gives one; without it such variables are refused); with ``one``, one
+        #: solution or none, where ``pred`` is defined for every value of them
         self.solver: Optional[Callable] = None
         #: the machine's constants without a value, and why (Machine.unset_constants)
         self.unset: dict[str, str] = {}

@@ -10,7 +10,7 @@ from typing import Any, Callable
 
 from ..errors import EvaluationError
 from . import ast
-from .defined import Chain, applies
+from .defined import Chain, Defined, applies
 from .finite import finite as _finite, members as _members
 from .spaces import Projection
 from .values import (BUILTIN_SET_VALUES, FuncValue, SymbolicSet, brief, contains,
@@ -108,17 +108,53 @@ class Relations:
         raise self.type_error(node.fn, f, "a function")
 
     def c_Image(self, node: ast.Image) -> Fn:
+        if isinstance(node.rel, ast.Call) and node.rel.name in ("closure", "closure1") and \
+                len(node.rel.args) == 1:
+            return self._reached(node, node.rel.name == "closure")
         rel, arg = self.compile(node.rel), self.compile(node.arg)
 
         def image(env: Env) -> frozenset:
             r, s = rel(env), arg(env)
             if not is_set(s):
                 raise self.type_error(node.arg, s, "a set")
-            if applies(r):  # f[1..10] of a lambda over INTEGER: its finite argument walked
-                return make_set([r.apply(x) for x in _members(self, node.arg, s)
-                                 if r.in_domain(x)])
-            return make_set([p[1] for p in _finite(self, node.rel, r) if contains(s, p[0])])
+            return self._image(node.rel, node.arg, r, s)
         return image
+
+    def _image(self, rel_node, arg_node, r: Any, s: Any) -> frozenset:
+        if isinstance(r, Defined) and r.relates():  # {x, y | P}[S]: each one's images
+            return make_set([y for x in _members(self, arg_node, s) for y in r.images(x)])
+        if applies(r):  # f[1..10] of a lambda over INTEGER: its finite argument walked
+            return make_set([r.apply(x) for x in _members(self, arg_node, s)
+                             if r.in_domain(x)])
+        return make_set([p[1] for p in _finite(self, rel_node, r) if contains(s, p[0])])
+
+    def _reached(self, node: ast.Image, reflexive: bool) -> Fn:
+        """``closure1(r)[S]``: what r reaches from S in one or more steps (``closure(r)[S]``:
+        S too — the identity over the whole type adds exactly S), walked from S's members
+        one image at a time, so r need only be finite or a function held by its
+        definition; at most :data:`~tracecheck.b.values.SET_LIMIT` members."""
+        from ..errors import SetLimitError
+        from .values import SET_LIMIT
+
+        rel_node = node.rel.args[0]
+        rel, arg = self.compile(rel_node), self.compile(node.arg)
+
+        def reached(env: Env) -> frozenset:
+            r, s = rel(env), arg(env)
+            if not is_set(s):
+                raise self.type_error(node.arg, s, "a set")
+            out: set = set(_members(self, node.arg, s)) if reflexive else set()
+            frontier = self._image(rel_node, node.arg, r, s)
+            while frontier:
+                new = [x for x in frontier if x not in out]
+                out.update(new)
+                if len(out) > SET_LIMIT:
+                    raise self.error(SetLimitError, node, f"`{self.text(node)}` reaches more "
+                                     f"than {SET_LIMIT:,} elements; tracecheck builds or "
+                                     f"walks at most {SET_LIMIT:,} elements of one set")
+                frontier = self._image(rel_node, node.arg, r, make_set(new)) if new else ()
+            return make_set(out)
+        return reached
 
     def c_Inverse(self, node: ast.Inverse) -> Fn:
         rel = self.compile(node.rel)

@@ -38,7 +38,8 @@ def bound_solver(names: dict, sets: dict, *, source: Optional[str] = None,
 
     owners = {e: k for k, elems in sets.items() for e in elems}
 
-    def solver(pred: ast.Node, ids: tuple[str, ...], env: dict, problem) -> list[dict]:
+    def solver(pred: ast.Node, ids: tuple[str, ...], env: dict, problem,
+               one: bool = False) -> list[dict]:
         from .solving import solve  # only where a bound variable needs it (eval's start-up)
 
         typed = dict(names)
@@ -56,18 +57,23 @@ def bound_solver(names: dict, sets: dict, *, source: Optional[str] = None,
         answer = solve(pred, types, env, sets=sets, source=source, file=file,
                        timeout_s=min(BOUND_SECONDS, timeout_s if deadline is None else
                                      max(0.05, deadline - time.monotonic())),
-                       all_solutions=True, limit=BOUND_LIMIT, inner=bound_solver)
+                       all_solutions=not one, limit=BOUND_LIMIT, inner=bound_solver,
+                       everywhere=one)
         if answer.note:  # a value of the variables where the predicate has none
             raise WellDefinednessError(answer.note, file=problem.file, source=problem.source,
                                        line=problem.line, column=problem.column)
         if answer.status == "FALSE":
             return []
-        if answer.status == "TRUE" and answer.complete:
-            return answer.solutions
+        if answer.status == "TRUE" and (answer.complete or one):
+            return answer.solutions[:1] if one else answer.solutions
         why = answer.reason or (f"more than {BOUND_LIMIT:,} solutions" if answer.more
                                 else "not every solution found")
-        raise type(problem)(f"{problem.message}: the solver does not list every value "
-                            f"({why})", file=problem.file, source=problem.source,
-                            line=problem.line, column=problem.column,
-                            hint=problem.hint) from None
+        wanted = "does not find a value or show there is none" if one else \
+            "does not list every value"
+        error = type(problem)(f"{problem.message}: the solver {wanted} ({why})",
+                              file=problem.file, source=problem.source, line=problem.line,
+                              column=problem.column, hint=problem.hint)
+        error.unlisted = pred  # type: ignore[attr-defined] - which binder could not be listed
+        error.asked = problem  # type: ignore[attr-defined] - the refusal before the solver
+        raise error from None
     return solver

@@ -64,9 +64,11 @@ def settle(machine, names: list[str], *, timeout_s: float = SETUP_S) -> None:
     machine.fix_constants(fixed)
     listed = "; ".join(" & ".join(f"{n} = {format_value(s[n])}" for n in names)
                        for s in found)
-    how_many = f"{len(found)}" if answer.complete else f"more than {len(found)}" \
-        if answer.more else f"at least {len(found)}"
-    more = "" if answer.complete else "; …"
+    plural = "s" if len(found) > 1 else ""
+    how_many = f"{len(found)} solution{plural} ({listed})" if answer.complete else \
+        f"more than {len(found)} solution{plural} ({listed}; …)" if answer.more else \
+        f"at least {len(found)} solution{plural} ({listed}; …), the solver cannot tell " \
+        f"whether others ({answer.reason or 'not known'})"
     machine.unset_constants = {
-        n: f"the PROPERTIES allow {how_many} solutions ({listed}{more}); tracecheck does "
-           "not pick one" for n in names if n not in fixed}
+        n: f"the PROPERTIES allow {how_many}; tracecheck does not pick one"
+        for n in names if n not in fixed}

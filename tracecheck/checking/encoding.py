@@ -16,14 +16,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from fractions import Fraction
-from typing import Any
+from typing import Any, Optional
 
 from ..b import ast
 from ..b.btypes import BOOL, INTEGER, REAL, Base, Pow, Prod, resolve_all
 from ..b.values import FuncValue
 from ..errors import InputError, UnsupportedError
 
-__all__ = ["load_z3", "ElementSet", "ElementFunction", "ElementTerm", "FiniteFunction",
+__all__ = ["load_z3", "NumberSet", "finite_members", "ElementSet", "ElementFunction", "ElementTerm", "FiniteFunction",
            "element_sort", "encode_variable", "state_of_model", "MAX_CELLS",
            "check_timeout", "MAX_TIMEOUT_S", "nudge"]
 
@@ -61,6 +61,15 @@ class ElementTerm:
     carrier: str
     term: Any
     consts: dict  # Elem -> z3 constant
+
+
+@dataclass
+class NumberSet:
+    """A set of integers the solver chooses (``s1 <: INTEGER``): a z3 set (an array from
+    integers to booleans), finite or not; read back only where the model's set is shown to
+    be exactly a finite list (:func:`finite_members`)."""
+
+    term: Any
 
 
 @dataclass
@@ -227,6 +236,27 @@ def state_of_model(z3, variables: dict[str, Any], model) -> dict:
         else:
             out[name] = num(enc)
     return out
+
+
+def finite_members(z3, model, term) -> Optional[frozenset]:
+    """The members of the set of integers ``term`` in ``model`` where it is finite: the
+    integers written in the model's value are the candidates, and the solver proves that
+    the set is exactly the ones that are members (None where it is not, or cannot tell)."""
+    value = model.eval(term, model_completion=True)
+    numbers, todo = set(), [value]
+    while todo:
+        t = todo.pop()
+        if z3.is_int_value(t):
+            numbers.add(t.as_long())
+        elif z3.is_app(t) or z3.is_quantifier(t):
+            todo.extend(t.children() if z3.is_app(t) else [t.body()])
+    members = sorted(k for k in numbers
+                     if z3.is_true(model.eval(z3.IsMember(z3.IntVal(k), value))))
+    k = z3.FreshInt("k")
+    check = z3.Solver()
+    check.set("timeout", 2000)
+    check.add(z3.IsMember(k, value) != z3.Or([k == m for m in members] or [z3.BoolVal(False)]))
+    return frozenset(members) if check.check() == z3.unsat else None
 
 
 #: z3 counts its timeout in milliseconds in an unsigned 32-bit number (about 49 days).

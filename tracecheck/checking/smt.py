@@ -17,7 +17,7 @@ from ..b import ast
 from ..b.linear import real_parameters
 from ..b.values import Elem, FuncValue
 from ..errors import UnsupportedError
-from .encoding import (ElementFunction, ElementSet, ElementTerm, FiniteFunction,
+from .encoding import (ElementFunction, ElementSet, ElementTerm, FiniteFunction, NumberSet,
                        encode_variable, load_z3)
 from .smt_sets import EMPTY, Nums, SetTranslation
 
@@ -189,7 +189,7 @@ class Translator(SetTranslation):
         z3 = self.z3
         if node.op in ("+", "-", "*", "/", "**", "mod"):
             left = self.translate(node.left, env)
-            if isinstance(left, ElementSet) and node.op == "-":
+            if isinstance(left, (ElementSet, NumberSet)) and node.op == "-":
                 return self._setop(node, left, self.translate(node.right, env))
             a, b = left, self._num(node.right, env)
             if node.op == "+":
@@ -337,6 +337,9 @@ class Translator(SetTranslation):
             if isinstance(b, FiniteFunction):
                 eq = self.function_equals(node, b, node.left)
                 return eq if op == "=" else z3.Not(eq)
+            if isinstance(a, NumberSet) or isinstance(b, NumberSet):
+                eq = self.int_set(a, node) == self.int_set(b, node)
+                return eq if op == "=" else z3.Not(eq)
             if a is EMPTY and isinstance(b, ElementSet):
                 a, b = b, a
             if b is EMPTY and isinstance(a, ElementSet):
@@ -365,6 +368,8 @@ class Translator(SetTranslation):
                 held = z3.BoolVal(True)
             elif isinstance(b, ElementSet) and isinstance(a, ElementSet) and a.carrier == b.carrier:
                 held = z3.And([z3.Implies(a.member[e], b.member[e]) for e in a.member])
+            elif isinstance(a, NumberSet) or isinstance(b, NumberSet):
+                held = z3.IsSubset(self.int_set(a, node), self.int_set(b, node))
             else:
                 raise self.fail(node, "this inclusion")
             return held if op == "<:" else z3.Not(held)

@@ -12,10 +12,18 @@ from typing import Any
 
 from ..b import ast
 from ..b.values import BUILTIN_SET_VALUES, Elem
-from ..errors import UnsupportedError
-from .encoding import ElementFunction, ElementSet, ElementTerm, FiniteFunction
+from ..errors import TracecheckError, UnsupportedError
+from .encoding import ElementFunction, ElementSet, ElementTerm, FiniteFunction, NumberSet
 
-__all__ = ["SetTranslation", "Nums", "EMPTY", "NATURALS"]
+__all__ = ["SetTranslation", "Nums", "EMPTY", "NATURALS", "MAX_LISTED"]
+
+#: The most values a quantifier or SIGMA is unrolled over, and a set of the constants a
+#: function's domain or range is listed from.
+MAX_LISTED = 100_000
+_TOTAL = ("-->", ">->", "-->>", ">->>")
+_PARTIAL = ("+->", ">+>", "+->>", ">+>>")
+_INJECTIVE = (">->", ">+>", ">->>", ">+>>")
+_SURJECTIVE = ("-->>", "+->>", ">->>", ">+>>")
 
 
 @dataclass
@@ -50,6 +58,11 @@ class SetTranslation:
 
     def _setop(self, node, a, b) -> Any:
         z3 = self.z3
+        if isinstance(a, NumberSet) or isinstance(b, NumberSet):
+            x, y = self.int_set(a, node), self.int_set(b, node)
+            fn = {"-": z3.SetDifference, "\\": z3.SetDifference, "\\/": z3.SetUnion,
+                  "/\\": z3.SetIntersect}[node.op]
+            return NumberSet(fn(x, y))
         if node.op == "\\/" and isinstance(a, Nums) and isinstance(b, Nums):
             return Nums(a.items + b.items)
         if a is EMPTY and isinstance(b, ElementSet):
@@ -63,6 +76,21 @@ class SetTranslation:
         fn = {"-": lambda x, y: z3.And(x, z3.Not(y)), "\\": lambda x, y: z3.And(x, z3.Not(y)),
               "\\/": z3.Or, "/\\": z3.And}[op]
         return ElementSet(a.carrier, {e: fn(a.member[e], b.member[e]) for e in a.member})
+
+    def int_set(self, value, node) -> Any:
+        """A set of integers as a z3 set: one the solver chooses, {} or listed numbers."""
+        z3 = self.z3
+        if isinstance(value, NumberSet):
+            return value.term
+        out = z3.EmptySet(z3.IntSort())
+        if value is EMPTY:
+            return out
+        if isinstance(value, Nums) and all(z3.is_int(v) for _, v in value.items):
+            for c, v in value.items:
+                out = z3.If(c, z3.SetAdd(out, v), out) if not z3.is_true(c) else \
+                    z3.SetAdd(out, v)
+            return out
+        raise self.fail(node, "a set of integers that is not one")
 
     def _as_set(self, value, node) -> ElementSet:
         if isinstance(value, ElementSet):
@@ -181,10 +209,7 @@ class SetTranslation:
         if ast.free_names(other) - set(self.machine.base_env):
             raise self.fail(node, "an equality of a map with a value that is not of the "
                                   "constants (compare it cell by cell: grid(x |-> y) = …)")
-        try:
-            value = self.machine.compile(other)(dict(self.machine.base_env))
-        except Exception:  # noqa: BLE001 - not evaluated here: not translated
-            raise self.fail(other, "this value") from None
+        value = self.closed_value(other)
         if not isinstance(value, frozenset) or not all(type(p) is tuple for p in value):
             return z3.BoolVal(False)  # not a function (the type checker let a set through)
         mapping = value.map if isinstance(value, FuncValue) else dict(value)
@@ -215,6 +240,9 @@ class SetTranslation:
 
     def _member(self, node, x, right: ast.Node, env: dict) -> Any:
         z3 = self.z3
+        if isinstance(x, FiniteFunction) and isinstance(right, ast.Call) and \
+                right.name == "perm" and len(right.args) == 1:
+            return self._function_member(node, x, "perm", None, right.args[0], env)
         if isinstance(x, ElementTerm):
             if isinstance(right, ast.Name) and right.id in self.machine.sets:
                 return z3.BoolVal(right.id == x.carrier)
@@ -222,9 +250,9 @@ class SetTranslation:
             if isinstance(s, ElementSet) and s.carrier == x.carrier:
                 return z3.Or([z3.And(x.term == x.consts[e], c) for e, c in s.member.items()])
             raise self.fail(node, "this membership")
-        if (isinstance(x, FiniteFunction) and isinstance(right, ast.BinOp)
-                and right.op in ("-->", "+->")):
-            return self._function_member(node, x, right, env)
+        if isinstance(x, FiniteFunction) and isinstance(right, ast.BinOp) and \
+                right.op in _TOTAL + _PARTIAL:
+            return self._function_member(node, x, right.op, right.left, right.right, env)
         if isinstance(right, ast.Name) and right.id in self.machine.sets and isinstance(x, Elem):
             return z3.BoolVal(x in self.machine.sets[right.id])
         if isinstance(right, ast.Name) and right.id in ("REAL", "INTEGER", "BOOL", "FLOAT"):
@@ -258,43 +286,163 @@ class SetTranslation:
                     and isinstance(x, ElementSet)):
                 return z3.BoolVal(True)
         s = self.translate(right, env)
+        if isinstance(s, NumberSet) and z3.is_expr(x) and z3.is_int(x):
+            return z3.IsMember(x, s.term)
         if isinstance(s, ElementSet) and isinstance(x, Elem) and x in s.member:
             return s.member[x]
         if isinstance(s, Nums) and z3.is_arith(x) and self.number_sets:  # x : {1, y, 3}
             return z3.Or([z3.And(c, x == v) for c, v in s.items])
         raise self.fail(node, "this membership")
 
-    def _function_member(self, node, f: FiniteFunction, right: ast.BinOp, env: dict) -> Any:
-        """``f : D --> R`` of a function over integers: its domain is its keys by its
-        encoding, so D must be a set of the constants; each value in R."""
-        from ..b.values import explicit
+    def closed_value(self, node: ast.Node) -> Any:
+        """The value of ``node``, which reads no solver variable (a set of the constants);
+        else an error saying it is not translated."""
+        try:
+            return self.machine.compile(node)(dict(self.machine.base_env))
+        except Exception:  # noqa: BLE001 - not evaluated here: not translated
+            raise self.fail(node, "a value that is not of the constants") from None
+
+    def _closed_set(self, node: ast.Node) -> frozenset:
+        from ..b.values import cardinality, explicit
+
+        value = self.closed_value(node)
+        try:
+            if cardinality(value) <= MAX_LISTED:
+                return explicit(value)
+        except TracecheckError:
+            pass
+        raise self.fail(node, f"a set that is not a finite one of at most {MAX_LISTED:,} "
+                              "members")
+
+    def _function_member(self, node, f: FiniteFunction, arrow: str, dom_node, rng_node,
+                         env: dict) -> Any:
+        """``f : D arrow R`` (or ``f : perm(R)``) of a function over integers: its domain
+        is its keys by its encoding, so D must be a set of the constants; each value in R,
+        different ones where it is injective, every member of R taken where surjective."""
+        z3 = self.z3
+        if arrow == "perm":  # perm(R): the bijections from 1..card(R) to R
+            rng = self._closed_set(rng_node)
+            dom, arrow = frozenset(range(1, len(rng) + 1)), ">->>"
+        else:
+            dom, rng = self._closed_set(dom_node), None
+        if arrow in _TOTAL and set(dom) != set(f.keys) or not set(f.keys) <= set(dom):
+            return z3.BoolVal(False)
+        terms = [f.at(k) for k in f.keys]
+        parts = []
+        r = rng_node
+        if not (isinstance(r, ast.Name) and (r.id in ("REAL", "INTEGER", "BOOL")
+                                             or r.id == f.carrier)):
+            parts += [self._member(node, f.value(t), r, env) for t in terms]
+        if arrow in _INJECTIVE and len(terms) > 1:
+            parts.append(z3.Distinct(terms))
+        if arrow in _SURJECTIVE:
+            rng = self._closed_set(rng_node) if rng is None else rng
+            if len(rng) * len(terms) > MAX_LISTED:
+                raise self.fail(node, "a surjection with this many values")
+            parts += [z3.Or([t == self._cell(node, f, v) for t in terms]) for v in rng]
+        return z3.And(parts) if parts else z3.BoolVal(True)
+
+    def _bindings(self, node: ast.Node, ids: tuple, pred: ast.Node, env: dict) -> list:
+        """Every binding of ``ids`` the generators in ``pred`` allow (``v : S`` of a set of
+        elements, ``v : lo..hi`` or ``v : {…}`` of numbers the bindings before it fix):
+        the environments, each to translate the body in. Over :data:`MAX_LISTED`: not
+        translated."""
+        out = [env]
+        for var in ids:
+            grown = []
+            for e in out:
+                for value in self._values_of(node, var, pred, e):
+                    grown.append({**e, var: value})
+                    if len(grown) > MAX_LISTED:
+                        raise self.fail(node, f"a quantifier over more than {MAX_LISTED:,} "
+                                              "values")
+            out = grown
+        return out
+
+    def _values_of(self, node, var: str, pred: ast.Node, env: dict) -> list:
+        """The values ``var`` takes by its generator ``var : S`` in ``pred``: elements (of
+        S's carrier, the membership left to the body), or numbers the solver computes."""
+        from ..b.bindings import conjuncts
 
         z3 = self.z3
-        try:
-            dom = explicit(self.machine.compile(right.left)(dict(self.machine.base_env)))
-        except Exception:  # noqa: BLE001 - not a set of the constants: not translated
-            raise self.fail(node, "a function's domain that is not a set of the constants") \
-                from None
-        if right.op == "-->" and set(dom) != set(f.keys) or not set(f.keys) <= set(dom):
-            return z3.BoolVal(False)
-        r = right.right
-        if isinstance(r, ast.Name) and (r.id in ("REAL", "INTEGER", "BOOL")
-                                        or r.id == f.carrier):
-            return z3.BoolVal(True)
-        return z3.And([self._member(node, f.value(f.at(k)), r, env) for k in f.keys])
+        gen = next((c for c in conjuncts(pred) if isinstance(c, ast.Rel) and c.op == ":"
+                    and isinstance(c.left, ast.Name) and c.left.id == var), None)
+        right = gen.right if gen is not None else None
+        if isinstance(right, ast.BinOp) and right.op == "..":
+            lo, hi = (z3.simplify(self._num(x, env)) for x in (right.left, right.right))
+            if z3.is_int_value(lo) and z3.is_int_value(hi):
+                if hi.as_long() - lo.as_long() >= MAX_LISTED:
+                    raise self.fail(node, f"a quantifier over more than {MAX_LISTED:,} values")
+                return [z3.IntVal(k) for k in range(lo.as_long(), hi.as_long() + 1)]
+            raise self.fail(node, f"a binding of {var} over a range the solver chooses")
+        if right is not None and not (isinstance(right, ast.Name)
+                                      and right.id in self.machine.sets):
+            try:
+                s = self.translate(right, env)
+            except UnsupportedError:
+                s = None
+            if isinstance(s, Nums) and all(z3.is_true(z3.simplify(c)) and
+                                           z3.is_int_value(z3.simplify(v)) for c, v in s.items):
+                return [z3.IntVal(k) for k in sorted({z3.simplify(v).as_long() for _, v in s.items})]
+        carrier, _ = self._generator(node, var, pred, env)
+        return list(self.machine.sets[carrier])
 
     def t_Quant(self, node: ast.Quant, env: dict) -> Any:
         z3 = self.z3
-        if len(node.ids) != 1:
-            raise self.fail(node, "a quantifier over several variables")
-        (var,) = node.ids
         body = node.body
-        carrier, _ = self._generator(node, var, body.left if isinstance(body, ast.Implies)
-                                     else body, env)
-        parts = [self.pred(body, {**env, var: e}) for e in self.machine.sets[carrier]]
+        gens = body.left if isinstance(body, ast.Implies) and node.op == "!" else body
+        if len(node.ids) == 1 and self._chosen_set(node.ids[0], gens, env) is not None:
+            return self._native(node, env)
+        parts = [self.pred(body, e) for e in self._bindings(node, node.ids, gens, env)]
         if node.op == "#":
             return z3.Or(parts) if parts else z3.BoolVal(False)
         return z3.And(parts) if parts else z3.BoolVal(True)
+
+    def _chosen_set(self, var: str, gens: ast.Node, env: dict) -> Any:
+        """The set of integers the solver chooses that ``var``'s generator ``var : s``
+        ranges over, or None (another generator, or none)."""
+        from ..b.bindings import conjuncts
+
+        gen = next((c for c in conjuncts(gens) if isinstance(c, ast.Rel) and c.op == ":"
+                    and isinstance(c.left, ast.Name) and c.left.id == var), None)
+        if gen is None:
+            return None
+        try:
+            found = self.translate(gen.right, env)
+        except UnsupportedError:  # not one: the other ways of binding it say why
+            found = None
+        return found if isinstance(found, NumberSet) else None
+
+    def _native(self, node: ast.Quant, env: dict) -> Any:
+        """``!x.(x : s => P)`` / ``#x.(x : s & P)`` over a set the solver chooses: a z3
+        quantifier over the integers — only where P is defined everywhere and introduces
+        no fresh variable (their conditions would be outside the quantifier)."""
+        z3 = self.z3
+        (var,) = node.ids
+        k = z3.FreshInt(var)
+        start, side = len(self.definedness), len(self.side_conditions)
+        body = self.pred(node.body, {**env, var: k})
+        if len(self.definedness) > start or len(self.side_conditions) > side:
+            del self.definedness[start:], self.side_conditions[side:]
+            raise self.fail(node, "a quantifier over a set the solver chooses, with a term "
+                                  "not defined everywhere")
+        return z3.ForAll([k], body) if node.op == "!" else z3.Exists([k], body)
+
+    def t_QuantExpr(self, node: ast.QuantExpr, env: dict) -> Any:
+        """``SIGMA(x).(x : S | E)`` over the bindings of its generators: each term counted
+        where the predicate holds."""
+        z3 = self.z3
+        if node.op not in ("SIGMA", "∑"):
+            raise self.fail(node, node.op)
+        terms = []
+        for e in self._bindings(node, node.ids, node.pred, env):
+            held = self.pred(node.pred, e)
+            self.path.append(held)
+            try:
+                terms.append(z3.If(held, self._num(node.expr, e), 0))
+            finally:
+                self.path.pop()
+        return z3.Sum(terms) if terms else z3.IntVal(0)
 
 
 def _in_keys(z3, keys: tuple, index: tuple) -> Any:

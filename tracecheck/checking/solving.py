@@ -83,30 +83,35 @@ def free_identifiers(node: ast.Node, known) -> tuple[str, ...]:
 def solve(node: ast.Node, types: dict[str, Type], env: dict, *, sets: Optional[dict] = None,
           source: Optional[str] = None, file: Optional[str] = None, timeout_s: float = 10.0,
           all_solutions: bool = False, limit: int = 100,
-          inner: Optional[Callable] = None) -> Answer:
+          inner: Optional[Callable] = None, everywhere: bool = False) -> Answer:
     """Solve the predicate ``node`` for the identifiers ``types`` (name: resolved type; in
     the order they are printed), everything else taking its value from ``env``; the first
     solution, or with ``all_solutions`` up to ``limit`` of them. ``timeout_s`` bounds the
     whole search. ``inner``: how comprehensions and quantifiers inside it take their
     variables (:func:`tracecheck.checking.bound_solver.bound_solver`, given by the caller).
+    With ``everywhere``, a solution is given only where the predicate is also known to
+    have a value for every value of the identifiers (``note`` says where it has none).
     Raises :class:`Disagreement` where the evaluator rejects an integer solution of the
     solver (a bug in one of the two)."""
     problem = _Problem(node, types, env, sets or {}, source, file,
                        time.monotonic() + timeout_s, timeout_s,
-                       limit if all_solutions else 1, all_solutions, inner)
+                       limit if all_solutions else 1, all_solutions, inner, everywhere)
     domains = problem.domains()
     derived = problem.derived(domains)
     walked = [d for n, d in domains.items() if n not in derived]
     finite = all(d is not None for d in walked)
     size = math.prod(len(d) for d in walked) if finite else math.inf
     if size <= SMALL_SPACE:
+        if everywhere:  # every candidate walked: where it has no value is seen
+            problem.all_solutions, problem.limit = True, SMALL_SPACE
         return problem.walk(domains, derived)
     fixed = {n: d[0] for n, d in domains.items() if d is not None and len(d) == 1}
     if fixed and len(fixed) < len(types):  # f = {…} & x*x = 100: f in the scope, x solved
         rest = solve(node, {n: t for n, t in types.items() if n not in fixed},
                      {**env, **fixed}, sets=sets, source=source, file=file,
                      timeout_s=max(0.0, problem.deadline - time.monotonic()),
-                     all_solutions=all_solutions, limit=limit, inner=inner)
+                     all_solutions=all_solutions, limit=limit, inner=inner,
+                     everywhere=everywhere)
         rest.names = problem.names
         rest.solutions = [{**fixed, **s} for s in rest.solutions]
         return rest
@@ -115,13 +120,13 @@ def solve(node: ast.Node, types: dict[str, Type], env: dict, *, sets: Optional[d
     if why is not None and all(domains[n] is not None for n in picked) and \
             math.prod(len(domains[n]) for n in picked) <= MAX_PICKED:
         return _picked(problem, picked, domains, inner)
-    if why is None:
-        try:
-            solver = Z3Solver(problem)
-        except UnsupportedError as exc:
+    try:  # sets and functions of elements or over integers too (vec : 1..10 --> 0..99)
+        solver = Z3Solver(problem)
+    except UnsupportedError as exc:
+        if why is None or "which the solver cannot choose" not in exc.message:
             why = f"{exc.location}: {exc.message}"
-        else:
-            return _defined(solver.solve(), problem)
+    else:
+        return _defined(solver.solve(), problem)
     if finite:
         return problem.walk(domains, derived)
     return problem.answer("unknown", reason=why)
@@ -134,7 +139,7 @@ def _picked(problem: "_Problem", picked: list, domains: dict,
     solution anywhere is FALSE only where every candidate's answer is FALSE."""
     names = [n for n in problem.names if n not in picked]
     solutions: list[dict] = []
-    unknown, undefined, complete = None, None, True
+    unknown, undefined, complete, note = None, None, True, ""
     for values in product(*(domains[n] for n in picked)):
         fixed = dict(zip(picked, values))
         try:
@@ -143,23 +148,29 @@ def _picked(problem: "_Problem", picked: list, domains: dict,
                            source=problem.source, file=problem.file,
                            timeout_s=max(0.0, problem.deadline - time.monotonic()),
                            all_solutions=problem.all_solutions, limit=problem.limit,
-                           inner=inner)
+                           inner=inner, everywhere=problem.everywhere)
         except WellDefinednessError as exc:
             undefined = undefined or exc
             continue
         if answer.status == "unknown":
             unknown = unknown or answer
             complete = False
+        note = note or answer.note
         complete = complete and answer.complete
         solutions += [{**fixed, **s} for s in answer.solutions]
-        if len(solutions) >= problem.limit:
+        if len(solutions) >= problem.limit and not problem.everywhere:
             complete = False  # the candidates after these not asked
             break
+    if problem.everywhere and unknown is not None:  # where it has a value: not known
+        return problem.answer("unknown", reason=unknown.reason, method=unknown.method)
+    if undefined is not None:
+        note = note or undefined.message
     more: Optional[bool] = True if len(solutions) > problem.limit else None
     solutions = solutions[:problem.limit]
     if solutions:
         return problem.answer("TRUE", solutions=solutions, method="enumeration and solver",
-                              complete=complete and not more, more=False if complete else more)
+                              complete=complete and not more, more=False if complete else more,
+                              note=note)
     if unknown is not None:
         return problem.answer("unknown", reason=unknown.reason, method=unknown.method)
     if undefined is not None:
@@ -190,6 +201,7 @@ class _Problem:
     limit: int
     all_solutions: bool
     inner: Optional[Callable] = None
+    everywhere: bool = False
 
     def __post_init__(self) -> None:
         self.undefined_at: Optional[TracecheckError] = None  # where it has no value

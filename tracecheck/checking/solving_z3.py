@@ -13,13 +13,17 @@ from itertools import product
 from typing import Any, Optional
 
 from ..b import ast
-from ..b.btypes import BOOL, INTEGER, REAL
+from ..b.bindings import conjuncts
+from ..b.btypes import REAL
 from ..b.memo import fresh
 from ..b.values import Elem, format_value
-from ..errors import Disagreement, TracecheckError
+from ..errors import Disagreement, TracecheckError, UnsupportedError
 from .deadline import interrupted_at
-from .encoding import nudge
+from .encoding import (ElementSet, ElementTerm, FiniteFunction, NumberSet, finite_members,
+                       nudge, state_of_model)
+from .free_encoding import encode_free
 from .smt import Translator
+from .smt_sets import MAX_LISTED, Nums
 
 #: a :mod:`.solving` problem and its answer (that module imports this one)
 Problem = Answer = Any
@@ -83,6 +87,13 @@ class _FreeTranslator(Translator):
         super().__init__(_Scope(problem))
         self.problem = problem
         self.free: dict = {}
+        #: f = %x.(P | E) of the predicate, f in the scope: its applications translated
+        self.lambdas = {
+            side.id: other for c in conjuncts(problem.node)
+            if isinstance(c, ast.Rel) and c.op == "="
+            for side, other in ((c.left, c.right), (c.right, c.left))
+            if isinstance(side, ast.Name) and isinstance(other, ast.Lambda)
+            and side.id in problem.env}
 
     def translate(self, node: ast.Node, env: dict) -> Any:
         if not isinstance(node, ast.Name) and not (ast.free_names(node, self.free)
@@ -93,7 +104,44 @@ class _FreeTranslator(Translator):
                     self.z3.BoolVal(value) if type(value) is bool else self.z3.IntVal(value))
             if type(value) is float and math.isfinite(value):
                 return self.z3.RealVal(Fraction(value))
+            numbers = self._numbers(value)
+            if numbers is not None:
+                return numbers
         return super().translate(node, env)
+
+    def t_Name(self, node: ast.Name, env: dict) -> Any:
+        if node.id not in env and node.id in self.problem.env:  # coins = {16, 17}: x : coins
+            numbers = self._numbers(self.problem.env[node.id])
+            if numbers is not None:
+                return numbers
+        return super().t_Name(node, env)
+
+    def _numbers(self, value: Any) -> Optional[Nums]:
+        """A finite set of integers of the scope as the translator's set of numbers."""
+        if isinstance(value, frozenset) and 0 < len(value) <= MAX_LISTED and all(
+                type(v) is int for v in value):
+            return Nums([(self.z3.BoolVal(True), self.z3.IntVal(v)) for v in sorted(value)])
+        return None
+
+    def t_Apply(self, node: ast.Apply, env: dict) -> Any:
+        """``f(a)`` where a conjunct defines ``f = %x.(P | E)`` (f then in the scope): E
+        with x the argument, defined where P holds there (``f(sqrt) = 100``)."""
+        fn = node.fn
+        lam = self.lambdas.get(fn.id) if isinstance(fn, ast.Name) and fn.id not in env \
+            else None
+        if lam is None or len(lam.ids) != 1 or len(node.args) != 1:
+            return super().t_Apply(node, env)
+        arg = self.translate(node.args[0], env)
+        inner = {n: v for n, v in env.items() if n in self.problem.names}
+        inner[lam.ids[0]] = arg
+        self._need(self.pred(lam.pred, inner), node)
+        return self.translate(lam.expr, inner)
+
+    def closed_value(self, node: ast.Node) -> Any:
+        value = self.problem.closed(node)
+        if value is None:
+            raise self.fail(node, "a value that the solver's identifiers do not fix")
+        return value
 
 
 class Z3Solver:
@@ -104,8 +152,7 @@ class Z3Solver:
         self.problem = problem
         translator = _FreeTranslator(problem)
         z3 = self.z3 = translator.z3
-        make = {INTEGER: z3.Int, REAL: z3.Real, BOOL: z3.Bool}
-        self.vars = {n: make[problem.types[n]](n) for n in problem.names}
+        self.vars = {n: encode_free(z3, problem, n) for n in problem.names}
         with translator.reading(problem.file, problem.source):
             formula, self.defined = translator.defined(
                 lambda: translator.pred(problem.node, dict(self.vars)))
@@ -124,8 +171,11 @@ class Z3Solver:
             model = self.solver.model()
         except self.z3.Z3Exception:  # interrupted at the time limit
             return None
-        point = {n: self.values(model.eval(v, model_completion=True))
-                 for n, v in self.vars.items()}
+        try:
+            point = self.read(model)
+        except UnsupportedError:
+            return None
+        point.update({n: self.values(v) for n, v in point.items() if self.z3.is_expr(v)})
         try:
             self.problem.whole({**fresh(self.problem.env), **point})
         except TracecheckError as exc:
@@ -133,6 +183,85 @@ class Z3Solver:
             self.problem.undefined_at = exc  # its place in the formula
             return f"the predicate has no value where {where}: {exc.message}"
         return ""
+
+    def read(self, model) -> dict:
+        """The model's value of each identifier: a z3 value for a number or a boolean, the
+        B value of anything else."""
+        z3 = self.z3
+        if model is None:
+            raise UnsupportedError("the solver's sets of integers are not finite sets it "
+                                   "can list")
+        out = state_of_model(z3, {n: e for n, e in self.vars.items()
+                                  if not (z3.is_expr(e) or isinstance(e, NumberSet))}, model)
+        for n, e in self.vars.items():
+            if isinstance(e, NumberSet):
+                members = finite_members(z3, model, e.term)
+                if members is None:
+                    raise UnsupportedError(f"the solver's value of {n} is not a finite set "
+                                           "it can list")
+                out[n] = members
+        out.update({n: model.eval(v, model_completion=True) for n, v in self.vars.items()
+                    if z3.is_expr(v)})
+        return out
+
+    def finite_model(self, model) -> Any:
+        """Another model, where each set of integers the solver chooses holds only the
+        numbers of ``model`` and of the predicate that are members in ``model`` (None where
+        there is none such, or not within the time limit)."""
+        z3 = self.z3
+        numbers: set = set()
+        seen: set = set()
+        todo = [model.eval(d(), model_completion=True) for d in model.decls()
+                if d.arity() == 0] + list(self.constraints)
+        while todo:
+            t = todo.pop()
+            if t.get_id() in seen:
+                continue
+            seen.add(t.get_id())
+            if z3.is_int_value(t):
+                numbers.add(t.as_long())
+            elif z3.is_app(t) or z3.is_quantifier(t):
+                todo.extend(t.children() if z3.is_app(t) else [t.body()])
+        self.solver.push()
+        try:
+            for enc in self.vars.values():
+                if isinstance(enc, NumberSet):
+                    members = [k for k in sorted(numbers) if z3.is_true(
+                        model.eval(z3.IsMember(z3.IntVal(k), enc.term), model_completion=True))]
+                    listed = z3.EmptySet(z3.IntSort())
+                    for k in members:
+                        listed = z3.SetAdd(listed, z3.IntVal(k))
+                    self.solver.add(enc.term == listed)
+            if self.check()[0] != "sat":
+                return None
+            return self.solver.model()
+        finally:
+            self.solver.pop()
+
+    def other(self, model) -> Any:
+        """That some identifier has another value than in ``model``."""
+        z3 = self.z3
+
+        def now(t):
+            return model.eval(t, model_completion=True)
+        parts = []
+        for enc in self.vars.values():
+            if z3.is_expr(enc):
+                parts.append(enc != now(enc))
+            elif isinstance(enc, ElementTerm):
+                parts.append(enc.term != now(enc.term))
+            elif isinstance(enc, NumberSet):
+                parts.append(enc.term != now(enc.term))
+            elif isinstance(enc, FiniteFunction):
+                parts += [enc.at(k) != now(enc.at(k)) for k in enc.keys]
+            elif isinstance(enc, ElementSet):
+                parts += [c != now(c) for c in enc.member.values()]
+            else:  # ElementFunction: where defined, and the value there
+                for d, v in enc.cells.values():
+                    parts.append(d != now(d))
+                    if z3.is_true(now(d)):
+                        parts.append(v != now(v))
+        return z3.Or(parts)
 
     def values(self, v) -> Any:
         """A value of the model as a B value (a real: the nearest float)."""
@@ -176,7 +305,16 @@ class Z3Solver:
             except z3.Z3Exception:  # the time limit's interrupt came as the check ended
                 verdict, why = "unknown", f"time limit ({problem.timeout_s:g} s)"
                 break
-            exact = {n: model.eval(v, model_completion=True) for n, v in self.vars.items()}
+            try:
+                exact = self.read(model)
+            except UnsupportedError:  # a set of integers that is not a finite list:
+                model = self.finite_model(model)  # its members among the numbers about
+            try:
+                exact = self.read(model) if model is not None else self.read(None)
+            except UnsupportedError as exc:
+                return problem.answer("TRUE" if solutions else "unknown", method="solver",
+                                      solutions=solutions, complete=False, more=None,
+                                      reason=exc.message)
             try:
                 found = self.confirmed(exact)
             except TracecheckError as exc:  # the evaluator refuses the predicate
@@ -190,9 +328,14 @@ class Z3Solver:
                 solutions.append(found)
             if not problem.all_solutions:
                 break
-            verdict, why = self.check(z3.Or([v != exact[n] for n, v in self.vars.items()]))
+            verdict, why = self.check(self.other(model))
         if not problem.all_solutions and solutions:
-            return problem.answer("TRUE", solutions=solutions, method="solver")
+            note = self.undefined() if problem.everywhere else ""
+            if note is None:
+                return problem.answer("unknown", method="solver", reason="a solution, but "
+                                      "whether the predicate has a value everywhere is not "
+                                      "known within the time limit")
+            return problem.answer("TRUE", solutions=solutions, method="solver", note=note)
         if verdict == "unknown" and not solutions:
             return problem.answer("unknown", reason=why, method="solver")
         if not solutions and _rounds(problem):
@@ -223,7 +366,7 @@ class Z3Solver:
     def confirmed(self, exact: dict) -> Optional[dict]:
         """The model's values as B values the evaluator confirms: integers as they are,
         reals as their nearest floats, else up to :data:`NUDGES` floats away; None."""
-        base = {n: self.values(v) for n, v in exact.items()}
+        base = {n: self.values(v) if self.z3.is_expr(v) else v for n, v in exact.items()}
         reals = [n for n in base if type(base[n]) is float]
         if any(not math.isfinite(base[n]) for n in reals):
             return None
@@ -242,8 +385,10 @@ class Z3Solver:
         return None
 
     def unconfirmed(self, exact: dict, solutions: list) -> Answer:
-        shown = ", ".join(f"{n} = {v}" for n, v in exact.items())
-        if not any(self.z3.is_arith(v) and not self.z3.is_int_value(v)
+        z3 = self.z3
+        shown = ", ".join(f"{n} = {v if z3.is_expr(v) else format_value(v)}"
+                          for n, v in exact.items())
+        if not any(z3.is_expr(v) and z3.is_arith(v) and not z3.is_int_value(v)
                    for v in exact.values()):
             raise Disagreement(f"the solver's solution {shown} is not confirmed by "
                                "tracecheck's evaluator: one of the two has a bug; please "
