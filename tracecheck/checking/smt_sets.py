@@ -58,7 +58,10 @@ class SetTranslation:
 
     def _setop(self, node, a, b) -> Any:
         z3 = self.z3
-        if isinstance(a, NumberSet) or isinstance(b, NumberSet):
+        numbers = (Nums, NumberSet)
+        if isinstance(a, NumberSet) or isinstance(b, NumberSet) or (
+                isinstance(a, numbers) or isinstance(b, numbers)) and \
+                all(isinstance(x, numbers) or x is EMPTY for x in (a, b)):
             x, y = self.int_set(a, node), self.int_set(b, node)
             fn = {"-": z3.SetDifference, "\\": z3.SetDifference, "\\/": z3.SetUnion,
                   "/\\": z3.SetIntersect}[node.op]

@@ -23,7 +23,7 @@ from .encoding import (ElementSet, ElementTerm, FiniteFunction, NumberSet, finit
                        nudge, state_of_model)
 from .free_encoding import encode_free
 from .smt import Translator
-from .smt_sets import MAX_LISTED, Nums
+from .smt_sets import EMPTY, MAX_LISTED, Nums
 
 #: a :mod:`.solving` problem and its answer (that module imports this one)
 Problem = Answer = Any
@@ -104,6 +104,8 @@ class _FreeTranslator(Translator):
                     self.z3.BoolVal(value) if type(value) is bool else self.z3.IntVal(value))
             if type(value) is float and math.isfinite(value):
                 return self.z3.RealVal(Fraction(value))
+            if isinstance(value, frozenset) and not value:
+                return EMPTY  # its carrier from the other side
             numbers = self._numbers(value)
             if numbers is not None:
                 return numbers
@@ -111,6 +113,8 @@ class _FreeTranslator(Translator):
 
     def t_Name(self, node: ast.Name, env: dict) -> Any:
         if node.id not in env and node.id in self.problem.env:  # coins = {16, 17}: x : coins
+            if self.problem.env[node.id] == frozenset():
+                return EMPTY
             numbers = self._numbers(self.problem.env[node.id])
             if numbers is not None:
                 return numbers
@@ -206,8 +210,9 @@ class Z3Solver:
 
     def finite_model(self, model) -> Any:
         """Another model, where each set of integers the solver chooses holds only the
-        numbers of ``model`` and of the predicate that are members in ``model`` (None where
-        there is none such, or not within the time limit)."""
+        numbers of ``model`` and of the predicate, and a few numbers above them, that are
+        members in ``model`` (None where there is none such, or not within the time
+        limit)."""
         z3 = self.z3
         numbers: set = set()
         seen: set = set()
@@ -222,9 +227,12 @@ class Z3Solver:
                 numbers.add(t.as_long())
             elif z3.is_app(t) or z3.is_quantifier(t):
                 todo.extend(t.children() if z3.is_app(t) else [t.body()])
+        sets = [e for e in self.vars.values() if isinstance(e, NumberSet)]
+        top = max(numbers, default=0)  # numbers no formula names: one per way of being in
+        numbers.update(range(top + 1, top + 1 + 2 ** min(len(sets), 4)))  # the sets or not
         self.solver.push()
         try:
-            for enc in self.vars.values():
+            for enc in sets:
                 if isinstance(enc, NumberSet):
                     members = [k for k in sorted(numbers) if z3.is_true(
                         model.eval(z3.IsMember(z3.IntVal(k), enc.term), model_completion=True))]
