@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Any, Callable, Iterator, Optional
 
-from ..errors import (BTypeError, EvaluationError, SetLimitError, TracecheckError,
+from ..errors import (BTypeError, EvaluationError, TracecheckError,
                       UnsupportedError, WellDefinednessError)
 from ..limits import MAX_INT_BITS
 from . import ast
@@ -187,8 +187,10 @@ def _plan_one(comp, node, conjs, name, ids, bound, used):
     if between is not None:  # the comparisons stay filters: the range only walks
         return between, None
     if best is not None and best[0] == 2 and comp.solver is not None and \
-            _infinite_set(conjs[best[1]]):
-        return None  # x : INTEGER and nothing else: the solver's answers, not INTEGER's
+            _infinite_set(conjs[best[1]]) and any(
+                k != best[1] and name in ast.free_names(c) for k, c in enumerate(conjs)):
+        return None  # x : INTEGER and more of x: the solver's answers, not INTEGER's
+    # (x : INTEGER alone: as many values as the set, which no solver lists either)
     if best is not None:
         return best[2], best[1]
     return None
@@ -401,7 +403,7 @@ class Binders:
             except TracecheckError as exc:
                 if isinstance(exc, WellDefinednessError) or not (
                         getattr(exc, "unlisted", None) is walked
-                        or isinstance(exc, SetLimitError)):
+                        or isinstance(exc, EvaluationError) and cannot_list(exc)):
                     raise
                 problem = getattr(exc, "asked", exc)
             found = solver(witness, ids, {k: v for k, v in env.items() if k not in ids},

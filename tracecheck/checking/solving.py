@@ -205,6 +205,7 @@ class _Problem:
 
     def __post_init__(self) -> None:
         self.undefined_at: Optional[TracecheckError] = None  # where it has no value
+        self._closed: dict = {}  # closed's values, by formula and the identifiers it reads
         self.names = tuple(self.types)
         self.compiler = Compiler(source=self.source, file=self.file)
         if self.inner is not None:  # a comprehension inside ({x | x*x = n}): its variables
@@ -232,13 +233,19 @@ class _Problem:
         """The value of ``expr`` if it reads none of the identifiers but those ``known``
         (the one value each can take), else None."""
         known = known or {}
-        if ast.free_names(expr) & (set(self.names) - set(known)):
+        reads = ast.free_names(expr) & set(self.names)
+        if reads - set(known):
             return None
-        try:
-            with self.compiler.binding(self.names):
-                return self.compiler.compile(expr)({**fresh(self.env), **known})
-        except TracecheckError:
-            return None
+        # an identifier known has its one value for the whole problem: computed once
+        key = (id(expr), tuple(sorted(reads)))
+        if key not in self._closed:
+            try:
+                with self.compiler.binding(self.names):
+                    self._closed[key] = self.compiler.compile(expr)({**fresh(self.env),
+                                                                     **known})
+            except TracecheckError:
+                self._closed[key] = None
+        return self._closed[key]
 
     # -- finite domains
     def domains(self) -> dict[str, Optional[list]]:
