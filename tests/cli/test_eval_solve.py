@@ -323,3 +323,15 @@ def test_a_variable_only_typed_by_an_infinite_set_is_held_at_once_not_listed(cap
     assert time.monotonic() - start < 1.5
     assert run(capsys, "eval", "#x.(x : INTEGER)")[:2] == (0, "TRUE\n")
     assert run(capsys, "eval", "!x.(x : INTEGER => x > 0)")[:2] == (0, "FALSE\n")
+
+
+@pytest.mark.parametrize("formula", [
+    "#x.(x : 1..2000000 & x mod 2 = 0 & [x](1) > 0 & 10 / (x - 1999998) >= 0)",
+    "!x.(x : 1..2000000 => [x](1) > 1 & 10 / (x - 1999998) >= -10)",
+])
+def test_one_value_is_no_answer_unless_every_value_is_known_to_have_one(capsys, formula):
+    """z3 cannot take [x](1); the walk of 2,000,000 values is not finished: not TRUE or FALSE
+    (x = 1999998 has no value), but the refusal with both reasons."""
+    code, _, err = run(capsys, "eval", formula, "--timeout", "3")
+    assert code != 0 and "not every value walked to learn whether the predicate has a " \
+        "value everywhere" in err

@@ -155,6 +155,6 @@ class Chain(SymbolicSet):
 
 
 def applies(f: Any) -> bool:
-    """Whether ``f`` is a function held by its definition (it can be applied)."""
-    return isinstance(f, Chain) or (isinstance(f, Defined) and (f.value is not None
-                                                                 or f.relates()))
+    """Whether ``f`` is a function held by its definition (it can be applied and chained;
+    a relation given by a predicate is not: see :meth:`Defined.relates`)."""
+    return isinstance(f, Chain) or (isinstance(f, Defined) and f.value is not None)

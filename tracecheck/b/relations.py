@@ -35,6 +35,9 @@ class Relations:
 
         def composed(env: Env) -> Any:
             a, b = l(env), r(env)
+            if isinstance(b, Defined) and b.relates() and not isinstance(a, SymbolicSet):
+                return make_set([(x, z) for x, y in _finite(self, node.left, a)
+                                 for z in b.images(y)])  # ([2, 3] ; {x, y | P})
             if not applies(b):
                 return listed(env)
             if applies(a):  # (f ; g) of two lambdas: one after the other
@@ -95,7 +98,7 @@ class Relations:
                     return f.map[x]
                 raise self.wd(node, f"{brief(x)} is not in the domain of the function") \
                     from None
-        if applies(f):  # %x.(x : INTEGER | x * x)(3)
+        if applies(f) or isinstance(f, Defined) and f.relates():  # %x.(x : INTEGER | x*x)(3)
             return f.apply(x)
         if isinstance(f, SymbolicSet):
             f = _finite(self, node.fn, f)

@@ -19,7 +19,7 @@ from ..b.values import Elem, FuncValue
 from ..errors import UnsupportedError
 from .encoding import (ElementFunction, ElementSet, ElementTerm, FiniteFunction, NumberSet,
                        encode_variable, load_z3)
-from .smt_sets import EMPTY, Nums, SetTranslation
+from .smt_sets import EMPTY, UNBOUND, Nums, SetTranslation
 
 __all__ = ["Translator", "MAX_EXPONENT", "MAX_DEGREE"]
 
@@ -129,6 +129,8 @@ class Translator(SetTranslation):
 
     def t_Name(self, node: ast.Name, env: dict) -> Any:
         if node.id in env:
+            if env[node.id] is UNBOUND:  # a quantified name whose value is not chosen yet
+                raise self.fail(node, f"{node.id} before the quantifier binds it")
             return env[node.id]
         if node.id in self.variables:
             return self.variables[node.id]
@@ -331,11 +333,11 @@ class Translator(SetTranslation):
         if op in ("=", "/="):
             a = self.translate(node.left, env)
             if isinstance(a, FiniteFunction):  # a whole map: cell by cell
-                eq = self.function_equals(node, a, node.right)
+                eq = self.function_equals(node, a, node.right, env)
                 return eq if op == "=" else z3.Not(eq)
             b = self.translate(node.right, env)
             if isinstance(b, FiniteFunction):
-                eq = self.function_equals(node, b, node.left)
+                eq = self.function_equals(node, b, node.left, env)
                 return eq if op == "=" else z3.Not(eq)
             if isinstance(a, NumberSet) or isinstance(b, NumberSet):
                 eq = self.int_set(a, node) == self.int_set(b, node)

@@ -15,7 +15,7 @@ from ..b.values import BUILTIN_SET_VALUES, Elem
 from ..errors import TracecheckError, UnsupportedError
 from .encoding import ElementFunction, ElementSet, ElementTerm, FiniteFunction, NumberSet
 
-__all__ = ["SetTranslation", "Nums", "EMPTY", "NATURALS", "MAX_LISTED"]
+__all__ = ["SetTranslation", "Nums", "EMPTY", "UNBOUND", "NATURALS", "MAX_LISTED"]
 
 #: The most values a quantifier or SIGMA is unrolled over, and a set of the constants a
 #: function's domain or range is listed from.
@@ -34,6 +34,7 @@ class Nums:
 
 
 EMPTY = object()  # the set {} (its carrier comes from the other side)
+UNBOUND = object()  # a quantifier's variable before its value is chosen (in the env)
 
 
 @dataclass
@@ -58,6 +59,8 @@ class SetTranslation:
 
     def _setop(self, node, a, b) -> Any:
         z3 = self.z3
+        if node.op == "\\/" and isinstance(a, Nums) and isinstance(b, Nums):
+            return Nums(a.items + b.items)  # numbers of either kind, listed
         numbers = (Nums, NumberSet)
         if isinstance(a, NumberSet) or isinstance(b, NumberSet) or (
                 isinstance(a, numbers) or isinstance(b, numbers)) and \
@@ -203,17 +206,18 @@ class SetTranslation:
     def t_Pair(self, node: ast.Pair, env: dict) -> Any:
         return _Pair(self._num(node.left, env), self._num(node.right, env))
 
-    def function_equals(self, node, f: FiniteFunction, other: ast.Node) -> Any:
+    def function_equals(self, node, f: FiniteFunction, other: ast.Node, env: dict) -> Any:
         """``f = {…}`` of a function over integers and a value of the constants (a whole map
         assumed): the array's value at each key is the value's there."""
         from ..b.values import FuncValue
 
         z3 = self.z3
-        if ast.free_names(other) - set(self.machine.base_env):
+        if ast.free_names(other) - set(self.machine.base_env) or \
+                ast.free_names(other) & set(env):
             raise self.fail(node, "an equality of a map with a value that is not of the "
                                   "constants (compare it cell by cell: grid(x |-> y) = …)")
-        value = self.closed_value(other)
-        if not isinstance(value, frozenset) or not all(type(p) is tuple for p in value):
+        value = self._listed(other, self.closed_value(other, env))
+        if not all(type(p) is tuple and len(p) == 2 for p in value):
             return z3.BoolVal(False)  # not a function (the type checker let a set through)
         mapping = value.map if isinstance(value, FuncValue) else dict(value)
         if set(mapping) != set(f.keys) or len(mapping) != len(value):
@@ -297,18 +301,20 @@ class SetTranslation:
             return z3.Or([z3.And(c, x == v) for c, v in s.items])
         raise self.fail(node, "this membership")
 
-    def closed_value(self, node: ast.Node) -> Any:
-        """The value of ``node``, which reads no solver variable (a set of the constants);
-        else an error saying it is not translated."""
+    def closed_value(self, node: ast.Node, env: dict) -> Any:
+        """The value of ``node``, which reads no solver variable and no bound name of
+        ``env`` (a set of the constants); else an error saying it is not translated."""
+        if ast.free_names(node) & set(env):
+            raise self.fail(node, "a value that reads a variable the solver chooses")
         try:
             return self.machine.compile(node)(dict(self.machine.base_env))
         except Exception:  # noqa: BLE001 - not evaluated here: not translated
             raise self.fail(node, "a value that is not of the constants") from None
 
-    def _closed_set(self, node: ast.Node) -> frozenset:
+    def _listed(self, node: ast.Node, value: Any) -> frozenset:
+        """``value`` (of ``node``) as a finite set of at most :data:`MAX_LISTED` members."""
         from ..b.values import cardinality, explicit
 
-        value = self.closed_value(node)
         try:
             if cardinality(value) <= MAX_LISTED:
                 return explicit(value)
@@ -317,6 +323,9 @@ class SetTranslation:
         raise self.fail(node, f"a set that is not a finite one of at most {MAX_LISTED:,} "
                               "members")
 
+    def _closed_set(self, node: ast.Node, env: dict) -> frozenset:
+        return self._listed(node, self.closed_value(node, env))
+
     def _function_member(self, node, f: FiniteFunction, arrow: str, dom_node, rng_node,
                          env: dict) -> Any:
         """``f : D arrow R`` (or ``f : perm(R)``) of a function over integers: its domain
@@ -324,10 +333,10 @@ class SetTranslation:
         different ones where it is injective, every member of R taken where surjective."""
         z3 = self.z3
         if arrow == "perm":  # perm(R): the bijections from 1..card(R) to R
-            rng = self._closed_set(rng_node)
+            rng = self._closed_set(rng_node, env)
             dom, arrow = frozenset(range(1, len(rng) + 1)), ">->>"
         else:
-            dom, rng = self._closed_set(dom_node), None
+            dom, rng = self._closed_set(dom_node, env), None
         if arrow in _TOTAL and set(dom) != set(f.keys) or not set(f.keys) <= set(dom):
             return z3.BoolVal(False)
         terms = [f.at(k) for k in f.keys]
@@ -339,7 +348,7 @@ class SetTranslation:
         if arrow in _INJECTIVE and len(terms) > 1:
             parts.append(z3.Distinct(terms))
         if arrow in _SURJECTIVE:
-            rng = self._closed_set(rng_node) if rng is None else rng
+            rng = self._closed_set(rng_node, env) if rng is None else rng
             if len(rng) * len(terms) > MAX_LISTED:
                 raise self.fail(node, "a surjection with this many values")
             parts += [z3.Or([t == self._cell(node, f, v) for t in terms]) for v in rng]
@@ -347,11 +356,22 @@ class SetTranslation:
 
     def _bindings(self, node: ast.Node, ids: tuple, pred: ast.Node, env: dict) -> list:
         """Every binding of ``ids`` the generators in ``pred`` allow (``v : S`` of a set of
-        elements, ``v : lo..hi`` or ``v : {…}`` of numbers the bindings before it fix):
-        the environments, each to translate the body in. Over :data:`MAX_LISTED`: not
-        translated."""
-        out = [env]
-        for var in ids:
+        elements, ``v : lo..hi`` or ``v : {…}`` of numbers the bindings before it fix),
+        each variable once those its generator reads have values: the environments, each
+        to translate the body in. Over :data:`MAX_LISTED`: not translated."""
+        from ..b.bindings import conjuncts
+
+        gens = {c.left.id: c.right for c in reversed(conjuncts(pred)) if isinstance(c, ast.Rel)
+                and c.op == ":" and isinstance(c.left, ast.Name) and c.left.id in ids}
+        order: list = []
+        while len(order) < len(ids):  # a variable whose range reads one still to bind: later
+            ready = [v for v in ids if v not in order and not (
+                ast.free_names(gens[v]) & (set(ids) - set(order)) if v in gens else False)]
+            if not ready:
+                raise self.fail(node, "a quantifier whose variables' ranges read each other")
+            order.append(ready[0])
+        out = [{**env, **{v: UNBOUND for v in ids}}]
+        for var in order:
             grown = []
             for e in out:
                 for value in self._values_of(node, var, pred, e):

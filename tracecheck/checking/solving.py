@@ -102,9 +102,7 @@ def solve(node: ast.Node, types: dict[str, Type], env: dict, *, sets: Optional[d
     finite = all(d is not None for d in walked)
     size = math.prod(len(d) for d in walked) if finite else math.inf
     if size <= SMALL_SPACE:
-        if everywhere:  # every candidate walked: where it has no value is seen
-            problem.all_solutions, problem.limit = True, SMALL_SPACE
-        return problem.walk(domains, derived)
+        return _walked_all(problem, domains, derived)
     fixed = {n: d[0] for n, d in domains.items() if d is not None and len(d) == 1}
     if fixed and len(fixed) < len(types):  # f = {…} & x*x = 100: f in the scope, x solved
         rest = solve(node, {n: t for n, t in types.items() if n not in fixed},
@@ -128,8 +126,23 @@ def solve(node: ast.Node, types: dict[str, Type], env: dict, *, sets: Optional[d
     else:
         return _defined(solver.solve(), problem)
     if finite:
-        return problem.walk(domains, derived)
+        return _walked_all(problem, domains, derived)
     return problem.answer("unknown", reason=why)
+
+
+def _walked_all(problem: "_Problem", domains: dict, derived: dict) -> Answer:
+    """The walk's answer; asked ``everywhere``, every candidate walked (where the predicate
+    has no value is then seen), or unknown where the walk did not finish."""
+    if not problem.everywhere:
+        return problem.walk(domains, derived)
+    problem.all_solutions, problem.limit = True, SMALL_SPACE
+    got = problem.walk(domains, derived)
+    if got.status == "TRUE" and not got.complete:
+        return problem.answer("unknown", method=got.method,
+                              reason=f"a solution, but not every value walked to learn "
+                                     f"whether the predicate has a value everywhere "
+                                     f"({got.reason or f'more than {SMALL_SPACE:,} solutions'})")
+    return got
 
 
 def _picked(problem: "_Problem", picked: list, domains: dict,

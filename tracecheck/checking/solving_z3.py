@@ -141,7 +141,9 @@ class _FreeTranslator(Translator):
         self._need(self.pred(lam.pred, inner), node)
         return self.translate(lam.expr, inner)
 
-    def closed_value(self, node: ast.Node) -> Any:
+    def closed_value(self, node: ast.Node, env: dict) -> Any:
+        if ast.free_names(node) & set(env):  # a bound or chosen name: not the scope's
+            raise self.fail(node, "a value that reads a variable the solver chooses")
         value = self.problem.closed(node)
         if value is None:
             raise self.fail(node, "a value that the solver's identifiers do not fix")
@@ -186,7 +188,7 @@ class Z3Solver:
             where = " & ".join(f"{n} = {format_value(v)}" for n, v in point.items())
             self.problem.undefined_at = exc  # its place in the formula
             return f"the predicate has no value where {where}: {exc.message}"
-        return ""
+        return None  # the solver's point is one the evaluator takes: not shown either way
 
     def read(self, model) -> dict:
         """The model's value of each identifier: a z3 value for a number or a boolean, the
