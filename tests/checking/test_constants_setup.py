@@ -59,7 +59,9 @@ def test_what_the_solver_cannot_decide_stays_without_value_with_its_reason():
     assert "the solver cannot set it up" in m.unset_constants["s"]
     assert "card(" in m.unset_constants["s"]
     m = shield("MACHINE P CONSTANTS s PROPERTIES s <: INTEGER & 5 : s END")  # z3's sets
-    assert m.unset_constants["s"].startswith("the PROPERTIES allow at least 1 solution (s = ")
+    # how many solutions z3 lists before it cannot tell depends on the machine's speed
+    assert m.unset_constants["s"].startswith("the PROPERTIES allow at least ")
+    assert "solution" in m.unset_constants["s"] and "(s = {" in m.unset_constants["s"]
     assert "the solver cannot tell whether others (" in m.unset_constants["s"]
 
 
