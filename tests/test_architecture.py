@@ -18,7 +18,8 @@ from tests.helpers import ROOT
 
 #: Lower packages never import higher ones. Modules directly in ``tracecheck/`` (errors,
 #: outputs, _lazy, …: the helpers every layer uses) come first, under the name "top".
-ORDER = ("top", "b", "episodes", "checking", "live", "stats", "render", "interop", "cli")
+ORDER = ("top", "b", "episodes", "checking", "live", "stats", "search", "render", "interop",
+         "cli")
 MAX_LINES = 650
 
 

@@ -22,6 +22,7 @@ from . import stats  # noqa: E402,F401  stats, simulate
 from . import live  # noqa: E402,F401  envs, train, record
 from . import render  # noqa: E402,F401  render, report
 from . import project  # noqa: E402,F401  project
+from . import search  # noqa: E402,F401  falsify
 
 __all__ = ["app", "main"]
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Mapping, Optional
 
-__all__ = ["StepRecord", "EpisodeEnd", "Episode", "END_REASONS"]
+__all__ = ["StepRecord", "EpisodeEnd", "Episode", "SearchPoint", "END_REASONS"]
 
 #: the end reasons, in a fixed order (the run columns blob stores their index)
 END_REASONS: tuple[str, ...] = ("crashed", "time-limit", "end-of-trace", "deadlock", "interrupted")
@@ -49,14 +49,33 @@ class EpisodeEnd:
 
 
 @dataclass(frozen=True)
+class SearchPoint:
+    """The search evaluation an episode is (``tracecheck falsify``): which repetition of
+    the search and which evaluation in it, the parameters tried, the objective's value
+    (lower is closer to a violation; negative: a violation), whether the property was
+    violated, and the optimiser that chose the parameters."""
+
+    repetition: int
+    evaluation: int
+    parameters: Mapping[str, Any]
+    objective: float
+    violated: bool
+    optimizer: str = ""
+
+
+@dataclass(frozen=True)
 class Episode:
-    """A whole episode: states ``steps[0] … steps[n]`` and how it ended."""
+    """A whole episode: states ``steps[0] … steps[n]`` and how it ended. ``config``: the
+    environment settings of this episode on top of the run's (a search's parameters);
+    ``search``: the search evaluation it is, if any."""
 
     id: int
     steps: tuple[StepRecord, ...]
     end: EpisodeEnd
     seed: Optional[int] = None
     origin: Optional[str] = None
+    config: Optional[Mapping[str, Any]] = None
+    search: Optional[SearchPoint] = None
 
     @property
     def states(self) -> list[Mapping[str, Any]]:

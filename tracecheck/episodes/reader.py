@@ -29,7 +29,7 @@ from pydantic import ValidationError
 from ..errors import DamagedEpisode, InputError, SalvagedEpisodeWarning, TracecheckError
 from . import schema
 from .codec import COLUMNS_MEDIA_TYPE, decode_columns, decode_state
-from .model import Episode, EpisodeEnd, StepRecord
+from .model import Episode, EpisodeEnd, SearchPoint, StepRecord
 from .column_checks import check_columns
 from .listing import CUT_HINT, Holdings
 from .records import (Attachment, BadChunk, Channel, Damage, DataEnd, MessageRef, Schema,
@@ -63,10 +63,15 @@ class Piece:
 
     @property
     def episode(self) -> Episode:
-        end = self.end
-        return Episode(id=self.head.episode, seed=self.head.seed, origin=self.head.origin,
+        end, head = self.end, self.head
+        point = head.search
+        search = None if point is None else SearchPoint(
+            point.repetition, point.evaluation, dict(point.parameters), point.objective,
+            point.violated, point.optimizer)
+        return Episode(id=head.episode, seed=head.seed, origin=head.origin,
                        steps=tuple(self.steps),
-                       end=EpisodeEnd(end.steps, end.crashed, end.total_reward, end.reason))
+                       end=EpisodeEnd(end.steps, end.crashed, end.total_reward, end.reason),
+                       config=head.environment_config, search=search)
 
 
 class _BadEpisode(Exception):

@@ -26,6 +26,7 @@ from pydantic import BaseModel, ConfigDict, Field, StringConstraints, model_vali
 from .model import END_REASONS
 
 __all__ = ["RunHeaderMessage", "EpisodeHeaderMessage", "StepMessage", "EpisodeEndMessage",
+           "SearchRunMessage", "SearchPointMessage",
            "MESSAGES", "TOPICS", "export_schemas", "SCHEMA_DIR"]
 
 Source = Literal["recorded", "imported-simb", "imported-prob2trace", "imported-minari",
@@ -39,6 +40,30 @@ ParameterValues = dict[ParameterName, float]
 
 class _Message(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, defer_build=True)
+
+
+class SearchPointMessage(_Message):
+    """The search evaluation an episode is (``tracecheck falsify``)."""
+
+    repetition: int = Field(ge=0, description="which of the search's repetitions")
+    evaluation: int = Field(ge=0, description="which evaluation of that repetition")
+    parameters: dict[str, Any] = Field(description="the values the search tried, by name")
+    objective: float = Field(description="lower is closer to a violation; negative: one")
+    violated: bool = Field(description="whether the episode violates the property")
+    optimizer: str = Field("", description="the optimizer that chose the parameters")
+
+
+class SearchRunMessage(_Message):
+    """How a search (``tracecheck falsify``) ran: its episodes carry their own point."""
+
+    optimizer: str
+    baseline: Optional[str] = Field(None, description="the optimizer run beside it on the "
+                                                      "same budget (uniform random)")
+    budget: int = Field(ge=1, description="episodes per repetition")
+    repeat: int = Field(ge=1)
+    seed: int = Field(ge=0, description="the search's own seed (repetition r: seed + r)")
+    property: str
+    space: dict[str, list] = Field(description="each dimension: [low, high] or its choices")
 
 
 class RunHeaderMessage(_Message):
@@ -55,6 +80,8 @@ class RunHeaderMessage(_Message):
                           "if any, is taken)")
     environment_id: Optional[str] = None
     environment_config: Optional[dict[str, Any]] = None
+    search: Optional[SearchRunMessage] = Field(
+        None, description="the search that ran the episodes (tracecheck falsify)")
     agent_id: Optional[str] = None
     agent_sha256: Optional[str] = None
     agent_file: Optional[str] = Field(
@@ -115,6 +142,10 @@ class EpisodeHeaderMessage(_Message):
     episode: int
     seed: Optional[int] = None
     origin: Optional[str] = Field(None, description="file the episode was imported from")
+    environment_config: Optional[dict[str, Any]] = Field(
+        None, description="this episode's environment settings on top of the run's "
+                          "environment_config (a search's parameters)")
+    search: Optional[SearchPointMessage] = None
 
 
 class StepMessage(_Message):

@@ -257,7 +257,13 @@ class EpisodeWriter:
         self.episodes += 1
 
     def _write(self, ep: Episode) -> None:
-        header = schema.EpisodeHeaderMessage(episode=ep.id, seed=ep.seed, origin=ep.origin)
+        search = None if ep.search is None else schema.SearchPointMessage(
+            repetition=ep.search.repetition, evaluation=ep.search.evaluation,
+            parameters=dict(ep.search.parameters), objective=ep.search.objective,
+            violated=ep.search.violated, optimizer=ep.search.optimizer)
+        header = schema.EpisodeHeaderMessage(
+            episode=ep.id, seed=ep.seed, origin=ep.origin, search=search,
+            environment_config=dict(ep.config) if ep.config is not None else None)
         self._crc = 0
         start = self._stream.tell()
         self._emit("tracecheck.EpisodeHeader", header.model_dump_json(exclude_none=True).encode(),

@@ -153,8 +153,14 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
             raise InputError(f"{path}: the {adapter.name} environment rejects the run header's "
                              f"environment_config {printable(repr(config))[:200]}: "
                              f"{exc.reason}") from exc.__cause__
+        own = _episode_configs(path, {item.episode for item in todo}, salvage) \
+            if header.search is not None else {}
         for item in todo:
             i = index[item.episode]
+            if own.get(item.episode):  # a search's episode: its own settings on top
+                session.reconfigure(adapter.config({**config, **own[item.episode]}))
+            elif session.config != config:
+                session.reconfigure(config)
             result = _one(session, cols, i, item, horizon)
             results.append(result)
             if progress is not None:
@@ -165,6 +171,15 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
                          f"environment_config {printable(repr(config))[:200]}: "
                          f"{type(exc).__name__}: {exc}") from None
     return results
+
+
+def _episode_configs(path: str, ids: set, salvage: bool) -> dict:
+    """The environment settings each of the episodes ``ids`` has of its own (a search's
+    points), from their episode headers."""
+    from ..episodes.reader import read_run
+
+    return {ep.id: dict(ep.config) for ep in read_run(path, only=ids, salvage=salvage).episodes
+            if ep.config}
 
 
 def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:

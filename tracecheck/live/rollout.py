@@ -82,7 +82,8 @@ class Session:
 
         self.settings = settings
         self.adapter, default, self.horizon = resolve(settings)
-        env = self.adapter.make_env(config or default)
+        self.config = config or default
+        env = self.adapter.make_env(self.config)
         self.agent = load_agent(settings.agent, adapter=self.adapter, env=env)
         actions = tuple(self.adapter.actions)
         self.shield = for_actions(shield, actions)
@@ -92,6 +93,19 @@ class Session:
 
     def episode(self, index: int) -> Episode:
         return run_episode(self, index)
+
+    def reconfigure(self, config: dict) -> None:
+        """Run the next episodes in an environment made with ``config`` (the same agent
+        and shield): a search's settings, one episode's own."""
+        from .wrapper import ShieldWrapper
+
+        if config == self.config:
+            return
+        env = self.adapter.make_env(config)
+        self.env.close()
+        self.config = config
+        self.env = ShieldWrapper(env, self.shield, self.settings.fallback, self.adapter,
+                                 mode=self.settings.shield_mode, scale=self.settings.scale)
 
 
 def run_episode(session: Session, index: int, *, seed: Optional[int] = None,

@@ -1,0 +1,134 @@
+"""tracecheck falsify on FrozenLake with the bundled Q-table: the search's figures, every
+evaluation an episode with its point that replays and re-simulates (its own settings
+honoured), a search that reproduces from its seed, and bad input refused before any
+episode."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.helpers import ROOT, run
+from tracecheck.episodes.reader import read_header, read_run
+from tracecheck.errors import InputError
+from tracecheck.live.rollout import RecordSettings
+from tracecheck.search.falsify import FalsifySettings, falsify
+
+pytest.importorskip("gymnasium")
+
+AGENT = ROOT / "models" / "agents" / "frozenlake.npy"
+BASE = ["falsify", "--agent", AGENT, "--env", "frozenlake", "--shield", "none"]
+#: the agent reaches the goal's corner on some maps, never on others
+PROPERTY = "G({not(x = 3 & y = 3)})"
+
+
+@pytest.fixture(scope="module")
+def searched(tmp_path_factory) -> tuple[Path, dict]:
+    import contextlib
+    import io
+
+    from tracecheck.cli import main
+
+    out = tmp_path_factory.mktemp("falsify") / "f.mcap"
+    text = io.StringIO()
+    with contextlib.redirect_stdout(text), pytest.raises(SystemExit):
+        main([str(a) for a in BASE + ["--param", "seed=0..9999", "--param",
+                                       "is_slippery={True,False}", "--property", PROPERTY,
+                                       "--budget", "12", "--repeat", "2", "--optimizer",
+                                       "halton", "-o", out, "--json"]])
+    return out, json.loads(text.getvalue())
+
+
+def test_the_figures_per_optimizer_and_their_episodes(searched):
+    out, data = searched
+    assert [s["optimizer"] for s in data["optimizers"]] == ["halton", "random"]
+    assert data["space"] == {"seed": [0, 9999], "is_slippery": [True, False]}
+    run_ = read_run(out)
+    assert len(run_.episodes) == 12 * 2 * 2
+    for summary in data["optimizers"]:
+        reps = [r for r in data["repetitions"] if r["optimizer"] == summary["optimizer"]]
+        firsts = [r["first_violation"] for r in reps if r["first_violation"] is not None]
+        assert summary["falsified"] == len(firsts) and summary["rate"] == len(firsts) / 2
+        assert summary["violations"] == sum(ep.search.violated for ep in run_.episodes
+                                            if ep.search.optimizer == summary["optimizer"])
+    for ep in run_.episodes:  # its point: the seed it ran, the settings it had
+        assert ep.seed == ep.search.parameters["seed"]
+        assert ep.config == {"is_slippery": ep.search.parameters["is_slippery"]}
+        reached = any(s.state["x"] == 3 and s.state["y"] == 3 for s in ep.steps)
+        assert ep.search.violated == reached and ep.search.objective == (-1.0 if reached
+                                                                           else 1.0)
+    header = read_header(out)
+    assert header.search.optimizer == "halton" and header.search.baseline == "random"
+    assert header.search.property == PROPERTY and header.search.budget == 12
+
+
+def test_every_episode_re_simulates_with_its_own_settings(searched, capsys, monkeypatch):
+    from tracecheck.live import rollout
+
+    out, _ = searched
+    episodes = {ep.id: ep for ep in read_run(out).episodes}
+    assert {ep.config["is_slippery"] for ep in episodes.values()} == {True, False}
+    ran = []  # (episode, the environment's is_slippery) of each re-run
+    original = rollout.run_episode
+
+    def spy(session, index, **kw):
+        ran.append((index, session.config["is_slippery"]))
+        return original(session, index, **kw)
+    monkeypatch.setattr(rollout, "run_episode", spy)
+    code, text, _ = run(capsys, "replay", out, "--shield", "frozenlake", "--resimulate",
+                        "--json")
+    resim = json.loads(text)["resimulation"]
+    assert code == 0 and resim["resimulated"] == len(ran) > 0 and resim["mismatches"] == 0
+    assert {slippery for _, slippery in ran} == {True, False}
+    assert all(slippery == episodes[i].config["is_slippery"] for i, slippery in ran)
+
+
+def test_a_search_reproduces_from_its_seed(tmp_path):
+    settings = FalsifySettings(RecordSettings(agent=str(AGENT), shield="none", episodes=1,
+                                              env="frozenlake"),
+                               ("seed=0..9999",), PROPERTY, budget=6, optimizer="tpe")
+    points = []
+    for name in ("a", "b"):
+        falsify(settings, tmp_path / f"{name}.mcap")
+        points.append([ep.search.parameters for ep in read_run(tmp_path / f"{name}.mcap")
+                       .episodes])
+    assert points[0] == points[1] and len(points[0]) == 12
+
+
+def test_an_interrupted_search_keeps_every_finished_episode(tmp_path):
+    settings = FalsifySettings(RecordSettings(agent=str(AGENT), shield="none", episodes=1,
+                                              env="frozenlake"),
+                               ("seed=0..9999",), None, budget=10, optimizer="random")
+    seen = []
+
+    def stop(ep):
+        seen.append(ep)
+        if len(seen) == 3:
+            raise KeyboardInterrupt
+    with pytest.raises(KeyboardInterrupt):
+        falsify(settings, tmp_path / "cut.mcap", stop)
+    assert [ep.search.evaluation for ep in read_run(tmp_path / "cut.mcap").episodes] == \
+        [0, 1, 2]
+
+
+@pytest.mark.parametrize("extra,message", [
+    (["--param", "seed=5..1"], "from a lower to a higher"),
+    (["--param", "density=0..1"], "unknown setting 'density' for the environment frozenlake"),
+    (["--param", "seed=0..9", "--property", "G({nowhere > 1})"], "--property"),
+    (["--param", "seed=0..9", "--optimizer", "anneal"], "unknown optimizer 'anneal'"),
+    (["--param", "seed=0..9", "--workers", "2"], "falsify runs one episode at a time"),
+    ([], "give what the search varies"),
+])
+def test_bad_input_is_refused_before_any_episode(tmp_path, capsys, extra, message):
+    out = tmp_path / "bad.mcap"
+    code, _, err = run(capsys, *BASE, *extra, "-o", out)
+    assert code == 2 and message in " ".join(err.split()) and not out.exists()
+
+
+def test_the_library_refuses_bad_settings_too(tmp_path):
+    settings = FalsifySettings(RecordSettings(agent=str(AGENT), shield="none", episodes=1,
+                                              env="frozenlake"), ("seed=0..9",), budget=0)
+    with pytest.raises(InputError, match="--budget must be at least 1"):
+        falsify(settings, tmp_path / "x.mcap")

@@ -1,0 +1,79 @@
+"""Commands that search episodes on purpose: falsify."""
+
+from __future__ import annotations
+
+from typing import Optional
+
+import typer
+
+from ..errors import InputError
+from .common import FORMAT, JSON, OutputFormat, app, err, out, output_format, progress, \
+    record_settings
+from .run_options import EXTERNAL_MODE, RunOptions, run_options
+
+
+@app.command("falsify")
+@run_options
+def falsify_cmd(
+    run: RunOptions,
+    param: list[str] = typer.Option(
+        [], "--param", help="What the search varies: NAME=LO..HI (a range of numbers) or "
+        "NAME={a,b} (choices); NAME is seed (the episode's seed) or a setting of the "
+        "environment (--env-config keys). Repeat for several."),
+    prop: Optional[str] = typer.Option(
+        None, "--property", help="The property each episode must keep: an STL formula "
+        "(G({d > 2.0}): its robustness guides the search) or an LTL one (G({Crash = "
+        "FALSE})), read in the shield's machine (the environment's own where --shield none). "
+        "Default: the episode does not crash."),
+    budget: int = typer.Option(100, "--budget", min=1, help="Episodes per search."),
+    optimizer: str = typer.Option("tpe", "--optimizer", help="random, halton (scipy's "
+                                  "low-discrepancy sequence), cmaes (pycma) or tpe (optuna), "
+                                  "or one an installed package adds."),
+    repeat: int = typer.Option(1, "--repeat", min=1, help="Independent searches (the "
+                               "falsification rate is over them)."),
+    search_seed: int = typer.Option(0, "--search-seed", min=0, max=2**32 - 1,
+                                    help="The search's own seed (repetition r: seed + r)."),
+    baseline: bool = typer.Option(True, "--baseline/--no-baseline", help="Also run uniform "
+                                  "random on the same budget and repetitions, in the same "
+                                  "file (default: on)."),
+    as_json: bool = JSON,
+    fmt: OutputFormat = FORMAT,
+) -> None:
+    """Search the episode seed and the environment's settings for episodes where the agent
+    under its shield violates a property, with an optimiser (TPE, CMA-ES, Halton, random);
+    every evaluation is a recorded episode that replays and re-simulates."""
+    from ..interop.foxglove import FoxgloveChannels
+    from ..render.emit import emit
+    from ..render.falsify_text import FalsifyOutput
+    from ..search.falsify import FalsifySettings, falsify
+
+    fmt = output_format(fmt, as_json)
+    if run.mode == EXTERNAL_MODE:
+        raise InputError("falsify runs an agent itself (--agent); an --external script "
+                         "chooses its own scenarios")
+    if run.workers > 1 or run.executor.value != "local":
+        raise InputError("falsify runs one episode at a time (each point of the search "
+                         "follows from the ones before); leave out --workers and --executor")
+    settings = FalsifySettings(record_settings(run, budget), tuple(param), prop, budget,
+                               optimizer, repeat, search_seed, baseline)
+    total = budget * repeat * len(settings.optimizers())
+    existed = run.output.exists()
+    seen = {"episodes": 0, "violations": 0}
+    with progress("falsifying", total, detail=", {task.fields[found]} violation(s)",
+                  found=0) as advance:
+
+        def report(ep) -> None:
+            seen["episodes"] += 1
+            seen["violations"] += bool(ep.search and ep.search.violated)
+            advance(found=seen["violations"])
+
+        try:
+            result = falsify(settings, run.output, report, force=run.force,
+                             channels=FoxgloveChannels)
+        except KeyboardInterrupt:
+            err.print(f"interrupted: {run.output} keeps every finished episode"
+                      if seen["episodes"] else
+                      f"interrupted before an episode was finished: {run.output} was not "
+                      + ("changed" if existed else "written"), markup=False)
+            raise typer.Exit(130) from None
+    emit(FalsifyOutput(result), fmt.value, out)

@@ -1,0 +1,58 @@
+"""What ``tracecheck falsify`` prints: per optimiser, ARCH-COMP's figures (falsification
+rate, episodes to the first violation), and each repetition."""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+from typing import Optional
+
+from .emit import Report
+from .tables import TableData
+
+__all__ = ["FalsifyOutput"]
+
+
+def _number(x: Optional[float]) -> str:
+    if x is None:
+        return "-"
+    return f"{x:g}" if isinstance(x, float) else str(x)
+
+
+class FalsifyOutput(Report):
+    """A :class:`~tracecheck.search.falsify.FalsifyResult` for people and machines."""
+
+    def __init__(self, result) -> None:
+        self.result = result
+
+    def data(self) -> dict:
+        r = self.result
+        return {"property": r.property, "logic": r.logic, "space": r.space,
+                "budget": r.budget, "output": r.output,
+                "optimizers": [asdict(s) for s in r.summaries],
+                "repetitions": [asdict(x) for x in r.repetitions]}
+
+    def table(self) -> TableData:
+        return TableData.of(
+            ["optimizer", "repetitions", "falsified", "rate", "first mean", "first median",
+             "first min", "first max", "violations", "episodes"],
+            ([s.optimizer, str(s.repetitions), str(s.falsified), f"{s.rate:.2f}",
+              _number(s.first_mean), _number(s.first_median), _number(s.first_min),
+              _number(s.first_max), str(s.violations), str(s.evaluations)]
+             for s in self.result.summaries))
+
+    def text(self, console) -> None:
+        r = self.result
+        space = ", ".join(f"{k} in {v[0]}..{v[1]}" if len(v) == 2 and not isinstance(
+            v[0], (str, bool)) else f"{k} in {{{', '.join(map(str, v))}}}"
+            for k, v in r.space.items())
+        console.print(f"property {r.property} ({r.logic}) over {space}; {r.budget} "
+                      f"episode(s) per search", markup=False)
+        for s in r.summaries:
+            first = (f"first violation after {_number(s.first_median)} episode(s) (median; "
+                     f"mean {_number(s.first_mean)}, min {_number(s.first_min)}, max "
+                     f"{_number(s.first_max)})" if s.falsified else
+                     "no violation found within the budget")
+            console.print(f"{s.optimizer}: {s.falsified} of {s.repetitions} search(es) "
+                          f"falsified ({s.rate:.0%}), {s.violations} violating episode(s) of "
+                          f"{s.evaluations}; {first}", markup=False)
+        console.print(f"every episode -> {r.output}", markup=False)

@@ -1,0 +1,85 @@
+"""What a search minimises (``--property``): a temporal property of each episode, as a
+number that is lower the closer the episode comes to violating it and negative where it
+does.
+
+* An STL formula (``G({d > 2.0})``, :mod:`tracecheck.checking.stl`): its robustness at the
+  episode's first state — the episode violates it where the robustness is not positive.
+* An LTL formula (``G({Crash = FALSE})``, :mod:`tracecheck.checking.ltl`): true or false
+  per episode, so its value is -1 where violated and +1 where not: nothing guides the search
+  between violations (the baselines and the optimisers see the same flat value); an STL
+  property of the same situation guides it.
+* None given: the episode must not crash (the environment's own crash flag, which every
+  adapter gives), valued as an LTL property.
+
+The formula is read in the shield's machine (its variables are the states'), and is
+checked before any episode runs.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from ..episodes.model import Episode
+from ..errors import InputError, TracecheckError
+
+__all__ = ["Objective", "DEFAULT_PROPERTY", "load_objective"]
+
+#: the property where none is given: the episode does not crash
+DEFAULT_PROPERTY = "no crash"
+
+
+@dataclass(frozen=True)
+class Objective:
+    """A property and how an episode's value is computed (``logic``: ``LTL``, ``STL`` or
+    ``crash``, the default)."""
+
+    text: str
+    logic: str
+    formula: Any
+    machine: Any
+    actions: tuple[str, ...]
+
+    def value(self, episode: Episode) -> tuple[float, bool]:
+        """(the episode's value, whether it violates the property)."""
+        from ..episodes.columns import episode_columns
+
+        if self.logic == "crash":
+            return (-1.0, True) if episode.end.crashed else (1.0, False)
+        cols = episode_columns([episode], self.actions)
+        if self.logic == "STL":
+            from ..checking.stl import episode_robustness
+
+            rho = float(episode_robustness(self.formula, cols, self.machine)[0])
+            if math.isnan(rho):
+                raise InputError(f"episode {episode.id}: the robustness of {self.text} has no "
+                                 "value (a NaN in the states)")
+            return rho, not rho > 0
+        from ..checking.ltl import evaluate_ltl
+
+        holds = bool(evaluate_ltl(self.formula, cols, self.machine)[cols.starts[0]])
+        return (1.0, False) if holds else (-1.0, True)
+
+
+def load_objective(text, machine, actions: tuple[str, ...]) -> Objective:
+    """The property ``text`` read as STL where it has a robustness (comparisons of numbers
+    only), else as LTL; an error naming ``--property`` where it is neither. None: the
+    episode does not crash."""
+    from ..checking.ltl import parse_ltl
+    from ..checking.stl import parse_stl
+
+    if text is None:
+        return Objective(DEFAULT_PROPERTY, "crash", None, machine, actions)
+    try:
+        return Objective(text, "STL", parse_stl(text, machine, where="--property"), machine,
+                         actions)
+    except TracecheckError:
+        pass  # not STL (an LTL atom, a non-numeric comparison): tried as LTL
+    try:
+        return Objective(text, "LTL", parse_ltl(text, machine, where="--property"), machine,
+                         actions)
+    except TracecheckError as exc:
+        raise InputError(f"--property {text!r}: {exc.message}",
+                         hint=exc.hint or "an LTL formula (G({Crash = FALSE})) or an STL one "
+                                          "(G({d > 2.0}))") from None
