@@ -36,6 +36,10 @@ def falsify_cmd(
     baseline: bool = typer.Option(True, "--baseline/--no-baseline", help="Also run uniform "
                                   "random on the same budget and repetitions, in the same "
                                   "file (default: on)."),
+    attribute: int = typer.Option(
+        5, "--attribute", min=0, help="Attribute each violation by branching "
+        "re-simulation at this many steps before it (shield gap, unavoidable under the "
+        "shield, agent's choice); 0: not attributed."),
     as_json: bool = JSON,
     fmt: OutputFormat = FORMAT,
 ) -> None:
@@ -55,7 +59,7 @@ def falsify_cmd(
         raise InputError("falsify runs one episode at a time (each point of the search "
                          "follows from the ones before); leave out --workers and --executor")
     settings = FalsifySettings(record_settings(run, budget), tuple(param), prop, budget,
-                               optimizer, repeat, search_seed, baseline)
+                               optimizer, repeat, search_seed, baseline, attribute)
     total = budget * repeat * len(settings.optimizers())
     existed = run.output.exists()
     seen = {"episodes": 0, "violations": 0}

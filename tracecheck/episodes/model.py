@@ -61,6 +61,11 @@ class SearchPoint:
     objective: float
     violated: bool
     optimizer: str = ""
+    #: why it failed (:mod:`tracecheck.search.attribution`): the kind, the step it names,
+    #: and the reason in words; None where not attributed (no violation, or not asked)
+    attribution: Optional[str] = None
+    attribution_step: Optional[int] = None
+    attribution_detail: Optional[str] = None
 
 
 @dataclass(frozen=True)

@@ -67,7 +67,8 @@ class Piece:
         point = head.search
         search = None if point is None else SearchPoint(
             point.repetition, point.evaluation, dict(point.parameters), point.objective,
-            point.violated, point.optimizer)
+            point.violated, point.optimizer, point.attribution, point.attribution_step,
+            point.attribution_detail)
         return Episode(id=head.episode, seed=head.seed, origin=head.origin,
                        steps=tuple(self.steps),
                        end=EpisodeEnd(end.steps, end.crashed, end.total_reward, end.reason),

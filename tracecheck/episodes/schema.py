@@ -51,6 +51,11 @@ class SearchPointMessage(_Message):
     objective: float = Field(description="lower is closer to a violation; negative: one")
     violated: bool = Field(description="whether the episode violates the property")
     optimizer: str = Field("", description="the optimizer that chose the parameters")
+    attribution: Optional[Literal["shield gap", "unavoidable under the shield",
+                                  "agent's choice", "not attributed"]] = Field(
+        None, description="why the violation happened (branching re-simulation)")
+    attribution_step: Optional[int] = Field(None, ge=0, description="the step it names")
+    attribution_detail: Optional[str] = Field(None, description="the reason in words")
 
 
 class SearchRunMessage(_Message):

@@ -260,7 +260,9 @@ class EpisodeWriter:
         search = None if ep.search is None else schema.SearchPointMessage(
             repetition=ep.search.repetition, evaluation=ep.search.evaluation,
             parameters=dict(ep.search.parameters), objective=ep.search.objective,
-            violated=ep.search.violated, optimizer=ep.search.optimizer)
+            violated=ep.search.violated, optimizer=ep.search.optimizer,
+            attribution=ep.search.attribution, attribution_step=ep.search.attribution_step,
+            attribution_detail=ep.search.attribution_detail)
         header = schema.EpisodeHeaderMessage(
             episode=ep.id, seed=ep.seed, origin=ep.origin, search=search,
             environment_config=dict(ep.config) if ep.config is not None else None)

@@ -21,12 +21,13 @@ from ..checking.replaying import (MISMATCH, NEW_CRASH, NO_CRASH, NO_SEED, NOT_PR
                                PREVENTED, ReplayReport)
 from ..checking.shield import SHIELD_DIR, Shield
 from ..episodes.columns import RunColumns, read_columns
+from ..episodes.model import Episode
 from ..episodes.reader import read_header
 from ..errors import InputError, printable
 from .agents import file_sha256
 from ..jsontext import plain
 
-__all__ = ["resimulate", "Resimulation", "summary", "with_resimulation"]
+__all__ = ["resimulate", "Resimulation", "summary", "with_resimulation", "same_state", "rerun"]
 
 AGENT_DIR = SHIELD_DIR.parent / "agents"
 TOLERANCE = 1e-6
@@ -75,7 +76,9 @@ def _close(a, b) -> bool:
     return a == b
 
 
-def _same(recorded: dict, state: dict) -> Optional[str]:
+def same_state(recorded: dict, state: dict) -> Optional[str]:
+    """What differs between a recorded state and a reproduced one (None: nothing; numbers
+    within the recording's rounding)."""
     for name, value in recorded.items():
         got = state.get(name)
         if hasattr(value, "map") and hasattr(got, "map"):
@@ -200,7 +203,7 @@ def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:
     script = _script(session, cols, lo, first)
     try:
         episode = run_episode(session, item.episode, seed=int(seed), script=script,
-                              check=lambda k, state: _same(cols.states.row(lo + k), state))
+                              check=lambda k, state: same_state(cols.states.row(lo + k), state))
     except Diverged as exc:
         return result(MISMATCH, None, exc.step, str(exc))
     crash_step = next((s.step for s in episode.steps if s.crashed), None)
@@ -276,3 +279,39 @@ def with_resimulation(report, runs, shield, *, agent=None, env: Optional[str] = 
         results += resimulate(run, shield, report, agent=agent, env=env, progress=progress,
                               salvage=salvage)
     return dataclasses.replace(report, resimulation=summary(results))
+
+
+def rerun(path: str | Path, episode_id: int, shield: Shield, *,
+          agent: Optional[str | Path] = None) -> Episode:
+    """Episode ``episode_id`` of ``path`` run again from the file alone: its seed, the run's
+    environment settings with the episode's own on top (a search's point), the agent the
+    header names (as :func:`resimulate` finds it, or ``agent``) under ``shield`` — the same
+    episode, where the environment and the agent are deterministic given the seed."""
+    from ..episodes.reader import read_run
+    from .adapter import get_adapter
+    from .rollout import RecordSettings, Session, run_episode
+
+    run = read_run(path, only={episode_id})
+    if not run.episodes:
+        raise InputError(f"{path} has no episode {episode_id}")
+    episode, header = run.episodes[0], run.header
+    if header.environment_config is None or header.environment is None:
+        raise InputError(f"{path} was not recorded by tracecheck: it has no environment to "
+                         "run the episode in again")
+    if episode.seed is None:
+        raise InputError(f"{path}, episode {episode_id}: it has no seed")
+    adapter = get_adapter(header.environment)
+    config = adapter.config({**header.environment_config, **dict(episode.config or {})})
+    continuous = {}
+    if adapter.parameters:
+        continuous = {"shield_mode": header.shield_mode,
+                      "scale": tuple(header.projection_scale) if header.projection_scale
+                      else None}
+    settings = RecordSettings(agent=_agent_path(header, agent), shield=shield.path,
+                              episodes=1, duration=header.horizon, env=adapter.name,
+                              **continuous)
+    session = Session(settings, config=config, shield=shield)
+    try:
+        return run_episode(session, episode.id, seed=int(episode.seed))
+    finally:
+        session.env.close()

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import asdict
 from typing import Optional
 
+from ..search.attribution import KINDS
 from .emit import Report
 from .tables import TableData
 
@@ -34,10 +35,11 @@ class FalsifyOutput(Report):
     def table(self) -> TableData:
         return TableData.of(
             ["optimizer", "repetitions", "falsified", "rate", "first mean", "first median",
-             "first min", "first max", "violations", "episodes"],
+             "first min", "first max", "violations", "episodes", *KINDS],
             ([s.optimizer, str(s.repetitions), str(s.falsified), f"{s.rate:.2f}",
               _number(s.first_mean), _number(s.first_median), _number(s.first_min),
-              _number(s.first_max), str(s.violations), str(s.evaluations)]
+              _number(s.first_max), str(s.violations), str(s.evaluations),
+              *(str(s.attributions.get(k, 0)) for k in KINDS)]
              for s in self.result.summaries))
 
     def text(self, console) -> None:
@@ -55,4 +57,8 @@ class FalsifyOutput(Report):
             console.print(f"{s.optimizer}: {s.falsified} of {s.repetitions} search(es) "
                           f"falsified ({s.rate:.0%}), {s.violations} violating episode(s) of "
                           f"{s.evaluations}; {first}", markup=False)
+            if s.attributions:
+                console.print("  attributed: " + ", ".join(
+                    f"{n} {kind}" for kind, n in sorted(s.attributions.items())),
+                    markup=False)
         console.print(f"every episode -> {r.output}", markup=False)

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 import statistics
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Iterator, Optional
 
@@ -52,6 +52,8 @@ class FalsifySettings:
     repeat: int = 1
     seed: int = 0
     baseline: bool = True
+    #: the steps before each violation that attribution branches at (0: not attributed)
+    attribute: int = 5
 
     def optimizers(self) -> tuple[str, ...]:
         """The optimisers that run: the one asked for, and uniform random beside it."""
@@ -71,6 +73,8 @@ class Repetition:
     violations: int
     first_violation: Optional[int]
     best: float
+    #: how many of its violations were attributed to each kind
+    attributions: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -87,6 +91,7 @@ class Summary:
     first_max: Optional[int]
     violations: int
     evaluations: int
+    attributions: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -105,12 +110,16 @@ class FalsifyResult:
 def summarise(optimizer: str, reps: list[Repetition]) -> Summary:
     """The falsification rate and the episodes to the first violation of ``reps``."""
     firsts = [r.first_violation for r in reps if r.first_violation is not None]
+    kinds: dict = {}
+    for r in reps:
+        for kind, count in r.attributions.items():
+            kinds[kind] = kinds.get(kind, 0) + count
     return Summary(
         optimizer, len(reps), len(firsts), len(firsts) / len(reps) if reps else 0.0,
         statistics.fmean(firsts) if firsts else None,
         statistics.median(firsts) if firsts else None,
         min(firsts) if firsts else None, max(firsts) if firsts else None,
-        sum(r.violations for r in reps), sum(r.evaluations for r in reps))
+        sum(r.violations for r in reps), sum(r.evaluations for r in reps), kinds)
 
 
 def searched(settings: FalsifySettings, session, space: Space, objective: Objective,
@@ -118,6 +127,7 @@ def searched(settings: FalsifySettings, session, space: Space, objective: Object
     """The episodes of the search, in order, each with its point; each finished
     repetition appended to ``done``."""
     from ..live.rollout import run_episode
+    from .attribution import attribute
     from .optimizers import make_optimizer
 
     record = settings.record
@@ -126,7 +136,7 @@ def searched(settings: FalsifySettings, session, space: Space, objective: Object
     for name in settings.optimizers():
         for r in range(settings.repeat):
             optimizer = make_optimizer(name, len(space.dimensions), settings.seed + r)
-            first, violations, best = None, 0, math.inf
+            first, violations, best, kinds = None, 0, math.inf, {}
             for k in range(settings.budget):
                 unit = optimizer.ask()
                 params = space.point(unit)
@@ -141,11 +151,17 @@ def searched(settings: FalsifySettings, session, space: Space, objective: Object
                 if violated:
                     violations += 1
                     first = k + 1 if first is None else first
+                why = None
+                if violated and settings.attribute > 0:
+                    why = attribute(session, episode, objective, settings.attribute)
+                    kinds[why.kind] = kinds.get(why.kind, 0) + 1
                 stored = max(-OBJECTIVE_LIMIT, min(OBJECTIVE_LIMIT, value))
                 yield replace(episode, config=overrides or None, search=SearchPoint(
-                    r, k, params, stored, violated, name))
+                    r, k, params, stored, violated, name,
+                    why.kind if why else None, why.step if why else None,
+                    why.detail if why else None))
                 episode_id += 1
-            done.append(Repetition(name, r, settings.budget, violations, first, best))
+            done.append(Repetition(name, r, settings.budget, violations, first, best, kinds))
 
 
 def check_search(settings: FalsifySettings) -> None:
@@ -158,6 +174,8 @@ def check_search(settings: FalsifySettings) -> None:
         raise InputError("--repeat must be at least 1")
     if settings.seed < 0:
         raise InputError("--search-seed must be at least 0")
+    if settings.attribute < 0:
+        raise InputError("--attribute must be at least 0 (0: violations not attributed)")
     for name in settings.optimizers():
         make_optimizer(name, 1, 0)  # an unknown or uninstalled one: exit 2 now
 
