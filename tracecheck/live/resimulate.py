@@ -46,6 +46,14 @@ class Resimulation:
     detail: str = ""
 
 
+def _continuous_settings(adapter, header) -> dict:
+    """The recording's shield mode and scale, for an environment with continuous actions."""
+    if not adapter.parameters:
+        return {}
+    return {"shield_mode": header.shield_mode,
+            "scale": tuple(header.projection_scale) if header.projection_scale else None}
+
+
 def _agent_path(header, agent: Optional[str | Path]) -> str:
     """The agent that recorded a file: the one given with ``--agent``, else a bundled agent
     whose file name *and* sha256 match the header, else (a Q-table only: loading one runs no
@@ -139,11 +147,7 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
         raise InputError(f"{path}: the run header's environment_config has duration "
                          f"{duration!r}, not a number of steps")
     horizon = header.horizon or duration - 1
-    continuous = {}
-    if adapter.parameters:
-        continuous = {"shield_mode": header.shield_mode,
-                      "scale": tuple(header.projection_scale) if header.projection_scale
-                      else None}
+    continuous = _continuous_settings(adapter, header)
     settings = RecordSettings(agent=_agent_path(header, agent), shield=shield.path,
                               episodes=1, duration=horizon, env=env or adapter.name,
                               **continuous)
@@ -302,11 +306,7 @@ def rerun(path: str | Path, episode_id: int, shield: Shield, *,
         raise InputError(f"{path}, episode {episode_id}: it has no seed")
     adapter = get_adapter(header.environment)
     config = adapter.config({**header.environment_config, **dict(episode.config or {})})
-    continuous = {}
-    if adapter.parameters:
-        continuous = {"shield_mode": header.shield_mode,
-                      "scale": tuple(header.projection_scale) if header.projection_scale
-                      else None}
+    continuous = _continuous_settings(adapter, header)
     settings = RecordSettings(agent=_agent_path(header, agent), shield=shield.path,
                               episodes=1, duration=header.horizon, env=adapter.name,
                               **continuous)
