@@ -132,3 +132,56 @@ def test_the_library_refuses_bad_settings_too(tmp_path):
                                               env="frozenlake"), ("seed=0..9",), budget=0)
     with pytest.raises(InputError, match="--budget must be at least 1"):
         falsify(settings, tmp_path / "x.mcap")
+
+
+def test_the_violating_episodes_are_listed(searched, capsys):
+    out, data = searched
+    violating = [ep for ep in read_run(out).episodes if ep.search.violated]
+    assert [v["episode"] for v in data["violations"]] == [ep.id for ep in violating]
+    for v, ep in zip(data["violations"], violating):
+        assert v["parameters"] == ep.search.parameters and v["optimizer"] == ep.search.optimizer
+
+
+def test_the_recorded_crash_flag_is_a_property_s_variable(tmp_path, capsys):
+    code, text, err = run(capsys, *BASE, "--param", "seed=0..99", "--property",
+                          "G({crashed = FALSE})", "--budget", "3", "--no-baseline",
+                          "-o", tmp_path / "c.mcap", "--json")
+    assert code == 0, err
+    assert json.loads(text)["logic"] == "LTL"
+
+
+def test_seed_twice_is_refused(tmp_path, capsys):
+    code, _, err = run(capsys, *BASE, "--seed", "3", "--param", "seed=0..9",
+                       "-o", tmp_path / "s.mcap")
+    assert code == 2 and "give one of the two" in err
+
+
+def test_an_stl_robustness_of_zero_is_decided_by_the_formula_s_truth(tmp_path):
+    from tests.search import corridor
+    from tracecheck.checking.shield import load_shield
+    from tracecheck.search.objective import load_objective
+
+    shield_file = tmp_path / "open.mch"
+    shield_file.write_text(corridor.OPEN)
+    settings = RecordSettings(agent=corridor.agent_file(tmp_path), shield=str(shield_file),
+                              episodes=1, env="tests.search.corridor:Corridor")
+    from tracecheck.live.rollout import Session
+
+    shield = load_shield(str(shield_file), actions=corridor.Corridor.actions)
+    episode = Session(settings, shield=shield).episode(0)  # walks 0 … 5 (the pit)
+    actions = corridor.Corridor.actions
+    assert load_objective("G({pos <= 5})", shield.machine, actions).value(episode) == \
+        (0.0, False)  # the largest pos is 5: holds, on the boundary
+    assert load_objective("G({pos < 5})", shield.machine, actions).value(episode) == \
+        (0.0, True)
+    assert load_objective("G({pos <= 4})", shield.machine, actions).value(episode) == \
+        (-1.0, True)
+
+
+def test_a_property_without_a_machine_says_what_to_give(tmp_path, capsys):
+    from tests.search import corridor
+
+    code, _, err = run(capsys, "falsify", "--agent", corridor.agent_file(tmp_path), "--env",
+                       "tests.search.corridor:Corridor", "--shield", "none", "--param",
+                       "start=0..3", "--property", "G({pos < 5})", "-o", tmp_path / "x.mcap")
+    assert code == 2 and "names no default_shield" in " ".join(err.split())

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import pytest
 
+from tests.helpers import ROOT
 from tracecheck.errors import InputError
 from tracecheck.live.adapter import load_adapter
 from tracecheck.search.space import Dimension, Space, check_space, parse_param
@@ -63,3 +64,30 @@ def test_ranges_are_tried_on_the_environment_before_any_episode():
         check_space(["seed=0..9", "seed=1..2"], adapter)
     with pytest.raises(InputError, match="give what the search varies"):
         check_space([], adapter)
+
+
+def test_a_setting_whose_default_is_a_whole_number_is_searched_in_whole_numbers():
+    assert parse_param("lanes=2..4", frozenset({"int", "float"}), 3).integer
+    assert not parse_param("density=1..2", frozenset({"int", "float"}), 1.5).integer
+    with pytest.raises(InputError, match="lanes takes whole numbers"):
+        parse_param("lanes=2.5..4", frozenset({"int", "float"}), 3)
+    adapter = load_adapter("tests.search.corridor:Corridor")
+    (dim,) = check_space(["start=0..3"], adapter).dimensions
+    assert dim.integer and [dim.value(u) for u in (0.0, 0.3, 0.99)] == [0, 1, 3]
+
+
+def test_three_dots_are_no_range():
+    with pytest.raises(InputError, match="no range LO..HI"):
+        parse_param("seed=0...10")
+
+
+def test_the_agent_and_shield_are_checked_at_every_choice():
+    from tracecheck.live.agents import load_agent
+
+    adapter = load_adapter("frozenlake")
+    agent = str(ROOT / "models" / "agents" / "frozenlake.npy")
+    with pytest.raises(InputError, match=r"--param map_name=\{4x4,8x8\}: at map_name='4x4': "
+                                         r".*the Q-table has 64 rows; the environment has "
+                                         "16 observations"):
+        check_space(["map_name={4x4,8x8}"], adapter,
+                    check=lambda env: load_agent(agent, adapter=adapter, env=env))

@@ -58,6 +58,9 @@ def falsify_cmd(
     if run.workers > 1 or run.executor.value != "local":
         raise InputError("falsify runs one episode at a time (each point of the search "
                          "follows from the ones before); leave out --workers and --executor")
+    if run.seed is not None and any(p.partition("=")[0].strip() == "seed" for p in param):
+        raise InputError(f"--seed {run.seed} and --param seed=…: the search chooses each "
+                         "episode's seed; give one of the two")
     settings = FalsifySettings(record_settings(run, budget), tuple(param), prop, budget,
                                optimizer, repeat, search_seed, baseline, attribute)
     total = budget * repeat * len(settings.optimizers())

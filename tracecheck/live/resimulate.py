@@ -285,15 +285,20 @@ def with_resimulation(report, runs, shield, *, agent=None, env: Optional[str] = 
     return dataclasses.replace(report, resimulation=summary(results))
 
 
-def rerun(path: str | Path, episode_id: int, shield: Shield, *,
+def rerun(path: str | Path, episode_id: int, shield: Shield | str, *,
           agent: Optional[str | Path] = None) -> Episode:
     """Episode ``episode_id`` of ``path`` run again from the file alone: its seed, the run's
     environment settings with the episode's own on top (a search's point), the agent the
-    header names (as :func:`resimulate` finds it, or ``agent``) under ``shield`` — the same
-    episode, where the environment and the agent are deterministic given the seed."""
+    header names (as :func:`resimulate` finds it, or ``agent``) under ``shield`` (a shield,
+    or its name or path) — the same episode, where the environment and the agent are
+    deterministic given the seed."""
+    from ..checking.shield import load_shield
     from ..episodes.reader import read_run
     from .adapter import get_adapter
     from .rollout import RecordSettings, Session, run_episode
+
+    if isinstance(shield, str):
+        shield = load_shield(shield)
 
     run = read_run(path, only={episode_id})
     if not run.episodes:

@@ -13,10 +13,19 @@ from .tables import TableData
 __all__ = ["FalsifyOutput"]
 
 
-def _number(x: Optional[float]) -> str:
+#: the violating episodes the text lists (JSON lists every one)
+SHOWN = 10
+
+
+def _number(x: Optional[float], empty: str = "-") -> str:
     if x is None:
-        return "-"
+        return empty
     return f"{x:g}" if isinstance(x, float) else str(x)
+
+
+def _point(parameters: dict) -> str:
+    return ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                     for k, v in parameters.items())
 
 
 class FalsifyOutput(Report):
@@ -30,15 +39,17 @@ class FalsifyOutput(Report):
         return {"property": r.property, "logic": r.logic, "space": r.space,
                 "budget": r.budget, "output": r.output,
                 "optimizers": [asdict(s) for s in r.summaries],
-                "repetitions": [asdict(x) for x in r.repetitions]}
+                "repetitions": [asdict(x) for x in r.repetitions],
+                "violations": [asdict(v) for v in r.violations]}
 
     def table(self) -> TableData:
         return TableData.of(
             ["optimizer", "repetitions", "falsified", "rate", "first mean", "first median",
              "first min", "first max", "violations", "episodes", *KINDS],
             ([s.optimizer, str(s.repetitions), str(s.falsified), f"{s.rate:.2f}",
-              _number(s.first_mean), _number(s.first_median), _number(s.first_min),
-              _number(s.first_max), str(s.violations), str(s.evaluations),
+              _number(s.first_mean, ""), _number(s.first_median, ""),
+              _number(s.first_min, ""), _number(s.first_max, ""), str(s.violations),
+              str(s.evaluations),
               *(str(s.attributions.get(k, 0)) for k in KINDS)]
              for s in self.result.summaries))
 
@@ -61,4 +72,15 @@ class FalsifyOutput(Report):
                 console.print("  attributed: " + ", ".join(
                     f"{n} {kind}" for kind, n in sorted(s.attributions.items())),
                     markup=False)
+        for v in r.violations[:SHOWN]:
+            why = (f"; {v.attribution}" + (f" at step {v.attribution_step}"
+                                           if v.attribution_step is not None else "")
+                   + (f": {v.attribution_detail}" if v.attribution_detail else "")
+                   if v.attribution else "")
+            console.print(f"  episode {v.episode} ({v.optimizer}, search {v.repetition}, "
+                          f"evaluation {v.evaluation + 1}): {_point(v.parameters)}; objective "
+                          f"{v.objective:g}{why}", markup=False)
+        if len(r.violations) > SHOWN:
+            console.print(f"  … {len(r.violations) - SHOWN} more violating episode(s): --json "
+                          "lists every one", markup=False)
         console.print(f"every episode -> {r.output}", markup=False)

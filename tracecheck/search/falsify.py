@@ -30,7 +30,7 @@ from ..errors import InputError
 from .objective import Objective
 from .space import SEED, Space
 
-__all__ = ["FalsifySettings", "Repetition", "Summary", "FalsifyResult", "falsify",
+__all__ = ["FalsifySettings", "Repetition", "Summary", "Violation", "FalsifyResult", "falsify",
            "summarise", "OBJECTIVE_LIMIT"]
 
 #: objective values are stored within ±this (an STL robustness can be infinite)
@@ -95,8 +95,24 @@ class Summary:
 
 
 @dataclass(frozen=True)
+class Violation:
+    """A violating episode: its id in the run file, its search point and attribution."""
+
+    episode: int
+    optimizer: str
+    repetition: int
+    evaluation: int
+    parameters: dict
+    objective: float
+    attribution: Optional[str]
+    attribution_step: Optional[int]
+    attribution_detail: Optional[str]
+
+
+@dataclass(frozen=True)
 class FalsifyResult:
-    """What a search found: each repetition, and the figures per optimiser."""
+    """What a search found: each repetition, the figures per optimiser, and every violating
+    episode."""
 
     property: str
     logic: str
@@ -105,6 +121,7 @@ class FalsifyResult:
     repetitions: tuple[Repetition, ...]
     summaries: tuple[Summary, ...]
     output: str
+    violations: tuple[Violation, ...] = ()
 
 
 def summarise(optimizer: str, reps: list[Repetition]) -> Summary:
@@ -123,9 +140,9 @@ def summarise(optimizer: str, reps: list[Repetition]) -> Summary:
 
 
 def searched(settings: FalsifySettings, session, space: Space, objective: Objective,
-             done: list[Repetition]) -> Iterator[Episode]:
+             done: list[Repetition], found: list[Violation]) -> Iterator[Episode]:
     """The episodes of the search, in order, each with its point; each finished
-    repetition appended to ``done``."""
+    repetition appended to ``done``, each violation to ``found``."""
     from ..live.rollout import run_episode
     from .attribution import attribute
     from .optimizers import make_optimizer
@@ -156,10 +173,14 @@ def searched(settings: FalsifySettings, session, space: Space, objective: Object
                     why = attribute(session, episode, objective, settings.attribute)
                     kinds[why.kind] = kinds.get(why.kind, 0) + 1
                 stored = max(-OBJECTIVE_LIMIT, min(OBJECTIVE_LIMIT, value))
-                yield replace(episode, config=overrides or None, search=SearchPoint(
-                    r, k, params, stored, violated, name,
-                    why.kind if why else None, why.step if why else None,
-                    why.detail if why else None))
+                point = SearchPoint(r, k, params, stored, violated, name,
+                                    why.kind if why else None, why.step if why else None,
+                                    why.detail if why else None)
+                if violated:
+                    found.append(Violation(episode_id, name, r, k, dict(params), stored,
+                                           point.attribution, point.attribution_step,
+                                           point.attribution_detail))
+                yield replace(episode, config=overrides or None, search=point)
                 episode_id += 1
             done.append(Repetition(name, r, settings.budget, violations, first, best, kinds))
 
@@ -199,33 +220,56 @@ def falsify(settings: FalsifySettings, out: str | Path,
     agent, shield = check_settings(record, out, force=force)
     session = Session(record, shield=shield)
     try:
-        space = check_space(settings.params, session.adapter, record.env_config)
-        if SEED not in {d.name for d in space.dimensions} and record.seed > 2 ** 63 - 1:
-            raise InputError("--seed must be at most 2^63 - 1")
-        objective = load_objective(settings.prop, _property_machine(shield, session.adapter),
-                                   tuple(session.adapter.actions))
+        space = check_space(settings.params, session.adapter, record.env_config,
+                            check=_fits(record, shield, session.adapter))
+        objective = load_objective(
+            settings.prop, _property_machine(shield, session.adapter, settings.prop),
+            tuple(session.adapter.actions))
         header = recording_header(record, agent, shield).model_copy(update={
             "search": SearchRunMessage(
                 optimizer=settings.optimizer, budget=settings.budget, repeat=settings.repeat,
                 seed=settings.seed, property=objective.text, space=space.describe(),
                 baseline="random" if "random" in settings.optimizers()[1:] else None)})
         done: list[Repetition] = []
-        record_episodes(out, header, searched(settings, session, space, objective, done),
+        found: list[Violation] = []
+        record_episodes(out, header, searched(settings, session, space, objective, done,
+                                              found),
                         progress, force=force, channels=channels, inputs=run_inputs(record))
     finally:
         session.env.close()
     summaries = tuple(summarise(name, [r for r in done if r.optimizer == name])
                       for name in settings.optimizers())
     return FalsifyResult(objective.text, objective.logic, space.describe(), settings.budget,
-                         tuple(done), summaries, str(out))
+                         tuple(done), summaries, str(out), tuple(found))
 
 
-def _property_machine(shield, adapter):
+def _property_machine(shield, adapter, prop: Optional[str]):
     """The machine a property is read in: the shield's, or where it has no state (``--shield
-    none``) the environment's own shield's, as ``stats`` reads properties."""
+    none``) the environment's own shield's, as ``stats`` reads properties — with the
+    recorded crash flag ``crashed`` in scope (unless the machine has its own)."""
+    from ..checking.crashflag import flagged
+
     machine = getattr(shield, "machine", None)
     if (machine is None or not machine.variables) and adapter.default_shield is not None:
         from ..stats.formulas import own_shield
 
         machine = own_shield(adapter).machine
-    return machine
+    if prop is not None and (machine is None or not machine.variables):
+        raise InputError(f"--property {prop!r}: a property reads the states' variables, "
+                         f"which a B machine declares; the shield has none, and the "
+                         f"environment {adapter.name} names no default_shield",
+                         hint="give --shield a machine with the variables, or the adapter "
+                              f"{type(adapter).__name__} a default_shield")
+    return flagged(machine) if machine is not None else None
+
+
+def _fits(record, shield, adapter):
+    """The check of an environment a search will run in: the agent and the shield fit it
+    (as ``record`` checks its one environment)."""
+    from ..checking.shield import check_vocabulary
+    from ..live.agents import load_agent
+
+    def check(env) -> None:
+        load_agent(record.agent, adapter=adapter, env=env)
+        check_vocabulary(shield, adapter, env)
+    return check

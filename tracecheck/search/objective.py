@@ -3,7 +3,9 @@ number that is lower the closer the episode comes to violating it and negative w
 does.
 
 * An STL formula (``G({d > 2.0})``, :mod:`tracecheck.checking.stl`): its robustness at the
-  episode's first state — the episode violates it where the robustness is not positive.
+  episode's first state — the episode violates it where the robustness is negative, keeps it
+  where positive; at exactly 0 (``G({pos >= 2})`` with a smallest ``pos`` of 2) the formula's
+  truth decides, read as LTL (where it cannot be, 0 is a violation).
 * An LTL formula (``G({Crash = FALSE})``, :mod:`tracecheck.checking.ltl`): true or false
   per episode, so its value is -1 where violated and +1 where not: nothing guides the search
   between violations (the baselines and the optimisers see the same flat value); an STL
@@ -40,6 +42,8 @@ class Objective:
     formula: Any
     machine: Any
     actions: tuple[str, ...]
+    #: an STL formula read as LTL too, where it can be: its truth where the robustness is 0
+    truth: Any = None
 
     def value(self, episode: Episode) -> tuple[float, bool]:
         """(the episode's value, whether it violates the property)."""
@@ -47,7 +51,10 @@ class Objective:
 
         if self.logic == "crash":
             return (-1.0, True) if episode.end.crashed else (1.0, False)
-        cols = episode_columns([episode], self.actions)
+        from ..checking.crashflag import with_crash_flag
+        from ..checking.ltl import evaluate_ltl
+
+        cols = with_crash_flag(episode_columns([episode], self.actions))
         if self.logic == "STL":
             from ..checking.stl import episode_robustness
 
@@ -55,9 +62,10 @@ class Objective:
             if math.isnan(rho):
                 raise InputError(f"episode {episode.id}: the robustness of {self.text} has no "
                                  "value (a NaN in the states)")
+            if rho == 0.0 and self.truth is not None:  # on the boundary: G({pos >= 2}) at 2
+                holds = bool(evaluate_ltl(self.truth, cols, self.machine)[cols.starts[0]])
+                return rho, not holds
             return rho, not rho > 0
-        from ..checking.ltl import evaluate_ltl
-
         holds = bool(evaluate_ltl(self.formula, cols, self.machine)[cols.starts[0]])
         return (1.0, False) if holds else (-1.0, True)
 
@@ -72,10 +80,15 @@ def load_objective(text, machine, actions: tuple[str, ...]) -> Objective:
     if text is None:
         return Objective(DEFAULT_PROPERTY, "crash", None, machine, actions)
     try:
-        return Objective(text, "STL", parse_stl(text, machine, where="--property"), machine,
-                         actions)
+        stl = parse_stl(text, machine, where="--property")
     except TracecheckError:
-        pass  # not STL (an LTL atom, a non-numeric comparison): tried as LTL
+        stl = None  # not STL (an LTL atom, a non-numeric comparison): tried as LTL
+    if stl is not None:
+        try:
+            truth = parse_ltl(text, machine, where="--property")
+        except TracecheckError:
+            truth = None  # STL only (G[a,b]): a robustness of 0 is a violation
+        return Objective(text, "STL", stl, machine, actions, truth)
     try:
         return Objective(text, "LTL", parse_ltl(text, machine, where="--property"), machine,
                          actions)

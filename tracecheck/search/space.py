@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
-from typing import Any, Optional, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Callable, Optional, Sequence
 
 from ..errors import InputError
 
@@ -37,6 +37,8 @@ class Dimension:
     high: Optional[float] = None
     integer: bool = False
     choices: Optional[tuple] = None
+    #: the ``--param`` text it was read from (messages quote it)
+    text: str = field(default="", compare=False)
 
     def value(self, u: float) -> Any:
         """The value at the unit coordinate ``u`` (clipped to [0, 1])."""
@@ -78,10 +80,12 @@ class Space:
                 for d in self.dimensions}
 
 
-def parse_param(text: str, kinds: Optional[frozenset[str]] = None) -> Dimension:
+def parse_param(text: str, kinds: Optional[frozenset[str]] = None,
+                default: Any = None) -> Dimension:
     """``NAME=LO..HI`` or ``NAME={a,b,c}`` (``--param``); ``kinds``: what the setting takes
-    (:func:`tracecheck.live.settings.setting_kinds`; None: anything) — a range of a setting
-    that takes integers only is one of integers."""
+    (:func:`tracecheck.live.settings.setting_kinds`; None: anything), ``default`` its value
+    in the environment's configuration — a range of a setting whose default is a whole
+    number (``lanes_count``), or that takes integers only, is one of integers."""
     name, eq, rest = text.partition("=")
     name = name.strip()
     if not eq or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
@@ -95,16 +99,17 @@ def parse_param(text: str, kinds: Optional[frozenset[str]] = None) -> Dimension:
             raise InputError(f"--param {text!r}: no choices between the braces")
         if len(set(map(repr, items))) != len(items):
             raise InputError(f"--param {text!r}: a choice is listed twice")
-        return Dimension(name, choices=items)
+        return Dimension(name, choices=items, text=text)
     m = _RANGE.match(rest)
-    if m is None:
+    if m is None or "..." in rest:
         raise InputError(f"--param {text!r}: {rest!r} is no range LO..HI of numbers nor a "
                          "list {a,b}", hint="e.g. --param vehicles_density=0.5..2.0")
     lo, hi = float(m.group(1)), float(m.group(2))
     if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
         raise InputError(f"--param {text!r}: the range must go from a lower to a higher "
                          "finite number")
-    integer = name == SEED or (kinds is not None and "int" in kinds and "float" not in kinds)
+    integer = name == SEED or type(default) is int or (
+        kinds is not None and "int" in kinds and "float" not in kinds)
     if integer and (lo != int(lo) or hi != int(hi)):
         raise InputError(f"--param {text!r}: {name} takes whole numbers; give whole ends")
     if name == SEED and (lo < 0 or hi > MAX_SEED):
@@ -113,7 +118,7 @@ def parse_param(text: str, kinds: Optional[frozenset[str]] = None) -> Dimension:
         raise InputError(f"--param {text!r}: {name} does not take numbers "
                          f"(it takes {', '.join(sorted(kinds))}); give its choices: "
                          f"{name}={{a,b}}")
-    return Dimension(name, lo, hi, integer=integer)
+    return Dimension(name, lo, hi, integer=integer, text=text)
 
 
 def _choice(text: str) -> Any:
@@ -128,19 +133,25 @@ def _choice(text: str) -> Any:
     return text.strip("'\"")
 
 
-def check_space(texts: Sequence[str], adapter, base: Optional[dict] = None) -> Space:
+def check_space(texts: Sequence[str], adapter, base: Optional[dict] = None,
+                check: Optional[Callable[[Any], None]] = None) -> Space:
     """The search space of ``--param`` texts for the environment ``adapter`` (its run
     configuration ``base``): each setting one the environment takes; both ends of each
     range, and each choice, taken by the environment (its configuration checked and the
-    environment made and reset with them) — before any episode."""
+    environment made and reset with them, and ``check(env)`` — the agent and the shield
+    fit it) — before any episode."""
     if not texts:
         raise InputError("give what the search varies: --param NAME=LO..HI (seed, or a "
                          "setting of the environment)", hint="e.g. --param seed=0..9999")
     kinds = adapter.config_kinds()
+    try:
+        defaults = adapter.config(base or None)
+    except InputError:
+        defaults = {}
     dims = []
     for text in texts:
         name = text.partition("=")[0].strip()
-        dim = parse_param(text, None if name == SEED else kinds.get(name))
+        dim = parse_param(text, None if name == SEED else kinds.get(name), defaults.get(name))
         if any(d.name == dim.name for d in dims):
             raise InputError(f"--param {dim.name} is given twice")
         dims.append(dim)
@@ -148,23 +159,26 @@ def check_space(texts: Sequence[str], adapter, base: Optional[dict] = None) -> S
     for dim in space.settings:
         ends = dim.choices if dim.choices is not None else (dim.value(0.0), dim.value(1.0))
         for value in ends:
-            _try_setting(adapter, base or {}, dim, value)
+            _try_setting(adapter, base or {}, dim, value, check)
     return space
 
 
-def _try_setting(adapter, base: dict, dim: Dimension, value: Any) -> None:
-    """The environment made and reset with ``dim`` at ``value`` (an InputError naming the
-    option where it cannot be)."""
+def _try_setting(adapter, base: dict, dim: Dimension, value: Any, check) -> None:
+    """The environment made and reset with ``dim`` at ``value``, and ``check`` given it (an
+    InputError naming the option where it cannot be)."""
     try:
         config = adapter.config({**(base or {}), dim.name: value})
         env = adapter.make_env(config)
         try:
             env.reset(seed=0)
+            if check is not None:
+                check(env)
         finally:
             env.close()
     except InputError as exc:
-        raise InputError(f"--param {dim.shown()}: {exc.message}", hint=exc.hint) from None
+        raise InputError(f"--param {dim.text or dim.shown()}: at {dim.name}={value!r}: "
+                         f"{exc.message}", hint=exc.hint) from None
     except Exception as exc:  # noqa: BLE001 - whatever the environment raises for a value
-        raise InputError(f"--param {dim.shown()}: the environment {adapter.name} does not "
-                         f"take {dim.name}={value!r}: {type(exc).__name__}: {exc}",
+        raise InputError(f"--param {dim.text or dim.shown()}: the environment {adapter.name} "
+                         f"does not take {dim.name}={value!r}: {type(exc).__name__}: {exc}",
                          hint="give a range the environment takes") from None
