@@ -86,3 +86,29 @@ def test_a_set_of_one_element_in_a_first_state_is_the_same_column_as_of_two(tmp_
     assert "near" in cols.states.masks and cols.n == 4
     assert [e.steps[1].state["near"] for e in read_run(path).episodes] == \
         [frozenset({floor, lava}), frozenset()]
+
+
+def test_an_interrupt_while_an_episode_is_written_takes_effect_once_it_is(tmp_path,
+                                                                           monkeypatch):
+    """Ctrl-C in the middle of writing an episode: the file ends with that episode whole
+    (before, a part of it stayed, and every later read warned of a damaged file)."""
+    import os
+    import signal
+
+    from tracecheck.episodes.files import record_episodes
+    from tracecheck.episodes.reader import read_run
+    from tracecheck.episodes.writer import EpisodeWriter
+
+    original = EpisodeWriter._write
+
+    def interrupted(self, ep):
+        if ep.id == 1:
+            os.kill(os.getpid(), signal.SIGINT)  # arrives while this episode is written
+        return original(self, ep)
+    monkeypatch.setattr(EpisodeWriter, "_write", interrupted)
+    out = tmp_path / "cut.mcap"
+    with pytest.raises(KeyboardInterrupt):
+        record_episodes(out, new_header("recorded"), (episode(i) for i in range(5)))
+    run = read_run(out)
+    assert [ep.id for ep in run.episodes] == [0, 1] and not run.warnings
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

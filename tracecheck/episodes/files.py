@@ -107,6 +107,30 @@ def recording_into(path: str | Path, header: RunHeaderMessage, *, force: bool = 
             lock.unlink(missing_ok=True)
 
 
+@contextmanager
+def whole_episode() -> Iterator[None]:
+    """Ctrl-C (SIGINT) and SIGTERM while an episode is written take effect once it is: the
+    file then ends with that episode complete, never with a part of one (which every later
+    read would report as damaged). Only in the main thread, where signals are handled."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list = []
+    saved = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    for s in saved:
+        signal.signal(s, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        for s, handler in saved.items():
+            signal.signal(s, handler)
+    if caught:
+        raise KeyboardInterrupt
+
+
 def record_episodes(path: str | Path, header: RunHeaderMessage, episodes: Iterable[Episode],
                     progress: Optional[Callable[[Episode], None]] = None, *,
                     force: bool = False, channels: Optional[ChannelsFactory] = None,
@@ -117,7 +141,8 @@ def record_episodes(path: str | Path, header: RunHeaderMessage, episodes: Iterab
     with recording_into(path, header, force=force, channels=channels,
                         inputs=inputs) as writer:
         for episode in episodes:
-            writer.write(episode)
+            with whole_episode():
+                writer.write(episode)
             counts[0] += 1
             counts[1] += episode.end.steps
             counts[2] += episode.end.crashed
