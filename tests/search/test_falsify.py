@@ -185,3 +185,18 @@ def test_a_property_without_a_machine_says_what_to_give(tmp_path, capsys):
                        "tests.search.corridor:Corridor", "--shield", "none", "--param",
                        "start=0..3", "--property", "G({pos < 5})", "-o", tmp_path / "x.mcap")
     assert code == 2 and "names no default_shield" in " ".join(err.split())
+
+
+def test_the_objective_over_the_search_is_drawn(tmp_path, capsys):
+    out, plot = tmp_path / "f.mcap", tmp_path / "objective.png"
+    args = [*BASE, "--param", "seed=0..99", "--property", PROPERTY, "--budget", "4",
+            "--repeat", "2", "--optimizer", "halton", "-o", out, "--plot", plot]
+    code, text, err = run(capsys, *args)
+    assert code == 0, err
+    assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and f"-> {plot}" in text
+    code, _, err = run(capsys, *args)  # both exist now: refused without --force
+    assert code == 2 and "--force" in err
+    code, _, err = run(capsys, *BASE, "--param", "seed=0..9", "-o", tmp_path / "g.mcap",
+                       "--plot", tmp_path / "objective.pdf")
+    assert code == 2 and "a plot is written as .png or .svg" in err
+    assert not (tmp_path / "g.mcap").exists()

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Optional
 
 import typer
 
 from ..errors import InputError
+from ..outputs import input_paths
 from .common import FORMAT, JSON, OutputFormat, app, err, out, output_format, progress, \
     record_settings
 from .run_options import EXTERNAL_MODE, RunOptions, run_options
@@ -40,6 +42,9 @@ def falsify_cmd(
         5, "--attribute", min=0, help="Attribute each violation by branching "
         "re-simulation at this many steps before it (shield gap, unavoidable under the "
         "shield, agent's choice); 0: not attributed."),
+    plot: Optional[Path] = typer.Option(
+        None, "--plot", help="Also draw the objective over the search (the lowest value so "
+        "far per optimiser and search) to this .png or .svg file."),
     as_json: bool = JSON,
     fmt: OutputFormat = FORMAT,
 ) -> None:
@@ -63,6 +68,17 @@ def falsify_cmd(
                          "episode's seed; give one of the two")
     settings = FalsifySettings(record_settings(run, budget), tuple(param), prop, budget,
                                optimizer, repeat, search_seed, baseline, attribute)
+    if plot is not None:
+        from ..outputs import check_output
+        from ..render.falsify_plot import PLOT_SUFFIXES
+
+        if plot.suffix.lower() not in PLOT_SUFFIXES:
+            raise InputError(f"--plot {plot}: a plot is written as .png or .svg",
+                             hint="e.g. --plot runs/falsify.png")
+        check_output(plot, [run.output, *input_paths(run.agent, run.shield)],
+                     force=run.force, what="--plot")
+        if plot.resolve() == run.output.resolve():
+            raise InputError(f"--plot {plot} is the run file -o writes")
     total = budget * repeat * len(settings.optimizers())
     existed = run.output.exists()
     seen = {"episodes": 0, "violations": 0}
@@ -83,4 +99,8 @@ def falsify_cmd(
                       f"interrupted before an episode was finished: {run.output} was not "
                       + ("changed" if existed else "written"), markup=False)
             raise typer.Exit(130) from None
-    emit(FalsifyOutput(result), fmt.value, out)
+    if plot is not None:
+        from ..render.falsify_plot import objective_plot
+
+        objective_plot(result.values, plot, title=f"{result.property} ({result.logic})")
+    emit(FalsifyOutput(result, str(plot) if plot is not None else None), fmt.value, out)

@@ -31,8 +31,8 @@ def _point(parameters: dict) -> str:
 class FalsifyOutput(Report):
     """A :class:`~tracecheck.search.falsify.FalsifyResult` for people and machines."""
 
-    def __init__(self, result) -> None:
-        self.result = result
+    def __init__(self, result, plot: Optional[str] = None) -> None:
+        self.result, self.plot = result, plot
 
     def data(self) -> dict:
         r = self.result
@@ -40,7 +40,8 @@ class FalsifyOutput(Report):
                 "budget": r.budget, "output": r.output,
                 "optimizers": [asdict(s) for s in r.summaries],
                 "repetitions": [asdict(x) for x in r.repetitions],
-                "violations": [asdict(v) for v in r.violations]}
+                "violations": [asdict(v) for v in r.violations],
+                "plot": self.plot}
 
     def table(self) -> TableData:
         return TableData.of(
@@ -83,4 +84,6 @@ class FalsifyOutput(Report):
         if len(r.violations) > SHOWN:
             console.print(f"  … {len(r.violations) - SHOWN} more violating episode(s): --json "
                           "lists every one", markup=False)
-        console.print(f"every episode -> {r.output}", markup=False)
+        console.print(f"every episode -> {r.output}"
+                      + (f"; the objective over the search -> {self.plot}" if self.plot
+                         else ""), markup=False)

@@ -122,6 +122,8 @@ class FalsifyResult:
     summaries: tuple[Summary, ...]
     output: str
     violations: tuple[Violation, ...] = ()
+    #: every evaluation: (optimizer, search, evaluation, objective)
+    values: tuple[tuple[str, int, int, float], ...] = ()
 
 
 def summarise(optimizer: str, reps: list[Repetition]) -> Summary:
@@ -140,9 +142,11 @@ def summarise(optimizer: str, reps: list[Repetition]) -> Summary:
 
 
 def searched(settings: FalsifySettings, session, space: Space, objective: Objective,
-             done: list[Repetition], found: list[Violation]) -> Iterator[Episode]:
+             done: list[Repetition], found: list[Violation], values: list
+             ) -> Iterator[Episode]:
     """The episodes of the search, in order, each with its point; each finished
-    repetition appended to ``done``, each violation to ``found``."""
+    repetition appended to ``done``, each violation to ``found``, each objective value to
+    ``values``."""
     from ..live.rollout import run_episode
     from .attribution import attribute
     from .optimizers import make_optimizer
@@ -176,6 +180,7 @@ def searched(settings: FalsifySettings, session, space: Space, objective: Object
                 point = SearchPoint(r, k, params, stored, violated, name,
                                     why.kind if why else None, why.step if why else None,
                                     why.detail if why else None)
+                values.append((name, r, k, stored))
                 if violated:
                     found.append(Violation(episode_id, name, r, k, dict(params), stored,
                                            point.attribution, point.attribution_step,
@@ -232,15 +237,16 @@ def falsify(settings: FalsifySettings, out: str | Path,
                 baseline="random" if "random" in settings.optimizers()[1:] else None)})
         done: list[Repetition] = []
         found: list[Violation] = []
+        values: list = []
         record_episodes(out, header, searched(settings, session, space, objective, done,
-                                              found),
+                                              found, values),
                         progress, force=force, channels=channels, inputs=run_inputs(record))
     finally:
         session.env.close()
     summaries = tuple(summarise(name, [r for r in done if r.optimizer == name])
                       for name in settings.optimizers())
     return FalsifyResult(objective.text, objective.logic, space.describe(), settings.budget,
-                         tuple(done), summaries, str(out), tuple(found))
+                         tuple(done), summaries, str(out), tuple(found), tuple(values))
 
 
 def _property_machine(shield, adapter, prop: Optional[str]):
