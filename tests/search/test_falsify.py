@@ -118,7 +118,7 @@ def test_an_interrupted_search_keeps_every_finished_episode(tmp_path):
     (["--param", "density=0..1"], "unknown setting 'density' for the environment frozenlake"),
     (["--param", "seed=0..9", "--property", "G({nowhere > 1})"], "--property"),
     (["--param", "seed=0..9", "--optimizer", "anneal"], "unknown optimizer 'anneal'"),
-    (["--param", "seed=0..9", "--workers", "2"], "falsify runs one episode at a time"),
+    (["--param", "seed=0..9", "--executor", "ray"], "--executor ray is for record"),
     ([], "give what the search varies"),
 ])
 def test_bad_input_is_refused_before_any_episode(tmp_path, capsys, extra, message):
@@ -200,3 +200,27 @@ def test_the_objective_over_the_search_is_drawn(tmp_path, capsys):
                        "--plot", tmp_path / "objective.pdf")
     assert code == 2 and "a plot is written as .png or .svg" in err
     assert not (tmp_path / "g.mcap").exists()
+
+
+def test_workers_run_the_same_episodes_where_the_points_do_not_depend_on_values(tmp_path):
+    """Random sampling asks the same points however many at a time: the same file with 1
+    and 2 workers; a guided optimiser is asked a batch per round (its own points)."""
+    runs = {}
+    for workers in (1, 2):
+        settings = FalsifySettings(
+            RecordSettings(agent=str(AGENT), shield="frozenlake", episodes=1,
+                           env="frozenlake", workers=workers),
+            ("seed=0..9999", "is_slippery={True,False}"), PROPERTY, budget=7,
+            optimizer="random", repeat=2, baseline=False)
+        result = falsify(settings, tmp_path / f"w{workers}.mcap")
+        runs[workers] = [(ep.id, ep.seed, ep.config, ep.search, [s.action for s in ep.steps])
+                         for ep in read_run(tmp_path / f"w{workers}.mcap").episodes]
+        assert len(runs[workers]) == 14 and result.summaries[0].evaluations == 14
+    assert runs[1] == runs[2]
+    settings = FalsifySettings(
+        RecordSettings(agent=str(AGENT), shield="frozenlake", episodes=1, env="frozenlake",
+                       workers=2), ("seed=0..9999",), PROPERTY, budget=5, optimizer="tpe",
+        baseline=False)
+    falsify(settings, tmp_path / "tpe.mcap")
+    assert [ep.search.evaluation for ep in read_run(tmp_path / "tpe.mcap").episodes] == \
+        [0, 1, 2, 3, 4]

@@ -2,7 +2,9 @@
 under its shield violates a property, every evaluation a recorded episode.
 
 Each repetition of the search is one optimiser (:mod:`.optimizers`, seeded with the search's
-seed plus the repetition) asked for ``budget`` points one after the other; each point is an
+seed plus the repetition) asked for ``budget`` points one after the other — or, with ``W``
+workers, ``W`` at a time before it is told their values (which changes the points a guided
+optimiser chooses: a search reproduces with the same number of workers); each point is an
 episode run as ``record`` runs one (:func:`tracecheck.live.rollout.run_episode`: the same
 agent, shield and modes), in the environment made with the point's settings on top of the
 run's, from the point's seed (or the run's ``--seed`` where the seed is not searched). The
@@ -21,6 +23,7 @@ from __future__ import annotations
 
 import math
 import statistics
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Iterator, Optional
@@ -141,53 +144,127 @@ def summarise(optimizer: str, reps: list[Repetition]) -> Summary:
         sum(r.violations for r in reps), sum(r.evaluations for r in reps), kinds)
 
 
-def searched(settings: FalsifySettings, session, space: Space, objective: Objective,
-             done: list[Repetition], found: list[Violation], values: list
-             ) -> Iterator[Episode]:
+@dataclass(frozen=True)
+class _Task:
+    """One evaluation: the episode's id in the file, its seed and settings."""
+
+    episode: int
+    seed: int
+    overrides: dict
+
+
+class _Evaluator:
+    """Runs evaluations in one process: the episode in the environment made with its
+    settings, the property's value, and its attribution where it violates."""
+
+    def __init__(self, settings: FalsifySettings, session, objective: Objective) -> None:
+        self.settings, self.session, self.objective = settings, session, objective
+
+    def __call__(self, task: _Task) -> tuple:
+        from ..live.rollout import run_episode
+        from .attribution import attribute
+
+        record, session = self.settings.record, self.session
+        session.reconfigure(session.adapter.config(
+            {**dict(record.env_config or {}), **task.overrides}, profile=record.profile,
+            horizon=session.horizon))
+        episode = run_episode(session, task.episode, seed=task.seed)
+        value, violated = self.objective.value(episode)
+        why = None
+        if violated and self.settings.attribute > 0:
+            why = attribute(session, episode, self.objective, self.settings.attribute)
+        return episode, value, violated, why
+
+
+_WORKER: Optional[_Evaluator] = None
+
+
+def _init_worker(settings: FalsifySettings, shield) -> None:
+    """A worker process's own environment, agent and objective (built there)."""
+    global _WORKER
+    import signal
+
+    from ..live.rollout import Session
+    from .objective import load_objective
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C and stops us
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    session = Session(settings.record, shield=shield)
+    objective = load_objective(settings.prop,
+                               _property_machine(shield, session.adapter, settings.prop),
+                               tuple(session.adapter.actions))
+    _WORKER = _Evaluator(settings, session, objective)
+
+
+def _work(task: _Task) -> tuple:
+    assert _WORKER is not None
+    return _WORKER(task)
+
+
+def searched(settings: FalsifySettings, evaluate, space: Space, done: list[Repetition],
+             found: list[Violation], values: list, workers: int = 1) -> Iterator[Episode]:
     """The episodes of the search, in order, each with its point; each finished
     repetition appended to ``done``, each violation to ``found``, each objective value to
-    ``values``."""
-    from ..live.rollout import run_episode
-    from .attribution import attribute
+    ``values``. ``evaluate(tasks)`` runs a batch of evaluations (in order); with ``workers``
+    above 1 an optimiser is asked that many points before it is told their values."""
     from .optimizers import make_optimizer
 
     record = settings.record
-    base = dict(record.env_config or {})
     episode_id = 0
     for name in settings.optimizers():
         for r in range(settings.repeat):
             optimizer = make_optimizer(name, len(space.dimensions), settings.seed + r)
             first, violations, best, kinds = None, 0, math.inf, {}
-            for k in range(settings.budget):
-                unit = optimizer.ask()
-                params = space.point(unit)
-                overrides = {d.name: params[d.name] for d in space.settings}
-                session.reconfigure(session.adapter.config(
-                    {**base, **overrides}, profile=record.profile, horizon=session.horizon))
-                seed = int(params[SEED]) if SEED in params else record.seed
-                episode = run_episode(session, episode_id, seed=seed)
-                value, violated = objective.value(episode)
-                optimizer.tell(unit, value)
-                best = min(best, value)
-                if violated:
-                    violations += 1
-                    first = k + 1 if first is None else first
-                why = None
-                if violated and settings.attribute > 0:
-                    why = attribute(session, episode, objective, settings.attribute)
-                    kinds[why.kind] = kinds.get(why.kind, 0) + 1
-                stored = max(-OBJECTIVE_LIMIT, min(OBJECTIVE_LIMIT, value))
-                point = SearchPoint(r, k, params, stored, violated, name,
-                                    why.kind if why else None, why.step if why else None,
-                                    why.detail if why else None)
-                values.append((name, r, k, stored))
-                if violated:
-                    found.append(Violation(episode_id, name, r, k, dict(params), stored,
-                                           point.attribution, point.attribution_step,
-                                           point.attribution_detail))
-                yield replace(episode, config=overrides or None, search=point)
-                episode_id += 1
+            k = 0
+            while k < settings.budget:
+                units = [optimizer.ask() for _ in range(min(workers, settings.budget - k))]
+                points = [space.point(u) for u in units]
+                tasks = [_Task(episode_id + i,
+                               int(p[SEED]) if SEED in p else record.seed,
+                               {d.name: p[d.name] for d in space.settings})
+                         for i, p in enumerate(points)]
+                for unit, params, task, outcome in zip(units, points, tasks, evaluate(tasks)):
+                    episode, value, violated, why = outcome
+                    optimizer.tell(unit, value)
+                    best = min(best, value)
+                    if violated:
+                        violations += 1
+                        first = k + 1 if first is None else first
+                    if why is not None:
+                        kinds[why.kind] = kinds.get(why.kind, 0) + 1
+                    stored = max(-OBJECTIVE_LIMIT, min(OBJECTIVE_LIMIT, value))
+                    point = SearchPoint(r, k, params, stored, violated, name,
+                                        why.kind if why else None,
+                                        why.step if why else None,
+                                        why.detail if why else None)
+                    values.append((name, r, k, stored))
+                    if violated:
+                        found.append(Violation(task.episode, name, r, k, dict(params), stored,
+                                               point.attribution, point.attribution_step,
+                                               point.attribution_detail))
+                    yield replace(episode, config=task.overrides or None, search=point)
+                    k += 1
+                episode_id += len(tasks)
             done.append(Repetition(name, r, settings.budget, violations, first, best, kinds))
+
+
+@contextmanager
+def _evaluations(settings: FalsifySettings, session, objective: Objective, shield):
+    """``evaluate(tasks)``: in this process, or in ``settings.record.workers`` processes
+    (each with its own environment and agent, as ``record``'s workers)."""
+    workers = settings.record.workers
+    if workers <= 1:
+        local = _Evaluator(settings, session, objective)
+        yield lambda tasks: [local(t) for t in tasks]
+        return
+    import multiprocessing as mp
+
+    ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+    with ctx.Pool(workers, initializer=_init_worker, initargs=(settings, shield)) as pool:
+        try:
+            yield lambda tasks: pool.map(_work, tasks, chunksize=1)
+        finally:
+            pool.terminate()
 
 
 def check_search(settings: FalsifySettings) -> None:
@@ -238,9 +315,11 @@ def falsify(settings: FalsifySettings, out: str | Path,
         done: list[Repetition] = []
         found: list[Violation] = []
         values: list = []
-        record_episodes(out, header, searched(settings, session, space, objective, done,
-                                              found, values),
-                        progress, force=force, channels=channels, inputs=run_inputs(record))
+        with _evaluations(settings, session, objective, shield) as evaluate:
+            record_episodes(out, header, searched(settings, evaluate, space, done, found,
+                                                  values, max(1, record.workers)),
+                            progress, force=force, channels=channels,
+                            inputs=run_inputs(record))
     finally:
         session.env.close()
     summaries = tuple(summarise(name, [r for r in done if r.optimizer == name])
