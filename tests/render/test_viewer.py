@@ -202,3 +202,29 @@ def test_a_scene_s_scale_is_checked():
 
     with pytest.raises(InputError, match="a Scene has scale -1: give the pixels per unit"):
         Scene((), view=(0.0, 0.0, 1.0, 1.0), scale=-1)
+
+
+def test_a_search_s_episode_shows_its_settings_and_point(tmp_path):
+    """An episode ``falsify`` wrote carries its own settings and its search point (the
+    summary line draws them as text)."""
+    from tracecheck.episodes.files import write_run
+    from tracecheck.episodes.model import SearchPoint
+    from tracecheck.episodes.writer import new_header
+    from dataclasses import replace
+
+    from tests.helpers import episode
+
+    point = SearchPoint(1, 4, {"seed": 7, "density": 1.5}, -1.0, True, "tpe", "shield gap", 2,
+                        "the shield allowed IDLE at step 2 …")
+    path = tmp_path / "s.mcap"
+    write_run(path, new_header("recorded"), [replace(episode(0), config={"density": 1.5},
+                                                     search=point)])
+    data = episode_data(path, 0)
+    assert data["config"] == {"density": 1.5}
+    assert data["search"] == {"repetition": 1, "evaluation": 4, "parameters": {
+        "seed": 7, "density": 1.5}, "objective": -1.0, "violated": True, "optimizer": "tpe",
+        "attribution": "shield gap", "attribution_step": 2,
+        "attribution_detail": "the shield allowed IDLE at step 2 …"}
+    other = tmp_path / "plain.mcap"
+    write_run(other, new_header("recorded"), [episode(0)])
+    assert (episode_data(other, 0)["config"], episode_data(other, 0)["search"]) == (None, None)

@@ -24,6 +24,7 @@ from __future__ import annotations
 import html
 import math
 import re
+from dataclasses import asdict
 from pathlib import Path
 from typing import Optional, Sequence
 
@@ -34,7 +35,7 @@ from ..episodes.model import Episode
 from ..episodes.reader import find_episode, read_run
 from ..checking.shield import Shield
 from ..errors import InputError
-from ..jsontext import script_json
+from ..jsontext import plain, script_json
 from .scene import no_scene_caption, scene_drawer, shape_json, css
 from .tables import is_number
 
@@ -187,6 +188,8 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
     return {
         **({"parameters": [a["parameter"] for a in actions]} if actions else {}),
         "file": str(run), "episode": ep.id, "seed": ep.seed, "origin": ep.origin,
+        "config": plain(dict(ep.config)) if ep.config else None,
+        "search": plain(asdict(ep.search)) if ep.search is not None else None,
         "environment": header.environment if header is not None else None,
         "actions": _action_names(ep, header),
         "scene": scene, "no_scene_caption": no_scene_caption(
