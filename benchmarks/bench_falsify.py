@@ -38,6 +38,9 @@ PROBLEMS = {
                f"G({{s < {P.CORNER}}})", (0.2 ** 3 / 6, "a corner of volume 0.2^3 / 6")),
     "brake": ("benchmarks.falsify_problems:Brake", ("t=0.0..1.0", "k=0.0..1.0", "u=0.0..1.0"),
               "G({gap > 0.0})", None),
+    # the same crashes, as the default property (no crash) guided by the shield's margins
+    "brake-margin": ("benchmarks.falsify_problems:Brake",
+                     ("t=0.0..1.0", "k=0.0..1.0", "u=0.0..1.0"), None, None),
 }
 
 
@@ -75,11 +78,11 @@ def run_problem(name: str, repeat: int, budget: int, folder: Path) -> dict:
     from tracecheck.search.falsify import FalsifySettings, falsify
 
     env, params, prop, _ = PROBLEMS[name]
-    actions = 3 if name == "brake" else 1
+    actions = 3 if name.startswith("brake") else 1
     agent = P.agent_table(folder / f"{name}.npy", actions)
     shield = str(folder / f"{name}.mch")
     Path(shield).write_text({"needle": P.NEEDLE_MACHINE, "corner": P.CORNER_MACHINE,
-                             "brake": P.BRAKE_SHIELD}[name])
+                             "brake": P.BRAKE_SHIELD, "brake-margin": P.BRAKE_SHIELD}[name])
     rows = {}
     for optimizer in OPTIMIZERS:
         settings = FalsifySettings(

@@ -42,6 +42,10 @@ def falsify_cmd(
         5, "--attribute", min=0, help="Attribute each violation by branching "
         "re-simulation at this many steps before it (shield gap, unavoidable under the "
         "shield, agent's choice); 0: not attributed."),
+    guide: str = typer.Option(
+        "margin", "--guide", help="margin (the default): an episode that keeps a true/false "
+        "property (LTL, or no crash) is valued by how close the actions taken came to their "
+        "shield guards flipping, which guides the search; none: all such episodes +1."),
     plot: Optional[Path] = typer.Option(
         None, "--plot", help="Also draw the objective over the search (the lowest value so "
         "far per optimiser and search) to this .png or .svg file."),
@@ -67,7 +71,7 @@ def falsify_cmd(
         raise InputError(f"--seed {run.seed} and --param seed=…: the search chooses each "
                          "episode's seed; give one of the two")
     settings = FalsifySettings(record_settings(run, budget), tuple(param), prop, budget,
-                               optimizer, repeat, search_seed, baseline, attribute)
+                               optimizer, repeat, search_seed, baseline, attribute, guide)
     if plot is not None:
         from ..outputs import check_output
         from ..render.falsify_plot import PLOT_SUFFIXES

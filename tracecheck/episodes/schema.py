@@ -69,6 +69,9 @@ class SearchRunMessage(_Message):
     seed: int = Field(ge=0, description="the search's own seed (repetition r: seed + r)")
     property: str
     space: dict[str, list] = Field(description="each dimension: [low, high] or its choices")
+    guide: Optional[Literal["margin"]] = Field(
+        None, description="what values the episodes that keep a true/false property: the "
+                          "shield's guard margins (none: +1)")
 
 
 class RunHeaderMessage(_Message):

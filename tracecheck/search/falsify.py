@@ -57,6 +57,9 @@ class FalsifySettings:
     baseline: bool = True
     #: the steps before each violation that attribution branches at (0: not attributed)
     attribute: int = 5
+    #: ``margin``: an episode that keeps a true/false property is valued by the shield's
+    #: guard margins (:mod:`.margins`); ``none``: +1
+    guide: str = "margin"
 
     def optimizers(self) -> tuple[str, ...]:
         """The optimisers that run: the one asked for, and uniform random beside it."""
@@ -185,15 +188,11 @@ def _init_worker(settings: FalsifySettings, shield) -> None:
     import signal
 
     from ..live.rollout import Session
-    from .objective import load_objective
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C and stops us
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     session = Session(settings.record, shield=shield)
-    objective = load_objective(settings.prop,
-                               _property_machine(shield, session.adapter, settings.prop),
-                               tuple(session.adapter.actions))
-    _WORKER = _Evaluator(settings, session, objective)
+    _WORKER = _Evaluator(settings, session, _objective(settings, shield, session.adapter))
 
 
 def _work(task: _Task) -> tuple:
@@ -277,6 +276,8 @@ def check_search(settings: FalsifySettings) -> None:
         raise InputError("--repeat must be at least 1")
     if settings.seed < 0:
         raise InputError("--search-seed must be at least 0")
+    if settings.guide not in ("margin", "none"):
+        raise InputError(f"unknown guide {settings.guide!r}; the guides are margin, none")
     if settings.attribute < 0:
         raise InputError("--attribute must be at least 0 (0: violations not attributed)")
     for name in settings.optimizers():
@@ -293,7 +294,6 @@ def falsify(settings: FalsifySettings, out: str | Path,
     from ..episodes.schema import SearchRunMessage
     from ..live.record import check_settings, recording_header, run_inputs
     from ..live.rollout import Session
-    from .objective import load_objective
     from .space import check_space
 
     out = Path(out)
@@ -304,14 +304,13 @@ def falsify(settings: FalsifySettings, out: str | Path,
     try:
         space = check_space(settings.params, session.adapter, record.env_config,
                             check=_fits(record, shield, session.adapter))
-        objective = load_objective(
-            settings.prop, _property_machine(shield, session.adapter, settings.prop),
-            tuple(session.adapter.actions))
+        objective = _objective(settings, shield, session.adapter)
         header = recording_header(record, agent, shield).model_copy(update={
             "search": SearchRunMessage(
                 optimizer=settings.optimizer, budget=settings.budget, repeat=settings.repeat,
                 seed=settings.seed, property=objective.text, space=space.describe(),
-                baseline="random" if "random" in settings.optimizers()[1:] else None)})
+                baseline="random" if "random" in settings.optimizers()[1:] else None,
+                guide="margin" if objective.guide is not None else None)})
         done: list[Repetition] = []
         found: list[Violation] = []
         values: list = []
@@ -326,6 +325,19 @@ def falsify(settings: FalsifySettings, out: str | Path,
                       for name in settings.optimizers())
     return FalsifyResult(objective.text, objective.logic, space.describe(), settings.budget,
                          tuple(done), summaries, str(out), tuple(found), tuple(values))
+
+
+def _objective(settings: FalsifySettings, shield, adapter) -> Objective:
+    """The search's objective: its property, read in the property machine, guided by the
+    shield's guard margins where asked (``guide="margin"``) and the shield has guards."""
+    from .margins import GuardMargins
+    from .objective import load_objective
+
+    machine = getattr(shield, "machine", None)
+    guide = GuardMargins(machine) if settings.guide == "margin" and machine is not None \
+        and machine.operations and not adapter.parameters else None
+    return load_objective(settings.prop, _property_machine(shield, adapter, settings.prop),
+                          tuple(adapter.actions), guide)
 
 
 def _property_machine(shield, adapter, prop: Optional[str]):

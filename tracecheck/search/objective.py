@@ -13,6 +13,10 @@ does.
 * None given: the episode must not crash (the environment's own crash flag, which every
   adapter gives), valued as an LTL property.
 
+An episode that keeps a true/false property (LTL, or no crash) is valued by the shield's
+guard margin where a guide is given (:mod:`.margins`: how close the actions taken came to
+their guards flipping; 0 or more), else +1.
+
 The formula is read in the shield's machine (its variables are the states'), and is
 checked before any episode runs.
 """
@@ -44,13 +48,16 @@ class Objective:
     actions: tuple[str, ...]
     #: an STL formula read as LTL too, where it can be: its truth where the robustness is 0
     truth: Any = None
+    #: the shield's guard margins (:mod:`.margins`), the value of an LTL or crash property
+    #: where it holds (None: +1)
+    guide: Any = None
 
     def value(self, episode: Episode) -> tuple[float, bool]:
         """(the episode's value, whether it violates the property)."""
         from ..episodes.columns import episode_columns
 
         if self.logic == "crash":
-            return (-1.0, True) if episode.end.crashed else (1.0, False)
+            return (-1.0, True) if episode.end.crashed else (self._held(episode), False)
         from ..checking.crashflag import with_crash_flag
         from ..checking.ltl import evaluate_ltl
 
@@ -67,18 +74,25 @@ class Objective:
                 return rho, not holds
             return rho, not rho > 0
         holds = bool(evaluate_ltl(self.formula, cols, self.machine)[cols.starts[0]])
-        return (1.0, False) if holds else (-1.0, True)
+        return (self._held(episode), False) if holds else (-1.0, True)
+
+    def _held(self, episode: Episode) -> float:
+        """The value of an episode that keeps a true/false property: its guard margin
+        where a guide measures one, else 1."""
+        margin = self.guide.episode(episode) if self.guide is not None else None
+        return 1.0 if margin is None else margin
 
 
-def load_objective(text, machine, actions: tuple[str, ...]) -> Objective:
+def load_objective(text, machine, actions: tuple[str, ...], guide=None) -> Objective:
     """The property ``text`` read as STL where it has a robustness (comparisons of numbers
     only), else as LTL; an error naming ``--property`` where it is neither. None: the
-    episode does not crash."""
+    episode does not crash. ``guide``: the shield's guard margins, the value of a
+    true/false property's episodes that keep it."""
     from ..checking.ltl import parse_ltl
     from ..checking.stl import parse_stl
 
     if text is None:
-        return Objective(DEFAULT_PROPERTY, "crash", None, machine, actions)
+        return Objective(DEFAULT_PROPERTY, "crash", None, machine, actions, guide=guide)
     try:
         stl = parse_stl(text, machine, where="--property")
     except TracecheckError:
@@ -91,7 +105,7 @@ def load_objective(text, machine, actions: tuple[str, ...]) -> Objective:
         return Objective(text, "STL", stl, machine, actions, truth)
     try:
         return Objective(text, "LTL", parse_ltl(text, machine, where="--property"), machine,
-                         actions)
+                         actions, guide=guide)
     except TracecheckError as exc:
         raise InputError(f"--property {text!r}: {exc.message}",
                          hint=exc.hint or "an LTL formula (G({Crash = FALSE})) or an STL one "
