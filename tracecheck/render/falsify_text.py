@@ -40,7 +40,8 @@ class FalsifyOutput(Report):
                 "budget": r.budget, "output": r.output,
                 "optimizers": [asdict(s) for s in r.summaries],
                 "repetitions": [asdict(x) for x in r.repetitions],
-                "violations": [asdict(v) for v in r.violations],
+                "violations": [{"episode": v.episode, **asdict(v.point)}
+                               for v in r.violations],
                 "plot": self.plot}
 
     def table(self) -> TableData:
@@ -74,13 +75,14 @@ class FalsifyOutput(Report):
                     f"{n} {kind}" for kind, n in sorted(s.attributions.items())),
                     markup=False)
         for v in r.violations[:SHOWN]:
-            why = (f"; {v.attribution}" + (f" at step {v.attribution_step}"
-                                           if v.attribution_step is not None else "")
-                   + (f": {v.attribution_detail}" if v.attribution_detail else "")
-                   if v.attribution else "")
-            console.print(f"  episode {v.episode} ({v.optimizer}, search {v.repetition}, "
-                          f"evaluation {v.evaluation + 1}): {_point(v.parameters)}; objective "
-                          f"{v.objective:g}{why}", markup=False)
+            p = v.point
+            why = (f"; {p.attribution}" + (f" at step {p.attribution_step}"
+                                           if p.attribution_step is not None else "")
+                   + (f": {p.attribution_detail}" if p.attribution_detail else "")
+                   if p.attribution else "")
+            console.print(f"  episode {v.episode} ({p.optimizer}, search {p.repetition}, "
+                          f"evaluation {p.evaluation + 1}): {_point(p.parameters)}; objective "
+                          f"{p.objective:g}{why}", markup=False)
         if len(r.violations) > SHOWN:
             console.print(f"  … {len(r.violations) - SHOWN} more violating episode(s): --json "
                           "lists every one", markup=False)

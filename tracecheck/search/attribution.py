@@ -65,7 +65,7 @@ def failure_step(episode: Episode, objective: Objective) -> int:
     """The step of the failure: the crash, or the end of the shortest beginning of the
     episode that already violates the property (the first bad state of a safety property;
     the last step where only the whole episode does)."""
-    if objective.logic == "crash" or episode.end.crashed and objective.logic == "crash":
+    if objective.logic == "crash":
         return episode.end.steps
     for n in range(1, episode.end.steps + 1):
         steps = episode.steps[:n + 1]

@@ -102,17 +102,11 @@ class Summary:
 
 @dataclass(frozen=True)
 class Violation:
-    """A violating episode: its id in the run file, its search point and attribution."""
+    """A violating episode: its id in the run file, and its search point (with its
+    attribution)."""
 
     episode: int
-    optimizer: str
-    repetition: int
-    evaluation: int
-    parameters: dict
-    objective: float
-    attribution: Optional[str]
-    attribution_step: Optional[int]
-    attribution_detail: Optional[str]
+    point: SearchPoint
 
 
 @dataclass(frozen=True)
@@ -238,9 +232,7 @@ def searched(settings: FalsifySettings, evaluate, space: Space, done: list[Repet
                                         why.detail if why else None)
                     values.append((name, r, k, stored))
                     if violated:
-                        found.append(Violation(task.episode, name, r, k, dict(params), stored,
-                                               point.attribution, point.attribution_step,
-                                               point.attribution_detail))
+                        found.append(Violation(task.episode, point))
                     yield replace(episode, config=task.overrides or None, search=point)
                     k += 1
                 episode_id += len(tasks)
