@@ -224,3 +224,13 @@ def test_workers_run_the_same_episodes_where_the_points_do_not_depend_on_values(
     falsify(settings, tmp_path / "tpe.mcap")
     assert [ep.search.evaluation for ep in read_run(tmp_path / "tpe.mcap").episodes] == \
         [0, 1, 2, 3, 4]
+
+
+def test_info_names_the_search(searched, capsys):
+    out, _ = searched
+    code, text, _ = run(capsys, "info", out, "--json")
+    assert code == 0 and json.loads(text)["files"][0]["search"]["optimizer"] == "halton"
+    code, text, _ = run(capsys, "info", out)
+    assert "a search (falsify): halton beside random, 2 search(es) of 12 episode(s), " \
+        f"property {PROPERTY}, guided by the shield's margins; space seed 0..9999, " \
+        "is_slippery {True,False}" in " ".join(text.split())

@@ -11,7 +11,7 @@ from .columns import read_blocks
 
 from .reader import read_header
 
-__all__ = ["summarise"]
+__all__ = ["summarise", "search_text"]
 
 
 def summarise(paths: Iterable[str | Path], *, salvage: bool = False) -> dict:
@@ -34,6 +34,7 @@ def summarise(paths: Iterable[str | Path], *, salvage: bool = False) -> dict:
             "agent": header.agent_id, "shield": header.shield_name,
             "environment": header.environment_id,
             "continuous": _continuous(header),
+            "search": header.search.model_dump() if header.search is not None else None,
         })
     return {
         "episodes": sum(f["episodes"] for f in files),
@@ -46,6 +47,18 @@ def summarise(paths: Iterable[str | Path], *, salvage: bool = False) -> dict:
         "files": files,
         "warnings": warnings,
     }
+
+
+def search_text(search: dict) -> str:
+    """A search's run header (``falsify``) in words: its optimisers, budget, property and
+    space."""
+    beside = f" beside {search['baseline']}" if search.get("baseline") else ""
+    space = ", ".join(f"{k} {v[0]}..{v[1]}" if len(v) == 2 and not isinstance(v[0], (str, bool))
+                      else f"{k} {{{','.join(map(str, v))}}}" for k, v in search["space"].items())
+    guide = f", guided by the shield's {search['guide']}s" if search.get("guide") else ""
+    return (f"{search['optimizer']}{beside}, {search['repeat']} search(es) of "
+            f"{search['budget']} episode(s), property {search['property']}{guide}; "
+            f"space {space}")
 
 
 def _continuous(header) -> str:

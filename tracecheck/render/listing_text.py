@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Optional
 
+from ..episodes.summary import search_text
 from ..errors import UnsupportedError
 from .emit import Report
 from .tables import TableData, fitted, plain, say, terminal_width
@@ -35,6 +36,8 @@ class InfoOutput(Report):
                  f"{summary['crashes']} crash(es) ({rate:.1%})"]
         lines += [f"{key}: {('; ' if key == 'continuous' else ', ').join(summary[key])}"
                   for key in ("agents", "shields", "continuous") if summary[key]]
+        lines += [f"{f['path']}: a search (falsify): {search_text(f['search'])}"
+                  for f in summary["files"] if f.get("search")]
         for line in lines:
             say(line)
 
