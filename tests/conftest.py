@@ -141,3 +141,15 @@ def run_file(tmp_path_factory):
         for e in episodes:
             w.write(e)
     return path
+
+
+@pytest.fixture(scope="module")
+def local_ray():
+    """A local Ray instance on loopback with 2 CPUs, shared by the tests of a module (skipped
+    where Ray is not installed)."""
+    ray = pytest.importorskip("ray", reason="the ray extra is not installed (pip install "
+                                            "-e '.[ray]')")
+    ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False,
+             _node_ip_address="127.0.0.1")
+    yield ray
+    ray.shutdown()

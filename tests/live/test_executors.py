@@ -19,15 +19,6 @@ psutil = pytest.importorskip("psutil")
 AGENT = str(ROOT / "models" / "agents" / "base.zip")
 
 
-@pytest.fixture(scope="module")
-def local_ray():
-    """A local Ray instance on loopback with 2 CPUs, shared by the tests of this module."""
-    ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False,
-             _node_ip_address="127.0.0.1")
-    yield
-    ray.shutdown()
-
-
 def settings(**kw):
     values = dict(agent=AGENT, shield="paper", episodes=6, seed=300, duration=12, workers=2,
                   env="highway")

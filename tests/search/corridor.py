@@ -1,6 +1,6 @@
 """A corridor with a pit, for the attribution tests: where a crash is sealed is known.
 
-The walker starts at 0 and moves on each STEP; position 5 is a pit (a crash); EXIT ends the
+The walker starts at 0 (or where the reset option ``head_start`` says) and moves on each STEP; position 5 is a pit (a crash); EXIT ends the
 episode safely; WAIT stays. The agent (a Q-table) prefers STEP, then EXIT, then WAIT, and
 takes the best the shield allows. Three shields make the three kinds of failure:
 
@@ -36,6 +36,8 @@ END
 OPEN = _MACHINE.format(step="pos >= 0", other="pos >= 0")
 ONLY_STEP = _MACHINE.format(step="pos >= 0", other="pos < 0")
 GAP = _MACHINE.format(step="pos >= 0", other="pos /= 4")
+#: blocks the step into the pit
+GUARDED = _MACHINE.format(step="pos < 4", other="pos >= 0")
 
 
 class CorridorEnv(gym.Env):
@@ -46,7 +48,10 @@ class CorridorEnv(gym.Env):
 
     def reset(self, *, seed: Optional[int] = None, options=None):
         super().reset(seed=seed)
-        self.pos = self.start
+        start = (options or {}).get("head_start", self.start)
+        if not isinstance(start, int):
+            raise ValueError(f"head_start must be a whole position, not {start!r}")
+        self.pos = start
         return self.pos, {}
 
     def step(self, action):
@@ -64,6 +69,8 @@ class Corridor(EnvAdapter):
     variables = ("pos",)
     model_name = "Corridor"
     horizon = 10
+    #: the environment's reset reads it (the adapter's default reset hook passes it on)
+    reset_parameters = {"head_start": "where the walker starts instead of start"}
 
     def default_config(self) -> dict[str, Any]:
         return {"start": 0}

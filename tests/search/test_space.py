@@ -56,7 +56,7 @@ def test_ranges_are_tried_on_the_environment_before_any_episode():
     adapter = load_adapter("frozenlake")
     space = check_space(["seed=0..99", "is_slippery={True,False}"], adapter)
     assert [d.name for d in space.dimensions] == ["seed", "is_slippery"]
-    with pytest.raises(InputError, match="unknown setting 'density'"):
+    with pytest.raises(InputError, match="no setting nor reset parameter 'density'"):
         check_space(["density=0.5..2.0"], adapter)
     with pytest.raises(InputError, match="is_slippery does not take numbers"):
         check_space(["is_slippery=0..1"], adapter)

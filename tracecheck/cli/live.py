@@ -275,5 +275,7 @@ def envs_cmd(
                        missing=missing)
             if a.parameters:  # continuous: each action with the parameters it binds
                 row["parameters"] = {op: list(p) for op, p in a.parameters.items()}
+            if a.reset_parameters:  # what falsify --param may set at an episode's start
+                row["reset_parameters"] = dict(a.reset_parameters)
         rows.append(row)
     emit(EnvsOutput(rows), fmt.value, out)

@@ -64,9 +64,6 @@ def falsify_cmd(
     if run.mode == EXTERNAL_MODE:
         raise InputError("falsify runs an agent itself (--agent); an --external script "
                          "chooses its own scenarios")
-    if run.executor.value != "local":
-        raise InputError("falsify runs its episodes in local processes (--workers W); "
-                         "--executor ray is for record and simulate")
     if run.seed is not None and any(p.partition("=")[0].strip() == "seed" for p in param):
         raise InputError(f"--seed {run.seed} and --param seed=…: the search chooses each "
                          "episode's seed; give one of the two")

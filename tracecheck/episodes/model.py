@@ -72,7 +72,8 @@ class SearchPoint:
 class Episode:
     """A whole episode: states ``steps[0] … steps[n]`` and how it ended. ``config``: the
     environment settings of this episode on top of the run's (a search's parameters);
-    ``search``: the search evaluation it is, if any."""
+    ``search``: the search evaluation it is, if any; ``reset_options``: what it started
+    from besides its seed."""
 
     id: int
     steps: tuple[StepRecord, ...]
@@ -81,6 +82,9 @@ class Episode:
     origin: Optional[str] = None
     config: Optional[Mapping[str, Any]] = None
     search: Optional[SearchPoint] = None
+    #: what the episode started from besides its seed: the values of its environment's
+    #: ``reset_parameters`` a search chose (the adapter's ``reset`` took them)
+    reset_options: Optional[Mapping[str, Any]] = None
 
     @property
     def states(self) -> list[Mapping[str, Any]]:

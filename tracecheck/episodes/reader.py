@@ -72,7 +72,8 @@ class Piece:
         return Episode(id=head.episode, seed=head.seed, origin=head.origin,
                        steps=tuple(self.steps),
                        end=EpisodeEnd(end.steps, end.crashed, end.total_reward, end.reason),
-                       config=head.environment_config, search=search)
+                       config=head.environment_config, search=search,
+                       reset_options=head.reset_options)
 
 
 class _BadEpisode(Exception):

@@ -154,6 +154,9 @@ class EpisodeHeaderMessage(_Message):
         None, description="this episode's environment settings on top of the run's "
                           "environment_config (a search's parameters)")
     search: Optional[SearchPointMessage] = None
+    reset_options: Optional[dict[str, Any]] = Field(
+        None, description="what the episode started from besides its seed: the values of "
+                          "the environment's reset parameters a search chose")
 
 
 class StepMessage(_Message):

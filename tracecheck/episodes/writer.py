@@ -265,7 +265,8 @@ class EpisodeWriter:
             attribution_detail=ep.search.attribution_detail)
         header = schema.EpisodeHeaderMessage(
             episode=ep.id, seed=ep.seed, origin=ep.origin, search=search,
-            environment_config=dict(ep.config) if ep.config is not None else None)
+            environment_config=dict(ep.config) if ep.config is not None else None,
+            reset_options=dict(ep.reset_options) if ep.reset_options is not None else None)
         self._crc = 0
         start = self._stream.tell()
         self._emit("tracecheck.EpisodeHeader", header.model_dump_json(exclude_none=True).encode(),

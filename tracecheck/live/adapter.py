@@ -40,13 +40,13 @@ from __future__ import annotations
 
 import functools
 import importlib
-import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Collection, Mapping, Optional
 
-from ..errors import InputError, TracecheckError, printable
+from ..errors import InputError, TracecheckError
+from .adapter_checks import USERS, check_attributes, raised
 from .settings import gymnasium_keys, gymnasium_kinds, setting_kinds, typed_setting
 from .. import registry
 from ..registry import ENTRY_POINT_GROUP
@@ -60,10 +60,6 @@ __all__ = ["EnvAdapter", "Observer", "adapters", "get_adapter", "installed_adapt
            "ENTRY_POINT_GROUP", "MakeError", "GymnasiumAdapter",
            "adapters_for_env_id", "claiming_adapter", "run_adapter"]
 
-#: what the user's code may raise that is reported as its error: any exception, and
-#: SystemExit (``sys.exit()`` in a hook must not end tracecheck silently with its code) —
-#: not KeyboardInterrupt, which stays an interrupt
-_USERS = (Exception, SystemExit)
 
 
 class Observer:
@@ -154,6 +150,11 @@ class EnvAdapter:
     #: ``x : 0..7``); ``prove --env`` assumes them. Only what the environment guarantees:
     #: a range stated too narrowly would make a proof wrong.
     assumptions: tuple[str, ...] = ()
+    #: what a search (``falsify --param NAME=LO..HI``) may set at the start of an episode
+    #: besides the environment's settings — its initial state: name -> one line saying what
+    #: it sets (``{"other_speed": "the other vehicles' initial speed, m/s"}``). The values a
+    #: search chooses reach :meth:`reset` as its ``options``.
+    reset_parameters: Mapping[str, str] = {}
 
     def default_config(self) -> dict[str, Any]:
         """The environment configuration used when the user gives none."""
@@ -214,6 +215,22 @@ class EnvAdapter:
             A ``gymnasium.Env``.
         """
         raise NotImplementedError
+
+    def reset(self, env, seed: Optional[int], options: Optional[dict[str, Any]] = None):
+        """Start an episode: reset the environment, and set what ``options`` says.
+
+        Args:
+            env: the environment :meth:`make_env` made.
+            seed: the episode's seed.
+            options: values of :attr:`reset_parameters` a search chose (None: none).
+
+        Returns:
+            ``(observation, info)`` as ``env.reset`` returns them. By default
+            ``env.reset(seed=seed, options=options)``: an environment whose ``reset`` reads
+            these options needs nothing more; an adapter that sets the state itself resets,
+            changes the state, and returns the observation of the changed state.
+        """
+        return env.reset(seed=seed, options=options)
 
     def observer(self, env) -> Observer:
         """A fresh observer for one environment (its memory spans one episode)."""
@@ -337,7 +354,7 @@ def adapters() -> list[AdapterInfo]:
         if entry.cls is not None:
             try:
                 adapter = _instance(entry.cls, entry.target)
-            except _USERS as exc:  # noqa: BLE001 - a broken plug-in must not stop the list
+            except USERS as exc:  # noqa: BLE001 - a broken plug-in must not stop the list
                 problem = f"{type(exc).__name__}: {exc}"
         out.append(AdapterInfo(entry.name, entry.target, adapter, problem))
     return out
@@ -397,8 +414,8 @@ def get_adapter(name: Optional[str]) -> EnvAdapter:
                          hint="give your own adapter as --env package.module:Class")
     try:
         loaded = ep.load()
-    except _USERS as exc:  # noqa: BLE001 - the plug-in's own code
-        raise _raised(name, exc, "when it was imported") from exc
+    except USERS as exc:  # noqa: BLE001 - the plug-in's own code
+        raise raised(name, exc, "when it was imported") from exc
     return _instance(loaded, name)
 
 
@@ -432,8 +449,8 @@ def load_adapter(spec: Optional[str]) -> EnvAdapter:
         module = importlib.import_module(module_name)
     except ImportError as exc:
         raise InputError(f"cannot import the adapter module {module_name!r}: {exc}") from None
-    except _USERS as exc:  # noqa: BLE001 - the module's own code
-        raise _raised(spec, exc, "when its module was imported") from exc
+    except USERS as exc:  # noqa: BLE001 - the module's own code
+        raise raised(spec, exc, "when its module was imported") from exc
     cls = module
     for part in attr.split("."):
         cls = getattr(cls, part, None)
@@ -443,13 +460,8 @@ def load_adapter(spec: Optional[str]) -> EnvAdapter:
 
 
 #: the hooks whose exceptions are reported as the adapter's (with its name and the hook)
-_HOOKS = ("make_env", "state", "crashed", "default_config", "config", "config_keys",
+_HOOKS = ("make_env", "reset", "state", "crashed", "default_config", "config", "config_keys",
           "fallback_index", "scene", "describe", "claims", "plots", "training_settings")
-
-
-def _raised(where: str, exc: BaseException, hook: str) -> InputError:
-    return InputError(f"the adapter {where} raised {type(exc).__name__} {hook}: {exc}",
-                      hint="tracecheck --debug … shows its traceback")
 
 
 def _guarded(method, where: str, hook: str):
@@ -459,8 +471,8 @@ def _guarded(method, where: str, hook: str):
             return method(*args, **kwargs)
         except TracecheckError:
             raise
-        except _USERS as exc:  # noqa: BLE001 - the user's code: say whose it is
-            raise _raised(where, exc, f"in {hook}()") from exc
+        except USERS as exc:  # noqa: BLE001 - the user's code: say whose it is
+            raise raised(where, exc, f"in {hook}()") from exc
     return call
 
 
@@ -482,7 +494,7 @@ def _making(adapter: EnvAdapter):
             return make(config, *args, **kwargs)
         except TracecheckError:
             raise
-        except _USERS as exc:  # noqa: BLE001 - the environment's own check of its settings
+        except USERS as exc:  # noqa: BLE001 - the environment's own check of its settings
             reason = f"{type(exc).__name__}: {exc}"
             error = MakeError(f"cannot make the environment {adapter.name} with "
                               f"{_settings(adapter, config)}: {reason}",
@@ -502,112 +514,14 @@ def _settings(adapter: EnvAdapter, config) -> str:
     return ", ".join(f"{k}={v!r}" for k, v in changed.items()) or "its default settings"
 
 
-def _strings(value) -> bool:
-    return isinstance(value, (tuple, list)) and all(isinstance(v, str) for v in value)
-
-
-def _name_or_path(value) -> bool:
-    return value is None or (isinstance(value, (str, os.PathLike)) and str(value) != "")
-
-
-#: (attribute, what it must be, the check) for every attribute an adapter declares
-_ATTRIBUTES = (
-    ("env_id", "a string (the Gymnasium id)", lambda v: isinstance(v, str)),
-    ("variables", "a tuple of B variable names (strings), each once",
-     lambda v: _strings(v) and len(set(v)) == len(v) and all(v)),
-    ("model_name", "a string (the B machine's name)", lambda v: isinstance(v, str)),
-    ("horizon", "a whole number of agent steps, at least 1",
-     lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 1),
-    ("seconds_per_step", "a finite number of seconds above 0",
-     lambda v: isinstance(v, (int, float)) and not isinstance(v, bool) and 0 < v < float("inf")),
-    ("assumptions", 'a tuple of B predicates (strings), e.g. ("x : 0..7",) — one string alone '
-                    "needs the comma", _strings),
-    ("properties", "None or a property set's name or the path of a property file",
-     _name_or_path),
-    ("default_shield", "None or a shield's name or the path of a machine", _name_or_path),
-    ("requires", "a tuple of package names (strings)", _strings),
-    ("parameters", 'a dict from an operation name to the tuple of its REAL parameters, one per '
-                   'component of the action vector, e.g. {"ACCELERATE": ("a",)}',
-     lambda v: isinstance(v, dict) and all(
-         isinstance(k, str) and k and isinstance(p, tuple) and p and _strings(p) and all(p)
-         and len(set(p)) == len(p) for k, p in v.items())),
-    ("fallback_action", "None or a tuple of numbers (the action vector taken when the shield "
-                        "allows nothing)",
-     lambda v: v is None or (isinstance(v, tuple) and all(
-         isinstance(x, (int, float)) and not isinstance(x, bool) for x in v))),
-    ("profiles", "a dict of named configurations (name -> dict of settings)",
-     lambda v: isinstance(v, dict) and all(isinstance(k, str) and isinstance(c, dict)
-                                           for k, c in v.items())),
-    ("description", "a string (one line for people)", lambda v: isinstance(v, str)),
-    ("shields", "a dict from a shield's name to the path of its .mch file",
-     lambda v: isinstance(v, Mapping) and all(isinstance(k, str) and k and isinstance(
-         f, (str, Path)) for k, f in v.items())),
-    ("property_sets", "a dict from a property set's name to its TOML text or the Path of "
-                      "its file",
-     lambda v: isinstance(v, Mapping) and all(isinstance(k, str) and k and isinstance(
-         f, (str, Path)) for k, f in v.items())),
-    ("observation_shape", "None or a tuple of whole numbers (the observations' shape)",
-     lambda v: v is None or (isinstance(v, tuple) and all(
-         isinstance(x, int) and not isinstance(x, bool) for x in v))),
-    ("plotted", "a tuple of names (strings) of the numbers plots() gives", _strings),
-    ("set_name", "a string (the set of elements ProB's traces list, or empty)",
-     lambda v: isinstance(v, str)),
-)
-
-
-def _check_attributes(adapter: EnvAdapter, where: str) -> None:
-    """Every attribute the adapter declares has the type tracecheck reads it as (checked
-    when it is loaded, not where it is first used: ``horizon = "abc"`` would fail in
-    the middle of a recording, ``assumptions = "pos > 1"`` be read letter by letter); reading
-    one that raises is reported like a hook's error."""
-    def read(attr: str):
-        try:
-            return getattr(adapter, attr)
-        except _USERS as exc:  # noqa: BLE001 - a property of the user's
-            raise _raised(where, exc, f"when its attribute {attr} was read") from exc
-
-    def refuse(attr: str, value, expected: str) -> InputError:
-        return InputError(f"the adapter {where} has {attr} = {printable(repr(value))[:80]}; "
-                          f"it must be {expected}")
-
-    name, actions = read("name"), read("actions")
-    if not name or not actions:
-        raise InputError(f"the adapter {where} needs a name and actions")
-    if not isinstance(name, str):
-        raise refuse("name", name, "a string (what --env and run files call it)")
-    if not _strings(actions) or not all(actions):
-        raise InputError(f"the adapter {where} has actions {printable(repr(actions))[:80]}; "
-                         "give a tuple of operation names, one per action index")
-    actions = tuple(actions)
-    twice = next((a for i, a in enumerate(actions) if a in actions[:i]), None)
-    if twice is not None:
-        raise InputError(f"the adapter {where} names the action {twice!r} twice in its "
-                         f"actions {actions!r}: each action index needs its own name (the B "
-                         "operation it stands for)")
-    for attr, expected, ok in _ATTRIBUTES:
-        value = read(attr)
-        if not ok(value):
-            raise refuse(attr, value, expected)
-    fallback = read("fallback")
-    if fallback is not None and fallback not in actions:
-        raise refuse("fallback", fallback, f"None or one of its actions ({', '.join(actions)})")
-    parameters = read("parameters")
-    stray = [op for op in parameters or {} if op not in actions]
-    if stray:
-        raise refuse("parameters", parameters,
-                     f"keyed by its actions ({', '.join(actions)}): {stray[0]} is not one "
-                     "(a Box action space is one operation whose parameters take the "
-                     "components; a hybrid space gives some or all of its actions parameters)")
-
-
 def _instance(cls, where: str) -> EnvAdapter:
     try:
         adapter = cls() if isinstance(cls, type) else cls
-    except _USERS as exc:  # noqa: BLE001 - the user's constructor
-        raise _raised(where, exc, "in its constructor") from exc
+    except USERS as exc:  # noqa: BLE001 - the user's constructor
+        raise raised(where, exc, "in its constructor") from exc
     if not isinstance(adapter, EnvAdapter):
         raise InputError(f"{where} is not a tracecheck EnvAdapter")
-    _check_attributes(adapter, where)
+    check_attributes(adapter, where)
     own = type(adapter).__module__.split(".")[0] == "tracecheck"  # built-in: not guarded
     if not own and not getattr(adapter, "_tracecheck_guarded", False):
         for hook in _HOOKS:

@@ -164,11 +164,12 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
             if header.search is not None else {}
         for item in todo:
             i = index[item.episode]
-            if own.get(item.episode):  # a search's episode: its own settings on top
-                session.reconfigure(adapter.config({**config, **own[item.episode]}))
+            own_config, options = own.get(item.episode, (None, None))
+            if own_config:  # a search's episode: its own settings on top
+                session.reconfigure(adapter.config({**config, **own_config}))
             elif session.config != config:
                 session.reconfigure(config)
-            result = _one(session, cols, i, item, horizon)
+            result = _one(session, cols, i, item, horizon, options)
             results.append(result)
             if progress is not None:
                 progress(result)
@@ -181,15 +182,17 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
 
 
 def _episode_configs(path: str, ids: set, salvage: bool) -> dict:
-    """The environment settings each of the episodes ``ids`` has of its own (a search's
-    points), from their episode headers."""
+    """(the environment settings, the reset options) each of the episodes ``ids`` has of
+    its own (a search's points), from their episode headers."""
     from ..episodes.reader import read_run
 
-    return {ep.id: dict(ep.config) for ep in read_run(path, only=ids, salvage=salvage).episodes
-            if ep.config}
+    return {ep.id: (dict(ep.config or {}), dict(ep.reset_options or {}) or None)
+            for ep in read_run(path, only=ids, salvage=salvage).episodes
+            if ep.config or ep.reset_options}
 
 
-def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:
+def _one(session, cols: RunColumns, i: int, item, horizon: int,
+         options: Optional[dict] = None) -> Resimulation:
     """The episode again from its seed: the recorded actions up to the first infeasible
     step (each state checked against the recording), then the agent under the shield."""
     from .rollout import Diverged, run_episode
@@ -207,7 +210,8 @@ def _one(session, cols: RunColumns, i: int, item, horizon: int) -> Resimulation:
     script = _script(session, cols, lo, first)
     try:
         episode = run_episode(session, item.episode, seed=int(seed), script=script,
-                              check=lambda k, state: same_state(cols.states.row(lo + k), state))
+                              check=lambda k, state: same_state(cols.states.row(lo + k), state),
+                              options=options)
     except Diverged as exc:
         return result(MISMATCH, None, exc.step, str(exc))
     crash_step = next((s.step for s in episode.steps if s.crashed), None)
@@ -286,15 +290,17 @@ def with_resimulation(report, runs, shield, *, agent=None, env: Optional[str] = 
 
 
 def rerun(path: str | Path, episode_id: int, shield: Shield | str, *,
-          agent: Optional[str | Path] = None) -> Episode:
+          agent: Optional[str | Path] = None, env: Optional[str] = None) -> Episode:
     """Episode ``episode_id`` of ``path`` run again from the file alone: its seed, the run's
     environment settings with the episode's own on top (a search's point), the agent the
     header names (as :func:`resimulate` finds it, or ``agent``) under ``shield`` (a shield,
-    or its name or path) — the same episode, where the environment and the agent are
-    deterministic given the seed."""
+    or its name or path), from what it started from (its reset options) — the same
+    episode, where the environment and the agent are deterministic given the seed. ``env``
+    (``package.module:Class``, or an installed name) is the adapter where the file's
+    environment is not installed."""
     from ..checking.shield import load_shield
     from ..episodes.reader import read_run
-    from .adapter import get_adapter
+    from .adapter import get_adapter, load_adapter
     from .rollout import RecordSettings, Session, run_episode
 
     if isinstance(shield, str):
@@ -309,14 +315,17 @@ def rerun(path: str | Path, episode_id: int, shield: Shield | str, *,
                          "run the episode in again")
     if episode.seed is None:
         raise InputError(f"{path}, episode {episode_id}: it has no seed")
-    adapter = get_adapter(header.environment)
+    adapter = load_adapter(env) if env is not None else get_adapter(header.environment)
+    if adapter.name != header.environment:
+        raise InputError(f"{path} was recorded in {header.environment}, not {adapter.name}")
     config = adapter.config({**header.environment_config, **dict(episode.config or {})})
     continuous = _continuous_settings(adapter, header)
     settings = RecordSettings(agent=_agent_path(header, agent), shield=shield.path,
-                              episodes=1, duration=header.horizon, env=adapter.name,
+                              episodes=1, duration=header.horizon, env=env or adapter.name,
                               **continuous)
     session = Session(settings, config=config, shield=shield)
     try:
-        return run_episode(session, episode.id, seed=int(episode.seed))
+        return run_episode(session, episode.id, seed=int(episode.seed),
+                           options=dict(episode.reset_options or {}) or None)
     finally:
         session.env.close()

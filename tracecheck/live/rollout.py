@@ -7,7 +7,7 @@ agent under the shield after them. Both go through :func:`run_episode`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Callable, Optional, Sequence
 
 import numpy as np
@@ -110,20 +110,26 @@ class Session:
 
 def run_episode(session: Session, index: int, *, seed: Optional[int] = None,
                 script: Sequence[str] = (),
-                check: Optional[Callable[[int, dict[str, Any]], Optional[str]]] = None
-                ) -> Episode:
+                check: Optional[Callable[[int, dict[str, Any]], Optional[str]]] = None,
+                options: Optional[dict[str, Any]] = None) -> Episode:
     """Episode ``index``: seed ``seed + index`` (or ``seed``), up to the horizon.
 
     The agent chooses its best action among those the shield allows; the first actions are
     ``script``'s instead, when given (re-simulation). ``check(step, state)`` sees each state
     of the scripted part, the initial one included, and returns what differs from the
-    recording, if anything: that ends the rollout with :class:`Diverged`.
+    recording, if anything: that ends the rollout with :class:`Diverged`. ``options``: the
+    values of the adapter's ``reset_parameters`` the episode starts with (a search's; kept
+    in the episode as ``reset_options``).
     """
     seed = session.settings.seed + index if seed is None else seed
     try:
         if session.env.continuous is not None:
-            return _continuous_episode(session, index, seed=seed, script=script, check=check)
-        return _discrete_episode(session, index, seed=seed, script=script, check=check)
+            episode = _continuous_episode(session, index, seed=seed, script=script,
+                                          check=check, options=options)
+        else:
+            episode = _discrete_episode(session, index, seed=seed, script=script, check=check,
+                                        options=options)
+        return replace(episode, reset_options=dict(options)) if options else episode
     except TracecheckError as exc:  # a state or observation the step could not take: where
         if isinstance(exc, InputError) and not exc.message.startswith("episode "):
             step = session.step_reached
@@ -134,13 +140,13 @@ def run_episode(session: Session, index: int, *, seed: Optional[int] = None,
 
 
 def _discrete_episode(session: Session, index: int, *, seed: int, script: Sequence[str],
-                      check) -> Episode:
+                      check, options=None) -> Episode:
     """:func:`run_episode` for discrete actions."""
     from .wrapper import choose
 
     env, agent = session.env, session.agent
     actions, dt = env.actions, session.adapter.seconds_per_step
-    obs, info, steps = _start(session, seed, check)
+    obs, info, steps = _start(session, seed, check, options)
     reason = "time-limit"
     for k in range(1, session.horizon + 1):
         session.step_reached = k - 1  # the observation came from the step before
@@ -184,24 +190,24 @@ def _finite(obs) -> None:
                               "observation wrapper")
 
 
-def _start(session, seed: int, check) -> tuple[Any, dict, list[StepRecord]]:
-    """The environment reset with ``seed``: (observation, info, [the initial state's
-    record]), the initial state checked by ``check``."""
+def _start(session, seed: int, check, options=None) -> tuple[Any, dict, list[StepRecord]]:
+    """The environment reset with ``seed`` (and ``options``): (observation, info, [the
+    initial state's record]), the initial state checked by ``check``."""
     session.step_reached = 0
-    obs, info = session.env.reset(seed=seed)
+    obs, info = session.env.reset(seed=seed, options=options or None)
     _check(check, 0, info["b_state"])
     return obs, info, [StepRecord(0, 0.0, None, info["b_state"], 0.0, False,
                                   observation=_rows(obs))]
 
 
 def _continuous_episode(session: Session, index: int, *, seed: int,
-                        script: Sequence[Any], check) -> Episode:
+                        script: Sequence[Any], check, options=None) -> Episode:
     """:func:`run_episode` for continuous actions: the agent (or ``script``: action vectors)
     proposes, the shield's mode decides (:mod:`tracecheck.live.continuous`); each step keeps
     the proposal, the executed parameters, the distance and the allowed intervals."""
     env, agent = session.env, session.agent
     dt = session.adapter.seconds_per_step
-    obs, info, steps = _start(session, seed, check)
+    obs, info, steps = _start(session, seed, check, options)
     reason = "time-limit"
     for k in range(1, session.horizon + 1):
         session.step_reached = k - 1  # the observation came from the step before

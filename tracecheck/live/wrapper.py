@@ -248,8 +248,8 @@ class ShieldWrapper(gym.Wrapper):
             return masks
         return self.allowed.copy()
 
-    def reset(self, **kwargs):
-        obs, info = self.env.reset(**kwargs)
+    def reset(self, *, seed=None, options=None):
+        obs, info = self.env_adapter.reset(self.env, seed, options)
         self.observer = self.env_adapter.observer(self.env)
         self.state = self._state(obs, info, 0.0, True)
         self._decide()

@@ -43,10 +43,11 @@ class InfoOutput(Report):
 
 
 def _brings(row: dict) -> str:
-    """The shields, property sets and profiles an environment brings, in one line."""
-    parts = [f"{what} {', '.join(row[key])}" for what, key in (
-        ("shields", "shields"), ("property sets", "property_sets"), ("profiles", "profiles"))
-        if row[key]]
+    """The shields, property sets, profiles and reset parameters (what a search may set at
+    the start of an episode) an environment brings, in one line."""
+    parts = [f"{what} {', '.join(row.get(key) or ())}" for what, key in (
+        ("shields", "shields"), ("property sets", "property_sets"), ("profiles", "profiles"),
+        ("reset parameters", "reset_parameters")) if row.get(key)]
     return "; ".join(parts)
 
 

@@ -189,6 +189,7 @@ def episode_view(run: str | Path, ep: Episode, header, shield: Optional[Shield] 
         **({"parameters": [a["parameter"] for a in actions]} if actions else {}),
         "file": str(run), "episode": ep.id, "seed": ep.seed, "origin": ep.origin,
         "config": plain(dict(ep.config)) if ep.config else None,
+        "reset_options": plain(dict(ep.reset_options)) if ep.reset_options else None,
         "search": plain(asdict(ep.search)) if ep.search is not None else None,
         "environment": header.environment if header is not None else None,
         "actions": _action_names(ep, header),

@@ -106,7 +106,8 @@ def attribute(session, episode: Episode, objective: Objective, window: int = 5
             script = recorded[:j - 1] + [action]
             try:
                 alt = run_episode(session, episode.id, seed=int(episode.seed), script=script,
-                                  check=_checker(episode, j))
+                                  check=_checker(episode, j),
+                                  options=dict(episode.reset_options or {}) or None)
             except Diverged as exc:
                 return Attribution(NOT_ATTRIBUTED, None, None, (),
                                    f"the episode does not reproduce from its seed "

@@ -23,14 +23,14 @@ from __future__ import annotations
 
 import math
 import statistics
-from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Iterator, Optional
 
 from ..episodes.model import Episode, SearchPoint
 from ..errors import InputError
-from .objective import Objective
+from .evaluations import Task, evaluations
+from .objective import search_objective
 from .space import SEED, Space
 
 __all__ = ["FalsifySettings", "Repetition", "Summary", "Violation", "FalsifyResult", "falsify",
@@ -141,59 +141,6 @@ def summarise(optimizer: str, reps: list[Repetition]) -> Summary:
         sum(r.violations for r in reps), sum(r.evaluations for r in reps), kinds)
 
 
-@dataclass(frozen=True)
-class _Task:
-    """One evaluation: the episode's id in the file, its seed and settings."""
-
-    episode: int
-    seed: int
-    overrides: dict
-
-
-class _Evaluator:
-    """Runs evaluations in one process: the episode in the environment made with its
-    settings, the property's value, and its attribution where it violates."""
-
-    def __init__(self, settings: FalsifySettings, session, objective: Objective) -> None:
-        self.settings, self.session, self.objective = settings, session, objective
-
-    def __call__(self, task: _Task) -> tuple:
-        from ..live.rollout import run_episode
-        from .attribution import attribute
-
-        record, session = self.settings.record, self.session
-        session.reconfigure(session.adapter.config(
-            {**dict(record.env_config or {}), **task.overrides}, profile=record.profile,
-            horizon=session.horizon))
-        episode = run_episode(session, task.episode, seed=task.seed)
-        value, violated = self.objective.value(episode)
-        why = None
-        if violated and self.settings.attribute > 0:
-            why = attribute(session, episode, self.objective, self.settings.attribute)
-        return episode, value, violated, why
-
-
-_WORKER: Optional[_Evaluator] = None
-
-
-def _init_worker(settings: FalsifySettings, shield) -> None:
-    """A worker process's own environment, agent and objective (built there)."""
-    global _WORKER
-    import signal
-
-    from ..live.rollout import Session
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C and stops us
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    session = Session(settings.record, shield=shield)
-    _WORKER = _Evaluator(settings, session, _objective(settings, shield, session.adapter))
-
-
-def _work(task: _Task) -> tuple:
-    assert _WORKER is not None
-    return _WORKER(task)
-
-
 def searched(settings: FalsifySettings, evaluate, space: Space, done: list[Repetition],
              found: list[Violation], values: list, workers: int = 1) -> Iterator[Episode]:
     """The episodes of the search, in order, each with its point; each finished
@@ -212,9 +159,10 @@ def searched(settings: FalsifySettings, evaluate, space: Space, done: list[Repet
             while k < settings.budget:
                 units = [optimizer.ask() for _ in range(min(workers, settings.budget - k))]
                 points = [space.point(u) for u in units]
-                tasks = [_Task(episode_id + i,
+                tasks = [Task(episode_id + i,
                                int(p[SEED]) if SEED in p else record.seed,
-                               {d.name: p[d.name] for d in space.settings})
+                               {d.name: p[d.name] for d in space.settings},
+                               {d.name: p[d.name] for d in space.resets} or None)
                          for i, p in enumerate(points)]
                 for unit, params, task, outcome in zip(units, points, tasks, evaluate(tasks)):
                     episode, value, violated, why = outcome
@@ -237,25 +185,6 @@ def searched(settings: FalsifySettings, evaluate, space: Space, done: list[Repet
                     k += 1
                 episode_id += len(tasks)
             done.append(Repetition(name, r, settings.budget, violations, first, best, kinds))
-
-
-@contextmanager
-def _evaluations(settings: FalsifySettings, session, objective: Objective, shield):
-    """``evaluate(tasks)``: in this process, or in ``settings.record.workers`` processes
-    (each with its own environment and agent, as ``record``'s workers)."""
-    workers = settings.record.workers
-    if workers <= 1:
-        local = _Evaluator(settings, session, objective)
-        yield lambda tasks: [local(t) for t in tasks]
-        return
-    import multiprocessing as mp
-
-    ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
-    with ctx.Pool(workers, initializer=_init_worker, initargs=(settings, shield)) as pool:
-        try:
-            yield lambda tasks: pool.map(_work, tasks, chunksize=1)
-        finally:
-            pool.terminate()
 
 
 def check_search(settings: FalsifySettings) -> None:
@@ -296,7 +225,7 @@ def falsify(settings: FalsifySettings, out: str | Path,
     try:
         space = check_space(settings.params, session.adapter, record.env_config,
                             check=_fits(record, shield, session.adapter))
-        objective = _objective(settings, shield, session.adapter)
+        objective = search_objective(settings.prop, settings.guide, shield, session.adapter)
         header = recording_header(record, agent, shield).model_copy(update={
             "search": SearchRunMessage(
                 optimizer=settings.optimizer, budget=settings.budget, repeat=settings.repeat,
@@ -306,7 +235,7 @@ def falsify(settings: FalsifySettings, out: str | Path,
         done: list[Repetition] = []
         found: list[Violation] = []
         values: list = []
-        with _evaluations(settings, session, objective, shield) as evaluate:
+        with evaluations(settings, session, objective, shield) as evaluate:
             record_episodes(out, header, searched(settings, evaluate, space, done, found,
                                                   values, max(1, record.workers)),
                             progress, force=force, channels=channels,
@@ -317,39 +246,6 @@ def falsify(settings: FalsifySettings, out: str | Path,
                       for name in settings.optimizers())
     return FalsifyResult(objective.text, objective.logic, space.describe(), settings.budget,
                          tuple(done), summaries, str(out), tuple(found), tuple(values))
-
-
-def _objective(settings: FalsifySettings, shield, adapter) -> Objective:
-    """The search's objective: its property, read in the property machine, guided by the
-    shield's guard margins where asked (``guide="margin"``) and the shield has guards."""
-    from .margins import GuardMargins
-    from .objective import load_objective
-
-    machine = getattr(shield, "machine", None)
-    guide = GuardMargins(machine) if settings.guide == "margin" and machine is not None \
-        and machine.operations and not adapter.parameters else None
-    return load_objective(settings.prop, _property_machine(shield, adapter, settings.prop),
-                          tuple(adapter.actions), guide)
-
-
-def _property_machine(shield, adapter, prop: Optional[str]):
-    """The machine a property is read in: the shield's, or where it has no state (``--shield
-    none``) the environment's own shield's, as ``stats`` reads properties — with the
-    recorded crash flag ``crashed`` in scope (unless the machine has its own)."""
-    from ..checking.crashflag import flagged
-
-    machine = getattr(shield, "machine", None)
-    if (machine is None or not machine.variables) and adapter.default_shield is not None:
-        from ..stats.formulas import own_shield
-
-        machine = own_shield(adapter).machine
-    if prop is not None and (machine is None or not machine.variables):
-        raise InputError(f"--property {prop!r}: a property reads the states' variables, "
-                         f"which a B machine declares; the shield has none, and the "
-                         f"environment {adapter.name} names no default_shield",
-                         hint="give --shield a machine with the variables, or the adapter "
-                              f"{type(adapter).__name__} a default_shield")
-    return flagged(machine) if machine is not None else None
 
 
 def _fits(record, shield, adapter):

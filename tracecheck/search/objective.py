@@ -25,12 +25,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Optional
 
 from ..episodes.model import Episode
 from ..errors import InputError, TracecheckError
 
-__all__ = ["Objective", "DEFAULT_PROPERTY", "load_objective"]
+__all__ = ["Objective", "DEFAULT_PROPERTY", "load_objective", "search_objective"]
 
 #: the property where none is given: the episode does not crash
 DEFAULT_PROPERTY = "no crash"
@@ -110,3 +110,36 @@ def load_objective(text, machine, actions: tuple[str, ...], guide=None) -> Objec
         raise InputError(f"--property {text!r}: {exc.message}",
                          hint=exc.hint or "an LTL formula (G({Crash = FALSE})) or an STL one "
                                           "(G({d > 2.0}))") from None
+
+
+def search_objective(prop: Optional[str], guide: str, shield, adapter) -> "Objective":
+    """A search's objective: its property ``prop`` (None: no crash), read in the property
+    machine, guided by the shield's guard margins where asked (``guide="margin"``) and the
+    shield has guards."""
+    from .margins import GuardMargins
+
+    machine = getattr(shield, "machine", None)
+    margins = GuardMargins(machine) if guide == "margin" and machine is not None \
+        and machine.operations and not adapter.parameters else None
+    return load_objective(prop, _property_machine(shield, adapter, prop),
+                          tuple(adapter.actions), margins)
+
+
+def _property_machine(shield, adapter, prop: Optional[str]):
+    """The machine a property is read in: the shield's, or where it has no state (``--shield
+    none``) the environment's own shield's, as ``stats`` reads properties — with the
+    recorded crash flag ``crashed`` in scope (unless the machine has its own)."""
+    from ..checking.crashflag import flagged
+
+    machine = getattr(shield, "machine", None)
+    if (machine is None or not machine.variables) and adapter.default_shield is not None:
+        from ..stats.formulas import own_shield
+
+        machine = own_shield(adapter).machine
+    if prop is not None and (machine is None or not machine.variables):
+        raise InputError(f"--property {prop!r}: a property reads the states' variables, "
+                         f"which a B machine declares; the shield has none, and the "
+                         f"environment {adapter.name} names no default_shield",
+                         hint="give --shield a machine with the variables, or the adapter "
+                              f"{type(adapter).__name__} a default_shield")
+    return flagged(machine) if machine is not None else None

@@ -1,5 +1,7 @@
-"""What a search varies (``tracecheck falsify --param NAME=LO..HI``): the episode seed and
-the environment's settings, each a range of numbers or a list of choices.
+"""What a search varies (``tracecheck falsify --param NAME=LO..HI``): the episode seed, the
+environment's settings, and what the episode starts from where the adapter declares it
+(``reset_parameters``: the values reach its ``reset`` hook), each a range of numbers or a
+list of choices.
 
 A point of the space is reached from a point of the unit cube (one coordinate per
 dimension, in the order the user gave them), which is what the optimisers search
@@ -12,7 +14,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable, Optional, Sequence
 
 from ..errors import InputError
@@ -39,6 +41,8 @@ class Dimension:
     choices: Optional[tuple] = None
     #: the ``--param`` text it was read from (messages quote it)
     text: str = field(default="", compare=False)
+    #: one of the adapter's ``reset_parameters`` (given to ``reset``), not a setting
+    reset: bool = False
 
     def value(self, u: float) -> Any:
         """The value at the unit coordinate ``u`` (clipped to [0, 1])."""
@@ -70,8 +74,14 @@ class Space:
 
     @property
     def settings(self) -> tuple[Dimension, ...]:
-        """The dimensions that are environment settings (all but the seed)."""
-        return tuple(d for d in self.dimensions if d.name != SEED)
+        """The dimensions that are environment settings (not the seed, nor what ``reset``
+        takes)."""
+        return tuple(d for d in self.dimensions if d.name != SEED and not d.reset)
+
+    @property
+    def resets(self) -> tuple[Dimension, ...]:
+        """The dimensions the adapter's ``reset`` takes (its ``reset_parameters``)."""
+        return tuple(d for d in self.dimensions if d.reset)
 
     def describe(self) -> dict[str, list]:
         """Each dimension as a run header stores it: [low, high] or the choices."""
@@ -144,6 +154,7 @@ def check_space(texts: Sequence[str], adapter, base: Optional[dict] = None,
         raise InputError("give what the search varies: --param NAME=LO..HI (seed, or a "
                          "setting of the environment)", hint="e.g. --param seed=0..9999")
     kinds = adapter.config_kinds()
+    resets = dict(adapter.reset_parameters)
     try:
         defaults = adapter.config(base or None)
     except InputError:
@@ -151,26 +162,54 @@ def check_space(texts: Sequence[str], adapter, base: Optional[dict] = None,
     dims = []
     for text in texts:
         name = text.partition("=")[0].strip()
-        dim = parse_param(text, None if name == SEED else kinds.get(name), defaults.get(name))
+        if name in resets:  # a reset parameter: whole ends (0..4) are a range of integers
+            dim = replace(parse_param(text, None, 0 if _whole_ends(text) else None),
+                          reset=True)
+        else:
+            _known(adapter, name, resets)
+            dim = parse_param(text, None if name == SEED else kinds.get(name),
+                              defaults.get(name))
         if any(d.name == dim.name for d in dims):
             raise InputError(f"--param {dim.name} is given twice")
         dims.append(dim)
     space = Space(tuple(dims))
-    for dim in space.settings:
+    for dim in space.settings + space.resets:
         ends = dim.choices if dim.choices is not None else (dim.value(0.0), dim.value(1.0))
         for value in ends:
             _try_setting(adapter, base or {}, dim, value, check)
     return space
 
 
+def _whole_ends(text: str) -> bool:
+    """Whether both ends of the range ``text`` are written as whole numbers (no point, no
+    exponent), as a choice ``1`` is the integer and ``1.0`` the real."""
+    m = _RANGE.match(text.partition("=")[2])
+    return m is not None and not any(c in m.group(1) + m.group(2) for c in ".eE")
+
+
+def _known(adapter, name: str, resets: dict) -> None:
+    """``name`` is the seed or a setting the environment takes (where it says which it
+    takes), else an InputError listing what can be searched."""
+    keys = adapter.config_keys()
+    if name == SEED or keys is None or name in keys:
+        return
+    raise InputError(f"--param {name}: the environment {adapter.name} has no setting nor "
+                     f"reset parameter {name!r}; a search varies {SEED}, its settings "
+                     f"{', '.join(sorted(keys)) or '(none)'} and its reset parameters "
+                     f"{', '.join(sorted(resets)) or '(none)'}",
+                     hint=None if not resets else "the reset parameters: " + "; ".join(
+                         f"{k}: {v}" for k, v in sorted(resets.items())))
+
+
 def _try_setting(adapter, base: dict, dim: Dimension, value: Any, check) -> None:
     """The environment made and reset with ``dim`` at ``value``, and ``check`` given it (an
     InputError naming the option where it cannot be)."""
     try:
-        config = adapter.config({**(base or {}), dim.name: value})
+        config = adapter.config({**(base or {}), dim.name: value} if not dim.reset
+                                else base or None)
         env = adapter.make_env(config)
         try:
-            env.reset(seed=0)
+            adapter.reset(env, 0, {dim.name: value} if dim.reset else None)
             if check is not None:
                 check(env)
         finally:

@@ -177,6 +177,9 @@ class HighwayAdapter(EnvAdapter):
     properties = "highway"
     observation_shape = (5, 5)  # the Kinematics observation: 5 vehicles, 5 features
     plotted = ("speed", "nearest_gap")
+    reset_parameters = {
+        "other_speed": "every other vehicle's initial speed (and the speed it keeps to), m/s; "
+                       "highway-env draws each from 21-24 m/s"}
 
     def default_config(self) -> dict[str, Any]:
         return env_config("base", self.horizon)
@@ -204,6 +207,29 @@ class HighwayAdapter(EnvAdapter):
         import highway_env  # noqa: F401 - registers the environments
 
         return gym.make(ENV_ID, config=config, render_mode=render_mode)
+
+    def reset(self, env, seed: Optional[int], options: Optional[dict[str, Any]] = None):
+        """highway-env's reset; ``options["other_speed"]`` then sets every other vehicle's
+        speed and target speed (where highway-env placed them: their spacing stays the one
+        of the speeds it drew), and the observation is taken again."""
+        options = dict(options or {})
+        speed = options.pop("other_speed", None)
+        if options:
+            raise InputError(f"the highway takes no reset option {sorted(options)[0]!r}; it "
+                             f"takes {', '.join(self.reset_parameters)}")
+        obs, info = env.reset(seed=seed)
+        if speed is None:
+            return obs, info
+        if isinstance(speed, bool) or not isinstance(speed, (int, float)) or \
+                not 0.0 <= float(speed) <= 100.0:
+            raise InputError(f"other_speed={speed!r}: give a speed from 0 to 100 m/s")
+        inner = env.unwrapped
+        for vehicle in inner.road.vehicles:
+            if vehicle not in inner.controlled_vehicles:
+                vehicle.speed = float(speed)
+                if hasattr(vehicle, "target_speed"):
+                    vehicle.target_speed = float(speed)
+        return inner.observation_type.observe(), info
 
     def observer(self, env) -> Observer:
         return _HighwayObserver(self, env)
