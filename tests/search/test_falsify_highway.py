@@ -37,3 +37,23 @@ def test_crashes_found_attributed_and_run_again(tmp_path, shield):
         again = rerun(out, ep.id, shield if ep.id % 2 else load_shield(shield))
         assert [s.action for s in again.steps] == [s.action for s in ep.steps]
         assert again.end.crashed and again.end.steps == ep.end.steps
+
+
+def test_a_continuous_shield_s_room_guides_the_search(tmp_path):
+    """On the continuous highway an episode that does not crash is valued by the room its
+    guard left the acceleration (the allowed intervals each step recorded), not a flat +1."""
+    settings = FalsifySettings(
+        RecordSettings(agent=str(ROOT / "models" / "agents" / "highway_continuous_sac.zip"),
+                       shield="highway_continuous", episodes=1, env="highway-continuous",
+                       duration=12),
+        ("seed=0..9999", "other_speed=20.0..30.0"), None, budget=3, optimizer="random",
+        baseline=False, attribute=0)
+    falsify(settings, tmp_path / "c.mcap")
+    kept = [ep for ep in read_run(tmp_path / "c.mcap").episodes if not ep.search.violated]
+    assert kept and all(0.0 <= ep.search.objective < 2.0 for ep in kept)
+    assert any(ep.search.objective != 1.0 for ep in kept)
+    for ep in kept:  # the smallest room over the steps, from what each step recorded
+        rooms = [min(max((hi - lo) if lo == -1.0 else (hi - lo) / 2 for lo, hi in bands)
+                     if bands else 0.0 for name, bands in s.allowed_intervals.items()
+                     if name == "acceleration") for s in ep.steps[1:]]
+        assert ep.search.objective == pytest.approx(min(rooms), abs=1e-6)

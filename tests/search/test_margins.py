@@ -70,3 +70,37 @@ def test_the_guide_values_episodes_that_keep_the_property(tmp_path):
     # from 0 it crashes (-1 either way); from 6 it keeps it: STEP's guard pos >= 0 at 6, 7
     assert values["none"] == {0: -1.0, 6: 1.0}
     assert values["margin"] == {0: -1.0, 6: 6.0}
+
+
+CONTINUOUS = load_machine_text("""MACHINE C
+VARIABLES gap
+INVARIANT gap : REAL
+INITIALISATION gap := 30.0
+OPERATIONS
+  DRIVE(a, s) = PRE a : REAL & s : REAL & a <= gap / 10.0 - 2.0 THEN skip END
+END""")
+
+
+@pytest.mark.parametrize("bands,room", [
+    # acceleration in [-1, 0.5]: -1 is the space's bound, 0.5 the guard's: the farthest
+    # allowed value is 1.5 from where the guard flips; steering free: infinite room
+    ({"a": ((-1.0, 0.5),), "s": ((-1.0, 1.0),)}, 1.5),
+    ({"a": ((-0.2, 0.4),), "s": ((-1.0, 1.0),)}, 0.3),  # both ends the guard's: half of it
+    ({"a": ((-1.0, -1.0),), "s": ((-1.0, 1.0),)}, 0.0),  # only full braking: no room
+    ({"a": (), "s": ((-1.0, 1.0),)}, 0.0),  # nothing allowed: a deadlock
+    ({"a": ((-1.0, -0.9), (0.1, 0.5)), "s": ((-1.0, 0.8),)}, 0.2),  # the roomiest interval
+    ({"a": ((None, 0.5),), "s": ((-1.0, 1.0),)}, math.inf),  # unbounded below: no end there
+])
+def test_a_continuous_step_s_margin_is_the_room_its_guard_leaves(bands, room):
+    from tracecheck.episodes.model import Episode, StepRecord, make_end
+
+    steps = (StepRecord(0, 0.0, None, {"gap": 25.0}, 0.0, False),
+             StepRecord(1, 1.0, "DRIVE", {"gap": 25.0}, 0.0, False,
+                        parameters={"a": -1.0, "s": 0.0}, allowed_intervals=bands))
+    margins = GuardMargins(CONTINUOUS, {"DRIVE": ({"a": -1.0, "s": -1.0},
+                                                   {"a": 1.0, "s": 1.0})})
+    found = margins.episode(Episode(0, steps, make_end(steps)))
+    assert found == (None if room == math.inf else pytest.approx(room))
+    unrecorded = (steps[0], StepRecord(1, 1.0, "DRIVE", {"gap": 25.0}, 0.0, False,
+                                       parameters={"a": 0.0, "s": 0.0}))
+    assert margins.episode(Episode(0, unrecorded, make_end(unrecorded))) is None

@@ -35,7 +35,8 @@ from .listing import CUT_HINT, Holdings
 from .records import (Attachment, BadChunk, Channel, Damage, DataEnd, MessageRef, Schema,
                       mapped, walk)
 
-__all__ = ["read_run", "find_episode", "read_episodes", "read_header", "Run", "read_pieces", "Piece"]
+__all__ = ["read_run", "find_episode", "read_episodes", "read_header", "Run", "read_pieces", "Piece",
+           "search_point", "search_points"]
 
 
 @dataclass
@@ -64,16 +65,31 @@ class Piece:
     @property
     def episode(self) -> Episode:
         end, head = self.end, self.head
-        point = head.search
-        search = None if point is None else SearchPoint(
-            point.repetition, point.evaluation, dict(point.parameters), point.objective,
-            point.violated, point.optimizer, point.attribution, point.attribution_step,
-            point.attribution_detail)
+        search = search_point(head)
         return Episode(id=head.episode, seed=head.seed, origin=head.origin,
                        steps=tuple(self.steps),
                        end=EpisodeEnd(end.steps, end.crashed, end.total_reward, end.reason),
                        config=head.environment_config, search=search,
                        reset_options=head.reset_options)
+
+
+def search_point(head: schema.EpisodeHeaderMessage) -> Optional[SearchPoint]:
+    """The search point an episode header holds (a ``falsify`` run's), if any."""
+    point = head.search
+    return None if point is None else SearchPoint(
+        point.repetition, point.evaluation, dict(point.parameters), point.objective,
+        point.violated, point.optimizer, point.attribution, point.attribution_step,
+        point.attribution_detail)
+
+
+def search_points(path: str | Path, *, salvage: bool = False
+                  ) -> list[tuple[int, Optional[SearchPoint]]]:
+    """(episode id, its search point or None) of each complete episode of ``path``, in
+    order, read from the episode headers alone (no step is decoded)."""
+    with warnings.catch_warnings(record=True):  # a damaged tail: the complete ones
+        warnings.simplefilter("always", DamagedEpisode)
+        return [(int(p.head.episode), search_point(p.head))
+                for p in read_pieces(path, decode=False, salvage=salvage)]
 
 
 class _BadEpisode(Exception):

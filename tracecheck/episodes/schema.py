@@ -69,6 +69,12 @@ class SearchRunMessage(_Message):
     seed: int = Field(ge=0, description="the search's own seed (repetition r: seed + r)")
     property: str
     space: dict[str, list] = Field(description="each dimension: [low, high] or its choices")
+    choices: Optional[list[str]] = Field(
+        None, description="the dimensions of space that are lists of choices (the others "
+                          "are ranges [low, high])")
+    reset: Optional[list[str]] = Field(
+        None, description="the dimensions of space that are the environment's reset "
+                          "parameters (what an episode starts from), not its settings")
     guide: Optional[Literal["margin"]] = Field(
         None, description="what values the episodes that keep a true/false property: the "
                           "shield's guard margins (none: +1)")

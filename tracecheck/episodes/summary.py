@@ -11,7 +11,7 @@ from .columns import read_blocks
 
 from .reader import read_header
 
-__all__ = ["summarise", "search_text"]
+__all__ = ["summarise", "search_text", "space_text"]
 
 
 def summarise(paths: Iterable[str | Path], *, salvage: bool = False) -> dict:
@@ -49,12 +49,24 @@ def summarise(paths: Iterable[str | Path], *, salvage: bool = False) -> dict:
     }
 
 
+def space_text(space: dict, choices=None) -> str:
+    """A search's space in words: ``seed 0..9999, is_slippery {True,False}`` — the
+    dimensions ``choices`` names are lists (a file without it: a list that is not two
+    numbers)."""
+    def listed(k, v) -> bool:
+        if choices is not None:
+            return k in choices
+        return not (len(v) == 2 and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                        for x in v))
+    return ", ".join(f"{k} {{{','.join(map(str, v))}}}" if listed(k, v) else
+                     f"{k} {v[0]}..{v[1]}" for k, v in space.items())
+
+
 def search_text(search: dict) -> str:
     """A search's run header (``falsify``) in words: its optimisers, budget, property and
     space."""
     beside = f" beside {search['baseline']}" if search.get("baseline") else ""
-    space = ", ".join(f"{k} {v[0]}..{v[1]}" if len(v) == 2 and not isinstance(v[0], (str, bool))
-                      else f"{k} {{{','.join(map(str, v))}}}" for k, v in search["space"].items())
+    space = space_text(search["space"], search.get("choices"))
     guide = f", guided by the shield's {search['guide']}s" if search.get("guide") else ""
     return (f"{search['optimizer']}{beside}, {search['repeat']} search(es) of "
             f"{search['budget']} episode(s), property {search['property']}{guide}; "

@@ -9,7 +9,7 @@ from typing import Sequence
 
 from .stats_text import plain_plot_text
 
-__all__ = ["objective_plot", "PLOT_SUFFIXES"]
+__all__ = ["objective_plot", "objective_svg", "PLOT_SUFFIXES"]
 
 #: the formats the plot is written in, by the file's suffix
 PLOT_SUFFIXES = (".png", ".svg")
@@ -21,13 +21,44 @@ def objective_plot(values: Sequence[tuple[str, int, int, float]], out: Path, *,
                    title: str) -> Path:
     """Draw ``values`` — (optimizer, search, evaluation, objective) — to ``out`` (checked by
     the output rule beforehand; written whole or not at all)."""
+    import matplotlib.pyplot as plt
+
+    from ..outputs import atomic_file
+
+    fig = _figure(values, title)
+    try:
+        fmt = Path(out).suffix.lower().lstrip(".")
+        with atomic_file(Path(out)) as stream:
+            fig.savefig(stream, format=fmt, dpi=_DPI)
+    finally:
+        plt.close(fig)
+    return Path(out)
+
+
+@plain_plot_text()
+def objective_svg(values: Sequence[tuple[str, int, int, float]], *, title: str) -> str:
+    """The plot of :func:`objective_plot` as an inline SVG text (the report's)."""
+    import io
+
+    import matplotlib.pyplot as plt
+
+    fig = _figure(values, title)
+    try:
+        buf = io.StringIO()
+        fig.savefig(buf, format="svg")
+    finally:
+        plt.close(fig)
+    text = buf.getvalue()
+    return text[text.index("<svg"):]
+
+
+def _figure(values: Sequence[tuple[str, int, int, float]], title: str):
+    """The figure: per optimiser each search's lowest value so far, and their median."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import numpy as np
-
-    from ..outputs import atomic_file
 
     runs: dict = {}
     for optimizer, search, evaluation, value in values:
@@ -57,9 +88,7 @@ def objective_plot(values: Sequence[tuple[str, int, int, float]], out: Path, *,
         if runs:
             ax.legend(loc="upper right", fontsize=8, frameon=False)
         fig.tight_layout()
-        fmt = Path(out).suffix.lower().lstrip(".")
-        with atomic_file(Path(out)) as stream:
-            fig.savefig(stream, format=fmt, dpi=_DPI)
-    finally:
+    except BaseException:
         plt.close(fig)
-    return Path(out)
+        raise
+    return fig

@@ -20,7 +20,8 @@ from ..checking.replaying import (MISMATCH, NEVER_BLOCKED, NEW_CRASH, NO_CRASH, 
                                 NOT_PREVENTED, PREVENTED)
 from ..checking.shield import Shield
 from ..outputs import write_file
-from .viewer import episode_view, numeric_series, viewer_page
+from .pictures import picture
+from .viewer import episode_view, viewer_page
 
 __all__ = ["render_report", "check_report_output", "comparison_sentences",
            "resimulation_headline"]
@@ -191,6 +192,19 @@ def render_report(validation, out: Path, *, max_pages: int = 20, force: bool = F
              + f"; properties {_e(pset.name)}</p>",
              "<h2>Runs</h2><div class='runs'>",
              *(_run_section(c, shield) for c in checked), "</div>"]
+    pages: list = []
+    searches = [c for c in checked if c.header.search is not None]
+    if searches:
+        from .falsify_report import search_section
+
+        parts.append("<h2>Searches</h2><p class='note'>Per optimiser, as ARCH-COMP's "
+                     "falsification track reports: the searches that found a violation "
+                     "and the episodes each needed to its first; the lowest objective so far "
+                     "over each search (below 0: a violation).</p>")
+        for c in searches:
+            parts.append(search_section(c, shield, adapter, pages, page_stem, pages_dir,
+                                        len(pages) + max(1, max_pages // len(checked)),
+                                        salvage, SHOWN, TAIL))
     sentences = comparison_sentences(result)
     if sentences:
         parts.append("<h2>Comparison</h2><p class='note'>Runs paired episode by episode "
@@ -204,7 +218,6 @@ def render_report(validation, out: Path, *, max_pages: int = 20, force: bool = F
     parts.append(_table(header, rows))
     parts += [("<figure class='wide'>" if _wide(svg) else "<figure>") + f"{svg}</figure>"
               for svg in stats_svgs(result)]
-    pages: list = []
     if shield is not None:
         order = ("what re-simulation found: prevented, new crash, not prevented, did not "
                  "reproduce, no seed, never blocked, no crash" if validation.resimulated else
@@ -328,8 +341,9 @@ def _episodes_section(c, shield, pages, page_stem, pages_dir, max_pages, adapter
         if i < len(paged):
             stem = page_stem.get(str(e.file)) or safe_name(Path(e.file).stem)
             page = f"{stem}_episode_{e.episode}.html"
-            pages.append((e.file, find_episode(e.file, result, e.episode, salvage),
-                          result.header, page))
+            if all(page != p[-1] for p in pages):  # a search's violation may have it
+                pages.append((e.file, find_episode(e.file, result, e.episode, salvage),
+                              result.header, page))
             link = f"<a href='{_e(pages_dir.name + '/' + page)}'>open</a>"
         cell = verdict = crash_cell(e)
         if cell in (NEW_CRASH, NOT_PREVENTED) and new_steps.get(e.episode) is not None:
@@ -370,7 +384,7 @@ def _pictures(result, shown: list, adapter, shield) -> dict[int, str]:
     the shield would first have blocked the action (the state before the first blocked step:
     where it would have acted, not the state that action led to), else at its crash; or
     where the environment draws none, its numeric variables over time."""
-    from .scene import scene_drawer, scene_svg
+    from .scene import scene_drawer
 
     header = result.header
     draw = scene_drawer(getattr(header, "environment", None), adapter=adapter,
@@ -378,45 +392,8 @@ def _pictures(result, shown: list, adapter, shield) -> dict[int, str]:
                         variables=tuple(getattr(header, "variables", None) or ()))
     wanted = {e.episode: max(e.first_infeasible - 1, 0) if e.first_infeasible is not None
               else (e.crash_step or 0) for e in shown}
-    out = {}
-    for ep in result.episodes:
-        if ep.id not in wanted:
-            continue  # decoded for its viewer page only
-        k = min(wanted[ep.id], len(ep.steps) - 1)
-        scene = draw(ep.steps[k])
-        out[ep.id] = (scene_svg(scene, 300, view=scene.focus) if scene is not None
-                      else _sparklines(ep, wanted[ep.id]))
-    return out
-
-
-def _sparklines(ep, mark: Optional[int], width: int = 260, row: int = 26) -> str:
-    """Up to four numeric variables of an episode as small lines, the marked step as a red
-    rule."""
-    series = [(line["label"], line["values"]) for entry in numeric_series(
-        [s.state for s in ep.steps]) for line in entry["lines"]][:4]
-    if not series:
-        return ""
-    n = len(ep.steps)
-    label_w = 90
-    parts = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" '
-             f'height="{row * len(series)}" role="img">']
-    x = lambda k: label_w + (width - label_w - 4) * (k / (n - 1) if n > 1 else 0.5)  # noqa: E731
-    if mark is not None:
-        parts.append(f'<line x1="{x(mark):.1f}" x2="{x(mark):.1f}" y1="0" '
-                     f'y2="{row * len(series)}" stroke="#e53935"/>')
-    for i, (label, values) in enumerate(series):
-        given = [v for v in values if v is not None]
-        lo, hi = (min(given), max(given)) if given else (0.0, 1.0)
-        hi = hi if hi > lo else lo + 1.0
-        top = i * row
-        points = " ".join(f"{x(k):.1f},{top + 3 + (row - 8) * (1 - (v - lo) / (hi - lo)):.1f}"
-                          for k, v in enumerate(values) if v is not None)
-        parts.append(f'<text x="0" y="{top + row / 2 + 4:.0f}" font-size="10" fill="#444">'
-                     f'{_e(label[:16])}<title>{_e(label)}</title></text>'
-                     f'<polyline points="{points}" fill="none" stroke="#1f77b4" '
-                     f'stroke-width="1.2"/>')
-    parts.append("</svg>")
-    return "".join(parts)
+    return {ep.id: picture(draw, ep, wanted[ep.id]) for ep in result.episodes
+            if ep.id in wanted}  # the others were decoded for their viewer pages only
 
 
 def _write_pages(folder: Path, pages: list, shield: Optional[Shield], adapter=None) -> None:

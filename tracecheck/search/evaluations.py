@@ -68,7 +68,7 @@ def _init_worker(settings, shield) -> None:
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     session = Session(settings.record, shield=shield)
     _WORKER = Evaluator(settings, session, search_objective(settings.prop, settings.guide,
-                                                          shield, session.adapter))
+                                                          shield, session))
 
 
 def _work(task: Task) -> tuple:
@@ -114,7 +114,7 @@ def _ray_evaluate(settings, task: Task, shield_ref: list, sha256: str) -> tuple:
     if _RAY is None or _RAY[0] != (settings, sha256):
         shield = ray.get(shield_ref[0])
         session = Session(settings.record, shield=shield)
-        objective = search_objective(settings.prop, settings.guide, shield, session.adapter)
+        objective = search_objective(settings.prop, settings.guide, shield, session)
         _RAY = ((settings, sha256), Evaluator(settings, session, objective))
     return _RAY[1](task)
 

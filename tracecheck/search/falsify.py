@@ -34,7 +34,7 @@ from .objective import search_objective
 from .space import SEED, Space
 
 __all__ = ["FalsifySettings", "Repetition", "Summary", "Violation", "FalsifyResult", "falsify",
-           "summarise", "OBJECTIVE_LIMIT"]
+           "summarise", "recorded_repetitions", "OBJECTIVE_LIMIT"]
 
 #: objective values are stored within ±this (an STL robustness can be infinite)
 OBJECTIVE_LIMIT = 1e300
@@ -187,6 +187,28 @@ def searched(settings: FalsifySettings, evaluate, space: Space, done: list[Repet
             done.append(Repetition(name, r, settings.budget, violations, first, best, kinds))
 
 
+def recorded_repetitions(points) -> list[Repetition]:
+    """The repetitions of a recorded search, from its episodes' search points (``(episode,
+    point)`` pairs, :func:`~tracecheck.episodes.reader.search_points`; episodes without
+    one are not the search's): what :func:`falsify` returned, read back from its file (a
+    search cut short: the episodes it finished)."""
+    groups: dict = {}
+    for _, point in points:
+        if point is not None:
+            groups.setdefault((point.optimizer, point.repetition), []).append(point)
+    reps = []
+    for (name, r), group in groups.items():
+        violating = [p.evaluation + 1 for p in group if p.violated]
+        kinds: dict = {}
+        for p in group:
+            if p.attribution:
+                kinds[p.attribution] = kinds.get(p.attribution, 0) + 1
+        reps.append(Repetition(name, r, len(group), len(violating),
+                               min(violating) if violating else None,
+                               min(p.objective for p in group), kinds))
+    return reps
+
+
 def check_search(settings: FalsifySettings) -> None:
     """What can be refused before anything runs."""
     from .optimizers import make_optimizer
@@ -225,11 +247,13 @@ def falsify(settings: FalsifySettings, out: str | Path,
     try:
         space = check_space(settings.params, session.adapter, record.env_config,
                             check=_fits(record, shield, session.adapter))
-        objective = search_objective(settings.prop, settings.guide, shield, session.adapter)
+        objective = search_objective(settings.prop, settings.guide, shield, session)
         header = recording_header(record, agent, shield).model_copy(update={
             "search": SearchRunMessage(
                 optimizer=settings.optimizer, budget=settings.budget, repeat=settings.repeat,
                 seed=settings.seed, property=objective.text, space=space.describe(),
+                choices=[d.name for d in space.dimensions if d.choices is not None] or None,
+                reset=[d.name for d in space.resets] or None,
                 baseline="random" if "random" in settings.optimizers()[1:] else None,
                 guide="margin" if objective.guide is not None else None)})
         done: list[Repetition] = []

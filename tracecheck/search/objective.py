@@ -112,15 +112,17 @@ def load_objective(text, machine, actions: tuple[str, ...], guide=None) -> Objec
                                           "(G({d > 2.0}))") from None
 
 
-def search_objective(prop: Optional[str], guide: str, shield, adapter) -> "Objective":
+def search_objective(prop: Optional[str], guide: str, shield, session) -> "Objective":
     """A search's objective: its property ``prop`` (None: no crash), read in the property
     machine, guided by the shield's guard margins where asked (``guide="margin"``) and the
-    shield has guards."""
-    from .margins import GuardMargins
+    shield has guards — for continuous actions measured within the bounds of the action
+    space of ``session``'s environment (a bound of the space is no guard's)."""
+    from .margins import GuardMargins, action_bounds
 
+    adapter = session.adapter
     machine = getattr(shield, "machine", None)
-    margins = GuardMargins(machine) if guide == "margin" and machine is not None \
-        and machine.operations and not adapter.parameters else None
+    margins = GuardMargins(machine, action_bounds(getattr(session.env, "continuous", None))) \
+        if guide == "margin" and machine is not None and machine.operations else None
     return load_objective(prop, _property_machine(shield, adapter, prop),
                           tuple(adapter.actions), margins)
 
