@@ -234,3 +234,30 @@ def test_info_names_the_search(searched, capsys):
     assert "a search (falsify): halton beside random, 2 search(es) of 12 episode(s), " \
         f"property {PROPERTY}, guided by the shield's margins; space seed 0..9999, " \
         "is_slippery {True,False}" in " ".join(text.split())
+
+
+def test_a_search_can_end_at_its_first_violation(tmp_path, capsys):
+    """--stop-at-first (ARCH-COMP's protocol): each search's figures are those of the whole
+    budget (Halton asks the same points), and no episode after its first violation runs."""
+    runs = {}
+    for stop in (False, True):
+        out = tmp_path / f"stop{stop}.mcap"
+        code, text, err = run(capsys, *BASE, "--param", "seed=0..9999", "--param",
+                              "is_slippery={True,False}", "--property", PROPERTY, "--budget",
+                              25, "--repeat", 3, "--optimizer", "halton", "-o", out, "--json",
+                              *(["--stop-at-first"] if stop else []))
+        assert code == 0, err
+        runs[stop] = (json.loads(text), read_run(out).episodes)
+    whole, stopped = runs[False][0], runs[True][0]
+    assert [(s["falsified"], s["first_median"], s["first_min"], s["first_max"])
+            for s in whole["optimizers"]] == \
+        [(s["falsified"], s["first_median"], s["first_min"], s["first_max"])
+         for s in stopped["optimizers"]]
+    assert any(s["falsified"] for s in stopped["optimizers"])
+    for rep in stopped["repetitions"]:
+        episodes = [ep for ep in runs[True][1] if ep.search.optimizer == rep["optimizer"]
+                    and ep.search.repetition == rep["repetition"]]
+        assert len(episodes) == rep["evaluations"] == (rep["first_violation"] or 25)
+    assert read_header(tmp_path / "stopTrue.mcap").search.stop_at_first is True
+    code, text, _ = run(capsys, "info", tmp_path / "stopTrue.mcap")
+    assert "each ended at its first violation" in " ".join(text.split())

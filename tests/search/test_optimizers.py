@@ -29,7 +29,7 @@ def test_points_stay_in_the_cube_and_a_seed_reproduces_them(name, d):
     assert _run(name, d, 7, 30, f) == _run(name, d, 7, 30, f)
 
 
-@pytest.mark.parametrize("name", ["cmaes", "tpe"])
+@pytest.mark.parametrize("name", ["cmaes", "tpe", "gp"])
 def test_guided_optimizers_get_closer_than_random_on_a_bowl(name):
     def f(p):
         return sum((x - 0.3) ** 2 for x in p)
@@ -40,5 +40,14 @@ def test_guided_optimizers_get_closer_than_random_on_a_bowl(name):
 
 def test_an_unknown_optimizer_is_named_with_the_known_ones():
     with pytest.raises(InputError, match="unknown optimizer 'anneal'; the optimizers are "
-                                         "cmaes, halton, random, tpe"):
+                                         "cmaes, gp, halton, random, tpe"):
         make_optimizer("anneal", 2, 0)
+
+
+def test_a_missing_package_says_how_to_install_it(monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "torch", None)  # import torch: ModuleNotFoundError
+    with pytest.raises(InputError, match="--optimizer gp needs the torch package") as info:
+        make_optimizer("gp", 2, 0)
+    assert "tracecheck[agents]" in info.value.hint

@@ -29,8 +29,9 @@ def falsify_cmd(
         "Default: the episode does not crash."),
     budget: int = typer.Option(100, "--budget", min=1, help="Episodes per search."),
     optimizer: str = typer.Option("tpe", "--optimizer", help="random, halton (scipy's "
-                                  "low-discrepancy sequence), cmaes (pycma) or tpe (optuna), "
-                                  "or one an installed package adds."),
+                                  "low-discrepancy sequence), cmaes (pycma), tpe (optuna) or "
+                                  "gp (optuna's Gaussian process, with PyTorch), or one an "
+                                  "installed package adds."),
     repeat: int = typer.Option(1, "--repeat", min=1, help="Independent searches (the "
                                "falsification rate is over them)."),
     search_seed: int = typer.Option(0, "--search-seed", min=0, max=2**32 - 1,
@@ -46,6 +47,9 @@ def falsify_cmd(
         "margin", "--guide", help="margin (the default): an episode that keeps a true/false "
         "property (LTL, or no crash) is valued by how close the actions taken came to their "
         "shield guards flipping, which guides the search; none: all such episodes +1."),
+    stop_at_first: bool = typer.Option(
+        False, "--stop-at-first", help="End each search at its first violation (ARCH-COMP's "
+        "protocol): the figures are the same, the rest of its budget is not run."),
     plot: Optional[Path] = typer.Option(
         None, "--plot", help="Also draw the objective over the search (the lowest value so "
         "far per optimiser and search) to this .png or .svg file."),
@@ -68,7 +72,8 @@ def falsify_cmd(
         raise InputError(f"--seed {run.seed} and --param seed=…: the search chooses each "
                          "episode's seed; give one of the two")
     settings = FalsifySettings(record_settings(run, budget), tuple(param), prop, budget,
-                               optimizer, repeat, search_seed, baseline, attribute, guide)
+                               optimizer, repeat, search_seed, baseline, attribute, guide,
+                               stop_at_first)
     if plot is not None:
         from ..outputs import check_output
         from ..render.falsify_plot import PLOT_SUFFIXES

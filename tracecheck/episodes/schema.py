@@ -72,6 +72,8 @@ class SearchRunMessage(_Message):
     choices: Optional[list[str]] = Field(
         None, description="the dimensions of space that are lists of choices (the others "
                           "are ranges [low, high])")
+    stop_at_first: Optional[bool] = Field(
+        None, description="each search ended at its first violation (ARCH-COMP's protocol)")
     reset: Optional[list[str]] = Field(
         None, description="the dimensions of space that are the environment's reset "
                           "parameters (what an episode starts from), not its settings")

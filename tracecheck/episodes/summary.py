@@ -68,8 +68,9 @@ def search_text(search: dict) -> str:
     beside = f" beside {search['baseline']}" if search.get("baseline") else ""
     space = space_text(search["space"], search.get("choices"))
     guide = f", guided by the shield's {search['guide']}s" if search.get("guide") else ""
+    stop = ", each ended at its first violation" if search.get("stop_at_first") else ""
     return (f"{search['optimizer']}{beside}, {search['repeat']} search(es) of "
-            f"{search['budget']} episode(s), property {search['property']}{guide}; "
+            f"{search['budget']} episode(s){stop}, property {search['property']}{guide}; "
             f"space {space}")
 
 

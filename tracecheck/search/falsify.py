@@ -15,7 +15,8 @@ sampling runs on the same budget and repetitions (the baseline), in the same fil
 
 What a search reports, per optimiser, as ARCH-COMP's falsification track does: the
 falsification rate (the repetitions that found a violation) and the episodes to the first
-violation (mean, median, min, max over those). No violation found within the budget is no
+violation (mean, median, min, max over those); with ``stop_at_first`` a repetition ends at
+its first violation, as ARCH-COMP's protocol does. No violation found within the budget is no
 proof that there is none: the search covered ``budget`` points of the space, no more.
 """
 
@@ -60,6 +61,9 @@ class FalsifySettings:
     #: ``margin``: an episode that keeps a true/false property is valued by the shield's
     #: guard margins (:mod:`.margins`); ``none``: +1
     guide: str = "margin"
+    #: end each repetition at its first violation (ARCH-COMP's protocol: the figures are
+    #: the same, the episodes after the first are not run)
+    stop_at_first: bool = False
 
     def optimizers(self) -> tuple[str, ...]:
         """The optimisers that run: the one asked for, and uniform random beside it."""
@@ -156,7 +160,7 @@ def searched(settings: FalsifySettings, evaluate, space: Space, done: list[Repet
             optimizer = make_optimizer(name, len(space.dimensions), settings.seed + r)
             first, violations, best, kinds = None, 0, math.inf, {}
             k = 0
-            while k < settings.budget:
+            while k < settings.budget and not (settings.stop_at_first and first is not None):
                 units = [optimizer.ask() for _ in range(min(workers, settings.budget - k))]
                 points = [space.point(u) for u in units]
                 tasks = [Task(episode_id + i,
@@ -184,7 +188,7 @@ def searched(settings: FalsifySettings, evaluate, space: Space, done: list[Repet
                     yield replace(episode, config=task.overrides or None, search=point)
                     k += 1
                 episode_id += len(tasks)
-            done.append(Repetition(name, r, settings.budget, violations, first, best, kinds))
+            done.append(Repetition(name, r, k, violations, first, best, kinds))
 
 
 def recorded_repetitions(points) -> list[Repetition]:
@@ -251,6 +255,7 @@ def falsify(settings: FalsifySettings, out: str | Path,
         header = recording_header(record, agent, shield).model_copy(update={
             "search": SearchRunMessage(
                 optimizer=settings.optimizer, budget=settings.budget, repeat=settings.repeat,
+                stop_at_first=settings.stop_at_first or None,
                 seed=settings.seed, property=objective.text, space=space.describe(),
                 choices=[d.name for d in space.dimensions if d.choices is not None] or None,
                 reset=[d.name for d in space.resets] or None,

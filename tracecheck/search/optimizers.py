@@ -5,7 +5,8 @@ point to parameters); lower objective values are better (closer to a violation).
 * ``random``: uniform sampling (numpy's PCG64 generator) — the baseline;
 * ``halton``: a scrambled Halton low-discrepancy sequence (``scipy.stats.qmc``);
 * ``cmaes``: CMA-ES (the ``cma`` package, pycma), bounded to the cube;
-* ``tpe``: the tree-structured Parzen estimator (optuna's ``TPESampler``).
+* ``tpe``: the tree-structured Parzen estimator (optuna's ``TPESampler``);
+* ``gp``: Gaussian-process Bayesian optimisation (optuna's ``GPSampler``, with PyTorch).
 
 Others are added as an entry point of the group ``tracecheck.optimizers``: a class taking
 ``(dimensions: int, seed: int)`` with ``ask() -> list[float]`` and ``tell(point,
@@ -99,18 +100,22 @@ class CMAES:
             self._next = len(self._generation)  # the next ask starts a generation
 
 
-class TPE:
-    """optuna's tree-structured Parzen estimator, through its ask-and-tell interface."""
+class _OptunaStudy:
+    """An optuna sampler through optuna's ask-and-tell interface."""
+
+    name = ""
 
     def __init__(self, dimensions: int, seed: int) -> None:
-        optuna = _need("optuna", "tpe")
-        optuna.logging.set_verbosity(optuna.logging.WARNING)
-        self._optuna = optuna
-        self._study = optuna.create_study(
-            direction="minimize", sampler=optuna.samplers.TPESampler(seed=seed))
+        optuna = _need("optuna", self.name)
+        optuna.logging.set_verbosity(optuna.logging.ERROR)
+        self._study = optuna.create_study(direction="minimize",
+                                          sampler=self.sampler(optuna, seed))
         self._space = {f"u{k}": optuna.distributions.FloatDistribution(0.0, 1.0)
                        for k in range(dimensions)}
         self._trials: dict = {}
+
+    def sampler(self, optuna, seed: int):
+        raise NotImplementedError
 
     def ask(self) -> list[float]:
         trial = self._study.ask(self._space)
@@ -123,20 +128,43 @@ class TPE:
         self._study.tell(trial, value if math.isfinite(value) else 1e300)
 
 
+class TPE(_OptunaStudy):
+    """optuna's tree-structured Parzen estimator."""
+
+    name = "tpe"
+
+    def sampler(self, optuna, seed: int):
+        return optuna.samplers.TPESampler(seed=seed)
+
+
+class GP(_OptunaStudy):
+    """optuna's Gaussian-process Bayesian optimisation (``GPSampler``: a Matérn-5/2 process
+    fitted to the values so far, the next point where its expected improvement is largest;
+    it needs PyTorch). Each point costs a fit that grows with the values told: it suits the
+    budgets of slow episodes (hundreds), where a fit is cheaper than an episode."""
+
+    name = "gp"
+
+    def sampler(self, optuna, seed: int):
+        _need("torch", "gp", hint="pip install 'tracecheck[agents]' (PyTorch, with the "
+                                  "agents)")
+        return optuna.samplers.GPSampler(seed=seed)
+
+
 #: the built-in optimisers by ``--optimizer`` name
 OPTIMIZERS: dict[str, Callable[[int, int], Optimizer]] = {
-    "random": UniformRandom, "halton": Halton, "cmaes": CMAES, "tpe": TPE}
+    "random": UniformRandom, "halton": Halton, "cmaes": CMAES, "tpe": TPE, "gp": GP}
 
 
-def _need(module: str, name: str):
+def _need(module: str, name: str, hint: str = ""):
     import importlib
 
     try:
         return importlib.import_module(module)
     except ImportError:
         raise InputError(f"--optimizer {name} needs the {module} package, which is not "
-                         "installed", hint="pip install 'tracecheck[falsify]' (or pip install "
-                                           f"{module})") from None
+                         "installed", hint=hint or "pip install 'tracecheck[falsify]' (or pip "
+                                                   f"install {module})") from None
 
 
 def make_optimizer(name: str, dimensions: int, seed: int) -> Optimizer:
@@ -152,7 +180,7 @@ def make_optimizer(name: str, dimensions: int, seed: int) -> Optimizer:
                 group=ENTRY_POINT_GROUP))})
             raise InputError(f"unknown optimizer {name!r}; the optimizers are "
                              f"{', '.join(names)}",
-                             hint="--optimizer random|halton|cmaes|tpe, or install a package "
-                                  f"that adds one to the entry points {ENTRY_POINT_GROUP}")
+                             hint="--optimizer random|halton|cmaes|tpe|gp, or install a "
+                                  f"package that adds one to the entry points {ENTRY_POINT_GROUP}")
         factory = found[0].load()
     return factory(dimensions, seed)
