@@ -104,3 +104,12 @@ def test_a_continuous_step_s_margin_is_the_room_its_guard_leaves(bands, room):
     unrecorded = (steps[0], StepRecord(1, 1.0, "DRIVE", {"gap": 25.0}, 0.0, False,
                                        parameters={"a": 0.0, "s": 0.0}))
     assert margins.episode(Episode(0, unrecorded, make_end(unrecorded))) is None
+
+
+def test_a_deadlock_is_as_close_as_can_be_whatever_the_set_s_shape():
+    from tracecheck.episodes.model import Episode, StepRecord, make_end
+
+    steps = (StepRecord(0, 0.0, None, {"gap": 25.0}, 0.0, False),
+             StepRecord(1, 1.0, "DRIVE", {"gap": 25.0}, 0.0, False, deadlock=True,
+                        parameters={"a": -1.0, "s": 0.0}))  # no intervals recorded
+    assert GuardMargins(CONTINUOUS).episode(Episode(0, steps, make_end(steps))) == 0.0

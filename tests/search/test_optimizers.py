@@ -51,3 +51,12 @@ def test_a_missing_package_says_how_to_install_it(monkeypatch):
     with pytest.raises(InputError, match="--optimizer gp needs the torch package") as info:
         make_optimizer("gp", 2, 0)
     assert "tracecheck[agents]" in info.value.hint
+
+
+def test_infinite_values_are_told_on_their_side_of_every_finite_one():
+    from tracecheck.search.optimizers import Told
+
+    told = Told()
+    assert told(float("-inf")) == -1.0 and told(float("inf")) == 1.0
+    assert [told(v) for v in (0.5, -2.0, 3.0)] == [0.5, -2.0, 3.0]
+    assert told(float("-inf")) == -3.0 and told(float("inf")) == 4.0

@@ -135,3 +135,21 @@ def test_envs_lists_the_reset_parameters(capsys):
     assert "reset_parameters" not in rows["frozenlake"]
     code, text, _ = run(capsys, "envs")
     assert "reset parameters other_speed" in " ".join(text.split())
+
+
+def test_the_highway_passes_its_own_reset_options_on():
+    pytest.importorskip("highway_env")
+    adapter = load_adapter("highway")
+    env = adapter.make_env(adapter.config())
+    try:
+        obs, _ = adapter.reset(env, 0, {"config": {"vehicles_count": 3}, "other_speed": 20.0})
+        assert env.unwrapped.config["vehicles_count"] == 3
+    finally:
+        env.close()
+
+
+def test_a_crafted_space_is_shown_not_a_traceback():
+    from tracecheck.episodes.summary import space_text
+
+    assert space_text({"a": [1], "b": [0, 1]}, ["b"]) == "a {1}, b {0,1}"
+    assert space_text({"a": [0.0, 1.0]}, []) == "a 0.0..1.0"

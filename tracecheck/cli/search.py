@@ -20,8 +20,9 @@ def falsify_cmd(
     run: RunOptions,
     param: list[str] = typer.Option(
         [], "--param", help="What the search varies: NAME=LO..HI (a range of numbers) or "
-        "NAME={a,b} (choices); NAME is seed (the episode's seed) or a setting of the "
-        "environment (--env-config keys). Repeat for several."),
+        "NAME={a,b} (choices); NAME is seed (the episode's seed), a setting of the "
+        "environment (--env-config keys) or one of its reset parameters (what an episode "
+        "starts from, tracecheck envs lists them). Repeat for several."),
     prop: Optional[str] = typer.Option(
         None, "--property", help="The property each episode must keep: an STL formula "
         "(G({d > 2.0}): its robustness guides the search) or an LTL one (G({Crash = "

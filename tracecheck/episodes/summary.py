@@ -54,8 +54,10 @@ def space_text(space: dict, choices=None) -> str:
     dimensions ``choices`` names are lists (a file without it: a list that is not two
     numbers)."""
     def listed(k, v) -> bool:
+        if len(v) != 2 or choices is not None and k in choices:
+            return True
         if choices is not None:
-            return k in choices
+            return False
         return not (len(v) == 2 and all(isinstance(x, (int, float)) and not isinstance(x, bool)
                                         for x in v))
     return ", ".join(f"{k} {{{','.join(map(str, v))}}}" if listed(k, v) else

@@ -254,7 +254,7 @@ def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
             rewards=[float(s.reward) for s in ep.steps[1:]],
             terminations=[False] * (n - 1) + [last != "time-limit"] if n else [],
             truncations=[False] * (n - 1) + [last == "time-limit"] if n else [],
-            infos=infos))
+            infos=infos, options=dict(ep.reset_options) if ep.reset_options else None))
         progress()
     shield = header.shield_name or "none"
     about = {"run": str(run), "agent": header.agent_id, "agent_sha256": header.agent_sha256,

@@ -37,6 +37,7 @@ class FalsifyOutput(Report):
     def data(self) -> dict:
         r = self.result
         return {"property": r.property, "logic": r.logic, "space": r.space,
+                "choices": list(r.choices),
                 "budget": r.budget, "output": r.output,
                 "optimizers": [asdict(s) for s in r.summaries],
                 "repetitions": [asdict(x) for x in r.repetitions],
@@ -57,9 +58,9 @@ class FalsifyOutput(Report):
 
     def text(self, console) -> None:
         r = self.result
-        space = ", ".join(f"{k} in {v[0]}..{v[1]}" if len(v) == 2 and not isinstance(
-            v[0], (str, bool)) else f"{k} in {{{', '.join(map(str, v))}}}"
-            for k, v in r.space.items())
+        space = ", ".join(f"{k} in {{{', '.join(map(str, v))}}}" if k in r.choices
+                          or len(v) != 2 else f"{k} in {v[0]}..{v[1]}"
+                          for k, v in r.space.items())
         console.print(f"property {r.property} ({r.logic}) over {space}; {r.budget} "
                       f"episode(s) per search", markup=False)
         for s in r.summaries:

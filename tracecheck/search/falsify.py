@@ -128,6 +128,8 @@ class FalsifyResult:
     violations: tuple[Violation, ...] = ()
     #: every evaluation: (optimizer, search, evaluation, objective)
     values: tuple[tuple[str, int, int, float], ...] = ()
+    #: the dimensions of ``space`` that are lists of choices (the others: [low, high])
+    choices: tuple[str, ...] = ()
 
 
 def summarise(optimizer: str, reps: list[Repetition]) -> Summary:
@@ -274,7 +276,8 @@ def falsify(settings: FalsifySettings, out: str | Path,
     summaries = tuple(summarise(name, [r for r in done if r.optimizer == name])
                       for name in settings.optimizers())
     return FalsifyResult(objective.text, objective.logic, space.describe(), settings.budget,
-                         tuple(done), summaries, str(out), tuple(found), tuple(values))
+                         tuple(done), summaries, str(out), tuple(found), tuple(values),
+                         tuple(d.name for d in space.dimensions if d.choices is not None))
 
 
 def _fits(record, shield, adapter):

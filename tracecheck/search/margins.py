@@ -109,6 +109,8 @@ def _within(step, low: dict, high: dict) -> Optional[float]:
     """A continuous step's margin: how close its guard came to allowing nothing (see the
     module docstring); None where the step did not record its allowed values as
     intervals."""
+    if step.deadlock:  # nothing was allowed, whatever the set's shape
+        return 0.0
     bands = step.allowed_intervals
     if bands is None or not step.parameters:
         return None

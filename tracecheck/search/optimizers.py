@@ -64,6 +64,26 @@ class Halton:
         pass
 
 
+class Told:
+    """The value an optimiser is told for an objective value: itself where finite; an
+    infinite one (an STL robustness over an empty window) kept on its side of every finite
+    value told so far — one below the lowest (-inf: a violation beyond any), one above the
+    highest (+inf) — so that the order holds and no model sees an infinity or 1e300."""
+
+    def __init__(self) -> None:
+        self.low, self.high = math.inf, -math.inf
+
+    def __call__(self, value: float) -> float:
+        if math.isfinite(value):
+            self.low, self.high = min(self.low, value), max(self.high, value)
+            return float(value)
+        if math.isnan(value):
+            return self.high + 1.0 if math.isfinite(self.high) else 1.0
+        if value < 0:
+            return self.low - 1.0 if math.isfinite(self.low) else -1.0
+        return self.high + 1.0 if math.isfinite(self.high) else 1.0
+
+
 class CMAES:
     """pycma's CMA-ES in the unit cube, started at its centre with step size 0.3: a
     generation is asked one point at a time and told once all of its values are in. pycma
@@ -80,6 +100,7 @@ class CMAES:
         self._es = cma.CMAEvolutionStrategy([0.5] * dimensions, 0.3, options)
         self._generation: list = []  # [raw point, point asked, value or None]
         self._next = 0
+        self._told = Told()
 
     def ask(self) -> list[float]:
         if self._next == len(self._generation):
@@ -93,8 +114,7 @@ class CMAES:
         asked = [float(x) for x in point]
         entry = next(e for e in self._generation if e[1] == asked and e[2] is None)
         outside = float(np.abs(np.asarray(entry[0]) - np.asarray(asked)).sum())
-        entry[2] = (value if math.isfinite(value) else 1e300) + (
-            0.0 if self._bounded else outside)
+        entry[2] = self._told(value) + (0.0 if self._bounded else outside)
         if all(e[2] is not None for e in self._generation):
             self._es.tell([e[0] for e in self._generation], [e[2] for e in self._generation])
             self._next = len(self._generation)  # the next ask starts a generation
@@ -113,6 +133,7 @@ class _OptunaStudy:
         self._space = {f"u{k}": optuna.distributions.FloatDistribution(0.0, 1.0)
                        for k in range(dimensions)}
         self._trials: dict = {}
+        self._told = Told()
 
     def sampler(self, optuna, seed: int):
         raise NotImplementedError
@@ -125,7 +146,7 @@ class _OptunaStudy:
 
     def tell(self, point: Sequence[float], value: float) -> None:
         trial = self._trials.pop(tuple(float(x) for x in point))
-        self._study.tell(trial, value if math.isfinite(value) else 1e300)
+        self._study.tell(trial, self._told(value))
 
 
 class TPE(_OptunaStudy):

@@ -209,15 +209,13 @@ class HighwayAdapter(EnvAdapter):
         return gym.make(ENV_ID, config=config, render_mode=render_mode)
 
     def reset(self, env, seed: Optional[int], options: Optional[dict[str, Any]] = None):
-        """highway-env's reset; ``options["other_speed"]`` then sets every other vehicle's
+        """highway-env's reset (with the options it takes itself, e.g. ``config``);
+        ``options["other_speed"]`` then sets every other vehicle's
         speed and target speed (where highway-env placed them: their spacing stays the one
         of the speeds it drew), and the observation is taken again."""
         options = dict(options or {})
         speed = options.pop("other_speed", None)
-        if options:
-            raise InputError(f"the highway takes no reset option {sorted(options)[0]!r}; it "
-                             f"takes {', '.join(self.reset_parameters)}")
-        obs, info = env.reset(seed=seed)
+        obs, info = env.reset(seed=seed, options=options or None)  # highway-env's own
         if speed is None:
             return obs, info
         if isinstance(speed, bool) or not isinstance(speed, (int, float)) or \
