@@ -12,7 +12,7 @@ from typing import Any, Callable, Iterator, Optional
 
 import numpy as np
 
-from ..errors import EvaluationError
+from ..errors import EvaluationError, printable
 from .columns import Columns
 
 __all__ = ["NotVectorizable", "VectorValue", "BatchContext", "union_rows", "concat_numbers",
@@ -244,6 +244,12 @@ def float_column(values, cols: Columns, source: str) -> np.ndarray:
     for i, x in enumerate(v.tolist()):
         try:
             out[i] = float(x)
+        except (TypeError, ValueError):  # a set, a string, an element: no number
+            where = cols.label(i) if cols.label is not None else f"state {i}"
+            raise EvaluationError(f"{where}: the value of {source} is "
+                                  f"{printable(repr(x))[:80]}, not a number",
+                                  hint="a metric's expression must give a number in every "
+                                       "state") from None
         except OverflowError:
             where = cols.label(i) if cols.label is not None else f"state {i}"
             digits = int(math.log10(abs(x))) + 1
