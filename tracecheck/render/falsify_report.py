@@ -22,11 +22,6 @@ def _n(x, empty: str = "–") -> str:
     return f"{x:.4g}" if isinstance(x, float) else str(x)
 
 
-def _point(parameters: dict) -> str:
-    return ", ".join(f"{k}={v:.6g}" if isinstance(v, float) else f"{k}={v}"
-                     for k, v in parameters.items())
-
-
 def search_section(c, shield, adapter, pages: list, page_stem: dict, pages_dir: Path,
                    max_pages: int, salvage: bool = False, shown: int = 8,
                    tail: int = 500) -> str:
@@ -40,6 +35,7 @@ def search_section(c, shield, adapter, pages: list, page_stem: dict, pages_dir: 
     from ..outputs import safe_name
     from ..search.falsify import recorded_repetitions, summarise
     from .falsify_plot import objective_svg
+    from .falsify_text import point_text
     from .pictures import picture
     from .scene import scene_drawer
 
@@ -112,7 +108,7 @@ def search_section(c, shield, adapter, pages: list, page_stem: dict, pages_dir: 
         link = f"<a href='{_e(pages_dir.name + '/' + page)}'>open</a>" if page in named \
             else "(not rendered)"
         body.append(f"<tr><td>{ep}</td><td>{_e(p.optimizer)}, search {p.repetition}, "
-                    f"evaluation {p.evaluation + 1}</td><td>{_e(_point(p.parameters))}</td>"
+                    f"evaluation {p.evaluation + 1}</td><td>{_e(point_text(p.parameters))}</td>"
                     f"<td>{_e(_n(p.objective))}</td><td>{_e(why)}</td>"
                     f"<td class='pic'>{pic}</td><td>{link}</td></tr>")
     head_row = "<tr>" + "".join(f"<th>{h}</th>" for h in (

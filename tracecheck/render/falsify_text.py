@@ -10,7 +10,7 @@ from ..search.attribution import KINDS
 from .emit import Report
 from .tables import TableData
 
-__all__ = ["FalsifyOutput"]
+__all__ = ["FalsifyOutput", "point_text"]
 
 
 #: the violating episodes the text lists (JSON lists every one)
@@ -23,7 +23,8 @@ def _number(x: Optional[float], empty: str = "-") -> str:
     return f"{x:g}" if isinstance(x, float) else str(x)
 
 
-def _point(parameters: dict) -> str:
+def point_text(parameters: dict) -> str:
+    """A search point's parameters as ``name=value, …`` (reals to 6 digits)."""
     return ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
                      for k, v in parameters.items())
 
@@ -82,7 +83,7 @@ class FalsifyOutput(Report):
                    + (f": {p.attribution_detail}" if p.attribution_detail else "")
                    if p.attribution else "")
             console.print(f"  episode {v.episode} ({p.optimizer}, search {p.repetition}, "
-                          f"evaluation {p.evaluation + 1}): {_point(p.parameters)}; objective "
+                          f"evaluation {p.evaluation + 1}): {point_text(p.parameters)}; objective "
                           f"{p.objective:g}{why}", markup=False)
         if len(r.violations) > SHOWN:
             console.print(f"  … {len(r.violations) - SHOWN} more violating episode(s): --json "
