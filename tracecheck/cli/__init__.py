@@ -23,6 +23,7 @@ from . import live  # noqa: E402,F401  envs, train, record
 from . import render  # noqa: E402,F401  render, report
 from . import project  # noqa: E402,F401  project
 from . import search  # noqa: E402,F401  falsify
+from . import tuning  # noqa: E402,F401  tune, repair
 
 __all__ = ["app", "main"]
 

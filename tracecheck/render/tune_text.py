@@ -1,0 +1,124 @@
+"""What ``tracecheck tune`` prints: the figures for every value of the tuned number (each piece
+of its range), the Pareto front with its knee, and the machine's own value — in every format
+(:mod:`.emit`)."""
+
+from __future__ import annotations
+
+from typing import Optional
+
+from ..search.tune_sweep import Figures, Piece
+from .emit import Report
+from .tables import TableData
+
+__all__ = ["TuneOutput", "figures_data"]
+
+
+def figures_data(f: Figures, crashes: int) -> dict:
+    """One set of figures as JSON, with the crashes no blocked step came before."""
+    return {"steps_blocked": f.steps_blocked, "episodes_blocked": f.episodes_blocked,
+            "crashes_after_blocked": f.crashes_after_blocked,
+            "crashes_missed": crashes - f.crashes_after_blocked,
+            "deadlock_states": f.deadlock_states}
+
+
+def _piece(p: Piece) -> dict:
+    return {"low": float(p.low), "high": float(p.high), "low_closed": p.low_closed,
+            "high_closed": p.high_closed, "values": p.text()}
+
+
+class TuneOutput(Report):
+    """A :class:`~tracecheck.search.tuning.TuneResult` for people and machines."""
+
+    def __init__(self, result, plot: Optional[str] = None,
+                 resimulation: Optional[dict] = None) -> None:
+        self.result, self.plot, self.resimulation = result, plot, resimulation
+
+    def data(self) -> dict:
+        r, t = self.result, self.result.target
+        on_front = {id(p) for f in r.front for p in f.pieces}
+        return {
+            "shield": r.shield, "files": r.files,
+            "parameter": {"name": t.label, "kind": t.kind, "value": t.value,
+                          "integer": t.integer, "line": t.line, "column": t.column},
+            "range": [r.low, r.high], "method": r.method,
+            "episodes": r.episodes, "steps": r.steps, "crashes": r.crashes,
+            "current": figures_data(r.current, r.crashes),
+            "at": [{"value": v, **figures_data(f, r.crashes)} for v, f in r.at.items()],
+            "pieces": [{**_piece(p), **figures_data(p.figures, r.crashes),
+                        "on_front": id(p) in on_front} for p in r.pieces],
+            "front": [{"value": f.value, "values": [p.text() for p in f.pieces],
+                       **figures_data(f.figures, r.crashes)} for f in r.front],
+            "knee": None if r.knee is None else r.knee.value,
+            "deadlock_note": r.deadlock_note, "warnings": r.warnings, "plot": self.plot,
+            "resimulation": self.resimulation, "elapsed_s": r.elapsed_s,
+        }
+
+    def table(self) -> TableData:
+        r = self.result
+        on_front = {id(p) for f in r.front for p in f.pieces}
+        current = float(r.target.value)
+        rows = []
+        for p in r.pieces:
+            f = p.figures
+            marks = [m for m, yes in (("machine's", p.contains(_fraction(current))),
+                                      ("front", id(p) in on_front)) if yes]
+            rows.append([p.text(), str(f.steps_blocked), str(f.episodes_blocked),
+                         str(f.crashes_after_blocked),
+                         str(r.crashes - f.crashes_after_blocked),
+                         "" if f.deadlock_states is None else str(f.deadlock_states),
+                         ", ".join(marks)])
+        return TableData.of([f"{r.target.label} values", "steps blocked", "episodes blocked",
+                             "crashes at/after a blocked step", "crashes not blocked",
+                             "deadlock states", "note"], rows)
+
+    def text(self, console) -> None:
+        r, t = self.result, self.result.target
+        how = (f"exact for every value in [{r.low}, {r.high}]: {len(r.pieces)} piece(s)"
+               if r.method == "exact" else
+               f"at {len(r.at)} value(s) only (each replayed with it written in)")
+        console.print(f"{t.label} ({t.kind} at {t.where}, {t.value} in the machine) over "
+                      f"{r.episodes:,} episode(s), {r.steps:,} step(s), {r.crashes:,} "
+                      f"crash(es): {how}", markup=False)
+        for v, f in r.at.items():
+            own = " (the machine's; replay says the same)" if v == float(t.value) else ""
+            console.print(f"  at {v}{own}: {_line(f, r.crashes)}", markup=False)
+        console.print(f"Pareto front (fewest steps blocked, fewest crashes not blocked): "
+                      f"{len(r.front)} point(s)", markup=False)
+        for f in r.front:
+            knee = "  <- knee" if r.knee is not None and f is r.knee else ""
+            values = ", ".join(p.text() for p in f.pieces[:3]) + (
+                f" and {len(f.pieces) - 3} more" if len(f.pieces) > 3 else "")
+            console.print(f"  {values}: {_line(f.figures, r.crashes)}{knee}", markup=False)
+        if r.deadlock_note:
+            console.print(f"deadlock states {r.deadlock_note}", markup=False)
+        if self.resimulation:
+            _resimulation_text(console, self.resimulation)
+        if self.plot:
+            console.print(f"plot: {self.plot}", markup=False)
+        for w in r.warnings:
+            console.print(f"warning: {w}", markup=False)
+
+
+def _line(f: Figures, crashes: int) -> str:
+    dead = "" if f.deadlock_states is None else f", {f.deadlock_states:,} deadlock state(s)"
+    return (f"{f.steps_blocked:,} step(s) blocked in {f.episodes_blocked:,} episode(s); "
+            f"{f.crashes_after_blocked:,} of {crashes:,} crash(es) at or after a blocked "
+            f"step{dead}")
+
+
+def _fraction(x: float):
+    from fractions import Fraction
+
+    return Fraction(x)
+
+
+def _resimulation_text(console, resim: dict) -> None:
+    console.print(f"re-simulated {resim['episodes']} episode(s) per value from their seeds "
+                  f"({resim['interval']} intervals, {resim['confidence']:.0%}):", markup=False)
+    for row in resim["values"]:
+        console.print(f"  {row['label']}: crashes {row['crashes']} "
+                      f"({row['crash_rate']:.3f}, {row['crash_low']:.3f}..{row['crash_high']:.3f}); "
+                      f"interventions per step {row['intervention_rate']:.3f} "
+                      f"({row['intervention_low']:.3f}..{row['intervention_high']:.3f})"
+                      + (f"; against the machine's: {row['paired']}" if row.get("paired")
+                         else ""), markup=False)

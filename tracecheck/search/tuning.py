@@ -1,0 +1,368 @@
+"""Tune one number of a shield against recorded episodes: for *every* value of it at once, how
+many recorded steps the shield would block, in how many episodes, how many crashes came at or
+after the first blocked step, and how many states would be deadlocks — exactly, from one pass
+over the recordings.
+
+For each recorded state and each operation whose guard reads the number, the guard is turned
+into the set of the number's values for which it holds (:mod:`tracecheck.b.threshold`:
+exact rationals over the reals). A step is blocked for the values outside its action's set;
+an episode for those in the union of its steps' blocked sets (a crash on a blocked way: of
+its steps up to the crash); a state is a deadlock for the values no operation allows. Each
+figure is then a sum of indicators of finitely many intervals: a piecewise-constant function
+of the number, given by its breakpoints (:class:`Piece`), not sampled on a grid.
+
+The engine evaluates REALs as floats, so right at a breakpoint a float evaluation can differ
+from the answer over the reals; at the values that are reported on their own (the machine's
+own value, ``--at``) every set with a breakpoint within a few units in the last place is
+decided again by the engine's own evaluation there, so those figures are what ``replay`` of
+the machine with that value written in says.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+from fractions import Fraction
+from pathlib import Path
+from typing import Iterable, Optional, Sequence
+
+import numpy as np
+
+from ..b import ast
+from ..b.columns import Columns
+from ..b.memo import MEMO_KEY
+from ..b.values import hashable
+from ..b.threshold import ThresholdCompiler, Values
+from ..checking.fit import check_actions
+from ..checking.replaying import check_parameters, enabled_matrix
+from ..checking.shield import Shield
+from ..episodes.columns import RunColumns, read_blocks
+from ..errors import InputError, TracecheckError, UnsupportedError
+from .tune_target import Target
+from .tune_sweep import Figures, FrontPoint, Piece, front, knee, sweep
+
+__all__ = ["TuneResult", "tune", "tune_grid", "shield_with", "Figures", "Piece", "FrontPoint"]
+
+#: how close (relative) a breakpoint must be to a reported value for the engine to decide it
+_CLOSE = 1e-9
+
+
+@dataclass
+class TuneResult:
+    """What :func:`tune` found (see the module docstring)."""
+
+    shield: dict
+    target: Target
+    files: list[str]
+    low: float
+    high: float
+    episodes: int = 0
+    steps: int = 0
+    crashes: int = 0
+    #: the figures on each piece of the range (a breakpoint is a piece of its own)
+    pieces: list[Piece] = field(default_factory=list)
+    #: the figures at the values reported on their own (the machine's own value first)
+    at: dict[float, Figures] = field(default_factory=dict)
+    #: why deadlock states are not counted (None: they are)
+    deadlock_note: Optional[str] = None
+    #: how the figures were found: "exact" (every value) or "grid" (the values given)
+    method: str = "exact"
+    elapsed_s: float = 0.0
+    warnings: list[str] = field(default_factory=list)
+    front: list[FrontPoint] = field(default_factory=list)
+    knee: Optional[FrontPoint] = None
+
+    @property
+    def current(self) -> Figures:
+        """The figures with the machine as written."""
+        return self.at[float(self.target.value)]
+
+    def figures_at(self, value: float) -> Figures:
+        """The figures at ``value``: as reported on its own where it is, else its piece's."""
+        if float(value) in self.at:
+            return self.at[float(value)]
+        x = Fraction(value)
+        for p in self.pieces:
+            if p.contains(x):
+                return p.figures
+        raise InputError(f"{value} is outside the range tuned ({self.low}..{self.high})")
+
+
+class _Sets:
+    """Per recorded state and operation, the values its guard allows (computed once, where
+    first asked: states are the same where the variables the guards read are), and the
+    engine's answer at each reported value near a breakpoint. One for all the blocks of all
+    the files: a state seen in an earlier block is not computed again."""
+
+    def __init__(self, shield: Shield, target: Target, values: Sequence):
+        machine = shield.machine
+        self.machine, self.target, self.values = machine, target, values
+        self.memo: dict[tuple, Values] = {}
+        self.fns = {op: _compiled(machine, target, op, g) for op, g in target.guards.items()}
+        self.engine: dict = {}
+        read = set().union(*(ast.free_names(g) for g in target.guards.values()))
+        self.read = sorted(read & set(machine.variables))
+
+    def start(self, cols: RunColumns) -> None:
+        """Take the states of a block."""
+        self.cols = cols
+        st = cols.states
+        keep = set(self.read) & st.names()
+        sub = Columns(st.n, st.elements, *({k: v for k, v in part.items() if k in keep}
+                                           for part in (st.numbers, st.booleans, st.functions,
+                                                        st.masks, st.others)))
+        self.firsts, self.which = sub.distinct()
+        self.keys: dict[int, tuple] = {}
+        self.envs: dict[int, dict] = {}
+
+    def key(self, d: int) -> tuple:
+        k = self.keys.get(d)
+        if k is None:
+            row = self.cols.states.row(int(self.firsts[d]))
+            k = self.keys[d] = tuple(hashable(row.get(n)) for n in self.read)
+        return k
+
+    def env(self, d: int) -> dict:
+        env = self.envs.get(d)
+        if env is None:
+            env = self.envs[d] = self.machine.env(self.cols.states.row(int(self.firsts[d])))
+        return env
+
+    def of(self, row: int, op: str, params: Optional[dict] = None) -> Values:
+        """The values for which ``op``'s guard holds in the state at ``row``."""
+        d = int(self.which[row])
+        key = (self.key(d), op) if params is None else (self.key(d), op,
+                                                        tuple(params.items()))
+        got = self.memo.get(key)
+        if got is None:
+            env = self.env(d) if params is None else {**self.env(d), **params}
+            try:
+                got = self.memo[key] = self.fns[op][0](env)
+            except TracecheckError as exc:
+                raise _located(self.cols, row, op, exc) from None
+        return got
+
+    def holds_at(self, row: int, op: str, value: float, params: Optional[dict] = None
+                 ) -> bool:
+        """Whether ``op``'s guard holds at ``row`` with the number ``value``: over the reals,
+        or — near a breakpoint — as the engine's float evaluation says."""
+        got = self.of(row, op, params)
+        x = Fraction(value)
+        tol = Fraction(_CLOSE) * max(1, abs(x))
+        if not any(abs(p - x) <= tol for p in got.points):
+            return got.contains(x)
+        key = (self.key(int(self.which[row])), op, value, tuple((params or {}).items()))
+        known = self.engine.get(key)
+        if known is None:
+            env = dict(self.env(int(self.which[row])))
+            env.pop(MEMO_KEY, None)
+            env.update(params or {})
+            env[self.target.name] = int(value) if self.target.integer else float(value)
+            known = self.engine[key] = bool(self.fns[op][1](env))
+        return known
+
+
+def _compiled(machine, target: Target, op: str, guard):
+    params = tuple(machine.operations[op].params)
+    try:
+        values = ThresholdCompiler(machine, target.name, params, target.integer).pred(guard)
+    except UnsupportedError as exc:
+        raise InputError(f"{target.label}: the guard of {op} {exc.message.removeprefix('the guard ')}",
+                         hint="tracecheck finds the figures for every value only where the "
+                         "guards are linear in the number; --grid N gives them at N values "
+                         "instead (by replay of the machine with each written in)") from None
+    comp = machine.compiler()
+    with comp.binding(params + (target.name,)):  # never remembered across its values
+        plain = comp.compile(guard)
+    return values, plain
+
+
+def _located(cols: RunColumns, row: int, op: str, exc: TracecheckError) -> TracecheckError:
+    return UnsupportedError(f"{cols.path}: episode {int(cols.episode[row])}, step "
+                            f"{int(cols.step[row]) + 1} ({op}): tracecheck cannot tell for "
+                            f"which values the guard holds: {exc.message}",
+                            hint="--grid N gives the figures at N values instead")
+
+
+@dataclass
+class _Tally:
+    """The sets every figure sums indicators of, with how often each comes."""
+
+    steps: Counter = field(default_factory=Counter)  # blocked sets of steps
+    episodes: Counter = field(default_factory=Counter)
+    crashes: Counter = field(default_factory=Counter)
+    deadlocks: Counter = field(default_factory=Counter)
+    at: dict = field(default_factory=dict)  # value -> [steps, episodes, crashes, deadlocks]
+
+
+def tune(paths: Iterable[str | Path], shield: Shield, target: Target, low: float,
+         high: float, *, at: Sequence[float] = ()) -> TuneResult:
+    """The figures of ``shield`` over ``paths`` for every value of ``target`` in
+    [``low``, ``high``] (see the module docstring), and at the machine's own value and
+    each of ``at`` on their own."""
+    paths = [str(p) for p in paths]
+    start = time.perf_counter()
+    values = list(dict.fromkeys([float(target.value), *map(float, at)]))
+    result = TuneResult(shield.identity, target, paths, low, high)
+    tally = _Tally(at={v: [0, 0, 0, 0] for v in values})
+    sets = _Sets(shield, target, values)
+    for path in paths:
+        for cols in read_blocks(path):
+            result.warnings += cols.warnings
+            _block(shield, target, cols, sets, tally, result)
+    result.pieces = sweep(tally, Fraction(low), Fraction(high),
+                          deadlocks=result.deadlock_note is None)
+    result.at = {v: Figures(*c[:3], None if result.deadlock_note else c[3])
+                 for v, c in tally.at.items()}
+    result.front = front(result.pieces, result.crashes)
+    result.knee = knee(result.front)
+    result.elapsed_s = round(time.perf_counter() - start, 6)
+    return result
+
+
+def _block(shield: Shield, target: Target, cols: RunColumns, sets: _Sets, tally: _Tally,
+           result: TuneResult) -> None:
+    machine = shield.machine
+    if not cols.n:
+        return
+    matrix, ops = enabled_matrix(shield, cols)
+    rows = np.flatnonzero(cols.step > 0)
+    actions = cols.action[rows]
+    check_actions(shield, cols, rows, actions)
+    index = {o: i for i, o in enumerate(ops)}
+    to_op = np.array([index.get(a, 0) for a in cols.action_names] + [0], dtype=np.int64)
+    feasible = np.ones(cols.n, dtype=bool)
+    feasible[rows] = matrix[rows - 1, to_op[actions]]
+    check_parameters(shield, cols, rows, actions, feasible, margins=False)
+    tuned = [o for o in ops if o in target.guards]
+    continuous = [o for o in tuned if machine.operations[o].params]
+    if continuous:
+        result.deadlock_note = (f"not counted: {', '.join(continuous)} has parameters, and "
+                                "whether some value of them is allowed is not found for every "
+                                "value of the tuned number")
+    fixed = [i for i, o in enumerate(ops) if o not in target.guards]
+    some_fixed = matrix[:, fixed].any(axis=1) if fixed else np.zeros(cols.n, dtype=bool)
+    sets.start(cols)
+    values = sets.values
+    names = cols.action_names
+    done: dict[bytes, tuple] = {}  # an episode the same as one before: the same sets
+    for i in range(len(cols.episode_ids)):
+        lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
+        key = (sets.which[lo:hi].tobytes() + cols.action[lo:hi].tobytes()
+               + cols.crashed[lo:hi].tobytes() + feasible[lo:hi].tobytes())
+        if continuous:
+            key += b"".join(cols.parameters[p][lo:hi].tobytes() for p in sorted(cols.parameters))
+        found = done.get(key)
+        if found is None:
+            found = done[key] = _episode(sets, cols, lo, hi, feasible, some_fixed, tuned,
+                                         continuous, names, values)
+        _add(tally, found)
+        result.episodes += 1
+        result.steps += hi - lo - 1
+        result.crashes += bool(cols.crashed[lo:hi].any())
+
+
+def _episode(sets: _Sets, cols: RunColumns, lo: int, hi: int, feasible: np.ndarray,
+             some_fixed: np.ndarray, tuned: list[str], continuous: list[str], names,
+             values: Sequence[float]) -> tuple:
+    """One episode's sets: its steps' blocked sets, the union of them, the union up to its
+    crash, its states' deadlock sets; and its figures at each reported value."""
+    crashes = np.flatnonzero(cols.crashed[lo:hi])
+    crash = int(crashes[0]) if len(crashes) else None
+    blocked: list[Values] = []
+    fixed_blocked = 0
+    union = crash_union = Values.nothing()
+    counts = {v: [0, False, False, 0] for v in values}
+    for k in range(1, hi - lo):
+        r = lo + k
+        op = names[cols.action[r]]
+        if op in sets.target.guards:
+            params = ({p: float(cols.parameters[p][r]) for p in sets.machine.operations[op].params}
+                      if op in continuous else None)
+            bad = sets.of(r - 1, op, params).complement()
+            blocked.append(bad)
+            union = union.union(bad)
+            if crash is not None and k <= crash:
+                crash_union = crash_union.union(bad)
+            for v, c in counts.items():
+                if not sets.holds_at(r - 1, op, v, params):
+                    c[0] += 1
+                    c[1] = True
+                    c[2] = c[2] or (crash is not None and k <= crash)
+        elif not feasible[r]:
+            fixed_blocked += 1
+            union = Values.everything()
+            if crash is not None and k <= crash:
+                crash_union = Values.everything()
+            for c in counts.values():
+                c[0] += 1
+                c[1] = True
+                c[2] = c[2] or (crash is not None and k <= crash)
+    deadlocks = []
+    if not continuous:
+        for r in range(lo, hi):
+            if some_fixed[r]:
+                continue
+            allowed = Values.nothing()
+            for op in tuned:
+                allowed = allowed.union(sets.of(r, op))
+            deadlocks.append(allowed.complement())
+            for v, c in counts.items():
+                c[3] += not any(sets.holds_at(r, op, v) for op in tuned)
+    return blocked, fixed_blocked, union, crash_union if crash is not None else None, \
+        deadlocks, counts
+
+
+def _add(tally: _Tally, found: tuple) -> None:
+    blocked, fixed_blocked, union, crash_union, deadlocks, counts = found
+    tally.steps.update(blocked)
+    tally.steps[Values.everything()] += fixed_blocked
+    tally.episodes[union] += 1
+    if crash_union is not None:
+        tally.crashes[crash_union] += 1
+    tally.deadlocks.update(deadlocks)
+    for v, (steps, episode, crash, dead) in counts.items():
+        total = tally.at[v]
+        total[0] += steps
+        total[1] += episode
+        total[2] += crash
+        total[3] += dead
+
+
+def shield_with(shield: Shield, target: Target, value: float) -> Shield:
+    """``shield`` with ``value`` written in the target's place (its text rewritten)."""
+    from ..b import load_machine_text
+    from ..checking.shield import ShieldMachine
+    from .tune_target import number_text, written
+
+    machine = load_machine_text(written(shield.machine.source, target, value),
+                                file=shield.machine.file, kind=ShieldMachine)
+    name = f"{shield.name} with {target.label} = {number_text(value, target.integer)}"
+    return Shield(name=name, sha256=machine.sha256, path=shield.path, machine=machine)
+
+
+def tune_grid(paths: Iterable[str | Path], shield: Shield, target: Target,
+              values: Sequence[float]) -> TuneResult:
+    """The figures at each of ``values`` only (with the machine's own value): each by
+    :func:`~tracecheck.checking.replaying.replay` of the machine with it written in — for a
+    number the guards do not read linearly."""
+    from ..checking.replaying import replay
+
+    paths = [str(p) for p in paths]
+    start = time.perf_counter()
+    values = sorted(set([float(target.value), *map(float, values)]))
+    result = TuneResult(shield.identity, target, paths, min(values), max(values),
+                        method="grid")
+    for v in values:
+        r = replay(paths, shield_with(shield, target, v))
+        result.at[v] = Figures(r.infeasible_steps, r.infeasible_episodes,
+                               r.crashes_after_infeasible, r.deadlock_states)
+        result.episodes, result.steps, result.crashes = r.episodes, r.steps, r.crashes
+        result.warnings = r.warnings
+    result.pieces = [Piece(Fraction(v), Fraction(v), True, True, f)
+                     for v, f in result.at.items()]
+    result.front = front(result.pieces, result.crashes)
+    result.knee = knee(result.front)
+    result.elapsed_s = round(time.perf_counter() - start, 6)
+    return result
