@@ -149,3 +149,45 @@ def tune_cmd(
 
         tune_plot(result, plot)
     emit(TuneOutput(result, str(plot) if plot is not None else None, resim), fmt.value, out)
+
+
+@app.command("repair")
+def repair_cmd(
+    runs: list[Path] = typer.Argument(..., help="MCAP run files: one has the crash to close."),
+    shield: str = typer.Option(..., "--shield", "-s", help=SHIELD_HELP),
+    output: Path = typer.Option(..., "--output", "-o", help="Where the repaired machine is "
+                                "written (.mch; a new file, or --force)."),
+    param: list[str] = typer.Option([], "--param", help="A number that may change: a CONSTANT "
+                                    "or numeric DEFINITION (repeatable; default: every one)."),
+    literal: list[str] = typer.Option([], "--literal", help="A number written in a guard that "
+                                      "may change: SCOPE:VALUE[@LINE:COLUMN] (repeatable)."),
+    episode: Optional[int] = typer.Option(None, "--episode", help="The crash to close (default: "
+                                          "the first the shield did not block)."),
+    step: Optional[int] = typer.Option(None, "--step", min=1, help="The step whose action to "
+                                       "block (default: the one falsify's attribution names, "
+                                       "else the crash step)."),
+    timeout: float = typer.Option(10.0, "--timeout", min=0.001, help="Seconds the solver may "
+                                  "take per question (prove --deadlock-free, diff --symbolic)."),
+    force: bool = FORCE,
+    as_json: bool = JSON,
+    fmt: OutputFormat = FORMAT,
+) -> None:
+    """Close a gap of a shield: the smallest change of one of its numbers that blocks the
+    action that sealed a crash it did not prevent; the repaired machine written, checked for
+    deadlock freedom and compared with the original over every state."""
+    from ..outputs import check_output
+    from ..render.emit import emit
+    from ..render.tune_text import RepairOutput
+    from ..search.repair import find_gap, repair
+
+    fmt = output_format(fmt, as_json)
+    if output.suffix != ".mch":
+        raise InputError(f"--output {output}: the repaired machine is a .mch file")
+    check_output(output, [*runs, *input_paths(shield)], force=force, what="--output")
+    loaded = run_shield(shield, runs)
+    gap = find_gap([str(r) for r in runs], loaded, episode, step)
+    result = repair([str(r) for r in runs], loaded, gap, names=param, literals=literal,
+                    output=output, timeout_s=timeout)
+    emit(RepairOutput(result), fmt.value, out)
+    if result.chosen is None:
+        raise typer.Exit(1)

@@ -10,7 +10,7 @@ from ..search.tune_sweep import Figures, Piece
 from .emit import Report
 from .tables import TableData
 
-__all__ = ["TuneOutput", "figures_data"]
+__all__ = ["TuneOutput", "RepairOutput", "figures_data"]
 
 
 def figures_data(f: Figures, crashes: int) -> dict:
@@ -122,3 +122,57 @@ def _resimulation_text(console, resim: dict) -> None:
                       f"({row['intervention_low']:.3f}..{row['intervention_high']:.3f})"
                       + (f"; against the machine's: {row['paired']}" if row.get("paired")
                          else ""), markup=False)
+
+
+class RepairOutput(Report):
+    """A :class:`~tracecheck.search.repair.RepairResult` for people and machines."""
+
+    def __init__(self, result) -> None:
+        self.result = result
+
+    def data(self) -> dict:
+        from dataclasses import asdict
+
+        r = self.result
+        return {"shield": r.shield, "gap": asdict(r.gap),
+                "candidates": [{**asdict(c), "change": c.change} for c in r.candidates],
+                "chosen": None if r.chosen is None else asdict(r.chosen),
+                "output": r.output, "newly_blocked": r.newly_blocked,
+                "newly_allowed": r.newly_allowed, "episodes_changed": r.episodes_changed,
+                "deadlock_free": r.deadlock_free, "symbolic_diff": r.symbolic}
+
+    def table(self) -> TableData:
+        r = self.result
+        return TableData.of(["number", "current", "blocking value", "change", "note"],
+                            [[c.label, f"{c.current:g}", "" if c.value is None else repr(c.value),
+                              "" if c.change is None else f"{c.change:.3%}",
+                              ("chosen" if c is r.chosen else "") + (c.why if c.value is None
+                                                                     else "")]
+                             for c in r.candidates])
+
+    def text(self, console) -> None:
+        r, g = self.result, self.result.gap
+        console.print(f"{g.path}, episode {g.episode}: crashed at step {g.crash_step} with no "
+                      f"step before blocked; to block: {g.action} at step {g.step} ({g.reason})",
+                      markup=False)
+        for c in r.candidates:
+            what = (f"{c.value!r} (from {c.current:g}, {c.change:.3%})" if c.value is not None
+                    else f"cannot close it: {c.why}")
+            console.print(f"  {c.label}: {what}" + ("  <- the smallest change"
+                                                   if c is r.chosen else ""), markup=False)
+        if r.chosen is None:
+            console.print("no single number of the shield closes the gap", markup=False)
+            return
+        if r.chosen.value == r.chosen.current:
+            console.print(f"{r.chosen.label} blocks the action already", markup=False)
+            return
+        console.print(f"on the recordings: {r.newly_blocked:,} step(s) newly blocked, "
+                      f"{r.newly_allowed:,} newly allowed, in {r.episodes_changed:,} "
+                      f"episode(s)", markup=False)
+        console.print(f"written: {r.output}" if r.output else "not written", markup=False)
+        console.print("deadlock-free: " + ", ".join(f"{k} {v}" for k, v in
+                                                    r.deadlock_free.items()), markup=False)
+        for s in r.symbolic:
+            detail = f": {s['detail']}" if s["detail"] else ""
+            console.print(f"  diff --symbolic {s['operation']}: {s['status']}{detail}",
+                          markup=False)

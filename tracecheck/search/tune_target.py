@@ -22,7 +22,8 @@ from ..b.bindings import conjuncts
 from ..b.threshold import Values, threshold_guard, values_of
 from ..errors import InputError, TracecheckError, UnsupportedError
 
-__all__ = ["Target", "resolve_target", "written", "check_range", "TUNED"]
+__all__ = ["Target", "resolve_target", "written", "check_range", "number_text", "numeric_names",
+           "literal_specs", "TUNED"]
 
 #: the name a tuned definition or literal goes by in the guards (no B identifier has it)
 TUNED = "$tuned"
@@ -81,13 +82,14 @@ def resolve_target(machine, param: Optional[str] = None,
     d = machine.definitions.get(param)
     if d is not None:
         return _definition(machine, param, d)
-    names = ", ".join(_numeric_names(machine)) or "none"
+    names = ", ".join(numeric_names(machine)) or "none"
     raise InputError(f"--param {param}: {machine.name} has no constant or definition "
                      f"{param}", hint=f"its numeric constants and definitions: {names}; a "
                      "number written in a guard is named with --literal OPERATION:VALUE")
 
 
-def _numeric_names(machine) -> list[str]:
+def numeric_names(machine) -> list[str]:
+    """The constants and definitions of ``machine`` that are numbers (what --param takes)."""
     found = [c for c in machine.constants_declared
              if isinstance(machine.constants.get(c), (int, float))
              and not isinstance(machine.constants.get(c), bool)]
@@ -110,7 +112,7 @@ def _constant(machine, name: str) -> Target:
     if machine.types.get(name) not in ("REAL", "INTEGER"):
         raise InputError(f"--param {name}: the constant {name} is not a number "
                          f"({machine.types.get(name, 'of no number type')})",
-                         hint=f"numeric ones: {', '.join(_numeric_names(machine)) or 'none'}")
+                         hint=f"numeric ones: {', '.join(numeric_names(machine)) or 'none'}")
     lit = None
     for c in conjuncts(machine.properties_node) if machine.properties_node else []:
         if isinstance(c, ast.Rel) and c.op == "=":
@@ -130,7 +132,7 @@ def _definition(machine, name: str, d) -> Target:
     value = _number_node(d.body) if d.kind == "formula" and not d.params else None
     if value is None or d.body.pos is None:
         raise InputError(f"--param {name}: the definition {name} is not a number",
-                         hint=f"numeric ones: {', '.join(_numeric_names(machine)) or 'none'}; "
+                         hint=f"numeric ones: {', '.join(numeric_names(machine)) or 'none'}; "
                          f"a number inside it is named with --literal {name}:VALUE")
     spans = frozenset({(d.body.pos.start, d.body.pos.end)})
     return _made(machine, name, "definition", value, isinstance(_plain(d.body), ast.IntLit),
@@ -184,6 +186,16 @@ def _literal(machine, spec: str) -> Target:
     value = _number_node(node)
     return _made(machine, spec, "literal", value, isinstance(_plain(node), ast.IntLit),
                  node, TUNED, frozenset({span}))
+
+
+def literal_specs(machine, op: str) -> list[str]:
+    """A ``--literal`` for each number written in ``op``'s guard (each place once, definitions
+    it uses included): ``OP:VALUE@LINE:COLUMN``."""
+    seen: dict = {}
+    for n in _numbers(machine.operations[op].guard):
+        seen.setdefault((n.pos.start, n.pos.end), n)
+    return [f"{op}:{_number_node(n)!r}@{n.pos.line}:{n.pos.column}"
+            for _, n in sorted(seen.items())]
 
 
 def _numbers(node) -> list:
