@@ -236,3 +236,142 @@ def test_bad_input_exits_2_naming_it(capsys, args, message):
     code, out, err = run(capsys, "tune", "sample_traces/base_none.mcap", "-s", shield, *args)
     assert code == 2 and message in " ".join(err.split()), err
     assert "Traceback" not in err
+
+
+THROTTLE = """MACHINE Throttle
+CONSTANTS Margin
+PROPERTIES Margin = 1.0
+VARIABLES Gap, EgoSpeed, LeadSpeed
+INVARIANT Gap : REAL & EgoSpeed : REAL & LeadSpeed : REAL
+INITIALISATION Gap, EgoSpeed, LeadSpeed := 40.0, 20.0, 20.0
+OPERATIONS
+  ACCELERATE(a) = PRE a : REAL & a >= -4.0 & a <= 2.0 &
+      Gap + LeadSpeed - Margin - (EgoSpeed + a) > EgoSpeed + a
+  THEN Gap, EgoSpeed, LeadSpeed :(Gap : REAL & EgoSpeed : REAL & LeadSpeed : REAL) END
+END"""
+
+
+def test_a_continuous_shield_is_tuned_with_the_recorded_parameters_bound(tmp_path):
+    """An operation with REAL parameters: each step's set is the number's values for which
+    the guard allows the recorded acceleration; equal to replay at 51 values (deadlocks are
+    not counted: whether some acceleration is allowed is not found for every value)."""
+    import numpy as np
+
+    from tracecheck.checking.shield import Shield, ShieldMachine
+
+    machine = load_machine_text(THROTTLE, kind=ShieldMachine)
+    shield = Shield("throttle", machine.sha256, "throttle.mch", machine)
+    rng = np.random.default_rng(5)
+    episodes = []
+    for eid in range(4):
+        steps = []
+        for k in range(13):
+            state = {"Gap": float(rng.uniform(30, 50)), "EgoSpeed": float(rng.uniform(15, 25)),
+                     "LeadSpeed": float(rng.uniform(15, 25))}
+            a = float(rng.uniform(-4, 2))
+            steps.append(StepRecord(step=k, time=float(k), action=None if k == 0 else "ACCELERATE",
+                                    state=state, reward=0.0, crashed=eid % 2 == 1 and k == 12,
+                                    parameters=None if k == 0 else {"a": a}))
+        steps = tuple(steps)
+        episodes.append(Episode(id=eid, steps=steps, end=make_end(steps), seed=eid))
+    path = tmp_path / "throttle.mcap"
+    write_run(path, new_header("recorded", variables=["Gap", "EgoSpeed", "LeadSpeed"],
+                               actions=["ACCELERATE"],
+                               action_parameters={"ACCELERATE": ["a"]}), episodes)
+    target = resolve_target(machine, param="Margin")
+    grid = [-10.0 + 40.0 * k / 50 for k in range(51)]
+    result = tune([path], shield, target, -10.0, 30.0, at=grid)
+    assert result.deadlock_note and "ACCELERATE has parameters" in result.deadlock_note
+    seen = set()
+    for v in grid:
+        want = _replayed(path, shield_with(shield, target, v))[:3]
+        assert _tuple(result.at[v])[:3] == want, v
+        seen.add(want)
+    assert len(seen) > 5
+
+
+def test_chosen_values_are_re_simulated_from_the_seeds_paired_with_the_machines_own(
+        acc_env, acc_runs, acc_agent, capsys):
+    from tests.helpers import ACC_V2
+
+    code, out, err = run(capsys, "tune", acc_runs["none"], "-s", ACC_V2, "--literal",
+                         "ACCEL:7.0=0..40", "--at", "0", "--at", "knee", "--resimulate", "3",
+                         "--agent", acc_agent, "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    resim = data["resimulation"]
+    assert resim["episodes"] == 3 and resim["seeds"] == [0, 1, 2]
+    rows = {r["value"]: r for r in resim["values"]}
+    assert list(rows)[0] == 7.0 and rows[7.0]["paired"] is None
+    assert 0.0 in rows and data["knee"] in rows
+    for r in rows.values():
+        assert 0 <= r["crash_low"] <= r["crash_rate"] <= r["crash_high"] <= 1
+        assert 0 <= r["intervention_low"] <= r["intervention_rate"] <= r["intervention_high"]
+    assert "McNemar" in rows[0.0]["paired"]
+    # the ACCEL agent under the machine's own shield (v2) never crashes, as recorded under it
+    assert rows[7.0]["crashes"] == 0 and rows[7.0]["intervention_rate"] > 0
+    code, out, err = run(capsys, "tune", acc_runs["none"], "-s", ACC_V2, "--literal",
+                         "ACCEL:7.0=0..40", "--at", "0", "--resimulate", "2",
+                         "--agent", acc_agent)
+    assert code == 0, err
+    assert "re-simulated 2 episode(s) per value" in out and "McNemar" in out
+    print(out)
+
+
+def _both(shield, targets, values):
+    from tracecheck.search.tune_pair import found_again
+
+    a, b = targets
+    once = shield_with(shield, b, values[1])
+    return shield_with(once, found_again(once.machine, a, b, shield), values[0])
+
+
+def test_two_numbers_on_a_grid_exact_along_each_line_equal_replay_where_they_cross(paper_run):
+    from tracecheck.search.tune_pair import tune_pair
+
+    paper = load_shield("paper")
+    targets = [resolve_target(paper.machine, literal=s) for s in ("FASTER:40.0", "IDLE:30.0")]
+    result = tune_pair([paper_run], paper, targets, [(20.0, 60.0), (10.0, 50.0)], 3)
+    assert result.grids == ([20.0, 40.0, 60.0], [10.0, 30.0, 50.0])
+    across = {(x, y): t.at[x] for y, t in result.along_first for x in result.grids[0]}
+    down = {(x, y): t.at[y] for x, t in result.along_second for y in result.grids[1]}
+    assert across == down
+    for (x, y), f in across.items():
+        assert _tuple(f) == _replayed(paper_run, _both(paper, targets, (x, y))), (x, y)
+    assert all(len(t.pieces) > 10 for _, t in result.along_first + result.along_second)
+
+
+def test_two_numbers_written_on_one_line_are_each_found_again_after_the_other_is_rewritten(
+        tmp_path):
+    from tracecheck.checking.shield import Shield, ShieldMachine
+    from tracecheck.search.tune_pair import tune_pair
+
+    machine = load_machine_text(TOY, kind=ShieldMachine)
+    shield = Shield("toy", machine.sha256, "toy.mch", machine)
+    states = [{"x": float(x), "n": n} for x, n in ((0, 0), (-3, 3), (-5, 7), (-7, 12))]
+    actions = [None, "Down", "Down", "Down"]
+    steps = tuple(StepRecord(step=k, time=float(k), action=a, state=s, reward=0.0,
+                             crashed=k == 3) for k, (a, s) in enumerate(zip(actions, states)))
+    path = tmp_path / "toy.mcap"
+    write_run(path, new_header("imported-simb", variables=["x", "n"],
+                               actions=["Up", "Down", "Stay"]),
+              [Episode(id=0, steps=steps, end=make_end(steps), seed=1)])
+    targets = [resolve_target(machine, literal=s) for s in ("Down:0.0", "Down:2.0")]
+    result = tune_pair([path], shield, targets, [(-20.0, 5.0), (0.5, 4.0)], 4)
+    for y, t in result.along_first:
+        for x in result.grids[0]:
+            assert _tuple(t.at[x]) == _replayed(path, _both(shield, targets, (x, y))), (x, y)
+
+
+def test_two_numbers_on_the_command_line_need_a_grid(paper_run, capsys):
+    code, out, err = run(capsys, "tune", paper_run, "-s", "paper", "--literal",
+                         "FASTER:40.0=20..60", "--literal", "IDLE:30.0=10..50")
+    assert code == 2 and "give --grid N" in err
+    code, out, err = run(capsys, "tune", paper_run, "-s", "paper", "--literal",
+                         "FASTER:40.0=20..60", "--literal", "IDLE:30.0=10..50", "--grid", "3",
+                         "--format", "md")
+    assert code == 0, err
+    assert out.startswith("| along | fixed | values |")
+    code, out, err = run(capsys, "tune", paper_run, "-s", "paper", "--literal",
+                         "FASTER:40.0=20..60", "--literal", "IDLE:30.0=10..50", "--grid", "3")
+    assert "where the lines cross" in out

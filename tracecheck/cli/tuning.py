@@ -12,10 +12,12 @@ from ..outputs import input_paths
 from .common import FORCE, FORMAT, JSON, OutputFormat, app, out, output_format, progress, \
     run_shield, SHIELD_HELP, warn
 
-PARAM = typer.Option(None, "--param", help="The number to tune: NAME[=LO..HI], NAME a CONSTANT "
+PARAM = typer.Option([], "--param", help="The number to tune: NAME[=LO..HI], NAME a CONSTANT "
                      "the PROPERTIES give by an equality (Limit = 4.0) or a DEFINITION that "
-                     "is a number (default range: half to one and a half times its value).")
-LITERAL = typer.Option(None, "--literal", help="Or a number written in a guard or definition: "
+                     "is a number (default range: half to one and a half times its value). "
+                     "Two numbers (--param or --literal twice): on --grid N values of each, "
+                     "exact along each line.")
+LITERAL = typer.Option([], "--literal", help="Or a number written in a guard or definition: "
                        "SCOPE:VALUE[@LINE:COLUMN][=LO..HI], e.g. Brake:40.0=20..60 (the error "
                        "lists the numbers of SCOPE where VALUE is not one of them).")
 PLOT = typer.Option(None, "--plot", help="Also draw the figures over the range and the Pareto "
@@ -40,13 +42,19 @@ def parse_range(spec: str, what: str) -> tuple[str, Optional[tuple[float, float]
     return name.strip(), (low, high)
 
 
+def targets_of(shield, params: list[str], literals: list[str]) -> list:
+    """(target, low, high) for each ``--param`` and ``--literal``: one or two of them."""
+    given = [(p, None) for p in params] + [(None, lit) for lit in literals]
+    if not 1 <= len(given) <= 2:
+        raise InputError("give the number to tune: --param NAME[=LO..HI] or --literal "
+                         "SCOPE:VALUE[=LO..HI] (one, or two for a grid)")
+    return [target_of(shield, p, lit) for p, lit in given]
+
+
 def target_of(shield, param: Optional[str], literal: Optional[str]):
     """The target and its range from ``--param`` or ``--literal`` (one of them)."""
     from ..search.tune_target import check_range, resolve_target
 
-    if (param is None) == (literal is None):
-        raise InputError("give the number to tune: --param NAME[=LO..HI] or --literal "
-                         "SCOPE:VALUE[=LO..HI] (one of them)")
     spec, what = (param, "--param") if param is not None else (literal, "--literal")
     name, rng = parse_range(spec, what)
     target = resolve_target(shield.machine, **({"param": name} if param is not None
@@ -89,8 +97,8 @@ def _check_plot(plot: Optional[Path], inputs, force: bool) -> None:
 def tune_cmd(
     runs: list[Path] = typer.Argument(..., help="MCAP run files."),
     shield: str = typer.Option(..., "--shield", "-s", help=SHIELD_HELP),
-    param: Optional[str] = PARAM,
-    literal: Optional[str] = LITERAL,
+    param: list[str] = PARAM,
+    literal: list[str] = LITERAL,
     grid: Optional[int] = typer.Option(None, "--grid", min=2, max=10_000, help="The figures at "
                                        "N values evenly over the range only, each by replay of "
                                        "the machine with it written in (for a number the guards "
@@ -121,9 +129,13 @@ def tune_cmd(
 
     fmt = output_format(fmt, as_json)
     loaded = run_shield(shield, runs)
-    target, low, high = target_of(loaded, param, literal)
+    found = targets_of(loaded, param, literal)
     values = _values(at, "--at")
     _check_plot(plot, [*runs, *input_paths(shield)], force)
+    if len(found) == 2:
+        _pair(runs, loaded, found, grid, values, resimulate, plot, fmt)
+        return
+    target, low, high = found[0]
     fixed = [v for v in values if v != "knee"]
     for v in fixed:
         if not low <= v <= high:
@@ -149,6 +161,22 @@ def tune_cmd(
 
         tune_plot(result, plot)
     emit(TuneOutput(result, str(plot) if plot is not None else None, resim), fmt.value, out)
+
+
+def _pair(runs, shield, found, grid, values, resimulate, plot, fmt) -> None:
+    """Two numbers: on a grid, exact along each line."""
+    from ..render.emit import emit
+    from ..render.tune_text import PairOutput
+    from ..search.tune_pair import tune_pair
+
+    if grid is None:
+        raise InputError("two numbers are tuned on a grid: give --grid N (N values of each)")
+    if values or resimulate or plot is not None:
+        raise InputError("--at, --resimulate and --plot take one number; with two, the grid's "
+                         "crossings are the values reported")
+    result = tune_pair(runs, shield, [t for t, _, _ in found], [(lo, hi) for _, lo, hi in found],
+                       grid)
+    emit(PairOutput(result), fmt.value, out)
 
 
 @app.command("repair")

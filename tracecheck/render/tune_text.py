@@ -10,7 +10,7 @@ from ..search.tune_sweep import Figures, Piece
 from .emit import Report
 from .tables import TableData
 
-__all__ = ["TuneOutput", "RepairOutput", "figures_data"]
+__all__ = ["TuneOutput", "RepairOutput", "PairOutput", "figures_data"]
 
 
 def figures_data(f: Figures, crashes: int) -> dict:
@@ -176,3 +176,70 @@ class RepairOutput(Report):
             detail = f": {s['detail']}" if s["detail"] else ""
             console.print(f"  diff --symbolic {s['operation']}: {s['status']}{detail}",
                           markup=False)
+
+
+class PairOutput(Report):
+    """A :class:`~tracecheck.search.tune_pair.PairResult` for people and machines."""
+
+    def __init__(self, result, plot: Optional[str] = None) -> None:
+        self.result, self.plot = result, plot
+
+    def _lines(self):
+        r = self.result
+        a, b = r.targets
+        for axis, other, lines in ((a, b, r.along_first), (b, a, r.along_second)):
+            for v, tuned in lines:
+                yield axis, other, v, tuned
+
+    def data(self) -> dict:
+        r = self.result
+        return {
+            "shield": r.shield, "parameters": [t.label for t in r.targets],
+            "ranges": [list(x) for x in r.ranges], "grids": [list(g) for g in r.grids],
+            "lines": [{"along": axis.label, "fixed": other.label, "fixed_value": v,
+                       "pieces": [{**_piece(p), **figures_data(p.figures, t.crashes)}
+                                  for p in t.pieces],
+                       "front": [{"value": f.value, **figures_data(f.figures, t.crashes)}
+                                 for f in t.front]}
+                      for axis, other, v, t in self._lines()],
+            "crossings": [{r.targets[0].label: x, r.targets[1].label: y,
+                           **figures_data(t.at[x], t.crashes)}
+                          for y, t in r.along_first for x in r.grids[0]],
+            "plot": self.plot, "elapsed_s": r.elapsed_s,
+        }
+
+    def table(self) -> TableData:
+        rows = []
+        for axis, other, v, t in self._lines():
+            for p in t.pieces:
+                f = p.figures
+                rows.append([axis.label, f"{other.label} = {v:g}", p.text(),
+                             str(f.steps_blocked), str(f.episodes_blocked),
+                             str(f.crashes_after_blocked), str(t.crashes - f.crashes_after_blocked),
+                             "" if f.deadlock_states is None else str(f.deadlock_states)])
+        return TableData.of(["along", "fixed", "values", "steps blocked", "episodes blocked",
+                             "crashes at/after a blocked step", "crashes not blocked",
+                             "deadlock states"], rows)
+
+    def text(self, console) -> None:
+        r = self.result
+        a, b = r.targets
+        console.print(f"{a.label} over {r.ranges[0][0]}..{r.ranges[0][1]} and {b.label} over "
+                      f"{r.ranges[1][0]}..{r.ranges[1][1]}: a grid of {len(r.grids[0])} × "
+                      f"{len(r.grids[1])} values, exact along each line", markup=False)
+        console.print(f"steps blocked / crashes not blocked where the lines cross ({a.label} "
+                      f"down, {b.label} across):", markup=False)
+        console.print("  " + " ".join(f"{y:>14g}" for y in r.grids[1]), markup=False)
+        by = {y: t for y, t in r.along_first}
+        for x in r.grids[0]:
+            cells = []
+            for y in r.grids[1]:
+                f = by[y].at[x]
+                cells.append(f"{f.steps_blocked}/{by[y].crashes - f.crashes_after_blocked}")
+            console.print(f"  {x:g}: " + " ".join(f"{c:>14}" for c in cells), markup=False)
+        for axis, other, v, t in self._lines():
+            best = t.knee
+            knee = "" if best is None else (f"; knee {axis.label} = {best.value:g}: "
+                                            f"{_line(best.figures, t.crashes)}")
+            console.print(f"along {axis.label} with {other.label} = {v:g}: {len(t.pieces)} "
+                          f"piece(s){knee}", markup=False)

@@ -101,7 +101,9 @@ def _row(value: float, target: Target, run, base) -> dict:
         half = float(stats.t.ppf((1 + CONFIDENCE) / 2, n - 1) * shares.std(ddof=1) / n ** 0.5)
     else:
         half = 0.0
-    row = {"value": value, "label": f"{target.label} = {number_text(value, target.integer)}",
+    own = base is None
+    row = {"value": value, "label": f"{target.label} = {number_text(value, target.integer)}"
+           + (" (the machine's)" if own else ""),
            "crashes": int(crashed.sum()), "crash_rate": int(crashed.sum()) / n,
            "crash_low": float(ci.low), "crash_high": float(ci.high),
            "intervention_rate": mean, "intervention_low": max(0.0, mean - half),
