@@ -147,6 +147,57 @@ class Columns:
             others={k: [v[i] for i in rows.tolist()] for k, v in self.others.items()},
             label=None if label is None else (lambda i: label(int(rows[i]))))
 
+    def row_reader(self, rows: Optional[np.ndarray] = None) -> Callable[[int], dict[str, Any]]:
+        """:meth:`row` for many rows (``rows``: only those will be read; default all): their
+        values made Python lists at once (a row is then read without a numpy scalar per
+        value), each row the same dict :meth:`row` gives."""
+        rows = np.arange(self.n) if rows is None else np.asarray(rows, dtype=np.int64)
+        at = {int(r): k for k, r in enumerate(rows.tolist())}
+        numbers = [(k, v[rows].tolist()) for k, v in self.numbers.items()]
+        booleans = [(k, v[rows].tolist()) for k, v in self.booleans.items()]
+        functions = [(k, v[rows].tolist(), d[rows].tolist())
+                     for k, (v, d) in self.functions.items()]
+        masks = [(k, m[rows].tolist()) for k, m in self.masks.items()]
+        others = list(self.others.items())
+        elements = self.elements
+
+        def read(row: int) -> dict[str, Any]:
+            i = at[row]
+            state: dict[str, Any] = {k: v[i] for k, v in numbers}
+            state.update((k, bool(v[i])) for k, v in booleans)
+            for k, vals, defined in functions:
+                state[k] = FuncValue({e: x for e, x, d in zip(elements, vals[i], defined[i])
+                                      if d})
+            for k, m in masks:
+                state[k] = frozenset(e for e, inside in zip(elements, m[i]) if inside)
+            state.update((k, v[row]) for k, v in others)
+            return state
+        return read
+
+    def keys(self, rows: np.ndarray, ids: dict) -> list[bytes]:
+        """For each of ``rows``, bytes that are equal exactly where the states are (as
+        :meth:`distinct` compares them): a key that holds across blocks of columns read
+        with the same ``ids`` (the number given to each value of a column of other values,
+        kept by the caller)."""
+        parts = [self._bytes(rows)]
+        for values in self.others.values():
+            parts.append(np.array([ids.setdefault(values[int(r)], len(ids)) for r in rows],
+                                  dtype=np.int64).reshape(len(rows), 1).view(np.uint8))
+        table = np.ascontiguousarray(np.concatenate(parts, axis=1))
+        return [bytes(t) for t in table]
+
+    def _bytes(self, rows: np.ndarray) -> np.ndarray:
+        n = len(rows)
+        parts = [np.zeros((n, 0), dtype=np.uint8)]
+        for arr in (*self.numbers.values(), *self.booleans.values()):
+            parts.append(np.ascontiguousarray(arr[rows]).reshape(n, -1).view(np.uint8))
+        for vals, defined in self.functions.values():
+            parts.append(np.ascontiguousarray(vals[rows]).reshape(n, -1).view(np.uint8))
+            parts.append(np.ascontiguousarray(defined[rows]).reshape(n, -1).view(np.uint8))
+        for mask in self.masks.values():
+            parts.append(np.ascontiguousarray(mask[rows]).reshape(n, -1).view(np.uint8))
+        return np.concatenate(parts, axis=1)
+
     def row(self, i: int) -> dict[str, Any]:
         """State ``i`` as a dict of scalar B values."""
         state: dict[str, Any] = {}

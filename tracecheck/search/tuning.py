@@ -32,7 +32,6 @@ import numpy as np
 from ..b import ast
 from ..b.columns import Columns
 from ..b.memo import MEMO_KEY
-from ..b.values import hashable
 from ..b.threshold import ThresholdCompiler, Values
 from ..checking.fit import check_actions
 from ..checking.replaying import check_parameters, enabled_matrix
@@ -46,6 +45,8 @@ __all__ = ["TuneResult", "tune", "tune_grid", "shield_with", "Figures", "Piece",
 
 #: how close (relative) a breakpoint must be to a reported value for the engine to decide it
 _CLOSE = 1e-9
+#: the most sets kept from earlier blocks (a state seen again is not computed again)
+_MEMO = 200_000
 
 
 @dataclass
@@ -101,11 +102,12 @@ class _Sets:
         self.memo: dict[tuple, Values] = {}
         self.fns = {op: _compiled(machine, target, op, g) for op, g in target.guards.items()}
         self.engine: dict = {}
+        self.ids: dict = {}  # values of columns of other values, numbered for the keys
         read = set().union(*(ast.free_names(g) for g in target.guards.values()))
         self.read = sorted(read & set(machine.variables))
 
-    def start(self, cols: RunColumns) -> None:
-        """Take the states of a block."""
+    def start(self, cols: RunColumns, needed: np.ndarray) -> None:
+        """Take the states of a block (``needed``: the rows whose sets may be asked for)."""
         self.cols = cols
         st = cols.states
         keep = set(self.read) & st.names()
@@ -113,20 +115,20 @@ class _Sets:
                                            for part in (st.numbers, st.booleans, st.functions,
                                                         st.masks, st.others)))
         self.firsts, self.which = sub.distinct()
-        self.keys: dict[int, tuple] = {}
+        self.keys = sub.keys(self.firsts, self.ids)
+        self.read_row = sub.row_reader(np.unique(self.firsts[self.which[needed]]))
         self.envs: dict[int, dict] = {}
+        if len(self.memo) > _MEMO:  # states of earlier blocks: kept while memory allows
+            self.memo.clear()
 
-    def key(self, d: int) -> tuple:
-        k = self.keys.get(d)
-        if k is None:
-            row = self.cols.states.row(int(self.firsts[d]))
-            k = self.keys[d] = tuple(hashable(row.get(n)) for n in self.read)
-        return k
+    def key(self, d: int) -> bytes:
+        return self.keys[d]
 
     def env(self, d: int) -> dict:
         env = self.envs.get(d)
         if env is None:
-            env = self.envs[d] = self.machine.env(self.cols.states.row(int(self.firsts[d])))
+            env = self.envs[d] = dict(self.machine.base_env)  # as the batch path's rows
+            env.update(self.read_row(int(self.firsts[d])))
         return env
 
     def of(self, row: int, op: str, params: Optional[dict] = None) -> Values:
@@ -243,7 +245,11 @@ def _block(shield: Shield, target: Target, cols: RunColumns, sets: _Sets, tally:
                                 "value of the tuned number")
     fixed = [i for i, o in enumerate(ops) if o not in target.guards]
     some_fixed = matrix[:, fixed].any(axis=1) if fixed else np.zeros(cols.n, dtype=bool)
-    sets.start(cols)
+    steps_of = rows[np.isin(actions, [k for k, a in enumerate(cols.action_names)
+                                      if a in target.guards])]
+    needed = np.union1d(steps_of - 1, np.flatnonzero(~some_fixed) if not continuous
+                        else np.zeros(0, dtype=np.int64))
+    sets.start(cols, needed.astype(np.int64))
     values = sets.values
     names = cols.action_names
     done: dict[bytes, tuple] = {}  # an episode the same as one before: the same sets
