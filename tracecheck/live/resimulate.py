@@ -27,7 +27,8 @@ from ..errors import InputError, printable
 from .agents import file_sha256
 from ..jsontext import plain
 
-__all__ = ["resimulate", "Resimulation", "summary", "with_resimulation", "same_state", "rerun"]
+__all__ = ["resimulate", "Resimulation", "summary", "with_resimulation", "same_state", "rerun",
+           "rerun_settings"]
 
 AGENT_DIR = SHIELD_DIR.parent / "agents"
 TOLERANCE = 1e-6
@@ -112,45 +113,17 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
     ``salvage``: as :func:`~tracecheck.episodes.reader.read_run`; ``cols``: the file's
     columns when they were read already (else read here, with ``salvage``).
     """
-    from .adapter import MakeError, claiming_adapter, get_adapter, load_adapter
-    from .rollout import RecordSettings, Session
+    from .adapter import MakeError
+    from .rollout import Session
 
     path = str(path)
     header = read_header(path)
     todo = [e for e in report.per_episode if e.file == path and e.first_infeasible is not None]
     if not todo:
         return []
-    if header.source == "external":
-        import shlex
-
-        raise InputError(f"{path} was recorded from the agent script "
-                         f"{shlex.join(header.external_command or [])} (--external): it has no "
-                         "seeds and no environment tracecheck runs, so it cannot be "
-                         "re-simulated",
-                         hint="record it again with the script, or replay without --resimulate")
-    if header.environment_config is None:
-        raise InputError(f"{path} was not recorded by tracecheck (source {header.source}): "
-                         "it has no environment to re-simulate")
-    adapter = load_adapter(env) if env is not None else (
-        get_adapter(header.environment) if header.environment
-        else claiming_adapter(header.variables or ()))
-    if adapter is None:
-        raise InputError(f"{path} names no environment, and no installed one has its states "
-                         f"({', '.join(header.variables or ()) or 'none declared'})",
-                         hint="give the environment with --env")
-    if header.environment and adapter.name != header.environment:
-        raise InputError(f"{path} was recorded in {header.environment}, not {adapter.name}")
+    adapter, config, horizon, settings = rerun_settings(path, shield, header, agent=agent,
+                                                        env=env)
     cols = cols if cols is not None else read_columns(path, salvage=salvage)
-    config = dict(header.environment_config)
-    duration = config.get("duration", 61)
-    if type(duration) is not int or not 1 < duration <= 1_000_000:
-        raise InputError(f"{path}: the run header's environment_config has duration "
-                         f"{duration!r}, not a number of steps")
-    horizon = header.horizon or duration - 1
-    continuous = _continuous_settings(adapter, header)
-    settings = RecordSettings(agent=_agent_path(header, agent), shield=shield.path,
-                              episodes=1, duration=horizon, env=env or adapter.name,
-                              **continuous)
     index = {int(e): i for i, e in enumerate(cols.episode_ids)}
     results = []
     try:
@@ -179,6 +152,49 @@ def resimulate(path: str | Path, shield: Shield, report: ReplayReport, *,
                          f"environment_config {printable(repr(config))[:200]}: "
                          f"{type(exc).__name__}: {exc}") from None
     return results
+
+
+def rerun_settings(path: str, shield: Shield, header, *, agent: Optional[str | Path] = None,
+                   env: Optional[str] = None) -> tuple:
+    """How the episodes of ``path`` (its ``header``) run again under ``shield``: (the
+    adapter — the one the file names among the installed ones, ``env`` over it, else the one
+    that claims its states —, the run's environment settings, the horizon, the
+    :class:`~tracecheck.live.rollout.RecordSettings` of a session). A file recorded from an
+    agent script, or imported, cannot be run again: an :class:`InputError` says so."""
+    from .adapter import claiming_adapter, get_adapter, load_adapter
+    from .rollout import RecordSettings
+
+    if header.source == "external":
+        import shlex
+
+        raise InputError(f"{path} was recorded from the agent script "
+                         f"{shlex.join(header.external_command or [])} (--external): it has no "
+                         "seeds and no environment tracecheck runs, so it cannot be "
+                         "re-simulated",
+                         hint="record it again with the script, or replay without --resimulate")
+    if header.environment_config is None:
+        raise InputError(f"{path} was not recorded by tracecheck (source {header.source}): "
+                         "it has no environment to re-simulate")
+    adapter = load_adapter(env) if env is not None else (
+        get_adapter(header.environment) if header.environment
+        else claiming_adapter(header.variables or ()))
+    if adapter is None:
+        raise InputError(f"{path} names no environment, and no installed one has its states "
+                         f"({', '.join(header.variables or ()) or 'none declared'})",
+                         hint="give the environment with --env")
+    if header.environment and adapter.name != header.environment:
+        raise InputError(f"{path} was recorded in {header.environment}, not {adapter.name}")
+    config = dict(header.environment_config)
+    duration = config.get("duration", 61)
+    if type(duration) is not int or not 1 < duration <= 1_000_000:
+        raise InputError(f"{path}: the run header's environment_config has duration "
+                         f"{duration!r}, not a number of steps")
+    horizon = header.horizon or duration - 1
+    continuous = _continuous_settings(adapter, header)
+    settings = RecordSettings(agent=_agent_path(header, agent), shield=shield.path,
+                              episodes=1, duration=horizon, env=env or adapter.name,
+                              **continuous)
+    return adapter, config, horizon, settings
 
 
 def _episode_configs(path: str, ids: set, salvage: bool) -> dict:

@@ -64,6 +64,10 @@ def _figure(result):
         missed.set_ylabel("crashes with no blocked step before", color="C3")
         steps.set_title(f"{r.shield['name']}: {r.episodes} episodes", fontsize=10)
         steps.grid(alpha=0.3)
+        every = {(p.figures.steps_blocked, r.crashes - p.figures.crashes_after_blocked)
+                 for p in r.pieces}
+        right.plot([x for x, _ in every], [y for _, y in every], ".", color="0.7",
+                   markersize=4, label="every value")
         xs = [f.figures.steps_blocked for f in r.front]
         ys = [f.crashes_missed for f in r.front]
         right.step(xs, ys, where="post", color="C2", linewidth=1.2)

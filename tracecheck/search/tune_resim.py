@@ -60,27 +60,50 @@ def resimulate_values(paths: Sequence[str], shield: Shield, target: Target,
     for v in chosen:
         tuned = shield if v == own else shield_with(shield, target, v)
         crashed, shares = [], []
-        for path, ep, _seed in episodes:
-            episode = _run(path, ep, tuned, agent, env)
+        for episode in _runs(episodes, tuned, agent, env, progress):
             crashed.append(episode.end.crashed)
             steps = [s for s in episode.steps if s.step > 0]
             shares.append(sum(_intervened(s) for s in steps) / len(steps) if steps else 0.0)
-            if progress is not None:
-                progress()
         runs[v] = (np.array(crashed, dtype=bool), np.array(shares, dtype=float))
     rows = [_row(v, target, runs[v], None if v == own else runs[own]) for v in chosen]
     return {"episodes": len(episodes), "interval": "wilson / t", "confidence": CONFIDENCE,
             "seeds": [s for _, _, s in episodes], "values": rows}
 
 
-def _run(path: str, episode: int, shield: Shield, agent, env):
-    from ..live.resimulate import rerun
+def _runs(episodes, shield: Shield, agent, env, progress):
+    """Each of ``episodes`` (file, id, seed) run again from its seed under ``shield``, one
+    session per file (the run's environment settings; a search's episode with its own on
+    top, and what it started from)."""
+    from ..episodes.reader import read_run
+    from ..live.adapter import MakeError
+    from ..live.resimulate import rerun_settings
+    from ..live.rollout import Session, run_episode
 
-    header = read_header(path)
-    if header.environment is None:
-        raise InputError(f"{path} was not recorded by tracecheck: it has no environment to "
-                         "re-simulate in")
-    return rerun(path, episode, shield, agent=agent, env=env)
+    for path in dict.fromkeys(p for p, _, _ in episodes):
+        header = read_header(path)
+        adapter, config, _, settings = rerun_settings(path, shield, header, agent=agent, env=env)
+        ids = [e for p, e, _ in episodes if p == path]
+        own = {ep.id: ep for ep in read_run(path, only=set(ids)).episodes}
+        try:
+            session = Session(settings, config=config, shield=shield)
+        except MakeError as exc:
+            raise InputError(f"{path}: the {adapter.name} environment rejects the run header's "
+                             f"settings: {exc.reason}") from exc.__cause__
+        try:
+            for p, ep, seed in episodes:
+                if p != path:
+                    continue
+                mine = own[ep]
+                wanted = adapter.config({**config, **dict(mine.config)}) if mine.config \
+                    else config
+                if session.config != wanted:
+                    session.reconfigure(wanted)
+                yield run_episode(session, ep, seed=seed,
+                                  options=dict(mine.reset_options or {}) or None)
+                if progress is not None:
+                    progress()
+        finally:
+            session.env.close()
 
 
 def _intervened(step) -> bool:

@@ -180,11 +180,13 @@ def inside(piece: Piece) -> float:
 
 def knee(points: list[FrontPoint]) -> Optional[FrontPoint]:
     """The front's knee: the point nearest the ideal (fewest steps blocked and fewest
-    crashes missed of the front), each figure scaled by its spread along the front."""
+    crashes missed of the front), each figure scaled by its spread along the front; of two
+    as near, the one that misses fewer crashes."""
     if not points:
         return None
     steps = [p.figures.steps_blocked for p in points]
     missed = [p.crashes_missed for p in points]
     ds, dm = (max(steps) - min(steps)) or 1, (max(missed) - min(missed)) or 1
-    return min(points, key=lambda p: ((p.figures.steps_blocked - min(steps)) / ds) ** 2
-               + ((p.crashes_missed - min(missed)) / dm) ** 2)
+    return min(points, key=lambda p: (((p.figures.steps_blocked - min(steps)) / ds) ** 2
+                                      + ((p.crashes_missed - min(missed)) / dm) ** 2,
+                                      p.crashes_missed))  # a tie: the safer
