@@ -235,14 +235,19 @@ class ThresholdCompiler:
         param: the name the tuned number goes by in the formulas.
         bound: names bound around the formulas (an operation's parameters).
         integer: the number is an INTEGER (a division of it truncates: refused).
+        shared: the numbering of the formulas whose sets an environment keeps (one dict for
+            the compilers of every guard that share environments; None: its own).
     """
 
     def __init__(self, machine, param: str, bound: tuple[str, ...] = (),
-                 integer: bool = False) -> None:
+                 integer: bool = False, shared: Optional[dict] = None) -> None:
         self.machine, self.param, self.integer = machine, param, integer
         self.comp = machine.compiler()
         self.bound = tuple(bound)
         self._free: dict = {}
+        #: the formulas whose sets a state's environment keeps, numbered (see :meth:`pred`):
+        #: give compilers of the same machine and number the same dict to share them
+        self.shared: dict = {} if shared is None else shared
 
     def refuse(self, node: ast.Node, why: str) -> UnsupportedError:
         from .scope import render
@@ -259,6 +264,23 @@ class ThresholdCompiler:
             return self.comp.compile(node)
 
     def pred(self, node: ast.Node) -> Callable[[dict], Values]:
+        fn = self._pred(node)
+        if not isinstance(node, ast.Quant) or ast.free_names(node, self._free) & set(
+                self.bound):
+            return fn
+        # a quantifier of the state alone (no bound name in it): its set is kept in the
+        # state's environment, for every guard of the machine that has the same formula (one
+        # operation's guard is often made of the others': `not(IDLE_OK or FASTER_OK …)`)
+        key = ("$threshold", self.shared.setdefault(node, len(self.shared)))
+
+        def kept(env: dict) -> Values:
+            got = env.get(key)
+            if got is None:
+                got = env[key] = fn(env)
+            return got
+        return kept
+
+    def _pred(self, node: ast.Node) -> Callable[[dict], Values]:
         if self.free(node):
             fn = self.compiled(node)
             return lambda env: _ALL if fn(env) else _NONE
@@ -335,7 +357,7 @@ class ThresholdCompiler:
         domain = self.compiled(ast.Comprehension(node.ids, _and(free), pos=node.pos))
         var = node.ids[0]
         inner = ThresholdCompiler(self.machine, self.param, self.bound + node.ids,
-                                  self.integer)
+                                  self.integer, self.shared)
         inner._free = self._free
         if node.op == "#":
             each = inner.pred(_and(dep))

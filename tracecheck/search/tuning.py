@@ -100,7 +100,9 @@ class _Sets:
         machine = shield.machine
         self.machine, self.target, self.values = machine, target, values
         self.memo: dict[tuple, Values] = {}
-        self.fns = {op: _compiled(machine, target, op, g) for op, g in target.guards.items()}
+        shared: dict = {}  # one numbering: a state's environment keeps a formula's set for all
+        self.fns = {op: _compiled(machine, target, op, g, shared)
+                    for op, g in target.guards.items()}
         self.engine: dict = {}
         self.ids: dict = {}  # values of columns of other values, numbered for the keys
         read = set().union(*(ast.free_names(g) for g in target.guards.values()))
@@ -165,10 +167,11 @@ class _Sets:
         return known
 
 
-def _compiled(machine, target: Target, op: str, guard):
+def _compiled(machine, target: Target, op: str, guard, shared: dict):
     params = tuple(machine.operations[op].params)
     try:
-        values = ThresholdCompiler(machine, target.name, params, target.integer).pred(guard)
+        values = ThresholdCompiler(machine, target.name, params, target.integer,
+                                   shared).pred(guard)
     except UnsupportedError as exc:
         raise InputError(f"{target.label}: the guard of {op} {exc.message.removeprefix('the guard ')}",
                          hint="tracecheck finds the figures for every value only where the "
