@@ -66,14 +66,15 @@ def test_each_kind_of_formula_gives_its_exact_set(text, shown):
 @pytest.mark.parametrize("text,why", [
     ("d * d > x", "a product of two terms with it"),
     ("x / d > 1.0", "a division by a term with it"),
-    ("IF d > 1.0 THEN 1.0 ELSE 0.0 END > x", "a IfExpr of it"),
+    ("IF d > 1.0 THEN 1.0 ELSE 0.0 END > x", "an IF whose condition reads it"),
     ("d : {1.0, 2.0}", "a membership of it in a set"),
-    ("max({d, x}) > 1.0", "of it"),
+    ("max({d, x}) > 1.0", "a call (max, min, card, …) of it"),
     ("#(c, e).(c : here & e : here & pos(c) < d)", "a quantifier over several variables"),
     ("!c.(pos(c) < d)", "a ∀ without `=>`"),
 ], ids=["product", "division", "if-condition", "membership", "function", "two-bound", "forall"])
-def test_what_is_not_linear_in_the_number_is_refused_with_the_reason(text, why):
-    with pytest.raises(UnsupportedError, match="not linear in the tuned number") as info:
+def test_what_tracecheck_cannot_solve_for_is_refused_with_the_reason(text, why):
+    with pytest.raises(UnsupportedError, match="the guard (is not linear in the tuned number|"
+                       "reads the tuned number where tracecheck cannot solve for it)") as info:
         _set(text)
     assert why in info.value.message
 
@@ -116,3 +117,17 @@ def test_a_row_reader_reads_each_row_as_row_does_and_keys_tell_states_apart():
     same = Columns.from_states([states[3], states[3]]).keys(np.arange(2), ids)
     assert same[0] == same[1] == keys[3]
     assert ast.free_names(M.parse("x < d")) == {"x", "d"}
+
+
+def test_a_quantifier_is_evaluated_as_the_engine_does_every_element_each_conjunct_in_order():
+    """An element where a conjunct is not well-defined is a refusal, as the engine's; a
+    conjunct after one that holds for no value is not evaluated, as the engine's is not."""
+    state = {**STATE, "pos": FuncValue({C1: 10.0, C2: 0.0, C3: -4.0})}
+    with pytest.raises(Exception, match="(?i)divi|defined"):  # c2: 1.0 / 0.0
+        _set("!c.(c : here => 1.0 / pos(c) < d)", state)
+    with pytest.raises(Exception, match="(?i)divi|defined"):  # the engine reaches it too
+        _set("#c.(c : here & pos(c) < d & 1.0 / pos(c) > 0.0)", state)
+    guarded = "#c.(c : here & pos(c) /= 0.0 & 1.0 / pos(c) < d)"
+    got = _set(guarded, state)
+    assert got.text("d") == "d > 0.1"
+    assert all(got.contains(F(v)) == _holds(guarded, v, state) for v in (0.05, 0.1, 0.2))

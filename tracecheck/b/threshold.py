@@ -42,6 +42,11 @@ __all__ = ["Values", "threshold_guard", "values_of", "ThresholdCompiler", "exact
 
 Form = tuple[Fraction, Fraction]  # a * θ + b
 #: the built-in sets a number can be typed by, with their least element (None: unbounded)
+#: what a kind of formula is, in the words of a refusal
+_KINDS = {"Call": "a call (max, min, card, …)", "Apply": "a function applied to it",
+          "SetExt": "a set", "Pair": "a pair (|->)", "Image": "a relational image",
+          "Comprehension": "a set comprehension", "QuantExpr": "a SIGMA/PI/UNION/INTER",
+          "Let": "a LET", "Record": "a record", "Lambda": "a lambda"}
 _TYPES = {"REAL": None, "FLOAT": None, "INTEGER": None, "NATURAL": 0, "NATURAL1": 1}
 _ZERO, _ONE = Fraction(0), Fraction(1)
 
@@ -249,12 +254,18 @@ class ThresholdCompiler:
         #: give compilers of the same machine and number the same dict to share them
         self.shared: dict = {} if shared is None else shared
 
-    def refuse(self, node: ast.Node, why: str) -> UnsupportedError:
+    def refuse(self, node: ast.Node, why: str, linear: bool = True) -> UnsupportedError:
         from .scope import render
 
         where = f" (line {node.pos.line}, column {node.pos.column})" if node.pos else ""
-        return UnsupportedError(f"the guard is not linear in the tuned number: {why} in "
+        what = "is not linear in the tuned number" if linear else \
+            "reads the tuned number where tracecheck cannot solve for it"
+        return UnsupportedError(f"the guard {what}: {why} in "
                                 f"`{render(node, self.machine.source)[:80]}`{where}")
+
+    def kind(self, node: ast.Node) -> str:
+        """What ``node`` is, in words."""
+        return _KINDS.get(type(node).__name__, f"a {type(node).__name__}")
 
     def free(self, node: ast.Node) -> bool:
         return self.param not in ast.free_names(node, self._free)
@@ -307,14 +318,14 @@ class ThresholdCompiler:
             return self.relation(node)
         if isinstance(node, ast.Quant):
             return self.quantifier(node)
-        raise self.refuse(node, f"a {type(node).__name__} of it")
+        raise self.refuse(node, f"{self.kind(node)} of it", linear=False)
 
     def relation(self, node: ast.Rel) -> Callable[[dict], Values]:
         op = node.op
         if op == ":" and isinstance(node.left, ast.Name) and self.free(node.right):
             return self.membership(node)
         if op not in ("<", "<=", ">", ">=", "=", "/="):
-            raise self.refuse(node, f"the relation {op}")
+            raise self.refuse(node, f"the relation {op}", linear=False)
         left, right = self.expr(node.left), self.expr(node.right)
 
         def holds(env: dict) -> Values:
@@ -336,47 +347,55 @@ class ThresholdCompiler:
                 a, b = _exact(lo(env), right, self), _exact(hi(env), right, self)
                 return Values.half(a, True, True).intersect(Values.half(b, False, True))
             return between
-        raise self.refuse(node, "a membership of it in a set")
+        raise self.refuse(node, "a membership of it in a set", linear=False)
 
     def quantifier(self, node: ast.Quant) -> Callable[[dict], Values]:
+        """``#v.(v : S & P & Q …)`` (the union over the elements of S) or ``!v.(v : S & P
+        … => R)`` (the intersection) as the engine evaluates it: every element of S (an
+        error at any one is a refusal), each conjunct in its order, the ones after a
+        conjunct that holds for no value not evaluated."""
         if self.param in node.ids:
             raise self.refuse(node, "a bound variable of the same name")
         if len(node.ids) != 1:
-            raise self.refuse(node, "a quantifier over several variables")
+            raise self.refuse(node, "a quantifier over several variables (write one "
+                              "quantifier per variable: #x.(#y.(…)))", linear=False)
         body = node.body
-        if node.op == "!":
-            if not isinstance(body, ast.Implies):
-                raise self.refuse(node, "a ∀ without `=>`")
-            given, rest = body.left, body.right
-        else:
-            given, rest = body, None
-        free = [c for c in conjuncts(given) if self.free(c)]
-        dep = [c for c in conjuncts(given) if not self.free(c)]
-        if not free:
-            raise self.refuse(node, "no conjunct free of it gives the bound variable's values")
-        domain = self.compiled(ast.Comprehension(node.ids, _and(free), pos=node.pos))
+        forall = node.op == "!"
+        if forall and not isinstance(body, ast.Implies):
+            raise self.refuse(node, "a ∀ without `=>`", linear=False)
+        given, rest = (body.left, body.right) if forall else (body, None)
         var = node.ids[0]
+        conjs = conjuncts(given)
+        gen = next((c for c in conjs if isinstance(c, ast.Rel) and c.op == ":"
+                    and isinstance(c.left, ast.Name) and c.left.id == var
+                    and var not in ast.free_names(c.right) and self.free(c.right)), None)
+        if gen is None:
+            raise self.refuse(node, f"no conjunct `{var} : S` (S not reading it) gives the "
+                              "bound variable's values", linear=False)
+        domain = self.compiled(gen.right)
         inner = ThresholdCompiler(self.machine, self.param, self.bound + node.ids,
                                   self.integer, self.shared)
         inner._free = self._free
-        if node.op == "#":
-            each = inner.pred(_and(dep))
-        else:
-            each = inner.pred(rest if not dep else ast.Implies(_and(dep), rest, pos=body.pos))
-        forall = node.op == "!"
+        parts = [inner.pred(c) for c in conjs if c is not gen]
+        then = inner.pred(rest) if forall else None
+
+        def element(env: dict) -> Values:
+            reach = _all_of(parts, env)
+            if not forall:
+                return reach
+            return _ALL if reach.empty else reach.complement().union(then(env))
 
         def over(env: dict) -> Values:
             elems = domain(env)
             if isinstance(elems, SymbolicSet) or not isinstance(elems, frozenset):
-                raise self.refuse(node, "a bound variable whose values cannot be listed")
+                raise self.refuse(node, "a bound variable whose values cannot be listed",
+                                  linear=False)
             out = _ALL if forall else _NONE
-            for e in sorted(elems, key=repr):
+            for e in elems:  # every one, as the engine does (no answer before all are seen)
                 local = dict(env)
                 local[var] = e
-                got = each(local)
+                got = element(local)
                 out = out.intersect(got) if forall else out.union(got)
-                if (out.empty if forall else out.full):
-                    break
             return out
         return over
 
@@ -409,7 +428,9 @@ class ThresholdCompiler:
                         return values[k](env)
                 return values[-1](env)
             return chosen
-        raise self.refuse(node, f"a {type(node).__name__} of it")
+        if isinstance(node, ast.IfExpr):
+            raise self.refuse(node, "an IF whose condition reads it", linear=False)
+        raise self.refuse(node, f"{self.kind(node)} of it", linear=False)
 
     def product(self, node: ast.BinOp) -> Callable[[dict], Form]:
         if node.op == "*" and not (self.free(node.left) or self.free(node.right)):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Optional
 
@@ -37,6 +38,8 @@ def parse_range(spec: str, what: str) -> tuple[str, Optional[tuple[float, float]
     if not dots or low is None or high is None:
         raise InputError(f"{what} {spec}: the range must be LO..HI with two numbers "
                          f"(e.g. {name}=2.0..8.0)")
+    if not (math.isfinite(low) and math.isfinite(high)):
+        raise InputError(f"{what} {spec}: the range must be finite numbers")
     if not low <= high:
         raise InputError(f"{what} {spec}: the range goes down ({low} > {high})")
     return name.strip(), (low, high)
@@ -140,18 +143,23 @@ def tune_cmd(
     for v in fixed:
         if not low <= v <= high:
             raise InputError(f"--at {v}: outside the range tuned ({low}..{high})")
+        if target.integer and v != int(v):
+            raise InputError(f"--at {v}: {target.label} is an INTEGER; give a whole number")
     if grid is not None:
-        step = (high - low) / (grid - 1)
-        result = tune_grid(runs, loaded, target, [low + k * step for k in range(grid)] + fixed)
+        from ..search.tune_pair import grid_values
+
+        result = tune_grid(runs, loaded, target,
+                           grid_values(low, high, grid, target.integer) + fixed)
     else:
-        result = tune(runs, loaded, target, low, high, at=fixed)
+        result = tune(runs, loaded, target, low, high, at=fixed, knee_too="knee" in values)
     warn(result.warnings)
     resim = None
     if resimulate:
         from ..search.tune_resim import resimulate_values
 
-        chosen = [result.knee.value if v == "knee" and result.knee else v for v in values
-                  if v != "knee" or result.knee]
+        chosen = list(dict.fromkeys(
+            result.knee.value if v == "knee" else v for v in values
+            if v != "knee" or result.knee is not None))
         total = resimulate * len(set([float(target.value), *chosen]))
         with progress("re-simulating", total) as advance:
             resim = resimulate_values(runs, loaded, target, chosen, resimulate, agent=agent,

@@ -180,54 +180,56 @@ def blocking_value(shield: Shield, target: Target, gap: Gap, cols: RunColumns) -
 
 
 def _nearest(blocked: Values, current: float, integer: bool, blocks) -> Optional[float]:
-    """The float (or integer) nearest ``current`` inside ``blocked`` that ``blocks``."""
+    """The float (or integer) nearest ``current`` that ``blocks``, in the interval of
+    ``blocked`` whose end is nearest it (see :func:`_first_blocking`)."""
     best: Optional[float] = None
+    if blocked.contains(current):  # blocked over the reals, allowed by the float evaluation
+        for toward in (-math.inf, math.inf):
+            v = _first_blocking(current, None, toward, integer, blocks, current)
+            if v is not None and (best is None or abs(v - current) < abs(best - current)):
+                best = v
     for lo, hi, lc, hc in blocked.intervals():
         for end, closed, other, toward in ((hi, hc, lo, -math.inf), (lo, lc, hi, math.inf)):
-            if end is None:
-                continue
-            v = _float_at(end, closed, toward, integer)
-            v = _first_blocking(v, other, toward, integer, blocks)
+            if end is None or (toward < 0) != (end < current):
+                continue  # only the ends that face the current value
+            v = _first_blocking(_float_at(end, closed, toward, integer), other, toward,
+                                integer, blocks, current)
             if v is not None and (best is None or abs(v - current) < abs(best - current)):
                 best = v
     return best
 
 
-def _first_blocking(v: float, other, toward: float, integer: bool, blocks) -> Optional[float]:
-    """From ``v`` (an end of a blocking interval over the reals) inward, the first float the
-    engine's float evaluation blocks at: right at the end its rounding can still allow the
-    action (``dy - θ`` rounds to ``dy`` for a tiny θ). Steps double inward until one blocks
-    (never past the middle of the interval), then bisect."""
-    if blocks(v):
-        return v
+def _first_blocking(v: float, other, toward: float, integer: bool, blocks,
+                    current: float) -> Optional[float]:
+    """From ``v`` (the end of a blocking interval over the reals that faces ``current``,
+    which the guard allows), the float nearest ``current`` the engine's own float evaluation
+    blocks at. Its rounding can move the end either way (``s + θ`` rounds to ``s`` for a
+    tiny θ): steps double inward from ``v`` until one blocks (never past the interval's
+    other end), then the floats between ``current`` and that one are bisected."""
     limit = None if other is None else float(other)
-    step, allowed = (1.0 if integer else max(abs(v), 1.0) * 2.0 ** -52), v
+    step, trial = (1.0 if integer else max(abs(v), 1.0) * 2.0 ** -52), v
     for _ in range(_ULPS + 60):
+        if blocks(trial):
+            break
         trial = v + step if toward > 0 else v - step
         if limit is not None and (trial - limit) * (1 if toward > 0 else -1) >= 0:
             return None
-        if blocks(trial):
-            break
-        allowed, step = trial, step * 2
+        step *= 2
     else:
         return None
+    allowed = current  # the guard allows the action at the current value (checked)
     if integer:
-        for x in range(int(min(allowed, trial)), int(max(allowed, trial)) + 1)[::1 if toward > 0 else -1]:
-            if blocks(float(x)) and (x - allowed) * toward > 0:
-                return float(x)
+        while abs(trial - allowed) > 1:
+            mid = float(math.floor((allowed + trial) / 2)) if toward > 0 else \
+                float(math.ceil((allowed + trial) / 2))
+            allowed, trial = (allowed, mid) if blocks(mid) else (mid, trial)
         return trial
-    for _ in range(1100):  # bisect the floats between the last allowed and the blocking
+    for _ in range(2200):  # the floats between the allowed and the blocking one, halved
         mid = (allowed + trial) / 2
         if mid in (allowed, trial):
             break
-        if blocks(mid):
-            trial = mid
-        else:
-            allowed = mid
-    while True:  # the floats next to each other: the first that blocks
-        nxt = math.nextafter(allowed, toward)
-        if nxt == trial or blocks(nxt):
-            return nxt
+        allowed, trial = (allowed, mid) if blocks(mid) else (mid, trial)
+    return trial
 
 
 def _float_at(end: Fraction, closed: bool, toward: float, integer: bool) -> float:
@@ -259,6 +261,7 @@ def repair(paths: Sequence[str], shield: Shield, gap: Gap, *, names: Sequence[st
     if not specs:  # every number the guard reads: constants, definitions, the numbers in it
         specs = [("param", n) for n in numeric_names(machine)] + \
             [("literal", s) for s in literal_specs(machine, gap.action)]
+    seen: set = set()
     for kind, spec in specs:
         try:
             target = resolve_target(machine, **{kind: spec})
@@ -266,6 +269,9 @@ def repair(paths: Sequence[str], shield: Shield, gap: Gap, *, names: Sequence[st
             if names or literals:
                 raise
             continue  # not one the guard reads: no candidate
+        if target.span in seen:
+            continue  # a definition's number, named both ways: once
+        seen.add(target.span)
         if not (names or literals) and gap.action not in target.guards:
             continue  # of all the numbers, only those the action's guard reads
         cand = blocking_value(shield, target, gap, cols)
@@ -284,6 +290,19 @@ def repair(paths: Sequence[str], shield: Shield, gap: Gap, *, names: Sequence[st
     return result
 
 
+def _confirm(fixed: Shield, gap: Gap) -> None:
+    """Replay of the repaired machine must block the gap's step (else tracecheck's exact
+    answer and its evaluator disagree: nothing is written)."""
+    from ..checking.replaying import replay
+    from ..errors import Disagreement
+
+    found = [e for e in replay([gap.path], fixed).per_episode if e.episode == gap.episode]
+    if not found or found[0].first_infeasible is None or found[0].first_infeasible > gap.step:
+        raise Disagreement(f"the repaired machine does not block {gap.action} at step "
+                           f"{gap.step} of episode {gap.episode} when replayed: tracecheck's "
+                           "exact sets and its evaluator disagree (a bug); nothing was written")
+
+
 def _apply(paths, shield: Shield, target: Target, result: RepairResult,
            output: Optional[Path], timeout_s: float) -> None:
     from ..checking.diffing import diff
@@ -292,6 +311,7 @@ def _apply(paths, shield: Shield, target: Target, result: RepairResult,
     from .tuning import shield_with
 
     fixed = shield_with(shield, target, result.chosen.value)
+    _confirm(fixed, result.gap)
     report = diff(paths, fixed, shield)
     result.newly_blocked, result.newly_allowed = report.newly_blocked, report.newly_allowed
     result.episodes_changed = report.episodes_changed

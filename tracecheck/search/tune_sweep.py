@@ -15,6 +15,8 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Optional
 
+import math
+
 import numpy as np
 
 from ..b.threshold import Values
@@ -49,14 +51,21 @@ class Piece:
     low_closed: bool
     high_closed: bool
     figures: Figures
+    #: the whole numbers low..high only (an INTEGER's values)
+    whole: bool = False
 
     def contains(self, x: Fraction) -> bool:
+        if self.whole and x.denominator != 1:
+            return False
         return (self.low < x or (self.low_closed and x == self.low)) and \
             (x < self.high or (self.high_closed and x == self.high))
 
     def text(self) -> str:
+        if self.whole:
+            return str(self.low.numerator) if self.low == self.high else \
+                f"{self.low.numerator}..{self.high.numerator}"
         if self.low == self.high:
-            return f"= {_num(self.low)}"
+            return _num(self.low)
         return (f"{'[' if self.low_closed else '('}{_num(self.low)}, {_num(self.high)}"
                 f"{']' if self.high_closed else ')'}")
 
@@ -117,6 +126,22 @@ def sweep(tally, low: Fraction, high: Fraction, *, deadlocks: bool = True) -> li
     return pieces
 
 
+def whole_numbers(pieces: list[Piece]) -> list[Piece]:
+    """The pieces of an INTEGER: the whole numbers in each (pieces without one dropped),
+    neighbours with equal figures merged."""
+    out: list[Piece] = []
+    for p in pieces:
+        lo = math.ceil(p.low) + (0 if p.low_closed or p.low.denominator != 1 else 1)
+        hi = math.floor(p.high) - (0 if p.high_closed or p.high.denominator != 1 else 1)
+        if lo > hi:
+            continue
+        if out and out[-1].figures == p.figures and out[-1].high + 1 == lo:
+            out[-1] = Piece(out[-1].low, Fraction(hi), True, True, p.figures, True)
+        else:
+            out.append(Piece(Fraction(lo), Fraction(hi), True, True, p.figures, True))
+    return out
+
+
 def _within(sets: Counter, low: Fraction, high: Fraction) -> Counter:
     """Each set with the breakpoints outside [low, high] dropped (the membership inside the
     range kept): the sweep's points are only those inside."""
@@ -154,28 +179,37 @@ class FrontPoint:
 
 def front(pieces: list[Piece], crashes: int) -> list[FrontPoint]:
     """The Pareto front of ``pieces`` (fewest steps blocked, fewest crashes missed), in
-    order of steps blocked."""
-    groups: dict[tuple[int, int], list[Piece]] = {}
+    order of steps blocked: the values of each point have the same figures (two points
+    with the same two numbers differ in another figure)."""
+    groups: dict[Figures, list[Piece]] = {}
     for p in pieces:
-        f = p.figures
-        groups.setdefault((f.steps_blocked, crashes - f.crashes_after_blocked), []).append(p)
-    out: list[FrontPoint] = []
-    best = None
-    for (_steps, missed), members in sorted(groups.items()):
-        if best is not None and missed >= best:
-            continue
-        best = missed
-        out.append(FrontPoint(members[0].figures, missed, tuple(members),
-                              inside(members[0])))
+        groups.setdefault(p.figures, []).append(p)
+
+    def pair(f: Figures) -> tuple[int, int]:
+        return f.steps_blocked, crashes - f.crashes_after_blocked
+
+    pairs = {pair(f) for f in groups}
+    best = {(s, m) for s, m in pairs
+            if not any(s2 <= s and m2 <= m and (s2, m2) != (s, m) for s2, m2 in pairs)}
+    out = []
+    for f, members in sorted(groups.items(), key=lambda kv: pair(kv[0])):
+        value = next((v for v in map(inside, members) if v is not None), None)
+        if pair(f) in best and value is not None:
+            out.append(FrontPoint(f, pair(f)[1], tuple(members), value))
     return out
 
 
-def inside(piece: Piece) -> float:
-    """A value of ``piece``: the value itself, else one well inside it."""
-    if piece.low == piece.high:
+def inside(piece: Piece) -> Optional[float]:
+    """A float in ``piece``: the value itself, else one well inside it (None: no float lies
+    in it, a piece narrower than two floats)."""
+    if piece.low == piece.high or piece.whole:
         return float(piece.low)
-    mid = float((piece.low + piece.high) / 2)
-    return mid if piece.contains(Fraction(mid)) else float(piece.low)
+    for v in (float((piece.low + piece.high) / 2),
+              math.nextafter(float(piece.low), math.inf),
+              math.nextafter(float(piece.high), -math.inf)):
+        if piece.contains(Fraction(v)):
+            return v
+    return None
 
 
 def knee(points: list[FrontPoint]) -> Optional[FrontPoint]:

@@ -224,6 +224,11 @@ def _made(machine, label, kind, value, integer, node, name, spans) -> Target:
         return n.pos is not None and (n.pos.start, n.pos.end) in spans and (
             _number_node(n) is not None)
 
+    if spans and machine.properties_node is not None and _reads(machine.properties_node, is_param):
+        raise InputError(f"{label} is read by the PROPERTIES: the constants they give would "
+                         "change with it, and tune holds the constants at their values",
+                         hint="tune the constant the PROPERTIES compute instead, or a number "
+                         "only the guards read")
     guards = {}
     for op_name, op in machine.operations.items():
         if op.guard is None:
@@ -236,6 +241,11 @@ def _made(machine, label, kind, value, integer, node, name, spans) -> Target:
                          "step's feasibility", hint="tune a number a guard reads")
     return Target(label, kind, value, integer, (node.pos.start, node.pos.end), node.pos.line,
                   node.pos.column, name, spans, guards)
+
+
+def _reads(node, is_param) -> bool:
+    """Whether a formula ``is_param`` picks is inside ``node``."""
+    return is_param(node) or any(_reads(c, is_param) for c in ast.children(node))
 
 
 def written(text: str, target: Target, value: float) -> str:
@@ -292,10 +302,28 @@ def _check_properties(machine, target: Target, low: float, high: float) -> None:
             raise InputError(f"{target.label}: tracecheck cannot tell for which values the "
                              f"PROPERTIES hold: {exc.message}") from None
         bad = span.intersect(holds.complement())
+        other = _defined(machine, c, target)
+        if not bad.empty and other is not None:
+            raise InputError(f"{target.label}: the PROPERTIES compute {other} from it "
+                             f"(`{_text(machine, c) if c.pos else c}`), and tune holds the "
+                             "other constants at their values",
+                             hint=f"tune {other}'s own number, or write {target.label}'s value "
+                             "where the guards read it")
         if not bad.empty:
             raise InputError(f"{target.label}={low}..{high}: the PROPERTIES are false for "
                              f"{bad.text(target.label)}: `{_text(machine, c) if c.pos else c}`",
                              hint="give a range within which they hold")
+
+
+def _defined(machine, c, target: Target) -> Optional[str]:
+    """The other constant an equality of the PROPERTIES computes (``Lim = X * 2.0``)."""
+    if not (isinstance(c, ast.Rel) and c.op == "="):
+        return None
+    for side in (c.left, c.right):
+        if isinstance(side, ast.Name) and side.id != target.name and \
+                side.id in machine.constants_declared:
+            return side.id
+    return None
 
 
 def _defines(c, target: Target) -> bool:

@@ -11,11 +11,11 @@ its steps up to the crash); a state is a deadlock for the values no operation al
 figure is then a sum of indicators of finitely many intervals: a piecewise-constant function
 of the number, given by its breakpoints (:class:`Piece`), not sampled on a grid.
 
-The engine evaluates REALs as floats, so right at a breakpoint a float evaluation can differ
-from the answer over the reals; at the values that are reported on their own (the machine's
-own value, ``--at``) every set with a breakpoint within a few units in the last place is
-decided again by the engine's own evaluation there, so those figures are what ``replay`` of
-the machine with that value written in says.
+The pieces are over the reals; the engine evaluates REALs as floats, so right at a breakpoint
+(within rounding of the terms the number is added to) a float evaluation can differ from
+them. The values reported on their own — the machine's own value, ``--at``, the knee — are
+therefore not read off the pieces: each is what ``replay`` of the machine with it written in
+says (the machine's own from the same pass, the others by a replay each).
 """
 
 from __future__ import annotations
@@ -31,7 +31,6 @@ import numpy as np
 
 from ..b import ast
 from ..b.columns import Columns
-from ..b.memo import MEMO_KEY
 from ..b.threshold import ThresholdCompiler, Values
 from ..checking.fit import check_actions
 from ..checking.replaying import check_parameters, enabled_matrix
@@ -39,12 +38,10 @@ from ..checking.shield import Shield
 from ..episodes.columns import RunColumns, read_blocks
 from ..errors import InputError, TracecheckError, UnsupportedError
 from .tune_target import Target
-from .tune_sweep import Figures, FrontPoint, Piece, front, knee, sweep
+from .tune_sweep import Figures, FrontPoint, Piece, front, knee, sweep, whole_numbers
 
 __all__ = ["TuneResult", "tune", "tune_grid", "shield_with", "Figures", "Piece", "FrontPoint"]
 
-#: how close (relative) a breakpoint must be to a reported value for the engine to decide it
-_CLOSE = 1e-9
 #: the most sets kept from earlier blocks (a state seen again is not computed again)
 _MEMO = 200_000
 
@@ -92,18 +89,17 @@ class TuneResult:
 
 class _Sets:
     """Per recorded state and operation, the values its guard allows (computed once, where
-    first asked: states are the same where the variables the guards read are), and the
-    engine's answer at each reported value near a breakpoint. One for all the blocks of all
-    the files: a state seen in an earlier block is not computed again."""
+    first asked: states are the same where the variables the guards read are). One for all
+    the blocks of all the files: a state seen in an earlier block is not computed again —
+    its key holds the columns' names, kinds and elements as well as their bytes."""
 
-    def __init__(self, shield: Shield, target: Target, values: Sequence):
+    def __init__(self, shield: Shield, target: Target):
         machine = shield.machine
-        self.machine, self.target, self.values = machine, target, values
+        self.machine, self.target = machine, target
         self.memo: dict[tuple, Values] = {}
         shared: dict = {}  # one numbering: a state's environment keeps a formula's set for all
         self.fns = {op: _compiled(machine, target, op, g, shared)
                     for op, g in target.guards.items()}
-        self.engine: dict = {}
         self.ids: dict = {}  # values of columns of other values, numbered for the keys
         read = set().union(*(ast.free_names(g) for g in target.guards.values()))
         self.read = sorted(read & set(machine.variables))
@@ -113,18 +109,19 @@ class _Sets:
         self.cols = cols
         st = cols.states
         keep = set(self.read) & st.names()
-        sub = Columns(st.n, st.elements, *({k: v for k, v in part.items() if k in keep}
-                                           for part in (st.numbers, st.booleans, st.functions,
-                                                        st.masks, st.others)))
+        parts = [{k: v for k, v in part.items() if k in keep}
+                 for part in (st.numbers, st.booleans, st.functions, st.masks, st.others)]
+        sub = Columns(st.n, st.elements, *parts)
+        self.layout = (st.elements, tuple(
+            tuple((k, getattr(v, "dtype", None) if not isinstance(v, tuple) else
+                   (v[0].dtype, v[1].dtype)) if not isinstance(v, list) else (k, "list")
+                  for k, v in part.items()) for part in parts))
         self.firsts, self.which = sub.distinct()
         self.keys = sub.keys(self.firsts, self.ids)
         self.read_row = sub.row_reader(np.unique(self.firsts[self.which[needed]]))
         self.envs: dict[int, dict] = {}
         if len(self.memo) > _MEMO:  # states of earlier blocks: kept while memory allows
             self.memo.clear()
-
-    def key(self, d: int) -> bytes:
-        return self.keys[d]
 
     def env(self, d: int) -> dict:
         env = self.envs.get(d)
@@ -136,35 +133,15 @@ class _Sets:
     def of(self, row: int, op: str, params: Optional[dict] = None) -> Values:
         """The values for which ``op``'s guard holds in the state at ``row``."""
         d = int(self.which[row])
-        key = (self.key(d), op) if params is None else (self.key(d), op,
-                                                        tuple(params.items()))
+        key = (self.layout, self.keys[d], op, None if params is None else tuple(params.items()))
         got = self.memo.get(key)
         if got is None:
             env = self.env(d) if params is None else {**self.env(d), **params}
             try:
-                got = self.memo[key] = self.fns[op][0](env)
+                got = self.memo[key] = self.fns[op](env)
             except TracecheckError as exc:
                 raise _located(self.cols, row, op, exc) from None
         return got
-
-    def holds_at(self, row: int, op: str, value: float, params: Optional[dict] = None
-                 ) -> bool:
-        """Whether ``op``'s guard holds at ``row`` with the number ``value``: over the reals,
-        or — near a breakpoint — as the engine's float evaluation says."""
-        got = self.of(row, op, params)
-        x = Fraction(value)
-        tol = Fraction(_CLOSE) * max(1, abs(x))
-        if not any(abs(p - x) <= tol for p in got.points):
-            return got.contains(x)
-        key = (self.key(int(self.which[row])), op, value, tuple((params or {}).items()))
-        known = self.engine.get(key)
-        if known is None:
-            env = dict(self.env(int(self.which[row])))
-            env.pop(MEMO_KEY, None)
-            env.update(params or {})
-            env[self.target.name] = int(value) if self.target.integer else float(value)
-            known = self.engine[key] = bool(self.fns[op][1](env))
-        return known
 
 
 def _compiled(machine, target: Target, op: str, guard, shared: dict):
@@ -177,10 +154,7 @@ def _compiled(machine, target: Target, op: str, guard, shared: dict):
                          hint="tracecheck finds the figures for every value only where the "
                          "guards are linear in the number; --grid N gives them at N values "
                          "instead (by replay of the machine with each written in)") from None
-    comp = machine.compiler()
-    with comp.binding(params + (target.name,)):  # never remembered across its values
-        plain = comp.compile(guard)
-    return values, plain
+    return values
 
 
 def _located(cols: RunColumns, row: int, op: str, exc: TracecheckError) -> TracecheckError:
@@ -192,38 +166,50 @@ def _located(cols: RunColumns, row: int, op: str, exc: TracecheckError) -> Trace
 
 @dataclass
 class _Tally:
-    """The sets every figure sums indicators of, with how often each comes."""
+    """The sets every figure sums indicators of, with how often each comes; and the
+    machine's own figures, counted as replay counts them."""
 
     steps: Counter = field(default_factory=Counter)  # blocked sets of steps
     episodes: Counter = field(default_factory=Counter)
     crashes: Counter = field(default_factory=Counter)
     deadlocks: Counter = field(default_factory=Counter)
-    at: dict = field(default_factory=dict)  # value -> [steps, episodes, crashes, deadlocks]
+    own: list = field(default_factory=lambda: [0, 0, 0, 0])
 
 
 def tune(paths: Iterable[str | Path], shield: Shield, target: Target, low: float,
-         high: float, *, at: Sequence[float] = ()) -> TuneResult:
+         high: float, *, at: Sequence[float] = (), knee_too: bool = False) -> TuneResult:
     """The figures of ``shield`` over ``paths`` for every value of ``target`` in
-    [``low``, ``high``] (see the module docstring), and at the machine's own value and
-    each of ``at`` on their own."""
+    [``low``, ``high``] (see the module docstring), and at the machine's own value, each of
+    ``at`` and (``knee_too``) the front's knee on their own, as replay gives them."""
     paths = [str(p) for p in paths]
     start = time.perf_counter()
-    values = list(dict.fromkeys([float(target.value), *map(float, at)]))
     result = TuneResult(shield.identity, target, paths, low, high)
-    tally = _Tally(at={v: [0, 0, 0, 0] for v in values})
-    sets = _Sets(shield, target, values)
+    tally = _Tally()
+    sets = _Sets(shield, target)
     for path in paths:
         for cols in read_blocks(path):
             result.warnings += cols.warnings
             _block(shield, target, cols, sets, tally, result)
-    result.pieces = sweep(tally, Fraction(low), Fraction(high),
-                          deadlocks=result.deadlock_note is None)
-    result.at = {v: Figures(*c[:3], None if result.deadlock_note else c[3])
-                 for v, c in tally.at.items()}
+    pieces = sweep(tally, Fraction(low), Fraction(high), deadlocks=result.deadlock_note is None)
+    result.pieces = whole_numbers(pieces) if target.integer else pieces
+    result.at = {float(target.value): Figures(*tally.own)}
     result.front = front(result.pieces, result.crashes)
     result.knee = knee(result.front)
+    wanted = list(at) + ([result.knee.value] if knee_too and result.knee else [])
+    for v in wanted:
+        if float(v) not in result.at:
+            result.at[float(v)] = replayed(paths, shield, target, v)
     result.elapsed_s = round(time.perf_counter() - start, 6)
     return result
+
+
+def replayed(paths: Sequence[str], shield: Shield, target: Target, value: float) -> Figures:
+    """What replay says of the machine with ``value`` written in."""
+    from ..checking.replaying import replay
+
+    r = replay(paths, shield_with(shield, target, value))
+    return Figures(r.infeasible_steps, r.infeasible_episodes, r.crashes_after_infeasible,
+                   r.deadlock_states)
 
 
 def _block(shield: Shield, target: Target, cols: RunColumns, sets: _Sets, tally: _Tally,
@@ -240,6 +226,8 @@ def _block(shield: Shield, target: Target, cols: RunColumns, sets: _Sets, tally:
     feasible = np.ones(cols.n, dtype=bool)
     feasible[rows] = matrix[rows - 1, to_op[actions]]
     check_parameters(shield, cols, rows, actions, feasible, margins=False)
+    deadlock = ~matrix.any(axis=1) if ops else np.ones(cols.n, dtype=bool)
+    _own(tally, cols, feasible, deadlock)
     tuned = [o for o in ops if o in target.guards]
     continuous = [o for o in tuned if machine.operations[o].params]
     if continuous:
@@ -253,36 +241,45 @@ def _block(shield: Shield, target: Target, cols: RunColumns, sets: _Sets, tally:
     needed = np.union1d(steps_of - 1, np.flatnonzero(~some_fixed) if not continuous
                         else np.zeros(0, dtype=np.int64))
     sets.start(cols, needed.astype(np.int64))
-    values = sets.values
     names = cols.action_names
     done: dict[bytes, tuple] = {}  # an episode the same as one before: the same sets
     for i in range(len(cols.episode_ids)):
         lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
-        key = (sets.which[lo:hi].tobytes() + cols.action[lo:hi].tobytes()
-               + cols.crashed[lo:hi].tobytes() + feasible[lo:hi].tobytes())
+        key = b"|".join(a[lo:hi].tobytes() for a in (sets.which, cols.action, cols.crashed,
+                                                      feasible, some_fixed))
         if continuous:
             key += b"".join(cols.parameters[p][lo:hi].tobytes() for p in sorted(cols.parameters))
         found = done.get(key)
         if found is None:
             found = done[key] = _episode(sets, cols, lo, hi, feasible, some_fixed, tuned,
-                                         continuous, names, values)
+                                         continuous, names)
         _add(tally, found)
         result.episodes += 1
         result.steps += hi - lo - 1
         result.crashes += bool(cols.crashed[lo:hi].any())
 
 
+def _own(tally: _Tally, cols: RunColumns, feasible: np.ndarray, deadlock: np.ndarray) -> None:
+    """The machine's own figures over a block, as replay counts them."""
+    for i in range(len(cols.episode_ids)):
+        lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
+        bad = np.flatnonzero(~feasible[lo + 1:hi]) + 1
+        crashes = np.flatnonzero(cols.crashed[lo:hi])
+        tally.own[0] += len(bad)
+        tally.own[1] += bool(len(bad))
+        tally.own[2] += bool(len(bad) and len(crashes) and crashes[0] >= bad[0])
+        tally.own[3] += int(deadlock[lo:hi].sum())
+
+
 def _episode(sets: _Sets, cols: RunColumns, lo: int, hi: int, feasible: np.ndarray,
-             some_fixed: np.ndarray, tuned: list[str], continuous: list[str], names,
-             values: Sequence[float]) -> tuple:
+             some_fixed: np.ndarray, tuned: list[str], continuous: list[str], names) -> tuple:
     """One episode's sets: its steps' blocked sets, the union of them, the union up to its
-    crash, its states' deadlock sets; and its figures at each reported value."""
+    crash, its states' deadlock sets."""
     crashes = np.flatnonzero(cols.crashed[lo:hi])
     crash = int(crashes[0]) if len(crashes) else None
     blocked: list[Values] = []
     fixed_blocked = 0
     union = crash_union = Values.nothing()
-    counts = {v: [0, False, False, 0] for v in values}
     for k in range(1, hi - lo):
         r = lo + k
         op = names[cols.action[r]]
@@ -294,20 +291,11 @@ def _episode(sets: _Sets, cols: RunColumns, lo: int, hi: int, feasible: np.ndarr
             union = union.union(bad)
             if crash is not None and k <= crash:
                 crash_union = crash_union.union(bad)
-            for v, c in counts.items():
-                if not sets.holds_at(r - 1, op, v, params):
-                    c[0] += 1
-                    c[1] = True
-                    c[2] = c[2] or (crash is not None and k <= crash)
         elif not feasible[r]:
             fixed_blocked += 1
             union = Values.everything()
             if crash is not None and k <= crash:
                 crash_union = Values.everything()
-            for c in counts.values():
-                c[0] += 1
-                c[1] = True
-                c[2] = c[2] or (crash is not None and k <= crash)
     deadlocks = []
     if not continuous:
         for r in range(lo, hi):
@@ -317,26 +305,17 @@ def _episode(sets: _Sets, cols: RunColumns, lo: int, hi: int, feasible: np.ndarr
             for op in tuned:
                 allowed = allowed.union(sets.of(r, op))
             deadlocks.append(allowed.complement())
-            for v, c in counts.items():
-                c[3] += not any(sets.holds_at(r, op, v) for op in tuned)
-    return blocked, fixed_blocked, union, crash_union if crash is not None else None, \
-        deadlocks, counts
+    return blocked, fixed_blocked, union, crash_union if crash is not None else None, deadlocks
 
 
 def _add(tally: _Tally, found: tuple) -> None:
-    blocked, fixed_blocked, union, crash_union, deadlocks, counts = found
+    blocked, fixed_blocked, union, crash_union, deadlocks = found
     tally.steps.update(blocked)
     tally.steps[Values.everything()] += fixed_blocked
     tally.episodes[union] += 1
     if crash_union is not None:
         tally.crashes[crash_union] += 1
     tally.deadlocks.update(deadlocks)
-    for v, (steps, episode, crash, dead) in counts.items():
-        total = tally.at[v]
-        total[0] += steps
-        total[1] += episode
-        total[2] += crash
-        total[3] += dead
 
 
 def shield_with(shield: Shield, target: Target, value: float) -> Shield:
@@ -369,7 +348,7 @@ def tune_grid(paths: Iterable[str | Path], shield: Shield, target: Target,
                                r.crashes_after_infeasible, r.deadlock_states)
         result.episodes, result.steps, result.crashes = r.episodes, r.steps, r.crashes
         result.warnings = r.warnings
-    result.pieces = [Piece(Fraction(v), Fraction(v), True, True, f)
+    result.pieces = [Piece(Fraction(v), Fraction(v), True, True, f, target.integer)
                      for v, f in result.at.items()]
     result.front = front(result.pieces, result.crashes)
     result.knee = knee(result.front)
