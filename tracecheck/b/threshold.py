@@ -383,7 +383,10 @@ class ThresholdCompiler:
             reach = _all_of(parts, env)
             if not forall:
                 return reach
-            return _ALL if reach.empty else reach.complement().union(then(env))
+            if reach is _NONE:
+                return _ALL
+            got = then(env)
+            return got if reach is _ALL else reach.complement().union(got)
 
         def over(env: dict) -> Values:
             elems = domain(env)
@@ -395,7 +398,10 @@ class ThresholdCompiler:
                 local = dict(env)
                 local[var] = e
                 got = element(local)
-                out = out.intersect(got) if forall else out.union(got)
+                if got is (_ALL if forall else _NONE):
+                    continue
+                out = got if out is (_ALL if forall else _NONE) else (
+                    out.intersect(got) if forall else out.union(got))
             return out
         return over
 
@@ -473,20 +479,31 @@ def _and(nodes: list[ast.Node]) -> ast.Node:
 def _all_of(parts: list, env: dict) -> Values:
     out = _ALL
     for p in parts:
-        out = out.intersect(p(env))
+        got = p(env)
+        if got is _ALL:
+            continue
+        if got is _NONE:
+            return _NONE  # the others not evaluated, as the engine does not
+        out = got if out is _ALL else out.intersect(got)
         if out.empty:
-            return out  # the others not evaluated, as the engine does not
+            return _NONE
     return out
 
 
 def _either(a, b, env: dict) -> Values:
     x = a(env)
-    return x if x.full else x.union(b(env))
+    if x is _ALL or x.full:
+        return _ALL
+    y = b(env)
+    return y if x is _NONE else x if y is _NONE else x.union(y)
 
 
 def _implies(a, b, env: dict) -> Values:
     x = a(env)
-    return _ALL if x.empty else x.complement().union(b(env))
+    if x is _NONE or x.empty:
+        return _ALL
+    y = b(env)
+    return y if x is _ALL else x.complement().union(y)
 
 
 def _add(x: Form, y: Form, sign: int) -> Form:

@@ -1,5 +1,5 @@
 """Tune two numbers of a shield at once (``tracecheck tune --param A --param B --grid N``): on
-the grid of N values of each, and exactly along each axis — for each grid value of B, the
+the grid of N values of each (and the machine's own value), and exactly along each axis — for each grid value of B, the
 figures for every value of A (the machine with that B written in, tuned in A as
 :mod:`.tuning` does), and for each grid value of A, every value of B. Where the two lines of
 the grid cross, both give the figures of the machine with both values written in."""
@@ -67,7 +67,9 @@ def tune_pair(paths: Iterable[str | Path], shield: Shield, targets: Sequence[Tar
         raise InputError(f"{a.label} and {b.label} are the same number: give two")
     paths = [str(p) for p in paths]
     start = time.perf_counter()
-    grids = tuple(grid_values(lo, hi, n, t.integer) for (lo, hi), t in zip(ranges, targets))
+    grids = tuple(sorted(set(grid_values(lo, hi, n, t.integer)) | (
+        {float(t.value)} if lo <= t.value <= hi else set()))  # the machine's own value too
+        for (lo, hi), t in zip(ranges, targets))
     result = PairResult(shield.identity, (a, b), tuple(ranges), grids)  # type: ignore[arg-type]
     for along, fixed, lines, (lo, hi), out in (
             (a, b, grids[1], ranges[0], result.along_first),
