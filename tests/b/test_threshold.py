@@ -131,3 +131,17 @@ def test_a_quantifier_is_evaluated_as_the_engine_does_every_element_each_conjunc
     got = _set(guarded, state)
     assert got.text("d") == "d > 0.1"
     assert all(got.contains(F(v)) == _holds(guarded, v, state) for v in (0.05, 0.1, 0.2))
+
+
+@pytest.mark.parametrize("text", ["x : 0..d", "x /: 0..d", "2 * d : x..(x + 3)"],
+                         ids=["in", "not-in", "number-inside"])
+def test_a_whole_number_interval_with_the_number_at_an_end_is_two_bounds(text):
+    machine = load_machine_text("MACHINE I VARIABLES x INVARIANT x : INTEGER "
+                                "INITIALISATION x := 0 END")
+    got = values_of(machine, machine.parse(text), "d", {"x": 4}, integer=True)
+    for d in range(-3, 12):
+        env = machine.env({"x": 4})
+        env["d"] = d
+        comp = machine.compiler()
+        with comp.binding(("d",)):
+            assert got.contains(F(d)) == bool(comp.compile(machine.parse(text))(env)), d

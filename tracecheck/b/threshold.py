@@ -324,6 +324,8 @@ class ThresholdCompiler:
         op = node.op
         if op == ":" and isinstance(node.left, ast.Name) and self.free(node.right):
             return self.membership(node)
+        if op in (":", "/:") and isinstance(node.right, ast.BinOp) and node.right.op == "..":
+            return self.between(node)
         if op not in ("<", "<=", ">", ">=", "=", "/="):
             raise self.refuse(node, f"the relation {op}", linear=False)
         left, right = self.expr(node.left), self.expr(node.right)
@@ -331,6 +333,18 @@ class ThresholdCompiler:
         def holds(env: dict) -> Values:
             (a1, b1), (a2, b2) = left(env), right(env)
             return _solve(a1 - a2, b1 - b2, op)  # a θ + b  op  0
+        return holds
+
+    def between(self, node: ast.Rel) -> Callable[[dict], Values]:
+        """``e : lo..hi`` (``/:``: not) with the number in e, lo or hi: lo <= e <= hi (the
+        interval holds whole numbers, e is one: B types it so)."""
+        value, lo, hi = (self.expr(n) for n in (node.left, node.right.left, node.right.right))
+        inside = node.op == ":"
+
+        def holds(env: dict) -> Values:
+            (a, b), (la, lb), (ha, hb) = value(env), lo(env), hi(env)
+            got = _solve(la - a, lb - b, "<=").intersect(_solve(a - ha, b - hb, "<="))
+            return got if inside else got.complement()
         return holds
 
     def membership(self, node: ast.Rel) -> Callable[[dict], Values]:

@@ -49,7 +49,12 @@ def _figure(result):
         for p in r.pieces:
             f = p.figures
             lo, hi = float(p.low), float(p.high)
-            if lo == hi:
+            if p.whole:  # an INTEGER's values: a dot at each whole number
+                xs = range(int(lo), int(hi) + 1)
+                steps.plot(xs, [f.steps_blocked] * len(xs), ".-", color="C0", markersize=5)
+                missed.plot(xs, [r.crashes - f.crashes_after_blocked] * len(xs), ".-",
+                            color="C3", markersize=5)
+            elif lo == hi:
                 steps.plot([lo], [f.steps_blocked], ".", color="C0", markersize=3)
                 missed.plot([lo], [r.crashes - f.crashes_after_blocked], ".", color="C3",
                             markersize=3)
