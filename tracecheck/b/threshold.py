@@ -38,7 +38,8 @@ from . import ast
 from .bindings import conjuncts
 from .values import SymbolicSet
 
-__all__ = ["Values", "threshold_guard", "values_of", "ThresholdCompiler", "exact_number"]
+__all__ = ["Values", "threshold_guard", "values_of", "ThresholdCompiler", "exact_number",
+           "exact_text"]
 
 Form = tuple[Fraction, Fraction]  # a * θ + b
 #: the built-in sets a number can be typed by, with their least element (None: unbounded)
@@ -155,14 +156,14 @@ class Values:
         parts = []
         for lo, hi, lc, hc in self.intervals():
             if lo is not None and lo == hi:
-                parts.append(f"{name} = {_num(lo)}")
+                parts.append(f"{name} = {exact_text(lo)}")
             elif lo is None:
-                parts.append(f"{name} {'<=' if hc else '<'} {_num(hi)}")
+                parts.append(f"{name} {'<=' if hc else '<'} {exact_text(hi)}")
             elif hi is None:
-                parts.append(f"{name} {'>=' if lc else '>'} {_num(lo)}")
+                parts.append(f"{name} {'>=' if lc else '>'} {exact_text(lo)}")
             else:
-                parts.append(f"{_num(lo)} {'<=' if lc else '<'} {name} {'<=' if hc else '<'} "
-                             f"{_num(hi)}")
+                parts.append(f"{exact_text(lo)} {'<=' if lc else '<'} {name} {'<=' if hc else '<'} "
+                             f"{exact_text(hi)}")
         return " or ".join(parts)
 
     def __str__(self) -> str:
@@ -184,7 +185,8 @@ def _constant(values: Values, constant: bool, conjunction: bool) -> Values:
     return _ALL if constant else _NONE
 
 
-def _num(x: Fraction) -> str:
+def exact_text(x: Fraction) -> str:
+    """``x`` as the float it is, or the float nearest it followed by … where it is none."""
     return repr(float(x)) if float(x) == x else f"{float(x)!r}…"
 
 

@@ -35,7 +35,7 @@ from .episode_results import EpisodeReplay, EpisodeRows
 from ..jsontext import Rows, plain
 
 __all__ = ["replay", "replay_columns", "ReplayReport", "EpisodeReplay", "EpisodeRows",
-           "enabled_matrix",
+           "enabled_matrix", "recorded_feasibility",
            "check_parameters", "add_up", "OUTCOMES", "NEVER_BLOCKED"]
 
 #: per machine, an operation's guard over the columns with its recorded parameters bound
@@ -217,11 +217,12 @@ def _postconditions(shield: Shield, cols: RunColumns, rows: np.ndarray,
     return bad
 
 
-def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport,
-                 ltl: Sequence[tuple] = ()) -> None:
-    matrix, ops = enabled_matrix(shield, cols)
-    if ltl:
-        _check_ltl(shield, cols, report, ltl, {o: matrix[:, i] for i, o in enumerate(ops)})
+def recorded_feasibility(shield: Shield, cols: RunColumns, matrix: np.ndarray,
+                         ops: tuple[str, ...], *, margins: bool = True) -> tuple:
+    """(the step rows, their action codes, per row whether its recorded action was allowed in
+    the state before, by row the margins of infeasible continuous steps): replay's verdict
+    on each step, from the :func:`enabled_matrix` ``matrix`` over ``ops``. A run whose action
+    the shield has no operation for is refused (:func:`~.fit.check_actions`)."""
     op_index = {o: i for i, o in enumerate(ops)}
     rows = np.flatnonzero(cols.step > 0)
     actions = cols.action[rows]
@@ -229,7 +230,16 @@ def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport,
     to_op = np.array([op_index.get(a, 0) for a in cols.action_names] + [0], dtype=np.int64)
     feasible = np.ones(cols.n, dtype=bool)
     feasible[rows] = matrix[rows - 1, to_op[actions]]
-    margins = check_parameters(shield, cols, rows, actions, feasible)
+    found = check_parameters(shield, cols, rows, actions, feasible, margins=margins)
+    return rows, actions, feasible, found
+
+
+def _replay_file(shield: Shield, cols: RunColumns, report: ReplayReport,
+                 ltl: Sequence[tuple] = ()) -> None:
+    matrix, ops = enabled_matrix(shield, cols)
+    if ltl:
+        _check_ltl(shield, cols, report, ltl, {o: matrix[:, i] for i, o in enumerate(ops)})
+    rows, actions, feasible, margins = recorded_feasibility(shield, cols, matrix, ops)
     deadlock = ~matrix.any(axis=1) if ops else np.ones(cols.n, dtype=bool)
     machine = shield.machine
     invariant_ok = machine.invariant_batch(cols.states)

@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from ..b.threshold import Values
+from ..b.threshold import Values, exact_text
 
 __all__ = ["Figures", "Piece", "FrontPoint", "sweep", "counts", "front", "knee", "inside"]
 
@@ -65,14 +65,10 @@ class Piece:
             return str(self.low.numerator) if self.low == self.high else \
                 f"{self.low.numerator}..{self.high.numerator}"
         if self.low == self.high:
-            return _num(self.low)
-        return (f"{'[' if self.low_closed else '('}{_num(self.low)}, {_num(self.high)}"
+            return exact_text(self.low)
+        return (f"{'[' if self.low_closed else '('}{exact_text(self.low)}, {exact_text(self.high)}"
                 f"{']' if self.high_closed else ')'}")
 
-
-def _num(x: Fraction) -> str:
-    f = float(x)
-    return repr(f) if Fraction(f) == x else f"{f!r}…"
 
 
 def counts(sets: Counter, points: list[Fraction]) -> np.ndarray:

@@ -32,8 +32,7 @@ import numpy as np
 from ..b import ast
 from ..b.columns import Columns
 from ..b.threshold import ThresholdCompiler, Values
-from ..checking.fit import check_actions
-from ..checking.replaying import check_parameters, enabled_matrix
+from ..checking.replaying import enabled_matrix, recorded_feasibility
 from ..checking.shield import Shield
 from ..episodes.columns import RunColumns, read_blocks
 from ..errors import InputError, TracecheckError, UnsupportedError
@@ -207,7 +206,11 @@ def replayed(paths: Sequence[str], shield: Shield, target: Target, value: float)
     """What replay says of the machine with ``value`` written in."""
     from ..checking.replaying import replay
 
-    r = replay(paths, shield_with(shield, target, value))
+    return _figures(replay(paths, shield_with(shield, target, value)))
+
+
+def _figures(r) -> Figures:
+    """A replay report's figures."""
     return Figures(r.infeasible_steps, r.infeasible_episodes, r.crashes_after_infeasible,
                    r.deadlock_states)
 
@@ -218,14 +221,7 @@ def _block(shield: Shield, target: Target, cols: RunColumns, sets: _Sets, tally:
     if not cols.n:
         return
     matrix, ops = enabled_matrix(shield, cols)
-    rows = np.flatnonzero(cols.step > 0)
-    actions = cols.action[rows]
-    check_actions(shield, cols, rows, actions)
-    index = {o: i for i, o in enumerate(ops)}
-    to_op = np.array([index.get(a, 0) for a in cols.action_names] + [0], dtype=np.int64)
-    feasible = np.ones(cols.n, dtype=bool)
-    feasible[rows] = matrix[rows - 1, to_op[actions]]
-    check_parameters(shield, cols, rows, actions, feasible, margins=False)
+    rows, actions, feasible, _ = recorded_feasibility(shield, cols, matrix, ops, margins=False)
     deadlock = ~matrix.any(axis=1) if ops else np.ones(cols.n, dtype=bool)
     _own(tally, cols, feasible, deadlock)
     tuned = [o for o in ops if o in target.guards]
@@ -344,8 +340,7 @@ def tune_grid(paths: Iterable[str | Path], shield: Shield, target: Target,
                         method="grid")
     for v in values:
         r = replay(paths, shield_with(shield, target, v))
-        result.at[v] = Figures(r.infeasible_steps, r.infeasible_episodes,
-                               r.crashes_after_infeasible, r.deadlock_states)
+        result.at[v] = _figures(r)
         result.episodes, result.steps, result.crashes = r.episodes, r.steps, r.crashes
         result.warnings = r.warnings
     result.pieces = [Piece(Fraction(v), Fraction(v), True, True, f, target.integer)
