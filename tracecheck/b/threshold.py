@@ -100,11 +100,22 @@ class Values:
     def union(self, other: "Values") -> "Values":
         return self._combine(other, _or_op)
 
+    def __hash__(self) -> int:  # kept: sets are counted by the thousand (tune)
+        h = self.__dict__.get("_hash")
+        if h is None:
+            h = hash((self.points, self.at, self.pieces))
+            object.__setattr__(self, "_hash", h)
+        return h
+
     def _combine(self, other: "Values", op: Callable[[bool, bool], bool]) -> "Values":
         if not other.points:
             return _constant(self, other.pieces[0], op is _and_op)
         if not self.points:
             return _constant(other, self.pieces[0], op is _and_op)
+        if self == other:
+            return self
+        if len(self.points) == 1 and len(other.points) == 1:  # two half-lines, often
+            return _two(self, other, op)
         points = sorted(set(self.points) | set(other.points))
         a_at, a_pc = self._on(points)
         b_at, b_pc = other._on(points)
@@ -188,6 +199,19 @@ def _constant(values: Values, constant: bool, conjunction: bool) -> Values:
 def exact_text(x: Fraction) -> str:
     """``x`` as the float it is, or the float nearest it followed by … where it is none."""
     return repr(float(x)) if float(x) == x else f"{float(x)!r}…"
+
+
+def _two(x: Values, y: Values, op: Callable[[bool, bool], bool]) -> Values:
+    """``x`` op ``y`` for sets of one breakpoint each."""
+    (p,), (q,) = x.points, y.points
+    if p == q:
+        return _normal([p], [op(x.at[0], y.at[0])],
+                       [op(x.pieces[0], y.pieces[0]), op(x.pieces[1], y.pieces[1])])
+    if q < p:
+        x, y, p, q = y, x, q, p
+    (xl, xr), (yl, yr) = x.pieces, y.pieces
+    return _normal([p, q], [op(x.at[0], yl), op(xr, y.at[0])],
+                   [op(xl, yl), op(xr, yl), op(xr, yr)])
 
 
 def _normal(points: list, at: list, pieces: list) -> Values:

@@ -33,7 +33,7 @@ from .library import FUNCTIONS as _LIBRARY, vector_call as _library_call
 from ..limits import DEEP, deep_recursion
 from .values import Elem, FuncValue
 
-__all__ = ["evaluate_batch", "BatchFormula"]
+__all__ = ["evaluate_batch", "BatchFormula", "BoundFormulas"]
 
 
 class _VecCompiler:
@@ -496,6 +496,45 @@ _TYPE_SETS = {"REAL", "FLOAT", "BOOL", "INTEGER"}
 _SHARED = (ast.Comprehension, ast.Image, ast.Call, ast.IfExpr, ast.Quant, ast.Let)
 
 
+def _kinds(cols: Columns) -> dict[str, str]:
+    return {**{n: "num" for n in cols.numbers}, **{n: "bool" for n in cols.booleans},
+            **{n: "func" for n in cols.functions}, **{n: "set" for n in cols.masks}}
+
+
+class BoundFormulas:
+    """Sub-formulas of a larger formula over the same columns, each compiled in the scope of
+    the element variables its enclosing quantifiers bind (``!v.(v : S => … here …)``), for a
+    caller that combines them itself (:mod:`.threshold_batch`).
+
+    A value is ``(tag, array)`` broadcastable to ``(rows, elements, elements)``: the first
+    bound variable along axis 1, the second along axis 2. Rows where a sub-formula is not
+    well-defined are in :attr:`bad` (for the scalar path). Compiling raises
+    :class:`~tracecheck.b.arrays.NotVectorizable` where the batch compiler cannot."""
+
+    def __init__(self, constants: Mapping[str, Any], cols: Columns) -> None:
+        self.cols = cols
+        self._comp = _VecCompiler(constants, cols.elements, _kinds(cols))
+        self._ctx = BatchContext(cols)
+
+    def compile(self, node: ast.Node, bound: tuple[str, ...] = ()
+                ) -> Callable[[], VectorValue]:
+        """``node`` with ``bound`` (at most two names) the element variables in scope."""
+        if len(bound) > 2:
+            raise NotVectorizable("more than two bound element variables")
+        self._comp.axes = list(bound)
+        try:
+            fn = self._comp.compile(node)
+        finally:
+            self._comp.axes = []
+        ctx = self._ctx
+        return lambda: fn(ctx)
+
+    @property
+    def bad(self) -> Optional[np.ndarray]:
+        """The rows marked for the scalar path so far (None: none)."""
+        return self._ctx.bad
+
+
 def _generator(pred: ast.Node, var: str) -> Optional[ast.Rel]:
     """The conjunct ``var : S`` of ``pred`` that gives ``var`` its values."""
     return next((c for c in conjuncts(pred) if isinstance(c, ast.Rel) and c.op == ":"
@@ -516,8 +555,7 @@ class BatchFormula:
         self._deep = ast.depth(node) > DEEP  # compiled and run with the raised recursion limit
 
     def _plan(self, cols: Columns) -> Optional[Callable]:
-        kinds = {**{n: "num" for n in cols.numbers}, **{n: "bool" for n in cols.booleans},
-                 **{n: "func" for n in cols.functions}, **{n: "set" for n in cols.masks}}
+        kinds = _kinds(cols)
         key = (cols.elements, tuple(sorted(kinds.items())))
         if key not in self._plans:
             try:

@@ -32,6 +32,7 @@ import numpy as np
 from ..b import ast
 from ..b.columns import Columns
 from ..b.threshold import ThresholdCompiler, Values
+from ..b.threshold_batch import ThresholdBatch
 from ..checking.replaying import enabled_matrix, recorded_feasibility
 from ..checking.shield import Shield
 from ..episodes.columns import RunColumns, read_blocks
@@ -99,6 +100,9 @@ class _Sets:
         shared: dict = {}  # one numbering: a state's environment keeps a formula's set for all
         self.fns = {op: _compiled(machine, target, op, g, shared)
                     for op, g in target.guards.items()}
+        self.batch = ThresholdBatch(machine, target.name, {
+            op: g for op, g in target.guards.items() if not machine.operations[op].params},
+            target.integer)
         self.ids: dict = {}  # values of columns of other values, numbered for the keys
         read = set().union(*(ast.free_names(g) for g in target.guards.values()))
         self.read = sorted(read & set(machine.variables))
@@ -117,10 +121,20 @@ class _Sets:
                   for k, v in part.items()) for part in parts))
         self.firsts, self.which = sub.distinct()
         self.keys = sub.keys(self.firsts, self.ids)
-        self.read_row = sub.row_reader(np.unique(self.firsts[self.which[needed]]))
+        wanted = np.unique(self.which[needed])
+        self.read_row = sub.row_reader(self.firsts[wanted])
         self.envs: dict[int, dict] = {}
         if len(self.memo) > _MEMO:  # states of earlier blocks: kept while memory allows
             self.memo.clear()
+        # the batch path first, for the states not seen before; the exact path for the rest
+        todo = [int(d) for d in wanted if any((self.layout, self.keys[d], op, None)
+                                              not in self.memo for op in self.batch.ops)]
+        if todo:
+            got = self.batch.sets(sub.take(self.firsts[todo]), lambda i: self.env(todo[i]))
+            for op, sets in got.items():
+                for d, values in zip(todo, sets):
+                    if values is not None:
+                        self.memo.setdefault((self.layout, self.keys[d], op, None), values)
 
     def env(self, d: int) -> dict:
         env = self.envs.get(d)
