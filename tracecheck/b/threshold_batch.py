@@ -22,6 +22,7 @@ not masks of elements) — is computed by the exact path, which also gives its r
 
 from __future__ import annotations
 
+from bisect import bisect_left
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, Callable, Optional
@@ -32,7 +33,7 @@ from . import ast
 from .arrays import NotVectorizable, bool_of, num_of
 from .bindings import conjuncts
 from .columns import Columns
-from .threshold import ThresholdCompiler, Values
+from .threshold import Values
 from .vector import BoundFormulas
 
 __all__ = ["ThresholdBatch", "TOLERANCE"]
@@ -43,18 +44,20 @@ TOLERANCE = 1e-9
 _CELLS = 4_000_000
 _TYPES = {"REAL": None, "FLOAT": None, "INTEGER": None, "NATURAL": 0, "NATURAL1": 1}
 _ALL, _NONE = Values.everything(), Values.nothing()
+_Q0, _Q1 = (0, 1), (1, 1)  # rationals as (numerator, denominator): see _symbolic
 _CLOSED = {"<": False, "<=": True, ">": False, ">=": True, "=": True, "/=": False}
 
 
 @dataclass(frozen=True)
 class _Relation:
     """``a θ + b  op  0`` under the element variables ``bound``: its batch coefficients (with
-    the size of the terms each adds up) and its exact coefficients in one environment."""
+    the size of the terms each adds up) and its exact ones, from its terms' values in one
+    state and element."""
 
     op: str
     bound: tuple[str, ...]
     batch: Callable  # (formulas) -> (a, b, size of a's terms, size of b's terms)
-    exact: Callable[[dict], tuple[Fraction, Fraction]]
+    exact: Callable  # (the value of a term there) -> (a, b) as rationals
 
 
 class ThresholdBatch:
@@ -72,7 +75,7 @@ class ThresholdBatch:
     def __init__(self, machine, param: str, guards: dict[str, ast.Node],
                  integer: bool = False) -> None:
         self.machine, self.param = machine, param
-        self.exact = ThresholdCompiler(machine, param, (), integer)
+        self.integer = integer
         self.relations: list[_Relation] = []
         self._index: dict = {}
         self._free: dict = {}
@@ -93,11 +96,9 @@ class ThresholdBatch:
         state, a quantifier over numbers, is left out from then on)."""
         return list(self._plans)
 
-    def sets(self, cols: Columns, env_of: Callable[[int], dict]
-             ) -> dict[str, list[Optional[Values]]]:
+    def sets(self, cols: Columns) -> dict[str, list[Optional[Values]]]:
         """For each of :attr:`ops`, the values for which its guard holds in each row of
-        ``cols``, None where this path does not decide (``env_of(row)``: the row's
-        environment for the exact path)."""
+        ``cols``, None where this path does not decide."""
         out: dict[str, list[Optional[Values]]] = {op: [None] * cols.n for op in self._plans}
         if not self._plans or not cols.n:
             return out
@@ -109,7 +110,7 @@ class ThresholdBatch:
             rows = np.arange(lo, min(lo + chunk, cols.n))
             part = cols.take(rows) if len(rows) < cols.n else cols
             try:
-                self._chunk(part, lambda i, rows=rows: env_of(int(rows[i])), out, lo)
+                self._chunk(part, out, lo)
             except (NotVectorizable, OverflowError, TypeError, ValueError):
                 continue
         return out
@@ -187,17 +188,15 @@ class ThresholdBatch:
         if k is None:
             k = self._index[key] = len(self.relations)
             lf, rf = self._form(left, bound), self._form(right, bound)
-            scalar = ThresholdCompiler(self.machine, self.param, bound, self.exact.integer,
-                                       {})
-            le, re = scalar.expr(left), scalar.expr(right)
+            le, re = self._symbolic(left), self._symbolic(right)
 
             def batch(f, lf=lf, rf=rf):
                 (a1, b1, ma1, mb1), (a2, b2, ma2, mb2) = lf(f), rf(f)
                 return a1 - a2, b1 - b2, ma1 + ma2, mb1 + mb2
 
-            def exact(env, le=le, re=re):
-                (a1, b1), (a2, b2) = le(env), re(env)
-                return a1 - a2, b1 - b2
+            def exact(get, le=le, re=re):
+                (a1, b1), (a2, b2) = le(get), re(get)
+                return _q_add(a1, a2, -1), _q_add(b1, b2, -1)
             self.relations.append(_Relation(op, bound, batch, exact))
         self._users.setdefault(k, set()).add(self._op)
         return lambda f, t: t.truth[k]
@@ -225,7 +224,7 @@ class ThresholdBatch:
             k, x = self._form(k_node, bound), self._form(x_node, bound)
             return lambda f: _scaled(x(f), k(f)[1], False)
         if isinstance(node, ast.BinOp) and node.op == "/" and self.free(node.right) \
-                and not self.exact.integer:
+                and not self.integer:
             k, x = self._form(node.right, bound), self._form(node.left, bound)
             return lambda f: _scaled(x(f), k(f)[1], True)
         if isinstance(node, ast.IfExpr) and all(self.free(c) for c, _ in node.branches):
@@ -239,6 +238,52 @@ class ThresholdBatch:
                     pick = np.asarray(bool_of(f.compile(c, bound)()))
                     out = tuple(np.where(pick, x, y) for x, y in zip(form(f), out))
                 return out
+            return chosen
+        raise NotVectorizable(type(node).__name__)
+
+    def _symbolic(self, node: ast.Node) -> Callable:
+        """``node`` as :meth:`.ThresholdCompiler.expr` makes it: a function of the values
+        of its terms (``get(term)``, the very numbers the exact path's engine computes) to
+        (a, b), each an exact rational as a pair of integers (numerator, denominator, not
+        reduced); a division by zero raises ZeroDivisionError."""
+        if self.free(node):
+            return lambda get: (_Q0, _ratio(get(node)))
+        if isinstance(node, ast.Name):
+            return lambda get: (_Q1, _Q0)
+        if isinstance(node, ast.Neg):
+            a = self._symbolic(node.operand)
+            return lambda get: tuple((-n, d) for n, d in a(get))
+        if isinstance(node, ast.BinOp) and node.op in ("+", "-"):
+            a, b = self._symbolic(node.left), self._symbolic(node.right)
+            sign = 1 if node.op == "+" else -1
+            return lambda get: tuple(_q_add(x, y, sign) for x, y in zip(a(get), b(get)))
+        if isinstance(node, ast.BinOp) and node.op == "*":
+            k, x = (node.left, node.right) if self.free(node.left) else (node.right, node.left)
+            form = self._symbolic(x)
+
+            def times(get):
+                kn, kd = _ratio(get(k))
+                return tuple((n * kn, d * kd) for n, d in form(get))
+            return times
+        if isinstance(node, ast.BinOp) and node.op == "/":
+            form = self._symbolic(node.left)
+
+            def divided(get):
+                kn, kd = _ratio(get(node.right))
+                if kn == 0:
+                    raise ZeroDivisionError
+                return tuple((n * kd, d * kn) for n, d in form(get))
+            return divided
+        if isinstance(node, ast.IfExpr):
+            conds = [c for c, _ in node.branches]
+            forms = [self._symbolic(v) for _, v in node.branches] + \
+                [self._symbolic(node.else_)]
+
+            def chosen(get):
+                for c, form in zip(conds, forms):
+                    if get(c):
+                        return form(get)
+                return forms[-1](get)
             return chosen
         raise NotVectorizable(type(node).__name__)
 
@@ -277,8 +322,7 @@ class ThresholdBatch:
 
     # -- evaluating ------------------------------------------------------------------------
 
-    def _chunk(self, cols: Columns, env_of: Callable[[int], dict], out: dict,
-               offset: int) -> None:
+    def _chunk(self, cols: Columns, out: dict, offset: int) -> None:
         """The sets of the rows of ``cols`` this path decides, into ``out`` from ``offset``."""
         n = cols.n
         f = BoundFormulas(self.machine.base_env, cols)
@@ -291,7 +335,7 @@ class ThresholdBatch:
                     forms.append(None)
                     for op in self._users[k]:
                         self._plans.pop(op, None)
-            points = _TestPoints(n, forms, self.relations)
+            points = _TestPoints(n, forms, self.relations, f)
             if points.unsure.all():
                 return
             tops = {}
@@ -303,41 +347,45 @@ class ThresholdBatch:
         unsure = points.unsure.copy()
         if f.bad is not None:
             unsure |= np.broadcast_to(f.bad, (n,))
-        decided = np.flatnonzero(~unsure).tolist()
         c = points.sorted.shape[1]
-        valid = np.arange(c)[None, :] < points.count[:, None]
+        valid = (np.arange(c)[None, :] < points.count[:, None]) & ~unsure[:, None]
         roots: dict[tuple[int, int], Optional[Fraction]] = {}  # for every guard at once
-        envs: dict[int, dict] = {}
         for op, top in tops.items():
             pieces, at = top[:, 0::2], top[:, 1::2][:, :c]
             change = valid & ~((at == pieces[:, :-1]) & (at == pieces[:, 1:]))
-            some = change.any(axis=1)
             first = pieces[:, 0].tolist()
             target = out[op]
-            for i in decided:
-                if not some[i]:
-                    target[offset + i] = _ALL if first[i] else _NONE
-                    continue
-                js = np.flatnonzero(change[i]).tolist()
+            for i in np.flatnonzero(~unsure & ~change.any(axis=1)).tolist():
+                target[offset + i] = _ALL if first[i] else _NONE
+            rows, js = np.nonzero(change)  # the breakpoints where the set changes, row by row
+            at_js = at[rows, js].tolist()
+            after = pieces[rows, js + 1].tolist()
+            rows, js = rows.tolist(), js.tolist()
+            k = 0
+            while k < len(rows):
+                i, end = rows[k], k
+                while end < len(rows) and rows[end] == i:
+                    end += 1
                 exact = []
-                for j in js:
+                for j in js[k:end]:
                     if (i, j) not in roots:
-                        if i not in envs:
-                            envs[i] = env_of(i)
-                        roots[(i, j)] = points.root(i, j, envs[i], cols.elements)
+                        roots[(i, j)] = points.root(i, j)
                     exact.append(roots[(i, j)])
-                if None in exact or any(x >= y for x, y in zip(exact, exact[1:])):
-                    continue
-                target[offset + i] = Values(tuple(exact), tuple(bool(at[i, j]) for j in js),
-                                            (first[i],) + tuple(bool(pieces[i, j + 1])
-                                                                for j in js))
+                if None not in exact and all(x < y for x, y in zip(exact, exact[1:])):
+                    target[offset + i] = Values(tuple(exact), tuple(at_js[k:end]),
+                                                (first[i],) + tuple(after[k:end]))
+                k = end
+
 
 class _TestPoints:
     """The roots of a block's relations sorted per row, the test points around them, and
     each relation's truth at each (``truth[k]``: rows, elements, elements, points)."""
 
-    def __init__(self, n: int, forms: list, relations: list[_Relation]) -> None:
-        self.n, self.relations = n, relations
+    def __init__(self, n: int, forms: list, relations: list[_Relation],
+                 formulas: BoundFormulas) -> None:
+        self.n, self.relations, self.formulas = n, relations, formulas
+        self.terms: dict[tuple, Any] = {}  # each term's values, computed once
+        self._rows: Optional[tuple] = None
         self.unsure = np.zeros(n, dtype=bool)
         shaped, roots, owners = [], [], []
         for k, form in enumerate(forms):
@@ -428,30 +476,67 @@ class _TestPoints:
         self.unsure |= (has_root & ~crossing[..., 0]).reshape(self.n, -1).any(axis=1)
         return np.where(own, _CLOSED[op], holds)
 
-    def root(self, i: int, j: int, env: dict, elements: tuple) -> Optional[Fraction]:
+    def root(self, i: int, j: int) -> Optional[Fraction]:
         """Row ``i``'s ``j``-th root, exactly: that of every relation and element there, all
         equal and near the float one (None: not so)."""
-        roots = {self._exact(int(col), env, elements)
-                 for col in self.order[i, self.group[i] == j].tolist()}
-        if len(roots) != 1 or None in roots:
-            return None
-        root = roots.pop()
-        if abs(float(root) - float(self.sorted[i, j])) > TOLERANCE * (1.0 + abs(float(root))):
+        if self._rows is None:  # as lists: read one at a time
+            self._rows = (self.group.tolist(), self.order.tolist(), self.owner.tolist(),
+                          self.offsets.tolist())
+        group, order = self._rows[0][i], self._rows[1][i]
+        root = None
+        for col in order[bisect_left(group, j):bisect_left(group, j + 1)]:  # its members
+            got = self._exact(i, col)
+            if got is None or (root is not None and got != root):
+                return None
+            root = got
+        if root is None or abs(float(root) - self.sorted.item(i, j)) > TOLERANCE * (
+                1.0 + abs(float(root))):
             return None
         return root
 
-    def _exact(self, col: int, env: dict, elements: tuple) -> Optional[Fraction]:
-        """The exact root of candidate ``col`` in ``env`` (None: no root there)."""
-        k = int(self.owner[col])
+    def _exact(self, i: int, col: int) -> Optional[Fraction]:
+        """The exact root of candidate ``col`` in row ``i`` (None: no root there)."""
+        k = self._rows[2][col]
         rel = self.relations[k]
-        local = env
-        if rel.bound:
-            local = dict(env)
-            idx = np.unravel_index(col - int(self.offsets[k]), self.forms[k][0].shape[1:])
-            for name, e in zip(rel.bound, idx):
-                local[name] = elements[int(e)]
-        a, b = rel.exact(local)
-        return None if a == 0 else -b / a
+        e1, e2 = divmod(col - self._rows[3][k], self.forms[k][0].shape[2])
+        where = (i, e1, e2)
+        terms = self.terms
+
+        def get(node: ast.Node) -> Any:
+            key = (id(node), rel.bound)
+            value = terms.get(key)
+            if value is None:
+                value = self.formulas.compile(node, rel.bound)()[1]
+                if np.ndim(value):
+                    value = np.asarray(value)
+                    value = value.reshape(value.shape + (1,) * (3 - value.ndim))
+                terms[key] = value
+            if np.ndim(value) == 0:
+                return value
+            shape = value.shape  # (rows or 1, elements or 1, elements or 1)
+            return value.item(*(x if s > 1 else 0 for x, s in zip(where, shape)))
+        try:
+            (an, ad), (bn, bd) = rel.exact(get)
+        except ZeroDivisionError:
+            return None
+        return None if an == 0 else Fraction(-bn * ad, bd * an)
+
+
+def _ratio(x: Any) -> tuple[int, int]:
+    """A term's value (a float or an integer, numpy's or Python's) as the rational it is."""
+    if type(x) is float:
+        return x.as_integer_ratio()
+    if type(x) is int or np.issubdtype(type(x), np.integer):
+        return int(x), 1
+    return float(x).as_integer_ratio()
+
+
+def _q_add(x: tuple[int, int], y: tuple[int, int], sign: int) -> tuple[int, int]:
+    """x + sign · y, rationals as (numerator, denominator)."""
+    (xn, xd), (yn, yd) = x, y
+    if xd == yd:
+        return xn + sign * yn, xd
+    return xn * yd + sign * yn * xd, xd * yd
 
 
 def _rows3(x: Any, n: int) -> np.ndarray:

@@ -26,7 +26,7 @@ from .bindings import conjuncts
 from .evaluation import Compiler
 from .arrays import (BatchContext, NotVectorizable, VectorValue, all_last, arith, bool_of,
                      concat_numbers, fits, integral, intern_key, is_int_array, mark_nonfinite,
-                     num_of, per_row, shared, typed_member)
+                     num_of, per_row, power, shared, typed_member)
 from .columns import Columns
 from .records import set_element
 from .library import FUNCTIONS as _LIBRARY, vector_call as _library_call
@@ -47,6 +47,8 @@ class _VecCompiler:
         self.hidden: set[str] = set()  # bound outside the comprehension being compiled
         self.lets: list[str] = []  # LET variables in scope
         self.free: dict = {}  # free names by node, see ast.free_names
+        #: real powers with Python's own (as the scalar path: the same bits), not numpy's
+        self.python_power = False
 
     def compile(self, node: ast.Node) -> Callable[[BatchContext], VectorValue]:
         method = getattr(self, "v_" + type(node).__name__, None)
@@ -227,6 +229,8 @@ class _VecCompiler:
         op = node.op
         if op in ("-->", "+->"):
             return lambda ctx: ("space", (op, l(ctx), r(ctx)))
+        if op == "**" and self.python_power:
+            return lambda ctx: ("num", power(ctx, num_of(l(ctx)), num_of(r(ctx))))
         if op in ("+", "*", "**"):
             fn = {"+": np.add, "*": np.multiply, "**": np.power}[op]
             return lambda ctx: ("num", arith(ctx, fn, op, num_of(l(ctx)), num_of(r(ctx))))
@@ -514,11 +518,17 @@ class BoundFormulas:
     def __init__(self, constants: Mapping[str, Any], cols: Columns) -> None:
         self.cols = cols
         self._comp = _VecCompiler(constants, cols.elements, _kinds(cols))
+        self._comp.python_power = True  # every number the very one the scalar path computes
         self._ctx = BatchContext(cols)
+        self._done: dict[tuple, Callable[[], VectorValue]] = {}  # by the node's identity
+        self._nodes: list[ast.Node] = []  # (kept: an identity stays the node's while cached)
 
     def compile(self, node: ast.Node, bound: tuple[str, ...] = ()
                 ) -> Callable[[], VectorValue]:
         """``node`` with ``bound`` (at most two names) the element variables in scope."""
+        key = (id(node), bound)
+        if key in self._done:
+            return self._done[key]
         if len(bound) > 2:
             raise NotVectorizable("more than two bound element variables")
         self._comp.axes = list(bound)
@@ -527,7 +537,9 @@ class BoundFormulas:
         finally:
             self._comp.axes = []
         ctx = self._ctx
-        return lambda: fn(ctx)
+        self._done[key] = got = lambda: fn(ctx)
+        self._nodes.append(node)
+        return got
 
     @property
     def bad(self) -> Optional[np.ndarray]:

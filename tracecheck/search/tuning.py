@@ -130,7 +130,7 @@ class _Sets:
         todo = [int(d) for d in wanted if any((self.layout, self.keys[d], op, None)
                                               not in self.memo for op in self.batch.ops)]
         if todo:
-            got = self.batch.sets(sub.take(self.firsts[todo]), lambda i: self.env(todo[i]))
+            got = self.batch.sets(sub.take(self.firsts[todo]))
             for op, sets in got.items():
                 for d, values in zip(todo, sets):
                     if values is not None:
@@ -252,7 +252,7 @@ def _block(shield: Shield, target: Target, cols: RunColumns, sets: _Sets, tally:
                         else np.zeros(0, dtype=np.int64))
     sets.start(cols, needed.astype(np.int64))
     names = cols.action_names
-    done: dict[bytes, tuple] = {}  # an episode the same as one before: the same sets
+    done: dict[bytes, list] = {}  # an episode the same as one before: the same sets, counted
     for i in range(len(cols.episode_ids)):
         lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
         key = b"|".join(a[lo:hi].tobytes() for a in (sets.which, cols.action, cols.crashed,
@@ -261,12 +261,15 @@ def _block(shield: Shield, target: Target, cols: RunColumns, sets: _Sets, tally:
             key += b"".join(cols.parameters[p][lo:hi].tobytes() for p in sorted(cols.parameters))
         found = done.get(key)
         if found is None:
-            found = done[key] = _episode(sets, cols, lo, hi, feasible, some_fixed, tuned,
-                                         continuous, names)
-        _add(tally, found)
+            done[key] = [_episode(sets, cols, lo, hi, feasible, some_fixed, tuned, continuous,
+                                  names), 1]
+        else:
+            found[1] += 1
         result.episodes += 1
         result.steps += hi - lo - 1
         result.crashes += bool(cols.crashed[lo:hi].any())
+    for found, times in done.values():
+        _add(tally, found, times)
 
 
 def _own(tally: _Tally, cols: RunColumns, feasible: np.ndarray, deadlock: np.ndarray) -> None:
@@ -318,14 +321,16 @@ def _episode(sets: _Sets, cols: RunColumns, lo: int, hi: int, feasible: np.ndarr
     return blocked, fixed_blocked, union, crash_union if crash is not None else None, deadlocks
 
 
-def _add(tally: _Tally, found: tuple) -> None:
+def _add(tally: _Tally, found: tuple, times: int) -> None:
+    """An episode's sets, counted ``times`` (the episodes of a block that are the same)."""
     blocked, fixed_blocked, union, crash_union, deadlocks = found
-    tally.steps.update(blocked)
-    tally.steps[Values.everything()] += fixed_blocked
-    tally.episodes[union] += 1
+    for counter, sets in ((tally.steps, blocked), (tally.deadlocks, deadlocks)):
+        for v, k in Counter(sets).items():
+            counter[v] += k * times
+    tally.steps[Values.everything()] += fixed_blocked * times
+    tally.episodes[union] += times
     if crash_union is not None:
-        tally.crashes[crash_union] += 1
-    tally.deadlocks.update(deadlocks)
+        tally.crashes[crash_union] += times
 
 
 def shield_with(shield: Shield, target: Target, value: float) -> Shield:
