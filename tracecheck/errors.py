@@ -134,6 +134,16 @@ class TracecheckError(Exception):
     def __str__(self) -> str:
         return self.render()
 
+    def __reduce__(self):  # whole, with its place and hint, from a worker process
+        return _restored, (type(self), dict(self.__dict__))
+
+
+def _restored(cls: type, state: dict) -> "TracecheckError":
+    error = cls.__new__(cls)
+    error.__dict__.update(state)
+    Exception.__init__(error, error.render())
+    return error
+
 
 class BSyntaxError(TracecheckError):
     """Text that is not B (or not the subset tracecheck reads)."""

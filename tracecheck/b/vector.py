@@ -520,26 +520,22 @@ class BoundFormulas:
         self._comp = _VecCompiler(constants, cols.elements, _kinds(cols))
         self._comp.python_power = True  # every number the very one the scalar path computes
         self._ctx = BatchContext(cols)
-        self._done: dict[tuple, Callable[[], VectorValue]] = {}  # by the node's identity
-        self._nodes: list[ast.Node] = []  # (kept: an identity stays the node's while cached)
+        self._done: dict[tuple, tuple] = {}  # by the node's identity (the node kept in it)
 
     def compile(self, node: ast.Node, bound: tuple[str, ...] = ()
                 ) -> Callable[[], VectorValue]:
         """``node`` with ``bound`` (at most two names) the element variables in scope."""
         key = (id(node), bound)
-        if key in self._done:
-            return self._done[key]
-        if len(bound) > 2:
-            raise NotVectorizable("more than two bound element variables")
-        self._comp.axes = list(bound)
-        try:
-            fn = self._comp.compile(node)
-        finally:
-            self._comp.axes = []
-        ctx = self._ctx
-        self._done[key] = got = lambda: fn(ctx)
-        self._nodes.append(node)
-        return got
+        if key not in self._done:
+            if len(bound) > 2:
+                raise NotVectorizable("more than two bound element variables")
+            self._comp.axes = list(bound)
+            try:
+                fn = self._comp.compile(node)
+            finally:
+                self._comp.axes = []
+            self._done[key] = (lambda ctx=self._ctx: fn(ctx), node)
+        return self._done[key][0]
 
     @property
     def bad(self) -> Optional[np.ndarray]:

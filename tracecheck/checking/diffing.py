@@ -134,7 +134,7 @@ _FILE_COUNTS = {name: attrgetter(name) for name in (
 def diff(paths: Iterable[str | Path], shield: Shield, against: Shield, *,
          executor: str = "local", ray_address: Optional[str] = None,
          salvage: bool = False, details: int = DETAILS,
-         listed: Optional[int] = LISTED) -> DiffReport:
+         listed: Optional[int] = LISTED, workers: int = 1) -> DiffReport:
     """Evaluate both shields on every recorded state and report what changes from ``against``
     (the old version, or the baseline) to ``shield``.
 
@@ -144,6 +144,7 @@ def diff(paths: Iterable[str | Path], shield: Shield, against: Shield, *,
         against: the shield it is compared with.
         executor: ``local``, or ``ray`` (each block of a file in a Ray task at
             ``ray_address``; locally a file is read a block at a time all the same).
+        workers: with ``local``, how many processes diff the blocks (the same report).
         salvage: as :func:`~tracecheck.episodes.reader.read_run`.
         details: how many changed steps of continuous actions get both shields' allowed sets.
         listed: how many changed steps and episodes the report lists (the others counted;
@@ -163,7 +164,7 @@ def diff(paths: Iterable[str | Path], shield: Shield, against: Shield, *,
     start = time.perf_counter()
     parts = [part for _, part in map_file_blocks(
         _diff_one, lambda _, p, block: (p, shield, against, salvage, details, block, listed),
-        paths, executor, ray_address)]
+        paths, executor, ray_address, workers)]
     trimmed = [0, 0, 0]
     for part in parts:
         report.changes += part.changes

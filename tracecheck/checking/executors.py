@@ -1,7 +1,10 @@
-"""Where files are checked: in this process, or one Ray task per file.
+"""Where files are checked: in this process, in worker processes of it (``workers``), or in
+Ray tasks.
 
-Replay, diff and statistics map a function over their run files with :func:`map_files`;
-recording starts Ray the same way (:func:`start_ray`) for its episode tasks.
+Replay, diff and statistics map a function over their run files with :func:`map_file_blocks`:
+one unit per file in this process, one per block of episodes for workers or Ray (memory per
+worker is one block's), the results put back in file and block order — the same report
+whatever runs them. Recording starts Ray the same way (:func:`start_ray`).
 """
 
 from __future__ import annotations
@@ -47,19 +50,20 @@ def _in_task(fn, job: bytes):
         return fn(*pickle.loads(job))
 
 
-def file_blocks(paths, executor: str = "local") -> list[tuple[int, str, object]]:
+def file_blocks(paths, executor: str = "local", workers: int = 1
+                ) -> list[tuple[int, str, object]]:
     """The units of work over run files: (index of the file, its path, a
-    :class:`~tracecheck.episodes.columns.BlockRef` or None for the whole file). Locally a
-    whole file each (read block by block all the same); on Ray each block of a file that has
-    them (:func:`~tracecheck.episodes.columns.block_refs`), but a run with continuous actions
-    whole (its statistics decode every step of it)."""
+    :class:`~tracecheck.episodes.columns.BlockRef` or None for the whole file). In this
+    process a whole file each (read block by block all the same); for workers or on Ray each
+    block of a file that has them (:func:`~tracecheck.episodes.columns.block_refs`), but a
+    run with continuous actions whole (its statistics decode every step of it)."""
     from ..episodes.columns import block_refs
     from ..episodes.reader import read_header
 
+    whole = executor == "local" and workers <= 1
     out = []
     for i, p in enumerate(paths):
-        refs = [] if executor == "local" or read_header(p).action_parameters \
-            else block_refs(p)
+        refs = [] if whole or read_header(p).action_parameters else block_refs(p)
         out += [(i, str(p), ref) for ref in refs] or [(i, str(p), None)]
     return out
 
@@ -79,18 +83,19 @@ def _unit(fn, job: tuple):
 
 
 def map_file_blocks(fn, make_job, paths, executor: str = "local",
-                    address: Optional[str] = None) -> list[tuple[int, object]]:
+                    address: Optional[str] = None, workers: int = 1
+                    ) -> list[tuple[int, object]]:
     """``fn(*make_job(i, path, block))`` for each unit of :func:`file_blocks` (file ``i`` of
-    ``paths``), locally or as Ray tasks: (index of the file, result) in file order. A file
-    one of whose blocks does not
-    check when its task reads it (damaged, or changed since it was counted) is done again
-    whole, as the local executor does it."""
-    units = file_blocks(paths, executor)
+    ``paths``), in this process, in ``workers`` processes or as Ray tasks: (index of the
+    file, result) in file order. A file one of whose blocks does not check when its task
+    reads it (damaged, or changed since it was counted) is done again whole, as one process
+    does it."""
+    units = file_blocks(paths, executor, workers)
     results = map_files(_unit, [(fn, make_job(i, p, ref)) for i, p, ref in units], executor,
-                        address)
+                        address, workers=workers)
     redo = sorted({i for (i, _, _), r in zip(units, results) if r == UNCHECKED})
     again = dict(zip(redo, map_files(fn, [make_job(i, str(paths[i]), None) for i in redo],
-                                     executor, address)))
+                                     executor, address, workers=workers)))
     out, given = [], set()
     for (i, _, _), r in zip(units, results):
         if i not in again:
@@ -102,11 +107,14 @@ def map_file_blocks(fn, make_job, paths, executor: str = "local",
 
 
 def map_files(fn, jobs: list[tuple], executor: str = "local",
-              address: Optional[str] = None, cpus: int = 2) -> list:
-    """``fn(*job)`` for each job (one per file), locally or as Ray tasks; results in order."""
+              address: Optional[str] = None, cpus: int = 2, workers: int = 1) -> list:
+    """``fn(*job)`` for each job (one per file or block), in this process, in ``workers``
+    processes (``local``) or as Ray tasks; results in order."""
     if executor not in EXECUTORS:
         raise InputError(f"unknown executor {executor!r}; the executors are "
                          f"{', '.join(EXECUTORS)}")
+    if executor == "local" and workers > 1 and len(jobs) > 1:
+        return _in_workers(fn, jobs, workers)
     if executor == "local" or len(jobs) <= 1 and address is None:
         return [fn(*job) for job in jobs]
     ray, started = start_ray(address, cpus)
@@ -117,3 +125,16 @@ def map_files(fn, jobs: list[tuple], executor: str = "local",
     finally:
         if started:
             ray.shutdown()
+
+
+def _in_workers(fn, jobs: list[tuple], workers: int) -> list:
+    """``fn(*job)`` for each job in a pool of ``workers`` processes, results in order (a
+    job's error raised here, as in one process; Ctrl-C stops the pool)."""
+    from ..processes import quiet_worker, worker_context
+
+    with worker_context().Pool(min(workers, len(jobs)), initializer=quiet_worker) as pool:
+        try:
+            handles = [pool.apply_async(_in_task, (fn, pickle.dumps(job))) for job in jobs]
+            return [h.get() for h in handles]
+        finally:
+            pool.terminate()

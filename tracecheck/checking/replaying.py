@@ -565,7 +565,8 @@ def _replay_one(path: str, shield: Shield, parsed: Sequence[tuple] = (),
 
 def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "local",
            ray_address: Optional[str] = None, ltl: Sequence[str] = (),
-           ltl_assertions: bool = False, salvage: bool = False) -> ReplayReport:
+           ltl_assertions: bool = False, salvage: bool = False,
+           workers: int = 1) -> ReplayReport:
     """Replay every episode of the files against ``shield`` (see the module docstring).
 
     Each file is read a block of episodes at a time (memory is set by the block, not the
@@ -575,6 +576,7 @@ def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "loca
         paths: run files (MCAP).
         shield: the shield (:func:`~tracecheck.checking.shield.load_shield`).
         executor: ``local``, or ``ray`` (each block in a Ray task at ``ray_address``).
+        workers: with ``local``, how many processes replay the blocks (the same report).
         ltl: LTL formulas to check on every episode (:mod:`tracecheck.checking.ltl`).
         ltl_assertions: also check the machine's ``ASSERT_LTL`` definitions.
         salvage: as :func:`~tracecheck.episodes.reader.read_run`.
@@ -592,7 +594,7 @@ def replay(paths: Iterable[str | Path], shield: Shield, *, executor: str = "loca
     start = time.perf_counter()
     for _, part in map_file_blocks(_replay_one,
                                    lambda _, p, block: (p, shield, parsed, salvage, block), paths,
-                                   executor, ray_address):
+                                   executor, ray_address, workers):
         report.per_episode += part.per_episode
         report.warnings += part.warnings
         for entry in part.ltl:

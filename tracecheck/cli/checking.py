@@ -10,7 +10,7 @@ import typer
 from ..errors import InputError
 from .common import (app, out, err, warn, Executor, FILE_EXECUTOR, RAY_ADDRESS, OutputFormat,
                      FailOn, SHIELD_HELP, ROWS, run_shield, SALVAGE, FORMAT, JSON, output_format,
-                     progress, FORCE, run_adapter)
+                     progress, FORCE, run_adapter, WORKERS)
 
 
 @app.command("replay")
@@ -41,6 +41,7 @@ def replay_cmd(
                                       "adapter (default: the installed one the file names)."),
     executor: Executor = FILE_EXECUTOR,
     ray_address: Optional[str] = RAY_ADDRESS,
+    workers: int = WORKERS,
 ) -> None:
     """Replay episodes against a shield: where would it have blocked the recorded action?"""
     from ..checking.replaying import replay
@@ -54,7 +55,7 @@ def replay_cmd(
                          "episodes that do not reproduce the recording")
     loaded = run_shield(shield, runs)
     report = replay(runs, loaded, executor=executor.value, ray_address=ray_address, ltl=ltl,
-                    ltl_assertions=ltl_assertions, salvage=salvage)
+                    ltl_assertions=ltl_assertions, salvage=salvage, workers=workers)
     warn(report.warnings)
     if resimulate:
         todo = sum(e.first_infeasible is not None for e in report.per_episode)
@@ -120,6 +121,7 @@ def diff_cmd(
     force: bool = FORCE,
     executor: Executor = FILE_EXECUTOR,
     ray_address: Optional[str] = RAY_ADDRESS,
+    workers: int = WORKERS,
 ) -> None:
     """Compare two shields on every recorded state: which steps does the change block or allow?"""
     from ..checking.diffing import LISTED, diff
@@ -152,6 +154,7 @@ def diff_cmd(
                          "solver")
     report = diff(runs, run_shield(shield, runs), run_shield(against, runs),
                   executor=executor.value, ray_address=ray_address, salvage=salvage,
+                  workers=workers,
                   listed=None if all_changes else LISTED)
     warn(report.warnings)
     if (report.changes_left_out or report.episodes_left_out) and fmt != OutputFormat.text:

@@ -10,7 +10,8 @@ import typer
 from ..outputs import input_paths
 from .common import (external_settings, app, out, err, warn, Executor, FILE_EXECUTOR,
                      RAY_ADDRESS, OutputFormat, FORMAT, JSON, output_format, progress, Interval,
-                     record_settings, PROPERTIES_HELP, SALVAGE, RUN_ENV, run_adapter, FORCE)
+                     record_settings, PROPERTIES_HELP, SALVAGE, RUN_ENV, run_adapter, FORCE,
+                     WORKERS)
 from .run_options import EXTERNAL_MODE, RunOptions, run_options
 
 
@@ -44,6 +45,7 @@ def stats_cmd(
     force: bool = FORCE,
     executor: Executor = FILE_EXECUTOR,
     ray_address: Optional[str] = RAY_ADDRESS,
+    workers: int = WORKERS,
 ) -> None:
     """Estimate metrics and property shares per run, side by side like the paper's tables."""
     fmt = output_format(fmt, as_json)
@@ -61,7 +63,8 @@ def stats_cmd(
     for line in notes:
         err.print(f"note: {line}")
     result = statistics(runs, pset, interval=interval.value, executor=executor.value,
-                        ray_address=ray_address, adapter=adapter, salvage=salvage)
+                        ray_address=ray_address, adapter=adapter, salvage=salvage,
+                        workers=workers)
     _print_stats(result, fmt, plot, force)
 
 

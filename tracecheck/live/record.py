@@ -13,13 +13,12 @@ back.
 from __future__ import annotations
 
 import math
-import multiprocessing as mp
-import signal
 from pathlib import Path
 from typing import Callable, Iterator, Optional, Sequence
 
 from ..episodes.files import check_run_output, record_episodes
 from ..outputs import input_paths
+from ..processes import quiet_worker, worker_context
 from ..episodes.writer import ChannelsFactory, new_header
 from ..episodes.model import Episode
 from ..errors import InputError
@@ -39,25 +38,11 @@ _FAILED: Optional[BaseException] = None
 
 def _init_worker(settings: RecordSettings, shield) -> None:
     global _SESSION, _FAILED
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole process group:
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # the parent handles it and stops us
-    _die_with_parent()
+    quiet_worker()
     try:
         _SESSION = Session(settings, shield=shield)
     except Exception as error:  # raised from an initializer, the pool starts workers for ever
         _FAILED = error  # raised by the first episode instead, so it reaches the parent
-
-
-def _die_with_parent() -> None:
-    """Ask Linux to end this worker quietly when the recording process ends, however it
-    ends (SIGKILL included), instead of leaving it to fail writing to a closed pipe."""
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):  # not Linux: the pool's terminate() still ends us
-        pass
 
 
 def _work(first: int, count: int) -> list[Episode]:
@@ -82,8 +67,7 @@ def episodes(settings: RecordSettings, shield) -> Iterator[Episode]:
         for i in range(settings.episodes):
             yield session.episode(i)
         return
-    ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
-    with ctx.Pool(settings.workers, initializer=_init_worker,
+    with worker_context().Pool(settings.workers, initializer=_init_worker,
                   initargs=(settings, shield)) as pool:
         size = min(LOCAL_BATCH, batch_size(settings.episodes, settings.workers))
         try:

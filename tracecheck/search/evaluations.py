@@ -60,12 +60,10 @@ _WORKER: Optional[Evaluator] = None
 def _init_worker(settings, shield) -> None:
     """A worker process's own environment, agent and objective (built there)."""
     global _WORKER
-    import signal
-
     from ..live.rollout import Session
+    from ..processes import quiet_worker
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C and stops us
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    quiet_worker()
     session = Session(settings.record, shield=shield)
     _WORKER = Evaluator(settings, session, search_objective(settings.prop, settings.guide,
                                                           shield, session))
@@ -90,10 +88,9 @@ def evaluations(settings, session, objective: Objective, shield):
         local = Evaluator(settings, session, objective)
         yield lambda tasks: [local(t) for t in tasks]
         return
-    import multiprocessing as mp
+    from ..processes import worker_context
 
-    ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
-    with ctx.Pool(workers, initializer=_init_worker, initargs=(settings, shield)) as pool:
+    with worker_context().Pool(workers, initializer=_init_worker, initargs=(settings, shield)) as pool:
         try:
             yield lambda tasks: pool.map(_work, tasks, chunksize=1)
         finally:

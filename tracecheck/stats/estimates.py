@@ -361,13 +361,15 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
                names: Optional[list[str]] = None,
                columns: Optional[list[RunColumns]] = None, executor: str = "local",
                ray_address: Optional[str] = None, adapter=None,
-               salvage: bool = False) -> StatsResult:
+               salvage: bool = False, workers: int = 1) -> StatsResult:
     """The statistics of the runs in ``paths`` (JSON-ready; see the module docstring).
 
     ``columns``: the runs' columns when they were read already (else read with ``salvage``,
     as :func:`~tracecheck.episodes.columns.read_columns`); ``adapter``: the runs'
     environment adapter, when given by the user (``--env``; else the installed one their
-    files name, if any); ``statistics_s`` in the result is the time spent after reading."""
+    files name, if any); ``statistics_s`` in the result is the time spent after reading;
+    ``workers``: with the ``local`` executor, how many processes evaluate the blocks of runs
+    not read yet (the same result)."""
     if interval not in INTERVALS:
         raise InputError(f"unknown interval method {interval!r}; the methods are "
                          f"{', '.join(INTERVALS)}")
@@ -381,13 +383,13 @@ def statistics(paths: list[str | Path], pset: PropertySet, *, interval: str = "w
         for path in paths:
             check_environment(adapter, path)
         environment = adapter
-    if executor != "local":
+    if executor != "local" or (workers > 1 and not columns):
         from ..checking.executors import map_file_blocks
 
         start = time.perf_counter()
         parts = map_file_blocks(_evaluate_one, lambda i, p, block: (
             p, pset, names[i] if names else None, adapter, salvage, block),
-            [str(p) for p in paths], executor, ray_address)
+            [str(p) for p in paths], executor, ray_address, workers)
         runs = [_merged([r for j, r in parts if j == i],
                         names[i] if names else Path(p).stem, str(p))
                 for i, p in enumerate(paths)]

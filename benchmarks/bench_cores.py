@@ -1,0 +1,190 @@
+"""Benchmark: how recording and replay scale with cores — episodes/s and parallel efficiency at
+1, 2, 4, … workers up to every core, each a fresh `tracecheck` process as a user runs it.
+
+    python benchmarks/bench_cores.py [--max-workers N] [--frozenlake 800] [--highway 16]
+        [--replay 100000] [--repeat 1] [--out DIR] [--cache DIR]
+
+Three jobs (each skipped with 0):
+
+- ``record --env frozenlake`` with the bundled Q-table under the frozenlake shield, slippery
+  lake, Foxglove's channels as the CLI writes them (``--frozenlake`` episodes);
+- ``record`` of the bundled highway agent under the paper shield (``--highway`` episodes;
+  needs highway-env);
+- ``replay --shield strict`` of one file of ``--replay`` episodes: the paper's 40 SimB traces
+  round-robin where ``../shared/data/paper-traces`` is, else frozenlake episodes recorded
+  here (built once into ``--cache`` and kept there: 10⁵ episodes take minutes to write).
+
+Every run of a job writes or reads the same episodes; the replay's JSON report is checked to be
+the same at every number of workers (but its timing fields). Out: a table on stdout, and
+``cores.json`` and ``cores.md`` in ``--out`` (default: the current folder). No network.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SIMB = ROOT.parent / "shared" / "data" / "paper-traces" / "simb"
+TIMING = ("elapsed_s", "steps_per_s")
+
+
+def counts(top: int) -> list[int]:
+    """1, 2, 4, … below ``top``, and ``top``."""
+    out, w = [], 1
+    while w < top:
+        out.append(w)
+        w *= 2
+    return out + [top]
+
+
+def tracecheck(*args: str) -> float:
+    """Wall time of one fresh `tracecheck` process (it must succeed)."""
+    start = time.perf_counter()
+    done = subprocess.run([sys.executable, "-m", "tracecheck", *args], capture_output=True,
+                          text=True)
+    took = time.perf_counter() - start
+    if done.returncode != 0:
+        raise SystemExit(f"tracecheck {' '.join(args)} failed ({done.returncode}):\n"
+                         f"{done.stderr[-2000:]}")
+    return took
+
+
+def record_job(name: str, episodes: int, run: list[str], workers: list[int], repeat: int,
+               tmp: Path) -> list[dict]:
+    rows = []
+    for w in workers:
+        times = [tracecheck("record", *run, "--episodes", str(episodes), "--seed", "0",
+                            "--workers", str(w), "-o", str(tmp / f"{name}-{w}.mcap"), "--force")
+                 for _ in range(repeat)]
+        rows.append({"job": name, "workers": w, "episodes": episodes,
+                     "seconds": statistics.median(times)})
+        print(f"  {name}: {w} workers, {episodes} episodes in {rows[-1]['seconds']:.2f} s",
+              flush=True)
+    return rows
+
+
+def replay_file(episodes: int, cache: Path) -> Path:
+    """A file of ``episodes`` episodes (made once, kept in ``cache``)."""
+    kind = "paper" if SIMB.is_dir() else "frozenlake"
+    path = cache / f"cores-{kind}-{episodes}.mcap"
+    if path.exists():
+        return path
+    cache.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    part = path.with_suffix(".part.mcap")
+    if kind == "paper":
+        import dataclasses
+        from itertools import cycle, islice
+
+        from tracecheck.episodes.files import write_run
+        from tracecheck.episodes.writer import new_header
+        from tracecheck.interop import import_simb
+        from tracecheck.live.envs.highway import HIGHWAY
+
+        sources = list(import_simb([SIMB / "base", SIMB / "base_shield"], vocab=HIGHWAY))
+        eps = (dataclasses.replace(e, id=i) for i, e in enumerate(islice(cycle(sources),
+                                                                        episodes)))
+        write_run(part, new_header("imported-simb", variables=list(HIGHWAY.variables),
+                                   actions=list(HIGHWAY.actions)), eps)
+    else:
+        tracecheck("record", *FROZENLAKE, "--episodes", str(episodes), "--seed", "0",
+                   "--workers", str(os.cpu_count() or 1), "-o", str(part), "--force")
+    part.rename(path)
+    print(f"  made {path} ({episodes} episodes) in {time.perf_counter() - start:.0f} s",
+          flush=True)
+    return path
+
+
+def replay_job(path: Path, shield: str, episodes: int, workers: list[int], repeat: int,
+               tmp: Path) -> list[dict]:
+    rows, first = [], None
+    for w in workers:
+        times = []
+        for k in range(repeat):
+            out = tmp / f"replay-{w}-{k}.json"
+            start = time.perf_counter()
+            with open(out, "w") as f:
+                done = subprocess.run([sys.executable, "-m", "tracecheck", "replay", str(path),
+                                       "--shield", shield, "--json", "--workers", str(w)],
+                                      stdout=f, stderr=subprocess.PIPE, text=True)
+            times.append(time.perf_counter() - start)
+            if done.returncode not in (0, 1):
+                raise SystemExit(f"replay failed ({done.returncode}): {done.stderr[-2000:]}")
+            report = {k: v for k, v in json.loads(out.read_text()).items() if k not in TIMING}
+            if first is None:
+                first = report
+            elif report != first:
+                raise SystemExit(f"replay with {w} workers reports differently from 1 worker")
+        rows.append({"job": f"replay {shield}", "workers": w, "episodes": episodes,
+                     "seconds": statistics.median(times), "same_report": True})
+        print(f"  replay: {w} workers, {episodes} episodes in {rows[-1]['seconds']:.2f} s "
+              "(the same report)", flush=True)
+    return rows
+
+
+FROZENLAKE = ["--env", "frozenlake", "--env-config", "is_slippery=true",
+              "--agent", str(ROOT / "models" / "agents" / "frozenlake.npy"),
+              "--shield", "frozenlake"]
+HIGHWAY_RUN = ["--agent", str(ROOT / "models" / "agents" / "base.zip"), "--shield", "paper"]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--max-workers", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--frozenlake", type=int, default=800)
+    parser.add_argument("--highway", type=int, default=16)
+    parser.add_argument("--replay", type=int, default=100_000)
+    parser.add_argument("--repeat", type=int, default=1)
+    parser.add_argument("--out", type=Path, default=Path("."))
+    parser.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "tracecheck-bench")
+    args = parser.parse_args()
+    workers = counts(args.max_workers)
+    print(f"{os.cpu_count()} cores; workers {workers}; medians of {args.repeat}", flush=True)
+    rows: list[dict] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        if args.frozenlake:
+            rows += record_job("record frozenlake", args.frozenlake, FROZENLAKE, workers,
+                               args.repeat, tmp)
+        if args.highway:
+            try:
+                import highway_env  # noqa: F401
+            except ImportError:
+                print("  record highway: skipped (highway-env is not installed)")
+            else:
+                rows += record_job("record highway", args.highway, HIGHWAY_RUN, workers,
+                                   args.repeat, tmp)
+        if args.replay:
+            path = replay_file(args.replay, args.cache)
+            shield = "strict" if SIMB.is_dir() else "frozenlake"
+            rows += replay_job(path, shield, args.replay, workers, args.repeat, tmp)
+    for row in rows:
+        one = next(r for r in rows if r["job"] == row["job"] and r["workers"] == 1)
+        row["episodes_per_s"] = round(row["episodes"] / row["seconds"], 2)
+        row["speedup"] = round(one["seconds"] / row["seconds"], 3)
+        row["efficiency"] = round(row["speedup"] / row["workers"], 3)
+    machine = {"cores": os.cpu_count(), "python": sys.version.split()[0],
+               "repeat": args.repeat}
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "cores.json").write_text(json.dumps({"machine": machine, "rows": rows},
+                                                    indent=2) + "\n")
+    table = ["| job | workers | episodes | seconds | episodes/s | speed-up | efficiency |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    table += [f"| {r['job']} | {r['workers']} | {r['episodes']} | {r['seconds']:.2f} | "
+              f"{r['episodes_per_s']} | {r['speedup']:.2f}× | {r['efficiency']:.0%} |"
+              for r in rows]
+    text = f"{machine['cores']} cores, medians of {args.repeat}\n\n" + "\n".join(table) + "\n"
+    (args.out / "cores.md").write_text(text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
