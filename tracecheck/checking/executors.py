@@ -73,7 +73,7 @@ def file_blocks(paths, executor: str = "local", workers: int = 1
 UNCHECKED = "tracecheck: block unchecked"
 
 
-def _unit(fn, job: tuple):
+def _unit(fn, *job):
     from ..episodes.columns import BlockUnchecked
 
     try:
@@ -91,7 +91,7 @@ def map_file_blocks(fn, make_job, paths, executor: str = "local",
     reads it (damaged, or changed since it was counted) is done again whole, as one process
     does it."""
     units = file_blocks(paths, executor, workers)
-    results = map_files(_unit, [(fn, make_job(i, p, ref)) for i, p, ref in units], executor,
+    results = map_files(_unit, [(fn, *make_job(i, p, ref)) for i, p, ref in units], executor,
                         address, workers=workers)
     redo = sorted({i for (i, _, _), r in zip(units, results) if r == UNCHECKED})
     again = dict(zip(redo, map_files(fn, [make_job(i, str(paths[i]), None) for i in redo],
@@ -134,7 +134,24 @@ def _in_workers(fn, jobs: list[tuple], workers: int) -> list:
 
     with worker_context().Pool(min(workers, len(jobs)), initializer=quiet_worker) as pool:
         try:
-            handles = [pool.apply_async(_in_task, (fn, pickle.dumps(job))) for job in jobs]
+            handles = [pool.apply_async(_in_worker, (fn, [pickle.dumps(a) for a in job]))
+                       for job in jobs]
             return [h.get() for h in handles]
         finally:
             pool.terminate()
+
+
+#: in a worker: each argument it was sent, by its bytes — a shield (or a property set) that
+#: every job carries is unpickled once, and its compiled guards serve every later job
+_LOADED: dict[bytes, object] = {}
+
+
+def _in_worker(fn, args: list[bytes]):
+    """``fn(*args)`` in a worker process, each argument unpickled once per process."""
+    loaded = []
+    for data in args:
+        if data not in _LOADED:
+            _LOADED[data] = pickle.loads(data)
+        loaded.append(_LOADED[data])
+    with deep_recursion():
+        return fn(*loaded)

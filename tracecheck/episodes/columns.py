@@ -130,7 +130,7 @@ def read_blocks(path: str | Path, *, salvage: bool = False, block: Optional[Bloc
     done = 0  # episodes given from blobs
     notes: list[str] = []  # why a blob that checks was not used
     with mapped(path) as buf:
-        index = None if regions else blob_records(buf)
+        index = None if regions else _index(path, buf, block is not None)
         runs = index.runs if index is not None else []
         forget(buf)  # the summary's pages too
         view = memoryview(buf)
@@ -154,6 +154,23 @@ def read_blocks(path: str | Path, *, salvage: bool = False, block: Optional[Bloc
         raise BlockUnchecked(f"{path}: block {block.index} of its episodes does not check "
                              "(damaged, or the file changed while it was read)")
     yield from _walked(path, salvage, done, regions, notes)
+
+
+#: the blob index of the last file read a block at a time, by the file's identity: a worker
+#: given block after block of one file reads its summary once (a block whose bytes are not
+#: those the index says does not check, and its file is read again whole)
+_INDEX: dict[tuple, object] = {}
+
+
+def _index(path: Path, buf, one_block: bool):
+    if not one_block:
+        return blob_records(buf)
+    st = path.stat()
+    key = (str(path.resolve()), st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)
+    if key not in _INDEX:
+        _INDEX.clear()
+        _INDEX[key] = blob_records(buf)
+    return _INDEX[key]
 
 
 def _from_blob(path: Path, buf, view, index, k: int, notes: list[str]
