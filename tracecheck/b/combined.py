@@ -46,7 +46,10 @@ class Combined(SymbolicSet):
 
     def __init__(self, op: str, a: Any, b: Any) -> None:
         self.op, self.a, self.b = op, a, b
-        self.name = f"({format_value(a)} {SYMBOLS[op]} {format_value(b)})"
+
+    @property
+    def name(self) -> str:  # written out only for a message
+        return f"({format_value(self.a)} {SYMBOLS[self.op]} {format_value(self.b)})"
 
     def contains(self, value: Any) -> bool:
         if self.op == "\\/":

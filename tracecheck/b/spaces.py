@@ -29,7 +29,10 @@ class FunctionSpace(SymbolicSet):
 
     def __init__(self, op: str, dom: Any, ran: Any) -> None:
         self.op, self.dom, self.ran = op, dom, ran
-        self.name = f"({format_value(dom)} {op} {format_value(ran)})"
+
+    @property
+    def name(self) -> str:  # written out only for a message (a map's space is checked often)
+        return f"({format_value(self.dom)} {self.op} {format_value(self.ran)})"
 
     def finiteness(self) -> Optional[bool]:
         fd, fr = finiteness(self.dom), finiteness(self.ran)

@@ -110,10 +110,10 @@ def equations(machine, text: str, memo: Optional[dict] = None) -> Optional[dict[
     owners = machine.element_sets()
     out: dict[str, Any] = {}
     for part in parts:
-        m = _EQUATION.fullmatch(part)
-        if m is None or m.group(1) not in machine.variables or m.group(1) in out:
+        found = _equation(part)
+        if found is None or found[0] not in machine.variables or found[0] in out:
             return None
-        name, literal = m.group(1), m.group(2)
+        name, literal = found
         known = memo.get(name) if memo is not None else None
         if known is not None and known[0] == literal:
             out[name] = known[1]
@@ -131,7 +131,15 @@ def equations(machine, text: str, memo: Optional[dict] = None) -> Optional[dict[
     return out
 
 
-_EQUATION = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(?![=>])\s*(\S.*?)\s*", re.S)
+def _equation(part: str) -> Optional[tuple[str, str]]:
+    """``name = literal`` as (name, literal), the spaces around each left out; None where
+    ``part`` is not that (``<=``, ``==``, ``=>``, no name, nothing after)."""
+    name, eq, rest = part.partition("=")
+    name, literal = name.strip(), rest.strip()
+    if not eq or not literal or rest[0] in "=>" or not (
+            name.isascii() and name.isidentifier()):
+        return None
+    return name, literal
 
 
 _SPECIAL = re.compile(r'[()\[\]{}"&\\]')
@@ -140,6 +148,8 @@ _SPECIAL = re.compile(r'[()\[\]{}"&\\]')
 def _top_level_and(text: str) -> Optional[list[str]]:
     """``text`` split at the ``&`` outside brackets and strings; None when they do not
     balance."""
+    if '"' not in text and "\\" not in text:  # no string: the brackets counted between &s
+        return _split_counted(text)
     parts, depth, start, quoted, escaped = [], 0, 0, False, -1
     for m in _SPECIAL.finditer(text):
         c, i = m.group(), m.start()
@@ -165,6 +175,24 @@ def _top_level_and(text: str) -> Optional[list[str]]:
         return None
     parts.append(text[start:])
     return parts
+
+
+def _split_counted(text: str) -> Optional[list[str]]:
+    """:func:`_top_level_and` for a text without strings, the brackets counted in C between
+    one ``&`` and the next (an agent's predicate is a long map and a few ``&``). Where the
+    depth dips below zero inside a part and comes back (``x = )(``), that part is no
+    literal and the caller parses the predicate with the grammar, as when None."""
+    parts, pieces, depth = [], [], 0
+    for piece in text.split("&"):
+        pieces.append(piece)
+        depth += (piece.count("(") + piece.count("[") + piece.count("{")
+                  - piece.count(")") - piece.count("]") - piece.count("}"))
+        if depth < 0:
+            return None
+        if depth == 0:
+            parts.append("&".join(pieces))
+            pieces = []
+    return None if depth or pieces else parts
 
 
 def _elements(value: Any):
