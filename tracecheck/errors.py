@@ -72,6 +72,9 @@ class JoinedText(str):
         first, file, text = next(p for p in reversed(self.parts) if p[0] <= line)
         return file, line - first + 1, text
 
+    def __reduce__(self):  # to a worker process and back (a shield, an error placed in it)
+        return JoinedText, ([(file, text) for _, file, text in self.parts],)
+
 
 class TracecheckError(Exception):
     """Base class: every error tracecheck raises on bad input is one of these."""

@@ -84,3 +84,28 @@ def test_the_cli_reports_the_same_with_two_workers(tmp_path, monkeypatch):
         reports.append({k: v for k, v in report.items() if k not in ("elapsed_s",
                                                                      "steps_per_s")})
     assert reports[0] == reports[1] and reports[0]["episodes"] == 24
+
+
+def test_a_shield_joined_from_several_files_goes_to_the_workers_whole(tmp_path, monkeypatch):
+    # a machine that SEES another is one text joined from both (errors placed in either):
+    # it must travel to a worker and back as it is
+    import pickle
+
+    from tracecheck.errors import EvaluationError, JoinedText
+
+    text = (ROOT / "models" / "shields" / "paper.mch").read_text()
+    (tmp_path / "Base.mch").write_text("MACHINE Base\nCONSTANTS Unused\n"
+                                       "PROPERTIES Unused = 1\nEND\n")
+    sees = tmp_path / "PaperSees.mch"
+    sees.write_text(text.replace("MACHINE PaperShield\n", "MACHINE PaperSees\nSEES Base\n", 1),
+                    encoding="utf-8")
+    shield = load_shield(sees)
+    assert isinstance(shield.machine.source, JoinedText)
+    path = tmp_path / "blocks.mcap"
+    _blocks(path, monkeypatch)
+    one, two = replay([path], shield), replay([path], shield, workers=2)
+    assert one.per_episode == two.per_episode and one.infeasible_steps
+    joined = shield.machine.source
+    error = pickle.loads(pickle.dumps(EvaluationError("boom", source=joined)))
+    assert error.render() == EvaluationError("boom", source=joined).render()
+    assert pickle.loads(pickle.dumps(joined)).parts == joined.parts

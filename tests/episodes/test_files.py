@@ -101,10 +101,10 @@ def test_an_interrupt_while_an_episode_is_written_takes_effect_once_it_is(tmp_pa
 
     original = EpisodeWriter._write
 
-    def interrupted(self, ep):
+    def interrupted(self, ep, *rest):
         if ep.id == 1:
             os.kill(os.getpid(), signal.SIGINT)  # arrives while this episode is written
-        return original(self, ep)
+        return original(self, ep, *rest)
     monkeypatch.setattr(EpisodeWriter, "_write", interrupted)
     out = tmp_path / "cut.mcap"
     with pytest.raises(KeyboardInterrupt):

@@ -117,15 +117,15 @@ def test_an_end_record_with_another_length(tmp_path):
 def test_a_missing_attachment_is_not_a_silently_missing_episode(tmp_path, monkeypatch):
     real = W.EpisodeWriter._write
 
-    def without_columns(self, ep):
+    def without_columns(self, ep, *rest):
         if ep.id == 1:
             add = self._writer.add_attachment
             self._writer.add_attachment = lambda **kw: None
             try:
-                return real(self, ep)
+                return real(self, ep, *rest)
             finally:
                 self._writer.add_attachment = add
-        return real(self, ep)
+        return real(self, ep, *rest)
 
     monkeypatch.setattr(W.EpisodeWriter, "_write", without_columns)
     path = write(tmp_path / "run.mcap", episodes())

@@ -348,8 +348,18 @@ class ThresholdBatch:
         if f.bad is not None:
             unsure |= np.broadcast_to(f.bad, (n,))
         c = points.sorted.shape[1]
-        valid = (np.arange(c)[None, :] < points.count[:, None]) & ~unsure[:, None]
         roots: dict[tuple[int, int], Optional[Fraction]] = {}  # for every guard at once
+        # roots equal in floats are one test point: only where they are equal exactly too
+        # (else the set may change between them, where no point was tested)
+        group = points.group
+        shared = (group[:, 1:] == group[:, :-1]) & (group[:, 1:] < c) & ~unsure[:, None]
+        for i, k in zip(*(a.tolist() for a in np.nonzero(shared))):
+            j = int(group[i, k])
+            if (i, j) not in roots:
+                roots[(i, j)] = points.root(i, j)
+            if roots[(i, j)] is None:
+                unsure[i] = True
+        valid = (np.arange(c)[None, :] < points.count[:, None]) & ~unsure[:, None]
         for op, top in tops.items():
             pieces, at = top[:, 0::2], top[:, 1::2][:, :c]
             change = valid & ~((at == pieces[:, :-1]) & (at == pieces[:, 1:]))

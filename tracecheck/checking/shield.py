@@ -14,7 +14,7 @@ from typing import Optional
 
 from .. import registry
 from ..b.machine import Machine, load_machine, load_machine_text
-from ..errors import InputError, TracecheckError
+from ..errors import InputError, JoinedText, TracecheckError
 
 __all__ = ["Shield", "ShieldMachine", "load_shield", "for_actions", "builtin_shields",
            "shield_names", "SHIELD_DIR", "check_vocabulary", "typing_machine", "data_dir"]
@@ -64,8 +64,10 @@ class Shield:
         """Pickled as its machine's text, rebuilt where it is unpickled: a Ray task gets the
         shield itself — ``none`` made from a run's actions too — never a name or path to
         load again (which on a worker may mean another shield, or none at all)."""
-        return (_rebuilt, (self.name, self.sha256, self.path, self.machine.source,
-                           self.machine.file))
+        text = self.machine.source
+        if isinstance(text, JoinedText):  # joined from the machines it sees or includes:
+            text = text.parts[0][2]  # its own text (they are read again, the sha256 checked)
+        return (_rebuilt, (self.name, self.sha256, self.path, text, self.machine.file))
 
 
 def load_shield(spec: str | Path, *, actions: Optional[tuple[str, ...]] = None,

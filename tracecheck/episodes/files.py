@@ -6,13 +6,14 @@ lost to a run that failed or was interrupted early."""
 from __future__ import annotations
 
 import os
+from collections import deque
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Callable, Iterable, Iterator, Optional, Sequence
+from typing import Any, Callable, Iterable, Iterator, Optional, Sequence
 
 from ..errors import InputError
 from ..outputs import atomic_temp, check_output, open_new, temp_file
-from .writer import ChannelsFactory, EpisodeWriter
+from .writer import ChannelsFactory, EpisodeWriter, Prepared, clock_after
 from .model import Episode
 from .schema import RunHeaderMessage
 
@@ -134,18 +135,47 @@ def whole_episode() -> Iterator[None]:
 def record_episodes(path: str | Path, header: RunHeaderMessage, episodes: Iterable[Episode],
                     progress: Optional[Callable[[Episode], None]] = None, *,
                     force: bool = False, channels: Optional[ChannelsFactory] = None,
-                    inputs: Sequence[Path] = ()) -> tuple[int, int, int]:
+                    inputs: Sequence[Path] = (),
+                    encode: Optional[Callable[[Episode, int], Any]] = None
+                    ) -> tuple[int, int, int]:
     """Write ``episodes`` into ``path`` as they come (:func:`recording_into`: an interrupted
-    or failed recording keeps every finished episode); (episodes, steps, crashes)."""
+    or failed recording keeps every finished episode); (episodes, steps, crashes).
+
+    ``encode(episode, clock_ns)``: where the plug-in's messages of an episode are made
+    elsewhere (a recording's workers), a handle whose ``get()`` gives them
+    (:func:`~tracecheck.episodes.writer.extra_messages` for that start time); the writer then
+    only appends them — the same file as when it makes them itself."""
     counts = [0, 0, 0]
     with recording_into(path, header, force=force, channels=channels,
                         inputs=inputs) as writer:
-        for episode in episodes:
+        stream = ((e, None) for e in episodes) if encode is None or writer.extra is None \
+            else _prepared(writer.clock_ns, episodes, encode)
+        for episode, prepared in stream:
             with whole_episode():
-                writer.write(episode)
+                writer.write(episode, prepared)
             counts[0] += 1
             counts[1] += episode.end.steps
             counts[2] += episode.end.crashed
             if progress is not None:
                 progress(episode)
     return counts[0], counts[1], counts[2]
+
+
+#: episodes whose plug-in messages are being made elsewhere at once
+AHEAD = 8
+
+
+def _prepared(clock_ns: int, episodes: Iterable[Episode], encode
+              ) -> Iterator[tuple[Episode, Prepared]]:
+    """Each episode, in order, with its plug-in messages made by ``encode`` for the time it
+    will start at (each episode's from the one before: :func:`clock_after`)."""
+    ahead: deque = deque()
+    for episode in episodes:
+        ahead.append((episode, clock_ns, encode(episode, clock_ns)))
+        clock_ns = clock_after(clock_ns, episode)
+        if len(ahead) > AHEAD:
+            done, at, handle = ahead.popleft()
+            yield done, Prepared(at, handle.get())
+    while ahead:
+        done, at, handle = ahead.popleft()
+        yield done, Prepared(at, handle.get())

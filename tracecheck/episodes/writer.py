@@ -17,6 +17,7 @@ from __future__ import annotations
 import datetime as _dt
 import time as _time
 import zlib
+from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any, Callable, Iterable, Optional, Protocol
 
@@ -31,7 +32,8 @@ from .blobs import BLOCK_ROWS
 from .codec import COLUMNS_MEDIA_TYPE, encode_columns, encode_state
 from .model import Episode
 
-__all__ = ["EpisodeWriter", "new_header", "StepChannels", "ChannelsFactory"]
+__all__ = ["EpisodeWriter", "new_header", "StepChannels", "ChannelsFactory", "Prepared",
+           "extra_messages", "clock_after"]
 
 _NS = 1_000_000_000
 #: what a step message carries when its StepRecord has it (the same names in both)
@@ -63,6 +65,32 @@ class StepChannels(Protocol):
 
 #: makes the plug-in for a run from its header (e.g. the ``FoxgloveChannels`` class)
 ChannelsFactory = Callable[["schema.RunHeaderMessage"], StepChannels]
+
+
+def clock_after(clock_ns: int, episode: Episode) -> int:
+    """The file time the episode after ``episode`` starts at, ``episode`` starting at
+    ``clock_ns`` (its last step, then a gap)."""
+    return clock_ns + int(round((episode.steps[-1].time + _GAP_S) * _NS))
+
+
+def extra_messages(extra: StepChannels, episode: Episode, clock_ns: int
+                   ) -> list[list[tuple[str, bytes]]]:
+    """A plug-in's messages for each step of ``episode`` starting at ``clock_ns``: what the
+    writer adds after each step message (made elsewhere — in a recording's workers — and
+    given to :meth:`EpisodeWriter.write`)."""
+    steps = episode.steps
+    return [list(extra.messages(s, episode=episode.id, stamp_ns=clock_ns + int(round(
+        s.time * _NS)), previous_crashed=k > 0 and steps[k - 1].crashed))
+        for k, s in enumerate(steps)]
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """An episode's plug-in messages made ahead (:func:`extra_messages`), for the file time
+    it was to start at: the writer uses them only where the episode starts there."""
+
+    clock_ns: int
+    extra: list
 
 
 def new_header(source: str, **fields: Any) -> schema.RunHeaderMessage:
@@ -164,11 +192,24 @@ class EpisodeWriter:
                 message_encoding="protobuf" if encodings[name] == "protobuf" else "json")
         self._extra = extra
 
-    def _emit_extra(self, episode: int, step, previous_crashed: bool) -> None:
-        """The plug-in's channels for one step, right after its step message."""
+    @property
+    def clock_ns(self) -> int:
+        """The file time the next episode starts at."""
+        return self._clock_ns
+
+    @property
+    def extra(self) -> Optional[StepChannels]:
+        """The plug-in's channels, if any."""
+        return self._extra
+
+    def _emit_extra(self, episode: int, step, previous_crashed: bool,
+                    given: Optional[list] = None) -> None:
+        """The plug-in's channels for one step, right after its step message (``given``:
+        made ahead for this step and time)."""
         t = self._clock_ns + int(round(step.time * _NS))
-        for topic, data in self._extra.messages(step, episode=episode, stamp_ns=t,
-                                                previous_crashed=previous_crashed):
+        made = given if given is not None else self._extra.messages(
+            step, episode=episode, stamp_ns=t, previous_crashed=previous_crashed)
+        for topic, data in made:
             self._writer.add_message(channel_id=self._channels[topic], log_time=t,
                                      publish_time=t, data=data)
 
@@ -241,22 +282,24 @@ class EpisodeWriter:
         if self._compress:
             self._writer.end_chunk()
 
-    def write(self, episode: Episode) -> None:
-        """Write ``episode`` completely, then flush it to disk."""
+    def write(self, episode: Episode, prepared: Optional[Prepared] = None) -> None:
+        """Write ``episode`` completely, then flush it to disk (``prepared``: its plug-in
+        messages, made ahead for the time it starts at)."""
         if self._writer is None:
             raise TracecheckError("the EpisodeWriter is closed")
         for s in episode.steps:
             if s.action is not None and s.action not in self._actions:
                 self._actions.append(s.action)
         try:
-            self._write(episode)
+            self._write(episode, prepared.extra if prepared is not None and
+                        prepared.clock_ns == self._clock_ns else None)
             self._flush()
         except OSError as exc:
             raise InputError(f"cannot write episode {episode.id} to {self.name}: "
                              f"{exc.strerror or exc}") from None
         self.episodes += 1
 
-    def _write(self, ep: Episode) -> None:
+    def _write(self, ep: Episode, given: Optional[list] = None) -> None:
         search = None if ep.search is None else schema.SearchPointMessage(
             repetition=ep.search.repetition, evaluation=ep.search.evaluation,
             parameters=dict(ep.search.parameters), objective=ep.search.objective,
@@ -293,7 +336,8 @@ class EpisodeWriter:
                                  f"{where + ': ' if where else ''}{first['msg']}") from None
             self._emit("tracecheck.Step", data, s.time)
             if self._extra is not None:
-                self._emit_extra(ep.id, s, k > 0 and ep.steps[k - 1].crashed)
+                self._emit_extra(ep.id, s, k > 0 and ep.steps[k - 1].crashed,
+                                 None if given is None else given[k])
         last = ep.steps[-1].time
         end = schema.EpisodeEndMessage(episode=ep.id, steps=ep.end.steps,
                                        crashed=ep.end.crashed,
@@ -319,7 +363,7 @@ class EpisodeWriter:
         self._writer.add_attachment(create_time=t, log_time=t,
                                     name=f"episode-{ep.id}.columns",
                                     media_type=COLUMNS_MEDIA_TYPE, data=blob)
-        self._clock_ns += int(round((last + _GAP_S) * _NS))
+        self._clock_ns = clock_after(self._clock_ns, ep)
         self._spans.append((start, self._stream.tell()))  # header … columns attachment
         self._spanned += 1
         if self._head_end is None:

@@ -19,7 +19,7 @@ from typing import Callable, Iterator, Optional, Sequence
 from ..episodes.files import check_run_output, record_episodes
 from ..outputs import input_paths
 from ..processes import quiet_worker, worker_context
-from ..episodes.writer import ChannelsFactory, new_header
+from ..episodes.writer import ChannelsFactory, extra_messages, new_header
 from ..episodes.model import Episode
 from ..errors import InputError
 from .executors import IN_FLIGHT, batch_size, batches, in_order
@@ -36,9 +36,15 @@ LOCAL_BATCH = 8
 _FAILED: Optional[BaseException] = None
 
 
-def _init_worker(settings: RecordSettings, shield) -> None:
-    global _SESSION, _FAILED
+#: a worker's plug-in channels, made at its first episode to encode: (factory, header), then
+#: the channels themselves
+_CHANNELS: Optional[list] = None
+
+
+def _init_worker(settings: RecordSettings, shield, channels=None, header=None) -> None:
+    global _SESSION, _FAILED, _CHANNELS
     quiet_worker()
+    _CHANNELS = None if channels is None else [channels, header, None]
     try:
         _SESSION = Session(settings, shield=shield)
     except Exception as error:  # raised from an initializer, the pool starts workers for ever
@@ -51,6 +57,45 @@ def _work(first: int, count: int) -> list[Episode]:
         raise _FAILED
     assert _SESSION is not None
     return [_SESSION.episode(i) for i in range(first, first + count)]
+
+
+def _encode(episode: Episode, clock_ns: int) -> list:
+    """In a worker: the plug-in's messages of ``episode`` starting at ``clock_ns``."""
+    if _CHANNELS[2] is None:
+        _CHANNELS[2] = _CHANNELS[0](_CHANNELS[1])
+    return extra_messages(_CHANNELS[2], episode, clock_ns)
+
+
+class _Pooled:
+    """The episodes of a recording from worker processes (a context: the pool lives while
+    it is open), which also make each episode's plug-in messages (:meth:`encode`), so that
+    the one writer only appends them."""
+
+    def __init__(self, settings: RecordSettings, shield, channels=None, header=None) -> None:
+        self.settings, self.shield, self.channels, self.header = settings, shield, channels, \
+            header
+        self._pool = None
+
+    def __enter__(self) -> "_Pooled":
+        self._pool = worker_context().Pool(self.settings.workers, initializer=_init_worker,
+                                           initargs=(self.settings, self.shield,
+                                                     self.channels, self.header))
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._pool.terminate()
+        self._pool.join()
+
+    def encode(self, episode: Episode, clock_ns: int):
+        return self._pool.apply_async(_encode, (episode, clock_ns))
+
+    def __iter__(self) -> Iterator[Episode]:
+        settings, pool = self.settings, self._pool
+        size = min(LOCAL_BATCH, batch_size(settings.episodes, settings.workers))
+        for batch in in_order(lambda job: pool.apply_async(_work, job),
+                              batches(settings.episodes, size),
+                              IN_FLIGHT * settings.workers, lambda handle: handle.get()):
+            yield from batch
 
 
 def episodes(settings: RecordSettings, shield) -> Iterator[Episode]:
@@ -67,16 +112,8 @@ def episodes(settings: RecordSettings, shield) -> Iterator[Episode]:
         for i in range(settings.episodes):
             yield session.episode(i)
         return
-    with worker_context().Pool(settings.workers, initializer=_init_worker,
-                  initargs=(settings, shield)) as pool:
-        size = min(LOCAL_BATCH, batch_size(settings.episodes, settings.workers))
-        try:
-            for batch in in_order(lambda job: pool.apply_async(_work, job),
-                                  batches(settings.episodes, size),
-                                  IN_FLIGHT * settings.workers, lambda handle: handle.get()):
-                yield from batch
-        finally:
-            pool.terminate()
+    with _Pooled(settings, shield) as pooled:
+        yield from pooled
 
 
 def run_inputs(settings: RecordSettings, *more) -> list[Path]:
@@ -179,6 +216,11 @@ def record(settings: RecordSettings, out: str | Path,
     """
     out = Path(out)
     agent, shield = check_settings(settings, out, force=force)
-    return record_episodes(out, recording_header(settings, agent, shield),
-                           episodes(settings, shield), progress, force=force,
+    header = recording_header(settings, agent, shield)
+    if settings.executor == "local" and settings.workers > 1 and channels is not None:
+        with _Pooled(settings, shield, channels, header) as pooled:  # the workers encode too
+            return record_episodes(out, header, pooled, progress, force=force,
+                                   channels=channels, inputs=run_inputs(settings),
+                                   encode=pooled.encode)
+    return record_episodes(out, header, episodes(settings, shield), progress, force=force,
                            channels=channels, inputs=run_inputs(settings))

@@ -1,0 +1,63 @@
+"""Recording with workers that also encode Foxglove's channels: the one writer only appends
+what they made, and the file is the one a single process writes (apart from measured times)."""
+
+from __future__ import annotations
+
+import datetime as real_datetime
+import json
+from unittest import mock
+
+from mcap.reader import make_reader
+
+from tests.helpers import ROOT
+from tracecheck.interop.foxglove import FoxgloveChannels
+from tracecheck.live.record import RecordSettings, record
+
+
+class _FixedDate:  # the run header's creation time, the same in both recordings
+    timezone = real_datetime.timezone
+
+    class datetime:
+        @staticmethod
+        def now(tz=None):
+            return real_datetime.datetime(2026, 1, 1, tzinfo=real_datetime.timezone.utc)
+
+
+def _messages(path):
+    out = []
+    with open(path, "rb") as f:
+        for _, channel, message in make_reader(f).iter_messages(log_time_order=False):
+            data = message.data
+            if channel.topic == "/tracecheck/step":  # the shield's measured time aside
+                step = json.loads(data)
+                step.pop("shield_time_us", None)
+                data = json.dumps(step, sort_keys=True).encode()
+            out.append((channel.topic, message.log_time, data))
+    return out
+
+
+def test_workers_encode_foxgloves_channels_as_the_writer_would(tmp_path):
+    files, here = [], []
+    made = FoxgloveChannels.messages
+
+    def counted(self, *args, **kw):  # counted in this process only (workers are forked)
+        here[-1] += 1
+        return made(self, *args, **kw)
+    for workers in (1, 2):
+        here.append(0)
+        settings = RecordSettings(agent=str(ROOT / "models" / "agents" / "frozenlake.npy"),
+                                  shield="frozenlake", env="frozenlake",
+                                  env_config={"is_slippery": True}, episodes=12, seed=3,
+                                  workers=workers)
+        out = tmp_path / f"w{workers}.mcap"
+        with mock.patch("time.time_ns", return_value=1_700_000_000_000_000_000), \
+                mock.patch("tracecheck.episodes.writer._dt", _FixedDate), \
+                mock.patch.object(FoxgloveChannels, "messages", counted):
+            assert record(settings, out, channels=FoxgloveChannels)[0] == 12
+        files.append(_messages(out))
+    one, two = files
+    scenes = [m for m in one if m[0].startswith("/scene") or "foxglove" in m[0] or
+              m[0].startswith("/log")]
+    assert len(one) == len(two) and scenes
+    assert one == two
+    assert here[0] > 0 and here[1] == 0  # with workers, the writer made none of them itself
