@@ -156,6 +156,22 @@ def test_record_replay_stats_render_report(corridor):
     # the crashes the corridor's own shield would have prevented, by its name
     replay = json.loads(run(corridor, "replay", "none.mcap", "--shield", "corridor", "--json"))
     assert replay["episodes"] == 3 and replay["crashes_after_infeasible"] == 3
+    # with workers (which also draw the scene for Foxglove's channels): the same episodes
+    run(corridor, "record", "--env", "corridor", "--agent", "left.npy", "--shield", "none",
+        "--episodes", "3", "--workers", "2", "-o", "two.mcap")
+    again = json.loads(run(corridor, "replay", "two.mcap", "--shield", "corridor", "--json",
+                           "--workers", "2"))
+    timing = ("files", "elapsed_s", "steps_per_s", "per_episode")
+    assert {k: v for k, v in again.items() if k not in timing} == {
+        k: v for k, v in replay.items() if k not in timing}
+    assert [{**e, "file": None} for e in again["per_episode"]] == [
+        {**e, "file": None} for e in replay["per_episode"]]
+    from mcap.reader import make_reader
+
+    with open(root / "two.mcap", "rb") as f:  # the corridor's own scene, drawn by a worker
+        scenes = [m.data for _, c, m in make_reader(f).iter_messages()
+                  if c.topic == "/foxglove/scene"]
+    assert scenes and any(b"walker" in data for data in scenes)
     # the environment's own property set is taken without --properties
     stats = run(corridor, "stats", "none.mcap", "shielded.mcap", "--format", "md")
     assert "EXIT" in stats and "reached the exit" in stats
