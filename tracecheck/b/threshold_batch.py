@@ -89,6 +89,7 @@ class ThresholdBatch:
             except NotVectorizable:  # its relations are not wanted: taken back
                 del self.relations[before:]
                 self._index = {k: v for k, v in self._index.items() if v < before}
+                self._users = {k: v - {op} for k, v in self._users.items() if k < before}
 
     @property
     def ops(self) -> list[str]:
@@ -348,16 +349,12 @@ class ThresholdBatch:
         if f.bad is not None:
             unsure |= np.broadcast_to(f.bad, (n,))
         c = points.sorted.shape[1]
-        roots: dict[tuple[int, int], Optional[Fraction]] = {}  # for every guard at once
         # roots equal in floats are one test point: only where they are equal exactly too
         # (else the set may change between them, where no point was tested)
         group = points.group
         shared = (group[:, 1:] == group[:, :-1]) & (group[:, 1:] < c) & ~unsure[:, None]
         for i, k in zip(*(a.tolist() for a in np.nonzero(shared))):
-            j = int(group[i, k])
-            if (i, j) not in roots:
-                roots[(i, j)] = points.root(i, j)
-            if roots[(i, j)] is None:
+            if points.root(i, int(group[i, k])) is None:
                 unsure[i] = True
         valid = (np.arange(c)[None, :] < points.count[:, None]) & ~unsure[:, None]
         for op, top in tops.items():
@@ -376,11 +373,7 @@ class ThresholdBatch:
                 i, end = rows[k], k
                 while end < len(rows) and rows[end] == i:
                     end += 1
-                exact = []
-                for j in js[k:end]:
-                    if (i, j) not in roots:
-                        roots[(i, j)] = points.root(i, j)
-                    exact.append(roots[(i, j)])
+                exact = [points.root(i, j) for j in js[k:end]]
                 if None not in exact and all(x < y for x, y in zip(exact, exact[1:])):
                     target[offset + i] = Values(tuple(exact), tuple(at_js[k:end]),
                                                 (first[i],) + tuple(after[k:end]))
@@ -396,6 +389,7 @@ class _TestPoints:
         self.n, self.relations, self.formulas = n, relations, formulas
         self.terms: dict[tuple, Any] = {}  # each term's values, computed once
         self._rows: Optional[tuple] = None
+        self._roots: dict[tuple[int, int], Optional[Fraction]] = {}
         self.unsure = np.zeros(n, dtype=bool)
         shaped, roots, owners = [], [], []
         for k, form in enumerate(forms):
@@ -488,7 +482,12 @@ class _TestPoints:
 
     def root(self, i: int, j: int) -> Optional[Fraction]:
         """Row ``i``'s ``j``-th root, exactly: that of every relation and element there, all
-        equal and near the float one (None: not so)."""
+        equal and near the float one (None: not so); computed once for every guard."""
+        if (i, j) not in self._roots:
+            self._roots[(i, j)] = self._root(i, j)
+        return self._roots[(i, j)]
+
+    def _root(self, i: int, j: int) -> Optional[Fraction]:
         if self._rows is None:  # as lists: read one at a time
             self._rows = (self.group.tolist(), self.order.tolist(), self.owner.tolist(),
                           self.offsets.tolist())

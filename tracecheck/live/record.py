@@ -36,15 +36,15 @@ LOCAL_BATCH = 8
 _FAILED: Optional[BaseException] = None
 
 
-#: a worker's plug-in channels, made at its first episode to encode: (factory, header), then
-#: the channels themselves
-_CHANNELS: Optional[list] = None
+#: a worker's plug-in channels: how to make them (factory, header), and once made, them
+_MAKE_CHANNELS: Optional[tuple] = None
+_CHANNELS = None
 
 
 def _init_worker(settings: RecordSettings, shield, channels=None, header=None) -> None:
-    global _SESSION, _FAILED, _CHANNELS
+    global _SESSION, _FAILED, _MAKE_CHANNELS
     quiet_worker()
-    _CHANNELS = None if channels is None else [channels, header, None]
+    _MAKE_CHANNELS = None if channels is None else (channels, header)
     try:
         _SESSION = Session(settings, shield=shield)
     except Exception as error:  # raised from an initializer, the pool starts workers for ever
@@ -61,9 +61,11 @@ def _work(first: int, count: int) -> list[Episode]:
 
 def _encode(episode: Episode, clock_ns: int) -> list:
     """In a worker: the plug-in's messages of ``episode`` starting at ``clock_ns``."""
-    if _CHANNELS[2] is None:
-        _CHANNELS[2] = _CHANNELS[0](_CHANNELS[1])
-    return extra_messages(_CHANNELS[2], episode, clock_ns)
+    global _CHANNELS
+    if _CHANNELS is None:  # made at the first episode to encode
+        make, header = _MAKE_CHANNELS
+        _CHANNELS = make(header)
+    return extra_messages(_CHANNELS, episode, clock_ns)
 
 
 class _Pooled:
