@@ -20,7 +20,7 @@ from .defined import Defined, cannot_list
 from .finite import finite as _finite, members as _members
 from .values import FuncValue, SymbolicSet, make_set, sort_key
 
-__all__ = ["generators", "conjuncts", "domain", "Binders", "Strict"]
+__all__ = ["generators", "conjuncts", "domain", "Binders", "Strict", "membership_of"]
 
 Env = dict
 Fn = Callable[[Env], Any]
@@ -627,3 +627,10 @@ def _scoped(fn: Fn, ids: tuple[str, ...]) -> Fn:
                 else:
                     env[i] = old
     return scoped
+
+
+def membership_of(pred: ast.Node, var: str) -> Optional[ast.Rel]:
+    """The conjunct ``var : S`` of ``pred`` that gives ``var`` its values."""
+    return next((c for c in conjuncts(pred) if isinstance(c, ast.Rel) and c.op == ":"
+                 and isinstance(c.left, ast.Name) and c.left.id == var
+                 and var not in ast.free_names(c.right)), None)

@@ -39,6 +39,12 @@ class Elem(str):
     def __repr__(self) -> str:
         return f"Elem({str(self)!r})"
 
+    def __copy__(self) -> "Elem":
+        return self
+
+    def __deepcopy__(self, memo: dict) -> "Elem":  # immutable: copies share it (an info
+        return self  # holding a B state is deep-copied by SB3's vector environments)
+
 
 class Record:
     """A B record ``rec(a:1,b:TRUE)``: (name, value) pairs sorted by name, as ProB keeps them
@@ -67,6 +73,12 @@ class Record:
     def __repr__(self) -> str:
         return f"Record({list(self.fields)!r})"
 
+    def __copy__(self) -> "Record":
+        return self
+
+    def __deepcopy__(self, memo: dict) -> "Record":  # immutable, as Elem
+        return self
+
 
 class FuncValue(frozenset):
     """A set of pairs whose first components are distinct: a function, applied in O(1)."""
@@ -80,6 +92,12 @@ class FuncValue(frozenset):
 
     def __reduce__(self):
         return (FuncValue, (dict(self.map),))
+
+    def __copy__(self) -> "FuncValue":
+        return self
+
+    def __deepcopy__(self, memo: dict) -> "FuncValue":  # immutable, as Elem
+        return self
 
 
 #: The most elements tracecheck builds or walks for one set; above it a clear error.

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import TracecheckError
 from . import ast
-from .bindings import conjuncts
+from .bindings import conjuncts, membership_of
 from .evaluation import Compiler
 from .arrays import (BatchContext, NotVectorizable, VectorValue, all_last, arith, bool_of,
                      concat_numbers, fits, integral, intern_key, is_int_array, mark_nonfinite,
@@ -84,14 +84,12 @@ class _VecCompiler:
         if name in self.hidden:
             raise NotVectorizable(f"{name} from an enclosing scope")
         kind = self.kinds.get(name)
-        if kind == "num":
-            return lambda ctx: ("num", ctx.cols.numbers[name][:, None, None])
-        if kind == "bool":
-            return lambda ctx: ("bool", ctx.cols.booleans[name][:, None, None])
-        if kind == "func":
-            return lambda ctx: ("func", ctx.cols.functions[name])
-        if kind == "set":
-            return lambda ctx: ("set", ctx.cols.masks[name])
+        if kind in ("num", "bool"):  # a value per row, broadcast along the element axes
+            where = "numbers" if kind == "num" else "booleans"
+            return lambda ctx: (kind, getattr(ctx.cols, where)[name][:, None, None])
+        if kind in ("func", "set"):
+            where = "functions" if kind == "func" else "masks"
+            return lambda ctx: (kind, getattr(ctx.cols, where)[name])
         if name in self.constants:
             vec = self.constant(self.constants[name])
             return lambda ctx: vec
@@ -144,7 +142,7 @@ class _VecCompiler:
         if len(node.ids) != 1:
             raise NotVectorizable("comprehension shape")
         (var,) = node.ids
-        gen = _generator(node.pred, var)
+        gen = membership_of(node.pred, var)
         if gen is None:
             raise NotVectorizable("no domain")
         saved = (self.axes, self.hidden, self.lets)
@@ -347,7 +345,7 @@ class _VecCompiler:
             raise NotVectorizable("quantifier shape")
         (var,) = node.ids
         body = node.body
-        gen = _generator(body.left if isinstance(body, ast.Implies) else body, var)
+        gen = membership_of(body.left if isinstance(body, ast.Implies) else body, var)
         if gen is None:
             raise NotVectorizable("no domain")
         dom = self.compile(gen.right)
@@ -543,20 +541,15 @@ class BoundFormulas:
         return self._ctx.bad
 
 
-def _generator(pred: ast.Node, var: str) -> Optional[ast.Rel]:
-    """The conjunct ``var : S`` of ``pred`` that gives ``var`` its values."""
-    return next((c for c in conjuncts(pred) if isinstance(c, ast.Rel) and c.op == ":"
-                 and isinstance(c.left, ast.Name) and c.left.id == var
-                 and var not in ast.free_names(c.right)), None)
-
-
 class BatchFormula:
     """A formula prepared for batch evaluation over :class:`Columns`."""
 
     def __init__(self, node: ast.Node, constants: Mapping[str, Any], *,
-                 source: Optional[str] = None, file: Optional[str] = None) -> None:
+                 source: Optional[str] = None, file: Optional[str] = None,
+                 python_power: bool = False) -> None:
         self.node = node
         self.constants = dict(constants)
+        self.python_power = python_power  # real powers by Python's ``**``: the scalar bits
         # called only inside __call__, which raises the recursion limit for a deep formula
         self.scalar = Compiler(source=source, file=file).compile(node, wrap=False)
         self._plans: dict[tuple, Optional[Callable]] = {}
@@ -566,12 +559,17 @@ class BatchFormula:
         kinds = _kinds(cols)
         key = (cols.elements, tuple(sorted(kinds.items())))
         if key not in self._plans:
+            comp = _VecCompiler(self.constants, cols.elements, kinds)
+            comp.python_power = self.python_power
             try:
-                self._plans[key] = _VecCompiler(self.constants, cols.elements,
-                                                kinds).compile(self.node)
+                self._plans[key] = comp.compile(self.node)
             except NotVectorizable:
                 self._plans[key] = None
         return self._plans[key]
+
+    def vectorised(self, cols: Columns) -> bool:
+        """Whether columns of the kinds of ``cols`` take the batch path (not row by row)."""
+        return self._plan(cols) is not None
 
     def __call__(self, cols: Columns, memo: Optional[dict] = None) -> np.ndarray:
         """The value in each row: a bool array for a predicate, a float array for a number

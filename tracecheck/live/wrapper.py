@@ -16,14 +16,15 @@ else by the mode (``project``: the nearest allowed action; ``replace``: the fall
 ``info["shield"]`` holds the ``proposal``, the ``executed`` parameters, the ``distance``,
 the allowed ``intervals`` and ``fallback_taken`` (see :mod:`tracecheck.live.continuous`).
 
-Under Gymnasium's vector environments, wrap each sub-environment — ``gym.make_vec(id, n,
-wrappers=[lambda e: ShieldWrapper(e, shield)])`` or ``SyncVectorEnv([lambda:
-ShieldWrapper(gym.make(id), shield)] * n)`` — and read the masks with
-``envs.call("action_masks")`` (docs/environments.md, "Using the shield from Python").
+Under a vector environment (Gymnasium's or Stable-Baselines3's), wrap each sub-environment
+and the vector environment around them (:mod:`tracecheck.live.vector`): the shield then
+decides all sub-environments in one batch per step (docs/environments.md, "Vector
+environments").
 """
 
 from __future__ import annotations
 
+import copy
 import gc
 import time
 from typing import Any, Optional, Sequence
@@ -32,11 +33,12 @@ import gymnasium as gym
 import numpy as np
 
 from ..b.memo import MEMO_KEY
-from ..errors import InputError, TracecheckError
+from ..errors import InputError
 from ..b.conversion import convert_state
 from ..checking.shield import Shield, typing_machine
+from .decisions import Decision, Decisions
 
-__all__ = ["ShieldWrapper", "choose", "adapter_for"]
+__all__ = ["ShieldWrapper", "BState", "ShieldInfo", "choose", "adapter_for"]
 
 
 def adapter_for(env: gym.Env):
@@ -69,6 +71,31 @@ def adapter_for(env: gym.Env):
     raise InputError(f"the adapters {', '.join(a.name for a in matches)} are all for "
                      f"{env_id!r}; give the one you mean: ShieldWrapper(env, shield, "
                      "adapter=…)")
+
+
+class BState(dict):
+    """A B state, ``{variable: B value}``: ``info["b_state"]``. Its values are immutable, so
+    a deep copy (Stable-Baselines3's vector environments deep-copy every step's infos) is a
+    copy of the dict alone."""
+
+    def __deepcopy__(self, memo: dict) -> "BState":
+        return BState(self)
+
+
+class ShieldInfo(dict):
+    """``info["shield"]``: deep-copied as its values need (lists of names copied, plain
+    values shared, anything else deep-copied)."""
+
+    def __deepcopy__(self, memo: dict) -> "ShieldInfo":
+        out = ShieldInfo()
+        for key, value in self.items():
+            kind = type(value)
+            if kind is list and all(type(v) is str for v in value):
+                value = list(value)
+            elif kind not in (str, bool, int, float, type(None)):
+                value = copy.deepcopy(value, memo)
+            out[key] = value
+        return out
 
 
 def _action_index(action: Any, n: int) -> int:
@@ -159,6 +186,13 @@ class ShieldWrapper(gym.Wrapper):
         self.decision_us = 0.0
         self.problem: Optional[str] = None  # why a guard could not be evaluated, if so
         self._env = dict(shield.machine.base_env)  # kept: each decision only updates it
+        #: discrete actions: the decisions, each distinct state's once
+        self.decisions = Decisions(shield.machine, self.actions) if self.continuous is None \
+            else None
+        #: the vector environment that decides this one with its siblings (vector.py)
+        self.group = None
+        self._waiting = None  # the decision asked of the group, not yet made
+        self._allowed_names: tuple[str, ...] = self.actions
         #: the machine whose types make the adapter's states B values: the shield's, or for
         #: a shield without variables (``none``) the environment's own shield, if any
         self._typing = (shield.machine if shield.machine.variables
@@ -166,56 +200,67 @@ class ShieldWrapper(gym.Wrapper):
         self._checked = False  # the first state checked against the shield's types
 
     def _decide(self) -> None:
+        """The shield's decision in :attr:`state`; under a vector environment that decides
+        its sub-environments together, asked of it and made when first needed."""
+        if self.group is not None:
+            self._waiting = self.group.wait(self)
+            return
         # no garbage collection inside the decision: its latency is the shield's own
         collecting = gc.isenabled()
         gc.disable()
         try:
             start = time.perf_counter()
-            env = self._env
-            env.pop(MEMO_KEY, None)
-            env.update(self.state)
             if self.continuous is not None:
+                env = self._env
+                env.pop(MEMO_KEY, None)
+                env.update(self.state)
                 self.continuous.decide(env)
                 enabled = self.continuous.enabled
-            else:
-                enabled = self._enabled_discrete(env)
-            self.decision_us = (time.perf_counter() - start) * 1e6
+            else:  # where a guard cannot be evaluated (a refusal, not FALSE) its action is
+                #    not allowed — the shield fails closed — and ``problem`` says why
+                decision = self.decisions.one(self.state)
+            decision_us = (time.perf_counter() - start) * 1e6
         finally:
             if collecting:
                 gc.enable()
-        self.allowed = np.array([a in enabled for a in self.actions], dtype=bool)
+        if self.continuous is None:
+            self.settle(decision, decision_us)
+        else:
+            self.decision_us = decision_us
+            self.allowed = np.array([a in enabled for a in self.actions], dtype=bool)
+            self._allowed_names = tuple(a for a in self.actions if a in enabled)
 
-    def _enabled_discrete(self, env: dict) -> set[str]:
-        """The operations enabled in ``env``: where a guard cannot be evaluated (a refusal,
-        not FALSE) its action is not allowed — the shield fails closed — and
-        :attr:`problem` says why (``info["shield"]["problem"]``)."""
-        machine = self.shield.machine
-        try:
-            self.problem = None
-            return machine.enabled_in(env)
-        except TracecheckError:  # which guard, and why: one by one
-            enabled, problems = set(), []
-            for name in self.actions:
-                try:
-                    if machine.is_enabled_in(name, env):
-                        enabled.add(name)
-                except TracecheckError as exc:
-                    problems.append(f"{name}: {exc.message}")
-            self.problem = "; ".join(problems) or None
-            return enabled
+    def settle(self, decision: Decision, decision_us: float) -> dict[str, Any]:
+        """Take ``decision`` (made for :attr:`state`, in ``decision_us`` µs) as the shield's
+        in the current state; its fields of ``info["shield"]``. A vector environment's
+        batch gives each sub-environment its decision so."""
+        self._waiting = None
+        self.allowed = decision.mask
+        self._allowed_names = decision.allowed
+        self.problem = decision.problem
+        self.decision_us = decision_us
+        return self._fields()
+
+    def _fields(self) -> dict[str, Any]:
+        fields = {"allowed": list(self._allowed_names), "deadlock": not self._allowed_names,
+                  "decision_us": self.decision_us}
+        if self.continuous is None and self.problem is not None:
+            fields["problem"] = self.problem  # guards it could not evaluate
+        return fields
+
+    def _ready(self) -> None:
+        if self._waiting is not None:  # the vector environment's batch, made now
+            self.group.settle()
 
     def _info(self, info: dict, requested: Optional[int] = None,
               taken: Optional[int] = None) -> dict:
         info = dict(info)
         info["b_state"] = self.state
-        info["shield"] = {
-            "name": self.shield.name,
-            "allowed": [a for a, ok in zip(self.actions, self.allowed) if ok],
-            "deadlock": not self.allowed.any(),
-            "decision_us": self.decision_us,
-        }
-        if self.continuous is None and self.problem is not None:
-            info["shield"]["problem"] = self.problem  # guards it could not evaluate
+        info["shield"] = ShieldInfo(name=self.shield.name)
+        if self._waiting is not None:  # the fields added when the batch is made
+            self._waiting.infos.append(info["shield"])
+        else:
+            info["shield"].update(self._fields())
         if taken is not None:
             info["shield"].update(requested=self.actions[requested],
                                   taken=self.actions[taken], replaced=requested != taken)
@@ -229,19 +274,20 @@ class ShieldWrapper(gym.Wrapper):
         where = f"state() of the adapter {self.env_adapter.name}"
         machine = self._typing
         if machine is None:
-            return convert_state(state, None, where=where)
+            return BState(convert_state(state, None, where=where))
         state = machine.native(state, where=where)
         if not self._checked and machine is self.shield.machine:
             declared = machine.variables  # others are the environment's, not the shield's
             machine.check_state({k: v for k, v in state.items() if k in declared},
                                 where=where, python=True)
             self._checked = True
-        return state
+        return BState(state)
 
     def action_masks(self) -> np.ndarray:
         """Which actions the shield allows in the current state; in a deadlock (nothing
         allowed) the fallback alone — the action :meth:`step` takes then — so that a masked
         learner never sees an empty mask (``info["shield"]["deadlock"]`` still says so)."""
+        self._ready()
         if not self.allowed.any():
             masks = np.zeros_like(self.allowed)
             masks[self.fallback] = True
@@ -260,6 +306,7 @@ class ShieldWrapper(gym.Wrapper):
         if self.continuous is not None:
             return self._step_continuous(action)
         requested = _action_index(action, len(self.actions))
+        self._ready()
         taken = requested
         if not self.allowed[requested]:
             if self.allowed[self.fallback] or not self.allowed.any():
@@ -282,6 +329,7 @@ class ShieldWrapper(gym.Wrapper):
         """A continuous action: the proposal, or what the shield's mode makes of it (see
         :mod:`tracecheck.live.continuous`); ``info["shield"]`` says which, how far it moved
         and what was allowed."""
+        self._ready()
         start = time.perf_counter()
         decision = self.continuous.filter(action)
         bands = self.continuous.bands(decision.op)
