@@ -451,3 +451,43 @@ def test_the_authors_frozenlake_trace(tmp_path):
     # recorded with an earlier version of the model (../shared/data/paper-models/README.md):
     # under the committed guards it is not replayable
     assert row.status in ("failed", "not run") and row.reason
+
+
+def test_a_folder_is_read_once_for_the_machines_of_the_same_variables(tmp_path, monkeypatch):
+    """The authors' project runs the same folders under several variants of one machine:
+    each folder is read (and its columns built) once, the report the same as machine by
+    machine. B differs from A in a guard and shares A's read; C, with one more operation,
+    and D, with one more set, read the folder again."""
+    from tracecheck.interop import simb as simb_module
+
+    text = (FIXTURES / "Corridor.mch").read_text()
+    (tmp_path / "A.mch").write_text(text)
+    (tmp_path / "B.mch").write_text(text.replace("MACHINE Corridor", "MACHINE Corridor2")
+                                    .replace("RIGHT = SELECT pos < 4", "RIGHT = SELECT pos < 3"))
+    (tmp_path / "C.mch").write_text(text.replace("MACHINE Corridor", "MACHINE Corridor3")
+                                    .replace("pos : 0..4", "pos : INTEGER & pos >= 0")
+                                    .replace("OPERATIONS", "OPERATIONS\n    STAY = skip;"))
+    (tmp_path / "D.mch").write_text(text.replace("MACHINE Corridor", "MACHINE Corridor4")
+                                    .replace("VARIABLES", "SETS CELL = {Cell}\nVARIABLES"))
+    tasks = [{"id": "Safe", "type": "HYPOTHESIS_TEST", "information": {
+        "SIGNIFICANCE": 0.05, "PROBABILITY": 0.6, "MAX_STEPS_BEFORE_PROPERTY": 0,
+        "PREDICATE": "Crash = FALSE", "HYPOTHESIS_CHECKING_TYPE": "LEFT_TAILED",
+        "CHECKING_TYPE": "PREDICATE_INVARIANT"}},
+        {"id": "Pos", "type": "ESTIMATION", "information": {
+            "MAX_STEPS_BEFORE_PROPERTY": 0, "ESTIMATION_TYPE": "MEAN", "EXPRESSION": "pos",
+            "DESIRED_VALUE": 1.0, "CHECKING_TYPE": "AVERAGE", "EPSILON": 0.5,
+            "ENDING_TIME": 1500}}]
+    machines = [{"name": name, "location": f"{name}.mch", "traces": [], "simulations": [
+        {"path": str(FIXTURES / "simb"), "simulationItems": tasks}]} for name in "ABCD"]
+    path = tmp_path / "four.prob2project"
+    path.write_text(json.dumps({"name": "four", "machines": machines}))
+    read = []
+    original = simb_module.read_simb
+    monkeypatch.setattr(simb_module, "read_simb",
+                        lambda f, k, vocab, machine=None: read.append(vocab.name) or
+                        original(f, k, vocab, machine))
+    together = run_project(read_project(path))
+    assert read == ["Corridor"] * 5 + ["Corridor3"] * 5 + ["Corridor4"] * 5  # B shares A's
+    alone = [run_project(read_project(path), RunOptions(machines=(m,))) for m in "ABCD"]
+    assert together.to_json()["tasks"] == [row for r in alone for row in r.to_json()["tasks"]]
+    assert [t.status for t in together.tasks] == ["success"] * 8

@@ -333,3 +333,33 @@ def test_paper_numbers_from_the_authors_tasks(paper_traces):
     assert (velocity.status, reward.status, distance.status) == (SUCCESS, SUCCESS, FAILED)
     assert safe.details["properties"]["PREDICATE"]["holds"] == 11 and safe.status == FAILED
     assert np.isfinite(safe.details["properties"]["PREDICATE"]["test"]["exact_p_value"])
+
+
+WINDOWS = [Window(), Window(starting_predicate="pos >= 1"), Window(ending_predicate="pos = 2"),
+           Window(start_after_steps=1, steps_per_execution=2), Window(ending_time=1000),
+           Window(starting_time=1000, ending_time=1500),
+           Window(max_steps_before=3, starting_predicate_activated="pos = 1")]
+TASKS = [SimbTask("HYPOTHESIS_TEST", "PREDICATE_INVARIANT", "pos < 3", probability=0.6,
+                  significance=0.05, hypothesis_type="LEFT_TAILED"),
+         SimbTask("HYPOTHESIS_TEST", "PREDICATE_FINAL", "pos < 3", probability=0.6,
+                  significance=0.05, hypothesis_type="LEFT_TAILED"),
+         SimbTask("ESTIMATION", "AVERAGE", "pos", estimation_type="MEAN", desired_value=1.0,
+                  epsilon=0.5),
+         SimbTask("ESTIMATION", "SUM_BETWEEN_STEPS", "pos", estimation_type="MEAN",
+                  desired_value=1.0, epsilon=5.0),
+         SimbTask("ESTIMATION", "MAXIMUM", "pos", estimation_type="MEAN", desired_value=2.0,
+                  epsilon=1.0, executions=3)]
+
+
+@pytest.mark.parametrize("w", range(len(WINDOWS)))
+def test_columns_built_once_give_every_task_the_same_outcome(corridor, w):
+    """A project builds the executions' columns once and cuts them by row for each task:
+    the outcome is the one of columns built from the cut executions."""
+    from tracecheck.stats.simb_tasks import task_columns
+
+    columns = task_columns(FIVE)
+    for task in TASKS:
+        task = replace(task, window=WINDOWS[w])
+        alone = evaluate_task(task, FIVE, corridor, seed=3)
+        shared = evaluate_task(task, FIVE, corridor, seed=3, columns=columns)
+        assert shared == alone

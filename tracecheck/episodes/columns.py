@@ -8,7 +8,7 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterator, Optional
+from typing import Iterator, Optional, Sequence
 
 import numpy as np
 
@@ -21,7 +21,7 @@ from ..errors import DamagedEpisode
 from .reader import read_pieces
 from .records import forget, mapped
 
-__all__ = ["read_columns", "read_blocks", "blocks_of", "block_refs", "BlockRef",
+__all__ = ["read_columns", "read_blocks", "take_episodes", "blocks_of", "block_refs", "BlockRef",
            "BlockUnchecked", "join", "RunColumns", "episode_columns"]
 
 
@@ -301,6 +301,36 @@ def episode_columns(episodes, action_names) -> RunColumns:
         values=values if np.any(~np.isnan(values)) else None,
         seeds=[ep.seed for ep in episodes], reasons=[ep.end.reason for ep in episodes],
         **_continuous(steps))
+
+
+def take_episodes(cols: RunColumns, ranges: Sequence[tuple[int, int]]) -> RunColumns:
+    """Episode ``i`` of ``cols`` cut to its states ``ranges[i]`` (a slice ``lo:hi`` of them,
+    as Python slices a list), for the first ``len(ranges)`` episodes: the columns
+    :func:`episode_columns` gives for the episodes so cut, taken by row."""
+    lengths = np.diff(cols.starts)[:len(ranges)]
+    parts, kept = [], []
+    for (lo, hi), start, n in zip(ranges, cols.starts.tolist(), lengths.tolist()):
+        lo, hi = slice(lo, hi).indices(n)[:2]
+        parts.append(np.arange(start + lo, start + max(hi, lo), dtype=np.int64))
+        kept.append(max(hi - lo, 0))
+    rows = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
+    k = len(ranges)
+
+    def by_row(named: dict) -> dict:
+        return {name: v[rows] for name, v in named.items()}
+
+    values = None if cols.values is None else cols.values[rows]
+
+    return RunColumns(
+        path=cols.path, episode_ids=cols.episode_ids[:k],
+        starts=np.concatenate([[0], np.cumsum(kept)]).astype(np.int64),
+        episode=cols.episode[rows], step=cols.step[rows], time=cols.time[rows],
+        action=cols.action[rows], action_names=cols.action_names, reward=cols.reward[rows],
+        crashed=cols.crashed[rows], states=cols.states.take(rows),
+        values=values if values is not None and np.any(~np.isnan(values)) else None,
+        seeds=cols.seeds[:k], reasons=cols.reasons[:k], parameters=by_row(cols.parameters),
+        proposals=by_row(cols.proposals),
+        distance=None if cols.distance is None else cols.distance[rows])
 
 
 def _continuous(steps) -> dict:

@@ -26,8 +26,9 @@ from pathlib import Path
 from typing import Callable, Mapping, Optional
 
 from ..errors import InputError, TracecheckError
+from ..episodes.columns import RunColumns
 from ..stats.simb_tasks import (FAILED, NOT_RUN, SUCCESS, TaskOutcome, Window, evaluate_task,
-                                has_setup)
+                                has_setup, task_columns)
 from .prob2project import REPLAY_TRACE, SIMULATION, Project, ProjectMachine, Task
 
 __all__ = ["RunOptions", "TaskReport", "ProjectReport", "run_project", "script_episodes",
@@ -116,8 +117,9 @@ def run_project(project: Project, options: RunOptions = RunOptions(),
     """Every task of the project's machines (those named in ``options.machines``, all when
     empty), in the project's order; ``on_task`` hears of each as it is done."""
     report = ProjectReport(project.name, str(project.file))
+    shared: dict = {}  # each folder of traces read once for machines of the same variables
     for machine in _selected(project, options.machines):
-        runner = _MachineRun(project, machine, options)
+        runner = _MachineRun(project, machine, options, shared)
         for task in machine.tasks:
             row = runner.run(task)
             report.tasks.append(row)
@@ -140,11 +142,16 @@ class _MachineRun:
     """The tasks of one machine: its shield loaded once, each simulation's executions read
     or run once."""
 
-    def __init__(self, project: Project, machine: ProjectMachine, options: RunOptions) -> None:
+    def __init__(self, project: Project, machine: ProjectMachine, options: RunOptions,
+                 shared: Optional[dict] = None) -> None:
         self.project, self.machine, self.options = project, machine, options
         self._shield = None
         self._shield_error: Optional[str] = None
-        self._executions: dict[Path, tuple[list, str, str]] = {}
+        #: per simulation: (its executions as columns, or None; where they came from; why
+        #: there are none)
+        self._executions: dict[Path, tuple[Optional[RunColumns], str, str]] = {}
+        shared = shared if shared is not None else {}  # with the project's other machines:
+        self._read = shared.setdefault("traces", {})  # see _read_traces
         self._cut: set[Path] = set()  # simulations whose script run was cut
 
     @property
@@ -219,24 +226,27 @@ class _MachineRun:
         row.kind, row.checks = simb.kind, simb.checks
         if self.options.executions is not None:
             simb = replace(simb, executions=self.options.executions)
-        episodes, source, error = self._executions_of(task)
+        columns, source, error = self._executions_of(task)
         row.source = source
         if error:
             row.reason = error
             return
-        if simb.executions is not None and len(episodes) < simb.executions:
-            row.executions = len(episodes)
-            row.reason = _too_few(len(episodes), simb.executions, source)
+        count = 0 if columns is None else len(columns.episode_ids)
+        if simb.executions is not None and count < simb.executions:
+            row.executions = count
+            row.reason = _too_few(count, simb.executions, source)
             return
         where = f"{self.project.file}: {task.where}"
-        outcome: TaskOutcome = evaluate_task(simb, episodes, self.shield.machine,
+        outcome: TaskOutcome = evaluate_task(simb, (), self.shield.machine,
                                              seed=self.options.seed, where=where,
-                                             run_cut=task.simulation in self._cut)
+                                             run_cut=task.simulation in self._cut,
+                                             columns=columns)
         row.status, row.executions = outcome.status, outcome.executions
         row.result, row.reason, row.details = outcome.result, outcome.reason, outcome.details
 
-    def _executions_of(self, task: Task) -> tuple[list, str, str]:
-        """(episodes, where they came from, why there are none) for a simulation."""
+    def _executions_of(self, task: Task) -> tuple[Optional[RunColumns], str, str]:
+        """(the executions as columns, or None; where they came from; why there are none)
+        for a simulation: read or run once for all its tasks."""
         key = task.simulation
         if key not in self._executions:
             self._executions[key] = self._load(task)
@@ -259,7 +269,7 @@ class _MachineRun:
         counts = [t.simb.executions for t in group]
         return (None if any(c is None for c in counts) else max(counts)), group
 
-    def _load(self, task: Task) -> tuple[list, str, str]:
+    def _load(self, task: Task) -> tuple[Optional[RunColumns], str, str]:
         folder = self._traces_for(task)
         wanted, group = self._wanted(task)
         if folder is not None:
@@ -267,22 +277,21 @@ class _MachineRun:
         path = task.simulation
         if path.suffix != ".py":
             kind = "SimB simulation file" if path.suffix == ".json" else "file"
-            return [], str(path), (
+            return None, str(path), (
                 f"the {kind} {path} is neither an external script (.py) nor a folder of "
                 "timed traces; tracecheck does not run SimB's own simulations: give a "
                 "folder of its traces with --traces")
         if not self.options.scripts:
-            return [], str(path), (f"it runs the script {path}, which only the project file "
+            return None, str(path), (f"it runs the script {path}, which only the project file "
                                    "names: give --run-scripts to run the project's scripts "
                                    "(with your permissions; only for projects you trust), "
                                    "or a folder of timed traces with --traces")
         outside = self._outside_project(path)
         if outside:
-            return [], str(path), outside
+            return None, str(path), outside
         if not path.is_file():
-            return [], str(path), f"no script at {path}"
-        episodes, source, error = self._run_script(path, wanted or 1, group)
-        return episodes, source, error
+            return None, str(path), f"no script at {path}"
+        return self._run_script(path, wanted or 1, group)
 
     def _outside_project(self, path: Path) -> str:
         """Why a script is not run even with ``--run-scripts``: it lies outside the
@@ -295,24 +304,31 @@ class _MachineRun:
                     "runs only the scripts inside it, even with --run-scripts")
         return ""
 
-    def _read_traces(self, folder: Path, wanted: Optional[int]) -> tuple[list, str, str]:
+    def _read_traces(self, folder: Path, wanted: Optional[int]
+                     ) -> tuple[Optional[RunColumns], str, str]:
         from .common import expand_paths, vocabulary_of
-        from .simb import read_simb
 
         source = f"traces {folder}"
         if not folder.is_dir():
-            return [], source, f"no folder of timed traces at {folder}"
+            return None, source, f"no folder of timed traces at {folder}"
         machine = self.shield.machine
         try:
             files = expand_paths([folder], "*.json")
             if wanted is not None:
                 files = files[:wanted]
             vocab = vocabulary_of(machine)
-            return [read_simb(f, k, vocab, machine) for k, f in enumerate(files)], source, ""
+            # what reading and checking the states depends on: machines that agree on it
+            # (a project's variants of one machine) read each folder once
+            key = (tuple(str(f) for f in files), vocab.variables, vocab.actions,
+                   vocab.set_name, _variable_types(machine))
+            if key not in self._read:
+                self._read[key] = _columns_of_traces(folder, files, vocab, machine)
+            return self._read[key], source, ""
         except TracecheckError as exc:
-            return [], source, f"tracecheck cannot read the traces: {exc.render()}"
+            return None, source, f"tracecheck cannot read the traces: {exc.render()}"
 
-    def _run_script(self, path: Path, wanted: int, group: list[Task]) -> tuple[list, str, str]:
+    def _run_script(self, path: Path, wanted: int, group: list[Task]
+                    ) -> tuple[Optional[RunColumns], str, str]:
         ending_time, max_steps = run_bounds([t.simb.window for t in group],
                                             has_setup(self.shield.machine))
         source = f"script {path} ({self.options.python})"
@@ -324,10 +340,44 @@ class _MachineRun:
                 ending_time_ms=ending_time, max_steps=max_steps,
                 step_timeout=self.options.step_timeout)
         except ModuleNotFoundError as exc:
-            return [], source, f"this tracecheck cannot run external scripts ({exc})"
+            return None, source, f"this tracecheck cannot run external scripts ({exc})"
         except TracecheckError as exc:
-            return [], source, f"the script failed: {exc.render()}"
-        return episodes, source, ""
+            return None, source, f"the script failed: {exc.render()}"
+        return (task_columns(episodes) if episodes else None), source, ""
+
+
+#: traces read into columns at a time (a folder's columns are joined from such blocks: the
+#: episodes themselves are not all held at once)
+CHUNK = 256
+
+
+def _columns_of_traces(folder: Path, files: list[Path], vocab, machine) -> Optional[RunColumns]:
+    """The SimB traces ``files`` of ``folder`` as the columns of their executions."""
+    from ..episodes.columns import join
+    from .simb import read_simb
+
+    if not files:
+        return None
+    blocks = [task_columns([read_simb(f, lo + k, vocab, machine)
+                            for k, f in enumerate(files[lo:lo + CHUNK])])
+              for lo in range(0, len(files), CHUNK)]
+    try:
+        columns = join(str(folder), blocks)
+    except InputError:  # a variable of different kinds in different blocks: all at once,
+        #                 as one block of columns takes it (row by row, where it must)
+        columns = task_columns([read_simb(f, k, vocab, machine) for k, f in enumerate(files)])
+    columns.states.label = None  # a state is named by its row, as in one block
+    return columns
+
+
+def _variable_types(machine) -> tuple:
+    """The machine's variables' types and its sets' elements: all that checking a state of
+    only its variables (what a trace read in its vocabulary has) depends on."""
+    from ..b.btypes import resolve_all
+
+    types = tuple((v, repr(resolve_all(machine.type_objects[v])))
+                  for v in machine.variables if v in machine.type_objects)
+    return types, tuple(sorted(machine.element_sets().items()))
 
 
 def _replay_verdict(ep, episode) -> tuple[str, str, str]:

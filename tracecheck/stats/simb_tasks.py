@@ -38,23 +38,23 @@ conditions say, counting transitions as SimB does (:func:`spans`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Optional, Sequence
 
 import numpy as np
 
 from ..b.parser import parse_formula
 from ..b.scope import EXPR, PRED, check_kind
-from ..episodes.columns import episode_columns
+from ..episodes.columns import episode_columns, take_episodes
 from ..episodes.model import Episode
 from ..errors import TracecheckError
 from .estimates import evaluate_run, prepare, run_statistics
 from .properties import HypothesisTest, Metric, Property, PropertySet
 
-__all__ = ["SimbTask", "Window", "Span", "TaskOutcome", "evaluate_task", "simb_hypothesis",
-           "window", "spans", "has_setup", "unsupported", "CUT", "CHECKING_TYPES", "PREDICATE_TYPES", "VALUE_TYPES",
-           "SIMULATION_TYPES", "HYPOTHESIS", "ESTIMATION", "MONTE_CARLO", "SUCCESS", "FAILED",
-           "NOT_RUN"]
+__all__ = ["SimbTask", "Window", "Span", "TaskOutcome", "evaluate_task", "task_columns",
+           "simb_hypothesis", "window", "spans", "has_setup", "unsupported", "CUT",
+           "CHECKING_TYPES", "PREDICATE_TYPES", "VALUE_TYPES", "SIMULATION_TYPES",
+           "HYPOTHESIS", "ESTIMATION", "MONTE_CARLO", "SUCCESS", "FAILED", "NOT_RUN"]
 
 SUCCESS, FAILED, NOT_RUN = "success", "failed", "not run"
 HYPOTHESIS, ESTIMATION, MONTE_CARLO = "HYPOTHESIS_TEST", "ESTIMATION", "MONTE_CARLO_SIMULATION"
@@ -215,7 +215,8 @@ def window(w: Window, episodes: Sequence[Episode], machine, seed: int = 0
     return [(s.first, s.last) for s in spans(w, episodes, machine, seed)]
 
 
-def spans(w: Window, episodes: Sequence[Episode], machine, seed: int = 0) -> list[Span]:
+def spans(w: Window, episodes: Sequence[Episode], machine, seed: int = 0, *,
+          columns=None) -> list[Span]:
     """Per episode, its :class:`Span` as ProB2-UI's ``SimulationCheckingSimulator`` and
     ``SimulationPropertyChecker`` cut it.
 
@@ -233,14 +234,15 @@ def spans(w: Window, episodes: Sequence[Episode], machine, seed: int = 0) -> lis
     SimB's order) when T reaches ``startAtStep`` + ``steps_per_execution``, in the first
     state from the one the start was detected in on where ``ending_predicate`` holds, or
     with the last state at most ``ending_time`` ms after ``startAtTime``; else with the
-    episode.
+    episode. ``columns``: those of ``episodes`` (:func:`task_columns`), where the caller has
+    them (``episodes`` is then not read).
     """
     rng = np.random.default_rng(seed)
     c = 1 if has_setup(machine) else 0
-    cols = episode_columns(episodes, _actions(episodes)) if episodes else None
+    cols = columns if columns is not None else task_columns(episodes) if episodes else None
     values = _predicates(w, machine, cols) if cols is not None else {}
     out = []
-    for i in range(len(episodes)):
+    for i in range(0 if cols is None else len(cols.episode_ids)):
         lo, hi = int(cols.starts[i]), int(cols.starts[i + 1])
         n = hi - lo
         times = cols.time[lo:hi] * 1000.0
@@ -309,6 +311,12 @@ def _actions(episodes: Sequence[Episode]) -> list[str]:
     return sorted({s.action for ep in episodes for s in ep.steps if s.action is not None})
 
 
+def task_columns(episodes: Sequence[Episode]):
+    """The columns of ``episodes`` as :func:`evaluate_task` reads them: built once, they
+    serve every task on the same executions (a project's tasks on one folder of traces)."""
+    return episode_columns(episodes, _actions(episodes))
+
+
 def _property_set(task: SimbTask, machine, where: str) -> tuple[PropertySet, PropertySet]:
     """(what tracecheck evaluates, what its statistics report) for ``task``: the same set,
     except that TIMING is computed here, not evaluated. Messages name ``where``."""
@@ -370,73 +378,80 @@ def unsupported(task: SimbTask) -> Optional[str]:
 
 
 def evaluate_task(task: SimbTask, episodes: Sequence[Episode], machine, *,
-                  seed: int = 0, where: str = "the task", run_cut: bool = False
-                  ) -> TaskOutcome:
+                  seed: int = 0, where: str = "the task", run_cut: bool = False,
+                  columns=None) -> TaskOutcome:
     """``task`` on ``episodes`` (its first ``task.executions`` when set), judged on the
     states :func:`spans` gives, against ``machine``'s names. ``run_cut``: the episodes come
     from a run that cut them at an ending condition (end reason :data:`CUT`); one cut
     before the task's own ending condition makes the task *not run*. A formula tracecheck cannot
     read or evaluate, fewer executions than the task asks for, or a value SimB would only
     give as a sentinel give the outcome *not run* with the reason (naming ``where``), never
-    an exception and never a verdict on other executions than SimB's."""
+    an exception and never a verdict on other executions than SimB's. ``columns``: the
+    executions as columns (:func:`task_columns`), where the caller keeps them for many
+    tasks (``episodes`` is then not read)."""
     why = unsupported(task)
     if why:
         return TaskOutcome(NOT_RUN, reason=why)
-    episodes = list(episodes)
+    if columns is None:
+        episodes = list(episodes)
+        columns = task_columns(episodes) if episodes else None
+    total = 0 if columns is None else len(columns.episode_ids)
     wanted = task.executions
-    if wanted is not None:
-        episodes = episodes[:wanted]
-    n = len(episodes)
+    if wanted is not None and wanted < total:
+        columns = take_episodes(columns, [(0, int(k)) for k in np.diff(columns.starts)[:wanted]])
+        total = wanted
+    n = total
     if wanted is not None and n < wanted:
         return TaskOutcome(NOT_RUN, n, reason=f"only {n} of the {wanted} executions the task "
                                               "asks for")
     if not n:
         return TaskOutcome(NOT_RUN, reason="no executions to judge")
     if task.kind == MONTE_CARLO:
-        return _monte_carlo(episodes, wanted)
+        return _monte_carlo(columns, wanted)
     try:
-        return _judge(task, episodes, machine, seed, where, run_cut)
+        return _judge(task, columns, machine, seed, where, run_cut)
     except TracecheckError as exc:
         return TaskOutcome(NOT_RUN, n, reason=f"tracecheck cannot evaluate it: {exc.render()}")
 
 
-def _monte_carlo(episodes: list[Episode], wanted: Optional[int]) -> TaskOutcome:
-    n = len(episodes)
-    steps = [len(ep.steps) - 1 for ep in episodes]
+def _monte_carlo(columns, wanted: Optional[int]) -> TaskOutcome:
+    steps = np.diff(columns.starts) - 1
+    n = len(steps)
     mean = float(np.mean(steps))
     details = {"executions": n, "wanted": wanted, "mean_steps": mean}
     return TaskOutcome(SUCCESS, n, f"{n} executions, {mean:.4g} steps on average", details)
 
 
-def _judge(task: SimbTask, episodes: list[Episode], machine, seed: int, where: str,
+def _judge(task: SimbTask, columns, machine, seed: int, where: str,
            run_cut: bool) -> TaskOutcome:
     evaluated, reported = _property_set(task, machine, where)
-    cuts = spans(task.window, episodes, machine, seed)
-    cut_short = sum(1 for ep, s in zip(episodes, cuts)
-                    if run_cut and s.short and ep.end.reason == CUT)
+    n = len(columns.episode_ids)
+    cuts = spans(task.window, (), machine, seed, columns=columns)
+    cut_short = sum(1 for s, reason in zip(cuts, columns.reasons)
+                    if run_cut and s.short and reason == CUT)
     if cut_short:
-        return TaskOutcome(NOT_RUN, len(episodes), reason=(
-            f"{cut_short} of {len(episodes)} executions were cut (the run's ending "
+        return TaskOutcome(NOT_RUN, n, reason=(
+            f"{cut_short} of {n} executions were cut (the run's ending "
             "condition) before this task's ending condition was reached, so SimB would judge "
             "more states: give its traces with --traces, or run its simulation alone"))
     started = np.array([s.first <= s.last for s in cuts], dtype=bool)
     between = VALUE_TYPES.get(task.checking_type, "").endswith("between_steps")
-    cut = [replace(ep, steps=ep.steps[max(s.first - between, 0):s.last + 1] if s.first <= s.last
-                   else ep.steps[s.end:s.end + 1]) for ep, s in zip(episodes, cuts)]
-    cols = episode_columns(cut, _actions(cut))
+    cols = take_episodes(columns, [(max(s.first - between, 0), s.last + 1) if s.first <= s.last
+                                   else (s.end, s.end + 1) for s in cuts])
     name = _field(task)
     run = evaluate_run(where, evaluated, prepare(evaluated, machine=machine), name, cols)
     if task.checking_type == "TIMING":
-        duration = np.array([(ep.steps[s.end].time * 1000.0 - s.start_time)
+        firsts = columns.starts.tolist()
+        duration = np.array([(float(columns.time[first + s.end]) * 1000.0 - s.start_time)
                              if s.start_time is not None else -math.inf
-                             for ep, s in zip(episodes, cuts)])
+                             for first, s in zip(firsts, cuts)])
         run.properties[name] = duration <= task.time + 1e-6
     _unstarted(run, task, started, name)
     sentinel = _sentinel(task, run, name)
     if sentinel:
-        return TaskOutcome(NOT_RUN, len(episodes), reason=sentinel)
+        return TaskOutcome(NOT_RUN, n, reason=sentinel)
     stats = run_statistics(run, reported)
-    details = {"executions": len(episodes), "not_started": int(np.sum(~started)), **stats}
+    details = {"executions": n, "not_started": int(np.sum(~started)), **stats}
     if reported.properties:
         return _predicate_verdict(task, stats["properties"][name], details)
     return _value_verdict(task, stats["metrics"][name], details)
