@@ -43,8 +43,9 @@ __all__ = ["Decision", "Decisions"]
 #: the most states (and sets or functions) remembered; past it the memo starts afresh
 MEMO_SIZE = 4096
 #: after this many lookups with fewer than 1 in 20 found, the memo is given up (states that
-#: rarely repeat, as those of real-valued dynamics: the keys would cost more than they save)
-TRIAL = 2048
+#: rarely repeat, as those of real-valued dynamics: the keys would cost more than they save,
+#: up to twice a decision where each state holds new functions of reals)
+TRIAL = 128
 #: the fewest distinct states worth a batch (below it, columns cost more than they save)
 BATCH_MIN = 32
 #: every this many choices, the slower way is timed again
@@ -92,6 +93,7 @@ class Decisions:
         self._batch = not any(real_parameters(op) for op in machine.operations.values())
         self._cost: dict[bool, Optional[float]] = {True: None, False: None}  # µs per state
         self._choices = 0
+        self._made: dict[tuple[str, ...], Decision] = {}  # the decisions without a problem
 
     def one(self, state: Mapping[str, Any]) -> Decision:
         """The decision in ``state`` (a dict of B values of the machine's variables)."""
@@ -195,9 +197,17 @@ class Decisions:
         return self._formulas
 
     def _decision(self, enabled, problem: Optional[str] = None) -> Decision:
+        allowed = tuple(a for a in self.actions if a in enabled)
+        if problem is None:  # one object per allowed set: no array built per state
+            found = self._made.get(allowed)
+            if found is not None:
+                return found
         mask = np.array([a in enabled for a in self.actions], dtype=bool)
         mask.flags.writeable = False
-        return Decision(mask, tuple(a for a in self.actions if a in enabled), problem)
+        decision = Decision(mask, allowed, problem)
+        if problem is None:
+            self._made[allowed] = decision
+        return decision
 
     def _look(self, key: tuple) -> Optional[Decision]:
         found = self._memo.get(key)
