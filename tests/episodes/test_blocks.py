@@ -239,6 +239,24 @@ class _ThroughMcap:
     def end_chunk(self):
         self.writer.flush()
 
+    def add_messages(self, messages):
+        """tracecheck's messages made ready for a chunk, given to mcap's Writer one by one
+        (its records read back: opcode, length, channel, sequence, log and publish time)."""
+        import struct
+
+        import zstandard
+
+        raw = messages.records if messages.compressed is None else \
+            zstandard.ZstdDecompressor().decompress(messages.compressed,
+                                                    max_output_size=messages.size)
+        at = 0
+        while at < len(raw):
+            _, length, channel, sequence, log, publish = struct.unpack_from("<BQHIQQ", raw, at)
+            data = raw[at + 31:at + 9 + length]
+            self.writer.add_message(channel_id=channel, log_time=log, data=data,
+                                    publish_time=publish, sequence=sequence)
+            at += 9 + length
+
     def __getattr__(self, name):
         return getattr(self.writer, name)
 

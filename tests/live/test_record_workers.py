@@ -37,14 +37,22 @@ def _messages(path):
 
 
 def test_workers_encode_foxgloves_channels_as_the_writer_would(tmp_path):
-    files, here = [], []
+    from tracecheck.episodes import writer as writer_module
+
+    files, here, encoded = [], [], []
     made = FoxgloveChannels.messages
+    encode = writer_module.encode_episode
 
     def counted(self, *args, **kw):  # counted in this process only (workers are forked)
         here[-1] += 1
         return made(self, *args, **kw)
+
+    def encoding(*args, **kw):
+        encoded[-1] += 1
+        return encode(*args, **kw)
     for workers in (1, 2):
         here.append(0)
+        encoded.append(0)
         settings = RecordSettings(agent=str(ROOT / "models" / "agents" / "frozenlake.npy"),
                                   shield="frozenlake", env="frozenlake",
                                   env_config={"is_slippery": True}, episodes=12, seed=3,
@@ -52,7 +60,8 @@ def test_workers_encode_foxgloves_channels_as_the_writer_would(tmp_path):
         out = tmp_path / f"w{workers}.mcap"
         with mock.patch("time.time_ns", return_value=1_700_000_000_000_000_000), \
                 mock.patch("tracecheck.episodes.writer._dt", _FixedDate), \
-                mock.patch.object(FoxgloveChannels, "messages", counted):
+                mock.patch.object(FoxgloveChannels, "messages", counted), \
+                mock.patch.object(writer_module, "encode_episode", encoding):
             assert record(settings, out, channels=FoxgloveChannels)[0] == 12
         files.append(_messages(out))
     one, two = files
@@ -61,3 +70,20 @@ def test_workers_encode_foxgloves_channels_as_the_writer_would(tmp_path):
     assert len(one) == len(two) and scenes
     assert one == two
     assert here[0] > 0 and here[1] == 0  # with workers, the writer made none of them itself
+    # … nor encoded an episode: the workers' steps, chunks and columns appended as they are
+    assert encoded == [12, 0]
+
+
+def test_workers_encode_the_episodes_without_foxglove_too(tmp_path):
+    files = []
+    for workers in (1, 2):
+        settings = RecordSettings(agent=str(ROOT / "models" / "agents" / "frozenlake.npy"),
+                                  shield="frozenlake", env="frozenlake", episodes=9, seed=5,
+                                  workers=workers)
+        out = tmp_path / f"w{workers}.mcap"
+        with mock.patch("time.time_ns", return_value=1_700_000_000_000_000_000), \
+                mock.patch("tracecheck.episodes.writer._dt", _FixedDate):
+            assert record(settings, out)[0] == 9
+        files.append(_messages(out))
+    assert files[0] == files[1] and len(files[0]) == 1 + 9 * 2 + sum(
+        1 for topic, _, _ in files[0] if topic == "/tracecheck/step")

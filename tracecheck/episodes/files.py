@@ -8,12 +8,14 @@ from __future__ import annotations
 import os
 from collections import deque
 from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Optional, Sequence
 
 from ..errors import InputError
 from ..outputs import atomic_temp, check_output, open_new, temp_file
-from .writer import ChannelsFactory, EpisodeWriter, Prepared, clock_after
+from .writer import (ChannelsFactory, EncodeContext, EncodedEpisode, EpisodeWriter,
+                     actions_after, clock_after)
 from .model import Episode
 from .schema import RunHeaderMessage
 
@@ -136,20 +138,21 @@ def record_episodes(path: str | Path, header: RunHeaderMessage, episodes: Iterab
                     progress: Optional[Callable[[Episode], None]] = None, *,
                     force: bool = False, channels: Optional[ChannelsFactory] = None,
                     inputs: Sequence[Path] = (),
-                    encode: Optional[Callable[[Episode, int], Any]] = None
+                    encode: Optional[Callable[[Episode, EncodeContext], Any]] = None
                     ) -> tuple[int, int, int]:
     """Write ``episodes`` into ``path`` as they come (:func:`recording_into`: an interrupted
     or failed recording keeps every finished episode); (episodes, steps, crashes).
 
-    ``encode(episode, clock_ns)``: where the plug-in's messages of an episode are made
-    elsewhere (a recording's workers), a handle whose ``get()`` gives them
-    (:func:`~tracecheck.episodes.writer.extra_messages` for that start time); the writer then
-    only appends them — the same file as when it makes them itself."""
+    ``encode(episode, context)``: where episodes are encoded elsewhere (a recording's
+    workers), a handle whose ``get()`` gives the
+    :func:`~tracecheck.episodes.writer.encode_episode` of the episode for the context it
+    will be written in; the writer then only appends it — the same file as when it encodes
+    the episodes itself."""
     counts = [0, 0, 0]
     with recording_into(path, header, force=force, channels=channels,
                         inputs=inputs) as writer:
-        stream = ((e, None) for e in episodes) if encode is None or writer.extra is None \
-            else _prepared(writer.clock_ns, episodes, encode)
+        stream = ((e, None) for e in episodes) if encode is None \
+            else _prepared(writer.context(), episodes, encode)
         for episode, prepared in stream:
             with whole_episode():
                 writer.write(episode, prepared)
@@ -161,21 +164,23 @@ def record_episodes(path: str | Path, header: RunHeaderMessage, episodes: Iterab
     return counts[0], counts[1], counts[2]
 
 
-#: episodes whose plug-in messages are being made elsewhere at once
+#: episodes being encoded elsewhere at once, per worker that encodes
 AHEAD = 8
 
 
-def _prepared(clock_ns: int, episodes: Iterable[Episode], encode
-              ) -> Iterator[tuple[Episode, Prepared]]:
-    """Each episode, in order, with its plug-in messages made by ``encode`` for the time it
-    will start at (each episode's from the one before: :func:`clock_after`)."""
+def _prepared(context: EncodeContext, episodes: Iterable[Episode], encode
+              ) -> Iterator[tuple[Episode, EncodedEpisode]]:
+    """Each episode, in order, encoded by ``encode`` for the context it will be written in
+    (each episode's from the one before: its start time, :func:`clock_after`, and the
+    action names, :func:`actions_after`)."""
     ahead: deque = deque()
     for episode in episodes:
-        ahead.append((episode, clock_ns, encode(episode, clock_ns)))
-        clock_ns = clock_after(clock_ns, episode)
+        ahead.append((episode, encode(episode, context)))
+        context = replace(context, clock_ns=clock_after(context.clock_ns, episode),
+                          actions=actions_after(context.actions, episode))
         if len(ahead) > AHEAD:
-            done, at, handle = ahead.popleft()
-            yield done, Prepared(at, handle.get())
+            done, handle = ahead.popleft()
+            yield done, handle.get()
     while ahead:
-        done, at, handle = ahead.popleft()
-        yield done, Prepared(at, handle.get())
+        done, handle = ahead.popleft()
+        yield done, handle.get()

@@ -13,6 +13,7 @@ from __future__ import annotations
 import struct
 import zlib
 from collections import defaultdict
+from dataclasses import dataclass
 from typing import BinaryIO, Optional
 
 import zstandard
@@ -21,7 +22,7 @@ from mcap.opcode import Opcode
 from mcap.records import (Attachment, AttachmentIndex, Channel, Chunk, ChunkIndex, DataEnd,
                           Footer, Header, Schema, Statistics, SummaryOffset)
 
-__all__ = ["McapOut", "MAGIC"]
+__all__ = ["McapOut", "MAGIC", "MessageBuffer", "Messages"]
 
 #: the 8 bytes an MCAP file starts and ends with
 MAGIC = struct.pack("<8B", 137, 77, 67, 65, 80, 48, 13, 10)
@@ -41,6 +42,50 @@ class _Packed:
         builder = RecordBuilder()
         record.write(builder)
         self.data += builder.end()
+
+
+@dataclass(frozen=True)
+class Messages:
+    """One chunk's messages made ready away from the file (:class:`MessageBuffer`): their
+    records, or compressed as a chunk's data, and what the file's statistics and index need."""
+
+    records: bytes  # the message records (empty when ``compressed`` holds them)
+    compressed: Optional[bytes]  # zstd of the records (a chunked file), else None
+    size: int  # the records' length
+    crc: int  # CRC-32 of the records
+    start: int  # the least and greatest log time
+    end: int
+    counts: tuple[tuple[int, int], ...]  # (channel id, messages) in the order first seen
+    count: int
+
+
+class MessageBuffer:
+    """Message records gathered as :meth:`McapOut.add_message` writes them, anywhere (a
+    recording's workers), then made :class:`Messages` by :meth:`finish`, which
+    :meth:`McapOut.add_messages` writes: the same bytes as message by message."""
+
+    def __init__(self) -> None:
+        self._records = bytearray()
+        self._counts: dict[int, int] = {}
+        self._start = self._end = 0
+        self._count = 0
+
+    def add(self, channel_id: int, log_time: int, data: bytes, publish_time: int,
+            sequence: int = 0) -> None:
+        self._records += _MESSAGE.pack(Opcode.MESSAGE, 22 + len(data), channel_id, sequence,
+                                       log_time, publish_time)
+        self._records += data
+        self._counts[channel_id] = self._counts.get(channel_id, 0) + 1
+        self._start = log_time if self._count == 0 else min(self._start, log_time)
+        self._end = max(self._end, log_time)
+        self._count += 1
+
+    def finish(self, compress: bool) -> Messages:
+        """The messages so far (compressed with zstd for a chunked file)."""
+        raw = bytes(self._records)
+        return Messages(b"" if compress else raw, zstandard.compress(raw) if compress else None,
+                        len(raw), zlib.crc32(raw), self._start, self._end,
+                        tuple(self._counts.items()), self._count)
 
 
 class McapOut:
@@ -122,6 +167,27 @@ class McapOut:
         self._chunk.write(record)
         self._chunk.write(data)
 
+    def add_messages(self, messages: Messages) -> None:
+        """Messages made ready elsewhere (:class:`MessageBuffer`): written as
+        :meth:`add_message` would write them one by one, then :meth:`end_chunk`."""
+        if not messages.count:
+            return
+        stats = self._statistics
+        stats.message_start_time = messages.start if stats.message_count == 0 else \
+            min(stats.message_start_time, messages.start)
+        stats.message_end_time = max(stats.message_end_time, messages.end)
+        for channel, n in messages.counts:
+            stats.channel_message_counts[channel] += n
+        stats.message_count += messages.count
+        if not self._chunked:
+            self._out.write(messages.records)
+            self._flush()
+            return
+        if self._chunk_messages or self._chunk.count or messages.compressed is None:
+            raise ValueError("messages made ready for a chunk of their own")
+        self._write_chunk(messages.compressed, messages.size, messages.crc, messages.start,
+                          messages.end)
+
     def add_attachment(self, create_time: int, log_time: int, name: str, media_type: str,
                        data: bytes) -> None:
         """An attachment record (after the chunk before it), indexed."""
@@ -145,12 +211,17 @@ class McapOut:
     def _finish_chunk(self) -> None:
         if not self._chunked or self._chunk_messages == 0:
             return
-        self._statistics.chunk_count += 1
         raw = self._chunk.end()
-        compressed = zstandard.compress(raw)
-        chunk = Chunk(compression="zstd", data=compressed, message_start_time=self._chunk_start,
-                      message_end_time=self._chunk_end, uncompressed_crc=zlib.crc32(raw),
-                      uncompressed_size=len(raw))
+        self._write_chunk(zstandard.compress(raw), len(raw), zlib.crc32(raw), self._chunk_start,
+                          self._chunk_end)
+        self._chunk_messages = 0
+        self._chunk_start = self._chunk_end = 0
+
+    def _write_chunk(self, compressed: bytes, size: int, crc: int, start_time: int,
+                     end_time: int) -> None:
+        self._statistics.chunk_count += 1
+        chunk = Chunk(compression="zstd", data=compressed, message_start_time=start_time,
+                      message_end_time=end_time, uncompressed_crc=crc, uncompressed_size=size)
         self._flush()
         start = self._stream.tell()
         chunk.write(self._out)
@@ -160,9 +231,7 @@ class McapOut:
             message_start_time=chunk.message_start_time,
             message_end_time=chunk.message_end_time, chunk_start_offset=start,
             chunk_length=length, message_index_offsets={}, message_index_length=0,
-            compression="zstd", compressed_size=len(compressed), uncompressed_size=len(raw)))
-        self._chunk_messages = 0
-        self._chunk_start = self._chunk_end = 0
+            compression="zstd", compressed_size=len(compressed), uncompressed_size=size))
 
     def _flush(self) -> None:
         self._stream.write(self._out.end())

@@ -27,13 +27,13 @@ from .. import __version__
 from ..b.columns import Columns
 from ..errors import InputError, TracecheckError
 from . import schema
-from .mcap_out import McapOut
+from .mcap_out import McapOut, MessageBuffer, Messages
 from .blobs import BLOCK_ROWS
 from .codec import COLUMNS_MEDIA_TYPE, encode_columns, encode_state
 from .model import Episode
 
-__all__ = ["EpisodeWriter", "new_header", "StepChannels", "ChannelsFactory", "Prepared",
-           "extra_messages", "clock_after"]
+__all__ = ["EpisodeWriter", "new_header", "StepChannels", "ChannelsFactory", "EncodeContext",
+           "EncodedEpisode", "encode_episode", "actions_after", "clock_after"]
 
 _NS = 1_000_000_000
 #: what a step message carries when its StepRecord has it (the same names in both)
@@ -73,24 +73,117 @@ def clock_after(clock_ns: int, episode: Episode) -> int:
     return clock_ns + int(round((episode.steps[-1].time + _GAP_S) * _NS))
 
 
-def extra_messages(extra: StepChannels, episode: Episode, clock_ns: int
-                   ) -> list[list[tuple[str, bytes]]]:
-    """A plug-in's messages for each step of ``episode`` starting at ``clock_ns``: what the
-    writer adds after each step message (made elsewhere — in a recording's workers — and
-    given to :meth:`EpisodeWriter.write`)."""
-    steps = episode.steps
-    return [list(extra.messages(s, episode=episode.id, stamp_ns=clock_ns + int(round(
-        s.time * _NS)), previous_crashed=k > 0 and steps[k - 1].crashed))
-        for k, s in enumerate(steps)]
+def actions_after(actions: Iterable[str], episode: Episode) -> tuple[str, ...]:
+    """The run's action names once ``episode`` is written: ``actions``, then those its steps
+    take and score that are new, in the order they first appear (the columns' action axis)."""
+    out = list(actions)
+    for s in episode.steps:
+        if s.action is not None and s.action not in out:
+            out.append(s.action)
+    for s in episode.steps:
+        for name in s.action_values or ():
+            if name not in out:
+                out.append(name)
+    return tuple(out)
 
 
 @dataclass(frozen=True)
-class Prepared:
-    """An episode's plug-in messages made ahead (:func:`extra_messages`), for the file time
-    it was to start at: the writer uses them only where the episode starts there."""
+class EncodeContext:
+    """What encoding an episode for a file depends on besides the episode: when it starts,
+    the file's channels, the action names so far, the run header's CRC, whether messages
+    are chunked, and the file's name (for messages)."""
 
     clock_ns: int
-    extra: list
+    channels: tuple[tuple[str, int], ...]
+    actions: tuple[str, ...]
+    run_crc: int
+    compress: bool
+    name: str
+
+
+@dataclass(frozen=True)
+class EncodedEpisode:
+    """An episode made ready for the file (:func:`encode_episode`): its messages (one chunk)
+    and its columns attachment, for ``context``."""
+
+    context: EncodeContext
+    messages: Messages
+    blob: bytes
+    actions: tuple[str, ...]  # the run's action names after it
+
+
+def encode_episode(ep: Episode, context: EncodeContext,
+                   extra: Optional[StepChannels] = None) -> EncodedEpisode:
+    """Everything :class:`EpisodeWriter` writes for ``ep`` but the file positions: its
+    header, step and end messages with the plug-in's after each step, compressed as its
+    chunk, and its columns attachment — made anywhere (a recording's workers encode the
+    episodes the one writer appends)."""
+    channels = dict(context.channels)
+    buffer = MessageBuffer()
+    crc = 0
+    clock = context.clock_ns
+
+    def emit(name: str, data: bytes, at_s: float) -> None:
+        nonlocal crc
+        crc = zlib.crc32(data, crc)
+        t = clock + int(round(at_s * _NS))
+        buffer.add(channels[name], t, data, t)
+
+    search = None if ep.search is None else schema.SearchPointMessage(
+        repetition=ep.search.repetition, evaluation=ep.search.evaluation,
+        parameters=dict(ep.search.parameters), objective=ep.search.objective,
+        violated=ep.search.violated, optimizer=ep.search.optimizer,
+        attribution=ep.search.attribution, attribution_step=ep.search.attribution_step,
+        attribution_detail=ep.search.attribution_detail)
+    header = schema.EpisodeHeaderMessage(
+        episode=ep.id, seed=ep.seed, origin=ep.origin, search=search,
+        environment_config=dict(ep.config) if ep.config is not None else None,
+        reset_options=dict(ep.reset_options) if ep.reset_options is not None else None)
+    emit("tracecheck.EpisodeHeader", header.model_dump_json(exclude_none=True).encode(), 0.0)
+    steps = ep.steps
+    for k, s in enumerate(steps):
+        try:
+            state = encode_state(s.state)
+        except TracecheckError as exc:
+            raise InputError(f"{context.name}, episode {ep.id}, step {s.step}: {exc.message}",
+                             hint=exc.hint) from None
+        msg = {"episode": ep.id, "step": s.step, "time": s.time, "action": s.action,
+               "state": state, "reward": s.reward, "crashed": s.crashed}
+        for key in _OPTIONAL_KEYS:
+            value = getattr(s, key)
+            if value is not None:
+                msg[key] = value
+        try:
+            data = schema.StepMessage.model_validate(msg).model_dump_json(
+                exclude_none=True).encode()
+        except ValidationError as exc:
+            first = exc.errors()[0]
+            where = ".".join(map(str, first["loc"]))
+            raise InputError(f"{context.name}, episode {ep.id}, step {s.step}: "
+                             f"{where + ': ' if where else ''}{first['msg']}") from None
+        emit("tracecheck.Step", data, s.time)
+        if extra is not None:  # the plug-in's channels, right after the step message (not
+            t = clock + int(round(s.time * _NS))  # in the CRC: tracecheck's messages only)
+            for topic, payload in extra.messages(
+                    s, episode=ep.id, stamp_ns=t,
+                    previous_crashed=k > 0 and steps[k - 1].crashed):
+                buffer.add(channels[topic], t, payload, t)
+    last = steps[-1].time
+    end = schema.EpisodeEndMessage(episode=ep.id, steps=ep.end.steps, crashed=ep.end.crashed,
+                                   total_reward=ep.end.total_reward, reason=ep.end.reason)
+    emit("tracecheck.EpisodeEnd", end.model_dump_json().encode(), last)
+    actions = actions_after(context.actions, ep)
+    cols = Columns.from_states([s.state for s in steps])
+    blob = encode_columns(ep.id, [s.time for s in steps], [s.action for s in steps],
+                          [s.reward for s in steps], [s.crashed for s in steps],
+                          cols, list(actions), [s.action_values for s in steps],
+                          seed=ep.seed, checksums={"messages_crc": crc,
+                                                   "run_crc": context.run_crc},
+                          parameters=[s.parameters for s in steps],
+                          proposals=[s.proposal for s in steps],
+                          distances=[s.projection_distance for s in steps],
+                          reason=ep.end.reason)
+    return EncodedEpisode(context, buffer.finish(context.compress), blob, actions)
 
 
 def new_header(source: str, **fields: Any) -> schema.RunHeaderMessage:
@@ -202,17 +295,6 @@ class EpisodeWriter:
         """The plug-in's channels, if any."""
         return self._extra
 
-    def _emit_extra(self, episode: int, step, previous_crashed: bool,
-                    given: Optional[list] = None) -> None:
-        """The plug-in's channels for one step, right after its step message (``given``:
-        made ahead for this step and time)."""
-        t = self._clock_ns + int(round(step.time * _NS))
-        made = given if given is not None else self._extra.messages(
-            step, episode=episode, stamp_ns=t, previous_crashed=previous_crashed)
-        for topic, data in made:
-            self._writer.add_message(channel_id=self._channels[topic], log_time=t,
-                                     publish_time=t, data=data)
-
     def close(self) -> None:
         """Write the summary (index and statistics) and close the file."""
         if self._writer is None:
@@ -282,87 +364,38 @@ class EpisodeWriter:
         if self._compress:
             self._writer.end_chunk()
 
-    def write(self, episode: Episode, prepared: Optional[Prepared] = None) -> None:
-        """Write ``episode`` completely, then flush it to disk (``prepared``: its plug-in
-        messages, made ahead for the time it starts at)."""
+    def context(self) -> EncodeContext:
+        """What the next episode is encoded for (:func:`encode_episode`)."""
+        return EncodeContext(self._clock_ns, tuple(self._channels.items()), tuple(self._actions),
+                             self._run_crc, self._compress, self.name)
+
+    def write(self, episode: Episode, prepared: Optional[EncodedEpisode] = None) -> None:
+        """Write ``episode`` completely, then flush it to disk (``prepared``: the episode
+        encoded ahead, elsewhere: used where it was made for this writer's next episode, as
+        :meth:`context` says, else made again here — the same bytes either way)."""
         if self._writer is None:
             raise TracecheckError("the EpisodeWriter is closed")
-        for s in episode.steps:
-            if s.action is not None and s.action not in self._actions:
-                self._actions.append(s.action)
+        context = self.context()
+        if prepared is None or prepared.context != context:
+            prepared = encode_episode(episode, context, self._extra)
         try:
-            self._write(episode, prepared.extra if prepared is not None and
-                        prepared.clock_ns == self._clock_ns else None)
+            self._write(episode, prepared)
             self._flush()
         except OSError as exc:
             raise InputError(f"cannot write episode {episode.id} to {self.name}: "
                              f"{exc.strerror or exc}") from None
         self.episodes += 1
 
-    def _write(self, ep: Episode, given: Optional[list] = None) -> None:
-        search = None if ep.search is None else schema.SearchPointMessage(
-            repetition=ep.search.repetition, evaluation=ep.search.evaluation,
-            parameters=dict(ep.search.parameters), objective=ep.search.objective,
-            violated=ep.search.violated, optimizer=ep.search.optimizer,
-            attribution=ep.search.attribution, attribution_step=ep.search.attribution_step,
-            attribution_detail=ep.search.attribution_detail)
-        header = schema.EpisodeHeaderMessage(
-            episode=ep.id, seed=ep.seed, origin=ep.origin, search=search,
-            environment_config=dict(ep.config) if ep.config is not None else None,
-            reset_options=dict(ep.reset_options) if ep.reset_options is not None else None)
-        self._crc = 0
+    def _write(self, ep: Episode, encoded: EncodedEpisode) -> None:
         start = self._stream.tell()
-        self._emit("tracecheck.EpisodeHeader", header.model_dump_json(exclude_none=True).encode(),
-                   0.0)
-        for k, s in enumerate(ep.steps):
-            try:
-                state = encode_state(s.state)
-            except TracecheckError as exc:
-                raise InputError(f"{self.name}, episode {ep.id}, step {s.step}: {exc.message}",
-                                 hint=exc.hint) from None
-            msg = {"episode": ep.id, "step": s.step, "time": s.time, "action": s.action,
-                   "state": state, "reward": s.reward, "crashed": s.crashed}
-            for key in _OPTIONAL_KEYS:
-                value = getattr(s, key)
-                if value is not None:
-                    msg[key] = value
-            try:
-                data = schema.StepMessage.model_validate(msg).model_dump_json(
-                    exclude_none=True).encode()
-            except ValidationError as exc:
-                first = exc.errors()[0]
-                where = ".".join(map(str, first["loc"]))
-                raise InputError(f"{self.name}, episode {ep.id}, step {s.step}: "
-                                 f"{where + ': ' if where else ''}{first['msg']}") from None
-            self._emit("tracecheck.Step", data, s.time)
-            if self._extra is not None:
-                self._emit_extra(ep.id, s, k > 0 and ep.steps[k - 1].crashed,
-                                 None if given is None else given[k])
-        last = ep.steps[-1].time
-        end = schema.EpisodeEndMessage(episode=ep.id, steps=ep.end.steps,
-                                       crashed=ep.end.crashed,
-                                       total_reward=ep.end.total_reward, reason=ep.end.reason)
-        self._emit("tracecheck.EpisodeEnd", end.model_dump_json().encode(), last)
+        self._writer.add_messages(encoded.messages)
         self._end_chunk()  # before the attachment, which the writer puts straight in the file
         # the columns come last: an attachment in the file means its episode is complete
-        cols = Columns.from_states([s.state for s in ep.steps])
-        for s in ep.steps:
-            for name in s.action_values or ():
-                if name not in self._actions:
-                    self._actions.append(name)
-        blob = encode_columns(ep.id, [s.time for s in ep.steps], [s.action for s in ep.steps],
-                              [s.reward for s in ep.steps], [s.crashed for s in ep.steps],
-                              cols, self._actions, [s.action_values for s in ep.steps],
-                              seed=ep.seed, checksums={"messages_crc": self._crc,
-                                                       "run_crc": self._run_crc},
-                              parameters=[s.parameters for s in ep.steps],
-                              proposals=[s.proposal for s in ep.steps],
-                              distances=[s.projection_distance for s in ep.steps],
-                              reason=ep.end.reason)
-        t = self._clock_ns + int(round(last * _NS))
+        self._actions = list(encoded.actions)
+        t = self._clock_ns + int(round(ep.steps[-1].time * _NS))
         self._writer.add_attachment(create_time=t, log_time=t,
                                     name=f"episode-{ep.id}.columns",
-                                    media_type=COLUMNS_MEDIA_TYPE, data=blob)
+                                    media_type=COLUMNS_MEDIA_TYPE, data=encoded.blob)
         self._clock_ns = clock_after(self._clock_ns, ep)
         self._spans.append((start, self._stream.tell()))  # header … columns attachment
         self._spanned += 1

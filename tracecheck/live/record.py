@@ -19,7 +19,7 @@ from typing import Callable, Iterator, Optional, Sequence
 from ..episodes.files import check_run_output, record_episodes
 from ..outputs import input_paths
 from ..processes import quiet_worker, worker_context
-from ..episodes.writer import ChannelsFactory, extra_messages, new_header
+from ..episodes.writer import ChannelsFactory, encode_episode, new_header
 from ..episodes.model import Episode
 from ..errors import InputError
 from .executors import IN_FLIGHT, batch_size, batches, in_order
@@ -59,19 +59,21 @@ def _work(first: int, count: int) -> list[Episode]:
     return [_SESSION.episode(i) for i in range(first, first + count)]
 
 
-def _encode(episode: Episode, clock_ns: int) -> list:
-    """In a worker: the plug-in's messages of ``episode`` starting at ``clock_ns``."""
+def _encode(episode: Episode, context):
+    """In a worker: ``episode`` encoded for the file (its messages with the plug-in's, its
+    chunk compressed, its columns) in ``context``."""
     global _CHANNELS
-    if _CHANNELS is None:  # made at the first episode to encode
+    if _CHANNELS is None and _MAKE_CHANNELS is not None:  # made at the first episode
         make, header = _MAKE_CHANNELS
         _CHANNELS = make(header)
-    return extra_messages(_CHANNELS, episode, clock_ns)
+    return encode_episode(episode, context, _CHANNELS)
 
 
 class _Pooled:
     """The episodes of a recording from worker processes (a context: the pool lives while
-    it is open), which also make each episode's plug-in messages (:meth:`encode`), so that
-    the one writer only appends them."""
+    it is open), which also encode each episode for the file (:meth:`encode`: its messages,
+    the plug-in's, its compressed chunk and columns), so that the one writer only appends
+    them."""
 
     def __init__(self, settings: RecordSettings, shield, channels=None, header=None) -> None:
         self.settings, self.shield, self.channels, self.header = settings, shield, channels, \
@@ -88,8 +90,8 @@ class _Pooled:
         self._pool.terminate()
         self._pool.join()
 
-    def encode(self, episode: Episode, clock_ns: int):
-        return self._pool.apply_async(_encode, (episode, clock_ns))
+    def encode(self, episode: Episode, context):
+        return self._pool.apply_async(_encode, (episode, context))
 
     def __iter__(self) -> Iterator[Episode]:
         settings, pool = self.settings, self._pool
@@ -219,7 +221,7 @@ def record(settings: RecordSettings, out: str | Path,
     out = Path(out)
     agent, shield = check_settings(settings, out, force=force)
     header = recording_header(settings, agent, shield)
-    if settings.executor == "local" and settings.workers > 1 and channels is not None:
+    if settings.executor == "local" and settings.workers > 1:
         with _Pooled(settings, shield, channels, header) as pooled:  # the workers encode too
             return record_episodes(out, header, pooled, progress, force=force,
                                    channels=channels, inputs=run_inputs(settings),
