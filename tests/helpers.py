@@ -4,6 +4,7 @@ tests/fixtures/acc_env installed for a while, and a headless browser."""
 
 from __future__ import annotations
 
+import datetime as _datetime
 import json
 import shutil
 from contextlib import contextmanager
@@ -264,3 +265,16 @@ def solved(text: str, machine=None, **options):
     env = machine.env({}) if machine else {}
     return solve(node, types, env, sets=machine.sets if machine else {}, source=text,
                  file="<t>", **options)
+
+
+class FixedDate:
+    """Stands for the ``datetime`` module where a run header is stamped (patch
+    ``tracecheck.episodes.writer._dt``): one creation time, so that two writes of the same
+    run are the same bytes."""
+
+    timezone = _datetime.timezone
+
+    class datetime:
+        @staticmethod
+        def now(tz=None):
+            return _datetime.datetime(2026, 1, 1, tzinfo=_datetime.timezone.utc)

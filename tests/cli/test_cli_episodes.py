@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from tests.helpers import episode, run
+from tests.helpers import FixedDate, episode, run
 from tracecheck.episodes import EpisodeWriter, new_header
 
 
@@ -79,25 +79,33 @@ def test_damaged_tail_warns(capsys, tmp_path):
 
 @pytest.mark.parametrize("existing", [False, True])
 def test_interrupted_import_says_what_it_kept(capsys, tmp_path, monkeypatch, existing):
-    import tracecheck.interop as interop
+    import tracecheck.interop.simb as simb
 
-    def interrupted(paths, **kw):
-        yield episode(0)
-        raise KeyboardInterrupt
+    calls = []
 
-    monkeypatch.setattr(interop, "import_simb", interrupted)
+    def interrupted(path, episode_id, vocab, machine=None):
+        calls.append(path)
+        if len(calls) > 1:
+            raise KeyboardInterrupt
+        return episode(0)
+
+    monkeypatch.setattr(simb, "read_simb", interrupted)
     target = tmp_path / "out.mcap"
     if existing:
         target.write_bytes(b"old")
-    trace = tmp_path / "t.json"
-    trace.write_text("{}")
+    traces = tmp_path / "t"
+    traces.mkdir()
+    for name in ("Timed_Simulation_1.json", "Timed_Simulation_2.json"):
+        (traces / name).write_text("{}")
+    trace = traces
     code, _, err = run(capsys, "import", "simb", str(trace), "--env", "highway", "-o",
                        str(target), *(["--force"] if existing else []))
     assert code == 130
     assert err.strip() == f"interrupted: {target} was not {'changed' if existing else 'written'}"
     assert (target.read_bytes() == b"old") if existing else not target.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == (["out.mcap"] if existing else []) + \
-        ["t.json"]  # no temporary file left behind
+        ["t"]  # no temporary file left behind
+    assert len(calls) == 2
 
 
 def test_an_interrupt_typer_catches_is_reported(capsys, monkeypatch):
@@ -108,3 +116,47 @@ def test_an_interrupt_typer_catches_is_reported(capsys, monkeypatch):
     monkeypatch.setattr("tracecheck.episodes.summary.summarise", interrupted)
     code, _, err = run(capsys, "info", "x.mcap")
     assert code == 130 and err.strip() == "interrupted"
+
+
+@pytest.mark.parametrize("kind, folder, model", [
+    ("simb", "simb", "Corridor.mch"), ("prob2trace", "traces", "Corridor.mch")])
+def test_import_with_workers_writes_the_same_file(capsys, tmp_path, kind, folder, model):
+    """--workers reads and encodes the traces in worker processes: the same file, byte for
+    byte (one clock and creation time), and a bad trace among them the same error."""
+    import shutil
+    from unittest import mock
+
+    from tests.helpers import ROOT
+
+    fixtures = ROOT / "tests" / "fixtures" / "prob2project"
+    traces = tmp_path / "in"
+    shutil.copytree(fixtures / folder, traces)
+    for k in range(3):  # enough files for several tasks of the workers
+        for f in sorted((fixtures / folder).iterdir()):
+            shutil.copy(f, traces / f"copy{k}_{f.name}")
+    from tracecheck.episodes import writer as writer_module
+
+    files, here = [], []
+    encode = writer_module.encode_episode
+
+    def encoding(*args, **kw):  # counted in this process only
+        here[-1] += 1
+        return encode(*args, **kw)
+    for workers in ("1", "2"):
+        here.append(0)
+        out = tmp_path / f"w{workers}.mcap"
+        with mock.patch("time.time_ns", return_value=1_700_000_000_000_000_000), \
+                mock.patch("tracecheck.episodes.writer._dt", FixedDate), \
+                mock.patch.object(writer_module, "encode_episode", encoding):
+            code, text, err = run(capsys, "import", kind, str(traces), "--model",
+                                  str(fixtures / model), "-o", str(out), "--workers", workers)
+        assert code == 0, err
+        files.append(out.read_bytes())
+    assert files[0] == files[1] and here[0] > 0 and here[1] == 0  # the workers encoded
+    bad = traces / ("copy1_zz.json" if kind == "simb" else "copy1_zz.prob2trace")
+    bad.write_text('{"activations": [}' if kind == "simb" else '{"transitionList": [}')
+    out = tmp_path / "bad.mcap"
+    code, _, err = run(capsys, "import", kind, str(traces), "--model", str(fixtures / model),
+                       "-o", str(out), "--workers", "2")
+    assert code == 2 and f"{bad}:1:" in err and "not valid JSON" in err
+    assert "Traceback" not in err and not out.exists()

@@ -3,24 +3,14 @@ what they made, and the file is the one a single process writes (apart from meas
 
 from __future__ import annotations
 
-import datetime as real_datetime
 import json
 from unittest import mock
 
 from mcap.reader import make_reader
 
-from tests.helpers import ROOT
+from tests.helpers import ROOT, FixedDate
 from tracecheck.interop.foxglove import FoxgloveChannels
 from tracecheck.live.record import RecordSettings, record
-
-
-class _FixedDate:  # the run header's creation time, the same in both recordings
-    timezone = real_datetime.timezone
-
-    class datetime:
-        @staticmethod
-        def now(tz=None):
-            return real_datetime.datetime(2026, 1, 1, tzinfo=real_datetime.timezone.utc)
 
 
 def _messages(path):
@@ -59,7 +49,7 @@ def test_workers_encode_foxgloves_channels_as_the_writer_would(tmp_path):
                                   workers=workers)
         out = tmp_path / f"w{workers}.mcap"
         with mock.patch("time.time_ns", return_value=1_700_000_000_000_000_000), \
-                mock.patch("tracecheck.episodes.writer._dt", _FixedDate), \
+                mock.patch("tracecheck.episodes.writer._dt", FixedDate), \
                 mock.patch.object(FoxgloveChannels, "messages", counted), \
                 mock.patch.object(writer_module, "encode_episode", encoding):
             assert record(settings, out, channels=FoxgloveChannels)[0] == 12
@@ -82,8 +72,43 @@ def test_workers_encode_the_episodes_without_foxglove_too(tmp_path):
                                   workers=workers)
         out = tmp_path / f"w{workers}.mcap"
         with mock.patch("time.time_ns", return_value=1_700_000_000_000_000_000), \
-                mock.patch("tracecheck.episodes.writer._dt", _FixedDate):
+                mock.patch("tracecheck.episodes.writer._dt", FixedDate):
             assert record(settings, out)[0] == 9
         files.append(_messages(out))
     assert files[0] == files[1] and len(files[0]) == 1 + 9 * 2 + sum(
         1 for topic, _, _ in files[0] if topic == "/tracecheck/step")
+
+
+def test_simulate_with_workers_writes_what_one_process_writes(tmp_path):
+    """simulate's workers encode the episodes too; an early stop (narrow intervals) keeps
+    the same episodes whatever the number of workers, and the workers stop at once."""
+    from tracecheck.stats.properties import parse_properties
+    from tracecheck.stats.simulate import simulate
+
+    from tracecheck.episodes import writer as writer_module
+
+    pset = parse_properties('[properties.alive]\npredicate = "x >= 0"\n', name="t",
+                            file="<t>")
+    files, results, encoded = [], [], []
+    encode = writer_module.encode_episode
+
+    def encoding(*args, **kw):
+        encoded[-1] += 1
+        return encode(*args, **kw)
+    for workers in (1, 2):
+        encoded.append(0)
+        settings = RecordSettings(agent=str(ROOT / "models" / "agents" / "frozenlake.npy"),
+                                  shield="frozenlake", env="frozenlake", episodes=40, seed=1,
+                                  workers=workers)
+        out = tmp_path / f"s{workers}.mcap"
+        with mock.patch("time.time_ns", return_value=1_700_000_000_000_000_000), \
+                mock.patch("tracecheck.episodes.writer._dt", FixedDate), \
+                mock.patch.object(writer_module, "encode_episode", encoding):
+            results.append(simulate(settings, out, pset, until_width=0.5, batch=10,
+                                    channels=FoxgloveChannels))
+        files.append(_messages(out))
+    assert files[0] == files[1]
+    assert results[0]["sequential"] == results[1]["sequential"]
+    assert results[0]["sequential"]["stopped_early"]
+    assert results[0]["runs"][0]["episodes"] == results[1]["runs"][0]["episodes"] < 40
+    assert encoded[0] == results[0]["runs"][0]["episodes"] and encoded[1] == 0

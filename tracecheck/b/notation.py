@@ -25,7 +25,7 @@ from ..errors import BSyntaxError, EvaluationError
 from ..limits import read_int
 from .values import Elem, FuncValue, Record, format_value, make_set, sequence
 
-__all__ = ["parse_literal", "from_json", "to_json", "MAX_LITERAL_DEPTH"]
+__all__ = ["parse_literal", "element", "from_json", "to_json", "MAX_LITERAL_DEPTH"]
 
 
 # ------------------------------------------------------------------ literals
@@ -57,6 +57,22 @@ def _number(text: str):
     return float(text) if ("." in text or "e" in text or "E" in text) else read_int(text)
 
 
+#: the elements read so far, one object per name (states of a trace share them: a run holds,
+#: pickles and sends each once); at most ELEMENTS names, past that new ones are not kept
+_ELEMENTS: dict[str, Elem] = {}
+ELEMENTS = 10_000
+
+
+def element(name: str) -> Elem:
+    """The element ``name`` (the one object of that name while there are few)."""
+    found = _ELEMENTS.get(name)
+    if found is None:
+        found = Elem(name)
+        if len(_ELEMENTS) < ELEMENTS:
+            _ELEMENTS[name] = found
+    return found
+
+
 def parse_literal(text: str, *, file: Optional[str] = None, where: str = "") -> Any:
     """Read a B value written in ProB's output notation.
 
@@ -81,7 +97,7 @@ def parse_literal(text: str, *, file: Optional[str] = None, where: str = "") -> 
             return _number(text)
         m = _FUNC_LITERAL.match(text)
         if m:
-            mapping = {Elem(k): _number(v) for k, v in _FUNC_ITEM.findall(text)}
+            mapping = {element(k): _number(v) for k, v in _FUNC_ITEM.findall(text)}
             if len(mapping) == text.count("("):
                 return FuncValue(mapping)
     except ValueError as exc:  # an integer too long to read
@@ -167,7 +183,7 @@ class _LiteralReader:
                 return False
             if word == "rec" and self.peek("("):
                 return self.record()
-            return Elem(word)
+            return element(word)
         raise self.fail(f"unexpected {c!r}")
 
     def maplets(self) -> Any:

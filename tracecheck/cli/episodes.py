@@ -11,7 +11,7 @@ import typer
 from ..errors import InputError
 from ..outputs import input_paths
 from .common import (app, out, err, warn, load_model, SALVAGE, FORMAT, JSON, OutputFormat,
-                     output_format, progress, FORCE, say)
+                     output_format, progress, FORCE, say, WORKERS)
 
 
 import_app = typer.Typer(help="Import ProB/SimB traces or a Minari dataset into an MCAP run "
@@ -51,23 +51,28 @@ def _vocabulary(kind: str, paths: list[Path], model: Optional[Path], env: Option
 
 
 def _import(kind: str, paths: list[Path], output: Path, model: Optional[Path],
-            force: bool, env: Optional[str] = None) -> None:
+            force: bool, env: Optional[str] = None, workers: int = 1) -> None:
     from ..episodes.files import check_run_output, write_run
     from ..episodes.writer import new_header
-    from ..interop import import_prob2trace, import_simb
+    from ..interop.common import expand_paths
+    from ..interop.parallel import read_in_workers
+    from ..interop.prob2trace import read_prob2trace
+    from ..interop.simb import read_simb
 
     inputs = [*paths, *input_paths(model)]
     check_run_output(output, inputs, force=force)
     vocab, machine, environment = _vocabulary(kind, paths, model, env)
-    reader = import_simb if kind == "simb" else import_prob2trace
+    read, pattern = (read_simb, "*.json") if kind == "simb" else \
+        (read_prob2trace, "*.prob2trace")
+    files = expand_paths(paths, pattern)
     header = new_header(f"imported-{kind}", model_name=vocab.name, environment=environment,
                         variables=list(vocab.variables), actions=list(vocab.actions),
                         shield_name=machine.name if machine is not None else None,
                         shield_sha256=machine.sha256 if machine is not None else None)
-    with _writing(output, f"importing {kind} traces") as advance:
-        episodes, steps, crashes = write_run(
-            output, header, _counted(reader(paths, vocab=vocab, machine=machine), advance),
-            force=force, inputs=inputs)
+    with _writing(output, f"importing {kind} traces") as advance, \
+            read_in_workers(read, files, vocab, machine, workers=workers) as (read_, encode):
+        episodes, steps, crashes = write_run(output, header, _counted(read_, advance),
+                                             force=force, inputs=inputs, encode=encode)
     out.print(f"imported {episodes} episode(s), {steps} step(s), {crashes} crash(es) "
               f"-> {output}", markup=False)
 
@@ -108,9 +113,11 @@ def import_simb_cmd(
     model: Optional[Path] = _MODEL,
     env: Optional[str] = _IMPORT_ENV,
     force: bool = FORCE,
+    workers: int = WORKERS,
 ) -> None:
-    """Import SimB timed-simulation traces."""
-    _import("simb", paths, output, model, force, env)
+    """Import SimB timed-simulation traces (with --workers, read and encoded in that many
+    processes: the same file)."""
+    _import("simb", paths, output, model, force, env, workers)
 
 
 @import_app.command("prob2trace")
@@ -120,9 +127,11 @@ def import_prob2trace_cmd(
     model: Optional[Path] = _MODEL,
     env: Optional[str] = _IMPORT_ENV,
     force: bool = FORCE,
+    workers: int = WORKERS,
 ) -> None:
-    """Import ProB2 trace files (one episode each; 1 s between steps)."""
-    _import("prob2trace", paths, output, model, force, env)
+    """Import ProB2 trace files (one episode each; 1 s between steps; with --workers, read
+    and encoded in that many processes: the same file)."""
+    _import("prob2trace", paths, output, model, force, env, workers)
 
 
 @import_app.command("minari")

@@ -19,7 +19,8 @@ from .writer import (ChannelsFactory, EncodeContext, EncodedEpisode, EpisodeWrit
 from .model import Episode
 from .schema import RunHeaderMessage
 
-__all__ = ["write_run", "recording_into", "record_episodes", "check_run_output"]
+__all__ = ["write_run", "recording_into", "record_episodes", "prepared_episodes",
+           "check_run_output"]
 
 _NO_FOLLOW = getattr(os, "O_NOFOLLOW", 0)
 
@@ -33,9 +34,12 @@ def check_run_output(path: str | Path, inputs: Sequence[Path] = (), *,
 
 def write_run(path: str | Path, header: RunHeaderMessage, episodes: Iterable[Episode], *,
               channels: Optional[ChannelsFactory] = None, force: bool = False,
-              inputs: Sequence[Path] = ()) -> tuple[int, int, int]:
+              inputs: Sequence[Path] = (),
+              encode: Optional[Callable[[Episode, EncodeContext], Any]] = None
+              ) -> tuple[int, int, int]:
     """Write ``episodes`` to ``path``; (episodes, steps, crashes) written; ``channels`` adds
-    a plug-in's channels (Foxglove's: ``interop/foxglove.py``).
+    a plug-in's channels (Foxglove's: ``interop/foxglove.py``); ``encode``: the episodes
+    are encoded elsewhere (see :func:`prepared_episodes`).
 
     ``path`` must not be one of ``inputs``, and an existing ``path`` is replaced only with
     ``force``. An error while producing the episodes (a bad input file, say) leaves any
@@ -45,8 +49,8 @@ def write_run(path: str | Path, header: RunHeaderMessage, episodes: Iterable[Epi
     counts = [0, 0, 0]
     with atomic_temp(path) as (stream, part):
         with EpisodeWriter(part, header, channels, stream=stream, name=path) as out:
-            for episode in episodes:
-                out.write(episode)
+            for episode, prepared in prepared_episodes(out, episodes, encode):
+                out.write(episode, prepared)
                 counts[0] += 1
                 counts[1] += episode.end.steps
                 counts[2] += episode.end.crashed
@@ -151,8 +155,7 @@ def record_episodes(path: str | Path, header: RunHeaderMessage, episodes: Iterab
     counts = [0, 0, 0]
     with recording_into(path, header, force=force, channels=channels,
                         inputs=inputs) as writer:
-        stream = ((e, None) for e in episodes) if encode is None \
-            else _prepared(writer.context(), episodes, encode)
+        stream = prepared_episodes(writer, episodes, encode)
         for episode, prepared in stream:
             with whole_episode():
                 writer.write(episode, prepared)
@@ -168,11 +171,17 @@ def record_episodes(path: str | Path, header: RunHeaderMessage, episodes: Iterab
 AHEAD = 8
 
 
-def _prepared(context: EncodeContext, episodes: Iterable[Episode], encode
-              ) -> Iterator[tuple[Episode, EncodedEpisode]]:
-    """Each episode, in order, encoded by ``encode`` for the context it will be written in
-    (each episode's from the one before: its start time, :func:`clock_after`, and the
-    action names, :func:`actions_after`)."""
+def prepared_episodes(writer: EpisodeWriter, episodes: Iterable[Episode], encode=None
+                      ) -> Iterator[tuple[Episode, Optional[EncodedEpisode]]]:
+    """Each episode, in order, with what to give ``writer.write``: encoded by ``encode``
+    (``encode(episode, context)``: a handle whose ``get()`` gives it, made elsewhere) for
+    the context it will be written in — each episode's from the one before: its start time
+    (:func:`clock_after`) and the action names (:func:`actions_after`); None without
+    ``encode`` (the writer encodes it)."""
+    if encode is None:
+        yield from ((episode, None) for episode in episodes)
+        return
+    context = writer.context()
     ahead: deque = deque()
     for episode in episodes:
         ahead.append((episode, encode(episode, context)))

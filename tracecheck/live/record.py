@@ -13,6 +13,7 @@ back.
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Callable, Iterator, Optional, Sequence
 
@@ -25,7 +26,8 @@ from ..errors import InputError
 from .executors import IN_FLIGHT, batch_size, batches, in_order
 from .rollout import RecordSettings, Session, resolve
 
-__all__ = ["RecordSettings", "record", "episodes", "check_settings", "recording_header"]
+__all__ = ["RecordSettings", "record", "episodes", "encoded_episodes", "check_settings",
+           "recording_header"]
 
 
 _SESSION: Optional[Session] = None
@@ -87,8 +89,15 @@ class _Pooled:
         return self
 
     def __exit__(self, *exc) -> None:
-        self._pool.terminate()
-        self._pool.join()
+        self.close()
+
+    def close(self) -> None:
+        """Stop the workers at once (a simulation that stopped early: what they run ahead is
+        not needed)."""
+        if self._pool is not None:
+            self._pool.terminate()
+            self._pool.join()
+            self._pool = None
 
     def encode(self, episode: Episode, context):
         return self._pool.apply_async(_encode, (episode, context))
@@ -100,6 +109,19 @@ class _Pooled:
                               batches(settings.episodes, size),
                               IN_FLIGHT * settings.workers, lambda handle: handle.get()):
             yield from batch
+
+
+@contextmanager
+def encoded_episodes(settings: RecordSettings, shield, channels=None, header=None):
+    """(episodes, encode) of a recording: with local workers, they also encode each episode
+    for the file (``encode(episode, context)``, see
+    :func:`~tracecheck.episodes.files.prepared_episodes`), else ``encode`` is None (the
+    writer encodes them). ``channels`` and ``header``: the writer's plug-in and run header."""
+    if settings.executor == "local" and settings.workers > 1:
+        with _Pooled(settings, shield, channels, header) as pooled:
+            yield pooled, pooled.encode
+    else:
+        yield episodes(settings, shield), None
 
 
 def episodes(settings: RecordSettings, shield) -> Iterator[Episode]:
@@ -221,10 +243,6 @@ def record(settings: RecordSettings, out: str | Path,
     out = Path(out)
     agent, shield = check_settings(settings, out, force=force)
     header = recording_header(settings, agent, shield)
-    if settings.executor == "local" and settings.workers > 1:
-        with _Pooled(settings, shield, channels, header) as pooled:  # the workers encode too
-            return record_episodes(out, header, pooled, progress, force=force,
-                                   channels=channels, inputs=run_inputs(settings),
-                                   encode=pooled.encode)
-    return record_episodes(out, header, episodes(settings, shield), progress, force=force,
-                           channels=channels, inputs=run_inputs(settings))
+    with encoded_episodes(settings, shield, channels, header) as (made, encode):
+        return record_episodes(out, header, made, progress, force=force, channels=channels,
+                               inputs=run_inputs(settings), encode=encode)

@@ -16,11 +16,11 @@ from dataclasses import dataclass
 from typing import Callable, Iterator, Optional, Sequence
 
 from ..episodes.columns import episode_columns
-from ..episodes.files import recording_into
+from ..episodes.files import prepared_episodes, recording_into
 from ..episodes.writer import ChannelsFactory
 from ..episodes.model import Episode
 from .properties import PropertySet
-from ..live.record import (RecordSettings, check_settings, episodes, recording_header,
+from ..live.record import (RecordSettings, check_settings, encoded_episodes, recording_header,
                            run_inputs)
 from .estimates import evaluate_run, prepare, statistics
 
@@ -65,12 +65,14 @@ def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
     from ..live.record import resolve
 
     adapter = resolve(settings)[0]
-    source = _Source(recording_header(settings, agent, shield), episodes(settings, shield),
-                     settings.episodes, tuple(adapter.actions), prepare(pset, adapter),
-                     [*run_inputs(settings), *inputs], adapter)
-    return _simulate(source, out, pset, until_width=until_width,
-                     batch=batch or max(10, 10 * settings.workers), progress=progress,
-                     force=force, channels=channels)
+    header = recording_header(settings, agent, shield)
+    with encoded_episodes(settings, shield, channels, header) as (made, encode):
+        source = _Source(header, made, settings.episodes, tuple(adapter.actions),
+                         prepare(pset, adapter), [*run_inputs(settings), *inputs], adapter,
+                         encode)
+        return _simulate(source, out, pset, until_width=until_width,
+                         batch=batch or max(10, 10 * settings.workers), progress=progress,
+                         force=force, channels=channels)
 
 
 def simulate_external(settings, shield, out: str | Path, pset: PropertySet, *,
@@ -113,6 +115,7 @@ class _Source:
     formulas: dict
     inputs: list
     adapter: object
+    encode: Optional[Callable] = None  # workers that encode the episodes for the file
 
 
 def _simulate(source: _Source, out: Path, pset: PropertySet, *, until_width, batch,
@@ -128,8 +131,8 @@ def _simulate(source: _Source, out: Path, pset: PropertySet, *, until_width, bat
     with recording_into(out, source.header, force=force, channels=channels,
                         inputs=source.inputs) as writer:
         try:
-            for episode in source.episodes:
-                writer.write(episode)
+            for episode, encoded in prepared_episodes(writer, source.episodes, source.encode):
+                writer.write(episode, encoded)
                 if progress is not None:
                     progress(episode)
                 if sequential is None:
