@@ -2,9 +2,9 @@
 1, 2, 4, … workers up to every core, each a fresh `tracecheck` process as a user runs it.
 
     python benchmarks/bench_cores.py [--max-workers N] [--frozenlake 800] [--highway 16]
-        [--replay 100000] [--repeat 1] [--out DIR] [--cache DIR]
+        [--replay 100000] [--import-traces 1000] [--repeat 1] [--out DIR] [--cache DIR]
 
-Three jobs (each skipped with 0):
+Four jobs (each skipped with 0):
 
 - ``record --env frozenlake`` with the bundled Q-table under the frozenlake shield, slippery
   lake, Foxglove's channels as the CLI writes them (``--frozenlake`` episodes);
@@ -12,7 +12,11 @@ Three jobs (each skipped with 0):
   needs highway-env);
 - ``replay --shield strict`` of one file of ``--replay`` episodes: the paper's 40 SimB traces
   round-robin where ``../shared/data/paper-traces`` is, else frozenlake episodes recorded
-  here (built once into ``--cache`` and kept there: 10⁵ episodes take minutes to write).
+  here (built once into ``--cache`` and kept there: 10⁵ episodes take minutes to write);
+- ``import simb`` of a folder of ``--import-traces`` SimB traces: the paper's round-robin
+  (``--env highway``), else frozenlake episodes recorded and exported here
+  (``--env frozenlake``); the files written are checked to be the same at every number of
+  workers (but the time they were written).
 
 Every run of a job writes or reads the same episodes; the replay's JSON report is checked to be
 the same at every number of workers (but its timing fields). Out: a table on stdout, and
@@ -130,6 +134,74 @@ def replay_job(path: Path, shield: str, episodes: int, workers: list[int], repea
     return rows
 
 
+def import_folder(traces: int, cache: Path) -> tuple[Path, str]:
+    """A folder of ``traces`` SimB traces (made once, kept in ``cache``) and the environment
+    that reads them."""
+    kind = "paper" if SIMB.is_dir() else "frozenlake"
+    folder = cache / f"cores-simb-{kind}-{traces}"
+    env = "highway" if kind == "paper" else "frozenlake"
+    if folder.is_dir():
+        return folder, env
+    part = folder.with_name(folder.name + ".part")
+    part.mkdir(parents=True, exist_ok=True)
+    if kind == "paper":
+        sources = sorted(SIMB.glob("*/Timed_Simulation_*.json"))
+        for k in range(traces):
+            (part / f"Timed_Simulation_{k + 1}.json").symlink_to(sources[k % len(sources)])
+    else:
+        run = part / "run.mcap"
+        tracecheck("record", *FROZENLAKE, "--episodes", str(traces), "--seed", "0",
+                   "--workers", str(os.cpu_count() or 1), "-o", str(run), "--force")
+        tracecheck("export", "simb", str(run), "-o", str(part / "simb"))
+        for f in (part / "simb").iterdir():
+            f.rename(part / f.name)
+        (part / "simb").rmdir()
+        run.unlink()
+    part.rename(folder)
+    return folder, env
+
+
+def import_job(folder: Path, env: str, traces: int, workers: list[int], repeat: int,
+               tmp: Path) -> list[dict]:
+    rows, first = [], None
+    for w in workers:
+        times = []
+        for k in range(repeat):
+            out = tmp / f"import-{w}-{k}.mcap"
+            times.append(tracecheck("import", "simb", str(folder), "--env", env, "-o",
+                                    str(out), "--workers", str(w)))
+            episodes = _episodes_of(out)
+            if first is None:
+                first = episodes
+            elif episodes != first:
+                raise SystemExit(f"import with {w} workers wrote a different file")
+            out.unlink()
+        rows.append({"job": "import simb", "workers": w, "episodes": traces,
+                     "seconds": statistics.median(times), "same_file": True})
+        print(f"  import: {w} workers, {traces} traces in {rows[-1]['seconds']:.2f} s "
+              "(the same file)", flush=True)
+    return rows
+
+
+def _episodes_of(path: Path) -> list:
+    """A run file's messages and attachments but the run header's creation time, and times
+    relative to the file's first message: what two imports of the same traces share."""
+    from mcap.reader import make_reader
+
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        out, clock = [], None
+        for _, channel, message in reader.iter_messages(log_time_order=False):
+            clock = message.log_time if clock is None else clock
+            data = message.data
+            if channel.topic == "/tracecheck/run":
+                header = json.loads(data)
+                header.pop("created", None)
+                data = json.dumps(header).encode()
+            out.append((channel.topic, message.log_time - clock, data))
+    return out
+
+
 FROZENLAKE = ["--env", "frozenlake", "--env-config", "is_slippery=true",
               "--agent", str(ROOT / "models" / "agents" / "frozenlake.npy"),
               "--shield", "frozenlake"]
@@ -142,6 +214,7 @@ def main() -> None:
     parser.add_argument("--frozenlake", type=int, default=800)
     parser.add_argument("--highway", type=int, default=16)
     parser.add_argument("--replay", type=int, default=100_000)
+    parser.add_argument("--import-traces", type=int, default=1000)
     parser.add_argument("--repeat", type=int, default=1)
     parser.add_argument("--out", type=Path, default=Path("."))
     parser.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "tracecheck-bench")
@@ -166,6 +239,9 @@ def main() -> None:
             path = replay_file(args.replay, args.cache)
             shield = "strict" if SIMB.is_dir() else "frozenlake"
             rows += replay_job(path, shield, args.replay, workers, args.repeat, tmp)
+        if args.import_traces:
+            folder, env = import_folder(args.import_traces, args.cache)
+            rows += import_job(folder, env, args.import_traces, workers, args.repeat, tmp)
     for row in rows:
         one = next(r for r in rows if r["job"] == row["job"] and r["workers"] == 1)
         row["episodes_per_s"] = round(row["episodes"] / row["seconds"], 2)

@@ -27,14 +27,14 @@ def _frozenlake():
                                  adapter=adapter)
 
 
-def _corridor(text: str = SHIELD):
+def _corridor(text: str = SHIELD, slip: bool = True):
     import tempfile
     from pathlib import Path
 
     path = Path(tempfile.mkdtemp()) / "corridor.mch"
     path.write_text(text)
     shield = load_shield(path)
-    return lambda: ShieldWrapper(Corridor().make_env({"slip": True}), shield,
+    return lambda: ShieldWrapper(Corridor().make_env({"slip": slip}), shield,
                                  adapter=Corridor())
 
 
@@ -320,3 +320,67 @@ def test_an_info_deep_copies_as_its_values_need():
     info["shield"]["extra"] = {"nested": [1]}  # anything else: deep-copied
     assert copy.deepcopy(info)["shield"]["extra"]["nested"] is not \
         info["shield"]["extra"]["nested"]
+
+
+def test_an_action_the_machine_has_no_operation_for_is_never_allowed(batches):
+    """One by one, an adapter's action that names no operation of the shield is never
+    allowed (machine.enabled_in never lists it); the batch path did allow it (review)."""
+    machine = load_machine_text(REAL)
+    states = [{"x": v} for v in np.linspace(0.25, 4.0, 40).tolist()]
+    alone = [Decisions(machine, ("Up", "Jump", "Down")).one(s) for s in states]
+    together = Decisions(machine, ("Up", "Jump", "Down")).many(states)
+    assert batches == [40]
+    assert [d.allowed for d in together] == [d.allowed for d in alone]
+    assert not any("Jump" in d.allowed for d in together)
+    assert [d.mask.tolist()[1] for d in together] == [False] * 40
+
+
+def test_an_integer_beyond_int64_takes_the_states_one_by_one(batches):
+    machine = load_machine_text(REAL.replace("x : REAL", "x : INTEGER")
+                                .replace("x := 1.0", "x := 1")
+                                .replace("1.0 / x > 0.5", "x < 3")
+                                .replace("x > 0.0", "x > 0"))
+    states = [{"x": k} for k in range(40)] + [{"x": 2 ** 70}]
+    together = Decisions(machine, ("Up", "Down")).many(states)
+    assert [d.allowed for d in together] == \
+        [Decisions(machine, ("Up", "Down")).one(s).allowed for s in states]
+    assert together[-1].allowed == ("Down",) and not batches
+
+
+def test_an_interrupted_batch_leaves_every_state_waiting(monkeypatch):
+    """A batch that fails (Ctrl-C in a notebook) leaves the states waiting: the next mask
+    is decided, never the state before's."""
+    envs = ShieldedVectorEnv(gym.vector.SyncVectorEnv([_corridor(slip=False)] * 3))
+    envs.reset(seed=[0, 1, 2])
+    assert envs.action_masks().tolist() == [[True, True]] * 3  # in cell 2
+    many = Decisions.many
+
+    def interrupted(self, states):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(Decisions, "many", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        envs.step(np.array([0, 0, 0]))  # Left
+    monkeypatch.setattr(Decisions, "many", many)
+    assert [w.state["pos"] for w in envs.group.wrappers] == [1, 1, 1]
+    assert envs.action_masks().tolist() == [[False, True]] * 3  # in cell 1: not Left
+
+
+def test_an_adapter_action_without_an_operation_is_refused_at_once():
+    """Let through, the action would be blocked in every state, silently (a new user's
+    misspelt action); the command line refused it already."""
+    from tracecheck.live.vector_sb3 import ShieldedVecEnv
+
+    class Misspelt(Corridor):
+        actions = ("Left", "Rigth")
+
+    with pytest.raises(InputError, match="FrozenLakeShield lacks Left, Right") as caught:
+        ShieldWrapper(Corridor().make_env({"slip": True}), load_shield("frozenlake"),
+                      adapter=Corridor())
+    assert "name each of the environment's actions" in caught.value.hint
+    corridor = _corridor()().shield
+    with pytest.raises(InputError, match="CorridorShield lacks Rigth"):
+        ShieldWrapper(Corridor().make_env({"slip": True}), corridor, adapter=Misspelt())
+    with pytest.raises(InputError, match="takes a Stable-Baselines3 vector environment, not "
+                                         "list"):
+        ShieldedVecEnv([_corridor()])

@@ -152,7 +152,9 @@ def for_actions(shield: Shield, actions: tuple[str, ...]) -> Shield:
     if missing:
         raise InputError(f"{shield.path}: a shield needs one operation per action "
                          f"({', '.join(actions)}); {shield.machine.name} lacks "
-                         f"{', '.join(missing)}")
+                         f"{', '.join(missing)}",
+                         hint="name each of the environment's actions (the adapter's "
+                              "`actions`) as the shield's operation for it")
     return shield
 
 

@@ -57,7 +57,7 @@ _NUMBERS = frozenset({int, bool, float})
 _TEXTS = frozenset({str, Elem})
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Decision:
     """What the shield allows in one state.
 
@@ -169,18 +169,22 @@ class Decisions:
         names = list(states[0])
         if not self._batch or any(list(s) != names for s in states):
             return None
-        cols = Columns.from_states(states)
         formulas = self._batch_formulas()
-        if not all(f.vectorised(cols) for f in formulas.values()):
-            self._batch = False  # the guards row by row: never faster than one by one
-            return None
         memo: dict = {}
         try:
+            cols = Columns.from_states(states)
+            if not all(f.vectorised(cols) for f in formulas.values()):
+                self._batch = False  # the guards row by row: never faster than one by one
+                return None
             holds = {op: np.asarray(f(cols, memo), dtype=bool) for op, f in formulas.items()}
-        except TracecheckError:
-            return None
-        every = np.ones(len(states), dtype=bool)
-        columns = np.stack([holds.get(a, every) for a in self.actions], axis=1)
+        except (TracecheckError, OverflowError, ValueError, TypeError):  # one by one, then:
+            return None  # the states' answers and messages are those of the scalar path
+        operations = self.machine.operations
+        n = len(states)
+        # an operation without a guard is always enabled; an action the machine has no
+        # operation for never is (as machine.enabled_in has it)
+        columns = np.stack([holds[a] if a in holds else np.full(n, a in operations, dtype=bool)
+                            for a in self.actions], axis=1)
         return [self._decision({a for a, ok in zip(self.actions, row) if ok}) for row in
                 columns.tolist()]
 
@@ -222,6 +226,8 @@ class Decisions:
         return found
 
     def _remember(self, key: tuple, decision: Decision) -> None:
+        if not self._memoise:
+            return
         if len(self._memo) >= MEMO_SIZE:
             self._memo.clear()
         self._memo[key] = decision

@@ -91,11 +91,12 @@ class ShieldGroup:
 
     def settle(self) -> None:
         """Decide every waiting state in one batch and give each wrapper its decision."""
-        queue, self._queue = self._queue, []
+        queue = self._queue
         if not queue:
             return
         start = time.perf_counter()
-        decisions = self.decisions.many([w.state for w in queue])
+        decisions = self.decisions.many([w.state for w in queue])  # raises: all still wait
+        self._queue = []
         each_us = (time.perf_counter() - start) * 1e6 / len(queue)
         for waiting, decision in zip(queue, decisions):
             fields = waiting.wrapper.settle(decision, each_us)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
+from ..errors import InputError
 from .vector import ShieldGroup, local_envs, sub_shields
 
 __all__ = ["ShieldedVecEnv"]
@@ -26,6 +27,10 @@ class ShieldedVecEnv(VecEnvWrapper):
     observations show."""
 
     def __init__(self, venv: VecEnv) -> None:
+        if not isinstance(venv, VecEnv):
+            raise InputError(f"ShieldedVecEnv takes a Stable-Baselines3 vector environment, "
+                             f"not {type(venv).__name__}",
+                             hint="ShieldedVecEnv(DummyVecEnv([lambda: ShieldWrapper(…)] * n))")
         super().__init__(venv)
         where = "ShieldedVecEnv"
         self.group = ShieldGroup(sub_shields(local_envs(venv.unwrapped, where), where))

@@ -35,7 +35,7 @@ import numpy as np
 from ..b.memo import MEMO_KEY
 from ..errors import InputError
 from ..b.conversion import convert_state
-from ..checking.shield import Shield, typing_machine
+from ..checking.shield import Shield, for_actions, typing_machine
 from .decisions import Decision, Decisions
 
 __all__ = ["ShieldWrapper", "BState", "ShieldInfo", "choose", "adapter_for"]
@@ -79,7 +79,8 @@ class BState(dict):
     copy of the dict alone."""
 
     def __deepcopy__(self, memo: dict) -> "BState":
-        return BState(self)
+        out = memo[id(self)] = BState(self)
+        return out
 
 
 class ShieldInfo(dict):
@@ -87,7 +88,7 @@ class ShieldInfo(dict):
     values shared, anything else deep-copied)."""
 
     def __deepcopy__(self, memo: dict) -> "ShieldInfo":
-        out = ShieldInfo()
+        out = memo[id(self)] = ShieldInfo()
         for key, value in self.items():
             kind = type(value)
             if kind is list and all(type(v) is str for v in value):
@@ -174,6 +175,8 @@ class ShieldWrapper(gym.Wrapper):
                              f"({', '.join(self.actions)}): each action index needs its B "
                              "operation", hint="list one operation per action, in the "
                                                "environment's order, in the adapter's actions")
+        for_actions(shield, self.actions)  # an action no operation decides: never allowed,
+        #                                    silently, were it let through
         fallback = fallback or self.env_adapter.fallback or self.actions[0]
         if fallback not in self.actions:
             raise InputError(f"unknown fallback action {fallback!r}; the actions are "
