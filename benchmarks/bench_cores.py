@@ -13,8 +13,9 @@ Four jobs (each skipped with 0):
 - ``replay --shield strict`` of one file of ``--replay`` episodes: the paper's 40 SimB traces
   round-robin where ``../shared/data/paper-traces`` is, else frozenlake episodes recorded
   here (built once into ``--cache`` and kept there: 10⁵ episodes take minutes to write);
-- ``import simb`` of a folder of ``--import-traces`` SimB traces: the paper's round-robin
-  (``--env highway``), else frozenlake episodes recorded and exported here
+- ``import simb`` of a folder of ``--import-traces`` SimB traces: the paper's round-robin,
+  read with the bundled ``paper`` machine (``--model``: every state type-checked, as a
+  project reads them), else frozenlake episodes recorded and exported here
   (``--env frozenlake``); the files written are checked to be the same at every number of
   workers (but the time they were written).
 
@@ -134,12 +135,13 @@ def replay_job(path: Path, shield: str, episodes: int, workers: list[int], repea
     return rows
 
 
-def import_folder(traces: int, cache: Path) -> tuple[Path, str]:
-    """A folder of ``traces`` SimB traces (made once, kept in ``cache``) and the environment
-    that reads them."""
+def import_folder(traces: int, cache: Path) -> tuple[Path, list[str]]:
+    """A folder of ``traces`` SimB traces (made once, kept in ``cache``) and the options
+    that read them."""
     kind = "paper" if SIMB.is_dir() else "frozenlake"
     folder = cache / f"cores-simb-{kind}-{traces}"
-    env = "highway" if kind == "paper" else "frozenlake"
+    env = ["--model", str(ROOT / "models" / "shields" / "paper.mch")] if kind == "paper" \
+        else ["--env", "frozenlake"]
     if folder.is_dir():
         return folder, env
     part = folder.with_name(folder.name + ".part")
@@ -161,15 +163,15 @@ def import_folder(traces: int, cache: Path) -> tuple[Path, str]:
     return folder, env
 
 
-def import_job(folder: Path, env: str, traces: int, workers: list[int], repeat: int,
+def import_job(folder: Path, env: list[str], traces: int, workers: list[int], repeat: int,
                tmp: Path) -> list[dict]:
     rows, first = [], None
     for w in workers:
         times = []
         for k in range(repeat):
             out = tmp / f"import-{w}-{k}.mcap"
-            times.append(tracecheck("import", "simb", str(folder), "--env", env, "-o",
-                                    str(out), "--workers", str(w)))
+            times.append(tracecheck("import", "simb", str(folder), *env, "-o", str(out),
+                                    "--workers", str(w)))
             episodes = _episodes_of(out)
             if first is None:
                 first = episodes

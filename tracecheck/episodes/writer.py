@@ -285,16 +285,6 @@ class EpisodeWriter:
                 message_encoding="protobuf" if encodings[name] == "protobuf" else "json")
         self._extra = extra
 
-    @property
-    def clock_ns(self) -> int:
-        """The file time the next episode starts at."""
-        return self._clock_ns
-
-    @property
-    def extra(self) -> Optional[StepChannels]:
-        """The plug-in's channels, if any."""
-        return self._extra
-
     def close(self) -> None:
         """Write the summary (index and statistics) and close the file."""
         if self._writer is None:
