@@ -384,3 +384,18 @@ def test_an_adapter_action_without_an_operation_is_refused_at_once():
     with pytest.raises(InputError, match="takes a Stable-Baselines3 vector environment, not "
                                          "list"):
         ShieldedVecEnv([_corridor()])
+
+
+def test_a_decision_is_of_its_own_state_alone():
+    """A state without a variable the state before had is decided without it (the guard
+    that reads it cannot be evaluated: its action is not allowed, and says why), never with
+    the value the state before left behind — whatever came before, and memoised or not."""
+    machine = load_machine_text(REAL.replace("VARIABLES x", "VARIABLES x, y")
+                                .replace("x : REAL", "x : REAL & y : REAL")
+                                .replace("x := 1.0", "x := 1.0 || y := 1.0")
+                                .replace("x > 0.0", "y > 0.0"))
+    decisions = Decisions(machine, ("Up", "Down"))
+    assert decisions.one({"x": 1.0, "y": 1.0}).allowed == ("Up", "Down")
+    alone = decisions.one({"x": 1.0})
+    assert alone.allowed == ("Up",) and alone.problem.startswith("Down: ")
+    assert Decisions(machine, ("Up", "Down")).one({"x": 1.0}).allowed == ("Up",)

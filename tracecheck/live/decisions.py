@@ -94,6 +94,7 @@ class Decisions:
         self._cost: dict[bool, Optional[float]] = {True: None, False: None}  # µs per state
         self._choices = 0
         self._made: dict[tuple[str, ...], Decision] = {}  # the decisions without a problem
+        self._names: set = set()  # the names of the state decided last
 
     def one(self, state: Mapping[str, Any]) -> Decision:
         """The decision in ``state`` (a dict of B values of the machine's variables)."""
@@ -147,6 +148,12 @@ class Decisions:
     def _scalar(self, state: Mapping[str, Any]) -> Decision:
         env = self._env
         env.pop(MEMO_KEY, None)
+        names = state.keys()
+        if names != self._names:  # a name the state before had and this one lacks: gone
+            for name in self._names - names:  # (a decision is of its own state alone)
+                env.pop(name, None)
+            env.update(self.machine.base_env)
+            self._names = set(names)
         env.update(state)
         machine = self.machine
         try:
