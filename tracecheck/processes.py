@@ -6,8 +6,9 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import signal
+import threading
 
-__all__ = ["worker_context", "quiet_worker"]
+__all__ = ["worker_context", "quiet_worker", "worker_pool"]
 
 
 def worker_context():
@@ -29,3 +30,20 @@ def quiet_worker() -> None:
         libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):  # not Linux: the pool's terminate() still ends it
         pass
+
+
+def worker_pool(workers: int, initializer=None, initargs: tuple = ()):
+    """A pool of ``workers`` processes (:func:`worker_context`) that end at once when the
+    command stops them: they are forked with Ctrl-C ignored and SIGTERM at its default, so
+    a pool stopped before a worker ran its ``initializer`` does not leave that worker with
+    the command's own handlers, waiting for ever (an import of a few traces hung so)."""
+    if threading.current_thread() is not threading.main_thread():
+        return worker_context().Pool(workers, initializer=initializer, initargs=initargs)
+    saved = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    try:
+        return worker_context().Pool(workers, initializer=initializer, initargs=initargs)
+    finally:
+        for s, handler in saved.items():
+            signal.signal(s, handler)

@@ -130,9 +130,9 @@ def map_files(fn, jobs: list[tuple], executor: str = "local",
 def _in_workers(fn, jobs: list[tuple], workers: int) -> list:
     """``fn(*job)`` for each job in a pool of ``workers`` processes, results in order (a
     job's error raised here, as in one process; Ctrl-C stops the pool)."""
-    from ..processes import quiet_worker, worker_context
+    from ..processes import quiet_worker, worker_pool
 
-    with worker_context().Pool(min(workers, len(jobs)), initializer=quiet_worker) as pool:
+    with worker_pool(min(workers, len(jobs)), quiet_worker) as pool:
         try:
             handles = [pool.apply_async(_in_worker, (fn, [pickle.dumps(a) for a in job]))
                        for job in jobs]

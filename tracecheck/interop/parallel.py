@@ -14,7 +14,7 @@ from typing import Callable, Iterator, Optional, Sequence
 
 from ..episodes.model import Episode
 from ..episodes.writer import encode_episode
-from ..processes import quiet_worker, worker_context
+from ..processes import quiet_worker, worker_pool
 
 __all__ = ["read_in_workers"]
 
@@ -48,7 +48,7 @@ def read_in_workers(read: Callable, files: Sequence[Path], vocab, machine=None, 
     if workers <= 1:
         yield (read(Path(f), first_id + k, vocab, machine) for k, f in enumerate(files)), None
         return
-    pool = worker_context().Pool(workers, initializer=_init, initargs=(read, vocab, machine))
+    pool = worker_pool(workers, _init, (read, vocab, machine))
     try:
         jobs = [(str(f), first_id + k) for k, f in enumerate(files)]
 

@@ -19,7 +19,7 @@ from typing import Callable, Iterator, Optional, Sequence
 
 from ..episodes.files import check_run_output, record_episodes
 from ..outputs import input_paths
-from ..processes import quiet_worker, worker_context
+from ..processes import quiet_worker, worker_pool
 from ..episodes.writer import ChannelsFactory, encode_episode, new_header
 from ..episodes.model import Episode
 from ..errors import InputError
@@ -83,9 +83,8 @@ class _Pooled:
         self._pool = None
 
     def __enter__(self) -> "_Pooled":
-        self._pool = worker_context().Pool(self.settings.workers, initializer=_init_worker,
-                                           initargs=(self.settings, self.shield,
-                                                     self.channels, self.header))
+        self._pool = worker_pool(self.settings.workers, _init_worker,
+                                 (self.settings, self.shield, self.channels, self.header))
         return self
 
     def __exit__(self, *exc) -> None:

@@ -88,9 +88,9 @@ def evaluations(settings, session, objective: Objective, shield):
         local = Evaluator(settings, session, objective)
         yield lambda tasks: [local(t) for t in tasks]
         return
-    from ..processes import worker_context
+    from ..processes import worker_pool
 
-    with worker_context().Pool(workers, initializer=_init_worker, initargs=(settings, shield)) as pool:
+    with worker_pool(workers, _init_worker, (settings, shield)) as pool:
         try:
             yield lambda tasks: pool.map(_work, tasks, chunksize=1)
         finally:
