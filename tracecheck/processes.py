@@ -7,8 +7,15 @@ from __future__ import annotations
 import multiprocessing as mp
 import signal
 import threading
+from collections import deque
+from typing import Callable, Iterable, Iterator, TypeVar
 
-__all__ = ["worker_context", "quiet_worker", "worker_pool"]
+__all__ = ["worker_context", "quiet_worker", "worker_pool", "in_order"]
+
+J = TypeVar("J")
+H = TypeVar("H")
+R = TypeVar("R")
+_END = object()
 
 
 def worker_context():
@@ -47,3 +54,25 @@ def worker_pool(workers: int, initializer=None, initargs: tuple = ()):
     finally:
         for s, handler in saved.items():
             signal.signal(s, handler)
+
+
+def in_order(submit: Callable[[J], H], jobs: Iterable[J], limit: int,
+             result: Callable[[H], R]) -> Iterator[R]:
+    """``result(submit(job))`` for each of ``jobs``, in order, with at most ``limit`` jobs
+    submitted and not yet given (``submit`` starts a job and returns a handle; ``result``
+    waits for it). The writer is often slower than the workers, and a finished job waits in
+    this process until it is written: an unbounded queue held 2.4 GB after 5000 grid-world
+    episodes."""
+    if limit < 1:
+        raise ValueError(f"limit must be at least 1, not {limit}")
+    ahead: deque[H] = deque()
+    jobs = iter(jobs)
+    while True:
+        while len(ahead) < limit:
+            job = next(jobs, _END)
+            if job is _END:
+                break
+            ahead.append(submit(job))
+        if not ahead:
+            return
+        yield result(ahead.popleft())

@@ -7,14 +7,13 @@ is the same as one process writes, byte for byte apart from the time it was writ
 
 from __future__ import annotations
 
-from collections import deque
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Callable, Iterator, Optional, Sequence
+from typing import Callable, Optional, Sequence
 
 from ..episodes.model import Episode
 from ..episodes.writer import encode_episode
-from ..processes import quiet_worker, worker_pool
+from ..processes import in_order, quiet_worker, worker_pool
 
 __all__ = ["read_in_workers"]
 
@@ -35,7 +34,7 @@ def _some(jobs: list[tuple[str, int]]) -> list[Episode]:
     return [read(Path(path), episode_id, vocab, machine) for path, episode_id in jobs]
 
 
-def _encode(episode: Episode, context):
+def _encode(episode: Episode, context):  # sent by this name: the worker's own encoder runs
     return encode_episode(episode, context)
 
 
@@ -54,20 +53,11 @@ def read_in_workers(read: Callable, files: Sequence[Path], vocab, machine=None, 
 
         def encode(episode: Episode, context):
             return pool.apply_async(_encode, (episode, context))
-        yield _in_order(pool, jobs, 2 * workers), encode
+        # CHUNK files a task, at most two tasks a worker ahead of the writer: memory stays flat
+        chunks = [jobs[k:k + CHUNK] for k in range(0, len(jobs), CHUNK)]
+        read_ = in_order(lambda chunk: pool.apply_async(_some, (chunk,)), chunks,
+                         2 * workers, lambda handle: handle.get())
+        yield (episode for chunk in read_ for episode in chunk), encode
     finally:
         pool.terminate()
         pool.join()
-
-
-def _in_order(pool, jobs: list, in_flight: int) -> Iterator[Episode]:
-    """The episodes of ``jobs`` in order, read ``CHUNK`` files a task, at most ``in_flight``
-    tasks ahead of the one whose episodes are wanted (memory stays flat)."""
-    chunks = [jobs[k:k + CHUNK] for k in range(0, len(jobs), CHUNK)]
-    ahead: deque = deque()
-    for chunk in chunks:
-        ahead.append(pool.apply_async(_some, (chunk,)))
-        if len(ahead) > in_flight:
-            yield from ahead.popleft().get()
-    while ahead:
-        yield from ahead.popleft().get()

@@ -10,46 +10,19 @@ episodes are written once each, in order, as they come back.
 
 from __future__ import annotations
 
-from collections import deque
-from typing import Callable, Iterable, Iterator, Optional, TypeVar
+from typing import Iterator, Optional
 
 from ..checking.executors import start_ray
 from ..episodes.model import Episode
+from ..processes import in_order
 
 __all__ = ["ray_episodes", "batch_size", "batches", "in_order", "IN_FLIGHT"]
-
-J = TypeVar("J")
-H = TypeVar("H")
-R = TypeVar("R")
-_END = object()
 
 _SESSION = None
 
 #: tasks (of either executor) started and not yet written, per CPU: enough to keep the workers
 #: busy, few enough that episodes waiting to be written do not fill the memory
 IN_FLIGHT = 2
-
-
-def in_order(submit: Callable[[J], H], jobs: Iterable[J], limit: int,
-             result: Callable[[H], R]) -> Iterator[R]:
-    """``result(submit(job))`` for each of ``jobs``, in order, with at most ``limit`` jobs
-    submitted and not yet given (``submit`` starts a job and returns a handle; ``result``
-    waits for it). The writer is often slower than the workers, and a finished job waits in
-    this process until it is written: an unbounded queue held 2.4 GB after 5000 grid-world
-    episodes."""
-    if limit < 1:
-        raise ValueError(f"limit must be at least 1, not {limit}")
-    ahead: deque[H] = deque()
-    jobs = iter(jobs)
-    while True:
-        while len(ahead) < limit:
-            job = next(jobs, _END)
-            if job is _END:
-                break
-            ahead.append(submit(job))
-        if not ahead:
-            return
-        yield result(ahead.popleft())
 
 
 def batches(episodes: int, size: int) -> Iterator[tuple[int, int]]:
