@@ -204,3 +204,83 @@ def test_protobuf_messages_are_the_json_form_exactly():
     assert sizes[0] < 0.8 * sizes[1]
     with pytest.raises(KeyError):  # a field the JSON form lacks is an error, not a default
         encode("foxglove.Log", {"level": 3, "message": "x"})
+
+
+def _grid_scenes():
+    """A grid world's scenes as a recording draws them: one map object, the agent moving,
+    falling once, and another map."""
+    from tracecheck.b.values import Elem, FuncValue
+    from tracecheck.live.envs.grid_scene import grid_scene
+
+    def lake(holes):
+        return FuncValue({(x, y): Elem("HOLE" if (x, y) in holes else "ICE")
+                          for x in range(4) for y in range(4)})
+
+    one, other = lake({(1, 1)}), lake({(2, 3)})
+    path = [(0, 0), (1, 0), (1, 1), (0, 0), (1, 0), (2, 0), (2, 1), (3, 3)]
+    for field_ in (one, other, one):
+        for x, y in path:
+            yield grid_scene({"x": x, "y": y, "goal_x": 3, "goal_y": 3, "field": field_},
+                             crashed=(x, y) == (1, 1), danger=frozenset({"HOLE"}))
+
+
+@pytest.mark.parametrize("size", [64, 1])
+def test_a_scene_is_the_same_bytes_with_each_entity_encoded_once(size, monkeypatch):
+    """Issue 46: each entity of the very same shapes (a grid world's 64 tiles, at every step)
+    is encoded once and its bytes reused with the step's time stamp: the scene's bytes are
+    exactly those of the whole scene encoded by foxglove-sdk, for the paper's highway scenes
+    and a grid world's, step after step — and so when what was remembered is forgotten
+    (``size`` 1)."""
+    from tracecheck.episodes.reader import read_run
+    from tracecheck.interop.foxglove import scene_entities, scene_entity, scene_groups
+    from tracecheck.interop.foxglove_protobuf import SceneBytes, encoder, scene_encoder
+
+    monkeypatch.setattr(SceneBytes, "SIZE", size)
+    encode, scenes = encoder(), scene_encoder()
+    run_ = read_run(PAPER)
+    draw = FoxgloveChannels(run_.header)._draw
+    drawn = [draw(step) for ep in run_.episodes[:3] for step in ep.steps]
+    made = []
+
+    def entity(group, shapes, stamp):
+        made.append(group)
+        return scene_entity(group, shapes, stamp)
+
+    grid = list(_grid_scenes())
+    for k, scene in enumerate(drawn + grid):
+        ns = k * 1_000_000_007 + 3
+        whole = encode("foxglove.SceneUpdate", {
+            "deletions": [{"timestamp": {"sec": ns // 1_000_000_000,
+                                         "nsec": ns % 1_000_000_000}, "type": 1, "id": ""}],
+            "entities": scene_entities(scene, ns)})
+        assert scenes(scene_groups(scene), entity, ns) == whole, k
+    built = made[-3 * len(grid):]  # the grid world's: map, goal, agent in each scene
+    if size == 64:  # two maps, one goal, an agent per place and fall: each built once
+        assert built.count("map") == 2 and built.count("goal") == 1
+        assert built.count("agent") == len({(s.shapes[-1].x, s.shapes[-1].y, s.shapes[-1].fill)
+                                            for s in grid})
+    else:
+        assert len(made) > len(drawn) + len(grid) * 2
+
+
+def test_the_writers_scene_is_the_scene_encoded_whole():
+    """What a recording writes on ``/foxglove/scene`` (the channels' ``messages``) is the
+    scene of ``step_messages`` encoded whole by foxglove-sdk, for every step, and the other
+    channels' messages are as before."""
+    from tracecheck.episodes.reader import read_run
+    from tracecheck.interop.foxglove_protobuf import encoder
+
+    encode = encoder()
+    run_ = read_run(PAPER)
+    channels = FoxgloveChannels(run_.header)
+    for ep in run_.episodes[:2]:
+        for k, step in enumerate(ep.steps):
+            kw = dict(episode=ep.id, stamp_ns=k * 7_000_000_011,
+                      previous_crashed=k > 0 and ep.steps[k - 1].crashed)
+            got = list(channels.messages(step, **kw))
+            expected = []
+            for m in step_messages(step, draw=channels._draw, plots=channels._plots, **kw):
+                name = TOPICS.get(m.topic) or channels.topics[m.topic]
+                expected.append((m.topic, encode(name, m.data) if name in channels.schema_encodings
+                                 else json.dumps(m.data, separators=(",", ":")).encode()))
+            assert got == expected

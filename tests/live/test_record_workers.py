@@ -112,3 +112,35 @@ def test_simulate_with_workers_writes_what_one_process_writes(tmp_path):
     assert results[0]["sequential"]["stopped_early"]
     assert results[0]["runs"][0]["episodes"] == results[1]["runs"][0]["episodes"] < 40
     assert encoded[0] == results[0]["runs"][0]["episodes"] and encoded[1] == 0
+
+
+def test_each_episode_is_encoded_by_the_worker_that_ran_it():
+    """Issue 46: a worker keeps the episodes it ran and encodes them itself when the writer
+    asks (the episode does not cross back, and what the worker remembers for its values
+    holds): the bytes are those the writer would make, each kept episode is encoded once and
+    forgotten, and an episode the workers did not give is still encoded (by any worker)."""
+    import dataclasses
+
+    import pytest
+
+    from tracecheck.checking.shield import load_shield
+    from tracecheck.episodes.writer import EncodeContext, encode_episode
+    from tracecheck.live import record as record_module
+
+    settings = RecordSettings(agent=str(ROOT / "models" / "agents" / "frozenlake.npy"),
+                              shield="frozenlake", env="frozenlake",
+                              env_config={"is_slippery": True}, episodes=6, seed=1, workers=2)
+    context = EncodeContext(clock_ns=5_000_000_000, channels=(
+        ("tracecheck.EpisodeHeader", 1), ("tracecheck.Step", 2), ("tracecheck.EpisodeEnd", 3)),
+        actions=(), run_crc=7, compress=True, name="x.mcap")
+    with record_module._Pooled(settings, load_shield("frozenlake"), keep=True) as pooled:
+        episodes = list(pooled)
+        assert len(episodes) == 6 and len(pooled._given) == 6
+        made = [pooled.encode(ep, context).get() for ep in episodes]
+        assert not pooled._given
+        for ep, got in zip(episodes, made):
+            assert got == encode_episode(ep, context)
+        with pytest.raises(KeyError):  # the worker forgot it once encoded
+            pooled._pools[0].apply(record_module._encode_kept, (0, context))
+        copy = dataclasses.replace(episodes[0])
+        assert pooled.encode(copy, context).get() == made[0]

@@ -256,7 +256,7 @@ def _dictionary(values: Sequence[Any]) -> tuple[np.ndarray, list[str]]:
         k = index.get(value)
         if k is None:
             k = index[value] = len(literals)
-            literals.append(format_value(value))
+            literals.append(_literal(value))
         rows[row] = k
     return rows, literals
 

@@ -27,12 +27,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import groupby
+from operator import attrgetter
 from typing import Any, Callable, Iterator, Optional
 
 from ..identity import ByIdentity
 from ..live.scene import Box, Circle, Line, Scene
 
-__all__ = ["FoxgloveChannels", "FoxgloveMessage", "step_messages", "scene_entities", "SCHEMAS",
+__all__ = ["FoxgloveChannels", "FoxgloveMessage", "step_messages", "scene_entities",
+           "scene_groups", "scene_entity", "SCHEMAS",
            "TOPICS", "SCALARS", "CONTINUOUS_SCALARS", "continuous_topics", "plot_topics"]
 
 SCENE, LOG, SCALAR = "foxglove.SceneUpdate", "foxglove.Log", "tracecheck.Scalar"
@@ -206,23 +209,41 @@ def _draw(shape) -> tuple[str, dict]:
 def scene_entities(scene: Scene, ns: int) -> list[dict]:
     """A scene as Foxglove entities in the frame ``road``: one per group of shapes (each
     vehicle, ``shield zones``, a grid world's ``map`` and ``agent``), in the scene's order."""
-    entities: dict[str, dict] = {}
-    labels: dict[str, list[str]] = {}
-    for shape in scene.shapes:
-        entity = entities.get(shape.group)
-        if entity is None:
-            entity = entities[shape.group] = {
-                "timestamp": _stamp(ns), "frame_id": "road", "id": shape.group,
-                "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": False, "metadata": [],
-                **{k: [] for k in _ENTITY_LISTS}}
+    return [scene_entity(group, shapes, _stamp(ns))
+            for group, shapes in scene_groups(scene).items()]
+
+
+def scene_groups(scene: Scene) -> dict[str, list]:
+    """A scene's shapes by group (an entity each), the groups in the order they first
+    appear, each group's shapes in the scene's order."""
+    groups: dict[str, list] = {}
+    for group, run in groupby(scene.shapes, _GROUP):  # runs of one group (a map's tiles)
+        found = groups.get(group)
+        if found is None:
+            groups[group] = list(run)
+        else:
+            found.extend(run)
+    return groups
+
+
+_GROUP = attrgetter("group")
+
+
+def scene_entity(group: str, shapes: list, stamp: Optional[dict]) -> dict:
+    """The entity of one group's shapes, time-stamped with ``stamp`` (``{"sec", "nsec"}``;
+    None: without a time stamp, which the protobuf writer adds per message)."""
+    entity: dict[str, Any] = {} if stamp is None else {"timestamp": stamp}
+    entity.update({"frame_id": "road", "id": group, "lifetime": {"sec": 0, "nsec": 0},
+                   "frame_locked": False, "metadata": [], **{k: [] for k in _ENTITY_LISTS}})
+    labels = []
+    for shape in shapes:
         kind, primitive = _primitive(shape)
         entity[kind].append(primitive)
         if getattr(shape, "label", ""):
-            labels.setdefault(shape.group, []).append(shape.label)
-    for group, found in labels.items():
-        if len(found) == 1:  # one labelled shape (a vehicle): its label says what it is
-            entities[group]["metadata"] = [{"key": "label", "value": found[0]}]
-    return list(entities.values())
+            labels.append(shape.label)
+    if len(labels) == 1:  # one labelled shape (a vehicle): its label says what it is
+        entity["metadata"] = [{"key": "label", "value": labels[0]}]
+    return entity
 
 
 def step_messages(step, *, episode: int, stamp_ns: int, previous_crashed: bool = False,
@@ -312,12 +333,13 @@ class FoxgloveChannels:
         import orjson
 
         from ..render.scene import scene_adapter, scene_drawer
-        from .foxglove_protobuf import encoder, protobuf_schemas
+        from .foxglove_protobuf import encoder, protobuf_schemas, scene_encoder
 
         self._dumps = orjson.dumps
         # Foxglove's own messages in protobuf with its published descriptors (JSON without
         # foxglove-sdk), tracecheck's scalars in JSON with their JSON schema
         self._encode = encoder()
+        self._scene = scene_encoder() if self._encode is not None else None
         published = protobuf_schemas() if self._encode is not None else {}
         self.schemas = {name: published.get(name) or orjson.dumps(schema)
                         for name, schema in SCHEMAS.items()}
@@ -330,8 +352,15 @@ class FoxgloveChannels:
 
     def messages(self, step, *, episode: int, stamp_ns: int,
                  previous_crashed: bool) -> Iterator[tuple[str, bytes]]:
+        draw = self._draw
+        if self._scene is not None and draw is not None:  # the scene in protobuf, each
+            scene = draw(step)                            # entity encoded once
+            if scene is not None and scene.shapes:
+                yield "/foxglove/scene", self._scene(scene_groups(scene), scene_entity,
+                                                     stamp_ns)
+            draw = None
         for m in step_messages(step, episode=episode, stamp_ns=stamp_ns,
-                               previous_crashed=previous_crashed, draw=self._draw,
+                               previous_crashed=previous_crashed, draw=draw,
                                plots=self._plots):
             name = self.topics.get(m.topic)
             if name is None:  # a step's parameters its run header does not declare

@@ -15,7 +15,7 @@ from typing import Any, Callable, Optional
 
 from ..identity import ByIdentity
 
-__all__ = ["protobuf_schemas", "encoder"]
+__all__ = ["protobuf_schemas", "encoder", "scene_encoder", "SceneBytes"]
 
 
 def _messages():
@@ -110,13 +110,15 @@ class _Builder:
                                     scale_invariant=d["scale_invariant"],
                                     color=self.color(d["color"]), text=d["text"])
 
-    def entity(self, d: dict):
+    def entity(self, d: dict, timed: bool = True):
+        """An entity; not ``timed``: one without its time stamp (``d`` has none)."""
         m = self.m
         unknown = [k for k in ("arrows", "cylinders", "triangles", "models") if d.get(k)]
         if unknown:
             raise ValueError(f"tracecheck draws no {unknown[0]}")
         return m.SceneEntity(
-            timestamp=self.time(d["timestamp"]), frame_id=d["frame_id"], id=d["id"],
+            timestamp=self.time(d["timestamp"]) if timed else None,
+            frame_id=d["frame_id"], id=d["id"],
             lifetime=self.duration(d["lifetime"]), frame_locked=d["frame_locked"],
             metadata=[m.KeyValuePair(**kv) for kv in d["metadata"]],
             cubes=[self._once(self.cube, c) for c in d["cubes"]],
@@ -135,3 +137,74 @@ class _Builder:
     def log(self, d: dict):
         return self.m.Log(timestamp=self.time(d["timestamp"]), level=self.levels[d["level"]],
                           message=d["message"], name=d["name"], file=d["file"], line=d["line"])
+
+
+def scene_encoder() -> Optional["SceneBytes"]:
+    """A :class:`SceneBytes` (None without foxglove-sdk)."""
+    m = _messages()
+    return None if m is None else SceneBytes(_Builder(m))
+
+
+class SceneBytes:
+    """A scene's ``foxglove.SceneUpdate`` in protobuf, each group's entity encoded once for
+    the very same shapes.
+
+    A grid world's 64 tiles are the same objects in every state of a run; building and
+    encoding them again at every step was most of the cost of recording one (the encoding
+    is deterministic, fields in the order of their numbers). The bytes are those of
+    :func:`encoder` for :func:`~tracecheck.interop.foxglove.scene_entities`, exactly: an
+    entity's time stamp is its field 1, so its bytes are those of the time stamp followed by
+    those of the rest, and a message's repeated field is the concatenation of its items,
+    each framed by its tag and length.
+    """
+
+    #: entities remembered: those met once (forgotten when this many are), and those met
+    #: again (the tiles drawn at every step; forgotten when this many are)
+    SIZE = 64
+
+    def __init__(self, builder: "_Builder") -> None:
+        self._build = builder
+        self._m = builder.m
+        self._new: dict[tuple, tuple[list, bytes]] = {}
+        self._kept: dict[tuple, tuple[list, bytes]] = {}
+
+    def __call__(self, groups: dict[str, list], entity: Callable[[str, list, Optional[dict]], dict],
+                 ns: int) -> bytes:
+        """The scene of ``groups`` (group -> its shapes, in order) at ``ns``; ``entity(group,
+        shapes, None)`` makes a group's entity, without its time stamp, in the JSON form."""
+        m = self._m
+        sec, nsec = divmod(ns, 1_000_000_000)
+        time = m.Timestamp(sec, nsec)
+        out = [m.SceneUpdate(deletions=[m.SceneEntityDeletion(
+            timestamp=time, type=self._build.deletions[1], id="")]).encode()]
+        stamp = m.SceneEntity(timestamp=time).encode()
+        for group, shapes in groups.items():
+            # the shapes are held with their bytes: while remembered, no other object has
+            # one of their ids
+            key = (group, *map(id, shapes))
+            found = self._kept.get(key)
+            if found is None:
+                found = self._new.pop(key, None)
+                if found is not None:
+                    if len(self._kept) >= self.SIZE:
+                        self._kept.clear()
+                    self._kept[key] = found
+                else:
+                    found = (shapes, self._build.entity(entity(group, shapes, None),
+                                                        timed=False).encode())
+                    if len(self._new) >= self.SIZE:
+                        self._new.clear()
+                    self._new[key] = found
+            body = stamp + found[1]
+            out.append(b"\x12" + _varint(len(body)) + body)  # SceneUpdate.entities: field 2
+        return b"".join(out)
+
+
+def _varint(n: int) -> bytes:
+    """``n`` (not negative) as a protobuf varint."""
+    out = bytearray()
+    while n > 0x7F:
+        out.append((n & 0x7F) | 0x80)
+        n >>= 7
+    out.append(n)
+    return bytes(out)

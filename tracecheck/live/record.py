@@ -43,10 +43,17 @@ _MAKE_CHANNELS: Optional[tuple] = None
 _CHANNELS = None
 
 
-def _init_worker(settings: RecordSettings, shield, channels=None, header=None) -> None:
-    global _SESSION, _FAILED, _MAKE_CHANNELS
+#: in a worker that also encodes: the episodes it ran, by number, until it encodes them
+#: (None: it does not keep them)
+_KEPT: Optional[dict[int, Episode]] = None
+
+
+def _init_worker(settings: RecordSettings, shield, channels=None, header=None,
+                 keep: bool = False) -> None:
+    global _SESSION, _FAILED, _MAKE_CHANNELS, _KEPT
     quiet_worker()
     _MAKE_CHANNELS = None if channels is None else (channels, header)
+    _KEPT = {} if keep else None
     try:
         _SESSION = Session(settings, shield=shield)
     except Exception as error:  # raised from an initializer, the pool starts workers for ever
@@ -58,7 +65,17 @@ def _work(first: int, count: int) -> list[Episode]:
     if _FAILED is not None:
         raise _FAILED
     assert _SESSION is not None
-    return [_SESSION.episode(i) for i in range(first, first + count)]
+    made = [_SESSION.episode(i) for i in range(first, first + count)]
+    if _KEPT is not None:
+        _KEPT.update(zip(range(first, first + count), made))
+    return made
+
+
+def _encode_kept(number: int, context):
+    """In the worker that ran episode ``number``: it encoded in ``context`` (see
+    :func:`_encode`), from the episode it kept."""
+    assert _KEPT is not None
+    return _encode(_KEPT.pop(number), context)
 
 
 def _encode(episode: Episode, context):
@@ -72,19 +89,34 @@ def _encode(episode: Episode, context):
 
 
 class _Pooled:
-    """The episodes of a recording from worker processes (a context: the pool lives while
-    it is open), which also encode each episode for the file (:meth:`encode`: its messages,
-    the plug-in's, its compressed chunk and columns), so that the one writer only appends
-    them."""
+    """The episodes of a recording from worker processes (a context: the workers live while
+    it is open). With ``channels`` (or ``keep``) each worker also encodes the episodes it ran
+    for the file (:meth:`encode`: its messages, the plug-in's, its compressed chunk and
+    columns), so that the one writer only appends them: each worker is a pool of its own,
+    and the episode it kept is encoded where it was made — it does not cross back, and what
+    the worker remembers for its values (a grid world's map drawn, encoded and written out)
+    holds for it."""
 
-    def __init__(self, settings: RecordSettings, shield, channels=None, header=None) -> None:
+    def __init__(self, settings: RecordSettings, shield, channels=None, header=None, *,
+                 keep: bool = False) -> None:
         self.settings, self.shield, self.channels, self.header = settings, shield, channels, \
             header
-        self._pool = None
+        self.keep = keep
+        self._pools: list = []
+        #: the episodes given and not yet encoded: (the episode, its worker, its number)
+        self._given: dict[int, tuple[Episode, object, int]] = {}
 
     def __enter__(self) -> "_Pooled":
-        self._pool = worker_pool(self.settings.workers, _init_worker,
-                                 (self.settings, self.shield, self.channels, self.header))
+        args = (self.settings, self.shield, self.channels, self.header, self.keep)
+        try:
+            if self.keep:
+                for _ in range(self.settings.workers):
+                    self._pools.append(worker_pool(1, _init_worker, args))
+            else:
+                self._pools.append(worker_pool(self.settings.workers, _init_worker, args))
+        except BaseException:
+            self.close()
+            raise
         return self
 
     def __exit__(self, *exc) -> None:
@@ -93,21 +125,39 @@ class _Pooled:
     def close(self) -> None:
         """Stop the workers at once (a simulation that stopped early: what they run ahead is
         not needed)."""
-        if self._pool is not None:
-            self._pool.terminate()
-            self._pool.join()
-            self._pool = None
+        pools, self._pools = self._pools, []
+        for pool in pools:
+            pool.terminate()
+        for pool in pools:
+            pool.join()
+        self._given.clear()
 
     def encode(self, episode: Episode, context):
-        return self._pool.apply_async(_encode, (episode, context))
+        given = self._given.pop(id(episode), None)
+        if given is not None and given[0] is episode:
+            return given[1].apply_async(_encode_kept, (given[2], context))
+        return self._pools[0].apply_async(_encode, (episode, context))
 
     def __iter__(self) -> Iterator[Episode]:
-        settings, pool = self.settings, self._pool
+        settings, pools = self.settings, self._pools
         size = min(LOCAL_BATCH, batch_size(settings.episodes, settings.workers))
-        for batch in in_order(lambda job: pool.apply_async(_work, job),
-                              batches(settings.episodes, size),
-                              IN_FLIGHT * settings.workers, lambda handle: handle.get()):
-            yield from batch
+        running: list[list] = [[] for _ in pools]  # each pool's tasks
+
+        def submit(job: tuple[int, int]):
+            for tasks in running:
+                tasks[:] = [t for t in tasks if not t.ready()]
+            k = min(range(len(pools)), key=lambda i: len(running[i]))  # the least busy
+            handle = pools[k].apply_async(_work, job)
+            running[k].append(handle)
+            return job[0], pools[k], handle
+
+        for first, pool, batch in in_order(submit, batches(settings.episodes, size),
+                                           IN_FLIGHT * settings.workers,
+                                           lambda h: (h[0], h[1], h[2].get())):
+            for number, episode in enumerate(batch, first):
+                if self.keep:
+                    self._given[id(episode)] = (episode, pool, number)
+                yield episode
 
 
 @contextmanager
@@ -117,7 +167,7 @@ def encoded_episodes(settings: RecordSettings, shield, channels=None, header=Non
     :func:`~tracecheck.episodes.files.prepared_episodes`), else ``encode`` is None (the
     writer encodes them). ``channels`` and ``header``: the writer's plug-in and run header."""
     if settings.executor == "local" and settings.workers > 1:
-        with _Pooled(settings, shield, channels, header) as pooled:
+        with _Pooled(settings, shield, channels, header, keep=True) as pooled:
             yield pooled, pooled.encode
     else:
         yield episodes(settings, shield), None

@@ -136,6 +136,7 @@ class Text:
 
 
 Shape = Union[Box, Circle, Line, Text]
+_SHAPES = frozenset((Box, Circle, Line, Text))
 
 
 @dataclass(frozen=True, slots=True)
@@ -156,8 +157,9 @@ class Scene:
     focus: Optional[tuple[float, float, float, float]] = None
 
     def __post_init__(self):
-        if not isinstance(self.shapes, tuple) or not all(
-                isinstance(s, (Box, Circle, Line, Text)) for s in self.shapes):
+        if not isinstance(self.shapes, tuple) or (
+                not _SHAPES.issuperset(map(type, self.shapes))  # at C speed, then subclasses
+                and not all(isinstance(s, (Box, Circle, Line, Text)) for s in self.shapes)):
             raise InputError("a Scene's shapes must be a tuple of Box, Circle, Line and Text")
         if not isinstance(self.view, tuple) or len(self.view) != 4:
             raise InputError(f"a Scene has view {self.view!r}: give (x, y, width, height)")

@@ -50,6 +50,19 @@ class GridAdapter(GymnasiumAdapter):
         """The map of the unwrapped environment ``base``: its columns, ``field`` and goal."""
         desc = getattr(base, "desc", None)
         rows, cols = base.shape if desc is None else desc.shape
+        # the same map as the episode before is the same object: what is remembered for it
+        # (its text in the file, its tiles drawn and encoded) holds in every episode
+        # (a map of bytes is known by them; one of Python objects is built again)
+        known = desc is None or getattr(getattr(desc, "dtype", None), "kind", None) == "S"
+        key = (rows, cols, None if desc is None else desc.tobytes()) if known else None
+        last = self.__dict__.get("_last_map")
+        if key is not None and last is not None and last[0] == key:
+            return last[1]
+        grid = self._grid_map(desc, rows, cols)
+        self._last_map = (key, grid)
+        return grid
+
+    def _grid_map(self, desc, rows: int, cols: int) -> tuple[int, FuncValue, tuple[int, int]]:
         safe, danger = Elem(self.kinds[0]), Elem(self.kinds[1])
         tiles = {(x, y): _tile(desc, rows, cols, x, y) for x in range(cols) for y in range(rows)}
         field = FuncValue({k: danger if t in self.danger else safe for k, t in tiles.items()})

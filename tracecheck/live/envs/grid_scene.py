@@ -46,11 +46,34 @@ def grid_scene(state: dict, crashed: bool = False,
     tiles, cols, rows = _tiles(state["field"], danger)
     shapes: list[Shape] = list(tiles)
     if "goal_x" in state and "goal_y" in state:
-        shapes.append(Box(state["goal_x"] + 0.5, state["goal_y"] + 0.5, 0.6, 0.6, fill=YELLOW,
-                          label="goal", group="goal", depth=0.1))
-    shapes.append(Circle(state["x"] + 0.5, state["y"] + 0.5, 0.3,
-                         fill=RED if crashed else GREEN, stroke=BLACK,
-                         label=f"agent at ({state['x']}, {state['y']})", group="agent"))
+        shapes.append(_goal(state["goal_x"], state["goal_y"]))
+    shapes.append(_agent(state["x"], state["y"], crashed))
     return Scene(tuple(shapes), (0.0, 0.0, cols, rows), None, GRID_CAPTION, scale=40.0)
+
+
+#: the goal and agent shapes drawn so far, by where (the same object for the same place:
+#: what is remembered for a shape, its Foxglove entity, holds at every step)
+_PLACED: dict[tuple, Shape] = {}
+
+
+def _placed(key: tuple, make) -> Shape:
+    # by type and value: 1 and 1.0 are equal keys, and drawn alike
+    shape = _PLACED.get(key)
+    if shape is None:
+        if len(_PLACED) >= 4096:
+            _PLACED.clear()
+        shape = _PLACED[key] = make()
+    return shape
+
+
+def _goal(x, y) -> Shape:
+    return _placed(("goal", type(x), x, type(y), y), lambda: Box(
+        x + 0.5, y + 0.5, 0.6, 0.6, fill=YELLOW, label="goal", group="goal", depth=0.1))
+
+
+def _agent(x, y, crashed: bool) -> Shape:
+    return _placed(("agent", type(x), x, type(y), y, crashed), lambda: Circle(
+        x + 0.5, y + 0.5, 0.3, fill=RED if crashed else GREEN, stroke=BLACK,
+        label=f"agent at ({x}, {y})", group="agent"))
 
 
