@@ -136,3 +136,22 @@ def test_quantifier_does_not_leak_its_variable():
 
 def test_interval_is_lazy():
     assert ev("5 : 1..1000000000") is True
+
+
+def test_what_names_only_built_in_sets_is_computed_once_when_compiling():
+    """Issue 46: ``REAL * REAL`` and ``prj1(REAL * REAL, REAL)`` name nothing a state gives
+    (a definition like the lunar lander's ``SegX1(i)`` repeats them at every application):
+    they are computed once, when compiling, not once per evaluation — and give the same
+    answers and messages as before."""
+    from tracecheck.b.evaluation import Compiler
+
+    comp = Compiler(source="prj1(REAL * REAL, REAL)")
+    fn = comp.compile(parse_formula("prj1(REAL * REAL, REAL)"))
+    assert fn({}) is fn({"x": 1.0})  # one value, made when compiling
+    assert fn({}).name == "prj1((REAL * REAL),REAL)"
+    assert ev("prj1(REAL * REAL, REAL)(((1.5 |-> 2.0) |-> 3.0))") == (1.5, 2.0)
+    assert ev("prj2(REAL, REAL)((1.5 |-> 2.0))") == 2.0
+    with pytest.raises(WellDefinednessError, match=r"not in the domain of prj1\(REAL,REAL\)"):
+        ev("prj1(REAL, REAL)((1 |-> 2))")  # integers are not reals
+    assert ev("(2.0 |-> 1.0) : REAL * REAL") is True
+    assert ev("MAXINT + 1 > MAXINT") is True

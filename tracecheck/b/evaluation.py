@@ -103,8 +103,10 @@ class Compiler(Binders, Records, Sequences, Relations):
             raise self.error(UnsupportedError, node,
                              f"tracecheck cannot evaluate {type(node).__name__} here")
         fn = method(node)
-        if isinstance(node, (ast.BinOp, ast.Neg)) and not ast.free_names(node, self._free):
-            return folded(fn)
+        if isinstance(node, _FOLDED) and (
+                not isinstance(node, ast.Call) or node.name in ("prj1", "prj2")) and \
+                ast.free_names(node, self._free) <= _CONSTANT_NAMES:
+            return folded(fn)  # on literals and built-in sets (REAL * REAL, prj1(REAL, REAL))
         if (isinstance(node, _MEMO_TYPES)
                 or (isinstance(node, ast.BinOp) and node.op in _SET_OPS)) \
                 and not (ast.free_names(node, self._free) & set(self.bound)):
@@ -499,6 +501,9 @@ class Compiler(Binders, Records, Sequences, Relations):
 
 #: Nodes worth remembering per state: evaluated once even where definitions repeat them.
 _NUMBER = frozenset({int, float})  # the types arithmetic takes as they are (not bool)
+#: what is computed once when compiling where it names nothing but built-in sets
+_FOLDED = (ast.BinOp, ast.Neg, ast.Call)
+_CONSTANT_NAMES = frozenset(BUILTIN_SET_VALUES)
 _MEMO_TYPES = (ast.Comprehension, ast.QuantExpr, ast.Image, ast.Quant, ast.Lambda)
 _SET_OPS = frozenset({"\\", "\\/", "/\\", "<|", "|>", "<<|", "|>>", "<+"})
 

@@ -115,13 +115,21 @@ class Projection(SymbolicSet):
 
     def __init__(self, which: int, s: Any, t: Any) -> None:
         self.which, self.s, self.t = which, s, t
-        self.name = f"prj{which}({format_value(s)},{format_value(t)})"
+        self._domain = Product(s, t)
+
+    @property
+    def name(self) -> str:  # printed when asked (a message): not at every application
+        text = self.__dict__.get("_name")
+        if text is None:
+            text = self.__dict__["_name"] = \
+                f"prj{self.which}({format_value(self.s)},{format_value(self.t)})"
+        return text
 
     def finiteness(self) -> Optional[bool]:
-        return Product(self.s, self.t).finiteness()
+        return self._domain.finiteness()
 
     def apply(self, x: Any) -> Any:
-        if not Product(self.s, self.t).contains(x):
+        if not self._domain.contains(x):
             raise KeyError(x)
         return x[self.which - 1]
 
@@ -134,10 +142,10 @@ class Projection(SymbolicSet):
             return False
 
     def card(self) -> int:
-        return Product(self.s, self.t).card()
+        return self._domain.card()
 
     def elements(self) -> Iterator[Any]:
-        return ((p, p[self.which - 1]) for p in Product(self.s, self.t).elements())
+        return ((p, p[self.which - 1]) for p in self._domain.elements())
 
     def key(self) -> tuple:
         return ("prj", self.which, set_key(self.s), set_key(self.t))

@@ -284,7 +284,13 @@ class Product(SymbolicSet):
 
     def __init__(self, a: Any, b: Any) -> None:
         self.a, self.b = a, b
-        self.name = f"({format_value(a)} * {format_value(b)})"
+
+    @property
+    def name(self) -> str:  # printed when asked: most products are only asked to contain
+        text = self.__dict__.get("_name")
+        if text is None:
+            text = self.__dict__["_name"] = f"({format_value(self.a)} * {format_value(self.b)})"
+        return text
 
     def finiteness(self) -> Optional[bool]:
         fa, fb = finiteness(self.a), finiteness(self.b)
