@@ -7,7 +7,9 @@
 Four jobs (each skipped with 0):
 
 - ``record --env frozenlake`` with the bundled Q-table under the frozenlake shield, slippery
-  lake, Foxglove's channels as the CLI writes them (``--frozenlake`` episodes);
+  lake, Foxglove's channels as the CLI writes them (``--frozenlake`` episodes), and beside
+  it a bare loop of the same lake and Q-table without tracecheck (the same seeds, in this
+  process): its steps per second against record's with one worker (the whole process);
 - ``record`` of the bundled highway agent under the paper shield (``--highway`` episodes;
   needs highway-env);
 - ``replay --shield strict`` of one file of ``--replay`` episodes: the paper's 40 SimB traces
@@ -35,6 +37,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Optional
 
 ROOT = Path(__file__).resolve().parents[1]
 SIMB = ROOT.parent / "shared" / "data" / "paper-traces" / "simb"
@@ -66,14 +69,48 @@ def record_job(name: str, episodes: int, run: list[str], workers: list[int], rep
                tmp: Path) -> list[dict]:
     rows = []
     for w in workers:
+        out = tmp / f"{name}-{w}.mcap"
         times = [tracecheck("record", *run, "--episodes", str(episodes), "--seed", "0",
-                            "--workers", str(w), "-o", str(tmp / f"{name}-{w}.mcap"), "--force")
+                            "--workers", str(w), "-o", str(out), "--force")
                  for _ in range(repeat)]
         rows.append({"job": name, "workers": w, "episodes": episodes,
-                     "seconds": statistics.median(times)})
+                     "seconds": statistics.median(times), "steps": _steps_in(out)})
         print(f"  {name}: {w} workers, {episodes} episodes in {rows[-1]['seconds']:.2f} s",
               flush=True)
     return rows
+
+
+def _steps_in(path: Path) -> int:
+    from tracecheck.episodes.columns import read_columns
+
+    return read_columns(path).n
+
+
+def bare_frozenlake(episodes: int, repeat: int) -> dict:
+    """The environment and agent of ``record --env frozenlake`` without tracecheck: the same
+    slippery lake (the adapter's own Gymnasium environment), ``argmax`` of the bundled
+    Q-table, episode i from seed i, in a plain loop in this process (no start-up): its
+    steps per second, the median of ``repeat`` runs."""
+    import numpy as np
+
+    from tracecheck.live.adapter import get_adapter
+
+    adapter = get_adapter("frozenlake")
+    env = adapter.make_env(adapter.config({"is_slippery": True}))
+    q = np.load(ROOT / "models" / "agents" / "frozenlake.npy")
+    rates, steps = [], 0
+    for _ in range(repeat):
+        steps = 0
+        start = time.perf_counter()
+        for seed in range(episodes):
+            obs, _ = env.reset(seed=seed)
+            done = False
+            while not done:
+                obs, _, term, trunc, _ = env.step(int(np.argmax(q[obs])))
+                steps += 1
+                done = term or trunc
+        rates.append(steps / (time.perf_counter() - start))
+    return {"episodes": episodes, "steps": steps, "steps_per_s": statistics.median(rates)}
 
 
 def replay_file(episodes: int, cache: Path) -> Path:
@@ -224,11 +261,20 @@ def main() -> None:
     workers = counts(args.max_workers)
     print(f"{os.cpu_count()} cores; workers {workers}; medians of {args.repeat}", flush=True)
     rows: list[dict] = []
+    bare: Optional[dict] = None
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         if args.frozenlake:
             rows += record_job("record frozenlake", args.frozenlake, FROZENLAKE, workers,
                                args.repeat, tmp)
+            bare = bare_frozenlake(args.frozenlake, args.repeat)
+            one = next(r for r in rows if r["job"] == "record frozenlake" and r["workers"] == 1)
+            bare["record_steps_per_s"] = one["steps"] / one["seconds"]
+            bare["ratio"] = bare["record_steps_per_s"] / bare["steps_per_s"]
+            print(f"  bare loop (the lake and the Q-table, no tracecheck): "
+                  f"{bare['steps_per_s']:,.0f} steps/s; record with 1 worker "
+                  f"{bare['record_steps_per_s']:,.0f} steps/s, the whole process "
+                  f"(1/{1 / bare['ratio']:.0f} of the bare loop)", flush=True)
         if args.highway:
             try:
                 import highway_env  # noqa: F401
@@ -252,7 +298,8 @@ def main() -> None:
     machine = {"cores": os.cpu_count(), "python": sys.version.split()[0],
                "repeat": args.repeat}
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "cores.json").write_text(json.dumps({"machine": machine, "rows": rows},
+    (args.out / "cores.json").write_text(json.dumps({"machine": machine, "rows": rows,
+                                                     "bare_frozenlake": bare},
                                                     indent=2) + "\n")
     table = ["| job | workers | episodes | seconds | episodes/s | speed-up | efficiency |",
              "| --- | --- | --- | --- | --- | --- | --- |"]
@@ -260,6 +307,10 @@ def main() -> None:
               f"{r['episodes_per_s']} | {r['speedup']:.2f}× | {r['efficiency']:.0%} |"
               for r in rows]
     text = f"{machine['cores']} cores, medians of {args.repeat}\n\n" + "\n".join(table) + "\n"
+    if bare is not None:
+        text += (f"\nA bare loop of the lake and the Q-table: {bare['steps_per_s']:,.0f} steps/s; "
+                 f"record with 1 worker (the whole process): {bare['record_steps_per_s']:,.0f} "
+                 f"steps/s, {bare['ratio']:.3f} of it.\n")
     (args.out / "cores.md").write_text(text)
     print(text)
 

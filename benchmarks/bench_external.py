@@ -9,8 +9,10 @@ run for EPISODES episodes twice per repetition, interleaved:
 * **tracecheck**: ``external_episodes`` with the frozenlake shield — each step's enabled
   operations, the predicate parsed and type-checked, the successor found and checked.
 
-Prints the medians per step and their ratio, and the peak memory of this process. The
-script is started once per run (a Python start-up, about 20 ms, is included in both).
+Prints the medians per step (wall time: the script's work and the socket's included) and
+their ratio, the CPU time per step of this process alone — tracecheck's side, without the
+script's — and the peak memory of this process. The script is started once per run (a
+Python start-up, about 20 ms, is included in both wall times).
 
     python benchmarks/bench_external.py [--episodes 200] [--repeat 5]
 """
@@ -58,8 +60,9 @@ while True:
 '''
 
 
-def baseline(script: Path, episodes: int) -> tuple[float, int]:
-    """The protocol alone: (seconds, steps)."""
+def baseline(script: Path, episodes: int) -> tuple[float, float, int]:
+    """The protocol alone: (seconds, CPU seconds of this process, steps)."""
+    cpu = time.process_time()
     server = socket.socket()
     server.bind(("127.0.0.1", 0))
     server.listen(1)
@@ -82,14 +85,16 @@ def baseline(script: Path, episodes: int) -> tuple[float, int]:
     conn.close()
     proc.wait()
     server.close()
-    return time.perf_counter() - start, steps
+    return time.perf_counter() - start, time.process_time() - cpu, steps
 
 
-def with_tracecheck(script: Path, episodes: int, shield) -> tuple[float, int]:
+def with_tracecheck(script: Path, episodes: int, shield) -> tuple[float, float, int]:
+    """tracecheck's side: (seconds, CPU seconds of this process, steps)."""
     settings = ExternalSettings(command=(sys.executable, str(script)), episodes=episodes)
+    cpu = time.process_time()
     start = time.perf_counter()
     steps = sum(e.end.steps for e in external_episodes(settings, shield))
-    return time.perf_counter() - start, steps
+    return time.perf_counter() - start, time.process_time() - cpu, steps
 
 
 def main() -> None:
@@ -102,19 +107,25 @@ def main() -> None:
         script = Path(tmp) / "walker.py"
         script.write_text(SCRIPT)
         with_tracecheck(script, 2, shield)  # warm: the grammar, the compiled guards
-        base, ours = [], []
+        base, ours, base_cpu, our_cpu = [], [], [], []
         for _ in range(args.repeat):
-            t, n = baseline(script, args.episodes)
+            t, c, n = baseline(script, args.episodes)
             base.append(t / n)
-            t, m = with_tracecheck(script, args.episodes, shield)
+            base_cpu.append(c / n)
+            t, c, m = with_tracecheck(script, args.episodes, shield)
             assert m == n, (m, n)
             ours.append(t / m)
+            our_cpu.append(c / m)
     b, o = statistics.median(base), statistics.median(ours)
+    bc, oc = statistics.median(base_cpu), statistics.median(our_cpu)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"{args.episodes} episodes x {n // args.episodes} steps, medians of {args.repeat}:")
     print(f"  baseline (protocol only): {b * 1e6:8.0f} us per step")
     print(f"  tracecheck:               {o * 1e6:8.0f} us per step  ({o / b:.1f}x; "
           f"{(o - b) * 1e6:.0f} us of B per step)")
+    print(f"  CPU time of this process (the side that answers the script; the script's own "
+          f"is not in it): baseline {bc * 1e6:.0f} us per step, tracecheck {oc * 1e6:.0f} us "
+          "per step")
     print(f"  peak memory of this process: {peak:.0f} MiB")
 
 
