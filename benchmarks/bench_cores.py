@@ -81,16 +81,19 @@ def record_job(name: str, episodes: int, run: list[str], workers: list[int], rep
 
 
 def _steps_in(path: Path) -> int:
+    """The agent's steps in a run file: its states less each episode's first."""
     from tracecheck.episodes.columns import read_columns
 
-    return read_columns(path).n
+    run = read_columns(path)
+    return run.n - len(run.episode_ids)
 
 
 def bare_frozenlake(episodes: int, repeat: int) -> dict:
     """The environment and agent of ``record --env frozenlake`` without tracecheck: the same
     slippery lake (the adapter's own Gymnasium environment), ``argmax`` of the bundled
     Q-table, episode i from seed i, in a plain loop in this process (no start-up): its
-    steps per second, the median of ``repeat`` runs."""
+    steps per second, the median of ``repeat`` runs. Unshielded, its episodes are not the
+    recording's (the shield replaces some actions), so it is compared per step."""
     import numpy as np
 
     from tracecheck.live.adapter import get_adapter

@@ -155,3 +155,19 @@ def test_what_names_only_built_in_sets_is_computed_once_when_compiling():
         ev("prj1(REAL, REAL)((1 |-> 2))")  # integers are not reals
     assert ev("(2.0 |-> 1.0) : REAL * REAL") is True
     assert ev("MAXINT + 1 > MAXINT") is True
+
+
+def test_folding_leaves_an_ill_typed_branch_to_where_it_is_evaluated():
+    """A sub-formula of built-in sets that cannot be computed (``BOOL || {}``, which the
+    type checker refuses) is not computed when compiling: a branch never taken stays
+    untouched (``tracecheck eval`` type-checks first and refuses the formula, located)."""
+    assert ev("n = 7 or (BOOL || {}) = {}") is True
+
+
+def test_a_product_of_sets_it_cannot_print_is_still_a_set():
+    """A product or projection prints its name only when a message needs it: ``(NAT \\/ INT)
+    * BOOL``, whose name tracecheck cannot print (it cannot count the union), used to be
+    refused when made; its membership is now answered — rightly."""
+    assert ev("(1 |-> TRUE) : (NAT \\/ INT) * BOOL") is True
+    assert ev("(1 |-> 2) : (NAT \\/ INT) * BOOL") is False
+    assert ev("prj1(NAT \\/ NAT1, NAT)((1 |-> 2)) = 1") is True

@@ -84,3 +84,24 @@ def test_a_grid_map_is_drawn_once_and_each_map_as_itself():
     cubes = [e for e in scene_entities(first, 0) if e["id"] == "map"][0]["cubes"]
     assert cubes == [e for e in scene_entities(again, 1) if e["id"] == "map"][0]["cubes"]
     assert sum(c["color"]["r"] < 0.5 for c in cubes) == 1
+
+
+def test_a_grid_worlds_agent_is_drawn_once_per_place_and_labelled_as_its_numbers():
+    """Issue 46: the goal and the agent are the same shapes wherever they stand again (what
+    is remembered for a shape holds at every step), each place by its numbers' type and text:
+    0.0 and -0.0 are labelled as they are, an int and a float apart."""
+    from tracecheck.b.values import Elem, FuncValue
+    from tracecheck.live.envs.grid_scene import grid_scene
+
+    lake = FuncValue({(x, y): Elem("ICE") for x in range(2) for y in range(2)})
+
+    def agent(x, y, crashed=False):
+        scene = grid_scene({"x": x, "y": y, "goal_x": 1, "goal_y": 1, "field": lake}, crashed)
+        return scene.shapes[-1], scene.shapes[-2]
+
+    (a, goal), (b, again) = agent(1, 0), agent(1, 0)
+    assert a is b and goal is again and a.label == "agent at (1, 0)"
+    assert agent(1, 0, True)[0] is not a and agent(1, 0, True)[0].fill != a.fill
+    assert agent(0.0, 0)[0].label == "agent at (0.0, 0)"
+    assert agent(-0.0, 0)[0].label == "agent at (-0.0, 0)"
+    assert agent(1.0, 0)[0] is not a

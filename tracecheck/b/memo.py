@@ -25,6 +25,8 @@ def folded(fn: Fn) -> Fn:
         value = fn({})
     except TracecheckError:
         return fn
+    except Exception:  # noqa: BLE001 - ill-typed (BOOL || {}): raised where it is evaluated,
+        return fn      # as without folding, never when compiling a branch not taken
     folded = lambda env: value  # noqa: E731
     folded.constant = value  # type: ignore[attr-defined]
     return folded

@@ -110,6 +110,9 @@ class _Pooled:
         args = (self.settings, self.shield, self.channels, self.header, self.keep)
         try:
             if self.keep:
+                # each pool forks its worker before its own threads start; the pools made
+                # before it have theirs idle (no task is submitted before all exist): waiting
+                # on an empty queue or a pipe, they hold no lock the new worker could inherit
                 for _ in range(self.settings.workers):
                     self._pools.append(worker_pool(1, _init_worker, args))
             else:

@@ -57,7 +57,7 @@ _PLACED: dict[tuple, Shape] = {}
 
 
 def _placed(key: tuple, make) -> Shape:
-    # by type and value: 1 and 1.0 are equal keys, and drawn alike
+    # each number by its type and its text, as the label prints it (0.0 and -0.0 differ)
     shape = _PLACED.get(key)
     if shape is None:
         if len(_PLACED) >= 4096:
@@ -67,12 +67,12 @@ def _placed(key: tuple, make) -> Shape:
 
 
 def _goal(x, y) -> Shape:
-    return _placed(("goal", type(x), x, type(y), y), lambda: Box(
+    return _placed(("goal", type(x), str(x), type(y), str(y)), lambda: Box(
         x + 0.5, y + 0.5, 0.6, 0.6, fill=YELLOW, label="goal", group="goal", depth=0.1))
 
 
 def _agent(x, y, crashed: bool) -> Shape:
-    return _placed(("agent", type(x), x, type(y), y, crashed), lambda: Circle(
+    return _placed(("agent", type(x), str(x), type(y), str(y), crashed), lambda: Circle(
         x + 0.5, y + 0.5, 0.3, fill=RED if crashed else GREEN, stroke=BLACK,
         label=f"agent at ({x}, {y})", group="agent"))
 
