@@ -171,3 +171,28 @@ def test_a_product_of_sets_it_cannot_print_is_still_a_set():
     assert ev("(1 |-> TRUE) : (NAT \\/ INT) * BOOL") is True
     assert ev("(1 |-> 2) : (NAT \\/ INT) * BOOL") is False
     assert ev("prj1(NAT \\/ NAT1, NAT)((1 |-> 2)) = 1") is True
+
+
+def test_inside_a_binder_a_formula_of_the_state_alone_is_computed_once_per_state():
+    """Issue 46: ``{i | i : 1..50 & i > g(1) * 2.0 + g(1) - 1.0}`` reads the state's ``g``
+    twice per evaluation, not twice per value of ``i`` (a binder binds in the state's own
+    dict, where the value is remembered); a formula that reads ``i`` is computed for each;
+    one that is not defined in the state fails as before, each time it is asked."""
+    from tracecheck.b.evaluation import compile_formula
+
+    class Counted(dict):
+        reads = 0
+
+        def __getitem__(self, key):
+            Counted.reads += 1
+            return super().__getitem__(key)
+
+    text = "{i | i : 1..50 & i > g(1) * 2.0 + g(1) - 1.0 & i < g(2) * real(i) + 40.0}"
+    fn = compile_formula(parse_formula(text), source=text)
+    state = {"g": FuncValue(Counted({1: 10.0, 2: 0.5}))}
+    assert fn(dict(state)) == frozenset(range(30, 51))
+    assert Counted.reads == 2 + 21  # g(1) twice; g(2) for each i past the first test
+    text = "{i | i : 1..3 & i > 1 / (n - 7) + n * 2 - 1}"
+    for _ in range(2):
+        with pytest.raises(WellDefinednessError, match="division by zero"):
+            ev(text)

@@ -45,6 +45,7 @@ class Compiler(Binders, Records, Sequences, Relations):
         self.file = file
         self.bound: list[str] = []
         self._free: dict = {}  # free names by node, see ast.free_names
+        self._sizes: dict = {}  # sizes by node, see _size
         self._compiling = False  # inside compile: the calls for sub-formulas
         #: ``solver(pred, names, env, problem, one=False)``: every solution of ``pred`` for
         #: bound variables nothing walks (a list of {name: value}), or raises (``tracecheck
@@ -111,7 +112,23 @@ class Compiler(Binders, Records, Sequences, Relations):
                 or (isinstance(node, ast.BinOp) and node.op in _SET_OPS)) \
                 and not (ast.free_names(node, self._free) & set(self.bound)):
             return memoised(fn, node)
+        if self.bound and isinstance(node, _HOISTED) and self._size(node) >= _HOISTED_SIZE:
+            free = ast.free_names(node, self._free)
+            if free and not (free & set(self.bound)):
+                # inside a binder, a formula of the state alone (the lander's reach in
+                # {i | i : dom(surface) & … 1.5 * x - 200.0 - REACH …}): once per state,
+                # not once per value bound (the binder binds in the same dict)
+                return memoised(fn, node)
         return fn
+
+    def _size(self, node: ast.Node) -> int:
+        """How many nodes ``node`` has (remembered by node: asked at every level)."""
+        hit = self._sizes.get(id(node))
+        if hit is not None and hit[0] is node:
+            return hit[1]
+        size = 1 + sum(self._size(c) for c in ast.children(node))
+        self._sizes[id(node)] = (node, size)
+        return size
 
     # -- atoms
     def c_Name(self, node: ast.Name) -> Fn:
@@ -501,6 +518,10 @@ class Compiler(Binders, Records, Sequences, Relations):
 
 #: Nodes worth remembering per state: evaluated once even where definitions repeat them.
 _NUMBER = frozenset({int, float})  # the types arithmetic takes as they are (not bool)
+#: inside a binder, what is computed once per state where it reads no variable bound there
+#: and has at least _HOISTED_SIZE nodes (smaller ones cost less than looking them up)
+_HOISTED = (ast.BinOp, ast.Neg, ast.Call, ast.Apply, ast.IfExpr)
+_HOISTED_SIZE = 6
 #: what is computed once when compiling where it names nothing but built-in sets
 _FOLDED = (ast.BinOp, ast.Neg, ast.Call)
 _CONSTANT_NAMES = frozenset(BUILTIN_SET_VALUES)

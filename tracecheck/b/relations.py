@@ -75,6 +75,17 @@ class Relations:
                     return self.apply_value(node, env[name], x)
             return apply_name
         fn = self.compile(node.fn)
+        projection = getattr(fn, "constant", None)
+        if isinstance(projection, Projection):  # prj1(REAL * REAL, REAL)(p): folded, and its
+            inside = projection.in_domain         # domain's test found once
+            k = projection.which - 1
+
+            def project(env: Env) -> Any:
+                x = arg(env)
+                if inside(x):
+                    return x[k]
+                return self.apply_value(node, projection, x)  # says what is wrong
+            return project
 
         def apply(env: Env) -> Any:
             return self.apply_value(node, fn(env), arg(env))

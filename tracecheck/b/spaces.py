@@ -133,6 +133,10 @@ class Projection(SymbolicSet):
             raise KeyError(x)
         return x[self.which - 1]
 
+    def in_domain(self, x: Any) -> bool:
+        """Whether ``x`` is a pair of S * T (where :meth:`apply` gives its component)."""
+        return self._domain.contains(x)
+
     def contains(self, v: Any) -> bool:
         if not (isinstance(v, tuple) and len(v) == 2):
             return False

@@ -284,6 +284,9 @@ class Product(SymbolicSet):
 
     def __init__(self, a: Any, b: Any) -> None:
         self.a, self.b = a, b
+        # each side's membership test found once (REAL's is isinstance(v, float)): a
+        # projection's domain is asked at every application
+        self._in_a, self._in_b = _membership(a), _membership(b)
 
     @property
     def name(self) -> str:  # printed when asked: most products are only asked to contain
@@ -303,8 +306,8 @@ class Product(SymbolicSet):
         return False
 
     def contains(self, v: Any) -> bool:
-        return (isinstance(v, tuple) and len(v) == 2 and contains(self.a, v[0])
-                and contains(self.b, v[1]))
+        return (isinstance(v, tuple) and len(v) == 2 and self._in_a(v[0])
+                and self._in_b(v[1]))
 
     def card(self) -> int:
         if self.finiteness() is not True:
@@ -458,6 +461,17 @@ def contains(s: Any, v: Any) -> bool:
     if isinstance(s, SymbolicSet):
         return s.contains(v)
     raise EvaluationError(f"{brief(s)} is not a set")
+
+
+def _membership(s: Any) -> Callable[[Any], bool]:
+    """``v -> contains(s, v)``, its dispatch done once."""
+    if isinstance(s, BuiltinSet):
+        return s._test
+    if isinstance(s, frozenset):
+        return s.__contains__
+    if isinstance(s, SymbolicSet):
+        return s.contains
+    return lambda v: contains(s, v)
 
 
 def is_subset(a: Any, b: Any) -> bool:
