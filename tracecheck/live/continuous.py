@@ -187,6 +187,8 @@ class _Op:
     def __post_init__(self) -> None:
         self.low = dict(zip(self.part.params, self.part.low.tolist()))
         self.high = dict(zip(self.part.params, self.part.high.tolist()))
+        #: each parameter's (low, high), in order
+        self.bounds = tuple(zip(self.part.low.tolist(), self.part.high.tolist()))
 
 
 class ContinuousShield:
@@ -534,10 +536,12 @@ class ContinuousShield:
         part, params = entry.part, entry.part.params
         sent = np.asarray(action, dtype=part.dtype)
         direction = np.sign(action - away) if away is not None else None
+        bounds = entry.bounds
         for _ in range(NUDGES if direction is not None else 1):
             value = sent.astype(np.float64)
-            if np.all(value >= part.low) and np.all(value <= part.high) and \
-                    entry.allowed.contains(dict(zip(params, value.tolist()))):
+            listed = value.tolist()
+            if all(lo <= v <= hi for v, (lo, hi) in zip(listed, bounds)) and \
+                    entry.allowed.contains(dict(zip(params, listed))):
                 return value
             if direction is None or not np.any(direction):
                 return None
