@@ -28,3 +28,24 @@ class ClaimsRaises(Corridor):
 
     def claims(self, variables):
         raise RuntimeError("no idea")
+
+
+class FailsAt(Corridor):
+    """The corridor whose environment raises when reset with the seed ``fail_seed``."""
+
+    name = "failsat"
+
+    def default_config(self):
+        return {"slip": True, "fail_seed": -1}
+
+    def make_env(self, config, render_mode=None):
+        env = super().make_env({"slip": config.get("slip", True)})
+        fail = config.get("fail_seed", -1)
+        reset = env.reset
+
+        def failing_reset(*, seed=None, options=None):
+            if seed == fail:
+                raise RuntimeError(f"the corridor broke at seed {seed}")
+            return reset(seed=seed, options=options)
+        env.reset = failing_reset
+        return env

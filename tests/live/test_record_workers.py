@@ -144,3 +144,31 @@ def test_each_episode_is_encoded_by_the_worker_that_ran_it():
             pooled._pools[0].apply(record_module._encode_kept, (0, context))
         copy = dataclasses.replace(episodes[0])
         assert pooled.encode(copy, context).get() == made[0]
+
+
+def test_an_episode_that_fails_keeps_those_before_it_with_workers_as_without(tmp_path):
+    """An environment that raises at episode 7: the recording stops with its error and the
+    file keeps episodes 0 to 6, with two workers as with one — those that came back and
+    were being encoded ahead of the writer are written before the error is said."""
+    import pytest
+
+    from tracecheck.episodes.reader import read_run
+    from tracecheck.errors import TracecheckError
+
+    import numpy as np
+
+    agent = tmp_path / "right.npy"
+    table = np.zeros((6, 2))
+    table[:, 1] = 1.0  # always Right
+    np.save(agent, table)
+    kept = []
+    for workers in (1, 2):
+        settings = RecordSettings(agent=str(agent),
+                                  shield="none", env="tests.live.plugins:FailsAt",
+                                  env_config={"fail_seed": 7}, episodes=14, seed=0,
+                                  workers=workers)
+        out = tmp_path / f"w{workers}.mcap"
+        with pytest.raises((TracecheckError, RuntimeError), match="seed 7"):
+            record(settings, out, channels=FoxgloveChannels)
+        kept.append([e.id for e in read_run(out).episodes])
+    assert kept == [list(range(7))] * 2

@@ -183,7 +183,21 @@ def prepared_episodes(writer: EpisodeWriter, episodes: Iterable[Episode], encode
         return
     context = writer.context()
     ahead: deque = deque()
-    for episode in episodes:
+    source = iter(episodes)
+    while True:
+        try:
+            episode = next(source)
+        except StopIteration:
+            break
+        except Exception:  # an episode failed (its environment raised): those before it,
+            while ahead:   # which came back and are being encoded, are written first
+                done, handle = ahead.popleft()
+                try:
+                    encoded = handle.get()
+                except Exception:  # noqa: BLE001 - the first error is the one to say
+                    break
+                yield done, encoded
+            raise
         ahead.append((episode, encode(episode, context)))
         context = replace(context, clock_ns=clock_after(context.clock_ns, episode),
                           actions=actions_after(context.actions, episode))
