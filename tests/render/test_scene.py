@@ -105,3 +105,20 @@ def test_a_grid_worlds_agent_is_drawn_once_per_place_and_labelled_as_its_numbers
     assert agent(0.0, 0)[0].label == "agent at (0.0, 0)"
     assert agent(-0.0, 0)[0].label == "agent at (-0.0, 0)"
     assert agent(1.0, 0)[0] is not a
+
+
+def test_one_map_drawn_with_other_kinds_to_avoid_is_drawn_again():
+    """The tiles remembered for a map are those of the kinds it was drawn dark for: the same
+    map drawn with another set of kinds to avoid gets its own tiles."""
+    from tracecheck.b.values import Elem, FuncValue
+    from tracecheck.live.envs.grid_scene import grid_scene
+
+    lake = FuncValue({(0, 0): Elem("HOLE"), (1, 0): Elem("ICE")})
+
+    def dark(danger):
+        scene = grid_scene({"x": 0, "y": 0, "field": lake}, danger=frozenset(danger))
+        return [s.label for s in scene.shapes if s.group == "map" and s.fill[0] < 0.5]
+
+    assert dark({"HOLE"}) == ["(0, 0): HOLE"]
+    assert dark({"ICE"}) == ["(1, 0): ICE"]
+    assert dark({"HOLE"}) == ["(0, 0): HOLE"]

@@ -21,21 +21,22 @@ def grid_cells(state: dict, danger: frozenset[str]) -> dict:
             "cells": cells}
 
 
-#: a map's tiles and size, drawn once for the map (one object in every state of a run)
-_TILES: ByIdentity[tuple[tuple[Shape, ...], float, float]] = ByIdentity(16)
+#: a map's tiles and size, drawn once for the map (one object in every state of a run), with
+#: the kinds drawn dark they were drawn for
+_TILES: ByIdentity[tuple[tuple[Shape, ...], float, float, frozenset]] = ByIdentity(16)
 
 
-def _tiles(field_, danger: frozenset[str]) -> tuple[tuple[Shape, ...], float, float]:
-    """The tiles of a grid world's map, its columns and rows."""
+def _tiles(field_, danger: frozenset[str]) -> tuple[tuple[Shape, ...], float, float, frozenset]:
+    """The tiles of a grid world's map, its columns and rows (and ``danger``)."""
     drawn = _TILES.get(field_)
-    if drawn is None:
+    if drawn is None or drawn[3] != danger:
         grid = grid_cells({"field": field_}, danger)
         drawn = _TILES.put(field_, (tuple(
-            Box(x + 0.5, y + 0.5, 1.0, 1.0, fill=(0.15, 0.2, 0.22, 1.0) if danger
+            Box(x + 0.5, y + 0.5, 1.0, 1.0, fill=(0.15, 0.2, 0.22, 1.0) if dark
                 else (0.87, 0.94, 0.98, 1.0), stroke=WHITE, stroke_width=0.04,
                 label=f"({x}, {y}): {label}", group="map", depth=0.05)
-            for x, y, danger, label in grid["cells"]), float(grid["cols"]),
-            float(grid["rows"])))
+            for x, y, dark, label in grid["cells"]), float(grid["cols"]),
+            float(grid["rows"]), danger))
     return drawn
 
 
@@ -43,7 +44,7 @@ def grid_scene(state: dict, crashed: bool = False,
                danger: frozenset[str] = frozenset()) -> Scene:
     """A grid world: one tile per cell (those of a kind in ``danger`` dark), the goal, the
     agent."""
-    tiles, cols, rows = _tiles(state["field"], danger)
+    tiles, cols, rows, _ = _tiles(state["field"], danger)
     shapes: list[Shape] = list(tiles)
     if "goal_x" in state and "goal_y" in state:
         shapes.append(_goal(state["goal_x"], state["goal_y"]))
