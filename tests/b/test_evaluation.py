@@ -196,3 +196,52 @@ def test_inside_a_binder_a_formula_of_the_state_alone_is_computed_once_per_state
     for _ in range(2):
         with pytest.raises(WellDefinednessError, match="division by zero"):
             ev(text)
+
+
+def test_threads_compiling_at_once_never_share_a_remembered_value():
+    """Each formula remembered per state has a slot of its own, also when threads compile
+    at once (a library user's workers): two formulas sharing one would read each other's
+    values."""
+    import collections
+    import sys
+    import threading
+
+    from tracecheck.b import memo
+    from tracecheck.b.evaluation import compile_formula
+
+    def work(t):
+        for k in range(150):
+            text = f"{{i | i : 1..3 & i < x * {t} + y * {k} + {t * 1000 + k + 7919}}}"
+            compile_formula(parse_formula(text))
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)
+    try:
+        threads = [threading.Thread(target=work, args=(t,)) for t in range(6)]
+        for th in threads:
+            th.start()
+        for th in threads:
+            th.join()
+    finally:
+        sys.setswitchinterval(interval)
+    by_slot = collections.Counter(memo._SLOTS.values())
+    assert by_slot.most_common(1)[0][1] == 1
+
+
+def test_a_formula_naming_an_element_of_a_bound_set_is_not_remembered_across_it():
+    """``V10`` may be an element of the set ``V``: inside ``{V | V <: … }`` a formula naming it
+    reads the bound ``V`` too, so it is computed for each value, not remembered from the
+    first (whose ``V`` holds ``V10``) — the same refusal whatever the order walked."""
+    from tracecheck.b.machine import load_machine_text
+
+    m = load_machine_text("""MACHINE M
+SETS V
+PROPERTIES card(V) = 10
+VARIABLES x
+INVARIANT x : INTEGER
+INITIALISATION x := 0
+OPERATIONS
+Op = SELECT card({V | V <: {V1, V10, V2} & card(V) = 2 &
+                 (IF V10 = V10 THEN 1 ELSE 0 END) + x + 0 = 1}) = 3 THEN skip END
+END""")
+    with pytest.raises(EvaluationError, match="V10 has no value here"):
+        m.enabled({"x": 0})

@@ -18,7 +18,7 @@ from ..errors import BTypeError, EvaluationError, TracecheckError, UnsupportedEr
 from . import ast
 from .scope import render
 from .bindings import Binders
-from .records import Records, element_hint, set_element
+from .records import Records, element_hint, element_set, set_element
 from .relations import Relations
 from .sequences import Sequences
 from ..limits import DEEP, MAX_INT_BITS, deep_recursion, deeply
@@ -114,7 +114,9 @@ class Compiler(Binders, Records, Sequences, Relations):
             return memoised(fn, node)
         if self.bound and isinstance(node, _HOISTED) and self._size(node) >= _HOISTED_SIZE:
             free = ast.free_names(node, self._free)
-            if free and not (free & set(self.bound)):
+            bound = set(self.bound)
+            # (a name like V10 may be an element of the set V: it reads V too)
+            if free and not (free & bound) and not ({element_set(n) for n in free} & bound):
                 # inside a binder, a formula of the state alone (the lander's reach in
                 # {i | i : dom(surface) & … 1.5 * x - 200.0 - REACH …}): once per state,
                 # not once per value bound (the binder binds in the same dict)

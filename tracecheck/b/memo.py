@@ -3,6 +3,7 @@ sub-formulas computed once per state (kept in the environment under :data:`MEMO_
 
 from __future__ import annotations
 
+import threading
 from typing import Any, Callable
 
 from ..errors import TracecheckError
@@ -15,6 +16,7 @@ Fn = Callable[[Env], Any]
 
 MEMO_KEY = "$memo"  # not a B identifier: cannot clash with a variable
 _SLOTS: dict[ast.Node, int] = {}
+_SLOT_LOCK = threading.Lock()
 _MISSING = object()
 
 
@@ -42,7 +44,10 @@ def constant_number(node: ast.Node, fn: Fn) -> Any:
 
 def memoised(fn: Fn, node: ast.Node) -> Fn:
     """Evaluate ``fn`` once per environment dict (one state), however often it is asked."""
-    slot = _SLOTS.setdefault(node, len(_SLOTS))
+    slot = _SLOTS.get(node)
+    if slot is None:
+        with _SLOT_LOCK:  # two threads compiling: never one slot for two formulas
+            slot = _SLOTS.setdefault(node, len(_SLOTS))
 
     def memo(env: Env) -> Any:
         cache = env.get(MEMO_KEY)

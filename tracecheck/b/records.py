@@ -21,7 +21,7 @@ from .names import name_text
 from .values import (Elem, Record, SymbolicSet, cardinality, contains, finiteness, format_value,
                      is_set, members, set_key)
 
-__all__ = ["RecordSet", "Records", "set_element"]
+__all__ = ["RecordSet", "Records", "set_element", "element_set"]
 
 
 class RecordSet(SymbolicSet):
@@ -63,6 +63,13 @@ class RecordSet(SymbolicSet):
 
 
 _ELEMENT = re.compile(r"(.+?)([0-9]+)")
+
+
+def element_set(name: str) -> Optional[str]:
+    """The set whose element ``name`` could be, as ProB names a deferred set's elements
+    (``S3``: ``S``), else None: its meaning depends on that set's value too."""
+    m = _ELEMENT.fullmatch(name)
+    return m.group(1) if m else None
 
 
 def set_element(name: str, env: dict) -> Optional[Elem]:
