@@ -334,3 +334,51 @@ def test_a_finished_file_is_read_from_its_run_blob_with_the_walk_s_answer(tmp_pa
     assert not from_blobs(path)
     with pytest.raises(InputError, match="episode 1: "):
         read_columns(path)
+
+
+def test_a_grid_worlds_map_is_read_once_and_foxgloves_messages_passed_over(tmp_path):
+    """Issue 46: reading a grid world's episodes reads the map's literal once (the same text
+    at every step is the same value: reading it again was nearly all the time, 24 s for 800
+    FrozenLake episodes), and the walk gives the reader tracecheck's own messages only —
+    the episodes are those a full walk gives."""
+    from unittest import mock
+
+    from tracecheck.b import notation
+    from tracecheck.episodes.codec import decode_state
+    from tracecheck.episodes.records import MessageRef, mapped
+    from tracecheck.interop.foxglove import FoxgloveChannels
+    from tracecheck.live.record import RecordSettings, record
+
+    out = tmp_path / "lake.mcap"
+    record(RecordSettings(agent=str(ROOT / "models" / "agents" / "frozenlake.npy"),
+                          shield="frozenlake", env="frozenlake",
+                          env_config={"is_slippery": True}, episodes=6, seed=2), out,
+           channels=FoxgloveChannels)
+    parsed = []
+    real = notation.parse_literal
+
+    def counted(text, **kw):
+        parsed.append(text)
+        return real(text, **kw)
+    with mock.patch.object(notation, "parse_literal", counted):
+        run_ = read_run(out)
+    maps = [t for t in parsed if len(t) > 64]
+    steps = sum(len(e.steps) for e in run_.episodes)
+    assert steps > 30 and len(maps) <= 1
+    field_ = run_.episodes[0].steps[0].state["field"]
+    assert all(s.state["field"] is field_ for e in run_.episodes for s in e.steps)
+    assert field_ == real(notation.format_value(field_))
+    from tracecheck.episodes import reader as reader_module
+
+    full = reader_module.walk
+    with mock.patch.object(reader_module, "walk",
+                           lambda path, buf, regions=None, wanted=None: full(path, buf, regions)):
+        assert read_run(out).episodes == run_.episodes  # every message walked: the same
+    with pytest.raises(Exception, match="variable field"):  # unreadable: said, not kept
+        decode_state({"field": "{" + "(0 |-> 0) |-> ICE, " * 10 + "oops"})
+    with pytest.raises(Exception, match="variable field"):
+        decode_state({"field": "{" + "(0 |-> 0) |-> ICE, " * 10 + "oops"})
+    with mapped(out) as buf:
+        every = [r for r in walk(out, buf) if type(r) is MessageRef]
+        assert not [r for r in walk(out, buf, wanted=set()) if type(r) is MessageRef]
+    assert len(every) > 3 * steps  # Foxglove's messages are most of them

@@ -92,9 +92,24 @@ def decode_state(data: Mapping[str, Any], *, where: str = "") -> dict[str, Any]:
         elif isinstance(value, list) and all(isinstance(v, str) and v.isidentifier()
                                              for v in value):
             out[name] = frozenset(Elem(v) for v in value)
+        elif type(value) is str and len(value) >= _LONG:
+            read = _READ.get(value)
+            if read is None:  # not read before (or not readable: said each time)
+                read = from_json(value, where=f"{where}variable {name}")
+                if len(_READ) >= 64:
+                    _READ.clear()
+                _READ[value] = read
+            out[name] = read
         else:
             out[name] = from_json(value, where=f"{where}variable {name}")
     return out
+
+
+#: long literals read, by their text: a grid world's map is the same text at every step
+#: (reading its 64 cells again was nearly all of reading such a file's episodes), and the
+#: same text is the same value — one object, immutable
+_READ: dict[str, Any] = {}
+_LONG = 64
 
 
 # ------------------------------------------------------------------ columns

@@ -464,7 +464,9 @@ def read_pieces(path: str | Path, only: Optional[set[int]] = None, *, decode: bo
 def _pieces(path: Path, buf, view, asm: "_Assembler", regions=None) -> Iterator[Piece]:
     steps = -1  # the channel of step messages, once known
     held, data_end = Holdings(), None  # what the walk met, for the summary (whole files)
-    for record in walk(path, buf, regions):
+    # only tracecheck's own channels' messages: the others are nobody's here (feed passes
+    # them over), and a recording's are mostly Foxglove's
+    for record in walk(path, buf, regions, asm.channels):
         if type(record) is MessageRef:
             piece = asm.current
             data, start, end = record

@@ -20,7 +20,7 @@ from contextlib import contextmanager
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator, NamedTuple, Optional, Union
+from typing import Any, Container, Iterator, NamedTuple, Optional, Union
 
 from ..errors import InputError
 from .frames import unlz4, unzstd
@@ -171,23 +171,27 @@ def _open(path: Path):
         raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
 
 
-def walk(path: Path, buf, regions: Optional[list[tuple[int, int]]] = None
-         ) -> Iterator[Record]:
+def walk(path: Path, buf, regions: Optional[list[tuple[int, int]]] = None,
+         wanted: Optional[Container[int]] = None) -> Iterator[Record]:
     """The records of the MCAP file ``buf`` (read from ``path``), in order, up to the end
     of its data section; a :class:`Damage` last where the file is damaged or ends early.
     ``regions``: only the records in these byte ranges of the file, one after the other
-    (each must start at a record)."""
+    (each must start at a record). ``wanted``: the channel ids whose messages are given (read
+    as each message is met: a reader adds a channel when its record comes); a message on
+    another channel (Foxglove's, most of a recording's) is checked for its length and
+    passed over."""
     if bytes(buf[:8]) != MAGIC:
         raise InputError(f"{path} is not an MCAP file (it does not start with the MCAP magic "
                          "bytes)")
     for start, end in regions or [(8, len(buf))]:
-        for record in _records(buf, start, end, top=True):
+        for record in _records(buf, start, end, True, wanted):
             yield record
             if isinstance(record, Damage):
                 return
 
 
-def _records(buf, at: int, end: int, top: bool) -> Iterator[Record]:
+def _records(buf, at: int, end: int, top: bool,
+             wanted: Optional[Container[int]] = None) -> Iterator[Record]:
     unpack = _REC.unpack_from
     while at < end:
         if at + 9 > end:
@@ -205,6 +209,8 @@ def _records(buf, at: int, end: int, top: bool) -> Iterator[Record]:
             if length < 22:
                 yield Damage(f"the message record at byte {start - 9} is too short")
                 return
+            if wanted is not None and buf[start] | buf[start + 1] << 8 not in wanted:
+                continue
             yield _new_ref(MessageRef, (buf, start, stop))  # MessageRef(…), faster
             continue
         try:
@@ -228,7 +234,7 @@ def _records(buf, at: int, end: int, top: bool) -> Iterator[Record]:
                         raise
                     yield BadChunk(f"the chunk at byte {start - 9}: {exc}", start - 9)
                     continue
-                for record in _records(inner, 0, len(inner), top=False):
+                for record in _records(inner, 0, len(inner), False, wanted):
                     yield record
                     if isinstance(record, Damage):
                         return
