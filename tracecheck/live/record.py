@@ -72,8 +72,8 @@ def _work(first: int, count: int) -> list[Episode]:
 
 
 def _encode_kept(number: int, context):
-    """In the worker that ran episode ``number``: it encoded in ``context`` (see
-    :func:`_encode`), from the episode it kept."""
+    """In the worker that ran episode ``number``: that episode, which it kept, encoded in
+    ``context`` (see :func:`_encode`)."""
     assert _KEPT is not None
     return _encode(_KEPT.pop(number), context)
 
@@ -90,10 +90,10 @@ def _encode(episode: Episode, context):
 
 class _Pooled:
     """The episodes of a recording from worker processes (a context: the workers live while
-    it is open). With ``channels`` (or ``keep``) each worker also encodes the episodes it ran
-    for the file (:meth:`encode`: its messages, the plug-in's, its compressed chunk and
-    columns), so that the one writer only appends them: each worker is a pool of its own,
-    and the episode it kept is encoded where it was made — it does not cross back, and what
+    it is open). With ``keep`` each worker also encodes the episodes it ran for the file
+    (:meth:`encode`: its messages, the plug-in's, its compressed chunk and columns), so that
+    the one writer only appends them: each worker is a pool of its own, and the episode it
+    kept is encoded where it was made — it does not cross back, and what
     the worker remembers for its values (a grid world's map drawn, encoded and written out)
     holds for it."""
 
