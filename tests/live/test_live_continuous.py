@@ -87,6 +87,33 @@ def test_replace_takes_the_fallback_action():
     assert d.distance == pytest.approx(6.0)
 
 
+def test_replace_with_the_fallback_refused_takes_the_allowed_action_nearest_it():
+    """``replace`` where the guard refuses the fallback itself but allows other actions:
+    the allowed action nearest the fallback is executed (confirmed by the evaluator), not
+    the refused fallback, and the step is no deadlock (docs/continuous.md, the modes)."""
+    machine = load_machine_text("""MACHINE Mid
+VARIABLES x
+INVARIANT x : REAL
+INITIALISATION x := 0.0
+OPERATIONS
+  ACCELERATE(a) = SELECT a : REAL & a > x THEN x := a END
+END""")
+
+    class Mid(_Adapter):
+        fallback_action = (0.0,)
+        variables = ("x",)
+
+    shield = ContinuousShield(machine, Mid(), SPACE, mode="replace")
+    shield.decide(machine.env({"x": 0.5}))
+    d = shield.filter([-3.0])
+    a = float(d.executed[0])
+    assert not d.deadlock and d.intervened
+    assert a == float(np.nextafter(np.float32(0.5), np.float32(2.0)))  # just above 0.5
+    shield.decide(machine.env({"x": 3.0}))  # nothing in [-4, 2] allowed: a deadlock
+    d = shield.filter([-3.0])
+    assert d.deadlock and d.executed.tolist() == [0.0]
+
+
 def test_nothing_allowed_fails_closed_with_the_fallback():
     shield = _decide(_shield(), _state(10.0, 20.0, 10.0))  # a < -10.5: outside [-4, 2]
     assert not shield.any_allowed()
