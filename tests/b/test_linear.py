@@ -239,3 +239,19 @@ def test_a_guard_of_many_disjuncts_is_refused_fast_and_without_a_recursion_error
     assert time.perf_counter() - start < 2.0
     allowed = allowed_set(machine(guard(250)), "Act", {"u": 0.0, "v": 0.0})
     assert len(allowed.intervals) == 250 and allowed.contains({"a": 498.5})
+
+
+def test_a_quantifier_over_a_parameter_is_refused_in_the_users_words():
+    """A parameter inside a quantifier is refused naming it as the user wrote it (not the
+    parser's class name), the docs saying how to write it linear (a min over the set)."""
+    m = load_machine_text("""MACHINE Q
+VARIABLES X, Obstacles
+INVARIANT X : REAL & Obstacles : POW(REAL)
+INITIALISATION X := 0.0 || Obstacles := {5.0}
+OPERATIONS
+  MOVE(a) = SELECT a : REAL & a >= -1.0 & a <= 1.0 & !o.(o : Obstacles & o > X => X + a < o)
+            THEN X := X + a END
+END""")
+    with pytest.raises(UnsupportedError, match=r"a quantifier \(! or #\) over a parameter in "
+                                               r"`!o\.\(o : Obstacles"):
+        allowed_set(m, "MOVE", {"X": 0.0, "Obstacles": frozenset({5.0})})

@@ -17,6 +17,7 @@ __all__ = [
     "Subst", "Skip", "Assign", "BecomesIn", "BecomesSuchThat", "Parallel", "Sequence",
     "Pre", "Assert", "Select", "Any", "IfSubst", "LetSubst", "Choice", "VarSubst", "While", "SubstRef", "BUILTIN_FUNCTIONS",
     "BUILTIN_SETS", "children", "depth", "pair_of", "map_children", "binders", "free_names",
+    "described",
 ]
 
 #: Names that are functions of the language itself, applied as ``name(args)``.
@@ -465,3 +466,15 @@ def free_names(node: Node, cache: Optional[dict] = None) -> frozenset[str]:
     if cache is not None:
         cache[id(node)] = (node, names)  # the node is kept, so its id stays its own
     return names
+
+
+_DESCRIBED = {"Quant": "a quantifier (! or #)", "Comprehension": "a set comprehension",
+              "QuantExpr": "a SIGMA, PI, UNION or INTER", "Lambda": "a lambda",
+              "Apply": "a function applied", "IfExpr": "an IF … THEN … ELSE … END"}
+
+
+def described(node: Node) -> str:
+    """What a message calls ``node``'s kind of formula (the user's words, not the class's):
+    ``a quantifier (! or #)``."""
+    name = type(node).__name__
+    return _DESCRIBED.get(name, f"a {name}")

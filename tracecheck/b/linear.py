@@ -472,7 +472,7 @@ class _Linearizer:
             return self.both(node.left, node.right, True, second_positive=False)
         if isinstance(node, ast.Rel):
             return self.relation(node, positive)
-        raise self.refuse(node, f"a {type(node).__name__} over a parameter")
+        raise self.refuse(node, f"{ast.described(node)} over a parameter")
 
     def chain(self, node: ast.Node, positive: bool) -> Callable[[dict], list]:
         """A conjunction (``A & B``, or ``not(A or B)``) nested to its left as one product:
@@ -616,7 +616,7 @@ class _Linearizer:
                     raise self.refuse(node, "a division by zero")
                 return form_times(a, divisor if product else (divisor[1], divisor[0]))
             return combine
-        raise self.refuse(node, f"a {type(node).__name__} of a parameter")
+        raise self.refuse(node, f"{ast.described(node)} of a parameter")
 
 
 def _nodes(node: ast.Node, most: int) -> int:
