@@ -33,3 +33,85 @@ def test_a_pool_stopped_before_its_workers_started_ends_at_once():
         assert signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL
     finally:
         signal.signal(signal.SIGTERM, saved)
+
+
+def _answer(n: int) -> bytes:
+    return bytes([n % 256]) * 1_000_000  # bigger than any pipe's buffer
+
+
+def _echo(data: bytes) -> bytes:
+    return data
+
+
+def _fail(text: str) -> None:
+    raise ValueError(text)
+
+
+def _die() -> None:
+    import os
+
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def test_a_worker_answers_its_calls_in_order_however_many_are_sent_ahead():
+    """Calls sent before any answer is read, each answer a megabyte: no deadlock on full
+    pipes (the calls sent wait for answers once they exceed the backlog), every answer in
+    its call's order, and one read out of order gives its own."""
+    from tracecheck.processes import Worker
+
+    with Worker() as worker:
+        calls = [worker.call(_answer, n) for n in range(40)]
+        assert calls[7].get() == _answer(7)
+        assert [c.get() for c in calls] == [_answer(n) for n in range(40)]
+        assert worker.busy == 0
+        big = [bytes([n]) * 1_000_000 for n in range(5)]  # big calls, big answers
+        got: list = []
+
+        def run() -> None:
+            calls = [worker.call(_echo, data) for data in big]
+            got.extend(c.get() for c in calls)
+        thread = threading.Thread(target=run, daemon=True)
+        thread.start()
+        thread.join(60.0)
+        assert not thread.is_alive(), "a call waited on a full pipe while the worker waited"
+        assert got == big
+
+
+def test_a_call_that_raises_raises_where_it_is_waited_for_and_the_worker_goes_on():
+    import pytest
+
+    from tracecheck.processes import Worker
+
+    with Worker() as worker:
+        failing, after = worker.call(_fail, "bad seed"), worker.call(pow, 2, 10)
+        with pytest.raises(ValueError, match="bad seed"):
+            failing.get()
+        assert after.get() == 1024
+
+
+def test_a_worker_that_dies_is_said_not_waited_for():
+    """A worker killed mid-call (out of memory, say): the call raises WorkerDied at once,
+    with how it ended and what to do."""
+    import pytest
+
+    from tracecheck.processes import Worker, WorkerDied
+
+    with Worker() as worker:
+        call = worker.call(_die)
+        started = time.perf_counter()
+        with pytest.raises(WorkerDied) as info:
+            call.get()
+        assert time.perf_counter() - started < 5.0
+        assert info.value.message == ("a worker process ended before it answered (killed by "
+                                      "signal 9)")
+        assert "fewer --workers" in info.value.hint
+
+
+def test_a_worker_closed_mid_call_ends_at_once():
+    from tracecheck.processes import Worker
+
+    worker = Worker(_slow_start)
+    worker.call(time.sleep, 30.0)
+    started = time.perf_counter()
+    worker.close()
+    assert time.perf_counter() - started < 1.5

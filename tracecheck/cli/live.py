@@ -174,8 +174,7 @@ def record_cmd(
             stats["episodes"] += 1
             stats["crashes"] += ep.end.crashed
             stats["steps"] += ep.end.steps
-            stats["fallbacks"] = stats.get("fallbacks", 0) + sum(bool(s.deadlock)
-                                                                 for s in ep.steps)
+            stats["fallbacks"] = stats.get("fallbacks", 0) + ep.deadlocks
             rate = stats["steps"] / max(_time.perf_counter() - start, 1e-9)
             advance(crashes=stats["crashes"], rate=f"{rate:.0f}")
 

@@ -16,13 +16,13 @@ from ..b.columns import Columns
 from ..b.values import Elem
 from ..errors import InputError
 from .blobs import BLOCK_ROWS, BlobDisagrees, blob_records, verified_block
-from .codec import columns_from_arrays, parameter_arrays
+from .codec import columns_from_arrays, decode_columns, parameter_arrays
 from ..errors import DamagedEpisode
 from .reader import read_pieces
 from .records import forget, mapped
 
 __all__ = ["read_columns", "read_blocks", "take_episodes", "blocks_of", "block_refs", "BlockRef",
-           "BlockUnchecked", "join", "RunColumns", "episode_columns"]
+           "BlockUnchecked", "join", "RunColumns", "episode_columns", "written_columns"]
 
 
 @dataclass
@@ -208,7 +208,7 @@ def _walked(path: Path, salvage: bool, skip: int, regions=None,
             if skip:
                 skip -= 1
                 continue
-            group.append(piece)
+            group.append((piece.head.episode, piece.end.reason, piece.columns))
             rows += len(piece.columns[1]["time"])
         if group and (piece is None or rows >= BLOCK_ROWS) or piece is None and not given:
             yield _pieces_columns(path, group, notes)
@@ -217,13 +217,21 @@ def _walked(path: Path, salvage: bool, skip: int, regions=None,
             return
 
 
+def written_columns(path: str | Path, blobs: Sequence[bytes]) -> RunColumns:
+    """The columns of episodes from their columns attachments as a writer made them, in
+    order: what walking them in the file gives (:func:`read_blocks` with ``regions``), once
+    the file holds them — the writer builds a block's run blob so, from what it wrote."""
+    decoded = [decode_columns(blob, where=f"{path}: ") for blob in blobs]
+    return _pieces_columns(Path(path), [(h["episode"], h.get("reason"), (h, a))
+                                        for h, a in decoded], [])
+
+
 def _pieces_columns(path: Path, pieces: list, notes: list[str]) -> RunColumns:
-    """The columns of walked episodes (each episode's own actions and elements joined)."""
+    """The columns of walked episodes (each (episode, how it ended, its decoded columns);
+    each episode's own actions and elements joined)."""
     parts = []
     literals: dict = {}  # parsed once for the block's episodes
-    for piece in pieces:
-        header, arrays = piece.columns
-        ep = piece.head.episode
+    for ep, reason, (header, arrays) in pieces:
         states = columns_from_arrays(header, arrays, literals, where=f"{path}, episode {ep}: ")
         n = len(arrays["time"])
         parts.append(RunColumns(
@@ -232,7 +240,7 @@ def _pieces_columns(path: Path, pieces: list, notes: list[str]) -> RunColumns:
             step=np.arange(n), time=arrays["time"], action=arrays["action"],
             action_names=tuple(header["actions"]), reward=arrays["reward"],
             crashed=arrays["crashed"].astype(bool), states=states, values=arrays.get("values"),
-            seeds=[header.get("seed")], reasons=[piece.end.reason],
+            seeds=[header.get("seed")], reasons=[reason],
             parameters=_prefixed(arrays, "par:"), proposals=_prefixed(arrays, "prop:"),
             distance=arrays.get("dist")))
     joined = join(str(path), parts)

@@ -16,7 +16,7 @@ from ..errors import InputError
 from ..outputs import atomic_temp, check_output, open_new, temp_file
 from .writer import (ChannelsFactory, EncodeContext, EncodedEpisode, EpisodeWriter,
                      actions_after, clock_after)
-from .model import Episode
+from .model import Episode, EpisodeDigest
 from .schema import RunHeaderMessage
 
 __all__ = ["write_run", "recording_into", "record_episodes", "prepared_episodes",
@@ -139,7 +139,7 @@ def whole_episode() -> Iterator[None]:
 
 
 def record_episodes(path: str | Path, header: RunHeaderMessage, episodes: Iterable[Episode],
-                    progress: Optional[Callable[[Episode], None]] = None, *,
+                    progress: Optional[Callable[[Episode | EpisodeDigest], None]] = None, *,
                     force: bool = False, channels: Optional[ChannelsFactory] = None,
                     inputs: Sequence[Path] = (),
                     encode: Optional[Callable[[Episode, EncodeContext], Any]] = None

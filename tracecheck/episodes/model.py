@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Mapping, Optional
 
-__all__ = ["StepRecord", "EpisodeEnd", "Episode", "SearchPoint", "END_REASONS"]
+__all__ = ["StepRecord", "EpisodeEnd", "Episode", "EpisodeDigest", "SearchPoint", "END_REASONS"]
 
 #: the end reasons, in a fixed order (the run columns blob stores their index)
 END_REASONS: tuple[str, ...] = ("crashed", "time-limit", "end-of-trace", "deadlock", "interrupted")
@@ -93,6 +93,47 @@ class Episode:
     @property
     def actions(self) -> list[Optional[str]]:
         return [s.action for s in self.steps]
+
+    @property
+    def last_time(self) -> float:
+        """The time of its last step."""
+        return self.steps[-1].time
+
+    @property
+    def action_names(self) -> tuple[str, ...]:
+        """The action names its steps take, then those they score, in the order they first
+        appear."""
+        out = dict.fromkeys(s.action for s in self.steps if s.action is not None)
+        for s in self.steps:
+            out.update(dict.fromkeys(s.action_values or ()))
+        return tuple(out)
+
+    @property
+    def deadlocks(self) -> int:
+        """The steps where the shield allowed nothing (and the fallback was taken)."""
+        return sum(bool(s.deadlock) for s in self.steps)
+
+    def digest(self) -> "EpisodeDigest":
+        """What writing it encoded elsewhere needs and a recording reports, without its
+        steps."""
+        return EpisodeDigest(self.id, self.end, self.last_time, self.action_names,
+                             self.deadlocks)
+
+
+@dataclass(frozen=True)
+class EpisodeDigest:
+    """An episode without its steps (:meth:`Episode.digest`): what writing it, encoded
+    where it was made, needs of it, and what a recording reports of it. A recording's
+    workers send this while the episode itself stays with them until they encode it."""
+
+    id: int
+    end: EpisodeEnd
+    last_time: float  # the time of its last step
+    action_names: tuple[str, ...]  # see Episode.action_names
+    deadlocks: int  # see Episode.deadlocks
+
+    def digest(self) -> "EpisodeDigest":
+        return self
 
 
 def make_end(steps: tuple[StepRecord, ...], reason: Optional[str] = None) -> EpisodeEnd:

@@ -36,7 +36,7 @@ from .records import (Attachment, BadChunk, Channel, Damage, DataEnd, MessageRef
                       mapped, walk)
 
 __all__ = ["read_run", "find_episode", "read_episodes", "read_header", "Run", "read_pieces", "Piece",
-           "search_point", "search_points"]
+           "search_point", "search_points", "why_unreadable"]
 
 
 @dataclass
@@ -438,6 +438,26 @@ def _last_step(piece: Piece) -> _Last:
     if "parameters" in msg or "proposal" in msg or "projection_distance" in msg:
         return _Last(msg.get("action"), msg["crashed"], _parse("tracecheck.Step", buf[a:b]))
     return _Last(msg.get("action"), msg["crashed"])
+
+
+def why_unreadable(header: bytes, last_step: bytes, end: bytes, steps: int, blob: bytes,
+                   messages_crc: int, run_crc: int) -> Optional[str]:
+    """Why an episode as a writer encodes it would read back damaged, or None: its episode
+    header, last step and end messages, its number of steps, its columns attachment and the
+    CRC-32 of its messages, checked as reading its file checks them (columns against
+    messages, without decoding the steps) — the writer's check of what it writes."""
+    try:
+        head = _parse("tracecheck.EpisodeHeader", header)
+        piece = Piece(head=head, steps=[], count=steps, crc=messages_crc,
+                      last=(last_step, 0, len(last_step)),
+                      end=_parse("tracecheck.EpisodeEnd", end), columns=decode_columns(blob))
+        if piece.end.episode != head.episode:
+            raise _BadEpisode(f"the end record belongs to episode {piece.end.episode}")
+        _checksums(piece, run_crc)
+        _agree(piece, decoded=False)
+    except (_BadEpisode, TracecheckError) as exc:
+        return str(exc)
+    return None
 
 
 def read_pieces(path: str | Path, only: Optional[set[int]] = None, *, decode: bool = True,

@@ -30,7 +30,8 @@ from . import schema
 from .mcap_out import McapOut, MessageBuffer, Messages
 from .blobs import BLOCK_ROWS
 from .codec import COLUMNS_MEDIA_TYPE, encode_columns, encode_state
-from .model import Episode
+from .model import Episode, EpisodeDigest
+from .reader import why_unreadable
 
 __all__ = ["EpisodeWriter", "new_header", "StepChannels", "ChannelsFactory", "EncodeContext",
            "EncodedEpisode", "encode_episode", "actions_after", "clock_after"]
@@ -67,23 +68,17 @@ class StepChannels(Protocol):
 ChannelsFactory = Callable[["schema.RunHeaderMessage"], StepChannels]
 
 
-def clock_after(clock_ns: int, episode: Episode) -> int:
+def clock_after(clock_ns: int, episode: Episode | EpisodeDigest) -> int:
     """The file time the episode after ``episode`` starts at, ``episode`` starting at
     ``clock_ns`` (its last step, then a gap)."""
-    return clock_ns + int(round((episode.steps[-1].time + _GAP_S) * _NS))
+    return clock_ns + int(round((episode.last_time + _GAP_S) * _NS))
 
 
-def actions_after(actions: Iterable[str], episode: Episode) -> tuple[str, ...]:
+def actions_after(actions: Iterable[str], episode: Episode | EpisodeDigest) -> tuple[str, ...]:
     """The run's action names once ``episode`` is written: ``actions``, then those its steps
     take and score that are new, in the order they first appear (the columns' action axis)."""
     out = list(actions)
-    for s in episode.steps:
-        if s.action is not None and s.action not in out:
-            out.append(s.action)
-    for s in episode.steps:
-        for name in s.action_values or ():
-            if name not in out:
-                out.append(name)
+    out += [name for name in episode.action_names if name not in out]
     return tuple(out)
 
 
@@ -110,6 +105,8 @@ class EncodedEpisode:
     messages: Messages
     blob: bytes
     actions: tuple[str, ...]  # the run's action names after it
+    #: why the episode would read back damaged (the writer's own check; None: it would not)
+    damage: Optional[str] = None
 
 
 def encode_episode(ep: Episode, context: EncodeContext,
@@ -139,7 +136,8 @@ def encode_episode(ep: Episode, context: EncodeContext,
         episode=ep.id, seed=ep.seed, origin=ep.origin, search=search,
         environment_config=dict(ep.config) if ep.config is not None else None,
         reset_options=dict(ep.reset_options) if ep.reset_options is not None else None)
-    emit("tracecheck.EpisodeHeader", header.model_dump_json(exclude_none=True).encode(), 0.0)
+    head = header.model_dump_json(exclude_none=True).encode()
+    emit("tracecheck.EpisodeHeader", head, 0.0)
     steps = ep.steps
     for k, s in enumerate(steps):
         try:
@@ -171,7 +169,8 @@ def encode_episode(ep: Episode, context: EncodeContext,
     last = steps[-1].time
     end = schema.EpisodeEndMessage(episode=ep.id, steps=ep.end.steps, crashed=ep.end.crashed,
                                    total_reward=ep.end.total_reward, reason=ep.end.reason)
-    emit("tracecheck.EpisodeEnd", end.model_dump_json().encode(), last)
+    tail = end.model_dump_json().encode()
+    emit("tracecheck.EpisodeEnd", tail, last)
     actions = actions_after(context.actions, ep)
     cols = Columns.from_states([s.state for s in steps])
     blob = encode_columns(ep.id, [s.time for s in steps], [s.action for s in steps],
@@ -183,7 +182,8 @@ def encode_episode(ep: Episode, context: EncodeContext,
                           proposals=[s.proposal for s in steps],
                           distances=[s.projection_distance for s in steps],
                           reason=ep.end.reason)
-    return EncodedEpisode(context, buffer.finish(context.compress), blob, actions)
+    damage = why_unreadable(head, data, tail, len(steps), blob, crc, context.run_crc)
+    return EncodedEpisode(context, buffer.finish(context.compress), blob, actions, damage)
 
 
 def new_header(source: str, **fields: Any) -> schema.RunHeaderMessage:
@@ -215,7 +215,7 @@ class EpisodeWriter:
                  channels: Optional[ChannelsFactory] = None, *,
                  stream: Optional[IO[bytes]] = None, name: Optional[str | Path] = None,
                  compress: bool = True, block_rows: Optional[int] = None) -> None:
-        self.path = Path(path)  # the file on disk (read back for the run's columns)
+        self.path = Path(path)  # the file on disk (read back for the CRCs of its blocks)
         self.name = str(name or path)  # … and how messages call it (the output's own name)
         self._given = stream  # a stream opened by the caller, which also closes it
         self._compress = compress  # False: no chunks, the layout of earlier files
@@ -231,6 +231,7 @@ class EpisodeWriter:
         self._crc = 0  # CRC-32 of the messages of the episode being written
         #: per episode of the open block: its records' bytes in the file
         self._spans: list[tuple[int, int]] = []
+        self._blocked: list[bytes] = []  # … and its columns attachment
         self._head_end: Optional[int] = None  # where the first episode starts
         self._spanned = 0  # the episodes in blocks so far, the open one's too
         self._run_crc = 0  # … and of the run header
@@ -301,16 +302,18 @@ class EpisodeWriter:
             self._stream = None
 
     def _close_block(self) -> None:
-        """The episodes since the last blob in one columns blob, read back through the
-        checked reader, with the CRC-32 of each episode's records and of the file's head: a
-        reader takes the block from it at once (see :mod:`tracecheck.episodes.blobs`)."""
+        """The episodes since the last blob in one columns blob — their columns attachments
+        joined as a reader walking them joins them — with the CRC-32 of each episode's
+        records and of the file's head: a reader takes the block from it at once (see
+        :mod:`tracecheck.episodes.blobs`)."""
         spans, self._spans, self._rows = self._spans, [], 0
+        blocked, self._blocked = self._blocked, []
         if not spans or not self._blobs:
             return
         import warnings
 
         from .codec import RUN_COLUMNS_MEDIA_TYPE, encode_run_columns
-        from .columns import join, read_blocks
+        from .columns import written_columns
         from .records import mapped
 
         self._stream.flush()
@@ -318,8 +321,7 @@ class EpisodeWriter:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                run = join(str(self.path), list(read_blocks(
-                    self.path, regions=[(8, head_end), (spans[0][0], spans[-1][1])])))
+                run = written_columns(self.path, blocked)
         except TracecheckError:
             run = None
         if run is None or len(run.episode_ids) != len(spans) or run.warnings:
@@ -359,14 +361,19 @@ class EpisodeWriter:
         return EncodeContext(self._clock_ns, tuple(self._channels.items()), tuple(self._actions),
                              self._run_crc, self._compress, self.name)
 
-    def write(self, episode: Episode, prepared: Optional[EncodedEpisode] = None) -> None:
+    def write(self, episode: Episode | EpisodeDigest,
+              prepared: Optional[EncodedEpisode] = None) -> None:
         """Write ``episode`` completely, then flush it to disk (``prepared``: the episode
         encoded ahead, elsewhere: used where it was made for this writer's next episode, as
-        :meth:`context` says, else made again here — the same bytes either way)."""
+        :meth:`context` says, else made again here — the same bytes either way; an
+        :class:`~tracecheck.episodes.model.EpisodeDigest` only with what was made for it)."""
         if self._writer is None:
             raise TracecheckError("the EpisodeWriter is closed")
         context = self.context()
         if prepared is None or prepared.context != context:
+            if not isinstance(episode, Episode):
+                raise TracecheckError(f"episode {episode.id} came without its steps and was "
+                                      "not encoded for this point of the file")
             prepared = encode_episode(episode, context, self._extra)
         try:
             self._write(episode, prepared)
@@ -376,24 +383,27 @@ class EpisodeWriter:
                              f"{exc.strerror or exc}") from None
         self.episodes += 1
 
-    def _write(self, ep: Episode, encoded: EncodedEpisode) -> None:
+    def _write(self, ep: Episode | EpisodeDigest, encoded: EncodedEpisode) -> None:
         start = self._stream.tell()
         self._writer.add_messages(encoded.messages)
         self._end_chunk()  # before the attachment, which the writer puts straight in the file
         # the columns come last: an attachment in the file means its episode is complete
         self._actions = list(encoded.actions)
-        t = self._clock_ns + int(round(ep.steps[-1].time * _NS))
+        t = self._clock_ns + int(round(ep.last_time * _NS))
         self._writer.add_attachment(create_time=t, log_time=t,
                                     name=f"episode-{ep.id}.columns",
                                     media_type=COLUMNS_MEDIA_TYPE, data=encoded.blob)
         self._clock_ns = clock_after(self._clock_ns, ep)
         self._spans.append((start, self._stream.tell()))  # header … columns attachment
+        self._blocked.append(encoded.blob)
+        if encoded.damage is not None:
+            self._blobs = False  # it reads back damaged: the reader walks the file, and says so
         self._spanned += 1
         if self._head_end is None:
             self._head_end = start
         if ep.id in self._ids:
             self._blobs = False  # the reader walks the file, and names the id used twice
         self._ids.add(ep.id)
-        self._rows += len(ep.steps)
+        self._rows += ep.end.steps + 1
         if self._rows >= self._block_rows:
             self._close_block()

@@ -19,9 +19,9 @@ from typing import Callable, Iterator, Optional, Sequence
 
 from ..episodes.files import check_run_output, record_episodes
 from ..outputs import input_paths
-from ..processes import quiet_worker, worker_pool
+from ..processes import Worker, quiet_worker
 from ..episodes.writer import ChannelsFactory, encode_episode, new_header
-from ..episodes.model import Episode
+from ..episodes.model import Episode, EpisodeDigest
 from ..errors import InputError
 from .executors import IN_FLIGHT, batch_size, batches, in_order
 from .rollout import RecordSettings, Session, resolve
@@ -60,14 +60,18 @@ def _init_worker(settings: RecordSettings, shield, channels=None, header=None,
         _FAILED = error  # raised by the first episode instead, so it reaches the parent
 
 
-def _work(first: int, count: int) -> list[Episode]:
-    """Episodes ``first`` to ``first + count - 1``."""
+def _work(first: int, count: int, digests: bool = False
+          ) -> list[Episode] | list[EpisodeDigest]:
+    """Episodes ``first`` to ``first + count - 1`` (``digests``: their digests, the
+    episodes kept)."""
     if _FAILED is not None:
         raise _FAILED
     assert _SESSION is not None
     made = [_SESSION.episode(i) for i in range(first, first + count)]
     if _KEPT is not None:
         _KEPT.update(zip(range(first, first + count), made))
+        if digests:
+            return [episode.digest() for episode in made]
     return made
 
 
@@ -90,33 +94,29 @@ def _encode(episode: Episode, context):
 
 class _Pooled:
     """The episodes of a recording from worker processes (a context: the workers live while
-    it is open). With ``keep`` each worker also encodes the episodes it ran for the file
-    (:meth:`encode`: its messages, the plug-in's, its compressed chunk and columns), so that
-    the one writer only appends them: each worker is a pool of its own, and the episode it
-    kept is encoded where it was made — it does not cross back, and what
-    the worker remembers for its values (a grid world's map drawn, encoded and written out)
-    holds for it."""
+    it is open), one :class:`~tracecheck.processes.Worker` each. With ``keep`` each worker
+    also encodes the episodes it ran for the file (:meth:`encode`: its messages, the
+    plug-in's, its compressed chunk and columns), so that the one writer only appends them:
+    the episode it kept is encoded where it was made — it does not cross back, and what the
+    worker remembers for its values (a grid world's map drawn, encoded and written out)
+    holds for it. With ``digests`` too, the workers send only each episode's digest (what
+    writing it needs, :class:`~tracecheck.episodes.model.EpisodeDigest`): its steps never
+    cross to the writer."""
 
     def __init__(self, settings: RecordSettings, shield, channels=None, header=None, *,
-                 keep: bool = False) -> None:
+                 keep: bool = False, digests: bool = False) -> None:
         self.settings, self.shield, self.channels, self.header = settings, shield, channels, \
             header
-        self.keep = keep
-        self._pools: list = []
+        self.keep, self.digests = keep, keep and digests
+        self._workers: list[Worker] = []
         #: the episodes given and not yet encoded: (the episode, its worker, its number)
-        self._given: dict[int, tuple[Episode, object, int]] = {}
+        self._given: dict[int, tuple[Episode, Worker, int]] = {}
 
     def __enter__(self) -> "_Pooled":
         args = (self.settings, self.shield, self.channels, self.header, self.keep)
         try:
-            if self.keep:
-                # each pool forks its worker before its own threads start; the pools made
-                # before it have theirs idle (no task is submitted before all exist): waiting
-                # on an empty queue or a pipe, they hold no lock the new worker could inherit
-                for _ in range(self.settings.workers):
-                    self._pools.append(worker_pool(1, _init_worker, args))
-            else:
-                self._pools.append(worker_pool(self.settings.workers, _init_worker, args))
+            for _ in range(self.settings.workers):
+                self._workers.append(Worker(_init_worker, args))
         except BaseException:
             self.close()
             raise
@@ -128,49 +128,47 @@ class _Pooled:
     def close(self) -> None:
         """Stop the workers at once (a simulation that stopped early: what they run ahead is
         not needed)."""
-        pools, self._pools = self._pools, []
-        for pool in pools:
-            pool.terminate()
-        for pool in pools:
-            pool.join()
+        workers, self._workers = self._workers, []
+        for worker in workers:
+            worker.close()
         self._given.clear()
 
     def encode(self, episode: Episode, context):
         given = self._given.pop(id(episode), None)
         if given is not None and given[0] is episode:
-            return given[1].apply_async(_encode_kept, (given[2], context))
-        return self._pools[0].apply_async(_encode, (episode, context))
+            return given[1].call(_encode_kept, given[2], context)
+        return self._workers[0].call(_encode, episode, context)
 
     def __iter__(self) -> Iterator[Episode]:
-        settings, pools = self.settings, self._pools
+        settings, workers = self.settings, self._workers
         size = min(LOCAL_BATCH, batch_size(settings.episodes, settings.workers))
-        running: list[list] = [[] for _ in pools]  # each pool's tasks
 
         def submit(job: tuple[int, int]):
-            for tasks in running:
-                tasks[:] = [t for t in tasks if not t.ready()]
-            k = min(range(len(pools)), key=lambda i: len(running[i]))  # the least busy
-            handle = pools[k].apply_async(_work, job)
-            running[k].append(handle)
-            return job[0], pools[k], handle
+            worker = min(workers, key=lambda w: w.busy)  # the least busy
+            return job[0], worker, worker.call(_work, *job, self.digests)
 
-        for first, pool, batch in in_order(submit, batches(settings.episodes, size),
-                                           IN_FLIGHT * settings.workers,
-                                           lambda h: (h[0], h[1], h[2].get())):
+        episode: Episode | EpisodeDigest
+        for first, worker, batch in in_order(submit, batches(settings.episodes, size),
+                                             IN_FLIGHT * settings.workers,
+                                             lambda h: (h[0], h[1], h[2].get())):
             for number, episode in enumerate(batch, first):
                 if self.keep:
-                    self._given[id(episode)] = (episode, pool, number)
+                    self._given[id(episode)] = (episode, worker, number)
                 yield episode
 
 
 @contextmanager
-def encoded_episodes(settings: RecordSettings, shield, channels=None, header=None):
+def encoded_episodes(settings: RecordSettings, shield, channels=None, header=None, *,
+                     digests: bool = False):
     """(episodes, encode) of a recording: with local workers, they also encode each episode
     for the file (``encode(episode, context)``, see
     :func:`~tracecheck.episodes.files.prepared_episodes`), else ``encode`` is None (the
-    writer encodes them). ``channels`` and ``header``: the writer's plug-in and run header."""
+    writer encodes them). ``channels`` and ``header``: the writer's plug-in and run header;
+    ``digests``: with local workers, the episodes come as their digests (enough to write
+    them, see :class:`_Pooled`)."""
     if settings.executor == "local" and settings.workers > 1:
-        with _Pooled(settings, shield, channels, header, keep=True) as pooled:
+        with _Pooled(settings, shield, channels, header, keep=True,
+                     digests=digests) as pooled:
             yield pooled, pooled.encode
     else:
         yield episodes(settings, shield), None
@@ -280,11 +278,13 @@ def recording_header(settings: RecordSettings, agent, shield):
 
 
 def record(settings: RecordSettings, out: str | Path,
-           progress: Optional[Callable[[Episode], None]] = None, *,
+           progress: Optional[Callable[[EpisodeDigest], None]] = None, *,
            force: bool = False, channels: Optional[ChannelsFactory] = None
            ) -> tuple[int, int, int]:
     """Record ``settings.episodes`` episodes into ``out``; (episodes, steps, crashes);
-    ``channels`` adds a plug-in's channels: without it the file has tracecheck's own channels
+    ``progress`` is told of each episode written, by its
+    :class:`~tracecheck.episodes.model.EpisodeDigest` (with workers its steps stay in the
+    worker that ran it); ``channels`` adds a plug-in's channels: without it the file has tracecheck's own channels
     only; the CLI gives Foxglove's (``channels=FoxgloveChannels`` from
     ``tracecheck.interop.foxglove``, which a caller in Python passes for the same file).
 
@@ -295,6 +295,7 @@ def record(settings: RecordSettings, out: str | Path,
     out = Path(out)
     agent, shield = check_settings(settings, out, force=force)
     header = recording_header(settings, agent, shield)
-    with encoded_episodes(settings, shield, channels, header) as (made, encode):
-        return record_episodes(out, header, made, progress, force=force, channels=channels,
+    told = None if progress is None else (lambda episode: progress(episode.digest()))
+    with encoded_episodes(settings, shield, channels, header, digests=True) as (made, encode):
+        return record_episodes(out, header, made, told, force=force, channels=channels,
                                inputs=run_inputs(settings), encode=encode)
