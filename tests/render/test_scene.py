@@ -86,6 +86,33 @@ def test_a_grid_map_is_drawn_once_and_each_map_as_itself():
     assert sum(c["color"]["r"] < 0.5 for c in cubes) == 1
 
 
+def test_a_grid_worlds_scene_is_drawn_once_per_map_goal_and_agent():
+    """Issue 46: the agent back on a cell of the same map is the same scene (what is
+    remembered for it, its Foxglove entities encoded, holds at every step); another cell, a
+    fall, another goal, another map or other kinds drawn dark are another scene."""
+    from tracecheck.b.values import Elem, FuncValue
+    from tracecheck.live.envs.grid_scene import grid_scene
+
+    def lake():
+        return FuncValue({(x, y): Elem("HOLE" if (x, y) == (1, 1) else "ICE")
+                          for x in range(3) for y in range(3)})
+
+    one, holes = lake(), frozenset({"HOLE"})
+
+    def draw(x=0, y=0, field_=one, crashed=False, danger=holes, **goal):
+        return grid_scene({"x": x, "y": y, "field": field_, **goal}, crashed, danger)
+
+    first = draw()
+    assert draw() is first and draw(goal_x=2, goal_y=2) is draw(goal_x=2, goal_y=2)
+    others = [draw(1, 0), draw(crashed=True), draw(goal_x=2, goal_y=2), draw(field_=lake()),
+              draw(danger=frozenset())]
+    assert all(o is not first for o in others)
+    assert len({id(o) for o in others}) == len(others)
+    assert draw(crashed=True).shapes[-1].fill != first.shapes[-1].fill
+    assert [s.fill for s in draw(danger=frozenset()).shapes[:9]] != [
+        s.fill for s in first.shapes[:9]]
+
+
 def test_a_grid_worlds_agent_is_drawn_once_per_place_and_labelled_as_its_numbers():
     """Issue 46: the goal and the agent are the same shapes wherever they stand again (what
     is remembered for a shape holds at every step), each place by its numbers' type and text:

@@ -340,6 +340,9 @@ class FoxgloveChannels:
         # foxglove-sdk), tracecheck's scalars in JSON with their JSON schema
         self._encode = encoder()
         self._scene = scene_encoder() if self._encode is not None else None
+        #: each scene's entities encoded, by the very same scene (a grid world's agent on a
+        #: cell it was on before is the same scene: see grid_scene)
+        self._bodies: ByIdentity[tuple[bytes, ...]] = ByIdentity(512)
         published = protobuf_schemas() if self._encode is not None else {}
         self.schemas = {name: published.get(name) or orjson.dumps(schema)
                         for name, schema in SCHEMAS.items()}
@@ -356,8 +359,11 @@ class FoxgloveChannels:
         if self._scene is not None and draw is not None:  # the scene in protobuf, each
             scene = draw(step)                            # entity encoded once
             if scene is not None and scene.shapes:
-                yield "/foxglove/scene", self._scene(scene_groups(scene), scene_entity,
-                                                     stamp_ns)
+                bodies = self._bodies.get(scene)
+                if bodies is None:
+                    bodies = self._bodies.put(scene, self._scene.bodies(scene_groups(scene),
+                                                                        scene_entity))
+                yield "/foxglove/scene", self._scene.stamped(bodies, stamp_ns)
             draw = None
         for m in step_messages(step, episode=episode, stamp_ns=stamp_ns,
                                previous_crashed=previous_crashed, draw=draw,

@@ -172,12 +172,14 @@ class SceneBytes:
                  ns: int) -> bytes:
         """The scene of ``groups`` (group -> its shapes, in order) at ``ns``; ``entity(group,
         shapes, None)`` makes a group's entity, without its time stamp, in the JSON form."""
-        m = self._m
-        sec, nsec = divmod(ns, 1_000_000_000)
-        time = m.Timestamp(sec, nsec)
-        out = [m.SceneUpdate(deletions=[m.SceneEntityDeletion(
-            timestamp=time, type=self._build.deletions[1], id="")]).encode()]
-        stamp = m.SceneEntity(timestamp=time).encode()
+        return self.stamped(self.bodies(groups, entity), ns)
+
+    def bodies(self, groups: dict[str, list],
+               entity: Callable[[str, list, Optional[dict]], dict]) -> tuple[bytes, ...]:
+        """Each group's entity without its time stamp, encoded (see :meth:`__call__`): what
+        :meth:`stamped` makes a scene of at any time (the same scene drawn again — a grid
+        world's agent back on a cell — needs only that)."""
+        out = []
         for group, shapes in groups.items():
             # the shapes are held with their bytes: while remembered, no other object has
             # one of their ids
@@ -195,7 +197,19 @@ class SceneBytes:
                     if len(self._new) >= self.SIZE:
                         self._new.clear()
                     self._new[key] = found
-            body = stamp + found[1]
+            out.append(found[1])
+        return tuple(out)
+
+    def stamped(self, bodies: tuple[bytes, ...], ns: int) -> bytes:
+        """The scene of the entities ``bodies`` (:meth:`bodies`) at ``ns``."""
+        m = self._m
+        sec, nsec = divmod(ns, 1_000_000_000)
+        time = m.Timestamp(sec, nsec)
+        out = [m.SceneUpdate(deletions=[m.SceneEntityDeletion(
+            timestamp=time, type=self._build.deletions[1], id="")]).encode()]
+        stamp = m.SceneEntity(timestamp=time).encode()
+        for body in bodies:
+            body = stamp + body
             out.append(b"\x12" + _varint(len(body)) + body)  # SceneUpdate.entities: field 2
         return b"".join(out)
 

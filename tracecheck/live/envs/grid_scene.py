@@ -45,11 +45,25 @@ def grid_scene(state: dict, crashed: bool = False,
     """A grid world: one tile per cell (those of a kind in ``danger`` dark), the goal, the
     agent."""
     tiles, cols, rows, _ = _tiles(state["field"], danger)
-    shapes: list[Shape] = list(tiles)
-    if "goal_x" in state and "goal_y" in state:
-        shapes.append(_goal(state["goal_x"], state["goal_y"]))
-    shapes.append(_agent(state["x"], state["y"], crashed))
-    return Scene(tuple(shapes), (0.0, 0.0, cols, rows), None, GRID_CAPTION, scale=40.0)
+    goal = _goal(state["goal_x"], state["goal_y"]) if "goal_x" in state and "goal_y" in \
+        state else None
+    agent = _agent(state["x"], state["y"], crashed)
+    # the same tiles, goal and agent: the same scene (what is remembered for it, its
+    # Foxglove entities encoded, holds at every step it is drawn)
+    key = (id(tiles), id(goal), id(agent))
+    drawn = _SCENES.get(key)
+    if drawn is not None and drawn[0] is tiles and drawn[1] is goal and drawn[2] is agent:
+        return drawn[3]
+    shapes = (*tiles, agent) if goal is None else (*tiles, goal, agent)
+    scene = Scene(shapes, (0.0, 0.0, cols, rows), None, GRID_CAPTION, scale=40.0)
+    if len(_SCENES) >= 4096:
+        _SCENES.clear()
+    _SCENES[key] = (tiles, goal, agent, scene)  # held: their ids are theirs while it lives
+    return scene
+
+
+#: the scenes drawn so far, by the ids of their tiles, goal and agent (held with them)
+_SCENES: dict[tuple[int, int, int], tuple] = {}
 
 
 #: the goal and agent shapes drawn so far, by where (the same object for the same place:
