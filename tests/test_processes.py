@@ -53,6 +53,24 @@ def _die() -> None:
     os.kill(os.getpid(), signal.SIGKILL)
 
 
+def _small(n: int) -> bytes:
+    return bytes([n % 256]) * 100_000
+
+
+def _exits() -> None:
+    import sys
+
+    sys.exit(3)
+
+
+def _no_init() -> None:
+    raise RuntimeError("no simulator licence in this worker")
+
+
+def _stays() -> None:
+    signal.signal(signal.SIGTERM, lambda *a: None)  # a simulator's own handler
+
+
 def test_a_worker_answers_its_calls_in_order_however_many_are_sent_ahead():
     """Calls sent before any answer is read, each answer a megabyte: no deadlock on full
     pipes (the calls sent wait for answers once they exceed the backlog), every answer in
@@ -70,23 +88,43 @@ def test_a_worker_answers_its_calls_in_order_however_many_are_sent_ahead():
         def run() -> None:
             calls = [worker.call(_echo, data) for data in big]
             got.extend(c.get() for c in calls)
+            # tiny calls, each charged ~1 KB by the system however small, big answers
+            calls = [worker.call(_small, n) for n in range(1000)]
+            got.append(all(c.get() == _small(n) for n, c in enumerate(calls)))
         thread = threading.Thread(target=run, daemon=True)
         thread.start()
         thread.join(60.0)
         assert not thread.is_alive(), "a call waited on a full pipe while the worker waited"
-        assert got == big
+        assert got == [*big, True]
 
 
 def test_a_call_that_raises_raises_where_it_is_waited_for_and_the_worker_goes_on():
+    """With the worker's traceback as its cause (what --debug shows, as a pool gives it); a
+    SystemExit in the worker is an error, not the command's quiet end."""
     import pytest
 
     from tracecheck.processes import Worker
 
     with Worker() as worker:
         failing, after = worker.call(_fail, "bad seed"), worker.call(pow, 2, 10)
-        with pytest.raises(ValueError, match="bad seed"):
+        with pytest.raises(ValueError, match="bad seed") as info:
             failing.get()
+        assert "in _fail" in str(info.value.__cause__)  # the remote traceback
         assert after.get() == 1024
+        with pytest.raises(RuntimeError, match=r"^SystemExit\(3\) in a worker process$"):
+            worker.call(_exits).get()
+        assert worker.call(pow, 3, 2).get() == 9
+
+
+def test_a_worker_whose_set_up_failed_says_so_at_every_call():
+    import pytest
+
+    from tracecheck.processes import Worker
+
+    with Worker(_no_init) as worker:
+        for _ in range(2):
+            with pytest.raises(RuntimeError, match="no simulator licence"):
+                worker.call(pow, 2, 10).get()
 
 
 def test_a_worker_that_dies_is_said_not_waited_for():
@@ -105,13 +143,19 @@ def test_a_worker_that_dies_is_said_not_waited_for():
         assert info.value.message == ("a worker process ended before it answered (killed by "
                                       "signal 9)")
         assert "fewer --workers" in info.value.hint
+        with pytest.raises(WorkerDied):  # a call to it: not a broken pipe (a closed stdout)
+            worker.call(pow, 2, 10)
 
 
 def test_a_worker_closed_mid_call_ends_at_once():
+    """Even one whose code handles SIGTERM itself (killed after a second)."""
     from tracecheck.processes import Worker
 
-    worker = Worker(_slow_start)
-    worker.call(time.sleep, 30.0)
-    started = time.perf_counter()
-    worker.close()
-    assert time.perf_counter() - started < 1.5
+    for start in (_slow_start, _stays):
+        worker = Worker(start)
+        worker.call(time.sleep, 30.0)
+        time.sleep(0.2)
+        started = time.perf_counter()
+        worker.close()
+        assert time.perf_counter() - started < 3.0
+        assert not worker._process.is_alive()

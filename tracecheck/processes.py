@@ -5,6 +5,7 @@ the command stops its workers itself), and ended with the command however it end
 from __future__ import annotations
 
 import multiprocessing as mp
+import os
 import pickle
 import signal
 import threading
@@ -15,7 +16,7 @@ from typing import Any, Callable, Iterable, Iterator, Optional, TypeVar
 from .errors import TracecheckError
 
 __all__ = ["worker_context", "quiet_worker", "worker_pool", "in_order", "Worker", "Call",
-           "WorkerDied"]
+           "WorkerDied", "carried"]
 
 J = TypeVar("J")
 H = TypeVar("H")
@@ -74,12 +75,33 @@ class WorkerDied(TracecheckError):
     """A worker process ended while a call to it was unanswered (killed, or out of memory)."""
 
 
+@contextmanager
+def _masked():
+    """Ctrl-C and SIGTERM held back (not lost) while a worker is started, in the main
+    thread: the worker starts with them held and sets its own handlers before it takes them
+    (:func:`_serve`); the command takes one that came meanwhile once started."""
+    if threading.current_thread() is not threading.main_thread() or \
+            not hasattr(signal, "pthread_sigmask"):
+        with _forking():
+            yield
+        return
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+
+
+_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
+
 class Worker:
-    """One worker process (:func:`worker_context`, started as :func:`worker_pool` starts
-    them) spoken to through a pipe by the one thread that uses it, with no thread of its
-    own — a pool's three threads per pool cost a recording's writer a tenth of its time.
-    Calls run one after another in the order they are made; a call's :meth:`Call.get`
-    reads the answers up to its own. A worker that dies is said (:class:`WorkerDied`), not
+    """One worker process (:func:`worker_context`, quiet as :func:`quiet_worker` makes it)
+    spoken to through a pipe by the one thread that uses it, with no thread of its own — a
+    pool's three threads per pool cost a recording's writer a tenth of its time. Calls run
+    one after another in the order they are made; a call's :meth:`Call.get` reads the
+    answers up to its own, and raises what the call raised (with the worker's traceback as
+    its cause, as a pool gives it). A worker that dies is said (:class:`WorkerDied`), not
     waited for; :meth:`close` ends it at once.
 
     >>> with Worker() as w:  # doctest: +SKIP
@@ -87,20 +109,30 @@ class Worker:
     1024
     """
 
-    #: bytes of calls sent and not yet answered before the next call first waits for an
-    #: answer: a call never waits on a full pipe while the worker waits to send its answer
-    BACKLOG = 16 * 1024
+    #: what a call counts for in the backlog besides its bytes: the system's own per send
+    #: (Linux charges about 1 KB for each message on a socket, however small)
+    PER_CALL = 2048
 
     def __init__(self, initializer: Optional[Callable] = None, initargs: tuple = ()) -> None:
         context = worker_context()
         self._conn, theirs = context.Pipe()
+        #: bytes of calls sent and not yet answered before the next call first waits for an
+        #: answer: a call never waits on a full pipe while the worker waits to send its
+        #: answer (a quarter of what the pipe holds, as the system says)
+        self.backlog = _room(self._conn) // 4
         self._process = context.Process(target=_serve, args=(theirs, initializer, initargs),
                                         daemon=True)
-        with _forking():
-            self._process.start()
-        theirs.close()
         self._sent: deque[tuple[Call, int]] = deque()  # calls not yet answered, their sizes
         self._backlog = 0
+        try:
+            with _masked():
+                self._process.start()
+        except BaseException:  # a Ctrl-C held back while it started comes here
+            theirs.close()
+            if self._process.pid is not None:
+                self.close()
+            raise
+        theirs.close()
 
     def __enter__(self) -> "Worker":
         return self
@@ -112,12 +144,16 @@ class Worker:
         """Run ``fn(*args)`` in the worker after the calls made before (``fn`` and ``args``
         pickled: a module-level function)."""
         data = pickle.dumps((fn, args), protocol=pickle.HIGHEST_PROTOCOL)
-        while self._sent and self._backlog + len(data) > self.BACKLOG:
+        size = len(data) + self.PER_CALL
+        while self._sent and self._backlog + size > self.backlog:
             self._receive()
-        self._conn.send_bytes(data)
+        try:
+            self._conn.send_bytes(data)
+        except OSError:  # a broken pipe: the worker is gone
+            raise self._died() from None
         handle = Call(self)
-        self._sent.append((handle, len(data)))
-        self._backlog += len(data)
+        self._sent.append((handle, size))
+        self._backlog += size
         return handle
 
     @property
@@ -132,28 +168,56 @@ class Worker:
         try:
             data = self._conn.recv_bytes()
         except (EOFError, OSError):
-            self._process.join(1)
-            code = self._process.exitcode
-            how = (f"killed by signal {-code}" if code is not None and code < 0
-                   else f"exit status {code}")
-            raise WorkerDied(f"a worker process ended before it answered ({how})",
-                             hint="out of memory, or killed; run again (fewer --workers "
-                                  "needs less memory)") from None
+            raise self._died() from None
         self._sent.popleft()
         self._backlog -= size
         try:
             ok, value = pickle.loads(data)
-        except Exception as exc:  # noqa: BLE001 - an exception that does not unpickle
+        except Exception as exc:  # noqa: BLE001 - the worker checks its exceptions load
             ok, value = False, RuntimeError(f"a worker's answer does not unpickle: {exc}")
         handle._set(ok, value)
 
+    def _died(self) -> WorkerDied:
+        self._process.join(1)
+        code = self._process.exitcode
+        how = (f"killed by signal {-code}" if code is not None and code < 0
+               else "still running" if code is None else f"exit status {code}")
+        return WorkerDied(f"a worker process ended before it answered ({how})",
+                          hint="out of memory, or killed; run again (fewer --workers needs "
+                               "less memory)")
+
     def close(self) -> None:
-        """End the worker at once (what it was running is not needed)."""
-        if self._process.is_alive():
-            self._process.terminate()
-        self._process.join()
+        """End the worker at once (what it was running is not needed): an idle one ends
+        when its pipe closes, a busy one is terminated, and killed if it stays."""
         self._conn.close()
         self._sent.clear()
+        if self._process.is_alive():
+            self._process.terminate()
+            self._process.join(1.0)
+        if self._process.is_alive():  # it handles SIGTERM itself
+            self._process.kill()
+        self._process.join()
+
+
+def _room(conn) -> int:
+    """The bytes the pipe ``conn`` holds one way, made at least 1 MiB where the system lets
+    it (a socket on Unix), else what it says; 16 KiB where it says nothing."""
+    import socket
+
+    try:
+        sock = socket.socket(fileno=os.dup(conn.fileno()))
+    except (OSError, AttributeError, ValueError):
+        return 16 * 1024
+    try:
+        for option in (socket.SO_SNDBUF, socket.SO_RCVBUF):
+            if sock.getsockopt(socket.SOL_SOCKET, option) < 1 << 20:
+                sock.setsockopt(socket.SOL_SOCKET, option, 1 << 20)
+        return min(sock.getsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF),
+                   sock.getsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF))
+    except OSError:
+        return 16 * 1024
+    finally:
+        sock.close()
 
 
 class Call:
@@ -177,27 +241,64 @@ class Call:
         return value
 
 
+def carried(exc: BaseException):
+    """``exc`` made to cross to another process with the traceback it has here (as its
+    ``__cause__`` there, as a pool's are), or a RuntimeError saying what it was where it
+    would not be rebuilt there (an exception whose arguments are not those it was made
+    with)."""
+    from multiprocessing.pool import ExceptionWithTraceback
+
+    try:
+        pickle.loads(pickle.dumps(exc, protocol=pickle.HIGHEST_PROTOCOL))
+    except Exception:  # noqa: BLE001 - any reason it does not cross
+        exc = RuntimeError(f"{type(exc).__name__}: {exc}"[:4000])
+    return ExceptionWithTraceback(exc, exc.__traceback__)
+
+
+def _plain(exc: BaseException) -> Exception:
+    """``exc``, or what it was as a RuntimeError where it is no Exception (a SystemExit in
+    a worker must not end the command that waits for it quietly)."""
+    if isinstance(exc, Exception):
+        return exc
+    plain = RuntimeError(f"{type(exc).__name__}({exc}) in a worker process")
+    plain.__traceback__ = exc.__traceback__
+    return plain
+
+
 def _serve(conn, initializer, initargs) -> None:
-    """A :class:`Worker`'s process: its calls, answered in order, until the pipe closes."""
+    """A :class:`Worker`'s process: its calls, answered in order, until the pipe closes
+    (an ``initializer`` that fails: every call answered with its exception)."""
+    quiet_worker()
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)
+    failed = None
     if initializer is not None:
-        initializer(*initargs)
+        try:
+            initializer(*initargs)
+        except BaseException as exc:  # noqa: BLE001 - said by every call
+            failed = carried(_plain(exc))
     while True:
         try:
             data = conn.recv_bytes()
         except (EOFError, OSError):
             return
-        try:
-            fn, args = pickle.loads(data)
-            answer = (True, fn(*args))
-        except Exception as exc:  # noqa: BLE001 - raised where the call is waited for
-            answer = (False, exc)
+        if failed is not None:
+            answer = (False, failed)
+        else:
+            try:
+                fn, args = pickle.loads(data)
+                answer = (True, fn(*args))
+            except BaseException as exc:  # noqa: BLE001 - raised where the call is waited for
+                answer = (False, carried(_plain(exc)))
         try:
             out = pickle.dumps(answer, protocol=pickle.HIGHEST_PROTOCOL)
         except Exception as exc:  # noqa: BLE001 - an answer that does not pickle
-            out = pickle.dumps((False, RuntimeError(
-                f"a worker's answer does not pickle ({type(exc).__name__}: {exc}): "
-                f"{answer[1]!r}"[:2000])))
-        conn.send_bytes(out)
+            out = pickle.dumps((False, carried(RuntimeError(
+                f"a worker's answer does not pickle ({type(exc).__name__}: {exc})"[:4000]))))
+        try:
+            conn.send_bytes(out)
+        except OSError:  # the command closed the pipe
+            return
 
 
 def in_order(submit: Callable[[J], H], jobs: Iterable[J], limit: int,

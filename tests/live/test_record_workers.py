@@ -6,9 +6,10 @@ from __future__ import annotations
 import json
 from unittest import mock
 
+import pytest
 from mcap.reader import make_reader
 
-from tests.helpers import ROOT, FixedDate
+from tests.helpers import ROOT, FixedDate, run
 from tracecheck.interop.foxglove import FoxgloveChannels
 from tracecheck.live.record import RecordSettings, record
 
@@ -121,8 +122,6 @@ def test_each_episode_is_encoded_by_the_worker_that_ran_it():
     forgotten, and an episode the workers did not give is still encoded (by any worker)."""
     import dataclasses
 
-    import pytest
-
     from tracecheck.checking.shield import load_shield
     from tracecheck.episodes.codec import decode_columns
     from tracecheck.episodes.writer import EncodeContext, encode_episode
@@ -159,11 +158,14 @@ def test_each_episode_is_encoded_by_the_worker_that_ran_it():
         assert [columns(e) for e in again] == [columns(e) for e in made]
 
 
-def test_an_episode_that_fails_keeps_those_before_it_with_workers_as_without(tmp_path):
-    """An environment that raises at episode 7: the recording stops with its error and the
-    file keeps episodes 0 to 6, with two workers as with one — those that came back and
-    were being encoded ahead of the writer are written before the error is said."""
-    import pytest
+@pytest.mark.parametrize("episodes,fail", [(14, 7), (200, 41)])
+def test_an_episode_that_fails_keeps_those_before_it_with_workers_as_without(
+        tmp_path, capsys, episodes, fail):
+    """An environment that raises at episode ``fail``: the recording stops with its error
+    and the file keeps the episodes before it, with two workers as with one — those that
+    came back and were being encoded ahead of the writer, and those before it in its own
+    task (200 episodes: tasks of 3), are written before the error is said; the command
+    says what the file keeps."""
 
     from tracecheck.episodes.reader import read_run
     from tracecheck.errors import TracecheckError
@@ -178,10 +180,17 @@ def test_an_episode_that_fails_keeps_those_before_it_with_workers_as_without(tmp
     for workers in (1, 2):
         settings = RecordSettings(agent=str(agent),
                                   shield="none", env="tests.live.plugins:FailsAt",
-                                  env_config={"fail_seed": 7}, episodes=14, seed=0,
+                                  env_config={"fail_seed": fail}, episodes=episodes, seed=0,
                                   workers=workers)
         out = tmp_path / f"w{workers}.mcap"
-        with pytest.raises((TracecheckError, RuntimeError), match="seed 7"):
+        with pytest.raises((TracecheckError, RuntimeError), match=f"seed {fail}"):
             record(settings, out, channels=FoxgloveChannels)
         kept.append([e.id for e in read_run(out).episodes])
-    assert kept == [list(range(7))] * 2
+    assert kept == [list(range(fail))] * 2
+    out = tmp_path / "cli.mcap"
+    code, _, err = run(capsys, "record", "--env", "tests.live.plugins:FailsAt", "--env-config",
+                       f"fail_seed={fail}", "--agent", agent, "--shield", "none",
+                       "--episodes", episodes, "--workers", 2, "-o", out)
+    assert code == 2 and f"the corridor broke at seed {fail}" in err
+    assert f"the recording failed: {out} keeps the {fail} episode(s) finished before" in err
+    assert "Traceback" not in err

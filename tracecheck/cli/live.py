@@ -186,6 +186,11 @@ def record_cmd(
                       else f"interrupted before an episode was finished: {output} was not "
                       + ("changed" if existed else "written"), markup=False)
             raise typer.Exit(130) from None
+        except Exception:  # noqa: BLE001 - said as it is, after what was kept
+            if stats["episodes"]:
+                err.print(_kept("the recording failed", output, stats["episodes"], existed),
+                          markup=False)
+            raise
     took = _time.perf_counter() - start
     fallbacks = stats.get("fallbacks", 0)
     nothing = (f", {fallbacks} step(s) where the shield allowed nothing and the fallback "

@@ -123,8 +123,9 @@ def read_blocks(path: str | Path, *, salvage: bool = False, block: Optional[Bloc
 
     ``block``: only that block of :func:`block_refs` (:class:`BlockUnchecked` if the file's
     blobs are no longer those or the block does not check);
-    ``regions``: only the episodes in these byte ranges, walked (the writer reads its blocks
-    back so). At least one block comes, empty where the file holds no complete episode.
+    ``regions``: only the episodes in these byte ranges, walked (what :func:`written_columns`
+    gives for them as they were written). At least one block comes, empty where the file
+    holds no complete episode.
     """
     path = Path(path)
     done = 0  # episodes given from blobs

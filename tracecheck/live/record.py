@@ -19,7 +19,7 @@ from typing import Callable, Iterator, Optional, Sequence
 
 from ..episodes.files import check_run_output, record_episodes
 from ..outputs import input_paths
-from ..processes import Worker, quiet_worker
+from ..processes import Worker, carried, quiet_worker
 from ..episodes.writer import ChannelsFactory, encode_episode, new_header
 from ..episodes.model import Episode, EpisodeDigest
 from ..errors import InputError
@@ -60,19 +60,27 @@ def _init_worker(settings: RecordSettings, shield, channels=None, header=None,
         _FAILED = error  # raised by the first episode instead, so it reaches the parent
 
 
-def _work(first: int, count: int, digests: bool = False
-          ) -> list[Episode] | list[EpisodeDigest]:
+def _work(first: int, count: int, digests: bool = False):
     """Episodes ``first`` to ``first + count - 1`` (``digests``: their digests, the
-    episodes kept)."""
+    episodes kept), and what stopped them: (those made, None) or, where episode k failed,
+    (episodes ``first`` … k - 1, its exception, carried with its traceback) — the episodes
+    before it in the task are written before its error is said."""
     if _FAILED is not None:
         raise _FAILED
     assert _SESSION is not None
-    made = [_SESSION.episode(i) for i in range(first, first + count)]
+    made: list[Episode] = []
+    failed = None
+    for i in range(first, first + count):
+        try:
+            made.append(_SESSION.episode(i))
+        except Exception as exc:  # noqa: BLE001 - raised by the writer after those before
+            failed = carried(exc)
+            break
     if _KEPT is not None:
         _KEPT.update(zip(range(first, first + count), made))
         if digests:
-            return [episode.digest() for episode in made]
-    return made
+            return [episode.digest() for episode in made], failed
+    return made, failed
 
 
 def _encode_kept(number: int, context):
@@ -148,13 +156,15 @@ class _Pooled:
             return job[0], worker, worker.call(_work, *job, self.digests)
 
         episode: Episode | EpisodeDigest
-        for first, worker, batch in in_order(submit, batches(settings.episodes, size),
-                                             IN_FLIGHT * settings.workers,
-                                             lambda h: (h[0], h[1], h[2].get())):
+        for first, worker, (batch, failed) in in_order(
+                submit, batches(settings.episodes, size), IN_FLIGHT * settings.workers,
+                lambda h: (h[0], h[1], h[2].get())):
             for number, episode in enumerate(batch, first):
                 if self.keep:
                     self._given[id(episode)] = (episode, worker, number)
                 yield episode
+            if failed is not None:
+                raise failed  # rebuilt here with the worker's traceback as its cause
 
 
 @contextmanager
