@@ -159,3 +159,42 @@ def test_a_worker_closed_mid_call_ends_at_once():
         worker.close()
         assert time.perf_counter() - started < 3.0
         assert not worker._process.is_alive()
+
+
+def test_idle_workers_end_when_their_pipes_close():
+    """Each forked worker closes its copies of the command's ends of the pipes (its own and
+    those of workers made before it), so an idle worker sees its pipe close and ends by
+    itself — at once, even one whose code handles SIGTERM."""
+    from tracecheck.processes import Worker
+
+    workers = [Worker(_stays) for _ in range(3)]
+    for w in workers:
+        assert w.call(pow, 2, 3).get() == 8
+    started = time.perf_counter()
+    for w in workers:
+        w.stop()
+    for w in workers:
+        w.close()
+    assert time.perf_counter() - started < 0.9  # none waited for a kill
+    assert [w._process.exitcode for w in workers] == [0, 0, 0]
+
+
+def test_a_ctrl_c_while_a_worker_starts_is_held_back_then_raised():
+    """Not lost, not raised inside the start (where a half-started worker would be left):
+    raised once it started, with the command's own handlers back."""
+    import os
+
+    import pytest
+
+    from tracecheck.processes import _starting
+
+    term = signal.getsignal(signal.SIGTERM)
+    reached = []
+    with pytest.raises(KeyboardInterrupt):
+        with _starting():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)
+            reached.append(True)
+    assert reached == [True]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert signal.getsignal(signal.SIGTERM) is term

@@ -9,6 +9,7 @@ import os
 import pickle
 import signal
 import threading
+import weakref
 from collections import deque
 from contextlib import contextmanager
 from typing import Any, Callable, Iterable, Iterator, Optional, TypeVar
@@ -76,23 +77,45 @@ class WorkerDied(TracecheckError):
 
 
 @contextmanager
-def _masked():
-    """Ctrl-C and SIGTERM held back (not lost) while a worker is started, in the main
-    thread: the worker starts with them held and sets its own handlers before it takes them
-    (:func:`_serve`); the command takes one that came meanwhile once started."""
+def _starting():
+    """Ctrl-C and SIGTERM held back, not lost, while a worker starts (in the main thread,
+    where signal handlers run): held by the signal mask, which the worker starts with, and
+    noted by handlers of their own (another thread may take a signal the mask holds back
+    here); once started, the command's own handler is given one that came meanwhile. The
+    worker sets its own handlers before it takes them (:func:`_serve`)."""
     if threading.current_thread() is not threading.main_thread() or \
             not hasattr(signal, "pthread_sigmask"):
         with _forking():
             yield
         return
+    caught: list[int] = []
+    saved = {s: signal.getsignal(s) for s in _SIGNALS}
+    for s in saved:
+        signal.signal(s, lambda signum, frame: caught.append(signum))
     held = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)  # one held back is noted now
+        try:  # the command's handlers back, both, whichever signal comes in between
+            signal.signal(signal.SIGTERM, saved[signal.SIGTERM])
+        finally:
+            signal.signal(signal.SIGINT, saved[signal.SIGINT])
+    if caught:
+        handler = saved[caught[0]]
+        if callable(handler):
+            handler(caught[0], None)
+        elif handler == signal.SIG_DFL:
+            if caught[0] == signal.SIGINT:
+                raise KeyboardInterrupt
+            os.kill(os.getpid(), caught[0])  # its default: the end of the command
 
 
 _SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
+#: the command's ends of the pipes of its workers: a worker forked later closes its copies,
+#: so that each worker sees its own pipe close when the command closes it
+_ENDS: "weakref.WeakSet" = weakref.WeakSet()
 
 
 class Worker:
@@ -124,15 +147,17 @@ class Worker:
                                         daemon=True)
         self._sent: deque[tuple[Call, int]] = deque()  # calls not yet answered, their sizes
         self._backlog = 0
+        self._closed = False
+        _ENDS.add(self._conn)  # before the fork: its copy in the worker is closed there
         try:
-            with _masked():
+            with _starting():
                 self._process.start()
+                theirs.close()
         except BaseException:  # a Ctrl-C held back while it started comes here
             theirs.close()
-            if self._process.pid is not None:
+            if self._process.pid is not None:  # started: ended at once
                 self.close()
             raise
-        theirs.close()
 
     def __enter__(self) -> "Worker":
         return self
@@ -186,15 +211,23 @@ class Worker:
                           hint="out of memory, or killed; run again (fewer --workers needs "
                                "less memory)")
 
-    def close(self) -> None:
-        """End the worker at once (what it was running is not needed): an idle one ends
-        when its pipe closes, a busy one is terminated, and killed if it stays."""
+    def stop(self) -> None:
+        """Ask the worker to end, without waiting (:meth:`close` waits): an idle one ends
+        when its pipe closes, a busy one is terminated."""
+        if self._closed:
+            return
+        self._closed = True
         self._conn.close()
         self._sent.clear()
         if self._process.is_alive():
             self._process.terminate()
-            self._process.join(1.0)
-        if self._process.is_alive():  # it handles SIGTERM itself
+
+    def close(self) -> None:
+        """End the worker at once (what it was running is not needed): :meth:`stop`, then
+        killed if it stays a second (its code handles SIGTERM itself)."""
+        self.stop()
+        self._process.join(1.0)
+        if self._process.is_alive():
             self._process.kill()
         self._process.join()
 
@@ -243,31 +276,27 @@ class Call:
 
 def carried(exc: BaseException):
     """``exc`` made to cross to another process with the traceback it has here (as its
-    ``__cause__`` there, as a pool's are), or a RuntimeError saying what it was where it
-    would not be rebuilt there (an exception whose arguments are not those it was made
-    with)."""
+    ``__cause__`` there, as a pool's are); a RuntimeError saying what it was where it is no
+    Exception (a SystemExit in a worker must not end the command that waits for it
+    quietly) or would not be rebuilt there (an exception whose arguments are not those it
+    was made with)."""
     from multiprocessing.pool import ExceptionWithTraceback
 
+    trace = exc.__traceback__
+    if not isinstance(exc, Exception):
+        exc = RuntimeError(f"{type(exc).__name__}({exc}) in a worker process")
     try:
         pickle.loads(pickle.dumps(exc, protocol=pickle.HIGHEST_PROTOCOL))
     except Exception:  # noqa: BLE001 - any reason it does not cross
         exc = RuntimeError(f"{type(exc).__name__}: {exc}"[:4000])
-    return ExceptionWithTraceback(exc, exc.__traceback__)
-
-
-def _plain(exc: BaseException) -> Exception:
-    """``exc``, or what it was as a RuntimeError where it is no Exception (a SystemExit in
-    a worker must not end the command that waits for it quietly)."""
-    if isinstance(exc, Exception):
-        return exc
-    plain = RuntimeError(f"{type(exc).__name__}({exc}) in a worker process")
-    plain.__traceback__ = exc.__traceback__
-    return plain
+    return ExceptionWithTraceback(exc, trace)
 
 
 def _serve(conn, initializer, initargs) -> None:
     """A :class:`Worker`'s process: its calls, answered in order, until the pipe closes
     (an ``initializer`` that fails: every call answered with its exception)."""
+    for end in list(_ENDS):  # forked: the command's ends of the pipes, copies it holds
+        end.close()
     quiet_worker()
     if hasattr(signal, "pthread_sigmask"):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)
@@ -276,7 +305,7 @@ def _serve(conn, initializer, initargs) -> None:
         try:
             initializer(*initargs)
         except BaseException as exc:  # noqa: BLE001 - said by every call
-            failed = carried(_plain(exc))
+            failed = carried(exc)
     while True:
         try:
             data = conn.recv_bytes()
@@ -289,7 +318,7 @@ def _serve(conn, initializer, initargs) -> None:
                 fn, args = pickle.loads(data)
                 answer = (True, fn(*args))
             except BaseException as exc:  # noqa: BLE001 - raised where the call is waited for
-                answer = (False, carried(_plain(exc)))
+                answer = (False, carried(exc))
         try:
             out = pickle.dumps(answer, protocol=pickle.HIGHEST_PROTOCOL)
         except Exception as exc:  # noqa: BLE001 - an answer that does not pickle

@@ -73,8 +73,8 @@ def _work(first: int, count: int, digests: bool = False):
     for i in range(first, first + count):
         try:
             made.append(_SESSION.episode(i))
-        except Exception as exc:  # noqa: BLE001 - raised by the writer after those before
-            failed = carried(exc)
+        except BaseException as exc:  # noqa: BLE001 - raised by the writer after those
+            failed = carried(exc)          # before (a SystemExit as a RuntimeError)
             break
     if _KEPT is not None:
         _KEPT.update(zip(range(first, first + count), made))
@@ -137,6 +137,8 @@ class _Pooled:
         """Stop the workers at once (a simulation that stopped early: what they run ahead is
         not needed)."""
         workers, self._workers = self._workers, []
+        for worker in workers:  # all asked first, then each waited for
+            worker.stop()
         for worker in workers:
             worker.close()
         self._given.clear()
