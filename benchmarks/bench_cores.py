@@ -21,7 +21,9 @@ Four jobs (each skipped with 0):
   (``--env frozenlake``); the files written are checked to be the same at every number of
   workers (but the time they were written).
 
-Every run of a job writes or reads the same episodes; the replay's JSON report is checked to be
+A recording's runs at each number of workers are interleaved (1, 2, 1, 2, …: a shared machine
+whose speed drifts moves them alike), each count's median and runs reported. Every run of a
+job writes or reads the same episodes; the replay's JSON report is checked to be
 the same at every number of workers (but its timing fields). Out: a table on stdout, and
 ``cores.json`` and ``cores.md`` in ``--out`` (default: the current folder). No network.
 """
@@ -67,16 +69,22 @@ def tracecheck(*args: str) -> float:
 
 def record_job(name: str, episodes: int, run: list[str], workers: list[int], repeat: int,
                tmp: Path) -> list[dict]:
+    # the numbers of workers interleaved, repeat after repeat: a machine whose speed drifts
+    # (a shared one) moves them alike, not one count's runs against another's
+    times: dict[int, list[float]] = {w: [] for w in workers}
+    for _ in range(repeat):
+        for w in workers:
+            times[w].append(tracecheck("record", *run, "--episodes", str(episodes), "--seed",
+                                       "0", "--workers", str(w), "-o",
+                                       str(tmp / f"{name}-{w}.mcap"), "--force"))
     rows = []
     for w in workers:
-        out = tmp / f"{name}-{w}.mcap"
-        times = [tracecheck("record", *run, "--episodes", str(episodes), "--seed", "0",
-                            "--workers", str(w), "-o", str(out), "--force")
-                 for _ in range(repeat)]
         rows.append({"job": name, "workers": w, "episodes": episodes,
-                     "seconds": statistics.median(times), "steps": _steps_in(out)})
-        print(f"  {name}: {w} workers, {episodes} episodes in {rows[-1]['seconds']:.2f} s",
-              flush=True)
+                     "seconds": statistics.median(times[w]),
+                     "steps": _steps_in(tmp / f"{name}-{w}.mcap"),
+                     "runs": [round(t, 3) for t in times[w]]})
+        print(f"  {name}: {w} workers, {episodes} episodes in {rows[-1]['seconds']:.2f} s "
+              f"(runs: {', '.join(f'{t:.2f}' for t in times[w])})", flush=True)
     return rows
 
 
