@@ -263,6 +263,26 @@ def test_a_scene_is_the_same_bytes_with_each_entity_encoded_once(size, monkeypat
         assert len(made) > len(drawn) + len(grid) * 2
 
 
+@pytest.mark.parametrize("ns", [0, 3, 1_000_000_000, 1_000_000_000 * 17 + 5,
+                                (2 ** 32 - 1) * 1_000_000_000 + 999_999_999])
+def test_a_scene_s_time_stamp_is_framed_as_the_sdk_frames_it(ns):
+    """The time stamp SceneBytes frames itself (no SDK object per step) is the SDK's: a
+    seconds or nanoseconds field of 0 left out, both 0 an empty stamp; beyond Foxglove's
+    u32 seconds an error, not a wrapped time."""
+    from tracecheck.interop.foxglove import scene_entities, scene_entity, scene_groups
+    from tracecheck.interop.foxglove_protobuf import encoder, scene_encoder
+
+    encode, scenes = encoder(), scene_encoder()
+    for scene in list(_grid_scenes())[:3]:
+        whole = encode("foxglove.SceneUpdate", {
+            "deletions": [{"timestamp": {"sec": ns // 1_000_000_000,
+                                         "nsec": ns % 1_000_000_000}, "type": 1, "id": ""}],
+            "entities": scene_entities(scene, ns)})
+        assert scenes(scene_groups(scene), scene_entity, ns) == whole
+    with pytest.raises(ValueError, match="beyond Foxglove's"):
+        scenes.stamped((), 2 ** 32 * 1_000_000_000)
+
+
 def test_the_writers_scene_is_the_scene_encoded_whole():
     """What a recording writes on ``/foxglove/scene`` (the channels' ``messages``) is the
     scene of ``step_messages`` encoded whole by foxglove-sdk, for every step, and the other

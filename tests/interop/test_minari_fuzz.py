@@ -98,7 +98,9 @@ def _array(f, path, how):
             "shorter": lambda: data[:-1],
             "longer": lambda: np.concatenate([data, data[-1:]]),
             "floats": lambda: data.astype(np.float64) + 0.5,
-            "negative": lambda: -np.abs(data.astype(np.int64)) - 1}[how]()
+            "negative": lambda: -np.abs(data.astype(np.int64)) - 1}
+    with np.errstate(invalid="ignore"):  # a float array with NaN made integers: damage meant
+        made = made[how]()
     f.create_dataset(path, data=made)
 
 

@@ -24,7 +24,7 @@ from ..b.values import Elem, FuncValue, format_value
 from ..b.columns import Columns
 from ..errors import InputError, TracecheckError
 from ..identity import ByIdentity
-from .frames import unzstd
+from .frames import unzstd, zstd
 from .model import END_REASONS
 
 __all__ = ["encode_state", "decode_state", "encode_columns", "decode_columns",
@@ -202,7 +202,6 @@ def _pack(header: dict[str, Any], arrays: dict[str, np.ndarray]) -> bytes:
     """The blob: magic, the size of what follows it once decompressed, then compressed with
     zstd: header length, JSON header (with each array's dtype, shape and offset) and the
     arrays' bytes; last a CRC-32 of all of it."""
-    import zstandard
 
     header["arrays"] = []
     blobs, offset = [], 0
@@ -216,7 +215,7 @@ def _pack(header: dict[str, Any], arrays: dict[str, np.ndarray]) -> bytes:
     head = orjson.dumps(header)
     inner = b"".join([struct.pack("<I", len(head)), head, *blobs])
     body = (_MAGIC + struct.pack("<Q", len(inner))
-            + zstandard.ZstdCompressor(level=_ZSTD_LEVEL).compress(inner))
+            + zstd(inner, _ZSTD_LEVEL))
     return body + struct.pack("<I", zlib.crc32(body))  # a flipped bit is found, not trusted
 
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import threading
 
-__all__ = ["unzstd", "unlz4"]
+__all__ = ["unzstd", "unlz4", "zstd"]
 
 #: the smallest window a frame may always use (zstd's own frames for small data use less)
 _MIN_WINDOW = 1 << 20
@@ -32,13 +32,31 @@ def _decompressor(zstandard, size: int):
     """A zstd decompressor of this thread whose frames may ask for a window of at most the
     power of two at or above ``size``, at least 1 MiB."""
     window = max(_MIN_WINDOW, 1 << max(size - 1, 1).bit_length())
-    made = getattr(_LOCAL, "made", None)
+    return _kept("decompressors", window,
+                 lambda: zstandard.ZstdDecompressor(max_window_size=window))
+
+
+def _kept(kind: str, key: int, make):
+    """This thread's object of ``kind`` for ``key``, made once (zstd's objects are not to be
+    shared between threads)."""
+    made = getattr(_LOCAL, kind, None)
     if made is None:
-        made = _LOCAL.made = {}
-    found = made.get(window)
+        made = {}
+        setattr(_LOCAL, kind, made)
+    found = made.get(key)
     if found is None:
-        found = made[window] = zstandard.ZstdDecompressor(max_window_size=window)
+        found = made[key] = make()
     return found
+
+
+def zstd(data: bytes, level: int = 3) -> bytes:
+    """``data`` compressed as one zstd frame at ``level``: ``zstandard.compress``'s bytes,
+    by a compressor this thread keeps (making one for each chunk of a recording cost more
+    than compressing a small chunk)."""
+    import zstandard
+
+    return _kept("compressors", level, lambda: zstandard.ZstdCompressor(level=level)
+                 ).compress(data)
 
 
 def unzstd(data: bytes, size: int, what: str) -> bytes:

@@ -16,11 +16,12 @@ from collections import defaultdict
 from dataclasses import dataclass
 from typing import BinaryIO, Optional
 
-import zstandard
 from mcap.data_stream import RecordBuilder
 from mcap.opcode import Opcode
 from mcap.records import (Attachment, AttachmentIndex, Channel, Chunk, ChunkIndex, DataEnd,
                           Footer, Header, Schema, Statistics, SummaryOffset)
+
+from .frames import zstd
 
 __all__ = ["McapOut", "MAGIC", "MessageBuffer", "Messages"]
 
@@ -28,6 +29,8 @@ __all__ = ["McapOut", "MAGIC", "MessageBuffer", "Messages"]
 MAGIC = struct.pack("<8B", 137, 77, 67, 65, 80, 48, 13, 10)
 #: a message record's opcode, length, channel, sequence, log and publish times (then data)
 _MESSAGE = struct.Struct("<BQHIQQ")
+_pack_message = _MESSAGE.pack
+_MESSAGE_OP = int(Opcode.MESSAGE)
 
 
 class _Packed:
@@ -72,18 +75,22 @@ class MessageBuffer:
 
     def add(self, channel_id: int, log_time: int, data: bytes, publish_time: int,
             sequence: int = 0) -> None:
-        self._records += _MESSAGE.pack(Opcode.MESSAGE, 22 + len(data), channel_id, sequence,
-                                       log_time, publish_time)
-        self._records += data
-        self._counts[channel_id] = self._counts.get(channel_id, 0) + 1
-        self._start = log_time if self._count == 0 else min(self._start, log_time)
-        self._end = max(self._end, log_time)
+        records = self._records  # (a few messages per step of a recording: kept lean)
+        records += _pack_message(_MESSAGE_OP, 22 + len(data), channel_id, sequence, log_time,
+                                 publish_time)
+        records += data
+        counts = self._counts
+        counts[channel_id] = counts.get(channel_id, 0) + 1
+        if self._count == 0 or log_time < self._start:
+            self._start = log_time
+        if log_time > self._end:
+            self._end = log_time
         self._count += 1
 
     def finish(self, compress: bool) -> Messages:
         """The messages so far (compressed with zstd for a chunked file)."""
         raw = bytes(self._records)
-        return Messages(b"" if compress else raw, zstandard.compress(raw) if compress else None,
+        return Messages(b"" if compress else raw, zstd(raw) if compress else None,
                         len(raw), zlib.crc32(raw), self._start, self._end,
                         tuple(self._counts.items()), self._count)
 
@@ -212,7 +219,7 @@ class McapOut:
         if not self._chunked or self._chunk_messages == 0:
             return
         raw = self._chunk.end()
-        self._write_chunk(zstandard.compress(raw), len(raw), zlib.crc32(raw), self._chunk_start,
+        self._write_chunk(zstd(raw), len(raw), zlib.crc32(raw), self._chunk_start,
                           self._chunk_end)
         self._chunk_messages = 0
         self._chunk_start = self._chunk_end = 0

@@ -32,6 +32,7 @@ from .blobs import BLOCK_ROWS
 from .codec import COLUMNS_MEDIA_TYPE, encode_columns, encode_state
 from .model import Episode, EpisodeDigest
 from .reader import why_unreadable
+from .step_json import step_json
 
 __all__ = ["EpisodeWriter", "new_header", "StepChannels", "ChannelsFactory", "EncodeContext",
            "EncodedEpisode", "encode_episode", "actions_after", "clock_after"]
@@ -145,15 +146,16 @@ def encode_episode(ep: Episode, context: EncodeContext,
         except TracecheckError as exc:
             raise InputError(f"{context.name}, episode {ep.id}, step {s.step}: {exc.message}",
                              hint=exc.hint) from None
-        msg = {"episode": ep.id, "step": s.step, "time": s.time, "action": s.action,
-               "state": state, "reward": s.reward, "crashed": s.crashed}
+        msg = {"episode": ep.id, "step": s.step, "time": s.time}
+        if s.action is not None:
+            msg["action"] = s.action
+        msg["state"], msg["reward"], msg["crashed"] = state, s.reward, s.crashed
         for key in _OPTIONAL_KEYS:
             value = getattr(s, key)
             if value is not None:
                 msg[key] = value
         try:
-            data = schema.StepMessage.model_validate(msg).model_dump_json(
-                exclude_none=True).encode()
+            data = step_json(msg)
         except ValidationError as exc:
             first = exc.errors()[0]
             where = ".".join(map(str, first["loc"]))

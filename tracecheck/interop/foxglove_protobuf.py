@@ -201,16 +201,24 @@ class SceneBytes:
         return tuple(out)
 
     def stamped(self, bodies: tuple[bytes, ...], ns: int) -> bytes:
-        """The scene of the entities ``bodies`` (:meth:`bodies`) at ``ns``."""
-        m = self._m
+        """The scene of the entities ``bodies`` (:meth:`bodies`) at ``ns``.
+
+        Its time stamp is framed here as the SDK frames it (a test compares them): a
+        ``Timestamp`` is its seconds (field 1) and nanoseconds (field 2) as varints, each
+        left out where 0; the scene's deletion of everything before (field 1 of the
+        ``SceneUpdate``) is that stamp (its field 1) and the type ALL (field 2: 1); each
+        entity (field 2) its stamp (field 1) then its body."""
         sec, nsec = divmod(ns, 1_000_000_000)
-        time = m.Timestamp(sec, nsec)
-        out = [m.SceneUpdate(deletions=[m.SceneEntityDeletion(
-            timestamp=time, type=self._build.deletions[1], id="")]).encode()]
-        stamp = m.SceneEntity(timestamp=time).encode()
+        if not 0 <= sec < 1 << 32:
+            raise ValueError(f"a time stamp of {sec} s is beyond Foxglove's (u32 seconds)")
+        time = (b"\x08" + _varint(sec) if sec else b"") + \
+            (b"\x10" + _varint(nsec) if nsec else b"")
+        stamp = b"\x0a" + _varint(len(time)) + time
+        deletion = stamp + b"\x10\x01"
+        out = [b"\x0a", _varint(len(deletion)), deletion]
         for body in bodies:
-            body = stamp + body
-            out.append(b"\x12" + _varint(len(body)) + body)  # SceneUpdate.entities: field 2
+            size = len(stamp) + len(body)
+            out += (b"\x12", _varint(size), stamp, body)  # SceneUpdate.entities: field 2
         return b"".join(out)
 
 
