@@ -68,17 +68,19 @@ class MessageBuffer:
     :meth:`McapOut.add_messages` writes: the same bytes as message by message."""
 
     def __init__(self) -> None:
-        self._records = bytearray()
+        self._parts: list[bytes] = []  # each record's head and data, joined when finished
         self._counts: dict[int, int] = {}
         self._start = self._end = 0
         self._count = 0
 
     def add(self, channel_id: int, log_time: int, data: bytes, publish_time: int,
             sequence: int = 0) -> None:
-        records = self._records  # (a few messages per step of a recording: kept lean)
-        records += _pack_message(_MESSAGE_OP, 22 + len(data), channel_id, sequence, log_time,
-                                 publish_time)
-        records += data
+        if type(data) is not bytes:  # kept until finish: a buffer changed later is not
+            data = bytes(data)       # what was added
+        parts = self._parts  # (a few messages per step of a recording: kept lean)
+        parts.append(_pack_message(_MESSAGE_OP, 22 + len(data), channel_id, sequence,
+                                   log_time, publish_time))
+        parts.append(data)
         counts = self._counts
         counts[channel_id] = counts.get(channel_id, 0) + 1
         if self._count == 0 or log_time < self._start:
@@ -89,7 +91,7 @@ class MessageBuffer:
 
     def finish(self, compress: bool) -> Messages:
         """The messages so far (compressed with zstd for a chunked file)."""
-        raw = bytes(self._records)
+        raw = b"".join(self._parts)
         return Messages(b"" if compress else raw, zstd(raw) if compress else None,
                         len(raw), zlib.crc32(raw), self._start, self._end,
                         tuple(self._counts.items()), self._count)

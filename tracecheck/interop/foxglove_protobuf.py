@@ -224,9 +224,16 @@ class SceneBytes:
 
 def _varint(n: int) -> bytes:
     """``n`` (not negative) as a protobuf varint."""
+    if n < 0x80:
+        return _SMALL[n]
+    if n < 0x4000:
+        return bytes(((n & 0x7F) | 0x80, n >> 7))
     out = bytearray()
     while n > 0x7F:
         out.append((n & 0x7F) | 0x80)
         n >>= 7
     out.append(n)
     return bytes(out)
+
+
+_SMALL = tuple(bytes((i,)) for i in range(0x80))  # the varints of one byte

@@ -167,7 +167,7 @@ def _discrete_episode(session: Session, index: int, *, seed: int, script: Sequen
             step=k, time=float(k * dt), action=actions[action], state=info["b_state"],
             reward=float(reward), crashed=crashed, observation=_rows(obs),
             action_values={a: float(v) for a, v in zip(actions, values)},
-            preferred_action=actions[int(np.argmax(values))],
+            preferred_action=actions[int(np.asarray(values).argmax())],
             allowed_actions=tuple(a for a, ok in zip(actions, allowed) if ok),
             shield_time_us=round(decision_us, 3), deadlock=deadlock or None))
         if crashed or terminated or truncated:
@@ -180,6 +180,8 @@ def _discrete_episode(session: Session, index: int, *, seed: int, script: Sequen
 def _finite(obs) -> None:
     """An observation the agent can act on: no NaN or infinity (a policy network turns one
     into NaN probabilities, and stable-baselines3 then fails with a traceback)."""
+    if type(obs) is int or isinstance(obs, np.integer):  # a discrete observation
+        return
     arr = np.asarray(obs)
     if arr.dtype.kind in "fc" and not np.isfinite(arr).all():
         where = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
@@ -251,6 +253,8 @@ def end_reason(crashed: bool, terminated: bool, truncated: bool) -> str:
 
 def _rows(obs) -> tuple[tuple[float, ...], ...]:
     """An observation as rows of numbers (a discrete one is one row of one number)."""
+    if type(obs) is int or isinstance(obs, np.integer):  # a discrete one (FrozenLake's)
+        return ((float(obs),),)
     arr = np.asarray(obs, dtype=np.float64)
     if arr.ndim < 2:
         arr = arr.reshape(1, -1)

@@ -119,7 +119,7 @@ def choose(values: Sequence[float], allowed: Sequence[bool],
     if not allowed.any():
         return fallback, True
     masked = np.where(allowed, np.asarray(values, dtype=np.float64), -np.inf)
-    return int(np.argmax(masked)), False
+    return int(masked.argmax()), False
 
 
 class ShieldWrapper(gym.Wrapper):
