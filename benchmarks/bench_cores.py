@@ -21,7 +21,8 @@ Four jobs (each skipped with 0):
   (``--env frozenlake``); the files written are checked to be the same at every number of
   workers (but the time they were written).
 
-A recording's runs at each number of workers are interleaved (1, 2, 1, 2, …: a shared machine
+Each process runs with Python's bytecode cache (a recording's written by a first, untimed
+run of 2 episodes), as an installed tracecheck has it. A recording's runs at each number of workers are interleaved (1, 2, 1, 2, …: a shared machine
 whose speed drifts moves them alike), each count's median and runs reported. Every run of a
 job writes or reads the same episodes; the replay's JSON report is checked to be
 the same at every number of workers (but its timing fields). Out: a table on stdout, and
@@ -55,11 +56,17 @@ def counts(top: int) -> list[int]:
     return out + [top]
 
 
+#: the processes' environment: with Python's bytecode cache, as an installed tracecheck has
+#: it, even where PYTHONDONTWRITEBYTECODE is set here (each process compiled every module of
+#: tracecheck from source then: about 0.2 s of a recording's serial start)
+ENV = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+
+
 def tracecheck(*args: str) -> float:
     """Wall time of one fresh `tracecheck` process (it must succeed)."""
     start = time.perf_counter()
     done = subprocess.run([sys.executable, "-m", "tracecheck", *args], capture_output=True,
-                          text=True)
+                          text=True, env=ENV)
     took = time.perf_counter() - start
     if done.returncode != 0:
         raise SystemExit(f"tracecheck {' '.join(args)} failed ({done.returncode}):\n"
@@ -72,6 +79,8 @@ def record_job(name: str, episodes: int, run: list[str], workers: list[int], rep
     # the numbers of workers interleaved, repeat after repeat: a machine whose speed drifts
     # (a shared one) moves them alike, not one count's runs against another's
     times: dict[int, list[float]] = {w: [] for w in workers}
+    tracecheck("record", *run, "--episodes", "2", "--seed", "0", "--workers", "1", "-o",
+               str(tmp / f"{name}-warm.mcap"), "--force")  # the bytecode cache, untimed
     for _ in range(repeat):
         for w in workers:
             times[w].append(tracecheck("record", *run, "--episodes", str(episodes), "--seed",
@@ -167,7 +176,7 @@ def replay_job(path: Path, shield: str, episodes: int, workers: list[int], repea
             with open(out, "w") as f:
                 done = subprocess.run([sys.executable, "-m", "tracecheck", "replay", str(path),
                                        "--shield", shield, "--json", "--workers", str(w)],
-                                      stdout=f, stderr=subprocess.PIPE, text=True)
+                                      stdout=f, stderr=subprocess.PIPE, text=True, env=ENV)
             times.append(time.perf_counter() - start)
             if done.returncode not in (0, 1):
                 raise SystemExit(f"replay failed ({done.returncode}): {done.stderr[-2000:]}")

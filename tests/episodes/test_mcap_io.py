@@ -382,3 +382,12 @@ def test_a_grid_worlds_map_is_read_once_and_foxgloves_messages_passed_over(tmp_p
         every = [r for r in walk(out, buf) if type(r) is MessageRef]
         assert not [r for r in walk(out, buf, wanted=set()) if type(r) is MessageRef]
     assert len(every) > 3 * steps  # Foxglove's messages are most of them
+
+
+def test_a_message_is_bytes_not_a_number():
+    """A message buffer keeps each message until its chunk is made: a number given as the
+    data is refused, not written as that many zero bytes."""
+    from tracecheck.episodes.mcap_out import MessageBuffer
+
+    with pytest.raises(TypeError):
+        MessageBuffer().add(1, 0, 5, 0)

@@ -102,3 +102,13 @@ def test_what_the_schema_refuses_is_refused(change, where):
     with pytest.raises(ValidationError) as err:
         step_json(msg)
     assert err.value.errors()[0]["loc"][0] == where
+
+
+def test_keys_in_another_order_are_written_in_the_schema_s():
+    msg = {"step": 2, "episode": 0, "time": 2.0, "state": {"x": 1}, "action": "LEFT",
+           "reward": 1.5, "crashed": False, "allowed_actions": ["LEFT"],
+           "observation": [[1.0]]}
+    assert _plain(msg) is None
+    assert step_json(msg) == _pydantic(msg)
+    assert step_json(msg).startswith(b'{"episode":0,"step":2,"time":2.0,"action":"LEFT"')
+

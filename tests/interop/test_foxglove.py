@@ -304,3 +304,12 @@ def test_the_writers_scene_is_the_scene_encoded_whole():
                 expected.append((m.topic, encode(name, m.data) if name in channels.schema_encodings
                                  else json.dumps(m.data, separators=(",", ":")).encode()))
             assert got == expected
+
+
+def test_a_negative_varint_is_refused():
+    from tracecheck.interop.foxglove_protobuf import _varint
+
+    assert [_varint(n) for n in (0, 127, 128, 16383, 16384)] == [
+        b"\x00", b"\x7f", b"\x80\x01", b"\xff\x7f", b"\x80\x80\x01"]
+    with pytest.raises(ValueError):
+        _varint(-1)

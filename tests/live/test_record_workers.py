@@ -194,3 +194,28 @@ def test_an_episode_that_fails_keeps_those_before_it_with_workers_as_without(
     assert code == 2 and f"the corridor broke at seed {fail}" in err
     assert f"the recording failed: {out} keeps the {fail} episode(s) finished before" in err
     assert "Traceback" not in err
+
+
+class _BreaksAt(FoxgloveChannels):
+    """Foxglove's channels, which cannot draw episode 5 (made in the workers, by name)."""
+
+    def messages(self, step, *, episode, **kw):
+        if episode == 5:
+            raise ValueError("cannot draw episode 5")
+        return super().messages(step, episode=episode, **kw)
+
+
+def test_an_episode_whose_encoding_fails_keeps_those_before_it(tmp_path):
+    """Where an episode cannot be encoded (the workers encode them), those before it are
+    written, then its error is said — with two workers as with one (where the writer
+    encodes)."""
+    from tracecheck.episodes.reader import read_run
+
+    for workers in (1, 2):
+        settings = RecordSettings(agent=str(ROOT / "models" / "agents" / "frozenlake.npy"),
+                                  shield="frozenlake", env="frozenlake", episodes=20, seed=3,
+                                  workers=workers)
+        out = tmp_path / f"w{workers}.mcap"
+        with pytest.raises(ValueError, match="cannot draw episode 5"):
+            record(settings, out, channels=_BreaksAt)
+        assert [e.id for e in read_run(out).episodes] == [0, 1, 2, 3, 4]

@@ -76,7 +76,7 @@ class MessageBuffer:
     def add(self, channel_id: int, log_time: int, data: bytes, publish_time: int,
             sequence: int = 0) -> None:
         if type(data) is not bytes:  # kept until finish: a buffer changed later is not
-            data = bytes(data)       # what was added
+            data = bytes(memoryview(data))  # what was added (and a number is no buffer)
         parts = self._parts  # (a few messages per step of a recording: kept lean)
         parts.append(_pack_message(_MESSAGE_OP, 22 + len(data), channel_id, sequence,
                                    log_time, publish_time))

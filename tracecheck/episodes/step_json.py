@@ -31,8 +31,9 @@ _SIMPLE = frozenset({"observation", "action_values", "preferred_action", "allowe
 
 
 def step_json(msg: dict[str, Any]) -> bytes:
-    """The JSON of the step message ``msg`` (its fields in the schema's order, None fields
-    left out), validated by the schema.
+    """The JSON of the step message ``msg``: its fields in the schema's order, None fields
+    left out, validated by the schema (a ``msg`` whose keys are in another order is written
+    by the schema).
 
     Raises:
         pydantic.ValidationError: where the schema refuses it.
@@ -60,8 +61,11 @@ def _plain(msg: dict[str, Any]) -> Optional[dict[str, Any]]:
     for k in state:
         if type(k) is not str:
             return None
-    out = msg
+    out, rank = msg, -1
     for key, value in msg.items():
+        was, rank = rank, _RANK.get(key, -2)
+        if rank <= was:  # not in the schema's order (or not in it: refused there)
+            return None
         if key in _BASE:
             if key == "action" and type(value) is not str:
                 return None  # None: left out by the schema, written as null by orjson
@@ -76,6 +80,8 @@ def _plain(msg: dict[str, Any]) -> Optional[dict[str, Any]]:
 
 
 _INF = math.inf
+#: each field's place in the schema (the order pydantic writes them in)
+_RANK = {name: i for i, name in enumerate(schema.StepMessage.model_fields)}
 
 
 def _rows(observation: Any) -> Optional[list[list[float]]]:

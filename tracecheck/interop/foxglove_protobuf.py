@@ -223,8 +223,8 @@ class SceneBytes:
 
 
 def _varint(n: int) -> bytes:
-    """``n`` (not negative) as a protobuf varint."""
-    if n < 0x80:
+    """``n`` (not negative: a ValueError) as a protobuf varint."""
+    if 0 <= n < 0x80:
         return _SMALL[n]
     if n < 0x4000:
         return bytes(((n & 0x7F) | 0x80, n >> 7))
