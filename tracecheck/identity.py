@@ -27,24 +27,42 @@ R = TypeVar("R")
 
 
 class ByIdentity(Generic[R]):
-    """At most ``size`` results, each for one object."""
+    """At most ``size`` results asked for again, each for one object, and at most
+    :attr:`FIRST` (or ``size``) put and not yet asked for: each group forgotten whole when
+    full. Objects met once — a highway's vehicles, drawn anew at every step — so keep few
+    alive (4096 of them, each with its drawing, made every garbage collection slower: a
+    third of writing a highway scene), while a grid world's tiles, asked for at every step,
+    stay."""
 
-    __slots__ = ("size", "_entries")
+    __slots__ = ("size", "_entries", "_new")
+
+    #: the most results kept that were put and not asked for since
+    FIRST = 64
 
     def __init__(self, size: int) -> None:
         if size < 1:
             raise ValueError(f"size must be at least 1, not {size}")
         self.size = size
         self._entries: dict[int, tuple[Any, R]] = {}
+        self._new: dict[int, tuple[Any, R]] = {}
 
     def get(self, key: Any) -> Optional[R]:
         """The result remembered for ``key`` itself, or None."""
         hit = self._entries.get(id(key))
-        return hit[1] if hit is not None and hit[0] is key else None
+        if hit is not None and hit[0] is key:
+            return hit[1]
+        hit = self._new.get(id(key))
+        if hit is None or hit[0] is not key:
+            return None
+        del self._new[id(key)]  # asked for again: kept with those
+        if len(self._entries) >= self.size:
+            self._entries.clear()
+        self._entries[id(key)] = hit
+        return hit[1]
 
     def put(self, key: Any, result: R) -> R:
         """Remember ``result`` for ``key`` (and give it back)."""
-        if len(self._entries) >= self.size:
-            self._entries.clear()
-        self._entries[id(key)] = (key, result)
+        if len(self._new) >= min(self.size, self.FIRST):
+            self._new.clear()
+        self._new[id(key)] = (key, result)
         return result

@@ -172,13 +172,13 @@ def _rgba(color) -> dict:
 
 
 #: the primitives of shapes drawn again and again (a grid world's tiles); nobody changes them
-_DRAWN: ByIdentity[tuple[str, dict]] = ByIdentity(4096)
+_PRIMITIVES: ByIdentity[tuple[str, dict]] = ByIdentity(4096)
 
 
 def _primitive(shape) -> tuple[str, dict]:
     """(the entity's list, the primitive) of one scene shape."""
-    drawn = _DRAWN.get(shape)
-    return drawn if drawn is not None else _DRAWN.put(shape, _draw(shape))
+    drawn = _PRIMITIVES.get(shape)
+    return drawn if drawn is not None else _PRIMITIVES.put(shape, _draw(shape))
 
 
 def _draw(shape) -> tuple[str, dict]:
