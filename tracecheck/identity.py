@@ -29,9 +29,9 @@ R = TypeVar("R")
 class ByIdentity(Generic[R]):
     """At most ``size`` results asked for again, each for one object, and at most
     :attr:`FIRST` (or ``size``) put and not yet asked for: each group forgotten whole when
-    full. Objects met once — a highway's vehicles, drawn anew at every step — so keep few
+    full. Objects met once — a road's vehicles, drawn anew at every step — so keep few
     alive (4096 of them, each with its drawing, made every garbage collection slower: a
-    third of writing a highway scene), while a grid world's tiles, asked for at every step,
+    third of writing a road scene), while a grid world's tiles, asked for at every step,
     stay."""
 
     __slots__ = ("size", "_entries", "_new")

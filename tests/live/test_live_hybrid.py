@@ -11,7 +11,7 @@ import json
 import gymnasium as gym
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from tests.helpers import ACC_ENV, acc_installed, forget_acc, record_runs, run
@@ -181,6 +181,8 @@ def test_an_adapter_with_parameters_for_an_unknown_action_is_refused(tmp_path, m
 @given(gap=st.floats(0.0, 80.0), ego=st.floats(0.0, 40.0), lead=st.floats(0.0, 40.0),
        action=st.lists(st.floats(-1.0, 5.0), min_size=5, max_size=5),
        mode=st.sampled_from(["mask", "replace"]))
+@example(gap=0.0, ego=0.0, lead=1.0, action=[0.0, 0.0, 0.0, 0.0, 1.1880681485291735e-116],
+         mode="mask")  # found by CI: a proposal float32 rounds to a refused 0.0
 def test_every_executed_action_is_allowed_or_the_recorded_fallback(gap, ego, lead, action,
                                                                     mode):
     shield = _decided(_shield(mode), gap, ego, lead)
@@ -358,3 +360,16 @@ def test_hybrid_statistics_judge_every_step_and_count_every_fallback(capsys, tmp
     assert (continuous["fallback"]["count"], continuous["fallback"]["steps"]) == (1, 3)
     per_episode = found["metrics"]["interventions"]
     assert per_episode["mean"] == pytest.approx(2 / 3)
+
+
+def test_a_proposal_the_space_rounds_to_a_refused_value_moves_back_inside():
+    """BRAKE(b) allows b in (0, 4]: a proposed b of 1e-116 is allowed over the reals, but a
+    float32 space makes it 0.0, which is refused — the shield sends the float32 nearest it
+    inside (the smallest above 0), not the fallback, and says BRAKE is enabled."""
+    shield = _decided(_shield("mask"), 0.0, 0.0, 1.0)
+    assert shield.enabled == {"BRAKE"}
+    d = shield.filter(np.array([0.0, 0.0, 0.0, 0.0, 1e-116]))
+    tiny = float(np.nextafter(np.float32(0.0), np.float32(1.0)))
+    assert not d.deadlock and (d.op, d.parameters) == ("BRAKE", {"b": tiny})
+    assert shield.machine.allows("BRAKE", {"Gap": 0.0, "EgoSpeed": 0.0, "LeadSpeed": 1.0},
+                                 d.parameters)

@@ -532,10 +532,17 @@ class ContinuousShield:
         """``action`` as the environment receives it (in its action space's float type: a
         float32 space rounds it), if the guard allows that value; with ``away`` (a refused
         proposal that ``action`` was projected from), else the nearest value of that type
-        a few steps further from it that the guard allows; None if none."""
+        a few steps further from it that the guard allows; None if none. Where ``action``
+        is the proposal itself (allowed over the reals, refused as the space's type rounds
+        it: 1e-116 is 0.0 in float32, and b > 0 refuses that), the steps go from the rounded
+        value back towards ``action``."""
         part, params = entry.part, entry.part.params
         sent = np.asarray(action, dtype=part.dtype)
-        direction = np.sign(action - away) if away is not None else None
+        direction = None
+        if away is not None:
+            drift = np.sign(action - sent.astype(np.float64))
+            direction = np.sign(action - away)
+            direction = np.where(direction != 0, direction, drift)
         bounds = entry.bounds
         for _ in range(NUDGES if direction is not None else 1):
             value = sent.astype(np.float64)

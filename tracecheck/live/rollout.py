@@ -253,7 +253,7 @@ def end_reason(crashed: bool, terminated: bool, truncated: bool) -> str:
 
 def _rows(obs) -> tuple[tuple[float, ...], ...]:
     """An observation as rows of numbers (a discrete one is one row of one number)."""
-    if type(obs) is int or isinstance(obs, np.integer):  # a discrete one (FrozenLake's)
+    if type(obs) is int or isinstance(obs, np.integer):  # a discrete one (a grid world's cell)
         return ((float(obs),),)
     arr = np.asarray(obs, dtype=np.float64)
     if arr.ndim < 2:
