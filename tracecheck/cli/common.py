@@ -289,10 +289,11 @@ SCALE = typer.Option(None, "--scale", help="Continuous actions: the unit of each
 def continuous_options(shield_mode: Optional[str], scale: Optional[str]) -> dict:
     """``RecordSettings`` fields of --shield-mode and --scale (checked against the
     environment when the recording is checked)."""
-    from ..live.continuous import MODES
+    if shield_mode is not None:  # (the continuous module imported only where it is asked)
+        from ..live.continuous import MODES
 
-    if shield_mode is not None and shield_mode not in MODES:
-        raise InputError(f"--shield-mode {shield_mode!r}: give one of {', '.join(MODES)}")
+        if shield_mode not in MODES:
+            raise InputError(f"--shield-mode {shield_mode!r}: give one of {', '.join(MODES)}")
     out: dict = {"shield_mode": shield_mode}
     if scale is not None:
         try:
