@@ -24,10 +24,16 @@ from . import schema
 __all__ = ["step_json"]
 
 _FLOAT = float
-#: the optional fields checked here (those of a discrete live step), by the plain type each
-#: must have; any other optional field sends the message through the schema
-_SIMPLE = frozenset({"observation", "action_values", "preferred_action", "allowed_actions",
-                     "shield_time_us", "deadlock"})
+_INF = math.inf
+_SEQUENCE = (list, tuple)
+_EXACT = 2 ** 53  # the integers a float holds exactly
+_BASE = frozenset({"episode", "step", "time", "action", "state", "reward", "crashed"})
+#: the optional fields of a discrete live step checked here (:func:`_simple`), beside its
+#: observation; any other optional field sends the message through the schema
+_SIMPLE = frozenset({"action_values", "preferred_action", "allowed_actions", "shield_time_us",
+                     "deadlock"})
+#: each field's place in the schema (the order pydantic writes them in)
+_RANK = {name: i for i, name in enumerate(schema.StepMessage.model_fields)}
 
 
 def step_json(msg: dict[str, Any]) -> bytes:
@@ -79,11 +85,6 @@ def _plain(msg: dict[str, Any]) -> Optional[dict[str, Any]]:
     return out
 
 
-_INF = math.inf
-#: each field's place in the schema (the order pydantic writes them in)
-_RANK = {name: i for i, name in enumerate(schema.StepMessage.model_fields)}
-
-
 def _rows(observation: Any) -> Optional[list[list[float]]]:
     """An observation (rows of numbers) as the schema's lists of floats: a Python int
     exactly a float made one (the schema writes 3 as 3.0), anything else None."""
@@ -106,13 +107,6 @@ def _rows(observation: Any) -> Optional[list[list[float]]]:
     return out
 
 
-_SEQUENCE = (list, tuple)
-_EXACT = 2 ** 53
-
-
-_BASE = frozenset({"episode", "step", "time", "action", "state", "reward", "crashed"})
-
-
 def _simple(key: str, value: Optional[Any]) -> bool:
     if key == "action_values":
         return type(value) is dict and all(
@@ -121,8 +115,6 @@ def _simple(key: str, value: Optional[Any]) -> bool:
         return type(value) is str
     if key == "allowed_actions":  # a tuple is written as a list, as the schema does
         return type(value) in _SEQUENCE and all(type(a) is str for a in value)
-    if key == "observation":
-        return True  # made lists of floats above
     if key == "shield_time_us":
         return type(value) is _FLOAT and math.isfinite(value)
     return type(value) is bool  # deadlock
