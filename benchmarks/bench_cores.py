@@ -22,8 +22,8 @@ Four jobs (each skipped with 0):
   workers (but the time they were written).
 
 Each process runs with Python's bytecode cache (a recording's written by a first, untimed
-run of 2 episodes), as an installed tracecheck has it. A recording's runs at each number of workers are interleaved (1, 2, 1, 2, …: a shared machine
-whose speed drifts moves them alike), each count's median and runs reported. Every run of a
+run of 2 episodes), as an installed tracecheck has it. A recording's runs at each number of
+workers are interleaved (1, 2, 1, 2, …: a shared machine whose speed drifts moves them alike), each count's median and runs reported. Every run of a
 job writes or reads the same episodes; the replay's JSON report is checked to be
 the same at every number of workers (but its timing fields). Out: a table on stdout, and
 ``cores.json`` and ``cores.md`` in ``--out`` (default: the current folder). No network.

@@ -164,7 +164,6 @@ class SceneBytes:
 
     def __init__(self, builder: "_Builder") -> None:
         self._build = builder
-        self._m = builder.m
         self._new: dict[tuple, tuple[list, bytes]] = {}
         self._kept: dict[tuple, tuple[list, bytes]] = {}
 

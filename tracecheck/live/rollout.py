@@ -180,7 +180,7 @@ def _discrete_episode(session: Session, index: int, *, seed: int, script: Sequen
 def _finite(obs) -> None:
     """An observation the agent can act on: no NaN or infinity (a policy network turns one
     into NaN probabilities, and stable-baselines3 then fails with a traceback)."""
-    if type(obs) is int or isinstance(obs, np.integer):  # a discrete observation
+    if _one_number(obs):
         return
     arr = np.asarray(obs)
     if arr.dtype.kind in "fc" and not np.isfinite(arr).all():
@@ -251,9 +251,14 @@ def end_reason(crashed: bool, terminated: bool, truncated: bool) -> str:
     return "time-limit" if truncated and not terminated else "end-of-trace"
 
 
+def _one_number(obs) -> bool:
+    """Whether ``obs`` is a discrete observation: an integer (a grid world's cell)."""
+    return type(obs) is int or isinstance(obs, np.integer)
+
+
 def _rows(obs) -> tuple[tuple[float, ...], ...]:
     """An observation as rows of numbers (a discrete one is one row of one number)."""
-    if type(obs) is int or isinstance(obs, np.integer):  # a discrete one (a grid world's cell)
+    if _one_number(obs):  # one number, kept without numpy (a step of a grid world)
         return ((float(obs),),)
     arr = np.asarray(obs, dtype=np.float64)
     if arr.ndim < 2:
