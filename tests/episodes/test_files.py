@@ -112,3 +112,43 @@ def test_an_interrupt_while_an_episode_is_written_takes_effect_once_it_is(tmp_pa
     run = read_run(out)
     assert [ep.id for ep in run.episodes] == [0, 1] and not run.warnings
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+@pytest.mark.parametrize("ahead", [1, 5, 64])
+def test_episodes_encoded_elsewhere_are_asked_for_ahead_and_written_as_the_writer_would(
+        tmp_path, ahead):
+    # a recording's workers encode the episodes: the writer asks for up to `ahead` at once
+    # (so that each worker has the next to do while it waits for the oldest), and the file
+    # is the one it writes when it encodes them itself
+    from unittest import mock
+
+    from tests.helpers import FixedDate
+    from tracecheck.episodes.files import record_episodes
+    from tracecheck.episodes.writer import encode_episode
+
+    episodes = [episode(i, n=2 + i % 3) for i in range(12)]
+    asked, waiting, most = [], set(), [0]
+
+    class Handle:
+        def __init__(self, ep, context):
+            self.ep, self.context = ep, context
+
+        def get(self):
+            waiting.discard(self.ep.id)
+            return encode_episode(self.ep, self.context)
+
+    def encode(ep, context):
+        asked.append(ep.id)
+        waiting.add(ep.id)
+        most[0] = max(most[0], len(waiting))
+        return Handle(ep, context)
+
+    with mock.patch("time.time_ns", return_value=1_700_000_000_000_000_000), \
+            mock.patch("tracecheck.episodes.writer._dt", FixedDate):  # one clock for both
+        header = new_header("recorded", variables=["Crash"], actions=["IDLE"])
+        record_episodes(tmp_path / "elsewhere.mcap", header, iter(episodes), encode=encode,
+                        ahead=ahead)
+        record_episodes(tmp_path / "here.mcap", header, iter(episodes))
+    assert asked == list(range(12))
+    assert most[0] == min(ahead + 1, 12)
+    assert (tmp_path / "elsewhere.mcap").read_bytes() == (tmp_path / "here.mcap").read_bytes()

@@ -32,6 +32,12 @@ def check_run_output(path: str | Path, inputs: Sequence[Path] = (), *,
     return check_output(Path(path), inputs, force=force, example="run.mcap")
 
 
+#: episodes being encoded elsewhere at once, per worker that encodes: enough that while the
+#: writer waits for the oldest, every worker has been asked for more (8 in all left each of
+#: two workers idle a sixth of a grid-world recording, waiting for the writer's next call)
+AHEAD = 64
+
+
 def write_run(path: str | Path, header: RunHeaderMessage, episodes: Iterable[Episode], *,
               channels: Optional[ChannelsFactory] = None, force: bool = False,
               inputs: Sequence[Path] = (),
@@ -142,8 +148,8 @@ def record_episodes(path: str | Path, header: RunHeaderMessage, episodes: Iterab
                     progress: Optional[Callable[[Episode | EpisodeDigest], None]] = None, *,
                     force: bool = False, channels: Optional[ChannelsFactory] = None,
                     inputs: Sequence[Path] = (),
-                    encode: Optional[Callable[[Episode, EncodeContext], Any]] = None
-                    ) -> tuple[int, int, int]:
+                    encode: Optional[Callable[[Episode, EncodeContext], Any]] = None,
+                    ahead: int = AHEAD) -> tuple[int, int, int]:
     """Write ``episodes`` into ``path`` as they come (:func:`recording_into`: an interrupted
     or failed recording keeps every finished episode); (episodes, steps, crashes).
 
@@ -151,11 +157,12 @@ def record_episodes(path: str | Path, header: RunHeaderMessage, episodes: Iterab
     workers), a handle whose ``get()`` gives the
     :func:`~tracecheck.episodes.writer.encode_episode` of the episode for the context it
     will be written in; the writer then only appends it — the same file as when it encodes
-    the episodes itself."""
+    the episodes itself; ``ahead``: how many are being encoded at once (see
+    :func:`prepared_episodes`)."""
     counts = [0, 0, 0]
     with recording_into(path, header, force=force, channels=channels,
                         inputs=inputs) as writer:
-        stream = prepared_episodes(writer, episodes, encode)
+        stream = prepared_episodes(writer, episodes, encode, ahead)
         for episode, prepared in stream:
             with whole_episode():
                 writer.write(episode, prepared)
@@ -167,22 +174,20 @@ def record_episodes(path: str | Path, header: RunHeaderMessage, episodes: Iterab
     return counts[0], counts[1], counts[2]
 
 
-#: episodes being encoded elsewhere at once, per worker that encodes
-AHEAD = 8
-
-
-def prepared_episodes(writer: EpisodeWriter, episodes: Iterable[Episode], encode=None
+def prepared_episodes(writer: EpisodeWriter, episodes: Iterable[Episode], encode=None,
+                      ahead: int = AHEAD
                       ) -> Iterator[tuple[Episode, Optional[EncodedEpisode]]]:
     """Each episode, in order, with what to give ``writer.write``: encoded by ``encode``
     (``encode(episode, context)``: a handle whose ``get()`` gives it, made elsewhere) for
     the context it will be written in — each episode's from the one before: its start time
     (:func:`clock_after`) and the action names (:func:`actions_after`); None without
-    ``encode`` (the writer encodes it)."""
+    ``encode`` (the writer encodes it). At most ``ahead`` episodes are being encoded at
+    once (:data:`AHEAD` times the workers that encode)."""
     if encode is None:
         yield from ((episode, None) for episode in episodes)
         return
     context = writer.context()
-    ahead: deque = deque()
+    waiting: deque = deque()
     source = iter(episodes)
     while True:
         try:
@@ -190,20 +195,20 @@ def prepared_episodes(writer: EpisodeWriter, episodes: Iterable[Episode], encode
         except StopIteration:
             break
         except Exception:  # an episode failed (its environment raised): those before it,
-            while ahead:   # which came back and are being encoded, are written first
-                done, handle = ahead.popleft()
+            while waiting:  # which came back and are being encoded, are written first
+                done, handle = waiting.popleft()
                 try:
                     encoded = handle.get()
                 except Exception:  # noqa: BLE001 - the first error is the one to say
                     break
                 yield done, encoded
             raise
-        ahead.append((episode, encode(episode, context)))
+        waiting.append((episode, encode(episode, context)))
         context = replace(context, clock_ns=clock_after(context.clock_ns, episode),
                           actions=actions_after(context.actions, episode))
-        if len(ahead) > AHEAD:
-            done, handle = ahead.popleft()
+        if len(waiting) > ahead:
+            done, handle = waiting.popleft()
             yield done, handle.get()
-    while ahead:
-        done, handle = ahead.popleft()
+    while waiting:
+        done, handle = waiting.popleft()
         yield done, handle.get()

@@ -17,13 +17,13 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Callable, Iterator, Optional, Sequence
 
-from ..episodes.files import check_run_output, record_episodes
+from ..episodes.files import AHEAD, check_run_output, record_episodes
 from ..outputs import input_paths
 from ..processes import Worker, carried, quiet_worker
 from ..episodes.writer import ChannelsFactory, encode_episode, new_header
 from ..episodes.model import Episode, EpisodeDigest
 from ..errors import InputError
-from .executors import IN_FLIGHT, batch_size, batches, in_order
+from .executors import batch_size, batches, in_order
 from .rollout import RecordSettings, Session, resolve
 
 __all__ = ["RecordSettings", "record", "episodes", "encoded_episodes", "check_settings",
@@ -35,6 +35,9 @@ _SESSION: Optional[Session] = None
 #: ran 1.5x faster in tasks of 64 episodes than one by one), few enough that a finished
 #: episode is soon written
 LOCAL_BATCH = 8
+#: batches of episodes given to each local worker at once (while the writer waits for
+#: one episode's encoding, every worker has episodes to run)
+LOCAL_IN_FLIGHT = 8
 _FAILED: Optional[BaseException] = None
 
 
@@ -159,7 +162,7 @@ class _Pooled:
 
         episode: Episode | EpisodeDigest
         for first, worker, (batch, failed) in in_order(
-                submit, batches(settings.episodes, size), IN_FLIGHT * settings.workers,
+                submit, batches(settings.episodes, size), LOCAL_IN_FLIGHT * settings.workers,
                 lambda h: (h[0], h[1], h[2].get())):
             for number, episode in enumerate(batch, first):
                 if self.keep:
@@ -310,4 +313,5 @@ def record(settings: RecordSettings, out: str | Path,
     told = None if progress is None else (lambda episode: progress(episode.digest()))
     with encoded_episodes(settings, shield, channels, header, digests=True) as (made, encode):
         return record_episodes(out, header, made, told, force=force, channels=channels,
-                               inputs=run_inputs(settings), encode=encode)
+                               inputs=run_inputs(settings), encode=encode,
+                               ahead=AHEAD * settings.workers)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from typing import Callable, Iterator, Optional, Sequence
 
 from ..episodes.columns import episode_columns
-from ..episodes.files import prepared_episodes, recording_into
+from ..episodes.files import AHEAD, prepared_episodes, recording_into
 from ..episodes.writer import ChannelsFactory
 from ..episodes.model import Episode
 from .properties import PropertySet
@@ -69,7 +69,7 @@ def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
     with encoded_episodes(settings, shield, channels, header) as (made, encode):
         source = _Source(header, made, settings.episodes, tuple(adapter.actions),
                          prepare(pset, adapter), [*run_inputs(settings), *inputs], adapter,
-                         encode)
+                         encode, AHEAD * settings.workers)
         return _simulate(source, out, pset, until_width=until_width,
                          batch=batch or max(10, 10 * settings.workers), progress=progress,
                          force=force, channels=channels)
@@ -116,6 +116,7 @@ class _Source:
     inputs: list
     adapter: object
     encode: Optional[Callable] = None  # workers that encode the episodes for the file
+    ahead: int = AHEAD  # how many they encode at once
 
 
 def _simulate(source: _Source, out: Path, pset: PropertySet, *, until_width, batch,
@@ -131,7 +132,8 @@ def _simulate(source: _Source, out: Path, pset: PropertySet, *, until_width, bat
     with recording_into(out, source.header, force=force, channels=channels,
                         inputs=source.inputs) as writer:
         try:
-            for episode, encoded in prepared_episodes(writer, source.episodes, source.encode):
+            for episode, encoded in prepared_episodes(writer, source.episodes, source.encode,
+                                                      source.ahead):
                 writer.write(episode, encoded)
                 if progress is not None:
                     progress(episode)
