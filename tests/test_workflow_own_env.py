@@ -129,6 +129,15 @@ def resimulation_agrees(text: str) -> dict[int, str]:
     return outcomes
 
 
+def scenes(run: Path) -> int:
+    """How many Foxglove scenes ``run`` holds (with at least one entity)."""
+    from mcap.reader import make_reader
+
+    with open(run, "rb") as f:
+        return sum(1 for _, channel, message in make_reader(f).iter_messages()
+                   if channel.topic == "/foxglove/scene" and message.data)
+
+
 def viewer_data(page: str) -> dict:
     script = page[page.index("const DATA = ") + len("const DATA = "):]
     return json.loads(script[:script.index(";\nconst ACTIONS")])
@@ -284,6 +293,9 @@ def test_the_workflow_with_the_adapter_given_as_a_module_path(acc_agent, tmp_pat
     err = flat(first["unknown"][1])
     assert "unknown environment 'acc'" in err and "--env package.module:Class" in err
     assert "(DQN on acc, 256 steps" in flat(first["train"][0])
+    # the adapter given draws Foxglove's scene at every step: its name in the header alone
+    # would not find it (no entry point), nor would a later command import it
+    assert scenes(tmp_path / "v2.mcap") == 4 * 21
 
     resim = ("replay", "none.mcap", "--shield", shield, "--resimulate", "--agent", acc_agent)
     second = together({
@@ -309,6 +321,7 @@ def test_the_workflow_with_the_adapter_given_as_a_module_path(acc_agent, tmp_pat
     none, v2 = (r["properties"] for r in json.loads(second["props"][0])["runs"])
     assert (none["SAFE"]["ratio"], v2["SAFE"]["ratio"]) == (0.0, 1.0)
     sequential_stop(*second["simulate"], tmp_path / "sim.mcap", limit=30)
+    assert scenes(tmp_path / "sim.mcap") > 0
     data = viewer_data((tmp_path / "ep.html").read_text())
     assert {s["name"] for s in data["series"]} >= {"Gap", "EgoSpeed"} and data["blocked"]
     # the adapter given: its own scene() hook draws the two cars

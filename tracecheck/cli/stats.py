@@ -106,11 +106,13 @@ def simulate_cmd(
     settings = record_settings(run, episodes)
     from ..stats.formulas import adapter_set
 
-    pset = load_properties(properties) if properties else adapter_set(resolve(settings)[0])
+    adapter = resolve(settings)[0]
+    pset = load_properties(properties) if properties else adapter_set(adapter)
     with progress("simulating", episodes) as advance:
         result = simulate(settings, run.output, pset, until_width=until_ci_width,
                           force=run.force, inputs=input_paths(properties),
-                          progress=lambda ep: advance(), channels=FoxgloveChannels)
+                          progress=lambda ep: advance(),
+                          channels=FoxgloveChannels.drawn_by(adapter))
     _print_simulation(result, fmt)
 
 

@@ -25,6 +25,7 @@ The messages are derived from the step: tracecheck itself never reads them back.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from itertools import groupby
@@ -327,9 +328,17 @@ def _continuous_scalars(step) -> Iterator[tuple[str, Optional[float]]]:
 class FoxgloveChannels:
     """Foxglove's channels as the writer's plug-in
     (:class:`~tracecheck.episodes.writer.StepChannels`) for the run of ``header``: the scene
-    and the plotted numbers of the run's environment where its adapter is installed."""
+    and the plotted numbers of the run's environment, drawn by ``adapter`` (the one that
+    ran the episodes: see :meth:`drawn_by`), else by its installed adapter, if any."""
 
-    def __init__(self, header) -> None:
+    @classmethod
+    def drawn_by(cls, adapter) -> Callable[[Any], "FoxgloveChannels"]:
+        """The channels of a run whose episodes ``adapter`` runs (a factory of a header, as
+        the writer takes it): its scene and plots even where the adapter is not installed
+        (``--env package.module:Class``), as the header's name alone would not find it."""
+        return functools.partial(cls, adapter=adapter)
+
+    def __init__(self, header, adapter=None) -> None:
         import orjson
 
         from ..render.scene import scene_adapter, scene_drawer
@@ -347,8 +356,8 @@ class FoxgloveChannels:
         self.schemas = {name: published.get(name) or orjson.dumps(schema)
                         for name, schema in SCHEMAS.items()}
         self.schema_encodings = {name: "protobuf" for name in published}
-        # the adapter looked up once
-        adapter = scene_adapter(header.environment, tuple(header.variables or ()))
+        if adapter is None:  # the installed one the run names, looked up once
+            adapter = scene_adapter(header.environment, tuple(header.variables or ()))
         self.topics = {**TOPICS, **plot_topics(adapter), **continuous_topics(header)}
         self._draw = scene_drawer(adapter=adapter, shield=header.shield_name)
         self._plots = adapter.plots if adapter is not None else None

@@ -299,9 +299,10 @@ def record(settings: RecordSettings, out: str | Path,
     """Record ``settings.episodes`` episodes into ``out``; (episodes, steps, crashes);
     ``progress`` is told of each episode written, by its
     :class:`~tracecheck.episodes.model.EpisodeDigest` (with workers its steps stay in the
-    worker that ran it); ``channels`` adds a plug-in's channels: without it the file has tracecheck's own channels
-    only; the CLI gives Foxglove's (``channels=FoxgloveChannels`` from
-    ``tracecheck.interop.foxglove``, which a caller in Python passes for the same file).
+    worker that ran it); ``channels`` adds a plug-in's channels: without it the file has
+    tracecheck's own channels only; the CLI gives Foxglove's drawn by the adapter it runs
+    (``channels=FoxgloveChannels.drawn_by(adapter)`` from ``tracecheck.interop.foxglove``,
+    which a caller in Python passes for the same file).
 
     Bad settings raise before any episode runs; an existing ``out`` is refused unless
     ``force`` (see :func:`~tracecheck.episodes.files.recording_into`). Interrupted, the file

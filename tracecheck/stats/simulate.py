@@ -54,9 +54,9 @@ def simulate(settings: RecordSettings, out: str | Path, pset: PropertySet, *,
              channels: Optional[ChannelsFactory] = None) -> dict:
     """Record up to ``settings.episodes`` episodes into ``out`` and return their statistics
     (see the module docstring for the early stop); ``channels`` adds a plug-in's channels:
-    without it the file has tracecheck's own channels only; the CLI gives Foxglove's
-    (``channels=FoxgloveChannels`` from ``tracecheck.interop.foxglove``, which a caller in
-    Python passes for the same file). ``out`` follows the output rule: none of
+    without it the file has tracecheck's own channels only; the CLI gives Foxglove's drawn
+    by the adapter it runs (``channels=FoxgloveChannels.drawn_by(adapter)`` from
+    ``tracecheck.interop.foxglove``, which a caller in Python passes for the same file). ``out`` follows the output rule: none of
     ``inputs`` (the property file, say) nor the agent or shield file, an existing file only
     with ``force``."""
     out = Path(out)
