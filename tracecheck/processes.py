@@ -4,6 +4,7 @@ the command stops its workers itself), and ended with the command however it end
 
 from __future__ import annotations
 
+import gc
 import multiprocessing as mp
 import os
 import pickle
@@ -63,12 +64,25 @@ def _forking():
             signal.signal(s, handler)
 
 
+@contextmanager
+def _frozen_heap() -> Iterator[None]:
+    """Processes forked inside leave what the command made before to itself: their garbage
+    collector never walks it (``gc.freeze``; the command's own collector walks it again
+    after). Walking it in each worker was a tenth of a grid-world recording's work there,
+    and wrote to every page of it that the fork shared."""
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
+
+
 def worker_pool(workers: int, initializer=None, initargs: tuple = ()):
     """A pool of ``workers`` processes (:func:`worker_context`) that end at once when the
     command stops them: they are forked with Ctrl-C ignored and SIGTERM at its default, so
     a pool stopped before a worker ran its ``initializer`` does not leave that worker with
     the command's own handlers, waiting for ever (an import of a few traces hung so)."""
-    with _forking():
+    with _forking(), _frozen_heap():
         return worker_context().Pool(workers, initializer=initializer, initargs=initargs)
 
 
@@ -150,7 +164,7 @@ class Worker:
         self._closed = False
         _ENDS.add(self._conn)  # before the fork: its copy in the worker is closed there
         try:
-            with _starting():
+            with _starting(), _frozen_heap():
                 self._process.start()
                 theirs.close()
         except BaseException:  # a Ctrl-C held back while it started comes here
