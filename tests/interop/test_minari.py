@@ -154,6 +154,27 @@ def test_a_users_own_adapter_is_named_on_the_command_line(capsys, tmp_path):
     assert _replay(capsys, back, str(shield)) == _replay(capsys, recorded, str(shield))
 
 
+def test_dict_observations_go_both_ways(capsys, tmp_path):
+    """A Dict observation space (the cell, two lamps): recorded flattened, exported as the
+    Dict it was (Minari's parts), imported back replaying as the run did."""
+    env = "tests.live.toy:DictCorridor"
+    agent, recorded, back = tmp_path / "a.zip", tmp_path / "dict.mcap", tmp_path / "back.mcap"
+    assert run(capsys, "train", "--env", env, "--algorithm", "dqn", "--steps", "64", "-o",
+               str(agent))[0] == 0
+    assert run(capsys, "record", "--env", env, "--agent", str(agent), "-n", "3", "-o",
+               str(recorded))[0] == 0
+    assert run(capsys, "export", "minari", str(recorded), "--dataset-id", "t/dict/x-v0",
+               "--env", env)[0] == 0
+    run_ = read_run(recorded)
+    for ep, data in zip(run_.episodes, minari.load_dataset("t/dict/x-v0").iterate_episodes()):
+        cells = [s.state["pos"] for s in ep.steps]
+        assert data.observations["cell"].tolist() == cells
+        assert data.observations["lamps"].tolist() == [
+            [np.float32(c / 5).item(), 0.5] for c in cells]
+    assert run(capsys, "import", "minari", "t/dict/x-v0", "--env", env, "-o", str(back))[0] == 0
+    assert _replay(capsys, back, "none") == _replay(capsys, recorded, "none")
+
+
 @pytest.mark.filterwarnings("ignore::UserWarning")
 @pytest.mark.parametrize("actions,space,message", [
     ([0.5, 0.75], "box", "the action [0.5] is not an action index"),

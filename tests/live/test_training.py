@@ -290,6 +290,32 @@ def test_an_agent_trained_on_images_records_on_the_same_adapter(capsys, tmp_path
     assert code == 2 and "the agent observes Box(0, 255, (3, 7, 7), uint8)" in err
 
 
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_an_agent_trained_on_dict_observations_records_them_flattened(capsys, tmp_path,
+                                                                       workers):
+    """A new user's drone with a Dict observation (its position, its battery): train
+    wrote the agent (SB3's MultiInputPolicy), and record failed with a traceback on the
+    first observation."""
+    from mcap.reader import make_reader
+
+    env = "tests.live.toy:DictCorridor"
+    agent, out = tmp_path / "a.zip", tmp_path / "run.mcap"
+    code, _, err = run(capsys, "train", "--env", env, "--algorithm", "dqn", "--steps", "64",
+                       "-o", str(agent))
+    assert code == 0, err
+    code, said, err = run(capsys, "record", "--env", env, "--agent", str(agent), "-n", "3",
+                          "--workers", workers, "-o", str(out))
+    assert code == 0 and "recorded 3 episode(s)" in said, err
+    with open(out, "rb") as f:
+        steps = [json.loads(m.data) for _, _, m in make_reader(f).iter_messages(
+            topics=["/tracecheck/step"])]
+    # gymnasium's flatten, as FlattenObservation gives it: the cell one-hot, then the lamps
+    for step in steps:
+        cell = step["state"]["pos"]
+        assert step["observation"] == [[float(i == cell) for i in range(6)] +
+                                       [np.float32(cell / 5).item(), 0.5]]
+
+
 @pytest.mark.parametrize("shield", ["none", "cruise"])
 def test_a_nan_observation_names_the_episode_step_and_variable(capsys, tmp_path, shield):
     """Issue 42: under a shield "the real result is out of range (overflow) in `W - M - X`",

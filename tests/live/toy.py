@@ -294,3 +294,30 @@ class HiddenCorridor(Corridor):
 
     def state(self, obs, info: dict, reward: float, env, initial: bool) -> dict[str, Any]:
         return {"pos": int(env.unwrapped.pos)}
+
+
+class DictCorridorEnv(_ViewedCorridorEnv):
+    """The corridor observed as a ``Dict``: the cell (``Discrete``) and two lamps (``Box``),
+    as a robot's several sensors are."""
+
+    def __init__(self, slip: bool = True, render_mode: Optional[str] = None) -> None:
+        super().__init__(slip, render_mode)
+        self.observation_space = gym.spaces.Dict({
+            "cell": gym.spaces.Discrete(6),
+            "lamps": gym.spaces.Box(0.0, 1.0, (2,), np.float32)})
+
+    def view(self) -> dict:
+        return {"cell": self.pos, "lamps": np.array([self.pos / 5, 0.5], np.float32)}
+
+
+class DictCorridor(Corridor):
+    name = "dictcorridor"
+
+    def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
+        return DictCorridorEnv(**config)
+
+    def state(self, obs, info: dict, reward: float, env, initial: bool) -> dict[str, Any]:
+        return {"pos": int(obs["cell"])}
+
+    def crashed(self, obs, reward: float, terminated: bool, info: dict) -> bool:
+        return bool(terminated) and int(obs["cell"]) == 0

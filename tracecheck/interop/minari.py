@@ -155,11 +155,52 @@ def make_env(adapter, config: Optional[dict], what: str):
             from None
 
 
+def _composite(space) -> bool:
+    from gymnasium import spaces
+
+    return isinstance(space, (spaces.Dict, spaces.Tuple))
+
+
+def _unflattened(value: np.ndarray, space, where: str):
+    """A Dict or Tuple observation from the numbers it was recorded as (gymnasium's
+    flatten: see :func:`tracecheck.live.rollout.flattening`)."""
+    from gymnasium import spaces
+
+    flat = value.reshape(-1)
+    if flat.size != spaces.flatdim(space):
+        raise InputError(f"{where}: an observation of {flat.size} number(s) does not fit the "
+                         f"environment's {space}, {spaces.flatdim(space)} flattened (was it "
+                         "recorded with another configuration?)")
+    try:
+        restored = spaces.unflatten(space, flat)
+        fits = space.contains(restored)
+    except Exception:  # noqa: BLE001 - gymnasium's: a one-hot part that is not one
+        fits = False
+    if not fits:
+        raise InputError(f"{where}: the observation {flat.tolist()!r} is not the flattened "
+                         f"value of the environment's observation space {space}")
+    return restored
+
+
+def _stacked(obs: list, space):
+    """An episode's observations of a Dict or Tuple ``space`` as Minari takes them: each
+    part's together (nested as the space is)."""
+    from gymnasium import spaces
+
+    if isinstance(space, spaces.Dict):
+        return {k: _stacked([o[k] for o in obs], sub) for k, sub in space.spaces.items()}
+    if isinstance(space, spaces.Tuple):
+        return tuple(_stacked([o[i] for o in obs], sub) for i, sub in enumerate(space.spaces))
+    return np.asarray(obs)  # a part's: one row per step
+
+
 def _observation(rows, space, where: str):
     if rows is None:
         raise InputError(f"{where} has no observation (imported traces record none); a Minari "
                          "dataset needs the observations of a recording")
     value = np.asarray(rows, dtype=np.float64)
+    if _composite(space):
+        return _unflattened(value, space, where)
     if space.shape == ():
         if value.size != 1 or not float(value.reshape(-1)[0]).is_integer():
             raise InputError(f"{where}: the observation {value.tolist()!r} is not one of "
@@ -222,6 +263,8 @@ def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
         where = f"{run}, episode {ep.id}"
         obs = [_observation(s.observation, made.observation_space, f"{where}, step {s.step}")
                for s in ep.steps]
+        if _composite(made.observation_space):
+            obs = _stacked(obs, made.observation_space)
         try:
             acts = [actions.index(s.action) for s in ep.steps[1:]]
         except ValueError:

@@ -56,11 +56,25 @@ def _check_lengths(data, n: int, where: str) -> None:
     for name, want in (("rewards", n), ("terminations", n), ("truncations", n),
                        ("observations", n + 1)):
         try:
-            got = len(getattr(data, name))
+            got = _steps(getattr(data, name), f"{where}: the {name}")
         except TypeError:  # a scalar
             raise InputError(f"{where}: the {name} are one value, not one per step") from None
         if got != want:
             raise InputError(f"{where}: {got} {name} for {n} actions (want {want})")
+
+
+def _steps(values, what: str) -> int:
+    """How many steps ``values`` has: a Dict or Tuple space's observations, each of its
+    parts' (the same for all)."""
+    parts = list(values.values()) if isinstance(values, dict) else \
+        list(values) if isinstance(values, tuple) else None
+    if parts is None:
+        return len(values)
+    counts = {_steps(part, what) for part in parts}
+    if len(counts) != 1:
+        raise InputError(f"{what} have parts of {' and '.join(map(str, sorted(counts)))} "
+                         "steps, not one number of steps" if counts else f"{what} have no part")
+    return counts.pop()
 
 
 def _shield_infos(infos, k: int, n: int, actions) -> dict:
@@ -165,7 +179,8 @@ def import_minari(dataset_id: str, adapter_name: str, *,
                 crashed = _crashed(adapter, data, stored, k, n, reward, where)
                 try:
                     state = stored[0][k] if stored is not None else convert_state(
-                        observer.state(data.observations[k], {"crashed": crashed}, reward,
+                        observer.state(_observation_at(data.observations, k),
+                                       {"crashed": crashed}, reward,
                                        initial=k == 0),
                         typing.state_types() if typing is not None else None,
                         where=f"state() of the adapter {adapter.name}")

@@ -71,7 +71,8 @@ class Agent:
         import torch
 
         with torch.no_grad():
-            tensor, _ = self.model.policy.obs_to_tensor(np.asarray(obs, dtype=np.float32))
+            tensor, _ = self.model.policy.obs_to_tensor(  # a Dict observation as it is
+                obs if isinstance(obs, dict) else np.asarray(obs, dtype=np.float32))
             if self.algorithm == "DQN":
                 return self.model.q_net(tensor)[0].cpu().numpy().astype(np.float64)
             dist = self.model.policy.get_distribution(tensor)

@@ -89,6 +89,8 @@ class Session:
         self.shield = for_actions(shield, actions)
         self.env = ShieldWrapper(env, self.shield, settings.fallback, self.adapter,
                                  mode=settings.shield_mode, scale=settings.scale)
+        #: a Dict or Tuple observation as the numbers it is recorded as (None: as it is)
+        self.flat = flattening(env.observation_space)
         self.step_reached = 0  # of the episode running: where an error happened
 
     def episode(self, index: int) -> Episode:
@@ -106,6 +108,7 @@ class Session:
         self.config = config
         self.env = ShieldWrapper(env, self.shield, self.settings.fallback, self.adapter,
                                  mode=self.settings.shield_mode, scale=self.settings.scale)
+        self.flat = flattening(env.observation_space)
 
 
 def run_episode(session: Session, index: int, *, seed: Optional[int] = None,
@@ -150,7 +153,7 @@ def _discrete_episode(session: Session, index: int, *, seed: int, script: Sequen
     reason = "time-limit"
     for k in range(1, session.horizon + 1):
         session.step_reached = k - 1  # the observation came from the step before
-        _finite(obs)
+        _finite(obs, session.flat)
         session.step_reached = k
         values = agent.values(obs)
         allowed = env.action_masks()
@@ -165,7 +168,7 @@ def _discrete_episode(session: Session, index: int, *, seed: int, script: Sequen
         crashed = bool(info["crashed"])
         steps.append(StepRecord(
             step=k, time=float(k * dt), action=actions[action], state=info["b_state"],
-            reward=float(reward), crashed=crashed, observation=_rows(obs),
+            reward=float(reward), crashed=crashed, observation=_rows(obs, session.flat),
             action_values={a: float(v) for a, v in zip(actions, values)},
             preferred_action=actions[int(np.asarray(values).argmax())],
             allowed_actions=tuple(a for a, ok in zip(actions, allowed) if ok),
@@ -177,12 +180,13 @@ def _discrete_episode(session: Session, index: int, *, seed: int, script: Sequen
     return Episode(id=index, steps=steps_t, end=make_end(steps_t, reason), seed=seed)
 
 
-def _finite(obs) -> None:
+def _finite(obs, flat=None) -> None:
     """An observation the agent can act on: no NaN or infinity (a policy network turns one
-    into NaN probabilities, and stable-baselines3 then fails with a traceback)."""
+    into NaN probabilities, and stable-baselines3 then fails with a traceback); ``flat``:
+    a Dict or Tuple observation's numbers (see :func:`flattening`)."""
     if _one_number(obs):
         return
-    arr = np.asarray(obs)
+    arr = np.asarray(obs if flat is None else flat(obs))
     if arr.dtype.kind in "fc" and not np.isfinite(arr).all():
         where = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
         raise InputError(f"the observation holds {arr[where] if where else arr[()]} (at index "
@@ -199,7 +203,7 @@ def _start(session, seed: int, check, options=None) -> tuple[Any, dict, list[Ste
     obs, info = session.env.reset(seed=seed, options=options or None)
     _check(check, 0, info["b_state"])
     return obs, info, [StepRecord(0, 0.0, None, info["b_state"], 0.0, False,
-                                  observation=_rows(obs))]
+                                  observation=_rows(obs, session.flat))]
 
 
 def _continuous_episode(session: Session, index: int, *, seed: int,
@@ -214,7 +218,7 @@ def _continuous_episode(session: Session, index: int, *, seed: int,
     for k in range(1, session.horizon + 1):
         session.step_reached = k - 1  # the observation came from the step before
         if k > len(script):
-            _finite(obs)
+            _finite(obs, session.flat)
         session.step_reached = k
         proposal = script[k - 1] if k <= len(script) else agent.act(obs)
         allowed = tuple(a for a, ok in zip(env.actions, env.allowed) if ok)  # decided in
@@ -225,7 +229,7 @@ def _continuous_episode(session: Session, index: int, *, seed: int,
         scores = decided["scores"]  # a hybrid space's: the agent's score of each operation
         steps.append(StepRecord(
             step=k, time=float(k * dt), action=decided["taken"], state=info["b_state"],
-            reward=float(reward), crashed=crashed, observation=_rows(obs),
+            reward=float(reward), crashed=crashed, observation=_rows(obs, session.flat),
             allowed_actions=allowed,
             shield_time_us=round(decided["step_decision_us"], 3),
             deadlock=decided["fallback_taken"] or None,
@@ -256,11 +260,12 @@ def _one_number(obs) -> bool:
     return type(obs) is int or isinstance(obs, np.integer)
 
 
-def _rows(obs) -> tuple[tuple[float, ...], ...]:
-    """An observation as rows of numbers (a discrete one is one row of one number)."""
+def _rows(obs, flat=None) -> tuple[tuple[float, ...], ...]:
+    """An observation as rows of numbers (a discrete one is one row of one number; a Dict
+    or Tuple one, with ``flat``, one row of its flattened numbers: see :func:`flattening`)."""
     if _one_number(obs):  # one number, kept without numpy (a step of a grid world)
         return ((float(obs),),)
-    arr = np.asarray(obs, dtype=np.float64)
+    arr = np.asarray(obs if flat is None else flat(obs), dtype=np.float64)
     if arr.ndim < 2:
         arr = arr.reshape(1, -1)
     elif arr.ndim > 2:
@@ -268,6 +273,30 @@ def _rows(obs) -> tuple[tuple[float, ...], ...]:
     return tuple(tuple(float(x) for x in row) for row in arr)
 
 
+
+
+def flattening(space) -> Optional[Callable[[Any], np.ndarray]]:
+    """What a Dict or Tuple observation space's observations are checked and recorded as:
+    gymnasium's ``flatten`` of them (what its ``FlattenObservation`` gives: a ``Discrete``
+    part one-hot, the parts in the space's order); None for any other space (the
+    observation as it is)."""
+    from gymnasium import spaces
+
+    if not isinstance(space, (spaces.Dict, spaces.Tuple)):
+        return None
+
+    def flat(obs) -> np.ndarray:
+        try:
+            return spaces.flatten(space, obs)
+        except Exception as exc:  # noqa: BLE001 - gymnasium's, for a space or value it
+            #                       cannot flatten (a Sequence or Graph part, a missing key)
+            raise InputError(f"the observation {str(obs)[:120]} of the observation space "
+                             f"{str(space)[:200]} cannot be recorded as numbers "
+                             f"({type(exc).__name__}: {exc})",
+                             hint="give the environment an observation gymnasium can flatten "
+                                  "(wrap it in gymnasium's FlattenObservation in your "
+                                  "adapter's make_env, say)") from None
+    return flat
 
 
 def _check(check, step: int, state: dict) -> None:
