@@ -247,6 +247,25 @@ def test_adapters_by_name_and_by_path():
         load_adapter("json:JSONDecoder")
 
 
+@pytest.mark.parametrize("spec,said,hint", [
+    ("tests.live.toy.Corridor", "unknown environment 'tests.live.toy.Corridor'",
+     "--env tests.live.toy:Corridor (a colon before the class)"),
+    ("tests.live.toy.py:Corridor", "cannot import the adapter module 'tests.live.toy.py'",
+     "name the module without .py: --env tests.live.toy:Corridor"),
+    ("my_drone:Drone", "cannot import the adapter module 'my_drone'",
+     "put the folder that holds my_drone.py (or the package my_drone/) on PYTHONPATH"),
+    ("tests.live.toy:Corridorr", "the module tests.live.toy has no 'Corridorr'",
+     "its adapters: ByteCorridor, Corridor, Cruise, DictCorridor"),
+    ("json:Decoder", "the module json has no 'Decoder'", "it defines no EnvAdapter subclass"),
+])
+def test_a_mistyped_adapter_says_what_it_would_be(spec, said, hint):
+    """A new user's --env mistakes: a dot for the colon, the file's name, the folder not on
+    PYTHONPATH, a class name off by a letter."""
+    with pytest.raises(InputError) as info:
+        load_adapter(spec)
+    assert said in info.value.message and hint in (info.value.hint or ""), info.value.render()
+
+
 def test_states_of_python_values_record_train_and_replay_alike(tmp_path, capsys):
     """Issue 42: a str naming an element, a numpy array map, a Python set — converted by the
     machine's types on every path: record with the shield, record with ``--shield none``

@@ -409,9 +409,13 @@ def get_adapter(name: Optional[str]) -> EnvAdapter:
                          "package.module:Class", hint="tracecheck envs lists them")
     ep = registry.entry_points().get(name)
     if ep is None:
+        module, dot, attr = name.rpartition(".")
+        path_like = dot and _SPEC.fullmatch(f"{module}:{attr}") is not None
         raise InputError(f"unknown environment {name!r}; the installed ones are "
                          f"{', '.join(sorted(registry.entry_points()))}",
-                         hint="give your own adapter as --env package.module:Class")
+                         hint=f"an adapter in a module of yours is --env {module}:{attr} (a "
+                              "colon before the class)" if path_like else
+                              "give your own adapter as --env package.module:Class")
     try:
         loaded = ep.load()
     except USERS as exc:  # noqa: BLE001 - the plug-in's own code
@@ -448,15 +452,32 @@ def load_adapter(spec: Optional[str]) -> EnvAdapter:
     try:
         module = importlib.import_module(module_name)
     except ImportError as exc:
-        raise InputError(f"cannot import the adapter module {module_name!r}: {exc}") from None
+        raise InputError(f"cannot import the adapter module {module_name!r}: {exc}",
+                         hint=_import_hint(module_name, attr, exc)) from None
     except USERS as exc:  # noqa: BLE001 - the module's own code
         raise raised(spec, exc, "when its module was imported") from exc
     cls = module
     for part in attr.split("."):
         cls = getattr(cls, part, None)
     if cls is None:
-        raise InputError(f"the module {module_name} has no {attr!r}")
+        found = sorted(n for n, v in vars(module).items() if isinstance(v, type) and
+                       issubclass(v, EnvAdapter) and v.__module__ == module.__name__)
+        raise InputError(f"the module {module_name} has no {attr!r}",
+                         hint=f"its adapters: {', '.join(found)}" if found else
+                         "it defines no EnvAdapter subclass (see docs/environments.md)")
     return _instance(cls, spec)
+
+
+def _import_hint(module_name: str, attr: str, exc: ImportError) -> Optional[str]:
+    """What to do where ``--env module_name:attr`` did not import."""
+    top = module_name.split(".")[0]
+    if module_name.endswith(".py"):
+        return f"name the module without .py: --env {module_name[:-3]}:{attr}"
+    if isinstance(exc, ModuleNotFoundError) and exc.name == top:
+        return (f"put the folder that holds {top}.py (or the package {top}/) on PYTHONPATH, "
+                f"e.g. PYTHONPATH=. when it is the folder you are in: Python looks there and "
+                "in the installed packages, not in the current folder")
+    return None
 
 
 #: the hooks whose exceptions are reported as the adapter's (with its name and the hook)
