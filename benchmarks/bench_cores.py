@@ -23,7 +23,10 @@ Four jobs (each skipped with 0):
 
 Each process runs with Python's bytecode cache (a recording's written by a first, untimed
 run of 2 episodes), as an installed tracecheck has it. A recording's runs at each number of
-workers are interleaved (1, 2, 1, 2, …: a shared machine whose speed drifts moves them alike), each count's median and runs reported. Every run of a
+workers are interleaved (1, 2, 1, 2, …: a shared machine whose speed drifts moves them
+alike), each count's median and runs reported, and beside the ratio of the medians the
+median of each round's own ratio ("paired": the runs of one round ran a few seconds apart,
+where this machine's speed drifted by a third between sittings). Every run of a
 job writes or reads the same episodes; the replay's JSON report is checked to be
 the same at every number of workers (but its timing fields). Out: a table on stdout, and
 ``cores.json`` and ``cores.md`` in ``--out`` (default: the current folder). No network.
@@ -315,16 +318,20 @@ def main() -> None:
         row["episodes_per_s"] = round(row["episodes"] / row["seconds"], 2)
         row["speedup"] = round(one["seconds"] / row["seconds"], 3)
         row["efficiency"] = round(row["speedup"] / row["workers"], 3)
+        if "runs" in row:  # interleaved: each round's own ratio, their median
+            row["paired_speedup"] = round(statistics.median(
+                a / b for a, b in zip(one["runs"], row["runs"])), 3)
     machine = {"cores": os.cpu_count(), "python": sys.version.split()[0],
                "repeat": args.repeat}
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "cores.json").write_text(json.dumps({"machine": machine, "rows": rows,
                                                      "bare_frozenlake": bare},
                                                     indent=2) + "\n")
-    table = ["| job | workers | episodes | seconds | episodes/s | speed-up | efficiency |",
-             "| --- | --- | --- | --- | --- | --- | --- |"]
+    table = ["| job | workers | episodes | seconds | episodes/s | speed-up | efficiency | "
+             "speed-up, paired |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     table += [f"| {r['job']} | {r['workers']} | {r['episodes']} | {r['seconds']:.2f} | "
-              f"{r['episodes_per_s']} | {r['speedup']:.2f}× | {r['efficiency']:.0%} |"
+              f"{r['episodes_per_s']} | {r['speedup']:.2f}× | {r['efficiency']:.0%} | "
+              + (f"{r['paired_speedup']:.2f}× |" if "paired_speedup" in r else "- |")
               for r in rows]
     text = f"{machine['cores']} cores, medians of {args.repeat}\n\n" + "\n".join(table) + "\n"
     if bare is not None:
