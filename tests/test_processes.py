@@ -227,3 +227,16 @@ def _walked_objects() -> int:
     import gc
 
     return len(gc.get_objects())
+
+
+def test_a_call_says_whether_its_answer_has_come_without_waiting():
+    from tracecheck.processes import Worker
+
+    with Worker() as worker:
+        slow, quick = worker.call(time.sleep, 1.0), worker.call(abs, -3)
+        assert not slow.ready() and not quick.ready()  # answered in order: not yet
+        deadline = time.monotonic() + 20.0
+        while not quick.ready():
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        assert slow.ready() and quick.get() == 3 and slow.get() is None

@@ -277,6 +277,14 @@ class Call:
     def _set(self, ok: bool, value: Any) -> None:
         self._answer, self._worker = (ok, value), None
 
+    def ready(self) -> bool:
+        """Whether the answer has come (read without waiting, with the answers before it)."""
+        worker = self._worker
+        while self._answer is None and worker is not None and worker._sent and \
+                worker._conn.poll():
+            worker._receive()
+        return self._answer is not None
+
     def get(self) -> Any:
         """What the call returned, or the exception it raised, raised here."""
         while self._answer is None:

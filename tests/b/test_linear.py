@@ -113,7 +113,7 @@ def test_two_parameters_separable_boxes(on_a, on_b, state, point):
     except UnsupportedError:  # undecided: allowed over the reals, no float point tried
         #                       passed, and too many to try all — never where one does
         assert not any(evaluator_holds(m, state, {"a": x, "b": y}) for x, y in grid)
-        assert allowed._boxes()
+        assert allowed._boxes
         return
     if nearest is not None:
         assert evaluator_holds(m, state, nearest)

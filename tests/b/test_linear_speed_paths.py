@@ -212,7 +212,7 @@ def test_the_nearest_point_skipping_far_boxes_is_the_one_every_box_gives(text, p
     m = machine(text, "a, b")
     allowed = allowed_set(m, "Act", {"u": u, "v": 0.0})
     assert allowed.separable
-    boxes = allowed._boxes()
+    boxes = allowed._boxes
     p = {"a": point[0], "b": point[1]}
     best, best_d = None, math.inf  # every box, in order: the first of the nearest
     for box in boxes:

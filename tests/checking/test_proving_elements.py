@@ -171,6 +171,25 @@ def test_prove_with_the_environment_takes_its_action_space(capsys, tmp_path, acc
     assert code == 1 and "ACCELERATE allows a = " in out
 
 
+def test_a_guard_not_linear_with_linear_bounds_is_bounded(capsys, tmp_path):
+    """A new user's boat: `thrust >= -1.0 & thrust <= 1.0 & … & thrust * thrust + rudder *
+    rudder <= 1.0` bounds both parameters, yet prove warned that no action space bounds
+    them: the range of the guard's own conjuncts was dropped whole for the one not linear."""
+    shield = tmp_path / "disc.mch"
+    shield.write_text("""MACHINE Disc
+VARIABLES S
+INVARIANT S : REAL
+INITIALISATION S := 0.0
+OPERATIONS
+  STEER(t, r) = PRE t : REAL & r : REAL & t >= -1.0 & t <= 1.0 & r >= -1.0 &
+    t * t + r * r <= 1.0 & S + t <= 4.5 THEN skip END
+END""")
+    code, _, err = run(capsys, "prove", str(shield), "--deadlock-free")
+    assert code in (0, 1) and "Traceback" not in err
+    assert "warning: STEER.r is bounded by no action space" in " ".join(err.split())
+    assert "STEER.t" not in err  # r has no upper bound of its own; t has both
+
+
 def test_guards_with_the_environment_cut_the_allowed_set_to_its_action_space(capsys, tmp_path,
                                                                              acc_env):
     outside = write(tmp_path, OUTSIDE, "outside")

@@ -239,6 +239,31 @@ def test_a_guard_the_solver_cannot_take_is_refused_before_any_state():
         check_solvable(MACHINE, "Plain")
 
 
+def test_a_quantifier_over_literals_is_taken_before_any_state_as_in_each():
+    """A new user's boat: `!k.(k : 1..3 => Speed + real(k) * thrust <= 6.0)` was decided by
+    guards and replay (in a state) but refused by record before any episode: without a
+    state, the literals 1 and 3 stood for values the solver chooses. A range read from the
+    state still cannot be bound before one."""
+    boat = load_machine_text("""MACHINE Boat
+VARIABLES Speed, N
+INVARIANT Speed : REAL & N : INTEGER
+INITIALISATION Speed := 2.0 || N := 3
+OPERATIONS
+  Steer(t) = PRE t : REAL & t * t <= 1.0 & !k.(k : 1..3 => Speed + real(k) * t <= 6.0)
+    THEN skip END;
+  Stated(t) = PRE t : REAL & t * t <= 1.0 & !k.(k : 1..N => Speed + real(k) * t <= 6.0)
+    THEN skip END
+END""")
+    check_solvable(boat, "Steer")
+    allowed = solved_set(boat, "Steer", {"Speed": 2.0, "N": 3}, timeout_s=5.0)
+    assert allowed.contains({"t": 1.0}) and not allowed.contains({"t": 1.5})
+    with pytest.raises(UnsupportedError, match="a binding of k over a range the solver "
+                                               "chooses"):
+        check_solvable(boat, "Stated")
+    assert solved_set(boat, "Stated", {"Speed": 2.0, "N": 3}, timeout_s=5.0).contains(
+        {"t": 1.0})
+
+
 def test_a_state_value_that_is_not_finite_is_refused_with_its_name():
     with pytest.raises(InputError, match="Limit is inf, not a B real"):  # at the boundary
         _set("Square", Limit=math.inf)

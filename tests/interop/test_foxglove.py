@@ -313,3 +313,25 @@ def test_a_negative_varint_is_refused():
         b"\x00", b"\x7f", b"\x80\x01", b"\xff\x7f", b"\x80\x80\x01"]
     with pytest.raises(ValueError):
         _varint(-1)
+
+
+def test_channels_drawn_by_an_env_given_cross_to_spawned_workers():
+    """`record --env package.module:Class` draws its scene with that adapter, which the run's
+    header names but no later command imports; the factory made of the --env text pickles,
+    as a worker started by spawn needs (an adapter object does not, as a rule)."""
+    import pickle
+
+    from tracecheck.episodes.writer import new_header
+
+    header = new_header("recorded", environment="cruise", variables=["Gap", "Speed",
+                                                                     "LeadSpeed"],
+                        actions=["KEEP", "ACCEL", "BRAKE"])
+    step = StepRecord(1, 1.0, "KEEP", {"Gap": 20.0, "Speed": 10.0, "LeadSpeed": 11.0}, 0.0,
+                      False)
+    factory = pickle.loads(pickle.dumps(FoxgloveChannels.drawn_by("tests.live.toy:Cruise")))
+    drawn = dict(factory(header).messages(step, episode=0, stamp_ns=10**9,
+                                          previous_crashed=False))
+    assert drawn.get("/foxglove/scene")
+    by_name = dict(FoxgloveChannels(header).messages(step, episode=0, stamp_ns=10**9,
+                                                     previous_crashed=False))
+    assert "/foxglove/scene" not in by_name  # "cruise" is installed nowhere

@@ -175,6 +175,33 @@ def test_dict_observations_go_both_ways(capsys, tmp_path):
     assert _replay(capsys, back, "none") == _replay(capsys, recorded, "none")
 
 
+@pytest.mark.parametrize("row,said", [
+    ([0, 1, 0, 0.5, 7, 3], None),
+    ([0, 1, 0, 0.5, 0.25, 3], "the observation's number 0.25 at index 4 of its 6"),
+    ([0, 1, 0, 0.5, 300, 3], "the observation's number 300.0 at index 4 of its 6"),
+    ([0, 0.5, 0.5, 0.5, 7, 3], "the observation's number 0.5 at index 1 of its 6"),
+    ([0, 0, 0, 0.5, 7, 3], "the observation is not a value of the environment's"),
+    ([0, 1, 0, 2.0, 7, 3], "the observation is not a value of the environment's"),
+])
+def test_a_dict_observation_is_restored_exactly_or_refused(row, said):
+    """gymnasium's unflatten casts without a word (0.25 to a uint8 0, 300 to 44, a one-hot
+    of halves to its first): what would be written is flattened again and compared."""
+    from gymnasium import spaces
+
+    from tracecheck.errors import InputError
+    from tracecheck.interop.minari import _unflattened
+
+    space = spaces.Dict({"cell": spaces.Discrete(3, start=2), "f": spaces.Box(0.0, 1.0, (1,)),
+                         "img": spaces.Box(0, 255, (2,), np.uint8)})
+    if said is None:
+        got = _unflattened(np.array(row, dtype=float), space, "run, episode 0, step 1")
+        assert got["cell"] == 3 and got["f"].tolist() == [0.5] and got["img"].tolist() == [7, 3]
+        return
+    with pytest.raises(InputError) as info:
+        _unflattened(np.array(row, dtype=float), space, "run, episode 0, step 1")
+    assert info.value.message.startswith("run, episode 0, step 1: " + said)
+
+
 @pytest.mark.filterwarnings("ignore::UserWarning")
 @pytest.mark.parametrize("actions,space,message", [
     ([0.5, 0.75], "box", "the action [0.5] is not an action index"),

@@ -257,6 +257,10 @@ def test_adapters_by_name_and_by_path():
     ("tests.live.toy:Corridorr", "the module tests.live.toy has no 'Corridorr'",
      "its adapters: ByteCorridor, Corridor, Cruise, DictCorridor"),
     ("json:Decoder", "the module json has no 'Decoder'", "it defines no EnvAdapter subclass"),
+    ("drone_adapter.py", "unknown environment 'drone_adapter.py'",
+     "--env takes a module's name, not a file: --env drone_adapter:YourAdapter"),
+    ("my_envs/drone.py:Drone", "--env 'my_envs/drone.py:Drone' is not an adapter",
+     "for the file my_envs/drone.py: --env drone:Drone with PYTHONPATH=my_envs"),
 ])
 def test_a_mistyped_adapter_says_what_it_would_be(spec, said, hint):
     """A new user's --env mistakes: a dot for the colon, the file's name, the folder not on

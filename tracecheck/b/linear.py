@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
-from functools import cached_property
+from functools import cached_property, reduce
 from typing import Any, Callable, Mapping, Optional
 
 from .cache import Cache
@@ -42,9 +42,8 @@ from . import ast
 from .bindings import conjuncts
 from .memo import MEMO_KEY, fresh
 from .polytope import (Constraint, Form, Interval, bound_constraint, box_constraints, box_of,
-                       box_within,
-                       constraint_of, distance_to, exact, form_add, form_constant, form_neg,
-                       form_times, gap, inner_point, interval_of, merge_intervals,
+                       box_within, constraint_of, distance_to, exact, form_add, form_constant,
+                       form_neg, form_times, gap, inner_point, interval_of, merge_intervals,
                        nearest_in_boxes, nearest_point, towards)
 
 __all__ = ["Constraint", "AllowedSet", "Interval", "allowed_set", "real_parameters",
@@ -107,7 +106,7 @@ class AllowedSet:
             return {self.params[0]: self.intervals or ()}
         if not self.separable:
             return None
-        boxes = self._boxes()
+        boxes = self._boxes
         if not boxes:
             return {p: () for p in self.params}
         # a union is drawn where one of its boxes holds the others (a guard's "any
@@ -128,7 +127,7 @@ class AllowedSet:
                     "polytope over several parameters), but tracecheck found no float point "
                     "it accepts, nor can it say there is none")
             return found
-        for box in self._boxes():  # a point well inside a box first: one evaluation
+        for box in self._boxes:  # a point well inside a box first: one evaluation
             inner = {p: inner_point(box[p], 0.0) for p in self.params}
             if all(box[p].contains(inner[p]) for p in self.params) and \
                     self.contains(inner):
@@ -160,7 +159,7 @@ class AllowedSet:
         takes its fallback. Polytopes that are not boxes: :mod:`.polytope`."""
         if not self.separable:
             return nearest_point(self, point, scale)
-        return nearest_in_boxes(self, self._boxes(), point, scale)
+        return nearest_in_boxes(self, self._boxes, point, scale)
 
     def distance(self, point: Mapping[str, Any]) -> Optional[float]:
         """How far ``point`` lies from the allowed set over the reals (Euclidean, to the
@@ -169,7 +168,7 @@ class AllowedSet:
         if not self.separable:
             return distance_to(self, point)
         at = {p: exact(point[p], p) for p in self.params}
-        boxes = self._boxes()
+        boxes = self._boxes
         if not boxes:
             return None
         if len(self.params) == 1:  # the gap itself, rounded once
@@ -178,13 +177,10 @@ class AllowedSet:
         return math.sqrt(min(sum((gap(at[p], box[p]) ** 2 for p in self.params),
                                  Fraction(0)) for box in boxes))
 
+    @cached_property
     def _boxes(self) -> list[dict]:
         """The non-empty boxes of a separable set (each parameter's interval), in the order
         of its polytopes (computed once: nearest, witness and bands all ask)."""
-        return self._box_list
-
-    @cached_property
-    def _box_list(self) -> list[dict]:
         return [b for b in (box_of(part, self.params) for part in self.parts)
                 if b is not None and not any(i.empty for i in b.values())]
 
@@ -198,7 +194,7 @@ class AllowedSet:
             shown = " ∪ ".join(str(i) for i in self.intervals or ())
             return f"{self.params[0]} ∈ {shown or '∅'}"
         if self.separable:
-            boxes = [" × ".join(str(box[p]) for p in self.params) for box in self._boxes()]
+            boxes = [" × ".join(str(box[p]) for p in self.params) for box in self._boxes]
             return f"({', '.join(self.params)}) ∈ {' ∪ '.join(boxes) or '∅'}"
         return f"({', '.join(self.params)}): {len(self.parts)} polytope(s)"
 
@@ -279,17 +275,25 @@ class _Missing(Exception):
 def parameter_range(machine, op_name: str) -> Optional[AllowedSet]:
     """What the conjuncts of ``op_name``'s guard that read only its parameters allow
     (``a >= -4.0 & a <= 2.0``), in every state alike: checked against an action space's
-    bounds before any episode. None when it has no such conjunct."""
+    bounds before any episode. One not linear in them (``a * a <= 1.0``) is left out: the
+    range holds every value the guard allows, and more. None when no such one is linear."""
     op = machine.operation(op_name)
-    own = [c for c in conjuncts(op.guard) if ast.free_names(c) <= set(op.params)]
+    own = [c for c in conjuncts(op.guard) if ast.free_names(c) <= set(op.params)
+           and _linear_conjunct(machine, op, c)]
     if not own:
         return None
-    node = own[0]
-    for c in own[1:]:
-        node = ast.And(node, c, pos=c.pos)
-    lin = _Linearizer(set(op.params), machine.compiler(), machine.source).compile(node)
-    parts = lin.run(fresh(machine.base_env))
+    node = reduce(lambda left, c: ast.And(left, c, pos=c.pos), own)
+    parts = _Linearizer(set(op.params), machine.compiler(), machine.source).compile(
+        node).run(fresh(machine.base_env))
     return AllowedSet(tuple(op.params), tuple(tuple(p) for p in parts))
+
+
+def _linear_conjunct(machine, op, conjunct: ast.Node) -> bool:
+    try:
+        _Linearizer(set(op.params), machine.compiler(), machine.source).compile(conjunct)
+    except UnsupportedError:
+        return False
+    return True
 
 
 def linear_form(machine, op_name: str) -> Callable[[dict], list]:

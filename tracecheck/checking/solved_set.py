@@ -511,14 +511,18 @@ class _GuardTranslator(Translator):
     def fixed(self, node: ast.Node) -> Any:
         """The translation of a sub-formula without parameters (:data:`_NO`: translate it
         as usual); one not well-defined in the state is a fresh variable and makes the
-        guard not well-defined where it is reached."""
-        if self.env is None:
-            return self.opaque(node)
+        guard not well-defined where it is reached. Without a state, one that reads a name
+        is a fresh variable of its type, one of literals alone (``1..3``) its value."""
+        env = self.env
+        if env is None:  # before any state: what reads a name may be any value of its type,
+            if ast.free_names(node, self.names):  # a formula of literals is its value
+                return self.opaque(node)
+            env = {}
         machine = self.machine
         try:
             fn = machine.cached(_STATE_PARTS, node,
                                 lambda: machine.compiler().compile(node))
-            value = fn(self.env)
+            value = fn(env)
         except WellDefinednessError:
             made = self.opaque(node)
             if made is not _NO:

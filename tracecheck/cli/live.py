@@ -160,11 +160,9 @@ def record_cmd(
     import time as _time
 
     from ..interop.foxglove import FoxgloveChannels
-    from ..live.adapter import load_adapter
     from ..live.record import record
 
     settings = record_settings(run, episodes)
-    adapter = load_adapter(settings.env)  # it draws the scene, installed or not
     output, force, shield = run.output, run.force, run.shield
     stats = {"crashes": 0, "steps": 0, "episodes": 0}
     existed = output.exists()
@@ -182,7 +180,7 @@ def record_cmd(
 
         try:
             n, steps, crashes = record(settings, output, report, force=force,
-                                       channels=FoxgloveChannels.drawn_by(adapter))
+                                       channels=FoxgloveChannels.drawn_by(settings.env))
         except KeyboardInterrupt:
             err.print(f"interrupted: {output} keeps every finished episode" if stats["episodes"]
                       else f"interrupted before an episode was finished: {output} was not "

@@ -61,7 +61,6 @@ def falsify_cmd(
     under its shield violates a property, with an optimiser (TPE, CMA-ES, Halton, random);
     every evaluation is a recorded episode that replays and re-simulates."""
     from ..interop.foxglove import FoxgloveChannels
-    from ..live.adapter import load_adapter
     from ..render.emit import emit
     from ..render.falsify_text import FalsifyOutput
     from ..search.falsify import FalsifySettings, falsify
@@ -100,8 +99,7 @@ def falsify_cmd(
 
         try:
             result = falsify(settings, run.output, report, force=run.force,
-                             channels=FoxgloveChannels.drawn_by(
-                                 load_adapter(settings.record.env)))
+                             channels=FoxgloveChannels.drawn_by(settings.record.env))
         except KeyboardInterrupt:
             err.print(f"interrupted: {run.output} keeps every finished episode"
                       if seen["episodes"] else

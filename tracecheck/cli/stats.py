@@ -106,13 +106,12 @@ def simulate_cmd(
     settings = record_settings(run, episodes)
     from ..stats.formulas import adapter_set
 
-    adapter = resolve(settings)[0]
-    pset = load_properties(properties) if properties else adapter_set(adapter)
+    pset = load_properties(properties) if properties else adapter_set(resolve(settings)[0])
     with progress("simulating", episodes) as advance:
         result = simulate(settings, run.output, pset, until_width=until_ci_width,
                           force=run.force, inputs=input_paths(properties),
                           progress=lambda ep: advance(),
-                          channels=FoxgloveChannels.drawn_by(adapter))
+                          channels=FoxgloveChannels.drawn_by(settings.env))
     _print_simulation(result, fmt)
 
 

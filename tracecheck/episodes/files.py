@@ -32,9 +32,10 @@ def check_run_output(path: str | Path, inputs: Sequence[Path] = (), *,
     return check_output(Path(path), inputs, force=force, example="run.mcap")
 
 
-#: episodes being encoded elsewhere at once, per worker that encodes: enough that while the
-#: writer waits for the oldest, every worker has been asked for more (8 in all left each of
-#: two workers idle a sixth of a grid-world recording, waiting for the writer's next call)
+#: episodes being encoded elsewhere at once, per worker that encodes (a recording's and a
+#: simulation's; an import's pool, this many in all), before the writer waits for the
+#: oldest: waiting for it while 8 in all were, each of two workers sat idle a sixth of a
+#: grid-world recording, for the writer's next call
 AHEAD = 64
 
 
@@ -174,6 +175,11 @@ def record_episodes(path: str | Path, header: RunHeaderMessage, episodes: Iterab
     return counts[0], counts[1], counts[2]
 
 
+def _ready(handle) -> bool:
+    ready = getattr(handle, "ready", None)
+    return ready is not None and ready()
+
+
 def prepared_episodes(writer: EpisodeWriter, episodes: Iterable[Episode], encode=None,
                       ahead: int = AHEAD
                       ) -> Iterator[tuple[Episode, Optional[EncodedEpisode]]]:
@@ -181,8 +187,10 @@ def prepared_episodes(writer: EpisodeWriter, episodes: Iterable[Episode], encode
     (``encode(episode, context)``: a handle whose ``get()`` gives it, made elsewhere) for
     the context it will be written in — each episode's from the one before: its start time
     (:func:`clock_after`) and the action names (:func:`actions_after`); None without
-    ``encode`` (the writer encodes it). At most ``ahead`` episodes are being encoded at
-    once (:data:`AHEAD` times the workers that encode)."""
+    ``encode`` (the writer encodes it). Each is given as soon as its encoding has come (a
+    handle's ``ready()``, where it has one), and at most ``ahead`` are being encoded at
+    once (:data:`AHEAD` times the workers that encode): beyond that the oldest is waited
+    for."""
     if encode is None:
         yield from ((episode, None) for episode in episodes)
         return
@@ -206,7 +214,7 @@ def prepared_episodes(writer: EpisodeWriter, episodes: Iterable[Episode], encode
         waiting.append((episode, encode(episode, context)))
         context = replace(context, clock_ns=clock_after(context.clock_ns, episode),
                           actions=actions_after(context.actions, episode))
-        if len(waiting) > ahead:
+        while waiting and (len(waiting) > ahead or _ready(waiting[0][1])):
             done, handle = waiting.popleft()
             yield done, handle.get()
     while waiting:

@@ -334,11 +334,16 @@ class FoxgloveChannels:
     @classmethod
     def drawn_by(cls, adapter) -> Callable[[Any], "FoxgloveChannels"]:
         """The channels of a run whose episodes ``adapter`` runs (a factory of a header, as
-        the writer takes it): its scene and plots even where the adapter is not installed
-        (``--env package.module:Class``), as the header's name alone would not find it."""
+        the writer takes it): its scene and plots even where the adapter is not installed,
+        as the header's name alone would not find it. ``adapter``: the ``--env`` given (an
+        installed name or ``package.module:Class``, loaded where the channels are made: it
+        crosses to workers started by spawn, where an adapter object may not pickle), or
+        the adapter itself."""
+        if isinstance(adapter, str):
+            return functools.partial(cls, env=adapter)
         return functools.partial(cls, adapter=adapter)
 
-    def __init__(self, header, adapter=None) -> None:
+    def __init__(self, header, adapter=None, env: Optional[str] = None) -> None:
         import orjson
 
         from ..render.scene import scene_adapter, scene_drawer
@@ -356,6 +361,10 @@ class FoxgloveChannels:
         self.schemas = {name: published.get(name) or orjson.dumps(schema)
                         for name, schema in SCHEMAS.items()}
         self.schema_encodings = {name: "protobuf" for name in published}
+        if adapter is None and env is not None:  # the --env given: the command line's
+            from ..live.adapter import load_adapter
+
+            adapter = load_adapter(env)
         if adapter is None:  # the installed one the run names, looked up once
             adapter = scene_adapter(header.environment, tuple(header.variables or ()))
         self.topics = {**TOPICS, **plot_topics(adapter), **continuous_topics(header)}

@@ -171,14 +171,22 @@ def _unflattened(value: np.ndarray, space, where: str):
         raise InputError(f"{where}: an observation of {flat.size} number(s) does not fit the "
                          f"environment's {space}, {spaces.flatdim(space)} flattened (was it "
                          "recorded with another configuration?)")
-    try:
+    hint = "was it recorded with another environment or configuration?"
+    try:  # gymnasium casts as it unflattens (0.25 to a uint8 0): flattened again, the same
         restored = spaces.unflatten(space, flat)
-        fits = space.contains(restored)
-    except Exception:  # noqa: BLE001 - gymnasium's: a one-hot part that is not one
-        fits = False
-    if not fits:
-        raise InputError(f"{where}: the observation {flat.tolist()!r} is not the flattened "
-                         f"value of the environment's observation space {space}")
+        differs = np.flatnonzero(np.asarray(spaces.flatten(space, restored),
+                                            dtype=np.float64) != flat)
+    except Exception:  # noqa: BLE001 - gymnasium's: a one-hot part with no 1 in it
+        restored = differs = None
+    if restored is None or not space.contains(restored):
+        raise InputError(f"{where}: the observation is not a value of the environment's "
+                         f"observation space {str(space)[:200]}", hint=hint)
+    if differs.size:
+        at = int(differs[0])
+        raise InputError(f"{where}: the observation's number {flat[at].item()!r} at index "
+                         f"{at} of its {flat.size} (as gymnasium flattens the environment's "
+                         f"{str(space)[:200]}) is not a value that space holds there",
+                         hint=hint)
     return restored
 
 

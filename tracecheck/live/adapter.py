@@ -409,13 +409,9 @@ def get_adapter(name: Optional[str]) -> EnvAdapter:
                          "package.module:Class", hint="tracecheck envs lists them")
     ep = registry.entry_points().get(name)
     if ep is None:
-        module, dot, attr = name.rpartition(".")
-        path_like = dot and _SPEC.fullmatch(f"{module}:{attr}") is not None
         raise InputError(f"unknown environment {name!r}; the installed ones are "
                          f"{', '.join(sorted(registry.entry_points()))}",
-                         hint=f"an adapter in a module of yours is --env {module}:{attr} (a "
-                              "colon before the class)" if path_like else
-                              "give your own adapter as --env package.module:Class")
+                         hint=_name_hint(name))
     try:
         loaded = ep.load()
     except USERS as exc:  # noqa: BLE001 - the plug-in's own code
@@ -445,9 +441,15 @@ def load_adapter(spec: Optional[str]) -> EnvAdapter:
     if spec is None or ":" not in spec:
         return get_adapter(spec)
     if not _SPEC.fullmatch(spec):
+        path, _, attr = spec.partition(":")
+        folder, _, file = path.replace("\\", "/").rpartition("/")
+        module = file[:-3] if file.endswith(".py") else file
         raise InputError(f"--env {spec!r} is not an adapter: give an installed one's name "
                          f"({', '.join(sorted(registry.entry_points()))}) or package.module:Class, "
-                         "e.g. my_envs.corridor:Corridor")
+                         "e.g. my_envs.corridor:Corridor",
+                         hint=f"for the file {path}: --env {module}:{attr or 'YourAdapter'} "
+                              f"with PYTHONPATH={folder or '.'}"
+                         if "/" in path or path.endswith(".py") else None)
     module_name, _, attr = spec.partition(":")
     try:
         module = importlib.import_module(module_name)
@@ -466,6 +468,20 @@ def load_adapter(spec: Optional[str]) -> EnvAdapter:
                          hint=f"its adapters: {', '.join(found)}" if found else
                          "it defines no EnvAdapter subclass (see docs/environments.md)")
     return _instance(cls, spec)
+
+
+def _name_hint(name: str) -> str:
+    """What an unknown ``--env`` name would be as an adapter of the user's own module."""
+    stem = name[:-3] if name.endswith(".py") else None
+    if "/" in name or "\\" in name or (stem is not None and "." not in stem):
+        module = (stem or name).replace("\\", "/").rstrip("/").split("/")[-1]
+        return (f"--env takes a module's name, not a file: --env {module}:YourAdapter, with "
+                "the module's folder on PYTHONPATH")
+    module, dot, attr = name.rpartition(".")
+    if dot and _SPEC.fullmatch(f"{module}:{attr}"):
+        return f"an adapter in a module of yours is --env {module}:{attr} (a colon before " \
+               "the class)"
+    return "give your own adapter as --env package.module:Class"
 
 
 def _import_hint(module_name: str, attr: str, exc: ImportError) -> Optional[str]:

@@ -35,9 +35,11 @@ _SESSION: Optional[Session] = None
 #: ran 1.5x faster in tasks of 64 episodes than one by one), few enough that a finished
 #: episode is soon written
 LOCAL_BATCH = 8
-#: batches of episodes given to each local worker at once (while the writer waits for
-#: one episode's encoding, every worker has episodes to run)
-LOCAL_IN_FLIGHT = 8
+#: batches of episodes given to each local worker at once: enough that none waits for the
+#: writer's next (as the writer writes each episode once encoded and waits for an encoding
+#: only far behind, see :func:`~tracecheck.episodes.files.prepared_episodes`), few enough
+#: that a simulation stopped early has not run many more (4 left a worker idle no less)
+LOCAL_IN_FLIGHT = 2
 _FAILED: Optional[BaseException] = None
 
 
