@@ -198,9 +198,13 @@ class Worker:
     @property
     def busy(self) -> int:
         """The calls not yet answered."""
+        self._received()
+        return len(self._sent)
+
+    def _received(self) -> None:
+        """The answers that have come read, without waiting for more."""
         while self._sent and self._conn.poll():
             self._receive()
-        return len(self._sent)
 
     def _receive(self) -> None:
         handle, size = self._sent[0]
@@ -279,10 +283,8 @@ class Call:
 
     def ready(self) -> bool:
         """Whether the answer has come (read without waiting, with the answers before it)."""
-        worker = self._worker
-        while self._answer is None and worker is not None and worker._sent and \
-                worker._conn.poll():
-            worker._receive()
+        if self._answer is None and self._worker is not None:
+            self._worker._received()
         return self._answer is not None
 
     def get(self) -> Any:
