@@ -255,7 +255,7 @@ def test_adapters_by_name_and_by_path():
     ("my_drone:Drone", "cannot import the adapter module 'my_drone'",
      "put the folder that holds my_drone.py (or the package my_drone/) on PYTHONPATH"),
     ("tests.live.toy:Corridorr", "the module tests.live.toy has no 'Corridorr'",
-     "its adapters: ByteCorridor, Corridor, Cruise, DictCorridor"),
+     "its adapters: BrokenCorridor, ByteCorridor, Corridor, Cruise"),
     ("json:Decoder", "the module json has no 'Decoder'", "it defines no EnvAdapter subclass"),
     ("drone_adapter.py", "unknown environment 'drone_adapter.py'",
      "--env takes a module's name, not a file: --env drone_adapter:YourAdapter"),

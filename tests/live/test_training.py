@@ -316,6 +316,23 @@ def test_an_agent_trained_on_dict_observations_records_them_flattened(capsys, tm
                                        [np.float32(cell / 5).item(), 0.5]]
 
 
+def test_an_environment_that_cannot_reset_is_said_by_record_and_train(capsys, tmp_path):
+    """A new user's warehouse whose reset() raised: record under a shield (its first state
+    tried against the shield) and train without one ended in a traceback."""
+    shield = tmp_path / "corridor.mch"
+    shield.write_text(SHIELD)
+    table = tmp_path / "q.npy"
+    np.save(table, np.zeros((6, 2)))
+    broken = "tests.live.toy:BrokenCorridor"
+    for args in (("record", "--env", broken, "--agent", str(table), "--shield", str(shield),
+                  "-n", "1", "-o", str(tmp_path / "run.mcap")),
+                 ("train", "--env", broken, "--algorithm", "ppo", "--steps", "64", "-o",
+                  str(tmp_path / "a.zip"))):
+        code, _, err = run(capsys, *args)
+        assert code == 2 and "Traceback" not in err, err
+        assert "raised RuntimeError in reset(): lidar not connected" in err, err
+
+
 @pytest.mark.parametrize("shield", ["none", "cruise"])
 def test_a_nan_observation_names_the_episode_step_and_variable(capsys, tmp_path, shield):
     """Issue 42: under a shield "the real result is out of range (overflow) in `W - M - X`",

@@ -321,3 +321,17 @@ class DictCorridor(Corridor):
 
     def crashed(self, obs, reward: float, terminated: bool, info: dict) -> bool:
         return bool(terminated) and int(obs["cell"]) == 0
+
+
+class _BrokenCorridorEnv(CorridorEnv):
+    def reset(self, *, seed: Optional[int] = None, options=None):
+        raise RuntimeError("lidar not connected")
+
+
+class BrokenCorridor(Corridor):
+    """The corridor whose environment cannot reset (a sensor that is not there)."""
+
+    name = "brokencorridor"
+
+    def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
+        return _BrokenCorridorEnv(**config)

@@ -231,7 +231,7 @@ def check_vocabulary(shield: Shield, adapter, env) -> None:
             raise InputError(f"the guard of {name} in {shield.name} reads {missing[0]}, which "
                              f"the environment {adapter.name} never gives (it gives "
                              f"{', '.join(adapter.variables)})")
-    obs, info = env.reset(seed=0)
+    obs, info = adapter.reset(env, 0)  # the hook: an exception in it is said as the adapter's
     state = adapter.observer(env).state(obs, dict(info, crashed=False), 0.0, True)
     where = f"state() of the adapter {adapter.name} (the first state)"
     unset = [v for v in adapter.variables if v not in state]

@@ -319,7 +319,7 @@ def _vec_env(adapter, config: dict, shield, horizon: int, penalty: float = 0.0, 
     def make():
         env = Monitor(TimeLimit(adapter.make_env(config), max_episode_steps=horizon))
         if shield is None:
-            return env
+            return _said(env, adapter.name)
         from .wrapper import ShieldWrapper
 
         shielded = ShieldWrapper(env, shield, adapter=adapter, mode=mode, scale=scale)
@@ -334,6 +334,34 @@ def _vec_env(adapter, config: dict, shield, horizon: int, penalty: float = 0.0, 
                          f"{len(adapter.actions)} discrete actions, one per action of the "
                          f"adapter ({', '.join(adapter.actions)})")
     return vec
+
+
+def _said(env, name: str):
+    """``env`` with an exception of its ``reset`` or ``step`` said as the adapter ``name``'s
+    (:func:`~tracecheck.live.adapter_checks.raised`: exit 2, no traceback), as the shield's
+    wrapper says it."""
+    import gymnasium as gym
+
+    from ..errors import TracecheckError
+    from .adapter_checks import USERS, raised
+
+    class Said(gym.Wrapper):
+        def reset(self, **kwargs):
+            try:
+                return self.env.reset(**kwargs)
+            except TracecheckError:
+                raise
+            except USERS as exc:  # noqa: BLE001 - the environment's own code
+                raise raised(name, exc, "in reset()") from exc
+
+        def step(self, action):
+            try:
+                return self.env.step(action)
+            except TracecheckError:
+                raise
+            except USERS as exc:  # noqa: BLE001 - the environment's own code
+                raise raised(name, exc, "in step()") from exc
+    return Said(env)
 
 
 def _space(adapter, config: dict):
