@@ -180,6 +180,46 @@ def test_only_operations_with_real_parameters():
         allowed_set(m, "Go", {"u": 0.0, "v": 0.0})
 
 
+@pytest.mark.parametrize("rudder", ["rudder >= -1.0 & rudder <= 1.0",  # REAL by its use
+                                    "rudder : INTEGER & rudder >= -1 & rudder <= 1"])
+def test_an_operation_typing_some_parameters_real_is_refused_naming_the_others(rudder):
+    """REAL parameters beside untyped or INTEGER ones: the enabled set is refused, state
+    by state and in batch, naming the parameter not typed REAL (it had named the REAL
+    one, "cannot enumerate thrust … its bound -1.0 is not an integer")."""
+    from tracecheck.b import Columns
+
+    m = load_machine_text(f"""MACHINE Boat
+VARIABLES x
+INVARIANT x : REAL
+INITIALISATION x := 0.0
+OPERATIONS
+  FIRE(thrust, rudder) = PRE thrust : REAL & thrust >= -1.0 & thrust <= 1.0 &
+      {rudder} & x + thrust < 5.0 THEN x := x + thrust END;
+  STOP = skip
+END""", file="boat.mch")
+    assert not real_parameters(m.operation("FIRE"))
+    said = ("boat.mch:6:30: FIRE(thrust, rudder) types thrust REAL in its guard but not "
+            "rudder: tracecheck decides an operation's REAL parameters as a continuous "
+            "action only when its guard types every parameter so")
+    for enabled in (lambda: m.enabled({"x": 0.0}),
+                    lambda: m.enabled_batch(Columns.from_states([{"x": 0.0}]))):
+        with pytest.raises(UnsupportedError) as e:
+            enabled()
+        assert str(e.value).startswith(said)
+        assert e.value.hint == ("add `rudder : REAL` to the guard of FIRE, or make rudder "
+                                "the parameters of another operation")
+    assert m.enabled_batch(Columns.from_states([]))["STOP"].shape == (0,)
+    fixed = load_machine_text("""MACHINE M
+VARIABLES x
+INVARIANT x : REAL
+INITIALISATION x := 0.0
+OPERATIONS SET(a, n) = PRE a : REAL & a = 0.5 & n : 0..2 & x + a < 1.0 THEN skip END
+END""")  # a REAL parameter the guard fixes is enumerated, as before
+    assert fixed.enabled({"x": 0.0}) == {"SET"} and fixed.enabled({"x": 0.7}) == set()
+    assert fixed.enabled_batch(Columns.from_states([{"x": 0.0}, {"x": 0.7}]))["SET"].tolist() \
+        == [True, False]
+
+
 ACC = '''MACHINE Acc
 VARIABLES Gap, Speed
 INVARIANT Gap : REAL & Speed : REAL

@@ -415,3 +415,21 @@ def test_recorded_values_of_a_parameter_not_typed_real_are_refused(tmp_path, run
     for pair in ((integer, load_shield(path)), (acc_shield(tmp_path), integer)):
         with pytest.raises(InputError, match="does not type it REAL"):
             diff([run_file], *pair)
+
+
+@pytest.mark.parametrize("command", ["replay", "diff"])
+def test_a_shield_typing_only_some_parameters_real_is_refused_naming_the_others(
+        tmp_path, capsys, command):
+    shield = tmp_path / "boat.mch"
+    shield.write_text(ACC.replace("ACCELERATE(a) = PRE a : REAL & a >= -4.0",
+                                  "ACCELERATE(a, r) = PRE a : REAL & r >= 0.0 & a >= -4.0"))
+    path = tmp_path / "boat.mcap"
+    write_run(path, new_header("recorded", variables=["Gap", "Speed"], actions=ACTIONS,
+                               action_parameters={"ACCELERATE": ["a", "r"]}),
+              [make(0, s(50.0, 20.0), [("ACCELERATE", {"a": 1.0, "r": 0.5}, s(49.0, 21.0))])])
+    against = ("--against", str(shield)) if command == "diff" else ()
+    code, _, err = run(capsys, command, str(path), "--shield", str(shield), *against)
+    assert code == 2
+    assert "boat.mch:6:" in err and "ACCELERATE(a, r) types a REAL in its guard but not r" in err
+    assert "hint: add `r : REAL` to the guard of ACCELERATE" in err
+    assert "cannot enumerate" not in err and "Traceback" not in err

@@ -173,8 +173,10 @@ INVARIANT Gap : REAL & EgoSpeed : REAL & LeadSpeed : REAL
 INITIALISATION Gap, EgoSpeed, LeadSpeed := 1.0, 1.0, 1.0
 OPERATIONS ACCELERATE(a) = PRE a >= -4.0 THEN skip END
 END""")
-    with pytest.raises(InputError, match=r"must type each parameter REAL in its guard"):
+    with pytest.raises(InputError, match=r"must type each parameter REAL in its guard to "
+                                         r"take a continuous action; it does not type a") as e:
         _shield(machine=untyped)
+    assert e.value.hint == "add `a : REAL` to its guard (PRE a : REAL & …)"
     with pytest.raises(InputError, match=r"--scale takes 1 positive number\(s\)"):
         _shield(scale=(0.0,))
 

@@ -164,3 +164,25 @@ def test_ltl_without_the_adapters_machine_names_the_attribute(tmp_path, capsys):
 def test_load_properties_generic():
     assert load_properties("generic") is GENERIC_SET
     assert with_generic(None) is GENERIC_SET
+
+
+def test_a_share_metrics_interval_is_cut_to_0_1():
+    """A t-interval of a share near 0 over few episodes reaches below 0: it is cut to the
+    share's range, and its method says so (a mean of shares is never negative)."""
+    from tracecheck.stats.estimates import _metric_stats
+
+    share = next(m for m in GENERIC_SET.metrics if m.aggregate == "interventions")
+    out = _metric_stats(np.array([0.0, 0.0, 0.0, 0.5]), share)
+    assert out["mean"] == pytest.approx(0.125)
+    assert out["ci95"][0] == 0.0 and out["ci95"][1] == pytest.approx(0.125 + 0.397809, abs=1e-5)
+    assert out["method"] == "t, cut to the metric's range [0, 1]"
+    near_one = _metric_stats(np.array([1.0, 1.0, 1.0, 0.5]), share)
+    assert near_one["ci95"][1] == 1.0 and near_one["ci95"][0] < 0.875
+    inside = _metric_stats(np.array([0.4, 0.5, 0.6]), share)  # within: as it was
+    assert inside["method"] == "t" and 0.0 < inside["ci95"][0] < inside["ci95"][1] < 1.0
+    steps = next(m for m in GENERIC_SET.metrics if m.aggregate == "steps")
+    few = _metric_stats(np.array([1.0, 1.0, 1.0, 30.0]), steps)
+    assert few["ci95"][0] == 0.0 and few["method"] == "t, cut to the metric's range >= 0"
+    ret = _metric_stats(np.array([1.0, 1.0, 1.0, 30.0]), next(
+        m for m in GENERIC_SET.metrics if m.aggregate == "return"))
+    assert ret["ci95"][0] < 0.0 and ret["method"] == "t"  # a return has no such range

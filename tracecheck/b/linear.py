@@ -47,7 +47,7 @@ from .polytope import (Constraint, Form, Interval, bound_constraint, box_constra
                        nearest_in_boxes, nearest_point, towards)
 
 __all__ = ["Constraint", "AllowedSet", "Interval", "allowed_set", "real_parameters",
-           "parameter_range", "guard_with_parameters", "linear_form"]
+           "real_typed", "parameter_range", "guard_with_parameters", "linear_form"]
 
 #: per machine and operation: whether it has REAL parameters, its guard's linear form, the
 #: guard with what reads only the state named, and the guard with its parameters bound
@@ -200,14 +200,14 @@ class AllowedSet:
 
 
 def real_parameters(op) -> bool:
-    """Whether every parameter of ``op`` is typed REAL by a conjunct ``p : REAL`` of its
-    guard (the operations :func:`allowed_set` is for)."""
-    if not op.params or op.guard is None:
-        return False
-    typed = {c.left.id for c in conjuncts(op.guard)
-             if isinstance(c, ast.Rel) and c.op == ":" and isinstance(c.left, ast.Name)
-             and isinstance(c.right, ast.Name) and c.right.id in ("REAL", "FLOAT")}
-    return set(op.params) <= typed
+    """Whether every parameter of ``op`` is typed REAL (:func:`real_typed`)."""
+    return bool(op.params) and set(op.params) <= real_typed(op)
+
+
+def real_typed(op) -> frozenset[str]:
+    """The parameters of ``op`` a conjunct ``p : REAL`` of its guard types."""
+    found = conjuncts(op.guard) if op.guard is not None else []
+    return frozenset(c.left.id for c in found if isinstance(c, ast.Rel) and _typing(c))
 
 
 def allowed_set(machine, op_name: str, state: Optional[Mapping[str, Any]] = None, *,

@@ -25,7 +25,7 @@ from .bindings import conjuncts
 from .cache import Cache
 from .constants import setup_constants
 from .evaluation import Compiler
-from .linear import real_parameters
+from .linear import real_parameters, real_typed
 from .machine_batch import BatchQuestions
 from ..limits import deep_recursion
 from .parser import MachineSource, parse_formula, parse_machine_source
@@ -236,8 +236,23 @@ class Machine(BatchQuestions):
                     fns[op.name] = self._real_guard(op.name)
                     continue
                 fns[op.name] = comp.compile(guard) if guard is not None else (lambda env: True)
+                if real_typed(op):  # REAL parameters beside others: enumerated where it can
+                    fns[op.name] = self.mixed(op, fns[op.name])
             self._compiled["guards"] = fns
         return fns
+
+    def mixed(self, op: Operation, fn: Callable[[Any], Any]) -> Callable[[Any], Any]:
+        """``fn`` (evaluating the guard of ``op``, which types some of its parameters REAL
+        but not all) raising, where it cannot enumerate a parameter, why (see
+        :func:`mixed_parameters`) instead of naming that parameter alone."""
+        def guard(*args: Any) -> Any:
+            try:
+                return fn(*args)
+            except EvaluationError as exc:  # (a batch's says the state first)
+                if "cannot enumerate " not in exc.message:
+                    raise
+                raise mixed_parameters(op, self.file, self.source) from exc
+        return guard
 
     def _real_guard(self, name: str) -> Callable[[dict], bool]:
         return lambda env: self.allowed_in(name, env).witness() is not None
@@ -590,3 +605,21 @@ def _check_names(src: MachineSource) -> None:
                               line=pos.line if pos else None,
                               column=pos.column if pos else None)
         seen[name] = what
+
+
+def mixed_parameters(op: Operation, file: Optional[str] = None,
+                     source: Optional[str] = None) -> UnsupportedError:
+    """Why ``op``, whose guard types some parameters ``p : REAL`` but not the others, has
+    no enabled set tracecheck can decide where it cannot enumerate them: a REAL one is no
+    finite set to walk (unless the guard fixes it, ``a = 0.5``), and only an operation
+    whose every parameter is typed REAL is a continuous action."""
+    reals = [p for p in op.params if p in real_typed(op)]
+    others = [p for p in op.params if p not in reals]
+    pos = op.guard.pos if op.guard is not None else None
+    return UnsupportedError(
+        f"{op.name}({', '.join(op.params)}) types {', '.join(reals)} REAL in its guard but "
+        f"not {', '.join(others)}: tracecheck decides an operation's REAL parameters as a "
+        "continuous action only when its guard types every parameter so",
+        file=file, line=pos.line if pos else None, column=pos.column if pos else None,
+        source=source, hint=f"add `{others[0]} : REAL` to the guard of {op.name}, or make "
+                            f"{', '.join(others)} the parameters of another operation")

@@ -9,7 +9,7 @@ from typing import Any, Mapping, Optional
 
 from ..errors import UnsupportedError
 from . import ast
-from .linear import real_parameters
+from .linear import real_parameters, real_typed
 
 __all__ = ["BatchQuestions"]
 
@@ -51,8 +51,10 @@ class BatchQuestions:
                 out[name] = self._enabled_real(name, columns, (candidates or {}).get(name, ()),
                                                (bounds or {}).get(name))
                 continue
-            out[name] = self._batch_cached(("guard", name), op.enabling_guard)(columns, memo
-                                                                              ).astype(bool)
+            guard = self._batch_cached(("guard", name), op.enabling_guard)
+            if real_typed(op):  # as the scalar path says it
+                guard = self.mixed(op, guard)
+            out[name] = guard(columns, memo).astype(bool)
         return out
 
     def _enabled_real(self, name: str, columns, candidates,

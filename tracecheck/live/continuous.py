@@ -48,7 +48,8 @@ from typing import Any, Optional, Sequence
 
 import numpy as np
 
-from ..b.linear import AllowedSet, linear_form, parameter_range, real_parameters
+from ..b.linear import (AllowedSet, linear_form, parameter_range, real_parameters,
+                        real_typed)
 from ..errors import InputError, TracecheckError, UnsupportedError
 
 __all__ = ["ContinuousShield", "Decision", "MODES", "interval_pairs", "space_parts", "action_bounds",
@@ -305,9 +306,12 @@ class ContinuousShield:
                              f"{machine.name} has {name}({', '.join(op.params)})",
                              hint="name the parameters in the operation's order")
         if not real_parameters(op):
+            untyped = [p for p in params if p not in real_typed(op)]
             raise InputError(f"the operation {name} of {machine.name} must type each "
-                             f"parameter REAL in its guard (PRE {params[0]} : REAL & …) to "
-                             "take a continuous action")
+                             f"parameter REAL in its guard to take a continuous action; it "
+                             f"does not type {', '.join(untyped)}",
+                             hint=f"add `{untyped[0]} : REAL` to its guard (PRE {untyped[0]} "
+                                  ": REAL & …)")
         try:
             linear_form(machine, name)
         except UnsupportedError as exc:  # not linear: the solver decides, if it can

@@ -168,6 +168,15 @@ def evaluate_run(path: str | Path, pset: PropertySet, formulas: dict,
 # ------------------------------------------------------------------ statistics
 
 
+#: the values an episode's metric of each aggregate can take (a share, a count): its
+#: interval is cut to them
+RANGES = {"interventions": (0.0, 1.0), "steps": (0.0, math.inf)}
+
+
+def _span_text(span: tuple[float, float]) -> str:
+    return f"[{span[0]:g}, {span[1]:g}]" if math.isfinite(span[1]) else f">= {span[0]:g}"
+
+
 def _metric_stats(values: np.ndarray, m: Metric) -> dict:
     from scipy import stats
 
@@ -179,6 +188,13 @@ def _metric_stats(values: np.ndarray, m: Metric) -> dict:
             sd = float(np.std(values, ddof=1))
         half = float(stats.t.ppf(1 - (1 - CONFIDENCE) / 2, n - 1)) * sd / math.sqrt(n)
         out.update(sd=sd, ci95=[mean - half, mean + half])
+        span = RANGES.get(m.aggregate)
+        if span is not None and np.all(np.isfinite(out["ci95"])) and \
+                (out["ci95"][0] < span[0] or out["ci95"][1] > span[1]):
+            # a mean of values within the span is within it: the t-interval's normal
+            # approximation reached past it (a share near 0 over few episodes), cut there
+            out["ci95"] = [max(out["ci95"][0], span[0]), min(out["ci95"][1], span[1])]
+            out["method"] = f"t, cut to the metric's range {_span_text(span)}"
     if m.estimate is not None:
         value, eps = m.estimate
         within = {"mean": abs(mean - value) <= eps, "minimum": mean >= value - eps,
