@@ -311,6 +311,8 @@ def test_the_workflow_with_the_adapter_given_as_a_module_path(acc_agent, tmp_pat
                     "ep.html"), 0),
         "report": (("report", "none.mcap", "v2.mcap", "--shield", shield, *given,
                     "--resimulate", "--agent", acc_agent, "-o", "report.html"), 0),
+        "export": (("export", "foxglove", "none.mcap", *given, "-o", "fox.mcap"), 0),
+        "export_bare": (("export", "foxglove", "none.mcap", "-o", "bare.mcap"), 0),
     }, cwd=tmp_path, env=env)
     err = flat(second["without"][1])
     assert "unknown environment 'acc'" in err and "--env package.module:Class" in err
@@ -330,6 +332,12 @@ def test_the_workflow_with_the_adapter_given_as_a_module_path(acc_agent, tmp_pat
     page = (tmp_path / "report.html").read_text()
     assert "would have prevented 4 of 4 crashes; 0 new" in page
     assert report_cells(page, "none.mcap") == ["prevented"] * 4
+    # export foxglove draws the scene by the adapter given; without it, says it has none
+    assert scenes(tmp_path / "fox.mcap") == scenes(tmp_path / "none.mcap") > 0
+    assert scenes(tmp_path / "bare.mcap") == 0
+    assert "the environment acc of none.mcap is not installed here: the copy has no 3D " \
+           "scene (give its adapter with --env package.module:Class)" in \
+        flat(second["export_bare"][1])
 
 
 # ------------------------------------------------------------------ the library

@@ -761,3 +761,15 @@ def test_an_observation_the_agent_cannot_act_on_is_refused_saying_where():
     with pytest.raises(InputError, match=r"the observation holds nan \(at index \[1, 0\]\), "
                                          "which the agent cannot act on"):
         _finite(np.array([[1.0], [np.nan]]))
+    # a Dict or Tuple observation: where in it, by key (not its flattened index)
+    import gymnasium as gym
+
+    space = gym.spaces.Dict({"cell": gym.spaces.Discrete(6),
+                             "lamps": gym.spaces.Box(0.0, 1.0, (2,), np.float32)})
+    from tracecheck.live.rollout import flattening
+
+    with pytest.raises(InputError, match=r"the observation holds inf \(at \['lamps'\]\[1\]\)"):
+        _finite({"cell": 2, "lamps": np.array([0.5, np.inf], np.float32)}, flattening(space))
+    pair = gym.spaces.Tuple((gym.spaces.Box(0.0, 1.0, (1,)), gym.spaces.Box(0.0, 1.0, (2, 2))))
+    with pytest.raises(InputError, match=r"holds nan \(at \[1\]\[1\]\[0\]\)"):
+        _finite((np.zeros(1), np.array([[0.0, 0.0], [np.nan, 0.0]])), flattening(pair))

@@ -148,7 +148,7 @@ END""")
                                               "ACCELERATE(b), but the shield ThrottleShield "
                                               "has ACCELERATE(a)"),
     ({"fallback_action": (9.0,)}, "fallback_action = (9.0,); it must be 1 finite number(s) "
-                                  "within the action space's bounds [-4.0] … [2.0]"),
+                                  "within the action space's bounds a ∈ [-4.0, 2.0]"),
 ])
 def test_declarations_that_do_not_fit_are_refused(change, message):
     adapter = type("Bad", (_Adapter,), change)()
@@ -397,7 +397,7 @@ OPERATIONS ACCELERATE(a) = PRE a : REAL & a >= 5.0 & a <= 9.0 & Gap > 0.0 THEN s
 END""")
     with pytest.raises(InputError, match=r"the guard of ACCELERATE in Out allows only a ∈ "
                                          r"\[5\.0, 9\.0\], none of it within the action "
-                                         r"space's bounds \[-4\.0\] … \[2\.0\]"):
+                                         r"space's bounds a ∈ \[-4\.0, 2\.0\]: no action"):
         _shield(machine=outside)
     _shield(machine=load_machine(V2))  # [-4, 2] itself: fine
 

@@ -11,7 +11,7 @@ import typer
 from ..errors import InputError
 from ..outputs import input_paths
 from .common import (app, out, err, warn, load_model, SALVAGE, FORMAT, JSON, OutputFormat,
-                     output_format, progress, FORCE, say, WORKERS)
+                     output_format, progress, FORCE, say, WORKERS, RUN_ENV, run_adapter)
 
 
 import_app = typer.Typer(help="Import ProB/SimB traces or a Minari dataset into an MCAP run "
@@ -278,19 +278,28 @@ def export_foxglove_cmd(
     salvage: bool = SALVAGE,
     output: Path = typer.Option(..., "--output", "-o", help="The MCAP file to write."),
     force: bool = FORCE,
+    env: Optional[str] = RUN_ENV,
 ) -> None:
     """Copy a run with Foxglove's own channels added.
 
-    A 3D scene (foxglove.SceneUpdate), a log of interventions, deadlocks and crashes
-    (foxglove.Log) and scalars to plot (see docs/ecosystem.md)."""
+    A 3D scene (foxglove.SceneUpdate) drawn by the run's environment adapter, a log of
+    interventions, deadlocks and crashes (foxglove.Log) and scalars to plot (see
+    docs/ecosystem.md)."""
     from ..episodes.files import check_run_output, write_run
     from ..interop.foxglove import FoxgloveChannels
+    from ..render.scene import scene_adapter
 
     check_run_output(output, [run], force=force)
+    run_adapter(env)  # a wrong --env said before anything is read
     read, header = _episodes(run, salvage)
+    if env is None and header is not None and header.environment and \
+            scene_adapter(header.environment, tuple(header.variables or ())) is None:
+        warn([f"the environment {header.environment} of {run} is not installed here: the "
+              "copy has no 3D scene (give its adapter with --env package.module:Class)"])
+    channels = FoxgloveChannels.drawn_by(env) if env is not None else FoxgloveChannels
     with _writing(output, "adding Foxglove channels", len(read)) as advance:
         episodes, steps, _ = write_run(output, header, _counted(read, advance),
-                                       channels=FoxgloveChannels, force=force, inputs=[run])
+                                       channels=channels, force=force, inputs=[run])
     say(f"wrote {episodes} episode(s), {steps} step(s) with Foxglove channels -> {output}")
 
 

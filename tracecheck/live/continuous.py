@@ -291,7 +291,7 @@ class ContinuousShield:
                 np.any(fallback < part.low) or np.any(fallback > part.high):
             raise InputError(f"{where} has fallback_action = {declared!r}; it must be "
                              f"{len(part.params)} finite number(s) within the action space's "
-                             f"bounds {part.low.tolist()} … {part.high.tolist()}")
+                             f"bounds {_bounds_text(part)}")
         return fallback
 
     def _check_operation(self, name: str, where: str) -> None:
@@ -339,8 +339,7 @@ class ContinuousShield:
                 {p: 0.0 for p in params}) is None:
             raise InputError(f"the guard of {name} in {machine.name} allows only {own}, "
                              f"none of it within the action space's bounds "
-                             f"{entry.part.low.tolist()} … {entry.part.high.tolist()}: no "
-                             "action could ever be allowed",
+                             f"{_bounds_text(entry.part)}: no action could ever be allowed",
                              hint="check the parameters' order and units against the "
                                   "environment's action space")
 
@@ -564,6 +563,12 @@ class ContinuousShield:
 
 #: how many values of the action space's float type past a projected point are tried
 NUDGES = 64
+
+
+def _bounds_text(part) -> str:
+    """An action space part's bounds by parameter: ``a ∈ [-4.0, 2.0], s ∈ [-1.0, 1.0]``."""
+    return ", ".join(f"{p} ∈ [{lo}, {hi}]" for p, lo, hi in
+                     zip(part.params, part.low.tolist(), part.high.tolist()))
 
 
 def _vector(action: Any, n: int) -> np.ndarray:

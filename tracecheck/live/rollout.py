@@ -8,7 +8,7 @@ agent under the shield after them. Both go through :func:`run_episode`.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any, Callable, Optional, Sequence
+from typing import Any, Callable, Mapping, Optional, Sequence
 
 import numpy as np
 
@@ -188,12 +188,30 @@ def _finite(obs, flat=None) -> None:
         return
     arr = np.asarray(obs if flat is None else flat(obs))
     if arr.dtype.kind in "fc" and not np.isfinite(arr).all():
-        where = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
-        raise InputError(f"the observation holds {arr[where] if where else arr[()]} (at index "
-                         f"{list(where)}), which the agent cannot act on",
+        value, where = _not_finite(obs if flat is not None else arr)
+        raise InputError(f"the observation holds {value} (at {where}), which the agent "
+                         "cannot act on",
                          hint="the environment gave a NaN or infinite observation: check it "
                               "at this seed and step, or replace such values in an "
                               "observation wrapper")
+
+
+def _not_finite(obs, place: str = "") -> Optional[tuple[Any, str]]:
+    """The first NaN or infinity in ``obs`` (an array, or a Dict or Tuple observation's
+    parts, by key), and where: ``index [2]``, ``['pose'][1]``."""
+    if isinstance(obs, Mapping) or isinstance(obs, tuple):
+        for key, part in (obs.items() if isinstance(obs, Mapping) else enumerate(obs)):
+            found = _not_finite(part, f"{place}[{key!r}]")
+            if found is not None:
+                return found
+        return None
+    arr = np.asarray(obs)
+    if arr.dtype.kind not in "fc" or np.isfinite(arr).all():
+        return None
+    index = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
+    value = arr[index] if index else arr[()]
+    return value, (place + "".join(f"[{i}]" for i in index) if place else f"index "
+                   f"{list(index)}")
 
 
 def _start(session, seed: int, check, options=None) -> tuple[Any, dict, list[StepRecord]]:
