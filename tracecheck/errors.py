@@ -23,7 +23,25 @@ __all__ = [
     "Disagreement",
     "DamagedEpisode",
     "SalvagedEpisodeWarning",
+    "did_you_mean",
 ]
+
+
+def did_you_mean(name: str, names) -> str:
+    """``did you mean X?`` for the one of ``names`` nearest ``name`` (a misspelling: same
+    letters but for case, or difflib's ratio at least 0.75), else ''.
+
+    >>> did_you_mean("Gapp", ["Gap", "Speed"])
+    'did you mean Gap?'
+    >>> did_you_mean("Size", ["Gap", "Speed"])
+    ''
+    """
+    import difflib
+
+    names = [n for n in names if n != name]
+    same = [n for n in names if n.lower() == name.lower()]
+    found = same or difflib.get_close_matches(name, names, n=1, cutoff=0.75)
+    return f"did you mean {found[0]}?" if found else ""
 
 
 def printable(text: str, keep: str = "\n") -> str:

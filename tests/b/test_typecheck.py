@@ -62,3 +62,24 @@ def test_integer_real_hint(body, where):
 def test_real_power_with_integer_exponent_is_fine():
     m = machine("VARIABLES x INVARIANT x : REAL & x ** 2 >= 0.0")
     assert m.types == {"x": "REAL"}
+
+
+def test_a_misspelt_name_gets_a_suggestion():
+    with pytest.raises(BScopeError) as e:
+        machine("VARIABLES Gap, Speed INVARIANT Gap : REAL & Speed : REAL & Gapp > 0.0")
+    assert e.value.hint == ("did you mean Gap? (else declare it as a constant or variable, or "
+                            "bind it)")
+    with pytest.raises(BScopeError) as e:  # nothing close: the hint alone
+        machine("VARIABLES Gap INVARIANT Gap : REAL & Width > 0.0")
+    assert e.value.hint == "declare it as a constant or variable, or bind it"
+    m = machine("VARIABLES Gap INVARIANT Gap : REAL INITIALISATION Gap := 1.0 "
+                "OPERATIONS Move_Left = skip")
+    from tracecheck.errors import InputError
+
+    with pytest.raises(InputError, match="has no operation 'Move_Lef'; it has Move_Left") as e:
+        m.operation("Move_Lef")
+    assert e.value.hint == "did you mean Move_Left?"
+    with pytest.raises(InputError, match="gives a value for gap, which the machine T does "
+                                         "not declare") as e:
+        m.check_state({"gap": 1.0}, python=True)
+    assert e.value.hint.startswith("did you mean Gap? name the variables as the machine does")

@@ -207,8 +207,21 @@ def test_missing_variable_is_an_input_error(tmp_path):
     with EpisodeWriter(path, new_header("recorded")) as w:
         w.write(Episode(0, steps, make_end(steps)))
     with pytest.raises(InputError, match=r"thin.mcap: the states have no .*VehiclesX.* which "
-                                         r"the shield paper reads \(episode 0, step 0\)"):
+                                         r"the shield paper reads \(episode 0, step 0\)") as e:
         replay([path], load_shield("paper"))
+    assert e.value.hint is None  # nothing close
+    near = tmp_path / "near.mcap"
+    s0 = {"Gapp": 1.0, "Speed": 2.0}
+    steps = (StepRecord(0, 0.0, None, s0, 0.0, False), StepRecord(1, 1.0, "Go", s0, 0.0, False))
+    with EpisodeWriter(near, new_header("recorded")) as w:
+        w.write(Episode(0, steps, make_end(steps)))
+    shield = tmp_path / "gap.mch"
+    shield.write_text("MACHINE Gap VARIABLES Gap, Speed INVARIANT Gap : REAL & Speed : REAL "
+                      "INITIALISATION Gap, Speed := 1.0, 1.0 OPERATIONS Go = PRE Gap > 0.5 "
+                      "THEN skip END END")
+    with pytest.raises(InputError, match="the states have no Gap, which the shield gap") as e:
+        replay([near], load_shield(shield))
+    assert e.value.hint == "the states name another: Gap (did you mean Gapp?)"
 
 
 def test_shield_loading_errors(tmp_path):
@@ -235,8 +248,10 @@ def test_shield_loading_errors(tmp_path):
     for pair in ((load_shield("paper"), load_shield(misspelt)),
                  (load_shield(misspelt), load_shield("paper"))):
         with pytest.raises(InputError, match=r"the episodes use the action FASTER \(\d+ "
-                                             r"step\(s\).*which the shield (misspelt|Misspelt)"):
+                                             r"step\(s\).*which the shield (misspelt|Misspelt)"
+                           ) as e:
             diff([sample], *pair)
+        assert e.value.hint == "did you mean FASTRE?: an action and its operation have one name"
     shield = load_shield("paper")
     assert shield.name == "paper" and shield.identity["sha256"] == shield.machine.sha256
 

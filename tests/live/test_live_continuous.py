@@ -317,13 +317,14 @@ def test_train_sac_under_the_shield_projects_and_says_so(capsys, acc_env, tmp_pa
     out = tmp_path / "sac.zip"
     code, said, err = run(capsys, "train", "--env", THROTTLE, "--env-config", "max_steps=20",
                           "--shield", V1, "--steps", "120", "--intervention-penalty", "0.5",
-                          "-o", out)
+                          "--scale", "2", "-o", out)
     assert code == 0, err
     assert "(SAC on throttle under shield throttle_v1, actions projected, 120 steps" in \
         " ".join(said.split())
     card = json.loads(out.with_suffix(".json").read_text())
     assert card["algorithm"] == "SAC" and card["shielding"] == "projected"
     assert card["intervention_penalty"] == 0.5
+    assert card["projection_scale"] == [2.0]  # the units its distances were measured in
     from tracecheck.live.agents import load_agent
 
     assert load_agent(out).continuous and load_agent(out).algorithm == "SAC"

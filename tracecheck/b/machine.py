@@ -18,7 +18,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional, TypeVar
 
-from ..errors import BScopeError, EvaluationError, InputError, TracecheckError, UnsupportedError
+from ..errors import (BScopeError, EvaluationError, InputError, TracecheckError,
+                      UnsupportedError, did_you_mean)
 from ..inputs import read_text
 from . import ast
 from .bindings import conjuncts
@@ -146,12 +147,13 @@ class Machine(BatchQuestions):
             if name not in self.variables:
                 if name in self.constants or name in self.sets:
                     continue
+                near = did_you_mean(name, self.variables)
                 raise InputError(f"{where} gives a value for {name}, which the machine "
                                  f"{self.name} does not declare; its variables are "
                                  f"{', '.join(self.variables)}",
-                                 hint="name the variables as the machine does (the adapter's "
-                                      "variables and the keys state() returns)" if python
-                                 else None)
+                                 hint=(f"{near + ' ' if near else ''}name the variables "
+                                       "as the machine does (the adapter's variables and "
+                                       "the keys state() returns)") if python else near or None)
             wanted = self.type_objects.get(name)
             if wanted is None:
                 continue
@@ -315,7 +317,8 @@ class Machine(BatchQuestions):
             return self.operations[name]
         except KeyError:
             raise InputError(f"the machine {self.name} has no operation {name!r}; it has "
-                             f"{', '.join(self.operations) or 'none'}") from None
+                             f"{', '.join(self.operations) or 'none'}",
+                             hint=did_you_mean(name, self.operations) or None) from None
 
     def check_after(self, op: str, before: Mapping[str, Any],
                     after: Mapping[str, Any]) -> bool:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import re
 from typing import Optional
 
-from ..errors import BScopeError, BTypeError, TracecheckError, UnsupportedError
+from ..errors import BScopeError, BTypeError, TracecheckError, UnsupportedError, did_you_mean
 from . import ast
 from ..limits import deeply
 from .btypes import (BOOL, INTEGER, REAL, STRING, Base, TypeClash, Pow, Prod, Rec, Type, Var,
@@ -65,10 +65,12 @@ class Typer:
                                    file=self.file, source=self.source,
                                    line=node.pos.line if node.pos else None,
                                    column=node.pos.column if node.pos else None)
+        near = did_you_mean(base, {n for scope in self.scopes for n in scope})
         raise BScopeError(f"unknown identifier {name}", file=self.file, source=self.source,
                           line=node.pos.line if node.pos else None,
                           column=node.pos.column if node.pos else None,
-                          hint=self.element_hint(base) or self.unknown_hint)
+                          hint=self.element_hint(base) or (f"{near} (else {self.unknown_hint})"
+                                                           if near else self.unknown_hint))
 
     def element_hint(self, name: str) -> Optional[str]:
         """What to say of ``S7`` where S is a set with fewer elements (ProB names a deferred

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..b import ast
 from ..episodes.columns import RunColumns
-from ..errors import InputError
+from ..errors import InputError, did_you_mean
 from .shield import Shield
 
 __all__ = ["check_actions", "check_variables", "refuse_recorded_values"]
@@ -32,7 +32,8 @@ def check_actions(shield: Shield, cols: RunColumns, rows: np.ndarray,
                              f"{int(cols.episode[r])} step {int(cols.step[r])}), which the "
                              f"shield {shield.name} has no operation for (its operations are "
                              f"{', '.join(ops) or 'none'})",
-                             hint="check the operation's spelling in the shield")
+                             hint=f"{did_you_mean(name, ops) or 'check the spelling'}: "
+                                  "an action and its operation have one name")
 
 
 def check_variables(shield: Shield, cols: RunColumns) -> None:
@@ -47,9 +48,12 @@ def check_variables(shield: Shield, cols: RunColumns) -> None:
         needed |= ast.free_names(machine.invariant_node)
     missing = sorted(n for n in needed if n not in have and n in machine.variables)
     if missing and cols.n:
+        near = [f"{n} ({did_you_mean(n, cols.states.names())})" for n in missing
+                if did_you_mean(n, cols.states.names())]
         raise InputError(f"{cols.path}: the states have no {', '.join(missing)}, which the "
                          f"shield {shield.name} reads (episode {int(cols.episode_ids[0])}, "
-                         "step 0)")
+                         "step 0)", hint=f"the states name another: {'; '.join(near)}"
+                         if near else None)
 
 
 def refuse_recorded_values(shield: Shield, cols: RunColumns, op, which: np.ndarray) -> None:

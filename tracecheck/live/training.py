@@ -268,6 +268,8 @@ def train_agent(adapter, config: dict, algorithm: str, out: str | Path, training
                  done=int(model.num_timesteps))
     if intervention_penalty:
         card["intervention_penalty"] = intervention_penalty
+    if continuous and shield is not None and scale is not None:  # the projection's units
+        card["projection_scale"] = [float(x) for x in scale]
     _finish(card, returns, curve, card_path, draw_curve)
     return card
 
