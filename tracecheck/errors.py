@@ -24,24 +24,33 @@ __all__ = [
     "DamagedEpisode",
     "SalvagedEpisodeWarning",
     "did_you_mean",
+    "closest",
 ]
 
 
-def did_you_mean(name: str, names) -> str:
-    """``did you mean X?`` for the one of ``names`` nearest ``name`` (a misspelling: same
-    letters but for case, or difflib's ratio at least 0.75), else ''.
+def closest(name: str, names) -> "str | None":
+    """The one of ``names`` nearest ``name`` as a misspelling (the same letters but for
+    case, or difflib's ratio at least 0.75), else None.
 
-    >>> did_you_mean("Gapp", ["Gap", "Speed"])
-    'did you mean Gap?'
-    >>> did_you_mean("Size", ["Gap", "Speed"])
-    ''
+    >>> closest("Gapp", ["Gap", "Speed"]), closest("Size", ["Gap", "Speed"])
+    ('Gap', None)
     """
     import difflib
 
     names = [n for n in names if n != name]
     same = [n for n in names if n.lower() == name.lower()]
     found = same or difflib.get_close_matches(name, names, n=1, cutoff=0.75)
-    return f"did you mean {found[0]}?" if found else ""
+    return found[0] if found else None
+
+
+def did_you_mean(name: str, names) -> str:
+    """``did you mean X?`` for :func:`closest`, else ''.
+
+    >>> did_you_mean("Gapp", ["Gap", "Speed"])
+    'did you mean Gap?'
+    """
+    found = closest(name, names)
+    return f"did you mean {found}?" if found else ""
 
 
 def printable(text: str, keep: str = "\n") -> str:

@@ -664,3 +664,26 @@ def test_a_foreign_dataset_s_states_are_converted_by_the_environment_s_shield(ca
     assert type(state["ahead"]) is Elem and type(state["cells"]) is FuncValue
     code, out_text, err = run(capsys, "replay", str(out), "--shield", str(shield), "--json")
     assert code == 0, err
+
+
+def test_spaces_that_do_not_start_at_0_go_both_ways(capsys, tmp_path):
+    """Discrete(2, start=-1) actions and Discrete(6, start=10) observations: the dataset
+    holds the actions and observations as the environment takes and gives them (-1, 0;
+    10 … 15), and reads back to the same action names."""
+    env = "tests.live.toy:OffsetCorridor"
+    table, recorded, back = tmp_path / "q.npy", tmp_path / "off.mcap", tmp_path / "back.mcap"
+    np.save(table, np.array([[1.0, 0.0]] * 3 + [[0.0, 1.0]] * 3))  # Right from cell 3 on
+    assert run(capsys, "record", "--env", env, "--agent", str(table), "-n", "4", "-o",
+               str(recorded))[0] == 0
+    assert run(capsys, "export", "minari", str(recorded), "--dataset-id", "t/off/x-v0",
+               "--env", env)[0] == 0
+    run_ = read_run(recorded)
+    dataset = minari.load_dataset("t/off/x-v0")
+    assert dataset.action_space.start == -1
+    for ep, data in zip(run_.episodes, dataset.iterate_episodes()):
+        assert data.actions.tolist() == [{"Left": -1, "Right": 0}[s.action]
+                                         for s in ep.steps[1:]]
+        assert data.observations.tolist() == [10 + s.state["pos"] for s in ep.steps]
+    assert run(capsys, "import", "minari", "t/off/x-v0", "--env", env, "-o", str(back))[0] == 0
+    assert [[s.action for s in ep.steps] for ep in read_run(back).episodes] == \
+        [[s.action for s in ep.steps] for ep in run_.episodes]

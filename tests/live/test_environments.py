@@ -214,8 +214,23 @@ def test_a_shield_that_does_not_fit_the_environments_states(tmp_path, capsys):
     np.save(agent, left_leaning_table())
     code, _, err = run(capsys, "record", "--env", TOY, "--agent", agent, "--shield", extra,
                        "-n", 1, "-o", tmp_path / "a.mcap")
-    assert code == 2 and "the guard of Left in extra reads speed, which the environment " \
-                         "corridor never gives" in " ".join(err.split())
+    line = next(k for k, x in enumerate(extra.read_text().splitlines(), 1) if "speed < 3" in x)
+    assert code == 2 and f"{extra}:{line}:" in err and "the guard of Left in extra reads " \
+                         "speed, which the environment corridor never gives (it gives pos): " \
+                         "replay could not judge a recording's states by it" in \
+                         " ".join(err.split())
+    assert "hint: give speed in the adapter's variables and its state(), or leave it out " \
+           "of the shield" in " ".join(err.split())
+    # the invariant alone reads it: replay would refuse the recording (a new user's
+    # thermostat was recorded under the shield its replay then refused)
+    unread = tmp_path / "unread.mch"
+    unread.write_text(SHIELD.replace("VARIABLES pos", "VARIABLES pos, speed").replace(
+        "INVARIANT pos : 0..5", "INVARIANT pos : 0..5 & speed : INTEGER").replace(
+        "pos := 2", "pos, speed := 2, 0"))
+    code, _, err = run(capsys, "record", "--env", TOY, "--agent", agent, "--shield", unread,
+                       "-n", 1, "-o", tmp_path / "u.mcap")
+    assert code == 2 and f"{unread}:" in err and "the INVARIANT in unread reads speed, " \
+                         "which the environment corridor never gives" in " ".join(err.split())
     code, _, err = run(capsys, "record", "--env", TOY, "--agent", agent, "--shield", fewer,
                        "-n", 1, "-o", tmp_path / "b.mcap")
     assert code == 2 and "the environment corridor gives the variable pos, which the shield " \
@@ -268,6 +283,20 @@ def test_a_mistyped_adapter_says_what_it_would_be(spec, said, hint):
     with pytest.raises(InputError) as info:
         load_adapter(spec)
     assert said in info.value.message and hint in (info.value.hint or ""), info.value.render()
+
+
+def test_a_file_in_a_package_is_named_as_its_module(tmp_path, monkeypatch):
+    """A new user's thermo/adapter.py in the package thermo/: the hint said --env
+    adapter:Thermostat with PYTHONPATH=thermo, which cannot import it (No module named
+    'thermo' from its relative imports)."""
+    (tmp_path / "thermo").mkdir()
+    (tmp_path / "thermo" / "__init__.py").write_text("")
+    (tmp_path / "thermo" / "adapter.py").write_text("")
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(InputError) as info:
+        load_adapter("thermo/adapter.py:Thermostat")
+    assert info.value.hint == ("for the file thermo/adapter.py: --env thermo.adapter:Thermostat "
+                               "with PYTHONPATH=.")
 
 
 def test_states_of_python_values_record_train_and_replay_alike(tmp_path, capsys):
@@ -773,3 +802,33 @@ def test_an_observation_the_agent_cannot_act_on_is_refused_saying_where():
     pair = gym.spaces.Tuple((gym.spaces.Box(0.0, 1.0, (1,)), gym.spaces.Box(0.0, 1.0, (2, 2))))
     with pytest.raises(InputError, match=r"holds nan \(at \[1\]\[1\]\[0\]\)"):
         _finite((np.zeros(1), np.array([[0.0, 0.0], [np.nan, 0.0]])), flattening(pair))
+
+
+def test_a_setting_the_environment_does_not_take_names_the_settings_it_has(capsys, tmp_path):
+    """A new user's thermostat: --env-config humidity=1 ended in make_env's TypeError alone."""
+    table = tmp_path / "left.npy"
+    np.save(table, left_leaning_table())
+    code, _, err = run(capsys, "record", "--env", TOY, "--env-config", "humidity=1",
+                       "--agent", table, "--shield", "none", "-n", 1, "-o",
+                       tmp_path / "a.mcap")
+    said = " ".join(err.split())
+    assert code == 2 and "the adapter tests.live.toy:Corridor raised TypeError in make_env(): " \
+                         "CorridorEnv.__init__() got an unexpected keyword argument " \
+                         "'humidity'" in said
+    assert "hint: humidity is no setting the environment takes; its default settings are " \
+           "slip (the adapter's config_keys() would refuse it before making anything)" in said
+
+
+def test_a_misspelt_operation_is_shown_where_it_is_declared(capsys, tmp_path):
+    """A new user's `Haet` for Heat: record said "lacks Heat", no line, no word of Haet."""
+    shield = tmp_path / "typo.mch"
+    shield.write_text(SHIELD.replace("Right = SELECT", "Rigth = SELECT"))
+    table = tmp_path / "left.npy"
+    np.save(table, left_leaning_table())
+    code, _, err = run(capsys, "record", "--env", TOY, "--agent", table, "--shield", shield,
+                       "-n", 1, "-o", tmp_path / "a.mcap")
+    line = next(k for k, x in enumerate(SHIELD.splitlines(), 1) if "Right = SELECT" in x)
+    assert code == 2 and f"{shield}:{line}:3: a shield needs one operation per action (Left, " \
+                         "Right); CorridorShield lacks Right and has Rigth, which no action " \
+                         "is" in " ".join(err.split())
+    assert "hint: Right: did you mean Rigth?" in err

@@ -382,3 +382,54 @@ def test_the_wrapper_takes_only_action_indices(tmp_path):
         with pytest.raises(InputError, match=r"an action is an index 0 … 1"):
             env.step(bad)
     env.step(np.int64(1))
+
+
+def test_actions_and_observations_of_spaces_that_do_not_start_at_0(capsys, tmp_path):
+    """A new user's thermostat, Discrete(3, start=-1): the environment was given the action
+    index (0, 1, 2) where it takes start + index, so every recorded Heat heated twice as much
+    and Cool ran as Off — silently; train ended in a traceback (SB3 sampled -1). The agent,
+    masks and records speak of indexes; the environment gets start + index."""
+    from mcap.reader import make_reader
+
+    from tracecheck.live.wrapper import indexed
+    from tests.live.toy import OffsetCorridor, OffsetCorridorEnv
+
+    path = tmp_path / "corridor.mch"
+    path.write_text(SHIELD)
+    shield = load_shield(path)
+    env = ShieldWrapper(OffsetCorridorEnv(slip=False), shield, adapter=OffsetCorridor())
+    assert env.action_space == __import__("gymnasium").spaces.Discrete(2)
+    env.reset(seed=0)  # cell 2 (12): Left is -1, Right is 0 for the environment
+    obs, *_, info = env.step(1)
+    assert obs == 13 and info["shield"]["taken"] == "Right"
+    obs, *_, info = env.step(0)
+    assert obs == 12 and info["shield"]["taken"] == "Left"
+    env.env.step = lambda action: (_ for _ in ()).throw(ValueError("lidar lost"))
+    with pytest.raises(InputError, match=r"the environment of the adapter offsetcorridor "
+                                         r"raised ValueError in step\(\): lidar lost"):
+        env.step(1)  # the environment's own error: said, no traceback (exit 2)
+    plain = indexed(OffsetCorridorEnv(slip=False))  # training's view: indexes from 0
+    assert plain.reset(seed=0)[0] == 2 and plain.observation_space.n == 6
+    assert plain.action_space.n == 2 and plain.step(1)[0] == 3
+    assert indexed(env.env) is not env.env and indexed(OffsetCorridorEnv().unwrapped
+                                                       ).action_space.start == 0
+    spec = "tests.live.toy:OffsetCorridor"
+    for args in (("--algorithm", "dqn"), ("--algorithm", "maskable-ppo", "--shield", str(path)),
+                 ("--algorithm", "q-learning")):
+        out = tmp_path / ("q.npy" if "q-learning" in args else f"{args[1]}.zip")
+        code, _, err = run(capsys, "train", "--env", spec, *args, "--steps", "300", "-o", out)
+        assert code == 0, err
+    # the Q-table's rows are the cells 10 … 15 in order: Right (index 1) learnt near the goal
+    table = np.load(tmp_path / "q.npy")
+    assert table.shape == (6, 2) and table[4, 1] > 0.0
+    run_file = tmp_path / "run.mcap"
+    code, _, err = run(capsys, "record", "--env", spec, "--agent", tmp_path / "dqn.zip",
+                       "--shield", path, "-n", "6", "-o", run_file)
+    assert code == 0, err
+    with open(run_file, "rb") as f:
+        steps = [json.loads(m.data) for _, _, m in make_reader(f).iter_messages(
+            topics=["/tracecheck/step"])]
+    for before, after in zip(steps, steps[1:]):  # each action moved as its name says
+        if after["step"] == before["step"] + 1:
+            move = after["state"]["pos"] - before["state"]["pos"]
+            assert move == {"Left": -1, "Right": 1}[after["action"]], (before, after)

@@ -69,6 +69,40 @@ class Corridor(EnvAdapter):
         return bool(terminated) and int(obs) == 0
 
 
+class OffsetCorridorEnv(CorridorEnv):
+    """The corridor with spaces that do not start at 0, as a new user's thermostat had
+    (``Discrete(3, start=-1)``: cool, off, heat): the actions Left and Right are -1 and 0,
+    the cells 10 … 15; any other action is refused, as a careful environment does."""
+
+    def __init__(self, slip: bool = True, render_mode: Optional[str] = None) -> None:
+        super().__init__(slip, render_mode)
+        self.observation_space = gym.spaces.Discrete(6, start=10)
+        self.action_space = gym.spaces.Discrete(2, start=-1)
+
+    def reset(self, *, seed: Optional[int] = None, options=None):
+        obs, info = super().reset(seed=seed, options=options)
+        return obs + 10, info
+
+    def step(self, action):
+        if not self.action_space.contains(action):
+            raise ValueError(f"bad action {action!r}")
+        obs, reward, terminated, truncated, info = super().step(int(action) + 1)
+        return obs + 10, reward, terminated, truncated, info
+
+
+class OffsetCorridor(Corridor):
+    name = "offsetcorridor"
+
+    def make_env(self, config: dict[str, Any], render_mode: Optional[str] = None):
+        return OffsetCorridorEnv(**config)
+
+    def state(self, obs, info: dict, reward: float, env, initial: bool) -> dict[str, Any]:
+        return {"pos": int(obs) - 10}
+
+    def crashed(self, obs, reward: float, terminated: bool, info: dict) -> bool:
+        return bool(terminated) and int(obs) == 10
+
+
 LAVA_SHIELD = """
 MACHINE LavaCorridor
 SETS CELL = {Floor, Lava, Goal}

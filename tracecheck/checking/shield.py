@@ -8,13 +8,14 @@ the sha256 of its text, so a report always says exactly which shield it used.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
 from .. import registry
 from ..b.machine import Machine, load_machine, load_machine_text
-from ..errors import InputError, JoinedText, TracecheckError
+from ..errors import InputError, JoinedText, TracecheckError, closest
 
 __all__ = ["Shield", "ShieldMachine", "load_shield", "for_actions", "builtin_shields",
            "shield_names", "SHIELD_DIR", "check_vocabulary", "typing_machine", "data_dir"]
@@ -150,11 +151,21 @@ def for_actions(shield: Shield, actions: tuple[str, ...]) -> Shield:
     ``actions`` (a shield loaded here or sent to a worker)."""
     missing = [a for a in actions if a not in shield.machine.operations]
     if missing:
-        raise InputError(f"{shield.path}: a shield needs one operation per action "
-                         f"({', '.join(actions)}); {shield.machine.name} lacks "
-                         f"{', '.join(missing)}",
-                         hint="name each of the environment's actions (the adapter's "
-                              "`actions`) as the shield's operation for it")
+        spare = [op for op in shield.machine.operations if op not in actions]
+        near = [(a, closest(a, spare)) for a in missing if closest(a, spare)]
+        source = shield.machine.source or ""
+        found = re.search(rf"(?m)\b{re.escape(near[0][1])}\s*(\([^)]*\))?\s*=",
+                          source) if near else None  # where the misspelt one is declared
+        raise InputError(f"a shield needs one operation per action ({', '.join(actions)}); "
+                         f"{shield.machine.name} lacks {', '.join(missing)}"
+                         + (f" and has {', '.join(spare)}, which no action is" if spare else ""),
+                         file=str(shield.path), source=source if found else None,
+                         line=source.count("\n", 0, found.start()) + 1 if found else None,
+                         column=found.start() - source.rfind("\n", 0, found.start())
+                         if found else None,
+                         hint="; ".join(f"{a}: did you mean {b}?" for a, b in near) if near else
+                         "name each of the environment's actions (the adapter's `actions`) "
+                         "as the shield's operation for it")
     return shield
 
 
@@ -206,6 +217,19 @@ def typing_machine(adapter) -> Optional["Machine"]:
         return None
 
 
+def _read_at(node, name: str):
+    """Where ``node`` first reads the variable ``name`` (its position; None if unknown)."""
+    from ..b import ast
+
+    todo = [node] if node is not None else []
+    while todo:
+        here = todo.pop()
+        if isinstance(here, ast.Name) and here.id == name and here.pos is not None:
+            return here.pos
+        todo.extend(reversed(ast.children(here)))
+    return None
+
+
 def check_vocabulary(shield: Shield, adapter, env) -> None:
     """Before any episode: the environment's states fit the shield's machine. Each variable
     the adapter gives must be declared (and of the declared type, tried on a real first
@@ -225,12 +249,26 @@ def check_vocabulary(shield: Shield, adapter, env) -> None:
                                f"{adapter.default_shield}") if own else
                          "name the variables alike in the adapter's `variables` (and the keys "
                          "its state() returns) and in the shield's VARIABLES")
-    for name, read in machine.guard_variables().items():
-        missing = sorted(read - given)
+    from ..b import ast
+
+    readers = [(f"the guard of {name}", read, machine.operations[name].guard)
+               for name, read in machine.guard_variables().items()]
+    if machine.invariant_node is not None:  # replay checks each state against it
+        readers.append(("the INVARIANT", ast.free_names(machine.invariant_node),
+                        machine.invariant_node))
+    for what, read, node in readers:
+        missing = sorted((read & set(machine.variables)) - given)
         if missing:
-            raise InputError(f"the guard of {name} in {shield.name} reads {missing[0]}, which "
-                             f"the environment {adapter.name} never gives (it gives "
-                             f"{', '.join(adapter.variables)})")
+            pos = _read_at(node, missing[0])
+            raise InputError(f"{what} in {shield.name} reads {missing[0]}, which the "
+                             f"environment {adapter.name} never gives (it gives "
+                             f"{', '.join(adapter.variables)}): replay could not judge a "
+                             "recording's states by it", file=str(shield.path),
+                             line=pos.line if pos else None,
+                             column=pos.column if pos else None,
+                             source=machine.source if pos else None,
+                             hint=f"give {missing[0]} in the adapter's variables and its "
+                                  "state(), or leave it out of the shield")
     obs, info = adapter.reset(env, 0)  # the hook: an exception in it is said as the adapter's
     state = adapter.observer(env).state(obs, dict(info, crashed=False), 0.0, True)
     where = f"state() of the adapter {adapter.name} (the first state)"

@@ -266,6 +266,9 @@ def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
                               "adapter), or leave --env out")
     made = make_env(adapter, header.environment_config, str(run))
     actions = list(adapter.actions)
+    #: the actions as the environment takes them: a Discrete(n, start) space's start + index
+    start = int(getattr(made.action_space, "start", 0) or 0) \
+        if hasattr(made.action_space, "n") else 0
     buffers = []
     for ep in result.episodes:
         where = f"{run}, episode {ep.id}"
@@ -274,7 +277,7 @@ def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
         if _composite(made.observation_space):
             obs = _stacked(obs, made.observation_space)
         try:
-            acts = [actions.index(s.action) for s in ep.steps[1:]]
+            acts = [start + actions.index(s.action) for s in ep.steps[1:]]
         except ValueError:
             bad = next(s for s in ep.steps[1:] if s.action not in actions)
             raise InputError(f"{where}, step {bad.step}: action {bad.action!r} is not one of "

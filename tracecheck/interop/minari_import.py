@@ -38,16 +38,19 @@ MAX_SPACE_ELEMENTS = 1 << 24
 MAX_SEED = 2**63 - 1
 
 
-def _action_index(value, count: int, where: str) -> int:
-    """A discrete action: one integer in 0 … count-1 (a float, a vector or a value out of
-    range is refused, never rounded or cut to fit)."""
+def _action_index(value, count: int, where: str, start: int = 0) -> int:
+    """A discrete action: one integer in start … start+count-1 (a ``Discrete(n, start)``
+    space's), as its index 0 … count-1 (a float, a vector or a value out of range is
+    refused, never rounded or cut to fit)."""
     a = np.asarray(value)
     if a.size != 1 or a.dtype.kind not in "iu":
         raise InputError(f"{where}: the action {a.tolist()!r} is not an action index; the "
                          f"adapter has {count} discrete actions")
-    index = int(a.reshape(-1)[0])
+    index = int(a.reshape(-1)[0]) - start
     if not 0 <= index < count:
-        raise InputError(f"{where}: action {index} is not one of the adapter's {count} actions")
+        raise InputError(f"{where}: action {index + start} is not one of the adapter's "
+                         f"{count} actions" + (f" ({start} … {start + count - 1})"
+                                               if start else ""))
     return index
 
 
@@ -152,6 +155,9 @@ def import_minari(dataset_id: str, adapter_name: str, *,
     from ..checking.shield import typing_machine
 
     typing = typing_machine(adapter)  # the adapter's states made B values by its shield's types
+    #: a Discrete(n, start) space's actions are start … start+n-1: the adapter's 0 … n-1
+    start = int(getattr(dataset.action_space, "start", 0) or 0) \
+        if hasattr(dataset.action_space, "n") else 0
 
     def episodes():
         from ..episodes.codec import encode_state
@@ -194,7 +200,7 @@ def import_minari(dataset_id: str, adapter_name: str, *,
                 if k:
                     action = adapter.actions[_action_index(data.actions[k - 1],
                                                            len(adapter.actions),
-                                                           f"{where}, step {k}")]
+                                                           f"{where}, step {k}", start)]
                 steps.append(StepRecord(step=k, time=k * adapter.seconds_per_step,
                                         action=action, state=state, reward=reward,
                                         crashed=crashed, **_shield_infos(data.infos, k, n,

@@ -442,8 +442,7 @@ def load_adapter(spec: Optional[str]) -> EnvAdapter:
         return get_adapter(spec)
     if not _SPEC.fullmatch(spec):
         path, _, attr = spec.partition(":")
-        folder, _, file = path.replace("\\", "/").rpartition("/")
-        module = file[:-3] if file.endswith(".py") else file
+        module, folder = _module_of_file(path)
         raise InputError(f"--env {spec!r} is not an adapter: give an installed one's name "
                          f"({', '.join(sorted(registry.entry_points()))}) or package.module:Class, "
                          "e.g. my_envs.corridor:Corridor",
@@ -468,6 +467,18 @@ def load_adapter(spec: Optional[str]) -> EnvAdapter:
                          hint=f"its adapters: {', '.join(found)}" if found else
                          "it defines no EnvAdapter subclass (see docs/environments.md)")
     return _instance(cls, spec)
+
+
+def _module_of_file(path: str) -> tuple[str, str]:
+    """(the module name, the folder to put on PYTHONPATH) of a Python file given as
+    ``--env``: its folders with an ``__init__.py`` are its packages
+    (``thermo/adapter.py`` in the package thermo: ``thermo.adapter``, from ``.``)."""
+    folder, _, file = path.replace("\\", "/").rpartition("/")
+    parts = [file[:-3] if file.endswith(".py") else file]
+    while folder and Path(folder, "__init__.py").is_file():
+        folder, _, package = folder.rpartition("/")
+        parts.insert(0, package)
+    return ".".join(parts), folder or "."
 
 
 def _name_hint(name: str) -> str:
@@ -509,7 +520,10 @@ def _guarded(method, where: str, hook: str):
         except TracecheckError:
             raise
         except USERS as exc:  # noqa: BLE001 - the user's code: say whose it is
-            raise raised(where, exc, f"in {hook}()") from exc
+            error = raised(where, exc, f"in {hook}()")
+            if hook == "make_env":  # a setting it does not take: which it has
+                error.hint = _unknown_setting(method.__self__, exc) or error.hint
+            raise error from exc
     return call
 
 
@@ -535,10 +549,29 @@ def _making(adapter: EnvAdapter):
             reason = f"{type(exc).__name__}: {exc}"
             error = MakeError(f"cannot make the environment {adapter.name} with "
                               f"{_settings(adapter, config)}: {reason}",
-                              hint="tracecheck --debug … shows its traceback")
+                              hint=_unknown_setting(adapter, exc) or
+                              "tracecheck --debug … shows its traceback")
             error.reason = reason
             raise error from exc
     return make_env
+
+
+def _unknown_setting(adapter: EnvAdapter, exc: BaseException) -> Optional[str]:
+    """Where the environment refused a keyword it does not take (``--env-config humidity=1``
+    of one without it): the settings its adapter's defaults name."""
+    import re
+
+    found = re.search(r"unexpected keyword argument '([^']+)'", str(exc)) \
+        if isinstance(exc, TypeError) else None
+    if found is None:
+        return None
+    try:
+        known = sorted(adapter.default_config())
+    except Exception:  # noqa: BLE001 - said where it is used
+        known = []
+    return (f"{found.group(1)} is no setting the environment takes"
+            + (f"; its default settings are {', '.join(known)}" if known else "")
+            + " (the adapter's config_keys() would refuse it before making anything)")
 
 
 def _settings(adapter: EnvAdapter, config) -> str:

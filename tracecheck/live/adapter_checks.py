@@ -17,9 +17,11 @@ __all__ = ["USERS", "raised", "check_attributes", "strings", "name_or_path", "AT
 USERS = (Exception, SystemExit)
 
 
-def raised(where: str, exc: BaseException, hook: str) -> InputError:
-    """The error that reports ``exc``, raised by the adapter ``where`` in ``hook``."""
-    return InputError(f"the adapter {where} raised {type(exc).__name__} {hook}: {exc}",
+def raised(where: str, exc: BaseException, hook: str, *, env: bool = False) -> InputError:
+    """The error that reports ``exc``, raised by the adapter ``where`` in ``hook`` (``env``:
+    by the environment it makes, in its own ``reset`` or ``step``)."""
+    whose = f"the environment of the adapter {where}" if env else f"the adapter {where}"
+    return InputError(f"{whose} raised {type(exc).__name__} {hook}: {exc}",
                       hint="tracecheck --debug … shows its traceback")
 
 

@@ -48,6 +48,10 @@ class Agent:
     sha256: str
     algorithm: str
     model: Any
+    #: the environment's first observation where it is a ``Discrete(n, start)`` space's:
+    #: the agent observes ``o - first`` (a Q-table's row, Stable-Baselines3's one-hot), as
+    #: it was trained (:func:`~tracecheck.live.wrapper.indexed`)
+    first: int = 0
 
     @property
     def id(self) -> str:
@@ -60,12 +64,16 @@ class Agent:
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         """A continuous agent's action for ``obs``: its deterministic choice, as floats."""
+        if self.first:
+            obs = int(obs) - self.first
         action, _ = self.model.predict(obs, deterministic=True)
         return np.asarray(action, dtype=np.float64).reshape(-1)
 
     def values(self, obs: np.ndarray) -> np.ndarray:
         """One value per action (Q-values for DQN and Q-tables, probabilities for policy
         methods)."""
+        if self.first:
+            obs = int(obs) - self.first
         if self.algorithm == "q-learning":
             return self.model[int(obs)].astype(np.float64)
         import torch
@@ -80,6 +88,16 @@ class Agent:
 
 
 def load_agent(path: str | Path, adapter=None, env=None) -> Agent:
+    """Load an agent for an environment (see :func:`_load_agent`), observing as it was
+    trained: a ``Discrete(n, start)`` observation as its index (:attr:`Agent.first`)."""
+    agent = _load_agent(path, adapter, env)
+    space = getattr(env, "observation_space", None)
+    if getattr(space, "n", None) is not None and getattr(space, "start", 0):
+        agent.first = int(space.start)
+    return agent
+
+
+def _load_agent(path: str | Path, adapter=None, env=None) -> Agent:
     """Load an agent for an environment (its adapter, and the environment to compare spaces
     with): a Q-table (``.npy``) or a stable-baselines3 DQN, PPO, A2C or MaskablePPO with one
     discrete action per adapter action. Without ``adapter`` the agent is loaded as it is,

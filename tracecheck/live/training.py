@@ -320,12 +320,12 @@ def _vec_env(adapter, config: dict, shield, horizon: int, penalty: float = 0.0, 
 
     def make():
         env = Monitor(TimeLimit(adapter.make_env(config), max_episode_steps=horizon))
-        if shield is None:
-            return _said(env, adapter.name)
-        from .wrapper import ShieldWrapper
+        from .wrapper import ShieldWrapper, indexed
 
+        if shield is None:  # spaces from 0, as the agent acts and observes
+            return indexed(_said(env, adapter.name))
         shielded = ShieldWrapper(env, shield, adapter=adapter, mode=mode, scale=scale)
-        return _penalised(shielded, penalty) if penalty else shielded
+        return indexed(_penalised(shielded, penalty) if penalty else shielded)
 
     vec = DummyVecEnv([make])
     space = vec.action_space
@@ -354,7 +354,7 @@ def _said(env, name: str):
             except TracecheckError:
                 raise
             except USERS as exc:  # noqa: BLE001 - the environment's own code
-                raise raised(name, exc, "in reset()") from exc
+                raise raised(name, exc, "in reset()", env=True) from exc
 
         def step(self, action):
             try:
@@ -362,7 +362,7 @@ def _said(env, name: str):
             except TracecheckError:
                 raise
             except USERS as exc:  # noqa: BLE001 - the environment's own code
-                raise raised(name, exc, "in step()") from exc
+                raise raised(name, exc, "in step()", env=True) from exc
     return Said(env)
 
 
@@ -504,7 +504,9 @@ def train_q_table(adapter, config: dict, out: str | Path, *, steps: int = 200_00
     """
     out, card_path, curve = _outputs(Path(out), ".npy", "agent.npy", force, inputs,
                                      draw_curve is not None)
-    env = adapter.make_env(config)
+    from .wrapper import indexed
+
+    env = indexed(adapter.make_env(config))  # actions and observations as indexes 0 … n-1
     n_obs = getattr(env.observation_space, "n", None)
     if n_obs is None:
         raise InputError(f"{adapter.name} has observations {env.observation_space}; Q-learning "

@@ -33,12 +33,14 @@ import gymnasium as gym
 import numpy as np
 
 from ..b.memo import MEMO_KEY
-from ..errors import InputError
+from ..errors import InputError, TracecheckError
 from ..b.conversion import convert_state
 from ..checking.shield import Shield, for_actions, typing_machine
+from .adapter_checks import USERS, raised
 from .decisions import Decision, Decisions
 
-__all__ = ["ShieldWrapper", "BState", "ShieldInfo", "choose", "adapter_for"]
+__all__ = ["ShieldWrapper", "BState", "ShieldInfo", "choose", "adapter_for", "indexed",
+           "discrete_start"]
 
 
 def adapter_for(env: gym.Env):
@@ -97,6 +99,44 @@ class ShieldInfo(dict):
                 value = copy.deepcopy(value, memo)
             out[key] = value
         return out
+
+
+def discrete_start(space) -> int:
+    """The first action of a ``Discrete(n, start)`` space (0 for any other space)."""
+    return int(space.start) if isinstance(space, gym.spaces.Discrete) else 0
+
+
+def indexed(env: gym.Env) -> gym.Env:
+    """``env`` as Stable-Baselines3's agents act and observe (and :class:`ShieldWrapper`'s
+    agent acts): where its action space is ``Discrete(n, start=s)`` with s ≠ 0, taking the
+    indexes 0 … n-1 (the environment gets s + i); where its observation space is one, its
+    observations as indexes (o - s); else ``env`` itself."""
+    act, obs = discrete_start(env.action_space), discrete_start(env.observation_space)
+    return _Indexed(env, act, obs) if act or obs else env
+
+
+class _Indexed(gym.Wrapper):
+    """See :func:`indexed`."""
+
+    def __init__(self, env: gym.Env, act: int, obs: int) -> None:
+        super().__init__(env)
+        self._act, self._obs = act, obs
+        if act:
+            self.action_space = gym.spaces.Discrete(int(env.action_space.n))
+        if obs:
+            self.observation_space = gym.spaces.Discrete(int(env.observation_space.n))
+
+    def reset(self, **kwargs):
+        obs, info = self.env.reset(**kwargs)
+        return obs - self._obs, info
+
+    def step(self, action):
+        obs, reward, terminated, truncated, info = self.env.step(
+            int(action) + self._act if self._act else action)
+        return obs - self._obs, reward, terminated, truncated, info
+
+    def action_masks(self) -> np.ndarray:  # a shielded environment's, for MaskablePPO
+        return self.env.action_masks()
 
 
 def _action_index(action: Any, n: int) -> int:
@@ -175,6 +215,12 @@ class ShieldWrapper(gym.Wrapper):
                              f"({', '.join(self.actions)}): each action index needs its B "
                              "operation", hint="list one operation per action, in the "
                                                "environment's order, in the adapter's actions")
+        #: a Discrete(n, start=s) environment takes s + i for the adapter's action i: the
+        #: agent, the masks and the records speak of indexes 0 … n-1 (as Stable-Baselines3's
+        #: agents act), and only the environment's step gets s + i
+        self.start = discrete_start(env.action_space)
+        if self.start:
+            self.action_space = gym.spaces.Discrete(int(n))
         for_actions(shield, self.actions)  # an action no operation decides: never allowed,
         #                                    silently, were it let through
         fallback = fallback or self.env_adapter.fallback or self.actions[0]
@@ -316,13 +362,19 @@ class ShieldWrapper(gym.Wrapper):
                 taken = self.fallback
             else:
                 taken = int(np.flatnonzero(self.allowed)[0])
-        obs, reward, terminated, truncated, info = self._advance(taken)
+        obs, reward, terminated, truncated, info = self._advance(
+            taken + self.start if self.start else taken)
         return obs, reward, terminated, truncated, self._info(info, requested, taken)
 
     def _advance(self, action):
         """The environment's step with ``action``: the crash said in ``info``, the new B
         state, and the shield's decision in it."""
-        obs, reward, terminated, truncated, info = self.env.step(action)
+        try:
+            obs, reward, terminated, truncated, info = self.env.step(action)
+        except TracecheckError:
+            raise
+        except USERS as exc:  # noqa: BLE001 - the environment's own code: say whose it is
+            raise raised(self.env_adapter.name, exc, "in step()", env=True) from exc
         info = dict(info, crashed=self.env_adapter.crashed(obs, float(reward), terminated, info))
         self.state = self._state(obs, info, float(reward), False)
         self._decide()
