@@ -15,7 +15,7 @@ from hypothesis import given, settings, strategies as st
 
 from tracecheck.b import load_machine_text
 from tracecheck.b.linear import allowed_set, real_parameters
-from tracecheck.errors import UnsupportedError
+from tracecheck.errors import TracecheckError, UnsupportedError
 
 
 def machine(guard: str, params: str = "a", extra: str = ""):
@@ -218,6 +218,16 @@ END""")  # a REAL parameter the guard fixes is enumerated, as before
     assert fixed.enabled({"x": 0.0}) == {"SET"} and fixed.enabled({"x": 0.7}) == set()
     assert fixed.enabled_batch(Columns.from_states([{"x": 0.0}, {"x": 0.7}]))["SET"].tolist() \
         == [True, False]
+    # a state variable typed REAL in the guard, or an enumeration of something else: what
+    # the evaluator says stands (it was blamed on the parameters, with an empty REAL list)
+    for op in ("Go(n) = PRE x : REAL & n : INTEGER & n > 0 THEN skip END",
+               "Set(a, n) = PRE a : REAL & a = 0.5 & n : 0..2 & #k.(k : INTEGER & k > n) "
+               "THEN skip END"):
+        other = load_machine_text("MACHINE M VARIABLES x INVARIANT x : REAL INITIALISATION "
+                                  f"x := 0.0 OPERATIONS {op} END")
+        with pytest.raises(TracecheckError) as e:
+            other.enabled({"x": 0.0})
+        assert "types" not in e.value.message and "cannot enumerate" in e.value.message
 
 
 ACC = '''MACHINE Acc
@@ -295,3 +305,26 @@ END""")
     with pytest.raises(UnsupportedError, match=r"a quantifier \(! or #\) over a parameter in "
                                                r"`!o\.\(o : Obstacles"):
         allowed_set(m, "MOVE", {"X": 0.0, "Obstacles": frozenset({5.0})})
+
+
+def test_an_allowed_set_a_few_floats_wide_at_an_open_end_projects_onto_an_allowed_float():
+    """A new user's tank: `Level + Inflow - flow > 15.0` at Level = 15.000000000000002 allows
+    [0.0, 1.8e-15) over the reals, but the evaluator's rounding refuses its middle and its
+    open end: the live shield said "undecided" and took the fallback (5.0, refused), where
+    0.0 and the floats up to 8.9e-16 are allowed. The closed end anchors the search."""
+    m = load_machine_text("""MACHINE Tank
+VARIABLES Level, Inflow
+INVARIANT Level : REAL & Inflow : REAL
+INITIALISATION Level, Inflow := 50.0, 0.0
+OPERATIONS PUMP(flow) = PRE flow : REAL & flow >= 0.0 & flow <= 10.0 &
+    Level + Inflow - flow > 15.0 THEN skip END
+END""")
+    state = {"Level": 15.000000000000002, "Inflow": 0.0}
+    allowed = allowed_set(m, "PUMP", state)
+    found = allowed.nearest({"flow": 1.5717679262161255})
+    assert found is not None and allowed.contains(found)
+    # an allowed float next to the refused ones, near the proposal (not the closed end 0.0)
+    assert 15.000000000000002 + 0.0 - found["flow"] > 15.0
+    assert found["flow"] == pytest.approx(8.881784197001252e-16, rel=1e-9)
+    assert not 15.000000000000002 + 0.0 - found["flow"] * (1 + 1e-9) > 15.0
+    assert allowed.witness() is not None

@@ -21,9 +21,9 @@ from hypothesis import strategies as st
 
 from tracecheck.b import load_machine_text
 from tracecheck.b.linear import allowed_set, guard_with_parameters
-from tracecheck.b.polytope import (Constraint, Interval, bound_constraint, clamp, confirmed,
-                                   constraint_of, distance_floor, inner_point, interval_of,
-                                   nearest_in_boxes)
+from tracecheck.b.box_search import confirmed, distance_floor, nearest_in_boxes
+from tracecheck.b.polytope import (Constraint, Interval, bound_constraint, clamp, constraint_of,
+                                   inner_point, interval_of)
 
 
 def machine(guard: str, params: str = "a"):

@@ -83,3 +83,18 @@ def test_a_misspelt_name_gets_a_suggestion():
                                          "not declare") as e:
         m.check_state({"gap": 1.0}, python=True)
     assert e.value.hint.startswith("did you mean Gap? name the variables as the machine does")
+
+
+def test_a_state_value_of_another_type_gets_the_hint_for_its_kind():
+    from tracecheck.b.state import state_from_json
+    from tracecheck.errors import InputError
+
+    m = machine("SETS MODES = {NORMAL, LOW} VARIABLES Level, Mode INVARIANT Level : REAL & "
+                "Mode : MODES INITIALISATION Level, Mode := 1.0, NORMAL")
+    with pytest.raises(InputError) as e:  # a new user's "\"LOW\"": a STRING
+        m.check_state(state_from_json({"Level": 1.0, "Mode": "\"LOW\""}))
+    assert e.value.hint.startswith('a value is written as B writes it: an element bare '
+                                   '("Mode": "NORMAL")')
+    with pytest.raises(InputError) as e:
+        m.check_state(state_from_json({"Level": 1, "Mode": "LOW"}))
+    assert e.value.hint == "reals are written with a decimal point: 1.0, not 1"

@@ -433,3 +433,24 @@ def test_a_shield_typing_only_some_parameters_real_is_refused_naming_the_others(
     assert "boat.mch:6:" in err and "ACCELERATE(a, r) types a REAL in its guard but not r" in err
     assert "hint: add `r : REAL` to the guard of ACCELERATE" in err
     assert "cannot enumerate" not in err and "Traceback" not in err
+
+
+def test_a_recorded_value_the_shield_has_no_element_for_names_the_step(tmp_path, capsys):
+    """A new user's tank recorded under --shield none (its mode a str, kept as a STRING),
+    replayed against a shield whose Mode is an element of MODES: the first state holding
+    'EMPTY' was said as "the state: …", no file, episode or step."""
+    shield = tmp_path / "modes.mch"
+    shield.write_text(ACC.replace("MACHINE Acc", "MACHINE Acc\nSETS MODES = {NORMAL, LOW}")
+                      .replace("VARIABLES Gap, Speed", "VARIABLES Gap, Speed, Mode")
+                      .replace("INVARIANT Gap : REAL", "INVARIANT Mode : MODES & Gap : REAL")
+                      .replace("Gap, Speed := 50.0, 20.0", "Gap, Speed, Mode := 50.0, 20.0, "
+                               "NORMAL"))
+    path = tmp_path / "modes.mcap"
+    write_run(path, new_header("recorded", variables=["Gap", "Speed", "Mode"],
+                               actions=ACTIONS, action_parameters={"ACCELERATE": ["a"]}),
+              [make(0, dict(s(50.0, 20.0), Mode="NORMAL"),
+                    [("ACCELERATE", {"a": 9.0}, dict(s(20.0, 21.0), Mode="EMPTY")),
+                     ("ACCELERATE", {"a": 9.0}, dict(s(48.0, 22.0), Mode="NORMAL"))])])
+    code, _, err = run(capsys, "replay", str(path), "--shield", str(shield))
+    assert code == 2 and f"{path}, episode 0, step 1: Mode is of type MODES in Acc, but it " \
+                         "is 'EMPTY'" in " ".join(err.split())

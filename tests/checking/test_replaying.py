@@ -251,7 +251,8 @@ def test_shield_loading_errors(tmp_path):
                                              r"step\(s\).*which the shield (misspelt|Misspelt)"
                            ) as e:
             diff([sample], *pair)
-        assert e.value.hint == "did you mean FASTRE?: an action and its operation have one name"
+        assert e.value.hint == ("is the shield's operation FASTRE the action FASTER misspelt? "
+                                "an action and its operation have one name")
     shield = load_shield("paper")
     assert shield.name == "paper" and shield.identity["sha256"] == shield.machine.sha256
 

@@ -258,7 +258,8 @@ def test_adapters_by_name_and_by_path():
     assert load_adapter(TOY).name == "corridor"
     with pytest.raises(InputError, match="cannot import the adapter module 'no_such_module'"):
         load_adapter("no_such_module:Thing")
-    with pytest.raises(InputError, match="is not a tracecheck EnvAdapter"):
+    with pytest.raises(InputError, match="json:JSONDecoder is a class, not a tracecheck "
+                                         "EnvAdapter"):
         load_adapter("json:JSONDecoder")
 
 
@@ -272,6 +273,10 @@ def test_adapters_by_name_and_by_path():
     ("tests.live.toy:Corridorr", "the module tests.live.toy has no 'Corridorr'",
      "its adapters: BrokenCorridor, ByteCorridor, Corridor, Cruise"),
     ("json:Decoder", "the module json has no 'Decoder'", "it defines no EnvAdapter subclass"),
+    ("tests.live.toy", "unknown environment 'tests.live.toy'",  # a module, no class
+     "an adapter in the module tests.live.toy is --env tests.live.toy:YourAdapter"),
+    ("tests.live.toy:CorridorEnv", "tests.live.toy:CorridorEnv is a Gymnasium environment, "
+     "not a tracecheck EnvAdapter: --env takes the adapter", "its adapters: BrokenCorridor"),
     ("drone_adapter.py", "unknown environment 'drone_adapter.py'",
      "--env takes a module's name, not a file: --env drone_adapter:YourAdapter"),
     ("my_envs/drone.py:Drone", "--env 'my_envs/drone.py:Drone' is not an adapter",
@@ -802,6 +807,8 @@ def test_an_observation_the_agent_cannot_act_on_is_refused_saying_where():
     pair = gym.spaces.Tuple((gym.spaces.Box(0.0, 1.0, (1,)), gym.spaces.Box(0.0, 1.0, (2, 2))))
     with pytest.raises(InputError, match=r"holds nan \(at \[1\]\[1\]\[0\]\)"):
         _finite((np.zeros(1), np.array([[0.0, 0.0], [np.nan, 0.0]])), flattening(pair))
+    with pytest.raises(InputError, match=r"holds nan \(at \[1\]\[1\]\[0\]\)"):  # as a list
+        _finite([np.zeros(1), np.array([[0.0, 0.0], [np.nan, 0.0]])], flattening(pair))
 
 
 def test_a_setting_the_environment_does_not_take_names_the_settings_it_has(capsys, tmp_path):
@@ -822,13 +829,16 @@ def test_a_setting_the_environment_does_not_take_names_the_settings_it_has(capsy
 def test_a_misspelt_operation_is_shown_where_it_is_declared(capsys, tmp_path):
     """A new user's `Haet` for Heat: record said "lacks Heat", no line, no word of Haet."""
     shield = tmp_path / "typo.mch"
-    shield.write_text(SHIELD.replace("Right = SELECT", "Rigth = SELECT"))
+    shield.write_text(SHIELD.replace("Right = SELECT", "Rigth = SELECT").replace(
+        "OPERATIONS", "/* Rigth = the step to the right */\nOPERATIONS"))  # a comment first
     table = tmp_path / "left.npy"
     np.save(table, left_leaning_table())
     code, _, err = run(capsys, "record", "--env", TOY, "--agent", table, "--shield", shield,
                        "-n", 1, "-o", tmp_path / "a.mcap")
-    line = next(k for k, x in enumerate(SHIELD.splitlines(), 1) if "Right = SELECT" in x)
+    line = next(k for k, x in enumerate(shield.read_text().splitlines(), 1)
+                if "Rigth = SELECT" in x)
     assert code == 2 and f"{shield}:{line}:3: a shield needs one operation per action (Left, " \
                          "Right); CorridorShield lacks Right and has Rigth, which no action " \
                          "is" in " ".join(err.split())
-    assert "hint: Right: did you mean Rigth?" in err
+    assert "hint: is the operation Rigth the action Right misspelt? An action and its " \
+           "operation have one name." in " ".join(err.split())

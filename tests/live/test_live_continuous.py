@@ -164,6 +164,13 @@ def test_a_space_with_other_components_is_refused():
         _shield(space=space)
     with pytest.raises(InputError, match="not a one-dimensional Box"):
         _shield(space=gym.spaces.Discrete(3))
+    with pytest.raises(InputError, match="not a one-dimensional Box"):
+        _shield(space=gym.spaces.Box(-4.0, 2.0, (1, 1), np.float32))
+    # integers: a projected 1.5 would reach the environment as 1, recorded as 1.5
+    with pytest.raises(InputError, match=r"its action space Box\(-4, 2, \(1,\), int64\) takes "
+                                         r"int64 values: the shield decides REAL ones") as e:
+        _shield(space=gym.spaces.Box(-4, 2, (1,), np.int64))
+    assert "give the environment a float Box" in e.value.hint
 
 
 def test_untyped_parameters_and_clashing_names_are_refused():
@@ -174,9 +181,12 @@ INITIALISATION Gap, EgoSpeed, LeadSpeed := 1.0, 1.0, 1.0
 OPERATIONS ACCELERATE(a) = PRE a >= -4.0 THEN skip END
 END""")
     with pytest.raises(InputError, match=r"must type each parameter REAL in its guard to "
-                                         r"take a continuous action; it does not type a") as e:
+                                         r"take a continuous action; `a : REAL` is not in "
+                                         r"it") as e:
         _shield(machine=untyped)
-    assert e.value.hint == "add `a : REAL` to its guard (PRE a : REAL & …)"
+    assert e.value.hint == ("add `a : REAL` to its guard (PRE a : REAL & …); an INTEGER "
+                            "choice is a discrete action")
+    assert e.value.line == 5  # the operation's line
     with pytest.raises(InputError, match=r"--scale takes 1 positive number\(s\)"):
         _shield(scale=(0.0,))
 

@@ -433,3 +433,22 @@ def test_actions_and_observations_of_spaces_that_do_not_start_at_0(capsys, tmp_p
         if after["step"] == before["step"] + 1:
             move = after["state"]["pos"] - before["state"]["pos"]
             assert move == {"Left": -1, "Right": 1}[after["action"]], (before, after)
+
+
+def test_a_dict_observation_with_a_part_not_starting_at_0_is_refused(capsys, monkeypatch):
+    """SB3 one-hot encodes a Discrete part from 0: Discrete(6, start=10) inside a Dict ended
+    in its "Class values must be smaller than num_classes" traceback."""
+    import gymnasium as gym
+
+    from tests.live import toy
+
+    space = gym.spaces.Dict({"cell": gym.spaces.Discrete(6, start=10),
+                             "lamps": gym.spaces.Box(0.0, 1.0, (2,), np.float32)})
+    monkeypatch.setattr(toy.DictCorridorEnv, "__init__", lambda self, slip=True,
+                        render_mode=None: (toy.CorridorEnv.__init__(self, slip),
+                                           setattr(self, "observation_space", space)) and None)
+    code, _, err = run(capsys, "train", "--env", "tests.live.toy:DictCorridor", "--algorithm",
+                       "dqn", "--steps", "64", "-o", "unused.zip")
+    said = " ".join(err.split())
+    assert code == 2 and "holds a Discrete(n, start) part that does not start at 0 (['cell'] " \
+                         "Discrete(6, start=10)): Stable-Baselines3 one-hot encodes" in said

@@ -44,7 +44,8 @@ from .memo import MEMO_KEY, fresh
 from .polytope import (Constraint, Form, Interval, bound_constraint, box_constraints, box_of,
                        box_within, constraint_of, distance_to, exact, form_add, form_constant,
                        form_neg, form_times, gap, inner_point, interval_of, merge_intervals,
-                       nearest_in_boxes, nearest_point, towards)
+                       nearest_point, towards)
+from .box_search import nearest_in_boxes
 
 __all__ = ["Constraint", "AllowedSet", "Interval", "allowed_set", "real_parameters",
            "real_typed", "parameter_range", "guard_with_parameters", "linear_form"]
@@ -129,8 +130,7 @@ class AllowedSet:
             return found
         for box in self._boxes:  # a point well inside a box first: one evaluation
             inner = {p: inner_point(box[p], 0.0) for p in self.params}
-            if all(box[p].contains(inner[p]) for p in self.params) and \
-                    self.contains(inner):
+            if all(box[p].contains(inner[p]) for p in self.params) and self.contains(inner):
                 return inner
         return self.nearest({p: 0.0 for p in self.params})
 
@@ -207,7 +207,7 @@ def real_parameters(op) -> bool:
 def real_typed(op) -> frozenset[str]:
     """The parameters of ``op`` a conjunct ``p : REAL`` of its guard types."""
     found = conjuncts(op.guard) if op.guard is not None else []
-    return frozenset(c.left.id for c in found if isinstance(c, ast.Rel) and _typing(c))
+    return frozenset(c.left.id for c in found if _typing(c) and c.left.id in op.params)
 
 
 def allowed_set(machine, op_name: str, state: Optional[Mapping[str, Any]] = None, *,
@@ -639,9 +639,9 @@ def _ratio(value: Any, what: str) -> tuple[int, int]:
     return exact(value, what).as_integer_ratio()
 
 
-def _typing(node: ast.Rel) -> bool:
-    return node.op == ":" and isinstance(node.left, ast.Name) and \
-        isinstance(node.right, ast.Name) and node.right.id in ("REAL", "FLOAT")
+def _typing(node: ast.Node) -> bool:
+    return isinstance(node, ast.Rel) and node.op == ":" and isinstance(node.left, ast.Name) \
+        and isinstance(node.right, ast.Name) and node.right.id in ("REAL", "FLOAT")
 
 
 def _cap(parts, node, lin) -> list:

@@ -52,6 +52,7 @@ class Operation:
     body: ast.Subst
     description: Optional[str] = None
     guard_source: Optional[str] = None  # the guard as written, definitions not expanded
+    pos: Optional[ast.Pos] = field(default=None, compare=False)  # where it is declared
 
     @property
     def enabling_guard(self) -> Optional[ast.Node]:
@@ -162,12 +163,18 @@ class Machine(BatchQuestions):
                 raise InputError(f"{where}: {name} mentions {', '.join(sorted(unknown))}, "
                                  f"which no set of {self.name} contains")
             if not unify_quiet(wanted, type_of_value(value, owners)):
+                got = describe_value_type(value, owners)
+                some = next(iter(self.sets.get(self.types[name], ("E",))))  # an element
                 raise InputError(f"{where}: {name} must be of type {self.types[name]}, but "
-                                 f"its value is of type {describe_value_type(value, owners)}",
+                                 f"its value is of type {got}",
                                  hint="give B values by the machine's types: a str naming an "
                                       "element, a dict for a function (docs/environments.md, "
                                       "\"States\")" if python else
-                                 "reals are written with a decimal point: 1.0, not 1")
+                                 "reals are written with a decimal point: 1.0, not 1"
+                                 if {got, self.types[name]} == {"INTEGER", "REAL"} else
+                                 f"a value is written as B writes it: an element bare "
+                                 f"(\"{name}\": \"{some}\"), a string in quotes "
+                                 "(\"\\\"text\\\"\"), a set in braces (\"{1, 2}\")")
 
     def compiler(self) -> Compiler:
         comp = Compiler(source=self.source, file=self.file)
@@ -247,12 +254,14 @@ class Machine(BatchQuestions):
         """``fn`` (evaluating the guard of ``op``, which types some of its parameters REAL
         but not all) raising, where it cannot enumerate a parameter, why (see
         :func:`mixed_parameters`) instead of naming that parameter alone."""
+        reals = real_typed(op)
+
         def guard(*args: Any) -> Any:
             try:
                 return fn(*args)
             except EvaluationError as exc:  # (a batch's says the state first)
-                if "cannot enumerate " not in exc.message:
-                    raise
+                if not any(f"cannot enumerate {p} in " in exc.message for p in reals):
+                    raise  # not a REAL parameter: what it says is the problem
                 raise mixed_parameters(op, self.file, self.source) from exc
         return guard
 
@@ -550,7 +559,7 @@ def _build(src: MachineSource, kind: "type[Machine]") -> Machine:
         written_guard = guard_of(op.body)
         operations[op.name] = Operation(
             op.name, op.params, op.outputs, guard_of(body), body, _op_description(src, op, until),
-            render(written_guard, src.text) if written_guard is not None else None)
+            render(written_guard, src.text) if written_guard is not None else None, op.pos)
     descriptions = {}
     for name, pos in src.constants + src.variables:
         desc = src.description_after(pos)

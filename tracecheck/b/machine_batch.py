@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping, Optional
 
-from ..errors import UnsupportedError
+from ..errors import InputError, UnsupportedError
 from . import ast
 from .linear import real_parameters, real_typed
 
@@ -85,11 +85,11 @@ class BatchQuestions:
             def one(i: int) -> bool:
                 try:
                     return bool(decide(self.env(others.row(i))))
-                except UnsupportedError as exc:  # undecided: say which state
-                    if others.label is None or exc.line is not None:
-                        raise
-                    raise UnsupportedError(f"{others.label(i)}: {exc.message}",
-                                           hint=exc.hint) from None
+                except (UnsupportedError, InputError) as exc:  # undecided, or a value the
+                    if others.label is None or exc.line is not None:  # shield has not: say
+                        raise  # which state
+                    message = exc.message.removeprefix("the state: ")
+                    raise type(exc)(f"{others.label(i)}: {message}", hint=exc.hint) from None
             enabled[rest] = np.array([one(int(i)) for i in first], dtype=bool)[index]
         return enabled
 

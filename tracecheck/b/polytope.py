@@ -30,16 +30,13 @@ from math import comb, gcd
 from typing import Any, Mapping, Optional, Sequence
 
 from ..errors import UnsupportedError
-from .floats import (DOUBLINGS, NUDGES, float_count, float_range, from_index, index,
-                     neighbour, towards)
+from .floats import (DOUBLINGS, NUDGES, float_range, neighbour, towards)
 
 __all__ = ["Constraint", "Form", "exact", "form_constant", "form_add", "form_times",
            "form_neg", "constraint_of", "bound_constraint", "box_constraints", "Interval",
-           "interval_of", "box_of", "merge_intervals", "gap", "clamp", "nearest_in_boxes",
-           "confirmed", "distance_floor", "inner_point", "towards", "neighbour",
-           "nearest_in_polytope", "interior", "nearest_point", "distance_to", "MAX_SYSTEMS",
-           "box_within",
-           "NUDGES", "DOUBLINGS", "FLOAT_SCAN", "scan_boxes", "float_range"]
+           "interval_of", "box_of", "merge_intervals", "gap", "clamp", "inner_point", "towards",
+           "neighbour", "nearest_in_polytope", "interior", "nearest_point", "distance_to",
+           "MAX_SYSTEMS", "box_within", "NUDGES", "DOUBLINGS", "float_range"]
 
 
 @dataclass(frozen=True)
@@ -305,122 +302,6 @@ def clamp(x: float, interval: Interval) -> float:
             (x < interval._floats[0] or Fraction(x) <= interval.low):
         return float(interval.low)
     return float(interval.high)
-
-
-def nearest_in_boxes(allowed, boxes: list[dict], point, scale=None) -> Optional[dict]:
-    """:meth:`~tracecheck.b.linear.AllowedSet.nearest` for a union of ``boxes`` (intervals
-    by parameter): in each the point nearest ``point``, its bounds rounded, or the allowed
-    float nearest that (:func:`confirmed`); the nearest of those (the first box's at a
-    tie). A box farther than the best point found cannot hold a nearer one: the boxes are
-    taken nearest first, and the evaluator is not asked about points of the others."""
-    if not boxes:
-        return None
-    params = allowed.params
-    x = {p: float(point[p]) for p in params}
-    s = {p: (scale or {}).get(p, 1.0) for p in params}
-    floor = [distance_floor(box, x, s) for box in boxes]
-    best, best_d, best_i = None, math.inf, len(boxes)
-    for i in sorted(range(len(boxes)), key=lambda i: (floor[i], i)):
-        if floor[i] > best_d:
-            break
-        box = boxes[i]
-        candidate = confirmed(allowed, {p: clamp(x[p], box[p]) for p in params}, box)
-        if candidate is None:
-            continue
-        d = sum(((candidate[p] - x[p]) / s[p]) ** 2 for p in params)
-        if d < best_d or (best is not None and d == best_d and i < best_i):
-            best, best_d, best_i = candidate, d, i
-    if best is None:  # non-empty over the reals, yet no float tried was allowed
-        return scan_boxes(allowed, boxes, x, s)
-    return best
-
-
-#: The most floats of one box tried one by one, where neither a point well inside it nor
-#: its edges nor the floats next to them pass the evaluator, before tracecheck says it
-#: cannot tell (a box of a few floats at the edge of an allowed set: its ends' roundings)
-FLOAT_SCAN = 1 << 14
-
-
-def scan_boxes(allowed, boxes: list[dict], x: dict, s: dict) -> Optional[dict]:
-    """The allowed float point nearest ``x`` among the float points of ``boxes``: every
-    float of each parameter whose interval holds few of them (:data:`FLOAT_SCAN` for all
-    boxes together), a point well inside and the one nearest ``x`` for the others. None only
-    where every box was searched whole and the evaluator allows none of its floats; raises
-    :class:`UnsupportedError` where a box could not be searched whole and none of the
-    points tried passed — non-empty over the reals, so "nothing allowed" would be a
-    guess."""
-    from itertools import product
-
-    params = allowed.params
-    best, best_d, whole, budget = None, None, True, FLOAT_SCAN  # for all boxes together
-    at, scale = {p: exact(x[p], p) for p in params}, {p: Fraction(s[p]) for p in params}
-    for box in boxes:
-        ranges = {p: float_range(box[p]) for p in params}
-        sizes = {p: float_count(*ranges[p]) if ranges[p] else math.inf for p in params}
-        if 0 in sizes.values():  # no float lies in it: no float point of it to allow
-            continue
-        small = [p for p in params if sizes[p] <= budget]
-        if math.prod(sizes[p] for p in small) > budget:
-            small = []
-        budget -= math.prod(sizes[p] for p in small)
-        whole = whole and len(small) == len(params)
-        axes = [[from_index(k) for k in range(index(ranges[p][0]), index(ranges[p][1]) + 1)]
-                if p in small else
-                sorted({inner_point(box[p], x[p]), clamp(x[p], box[p])}) for p in params]
-        for values in product(*axes):
-            point = dict(zip(params, values))
-            d = sum(((Fraction(point[p]) - at[p]) / scale[p]) ** 2 for p in params)  # exact
-            if (best_d is None or d < best_d) and allowed.contains(point):
-                best, best_d = point, d
-    if best is None and not whole:
-        raise UnsupportedError(
-            "undecided: the guard allows values over the reals (" + " ∪ ".join(
-                " × ".join(str(box[p]) for p in params) for box in boxes) + "), but the "
-            "evaluator's float arithmetic refuses every float point tracecheck tried, and "
-            "there are too many to try them all")
-    return best
-
-
-def confirmed(allowed, candidate: dict, box: dict) -> Optional[dict]:
-    """``candidate`` if the evaluator allows it, else the allowed float point nearest it on
-    the way into the box (bisection: the evaluator's float arithmetic may refuse the exact
-    boundary point) — moving first only the parameters whose float lies outside their
-    interval over the reals (a bound rounded, an open end), then all of them; None if none
-    is found (fail closed)."""
-    if allowed.contains(candidate):
-        return candidate
-    params = allowed.params
-    outside = [p for p in params if not box[p].contains(candidate[p])]
-    for moving in (outside, list(params)):
-        inner = dict(candidate)
-        inner.update({p: inner_point(box[p], candidate[p]) for p in moving})
-        if inner == candidate or not allowed.contains(inner):
-            continue
-        return allowed.towards(candidate, inner)
-    return neighbour(allowed.contains, params, candidate)
-
-
-def distance_floor(box: dict, x: dict, scale: dict) -> float:
-    """At most the squared distance, as :meth:`~tracecheck.b.linear.AllowedSet.nearest`
-    computes it in floats (each parameter's divided by ``scale``), from the float point
-    ``x`` to any point of ``box`` (intervals by parameter) or a few floats outside it: a
-    box with a larger one cannot hold the nearest point. 0 where ``x`` is not finite, or
-    a number overflows."""
-    total = 0.0
-    for p, interval in box.items():
-        v = x[p]
-        if not math.isfinite(v):
-            return 0.0
-        low, high = interval._floats
-        g = low - v if v < low else v - high if v > high else 0.0
-        if g > 0.0:  # less a margin far above every rounding on the way
-            ends = [abs(e) for e in (low, high, v) if math.isfinite(e)]
-            g = g * (1 - 1e-9) - 64 * math.ulp(max(ends))
-            try:
-                total += (g / scale[p]) ** 2 if g > 0.0 else 0.0
-            except (ArithmeticError, TypeError):
-                return 0.0
-    return total * (1 - 1e-9)
 
 
 def inner_point(i: Interval, x: float) -> float:

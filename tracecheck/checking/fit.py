@@ -10,7 +10,7 @@ import numpy as np
 
 from ..b import ast
 from ..episodes.columns import RunColumns
-from ..errors import InputError, did_you_mean
+from ..errors import InputError, closest, did_you_mean
 from .shield import Shield
 
 __all__ = ["check_actions", "check_variables", "refuse_recorded_values"]
@@ -32,8 +32,10 @@ def check_actions(shield: Shield, cols: RunColumns, rows: np.ndarray,
                              f"{int(cols.episode[r])} step {int(cols.step[r])}), which the "
                              f"shield {shield.name} has no operation for (its operations are "
                              f"{', '.join(ops) or 'none'})",
-                             hint=f"{did_you_mean(name, ops) or 'check the spelling'}: "
-                                  "an action and its operation have one name")
+                             hint=(f"is the shield's operation {closest(name, ops)} the "
+                                   f"action {name} misspelt? " if closest(name, ops) else
+                                   "check the spelling: ") + "an action and its operation "
+                                  "have one name")
 
 
 def check_variables(shield: Shield, cols: RunColumns) -> None:

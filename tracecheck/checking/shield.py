@@ -8,7 +8,6 @@ the sha256 of its text, so a report always says exactly which shield it used.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
@@ -153,17 +152,15 @@ def for_actions(shield: Shield, actions: tuple[str, ...]) -> Shield:
     if missing:
         spare = [op for op in shield.machine.operations if op not in actions]
         near = [(a, closest(a, spare)) for a in missing if closest(a, spare)]
-        source = shield.machine.source or ""
-        found = re.search(rf"(?m)\b{re.escape(near[0][1])}\s*(\([^)]*\))?\s*=",
-                          source) if near else None  # where the misspelt one is declared
+        pos = shield.machine.operations[near[0][1]].pos if near else None  # the misspelt one
         raise InputError(f"a shield needs one operation per action ({', '.join(actions)}); "
                          f"{shield.machine.name} lacks {', '.join(missing)}"
                          + (f" and has {', '.join(spare)}, which no action is" if spare else ""),
-                         file=str(shield.path), source=source if found else None,
-                         line=source.count("\n", 0, found.start()) + 1 if found else None,
-                         column=found.start() - source.rfind("\n", 0, found.start())
-                         if found else None,
-                         hint="; ".join(f"{a}: did you mean {b}?" for a, b in near) if near else
+                         file=str(shield.path), source=shield.machine.source if pos else None,
+                         line=pos.line if pos else None, column=pos.column if pos else None,
+                         hint="; ".join(f"is the operation {b} the action {a} misspelt?"
+                                        for a, b in near) + " An action and its operation "
+                         "have one name." if near else
                          "name each of the environment's actions (the adapter's `actions`) "
                          "as the shield's operation for it")
     return shield

@@ -460,13 +460,23 @@ def load_adapter(spec: Optional[str]) -> EnvAdapter:
     cls = module
     for part in attr.split("."):
         cls = getattr(cls, part, None)
+    found = sorted(n for n, v in vars(module).items() if isinstance(v, type) and
+                   issubclass(v, EnvAdapter) and v.__module__ == module.__name__)
+    hint = f"its adapters: {', '.join(found)}" if found else \
+        "it defines no EnvAdapter subclass (see docs/environments.md)"
     if cls is None:
-        found = sorted(n for n, v in vars(module).items() if isinstance(v, type) and
-                       issubclass(v, EnvAdapter) and v.__module__ == module.__name__)
-        raise InputError(f"the module {module_name} has no {attr!r}",
-                         hint=f"its adapters: {', '.join(found)}" if found else
-                         "it defines no EnvAdapter subclass (see docs/environments.md)")
+        raise InputError(f"the module {module_name} has no {attr!r}", hint=hint)
+    if isinstance(cls, type) and not issubclass(cls, EnvAdapter):
+        what = "a Gymnasium environment" if _is_env(cls) else "a class"
+        raise InputError(f"{spec} is {what}, not a tracecheck EnvAdapter: --env takes the "
+                         "adapter that makes the environment and reads its states", hint=hint)
     return _instance(cls, spec)
+
+
+def _is_env(cls: type) -> bool:
+    import gymnasium as gym
+
+    return issubclass(cls, gym.Env)
 
 
 def _module_of_file(path: str) -> tuple[str, str]:
@@ -489,9 +499,12 @@ def _name_hint(name: str) -> str:
         return (f"--env takes a module's name, not a file: --env {module}:YourAdapter, with "
                 "the module's folder on PYTHONPATH")
     module, dot, attr = name.rpartition(".")
-    if dot and _SPEC.fullmatch(f"{module}:{attr}"):
+    if dot and _SPEC.fullmatch(f"{module}:{attr}") and attr[:1].isupper():
         return f"an adapter in a module of yours is --env {module}:{attr} (a colon before " \
                "the class)"
+    if dot and _SPEC.fullmatch(f"{module}:{attr}"):  # a module's name: its class after a colon
+        return f"an adapter in the module {name} is --env {name}:YourAdapter (a colon, then " \
+               "the adapter's class)"
     return "give your own adapter as --env package.module:Class"
 
 
@@ -522,7 +535,9 @@ def _guarded(method, where: str, hook: str):
         except USERS as exc:  # noqa: BLE001 - the user's code: say whose it is
             error = raised(where, exc, f"in {hook}()")
             if hook == "make_env":  # a setting it does not take: which it has
-                error.hint = _unknown_setting(method.__self__, exc) or error.hint
+                owner = getattr(method, "__self__", None)  # (a staticmethod has none)
+                error.hint = (_unknown_setting(owner, exc) if owner is not None else None) \
+                    or error.hint
             raise error from exc
     return call
 

@@ -167,10 +167,17 @@ def _part(where: str, op: str, params: Sequence[str], box) -> SpacePart:
     if shape[0] != len(params):
         raise InputError(f"{where} names {len(params)} parameter(s) ({', '.join(params)}) "
                          f"for {op}, but its action space {box} has {shape[0]} component(s)")
-    kind = np.dtype(getattr(box, "dtype", np.float64))
+    kind = np.dtype(getattr(box, "dtype", None) or np.float64)
+    if kind.kind != "f":  # 1.5 projected would reach it as 1, recorded as 1.5
+        raise InputError(f"{where} declares continuous parameters for {op}, but its action "
+                         f"space {box} takes {kind} values: the shield decides REAL ones, "
+                         "and a value it allows could reach the environment rounded to one "
+                         "it does not",
+                         hint="give the environment a float Box (dtype=np.float32 or "
+                              "float64), or make the choice discrete (Discrete(n), one "
+                              "operation per value)")
     return SpacePart(op, tuple(params), np.asarray(low, dtype=np.float64),
-                     np.asarray(high, dtype=np.float64),
-                     kind if kind.kind == "f" else np.dtype(np.float64))
+                     np.asarray(high, dtype=np.float64), kind)
 
 
 @dataclass
@@ -308,10 +315,13 @@ class ContinuousShield:
         if not real_parameters(op):
             untyped = [p for p in params if p not in real_typed(op)]
             raise InputError(f"the operation {name} of {machine.name} must type each "
-                             f"parameter REAL in its guard to take a continuous action; it "
-                             f"does not type {', '.join(untyped)}",
+                             f"parameter REAL in its guard to take a continuous action; "
+                             f"{' and '.join(f'`{p} : REAL`' for p in untyped)} is not in it",
+                             file=machine.file, source=machine.source if op.pos else None,
+                             line=op.pos.line if op.pos else None,
+                             column=op.pos.column if op.pos else None,
                              hint=f"add `{untyped[0]} : REAL` to its guard (PRE {untyped[0]} "
-                                  ": REAL & …)")
+                                  ": REAL & …); an INTEGER choice is a discrete action")
         try:
             linear_form(machine, name)
         except UnsupportedError as exc:  # not linear: the solver decides, if it can

@@ -199,7 +199,7 @@ def _finite(obs, flat=None) -> None:
 def _not_finite(obs, place: str = "") -> Optional[tuple[Any, str]]:
     """The first NaN or infinity in ``obs`` (an array, or a Dict or Tuple observation's
     parts, by key), and where: ``index [2]``, ``['pose'][1]``."""
-    if isinstance(obs, Mapping) or isinstance(obs, tuple):
+    if isinstance(obs, (Mapping, tuple, list)):  # (a Tuple's observation as a list too)
         for key, part in (obs.items() if isinstance(obs, Mapping) else enumerate(obs)):
             found = _not_finite(part, f"{place}[{key!r}]")
             if found is not None:

@@ -328,6 +328,14 @@ def _vec_env(adapter, config: dict, shield, horizon: int, penalty: float = 0.0, 
         return indexed(_penalised(shielded, penalty) if penalty else shielded)
 
     vec = DummyVecEnv([make])
+    offset = _offset_parts(vec.observation_space)
+    if offset:  # (a whole Discrete(n, start) observation is observed as its index)
+        vec.close()
+        raise InputError(f"{adapter.name}'s observation space {vec.observation_space} holds "
+                         f"a Discrete(n, start) part that does not start at 0 ({offset[0]}): "
+                         "Stable-Baselines3 one-hot encodes a Discrete part from 0",
+                         hint="start that part at 0 in the environment (or in a wrapper its "
+                              "adapter's make_env adds)")
     space = vec.action_space
     if not adapter.parameters and (not isinstance(space, spaces.Discrete)
                                    or int(space.n) != len(adapter.actions)):
@@ -336,6 +344,19 @@ def _vec_env(adapter, config: dict, shield, horizon: int, penalty: float = 0.0, 
                          f"{len(adapter.actions)} discrete actions, one per action of the "
                          f"adapter ({', '.join(adapter.actions)})")
     return vec
+
+
+def _offset_parts(space, place: str = "") -> list[str]:
+    """Where a Dict or Tuple space holds a ``Discrete(n, start)`` with start ≠ 0."""
+    parts = getattr(space, "spaces", None)
+    if isinstance(parts, dict):
+        return [found for key, part in parts.items()
+                for found in _offset_parts(part, f"{place}[{key!r}]")]
+    if isinstance(parts, tuple):
+        return [found for i, part in enumerate(parts)
+                for found in _offset_parts(part, f"{place}[{i}]")]
+    return [f"{place} {space}"] if place and getattr(space, "start", 0) and \
+        getattr(space, "n", None) is not None else []
 
 
 def _said(env, name: str):

@@ -128,12 +128,12 @@ class _Indexed(gym.Wrapper):
 
     def reset(self, **kwargs):
         obs, info = self.env.reset(**kwargs)
-        return obs - self._obs, info
+        return (obs - self._obs if self._obs else obs), info
 
     def step(self, action):
         obs, reward, terminated, truncated, info = self.env.step(
             int(action) + self._act if self._act else action)
-        return obs - self._obs, reward, terminated, truncated, info
+        return (obs - self._obs if self._obs else obs), reward, terminated, truncated, info
 
     def action_masks(self) -> np.ndarray:  # a shielded environment's, for MaskablePPO
         return self.env.action_masks()
