@@ -108,3 +108,33 @@ def test_without_a_machine_only_the_unambiguous_converts():
     with pytest.raises(InputError, match="s is a list, and without the machine's type it is "
                                          "ambiguous"):
         convert_state({"s": [1, 2]})
+
+
+def test_an_array_holding_a_value_twice_is_no_set():
+    """A new user's elevator gave its MultiBinary call buttons [0, 1, 1, 0, 0] for
+    `calls : POW(0..4)`: it was read as {0, 1}, where the calls were {1, 2}."""
+    import numpy as np
+
+    from tracecheck.b.machine import load_machine_text
+    from tracecheck.errors import InputError
+
+    m = load_machine_text("MACHINE Lift VARIABLES calls INVARIANT calls : POW(0..4) "
+                          "INITIALISATION calls := {} END")
+    with pytest.raises(InputError) as e:
+        m.native({"calls": np.array([0, 1, 1, 0, 0])})
+    assert "set(np.flatnonzero(mask).tolist())" in e.value.hint
+    assert m.native({"calls": np.array([1, 2])})["calls"] == frozenset({1, 2})
+
+
+def test_a_set_given_for_a_sequence_says_give_a_list():
+    """A new user's queue as a Python set for `queue : seq(0..4)`: the message spoke of
+    pairs ("should be of type INTEGER*INTEGER … but it is 1", "a pair is a tuple of two")."""
+    from tracecheck.b.machine import load_machine_text
+    from tracecheck.errors import InputError
+
+    m = load_machine_text("MACHINE Lift VARIABLES queue INVARIANT queue : seq(0..4) "
+                          "INITIALISATION queue := [] END")
+    with pytest.raises(InputError) as e:
+        m.native({"queue": {4, 2}})
+    assert e.value.hint.startswith("a sequence is a list")
+    assert m.native({"queue": [4, 2]})["queue"] == m.native({"queue": (4, 2)})["queue"]

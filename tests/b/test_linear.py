@@ -323,8 +323,30 @@ END""")
     allowed = allowed_set(m, "PUMP", state)
     found = allowed.nearest({"flow": 1.5717679262161255})
     assert found is not None and allowed.contains(found)
-    # an allowed float next to the refused ones, near the proposal (not the closed end 0.0)
+    # the allowed float nearest the proposal: the next float up is refused
     assert 15.000000000000002 + 0.0 - found["flow"] > 15.0
+    assert not 15.000000000000002 + 0.0 - math.nextafter(found["flow"], 1.0) > 15.0
     assert found["flow"] == pytest.approx(8.881784197001252e-16, rel=1e-9)
-    assert not 15.000000000000002 + 0.0 - found["flow"] * (1 + 1e-9) > 15.0
     assert allowed.witness() is not None
+    # a proposal beyond the floats' squares: no OverflowError
+    assert allowed.nearest({"flow": 1e200}) == found
+
+
+def test_a_closed_end_anchors_only_within_its_own_box():
+    """From a review: an anchor moving one parameter to a closed end and leaving the other
+    outside the box was allowed through the guard's other case, and the projection ended
+    there — 121 away where (10 - 1 float, b + 1) is 2 away."""
+    m = load_machine_text("""MACHINE Two
+VARIABLES X, Y, T
+INVARIANT X : REAL & Y : REAL & T : REAL
+INITIALISATION X, Y, T := 0.0, 0.0, 0.0
+OPERATIONS Act(a, b) = PRE a : REAL & b : REAL &
+  ((a >= 0.0 & a < 10.0 & X - b + Y <= T & b <= 200.0) or
+   (a <= 0.0 & b >= -200.0 & b <= 200.0)) THEN skip END
+END""")
+    allowed = allowed_set(m, "Act", {"X": 48.4498722612494, "Y": 98.55082298257977,
+                                     "T": 23.464043487103847})
+    point = {"a": 11.0, "b": 122.53665175672533}
+    found = allowed.nearest(point)
+    assert allowed.contains(found)
+    assert sum((found[p] - point[p]) ** 2 for p in point) == pytest.approx(2.0)

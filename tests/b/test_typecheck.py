@@ -93,8 +93,14 @@ def test_a_state_value_of_another_type_gets_the_hint_for_its_kind():
                 "Mode : MODES INITIALISATION Level, Mode := 1.0, NORMAL")
     with pytest.raises(InputError) as e:  # a new user's "\"LOW\"": a STRING
         m.check_state(state_from_json({"Level": 1.0, "Mode": "\"LOW\""}))
-    assert e.value.hint.startswith('a value is written as B writes it: an element bare '
-                                   '("Mode": "NORMAL")')
+    assert e.value.hint == 'an element is written bare, as B writes it: "Mode": "NORMAL"'
     with pytest.raises(InputError) as e:
         m.check_state(state_from_json({"Level": 1, "Mode": "LOW"}))
     assert e.value.hint == "reals are written with a decimal point: 1.0, not 1"
+    n = machine("VARIABLES k, b INVARIANT k : INTEGER & b : BOOL INITIALISATION k, b := 1, TRUE")
+    with pytest.raises(InputError) as e:
+        n.check_state(state_from_json({"k": 1.5, "b": True}))
+    assert e.value.hint == "integers are written without a decimal point: 1, not 1.0"
+    with pytest.raises(InputError) as e:  # no element to show: how B writes values
+        n.check_state(state_from_json({"k": 1, "b": 1}))
+    assert e.value.hint.startswith("a value is written as B writes it: TRUE or FALSE")

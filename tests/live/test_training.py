@@ -450,5 +450,12 @@ def test_a_dict_observation_with_a_part_not_starting_at_0_is_refused(capsys, mon
     code, _, err = run(capsys, "train", "--env", "tests.live.toy:DictCorridor", "--algorithm",
                        "dqn", "--steps", "64", "-o", "unused.zip")
     said = " ".join(err.split())
-    assert code == 2 and "holds a Discrete(n, start) part that does not start at 0 (['cell'] " \
+    assert code == 2 and "holds a discrete part that does not start at 0 (['cell'] " \
                          "Discrete(6, start=10)): Stable-Baselines3 one-hot encodes" in said
+    from tracecheck.live.training import _offset_parts
+
+    # a MultiDiscrete part (its start an array) is no error unless it starts elsewhere
+    assert _offset_parts(gym.spaces.Dict({"m": gym.spaces.MultiDiscrete([6, 2])})) == []
+    assert _offset_parts(gym.spaces.MultiDiscrete([6, 2], start=[1, 0])) == [
+        "MultiDiscrete([6 2], start=[1 0])"]
+    assert _offset_parts(gym.spaces.Discrete(6, start=10)) == []  # whole: made an index

@@ -211,3 +211,40 @@ def test_a_guard_it_cannot_evaluate_fails_closed_and_says_why(tmp_path):
     *_, info = env.step(1)  # Right asked for: not allowed, so replaced
     assert info["shield"]["replaced"] and info["shield"]["taken"] == "Left"
     assert "problem" not in info["shield"]  # pos = 1: every guard evaluates
+
+
+def test_a_recorded_deadlock_is_said_in_the_file(tmp_path, capsys):
+    """A new user's elevator: record stored no deadlock (the rollout read the learner's mask,
+    which holds the fallback in a deadlock), so each such step showed the fallback as
+    allowed — the file, stats, Foxglove's log and Minari all said there was none, where
+    replay counted 13 deadlock states."""
+    import json
+
+    import numpy as np
+    from mcap.reader import make_reader
+
+    from tests.helpers import run
+    from tests.live.toy import SHIELD, left_leaning_table
+    from tracecheck.checking.replaying import replay
+
+    shield = tmp_path / "stuck.mch"  # in cells 2 and 3 nothing is allowed
+    shield.write_text(SHIELD.replace("pos > 1", "pos > 3").replace("pos < 5", "pos < 2"))
+    table = tmp_path / "left.npy"
+    np.save(table, left_leaning_table())
+    out = tmp_path / "run.mcap"
+    code, said, err = run(capsys, "record", "--env", "tests.live.toy:Corridor", "--agent",
+                          table, "--shield", shield, "-n", "6", "-o", out)
+    assert code == 0, err
+    with open(out, "rb") as f:
+        steps = [json.loads(m.data) for _, _, m in make_reader(f).iter_messages(
+            topics=["/tracecheck/step"])]
+    stuck = [s for s in steps if s["step"] > 0 and s.get("deadlock")]
+    assert stuck and all(s["allowed_actions"] == [] and s["action"] == "Left" for s in stuck)
+    # each deadlock is the state before a step in cell 2 or 3: as the shield decided there
+    before = {(s["episode"], s["step"]): s["state"]["pos"] for s in steps}
+    assert all(before[(s["episode"], s["step"] - 1)] in (2, 3) for s in stuck)
+    assert not any(s.get("deadlock") for s in steps
+                   if s["step"] > 0 and before[(s["episode"], s["step"] - 1)] not in (2, 3))
+    assert f"{len(stuck)} step(s) where the shield allowed nothing" in " ".join(said.split())
+    report = replay([out], load_shield(shield))
+    assert report.deadlock_states >= len(stuck)

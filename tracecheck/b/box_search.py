@@ -12,7 +12,7 @@ from fractions import Fraction
 from typing import Iterator, Optional
 
 from ..errors import UnsupportedError
-from .floats import float_count, float_range, from_index, index, neighbour
+from .floats import NUDGES, float_count, float_range, from_index, index, neighbour
 from .polytope import clamp, exact, inner_point
 
 __all__ = ["nearest_in_boxes", "scan_boxes", "confirmed", "distance_floor", "FLOAT_SCAN"]
@@ -38,8 +38,9 @@ def nearest_in_boxes(allowed, boxes: list[dict], point, scale=None) -> Optional[
         candidate = confirmed(allowed, {p: clamp(x[p], box[p]) for p in params}, box)
         if candidate is None:
             continue
-        d = sum(((candidate[p] - x[p]) / s[p]) ** 2 for p in params)
-        if d < best_d or (best is not None and d == best_d and i < best_i):
+        d = sum(((candidate[p] - x[p]) / s[p]) * ((candidate[p] - x[p]) / s[p])
+                for p in params)  # (a product: inf past the floats, no OverflowError)
+        if best is None or d < best_d or (d == best_d and i < best_i):
             best, best_d, best_i = candidate, d, i
     if best is None:  # non-empty over the reals, yet no float tried was allowed
         return scan_boxes(allowed, boxes, x, s)
@@ -95,37 +96,50 @@ def scan_boxes(allowed, boxes: list[dict], x: dict, s: dict) -> Optional[dict]:
 def confirmed(allowed, candidate: dict, box: dict) -> Optional[dict]:
     """``candidate`` if the evaluator allows it, else the allowed float point nearest it on
     the way into the box (bisection: the evaluator's float arithmetic may refuse the exact
-    boundary point) — moving first only the parameters whose float lies outside their
-    interval over the reals (a bound rounded, an open end), then all of them; None if none
-    is found (fail closed)."""
+    boundary point) — towards a point well inside, moving first only the parameters whose
+    float lies outside their interval over the reals (a bound rounded, an open end), then
+    all of them; else towards a closed end of the box; the floats next to the point found
+    taken while they are allowed and nearer; None if none is found (fail closed)."""
     if allowed.contains(candidate):
         return candidate
     params = allowed.params
     outside = [p for p in params if not box[p].contains(candidate[p])]
-    for moving in (outside, list(params)):
-        for anchor in _anchors(box, candidate, moving):
-            if anchor != candidate and allowed.contains(anchor):
-                return allowed.towards(candidate, anchor)
+    for anchor in _anchors(box, candidate, outside):
+        if anchor != candidate and allowed.contains(anchor):
+            return _closer(allowed, allowed.towards(candidate, anchor), candidate)
     return neighbour(allowed.contains, params, candidate)
 
 
-def _anchors(box: dict, candidate: dict, moving: list) -> Iterator[dict]:
-    """Points of ``box`` to bisect towards from ``candidate``, moving the parameters
-    ``moving``: a point well inside, then the box's closed ends (its far ones first) —
-    where the evaluator's rounding refuses the middle of a box a few floats wide (the
-    allowed [0.0, 1.8e-15) of `15.000000000000002 - flow > 15.0` is 0.0 alone and the
-    floats below 9e-16), an end it allows anchors the search."""
-    inner = dict(candidate)
-    inner.update({p: inner_point(box[p], candidate[p]) for p in moving})
-    yield inner
-    ends = []
-    for p in moving:
-        i = box[p]
-        ends += [(p, float(end)) for end, closed in ((i.low, not i.low_open),
-                                                      (i.high, not i.high_open))
-                 if end is not None and closed]
-    for p, end in sorted(ends, key=lambda e: -abs(e[1] - candidate[e[0]])):
-        yield dict(candidate, **{p: end})
+def _anchors(box: dict, candidate: dict, outside: list) -> Iterator[dict]:
+    """Points of ``box`` to bisect towards from ``candidate``: a point well inside moving
+    the parameters ``outside``, then moving all; then the box's closed ends, each with the
+    other parameters clamped into the box (the nearest end first) — where the evaluator's
+    rounding refuses the middle of a box a few floats wide (the allowed [0.0, 1.8e-15) of
+    `15.000000000000002 - flow > 15.0` is 0.0 and the floats below 9e-16), an end it
+    allows anchors the search. Every one lies in ``box``."""
+    params = list(candidate)
+    for moving in (outside, params):
+        inner = dict(candidate)
+        inner.update({p: inner_point(box[p], candidate[p]) for p in moving})
+        yield inner
+    inside = {p: clamp(candidate[p], box[p]) for p in params}
+    ends = [(p, float(end)) for p in params
+            for end, closed in ((box[p].low, not box[p].low_open),
+                                (box[p].high, not box[p].high_open))
+            if end is not None and closed]
+    for p, end in sorted(ends, key=lambda e: abs(e[1] - candidate[e[0]])):
+        yield dict(inside, **{p: end})
+
+
+def _closer(allowed, found: dict, candidate: dict) -> dict:
+    """``found`` moved float by float towards ``candidate`` while the evaluator allows it
+    (bisection over the segment's fraction can stop a float short of the floats' own)."""
+    for _ in range(NUDGES):
+        step = {p: math.nextafter(v, candidate[p]) for p, v in found.items()}
+        if step == found or not allowed.contains(step):
+            break
+        found = step
+    return found
 
 
 def distance_floor(box: dict, x: dict, scale: dict) -> float:

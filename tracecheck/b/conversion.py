@@ -358,6 +358,10 @@ class _Convert:
                               self.value(v, elem.right, path + (f"[{k!r}]",))
                               for k, v in value.items()})
         if kind in (set, list, tuple):
+            if kind is set and function and not path and \
+                    self.types.indices.get(self.name, ()) is None:  # a seq(…) as a set
+                raise self.fail(value, t, path, "a sequence is a list (its order is the "
+                                                "sequence's; its first entry has index 1)")
             if kind is not set and function and elem.left == INTEGER:
                 return FuncValue({i: self.value(v, elem.right, path + (f"[{i - 1}]",))
                                   for i, v in enumerate(value, 1)})
@@ -388,6 +392,8 @@ class _Convert:
         scalar = ("INTEGER", "REAL", "BOOL")
         numeric = value.dtype.kind in "biuf"
         if numeric and value.ndim == 1 and getattr(elem, "name", None) in scalar:
+            if len(set(value.tolist())) < len(value):  # [0, 1, 1, 0, 0] read as {0, 1}
+                raise self.fail(value, t, path, _MASK_HINT)
             return frozenset(self.value(v, elem, path + ("{…}",)) for v in value.tolist())
         if numeric and value.ndim == 2 and value.shape[1] == 2 and isinstance(elem, Prod):
             return frozenset(self.value(tuple(v), elem, path + ("{…}",)) for v in value.tolist())
@@ -538,6 +544,11 @@ def _numpy(value: Any, name: str, btype: Any, where: str) -> Any:
                      hint="give numbers, booleans, strings, or sets of them")
 
 
+#: a 1-D array of numbers with repeats given for a set (a MultiBinary observation)
+_MASK_HINT = ("an array holding a value twice is no set: for a 0/1 mask (a MultiBinary "
+              "observation) give the set of its indexes, set(np.flatnonzero(mask).tolist())")
+
+
 def _array(value: Any, name: str, btype: Any, where: str) -> frozenset:
     """A numpy array as a B set, where the variable's type says so unambiguously."""
     from .btypes import Pow, Prod, resolve_all, show
@@ -547,6 +558,9 @@ def _array(value: Any, name: str, btype: Any, where: str) -> frozenset:
     scalar = {"INTEGER", "REAL", "BOOL"}
     numeric = value.dtype.kind in "biuf"
     if numeric and value.ndim == 1 and getattr(elem, "name", None) in scalar:
+        if len(set(value.tolist())) < len(value):
+            raise InputError(f"{where}: {name} is a numpy array holding a value twice "
+                             f"({_brief(value)}), which is no set", hint=_MASK_HINT)
         return frozenset(_numpy(x, name, None, where) for x in value)
     if numeric and value.ndim == 2 and value.shape[1] == 2 and isinstance(elem, Prod) and (
             getattr(elem.left, "name", None) in scalar

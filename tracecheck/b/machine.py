@@ -164,17 +164,27 @@ class Machine(BatchQuestions):
                                  f"which no set of {self.name} contains")
             if not unify_quiet(wanted, type_of_value(value, owners)):
                 got = describe_value_type(value, owners)
-                some = next(iter(self.sets.get(self.types[name], ("E",))))  # an element
                 raise InputError(f"{where}: {name} must be of type {self.types[name]}, but "
                                  f"its value is of type {got}",
                                  hint="give B values by the machine's types: a str naming an "
                                       "element, a dict for a function (docs/environments.md, "
                                       "\"States\")" if python else
-                                 "reals are written with a decimal point: 1.0, not 1"
-                                 if {got, self.types[name]} == {"INTEGER", "REAL"} else
-                                 f"a value is written as B writes it: an element bare "
-                                 f"(\"{name}\": \"{some}\"), a string in quotes "
-                                 "(\"\\\"text\\\"\"), a set in braces (\"{1, 2}\")")
+                                 self._literal_hint(name, got))
+
+    def _literal_hint(self, name: str, got: str) -> str:
+        """How a state file writes a value of ``name``'s type, where it gave one of ``got``."""
+        wanted = self.types[name]
+        if (got, wanted) == ("INTEGER", "REAL"):
+            return "reals are written with a decimal point: 1.0, not 1"
+        if (got, wanted) == ("REAL", "INTEGER"):
+            return "integers are written without a decimal point: 1, not 1.0"
+        if wanted in self.sets:
+            some = next(iter(self.sets[wanted]), None)
+            return (f"an element is written bare, as B writes it: \"{name}\": \"{some}\""
+                    if some is not None else f"{wanted} has no elements here")
+        return ("a value is written as B writes it: TRUE or FALSE, 1 (an INTEGER), 1.0 (a "
+                "REAL), an element bare, a string in quotes (\"\\\"text\\\"\"), a set in "
+                "braces (\"{1, 2}\")")
 
     def compiler(self) -> Compiler:
         comp = Compiler(source=self.source, file=self.file)

@@ -156,7 +156,7 @@ def _discrete_episode(session: Session, index: int, *, seed: int, script: Sequen
         _finite(obs, session.flat)
         session.step_reached = k
         values = agent.values(obs)
-        allowed = env.action_masks()
+        allowed = env.shield_mask()  # none in a deadlock: the fallback is taken, and said
         decision_us = info["shield"]["decision_us"]
         if k <= len(script):
             action, deadlock = actions.index(script[k - 1]), False

@@ -332,8 +332,8 @@ def _vec_env(adapter, config: dict, shield, horizon: int, penalty: float = 0.0, 
     if offset:  # (a whole Discrete(n, start) observation is observed as its index)
         vec.close()
         raise InputError(f"{adapter.name}'s observation space {vec.observation_space} holds "
-                         f"a Discrete(n, start) part that does not start at 0 ({offset[0]}): "
-                         "Stable-Baselines3 one-hot encodes a Discrete part from 0",
+                         f"a discrete part that does not start at 0 ({offset[0]}): "
+                         "Stable-Baselines3 one-hot encodes discrete parts from 0",
                          hint="start that part at 0 in the environment (or in a wrapper its "
                               "adapter's make_env adds)")
     space = vec.action_space
@@ -347,7 +347,10 @@ def _vec_env(adapter, config: dict, shield, horizon: int, penalty: float = 0.0, 
 
 
 def _offset_parts(space, place: str = "") -> list[str]:
-    """Where a Dict or Tuple space holds a ``Discrete(n, start)`` with start ≠ 0."""
+    """Where a space holds a ``Discrete(n, start)`` part (in a Dict or Tuple) or a
+    ``MultiDiscrete`` (anywhere) that does not start at 0."""
+    from gymnasium import spaces
+
     parts = getattr(space, "spaces", None)
     if isinstance(parts, dict):
         return [found for key, part in parts.items()
@@ -355,8 +358,9 @@ def _offset_parts(space, place: str = "") -> list[str]:
     if isinstance(parts, tuple):
         return [found for i, part in enumerate(parts)
                 for found in _offset_parts(part, f"{place}[{i}]")]
-    return [f"{place} {space}"] if place and getattr(space, "start", 0) and \
-        getattr(space, "n", None) is not None else []
+    offset = (isinstance(space, spaces.Discrete) and place and int(space.start) != 0) or \
+        (isinstance(space, spaces.MultiDiscrete) and bool(np.any(space.start != 0)))
+    return [f"{place} {space}".strip()] if offset else []
 
 
 def _said(env, name: str):

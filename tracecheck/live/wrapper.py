@@ -332,6 +332,12 @@ class ShieldWrapper(gym.Wrapper):
             self._checked = True
         return BState(state)
 
+    def shield_mask(self) -> np.ndarray:
+        """Which actions the shield allows in the current state: none in a deadlock (where
+        :meth:`action_masks` gives a learner the fallback)."""
+        self._ready()
+        return self.allowed.copy()
+
     def action_masks(self) -> np.ndarray:
         """Which actions the shield allows in the current state; in a deadlock (nothing
         allowed) the fallback alone — the action :meth:`step` takes then — so that a masked
