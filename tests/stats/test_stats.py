@@ -94,6 +94,11 @@ def test_aggregates_by_hand(hand_run):
     assert m["between"]["mean"] == pytest.approx(2.0) and m["between"]["sd"] == 0.0
     assert m["low"]["mean"] == 100.0 and m["high"]["mean"] == 140.0
     assert m["high"]["estimate"]["within"] is True
+    from tracecheck.render.stats_text import stats_rows
+
+    _, rows = stats_rows(result)  # the text says the estimation check too (it was json only)
+    high = next(row for row in rows if row[0].startswith("high"))
+    assert high[1].endswith("; estimate 140 ± 1 (mean): within"), high
     assert (p["never_crash"]["holds"], p["ever_far"]["holds"], p["ends_far"]["holds"]) == (
         1, 2, 1)
     test = p["ends_far"]["test"]

@@ -28,9 +28,15 @@ def _metric_cell(m: dict, lines: bool = False) -> str:
     if "mean_note" in m and not math.isfinite(m["mean"]):  # the text says why below
         return "— (not finite)"
     if m["sd"] is None:
-        return f"{m['mean']:.2f}"
-    lo, hi = m["ci95"]
-    return f"{m['mean']:.2f} ± {m['sd']:.2f}{_SEP[lines]}[{lo:.2f}, {hi:.2f}]"
+        text = f"{m['mean']:.2f}"
+    else:
+        lo, hi = m["ci95"]
+        text = f"{m['mean']:.2f} ± {m['sd']:.2f}{_SEP[lines]}[{lo:.2f}, {hi:.2f}]"
+    e = m.get("estimate")
+    if e is not None:  # SimB's estimation check: the mean within value ± epsilon
+        text += f"{chr(10) if lines else '; '}estimate {e['value']:g} ± {e['epsilon']:g} " \
+                f"({e['type']}): {'within' if e['within'] else 'not within'}"
+    return text
 
 
 def _property_cell(p: dict, lines: bool = False) -> str:
