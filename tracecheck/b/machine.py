@@ -635,8 +635,9 @@ def mixed_parameters(op: Operation, file: Optional[str] = None,
     no enabled set tracecheck can decide where it cannot enumerate them: a REAL one is no
     finite set to walk (unless the guard fixes it, ``a = 0.5``), and only an operation
     whose every parameter is typed REAL is a continuous action."""
-    reals = [p for p in op.params if p in real_typed(op)]
-    others = [p for p in op.params if p not in reals]
+    typed = real_typed(op)
+    reals = [p for p in op.params if p in typed]
+    others = [p for p in op.params if p not in typed]
     pos = op.guard.pos if op.guard is not None else None
     return UnsupportedError(
         f"{op.name}({', '.join(op.params)}) types {', '.join(reals)} REAL in its guard but "

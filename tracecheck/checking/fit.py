@@ -26,16 +26,15 @@ def check_actions(shield: Shield, cols: RunColumns, rows: np.ndarray,
             continue
         which = np.flatnonzero(actions == code)
         if len(which):
-            r = int(rows[which[0]])
+            r, near = int(rows[which[0]]), closest(name, ops)
             raise InputError(f"{cols.path}: the episodes use the action {name} "
                              f"({len(which):,} step(s), the first at episode "
                              f"{int(cols.episode[r])} step {int(cols.step[r])}), which the "
                              f"shield {shield.name} has no operation for (its operations are "
                              f"{', '.join(ops) or 'none'})",
-                             hint=(f"is the shield's operation {closest(name, ops)} the "
-                                   f"action {name} misspelt? " if closest(name, ops) else
-                                   "check the spelling: ") + "an action and its operation "
-                                  "have one name")
+                             hint=(f"is the shield's operation {near} the action {name} "
+                                   "misspelt? " if near else "check the spelling: ")
+                             + "an action and its operation have one name")
 
 
 def check_variables(shield: Shield, cols: RunColumns) -> None:
@@ -50,8 +49,8 @@ def check_variables(shield: Shield, cols: RunColumns) -> None:
         needed |= ast.free_names(machine.invariant_node)
     missing = sorted(n for n in needed if n not in have and n in machine.variables)
     if missing and cols.n:
-        near = [f"{n} ({did_you_mean(n, cols.states.names())})" for n in missing
-                if did_you_mean(n, cols.states.names())]
+        said = {n: did_you_mean(n, cols.states.names()) for n in missing}
+        near = [f"{n} ({said[n]})" for n in missing if said[n]]
         raise InputError(f"{cols.path}: the states have no {', '.join(missing)}, which the "
                          f"shield {shield.name} reads (episode {int(cols.episode_ids[0])}, "
                          "step 0)", hint=f"the states name another: {'; '.join(near)}"

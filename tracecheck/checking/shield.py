@@ -151,7 +151,7 @@ def for_actions(shield: Shield, actions: tuple[str, ...]) -> Shield:
     missing = [a for a in actions if a not in shield.machine.operations]
     if missing:
         spare = [op for op in shield.machine.operations if op not in actions]
-        near = [(a, closest(a, spare)) for a in missing if closest(a, spare)]
+        near = [(a, b) for a, b in ((a, closest(a, spare)) for a in missing) if b]
         pos = shield.machine.operations[near[0][1]].pos if near else None  # the misspelt one
         raise InputError(f"a shield needs one operation per action ({', '.join(actions)}); "
                          f"{shield.machine.name} lacks {', '.join(missing)}"

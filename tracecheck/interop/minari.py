@@ -239,7 +239,7 @@ def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
     ``env``: the adapter as the user names it (default: the installed one the file names);
     ``salvage``: as :func:`~tracecheck.episodes.reader.read_run`."""
     from ..live.adapter import load_adapter
-
+    from ..live.wrapper import discrete_start
     from ..episodes.codec import encode_state
     from ..episodes.reader import read_run
     from .common import refuse_continuous
@@ -267,8 +267,7 @@ def export_minari(run: Path, dataset_id: str, *, env: Optional[str] = None,
     made = make_env(adapter, header.environment_config, str(run))
     actions = list(adapter.actions)
     #: the actions as the environment takes them: a Discrete(n, start) space's start + index
-    start = int(getattr(made.action_space, "start", 0) or 0) \
-        if hasattr(made.action_space, "n") else 0
+    start = discrete_start(made.action_space)
     buffers = []
     for ep in result.episodes:
         where = f"{run}, episode {ep.id}"

@@ -153,11 +153,11 @@ def import_minari(dataset_id: str, adapter_name: str, *,
 
     from ..b.conversion import convert_state
     from ..checking.shield import typing_machine
+    from ..live.wrapper import discrete_start
 
     typing = typing_machine(adapter)  # the adapter's states made B values by its shield's types
     #: a Discrete(n, start) space's actions are start … start+n-1: the adapter's 0 … n-1
-    start = int(getattr(dataset.action_space, "start", 0) or 0) \
-        if hasattr(dataset.action_space, "n") else 0
+    start = discrete_start(dataset.action_space)
 
     def episodes():
         from ..episodes.codec import encode_state

@@ -499,10 +499,11 @@ def _name_hint(name: str) -> str:
         return (f"--env takes a module's name, not a file: --env {module}:YourAdapter, with "
                 "the module's folder on PYTHONPATH")
     module, dot, attr = name.rpartition(".")
-    if dot and _SPEC.fullmatch(f"{module}:{attr}") and attr[:1].isupper():
+    dotted = bool(dot) and _SPEC.fullmatch(f"{module}:{attr}") is not None
+    if dotted and attr[:1].isupper():
         return f"an adapter in a module of yours is --env {module}:{attr} (a colon before " \
                "the class)"
-    if dot and _SPEC.fullmatch(f"{module}:{attr}"):  # a module's name: its class after a colon
+    if dotted:  # a module's name: its class after a colon
         return f"an adapter in the module {name} is --env {name}:YourAdapter (a colon, then " \
                "the adapter's class)"
     return "give your own adapter as --env package.module:Class"

@@ -90,10 +90,10 @@ class Agent:
 def load_agent(path: str | Path, adapter=None, env=None) -> Agent:
     """Load an agent for an environment (see :func:`_load_agent`), observing as it was
     trained: a ``Discrete(n, start)`` observation as its index (:attr:`Agent.first`)."""
+    from .wrapper import discrete_start
+
     agent = _load_agent(path, adapter, env)
-    space = getattr(env, "observation_space", None)
-    if getattr(space, "n", None) is not None and getattr(space, "start", 0):
-        agent.first = int(space.start)
+    agent.first = discrete_start(getattr(env, "observation_space", None))
     return agent
 
 
