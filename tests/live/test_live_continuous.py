@@ -122,25 +122,59 @@ def test_nothing_allowed_fails_closed_with_the_fallback():
     assert shield.bands() == {"a": ()}
 
 
-def test_the_scale_weighs_the_components():
-    machine = load_machine_text("""MACHINE Two
+class _Two(EnvAdapter):
+    name = "two"
+    actions = ("MOVE",)
+    parameters = {"MOVE": ("u", "v")}
+    variables = ("x",)
+
+
+def _two(guard: str):
+    """A machine of one operation MOVE(u, v) whose guard is ``guard`` (state: ``x``)."""
+    return load_machine_text(f"""MACHINE Two
 VARIABLES x
 INVARIANT x : REAL
 INITIALISATION x := 0.0
 OPERATIONS
-  MOVE(u, v) = PRE u : REAL & v : REAL & u + 0.0 * x <= 0.0 THEN skip END
+  MOVE(u, v) = PRE u : REAL & v : REAL & {guard} THEN skip END
 END""")
 
-    class Two(EnvAdapter):
-        name = "two"
-        actions = ("MOVE",)
-        parameters = {"MOVE": ("u", "v")}
-        variables = ("x",)
+
+def test_the_scale_weighs_the_components():
+    machine = _two("u + 0.0 * x <= 0.0")
     space = gym.spaces.Box(low=-1.0, high=1.0, shape=(2,), dtype=np.float32)
-    shield = _shield(adapter=Two(), space=space, machine=machine, scale=(0.5, 1.0))
+    shield = _shield(adapter=_Two(), space=space, machine=machine, scale=(0.5, 1.0))
     shield.decide(machine.env({"x": 0.0}))
     d = shield.filter([0.5, 0.25])
     assert d.executed.tolist() == [0.0, 0.25] and d.distance == pytest.approx(1.0)  # 0.5 / 0.5
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_a_decisions_numbers_are_numpys_to_the_bit(dtype):
+    """The decision's proposal (clipped into the bounds), its distance and whether the
+    shield intervened or the space rounded: computed over Python floats, they are what
+    numpy's clip and norm give, to the bit, in one and two dimensions."""
+    rng = np.random.default_rng(3)
+    for n, machine_, adapter in ((1, load_machine(V1), _Adapter()),
+                                 (2, _two("u + 0.5 * v <= x"), _Two())):
+        low, high = (-4.0, 2.0) if n == 1 else (-1.0, 1.0)
+        space = gym.spaces.Box(low=low, high=high, shape=(n,), dtype=dtype)
+        scale = tuple(rng.uniform(0.1, 3.0, n).tolist())
+        shield = _shield(adapter=adapter, space=space, machine=machine_, scale=scale)
+        for _ in range(200):
+            state = _state(*rng.uniform(0.0, 40.0, 3).tolist()) if n == 1 else \
+                {"x": float(rng.uniform(-1.5, 1.5))}
+            shield.decide(machine_.env(state))
+            proposal = rng.uniform(low - 1.0, high + 1.0, n)
+            d = shield.filter(proposal)
+            clipped = np.clip(proposal, space.low.astype(np.float64),
+                              space.high.astype(np.float64))
+            assert list(d.proposal.values()) == clipped.tolist()
+            as_sent = clipped.astype(dtype).astype(np.float64)
+            assert d.cast == bool(np.any(as_sent != clipped))
+            assert d.intervened == bool(np.any(d.executed != as_sent))
+            expected = float(np.sqrt(np.sum(((d.executed - clipped) / np.array(scale)) ** 2)))
+            assert d.distance == (expected if d.intervened else 0.0)
 
 
 @pytest.mark.parametrize("change, message", [

@@ -43,6 +43,7 @@ fails closed, and says so.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Optional, Sequence
 
@@ -400,7 +401,8 @@ class ContinuousShield:
         if self.hybrid:
             return self._filter_hybrid(action)
         (op, entry), = self.ops.items()
-        proposal = np.clip(_vector(action, len(self.params)), self.low, self.high)
+        proposal = np.array([min(max(v, lo), hi) for v, (lo, hi) in  # np.clip's, per
+                             zip(_vector(action, len(self.params)).tolist(), entry.bounds)])
         executed = self._allowed_values(entry, proposal, project=self.mode == "project")
         if executed is None and self.mode == "replace":
             executed = self._allowed_values(entry, self.fallback, project=True)
@@ -471,18 +473,22 @@ class ContinuousShield:
         params = entry.part.params if entry is not None else ()
         same = op == proposed
         mine = self.ops.get(proposed)
+        done, asked = executed.tolist(), proposal.tolist()
         # the proposal as the environment receives it (a float32 space rounds a float64
         # 0.3): the shield intervened only where it executed something else
-        as_sent = proposal.astype(mine.part.dtype).astype(np.float64) if mine else proposal
-        intervened = not same or bool(np.any(executed != as_sent))
-        distance = float(np.sqrt(np.sum(((executed - proposal) / entry.scale) ** 2))) \
+        as_sent = asked if mine is None or mine.part.dtype == np.float64 else \
+            proposal.astype(mine.part.dtype).astype(np.float64).tolist()
+        intervened = not same or done != as_sent
+        distance = (_norm([(x - p) / s for x, p, s in zip(done, asked, entry.scale.tolist())])
+                    if len(done) <= 2 else  # numpy's order of summing, then, is its own
+                    float(np.sqrt(np.sum(((executed - proposal) / entry.scale) ** 2)))) \
             if same and entry is not None and intervened else (0.0 if same else None)
         return Decision(
-            executed=executed, parameters=dict(zip(params, executed.tolist())),
-            proposal=dict(zip(mine.part.params, proposal.tolist())) if mine else {},
+            executed=executed, parameters=dict(zip(params, done)),
+            proposal=dict(zip(mine.part.params, asked)) if mine else {},
             distance=distance, intervened=intervened,
             deadlock=deadlock, op=op, proposed_op=proposed, sent=self._sent(op, executed),
-            scores=scores, cast=bool(np.any(as_sent != proposal)))
+            scores=scores, cast=as_sent != asked)
 
     # -- hybrid actions in and out
     def _hybrid_proposal(self, action: Any) -> tuple[np.ndarray, str, np.ndarray]:
@@ -550,6 +556,12 @@ class ContinuousShield:
         it: 1e-116 is 0.0 in float32, and b > 0 refuses that), the steps go from the rounded
         value back towards ``action``."""
         part, params = entry.part, entry.part.params
+        if away is None and part.dtype == np.float64:  # as it is: no rounding, no steps
+            listed = action.tolist()
+            if all(lo <= v <= hi for v, (lo, hi) in zip(listed, entry.bounds)) and \
+                    entry.allowed.contains(dict(zip(params, listed))):
+                return np.array(listed)
+            return None
         sent = np.asarray(action, dtype=part.dtype)
         direction = None
         if away is not None:
@@ -575,6 +587,12 @@ class ContinuousShield:
 NUDGES = 64
 
 
+def _norm(steps: list[float]) -> float:
+    """The length of a vector of one or two components, as numpy computes it (each square
+    a product, added in order: the same float)."""
+    return math.sqrt(sum(d * d for d in steps))
+
+
 def _bounds_text(part) -> str:
     """An action space part's bounds by parameter: ``a ∈ [-4.0, 2.0], s ∈ [-1.0, 1.0]``."""
     return ", ".join(f"{p} ∈ [{lo}, {hi}]" for p, lo, hi in
@@ -586,7 +604,7 @@ def _vector(action: Any, n: int) -> np.ndarray:
         vector = np.asarray(action, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError):
         raise InputError(f"the agent's action {action!r} is not a vector of numbers") from None
-    if vector.shape != (n,) or not np.all(np.isfinite(vector)):
+    if vector.shape != (n,) or not all(map(math.isfinite, vector.tolist())):
         raise InputError(f"the agent's action {vector.tolist()} is not {n} finite number(s)")
     return vector
 
