@@ -70,6 +70,44 @@ def test_what_the_solver_cannot_decide_stays_without_value_with_its_reason():
         assert "the solver cannot tell whether others (" in reason
 
 
+@pytest.mark.parametrize("properties, fixed, unset", [
+    # an enumerated set's elements are not alike: each one is a solution
+    ("c : NODE", {}, {"c": "allow 3 solutions (c = n1; c = n2; c = n3)"}),
+    ("c : NODE & c = n2", {"c": "n2"}, {}),
+    ("c : NODE & c /= n1", {}, {"c": "allow 2 solutions (c = n2; c = n3)"}),
+    # a deferred set's are: one constant names one of them (ProB's names) ...
+    ("card(PID) = 3 & a : PID", {"a": "a"}, {}),
+    # ... several only where PROPERTIES says they differ; else a = b is a solution
+    ("card(PID) = 3 & a : PID & b : PID & a /= b", {"a": "a", "b": "b"}, {}),
+    ("card(PID) = 3 & a : PID & b : PID", {"a": "a"},
+     {"b": "allow 3 solutions (b = a; b = PID2; b = PID3)"}),
+    ("card(PID) = 3 & a : PID & b : PID & a = b", {"a": "a", "b": "a"}, {}),
+    ("card(PID) = 1 & a : PID & b : PID", {"a": "a", "b": "a"}, {}),
+    # an element PROPERTIES names breaks the likeness: the solver sets the constant
+    ("card(PID) = 3 & a : PID & a /= PID1", {},
+     {"a": "allow 2 solutions (a = PID2; a = PID3)"}),
+])
+def test_a_constant_in_a_set_takes_an_element_only_where_every_solution_agrees(
+        properties, fixed, unset):
+    """``c : S`` fixes nothing by itself: a constant takes an element's place only for a
+    deferred set, whose elements are alike (ProB's naming), and never where another value
+    is a solution (a new user's ``c : NODE`` was n1, ``a /= b`` TRUE, ``c = n2`` false)."""
+    names = ", ".join(n for n in "abc" if f"{n} :" in properties)
+    m = shield(f"MACHINE P SETS NODE = {{n1, n2, n3}}; PID CONSTANTS {names} "
+               f"PROPERTIES {properties} END")
+    assert {k: str(v) for k, v in m.constants.items() if k in fixed} == fixed
+    for name, why in unset.items():
+        assert why in m.unset_constants[name], m.unset_constants
+    assert not set(fixed) & set(m.unset_constants)
+
+
+def test_pairwise_different_constants_more_than_the_elements_are_an_error():
+    with pytest.raises(ModelError, match="PID has only 2 element.s., too few for the "
+                                         "constant c, which PROPERTIES says differs from a, b"):
+        shield("MACHINE P SETS PID CONSTANTS a, b, c PROPERTIES card(PID) = 2 & a : PID & "
+               "b : PID & c : PID & a /= b & a /= c & b /= c END")
+
+
 def test_a_plain_machine_does_not_ask_the_solver_and_says_so():
     m = load_machine_text(MACHINE, file="P.mch")
     assert m.constants == {} and set(m.unset_constants) == {"n", "m", "q"}

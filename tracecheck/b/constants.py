@@ -1,6 +1,7 @@
 """A machine's sets and constants given values: the size and elements of each deferred set,
-the constants that PROPERTIES fixes (``c = value``, ``c : S``, ``S = {a, b}``), checked
-against the PROPERTIES."""
+the constants that PROPERTIES fixes (``c = value``, ``c : S`` for a deferred ``S``, ``S =
+{a, b}``), checked against the PROPERTIES; the others are left to the solver
+(:mod:`tracecheck.checking.constants_setup`)."""
 
 from __future__ import annotations
 
@@ -36,23 +37,7 @@ def setup_constants(src: MachineSource, properties: Optional[ast.Node]):
         if str(elems[0]) in const_names:
             named.add(name)
             values.update({str(e): e for e in elems})
-    claimed = {name: 0 for name in deferred}
-    for conj in conjs:
-        if (isinstance(conj, ast.Rel) and conj.op == ":" and isinstance(conj.left, ast.Name)
-                and conj.left.id in const_names and conj.left.id not in values
-                and isinstance(conj.right, ast.Name) and conj.right.id in sets):
-            name, set_name = conj.left.id, conj.right.id
-            elems = sets[set_name]
-            if set_name in deferred and set_name not in named:
-                if claimed[set_name] >= len(elems):
-                    raise ModelError(f"{set_name} has only {len(elems)} element(s), too few "
-                                     f"for the constant {name}", line=conj.pos.line,
-                                     column=conj.pos.column)
-                elems[claimed[set_name]] = Elem(name)
-                values[name] = elems[claimed[set_name]]
-                claimed[set_name] += 1
-            else:
-                values[name] = elems[0]
+    _name_elements(conjs, [n for n in deferred if n not in named], sets, const_names, values)
     frozen_sets = {n: tuple(e) for n, e in sets.items()}
     env = {n: frozenset(e) for n, e in frozen_sets.items()}
     for n in enumerated:
@@ -73,6 +58,47 @@ def setup_constants(src: MachineSource, properties: Optional[ast.Node]):
                              hint="tracecheck sets constants from `c = value` and "
                                   "`c : DeferredSet`, and deferred sets from `card(S) = n`")
     return frozen_sets, enumerated, values
+
+
+def _name_elements(conjs, deferred: list[str], sets: dict[str, list[Elem]],
+                   const_names: set[str], values: dict[str, Any]) -> None:
+    """Constants ``c : S`` of a deferred set ``S`` take its elements' places, in order, as
+    ProB names them (``EgoVehicle : Vehicles`` gives ``{EgoVehicle, Vehicles2, …}``): the
+    elements of a deferred set are alike, so which one a constant is changes nothing —
+    for one constant, and for several the PROPERTIES say differ pairwise (``a /= b``). A
+    constant that may equal one named before it (``a : PID & b : PID``: a = b is a
+    solution), one an equality fixes (other than to a constant: ``b = a`` then gives b
+    a's element), and one of a set whose elements PROPERTIES names (``c /= PID2``) are
+    left to the equalities and the solver, as is ``c : S`` for an enumerated set (each
+    of its elements is a solution)."""
+    equated = {side.id for conj in conjs if isinstance(conj, ast.Rel) and conj.op == "="
+               for side, other in ((conj.left, conj.right), (conj.right, conj.left))
+               if isinstance(side, ast.Name) and side.id in const_names and
+               not (isinstance(other, ast.Name) and other.id in const_names)}
+    differ = {frozenset((conj.left.id, conj.right.id)) for conj in conjs
+              if isinstance(conj, ast.Rel) and conj.op == "/=" and
+              isinstance(conj.left, ast.Name) and isinstance(conj.right, ast.Name)}
+    mentioned = set().union(*(ast.free_names(conj) for conj in conjs)) if conjs else set()
+    alike = {n for n in deferred if not any(str(e) in mentioned for e in sets[n])}
+    taken: dict[str, list[str]] = {n: [] for n in alike}
+    for conj in conjs:
+        if not (isinstance(conj, ast.Rel) and conj.op == ":" and
+                isinstance(conj.left, ast.Name) and conj.left.id in const_names and
+                conj.left.id not in values and conj.left.id not in equated and
+                isinstance(conj.right, ast.Name) and conj.right.id in alike):
+            continue
+        name, set_name = conj.left.id, conj.right.id
+        before = taken[set_name]
+        if not all(frozenset((name, other)) in differ for other in before):
+            continue
+        elems = sets[set_name]
+        if len(before) >= len(elems):  # pairwise different: more of them than elements
+            raise ModelError(f"{set_name} has only {len(elems)} element(s), too few for the "
+                             f"constant {name}, which PROPERTIES says differs from "
+                             f"{', '.join(before)}", line=conj.pos.line,
+                             column=conj.pos.column)
+        elems[len(before)] = values[name] = Elem(name)
+        before.append(name)
 
 
 def _deferred_sizes(src: MachineSource, conjs, deferred: list[str],
