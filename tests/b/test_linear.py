@@ -350,3 +350,17 @@ END""")
     found = allowed.nearest(point)
     assert allowed.contains(found)
     assert sum((found[p] - point[p]) ** 2 for p in point) == pytest.approx(2.0)
+
+
+def test_an_empty_set_whose_closure_holds_a_point_is_undecided_without_claiming_values():
+    """a - b > 1 & a + b <= 1 & b >= 0 is empty (only its closure holds (1, 0)): tracecheck
+    cannot prove that here, so it is undecided — and the reason no longer says the guard
+    allows values over the reals (a new user's Steer)."""
+    m = load_machine_text("""MACHINE S VARIABLES speed INVARIANT speed : REAL
+INITIALISATION speed := 0.0
+OPERATIONS Steer(a, b) = PRE a : REAL & b : REAL & a >= 0.0 & b >= 0.0 & a + b <= 1.0 &
+  a - b > 0.5 * speed THEN skip END END""")
+    with pytest.raises(UnsupportedError) as info:
+        allowed_set(m, "Steer", {"speed": 2.0}).witness()
+    assert "allows values over the reals" not in info.value.message
+    assert "with < read as <=, hold points" in info.value.message

@@ -202,7 +202,7 @@ def test_guards_with_the_environment_cut_the_allowed_set_to_its_action_space(cap
                        "acc_cruise.throttle:Throttle")
     assert code == 0 and out.splitlines() == [
         "enabled: (none: deadlock)", "disabled: ACCELERATE",
-        "ACCELERATE: a ∈ ∅ (within the action space: a ∈ [-4.0, 2.0])"]
+        "ACCELERATE: a ∈ ∅ (the action space: a ∈ [-4.0, 2.0] float32)"]
     code, _, err = run(capsys, "guards", outside, "-s", state, "--env", "frozenlake")
     assert code == 2 and "frozenlake takes discrete actions" in err
 

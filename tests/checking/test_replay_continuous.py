@@ -367,6 +367,25 @@ def test_replay_keeps_the_actions_within_the_run_headers_action_space(tmp_path, 
         assert far.allowed == "a ∈ (3.0, ∞)"
 
 
+@pytest.mark.parametrize("floats, deadlock", [(["float32"], True), (["float64"], False),
+                                              (None, False)])
+def test_replay_allows_only_values_of_the_spaces_float_type(tmp_path, floats, deadlock):
+    """a = Gap - 49.9 (0.1 here): no float32 is 0.1, so in a float32 space nothing is
+    allowed — the live shield's deadlock, which replay used to call "ACCELERATE allowed" (a
+    new user's drone); a float64 space, or a run that does not say (recorded before the
+    header said it), has 0.1."""
+    (tmp_path / "eq.mch").write_text(FAR.replace("a > Gap - 50.0", "a = Gap - 49.9"))
+    space = dict(action_low=[-4.0], action_high=[2.0])
+    if floats:
+        space["action_floats"] = floats
+    path = tmp_path / "eq.mcap"
+    write_run(path, new_header("recorded", actions=["ACCELERATE"],
+                               action_parameters={"ACCELERATE": ["a"]}, **space), [
+        make(0, s(50.0, 20.0), [("ACCELERATE", {"a": -4.0}, s(50.0, 20.0))])])
+    (one,) = replay([path], load_shield(tmp_path / "eq.mch")).per_episode
+    assert one.deadlock_states == ([0, 1] if deadlock else [])
+
+
 def test_a_strict_guard_whose_values_begin_at_the_spaces_bound_allows_nothing(tmp_path):
     """a > 2 within [-4, 2]: nothing — not a margin of 1 to the bound itself."""
     (tmp_path / "far.mch").write_text(FAR)

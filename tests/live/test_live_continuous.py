@@ -149,6 +149,22 @@ def test_the_scale_weighs_the_components():
     assert d.executed.tolist() == [0.0, 0.25] and d.distance == pytest.approx(1.0)  # 0.5 / 0.5
 
 
+@pytest.mark.parametrize("dtype, allowed", [(np.float32, False), (np.float64, True)])
+def test_a_float32_space_allows_nothing_where_only_other_floats_are_allowed(dtype, allowed):
+    """a = 0.1 in a float32 space: the environment can take no allowed value, so nothing is
+    allowed — what the shield says (``allowed`` empty) and does (the fallback) agree."""
+    machine = load_machine_text("""MACHINE T VARIABLES Gap, EgoSpeed, LeadSpeed
+INVARIANT Gap : REAL & EgoSpeed : REAL & LeadSpeed : REAL
+INITIALISATION Gap, EgoSpeed, LeadSpeed := 0.0, 0.0, 0.0
+OPERATIONS ACCELERATE(a) = PRE a : REAL & a = 0.1 + 0.0 * Gap THEN skip END END""")
+    space = gym.spaces.Box(low=-4.0, high=2.0, shape=(1,), dtype=dtype)
+    shield = _decide(_shield(machine=machine, space=space), _state(40.0, 20.0, 20.0))
+    assert shield.any_allowed() == allowed
+    d = shield.filter([1.0])
+    assert d.deadlock == (not allowed)
+    assert d.executed.tolist() == ([0.1] if allowed else [-4.0])
+
+
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_a_decisions_numbers_are_numpys_to_the_bit(dtype):
     """The decision's proposal (clipped into the bounds), its distance and whether the

@@ -46,6 +46,8 @@ from .polytope import (Constraint, Form, Interval, bound_constraint, box_constra
                        form_neg, form_times, gap, inner_point, interval_of, merge_intervals,
                        nearest_point, towards)
 from .box_search import nearest_in_boxes
+from .narrow import NARROW, narrow_witness
+from .real_typing import real_parameters, real_typed, typing_conjunct
 
 __all__ = ["Constraint", "AllowedSet", "Interval", "allowed_set", "real_parameters",
            "real_typed", "parameter_range", "guard_with_parameters", "linear_form"]
@@ -76,6 +78,8 @@ class AllowedSet:
     params: tuple[str, ...]
     parts: tuple[tuple[Constraint, ...], ...]
     check: Any = field(default=None, compare=False, repr=False)  # point -> the evaluator's
+    #: (parameter, float type) of those an action space holds in a narrower float type
+    floats: tuple[tuple[str, str], ...] = ()
 
     @cached_property
     def intervals(self) -> Optional[tuple[Interval, ...]]:
@@ -85,9 +89,11 @@ class AllowedSet:
         pieces = [i for i in (interval_of(part) for part in self.parts) if not i.empty]
         return merge_intervals(pieces)
 
-    def within(self, low: Mapping[str, float], high: Mapping[str, float]) -> "AllowedSet":
+    def within(self, low: Mapping[str, float], high: Mapping[str, float],
+               floats: Optional[Mapping[str, str]] = None) -> "AllowedSet":
         """The allowed values that also lie in the box ``low[p] <= p <= high[p]`` (an
-        action space's bounds; a parameter missing from either is unbounded that way)."""
+        action space's bounds; a parameter missing from either is unbounded that way) and,
+        for :meth:`witness`, are values of the float type ``floats[p]`` (:mod:`.narrow`)."""
         extra = box_constraints(self.params, low, high)
         check = self.check
         bounds = [(p, low.get(p, -math.inf), high.get(p, math.inf)) for p in self.params]
@@ -97,7 +103,9 @@ class AllowedSet:
                 if not lo <= float(point[p]) <= hi:
                     return False
             return check is None or bool(check(point))
-        return AllowedSet(self.params, tuple(part + extra for part in self.parts), inside)
+        narrow = tuple((p, t) for p, t in (floats or {}).items() if t in NARROW)
+        return AllowedSet(self.params, tuple(part + extra for part in self.parts), inside,
+                          narrow)
 
     def bands(self) -> Optional[dict[str, tuple[Interval, ...]]]:
         """Per parameter the intervals it may take, where the allowed set is the product of
@@ -118,15 +126,20 @@ class AllowedSet:
 
     def witness(self) -> Optional[dict[str, float]]:
         """An allowed point the evaluator confirms (one well inside, else the one nearest
-        0), or None when there is none."""
+        0; of the float types of :attr:`floats`), or None when there is none."""
+        found = self._witness()
+        return narrow_witness(self, found, dict(self.floats), self._boxes if self.separable
+                              else None) if self.floats and found is not None else found
+
+    def _witness(self) -> Optional[dict[str, float]]:
         if not self.separable:
             zero = {p: 0.0 for p in self.params}
             found = nearest_point(self, zero)
             if found is None and distance_to(self, zero) is not None:
-                raise UnsupportedError(
-                    "undecided: the guard allows values over the reals (on a face of a "
-                    "polytope over several parameters), but tracecheck found no float point "
-                    "it accepts, nor can it say there is none")
+                raise UnsupportedError(  # the closure: the set itself may be empty
+                    "undecided: tracecheck found no float point the guard accepts, nor can "
+                    "it say there is none: its constraints, with < read as <=, hold points "
+                    "(a face of a polytope over several parameters)")
             return found
         for box in self._boxes:  # a point well inside a box first: one evaluation
             inner = {p: inner_point(box[p], 0.0) for p in self.params}
@@ -197,17 +210,6 @@ class AllowedSet:
             boxes = [" × ".join(str(box[p]) for p in self.params) for box in self._boxes]
             return f"({', '.join(self.params)}) ∈ {' ∪ '.join(boxes) or '∅'}"
         return f"({', '.join(self.params)}): {len(self.parts)} polytope(s)"
-
-
-def real_parameters(op) -> bool:
-    """Whether every parameter of ``op`` is typed REAL (:func:`real_typed`)."""
-    return bool(op.params) and set(op.params) <= real_typed(op)
-
-
-def real_typed(op) -> frozenset[str]:
-    """The parameters of ``op`` a conjunct ``p : REAL`` of its guard types."""
-    found = conjuncts(op.guard) if op.guard is not None else []
-    return frozenset(c.left.id for c in found if _typing(c) and c.left.id in op.params)
 
 
 def allowed_set(machine, op_name: str, state: Optional[Mapping[str, Any]] = None, *,
@@ -450,7 +452,7 @@ class _Linearizer:
             return node if key is None else ast.Name(key, pos=node.pos)
         if isinstance(node, (ast.And, ast.Or, ast.Equiv, ast.Implies)) or (
                 isinstance(node, ast.BinOp) and node.op in ("+", "-", "*", "/")) or (
-                isinstance(node, ast.Rel) and not _typing(node)):
+                isinstance(node, ast.Rel) and not typing_conjunct(node)):
             return replace(node, left=self.residual(node.left),
                            right=self.residual(node.right))
         if isinstance(node, (ast.Not, ast.Neg)):
@@ -517,7 +519,7 @@ class _Linearizer:
 
     def relation(self, node: ast.Rel, positive: bool) -> Callable[[dict], list]:
         op = node.op
-        if _typing(node):
+        if typing_conjunct(node):
             return lambda env: [[]] if positive else []
         if op not in ("<", "<=", ">", ">=", "=", "/="):
             raise self.refuse(node, f"the relation {op}")
@@ -637,11 +639,6 @@ def _ratio(value: Any, what: str) -> tuple[int, int]:
     if type(value) is float and math.isfinite(value):
         return value.as_integer_ratio()
     return exact(value, what).as_integer_ratio()
-
-
-def _typing(node: ast.Node) -> bool:
-    return isinstance(node, ast.Rel) and node.op == ":" and isinstance(node.left, ast.Name) \
-        and isinstance(node.right, ast.Name) and node.right.id in ("REAL", "FLOAT")
 
 
 def _cap(parts, node, lin) -> list:

@@ -293,7 +293,7 @@ def decides(machine, op: str, state: dict, bounds: Optional[Bounds] = None
     guard allows a value inside them: the live shield's decision."""
     try:
         if bounds and op in bounds:
-            low, high = bounds[op]
+            low, high = bounds[op][:2]  # over the reals, as a proof is
             return machine.allowed(op, state).within(low, high).witness() is not None
         return machine.is_enabled(op, state)
     except WellDefinednessError:

@@ -124,11 +124,13 @@ def enabled_matrix(shield: Shield, cols: RunColumns) -> tuple[np.ndarray, tuple[
         np.zeros((cols.n, 0), dtype=bool), ops
 
 
-def space_bounds(cols: RunColumns) -> dict[str, tuple[dict, dict]]:
+def space_bounds(cols: RunColumns) -> dict[str, tuple[dict, ...]]:
     """For each operation with REAL parameters in the run header of ``cols``'s file, the
     action space's bounds of its parameters: ({parameter: low}, {parameter: high}), a side
-    without a bound left out (the header lists each operation's components in turn). None
-    for a run that declares no bounds (an import): the guard alone decides."""
+    without a bound left out (the header lists each operation's components in turn), and
+    where the header says them, their float types ({parameter: "float32"}: the allowed
+    values are those of that type). None for a run that declares no bounds (an import):
+    the guard alone decides."""
     from ..episodes.reader import read_header
 
     try:
@@ -137,6 +139,7 @@ def space_bounds(cols: RunColumns) -> dict[str, tuple[dict, dict]]:
         return {}
     declared = header.action_parameters or {}
     low, high = header.action_low or [], header.action_high or []
+    kinds = header.action_floats or []
     found, offset = {}, 0
     for op, params in declared.items():
         ends: tuple[dict, dict] = ({}, {})
@@ -144,9 +147,10 @@ def space_bounds(cols: RunColumns) -> dict[str, tuple[dict, dict]]:
             for side, given in zip(ends, (low, high)):
                 if k < len(given) and given[k] is not None:
                     side[p] = float(given[k])
+        floats = {p: kinds[k] for k, p in enumerate(params, start=offset) if k < len(kinds)}
         offset += len(params)
-        if ends[0] or ends[1]:
-            found[op] = ends
+        if ends[0] or ends[1] or floats:
+            found[op] = (*ends, floats) if floats else ends
     return found
 
 
@@ -170,13 +174,15 @@ def _candidates(shield: Shield, cols: RunColumns,
             taken = same & (cols.action[nxt] == cols.action_names.index(name))
             tries.insert(0, {p: np.where(taken, cols.parameters[p][nxt], np.nan)
                              for p in op.params})
-        low, high = bounds.get(name, ({}, {}))
-        for values in tries:  # a value outside the space is no action the agent could take
-            outside = np.zeros(cols.n, dtype=bool)
+        low, high, floats = (*bounds.get(name, ({}, {})), {})[:3]
+        for values in tries:  # a value outside the space, or not of its float type, is
+            outside = np.zeros(cols.n, dtype=bool)  # no action the agent could take
             for p in op.params:
-                with np.errstate(invalid="ignore"):
+                with np.errstate(invalid="ignore", over="ignore"):
                     outside |= (values[p] < low.get(p, -np.inf)) | \
                         (values[p] > high.get(p, np.inf))
+                    if p in floats:
+                        outside |= values[p].astype(floats[p]).astype(float) != values[p]
             for p in op.params:
                 values[p] = np.where(outside, np.nan, values[p])
         found[name] = tries
@@ -296,7 +302,7 @@ def check_parameters(shield: Shield, cols: RunColumns, rows: np.ndarray, actions
     steps this way."""
     machine = shield.machine
     found: dict[int, _Margin] = {}
-    bounds = space_bounds(cols) if margins else {}
+    bounds = {op: b[:2] for op, b in space_bounds(cols).items()} if margins else {}  # reals
     for code, name in enumerate(cols.action_names):
         op = machine.operations.get(name)
         if op is None or not op.params:

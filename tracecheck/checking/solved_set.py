@@ -52,6 +52,7 @@ from ..b import ast
 from ..b.btypes import BOOL, INTEGER, REAL, Base, Pow, Prod, resolve_all
 from ..b.linear import AllowedSet, guard_with_parameters, real_parameters
 from ..b.memo import fresh
+from ..b.narrow import NARROW, narrow_witness
 from ..b.scope import kind_of
 from ..b.typecheck import typecheck_formula
 from ..b.values import Elem, FuncValue
@@ -125,6 +126,7 @@ class SolvedSet:
     low: tuple[tuple[str, float], ...] = ()
     high: tuple[tuple[str, float], ...] = ()
     memo: dict = field(default_factory=dict, repr=False, compare=False)
+    floats: tuple[tuple[str, str], ...] = ()  # the float32 parameters (see within)
 
     intervals = None  # never a union of intervals: for the callers of AllowedSet
     separable = False  # not a union of boxes
@@ -141,9 +143,11 @@ class SolvedSet:
         return bool(self.check(values))
 
     def within(self, low: Mapping[str, Optional[float]],
-               high: Mapping[str, Optional[float]]) -> "SolvedSet":
+               high: Mapping[str, Optional[float]],
+               floats: Optional[Mapping[str, str]] = None) -> "SolvedSet":
         """The allowed values inside the box ``low[p] <= p <= high[p]`` (None, infinite or
-        missing: unbounded that way); the same state's budget, shared."""
+        missing: unbounded that way) and, for :meth:`witness`, of the float type
+        ``floats[p]`` (:mod:`tracecheck.b.narrow`); the same state's budget, shared."""
         lows, highs = dict(self.low), dict(self.high)
         for p in self.params:
             lo, hi = low.get(p), high.get(p)
@@ -151,7 +155,9 @@ class SolvedSet:
                 lows[p] = max(float(lo), lows.get(p, -math.inf))
             if hi is not None and not math.isnan(hi) and hi < math.inf:
                 highs[p] = min(float(hi), highs.get(p, math.inf))
-        return replace(self, low=tuple(lows.items()), high=tuple(highs.items()), memo={})
+        narrow = tuple((p, t) for p, t in (floats or {}).items() if t in NARROW)
+        return replace(self, low=tuple(lows.items()), high=tuple(highs.items()), memo={},
+                       floats=narrow)
 
     def bands(self) -> None:
         """Not a product of intervals: nothing a plot draws as bands."""
@@ -164,6 +170,11 @@ class SolvedSet:
         float near its model passes the guard."""
         if "witness" in self.memo:
             return self.memo["witness"]
+        if self.floats:  # values of the space's float type: near the float one, or none
+            found = narrow_witness(self, replace(self, floats=()).witness(),
+                                   dict(self.floats), None)
+            self.memo["witness"] = found
+            return found
         exact = self._some_model()
         found = None
         if exact is not None:

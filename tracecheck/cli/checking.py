@@ -228,7 +228,7 @@ def prove_cmd(
     if adapter is not None and adapter.parameters:
         from ..live.continuous import action_bounds
 
-        bounds = action_bounds(adapter)
+        bounds = {op: b[:2] for op, b in action_bounds(adapter).items()}  # over the reals
     elif free := unbounded_parameters(machine):
         warn([f"{', '.join(free)} {'is' if len(free) == 1 else 'are'} bounded by no action "
               "space: the proof takes every real as an action (--env ENV takes the "

@@ -98,8 +98,8 @@ def eval_(
     from ..b.values import format_value
     from ..inputs import read_text
 
-    formulas = [(e, "<expr>" if len(exprs or ()) == 1 and file is None else f"<expr {i + 1}>",
-                 None) for i, e in enumerate(exprs or ())]
+    formulas = [(e.lstrip(), "<expr>" if len(exprs or ()) == 1 and file is None else  # the
+                 f"<expr {i + 1}>", None) for i, e in enumerate(exprs or ())]  # space before -x
     if file is not None:
         text = read_text(file, "formula file")
         formulas += [(line, str(file), (k + 1, text)) for k, line in enumerate(text.splitlines())
@@ -301,15 +301,19 @@ def guards(
                          hint=f'add "{name}": … to the state file') from None
     allowed = _allowed_sets(machine, values)
     bounds = _action_space(env)
-    for op, (low, high) in bounds.items():  # what the live shield can take
+    for op, space in bounds.items():  # what the live shield can take
         if op in allowed:
             if not hasattr(allowed[op], "within"):
                 undecided[op] = ("its allowed set is the solver's, which is not cut to the "
                                  "action space here")
                 enabled.discard(op)
                 continue
-            allowed[op] = allowed[op].within(low, high)
-            if allowed[op].witness() is None:
+            allowed[op] = allowed[op].within(*space)
+            try:
+                if allowed[op].witness() is None:
+                    enabled.discard(op)
+            except UnsupportedError as exc:  # none of the space's float type confirmed
+                undecided[op] = exc.message
                 enabled.discard(op)
     broken, unchecked = machine.invariant_check(values)
     warn(_state_warnings(machine, str(state), missing, broken, unchecked))

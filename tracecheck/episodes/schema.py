@@ -125,6 +125,10 @@ class RunHeaderMessage(_Message):
     action_high: Optional[list[Optional[float]]] = Field(
         None, description="continuous actions: the action space's upper bounds (null: none), "
                           "in the same order")
+    action_floats: Optional[list[Literal["float16", "float32", "float64"]]] = Field(
+        None, description="continuous actions: the float type the environment receives each "
+                          "component in (float32: only float32 values are actions), in the "
+                          "same order")
     shield_mode: Optional[Literal["project", "replace", "mask"]] = Field(
         None, description="continuous actions: how the live shield made an action allowed "
                           "(project: the nearest allowed; replace: the fallback action; "
@@ -138,10 +142,10 @@ class RunHeaderMessage(_Message):
     def _action_space_fits(self) -> "RunHeaderMessage":
         """The action space's bounds and scale, where given, describe the same components."""
         low, high, scale = self.action_low, self.action_high, self.projection_scale
-        sizes = {len(v) for v in (low, high, scale) if v is not None}
+        sizes = {len(v) for v in (low, high, scale, self.action_floats) if v is not None}
         if len(sizes) > 1:
-            raise ValueError("action_low, action_high and projection_scale have different "
-                             "lengths")
+            raise ValueError("action_low, action_high, action_floats and projection_scale "
+                             "have different lengths")
         if low is not None and high is not None and any(
                 a is not None and b is not None and a > b for a, b in zip(low, high)):
             raise ValueError("an action_low bound lies above its action_high bound")

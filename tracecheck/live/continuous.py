@@ -92,9 +92,9 @@ class SpacePart:
 
 
 def action_bounds(adapter, config: Optional[dict] = None) -> dict[str, tuple[dict, dict]]:
-    """The bounds the environment's action space puts on each operation's REAL parameters,
-    ``{op: ({p: low}, {p: high})}`` (an infinite end left out): what ``prove --env`` and
-    ``guards --env`` take, as the live shield does.
+    """The bounds the environment's action space puts on each operation's REAL parameters
+    and their float type, ``{op: ({p: low}, {p: high}, {p: "float32"})}`` (an infinite end
+    left out): what ``prove --env`` and ``guards --env`` take, as the live shield does.
 
     Args:
         adapter: an adapter that declares ``parameters``.
@@ -115,7 +115,7 @@ def action_bounds(adapter, config: Optional[dict] = None) -> dict[str, tuple[dic
     for part in parts:
         low = {p: float(v) for p, v in zip(part.params, part.low) if np.isfinite(v)}
         high = {p: float(v) for p, v in zip(part.params, part.high) if np.isfinite(v)}
-        out[part.op] = (low, high)
+        out[part.op] = (low, high, dict.fromkeys(part.params, np.dtype(part.dtype).name))
     return out
 
 
@@ -198,6 +198,8 @@ class _Op:
         self.high = dict(zip(self.part.params, self.part.high.tolist()))
         #: each parameter's (low, high), in order
         self.bounds = tuple(zip(self.part.low.tolist(), self.part.high.tolist()))
+        #: each parameter's float type (what the environment receives)
+        self.floats = dict.fromkeys(self.part.params, np.dtype(self.part.dtype).name)
 
 
 class ContinuousShield:
@@ -367,7 +369,7 @@ class ContinuousShield:
                 found = solved_set(self.machine, name, env=env,
                                    timeout_s=self.solver_timeout_s) if entry.solver else \
                     allowed_set(self.machine, name, env=env)
-                entry.allowed = found.within(entry.low, entry.high)
+                entry.allowed = found.within(entry.low, entry.high, entry.floats)
             except TracecheckError as exc:  # undecided, a limit, a value it has not: it
                 entry.allowed, self.problem = None, str(exc)  # cannot tell, so not allowed
         self.enabled = {name for name in self.actions if self._enabled(name, env)}

@@ -277,6 +277,7 @@ def continuous_fields(settings: RecordSettings, adapter) -> dict:
     high = [float(x) if math.isfinite(x) else None for p in parts for x in p.high]
     return {"action_parameters": {p.op: list(p.params) for p in parts},
             "action_low": low, "action_high": high,
+            "action_floats": [p.dtype.name for p in parts for _ in p.params],
             "shield_mode": settings.shield_mode or ("mask" if hybrid else "project"),
             "projection_scale": [float(x) for x in (settings.scale or (1.0,) * len(low))]}
 

@@ -250,8 +250,8 @@ class GuardsOutput(Report):
         return {"machine": self.machine.name, "enabled": self.ordered,
                 "disabled": self.blocked, "undecided": self.undecided,
                 "allowed": {op: allowed_json(a) for op, a in self.allowed.items()},
-                "action_space": {op: {"low": lo, "high": hi}
-                                 for op, (lo, hi) in self.bounds.items()} or None,
+                "action_space": {op: {"low": lo, "high": hi, "float_type": kind}
+                                 for op, (lo, hi, kind) in self.bounds.items()} or None,
                 "missing_variables": self.missing,
                 "invariant_holds": False if self.broken else None if self.unchecked else True,
                 "invariant_violations": self.broken,
@@ -276,7 +276,7 @@ class GuardsOutput(Report):
         for op, a in self.allowed.items():
             space = self.bounds.get(op)
             said = "within the action space" in str(a)  # the solver's set says it already
-            within = "" if space is None or said else " (within the action space: " + ", ".join(
-                f"{p} ∈ [{space[0].get(p, '-inf')}, {space[1].get(p, 'inf')}]"
+            within = "" if space is None or said else " (the action space: " + ", ".join(
+                f"{p} ∈ [{space[0].get(p, '-inf')}, {space[1].get(p, 'inf')}] {space[2][p]}"
                 for p in self.machine.operations[op].params) + ")"
             say(f"{op}: {a}{within}{_solver_text(_solver_witness(a))}")
