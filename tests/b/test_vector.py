@@ -216,3 +216,28 @@ def test_all_last_is_numpys_all_along_the_last_axis(width, rows, seed, dtype):
         got, want = all_last(values), np.all(values, axis=-1)
         assert got.dtype == want.dtype and got.shape == want.shape
         assert np.array_equal(got, want)
+
+
+@pytest.mark.parametrize("big", [2 ** 63, -(2 ** 63) - 1, 2 ** 70, 2 ** 63 - 1, 2 ** 53 + 1])
+def test_integers_beyond_int64_keep_their_value_in_a_batch(big):
+    """An integer no int64 holds (a new user's state ``{"n": 2**63}`` crashed recording
+    with OverflowError), or one beside floats no float holds, stays a Python int: the
+    batch answers as the scalar path, exactly."""
+    from tracecheck.b import load_machine_text
+
+    m = load_machine_text("""MACHINE Big SETS K = {k1, k2} VARIABLES n, f, r
+INVARIANT n : INTEGER & f : K --> INTEGER & r : REAL
+INITIALISATION n := 0 || f := K * {0} || r := 0.0
+OPERATIONS
+  Past = SELECT n + 1 > 9223372036854775807 THEN skip END;
+  Huge = SELECT f(k1) > 9223372036854775807 THEN skip END;
+  Near = SELECT f(k2) - n = 1 THEN skip END
+END""")
+    states = [{"n": v, "f": FuncValue({Elem("k1"): v, Elem("k2"): v + 1}), "r": 0.5}
+              for v in (big, 3, abs(big) + 2)]
+    batch = m.enabled_batch(Columns.from_states(states))
+    for row, state in enumerate(states):
+        assert {op for op, on in batch.items() if on[row]} == m.enabled(state), state
+    mixed = Columns.from_states([{"n": big, "f": states[0]["f"], "r": 0.5},
+                                 {"n": 0.5, "f": states[0]["f"], "r": 0.5}])
+    assert "n" not in mixed.numbers or abs(big) <= 2 ** 53  # a float column would round it

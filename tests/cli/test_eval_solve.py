@@ -335,3 +335,15 @@ def test_one_value_is_no_answer_unless_every_value_is_known_to_have_one(capsys, 
     code, _, err = run(capsys, "eval", formula, "--timeout", "3")
     assert code != 0 and "not every value walked to learn whether the predicate has a " \
         "value everywhere" in err
+
+
+def test_a_formula_that_starts_with_a_minus_is_a_formula(capsys, tmp_path):
+    """``eval '-floor(2.5)'`` said "no such formula file: loor(2.5)" (-f 'loor(2.5)') and
+    ``-7 / 2`` "no such model file"; options before and after still are options."""
+    model = tmp_path / "M.mch"
+    model.write_text("MACHINE M CONSTANTS c PROPERTIES c = 4 END")
+    assert run(capsys, "eval", "-floor(2.5)", "-7 / 2") == (0, "-2\n-3\n", "")
+    code, out, _ = run(capsys, "eval", "-m", model, "-c + 1", "--json", "-(c)")
+    assert code == 0 and [(v["expression"], v["json"]) for v in json.loads(out)] == [
+        ("-c + 1", -3), ("-(c)", -4)]
+    assert run(capsys, "eval", f"--model={model}", "--", "-c")[:2] == (0, "-4\n")

@@ -66,6 +66,23 @@ def test_record_under_the_shield(tmp_path):
     assert n == 3 and steps == report.steps
 
 
+def test_an_agent_that_raises_is_said_with_its_episode_and_step(tmp_path, monkeypatch):
+    """A policy whose weights hold NaN makes torch raise in its distribution: the user is
+    told which agent, episode and step, not shown torch's traceback; no file is left."""
+    from tracecheck.live import agents
+
+    def broken(self, obs):
+        raise ValueError("Expected parameter loc … but found invalid values: nan")
+    monkeypatch.setattr(agents.Agent, "values", broken)
+    path = tmp_path / "run.mcap"
+    with pytest.raises(InputError) as info:
+        record(settings(episodes=1), path)
+    assert info.value.message.startswith(
+        "episode 0 (seed 40), step 1: the agent base.zip raised ValueError for the "
+        "observation: Expected parameter loc")
+    assert "weights" in info.value.hint and not path.exists()
+
+
 def test_workers_do_not_change_episodes(tmp_path):
     one, two = tmp_path / "one.mcap", tmp_path / "two.mcap"
     record(settings(episodes=4, shield="none"), one)

@@ -167,3 +167,22 @@ def test_a_hybrid_choice_tied_with_the_best_score_is_no_intervention():
     judged, intervened = interventions(cols)
     assert judged.tolist() == [False, True, True]
     assert intervened.tolist() == [False, False, True]  # a tie at row 1; a lower score at 2
+
+
+def test_a_hybrid_run_whose_steps_all_took_the_parameterless_fallback_has_its_rows(tmp_path):
+    """Every step a deadlock whose fallback (HOVER) has no parameters: the run recorded no
+    executed parameters, only the agent's proposals — its fallback share is 100 %, where
+    the continuous rows used to be missing (a new user's drone)."""
+    path = tmp_path / "hover.mcap"
+    steps = [StepRecord(0, 0.0, None, {"x": 0.0}, 0.0, False)] + [
+        StepRecord(k, float(k), "HOVER", {"x": 0.0}, 1.0, False, deadlock=True,
+                   proposal={"r": 0.5}, action_values={"HOVER": -1.0, "CLIMB": 1.0},
+                   preferred_action="CLIMB") for k in (1, 2, 3, 4)]
+    header = new_header("recorded", actions=["HOVER", "CLIMB"], variables=["x"],
+                        action_parameters={"CLIMB": ["r"]}, action_low=[0.0],
+                        action_high=[3.0], shield_mode="mask", projection_scale=[1.0])
+    with EpisodeWriter(path, header) as w:
+        w.write(Episode(0, tuple(steps), make_end(tuple(steps), "time-limit"), seed=0))
+    c = statistics([path], GENERIC_SET)["runs"][0]["continuous"]
+    assert c["fallback"]["count"] == 4 and c["fallback"]["steps"] == 4
+    assert c["interventions"]["count"] == 4  # the agent scored CLIMB best each time

@@ -78,13 +78,13 @@ class Columns:
         k = len(index)
         if all(type(v) is bool for v in values):
             self.booleans[name] = np.array(values, dtype=bool)
-        elif all(type(v) in (int, float) for v in values):
+        elif all(type(v) in (int, float) for v in values) and _fits(values):
             self.numbers[name] = np.array(values, dtype=float if any(
                 type(v) is float for v in values) else np.int64)
         elif isinstance(first, FuncValue) and all(
                 isinstance(v, FuncValue) and all(key in index and type(x) in (int, float)
                                                  for key, x in v.map.items())
-                for v in values):
+                for v in values) and _fits([x for v in values for x in v.map.values()]):
             integers = not any(type(x) is float for v in values for x in v.map.values())
             vals = np.zeros((self.n, k), dtype=np.int64 if integers else float)  # 3 / 2 is 1
             defined = np.zeros((self.n, k), dtype=bool)
@@ -266,3 +266,14 @@ def step_pairs(cols: Columns, rows: np.ndarray) -> Columns:
     if cols.label is not None:
         out.label = lambda i: f"{cols.label(int(rows[i]))} (and the state before)"
     return out
+
+
+def _fits(numbers: list) -> bool:
+    """Whether a column of these numbers holds each exactly: integers within int64, and
+    beside floats within 2**53 (a larger one, 2**63 or 2**53 + 1, stays a Python int: the
+    values' own column, evaluated one by one)."""
+    ints = [v for v in numbers if type(v) is int]
+    if not ints:
+        return True
+    most = 2 ** 53 if len(ints) < len(numbers) else 2 ** 63 - 1
+    return -most - (len(ints) == len(numbers)) <= min(ints) and max(ints) <= most

@@ -40,7 +40,7 @@ def main(argv: Optional[list[str]] = None) -> Any:
         # too) and formulas nested up to 2000 levels, for as long as it runs
         with warnings.catch_warnings(), long_integers(), deep_recursion():
             warnings.simplefilter("ignore", DeprecationWarning)
-            return app(args=argv, standalone_mode=True)
+            return app(args=_formulas_as_written(argv), standalone_mode=True)
     except TracecheckError as exc:
         err.print("[red]error[/red]: " + escape(exc.render()), markup=True, highlight=False)
         if DEBUG["on"] and exc.__cause__ is not None:  # the user's own code: its traceback
@@ -61,6 +61,39 @@ def main(argv: Optional[list[str]] = None) -> Any:
         err.print("[red]error[/red]: the input is nested too deeply for tracecheck "
                   "(a formula or value with thousands of levels); split it up", markup=True)
         sys.exit(2)
+
+
+def _formulas_as_written(argv: Optional[list[str]]) -> Optional[list[str]]:
+    """``tracecheck eval '-7 mod 2'``: a formula that starts with a minus is a formula, not
+    options (``-7 mod 2`` read as ``-m 'od 2'`` said "no such model file: od 2"). An
+    argument of ``eval`` that starts with ``-`` and is none of its options, nor an option's
+    value, is given to it with a space before it (B skips it; ``--`` before the formulas
+    does the same)."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    first = next((i for i, a in enumerate(args) if not a.startswith("-")), None)
+    if first is None or args[first] != "eval":
+        return argv
+    import typer.main
+
+    command = typer.main.get_command(app).commands["eval"]  # type: ignore[attr-defined]
+    takes = {o: not p.is_flag for p in command.params if p.param_type_name == "option"
+             for o in (*p.opts, *p.secondary_opts)}
+    takes["--help"] = False
+    out, i = args[:first + 1], first + 1
+    while i < len(args):
+        arg = args[i]
+        if arg == "--":
+            out += args[i:]
+            break
+        name = arg.split("=", 1)[0]
+        if name in takes:
+            value = takes[name] and "=" not in arg and i + 1 < len(args)
+            out += args[i:i + 1 + value]
+            i += 1 + value
+            continue
+        out.append(" " + arg if arg.startswith("-") and len(arg) > 1 else arg)
+        i += 1
+    return out
 
 
 #: the exit status when the reader of standard output stopped reading (``| head``): what a

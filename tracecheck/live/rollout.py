@@ -8,6 +8,7 @@ agent under the shield after them. Both go through :func:`run_episode`.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any, Callable, Mapping, Optional, Sequence
 
 import numpy as np
@@ -142,6 +143,15 @@ def run_episode(session: Session, index: int, *, seed: Optional[int] = None,
         raise
 
 
+def _agent_failed(agent, exc: Exception) -> InputError:
+    """What the rollout says where the agent itself raised ``exc`` for an observation (a
+    policy whose weights hold NaN: torch refuses its distribution)."""
+    return InputError(f"the agent {Path(agent.path).name} raised {type(exc).__name__} for "
+                      f"the observation: {str(exc).strip()[:300]}",
+                      hint="check the agent's weights (a NaN?) and that it was trained on "
+                           "this environment; tracecheck --debug … shows the traceback")
+
+
 def _discrete_episode(session: Session, index: int, *, seed: int, script: Sequence[str],
                       check, options=None) -> Episode:
     """:func:`run_episode` for discrete actions."""
@@ -155,7 +165,12 @@ def _discrete_episode(session: Session, index: int, *, seed: int, script: Sequen
         session.step_reached = k - 1  # the observation came from the step before
         _finite(obs, session.flat)
         session.step_reached = k
-        values = agent.values(obs)
+        try:
+            values = agent.values(obs)
+        except TracecheckError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - the agent's own code: said, with where
+            raise _agent_failed(agent, exc) from exc
         allowed = env.shield_mask()  # none in a deadlock: the fallback is taken, and said
         decision_us = info["shield"]["decision_us"]
         if k <= len(script):
@@ -238,7 +253,12 @@ def _continuous_episode(session: Session, index: int, *, seed: int,
         if k > len(script):
             _finite(obs, session.flat)
         session.step_reached = k
-        proposal = script[k - 1] if k <= len(script) else agent.act(obs)
+        try:
+            proposal = script[k - 1] if k <= len(script) else agent.act(obs)
+        except TracecheckError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - the agent's own code: said, with where
+            raise _agent_failed(agent, exc) from exc
         allowed = tuple(a for a, ok in zip(env.actions, env.allowed) if ok)  # decided in
         obs, reward, terminated, truncated, info = env.step(proposal)
         if k <= len(script):

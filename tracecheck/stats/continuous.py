@@ -138,8 +138,9 @@ def continuous_steps(cols: RunColumns, episodes: Iterable[Episode], header=None
     """The per-row masks of :class:`ContinuousSteps` from a run's columns and its decoded
     ``episodes`` (their allowed intervals and deadlock flags; ``header``: the run header,
     whose action space bounds are not shield ends); None for a run without continuous
-    actions."""
-    if not cols.parameters:
+    actions (one whose steps all took operations without parameters is one, where its
+    header declares parameters or it kept a proposal)."""
+    if not (cols.parameters or cols.proposals or getattr(header, "action_parameters", None)):
         return None
     names = tuple(sorted(cols.parameters))
     index = {p: j for j, p in enumerate(names)}
@@ -208,14 +209,15 @@ def read_continuous_steps(path: str | Path, cols: RunColumns, *, salvage: bool =
                           ) -> Optional[ContinuousSteps]:
     """:func:`continuous_steps` of a run file (its steps decoded, only when ``cols`` has
     continuous actions; the damage ``cols`` was read with is not warned about again)."""
-    if not cols.parameters:
-        return None
     from ..errors import DamagedEpisode
     from ..episodes.reader import read_episodes, read_header
 
+    header = read_header(path)
+    if not (cols.parameters or cols.proposals or header.action_parameters):
+        return None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DamagedEpisode)
-        return continuous_steps(cols, read_episodes(path, salvage=salvage), read_header(path))
+        return continuous_steps(cols, read_episodes(path, salvage=salvage), header)
 
 
 #: the interval methods: tracecheck's names (``stats --interval``) -> scipy's

@@ -344,8 +344,8 @@ def _evaluate_blocks(path: str, pset: PropertySet, name: Optional[str], environm
             runs.append(RunValues(name or Path(path).stem, str(path), 0, [],
                                   warnings=list(formulas.warnings)))
         runs.append(evaluate_run(path, pset, formulas, name, cols))
-        if cols.parameters:
-            start = time.perf_counter()
+        if cols.parameters or cols.proposals:  # a hybrid run whose agent never executed
+            start = time.perf_counter()       # parameters still proposed some
             runs[-1].continuous = read_continuous_steps(path, cols, salvage=salvage)
             reading += time.perf_counter() - start
     return _merged(runs, name or Path(path).stem, str(path)), formulas, reading
