@@ -101,6 +101,19 @@ def test_a_constant_in_a_set_takes_an_element_only_where_every_solution_agrees(
     assert not set(fixed) & set(m.unset_constants)
 
 
+def test_constants_no_conjunct_links_are_solved_apart():
+    """n * n = 49 fixes n, whatever the others allow: solved together, the 8 solutions of
+    (n, k, w) hid it behind the first 5 ("at least 5 solutions", n without value — a new
+    user's ordinary-B trial); apart, n = 7 and k, w each list their own two."""
+    m = shield("MACHINE P CONSTANTS n, k, w PROPERTIES n : 1..10 & n * n = 49 & "
+               "k : NATURAL & k mod 5 = 3 & k < 10 & w : INTEGER & w > 0 & w < 3 END")
+    assert m.constants == {"n": 7}
+    assert "allow 2 solutions (k = 3; k = 8)" in m.unset_constants["k"]
+    assert "allow 2 solutions (w = 1; w = 2)" in m.unset_constants["w"]
+    linked = shield("MACHINE P CONSTANTS n, k PROPERTIES n : 1..3 & k : 1..3 & n + k = 4 END")
+    assert linked.constants == {} and "allow 3 solutions" in linked.unset_constants["n"]
+
+
 def test_pairwise_different_constants_more_than_the_elements_are_an_error():
     with pytest.raises(ModelError, match="PID has only 2 element.s., too few for the "
                                          "constant c, which PROPERTIES says differs from a, b"):
