@@ -248,3 +248,32 @@ def test_a_recorded_deadlock_is_said_in_the_file(tmp_path, capsys):
     assert f"{len(stuck)} step(s) where the shield allowed nothing" in " ".join(said.split())
     report = replay([out], load_shield(shield))
     assert report.deadlock_states >= len(stuck)
+
+
+def test_the_bundled_none_for_another_environment_says_how_to_allow_everything():
+    """load_shield("none") is the highway's: wrapping a user's continuous environment with
+    it said only "NoShield has no operation 'CLIMB'" (a new user's drone); now the lacking
+    actions, and how to get a none of their own."""
+    import gymnasium as gym
+
+    from tracecheck.live.adapter import EnvAdapter
+
+    class Lift(EnvAdapter):
+        name = "lift"
+        actions = ("HOLD", "CLIMB")
+        parameters = {"CLIMB": ("r",)}
+        fallback = "HOLD"
+        variables = ("alt",)
+
+    class LiftEnv(gym.Env):
+        observation_space = gym.spaces.Box(0.0, 1.0, (1,))
+        action_space = gym.spaces.Tuple((gym.spaces.Discrete(2),
+                                         gym.spaces.Box(0.0, 1.0, (1,))))
+
+    with pytest.raises(InputError) as info:
+        ShieldWrapper(LiftEnv(), load_shield("none"), adapter=Lift())
+    assert "NoShield lacks HOLD, CLIMB" in info.value.message
+    assert 'load_shield("none", actions=adapter.actions, parameters=adapter.parameters)' \
+        in info.value.hint
+    mine = load_shield("none", actions=Lift.actions, parameters=Lift.parameters)
+    assert ShieldWrapper(LiftEnv(), mine, adapter=Lift()).actions == ("HOLD", "CLIMB")

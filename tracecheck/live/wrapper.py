@@ -190,6 +190,8 @@ class ShieldWrapper(gym.Wrapper):
                  scale: Optional[Sequence[float]] = None) -> None:
         super().__init__(env)
         self.env_adapter = adapter if adapter is not None else adapter_for(env)
+        # an action no operation decides: never allowed, silently, were it let through
+        for_actions(shield, tuple(self.env_adapter.actions))
         #: continuous actions (the adapter declares parameters): the projection shield
         self.continuous = None
         if self.env_adapter.parameters:
@@ -221,8 +223,6 @@ class ShieldWrapper(gym.Wrapper):
         self.start = discrete_start(env.action_space)
         if self.start:
             self.action_space = gym.spaces.Discrete(int(n))
-        for_actions(shield, self.actions)  # an action no operation decides: never allowed,
-        #                                    silently, were it let through
         fallback = fallback or self.env_adapter.fallback or self.actions[0]
         if fallback not in self.actions:
             raise InputError(f"unknown fallback action {fallback!r}; the actions are "
