@@ -88,3 +88,36 @@ def test_ends_past_the_float32_range():
     assert _edge(huge, np.float32, 1) is None
     wide = Interval(-Fraction(10) ** 40, Fraction(0))
     assert _edge(wide, np.float32, 1) == -float(np.finfo(np.float32).max)
+
+
+@pytest.mark.parametrize("guard, expected", [
+    ("r > 2.0E38", float(np.finfo(np.float32).max)),  # unbounded: the type's greatest
+    ("r < 0.0 - 2.0E38", -float(np.finfo(np.float32).max)),
+    ("r >= 1.0E39", None),  # past float32's range: none (it was undecided)
+    ("r <= 0.0 - 1.0E39", None),
+])
+def test_values_past_the_float32_range(guard, expected):
+    """An unbounded end tries the type's values at its range's end; no warning escapes
+    (4e38 is inf as a float32: numpy warned "overflow encountered in cast")."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        found = _one(guard).within({}, {}, {"r": "float32"}).witness()
+    assert (found and found["r"]) == expected
+
+
+def test_the_solvers_set_stays_undecided_when_asked_again():
+    """The solver's set (a guard not linear) in a float32 space: its float64 witness was
+    kept and given on the second ask (a reviewer's r * r = 0.01 + 1e-15)."""
+    pytest.importorskip("z3")
+    from tracecheck.checking.solved_set import solved_set
+
+    m = load_machine_text("""MACHINE N VARIABLES x INVARIANT x : REAL INITIALISATION x := 0.0
+OPERATIONS GO(r) = PRE r : REAL & r * r >= 0.01 & r * r <= 0.01 + 1.0E-15 + x & r > 0.0
+THEN skip END END""")
+    narrow = solved_set(m, "GO", env=m.env({"x": 0.0}), timeout_s=5.0).within(
+        {"r": -4.0}, {"r": 4.0}, {"r": "float32"})
+    for _ in range(2):
+        with pytest.raises(UnsupportedError, match="no float32 value"):
+            narrow.witness()

@@ -112,6 +112,10 @@ def test_constants_no_conjunct_links_are_solved_apart():
     assert "allow 2 solutions (w = 1; w = 2)" in m.unset_constants["w"]
     linked = shield("MACHINE P CONSTANTS n, k PROPERTIES n : 1..3 & k : 1..3 & n + k = 4 END")
     assert linked.constants == {} and "allow 3 solutions" in linked.unset_constants["n"]
+    free = shield("MACHINE P CONSTANTS z, n PROPERTIES n : 1..10 & n * n = 49 VARIABLES x "
+                  "INVARIANT x : INTEGER & x <= z INITIALISATION x := 0 END")
+    assert free.constants == {"n": 7}
+    assert free.unset_constants["z"].startswith("no conjunct of the PROPERTIES names it")
 
 
 def test_pairwise_different_constants_more_than_the_elements_are_an_error():

@@ -347,3 +347,4 @@ def test_a_formula_that_starts_with_a_minus_is_a_formula(capsys, tmp_path):
     assert code == 0 and [(v["expression"], v["json"]) for v in json.loads(out)] == [
         ("-c + 1", -3), ("-(c)", -4)]
     assert run(capsys, "eval", f"--model={model}", "--", "-c")[:2] == (0, "-4\n")
+    assert run(capsys, "eval", f"-m{model}", "-c")[:2] == (0, "-4\n")  # -mFILE

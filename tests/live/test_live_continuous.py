@@ -186,6 +186,8 @@ def test_a_decisions_numbers_are_numpys_to_the_bit(dtype):
             clipped = np.clip(proposal, space.low.astype(np.float64),
                               space.high.astype(np.float64))
             assert list(d.proposal.values()) == clipped.tolist()
+            assert np.signbit(list(d.proposal.values())).tolist() == \
+                np.signbit(clipped).tolist()  # -0.0 at a bound 0.0 is numpy's 0.0
             as_sent = clipped.astype(dtype).astype(np.float64)
             assert d.cast == bool(np.any(as_sent != clipped))
             assert d.intervened == bool(np.any(d.executed != as_sent))
@@ -221,6 +223,9 @@ def test_a_space_with_other_components_is_refused():
                                          r"int64 values: the shield decides REAL ones") as e:
         _shield(space=gym.spaces.Box(-4, 2, (1,), np.int64))
     assert "give the environment a float Box" in e.value.hint
+    if np.dtype(np.longdouble).itemsize > 8:  # float128 here: a header could not say it
+        with pytest.raises(InputError, match="wider than the float64 values tracecheck"):
+            _shield(space=gym.spaces.Box(-4.0, 2.0, (1,), np.longdouble))
 
 
 def test_untyped_parameters_and_clashing_names_are_refused():

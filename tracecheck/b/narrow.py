@@ -38,8 +38,14 @@ def narrow_witness(allowed, found: Optional[dict], floats: dict[str, str],
     (None for polytopes). Raises :class:`UnsupportedError` where it cannot tell."""
     if found is None:
         return None
-    types = {p: np.dtype(t).type for p, t in floats.items()}
+    with np.errstate(over="ignore", invalid="ignore"):  # 4e38 is inf as a float32
+        return _narrow(allowed, found, {p: np.dtype(t).type for p, t in floats.items()},
+                       boxes)
 
+
+def _narrow(allowed, found: dict, types: dict, boxes: Optional[list[dict]]
+            ) -> Optional[dict]:
+    """:func:`narrow_witness` with the types as numpy's scalar types."""
     def holds(point: dict) -> bool:
         return all(float(kind(point[p])) == point[p] for p, kind in types.items())
     if holds(found):
@@ -54,22 +60,30 @@ def narrow_witness(allowed, found: Optional[dict], floats: dict[str, str],
     if boxes is not None and not any(
             all(_has_value(box[p], kind) for p, kind in types.items()) for box in boxes):
         return None
-    names = ", ".join(sorted(set(floats.values())))
+    names = ", ".join(sorted({np.dtype(t).name for t in types.values()}))
     raise UnsupportedError(
         f"undecided: the guard allows values over the reals, but tracecheck found no "
         f"{names} value (the action space's type) it accepts, nor can it say there is none")
 
 
 def _candidates(params, found: dict, types: dict, boxes: list[dict]) -> Iterator[dict]:
-    """The points tried: next to ``found``, then in each box (at most 27 per box)."""
+    """The points tried: next to ``found``, then in each box — every combination of the
+    parameters' values for up to 3 parameters (at most 27 points a box); beyond, the
+    least of each, the greatest of each and the middle of each (3 points a box)."""
     around = [_next_to(found[p], types[p]) if p in types else (found[p],) for p in params]
-    for values in itertools.product(*around):
-        yield dict(zip(params, values))
+    for values in itertools.product(*around) if len(params) <= 3 else \
+            [[v[0] for v in around if v]] + [[v[-1] for v in around if v]]:
+        if len(values) == len(params):
+            yield dict(zip(params, values))
     for box in boxes:
         spans = [_ends(box[p], types[p], found[p]) if p in types else (found[p],)
                  for p in params]
-        for values in itertools.product(*spans):
-            yield dict(zip(params, values))
+        if len(params) <= 3:
+            for values in itertools.product(*spans):
+                yield dict(zip(params, values))
+        elif all(spans):
+            for k in range(3):
+                yield {p: v[min(k, len(v) - 1)] for p, v in zip(params, spans)}
 
 
 def _next_to(x: float, kind) -> tuple[float, ...]:
@@ -86,8 +100,10 @@ def _next_to(x: float, kind) -> tuple[float, ...]:
 def _ends(interval, kind, x: float) -> tuple[float, ...]:
     """The least, the greatest and the middle value of the type ``kind`` in ``interval``
     (an unbounded end: the values next to ``x`` in it; none where it holds none)."""
-    if interval.low is None or interval.high is None:
-        return tuple(v for v in _next_to(x, kind) if interval.contains(v))
+    if interval.low is None or interval.high is None:  # the type's values near x, or at the
+        top = float(np.finfo(kind).max)              # end of its range
+        return tuple(v for v in _next_to(min(max(x, -top), top), kind)
+                     if interval.contains(v))
     low, high = _edge(interval, kind, 1), _edge(interval, kind, -1)
     if low is None or high is None or low > high:
         return ()
@@ -129,7 +145,7 @@ def _has_value(interval, kind) -> bool:
     """Whether some value of the type ``kind`` lies in ``interval``, exactly."""
     if interval.empty:
         return False
-    if interval.low is None or interval.high is None:
-        return True
+    if interval.low is None:
+        return interval.high is None or _edge(interval, kind, -1) is not None
     low = _edge(interval, kind, 1)
     return low is not None and interval.contains(low)

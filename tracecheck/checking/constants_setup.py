@@ -48,15 +48,19 @@ def settle(machine, names: list[str], *, timeout_s: float = SETUP_S) -> None:
     deadline = time.monotonic() + timeout_s
     unset: dict[str, str] = {}
     for group, conjunction in _groups(node, names):
+        if conjunction is None:  # every value of its type is a solution
+            unset.update((n, "no conjunct of the PROPERTIES names it: every value of its "
+                             "type is a solution; tracecheck does not pick one") for n in group)
+            continue
         unset.update(_settle_group(machine, group, conjunction,
                                    max(0.0, deadline - time.monotonic())))
     machine.unset_constants = unset
 
 
 def _groups(node, names: list[str]) -> list[tuple[list[str], Any]]:
-    """The constants of ``names`` in groups that no conjunct of ``node`` links (each with
-    the conjunction of its conjuncts, in their order); constants no conjunct names go with
-    the first group (solved, they range over their whole type)."""
+    """The constants of ``names`` in groups that no conjunct of ``node`` links, each with
+    the conjunction of its conjuncts, in their order (None for a constant no conjunct
+    names)."""
     conjs = [c for c in conjuncts(node)]
     owner = {n: n for n in names}
 
@@ -74,7 +78,7 @@ def _groups(node, names: list[str]) -> list[tuple[list[str], Any]]:
         group = [n for n in names if find(n) == root]
         mine = [c for c, found in zip(conjs, mentions) if found and find(found[0]) == root]
         out.append((group, reduce(lambda a, b: ast.And(a, b, pos=b.pos), mine) if mine
-                    else node))
+                    else None))
     return out
 
 

@@ -171,9 +171,11 @@ class SolvedSet:
         if "witness" in self.memo:
             return self.memo["witness"]
         if self.floats:  # values of the space's float type: near the float one, or none
-            found = narrow_witness(self, replace(self, floats=()).witness(),
-                                   dict(self.floats), None)
-            self.memo["witness"] = found
+            wide = replace(self, floats=(), memo=dict(self.memo))  # its witness its own
+            found = wide.witness()
+            self.memo.update((k, v) for k, v in wide.memo.items() if k != "witness")
+            found = narrow_witness(self, found, dict(self.floats), None)
+            self.memo["witness"] = found  # only once decided (undecided raises)
             return found
         exact = self._some_model()
         found = None

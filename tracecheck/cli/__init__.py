@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import sys
 import warnings
+from pathlib import Path
 from typing import Any, Optional
 
 from ..errors import TracecheckError
@@ -66,9 +67,9 @@ def main(argv: Optional[list[str]] = None) -> Any:
 def _formulas_as_written(argv: Optional[list[str]]) -> Optional[list[str]]:
     """``tracecheck eval '-7 mod 2'``: a formula that starts with a minus is a formula, not
     options (``-7 mod 2`` read as ``-m 'od 2'`` said "no such model file: od 2"). An
-    argument of ``eval`` that starts with ``-`` and is none of its options, nor an option's
-    value, is given to it with a space before it (B skips it; ``--`` before the formulas
-    does the same)."""
+    argument of ``eval`` that starts with ``-`` and is none of its options (``-mFILE`` is one
+    where FILE exists), nor an option's value, is given to it with a space before it (B
+    skips it; ``--`` before the formulas does the same)."""
     args = list(sys.argv[1:] if argv is None else argv)
     first = next((i for i, a in enumerate(args) if not a.startswith("-")), None)
     if first is None or args[first] != "eval":
@@ -86,6 +87,10 @@ def _formulas_as_written(argv: Optional[list[str]]) -> Optional[list[str]]:
             out += args[i:]
             break
         name = arg.split("=", 1)[0]
+        if arg[:2] in takes and not arg.startswith("--") and takes[arg[:2]] and \
+                Path(arg[2:]).exists():  # -mM.mch: a short option and its file; -floor(x)
+            name = arg                   # and -max(s) are formulas
+            takes[name] = False
         if name in takes:
             value = takes[name] and "=" not in arg and i + 1 < len(args)
             out += args[i:i + 1 + value]

@@ -177,6 +177,11 @@ def _part(where: str, op: str, params: Sequence[str], box) -> SpacePart:
                          hint="give the environment a float Box (dtype=np.float32 or "
                               "float64), or make the choice discrete (Discrete(n), one "
                               "operation per value)")
+    if kind.name not in ("float16", "float32", "float64"):  # tracecheck's floats are float64
+        raise InputError(f"{where} declares continuous parameters for {op}, but its action "
+                         f"space {box} takes {kind} values, wider than the float64 values "
+                         "tracecheck decides and records",
+                         hint="give the environment a Box of dtype=np.float32 or float64")
     return SpacePart(op, tuple(params), np.asarray(low, dtype=np.float64),
                      np.asarray(high, dtype=np.float64), kind)
 
@@ -403,8 +408,9 @@ class ContinuousShield:
         if self.hybrid:
             return self._filter_hybrid(action)
         (op, entry), = self.ops.items()
-        proposal = np.array([min(max(v, lo), hi) for v, (lo, hi) in  # np.clip's, per
+        proposal = np.array([min(hi, max(lo, v)) for v, (lo, hi) in  # np.clip's, a tie
                              zip(_vector(action, len(self.params)).tolist(), entry.bounds)])
+        #                                      (-0.0 at a bound 0.0) going to the bound
         executed = self._allowed_values(entry, proposal, project=self.mode == "project")
         if executed is None and self.mode == "replace":
             executed = self._allowed_values(entry, self.fallback, project=True)
