@@ -262,7 +262,7 @@ def test_ltl_properties_by_hand(hand_run, tmp_path):
 
 
 def test_stl_metrics_and_properties_by_hand(hand_run, tmp_path):
-    """aggregate = "stl": the robustness per episode; kind = "stl": a positive robustness."""
+    """aggregate = "stl": the robustness per episode; kind = "stl": the episodes keeping it."""
     path = tmp_path / "stl.toml"
     path.write_text('[metrics.margin]\nexpression = "G({VehiclesX(EgoVehicle) >= 90.0})"\n'
                     'aggregate = "stl"\n'
@@ -275,6 +275,20 @@ def test_stl_metrics_and_properties_by_hand(hand_run, tmp_path):
     path.write_text('[properties.bad]\npredicate = "G({Crash = FALSE})"\nkind = "stl"\n')
     with pytest.raises(Exception, match=r"the atom \{Crash = FALSE\} is not a comparison"):
         statistics([hand_run], load_properties(path))
+
+
+def test_an_stl_property_at_robustness_0_is_decided_by_its_truth(hand_run, tmp_path):
+    """Each episode's least x is 100: G({x >= 100.0}) holds in both (robustness 0 — counted
+    as broken, 0 %, where falsify said kept: a new user's battery), G({x > 100.0}) in none."""
+    path = tmp_path / "edge.toml"
+    path.write_text('[properties.at_least]\npredicate = "G({VehiclesX(EgoVehicle) >= 100.0})"\n'
+                    'kind = "stl"\n[properties.above]\n'
+                    'predicate = "G({VehiclesX(EgoVehicle) > 100.0})"\nkind = "stl"\n'
+                    '[metrics.rho]\nexpression = "G({VehiclesX(EgoVehicle) >= 100.0})"\n'
+                    'aggregate = "stl"\n')
+    (r,) = statistics([hand_run], load_properties(path))["runs"]
+    assert r["metrics"]["rho"]["mean"] == 0.0 and r["metrics"]["rho"]["sd"] == 0.0
+    assert r["properties"]["at_least"]["holds"] == 2 and r["properties"]["above"]["holds"] == 0
 
 
 # ------------------------------------------------------------------ inert outputs, bounds

@@ -260,7 +260,9 @@ def naming(where: str):
 
 class _Temporal:
     """An LTL or STL formula over whole episodes: per episode, whether it holds (LTL; STL:
-    a positive robustness) or its robustness (STL)."""
+    a positive robustness, and at 0 the formula's own truth read as LTL, as ``falsify``
+    decides — ``G({battery >= 1})`` whose least battery is 1 holds; a bounded ``G[a,b]``,
+    which LTL does not have: 0 is a violation) or its robustness (STL)."""
 
     def __init__(self, logic: str, text: str, machine, where: str) -> None:
         from ..checking.ltl import parse_ltl
@@ -268,6 +270,12 @@ class _Temporal:
 
         self.logic, self.machine, self.where = logic, machine, where
         self.formula = (parse_ltl if logic == "ltl" else parse_stl)(text, machine, where=where)
+        self.truth = None  # an STL formula's, where LTL reads it
+        if logic == "stl":
+            try:
+                self.truth = parse_ltl(text, machine, where=where)
+            except TracecheckError:
+                pass  # STL only (G[a,b]): a robustness of 0 is a violation
 
     def values(self, cols: RunColumns) -> np.ndarray:
         from ..checking.stl import episode_robustness
@@ -279,7 +287,11 @@ class _Temporal:
         from ..checking.ltl import evaluate_ltl
 
         if self.logic == "stl":
-            return self.values(cols) > 0
+            rho = self.values(cols)
+            held, edge = rho > 0, rho == 0
+            if self.truth is not None and edge.any():  # on the boundary: the truth decides
+                held |= edge & evaluate_ltl(self.truth, cols, self.machine)[cols.starts[:-1]]
+            return held
         return evaluate_ltl(self.formula, cols, self.machine)[cols.starts[:-1]]
 
 
