@@ -10,7 +10,7 @@ import pytest
 
 from tests.helpers import ROOT
 from tracecheck.cli import main
-from tracecheck.episodes.reader import read_episodes, read_header
+from tracecheck.episodes.reader import read_episodes, read_header, read_run
 from tracecheck.live.adapter import get_adapter, load_adapter
 from tracecheck.errors import InputError
 
@@ -842,3 +842,27 @@ def test_a_misspelt_operation_is_shown_where_it_is_declared(capsys, tmp_path):
                          "is" in " ".join(err.split())
     assert "hint: is the operation Rigth the action Right misspelt? An action and its " \
            "operation have one name." in " ".join(err.split())
+
+
+def test_a_guard_the_live_shield_cannot_evaluate_is_recorded_with_why(toy, tmp_path, capsys):
+    """Left's guard divides by zero: the live shield does not allow Left (it fails closed)
+    — and now says so: each such step's shield_problem, and a warning after the summary
+    (record exited 0 with nothing said, its steps claiming decisions the shield never made:
+    a new user's warehouse)."""
+    shield, agent = toy
+    broken = tmp_path / "broken.mch"
+    broken.write_text(SHIELD.replace("pos > 1", "pos > 1 + 12 / (pos - pos)"))
+    out = tmp_path / "run.mcap"
+    code, said, err = run(capsys, "record", "--env", TOY, "--agent", agent, "--shield", broken,
+                          "-n", 2, "-o", out)
+    assert code == 0 and "recorded 2 episode(s)" in said
+    assert "the shield could not evaluate a guard, and did not allow its action (it failed " \
+        "closed" in " ".join(err.split())
+    assert "the first, episode 0 step 1: Left: division by zero" in " ".join(err.split())
+    steps = [s for e in read_run(out).episodes for s in e.steps[1:]]
+    assert steps and all("Left" not in s.allowed_actions for s in steps)
+    assert all(s.shield_problem.startswith("Left: division by zero") for s in steps)
+    code, said, err = run(capsys, "record", "--env", TOY, "--agent", agent, "--shield", shield,
+                          "-n", 1, "-o", out, "--force")
+    assert code == 0 and "could not evaluate" not in err
+    assert all(s.shield_problem is None for e in read_run(out).episodes for s in e.steps)

@@ -11,7 +11,7 @@ from ..errors import InputError
 from ..outputs import input_paths
 from .common import (SCALE, SHIELD_MODE, continuous_options, external_settings, app, err, out,
                      ENV, ENV_CONFIG, DURATION, record_settings, Algorithm, FORCE, FORMAT, JSON,
-                     OutputFormat, output_format, progress, say, SHIELD_HELP)
+                     OutputFormat, output_format, progress, say, warn, SHIELD_HELP)
 from .run_options import EXTERNAL_MODE, RunOptions, run_options
 
 
@@ -175,6 +175,9 @@ def record_cmd(
             stats["crashes"] += ep.end.crashed
             stats["steps"] += ep.end.steps
             stats["fallbacks"] = stats.get("fallbacks", 0) + ep.deadlocks
+            stats["problems"] = stats.get("problems", 0) + ep.problems
+            if ep.first_problem and "first_problem" not in stats:
+                stats["first_problem"] = (ep.id, *ep.first_problem)
             rate = stats["steps"] / max(_time.perf_counter() - start, 1e-9)
             advance(crashes=stats["crashes"], rate=f"{rate:.0f}")
 
@@ -197,6 +200,11 @@ def record_cmd(
                "was taken" if fallbacks else "")
     say(f"recorded {n} episode(s), {steps} step(s), {crashes} crash(es){nothing} with shield "
         f"{shield} in {took:.1f} s ({steps / took:.0f} steps/s) -> {output}")
+    if stats.get("problems"):
+        episode, step, why = stats["first_problem"]
+        warn([f"in {stats['problems']} step(s) the shield could not evaluate a guard, and "
+              f"did not allow its action (it failed closed; each step's shield_problem says "
+              f"why); the first, episode {episode} step {step}: {why}"])
 
 
 def _record_external(settings, machine, output: Path, force: bool) -> None:

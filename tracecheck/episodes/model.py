@@ -27,6 +27,9 @@ class StepRecord:
     allowed_actions: Optional[tuple[str, ...]] = None
     shield_time_us: Optional[float] = None
     deadlock: Optional[bool] = None
+    #: why the live shield could not evaluate some guard in the state before (those actions
+    #: were not allowed: it failed closed)
+    shield_problem: Optional[str] = None
     #: continuous actions (an operation with REAL parameters): the values of the executed
     #: action's parameters, by parameter name
     parameters: Optional[Mapping[str, float]] = None
@@ -116,8 +119,9 @@ class Episode:
     def digest(self) -> "EpisodeDigest":
         """What writing it encoded elsewhere needs and a recording reports, without its
         steps."""
+        problems = [(s.step, s.shield_problem) for s in self.steps if s.shield_problem]
         return EpisodeDigest(self.id, self.end, self.last_time, self.action_names,
-                             self.deadlocks)
+                             self.deadlocks, len(problems), problems[0] if problems else None)
 
 
 @dataclass(frozen=True)
@@ -131,6 +135,8 @@ class EpisodeDigest:
     last_time: float  # the time of its last step
     action_names: tuple[str, ...]  # see Episode.action_names
     deadlocks: int  # see Episode.deadlocks
+    problems: int = 0  # the steps whose shield could not evaluate a guard
+    first_problem: Optional[tuple[int, str]] = None  # (step, why) of the first
 
     def digest(self) -> "EpisodeDigest":
         return self

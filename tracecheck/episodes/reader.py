@@ -256,6 +256,7 @@ class _Assembler:
             action_values=msg.action_values, preferred_action=msg.preferred_action,
             allowed_actions=tuple(msg.allowed_actions) if msg.allowed_actions is not None
             else None, shield_time_us=msg.shield_time_us, deadlock=msg.deadlock,
+            shield_problem=msg.shield_problem,
             parameters=msg.parameters, proposal=msg.proposal,
             projection_distance=msg.projection_distance,
             allowed_intervals=None if msg.allowed_intervals is None else {

@@ -196,6 +196,9 @@ class StepMessage(_Message):
         None, description="the live shield's decision time for this step (µs)")
     deadlock: Optional[bool] = Field(
         None, description="the live shield allowed nothing: the fallback was taken")
+    shield_problem: Optional[str] = Field(
+        None, description="why the live shield could not evaluate some guard in the state "
+                          "before: those actions were not allowed (it failed closed)")
     parameters: Optional[ParameterValues] = Field(
         None, description="continuous actions: the executed action's parameter values")
     proposal: Optional[ParameterValues] = Field(

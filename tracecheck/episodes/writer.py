@@ -40,7 +40,7 @@ __all__ = ["EpisodeWriter", "new_header", "StepChannels", "ChannelsFactory", "En
 _NS = 1_000_000_000
 #: what a step message carries when its StepRecord has it (the same names in both)
 _OPTIONAL_KEYS = ("observation", "action_values", "preferred_action", "allowed_actions",
-                  "shield_time_us", "deadlock", "parameters", "proposal", "projection_distance",
+                  "shield_time_us", "deadlock", "shield_problem", "parameters", "proposal", "projection_distance",
                   "allowed_intervals")
 _GAP_S = 1.0  # seconds of file time between two episodes
 

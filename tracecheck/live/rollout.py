@@ -172,7 +172,7 @@ def _discrete_episode(session: Session, index: int, *, seed: int, script: Sequen
         except Exception as exc:  # noqa: BLE001 - the agent's own code: said, with where
             raise _agent_failed(agent, exc) from exc
         allowed = env.shield_mask()  # none in a deadlock: the fallback is taken, and said
-        decision_us = info["shield"]["decision_us"]
+        decision_us, problem = info["shield"]["decision_us"], info["shield"].get("problem")
         if k <= len(script):
             action, deadlock = actions.index(script[k - 1]), False
         else:
@@ -187,7 +187,8 @@ def _discrete_episode(session: Session, index: int, *, seed: int, script: Sequen
             action_values={a: float(v) for a, v in zip(actions, values)},
             preferred_action=actions[int(np.asarray(values).argmax())],
             allowed_actions=tuple(a for a, ok in zip(actions, allowed) if ok),
-            shield_time_us=round(decision_us, 3), deadlock=deadlock or None))
+            shield_time_us=round(decision_us, 3), deadlock=deadlock or None,
+            shield_problem=problem))
         if crashed or terminated or truncated:
             reason = end_reason(crashed, terminated, truncated)
             break
@@ -270,7 +271,7 @@ def _continuous_episode(session: Session, index: int, *, seed: int,
             reward=float(reward), crashed=crashed, observation=_rows(obs, session.flat),
             allowed_actions=allowed,
             shield_time_us=round(decided["step_decision_us"], 3),
-            deadlock=decided["fallback_taken"] or None,
+            deadlock=decided["fallback_taken"] or None, shield_problem=decided["problem"],
             parameters=decided["executed"] or None, proposal=decided["proposal"] or None,
             projection_distance=decided["distance"],
             allowed_intervals=decided["intervals"],
