@@ -187,6 +187,25 @@ def test_replay_checks_formulas_on_every_episode(capsys, tmp_path):
     assert code == 2 and "the shield paper has no ASSERT_LTL definitions" in err
 
 
+def test_replay_ltl_over_a_run_without_a_complete_episode(capsys, tmp_path):
+    """A run killed in its first episode has no complete one: --ltl beside a good run
+    crashed with numpy's "cannot reshape array of size 0" (a new user's warehouse)."""
+    from tests.helpers import episode
+    from tracecheck.episodes import EpisodeWriter, new_header
+
+    empty, good = tmp_path / "empty.mcap", tmp_path / "good.mcap"
+    with EpisodeWriter(empty, new_header("recorded")):
+        pass
+    with EpisodeWriter(good, new_header("recorded")) as w:
+        w.write(episode(0, 3))
+    for paths in ([empty], [empty, good]):
+        code, out, err = run(capsys, "replay", *map(str, paths), "--shield", "paper",
+                             "--json", "--ltl", "G({Crash = FALSE})")
+        assert code == 0, err
+        assert json.loads(out)["ltl"][0]["episodes"] == len(paths) - 1
+    assert Columns.from_states([]).distinct()[0].tolist() == []
+
+
 PAPER = ROOT.parent / "shared" / "data"
 RSS = PAPER / "paper-models" / "HighwayEnvironment" / "HighwayEnvironment_RSS_v2.mch"
 

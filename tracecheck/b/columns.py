@@ -112,6 +112,8 @@ class Columns:
         state among those). Rows are the same state when every column holds the same bytes
         (numbers) or equal B values (other values)."""
         n = self.n
+        if n == 0:  # no rows (a run without a complete episode): none to tell apart
+            return np.arange(0), np.zeros(0, dtype=np.int64)
         parts = []
         for arr in (*self.numbers.values(), *self.booleans.values()):
             parts.append(np.ascontiguousarray(arr).reshape(n, -1).view(np.uint8))
@@ -124,8 +126,8 @@ class Columns:
             ids: dict = {}
             parts.append(np.array([ids.setdefault(v, len(ids)) for v in values],
                                   dtype=np.int64).reshape(n, 1).view(np.uint8))
-        if not parts or n == 0:
-            return np.arange(min(n, 1)), np.zeros(n, dtype=np.int64)
+        if not parts:
+            return np.arange(1), np.zeros(n, dtype=np.int64)
         table = np.ascontiguousarray(np.concatenate(parts, axis=1))
         keys = table.view(np.dtype((np.void, table.shape[1]))).ravel()
         _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
