@@ -123,7 +123,8 @@ def test_any_bound_answers_at_once():
 
 @pytest.mark.parametrize("text,message", [
     ("G({x = 1.0})", "the atom {x = 1.0} is not a comparison"),
-    ("G([op])", "'next_op' has no robustness"),
+    ("G([op])", "'[op]' has no robustness"),  # as written, not 'next_op'
+    ("G(e(op))", "'e(op)' has no robustness"),
     ("{x >= 1}", "in the atom {x >= 1}: type mismatch"),
     ("F[2,1] {x > 0.0}", "the bounds [2,1] are empty"),
     ("{x > 0.0} U {y > 0.0}", "'U' has no robustness"),

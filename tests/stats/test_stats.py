@@ -10,7 +10,7 @@ from tests.helpers import run, strict_json
 from tracecheck.episodes import EpisodeWriter, new_header
 from tracecheck.episodes.files import write_run
 from tracecheck.episodes.model import Episode, StepRecord, make_end
-from tracecheck.errors import BScopeError, BTypeError, InputError
+from tracecheck.errors import BScopeError, BTypeError, InputError, TracecheckError
 from tracecheck.interop import import_simb
 from tracecheck.live.envs.highway import HIGHWAY
 from tracecheck.stats.estimates import statistics
@@ -259,6 +259,11 @@ def test_ltl_properties_by_hand(hand_run, tmp_path):
     path.write_text('[properties.bad]\npredicate = 3\nkind = "ltl"\n')
     with pytest.raises(InputError, match="predicate must be a string with an LTL formula"):
         load_properties(path)
+    path.write_text('[properties.bad]\npredicate = "G({Crash = FALSE})"\n'
+                    'kind = "invariant"\n')  # a temporal formula of another kind
+    with pytest.raises(TracecheckError) as info:
+        load_properties(path)
+    assert info.value.hint == 'a temporal formula: kind = "ltl" (or "stl" for its robustness)'
 
 
 def test_stl_metrics_and_properties_by_hand(hand_run, tmp_path):

@@ -40,7 +40,9 @@ def parse_stl(text: str, machine, *, where: str = "<stl>") -> Formula:
 
     def check(g: Formula) -> Formula:
         if g.op not in _ALLOWED:
-            raise p.fail(f"{_NAMED.get(g.op, g.op)!r} has no robustness: STL formulas use "
+            shown = f"[{g.text}]" if g.op == "next_op" else f"e({g.text})" if g.op == \
+                "enabled" else _NAMED.get(g.op, g.op)  # as written, not the parser's name
+            raise p.fail(f"{shown!r} has no robustness: STL formulas use "
                          "comparisons {E < F}, not, &, or, =>, X, G, F, G[a,b], F[a,b]",
                          at=g.column)
         if g.op != "atom":

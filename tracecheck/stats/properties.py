@@ -45,6 +45,8 @@ set added (:func:`with_generic`).
 
 from __future__ import annotations
 
+import re
+
 import functools
 import math
 import tomllib
@@ -136,6 +138,9 @@ def _formula(text: object, kind: str, where: str, file: str) -> ast.Node:
                    context=f"the {kind}")
     except TracecheckError as exc:
         exc.file = f"{file}: {where}"
+        if kind == "predicate" and re.match(r"\s*(not\s*)?[GFX]\s*(\[[^]]*\]\s*)?[({]",
+                                            text):  # G({x > 0}) under kind = "invariant"
+            exc.hint = "a temporal formula: kind = \"ltl\" (or \"stl\" for its robustness)"
         raise exc.located(source=text) from None
     return node
 
