@@ -151,6 +151,9 @@ def test_an_integer_is_tuned_over_whole_numbers_only(tmp_path, capsys):
     assert code == 0, err
     assert out.splitlines()[1:] and [line.split(",")[0] for line in out.splitlines()[1:]] == \
         ["0", "1", "2", "3"]
+    code, out, err = run(capsys, "tune", path, "-s", mch, "--param", "Reach=0..3")
+    assert code == 0 and "exact for every value in [0, 3]: " in out  # not [0.0, 3.0]
+    assert "  at 1 (the machine's; replay says the same)" in out, out
 
 
 PROPS = """MACHINE Props

@@ -73,7 +73,11 @@ class TuneOutput(Report):
 
     def text(self, console) -> None:
         r, t = self.result, self.result.target
-        how = (f"exact for every value in [{r.low}, {r.high}]: {len(r.pieces)} piece(s)"
+
+        def shown(x) -> str:  # an INTEGER's values as integers: at 2, not at 2.0
+            return str(int(x)) if t.integer and float(x).is_integer() else str(x)
+        how = (f"exact for every value in [{shown(r.low)}, {shown(r.high)}]: "
+               f"{len(r.pieces)} piece(s)"
                if r.method == "exact" else
                f"at {len(r.at)} value(s) only (each replayed with it written in)")
         console.print(f"{t.label} ({t.kind} at {t.where}, {t.value} in the machine) over "
@@ -81,7 +85,7 @@ class TuneOutput(Report):
                       f"crash(es): {how}", markup=False)
         for v, f in r.at.items():
             own = " (the machine's; replay says the same)" if v == float(t.value) else ""
-            console.print(f"  at {v}{own}: {_line(f, r.crashes)}", markup=False)
+            console.print(f"  at {shown(v)}{own}: {_line(f, r.crashes)}", markup=False)
         console.print(f"Pareto front (fewest steps blocked, fewest crashes not blocked): "
                       f"{len(r.front)} point(s)", markup=False)
         for f in r.front:
