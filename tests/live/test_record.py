@@ -432,3 +432,18 @@ def test_a_shield_whose_sets_do_not_fit_the_environment_is_refused_before_record
         check_vocabulary(shield, adapter, adapter.make_env(adapter.default_config()))  # 8x8 fits
     finally:
         env.close()
+
+
+def test_a_q_table_refuses_an_observation_outside_its_rows(tmp_path):
+    """An observation past the Q-table's rows was numpy's IndexError; -1 silently read the
+    last row (an action chosen from another state's values)."""
+    import numpy as np
+
+    table = tmp_path / "q.npy"
+    np.save(table, np.arange(12, dtype=float).reshape(4, 3))
+    agent = load_agent(table)
+    assert agent.values(3).tolist() == [9.0, 10.0, 11.0]
+    for obs in (4, -1):
+        with pytest.raises(InputError, match=rf"the observation {obs} is no row of the "
+                                             r"Q-table q.npy \(4 rows\)"):
+            agent.values(obs)

@@ -75,7 +75,13 @@ class Agent:
         if self.first:
             obs = int(obs) - self.first
         if self.algorithm == "q-learning":
-            return self.model[int(obs)].astype(np.float64)
+            row = int(obs)
+            if not 0 <= row < len(self.model):  # numpy would take -1 as the last row
+                raise InputError(f"the observation {row} is no row of the Q-table "
+                                 f"{Path(self.path).name} ({len(self.model)} rows)",
+                                 hint="the environment gave an observation outside its "
+                                      "observation space (a reset option or a bug?)")
+            return self.model[row].astype(np.float64)
         import torch
 
         with torch.no_grad():
