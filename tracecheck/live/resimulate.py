@@ -181,7 +181,7 @@ def rerun_settings(path: str, shield: Shield, header, *, agent: Optional[str | P
     if adapter is None:
         raise InputError(f"{path} names no environment, and no installed one has its states "
                          f"({', '.join(header.variables or ()) or 'none declared'})",
-                         hint="give the environment with --env")
+                         hint="give the environment with --env (env=... in Python)")
     if header.environment and adapter.name != header.environment:
         raise InputError(f"{path} was recorded in {header.environment}, not {adapter.name}")
     config = dict(header.environment_config)
