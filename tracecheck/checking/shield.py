@@ -161,7 +161,7 @@ def for_actions(shield: Shield, actions: tuple[str, ...]) -> Shield:
                          hint="; ".join(f"is the operation {b} the action {a} misspelt?"
                                         for a, b in near) + " An action and its operation "
                          "have one name." if near else
-                         "the bundled shield none is the highway's; load_shield(\"none\", "
+                         "the bundled shield none is another environment's; load_shield(\"none\", "
                          "actions=adapter.actions, parameters=adapter.parameters) allows "
                          "every action of yours" if shield.name == "none" else
                          "name each of the environment's actions (the adapter's `actions`) "
