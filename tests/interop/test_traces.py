@@ -234,3 +234,52 @@ def test_a_trace_export_that_would_drop_crashes_rewards_or_proposals_refuses(tmp
         assert not trace.exists()
         export_prob2trace(episode(**extra), trace, tank, lossy=True)
     export_prob2trace(episode(), tmp_path / "plain.prob2trace", tank)  # nothing to lose
+
+
+CORRIDOR = """MACHINE Corridor
+VARIABLES pos, Crash, Reward
+INVARIANT pos : 0..4 & Crash : BOOL & Reward : REAL
+INITIALISATION pos := 0 || Crash := FALSE || Reward := 0.0
+OPERATIONS
+  Right = SELECT pos < 4 THEN pos := pos + 1 END;
+  Jump(n) = PRE n : 1..2 & pos + n <= 4 THEN pos := pos + n END;
+  Push(f) = PRE f : REAL & f <= 1.0 THEN skip END
+END"""
+
+
+@pytest.mark.parametrize("name, params, fragment", [
+    ("Jump", {"n": "2"}, "Jump(n = 2): a run keeps the values of REAL parameters only"),
+    ("Jump", {"zz": "1"}, "Jump takes n; the trace gives zz"),
+    ("Jump", {}, "Jump takes n; the trace gives none"),
+    ("Right", {"x": "1.0"}, "Right takes no parameters; the trace gives x"),
+    ("Push", {"f": "0.5"}, None),  # a continuous action's value: kept
+])
+def test_a_prob2traces_parameters_are_kept_or_refused_never_dropped(tmp_path, name, params,
+                                                                    fragment):
+    """Jump(n) with n = 2 was imported as Jump, its n dropped (a wrong n = 7, a parameter
+    the operation lacks, none at all: all accepted); replay then said "n has no value
+    here" (a new user's corridor)."""
+    mch = tmp_path / "Corridor.mch"
+    mch.write_text(CORRIDOR)
+    machine = load_machine(mch)
+    state = {"pos": "0", "Crash": "FALSE", "Reward": "0.0"}
+    path = tmp_path / "t.prob2trace"
+    path.write_text(json.dumps({"transitionList": [
+        {"name": "$initialise_machine", "params": {}, "destState": state},
+        {"name": name, "params": params, "destState": {"pos": "1"}}]}))
+    if fragment is None:
+        (ep,) = import_prob2trace([path], vocab=vocabulary_of(machine), machine=machine)
+        assert ep.steps[1].parameters == {"f": 0.5}
+        return
+    with pytest.raises(InputError) as info:
+        list(import_prob2trace([path], vocab=vocabulary_of(machine), machine=machine))
+    assert fragment in info.value.message and "step 1" in info.value.message
+
+
+def test_a_reward_too_large_for_a_float_is_said_where(tmp_path):
+    path = tmp_path / "t.prob2trace"
+    path.write_text(json.dumps({"transitionList": [
+        {"name": "$initialise_machine", "destState": {**GOOD, "Reward": "1" + "0" * 400}}]}))
+    with pytest.raises(InputError, match=r"t.prob2trace, step 0: Reward is an integer of 401 "
+                                         r"digits, too large for the float"):
+        list(import_prob2trace([path], vocab=HIGHWAY))

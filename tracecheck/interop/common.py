@@ -151,7 +151,11 @@ def build_episode(episode_id: int, origin: str, items: list[tuple],
 def _number(value: Any, where: str) -> float:
     if type(value) not in (int, float):
         raise InputError(f"{where}: Reward must be a number, not {value!r}")
-    return float(value)
+    try:
+        return float(value)
+    except OverflowError:  # an integer of 400 digits: no float holds it
+        raise InputError(f"{where}: Reward is an integer of {len(str(abs(value)))} digits, "
+                         "too large for the float a reward is kept as") from None
 
 
 def _flag(value: Any, where: str) -> bool:

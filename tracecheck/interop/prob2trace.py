@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Iterable, Optional, Sequence
 
 from .. import __version__
+from ..b.linear import real_parameters
 from ..b.values import format_value
 from ..episodes.model import Episode
 from ..episodes.vocabulary import Vocabulary
@@ -53,26 +54,40 @@ def read_prob2trace(path: Path, episode_id: int, vocab: Vocabulary,
         for name, text in dest.items():
             state[name] = read_literal(text, f"{where}, step {step}, variable {name}")
         items.append((None if op == INIT else op, state, step * step_seconds,
-                      _parameters(transition.get("params"), f"{where}, step {step}")))
+                      _parameters(transition.get("params"), f"{where}, step {step}", op,
+                                  machine)))
     episode = build_episode(episode_id, where, items, vocab, where)
     check_types(machine, episode, where)
     return episode
 
 
-def _parameters(params, where: str) -> Optional[dict]:
-    """A transition's parameters as a continuous action's values, where they are all
-    real numbers (other parameters, of discrete operations, are not kept)."""
-    if not params:
-        return None
-    if not isinstance(params, dict):
+def _parameters(params, where: str, op: str, machine=None) -> Optional[dict]:
+    """A transition's parameters as a continuous action's values (all of them real numbers,
+    of an operation whose parameters are all REAL). A run keeps no other parameter values,
+    so a trace that gives some (``Jump(n)`` with ``n = 7``), gives parameters the machine's
+    operation does not have, or lacks some it has, is refused: replay could not judge that
+    step by what the trace did."""
+    if params is not None and not isinstance(params, dict):
         raise InputError(f"{where}: 'params' must be a JSON object")
-    out = {}
-    for name, text in params.items():
-        value = read_literal(text, f"{where}, parameter {name}")
-        if type(value) is not float:  # not a continuous action's: not kept
-            return None
-        out[str(name)] = value
-    return out
+    given = {str(name): read_literal(text, f"{where}, parameter {name}")
+             for name, text in (params or {}).items()}
+    declared = machine.operations[op].params if machine is not None and \
+        op in machine.operations else None
+    if declared is not None and set(given) != set(declared):
+        raise InputError(f"{where}: {op} takes "
+                         f"{', '.join(declared) or 'no parameters'}; the trace gives "
+                         f"{', '.join(given) or 'none'}")
+    if not given:
+        return None
+    if declared is not None and not real_parameters(machine.operations[op]) or \
+            any(type(v) is not float for v in given.values()):
+        shown = ", ".join(f"{n} = {format_value(v)}" for n, v in given.items())
+        raise InputError(f"{where}: {op}({shown}): a run keeps the values of REAL "
+                         "parameters only (a continuous action's), so replay could not "
+                         "judge this step",
+                         hint=f"give each such choice an operation of its own ({op}_1, "
+                              f"{op}_2, …), or type the parameters REAL")
+    return given
 
 
 def import_prob2trace(paths: Iterable[str | Path], *, vocab: Vocabulary,
