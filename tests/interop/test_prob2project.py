@@ -484,8 +484,8 @@ def test_a_folder_is_read_once_for_the_machines_of_the_same_variables(tmp_path, 
     read = []
     original = simb_module.read_simb
     monkeypatch.setattr(simb_module, "read_simb",
-                        lambda f, k, vocab, machine=None: read.append(vocab.name) or
-                        original(f, k, vocab, machine))
+                        lambda f, k, vocab, machine=None, **kw: read.append(vocab.name) or
+                        original(f, k, vocab, machine, **kw))
     together = run_project(read_project(path))
     assert read == ["Corridor"] * 5 + ["Corridor3"] * 5 + ["Corridor4"] * 5  # B shares A's
     alone = [run_project(read_project(path), RunOptions(machines=(m,))) for m in "ABCD"]

@@ -283,3 +283,30 @@ def test_a_reward_too_large_for_a_float_is_said_where(tmp_path):
     with pytest.raises(InputError, match=r"t.prob2trace, step 0: Reward is an integer of 401 "
                                          r"digits, too large for the float"):
         list(import_prob2trace([path], vocab=HIGHWAY))
+
+
+def test_a_traces_setup_constants_must_be_the_machines(tmp_path):
+    """Limit = 5 in the trace, 4 in the machine: imported and replayed as clean, where
+    project says the trace fails (a new user's corridor); now refused, saying which."""
+    mch = tmp_path / "Lim.mch"
+    mch.write_text(CORRIDOR.replace("MACHINE Corridor", "MACHINE Lim CONSTANTS Limit "
+                                    "PROPERTIES Limit = 4"))
+    machine = load_machine(mch)
+    state = {"pos": "0", "Crash": "FALSE", "Reward": "0.0"}
+    for limit, fragment in (("5", "$setup_constants gives Limit = 5, not 4 — the trace was "
+                                  "made with another machine than Lim"),
+                            ("TRUE", "Limit must be of type INTEGER"), ("4", None)):
+        path = tmp_path / "t.prob2trace"
+        path.write_text(json.dumps({"transitionList": [
+            {"name": "$setup_constants", "destState": {"Limit": limit}},
+            {"name": "$initialise_machine", "destState": state}]}))
+        simb = _simb(tmp_path, [{"id": "$setup_constants", "execute": "$setup_constants",
+                                 "after": "0", "fixedVariables": {"Limit": limit}},
+                                _init(state)])
+        for read, p in ((import_prob2trace, path), (import_simb, simb)):
+            if fragment is None:
+                assert len(list(read([p], vocab=vocabulary_of(machine), machine=machine))) == 1
+                continue
+            with pytest.raises(InputError) as info:
+                list(read([p], vocab=vocabulary_of(machine), machine=machine))
+            assert fragment in info.value.message

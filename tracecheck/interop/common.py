@@ -16,7 +16,7 @@ from ..errors import InputError, TracecheckError
 from ..inputs import read_json
 
 __all__ = ["load_json", "read_literal", "build_episode", "natural_key", "expand_paths",
-           "FoundFiles", "trace_variables"]
+           "FoundFiles", "trace_variables", "other_constants", "check_setup_constants"]
 
 INIT = "$initialise_machine"
 SETUP = "$setup_constants"
@@ -257,3 +257,43 @@ def trace_variables(kind: str, paths: Iterable[str | Path]) -> tuple[str, ...]:
         if isinstance(state, dict) and state:
             return tuple(sorted(str(k) for k in state))
     return ()
+
+
+def other_constants(machine, values: dict, where: str) -> list[str]:
+    """The constants ``values`` (name: ProB's text of a value) gives other values than the
+    machine's, as ``"Far = 5, not 4"``. Each value is read as a literal of its constant's
+    type — never spliced into a predicate, so ``"9 or TRUE = TRUE"`` is an error, not a
+    formula. Raises :class:`TracecheckError` for a name that is not a constant, a value that
+    is not a literal or one of another type."""
+    from ..b.typecheck import describe_value_type, type_of_value, unify_quiet
+    from ..b.values import format_value
+
+    owners, differ = machine.element_sets(), []
+    for name, text in values.items():
+        if name not in machine.constants:
+            if name in machine.constants_declared:  # the machine fixes none: nothing to
+                continue                              # compare (the solver could not)
+            raise InputError(f"{where}: {name} is not a constant of {machine.name} (its "
+                             f"constants are {', '.join(machine.constants_declared) or 'none'})")
+        value = read_literal(text, f"{where}: {name}")
+        wanted = machine.type_objects.get(name)
+        if wanted is not None and not unify_quiet(wanted, type_of_value(value, owners)):
+            raise InputError(f"{where}: {name} must be of type {machine.types[name]}, but "
+                             f"{text!r} is of type {describe_value_type(value, owners)}")
+        if value != machine.constants[name]:
+            differ.append(f"{name} = {text}, not {format_value(machine.constants[name])}")
+    return differ
+
+
+def check_setup_constants(machine, values, where: str) -> None:
+    """Refuse a trace whose ``$setup_constants`` (``values``: name -> ProB's text) gives
+    the machine's constants other values: it was made with another machine, whose guards
+    are not these (tracecheck judges the steps with the machine's own constants)."""
+    if machine is None or not values or not isinstance(values, dict):
+        return
+    differ = other_constants(machine, values, f"{where}: $setup_constants")
+    if differ:
+        raise InputError(f"{where}: $setup_constants gives {'; '.join(differ)} — the trace "
+                         f"was made with another machine than {machine.name}",
+                         hint="import it with the machine it was made with (--model); "
+                              "replay can then judge it against any shield")

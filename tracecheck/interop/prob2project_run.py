@@ -198,7 +198,8 @@ class _MachineRun:
             return
         machine = self.shield.machine
         try:
-            episode = read_prob2trace(task.trace, 0, vocabulary_of(machine), machine)
+            episode = read_prob2trace(task.trace, 0, vocabulary_of(machine), machine,
+                                      constants=False)  # _first_state judges them
             actions = sorted({s.action for s in episode.steps if s.action})
             replayed = replay_columns(episode_columns([episode], actions), self.shield)
         except TracecheckError as exc:
@@ -358,14 +359,15 @@ def _columns_of_traces(folder: Path, files: list[Path], vocab, machine) -> Optio
 
     if not files:
         return None
-    blocks = [task_columns([read_simb(f, lo + k, vocab, machine)
+    blocks = [task_columns([read_simb(f, lo + k, vocab, machine, constants=False)
                             for k, f in enumerate(files[lo:lo + CHUNK])])
               for lo in range(0, len(files), CHUNK)]
     try:
         columns = join(str(folder), blocks)
     except InputError:  # a variable of different kinds in different blocks: all at once,
         #                 as one block of columns takes it (row by row, where it must)
-        columns = task_columns([read_simb(f, k, vocab, machine) for k, f in enumerate(files)])
+        columns = task_columns([read_simb(f, k, vocab, machine, constants=False)
+                                for k, f in enumerate(files)])
     columns.states.label = None  # a state is named by its row, as in one block
     return columns
 
@@ -440,7 +442,7 @@ def _first_state(path: Path, episode, machine) -> Optional[tuple[str, str]]:
     replay executes both; None when both are fine."""
     from ..b.transitions import initial_state_ok
     from ..errors import UnsupportedError
-    from .common import load_json
+    from .common import load_json, other_constants
 
     transitions = load_json(path).get("transitionList") or []
     setup = next((t for t in transitions if isinstance(t, dict)
@@ -448,7 +450,7 @@ def _first_state(path: Path, episode, machine) -> Optional[tuple[str, str]]:
     values = setup.get("destState") if setup else None
     if values and isinstance(values, dict):
         try:
-            differ = _other_constants(machine, values, f"{path}: $setup_constants")
+            differ = other_constants(machine, values, f"{path}: $setup_constants")
         except TracecheckError as exc:
             return NOT_RUN, f"tracecheck cannot check its $setup_constants: {exc.render()}"
         if differ:
@@ -465,31 +467,6 @@ def _first_state(path: Path, episode, machine) -> Optional[tuple[str, str]]:
         return None
     return FAILED, "step 0: the INITIALISATION cannot give the recorded state" + \
         _differing(machine, state)
-
-
-def _other_constants(machine, values: dict, where: str) -> list[str]:
-    """The constants ``values`` (name: ProB's text of a value) gives other values than the
-    machine's, as ``"Far = 5, not 4"``. Each value is read as a literal of its constant's
-    type — never spliced into a predicate, so ``"9 or TRUE = TRUE"`` is an error, not a
-    formula. Raises :class:`TracecheckError` for a name that is not a constant, a value that
-    is not a literal or one of another type."""
-    from ..b.typecheck import describe_value_type, type_of_value, unify_quiet
-    from ..b.values import format_value
-    from .common import read_literal
-
-    owners, differ = machine.element_sets(), []
-    for name, text in values.items():
-        if name not in machine.constants:
-            raise InputError(f"{where}: {name} is not a constant of {machine.name} (its "
-                             f"constants are {', '.join(machine.constants) or 'none'})")
-        value = read_literal(text, f"{where}: {name}")
-        wanted = machine.type_objects.get(name)
-        if wanted is not None and not unify_quiet(wanted, type_of_value(value, owners)):
-            raise InputError(f"{where}: {name} must be of type {machine.types[name]}, but "
-                             f"{text!r} is of type {describe_value_type(value, owners)}")
-        if value != machine.constants[name]:
-            differ.append(f"{name} = {text}, not {format_value(machine.constants[name])}")
-    return differ
 
 
 def _differing(machine, state) -> str:

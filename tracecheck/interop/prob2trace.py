@@ -18,8 +18,8 @@ from ..b.values import format_value
 from ..episodes.model import Episode
 from ..episodes.vocabulary import Vocabulary
 from ..errors import InputError
-from .common import (INIT, SETUP, build_episode, check_types, expand_paths, load_json,
-                     read_literal, state_changes)
+from .common import (INIT, SETUP, build_episode, check_setup_constants, check_types,
+                     expand_paths, load_json, read_literal, state_changes)
 
 __all__ = ["import_prob2trace", "read_prob2trace", "export_prob2trace", "prob2trace_document"]
 
@@ -27,8 +27,10 @@ STEP_SECONDS = 1.0
 
 
 def read_prob2trace(path: Path, episode_id: int, vocab: Vocabulary,
-                    machine=None, step_seconds: float = STEP_SECONDS) -> Episode:
-    """One ProB2 trace file as an episode."""
+                    machine=None, step_seconds: float = STEP_SECONDS, *,
+                    constants: bool = True) -> Episode:
+    """One ProB2 trace file as an episode (``constants``: refuse a ``$setup_constants``
+    that gives ``machine``'s constants other values; a project's task judges that itself)."""
     data = load_json(path)
     where = str(path)
     if not isinstance(data, dict) or not isinstance(data.get("transitionList"), list):
@@ -44,6 +46,8 @@ def read_prob2trace(path: Path, episode_id: int, vocab: Vocabulary,
         if not isinstance(dest, dict):
             raise InputError(f"{here} ({op}): 'destState' must be a JSON object")
         if op == SETUP:
+            if constants:
+                check_setup_constants(machine, dest, here)
             continue
         step = len(items)
         if op != INIT and not items:

@@ -18,15 +18,17 @@ from ..b.values import format_value
 from ..episodes.model import Episode
 from ..episodes.vocabulary import Vocabulary
 from ..errors import InputError, printable
-from .common import (INIT, SETUP, build_episode, check_types, expand_paths, load_json,
-                     read_literal, refuse_continuous, refuse_lossy)
+from .common import (INIT, SETUP, build_episode, check_setup_constants, check_types,
+                     expand_paths, load_json, read_literal, refuse_continuous, refuse_lossy)
 
 __all__ = ["import_simb", "read_simb", "export_simb", "simb_document"]
 
 
 def read_simb(path: Path, episode_id: int, vocab: Vocabulary,
-              machine=None) -> Episode:
-    """One SimB trace file as an episode."""
+              machine=None, *, constants: bool = True) -> Episode:
+    """One SimB trace file as an episode (``constants``: refuse a ``$setup_constants``
+    that gives ``machine``'s constants other values; a project's task leaves that to
+    ProB2-UI's rules)."""
     data = load_json(path)
     where = f"{path}"
     if not isinstance(data, dict) or not isinstance(data.get("activations"), list):
@@ -40,7 +42,11 @@ def read_simb(path: Path, episode_id: int, vocab: Vocabulary,
         op = act.get("execute")
         clock += _delay_s(act.get("after"), here)
         fixed = act.get("fixedVariables")
-        if op == SETUP or (op != INIT and not items and not fixed):
+        if op == SETUP:
+            if constants:
+                check_setup_constants(machine, fixed, here)
+            continue
+        if op != INIT and not items and not fixed:
             continue
         if not isinstance(fixed, dict):
             raise InputError(f"{here} ({op}): no state ('fixedVariables')")
