@@ -17,7 +17,7 @@ __all__ = [
     "Subst", "Skip", "Assign", "BecomesIn", "BecomesSuchThat", "Parallel", "Sequence",
     "Pre", "Assert", "Select", "Any", "IfSubst", "LetSubst", "Choice", "VarSubst", "While", "SubstRef", "BUILTIN_FUNCTIONS",
     "BUILTIN_SETS", "children", "depth", "pair_of", "map_children", "binders", "free_names",
-    "described",
+    "described", "conjuncts", "membership_of",
 ]
 
 #: Names that are functions of the language itself, applied as ``name(args)``.
@@ -478,3 +478,17 @@ def described(node: Node) -> str:
     ``a quantifier (! or #)``."""
     name = type(node).__name__
     return _DESCRIBED.get(name, f"a {name}")
+
+
+def conjuncts(node: Node) -> list[Node]:
+    """The conjuncts of ``node`` (itself where it is not ``&``), left to right."""
+    if isinstance(node, And):
+        return conjuncts(node.left) + conjuncts(node.right)
+    return [node]
+
+
+def membership_of(pred: Node, var: str) -> Optional[Rel]:
+    """The conjunct ``var : S`` of ``pred`` that gives ``var`` its values."""
+    return next((c for c in conjuncts(pred) if isinstance(c, Rel) and c.op == ":"
+                 and isinstance(c.left, Name) and c.left.id == var
+                 and var not in free_names(c.right)), None)

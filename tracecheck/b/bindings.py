@@ -15,6 +15,7 @@ from ..errors import (BTypeError, EvaluationError, TracecheckError,
                       UnsupportedError, WellDefinednessError)
 from ..limits import MAX_INT_BITS
 from . import ast
+from .ast import conjuncts, membership_of  # where they are defined
 from .clock import tick
 from .defined import Defined, cannot_list
 from .finite import finite as _finite, members as _members
@@ -26,18 +27,12 @@ Env = dict
 Fn = Callable[[Env], Any]
 
 
-def conjuncts(node: ast.Node) -> list[ast.Node]:
-    if isinstance(node, ast.And):
-        return conjuncts(node.left) + conjuncts(node.right)
-    return [node]
-
-
 def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
     """Plan how to enumerate ``ids`` satisfying ``pred`` (see :meth:`Compiler.bindings`)."""
     conjs = conjuncts(pred)
     plan: list[tuple[tuple[str, ...], str, Fn]] = []
-    bound: set[str] = set()
-    used: set[int] = set()
+    origin: list[tuple[Optional[int], frozenset]] = []  # each step's conjunct, bound before
+    bound, used = set(), set()
     while True:  # each round plans the first variable (in ids order) that can be walked now
         waiting = [n for n in ids if n not in bound]
         if not waiting:
@@ -47,6 +42,7 @@ def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
             if step is not None:
                 gen, k = step
                 plan.append(gen)
+                origin.append((k, frozenset(bound)))
                 bound |= set(gen[0])
                 if k is not None:
                     used.add(k)
@@ -57,6 +53,7 @@ def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
                 EvaluationError, node,
                 f"cannot enumerate {name} in `{comp.text(node)}`",
                 hint=f"add a conjunct that bounds it to a finite set, e.g. {name} : S")
+            origin.append((None, frozenset()))
             if comp.solver is not None:  # all the rest at once, by the solver's answers
                 plan.append(_by_solver(comp, tuple(waiting), pred, problem))
                 bound |= set(waiting)
@@ -64,6 +61,21 @@ def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
             plan.append(_by_type(name, ids, pred, problem))
             bound.add(name)
     filters = [comp.compile(c) for k, c in enumerate(conjs) if k not in used]
+    guards = [[comp.compile(c) for j, c in enumerate(conjs) if k is not None and j < k and
+               j not in used and ast.free_names(c) & set(ids) <= before]
+              for k, before in origin]
+
+    def walked(env: Env, depth: int) -> Any:
+        """What step ``depth`` walks; None where a conjunct before its own is false (B
+        reads left to right: 12 / r at r = 0 after r /= 0 is never computed); else the
+        error where it cannot be computed (the walk yields it, as a filter's)."""
+        try:
+            return plan[depth][2](env)
+        except TracecheckError as exc:
+            try:
+                return None if any(not g(env) for g in guards[depth]) else exc
+            except TracecheckError as before:  # a conjunct before it not well-defined
+                return before
 
     def run(env: Env, depth: int = 0) -> Iterator[Optional[TracecheckError]]:
         if depth == len(plan):
@@ -76,8 +88,12 @@ def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
                 return
             yield None
             return
-        names, mode, source = plan[depth]
-        for value in domain(comp, node, mode, source(env)):
+        names, mode, _ = plan[depth]
+        values = walked(env, depth)
+        if isinstance(values, TracecheckError):
+            yield values
+            return
+        for value in domain(comp, node, mode, values) if values is not None else ():
             tick()
             if len(names) == 1:
                 env[names[0]] = value
@@ -87,10 +103,14 @@ def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
             yield from run(env, depth + 1)
 
     if len(plan) == 1 and len(plan[0][0]) == 1 and plan[0][1] == "in":
-        (name,), _, source = plan[0]
+        (name,), _, _ = plan[0]
 
         def run_single(env: Env) -> Iterator[Optional[TracecheckError]]:  # the common case
-            for value in domain(comp, node, "in", source(env)):
+            values = walked(env, 0)
+            if isinstance(values, TracecheckError):
+                yield values
+                return
+            for value in domain(comp, node, "in", values) if values is not None else ():
                 tick()
                 env[name] = value
                 try:
@@ -627,10 +647,3 @@ def _scoped(fn: Fn, ids: tuple[str, ...]) -> Fn:
                 else:
                     env[i] = old
     return scoped
-
-
-def membership_of(pred: ast.Node, var: str) -> Optional[ast.Rel]:
-    """The conjunct ``var : S`` of ``pred`` that gives ``var`` its values."""
-    return next((c for c in conjuncts(pred) if isinstance(c, ast.Rel) and c.op == ":"
-                 and isinstance(c.left, ast.Name) and c.left.id == var
-                 and var not in ast.free_names(c.right)), None)

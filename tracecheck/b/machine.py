@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any, Callable, Mapping, Optional, TypeVar
 
 from ..errors import (BScopeError, EvaluationError, InputError, TracecheckError,
-                      UnsupportedError, did_you_mean)
+                      UnsupportedError, WellDefinednessError, did_you_mean)
 from ..inputs import read_text
 from . import ast
 from .bindings import conjuncts
@@ -471,9 +471,9 @@ class Machine(BatchQuestions):
             try:
                 if not comp.compile(c)(env):
                     broken.append(render(c, self.source))
-            except EvaluationError as exc:
-                if not tolerate:
-                    raise
+            except (EvaluationError, WellDefinednessError) as exc:  # v : 1..3 & f(v) >= 10
+                if not tolerate:                                     # at v = 5: the first
+                    raise                                            # broken, f(5) unknown
                 unchecked.append((render(c, self.source), exc.message))
         return broken, unchecked
 

@@ -174,10 +174,17 @@ class SymbolicSet:
     def __hash__(self) -> int:
         if self.finiteness() is True:
             return hash(self.materialise())
-        return hash(self.key())
+        # every other one alike: two such sets meet in a Python set or dict only through
+        # __eq__, which decides or refuses — their keys differ where the sets may not
+        # ({x | x > 5} and {y | y >= 6}: two elements, card 2, were B's one)
+        return _UNLISTED_HASH
 
     def __repr__(self) -> str:
         return self.name
+
+
+#: the hash of every set not known to be finite (see :meth:`SymbolicSet.__hash__`)
+_UNLISTED_HASH = hash(("tracecheck", "a set not known to be finite"))
 
 
 def check_size(n: int, what: str) -> None:
