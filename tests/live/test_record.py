@@ -447,3 +447,26 @@ def test_a_q_table_refuses_an_observation_outside_its_rows(tmp_path):
         with pytest.raises(InputError, match=rf"the observation {obs} is no row of the "
                                              r"Q-table q.npy \(4 rows\)"):
             agent.values(obs)
+
+
+def test_a_run_in_another_world_than_the_agents_card_says_so(tmp_path, capsys):
+    """The bundled Q-table learnt a slippery lake; the lake's default is not slippery (as
+    the authors' code): record ran it there and said nothing (a new user saw it push
+    Move_Up against the wall for 100 steps). The card and the default agree on the
+    highway: no note."""
+    from tests.helpers import run as cli
+    from tracecheck.live.adapter import get_adapter
+    from tracecheck.live.agents import card_config_note
+
+    lake = ROOT / "models" / "agents" / "frozenlake.npy"
+    note = card_config_note(lake, get_adapter("frozenlake"))
+    assert note == ("note: frozenlake.npy was trained with is_slippery = True (its model "
+                    "card); this run takes frozenlake's default, is_slippery = False "
+                    "(--env-config is_slippery=true gives the card's)")
+    assert card_config_note(BASE, get_adapter("highway")) is None
+    code, _, err = cli(capsys, "record", "--env", "frozenlake", "--agent", lake, "-n", 1,
+                       "-o", tmp_path / "a.mcap")
+    assert code == 0 and "was trained with is_slippery = True" in " ".join(err.split())
+    code, _, err = cli(capsys, "record", "--env", "frozenlake", "--agent", lake, "-n", 1,
+                       "-o", tmp_path / "b.mcap", "--env-config", "is_slippery=true")
+    assert code == 0 and "trained with" not in err

@@ -267,11 +267,19 @@ def record_settings(run, episodes: int):
         env, source = card_environment(run.agent)
         err.print(f"environment {env}, as {source} says (--env chooses another)",
                   markup=False, highlight=False)
+    config = parse_config(run.env_config) or None
+    if config is None:  # the agent trained in another world than the default's: say so
+        from ..live.adapter import load_adapter
+        from ..live.agents import card_config_note
+
+        note = card_config_note(run.agent, load_adapter(env))
+        if note:
+            err.print(note, markup=False, highlight=False)
     return RecordSettings(agent=str(run.agent), shield=run.shield, episodes=episodes,
                           seed=0 if run.seed is None else run.seed, duration=run.duration,
                           profile=run.profile, fallback=run.fallback, workers=run.workers,
                           executor=run.executor.value, ray_address=run.ray_address, env=env,
-                          env_config=parse_config(run.env_config) or None,
+                          env_config=config,
                           **continuous_options(run.shield_mode, run.scale))
 
 

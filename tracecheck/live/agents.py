@@ -416,3 +416,32 @@ def card_environment(agent: str | Path) -> tuple[str, str]:
                          hint="give --env with one of them")
     raise InputError(f"no --env given, and the environment {named!r} of the model card "
                      f"{card_path} is not installed here", hint=hint)
+
+
+def card_config_note(agent: str | Path, adapter) -> Optional[str]:
+    """A note for a run of ``agent`` in ``adapter``'s environment with its default
+    configuration where the agent's model card says it was trained with other values of
+    the dynamics (``is_slippery``): the agent then meets a world it never learnt. None where
+    the card says nothing of it, names another environment, or agrees."""
+    from ..inputs import read_json
+
+    card_path = Path(agent).with_suffix(".json")
+    try:
+        card = read_json(card_path, "model card") if card_path.is_file() else None
+    except InputError:
+        return None  # a card it cannot read says nothing here; commands that need it say so
+    trained = card.get("environment_config") if isinstance(card, dict) else None
+    if not isinstance(trained, dict) or card.get("environment") not in (
+            adapter.name, adapter.env_id):
+        return None
+    default = adapter.config(None) or {}
+    differ = {k: v for k, v in trained.items() if k in default and default[k] != v}
+    if not differ:
+        return None
+    import json
+
+    said = ", ".join(f"{k} = {v!r}" for k, v in differ.items())
+    give = " ".join(f"--env-config {k}={json.dumps(v)}" for k, v in differ.items())
+    return (f"note: {Path(agent).name} was trained with {said} (its model card); this run "
+            f"takes {adapter.name}'s default, "
+            + ", ".join(f"{k} = {default[k]!r}" for k in differ) + f" ({give} gives the card's)")
