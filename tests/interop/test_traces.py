@@ -310,3 +310,23 @@ def test_a_traces_setup_constants_must_be_the_machines(tmp_path):
             with pytest.raises(InputError) as info:
                 list(read([p], vocab=vocabulary_of(machine), machine=machine))
             assert fragment in info.value.message
+
+
+
+def test_setup_constants_that_are_not_literals_are_not_judged(tmp_path):
+    """ProB prints NATURAL, 1..1000000 and /*@symbolic*/ lambdas: such values are not read
+    as literals of the constant's type, so they are not compared (a review found them
+    refused: 'N must be of type POW(INTEGER)', "unexpected '.'")."""
+    mch = tmp_path / "C.mch"
+    mch.write_text(CORRIDOR.replace("MACHINE Corridor", "MACHINE C CONSTANTS N, Big, f "
+                                    "PROPERTIES N = NATURAL & Big = 1..1000000 & "
+                                    "f = %x.(x : NATURAL | x + 1)"))
+    machine = load_machine(mch)
+    path = tmp_path / "t.prob2trace"
+    path.write_text(json.dumps({"transitionList": [
+        {"name": "$setup_constants", "destState": {
+            "N": "NATURAL", "Big": "1..1000000", "f": "/*@symbolic*/ %x.(x : NATURAL|x + 1)"}},
+        {"name": "$initialise_machine",
+         "destState": {"pos": "0", "Crash": "FALSE", "Reward": "0.0"}}]}))
+    assert len(list(import_prob2trace([path], vocab=vocabulary_of(machine),
+                                      machine=machine))) == 1

@@ -17,6 +17,8 @@ from ..limits import MAX_INT_BITS
 from . import ast
 from .ast import conjuncts, membership_of  # where they are defined
 from .clock import tick
+from .printer import to_b
+from .strict import Strict, each
 from .defined import Defined, cannot_list
 from .finite import finite as _finite, members as _members
 from .values import FuncValue, SymbolicSet, make_set, sort_key
@@ -61,9 +63,7 @@ def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
             plan.append(_by_type(name, ids, pred, problem))
             bound.add(name)
     filters = [comp.compile(c) for k, c in enumerate(conjs) if k not in used]
-    guards = [[comp.compile(c) for j, c in enumerate(conjs) if k is not None and j < k and
-               j not in used and ast.free_names(c) & set(ids) <= before]
-              for k, before in origin]
+    guards = [_guards(comp, conjs, ids, used, k, before) for k, before in origin]
 
     def walked(env: Env, depth: int) -> Any:
         """What step ``depth`` walks; None where a conjunct before its own is false (B
@@ -123,6 +123,43 @@ def generators(comp, node: ast.Node, ids: tuple[str, ...], pred: ast.Node):
                     yield exc
         return run_single
     return run
+
+
+def _guards(comp, conjs, ids, used, k: Optional[int], before: frozenset) -> list:
+    """The conjuncts before conjunct ``k`` that guard its walk as B reads them, left to
+    right: those that read only variables bound (``before``; those that walk one, in
+    ``used``, hold by construction) — past one that relates a variable not yet bound to
+    an expression of the others (``p : 0..5``, well-defined for every p where the
+    expression is: it is evaluated), up to the first other one (``y / r > 0``: what it
+    needs is not known yet)."""
+    out = []
+    for j, c in enumerate(conjs[:k or 0]):
+        if ast.free_names(c) & set(ids) <= before:
+            if j not in used:
+                out.append(comp.compile(c))
+            continue
+        other = _other_side(c, ids, before)
+        if other is None:
+            break
+        side = comp.compile(other)
+        out.append(lambda env, side=side: side(env) is not None)  # True: well-defined
+    return out
+
+
+def _other_side(c: ast.Node, ids, before: frozenset) -> Optional[ast.Node]:
+    """``E`` of ``v op E`` or ``E op v`` (a comparison or membership) for a variable ``v``
+    not yet bound and ``E`` reading only bound ones; None for any other conjunct."""
+    if not isinstance(c, ast.Rel) or c.op not in _RELATIONS:
+        return None
+    for v, e in ((c.left, c.right), (c.right, c.left)):
+        if isinstance(v, ast.Name) and v.id in ids and v.id not in before and \
+                ast.free_names(e) & set(ids) <= before:
+            return e
+    return None
+
+
+_RELATIONS = frozenset({":", "/:", "<:", "<<:", "/<:", "/<<:", "=", "/=", "<", "<=", ">",
+                        ">="})
 
 
 def _product(comp, node: ast.Node, values: list) -> Any:
@@ -436,8 +473,8 @@ class Binders:
         after every value was tried (see :class:`Strict`)."""
         ids = node.ids
         if check is None:
-            return lambda env: bool(_each(bindings, ids, env, lambda e: True))
-        return lambda env: all(_each(bindings, ids, env, check))
+            return lambda env: bool(each(bindings, ids, env, lambda e: True))
+        return lambda env: all(each(bindings, ids, env, check))
 
     def bindings(self, node: ast.Node, ids: tuple[str, ...], pred: ast.Node
                  ) -> Callable[[Env], Iterator[Optional[TracecheckError]]]:
@@ -456,7 +493,7 @@ class Binders:
             else:
                 value = _tuple_of(node.ids)
         ids = node.ids
-        listed = _scoped(lambda env: make_set(_each(bind, ids, env, value)), ids)
+        listed = _scoped(lambda env: make_set(each(bind, ids, env, value)), ids)
         return listed if node.expr is not None else self._held(node, listed, None)
 
     def c_Lambda(self, node: ast.Lambda) -> Fn:
@@ -464,7 +501,7 @@ class Binders:
             bind = self.bindings(node, node.ids, node.pred)
             key, value = _tuple_of(node.ids), self.compile(node.expr)
         ids = node.ids
-        listed = _scoped(lambda env: FuncValue(dict(_each(bind, ids, env,
+        listed = _scoped(lambda env: FuncValue(dict(each(bind, ids, env,
                                                           lambda e: (key(e), value(e))))), ids)
         return self._held(node, listed, value)
 
@@ -475,6 +512,7 @@ class Binders:
             test = self.compile(node.pred)
             images = self._images(node) if value is None and len(node.ids) > 1 else None
         text, free = self.text(node), tuple(sorted(ast.free_names(node)))
+        canon = to_b(node)  # what the set is (its text may be a DEFINITION's, shared)
 
         def held(env: Env) -> Any:
             try:
@@ -483,7 +521,8 @@ class Binders:
                 if not cannot_list(exc):
                     raise
                 return Defined(node.ids, test, value, env, text,
-                               lambda message: self.wd(node, message), free, exc, images)
+                               lambda message: self.wd(node, message), free, exc, images,
+                               canon)
         return held
 
     def _images(self, node: ast.Comprehension) -> Callable[[Env, Any], list]:
@@ -493,7 +532,7 @@ class Binders:
         rest = self.bindings(node, (last,), node.pred)
 
         def images(env: Env, arg: Any) -> list:
-            found = _each(rest, (last,), env, lambda e: e[last])
+            found = each(rest, (last,), env, lambda e: e[last])
             return sorted(set(found), key=sort_key)
         return images
 
@@ -504,7 +543,7 @@ class Binders:
         op = node.op
 
         def quant(env: Env) -> Any:
-            values = _each(bind, node.ids, env, value)
+            values = each(bind, node.ids, env, value)
             if op == "SIGMA":
                 return sum(values, 0)
             if op == "PI":
@@ -566,45 +605,6 @@ class Binders:
 
 
 _MISSING = object()
-
-
-class Strict:
-    """The errors of a quantified formula's values, kept until every value was seen: the
-    formula is not well-defined if it is not for one of them, whatever the others give (B's
-    well-definedness), and the error raised is that of the least values in print order, so
-    neither the answer nor the message depends on the order a set is walked in."""
-
-    __slots__ = ("error", "key")
-
-    def __init__(self, error: TracecheckError, key: tuple) -> None:
-        self.error, self.key = error, key
-
-    @staticmethod
-    def note(strict: Optional["Strict"], ids: tuple[str, ...], env: Env,
-             error: TracecheckError) -> "Strict":
-        key = tuple(sort_key(env.get(i)) for i in ids)
-        if strict is None or key < strict.key:
-            return Strict(error, key)
-        return strict
-
-    def fail(self) -> None:
-        raise self.error
-
-
-def _each(bind, ids: tuple[str, ...], env: Env, value: Fn) -> list:
-    """``value`` for every solution of a binder (comprehensions, lambdas, SIGMA …), after
-    all of them were tried (see :class:`Strict`)."""
-    out, strict = [], None
-    for problem in bind(env):
-        try:
-            if problem is not None:
-                raise problem
-            out.append(value(env))
-        except TracecheckError as exc:
-            strict = Strict.note(strict, ids, env, exc)
-    if strict is not None:
-        strict.fail()
-    return out
 
 
 def _tuple_of(ids: tuple[str, ...]) -> Fn:

@@ -41,14 +41,16 @@ class Defined(SymbolicSet):
     def __init__(self, ids: tuple[str, ...], test: Fn, value: Optional[Fn], env: dict,
                  text: str, wd: Callable[[str], Exception], free: tuple[str, ...] = (),
                  why: Optional[EvaluationError] = None,
-                 images: Optional[Callable[[dict, Any], list]] = None) -> None:
+                 images: Optional[Callable[[dict, Any], list]] = None,
+                 canon: Optional[str] = None) -> None:
         self.ids, self.test, self.value = ids, test, value
         self._images, self._found = images, {}  # the images by argument, found once
         self.env = fresh(env)
-        self.name = text
+        self.name = text or canon or "a set"
         self._wd = wd  # the located not-well-defined error for a message
-        # the same definition over the same values of its free names: the same set
-        self._key = ("defined", text, tuple((n, hashable(env.get(n))) for n in free))
+        # the same definition over the same values of its free names: the same set — the
+        # definition as parsed (``canon``: big(1) and big(2) of a DEFINITION share their text)
+        self._key = ("defined", canon or text, tuple((n, hashable(env.get(n))) for n in free))
         self.why = why  # why its elements cannot be listed: said where they are asked for
 
     def refusal(self) -> EvaluationError:

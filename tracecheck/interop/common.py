@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any, Iterable, Iterator, Mapping, Optional, Sequence
 
 from ..b.notation import parse_literal
+from ..b.values import Elem
 from ..episodes.model import Episode, StepRecord, make_end
 from ..episodes.vocabulary import Vocabulary
 from ..errors import InputError, TracecheckError
@@ -259,12 +260,15 @@ def trace_variables(kind: str, paths: Iterable[str | Path]) -> tuple[str, ...]:
     return ()
 
 
-def other_constants(machine, values: dict, where: str) -> list[str]:
+def other_constants(machine, values: dict, where: str, *, lenient: bool = False
+                    ) -> list[str]:
     """The constants ``values`` (name: ProB's text of a value) gives other values than the
     machine's, as ``"Far = 5, not 4"``. Each value is read as a literal of its constant's
     type — never spliced into a predicate, so ``"9 or TRUE = TRUE"`` is an error, not a
-    formula. Raises :class:`TracecheckError` for a name that is not a constant, a value that
-    is not a literal or one of another type."""
+    formula. Raises :class:`TracecheckError` for a name that is not a constant, a value of
+    another type, and — unless ``lenient``, which skips it — a value that is not a literal
+    (ProB prints ``1..1000000``, ``/*@symbolic*/ %x.…``), a set's name (``NATURAL``) or
+    one it cannot compare."""
     from ..b.typecheck import describe_value_type, type_of_value, unify_quiet
     from ..b.values import format_value
 
@@ -275,23 +279,36 @@ def other_constants(machine, values: dict, where: str) -> list[str]:
                 continue                              # compare (the solver could not)
             raise InputError(f"{where}: {name} is not a constant of {machine.name} (its "
                              f"constants are {', '.join(machine.constants_declared) or 'none'})")
-        value = read_literal(text, f"{where}: {name}")
+        try:
+            value = read_literal(text, f"{where}: {name}")
+        except TracecheckError:
+            if lenient:  # 1..1000000, /*@symbolic*/ %x.…: not a literal, not judged
+                continue
+            raise
         wanted = machine.type_objects.get(name)
         if wanted is not None and not unify_quiet(wanted, type_of_value(value, owners)):
+            if lenient and isinstance(value, Elem):  # NATURAL: a set's name, not judged
+                continue
             raise InputError(f"{where}: {name} must be of type {machine.types[name]}, but "
                              f"{text!r} is of type {describe_value_type(value, owners)}")
-        if value != machine.constants[name]:
-            differ.append(f"{name} = {text}, not {format_value(machine.constants[name])}")
+        try:
+            if value != machine.constants[name]:
+                differ.append(f"{name} = {text}, not {format_value(machine.constants[name])}")
+        except TracecheckError:
+            if not lenient:  # a set held by its definition: cannot be compared
+                raise
     return differ
 
 
 def check_setup_constants(machine, values, where: str) -> None:
     """Refuse a trace whose ``$setup_constants`` (``values``: name -> ProB's text) gives
-    the machine's constants other values: it was made with another machine, whose guards
-    are not these (tracecheck judges the steps with the machine's own constants)."""
+    the machine's constants other values, or names one it does not have: it was made with
+    another machine, whose guards are not these (tracecheck judges the steps with the
+    machine's own constants). A value it cannot read as a literal of the constant's type,
+    or compare, is not judged."""
     if machine is None or not values or not isinstance(values, dict):
         return
-    differ = other_constants(machine, values, f"{where}: $setup_constants")
+    differ = other_constants(machine, values, f"{where}: $setup_constants", lenient=True)
     if differ:
         raise InputError(f"{where}: $setup_constants gives {'; '.join(differ)} — the trace "
                          f"was made with another machine than {machine.name}",
