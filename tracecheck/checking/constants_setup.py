@@ -20,8 +20,7 @@ from functools import reduce
 from typing import Any
 
 from ..b import ast
-from ..b.ast import free_names
-from ..b.bindings import conjuncts
+from ..b.ast import conjuncts, free_names
 from ..b.btypes import resolve_all
 from ..b.values import format_value
 from ..errors import ModelError, TracecheckError, WellDefinednessError
@@ -61,14 +60,14 @@ def _groups(node, names: list[str]) -> list[tuple[list[str], Any]]:
     """The constants of ``names`` in groups that no conjunct of ``node`` links, each with
     the conjunction of its conjuncts, in their order (None for a constant no conjunct
     names)."""
-    conjs = [c for c in conjuncts(node)]
+    conjs = conjuncts(node)
     owner = {n: n for n in names}
 
     def find(n: str) -> str:
         while owner[n] != n:
             n = owner[n]
         return n
-    mentions = [[n for n in names if n in free_names(c)] for c in conjs]
+    mentions = [[n for n in names if n in free] for free in map(free_names, conjs)]
     for found in mentions:
         for other in found[1:]:
             owner[find(other)] = find(found[0])

@@ -86,11 +86,12 @@ def _formulas_as_written(argv: Optional[list[str]]) -> Optional[list[str]]:
         if arg == "--":
             out += args[i:]
             break
-        name = arg.split("=", 1)[0]
-        if arg[:2] in takes and not arg.startswith("--") and takes[arg[:2]] and \
+        if not arg.startswith("--") and takes.get(arg[:2]) and len(arg) > 2 and \
                 Path(arg[2:]).exists():  # -mM.mch: a short option and its file; -floor(x)
-            name = arg                   # and -max(s) are formulas
-            takes[name] = False
+            out.append(arg)              # and -max(s) are formulas
+            i += 1
+            continue
+        name = arg.split("=", 1)[0]
         if name in takes:
             value = takes[name] and "=" not in arg and i + 1 < len(args)
             out += args[i:i + 1 + value]

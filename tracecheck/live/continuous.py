@@ -115,7 +115,7 @@ def action_bounds(adapter, config: Optional[dict] = None) -> dict[str, tuple[dic
     for part in parts:
         low = {p: float(v) for p, v in zip(part.params, part.low) if np.isfinite(v)}
         high = {p: float(v) for p, v in zip(part.params, part.high) if np.isfinite(v)}
-        out[part.op] = (low, high, dict.fromkeys(part.params, np.dtype(part.dtype).name))
+        out[part.op] = (low, high, dict.fromkeys(part.params, part.dtype.name))
     return out
 
 
@@ -204,7 +204,7 @@ class _Op:
         #: each parameter's (low, high), in order
         self.bounds = tuple(zip(self.part.low.tolist(), self.part.high.tolist()))
         #: each parameter's float type (what the environment receives)
-        self.floats = dict.fromkeys(self.part.params, np.dtype(self.part.dtype).name)
+        self.floats = dict.fromkeys(self.part.params, self.part.dtype.name)
 
 
 class ContinuousShield:

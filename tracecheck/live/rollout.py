@@ -143,13 +143,19 @@ def run_episode(session: Session, index: int, *, seed: Optional[int] = None,
         raise
 
 
-def _agent_failed(agent, exc: Exception) -> InputError:
-    """What the rollout says where the agent itself raised ``exc`` for an observation (a
-    policy whose weights hold NaN: torch refuses its distribution)."""
-    return InputError(f"the agent {Path(agent.path).name} raised {type(exc).__name__} for "
-                      f"the observation: {str(exc).strip()[:300]}",
-                      hint="check the agent's weights (a NaN?) and that it was trained on "
-                           "this environment; tracecheck --debug … shows the traceback")
+def _asked(agent, ask: Callable[[Any], Any], obs) -> Any:
+    """``ask(obs)`` (the agent's values or action), an error of the agent's own code (a
+    policy whose weights hold NaN: torch refuses its distribution) said as its."""
+    try:
+        return ask(obs)
+    except TracecheckError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - the agent's own code: said, with where
+        raise InputError(f"the agent {Path(agent.path).name} raised {type(exc).__name__} "
+                         f"for the observation: {str(exc).strip()[:300]}",
+                         hint="check the agent's weights (a NaN?) and that it was trained "
+                              "on this environment; tracecheck --debug … shows the "
+                              "traceback") from exc
 
 
 def _discrete_episode(session: Session, index: int, *, seed: int, script: Sequence[str],
@@ -165,12 +171,7 @@ def _discrete_episode(session: Session, index: int, *, seed: int, script: Sequen
         session.step_reached = k - 1  # the observation came from the step before
         _finite(obs, session.flat)
         session.step_reached = k
-        try:
-            values = agent.values(obs)
-        except TracecheckError:
-            raise
-        except Exception as exc:  # noqa: BLE001 - the agent's own code: said, with where
-            raise _agent_failed(agent, exc) from exc
+        values = _asked(agent, agent.values, obs)
         allowed = env.shield_mask()  # none in a deadlock: the fallback is taken, and said
         decision_us, problem = info["shield"]["decision_us"], info["shield"].get("problem")
         if k <= len(script):
@@ -254,12 +255,7 @@ def _continuous_episode(session: Session, index: int, *, seed: int,
         if k > len(script):
             _finite(obs, session.flat)
         session.step_reached = k
-        try:
-            proposal = script[k - 1] if k <= len(script) else agent.act(obs)
-        except TracecheckError:
-            raise
-        except Exception as exc:  # noqa: BLE001 - the agent's own code: said, with where
-            raise _agent_failed(agent, exc) from exc
+        proposal = script[k - 1] if k <= len(script) else _asked(agent, agent.act, obs)
         allowed = tuple(a for a, ok in zip(env.actions, env.allowed) if ok)  # decided in
         obs, reward, terminated, truncated, info = env.step(proposal)
         if k <= len(script):
